@@ -1,0 +1,85 @@
+# genie-gl: `make demo` builds a small demo dataset with preview pictures; `make test` runs the tests.
+# Both set everything up first (system GL libraries, .venv, the package with its test extras).
+SHELL := bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DELETE_ON_ERROR:
+.DEFAULT_GOAL := help
+MAKEFLAGS += --no-print-directory
+
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+GENIE := $(VENV)/bin/genie
+APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6
+STAMP := $(VENV)/.setup-stamp
+OUT ?= out
+SEED ?= 0
+SCENES ?= 3
+CAMERAS ?= 8
+WORKERS ?= 2
+SENSOR ?= realsense_d435
+FORMAT ?= semantickitti
+PYTEST_ARGS ?= -n 2
+
+.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline \
+        dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
+
+help: ## list the targets
+	@grep -E '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | awk 'BEGIN {FS = ":.*## "}; {printf "  %-24s %s\n", $$1, $$2}'
+
+system-deps: ## install the system GL libraries (EGL/Mesa, OSMesa) with apt-get when missing
+	@if ! ldconfig -p | grep -q 'libEGL_mesa.so.0' || ! ldconfig -p | grep -q 'libOSMesa.so' \
+	    || ! ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1; then \
+	  echo "installing $(APT_PACKAGES)"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] && echo "" || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $(APT_PACKAGES) >/dev/null; \
+	fi
+
+$(STAMP): pyproject.toml
+	$(MAKE) system-deps
+	[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e ".[test]"
+	# pyrender (the reference renderer) pins PyOpenGL==3.1.0, whose OSMesa import is broken:
+	# install it without its pins; its real dependencies come with the test extra.
+	$(PY) -m pip install -q --no-deps "pyrender==0.1.45"
+	touch $(STAMP)
+
+setup: $(STAMP) ## install system libraries, create .venv and install genie-gl with its test extras
+
+test: setup ## run the test suite (real GL on EGL/llvmpipe)
+	$(PY) -m pytest $(PYTEST_ARGS)
+
+demo: setup ## generate a 3-scene demo dataset with preview pictures into out/demo
+	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \
+	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/demo --workers $(WORKERS) --seed $(SEED)
+	@echo "demo dataset and previews in $(OUT)/demo (open $(OUT)/demo/previews/)"
+
+bench: setup ## run every benchmark (render, layout, accuracy, pipeline); figures into out/bench
+	$(VENV)/bin/pip install -q "open3d>=0.18" || echo "open3d unavailable: the render bench skips it"
+	$(GENIE) bench render --out $(OUT)/bench
+	$(GENIE) bench layout --out $(OUT)/bench
+	$(GENIE) bench accuracy --out $(OUT)/bench
+	$(GENIE) bench pipeline --out $(OUT)/bench
+
+bench-render: setup ## renderer against pyrender and Open3D
+	$(GENIE) bench render --out $(OUT)/bench
+bench-layout: setup ## layout engine throughput (paper Table 7)
+	$(GENIE) bench layout --out $(OUT)/bench
+bench-accuracy: setup ## what each sensor effect and accuracy knob costs in time
+	$(GENIE) bench accuracy --out $(OUT)/bench
+bench-pipeline: setup ## seconds per scene end to end
+	$(GENIE) bench pipeline --out $(OUT)/bench
+
+dataset-assembly-line: setup ## the paper's setup: make dataset-assembly-line SCENES=499 CAMERAS=40
+	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \
+	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/assembly_line --workers $(WORKERS) --seed $(SEED)
+dataset-storage-area: setup ## storage area strategy
+	$(GENIE) dataset layouts/storage_area.json --scenes $(SCENES) --cameras $(CAMERAS) \
+	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/storage_area --workers $(WORKERS) --seed $(SEED)
+dataset-logistics-lane: setup ## logistics lane strategy
+	$(GENIE) dataset layouts/logistics_lane.json --scenes $(SCENES) --cameras $(CAMERAS) \
+	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/logistics_lane --workers $(WORKERS) --seed $(SEED)
+
+clean: ## remove build outputs (keeps .venv)
+	rm -rf $(OUT) build dist *.egg-info .pytest_cache

@@ -1,0 +1,41 @@
+"""``genie bench NAME``: benchmarks that put error beside milliseconds.
+
+Each benchmark is a module ``genie_gl.bench.<name>`` with ``add_arguments(parser)`` and
+``run(args) -> int``. They print a table and write figures (PNG, JSON) under ``--out``.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+
+BENCHMARKS: dict[str, str] = {
+    "render": "renderer against pyrender and Open3D (ms/frame, frames/s, ratios)",
+    "layout": "layout engine throughput, the paper's Table 7 (nodes/s)",
+    "accuracy": "what each sensor effect and accuracy knob costs in time (error vs ms)",
+    "pipeline": "seconds per scene end to end, share of each stage, scaling with workers",
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="bench", metavar="NAME", required=True)
+    for name, help_text in BENCHMARKS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.add_argument("--out", default="out/bench", help="folder for the figures (default out/bench)")
+        try:
+            mod = importlib.import_module(f"genie_gl.bench.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name and exc.name.startswith("genie_gl"):
+                continue
+            raise
+        mod.add_arguments(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        mod = importlib.import_module(f"genie_gl.bench.{args.bench}")
+    except ModuleNotFoundError as exc:
+        if exc.name == f"genie_gl.bench.{args.bench}":
+            print(f"genie bench {args.bench}: not available in this build")
+            return 2
+        raise
+    return int(mod.run(args) or 0)

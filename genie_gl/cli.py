@@ -1,0 +1,71 @@
+"""The ``genie`` command.
+
+Each subcommand lives in the stage that owns it, as a module with ``add_arguments(parser)``
+and ``run(args) -> int``; this file only wires them up, reads the environment (the one place
+that does) and turns :class:`~genie_gl.errors.GenieError` into one clear line and exit code 2.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from . import __version__
+from .errors import GenieError
+
+# subcommand -> (module with add_arguments/run, one-line help)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "layout": ("genie_gl.layout.command", "generate a region layout tree from a JSON strategy"),
+    "scene": ("genie_gl.scene.command", "build a 3D scene (USD) from a layout JSON"),
+    "capture": ("genie_gl.render.command", "render a scene from K placed cameras and export clouds"),
+    "dataset": ("genie_gl.dataset", "run the whole pipeline for N scenes"),
+    "bench": ("genie_gl.bench", "benchmarks: render | layout | accuracy | pipeline"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="genie", description="genie-gl: labelled synthetic point clouds of industrial scenes"
+    )
+    parser.add_argument("--version", action="version", version=f"genie-gl {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as exc:  # a stage not built yet
+            if exc.name and exc.name.startswith("genie_gl"):
+                p.set_defaults(_module=None, _missing=module)
+                continue
+            raise
+        mod.add_arguments(p)
+        p.set_defaults(_module=module)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.WARNING - 10 * min(args.verbose, 2), format="%(levelname)s %(name)s: %(message)s"
+    )
+    if args.command is None:
+        parser.print_help()
+        return 2
+    if args._module is None:
+        print(f"genie {args.command}: not available in this build ({args._missing})", file=sys.stderr)
+        return 2
+    try:
+        return int(importlib.import_module(args._module).run(args) or 0)
+    except GenieError as exc:
+        print(f"genie {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"genie {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

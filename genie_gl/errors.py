@@ -1,0 +1,40 @@
+"""The exceptions genie-gl raises.
+
+Every message names what was wrong (file, key or field, value) and, where there is one,
+the fix. Catch :class:`GenieError` to catch them all.
+"""
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+
+class GenieError(Exception):
+    """Base class of every error genie-gl raises on purpose."""
+
+
+class ConfigError(GenieError, ValueError):
+    """Bad input: a strategy, profile, calibration, scene file or argument."""
+
+
+class BackendUnavailableError(GenieError, RuntimeError):
+    """No OpenGL backend could start; the message lists what was tried and how to fix it."""
+
+
+class ShaderError(GenieError):
+    """A shader failed to compile or link; carries the shader path and the driver's log."""
+
+    def __init__(self, path: str, log: str) -> None:
+        super().__init__(f"shader {path} failed to build:\n{log}")
+        self.path = path
+        self.log = log
+
+
+class RenderError(GenieError, RuntimeError):
+    """Rendering failed (GL error, bad geometry that cannot be skipped, ...)."""
+
+
+def did_you_mean(value: str, choices: Iterable[str]) -> str:
+    """Return ``"; did you mean 'x'?"`` for the closest choice, or ``""`` when none is close."""
+    close = difflib.get_close_matches(str(value), list(choices), n=1)
+    return f"; did you mean '{close[0]}'?" if close else ""

@@ -1,0 +1,45 @@
+"""Where the shipped data lives: ``shaders/``, ``layouts/`` and ``sensors/``.
+
+In a wheel they are packaged as ``genie_gl/_data/<kind>``; in a source checkout (editable
+install) they are the top-level folders of the repository. :func:`data_dir` finds either.
+"""
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+from .errors import ConfigError, did_you_mean
+
+KINDS = ("shaders", "layouts", "sensors")
+
+
+def data_dir(kind: str) -> Path:
+    """Return the folder holding the shipped files of ``kind`` (one of :data:`KINDS`)."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown data kind {kind!r}; expected one of {KINDS}")
+    packaged = Path(str(resources.files("genie_gl"))) / "_data" / kind
+    if packaged.is_dir():
+        return packaged
+    checkout = Path(__file__).resolve().parent.parent / kind
+    if checkout.is_dir():
+        return checkout
+    raise FileNotFoundError(f"genie-gl data folder '{kind}' not found (looked in {packaged} and {checkout})")
+
+
+def resolve(name_or_path: str | Path, kind: str, suffixes: tuple[str, ...]) -> Path:
+    """Resolve a user's argument to a file: an existing path, or the name of a shipped file.
+
+    ``resolve("realsense_d435", "sensors", (".yaml",))`` finds ``sensors/realsense_d435.yaml``.
+    """
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    shipped = data_dir(kind)
+    for candidate in [shipped / path.name, *(shipped / (path.name + s) for s in suffixes)]:
+        if candidate.is_file():
+            return candidate
+    names = sorted({p.stem for s in suffixes for p in shipped.glob(f"*{s}")})
+    raise ConfigError(
+        f"{name_or_path}: no such file, and no shipped {kind[:-1]} of that name "
+        f"(shipped: {', '.join(names) or 'none'}){did_you_mean(path.stem, names)}"
+    )

@@ -1,0 +1,231 @@
+"""The ``Scene``: a library of meshes stored once, and instances of them placed in the world.
+
+This is the contract between the scene stage and the renderer (DESIGN.md): the renderer
+uploads each :class:`Mesh` once and draws its instances, instanced.
+"""
+from __future__ import annotations
+
+import hashlib
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A triangle mesh in its own (model) frame, in metres.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float32
+    faces : (F, 3) uint32, indices into ``vertices``; counter-clockwise seen from outside.
+    normals : (V, 3) float32 or None, unit vertex normals.
+    colors : (V, 3) uint8 or None, per-vertex colours.
+    closed : bool, True when the mesh is watertight (the renderer may cull back faces).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray | None = None
+    colors: np.ndarray | None = None
+    closed: bool = False
+
+    def __post_init__(self) -> None:
+        v = np.ascontiguousarray(self.vertices, dtype=np.float32)
+        f = np.ascontiguousarray(self.faces)
+        if v.ndim != 2 or v.shape[1] != 3:
+            raise ConfigError(f"mesh vertices: expected shape (V, 3), got {v.shape}")
+        if f.size == 0:
+            f = f.reshape(0, 3)
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise ConfigError(f"mesh faces: expected shape (F, 3) triangles, got {f.shape}")
+        if f.size and (f.min() < 0 or f.max() >= len(v)):
+            raise ConfigError(
+                f"mesh faces: index out of range [0, {len(v)}) (min {f.min()}, max {f.max()})"
+            )
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "faces", f.astype(np.uint32))
+        if self.normals is not None:
+            n = np.ascontiguousarray(self.normals, dtype=np.float32)
+            if n.shape != v.shape:
+                raise ConfigError(f"mesh normals: expected shape {v.shape}, got {n.shape}")
+            object.__setattr__(self, "normals", n)
+        if self.colors is not None:
+            c = np.ascontiguousarray(self.colors)
+            if c.ndim != 2 or len(c) != len(v) or c.shape[1] not in (3, 4):
+                raise ConfigError(f"mesh colors: expected shape ({len(v)}, 3), got {c.shape}")
+            object.__setattr__(self, "colors", np.ascontiguousarray(c[:, :3], dtype=np.uint8))
+
+    @classmethod
+    def from_trimesh(cls, mesh: Any) -> "Mesh":
+        """Build from a ``trimesh.Trimesh`` (vertex colours kept when it has them)."""
+        colors = None
+        visual = getattr(mesh, "visual", None)
+        if visual is not None and getattr(visual, "kind", None) == "vertex":
+            colors = np.asarray(visual.vertex_colors)[:, :3]
+        return cls(
+            vertices=np.asarray(mesh.vertices),
+            faces=np.asarray(mesh.faces),
+            colors=colors,
+            closed=bool(mesh.is_watertight) if len(mesh.faces) else False,
+        )
+
+    def digest(self) -> str:
+        """A content hash: equal geometry gives an equal digest (used to store meshes once)."""
+        h = hashlib.blake2b(digest_size=12)
+        for a in (self.vertices, self.faces, self.normals, self.colors):
+            h.update(b"-" if a is None else a.tobytes())
+        h.update(b"c" if self.closed else b"o")
+        return h.hexdigest()
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float64: min and max corner; NaN when the mesh is empty."""
+        if len(self.vertices) == 0:
+            return np.full((2, 3), np.nan)
+        v = self.vertices.astype(np.float64)
+        return np.stack([np.nanmin(v, axis=0), np.nanmax(v, axis=0)])
+
+
+@dataclass(frozen=True, eq=False)
+class Instance:
+    """One placed copy of a library mesh.
+
+    Attributes
+    ----------
+    mesh : str, key into ``Scene.meshes``.
+    world_from_model : (4, 4) float64, rigid (or similar) transform.
+    semantic : int, class id (DESIGN.md label map), fits uint16.
+    instance : int, unique within the scene, > 0, fits uint32.
+    color : (3,) uint8, the colour the renderer shades with.
+    name : str, a human-readable name (the USD prim name when written).
+    """
+
+    mesh: str
+    world_from_model: np.ndarray
+    semantic: int
+    instance: int
+    color: tuple[int, int, int]
+    name: str = ""
+
+
+def _as_transform(transform: Any) -> np.ndarray:
+    t = np.eye(4) if transform is None else np.array(transform, dtype=np.float64)
+    if t.shape == (3,):
+        m = np.eye(4)
+        m[:3, 3] = t
+        t = m
+    if t.shape != (4, 4):
+        raise ConfigError(f"transform: expected a (4, 4) matrix or a (3,) translation, got {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise ConfigError("transform: contains NaN or Inf")
+    return t
+
+
+def _palette(instance: int) -> tuple[int, int, int]:
+    # A deterministic, well-spread colour per instance id (golden-ratio hue walk).
+    h = (instance * 0.618033988749895) % 1.0
+    i, f = int(h * 6), (h * 6) % 1.0
+    s, v = 0.55, 0.9
+    p, q, t = v * (1 - s), v * (1 - s * f), v * (1 - s * (1 - f))
+    rgb = [(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)][i % 6]
+    return tuple(int(round(255 * c)) for c in rgb)  # type: ignore[return-value]
+
+
+@dataclass(eq=False)
+class Scene:
+    """Meshes stored once by name, and the instances that place them in the world (Z up, metres).
+
+    >>> scene = Scene()
+    >>> iid = scene.add(trimesh.creation.box((1, 1, 1)), np.eye(4), semantic=1)
+    """
+
+    meshes: dict[str, Mesh] = field(default_factory=dict)
+    instances: list[Instance] = field(default_factory=list)
+    metadata: dict[str, Any] = field(default_factory=dict)
+    _digests: dict[str, str] = field(default_factory=dict, repr=False)
+
+    def add_mesh(self, mesh: Any, name: str | None = None) -> str:
+        """Store a mesh (``Mesh``, ``trimesh.Trimesh`` or ``(vertices, faces)``); return its key.
+
+        A mesh equal to one already stored is not stored again: its existing key is returned.
+        """
+        m = _as_mesh(mesh)
+        digest = m.digest()
+        if digest in self._digests:
+            return self._digests[digest]
+        key = name or f"mesh_{len(self.meshes):04d}"
+        if key in self.meshes:
+            key = f"{key}_{len(self.meshes):04d}"
+        self.meshes[key] = m
+        self._digests[digest] = key
+        return key
+
+    def add(
+        self,
+        mesh: Any,
+        transform: Any = None,
+        *,
+        semantic: int = 0,
+        instance: int | None = None,
+        color: tuple[int, int, int] | None = None,
+        name: str = "",
+    ) -> int:
+        """Place ``mesh`` (a key of ``meshes``, a ``Mesh``, a trimesh, or ``(V, F)`` arrays).
+
+        Returns the instance id: ``instance`` if given (must be unused, 1..2**32-1), else the
+        next free id.
+        """
+        key = mesh if isinstance(mesh, str) else self.add_mesh(mesh)
+        if key not in self.meshes:
+            raise ConfigError(f"scene.add: no mesh named {key!r} in the scene")
+        used = {i.instance for i in self.instances}
+        if instance is None:
+            instance = max(used, default=0) + 1
+        if not 0 < int(instance) < 2**32:
+            raise ConfigError(f"scene.add: instance id must be in 1..2**32-1, got {instance}")
+        if int(instance) in used:
+            raise ConfigError(f"scene.add: instance id {instance} is already used")
+        if not 0 <= int(semantic) < 2**16:
+            raise ConfigError(f"scene.add: semantic id must be in 0..65535, got {semantic}")
+        col = _palette(int(instance)) if color is None else tuple(int(c) for c in color[:3])
+        self.instances.append(
+            Instance(key, _as_transform(transform), int(semantic), int(instance), col, name)  # type: ignore[arg-type]
+        )
+        return int(instance)
+
+    def bounds(self) -> np.ndarray:
+        """(2, 3) float64 world-space bounding box of all instances (NaN when empty)."""
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        for inst in self.instances:
+            b = self.meshes[inst.mesh].bounds
+            if not np.all(np.isfinite(b)):
+                continue
+            corners = np.array([[x, y, z, 1.0] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]])
+            w = corners @ inst.world_from_model.T
+            lo, hi = np.minimum(lo, w[:, :3].min(0)), np.maximum(hi, w[:, :3].max(0))
+        if not np.all(np.isfinite(lo)):
+            return np.full((2, 3), np.nan)
+        return np.stack([lo, hi])
+
+    def __len__(self) -> int:
+        return len(self.instances)
+
+
+def _as_mesh(mesh: Any) -> Mesh:
+    if isinstance(mesh, Mesh):
+        return mesh
+    if isinstance(mesh, tuple) and len(mesh) == 2:
+        return Mesh(vertices=mesh[0], faces=mesh[1])
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        return Mesh.from_trimesh(mesh)
+    raise ConfigError(
+        f"scene: cannot use a {type(mesh).__name__} as a mesh; expected genie_gl.Mesh, "
+        "trimesh.Trimesh or (vertices, faces)"
+    )
