@@ -1,0 +1,45 @@
+#version 330 core
+// Multiple render targets from one pass:
+//   0: linear depth, z along the optical axis in metres, from the interpolated eye-space
+//      position (never from the depth buffer)          R32F
+//   1: instance id                                       R32UI
+//   2: semantic id                                       R16UI
+//   3: colour, Lambert with a head light (WITH_COLOR)    RGBA8
+//   4: camera-frame unit normal (WITH_NORMAL)            RGBA32F
+
+in vec3 v_eye;
+flat in uint v_instance;
+flat in uint v_semantic;
+flat in vec3 v_color;
+
+layout(location = 0) out float o_depth;
+layout(location = 1) out uint o_instance;
+layout(location = 2) out uint o_semantic;
+#ifdef WITH_COLOR
+layout(location = 3) out vec4 o_color;
+#endif
+#ifdef WITH_NORMAL
+layout(location = 4) out vec4 o_normal;
+#endif
+
+void main() {
+    o_depth = v_eye.z;
+    o_instance = v_instance;
+    o_semantic = v_semantic;
+#if defined(WITH_COLOR) || defined(WITH_NORMAL)
+    // Face normal from screen-space derivatives (exact for planar triangles); turned to face
+    // the camera. A vanishing cross product (grazing, sub-pixel) falls back to the view ray.
+    vec3 c = cross(dFdx(v_eye), dFdy(v_eye));
+    float len = length(c);
+    vec3 view = normalize(v_eye);
+    vec3 n = len > 1e-30 ? c / len : -view;
+    if (dot(n, view) > 0.0) n = -n;
+#endif
+#ifdef WITH_COLOR
+    float lambert = max(dot(n, -view), 0.0);
+    o_color = vec4(v_color * (0.2 + 0.8 * lambert), 1.0);
+#endif
+#ifdef WITH_NORMAL
+    o_normal = vec4(n, 0.0);
+#endif
+}
