@@ -9,6 +9,7 @@ from __future__ import annotations
 import ctypes
 import logging
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Any
 
@@ -95,8 +96,14 @@ class Renderer:
         self._programs: dict = {}
         self._fbos: dict = {}
         self._clip_control = self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
-        self._upload(scene)
+        with self._current():
+            self._upload(scene)
         self.stats: dict[str, float] = {}
+
+    def _current(self) -> Any:
+        # EGL contexts are made current around every call, so other GL users in the process
+        # (pyrender, a second Renderer) cannot leave theirs current under us.
+        return self.ctx if self.gl.backend == "egl" else nullcontext()
 
     # -- scene upload ------------------------------------------------------------------------
     def _upload(self, scene: Scene) -> None:
@@ -196,6 +203,10 @@ class Renderer:
         depth_only : skip the colour buffer (``Frame.rgb`` is None).
         normals : also render camera-frame unit normals (``Frame.normal``).
         """
+        with self._current():
+            return self._render(sensor, pose, depth_only, normals)
+
+    def _render(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool) -> Frame:
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = np.asarray(pose, dtype=np.float64)
@@ -305,6 +316,15 @@ class Renderer:
     # -- lifetime ---------------------------------------------------------------------------
     def release(self) -> None:
         """Free the GL objects (and the context, when the renderer created it)."""
+        with self._current():
+            self._release_objects()
+        if self._own_context:
+            self.gl.release()
+
+    def _release_objects(self) -> None:
+        # moderngl re-binds the last framebuffer used when it creates another: leave the
+        # default one bound, never a deleted name.
+        self.ctx.detect_framebuffer(0).use()
         for mesh in self._meshes:
             if mesh is not None:
                 for vao in mesh.vaos.values():
@@ -317,8 +337,6 @@ class Renderer:
             for t in (*targets, depth):
                 t.release()
         self._meshes, self._fbos = [], {}
-        if self._own_context:
-            self.gl.release()
 
     def __enter__(self) -> "Renderer":
         return self
