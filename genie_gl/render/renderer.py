@@ -29,8 +29,8 @@ log = logging.getLogger(__name__)
 # one row per drawn instance: camera_from_model (3 rows), ids, colour
 INSTANCE_DTYPE = np.dtype([("rows", "<f4", (3, 4)), ("instance", "<u4"), ("semantic", "<u4"),
                            ("color", "u1", (4,))])
-INSTANCE_FORMAT = "4f 4f 4f u4 u4 4f1/i"
-INSTANCE_ATTRS = ("in_row0", "in_row1", "in_row2", "in_instance", "in_semantic", "in_color")
+INSTANCE_FIELDS = (("4f", 16, "in_row0"), ("4f", 16, "in_row1"), ("4f", 16, "in_row2"),
+                   ("u4", 4, "in_instance"), ("u4", 4, "in_semantic"), ("4f1", 4, "in_color"))
 
 GL_TEXTURE_2D = 0x0DE1
 GL_DEPTH_COMPONENT32F = 0x8CAC
@@ -159,9 +159,12 @@ class Renderer:
     def _vao(self, mesh: _GpuMesh, program: moderngl.Program) -> moderngl.VertexArray:
         vao = mesh.vaos.get(id(program))
         if vao is None:
+            # attributes a program does not use (colour in depth-only mode) become padding
+            fmt = " ".join(f if a in program else f"{n}x" for f, n, a in INSTANCE_FIELDS) + "/i"
+            attrs = [a for _, _, a in INSTANCE_FIELDS if a in program]
             vao = self.ctx.vertex_array(
                 program,
-                [(mesh.vbo, "3f", "in_position"), (mesh.inst_buf, INSTANCE_FORMAT, *INSTANCE_ATTRS)],
+                [(mesh.vbo, "3f", "in_position"), (mesh.inst_buf, fmt, *attrs)],
                 index_buffer=mesh.ibo, index_element_size=4,
             )
             mesh.vaos[id(program)] = vao
