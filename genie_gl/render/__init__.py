@@ -1,6 +1,23 @@
-"""Headless rendering: GL contexts, the moderngl renderer, capture over many poses."""
-from .capture import capture, render
+"""Headless rendering: GL contexts, the moderngl renderer, capture over many poses.
+
+``genie_gl.render`` is both this package and the one-shot function of the public API
+(``gg.render(scene, sensor, pose)``, DESIGN.md): Python binds a package's submodules as
+attributes of the parent, so the package itself is made callable and forwards to
+:func:`genie_gl.render.batch.render`.
+"""
+import sys
+import types
+
+from .batch import capture, render
 from .context import BACKENDS, GLContext, create_context
 from .renderer import Renderer
 
 __all__ = ["BACKENDS", "GLContext", "Renderer", "capture", "create_context", "render"]
+
+
+class _CallableModule(types.ModuleType):
+    def __call__(self, *args, **kwargs):  # gg.render(scene, sensor, pose, ...)
+        return render(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule

@@ -4,8 +4,8 @@
 
 * ``"egl"`` — surfaceless EGL (Mesa llvmpipe on a CPU box, NVIDIA's EGL on a GPU box), the
   default; or
-* ``"osmesa"`` — Mesa's off-screen renderer through PyOpenGL (>= 3.1.7; 3.1.0's OSMesa
-  binding is broken), a fallback 8–12x slower than llvmpipe through EGL.
+* ``"osmesa"`` — Mesa's off-screen renderer (Debian's libosmesa6), loaded with ctypes and
+  adopted by moderngl; a fallback several times slower than llvmpipe through EGL.
 
 ``backend=None`` tries EGL, then OSMesa. The environment variable ``GENIE_GL_BACKEND`` is read
 by the CLI, never here. When nothing starts, :class:`BackendUnavailableError` says what was
@@ -16,8 +16,6 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import logging
-import os
-import sys
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -97,33 +95,59 @@ def _EGL(device_index: int) -> GLContext:
     return GLContext(ctx, "egl", ctx.info["GL_RENDERER"], lib.eglGetProcAddress, [lib])
 
 
-def _osmesa() -> GLContext:
-    if "OpenGL" in sys.modules and os.environ.get("PYOPENGL_PLATFORM") != "osmesa":
-        raise BackendUnavailableError(
-            "PyOpenGL was already imported for another platform in this process; "
-            "start a fresh process with GENIE_GL_BACKEND=osmesa"
-        )
-    # PyOpenGL picks its platform once, at import: this is the only way to ask for OSMesa.
-    os.environ["PYOPENGL_PLATFORM"] = "osmesa"
-    from OpenGL import GL, arrays, osmesa  # noqa: PLC0415  (import only when asked for)
+class _OSMesaLoader:
+    """What moderngl asks of a glcontext backend, for an OSMesa context made current here."""
 
-    attribs = [
-        osmesa.OSMESA_FORMAT, osmesa.OSMESA_RGBA,
-        osmesa.OSMESA_DEPTH_BITS, 24,
-        osmesa.OSMESA_PROFILE, osmesa.OSMESA_CORE_PROFILE,
-        osmesa.OSMESA_CONTEXT_MAJOR_VERSION, 3,
-        osmesa.OSMESA_CONTEXT_MINOR_VERSION, 3,
-        0,
-    ]
-    handle = osmesa.OSMesaCreateContextAttribs(attribs, None)
-    if not handle:
-        raise BackendUnavailableError("OSMesaCreateContextAttribs returned NULL (core 3.3 profile)")
-    # OSMesa needs a colour buffer to be current; we render into our own framebuffers.
-    buf = arrays.GLubyteArray.zeros((1, 1, 4))
-    if not osmesa.OSMesaMakeCurrent(handle, buf, GL.GL_UNSIGNED_BYTE, 1, 1):
-        raise BackendUnavailableError("OSMesaMakeCurrent failed")
-    ctx = moderngl.create_context(require=330)  # adopt the current OSMesa context
-    lib = ctypes.CDLL(ctypes.util.find_library("OSMesa") or "libOSMesa.so.8")
+    def __init__(self, lib: ctypes.CDLL, handle: int) -> None:
+        self.lib, self.handle = lib, handle
+
+    def load_opengl_function(self, name: str) -> int:
+        return self.lib.OSMesaGetProcAddress(name.encode()) or 0
+
+    load = load_opengl_function
+
+    def __enter__(self) -> "_OSMesaLoader":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        return None
+
+    def release(self) -> None:
+        if self.handle:
+            self.lib.OSMesaDestroyContext(self.handle)
+            self.handle = 0
+
+
+def _osmesa() -> GLContext:
+    # Mesa's OSMesa through ctypes (no PyOpenGL platform switch needed, so it works in a
+    # process that already imported PyOpenGL for EGL).
+    path = ctypes.util.find_library("OSMesa") or "libOSMesa.so.8"
+    lib = ctypes.CDLL(path)
+    lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
+    lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
+    lib.OSMesaMakeCurrent.restype = ctypes.c_ubyte
+    lib.OSMesaMakeCurrent.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_int]
     lib.OSMesaGetProcAddress.restype = ctypes.c_void_p
     lib.OSMesaGetProcAddress.argtypes = [ctypes.c_char_p]
-    return GLContext(ctx, "osmesa", ctx.info["GL_RENDERER"], lib.OSMesaGetProcAddress, [lib, buf, handle])
+    lib.OSMesaDestroyContext.argtypes = [ctypes.c_void_p]
+    # OSMESA_FORMAT=RGBA, DEPTH_BITS=24, PROFILE=CORE, CONTEXT_MAJOR/MINOR_VERSION=3.3 (osmesa.h)
+    attribs = (ctypes.c_int * 11)(0x22, 0x1908, 0x30, 24, 0x33, 0x34, 0x36, 3, 0x37, 3, 0)
+    handle = lib.OSMesaCreateContextAttribs(attribs, None)
+    if not handle:
+        raise BackendUnavailableError(f"{path}: OSMesaCreateContextAttribs (core 3.3) returned NULL")
+    buf = (ctypes.c_ubyte * 4)()  # OSMesa needs a colour buffer; we render into our own FBOs
+    if not lib.OSMesaMakeCurrent(handle, buf, 0x1401, 1, 1):
+        lib.OSMesaDestroyContext(handle)
+        raise BackendUnavailableError(f"{path}: OSMesaMakeCurrent failed")
+    loader = _OSMesaLoader(lib, handle)
+    import glcontext  # noqa: PLC0415
+
+    # moderngl adopts the current context through glcontext's default backend: point it at
+    # OSMesa for the duration of this call only.
+    saved = glcontext.default_backend
+    glcontext.default_backend = lambda: (lambda *a, **k: loader)
+    try:
+        ctx = moderngl.create_context(require=330, libgl=path)
+    finally:
+        glcontext.default_backend = saved
+    return GLContext(ctx, "osmesa", ctx.info["GL_RENDERER"], lib.OSMesaGetProcAddress, [lib, buf, loader])
