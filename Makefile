@@ -56,7 +56,7 @@ demo: setup ## generate a 3-scene demo dataset with preview pictures into out/de
 	@echo "demo dataset and previews in $(OUT)/demo (open $(OUT)/demo/previews/)"
 
 bench: setup ## run every benchmark (render, layout, accuracy, pipeline); figures into out/bench
-	$(VENV)/bin/pip install -q "open3d>=0.18" || echo "open3d unavailable: the render bench skips it"
+	$(VENV)/bin/pip install -q "open3d>=0.18" && { ldconfig -p | grep -q libusb-1.0 || apt-get install -y -qq libusb-1.0-0; } || echo "open3d unavailable: the render bench skips it"
 	$(GENIE) bench render --out $(OUT)/bench
 	$(GENIE) bench layout --out $(OUT)/bench
 	$(GENIE) bench accuracy --out $(OUT)/bench

@@ -235,6 +235,7 @@ class Renderer:
 
         drawn = self._draw(program, rigid_inverse(pose), K, W, H, sensor.near_m)
         ctx.disable(moderngl.CULL_FACE)
+        ctx.finish()  # so that the read-back time below is the copy alone
         t1 = time.perf_counter()
 
         depth = np.empty((H, W), np.float32)
