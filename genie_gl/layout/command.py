@@ -1,0 +1,55 @@
+"""``genie layout STRATEGY --seed S --out DIR``: layout JSON, PNG and label raster."""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..errors import ConfigError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("strategy", nargs="?", help="strategy JSON file, or a shipped name (assembly_line, ...)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", help="output folder (layout.json, layout.png, labels.npy, manifest.json)")
+    p.add_argument("--resolution", type=float, default=0.1, help="label raster cell size in metres")
+    p.add_argument("--schema", action="store_true", help="print the strategy JSON Schema and exit")
+
+
+def run(args: argparse.Namespace) -> int:
+    from . import generate_layout, json_schema, load_strategy, save_layout_png
+
+    if args.schema:
+        json.dump(json_schema(), sys.stdout, indent=2)
+        print()
+        return 0
+    if not args.strategy or not args.out:
+        raise ConfigError("give a STRATEGY and --out DIR (or --schema)")
+    strategy = load_strategy(args.strategy)
+    layout = generate_layout(strategy, seed=args.seed)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".layout-", dir=out.parent))
+    try:
+        layout.to_json(tmp / "layout.json")
+        save_layout_png(layout, tmp / "layout.png")
+        raster = layout.label_raster(args.resolution)
+        np.save(tmp / "labels.npy", raster.labels)
+        (tmp / "manifest.json").write_text(json.dumps({
+            "genie_gl": __version__, "command": "layout", "strategy": str(strategy.source),
+            "seed": args.seed, "raster": {"resolution_m": args.resolution, "origin_xy": raster.origin_xy,
+                                           "type_names": raster.type_names},
+            "nodes": len(layout), "leaves": len(layout.leaves())}, indent=1))
+        if out.exists():
+            shutil.rmtree(out)
+        tmp.replace(out)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(f"layout: {len(layout)} regions, {len(layout.leaves())} leaves -> {out}")
+    return 0

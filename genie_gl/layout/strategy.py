@@ -1,0 +1,204 @@
+"""Strategy files: JSON, validated on load, with errors naming the file and the JSON path.
+
+A strategy::
+
+    {
+      "name": "assembly_line",
+      "root": {"width": 60, "height": 30, "type": "hall", "orientation": "up"},
+      "region_types": {"hall": {"color": "#e0e0e0"},
+                       "car": {"final": true, "color": "#d04040", "semantic": 3, "asset_group": "car"}},
+      "levels": [
+        {"hall": {"generator": "assembly_line", "args": {...},
+                  "children": {"line": "line", "path": {"sequential": ["forklift_lane", "str_lane"]}},
+                  "orientation": "suggested"}},
+        "merge"
+      ],
+      "scene": {...}          # read by the scene stage (asset randomisation)
+    }
+
+Levels run broad to detailed (paper Algorithm 1); each maps region types to a rule (a
+generator, its ``args``, a type provider per slot, an orientation provider) or is ``"merge"``.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from ..errors import ConfigError, did_you_mean
+from ..resources import resolve
+from .generators import GENERATORS, Generator, get_generator
+from .model import ORIENTATIONS, RegionType
+from .providers import OrientationProvider, TypeProvider
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class RegionTypeSpec(_Strict):
+    final: bool = False
+    color: Union[str, list[int]] = "#c8c8c8"
+    semantic: int | None = Field(default=None, ge=0, le=65535)
+    asset_group: str | None = None
+    description: str | None = None
+
+
+class RootSpec(_Strict):
+    width: float = Field(gt=0)
+    height: float = Field(gt=0)
+    type: str
+    x: float = 0.0
+    y: float = 0.0
+    orientation: Literal["up", "down", "left", "right"] = "up"
+
+
+class RuleSpec(_Strict):
+    generator: str
+    args: dict[str, Any] = {}
+    children: dict[str, Any] = Field(min_length=1)
+    orientation: Any = "inherit"
+
+
+class StrategySpec(_Strict):
+    name: str
+    description: str | None = None
+    root: RootSpec
+    region_types: dict[str, RegionTypeSpec] = Field(min_length=1)
+    levels: list[Union[Literal["merge"], dict[str, RuleSpec]]] = Field(min_length=1)
+    scene: dict[str, Any] = {}
+
+
+def json_schema() -> dict[str, Any]:
+    """The published JSON Schema of strategy files (``genie layout --schema``)."""
+    schema = StrategySpec.model_json_schema()
+    schema["title"] = "genie-gl layout strategy"
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    return schema
+
+
+@dataclass
+class Rule:
+    generator: Generator
+    generator_name: str
+    children: dict[str, TypeProvider]
+    orientation: OrientationProvider
+
+
+@dataclass
+class Strategy:
+    """A validated strategy: region types, levels of rules (or "merge"), scene options."""
+
+    name: str
+    root: RootSpec
+    region_types: dict[str, RegionType]
+    levels: list[Union[str, dict[str, Rule]]]
+    scene: dict[str, Any] = field(default_factory=dict)
+    source: str = "<dict>"
+
+
+def _color(value: Any, where: str) -> tuple[int, int, int]:
+    if isinstance(value, str):
+        s = value.lstrip("#")
+        if len(s) == 6:
+            try:
+                return tuple(int(s[i:i + 2], 16) for i in (0, 2, 4))  # type: ignore[return-value]
+            except ValueError:
+                pass
+    elif isinstance(value, list) and len(value) == 3 and all(isinstance(c, int) and 0 <= c <= 255 for c in value):
+        return tuple(value)  # type: ignore[return-value]
+    raise ConfigError(f"{where}: expected a colour '#rrggbb' or [r, g, b] (0-255), got {value!r}")
+
+
+def _path(loc: tuple) -> str:
+    out = "$"
+    for p in loc:
+        out += f"[{p}]" if isinstance(p, int) else f".{p}"
+    return out
+
+
+def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
+    """Validate strategy data (already parsed JSON); errors give ``source`` and a JSON path."""
+    try:
+        spec = StrategySpec.model_validate(data)
+    except ValidationError as exc:
+        e = exc.errors()[0]
+        loc = tuple(p for p in e["loc"] if p not in ("literal['merge']", "dict[str,RuleSpec]"))
+        raise ConfigError(f"{source}: {_path(loc)}: {e['msg']} (got {e.get('input')!r:.80})") from None
+    types = {}
+    for name, t in spec.region_types.items():
+        types[name] = RegionType(name, t.final, _color(t.color, f"{source}: $.region_types.{name}.color"),
+                                 t.semantic, t.asset_group)
+
+    def known(name: str, where: str) -> None:
+        if name not in types:
+            raise ConfigError(f"{source}: {where}: region type {name!r} is not declared in "
+                              f"$.region_types{did_you_mean(name, types)}")
+
+    known(spec.root.type, "$.root.type")
+    levels: list[Union[str, dict[str, Rule]]] = []
+    for i, level in enumerate(spec.levels):
+        if level == "merge":
+            levels.append("merge")
+            continue
+        if not level:
+            raise ConfigError(f"{source}: $.levels[{i}]: empty level; give at least one rule or \"merge\"")
+        rules = {}
+        for tname, rule in level.items():
+            where = f"$.levels[{i}].{tname}"
+            known(tname, where)
+            if types[tname].final:
+                raise ConfigError(f"{source}: {where}: region type {tname!r} is final and cannot have a generator")
+            cls = get_generator(rule.generator, f"{source}: {where}.generator")
+            gen = cls(**rule.args)
+            gen.check(f"{source}: {where}")
+            providers = {}
+            for slot, pspec in rule.children.items():
+                if cls.slots and slot not in cls.slots:
+                    raise ConfigError(f"{source}: {where}.children.{slot}: generator {rule.generator!r} makes no "
+                                      f"slot {slot!r}{did_you_mean(slot, cls.slots)} (slots: {', '.join(cls.slots)})")
+                tp = TypeProvider(pspec, f"{source}: {where}.children.{slot}")
+                for t in tp.types():
+                    known(t, f"{where}.children.{slot}")
+                providers[slot] = tp
+            orient = OrientationProvider(rule.orientation, f"{source}: {where}.orientation")
+            if orient.kind == "face":
+                for t in orient.values:
+                    known(t, f"{where}.orientation.face")
+            if i == 0 and tname == spec.root.type:
+                _check_fits(rule, spec.root, f"{source}: {where}")
+            rules[tname] = Rule(gen, rule.generator, providers, orient)
+        levels.append(rules)
+    return Strategy(spec.name, spec.root, types, levels, spec.scene, source)
+
+
+def _check_fits(rule: RuleSpec, root: RootSpec, where: str) -> None:
+    a = rule.args
+    big, small = max(root.width, root.height), min(root.width, root.height)
+    if rule.generator == "grid" and isinstance(a.get("cell"), list) and len(a["cell"]) == 2:
+        cw, ch = sorted(float(c) for c in a["cell"])
+        if ch > big or cw > small:
+            raise ConfigError(f"{where}.args.cell: a {a['cell'][0]} x {a['cell'][1]} m cell is larger than its "
+                              f"parent ({root.width} x {root.height} m)")
+    if rule.generator == "assembly_line":
+        lw = a.get("line_width", 0)
+        lw = max(lw) if isinstance(lw, list) else float(lw)
+        if lw > big:
+            raise ConfigError(f"{where}.args.line_width: a {lw} m line does not fit its parent "
+                              f"({root.width} x {root.height} m)")
+
+
+def load_strategy(path_or_name: str | Path) -> Strategy:
+    """Load and validate a strategy file, or a shipped one by name (``"assembly_line"``)."""
+    path = resolve(path_or_name, "layouts", (".json",))
+    try:
+        data = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    return parse_strategy(data, str(path))
+
+
+__all__ = ["GENERATORS", "ORIENTATIONS", "Strategy", "json_schema", "load_strategy", "parse_strategy"]
