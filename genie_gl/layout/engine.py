@@ -39,7 +39,8 @@ def generate_layout(strategy: Strategy | str | Path, seed: int = 0, *,
                 reports.append({"level": li, "region": i, **report})
                 log.info("level %d: %s placed %d of %d rooms", li, rule.generator_name,
                          report["placed"], report["requested"])
-    return Layout(nodes, strat.region_types, {"strategy": strat.name, "seed": int(seed), "reports": reports})
+    meta = {"strategy": strat.name, "seed": int(seed), "reports": reports, "scene": strat.scene}
+    return Layout(nodes, strat.region_types, meta)
 
 
 def _expand(nodes: list[Node], i: int, rule: Rule, rng: np.random.Generator,

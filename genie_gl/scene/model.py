@@ -150,6 +150,7 @@ class Scene:
     instances: list[Instance] = field(default_factory=list)
     metadata: dict[str, Any] = field(default_factory=dict)
     _digests: dict[str, str] = field(default_factory=dict, repr=False)
+    _ids: set[int] | None = field(default=None, repr=False)
 
     def add_mesh(self, mesh: Any, name: str | None = None) -> str:
         """Store a mesh (``Mesh``, ``trimesh.Trimesh`` or ``(vertices, faces)``); return its key.
@@ -185,9 +186,9 @@ class Scene:
         key = mesh if isinstance(mesh, str) else self.add_mesh(mesh)
         if key not in self.meshes:
             raise ConfigError(f"scene.add: no mesh named {key!r} in the scene")
-        used = {i.instance for i in self.instances}
+        used = self._used_ids
         if instance is None:
-            instance = max(used, default=0) + 1
+            instance = max(used, default=0) + 1 if len(used) != len(self.instances) else self._next_id()
         if not 0 < int(instance) < 2**32:
             raise ConfigError(f"scene.add: instance id must be in 1..2**32-1, got {instance}")
         if int(instance) in used:
@@ -198,7 +199,17 @@ class Scene:
         self.instances.append(
             Instance(key, _as_transform(transform), int(semantic), int(instance), col, name)  # type: ignore[arg-type]
         )
+        used.add(int(instance))
         return int(instance)
+
+    @property
+    def _used_ids(self) -> set[int]:
+        if self._ids is None or len(self._ids) != len(self.instances):
+            self._ids = {i.instance for i in self.instances}
+        return self._ids
+
+    def _next_id(self) -> int:
+        return max(self._ids, default=0) + 1
 
     def bounds(self) -> np.ndarray:
         """(2, 3) float64 world-space bounding box of all instances (NaN when empty)."""
