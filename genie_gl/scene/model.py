@@ -228,6 +228,19 @@ class Scene:
     def __len__(self) -> int:
         return len(self.instances)
 
+    def to_usd(self, path: Any) -> Any:
+        """Write the scene as USD (.usda or .usdc); see :mod:`genie_gl.scene.usd`."""
+        from .usd import write_usd
+
+        return write_usd(self, path)
+
+    @classmethod
+    def from_usd(cls, path: Any) -> "Scene":
+        """Read any USD stage (meshes, references, instancing, point instancers) into a Scene."""
+        from .usd import read_usd
+
+        return read_usd(path)
+
 
 def _as_mesh(mesh: Any) -> Mesh:
     if isinstance(mesh, Mesh):

@@ -1,0 +1,52 @@
+"""``genie scene LAYOUT_JSON --seed S --out SCENE.usda``: a USD scene plus an overview picture."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..errors import ConfigError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("layout", help="layout JSON written by `genie layout`")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", required=True, help="scene file (.usda text or .usdc binary)")
+    p.add_argument("--no-picture", action="store_true", help="skip the overview PNG")
+
+
+def overview_pose(bounds):
+    """A camera above one corner of the hall looking at its centre (world_from_camera)."""
+    import numpy as np
+
+    from ..render.projection import look_at
+
+    x0, y0, w, h = bounds
+    return look_at([x0 - 0.15 * w, y0 - 0.35 * h, 0.45 * max(w, h)], [x0 + w / 2, y0 + h / 2, 0.0])
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..layout import Layout
+    from . import build_scene
+
+    out = Path(args.out)
+    if out.suffix not in (".usda", ".usdc", ".usd"):
+        raise ConfigError(f"--out {out}: expected a .usda, .usdc or .usd file name")
+    layout = Layout.from_json(args.layout)
+    scene = build_scene(layout, seed=args.seed)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    scene.to_usd(out)
+    msg = f"scene: {len(scene.instances)} instances of {len(scene.meshes)} meshes -> {out}"
+    if not args.no_picture:
+        from PIL import Image
+
+        from ..render import render
+        from ..sensors.camera import Sensor
+
+        frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds))
+        png = out.with_suffix(".png")
+        tmp = png.with_name(png.stem + ".tmp.png")
+        Image.fromarray(frame.rgb).save(tmp)
+        tmp.replace(png)
+        msg += f" (overview {png})"
+    print(msg)
+    return 0

@@ -1,0 +1,212 @@
+"""USD in and out: the only module that imports ``pxr``.
+
+Written stages are Z up, metres; every distinct mesh is one prototype under the class prim
+``/Prototypes`` and every instance an instanceable Xform referencing it (scenegraph
+instancing), with a full-precision ``xformOp:transform``, its class labelled both through the
+SemanticsAPI that Omniverse Replicator reads and the newer UsdSemantics labels, its instance
+id as ``genie:instanceId`` and its colour as a constant ``primvars:displayColor``.
+
+Reading accepts any stage: meshes with any face sizes (fan-triangulated), xform stacks,
+references, payloads, variants, scenegraph instancing and PointInstancers, Y-up and other
+units, labels in either API.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+
+from ..errors import ConfigError
+from .model import Mesh, Scene
+
+log = logging.getLogger(__name__)
+
+CLASS_NAMES = {0: "background", 1: "pallet", 2: "rack", 3: "car", 4: "jack", 5: "stillage",
+               6: "cabinet", 7: "dolly", 8: "forklift", 9: "small_load_carrier"}
+CLASS_IDS = {v: k for k, v in CLASS_NAMES.items()}
+CLASS_IDS.update({"klt": 9, "floor": 0, "wall": 0})
+
+
+def _ident(name: str, fallback: str) -> str:
+    s = re.sub(r"[^A-Za-z0-9_]", "_", name or fallback)
+    return s if s and not s[0].isdigit() else f"_{s}"
+
+
+def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
+    """Write ``scene`` to ``path`` (.usda text or .usd/.usdc binary), via a temporary file."""
+    path = Path(path)
+    if path.suffix not in (".usda", ".usdc", ".usd"):
+        raise ConfigError(f"{path}: USD files end in .usda, .usdc or .usd")
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    stage = Usd.Stage.CreateNew(str(tmp))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    stage.SetDefaultPrim(world.GetPrim())
+    protos = stage.CreateClassPrim("/Prototypes")
+    proto_path = {}
+    for key in sorted(scene.meshes):
+        m = scene.meshes[key]
+        p = protos.GetPath().AppendChild(_ident(key, "mesh"))
+        UsdGeom.Xform.Define(stage, p)
+        mesh = UsdGeom.Mesh.Define(stage, p.AppendChild("Geom"))
+        pts = Vt.Vec3fArray.FromNumpy(m.vertices)
+        mesh.CreatePointsAttr(pts)
+        mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(m.faces), 3, np.int32)))
+        mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(m.faces.astype(np.int32).ravel()))
+        mesh.CreateExtentAttr(UsdGeom.PointBased.ComputeExtent(pts))
+        mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+        mesh.CreateDoubleSidedAttr(not m.closed)
+        mesh.GetPrim().CreateAttribute("genie:closed", Sdf.ValueTypeNames.Bool).Set(bool(m.closed))
+        proto_path[key] = p
+    used: set[str] = set()
+    for inst in scene.instances:
+        name = _ident(inst.name, f"instance_{inst.instance}")
+        if name in used:
+            name = f"{name}_{inst.instance}"
+        used.add(name)
+        x = UsdGeom.Xform.Define(stage, world.GetPath().AppendChild(name))
+        x.AddTransformOp().Set(Gf.Matrix4d(inst.world_from_model.T.tolist()))
+        prim = x.GetPrim()
+        prim.GetReferences().AddInternalReference(proto_path[inst.mesh])
+        prim.SetInstanceable(True)
+        label = CLASS_NAMES.get(inst.semantic, f"class_{inst.semantic}")
+        prim.AddAppliedSchema("SemanticsAPI:Semantics")
+        prim.CreateAttribute("semantic:Semantics:params:semanticType", Sdf.ValueTypeNames.String).Set("class")
+        prim.CreateAttribute("semantic:Semantics:params:semanticData", Sdf.ValueTypeNames.String).Set(label)
+        prim.AddAppliedSchema("SemanticsLabelsAPI:class")
+        prim.CreateAttribute("semantics:labels:class", Sdf.ValueTypeNames.TokenArray).Set([label])
+        prim.CreateAttribute("genie:semanticId", Sdf.ValueTypeNames.Int).Set(int(inst.semantic))
+        prim.CreateAttribute("genie:instanceId", Sdf.ValueTypeNames.UInt).Set(int(inst.instance))
+        pv = UsdGeom.PrimvarsAPI(prim).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                     UsdGeom.Tokens.constant)
+        pv.Set([Gf.Vec3f(*(c / 255.0 for c in inst.color))])
+    stage.GetRootLayer().Save()
+    del stage
+    tmp.replace(path)
+    return path
+
+
+def _label(prim: Usd.Prim) -> tuple[int | None, int | None]:
+    """(semantic id, instance id) from the nearest labelled ancestor."""
+    sem = inst = None
+    p = prim
+    while p and p.GetPath() != Sdf.Path.absoluteRootPath:
+        if inst is None and p.HasAttribute("genie:instanceId"):
+            inst = int(p.GetAttribute("genie:instanceId").Get())
+        if sem is None:
+            if p.HasAttribute("genie:semanticId"):
+                sem = int(p.GetAttribute("genie:semanticId").Get())
+            else:
+                name = None
+                a = p.GetAttribute("semantics:labels:class")
+                if a and a.HasAuthoredValue() and len(a.Get() or []):
+                    name = str(a.Get()[0])
+                else:
+                    b = p.GetAttribute("semantic:Semantics:params:semanticData")
+                    if b and b.HasAuthoredValue():
+                        name = str(b.Get())
+                if name is not None:
+                    sem = CLASS_IDS.get(name.lower())
+                    if sem is None:
+                        m = re.fullmatch(r"class_(\d+)", name)
+                        sem = int(m.group(1)) if m else 0
+        p = p.GetParent()
+    return sem, inst
+
+
+def _triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    faces, start = [], 0
+    for c in counts:
+        if c >= 3:
+            idx = indices[start:start + c]
+            faces.extend([idx[0], idx[k], idx[k + 1]] for k in range(1, c - 1))
+        start += c
+    return np.array(faces, dtype=np.int64).reshape(-1, 3)
+
+
+def read_usd(path: str | os.PathLike) -> Scene:
+    """Read any USD stage into a Scene (world Z up, metres)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such USD file")
+    stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
+    if stage is None:
+        raise ConfigError(f"{path}: USD could not open the stage")
+    mpu = UsdGeom.GetStageMetersPerUnit(stage)
+    fix = np.eye(4) * mpu
+    fix[3, 3] = 1.0
+    if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y:  # Y up -> Z up: +90 deg about x
+        fix = fix @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1.0]])
+    scene = Scene()
+    cache = UsdGeom.XformCache()
+    keys: dict[str, str] = {}
+    next_id = [1]
+    taken: set[int] = set()
+
+    def mesh_key(mesh_prim: Usd.Prim) -> str | None:
+        src = mesh_prim.GetPrimInPrototype() if mesh_prim.IsInstanceProxy() else mesh_prim
+        k = str(src.GetPath())
+        if k not in keys:
+            m = UsdGeom.Mesh(mesh_prim)
+            pts = m.GetPointsAttr().Get()
+            counts, idx = m.GetFaceVertexCountsAttr().Get(), m.GetFaceVertexIndicesAttr().Get()
+            if pts is None or counts is None or idx is None or len(pts) == 0:
+                return None
+            v = np.asarray(pts, dtype=np.float64)
+            if not np.all(np.isfinite(v)):
+                raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()} has NaN or Inf points")
+            faces = _triangulate(np.asarray(counts), np.asarray(idx))
+            keys[k] = scene.add_mesh(Mesh(v, faces), name=_ident(src.GetName(), "mesh"))
+        return keys[k]
+
+    def place(key: str, world: np.ndarray, prim: Usd.Prim, name: str) -> None:
+        sem, inst = _label(prim)
+        if inst is None or inst in taken:
+            while next_id[0] in taken:
+                next_id[0] += 1
+            inst = next_id[0]
+        taken.add(inst)
+        scene.add(key, fix @ world, semantic=sem or 0, instance=inst, name=name)
+
+    for prim in stage.Traverse(Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)):
+        if not prim.IsActive() or prim.IsAbstract() or _in_instancer(prim):
+            continue
+        if prim.IsA(UsdGeom.Mesh):
+            key = mesh_key(prim)
+            if key is not None:
+                world = np.array(cache.GetLocalToWorldTransform(prim)).T
+                place(key, world, prim, prim.GetParent().GetName() if prim.IsInstanceProxy() else prim.GetName())
+        elif prim.IsA(UsdGeom.PointInstancer):
+            pi = UsdGeom.PointInstancer(prim)
+            xf = pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default())
+            ids = pi.GetProtoIndicesAttr().Get() or []
+            targets = pi.GetPrototypesRel().GetTargets()
+            base = np.array(cache.GetLocalToWorldTransform(prim)).T
+            for j, (pidx, m) in enumerate(zip(ids, xf)):
+                proto = stage.GetPrimAtPath(targets[pidx])
+                proto_world = np.array(cache.GetLocalToWorldTransform(proto)).T
+                for sub in Usd.PrimRange(proto):
+                    if sub.IsA(UsdGeom.Mesh):
+                        key = mesh_key(sub)
+                        if key is None:
+                            continue
+                        # mesh relative to its prototype root, then the instance, then the instancer
+                        rel = np.linalg.inv(proto_world) @ np.array(cache.GetLocalToWorldTransform(sub)).T
+                        place(key, base @ np.array(m).T @ rel, sub, f"{prim.GetName()}_{j}")
+    if not scene.instances:
+        raise ConfigError(f"{path}: the stage holds no mesh")
+    return scene
+
+
+def _in_instancer(prim: Usd.Prim) -> bool:
+    p = prim.GetParent()
+    while p and p.GetPath() != Sdf.Path.absoluteRootPath:
+        if p.IsA(UsdGeom.PointInstancer):
+            return True
+        p = p.GetParent()
+    return False
