@@ -2,9 +2,9 @@
 
 ``simulate(sensor, pose, render=..., rng=...)`` is what ``genie_gl.capture`` calls for each
 camera. ``render(sensor, pose) -> Frame`` renders an ideal pinhole frame of any sensor (its
-``dist`` ignored); effects that need another view (a wider field for lens distortion, the
-second imager of a stereo pair) call it themselves. With no effects and no distortion the
-result is ``render(sensor, pose)`` itself, bit for bit, and no RNG draw is made.
+``dist`` ignored). A distorted sensor is rendered as a wider pinhole image and remapped; then
+the sensor's effects run in order. With no effects and no distortion the result is
+``render(sensor, pose)`` itself, bit for bit, and no RNG draw is made.
 """
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
 
@@ -21,6 +20,13 @@ RenderFn = Callable[[Sensor, np.ndarray], Frame]
 
 def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.random.Generator) -> Frame:
     """Render ``sensor`` at ``pose`` (world_from_camera) and apply its effects in order."""
-    if sensor.effects or not sensor.is_pinhole:
-        raise ConfigError(f"sensor {sensor.name}: effects and lens distortion are not supported yet")
-    return render(sensor, pose)
+    if sensor.is_pinhole:
+        frame = render(sensor, pose)
+    else:
+        from .distortion import distort, distortion_maps
+
+        maps = distortion_maps(sensor)
+        frame = distort(render(maps.render_sensor, pose), sensor, maps)
+    for eff in sensor.effects:
+        frame = eff.apply(frame, rng)
+    return frame

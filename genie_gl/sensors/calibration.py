@@ -1,0 +1,144 @@
+"""OpenCV and ROS calibration files in and out.
+
+Reads OpenCV ``FileStorage`` YAML/XML as ``calibrateCamera`` / ``stereoCalibrate`` programs
+write them (any of the common key spellings) and ROS ``camera_info`` YAML; writes OpenCV
+YAML/XML with OpenCV's lower-case keys. A file without K or the image size, or with a
+malformed matrix, is rejected with an error naming the file and the field.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+
+from ..errors import ConfigError
+from .camera import DIST_LENGTHS
+
+K_KEYS = ("camera_matrix", "Camera_Matrix", "cameraMatrix", "K", "K1", "M1", "intrinsics")
+D_KEYS = ("distortion_coefficients", "Distortion_Coefficients", "dist_coeffs", "distCoeffs", "D", "D1")
+W_KEYS = ("image_width", "image_Width", "imageWidth", "width")
+H_KEYS = ("image_height", "image_Height", "imageHeight", "height")
+ERR_KEYS = ("avg_reprojection_error", "Avg_Reprojection_Error", "reprojection_error", "rms")
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """A camera calibration: size, K (3x3), distortion (N,), optional RMS error, stereo R, T."""
+
+    width: int
+    height: int
+    K: np.ndarray
+    dist: np.ndarray
+    reprojection_error: float | None = None
+    R: np.ndarray | None = None
+    T: np.ndarray | None = None
+    source: str = ""
+
+    @property
+    def baseline_m(self) -> float | None:
+        return None if self.T is None else float(np.linalg.norm(self.T))
+
+
+def _matrix(value, where: str, shape: tuple | None = None) -> np.ndarray:
+    if isinstance(value, dict):  # ROS style {rows, cols, data}
+        try:
+            a = np.asarray(value["data"], float).reshape(int(value["rows"]), int(value["cols"]))
+        except (KeyError, ValueError) as exc:
+            raise ConfigError(f"{where}: malformed matrix ({exc})") from None
+    else:
+        a = np.asarray(value, float)
+    if shape is not None and a.size == np.prod(shape):
+        a = a.reshape(shape)
+    if shape is not None and a.shape != shape:
+        raise ConfigError(f"{where}: expected a {shape[0]}x{shape[1]} matrix, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ConfigError(f"{where}: contains NaN or Inf")
+    return a
+
+
+def _read_filestorage(path: Path) -> dict:
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    if not fs.isOpened():
+        raise ConfigError(f"{path}: OpenCV cannot read this file")
+    out = {}
+    root = fs.root()
+    for key in root.keys():
+        node = fs.getNode(key)
+        if node.isMap() and not node.mat() is None:
+            out[key] = node.mat()
+        elif node.isInt() or node.isReal():
+            out[key] = node.real()
+        elif node.isString():
+            out[key] = node.string()
+        else:
+            m = node.mat()
+            if m is not None:
+                out[key] = m
+    fs.release()
+    return out
+
+
+def read_calibration(path: str | os.PathLike) -> Calibration:
+    """Read an OpenCV (YAML/XML) or ROS camera_info calibration file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such calibration file")
+    text = path.read_text(errors="replace")
+    if text.lstrip().startswith("%YAML") or text.lstrip().startswith("<?xml") or "opencv-matrix" in text:
+        data = _read_filestorage(path)
+    else:
+        try:
+            data = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+        if not isinstance(data, dict):
+            raise ConfigError(f"{path}: expected a mapping of calibration fields")
+
+    def first(keys, field):
+        for k in keys:
+            if k in data and data[k] is not None:
+                return k, data[k]
+        return None, None
+
+    k_key, K = first(K_KEYS, "camera_matrix")
+    if K is None:
+        raise ConfigError(f"{path}: missing field camera_matrix (K); accepted names: {', '.join(K_KEYS)}")
+    K = _matrix(K, f"{path}: {k_key}", (3, 3))
+    if K[0, 0] <= 0 or K[1, 1] <= 0:
+        raise ConfigError(f"{path}: {k_key}: fx and fy must be > 0")
+    w_key, W = first(W_KEYS, "image_width")
+    h_key, H = first(H_KEYS, "image_height")
+    if W is None or H is None:
+        raise ConfigError(f"{path}: missing field image_width/image_height (the image size)")
+    d_key, D = first(D_KEYS, "distortion_coefficients")
+    dist = np.zeros(0) if D is None else _matrix(D, f"{path}: {d_key}").ravel()
+    if len(dist) not in DIST_LENGTHS:
+        raise ConfigError(f"{path}: {d_key}: expected 4, 5, 8, 12 or 14 coefficients, got {len(dist)}")
+    _, err = first(ERR_KEYS, "avg_reprojection_error")
+    R = _matrix(data["R"], f"{path}: R", (3, 3)) if "R" in data and np.size(data["R"]) == 9 else None
+    T = _matrix(data["T"], f"{path}: T").ravel() if "T" in data and np.size(data["T"]) == 3 else None
+    return Calibration(int(W), int(H), K, dist, None if err is None else float(err), R, T, str(path))
+
+
+def write_calibration(calib: Calibration, path: str | os.PathLike) -> Path:
+    """Write OpenCV FileStorage YAML (.yml/.yaml) or XML (.xml) with OpenCV's key names."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
+    fs.write("image_width", int(calib.width))
+    fs.write("image_height", int(calib.height))
+    fs.write("camera_matrix", np.asarray(calib.K, np.float64))
+    fs.write("distortion_coefficients", np.asarray(calib.dist, np.float64).reshape(-1, 1))
+    if calib.reprojection_error is not None:
+        fs.write("avg_reprojection_error", float(calib.reprojection_error))
+    if calib.R is not None:
+        fs.write("R", np.asarray(calib.R, np.float64))
+    if calib.T is not None:
+        fs.write("T", np.asarray(calib.T, np.float64).reshape(3, 1))
+    fs.release()
+    tmp.replace(path)
+    return path

@@ -1,0 +1,125 @@
+"""Sensor effects: each maps an ideal ``Frame`` to a realistic one, only when asked for.
+
+An effect is a class in :data:`EFFECTS` (name -> class) built from its profile parameters;
+``apply(frame, rng)`` returns a new Frame. Noise draws come only from ``rng``; an effect not
+in a sensor's list never runs and never draws.
+
+Published models offered by name (``depth_noise`` ``model:``):
+
+* ``kinect_nguyen2012`` — Nguyen, Izadi & Lovell 2012, Kinect axial σ_z = 0.0012 +
+  0.0019·(z − 0.4)² m (incidence ≤ 60°);
+* ``stereo`` — σ_z = z²·σ_d / (f·b) (RealSense D400 RMS model with σ_d = subpixel ≈ 0.08 px;
+  Redwood/PrimeSense σ_d ≈ 1/36 px), plus quantisation of disparity to ``subpixel_step``;
+* ``tof_linear`` — σ_z = a + b·max(z − z0, 0) (Azure Kinect evaluation: 0.5 mm + 1 mm/m
+  beyond 0.5 m).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..errors import ConfigError, did_you_mean
+from ..frame import Frame
+
+
+class Effect:
+    name: ClassVar[str] = ""
+    draws: ClassVar[bool] = False  # True when apply() uses the RNG
+
+    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+        raise NotImplementedError
+
+
+EFFECTS: dict[str, type[Effect]] = {}
+
+
+def effect(cls: type[Effect]) -> type[Effect]:
+    EFFECTS[cls.name] = cls
+    return cls
+
+
+def _drop(frame: Frame, mask: np.ndarray, depth: np.ndarray | None = None) -> Frame:
+    d = (frame.depth if depth is None else depth).copy()
+    d[mask] = 0
+    inst, sem = frame.instance.copy(), frame.semantic.copy()
+    inst[mask], sem[mask] = 0, 0
+    rgb = None if frame.rgb is None else frame.rgb
+    return frame.replace(depth=d.astype(np.float32), instance=inst, semantic=sem, rgb=rgb)
+
+
+@effect
+@dataclass
+class RangeLimits(Effect):
+    """Returns outside [min_m, max_m] are dropped (depth 0, ids 0)."""
+
+    name: ClassVar[str] = "range"
+    min_m: float = 0.0
+    max_m: float = float("inf")
+
+    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+        z = frame.depth
+        return _drop(frame, (z > 0) & ((z < self.min_m) | (z > self.max_m)))
+
+
+@effect
+@dataclass
+class DepthNoise(Effect):
+    """Axial Gaussian depth noise from a published model; see the module docstring."""
+
+    name: ClassVar[str] = "depth_noise"
+    draws: ClassVar[bool] = True
+    model: str = "kinect_nguyen2012"
+    baseline_m: float = 0.05
+    subpixel: float = 0.08          # σ_d in pixels (stereo)
+    subpixel_step: float = 0.0      # disparity quantisation step in pixels (0 = none)
+    a_m: float = 0.0005             # tof_linear
+    b: float = 0.001
+    z0_m: float = 0.5
+
+    def __post_init__(self) -> None:
+        if self.model not in ("kinect_nguyen2012", "stereo", "tof_linear"):
+            raise ConfigError(f"depth_noise.model: unknown model {self.model!r}; expected "
+                              "kinect_nguyen2012, stereo or tof_linear")
+
+    def sigma(self, z: np.ndarray, f_px: float) -> np.ndarray:
+        if self.model == "kinect_nguyen2012":
+            return 0.0012 + 0.0019 * (z - 0.4) ** 2
+        if self.model == "stereo":
+            return z * z * self.subpixel / (f_px * self.baseline_m)
+        return self.a_m + self.b * np.maximum(z - self.z0_m, 0.0)
+
+    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+        z = frame.depth.astype(np.float64)
+        valid = z > 0
+        f = frame.sensor.fx
+        noisy = z.copy()
+        zv = z[valid]
+        noisy[valid] = zv + rng.standard_normal(zv.size) * self.sigma(zv, f)
+        if self.model == "stereo" and self.subpixel_step > 0:
+            fb = f * self.baseline_m
+            disp = fb / np.maximum(noisy[valid], 1e-6)
+            disp = np.round(disp / self.subpixel_step) * self.subpixel_step
+            noisy[valid] = np.where(disp > 0, fb / np.maximum(disp, 1e-12), 0.0)
+        bad = valid & ~(noisy > 0)
+        out = frame.replace(depth=noisy.astype(np.float32))
+        return _drop(out, bad) if bad.any() else out
+
+
+def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
+    """Effects from profile data: a list of ``{"type": name, ...params}``."""
+    out = []
+    for i, spec in enumerate(specs or []):
+        if not isinstance(spec, dict) or "type" not in spec:
+            raise ConfigError(f"{where}: effects[{i}]: expected a mapping with a 'type', got {spec!r}")
+        params = {k: v for k, v in spec.items() if k not in ("type", "source")}
+        cls = EFFECTS.get(spec["type"])
+        if cls is None:
+            raise ConfigError(f"{where}: effects[{i}].type: unknown effect {spec['type']!r}"
+                              f"{did_you_mean(spec['type'], EFFECTS)} (known: {', '.join(sorted(EFFECTS))})")
+        try:
+            out.append(cls(**params))
+        except TypeError as exc:
+            raise ConfigError(f"{where}: effects[{i}] ({spec['type']}): {exc}") from None
+    return tuple(out)

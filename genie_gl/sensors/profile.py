@@ -1,0 +1,35 @@
+"""Sensor profiles: a YAML file beside an OpenCV calibration file, plus the effect list."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import yaml
+
+from ..errors import ConfigError
+from ..resources import resolve
+from .calibration import read_calibration
+from .camera import Sensor
+from .effects import build_effects
+
+
+def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m: float = 1.0e4) -> Sensor:
+    """A sensor from a profile (``sensors/<name>.yaml`` or a path) or a bare calibration file."""
+    path = resolve(name_or_path, "sensors", (".yaml",))
+    text = Path(path).read_text()
+    if "opencv-matrix" in text or text.lstrip().startswith("<?xml"):
+        calib = read_calibration(path)
+        return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem)
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    if not isinstance(data, dict) or "calibration" not in data:
+        raise ConfigError(f"{path}: a sensor profile needs a 'calibration' field (an OpenCV calibration file)")
+    calib = read_calibration(Path(path).parent / data["calibration"])
+    effects = build_effects(data.get("effects") or [], str(path))
+    meta = {"profile": str(path), "calibration": calib.source}
+    if calib.baseline_m is not None:
+        meta["baseline_m"] = calib.baseline_m
+    return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, effects,
+                  name=str(data.get("name", Path(path).stem)), meta=meta)
