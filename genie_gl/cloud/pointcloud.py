@@ -1,0 +1,76 @@
+"""The ``PointCloud``: labelled points as a structure of arrays (DESIGN.md)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+
+OPTIONAL = ("rgb", "normal", "camera")
+
+
+@dataclass(frozen=True, eq=False)
+class PointCloud:
+    """N labelled points.
+
+    Attributes
+    ----------
+    xyz : (N, 3) float32, world frame relative to ``origin``, metres.
+    origin : (3,) float64, world position of xyz = 0 (zero unless the scene is far away).
+    semantic : (N,) uint16; instance : (N,) uint32.
+    rgb : (N, 3) uint8 or None; normal : (N, 3) float32 or None (world frame);
+    camera : (N,) uint16 or None, index of the frame that saw the point.
+    """
+
+    xyz: np.ndarray
+    semantic: np.ndarray
+    instance: np.ndarray
+    origin: np.ndarray = None  # type: ignore[assignment]
+    rgb: np.ndarray | None = None
+    normal: np.ndarray | None = None
+    camera: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.xyz)
+        object.__setattr__(self, "origin", np.zeros(3) if self.origin is None else np.asarray(self.origin, np.float64))
+        checks = {"xyz": ((n, 3), np.float32), "semantic": ((n,), np.uint16), "instance": ((n,), np.uint32),
+                  "rgb": ((n, 3), np.uint8), "normal": ((n, 3), np.float32), "camera": ((n,), np.uint16)}
+        for name, (shape, dtype) in checks.items():
+            a = getattr(self, name)
+            if a is None:
+                continue
+            if a.shape != shape or a.dtype != dtype:
+                raise ValueError(f"PointCloud.{name}: expected {shape} {np.dtype(dtype).name}, got {a.shape} {a.dtype}")
+
+    def __len__(self) -> int:
+        return len(self.xyz)
+
+    @property
+    def world_xyz(self) -> np.ndarray:
+        """(N, 3) float64 absolute world coordinates."""
+        return self.xyz.astype(np.float64) + self.origin
+
+    def select(self, index: Any) -> "PointCloud":
+        """The points at ``index`` (boolean mask or integer indices)."""
+        kw = {f.name: (getattr(self, f.name)[index] if getattr(self, f.name) is not None else None)
+              for f in fields(self) if f.name != "origin"}
+        return PointCloud(origin=self.origin, **kw)
+
+    def with_origin(self, origin: np.ndarray) -> "PointCloud":
+        origin = np.asarray(origin, np.float64)
+        xyz = ((self.xyz.astype(np.float64) + (self.origin - origin))).astype(np.float32)
+        return replace(self, xyz=xyz, origin=origin)
+
+    @staticmethod
+    def concatenate(clouds: list["PointCloud"]) -> "PointCloud":
+        if not clouds:
+            raise ValueError("PointCloud.concatenate: no clouds")
+        origin = clouds[0].origin
+        clouds = [c if np.array_equal(c.origin, origin) else c.with_origin(origin) for c in clouds]
+        kw = {}
+        for f in fields(PointCloud):
+            if f.name == "origin":
+                continue
+            parts = [getattr(c, f.name) for c in clouds]
+            kw[f.name] = None if any(p is None for p in parts) else np.concatenate(parts)
+        return PointCloud(origin=origin, **kw)

@@ -1,0 +1,56 @@
+"""Frames to points: per-camera ray tables computed once, then one gather per frame.
+
+A ray table holds, for every pixel, the camera-frame direction with z = 1 (so depth · ray is
+the point); a distorted sensor's table holds the undistorted ray of each distorted pixel.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import cv2
+import numpy as np
+
+from ..frame import Frame
+from ..sensors.camera import Sensor
+from .pointcloud import PointCloud
+
+CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+
+
+@lru_cache(maxsize=32)
+def _table(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
+    Km = np.frombuffer(K).reshape(3, 3)
+    D = np.frombuffer(dist)
+    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    if np.any(D):
+        xy = cv2.undistortPoints(np.stack([u, v], -1).reshape(-1, 1, 2), Km, D, None, None, None,
+                                 CRITERIA).reshape(h, w, 2)
+        x, y = xy[..., 0], xy[..., 1]
+    else:
+        y = (v - Km[1, 2]) / Km[1, 1]
+        x = (u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0]
+    table = np.stack([x, y, np.ones_like(x)], -1).astype(np.float32).reshape(-1, 3)
+    table.setflags(write=False)
+    return table
+
+
+def ray_table(sensor: Sensor) -> np.ndarray:
+    """(H·W, 3) float32 camera-frame rays (z = 1) of every pixel, row-major; cached."""
+    return _table(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
+
+
+def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: int | None = None) -> PointCloud:
+    """The world-frame points of ``frame``'s valid pixels (depth > 0), relative to ``origin``."""
+    origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
+    depth = frame.depth.ravel()
+    idx = np.flatnonzero(depth)
+    pose = frame.world_from_camera
+    R = pose[:3, :3].astype(np.float32)
+    t = (pose[:3, 3] - origin).astype(np.float32)  # float64 difference first: exact far away
+    cam = ray_table(frame.sensor)[idx] * depth[idx, None]
+    xyz = cam @ R.T
+    xyz += t
+    rgb = None if frame.rgb is None else frame.rgb.reshape(-1, 3)[idx]
+    normal = None if frame.normal is None else frame.normal.reshape(-1, 3)[idx] @ R.T
+    camera = None if camera_index is None else np.full(len(idx), camera_index, np.uint16)
+    return PointCloud(xyz, frame.semantic.ravel()[idx], frame.instance.ravel()[idx], origin, rgb, normal, camera)

@@ -1,0 +1,29 @@
+"""Exports, one module per format: ``gg.export(cloud, out_dir, format=...)``."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..cloud.pointcloud import PointCloud
+from ..errors import ConfigError, did_you_mean
+from . import npz, pcd, ply, semantickitti
+
+FORMATS = ("semantickitti", "ply", "pcd", "npz")
+
+
+def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semantickitti", *,
+           name: str = "cloud", sequence: int = 0, frame: int = 0) -> Path:
+    """Write ``cloud`` under ``out_dir`` in ``format``; returns the main file written."""
+    out = Path(out_dir)
+    if format == "semantickitti":
+        return semantickitti.write(cloud, out, sequence=sequence, frame=frame)
+    if format == "ply":
+        return ply.write(cloud, out / f"{name}.ply")
+    if format == "pcd":
+        return pcd.write(cloud, out / f"{name}.pcd")
+    if format == "npz":
+        return npz.write(cloud, out / f"{name}.npz")
+    raise ConfigError(f"unknown export format {format!r}{did_you_mean(format, FORMATS)} (known: {', '.join(FORMATS)})")
+
+
+__all__ = ["FORMATS", "export"]

@@ -1,0 +1,24 @@
+"""NumPy ``.npz``: every PointCloud array under its own name (``origin`` included)."""
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..cloud.pointcloud import PointCloud
+from ._atomic import atomic_write_bytes
+
+
+def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
+    arrays = {k: getattr(cloud, k) for k in ("xyz", "origin", "semantic", "instance", "rgb", "normal", "camera")
+              if getattr(cloud, k) is not None}
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)  # uncompressed: same input, same bytes
+    return atomic_write_bytes(path, buf.getvalue())
+
+
+def read(path: str | os.PathLike) -> PointCloud:
+    with np.load(path) as z:
+        return PointCloud(**{k: z[k] for k in z.files})
