@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .sensors.camera import Sensor
+if TYPE_CHECKING:  # the sensors package imports Frame for its effects
+    from .sensors.camera import Sensor
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,7 +31,7 @@ class Frame:
     instance: np.ndarray
     semantic: np.ndarray
     rgb: np.ndarray | None
-    sensor: Sensor
+    sensor: "Sensor"
     world_from_camera: np.ndarray
     normal: np.ndarray | None = None
     meta: dict[str, Any] | None = None

@@ -1,0 +1,296 @@
+"""``genie dataset``: layout → scene → placement → capture → clouds → export, for N scenes.
+
+Scene i depends only on (seed, i): its generators come from ``SeedSequence([seed, i])``,
+whatever the worker count or executor. Each scene is written into a temporary folder and
+renamed into place when complete, so an interrupted run leaves no half-written scene and a
+re-run skips finished scenes. Layout of ``--out DIR``::
+
+    DIR/manifest.json                 inputs, seeds, versions, timings
+    DIR/histogram.{txt,json,png}      points per class (the paper's Table 3)
+    DIR/previews/                     layout, depth/label images, top-down cloud
+    DIR/sequences/NN/                 semantickitti: one sequence per scene, one scan per chunk
+    DIR/scenes/NNNN/                  other formats: cloud_XXX.<ext> per chunk
+    (each scene folder also holds layout.json and stats.json)
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import platform
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import __version__
+from .errors import ConfigError
+
+log = logging.getLogger(__name__)
+FORMATS = ("semantickitti", "ply", "pcd", "npz")
+EXT = {"ply": "ply", "pcd": "pcd", "npz": "npz"}
+
+
+def scene_rngs(seed: int, index: int) -> dict[str, np.random.Generator]:
+    """Independent generators of scene ``index`` (layout, scene, placement, capture, cloud)."""
+    names = ("layout", "scene", "placement", "capture", "cloud")
+    kids = np.random.SeedSequence([int(seed), int(index)]).spawn(len(names))
+    return {n: np.random.default_rng(k) for n, k in zip(names, kids)}
+
+
+def scene_dir(out: Path, index: int, fmt: str, n_scenes: int) -> Path:
+    if fmt == "semantickitti":
+        return out / "sequences" / f"{index:0{max(2, len(str(n_scenes - 1)))}d}"
+    return out / "scenes" / f"{index:04d}"
+
+
+def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
+    """Make scene ``index`` and write it; returns its stats (also in stats.json)."""
+    from .cloud import chunks, keep_cloud, random_downsample, to_cloud
+    from .export import npz, pcd, ply, semantickitti
+    from .layout import generate_layout, load_strategy
+    from .render import capture
+    from .scene import build_scene
+    from .sensors import load_sensor, place_sensors
+
+    out = Path(cfg["out"])
+    final = scene_dir(out, index, cfg["format"], cfg["scenes"])
+    if final.exists():
+        return json.loads((final / "stats.json").read_text()) | {"skipped": True}
+    rng = scene_rngs(cfg["seed"], index)
+    t = {"start": time.perf_counter()}
+    strategy = load_strategy(cfg["strategy"])
+    layout = generate_layout(strategy, rng=rng["layout"])
+    t["layout"] = time.perf_counter()
+    scene = build_scene(layout, rng=rng["scene"])
+    t["scene"] = time.perf_counter()
+    sensor = load_sensor(cfg["sensor"])
+    poses = place_sensors(layout, sensor, n=cfg["cameras"], seed=int(rng["placement"].integers(2**31)))
+    t["placement"] = time.perf_counter()
+    frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1)
+    t["capture"] = time.perf_counter()
+    cloud = to_cloud(frames)
+    kept = []
+    for key, tile in chunks(cloud, cfg["chunk_m"]):
+        tile = random_downsample(tile, cfg["points"], rng=rng["cloud"])
+        ok, why = keep_cloud(tile, min_points=cfg["min_points"], min_labelled_share=cfg["min_labelled_share"])
+        if ok:
+            kept.append((key, tile))
+    t["cloud"] = time.perf_counter()
+    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    counts = np.zeros(65536, np.int64)
+    for j, (key, tile) in enumerate(kept):
+        np.add.at(counts, tile.semantic, 1)
+        if cfg["format"] == "semantickitti":
+            # the scan files are written inside the scene's own folder: a sequence folder
+            semantickitti.write(tile, tmp / "_root", sequence=0, frame=j)
+        else:
+            {"ply": ply.write, "pcd": pcd.write, "npz": npz.write}[cfg["format"]](
+                tile, tmp / f"cloud_{j:03d}.{EXT[cfg['format']]}")
+    if cfg["format"] == "semantickitti" and kept:
+        for p in (tmp / "_root" / "sequences" / "00").iterdir():
+            p.replace(tmp / p.name)
+        shutil.rmtree(tmp / "_root")
+    layout.to_json(tmp / "layout.json")
+    stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
+             "points_total": int(len(cloud)), "chunks": len(kept),
+             "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+    (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
+    if index < cfg["previews"]:
+        write_previews(out / "previews", index, layout, frames, cloud)
+    t["export"] = time.perf_counter()
+    tmp.replace(final)  # the scene appears whole, or not at all
+    keys = ["start", "layout", "scene", "placement", "capture", "cloud", "export"]
+    stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
+    return stats
+
+
+def write_previews(folder: Path, index: int, layout, frames, cloud) -> None:
+    from PIL import Image
+
+    from .export.semantickitti import COLORS_RGB
+    from .layout import save_layout_png
+
+    folder.mkdir(parents=True, exist_ok=True)
+    save_layout_png(layout, folder / f"scene_{index:04d}_layout.png")
+    palette = np.zeros((65536, 3), np.uint8)
+    palette[:] = (255, 255, 255)
+    for k, c in COLORS_RGB.items():
+        palette[k] = c
+    for c, f in enumerate(frames[:2]):
+        d = f.depth
+        v = d[d > 0]
+        lo, hi = (np.percentile(v, 1), np.percentile(v, 99)) if v.size else (0, 1)
+        g = np.where(d > 0, 255 * (1 - np.clip((d - lo) / max(hi - lo, 1e-6), 0, 1)), 0).astype(np.uint8)
+        depth_img = np.stack([g, g, g], -1)
+        label = np.where((f.depth > 0)[..., None], palette[f.semantic], 0).astype(np.uint8)
+        parts = [depth_img, label] + ([f.rgb] if f.rgb is not None else [])
+        _save(Image.fromarray(np.concatenate(parts, 1)), folder / f"scene_{index:04d}_cam{c:02d}.png")
+    # top-down view of the merged cloud, coloured by class (highest point wins)
+    x0, y0, w, h = layout.bounds
+    s = 900 / max(w, h)
+    W, H = int(w * s) + 1, int(h * s) + 1
+    img = np.full((H, W, 3), 255, np.uint8)
+    xyz = cloud.world_xyz
+    order = np.argsort(xyz[:, 2])
+    c = np.clip(((xyz[order, 0] - x0) * s).astype(int), 0, W - 1)
+    r = np.clip(((y0 + h - xyz[order, 1]) * s).astype(int), 0, H - 1)
+    img[r, c] = palette[cloud.semantic[order]]
+    _save(Image.fromarray(img), folder / f"scene_{index:04d}_cloud_top.png")
+
+
+def _save(img, path: Path) -> None:
+    tmp = path.with_name(path.stem + ".tmp.png")
+    img.save(tmp)
+    tmp.replace(path)
+
+
+def histogram(out: Path, stats: list[dict]) -> dict[str, int]:
+    from .export.semantickitti import CLASSES, COLORS_RGB
+
+    total: dict[int, int] = {}
+    for s in stats:
+        for k, v in s["class_points"].items():
+            total[int(k)] = total.get(int(k), 0) + v
+    n = sum(total.values()) or 1
+    lines = [f"{'id':>3}  {'class':<20}{'points':>14}{'share':>9}"]
+    for k in sorted(total):
+        lines.append(f"{k:>3}  {CLASSES.get(k, f'class_{k}'):<20}{total[k]:>14,}{100 * total[k] / n:>8.2f}%")
+    (out / "histogram.txt").write_text("\n".join(lines) + "\n")
+    (out / "histogram.json").write_text(json.dumps({CLASSES.get(k, str(k)): v for k, v in sorted(total.items())}, indent=1))
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    keys = sorted(total)
+    ax.bar([CLASSES.get(k, str(k)) for k in keys], [total[k] for k in keys],
+           color=[np.array(COLORS_RGB.get(k, (128, 128, 128))) / 255 for k in keys])
+    ax.set_yscale("log")
+    ax.set_ylabel("points")
+    ax.set_title("points per class")
+    plt.setp(ax.get_xticklabels(), rotation=30, ha="right")
+    fig.tight_layout()
+    fig.savefig(out / "histogram.png", dpi=100)
+    plt.close(fig)
+    return {CLASSES.get(k, str(k)): v for k, v in total.items()}
+
+
+def _worker(job: tuple[dict, int]) -> dict:
+    return run_scene(*job)
+
+
+def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]:
+    """Make every missing scene of the dataset described by ``cfg`` (see ``add_arguments``)."""
+    from tqdm import tqdm
+
+    out = Path(cfg["out"])
+    todo = [i for i in range(cfg["scenes"]) if not scene_dir(out, i, cfg["format"], cfg["scenes"]).exists()]
+    results: list[dict] = []
+    t0 = time.perf_counter()
+    bar = tqdm(total=cfg["scenes"], initial=cfg["scenes"] - len(todo), unit="scene", disable=not progress,
+               desc="scenes")
+    if cfg["executor"] == "ray":
+        import ray
+
+        ray.init(address=cfg.get("address"), ignore_reinit_error=True, log_to_driver=False)
+        remote = ray.remote(run_scene)
+        pending = [remote.remote(cfg, i) for i in todo]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            results.append(ray.get(done[0]))
+            bar.update(1)
+    elif cfg["workers"] <= 1 or len(todo) <= 1:
+        for i in todo:
+            results.append(run_scene(cfg, i))
+            bar.update(1)
+    else:
+        import multiprocessing as mp
+
+        with mp.get_context("spawn").Pool(min(cfg["workers"], len(todo))) as pool:
+            for r in pool.imap_unordered(_worker, [(cfg, i) for i in todo]):
+                results.append(r)
+                bar.update(1)
+    bar.close()
+    elapsed = time.perf_counter() - t0
+    stats = [json.loads((scene_dir(out, i, cfg["format"], cfg["scenes"]) / "stats.json").read_text())
+             for i in range(cfg["scenes"])]
+    hist = histogram(out, stats)
+    stage_t: dict[str, float] = {}
+    for r in results:
+        for k, v in r.get("timings_s", {}).items():
+            stage_t[k] = stage_t.get(k, 0.0) + v
+    manifest = {
+        "genie_gl": __version__, "python": platform.python_version(), "command": "dataset",
+        "inputs": {k: v for k, v in cfg.items() if k != "out"},
+        "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
+        "scenes_made": len(results), "scenes_skipped": cfg["scenes"] - len(todo),
+        "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
+    }
+    tmp = out / "manifest.json.tmp"
+    tmp.write_text(json.dumps(manifest, indent=1))
+    tmp.replace(out / "manifest.json")
+    return manifest
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("strategy", help="strategy JSON file or shipped name")
+    p.add_argument("--scenes", type=int, default=3)
+    p.add_argument("--cameras", type=int, default=8)
+    p.add_argument("--sensor", default="realsense_d435", help="sensor profile name or path")
+    p.add_argument("--format", default="semantickitti", help=f"one of {', '.join(FORMATS)}")
+    p.add_argument("--out", required=True)
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--points", type=int, default=25000, help="points per chunk (the paper: 25 000)")
+    p.add_argument("--chunk-m", type=float, default=12.0, help="chunk size in metres")
+    p.add_argument("--min-points", type=int, default=2000)
+    p.add_argument("--min-labelled-share", type=float, default=0.05)
+    p.add_argument("--previews", type=int, default=3, help="scenes that get preview pictures")
+    p.add_argument("--executor", choices=("process", "ray"), default="process")
+    p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
+    p.add_argument("--no-progress", action="store_true")
+
+
+def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    from .layout import load_strategy
+    from .sensors import load_sensor
+
+    if args.format not in FORMATS:
+        raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}")
+    if args.scenes < 1 or args.cameras < 1 or args.workers < 1:
+        raise ConfigError("--scenes, --cameras and --workers must be >= 1")
+    strategy = load_strategy(args.strategy)      # fails fast on a missing or bad strategy
+    load_sensor(args.sensor)
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise ConfigError(f"--out {out}: not writable ({exc.strerror})") from None
+    if args.executor == "ray":
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise ConfigError("--executor ray needs Ray: pip install 'genie-gl[ray]'") from None
+    return {"strategy": strategy.source, "scenes": args.scenes, "cameras": args.cameras, "sensor": args.sensor,
+            "format": args.format, "out": str(out), "workers": args.workers, "seed": args.seed,
+            "points": args.points, "chunk_m": args.chunk_m, "min_points": args.min_points,
+            "min_labelled_share": args.min_labelled_share, "previews": args.previews,
+            "executor": args.executor, "address": args.address}
+
+
+def run(args: argparse.Namespace) -> int:
+    cfg = config_from_args(args)
+    m = run_dataset(cfg, progress=not args.no_progress)
+    print(f"dataset: {m['scenes_made']} scenes made, {m['scenes_skipped']} already there, "
+          f"{m['wall_s']:.1f} s -> {cfg['out']} (previews in {Path(cfg['out']) / 'previews'})")
+    return 0
