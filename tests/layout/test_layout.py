@@ -1,0 +1,159 @@
+"""Layout engine: exact generator and provider results, validation messages, properties."""
+import copy
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import genie_gl as gg
+from genie_gl.layout import Child, Generator, Region, generate_layout, merge, parse_strategy, register
+from genie_gl.layout.providers import TypeProvider
+
+BASE = {
+    "name": "t",
+    "root": {"width": 10.0, "height": 4.0, "type": "hall"},
+    "region_types": {"hall": {}, "cell": {"final": True, "semantic": 1, "asset_group": "pallet"},
+                     "a": {"final": True}, "b": {"final": True}},
+    "levels": [{"hall": {"generator": "grid", "args": {"cell": [1.0, 1.0]}, "children": {"cell": "cell"}}}],
+}
+
+
+def strategy(**changes):
+    s = copy.deepcopy(BASE)
+    s.update(changes)
+    return s
+
+
+def test_grid_10x4_with_1m_cells_gives_40_cells():
+    layout = generate_layout(parse_strategy(BASE), seed=0)
+    leaves = layout.leaves()
+    assert len(leaves) == 40
+    assert sum(r.area for r in leaves) == pytest.approx(40.0)
+    assert all(layout.root.contains(r) for r in leaves)
+
+
+def test_sequential_provider_gives_the_declared_pattern():
+    s = strategy(levels=[{"hall": {"generator": "grid", "args": {"cell": [1.0, 4.0]},
+                                   "children": {"cell": {"sequential": ["a", "a", "b"]}}}}])
+    types = [r.type for r in generate_layout(parse_strategy(s), seed=3).leaves()]
+    assert types == (["a", "a", "b"] * 4)[:10]
+    assert TypeProvider({"sequential": ["x", "y"]}, "w").choose(5, np.random.default_rng(0)) == ["x", "y", "x", "y", "x"]
+
+
+def test_stochastic_provider_follows_its_weights():
+    p = TypeProvider({"stochastic": {"a": 0.95, "b": 0.05}}, "w")
+    draws = p.choose(20000, np.random.default_rng(1))
+    assert draws.count("b") / 20000 == pytest.approx(0.05, abs=0.006)
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda s: s["levels"][0]["hall"].update(generator="gird"), r"\$\.levels\[0\]\.hall\.generator: unknown generator 'gird'; did you mean 'grid'\?"),
+    (lambda s: s["levels"][0]["hall"].update(children={"cell": "cel"}), r"region type 'cel' is not declared .*did you mean 'cell'"),
+    (lambda s: s["levels"][0].update(cell={"generator": "grid", "args": {"cell": [1, 1]}, "children": {"cell": "a"}}), r"'cell' is final and cannot have a generator"),
+    (lambda s: s["levels"][0]["hall"]["args"].update(cell=[-1.0, 1.0]), r"args\.cell: expected \[width, height\] > 0"),
+    (lambda s: s["levels"][0]["hall"]["args"].update(cell=[20.0, 1.0]), r"larger than its parent"),
+    (lambda s: s.update(levels=[]), r"\$\.levels: List should have at least 1 item"),
+    (lambda s: s["levels"].append({}), r"\$\.levels\[1\]: empty level"),
+    (lambda s: s["root"].update(width=-3), r"\$\.root\.width: Input should be greater than 0"),
+])
+def test_validation_errors_name_file_path_and_expectation(mutate, message):
+    s = strategy()
+    mutate(s)
+    with pytest.raises(gg.ConfigError, match=message) as exc:
+        parse_strategy(s, "plant.json")
+    assert str(exc.value).startswith("plant.json: ")
+
+
+def test_strategy_file_errors_name_the_file(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text("{ not json")
+    with pytest.raises(gg.ConfigError, match="bad.json: invalid JSON at line 1"):
+        gg.load_strategy(bad)
+
+
+def test_custom_generator_registers_with_one_line():
+    @register("halves")
+    class Halves(Generator):
+        slots = ("half",)
+
+        def generate(self, parent, rng):
+            return [Child(parent.x, parent.y, parent.w / 2, parent.h, "half"),
+                    Child(parent.x + parent.w / 2, parent.y, parent.w / 2, parent.h, "half")]
+
+    s = strategy(levels=[{"hall": {"generator": "halves", "children": {"half": {"sequential": ["a", "b"]}}}}])
+    leaves = generate_layout(parse_strategy(s), seed=0).leaves()
+    assert [(r.x, r.w, r.type) for r in leaves] == [(0.0, 5.0, "a"), (5.0, 5.0, "b")]
+
+
+def test_same_seed_same_bytes_and_json_round_trip(tmp_path):
+    a = generate_layout("assembly_line", seed=7)
+    b = generate_layout("assembly_line", seed=7)
+    a.to_json(tmp_path / "a.json")
+    b.to_json(tmp_path / "b.json")
+    assert (tmp_path / "a.json").read_bytes() == (tmp_path / "b.json").read_bytes()
+    assert gg.Layout.from_json(tmp_path / "a.json") == a
+    assert generate_layout("assembly_line", seed=8) != a
+
+
+def test_label_raster_counts_cells():
+    layout = generate_layout(parse_strategy(BASE), seed=0)
+    r = layout.label_raster(0.25)
+    assert r.labels.shape == (16, 40)
+    assert (r.labels == r.type_names.index("cell")).all()
+
+
+def test_random_rooms_places_what_fits_and_reports_it():
+    s = strategy(levels=[{"hall": {"generator": "random_rooms",
+                                   "args": {"count": [30, 30], "width": [3, 3], "height": [3, 3], "attempts": 20},
+                                   "children": {"room": "a"}}}])
+    layout = generate_layout(parse_strategy(s), seed=0)
+    rooms = layout.leaves()
+    assert 1 <= len(rooms) <= 3            # at most three 3 x 3 m rooms fit in 10 x 4 m
+    assert layout.meta["reports"][0]["requested"] == 30
+    assert not any(a.overlaps(b) for i, a in enumerate(rooms) for b in rooms[i + 1:])
+
+
+def test_merge_joins_siblings_and_preserves_area():
+    s = strategy(levels=[{"hall": {"generator": "grid", "args": {"cell": [1.0, 1.0]},
+                                   "children": {"cell": {"sequential": ["a", "a", "a", "a", "a", "b"] * 2}}}}, "merge"])
+    before = generate_layout(parse_strategy(strategy(levels=s["levels"][:1])), seed=0)
+    after = generate_layout(parse_strategy(s), seed=0)
+    assert len(after.leaves()) < len(before.leaves())
+    for t in ("a", "b"):
+        assert sum(r.area for r in after.leaves() if r.type == t) == pytest.approx(
+            sum(r.area for r in before.leaves() if r.type == t))
+
+
+sizes = st.floats(0.5, 6.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(w=st.floats(5, 60), h=st.floats(5, 60), cw=sizes, ch=sizes, sp=st.floats(0, 1), seed=st.integers(0, 2**16),
+       gen=st.sampled_from(["grid", "random_rooms", "assembly_line", "drunkard_walk"]), do_merge=st.booleans())
+def test_properties_of_random_strategies(w, h, cw, ch, sp, seed, gen, do_merge):
+    args = {"grid": {"cell": [cw, ch], "spacing": sp},
+            "random_rooms": {"count": [1, 6], "width": [cw, cw + 1], "height": [ch, ch + 1]},
+            "assembly_line": {"line_width": [cw, cw + 1], "paths": [0, 2], "path_width": [1, 2]},
+            "drunkard_walk": {"block": cw / 2, "steps": 30}}[gen]
+    slots = {"grid": ["cell"], "random_rooms": ["room"], "assembly_line": ["line", "path", "rest"],
+             "drunkard_walk": ["room"]}[gen]
+    s = strategy(root={"width": w, "height": h, "type": "hall"},
+                 levels=[{"hall": {"generator": gen, "args": args,
+                                   "children": {k: {"random": ["a", "b"]} for k in slots}}}] + (["merge"] if do_merge else []))
+    try:
+        strat = parse_strategy(s)
+    except gg.ConfigError:
+        return  # an impossible size is rejected with a message, which other tests check
+    layout = generate_layout(strat, seed=seed)
+    nodes = layout.nodes
+    for n in nodes[1:]:
+        assert nodes[n.parent].region.contains(n.region, tol=1e-6)
+    kids = [nodes[c].region for c in nodes[0].children]
+    if gen in ("grid", "random_rooms", "assembly_line", "drunkard_walk"):
+        assert not any(a.overlaps(b, tol=1e-6) for i, a in enumerate(kids) for b in kids[i + 1:])
+    for leaf in layout.leaves():
+        assert layout.region_types[leaf.type].final or leaf.type == "hall"
+    again = generate_layout(strat, seed=seed)
+    assert json.dumps(again.to_dict()) == json.dumps(layout.to_dict())
