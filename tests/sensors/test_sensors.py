@@ -1,0 +1,152 @@
+"""Calibration I/O, effects against their models, distortion against cv2, placement."""
+import cv2
+import numpy as np
+import pytest
+
+import genie_gl as gg
+from genie_gl.sensors import Calibration, read_calibration, simulate, write_calibration
+from genie_gl.sensors.distortion import distortion_maps
+from genie_gl.sensors.effects import DepthNoise, RangeLimits, build_effects
+from genie_gl.sensors.placement import CoverageProblem, genetic_placement, greedy_placement
+
+K = np.array([[600.0, 0, 320.0], [0, 610.0, 240.0], [0, 0, 1]])
+
+
+@pytest.mark.parametrize("n", [4, 5, 8, 12, 14])
+@pytest.mark.parametrize("ext", [".yml", ".xml"])
+def test_calibration_round_trip_through_cv2_filestorage(tmp_path, n, ext):
+    d = np.linspace(-0.1, 0.1, n)
+    path = write_calibration(Calibration(640, 480, K, d, 0.31, np.eye(3), np.array([-0.05, 0, 0])), tmp_path / f"c{ext}")
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)  # the independent reader
+    np.testing.assert_array_equal(fs.getNode("camera_matrix").mat(), K)
+    np.testing.assert_array_equal(fs.getNode("distortion_coefficients").mat().ravel(), d)
+    assert fs.getNode("image_width").real() == 640
+    c = read_calibration(path)
+    np.testing.assert_array_equal(c.dist, d)
+    assert c.baseline_m == pytest.approx(0.05) and c.reprojection_error == pytest.approx(0.31)
+
+
+def test_tutorial_spellings_and_ros_camera_info(tmp_path):
+    fs = cv2.FileStorage(str(tmp_path / "t.yml"), cv2.FILE_STORAGE_WRITE)
+    fs.write("image_Width", 800), fs.write("image_Height", 600)
+    fs.write("Camera_Matrix", K), fs.write("Distortion_Coefficients", np.zeros((5, 1)))
+    fs.release()
+    assert read_calibration(tmp_path / "t.yml").width == 800
+    (tmp_path / "ros.yaml").write_text(
+        "image_width: 640\nimage_height: 480\ncamera_name: cam\ncamera_matrix:\n  rows: 3\n  cols: 3\n"
+        "  data: [600, 0, 320, 0, 610, 240, 0, 0, 1]\ndistortion_model: plumb_bob\n"
+        "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [0.1, -0.2, 0, 0, 0.05]\n")
+    c = read_calibration(tmp_path / "ros.yaml")
+    np.testing.assert_array_equal(c.K, K)
+    assert gg.Sensor.from_opencv(tmp_path / "ros.yaml").dist[4] == pytest.approx(0.05)
+
+
+def test_bad_calibrations_name_file_and_field(tmp_path):
+    (tmp_path / "nok.yaml").write_text("image_width: 640\nimage_height: 480\n")
+    with pytest.raises(gg.ConfigError, match=r"nok.yaml: missing field camera_matrix"):
+        read_calibration(tmp_path / "nok.yaml")
+    (tmp_path / "nosize.yaml").write_text("camera_matrix: {rows: 3, cols: 3, data: [1, 0, 0, 0, 1, 0, 0, 0, 1]}\n")
+    with pytest.raises(gg.ConfigError, match=r"nosize.yaml: missing field image_width"):
+        read_calibration(tmp_path / "nosize.yaml")
+    (tmp_path / "bad.yaml").write_text("image_width: 1\nimage_height: 1\ncamera_matrix: {rows: 3, cols: 3, data: [1, 2]}\n")
+    with pytest.raises(gg.ConfigError, match=r"bad.yaml: camera_matrix: malformed matrix"):
+        read_calibration(tmp_path / "bad.yaml")
+    with pytest.raises(gg.ConfigError, match=r"unknown effect 'depth_nosie'; did you mean 'depth_noise'"):
+        build_effects([{"type": "depth_nosie"}], "p.yaml")
+
+
+def wall(z=2.0, size=(200, 160), f=500.0):
+    s = gg.Sensor.pinhole(size[0], size[1], f)
+    d = np.full((size[1], size[0]), z, np.float32)
+    return gg.Frame(d, np.ones_like(d, np.uint32), np.ones_like(d, np.uint16), None, s, np.eye(4))
+
+
+@pytest.mark.parametrize("model, z, expected", [
+    ("kinect_nguyen2012", 2.0, 0.0012 + 0.0019 * 1.6 ** 2),
+    ("stereo", 2.0, 4.0 * 0.08 / (500.0 * 0.05)),
+    ("tof_linear", 3.0, 0.0005 + 0.001 * 2.5),
+])
+def test_noise_sigma_on_a_flat_wall_matches_the_model(model, z, expected):
+    f = wall(z)
+    out = DepthNoise(model=model).apply(f, np.random.default_rng(0))
+    assert out.depth.size >= 10_000
+    assert np.std(out.depth.astype(np.float64) - z) == pytest.approx(expected, rel=0.05)
+    again = DepthNoise(model=model).apply(f, np.random.default_rng(0))
+    assert out.depth.tobytes() == again.depth.tobytes()
+    assert np.isfinite(out.depth).all()
+
+
+def test_disparity_quantisation_steps_equal_theory():
+    f = wall(3.0)
+    f = f.replace(depth=np.linspace(2.0, 3.0, f.depth.size, dtype=np.float32).reshape(f.depth.shape))
+    out = DepthNoise(model="stereo", subpixel=1e-9, subpixel_step=0.125, baseline_m=0.05).apply(f, np.random.default_rng(0))
+    disp = 500.0 * 0.05 / np.unique(out.depth.astype(np.float64))
+    steps = np.diff(np.sort(disp))
+    np.testing.assert_allclose(steps, 0.125, rtol=1e-4)
+
+
+def test_range_limits_drop_returns_and_ids():
+    f = wall(5.0)
+    out = RangeLimits(0.3, 4.0).apply(f, np.random.default_rng(0))
+    assert not out.depth.any() and not out.instance.any()
+
+
+def test_no_effects_means_the_ideal_frame_bit_for_bit_and_no_draw():
+    s = gg.Sensor.pinhole(32, 24, 30.0)
+    f = wall().replace(sensor=s, depth=np.ones((24, 32), np.float32), instance=np.ones((24, 32), np.uint32),
+                       semantic=np.ones((24, 32), np.uint16))
+    rng = np.random.default_rng(5)
+    state = rng.bit_generator.state
+    out = simulate(s, np.eye(4), render=lambda sensor, pose: f, rng=rng)
+    assert out is f and rng.bit_generator.state == state
+
+
+@pytest.mark.parametrize("dist", [[0.1, -0.05, 0.001, -0.002, 0.01],
+                                  [3.1306, 2.3249, 8.1e-5, -5.1e-5, 0.1304, 3.4587, 3.3501, 0.6629],
+                                  [-0.2, 0.05, 0, 0, 0, 0, 0, 0, 0.001, 0, -0.001, 0]])
+def test_distortion_maps_put_rays_where_cv2_projects_them(dist):
+    s = gg.Sensor(320, 240, np.array([[300, 0, 160], [0, 305, 120], [0, 0, 1.0]]), dist)
+    m = distortion_maps(s)
+    Kr = m.render_sensor.K
+    v, u = np.nonzero(m.valid)
+    sel = np.linspace(0, len(u) - 1, 2000).astype(int)
+    u, v = u[sel], v[sel]
+    x = (m.map_x[v, u] - Kr[0, 2]) / Kr[0, 0]
+    y = (m.map_y[v, u] - Kr[1, 2]) / Kr[1, 1]
+    pts = np.stack([x, y, np.ones_like(x)], -1).astype(np.float64)
+    uv, _ = cv2.projectPoints(pts.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), s.K, s.dist)
+    # map coordinates are float32: the residual includes their rounding
+    assert np.abs(uv.reshape(-1, 2) - np.stack([u, v], -1)).max() < 0.1
+    corners = [(0, 0), (0, 319), (239, 0), (239, 319)]
+    assert all(m.valid[c] for c in corners)
+
+
+def test_strong_barrel_distortion_drops_what_the_model_folds():
+    s = gg.Sensor(320, 240, np.array([[150.0, 0, 160], [0, 150.0, 120], [0, 0, 1]]), [-0.5, 0, 0, 0, 0])
+    m = distortion_maps(s)
+    assert not m.valid.all() and m.valid[120, 160]
+    assert not m.valid[0, 0]           # past the fold of r(1 + k1 r^2): dropped, not wrapped
+    assert np.isfinite(m.map_x).all() and np.isfinite(m.map_y).all()
+
+
+def test_shipped_profiles_load():
+    for name in ("ideal_pinhole", "realsense_d435", "azure_kinect_nfov", "kinect_v2"):
+        s = gg.load_sensor(name)
+        assert s.width > 0 and s.fx > 0
+    assert gg.load_sensor("realsense_d435").meta["baseline_m"] == pytest.approx(0.05)
+    with pytest.raises(gg.ConfigError, match="did you mean 'kinect_v2'"):
+        gg.load_sensor("kinect_v3")
+
+
+def test_placement_elitism_and_more_sensors_never_cover_less():
+    layout = gg.generate_layout("assembly_line", seed=2)
+    problem = CoverageProblem(layout, radius_m=5.0)
+    ga = genetic_placement(problem, 6, rng=np.random.default_rng(0), seed_greedy=False, generations=60)
+    assert all(b >= a for a, b in zip(ga.history, ga.history[1:]))
+    covers = [greedy_placement(problem, n).coverage for n in range(1, 10)]
+    assert all(b >= a for a, b in zip(covers, covers[1:]))
+    seeded = genetic_placement(problem, 6, rng=np.random.default_rng(0))
+    assert seeded.coverage >= greedy_placement(problem, 6).coverage
+    poses = gg.place_sensors(layout, None, n=5, seed=1)
+    assert len(poses) == 5 and all(p.shape == (4, 4) and np.isfinite(p).all() for p in poses)
+    assert all(p[2, 3] == pytest.approx(3.5) and p[2, 2] < 0 for p in poses)  # mounted, looking down
