@@ -27,3 +27,17 @@ def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semanti
 
 
 __all__ = ["FORMATS", "export"]
+
+
+# ``genie_gl.export`` is both this package and the public function ``gg.export(cloud, ...)``
+# (DESIGN.md): the package forwards calls to :func:`export`, as ``genie_gl.render`` does.
+import sys as _sys  # noqa: E402
+import types as _types  # noqa: E402
+
+
+class _CallableModule(_types.ModuleType):
+    def __call__(self, *args, **kwargs):
+        return export(*args, **kwargs)
+
+
+_sys.modules[__name__].__class__ = _CallableModule
