@@ -87,6 +87,7 @@ def car(length: float = 4.6, width: float = 1.8, height: float = 1.45, wheel_r: 
             wheels.append(cylinder(wheel_r, 0.2, [x, y, wheel_r], axis="y", sections=18))
     m = assemble([body] + wheels)
     m.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 0, 1]))
+    m.apply_translation([0, 0, -m.bounds[0][2]])  # polygonal wheels: stand on z = 0
     return m
 
 
