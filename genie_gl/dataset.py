@@ -191,6 +191,9 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
     from tqdm import tqdm
 
     out = Path(cfg["out"])
+    for parent in (out / "sequences", out / "scenes"):  # what an interrupted run left half-made
+        for stale in parent.glob(".tmp-*") if parent.is_dir() else []:
+            shutil.rmtree(stale, ignore_errors=True)
     todo = [i for i in range(cfg["scenes"]) if not scene_dir(out, i, cfg["format"], cfg["scenes"]).exists()]
     results: list[dict] = []
     t0 = time.perf_counter()
