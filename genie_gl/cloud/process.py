@@ -23,7 +23,10 @@ def choose_origin(frames: Sequence[Frame]) -> np.ndarray:
 def voxel_downsample(cloud: PointCloud, voxel_m: float) -> PointCloud:
     """Keep the first point (in order) of each occupied voxel of size ``voxel_m``."""
     keys = np.floor(cloud.xyz / voxel_m).astype(np.int64)
-    _, first = np.unique(keys, axis=0, return_index=True)
+    keys -= keys.min(0)
+    dims = keys.max(0) + 1
+    flat = (keys[:, 0] * dims[1] + keys[:, 1]) * dims[2] + keys[:, 2]
+    _, first = np.unique(flat, return_index=True)
     return cloud.select(np.sort(first))
 
 
@@ -55,13 +58,21 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
 
 
 def chunks(cloud: PointCloud, size_m: float, *, min_points: int = 1) -> list[tuple[tuple[int, int], PointCloud]]:
-    """Crop the cloud into square (x, y) tiles of ``size_m``; returns ((i, j), tile) pairs."""
-    keys = np.floor(cloud.xyz[:, :2] / size_m).astype(np.int64)
+    """Crop the cloud into square (x, y) tiles of ``size_m``; returns ((i, j), tile) pairs in
+    (i, j) order, each tile's points in their original order."""
+    if len(cloud) == 0:
+        return []
+    ij = np.floor(cloud.xyz[:, :2] / size_m).astype(np.int64)
+    lo = ij.min(0)
+    span = int(ij[:, 1].max() - lo[1]) + 1
+    flat = (ij[:, 0] - lo[0]) * span + (ij[:, 1] - lo[1])  # one integer per tile: a fast 1-D sort
+    order = np.argsort(flat, kind="stable")
+    uniq, starts = np.unique(flat[order], return_index=True)
+    ends = np.append(starts[1:], len(order))
     out = []
-    for key in np.unique(keys, axis=0):
-        mask = (keys == key).all(1)
-        if mask.sum() >= min_points:
-            out.append(((int(key[0]), int(key[1])), cloud.select(mask)))
+    for key, a, b in zip(uniq, starts, ends):
+        if b - a >= min_points:
+            out.append(((int(key // span + lo[0]), int(key % span + lo[1])), cloud.select(order[a:b])))
     return out
 
 
