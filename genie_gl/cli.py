@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 
 from . import __version__
@@ -58,6 +59,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"genie {args.command}: not available in this build ({args._missing})", file=sys.stderr)
         return 2
     try:
+        backend = os.environ.get("GENIE_GL_BACKEND")
+        if backend:
+            from .render.context import set_default_backend
+
+            set_default_backend(backend)
         return int(importlib.import_module(args._module).run(args) or 0)
     except GenieError as exc:
         print(f"genie {args.command}: error: {exc}", file=sys.stderr)

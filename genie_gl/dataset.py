@@ -183,6 +183,10 @@ def histogram(out: Path, stats: list[dict]) -> dict[str, int]:
 
 
 def _worker(job: tuple[dict, int]) -> dict:
+    if os.environ.get("GENIE_GL_BACKEND"):  # a spawned worker: the CLI's choice, inherited
+        from .render.context import set_default_backend
+
+        set_default_backend(os.environ["GENIE_GL_BACKEND"])
     return run_scene(*job)
 
 

@@ -43,6 +43,10 @@ _WORKER: dict[str, Any] = {}
 
 
 def _worker_init(scene: Scene, backend: str | None, lp_threads: int) -> None:
+    if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
+        from .context import set_default_backend
+
+        set_default_backend(os.environ["GENIE_GL_BACKEND"])
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
     os.environ.setdefault("LP_NUM_THREADS", str(lp_threads))
     _WORKER["renderer"] = Renderer(scene, backend=backend)

@@ -28,6 +28,8 @@ log = logging.getLogger(__name__)
 BACKENDS = ("egl", "osmesa")
 APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6"
 
+_default_backend: str | None = None  # set once by the CLI from GENIE_GL_BACKEND
+
 GL_LOWER_LEFT = 0x8CA1
 GL_ZERO_TO_ONE = 0x935F
 
@@ -62,6 +64,15 @@ class GLContext:
         self._keepalive.clear()
 
 
+def set_default_backend(backend: str | None) -> None:
+    """The backend ``create_context(None)`` uses in this process (the CLI passes
+    ``GENIE_GL_BACKEND`` here; worker processes inherit the variable and do the same)."""
+    global _default_backend
+    if backend is not None and backend not in BACKENDS:
+        raise ConfigError(f"GENIE_GL_BACKEND={backend!r} is unknown; expected one of {', '.join(BACKENDS)}")
+    _default_backend = backend or None
+
+
 def create_context(backend: str | None = None, *, device_index: int = 0) -> GLContext:
     """Create a headless OpenGL (>= 3.3 core) context.
 
@@ -70,6 +81,7 @@ def create_context(backend: str | None = None, *, device_index: int = 0) -> GLCo
     backend : "egl", "osmesa" or None (try EGL, then OSMesa).
     device_index : int, the EGL device (GPU) to use on multi-GPU machines.
     """
+    backend = backend or _default_backend
     if backend is not None and backend not in BACKENDS:
         raise ConfigError(f"GL backend {backend!r} is unknown; expected one of {', '.join(BACKENDS)}")
     tried: list[str] = []
