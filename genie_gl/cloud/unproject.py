@@ -29,13 +29,15 @@ def _table(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
     else:
         y = (v - Km[1, 2]) / Km[1, 1]
         x = (u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0]
-    table = np.stack([x, y, np.ones_like(x)], -1).astype(np.float32).reshape(-1, 3)
+    # x and y as two contiguous rows (z is 1): gathers from them are twice as fast
+    table = np.stack([x.ravel(), y.ravel()]).astype(np.float32)
     table.setflags(write=False)
     return table
 
 
 def ray_table(sensor: Sensor) -> np.ndarray:
-    """(H·W, 3) float32 camera-frame rays (z = 1) of every pixel, row-major; cached."""
+    """(2, H·W) float32: x and y of the camera-frame ray (z = 1) of every pixel, row-major;
+    cached per camera model."""
     return _table(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
 
 
@@ -47,9 +49,18 @@ def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: i
     pose = frame.world_from_camera
     R = pose[:3, :3].astype(np.float32)
     t = (pose[:3, 3] - origin).astype(np.float32)  # float64 difference first: exact far away
-    cam = ray_table(frame.sensor)[idx] * depth[idx, None]
-    xyz = cam @ R.T
-    xyz += t
+    table = ray_table(frame.sensor)
+    d = depth[idx]
+    rx, ry = table[0][idx], table[1][idx]   # z of every ray is 1
+    xyz = np.empty((len(idx), 3), np.float32)
+    # (R · (d·ray)) + t, one column at a time: (N, 3) @ (3, 3) matmul is several times slower
+    for k in range(3):
+        col = rx * R[k, 0]
+        col += ry * R[k, 1]
+        col += R[k, 2]
+        col *= d
+        col += t[k]
+        xyz[:, k] = col
     rgb = None if frame.rgb is None else frame.rgb.reshape(-1, 3)[idx]
     normal = None if frame.normal is None else frame.normal.reshape(-1, 3)[idx] @ R.T
     camera = None if camera_index is None else np.full(len(idx), camera_index, np.uint16)

@@ -1,0 +1,85 @@
+"""``genie bench layout``: the paper's Table 7 — a dummy generator of branching factor R over
+L levels; time, nodes, nodes/s, a least-squares fit of time ∝ N, a plot, and a shipped
+strategy end to end."""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--repeats", type=int, default=3)
+
+
+def _strategy(R: int, L: int) -> dict:
+    return {"name": f"dummy_R{R}_L{L}", "root": {"width": 1000.0, "height": 1000.0, "type": "n"},
+            "region_types": {"n": {}, "leaf": {"final": True}},
+            "levels": [{"n": {"generator": "strips", "args": {"n": R},
+                              "children": {"strip": "n" if lvl < L - 1 else "leaf"}}} for lvl in range(L)]}
+
+
+def _register() -> None:
+    from ..layout import Child, Generator, register
+
+    @register("strips")
+    class Strips(Generator):
+        """Dummy generator of branching factor n: n equal strips across the parent."""
+
+        slots = ("strip",)
+
+        def generate(self, parent, rng):
+            n = int(self.args["n"])
+            w = parent.w / n
+            return [Child(parent.x + i * w, parent.y, w, parent.h, "strip") for i in range(n)]
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..layout import generate_layout, parse_strategy
+
+    _register()
+    rows = []
+    cases = [(R, 4) for R in range(10, 21, 2)] + [(5, L) for L in range(3, 8)]
+    print(f"{'R':>3} {'L':>2} {'nodes':>9} {'time ms':>9} {'nodes/s':>11}")
+    for R, L in cases:
+        strat = parse_strategy(_strategy(R, L))
+        best = np.inf
+        for _ in range(args.repeats):
+            t = time.perf_counter()
+            layout = generate_layout(strat, seed=0)
+            best = min(best, time.perf_counter() - t)
+        rows.append({"R": R, "L": L, "nodes": len(layout), "ms": 1e3 * best, "nodes_per_s": len(layout) / best})
+        print(f"{R:>3} {L:>2} {len(layout):>9,} {1e3 * best:>9.1f} {len(layout) / best:>11,.0f}")
+    n = np.array([r["nodes"] for r in rows], float)
+    t = np.array([r["ms"] for r in rows])
+    k = float((n @ t) / (n @ n))
+    r2 = 1 - ((t - k * n) ** 2).sum() / ((t - t.mean()) ** 2).sum()
+    print(f"fit: time = {k * 1e3:.3f} us x N (R^2 = {r2:.4f}); paper: 122 k nodes/s (R=20, L=4: 1313 ms)")
+    t0 = time.perf_counter()
+    for _ in range(5):
+        generate_layout("assembly_line", seed=0)
+    real_ms = 1e3 * (time.perf_counter() - t0) / 5
+    print(f"shipped assembly_line strategy: {real_ms:.1f} ms per layout")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "layout.json").write_text(json.dumps({"rows": rows, "us_per_node": k * 1e3, "r2": r2,
+                                                 "assembly_line_ms": real_ms}, indent=1))
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(n, t, "o", label="measured")
+    xs = np.linspace(0, n.max(), 50)
+    ax.plot(xs, k * xs, "-", label=f"fit {k * 1e3:.2f} us/node")
+    ax.set_xlabel("nodes N")
+    ax.set_ylabel("time (ms)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / "layout.png", dpi=100)
+    print(f"wrote {out / 'layout.json'} and {out / 'layout.png'}")
+    return 0
