@@ -157,3 +157,12 @@ def test_properties_of_random_strategies(w, h, cw, ch, sp, seed, gen, do_merge):
         assert layout.region_types[leaf.type].final or leaf.type == "hall"
     again = generate_layout(strat, seed=seed)
     assert json.dumps(again.to_dict()) == json.dumps(layout.to_dict())
+
+
+@pytest.mark.parametrize("name", ["assembly_line", "storage_area", "logistics_lane"])
+def test_shipped_strategies_generate_and_fill_scenes(name):
+    layout = generate_layout(name, seed=0)
+    groups = [r for r in layout.leaves() if layout.region_types[r.type].asset_group]
+    assert len(groups) >= 20
+    scene = gg.build_scene(layout, seed=0)
+    assert len(scene.instances) >= len(groups) * 0.8
