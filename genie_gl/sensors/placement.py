@@ -112,7 +112,7 @@ def random_placement(problem: CoverageProblem, n: int, *, rng: np.random.Generat
 def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: float,
                        mount_height_m: float) -> list[np.ndarray]:
     """world_from_camera poses: above each centre, looking at the weighted centroid it covers."""
-    from ..render.projection import look_at  # pure numpy camera maths
+    from .pose import look_at
 
     poses = []
     for c in centres:
