@@ -49,7 +49,7 @@ def scene_dir(out: Path, index: int, fmt: str, n_scenes: int) -> Path:
 
 def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     """Make scene ``index`` and write it; returns its stats (also in stats.json)."""
-    from .cloud import chunks, keep_cloud, random_downsample, to_cloud
+    from .cloud import chunks, keep_cloud, to_cloud
     from .export import npz, pcd, ply, semantickitti
     from .layout import generate_layout, load_strategy
     from .render import capture
@@ -74,8 +74,7 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     t["capture"] = time.perf_counter()
     cloud = to_cloud(frames)
     kept = []
-    for key, tile in chunks(cloud, cfg["chunk_m"]):
-        tile = random_downsample(tile, cfg["points"], rng=rng["cloud"])
+    for key, tile in chunks(cloud, cfg["chunk_m"], max_points=cfg["points"], rng=rng["cloud"]):
         ok, why = keep_cloud(tile, min_points=cfg["min_points"], min_labelled_share=cfg["min_labelled_share"])
         if ok:
             kept.append((key, tile))

@@ -7,7 +7,8 @@ import numpy as np
 
 from ..frame import Frame
 from .pointcloud import PointCloud
-from .unproject import unproject
+from . import kernels
+from .unproject import unproject, unproject_into
 
 FAR = 1.0e4  # beyond this distance from the world origin, clouds get a float64 origin
 
@@ -41,38 +42,61 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
              rng: np.random.Generator | None = None, origin: np.ndarray | None = None) -> PointCloud:
     """Merge frames into one world-frame cloud with semantic, instance, colour, normal, camera.
 
-    voxel_m : optional voxel down-sampling; max_points : random down-sampling to at most that
-    many points (needs ``rng``).
+    Every frame is unprojected straight into its slice of the merged arrays (no per-frame
+    clouds, no concatenation). voxel_m : optional voxel down-sampling; max_points : random
+    down-sampling to at most that many points (needs ``rng``).
     """
     if not frames:
         raise ValueError("to_cloud: no frames")
+    if max_points is not None and rng is None:
+        raise ValueError("to_cloud: max_points needs an rng (numpy.random.Generator)")
     origin = choose_origin(frames) if origin is None else np.asarray(origin, np.float64)
-    cloud = PointCloud.concatenate([unproject(f, origin=origin, camera_index=i) for i, f in enumerate(frames)])
+    counts = np.array([np.count_nonzero(f.depth) for f in frames], np.int64)
+    ends = np.cumsum(counts)
+    n = int(ends[-1])
+    # one spare slot: the unprojection kernel writes one point past the valid ones
+    xyz = np.empty((n + 1, 3), np.float32)
+    sem, inst = np.empty(n + 1, np.uint16), np.empty(n + 1, np.uint32)
+    with_rgb = all(f.rgb is not None for f in frames)
+    with_normal = all(f.normal is not None for f in frames)
+    rgb = np.empty((n + 1, 3), np.uint8) if with_rgb else None
+    normal = np.empty((n, 3), np.float32) if with_normal else None
+    for f, a, b in zip(frames, ends - counts, ends):
+        # frame k's spare write lands on frame k+1's first slot, which frame k+1 then fills
+        unproject_into(f, origin, xyz[a:], sem[a:], inst[a:], None if rgb is None else rgb[a:])
+        if with_normal:
+            normal[a:b] = unproject(f, origin=origin).normal
+    camera = np.repeat(np.arange(len(frames), dtype=np.uint16), counts)
+    cloud = PointCloud(xyz[:n], sem[:n], inst[:n], origin, None if rgb is None else rgb[:n], normal, camera)
     if voxel_m:
         cloud = voxel_downsample(cloud, voxel_m)
     if max_points is not None:
-        if rng is None:
-            raise ValueError("to_cloud: max_points needs an rng (numpy.random.Generator)")
         cloud = random_downsample(cloud, max_points, rng=rng)
     return cloud
 
 
-def chunks(cloud: PointCloud, size_m: float, *, min_points: int = 1) -> list[tuple[tuple[int, int], PointCloud]]:
+def chunks(cloud: PointCloud, size_m: float, *, min_points: int = 1, max_points: int | None = None,
+           rng: np.random.Generator | None = None) -> list[tuple[tuple[int, int], PointCloud]]:
     """Crop the cloud into square (x, y) tiles of ``size_m``; returns ((i, j), tile) pairs in
-    (i, j) order, each tile's points in their original order."""
+    (i, j) order, each tile's points in their original order.
+
+    Tiles with fewer than ``min_points`` points are left out. With ``max_points`` (and ``rng``)
+    each tile is randomly down-sampled to that many points before its points are gathered:
+    the same points, drawn the same way, as ``random_downsample(tile, max_points, rng=rng)``.
+    """
+    if max_points is not None and rng is None:
+        raise ValueError("chunks: max_points needs an rng (numpy.random.Generator)")
     if len(cloud) == 0:
         return []
-    ij = np.floor(cloud.xyz[:, :2] / size_m).astype(np.int64)
-    lo = ij.min(0)
-    span = int(ij[:, 1].max() - lo[1]) + 1
-    flat = (ij[:, 0] - lo[0]) * span + (ij[:, 1] - lo[1])  # one integer per tile: a fast 1-D sort
-    order = np.argsort(flat, kind="stable")
-    uniq, starts = np.unique(flat[order], return_index=True)
-    ends = np.append(starts[1:], len(order))
+    order, keys, starts, i0, j0, span = kernels.tile_order(cloud.xyz, float(size_m))
     out = []
-    for key, a, b in zip(uniq, starts, ends):
-        if b - a >= min_points:
-            out.append(((int(key // span + lo[0]), int(key % span + lo[1])), cloud.select(order[a:b])))
+    for key, a, b in zip(keys.tolist(), starts[:-1].tolist(), starts[1:].tolist()):
+        if b - a < min_points:
+            continue
+        idx = order[a:b]
+        if max_points is not None and b - a > max_points:
+            idx = idx[np.sort(rng.choice(b - a, max_points, replace=False))]
+        out.append(((key // span + i0, key % span + j0), cloud.select(idx)))
     return out
 
 

@@ -1,7 +1,9 @@
-"""Frames to points: per-camera ray tables computed once, then one gather per frame.
+"""Frames to points: one compiled pass per frame (validity, pose transform and label gather
+fused; see :mod:`.kernels`).
 
-A ray table holds, for every pixel, the camera-frame direction with z = 1 (so depth · ray is
-the point); a distorted sensor's table holds the undistorted ray of each distorted pixel.
+A pinhole camera's rays are separable (x from the column, y from the row), so no table is read;
+a distorted (or skewed) camera reads a ray table computed once per camera model, holding for
+every pixel the camera-frame direction with z = 1 of its undistorted ray.
 """
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ import numpy as np
 
 from ..frame import Frame
 from ..sensors.camera import Sensor
+from . import kernels
 from .pointcloud import PointCloud
 
 CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
@@ -41,27 +44,52 @@ def ray_table(sensor: Sensor) -> np.ndarray:
     return _table(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
 
 
+@lru_cache(maxsize=32)
+def _axes(w: int, h: int, K: bytes) -> tuple[np.ndarray, np.ndarray]:
+    Km = np.frombuffer(K).reshape(3, 3)
+    xs = ((np.arange(w) - Km[0, 2]) / Km[0, 0]).astype(np.float32)
+    ys = ((np.arange(h) - Km[1, 2]) / Km[1, 1]).astype(np.float32)
+    return xs, ys
+
+
+def _pose_rows(frame: Frame, origin: np.ndarray) -> np.ndarray:
+    """(3, 4) float32 [R | t - origin]: the difference taken in float64, so far scenes stay exact."""
+    M = frame.world_from_camera[:3].copy()
+    M[:, 3] -= origin
+    return M.astype(np.float32)
+
+
+NO_RGB = np.zeros((0, 0, 3), np.uint8)
+
+
+def unproject_into(frame: Frame, origin: np.ndarray, xyz: np.ndarray, semantic: np.ndarray,
+                   instance: np.ndarray, rgb: np.ndarray | None = None) -> int:
+    """Write ``frame``'s valid points (and colours, when ``rgb`` is given) into the given
+    arrays, in pixel order; returns their number n. The outputs need room for n + 1 points
+    (the kernel is branch-free and writes one spare slot; see :mod:`.kernels`)."""
+    s = frame.sensor
+    colour = rgb is not None and frame.rgb is not None
+    args = (_pose_rows(frame, origin), frame.semantic, frame.instance, frame.rgb if colour else NO_RGB,
+            xyz, semantic, instance, rgb if colour else NO_RGB.reshape(0, 3))
+    depth = np.ascontiguousarray(frame.depth)
+    if np.any(s.dist) or s.K[0, 1] != 0:
+        n = kernels.unproject_table(depth, ray_table(s).reshape(2, s.height, s.width), *args)
+    else:
+        n = kernels.unproject_separable(depth, *_axes(s.width, s.height, s.K.tobytes()), *args)
+    return int(n)
+
+
 def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: int | None = None) -> PointCloud:
     """The world-frame points of ``frame``'s valid pixels (depth > 0), relative to ``origin``."""
     origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
-    depth = frame.depth.ravel()
-    idx = np.flatnonzero(depth)
-    pose = frame.world_from_camera
-    R = pose[:3, :3].astype(np.float32)
-    t = (pose[:3, 3] - origin).astype(np.float32)  # float64 difference first: exact far away
-    table = ray_table(frame.sensor)
-    d = depth[idx]
-    rx, ry = table[0][idx], table[1][idx]   # z of every ray is 1
-    xyz = np.empty((len(idx), 3), np.float32)
-    # (R · (d·ray)) + t, one column at a time: (N, 3) @ (3, 3) matmul is several times slower
-    for k in range(3):
-        col = rx * R[k, 0]
-        col += ry * R[k, 1]
-        col += R[k, 2]
-        col *= d
-        col += t[k]
-        xyz[:, k] = col
-    rgb = None if frame.rgb is None else frame.rgb.reshape(-1, 3)[idx]
-    normal = None if frame.normal is None else frame.normal.reshape(-1, 3)[idx] @ R.T
-    camera = None if camera_index is None else np.full(len(idx), camera_index, np.uint16)
-    return PointCloud(xyz, frame.semantic.ravel()[idx], frame.instance.ravel()[idx], origin, rgb, normal, camera)
+    n = int(np.count_nonzero(frame.depth))
+    xyz = np.empty((n + 1, 3), np.float32)
+    sem, inst = np.empty(n + 1, np.uint16), np.empty(n + 1, np.uint32)
+    rgb = None if frame.rgb is None else np.empty((n + 1, 3), np.uint8)
+    unproject_into(frame, origin, xyz, sem, inst, rgb)
+    normal = None
+    if frame.normal is not None:
+        R = frame.world_from_camera[:3, :3].astype(np.float32)
+        normal = frame.normal.reshape(-1, 3)[np.flatnonzero(frame.depth)] @ R.T
+    camera = None if camera_index is None else np.full(n, camera_index, np.uint16)
+    return PointCloud(xyz[:n], sem[:n], inst[:n], origin, None if rgb is None else rgb[:n], normal, camera)

@@ -6,7 +6,7 @@ import pytest
 import trimesh
 
 import genie_gl as gg
-from genie_gl.cloud import keep_cloud, to_cloud, unproject, voxel_downsample
+from genie_gl.cloud import chunks, keep_cloud, random_downsample, to_cloud, unproject, voxel_downsample
 from genie_gl.export import semantickitti
 from genie_gl.render.projection import look_at
 
@@ -135,3 +135,67 @@ def test_sampling_and_cleaning():
     assert keep_cloud(c, min_points=10)[0]
     assert keep_cloud(c.select(c.semantic == 0), min_points=1) == (False, "background only")
     assert not keep_cloud(c, min_points=10**6)[0]
+
+
+def reference_points(f):
+    """World points of a frame's valid pixels from first principles, float64: K⁻¹ (skew
+    included) for an ideal lens, OpenCV's undistortPoints for a distorted one; scale by depth,
+    apply the pose."""
+    import cv2
+    s = f.sensor
+    v, u = np.nonzero(f.depth)
+    if np.any(s.dist):
+        xy = cv2.undistortPoints(np.stack([u, v], -1).astype(np.float64).reshape(-1, 1, 2), s.K, s.dist, None,
+                                 None, None, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)).reshape(-1, 2)
+    else:
+        xy = (np.linalg.inv(s.K) @ np.stack([u, v, np.ones_like(u)]).astype(np.float64))[:2].T
+    d = f.depth[v, u].astype(np.float64)
+    cam = np.c_[xy * d[:, None], d]
+    return cam @ f.world_from_camera[:3, :3].T + f.world_from_camera[:3, 3]
+
+
+@pytest.mark.parametrize("lens", ["pinhole", "skew", "distorted"])
+def test_unprojection_matches_first_principles_for_every_lens(lens):
+    K = np.array([[50.0, 0, 30.2], [0, 55.0, 22.7], [0, 0, 1]])
+    dist = np.zeros(5)
+    if lens == "skew":
+        K[0, 1] = 0.8
+    if lens == "distorted":
+        dist = np.array([-0.2, 0.05, 0.001, -0.002, 0.0])
+    s = gg.Sensor(64, 48, K, dist=dist)
+    rng = np.random.default_rng(1)
+    d = rng.uniform(0.5, 20, (48, 64)).astype(np.float32)
+    d[rng.random(d.shape) < 0.3] = 0  # scattered holes: the compaction must skip exactly these
+    d[-1, -1] = 0  # the last pixel invalid: the spare slot takes its write
+    inst = rng.integers(1, 2**31, d.shape).astype(np.uint32)
+    sem = rng.integers(0, 2**16, d.shape).astype(np.uint16)
+    rgb = rng.integers(0, 256, (48, 64, 3)).astype(np.uint8)
+    f = gg.Frame(d, inst, sem, rgb, s, look_at([1.0, 2.0, 3.0], [4.0, -1.0, 0.5]))
+    c = unproject(f, camera_index=3)
+    m = d > 0
+    np.testing.assert_allclose(c.world_xyz, reference_points(f), atol=2e-5 * 20)
+    assert (c.instance == inst[m]).all() and (c.semantic == sem[m]).all() and (c.rgb == rgb[m]).all()
+    assert (c.camera == 3).all()
+    # merging writes every frame into its slice of one array: same as concatenating
+    g = f.replace(depth=np.roll(d, 7), world_from_camera=np.eye(4))
+    merged = to_cloud([f, g, f])
+    parts = [unproject(x, camera_index=i) for i, x in enumerate([f, g, f])]
+    for name in ("xyz", "semantic", "instance", "rgb", "camera"):
+        np.testing.assert_array_equal(getattr(merged, name), np.concatenate([getattr(p, name) for p in parts]))
+
+
+def test_chunks_down_sample_each_tile_as_random_downsample_does():
+    c = random_cloud(20000)
+    eager = [(k, random_downsample(t, 300, rng=r)) for r in [np.random.default_rng(5)] for k, t in chunks(c, 2.5)]
+    lazy = chunks(c, 2.5, max_points=300, rng=np.random.default_rng(5))
+    assert [k for k, _ in lazy] == [k for k, _ in eager]
+    for (_, a), (_, b) in zip(lazy, eager):
+        np.testing.assert_array_equal(a.xyz, b.xyz)
+        np.testing.assert_array_equal(a.instance, b.instance)
+    # tiles: every point in its tile, tiles in (i, j) order, points in their original order
+    tiles = chunks(c, 2.5)
+    assert sum(len(t) for _, t in tiles) == len(c)
+    assert [k for k, _ in tiles] == sorted(k for k, _ in tiles)
+    for (i, j), t in tiles:
+        ij = np.floor(t.xyz[:, :2] / 2.5)
+        assert (ij == [i, j]).all()
