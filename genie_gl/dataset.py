@@ -70,7 +70,9 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     sensor = load_sensor(cfg["sensor"])
     poses = place_sensors(layout, sensor, n=cfg["cameras"], seed=int(rng["placement"].integers(2**31)))
     t["placement"] = time.perf_counter()
-    frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1)
+    # SemanticKITTI scans carry no colour: render none (an output not asked for costs nothing)
+    frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1,
+                     depth_only=cfg["format"] == "semantickitti")
     t["capture"] = time.perf_counter()
     cloud = to_cloud(frames)
     kept = []

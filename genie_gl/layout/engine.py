@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .model import Layout, Node, Region, RegionType
+from .generators import Children, Parents
+from .model import ORIENTATIONS, Layout, Node, Region, RegionType, Tree
 from .strategy import Rule, Strategy, load_strategy
 
 log = logging.getLogger(__name__)
@@ -17,50 +18,84 @@ def generate_layout(strategy: Strategy | str | Path, seed: int = 0, *,
                     rng: np.random.Generator | None = None) -> Layout:
     """Generate a layout tree from a strategy (object, file path or shipped name).
 
-    The same strategy and seed give the same layout, byte for byte (``rng`` overrides seed).
+    Algorithm 2 a level at a time: the leaves of each region type that the level has a rule
+    for are expanded together (one ``generate_batch`` call), their children's types and
+    orientations chosen in arrays, and the new nodes appended grouped by parent, so the tree
+    stays breadth-first. The same strategy and seed give the same layout, byte for byte
+    (``rng`` overrides seed).
     """
     strat = strategy if isinstance(strategy, Strategy) else load_strategy(strategy)
     rng = np.random.default_rng(seed) if rng is None else rng
+    names = tuple(strat.region_types)
     r = strat.root
-    nodes = [Node(Region(r.x, r.y, r.width, r.height, r.type, r.orientation), 0, -1)]
+    tree = Tree(*(np.array([v], np.float64) for v in (r.x, r.y, r.width, r.height)),
+                np.array([names.index(r.type)], np.int32), np.array([ORIENTATIONS.index(r.orientation)], np.int8),
+                np.zeros(1, np.int32), np.full(1, -1, np.int32), names)
     reports: list[dict] = []
     for li, level in enumerate(strat.levels):
         if level == "merge":
-            nodes = merge(nodes)
+            tree = Tree.from_nodes(merge(tree.to_nodes()), names)
             continue
-        frontier = [i for i, n in enumerate(nodes) if not n.children]  # breadth-first order
-        for i in frontier:
-            rule = level.get(nodes[i].region.type)
-            if rule is None or strat.region_types[nodes[i].region.type].final:
-                continue
-            _expand(nodes, i, rule, rng, strat.region_types)
-            report = getattr(rule.generator, "report", None)
-            if report and report.get("placed", 0) < report.get("requested", 0):
-                reports.append({"level": li, "region": i, **report})
-                log.info("level %d: %s placed %d of %d rooms", li, rule.generator_name,
-                         report["placed"], report["requested"])
+        tree = _expand_level(tree, level, strat.region_types, rng, li, reports)
     meta = {"strategy": strat.name, "seed": int(seed), "reports": reports, "scene": strat.scene}
-    return Layout(nodes, strat.region_types, meta)
+    return Layout(tree, strat.region_types, meta)
 
 
-def _expand(nodes: list[Node], i: int, rule: Rule, rng: np.random.Generator,
-            types: dict[str, RegionType]) -> None:
-    parent = nodes[i].region
-    children = rule.generator.generate(parent, rng)
-    by_slot: dict[str, list[int]] = {}
-    for k, c in enumerate(children):
-        by_slot.setdefault(c.slot, []).append(k)
-    chosen: dict[int, str] = {}
+def _expand_level(tree: Tree, level: dict[str, Rule], types: dict[str, RegionType], rng: np.random.Generator,
+                  li: int, reports: list[dict]) -> Tree:
+    names = tree.type_names
+    leaves = np.flatnonzero(tree.n_children() == 0)
+    parts = []
+    for tname, rule in level.items():
+        if types[tname].final:
+            continue
+        sel = leaves[tree.type[leaves] == names.index(tname)]
+        if len(sel) == 0:
+            continue
+        kids = rule.generator.generate_batch(Parents(tree.x[sel], tree.y[sel], tree.w[sel], tree.h[sel],
+                                                     tree.orient[sel], tname), rng)
+        for k, rep in kids.reports:
+            if rep.get("placed", 0) < rep.get("requested", 0):
+                reports.append({"level": li, "region": int(sel[k]), **rep})
+                log.info("level %d: %s placed %d of %d rooms", li, rule.generator_name, rep["placed"], rep["requested"])
+        parts.append(_assign(tree, sel, kids, rule, rng))
+    if not parts:
+        return tree
+    new = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    order = np.argsort(new["parent"], kind="stable")  # children grouped by parent: breadth-first
+    new = {k: v[order] for k, v in new.items()}
+    return Tree(*(np.concatenate([getattr(tree, k), new[k]]) for k in ("x", "y", "w", "h", "type", "orient")),
+                np.concatenate([tree.depth, tree.depth[new["parent"]] + 1]),
+                np.concatenate([tree.parent, new["parent"].astype(np.int32)]), names)
+
+
+def _assign(tree: Tree, sel: np.ndarray, kids: Children, rule: Rule, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """Region types and orientations of a batch's children; children whose slot has no type
+    provider are dropped."""
+    names = tree.type_names
+    slots = rule.generator.slots
+    t = np.full(len(kids), -1, np.int32)
     for slot, provider in rule.children.items():
-        ks = by_slot.get(slot, [])
-        for k, t in zip(ks, provider.choose(len(ks), rng)):
-            chosen[k] = t
-    kept = [k for k in range(len(children)) if k in chosen]  # slots without a provider are dropped
-    regions = [Region(children[k].x, children[k].y, children[k].w, children[k].h, chosen[k]) for k in kept]
-    orients = rule.orientation.choose(parent, regions, [children[k].orientation for k in kept], rng)
-    for reg, o in zip(regions, orients):
-        nodes[i].children.append(len(nodes))
-        nodes.append(Node(Region(reg.x, reg.y, reg.w, reg.h, reg.type, o), nodes[i].depth + 1, i))
+        m = np.flatnonzero(kids.slot == slots.index(slot))
+        p = kids.parent[m]
+        starts = np.flatnonzero(np.r_[True, p[1:] != p[:-1]]) if len(p) else np.zeros(0, np.int64)
+        rank = np.arange(len(m)) - np.repeat(starts, np.diff(np.r_[starts, len(m)]))
+        lut = np.array([names.index(v) for v in provider.values], np.int32)
+        t[m] = lut[provider.choose_index(rank, rng)]
+    keep = np.flatnonzero(t >= 0)
+    parent = sel[kids.parent[keep]]
+    x, y, w, h, t = kids.x[keep], kids.y[keep], kids.w[keep], kids.h[keep], t[keep]
+    suggested = kids.orient[keep]
+    orient = rule.orientation.choose_index(tree.orient[parent], suggested, rng)
+    if orient is None:  # per parent (face a neighbour)
+        orient = np.empty(len(keep), np.int8)
+        bounds = np.flatnonzero(np.r_[True, parent[1:] != parent[:-1], True]) if len(keep) else [0]
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            regs = [Region(x[k], y[k], w[k], h[k], names[t[k]]) for k in range(a, b)]
+            sug = [None if s < 0 else ORIENTATIONS[s] for s in suggested[a:b]]
+            got = rule.orientation.choose(tree.region(int(parent[a])), regs, sug, rng)
+            orient[a:b] = [ORIENTATIONS.index(o) for o in got]
+    return {"parent": parent, "x": x, "y": y, "w": w, "h": h, "type": t, "orient": orient}
 
 
 def merge(nodes: list[Node], tol: float = 1e-9) -> list[Node]:

@@ -18,7 +18,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..errors import ConfigError, did_you_mean
-from .model import Region
+from .model import ORIENTATIONS, Region
 
 EPS = 1e-9
 
@@ -35,8 +35,55 @@ class Child:
     orientation: str | None = None
 
 
+@dataclass(frozen=True, eq=False)
+class Parents:
+    """The regions of one type that a level expands, as arrays (x, y, w, h float64; orient
+    int8 index into ORIENTATIONS), in breadth-first order."""
+
+    x: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    h: np.ndarray
+    orient: np.ndarray
+    type: str
+
+    def __len__(self) -> int:
+        return len(self.x)
+
+    def region(self, i: int) -> Region:
+        return Region(float(self.x[i]), float(self.y[i]), float(self.w[i]), float(self.h[i]), self.type,
+                      ORIENTATIONS[self.orient[i]])
+
+
+@dataclass(frozen=True, eq=False)
+class Children:
+    """What a generator made for a batch of parents, as arrays grouped by parent (ascending):
+    parent (index into the batch), x, y, w, h, slot (index into the generator's ``slots``),
+    orient (suggested orientation, index into ORIENTATIONS, -1 for none), and generator
+    reports as (parent, dict) pairs."""
+
+    parent: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    h: np.ndarray
+    slot: np.ndarray
+    orient: np.ndarray
+    reports: list[tuple[int, dict]]
+
+    def __len__(self) -> int:
+        return len(self.parent)
+
+
 class Generator:
-    """Base class: ``slots`` lists the slot names the generator can produce."""
+    """Base class: ``slots`` lists the slot names the generator can produce.
+
+    Implement ``generate(parent, rng) -> list[Child]`` for one region; the engine calls
+    ``generate_batch(parents, rng) -> Children`` once per level and region type, which by
+    default loops over ``generate``. A generator that splits many regions the same way can
+    override ``generate_batch`` with array code (the benchmark's does): the tree then grows a
+    level at a time without a Python object per node.
+    """
 
     slots: ClassVar[tuple[str, ...]] = ()
 
@@ -45,6 +92,21 @@ class Generator:
 
     def generate(self, parent: Region, rng: np.random.Generator) -> list[Child]:
         raise NotImplementedError
+
+    def generate_batch(self, parents: Parents, rng: np.random.Generator) -> Children:
+        slot_index = {s: k for k, s in enumerate(self.slots)}
+        rows: list[tuple] = []
+        reports: list[tuple[int, dict]] = []
+        for i in range(len(parents)):
+            self.report = None
+            for c in self.generate(parents.region(i), rng):
+                rows.append((i, c.x, c.y, c.w, c.h, slot_index[c.slot],
+                             -1 if c.orientation is None else ORIENTATIONS.index(c.orientation)))
+            if self.report:
+                reports.append((i, self.report))
+        cols = list(zip(*rows)) if rows else [()] * 7
+        dtypes = (np.int64, np.float64, np.float64, np.float64, np.float64, np.int32, np.int8)
+        return Children(*(np.array(c, dt) for c, dt in zip(cols, dtypes)), reports)
 
     def check(self, where: str) -> None:
         """Validate arguments; raise ConfigError naming ``where`` (file and JSON path)."""

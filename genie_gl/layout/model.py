@@ -88,43 +88,111 @@ class LabelRaster:
     resolution_m: float
 
 
+@dataclass(frozen=True, eq=False)
+class Tree:
+    """The layout tree as arrays, one entry per node in breadth-first order (node 0 is the
+    root; a parent comes before its children; the engine keeps siblings consecutive).
+
+    x, y, w, h : float64; type : int32 index into ``type_names``; orient : int8 index into
+    ORIENTATIONS; depth : int32 (root 0); parent : int32 (root -1).
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    h: np.ndarray
+    type: np.ndarray
+    orient: np.ndarray
+    depth: np.ndarray
+    parent: np.ndarray
+    type_names: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.x)
+
+    @staticmethod
+    def from_nodes(nodes: list[Node], type_names: tuple[str, ...]) -> "Tree":
+        index = {t: i for i, t in enumerate(type_names)}
+        f = lambda k, dt: np.array([getattr(n.region, k) for n in nodes], dt)  # noqa: E731
+        return Tree(f("x", np.float64), f("y", np.float64), f("w", np.float64), f("h", np.float64),
+                    np.array([index[n.region.type] for n in nodes], np.int32),
+                    np.array([ORIENTATIONS.index(n.region.orientation) for n in nodes], np.int8),
+                    np.array([n.depth for n in nodes], np.int32), np.array([n.parent for n in nodes], np.int32),
+                    type_names)
+
+    def n_children(self) -> np.ndarray:
+        return np.bincount(self.parent[1:], minlength=len(self)) if len(self) > 1 else np.zeros(len(self), np.int64)
+
+    def region(self, i: int) -> Region:
+        return Region(float(self.x[i]), float(self.y[i]), float(self.w[i]), float(self.h[i]),
+                      self.type_names[self.type[i]], ORIENTATIONS[self.orient[i]])
+
+    def to_nodes(self) -> list[Node]:
+        nodes = [Node(self.region(i), int(self.depth[i]), int(self.parent[i])) for i in range(len(self))]
+        for i, p in enumerate(self.parent.tolist()):
+            if p >= 0:
+                nodes[p].children.append(i)
+        return nodes
+
+
 class Layout:
     """A tree of regions; leaves are what the scene stage fills.
 
+    The tree is held as arrays (:class:`Tree`): the engine builds and extends it a level at a
+    time without a Python object per node; ``nodes``, ``leaves()`` and ``regions()`` give
+    object views on demand.
+
     Parameters
     ----------
-    nodes : list of Node, node 0 is the root.
+    nodes : list of Node (node 0 is the root, parents before children), or a Tree.
     region_types : dict name -> RegionType.
     meta : dict (strategy name, seed, reports from generators).
     """
 
-    def __init__(self, nodes: list[Node], region_types: dict[str, RegionType], meta: dict | None = None):
-        if not nodes:
+    def __init__(self, nodes: "list[Node] | Tree", region_types: dict[str, RegionType], meta: dict | None = None):
+        if len(nodes) == 0:
             raise ConfigError("a layout needs a root region")
-        self.nodes = nodes
         self.region_types = dict(region_types)
         self.meta = dict(meta or {})
+        if isinstance(nodes, Tree):
+            self.tree = nodes
+        else:
+            names = tuple(self.region_types) + tuple(sorted({n.region.type for n in nodes} - set(self.region_types)))
+            self.tree = Tree.from_nodes(nodes, names)
+        self._nodes: list[Node] | None = None
 
     # -- views ----------------------------------------------------------------------------
     @property
+    def nodes(self) -> list[Node]:
+        """The tree as Node objects (built on first use)."""
+        if self._nodes is None:
+            self._nodes = self.tree.to_nodes()
+        return self._nodes
+
+    @property
     def root(self) -> Region:
-        return self.nodes[0].region
+        return self.tree.region(0)
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
-        r = self.root
-        return (r.x, r.y, r.w, r.h)
+        t = self.tree
+        return (float(t.x[0]), float(t.y[0]), float(t.w[0]), float(t.h[0]))
+
+    def leaf_indices(self) -> np.ndarray:
+        """Indices of the nodes without children, in breadth-first order."""
+        return np.flatnonzero(self.tree.n_children() == 0)
 
     def leaves(self) -> list[Region]:
         """Regions of the nodes without children, in breadth-first order."""
-        return [n.region for n in self.nodes if not n.children]
+        return [self.tree.region(i) for i in self.leaf_indices().tolist()]
 
     def regions(self) -> list[tuple[Region, int, int]]:
         """Every node as (region, depth, parent index) — the root's parent is -1."""
-        return [(n.region, n.depth, n.parent) for n in self.nodes]
+        t = self.tree
+        return [(t.region(i), int(t.depth[i]), int(t.parent[i])) for i in range(len(t))]
 
     def __len__(self) -> int:
-        return len(self.nodes)
+        return len(self.tree)
 
     @classmethod
     def from_regions(cls, regions: list[Region], region_types: dict[str, RegionType],

@@ -62,6 +62,20 @@ class TypeProvider:
             return [self.values[i] for i in rng.integers(0, len(self.values), n)]
         return [self.values[i] for i in rng.choice(len(self.values), size=n, p=self.p)]
 
+    def choose_index(self, rank: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Array form of :meth:`choose` for many parents at once: ``rank`` is each child's
+        position among its parent's children of this slot; returns indices into ``values``."""
+        n = len(rank)
+        if self.kind == "constant":
+            return np.zeros(n, np.int64)
+        if self.kind == "sequential":
+            return rank % len(self.values)
+        if n == 0:
+            return np.zeros(0, np.int64)
+        if self.kind == "random":
+            return rng.integers(0, len(self.values), n)
+        return rng.choice(len(self.values), size=n, p=self.p)
+
 
 class OrientationProvider:
     def __init__(self, spec: Any, where: str) -> None:
@@ -84,6 +98,22 @@ class OrientationProvider:
             self.kind, self.values = kind, list(val)
         else:
             raise ConfigError(f"{where}: cannot read orientation provider {spec!r}")
+
+    def choose_index(self, parent_orient: np.ndarray, suggested: np.ndarray, rng: np.random.Generator) -> np.ndarray | None:
+        """Array form of :meth:`choose` for many children at once (indices into ORIENTATIONS;
+        ``suggested`` is -1 where the generator proposes none); None for ``face``, which
+        needs each parent's children together."""
+        n = len(parent_orient)
+        if self.kind == "inherit":
+            return parent_orient.astype(np.int8)
+        if self.kind == "suggested":
+            return np.where(suggested >= 0, suggested, parent_orient).astype(np.int8)
+        if self.kind == "fixed":
+            return np.full(n, ORIENTATIONS.index(self.values[0]), np.int8)
+        if self.kind == "random":
+            idx = np.array([ORIENTATIONS.index(v) for v in self.values], np.int8)
+            return idx[rng.integers(0, len(self.values), n)] if n else np.zeros(0, np.int8)
+        return None
 
     def choose(self, parent: Region, children: list[Region], suggested: list[str | None],
                rng: np.random.Generator) -> list[str]:

@@ -1,6 +1,7 @@
 """``render`` (one ideal frame) and ``capture`` (many poses, sensor effects, all cores)."""
 from __future__ import annotations
 
+import functools
 import multiprocessing as mp
 import os
 from collections.abc import Sequence
@@ -31,10 +32,11 @@ def pose_rng(seed: int, index: int) -> np.random.Generator:
 
 
 def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
-                    indices: Sequence[int]) -> list[Frame]:
+                    indices: Sequence[int], depth_only: bool = False) -> list[Frame]:
     from ..sensors.simulate import simulate  # effects live in the sensors stage
 
-    return [simulate(sensor, np.asarray(poses[k], dtype=np.float64), render=renderer.render,
+    render = functools.partial(renderer.render, depth_only=depth_only)
+    return [simulate(sensor, np.asarray(poses[k], dtype=np.float64), render=render,
                      rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
 
 
@@ -53,12 +55,12 @@ def _worker_init(scene: Scene, backend: str | None, lp_threads: int) -> None:
 
 
 def _worker_render(job: tuple) -> list[Frame]:
-    sensor, poses, seed, indices = job
-    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices)
+    sensor, poses, seed, indices, depth_only = job
+    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only)
 
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
-            workers: int | None = 1, backend: str | None = None) -> list[Frame]:
+            workers: int | None = 1, backend: str | None = None, depth_only: bool = False) -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -69,6 +71,7 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     workers : processes to render with (one GL context each); None = all cores. 1 renders in
         this process. The frames do not depend on it.
     backend : GL backend ("egl", "osmesa" or None).
+    depth_only : skip the colour target (frames get ``rgb=None``).
     """
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     n = len(poses)
@@ -76,12 +79,12 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     workers = min(workers, n)
     if workers <= 1:
         with Renderer(scene, backend=backend) as r:
-            return _capture_serial(r, sensor, poses, seed, range(n))
+            return _capture_serial(r, sensor, poses, seed, range(n), depth_only)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads)) as pool:
-        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c) for c in chunks])
+        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only) for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):
         for i, f in zip(c, part):

@@ -166,3 +166,21 @@ def test_shipped_strategies_generate_and_fill_scenes(name):
     assert len(groups) >= 20
     scene = gg.build_scene(layout, seed=0)
     assert len(scene.instances) >= len(groups) * 0.8
+
+
+def test_array_generators_grow_the_same_tree_as_per_region_ones():
+    from genie_gl.bench.layout import _register, _strategy
+
+    _register()
+    fast = generate_layout(parse_strategy(_strategy(6, 3)), seed=0)
+    slow = generate_layout(parse_strategy(_strategy(6, 3, "strips_per_region")), seed=0)
+    assert len(fast) == 1 + 6 + 36 + 216
+    assert json.dumps(fast.to_dict()) == json.dumps(slow.to_dict())
+    t = fast.tree
+    assert (np.diff(t.depth) >= 0).all()                       # breadth-first
+    assert (np.diff(t.parent[1:]) >= 0).all()                  # siblings consecutive
+    np.testing.assert_allclose(np.bincount(t.parent[1:], weights=t.w[1:], minlength=len(t))[t.n_children() > 0],
+                               t.w[t.n_children() > 0])        # strips tile their parent
+    assert len(fast.leaves()) == 216 and all(r.type == "leaf" for r in fast.leaves())
+    again = gg.Layout.from_dict(fast.to_dict())
+    assert again == fast and np.array_equal(again.tree.parent, t.parent)
