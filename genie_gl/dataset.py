@@ -9,7 +9,9 @@ re-run skips finished scenes. Layout of ``--out DIR``::
     DIR/histogram.{txt,json,png}      points per class (the paper's Table 3)
     DIR/previews/                     layout, depth/label images, top-down cloud
     DIR/sequences/NN/                 semantickitti: one sequence per scene, one scan per chunk
-    DIR/scenes/NNNN/                  other formats: cloud_XXX.<ext> per chunk
+    DIR/scenes/NNNN/                  ply, pcd, npz: cloud_XXX.<ext> per chunk
+    DIR/train_pbr/NNNNNN/             bop: the scene's RGB-D frames, masks and ground truth
+    DIR/camera.json, DIR/models/      bop: the camera and the object models (mm)
     (each scene folder also holds layout.json and stats.json)
 """
 from __future__ import annotations
@@ -30,7 +32,7 @@ from . import __version__
 from .errors import ConfigError
 
 log = logging.getLogger(__name__)
-FORMATS = ("semantickitti", "ply", "pcd", "npz")
+FORMATS = ("semantickitti", "ply", "pcd", "npz", "bop")
 EXT = {"ply": "ply", "pcd": "pcd", "npz": "npz"}
 
 
@@ -42,6 +44,8 @@ def scene_rngs(seed: int, index: int) -> dict[str, np.random.Generator]:
 
 
 def scene_dir(out: Path, index: int, fmt: str, n_scenes: int) -> Path:
+    if fmt == "bop":
+        return out / "train_pbr" / f"{index:06d}"
     if fmt == "semantickitti":
         return out / "sequences" / f"{index:0{max(2, len(str(n_scenes - 1)))}d}"
     return out / "scenes" / f"{index:04d}"
@@ -50,7 +54,7 @@ def scene_dir(out: Path, index: int, fmt: str, n_scenes: int) -> Path:
 def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     """Make scene ``index`` and write it; returns its stats (also in stats.json)."""
     from .cloud import chunks, keep_cloud, to_cloud
-    from .export import npz, pcd, ply, semantickitti
+    from .export import bop, npz, pcd, ply, semantickitti
     from .layout import generate_layout, load_strategy
     from .render import capture
     from .scene import build_scene
@@ -87,6 +91,8 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     counts = np.zeros(65536, np.int64)
     for j, (key, tile) in enumerate(kept):
         np.add.at(counts, tile.semantic, 1)
+        if cfg["format"] == "bop":
+            continue
         if cfg["format"] == "semantickitti":
             # the scan files are written inside the scene's own folder: a sequence folder
             semantickitti.write(tile, tmp / "_root", sequence=0, frame=j)
@@ -97,6 +103,9 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
         for p in (tmp / "_root" / "sequences" / "00").iterdir():
             p.replace(tmp / p.name)
         shutil.rmtree(tmp / "_root")
+    meshes: list[str] = []
+    if cfg["format"] == "bop":
+        meshes = write_bop_scene(scene, frames, tmp)
     layout.to_json(tmp / "layout.json")
     stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
              "points_total": int(len(cloud)), "chunks": len(kept),
@@ -106,9 +115,22 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
         write_previews(out / "previews", index, layout, frames, cloud)
     t["export"] = time.perf_counter()
     tmp.replace(final)  # the scene appears whole, or not at all
+    if meshes:
+        bop.write_dataset_files(scene, frames[0], out, meshes)
     keys = ["start", "layout", "scene", "placement", "capture", "cloud", "export"]
     stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
     return stats
+
+
+def write_bop_scene(scene, frames, folder: Path) -> list[str]:
+    """BOP files of one scene, with full silhouettes rendered object by object."""
+    from .export import bop
+    from .render import Renderer, silhouettes
+
+    with Renderer(scene) as r:
+        full = [silhouettes(r, f.sensor, f.world_from_camera,
+                            np.unique(f.instance[(f.semantic != 0) & (f.depth > 0)]).tolist()) for f in frames]
+    return bop.write_scene_files(scene, frames, folder, full_masks=full)
 
 
 def write_previews(folder: Path, index: int, layout, frames, cloud) -> None:

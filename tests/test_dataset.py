@@ -77,3 +77,29 @@ def test_ray_executor_gives_the_same_bytes(reference, tmp_path):
     pytest.importorskip("ray")
     assert main(["dataset", *ARGS, "--scenes", "2", "--executor", "ray", "--out", str(tmp_path)]) == 0
     assert digest(tmp_path) == digest(reference)
+
+
+def test_bop_format_writes_scenes_that_bop_readers_load(tmp_path):
+    import json
+
+    import cv2
+    import numpy as np
+
+    assert main(["dataset", *ARGS, "--scenes", "1", "--workers", "1", "--format", "bop", "--out", str(tmp_path)]) == 0
+    scene = tmp_path / "train_pbr" / "000000"
+    gt = json.loads((scene / "scene_gt.json").read_text())
+    info = json.loads((scene / "scene_gt_info.json").read_text())
+    cams = json.loads((scene / "scene_camera.json").read_text())
+    assert sorted(gt) == sorted(cams) == ["0", "1"]
+    models = json.loads((tmp_path / "models" / "models_info.json").read_text())
+    assert gt["0"] and all(str(g["obj_id"]) in models for im in gt.values() for g in im)
+    for im, objs in gt.items():
+        assert len(objs) == len(info[im])
+        d = cv2.imread(str(scene / "depth" / f"{int(im):06d}.png"), cv2.IMREAD_UNCHANGED)
+        rgb = cv2.imread(str(scene / "rgb" / f"{int(im):06d}.png"), cv2.IMREAD_UNCHANGED)
+        assert d.dtype == np.uint16 and d.max() > 0 and rgb.shape == d.shape + (3,)
+        for k, inf in enumerate(info[im]):
+            full = cv2.imread(str(scene / "mask" / f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_UNCHANGED)
+            vis = cv2.imread(str(scene / "mask_visib" / f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_UNCHANGED)
+            assert ((vis == 255) <= (full == 255)).all() and 0 < inf["visib_fract"] <= 1
+    assert (scene / "stats.json").exists() and (tmp_path / "camera.json").exists()

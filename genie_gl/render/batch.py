@@ -26,6 +26,23 @@ def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | Non
         return r.render(sensor, pose, depth_only=depth_only, normals=normals)
 
 
+def silhouettes(renderer: Renderer, sensor: Sensor, pose: np.ndarray, ids: Sequence[int]) -> dict[int, np.ndarray]:
+    """Full (unoccluded) silhouette of each instance in ``ids`` as ``sensor`` sees it at
+    ``pose``: one render of the instance alone (through the lens model, for distorted sensors).
+    Returns {id: (H, W) bool}."""
+    out = {}
+    for i in ids:
+        if sensor.is_pinhole:
+            f = renderer.render(sensor, pose, depth_only=True, only=(int(i),))
+        else:
+            from ..sensors.distortion import distort, distortion_maps
+
+            maps = distortion_maps(sensor)
+            f = distort(renderer.render(maps.render_sensor, pose, depth_only=True, only=(int(i),)), sensor, maps)
+        out[int(i)] = f.instance == int(i)
+    return out
+
+
 def pose_rng(seed: int, index: int) -> np.random.Generator:
     """The generator of pose ``index`` of a capture seeded with ``seed``."""
     return np.random.default_rng(np.random.SeedSequence([int(seed), int(index)]))

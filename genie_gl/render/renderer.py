@@ -9,6 +9,7 @@ from __future__ import annotations
 import ctypes
 import logging
 import time
+from collections.abc import Collection
 from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Any
@@ -223,7 +224,7 @@ class Renderer:
 
     # -- rendering -----------------------------------------------------------------------------
     def render(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool = False,
-               normals: bool = False) -> Frame:
+               normals: bool = False, only: Collection[int] | None = None) -> Frame:
         """Render the ideal pinhole frame of ``sensor`` (its distortion ignored) at ``pose``.
 
         Parameters
@@ -232,11 +233,13 @@ class Renderer:
         pose : (4, 4) float64 world_from_camera (OpenCV camera frame).
         depth_only : skip the colour buffer (``Frame.rgb`` is None).
         normals : also render camera-frame unit normals (``Frame.normal``).
+        only : draw just the instances with these ids (e.g. an object's full silhouette).
         """
         with self._current():
-            return self._render(sensor, pose, depth_only, normals)
+            return self._render(sensor, pose, depth_only, normals, only)
 
-    def _render(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool) -> Frame:
+    def _render(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool,
+                only: Collection[int] | None = None) -> Frame:
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = np.asarray(pose, dtype=np.float64)
@@ -260,7 +263,7 @@ class Renderer:
         ctx.front_face = "cw"
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)  # 0.0f has all bits zero: ids clear to 0
 
-        drawn = self._draw(program, rigid_inverse(pose), K, W, H, sensor.near_m)
+        drawn = self._draw(program, rigid_inverse(pose), K, W, H, sensor.near_m, only)
         ctx.disable(moderngl.CULL_FACE)
         ctx.finish()  # so that the read-back time below is the copy alone
         t1 = time.perf_counter()
@@ -295,7 +298,7 @@ class Renderer:
                      {"render_ms": 1e3 * (time.perf_counter() - t0)})
 
     def _draw(self, program: moderngl.Program, camera_from_world: np.ndarray, K: np.ndarray,
-              W: int, H: int, near: float) -> int:
+              W: int, H: int, near: float, only: Collection[int] | None = None) -> int:
         n = len(self._mesh_of)
         if n == 0:
             return 0
@@ -304,6 +307,8 @@ class Renderer:
         radii = self._radii[self._mesh_of] * self._scale
         planes = frustum_planes(K, W, H, near)
         visible = ((centres @ planes[:, :3].T + planes[:, 3]) >= -radii[:, None]).all(axis=1)
+        if only is not None:
+            visible &= np.isin(self._ids, np.fromiter(only, np.int64))
         if not visible.any():
             return 0
         rows = np.empty(n, INSTANCE_DTYPE)
