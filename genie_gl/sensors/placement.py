@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..layout.model import Layout
+from . import coverage
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,12 +49,31 @@ class CoverageProblem:
         self.candidates = np.stack(np.meshgrid(cx, cy), -1).reshape(-1, 2)
         keep = self.weight > 0
         self.px, self.weight = self.px[keep], self.weight[keep]
-        d2 = ((self.candidates[:, None, :] - self.px[None, :, :]) ** 2).sum(-1)
-        self.cover = d2 <= radius_m ** 2                    # (candidates, weighted pixels)
+        index = np.full(H * W, -1, np.int64)
+        index[keep] = np.arange(int(keep.sum()))
+        # which weighted cells each candidate's disc covers, as a sparse matrix (CSR)
+        self.indptr, self.indices = coverage.disc_cells(self.candidates[:, 0].copy(), self.candidates[:, 1].copy(),
+                                                        index.reshape(H, W), float(x0), float(y0),
+                                                        float(resolution_m), float(radius_m))
         self.total = float(self.weight.sum()) or 1.0
+        self._stamp, self._mark = np.zeros(len(self.weight), np.int64), 0
+
+    @property
+    def cover(self) -> np.ndarray:
+        """(candidates, weighted cells) bool: the discs as a dense matrix (for inspection)."""
+        dense = np.zeros((len(self.candidates), len(self.weight)), bool)
+        rows = np.repeat(np.arange(len(self.candidates)), np.diff(self.indptr))
+        dense[rows, self.indices] = True
+        return dense
+
+    def fitnesses(self, population: np.ndarray) -> np.ndarray:
+        """Covered weight share of each chromosome (rows of candidate indices)."""
+        w, self._mark = coverage.union_weights(np.ascontiguousarray(population, np.int64), self.indptr,
+                                               self.indices, self.weight, self._stamp, self._mark)
+        return w / self.total
 
     def fitness(self, chrom: np.ndarray) -> float:
-        return float(self.weight[self.cover[chrom].any(0)].sum()) / self.total
+        return float(self.fitnesses(np.asarray(chrom).reshape(1, -1))[0])
 
 
 def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Generator, population: int = 32,
@@ -67,7 +87,7 @@ def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Genera
     pop = rng.integers(0, m, (population, n))
     if seed_greedy:
         pop[0] = greedy_indices(problem, n)
-    fit = np.array([problem.fitness(c) for c in pop])
+    fit = problem.fitnesses(pop)
     history = [float(fit.max())]
     for _ in range(generations):
         elite = pop[fit.argmax()].copy()
@@ -79,7 +99,7 @@ def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Genera
         child[mut] = rng.integers(0, m, int(mut.sum()))
         child[0] = elite
         pop = child
-        fit = np.array([problem.fitness(c) for c in pop])
+        fit = problem.fitnesses(pop)
         history.append(float(fit.max()))
     best = pop[fit.argmax()]
     return Placement(problem.candidates[best], float(fit.max()), history)
@@ -87,14 +107,7 @@ def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Genera
 
 def greedy_indices(problem: CoverageProblem, n: int) -> np.ndarray:
     """Candidate indices chosen greedily: each adds the most new weight."""
-    covered = np.zeros(problem.cover.shape[1], bool)
-    chosen = []
-    for _ in range(n):
-        gain = (problem.cover & ~covered) @ problem.weight
-        k = int(gain.argmax())
-        chosen.append(k)
-        covered |= problem.cover[k]
-    return np.array(chosen)
+    return coverage.greedy(int(n), problem.indptr, problem.indices, problem.weight)
 
 
 def greedy_placement(problem: CoverageProblem, n: int) -> Placement:

@@ -150,3 +150,16 @@ def test_placement_elitism_and_more_sensors_never_cover_less():
     poses = gg.place_sensors(layout, None, n=5, seed=1)
     assert len(poses) == 5 and all(p.shape == (4, 4) and np.isfinite(p).all() for p in poses)
     assert all(p[2, 3] == pytest.approx(3.5) and p[2, 2] < 0 for p in poses)  # mounted, looking down
+
+
+@pytest.mark.parametrize("radius", [0.7, 3.0, 6.0])
+def test_sparse_disc_coverage_equals_brute_force(radius):
+    layout = gg.generate_layout("storage_area", seed=2)
+    p = CoverageProblem(layout, radius, resolution_m=0.5, step_m=1.5)
+    # every candidate against every weighted cell centre, densely
+    dense = ((p.candidates[:, None, :] - p.px[None, :, :]) ** 2).sum(-1) <= radius ** 2
+    np.testing.assert_array_equal(p.cover, dense)
+    pop = np.random.default_rng(3).integers(0, len(p.candidates), (12, 7))
+    expected = [p.weight[dense[c].any(0)].sum() / p.total for c in pop]
+    np.testing.assert_allclose(p.fitnesses(pop), expected, rtol=1e-12)
+    np.testing.assert_allclose([p.fitness(c) for c in pop], expected, rtol=1e-12)  # marks never collide
