@@ -2,7 +2,11 @@
 
 An effect is a class in :data:`EFFECTS` (name -> class) built from its profile parameters;
 ``apply(frame, rng)`` returns a new Frame. Noise draws come only from ``rng``; an effect not
-in a sensor's list never runs and never draws.
+in a sensor's list never runs and never draws. Two class flags ask ``simulate`` for more than
+the ideal frame: ``needs_normals`` (the frame is rendered with ``Frame.normal``; the normals are
+dropped again before the frame is returned) and ``needs_render`` (``apply`` also receives
+``render_depth(sensor, pose) -> (H, W) float32``, a depth-only render of the scene from any
+pose, e.g. the second view of a stereo pair at low resolution).
 
 Published models offered by name (``depth_noise`` ``model:``):
 
@@ -12,6 +16,8 @@ Published models offered by name (``depth_noise`` ``model:``):
   Redwood/PrimeSense σ_d ≈ 1/36 px), plus quantisation of disparity to ``subpixel_step``;
 * ``tof_linear`` — σ_z = a + b·max(z − z0, 0) (Azure Kinect evaluation: 0.5 mm + 1 mm/m
   beyond 0.5 m).
+
+More effects, one module per topic, registered here too: ``stereo_shadow`` (shadow.py).
 """
 from __future__ import annotations
 
@@ -25,8 +31,12 @@ from ..frame import Frame
 
 
 class Effect:
+    """Base class: ``apply(frame, rng)`` returns the frame the sensor would report."""
+
     name: ClassVar[str] = ""
-    draws: ClassVar[bool] = False  # True when apply() uses the RNG
+    draws: ClassVar[bool] = False          # True when apply() uses the RNG
+    needs_normals: ClassVar[bool] = False  # simulate renders Frame.normal for it
+    needs_render: ClassVar[bool] = False   # apply() also takes render_depth= (see module doc)
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         raise NotImplementedError
@@ -40,13 +50,23 @@ def effect(cls: type[Effect]) -> type[Effect]:
     return cls
 
 
-def _drop(frame: Frame, mask: np.ndarray, depth: np.ndarray | None = None) -> Frame:
+def record(frame: Frame, name: str, **values: Any) -> Frame:
+    """A copy of ``frame`` whose ``meta[name]`` holds ``values`` (what an effect drew or did)."""
+    return frame.replace(meta={**(frame.meta or {}), name: values})
+
+
+def drop(frame: Frame, mask: np.ndarray, depth: np.ndarray | None = None) -> Frame:
+    """``frame`` with no return where ``mask``: depth 0, ids 0 (and normal 0); ``depth``, when
+    given, replaces the frame's depth first."""
     d = (frame.depth if depth is None else depth).copy()
     d[mask] = 0
     inst, sem = frame.instance.copy(), frame.semantic.copy()
     inst[mask], sem[mask] = 0, 0
-    rgb = None if frame.rgb is None else frame.rgb
-    return frame.replace(depth=d.astype(np.float32), instance=inst, semantic=sem, rgb=rgb)
+    normal = frame.normal
+    if normal is not None and mask.any():
+        normal = normal.copy()
+        normal[mask] = 0
+    return frame.replace(depth=d.astype(np.float32), instance=inst, semantic=sem, normal=normal)
 
 
 @effect
@@ -60,7 +80,7 @@ class RangeLimits(Effect):
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         z = frame.depth
-        return _drop(frame, (z > 0) & ((z < self.min_m) | (z > self.max_m)))
+        return drop(frame, (z > 0) & ((z < self.min_m) | (z > self.max_m)))
 
 
 @effect
@@ -104,7 +124,7 @@ class DepthNoise(Effect):
             noisy[valid] = np.where(disp > 0, fb / np.maximum(disp, 1e-12), 0.0)
         bad = valid & ~(noisy > 0)
         out = frame.replace(depth=noisy.astype(np.float32))
-        return _drop(out, bad) if bad.any() else out
+        return drop(out, bad) if bad.any() else out
 
 
 def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
@@ -123,3 +143,7 @@ def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
         except TypeError as exc:
             raise ConfigError(f"{where}: effects[{i}] ({spec['type']}): {exc}") from None
     return tuple(out)
+
+
+# effects defined in their own topic modules register themselves on import
+from . import shadow  # noqa: E402,F401

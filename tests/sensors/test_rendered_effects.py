@@ -1,0 +1,61 @@
+"""Effects that need the scene (stereo shadowing), rendered on llvmpipe through EGL."""
+import numpy as np
+import pytest
+import trimesh
+
+import genie_gl as gg
+from genie_gl.render import Renderer
+from genie_gl.sensors import simulate
+from genie_gl.sensors.shadow import StereoShadow
+
+pytestmark = pytest.mark.gl
+
+F, B = 500.0, 0.075
+Z_BOX, Z_WALL = 1.0, 2.0
+
+
+@pytest.fixture(scope="module")
+def box_and_wall():
+    scene = gg.Scene()
+    scene.add(trimesh.creation.box((6, 6, 0.02)), [0, 0, Z_WALL + 0.01])       # wall face at z = 2
+    scene.add(trimesh.creation.box((0.4, 0.6, 0.2)), [0, 0, Z_BOX + 0.1])       # box face at z = 1
+    with Renderer(scene) as r:
+        yield r
+
+
+def shadowed(r, effect, meta=None):
+    s = gg.Sensor.pinhole(320, 240, F, effects=(effect,), meta=meta or {})
+    ideal = r.render(s, np.eye(4))
+    out = simulate(s, np.eye(4), render=r.render, rng=np.random.default_rng(0))
+    return ideal, out
+
+
+def test_stereo_shadow_strip_has_the_analytic_width(box_and_wall):
+    ideal, out = shadowed(box_and_wall, StereoShadow(baseline_m=B))   # second view at +x, half resolution
+    gone = (ideal.depth > 0) & (out.depth == 0)
+    assert not out.instance[gone].any() and not out.semantic[gone].any()
+    assert out.normal is None and np.isfinite(out.depth).all()
+    strip = F * B * (1 / Z_BOX - 1 / Z_WALL)            # 18.75 px of wall hidden left of the box
+    band = F * B / Z_WALL                                # 18.75 px at the left border: outside view 2
+    box_rows = np.flatnonzero((ideal.depth == np.float32(Z_BOX)).any(1))
+    widths, bands = [], []
+    for v in box_rows[5:-5]:
+        left_edge = np.flatnonzero(ideal.depth[v] == np.float32(Z_BOX))[0]
+        row = gone[v]
+        widths.append(row[left_edge - 40:left_edge].sum())
+        bands.append(row[:40].sum())
+        assert not row[left_edge:].any()                   # nothing hidden on the box or right of it
+    assert np.abs(np.array(widths) - strip).max() <= 1.5
+    assert np.abs(np.array(bands) - band).max() <= 1.0
+    # the same pair from a stereo calibration (X2 = X1 + T, T = (-b, 0, 0)) gives the same frame
+    stereo = {"stereo_R": np.eye(3), "stereo_T": np.array([-B, 0, 0])}
+    _, calibrated = shadowed(box_and_wall, StereoShadow(), stereo)
+    assert calibrated.depth.tobytes() == out.depth.tobytes()
+
+
+def test_stereo_shadow_without_baseline_or_renderer_is_a_clear_error(box_and_wall):
+    with pytest.raises(gg.ConfigError, match="no baseline"):
+        shadowed(box_and_wall, StereoShadow())
+    f = box_and_wall.render(gg.Sensor.pinhole(32, 24, 30.0), np.eye(4))
+    with pytest.raises(gg.ConfigError, match="needs a renderer"):
+        StereoShadow(baseline_m=0.05).apply(f, np.random.default_rng(0))
