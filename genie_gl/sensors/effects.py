@@ -10,14 +10,18 @@ pose, e.g. the second view of a stereo pair at low resolution).
 
 Published models offered by name (``depth_noise`` ``model:``):
 
-* ``kinect_nguyen2012`` — Nguyen, Izadi & Lovell 2012, Kinect axial σ_z = 0.0012 +
-  0.0019·(z − 0.4)² m (incidence ≤ 60°);
+* ``kinect_nguyen2012`` — Nguyen, Izadi & Lovell, "Modeling Kinect Sensor Noise for Improved
+  3D Reconstruction and Tracking", 3DIMPVT 2012, axial noise (their eqs. for σ_z(z, θ)):
+  σ_z = 0.0012 + 0.0019·(z − 0.4)² m for θ ≤ 60°, plus 0.0001/√z · θ²/(π/2 − θ)² m for
+  θ > 60° (θ the incidence angle, from the surface normals; ``incidence: false`` drops the term);
 * ``stereo`` — σ_z = z²·σ_d / (f·b) (RealSense D400 RMS model with σ_d = subpixel ≈ 0.08 px;
   Redwood/PrimeSense σ_d ≈ 1/36 px), plus quantisation of disparity to ``subpixel_step``;
 * ``tof_linear`` — σ_z = a + b·max(z − z0, 0) (Azure Kinect evaluation: 0.5 mm + 1 mm/m
   beyond 0.5 m).
 
-More effects, one module per topic, registered here too: ``stereo_shadow`` (shadow.py).
+More effects, one module per topic, registered here too: ``stereo_shadow`` (shadow.py);
+``lateral_noise``, ``incidence_dropout``, ``multipath`` (surface.py); ``flying_pixels``,
+``edge_dropout`` (edges.py).
 """
 from __future__ import annotations
 
@@ -28,6 +32,8 @@ import numpy as np
 
 from ..errors import ConfigError, did_you_mean
 from ..frame import Frame
+from .camera import Sensor
+from .geometry import incidence_angle
 
 
 class Effect:
@@ -86,26 +92,50 @@ class RangeLimits(Effect):
 @effect
 @dataclass
 class DepthNoise(Effect):
-    """Axial Gaussian depth noise from a published model; see the module docstring."""
+    """Axial Gaussian depth noise from a published model; see the module docstring.
+
+    Parameters
+    ----------
+    model : "kinect_nguyen2012", "stereo" or "tof_linear".
+    baseline_m : stereo baseline b, metres.
+    subpixel : σ_d in pixels (stereo).
+    subpixel_step : disparity quantisation step in pixels (0 = none).
+    a_m, b, z0_m : tof_linear coefficients.
+    incidence : kinect_nguyen2012 only: add Nguyen's θ > 60° term (needs normals; θ is
+        clamped to 85°, where the term, 0.029/√z m, already dwarfs the rest).
+    """
 
     name: ClassVar[str] = "depth_noise"
     draws: ClassVar[bool] = True
     model: str = "kinect_nguyen2012"
     baseline_m: float = 0.05
-    subpixel: float = 0.08          # σ_d in pixels (stereo)
-    subpixel_step: float = 0.0      # disparity quantisation step in pixels (0 = none)
-    a_m: float = 0.0005             # tof_linear
+    subpixel: float = 0.08
+    subpixel_step: float = 0.0
+    a_m: float = 0.0005
     b: float = 0.001
     z0_m: float = 0.5
+    incidence: bool = True
 
     def __post_init__(self) -> None:
         if self.model not in ("kinect_nguyen2012", "stereo", "tof_linear"):
             raise ConfigError(f"depth_noise.model: unknown model {self.model!r}; expected "
                               "kinect_nguyen2012, stereo or tof_linear")
 
-    def sigma(self, z: np.ndarray, f_px: float) -> np.ndarray:
+    @property
+    def needs_normals(self) -> bool:  # type: ignore[override]
+        return self.model == "kinect_nguyen2012" and self.incidence
+
+    def sigma(self, z: np.ndarray, f_px: float, theta: np.ndarray | None = None,
+              sensor: Sensor | None = None) -> np.ndarray:
+        """σ_z in metres at depths ``z`` (m) and incidence angles ``theta`` (rad, optional)."""
         if self.model == "kinect_nguyen2012":
-            return 0.0012 + 0.0019 * (z - 0.4) ** 2
+            s = 0.0012 + 0.0019 * (z - 0.4) ** 2
+            if self.incidence and theta is not None:
+                t = np.minimum(theta, np.radians(85.0))  # past the measured range the term diverges
+                steep = t > np.pi / 3
+                extra = 0.0001 / np.sqrt(np.maximum(z, 1e-6)) * t ** 2 / (np.pi / 2 - t) ** 2
+                s = s + np.where(steep, extra, 0.0)
+            return s
         if self.model == "stereo":
             return z * z * self.subpixel / (f_px * self.baseline_m)
         return self.a_m + self.b * np.maximum(z - self.z0_m, 0.0)
@@ -116,7 +146,8 @@ class DepthNoise(Effect):
         f = frame.sensor.fx
         noisy = z.copy()
         zv = z[valid]
-        noisy[valid] = zv + rng.standard_normal(zv.size) * self.sigma(zv, f)
+        theta = incidence_angle(frame)[valid] if self.needs_normals else None
+        noisy[valid] = zv + rng.standard_normal(zv.size) * self.sigma(zv, f, theta, frame.sensor)
         if self.model == "stereo" and self.subpixel_step > 0:
             fb = f * self.baseline_m
             disp = fb / np.maximum(noisy[valid], 1e-6)
@@ -146,4 +177,4 @@ def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
 
 
 # effects defined in their own topic modules register themselves on import
-from . import shadow  # noqa: E402,F401
+from . import edges, shadow, surface  # noqa: E402,F401

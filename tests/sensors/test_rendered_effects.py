@@ -1,4 +1,4 @@
-"""Effects that need the scene (stereo shadowing), rendered on llvmpipe through EGL."""
+"""Effects that need the scene (stereo shadowing, normals), rendered on llvmpipe through EGL."""
 import numpy as np
 import pytest
 import trimesh
@@ -6,7 +6,9 @@ import trimesh
 import genie_gl as gg
 from genie_gl.render import Renderer
 from genie_gl.sensors import simulate
+from genie_gl.sensors.effects import DepthNoise
 from genie_gl.sensors.shadow import StereoShadow
+from genie_gl.sensors.surface import IncidenceDropout
 
 pytestmark = pytest.mark.gl
 
@@ -59,3 +61,31 @@ def test_stereo_shadow_without_baseline_or_renderer_is_a_clear_error(box_and_wal
     f = box_and_wall.render(gg.Sensor.pinhole(32, 24, 30.0), np.eye(4))
     with pytest.raises(gg.ConfigError, match="needs a renderer"):
         StereoShadow(baseline_m=0.05).apply(f, np.random.default_rng(0))
+
+
+def test_rendered_normals_drive_incidence_effects():
+    a = np.radians(50.0)                                  # a plane turned 50° about y, 3 m away
+    scene = gg.Scene()
+    plane = trimesh.creation.box((8, 8, 0.01))
+    T = np.eye(4)
+    T[:3, :3] = [[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]]
+    T[:3, 3] = [0, 0, 3.0]
+    scene.add(plane, T)
+    s = gg.Sensor.pinhole(160, 120, 100.0, effects=(IncidenceDropout(max_angle_deg=55.0),))
+    noisy_sensor = gg.Sensor.pinhole(160, 120, 100.0, effects=(DepthNoise(),))
+    with Renderer(scene) as r:
+        ideal = r.render(s, np.eye(4))
+        out = simulate(s, np.eye(4), render=r.render, rng=np.random.default_rng(0))
+        noisy = simulate(noisy_sensor, np.eye(4), render=r.render, rng=np.random.default_rng(1))
+    n = -T[:3, 2]                                          # the face towards the camera
+    u, v = np.meshgrid(np.arange(160) - 79.5, np.arange(120) - 59.5)
+    rays = np.stack([u / 100.0, v / 100.0, np.ones_like(u)], -1)
+    theta = np.degrees(np.arccos(np.abs(rays @ n) / np.linalg.norm(rays, axis=-1)))
+    hit = ideal.depth > 0
+    clear = hit & (np.abs(theta - 55.0) > 0.05)
+    np.testing.assert_array_equal((out.depth == 0)[clear], (theta > 55.0)[clear])
+    assert 0.2 < (out.depth[hit] == 0).mean() < 0.8 and out.normal is None
+    # Nguyen's angle term raises the noise on the steep side only
+    err = noisy.depth.astype(np.float64) - ideal.depth
+    steep, mild = hit & (theta > 65), hit & (theta < 55)
+    assert np.std(err[steep]) > 1.5 * np.std(err[mild])
