@@ -15,13 +15,16 @@ Published models offered by name (``depth_noise`` ``model:``):
   σ_z = 0.0012 + 0.0019·(z − 0.4)² m for θ ≤ 60°, plus 0.0001/√z · θ²/(π/2 − θ)² m for
   θ > 60° (θ the incidence angle, from the surface normals; ``incidence: false`` drops the term);
 * ``stereo`` — σ_z = z²·σ_d / (f·b) (RealSense D400 RMS model with σ_d = subpixel ≈ 0.08 px;
-  Redwood/PrimeSense σ_d ≈ 1/36 px), plus quantisation of disparity to ``subpixel_step``;
+  Redwood/PrimeSense σ_d ≈ 1/36 px), plus quantisation of disparity to ``subpixel_step``.
+  Without ``subpixel`` in the profile, σ_d comes from the calibration's RMS reprojection error
+  (see :meth:`DepthNoise.sigma_d_px`); without ``baseline_m``, b comes from the calibration's
+  stereo T;
 * ``tof_linear`` — σ_z = a + b·max(z − z0, 0) (Azure Kinect evaluation: 0.5 mm + 1 mm/m
   beyond 0.5 m).
 
 More effects, one module per topic, registered here too: ``stereo_shadow`` (shadow.py);
 ``lateral_noise``, ``incidence_dropout``, ``multipath`` (surface.py); ``flying_pixels``,
-``edge_dropout`` (edges.py).
+``edge_dropout`` (edges.py); ``calibration_error`` (miscalibration.py).
 """
 from __future__ import annotations
 
@@ -89,6 +92,10 @@ class RangeLimits(Effect):
         return drop(frame, (z > 0) & ((z < self.min_m) | (z > self.max_m)))
 
 
+DEFAULT_BASELINE_M = 0.05   # stereo model without a baseline in the profile or calibration
+DEFAULT_SIGMA_D_PX = 0.08   # stereo model without σ_d in the profile or a calibration RMS
+
+
 @effect
 @dataclass
 class DepthNoise(Effect):
@@ -97,8 +104,10 @@ class DepthNoise(Effect):
     Parameters
     ----------
     model : "kinect_nguyen2012", "stereo" or "tof_linear".
-    baseline_m : stereo baseline b, metres.
-    subpixel : σ_d in pixels (stereo).
+    baseline_m : stereo baseline b; None = the calibration's (``sensor.meta["baseline_m"]``,
+        from its stereo T), else 0.05.
+    subpixel : σ_d in pixels (stereo); None = derived from the calibration, see
+        :meth:`sigma_d_px`.
     subpixel_step : disparity quantisation step in pixels (0 = none).
     a_m, b, z0_m : tof_linear coefficients.
     incidence : kinect_nguyen2012 only: add Nguyen's θ > 60° term (needs normals; θ is
@@ -108,8 +117,8 @@ class DepthNoise(Effect):
     name: ClassVar[str] = "depth_noise"
     draws: ClassVar[bool] = True
     model: str = "kinect_nguyen2012"
-    baseline_m: float = 0.05
-    subpixel: float = 0.08
+    baseline_m: float | None = None
+    subpixel: float | None = None
     subpixel_step: float = 0.0
     a_m: float = 0.0005
     b: float = 0.001
@@ -125,6 +134,28 @@ class DepthNoise(Effect):
     def needs_normals(self) -> bool:  # type: ignore[override]
         return self.model == "kinect_nguyen2012" and self.incidence
 
+    def baseline(self, sensor: Sensor | None = None) -> float:
+        """b in metres: the profile's, else the calibration's, else 0.05."""
+        if self.baseline_m is not None:
+            return float(self.baseline_m)
+        meta = sensor.meta if sensor is not None else {}
+        return float(meta.get("baseline_m", DEFAULT_BASELINE_M))
+
+    def sigma_d_px(self, sensor: Sensor | None = None) -> float:
+        """σ_d, the disparity noise in pixels: ``subpixel`` when the profile sets it; else from
+        the calibration's RMS reprojection error; else 0.08.
+
+        OpenCV's RMS (``calibrateCamera`` / ``stereoCalibrate``, FORMATS.md §3.1) is the root
+        mean square of the 2-D error vector, so one image coordinate has σ_x = rms/√2; the
+        disparity d = x_left − x_right is the difference of two such coordinates, so
+        σ_d = √2·σ_x = rms. (Were the RMS per coordinate, σ_d would be rms·√2.) This takes the
+        calibration's corner noise as a proxy for matching noise: a floor, not a datasheet.
+        """
+        if self.subpixel is not None:
+            return float(self.subpixel)
+        rms = (sensor.meta if sensor is not None else {}).get("reprojection_error_px")
+        return DEFAULT_SIGMA_D_PX if rms is None else float(rms)
+
     def sigma(self, z: np.ndarray, f_px: float, theta: np.ndarray | None = None,
               sensor: Sensor | None = None) -> np.ndarray:
         """σ_z in metres at depths ``z`` (m) and incidence angles ``theta`` (rad, optional)."""
@@ -137,7 +168,7 @@ class DepthNoise(Effect):
                 s = s + np.where(steep, extra, 0.0)
             return s
         if self.model == "stereo":
-            return z * z * self.subpixel / (f_px * self.baseline_m)
+            return z * z * self.sigma_d_px(sensor) / (f_px * self.baseline(sensor))
         return self.a_m + self.b * np.maximum(z - self.z0_m, 0.0)
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
@@ -149,7 +180,7 @@ class DepthNoise(Effect):
         theta = incidence_angle(frame)[valid] if self.needs_normals else None
         noisy[valid] = zv + rng.standard_normal(zv.size) * self.sigma(zv, f, theta, frame.sensor)
         if self.model == "stereo" and self.subpixel_step > 0:
-            fb = f * self.baseline_m
+            fb = f * self.baseline(frame.sensor)
             disp = fb / np.maximum(noisy[valid], 1e-6)
             disp = np.round(disp / self.subpixel_step) * self.subpixel_step
             noisy[valid] = np.where(disp > 0, fb / np.maximum(disp, 1e-12), 0.0)
@@ -177,4 +208,4 @@ def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
 
 
 # effects defined in their own topic modules register themselves on import
-from . import edges, shadow, surface  # noqa: E402,F401
+from . import edges, miscalibration, shadow, surface  # noqa: E402,F401

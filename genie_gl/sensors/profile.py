@@ -17,12 +17,14 @@ from .effects import build_effects
 def calibration_meta(calib: Calibration) -> dict:
     """What effects read from a calibration (``Sensor.meta``): ``calibration`` (its path),
     ``baseline_m``, ``stereo_R`` and ``stereo_T`` (``X2 = R·X1 + T``) when it is a stereo
-    calibration."""
+    calibration, ``reprojection_error_px`` (OpenCV's RMS) when it has one."""
     meta: dict = {"calibration": calib.source}
     if calib.T is not None:
         meta["baseline_m"] = calib.baseline_m
         meta["stereo_R"] = np.eye(3) if calib.R is None else np.array(calib.R, dtype=np.float64)
         meta["stereo_T"] = np.array(calib.T, dtype=np.float64)
+    if calib.reprojection_error is not None:
+        meta["reprojection_error_px"] = float(calib.reprojection_error)
     return meta
 
 

@@ -1,4 +1,4 @@
-"""The surface and edge effects against their models, on synthetic frames (no GL)."""
+"""The surface, edge and calibration effects against their models, on synthetic frames (no GL)."""
 import numpy as np
 import pytest
 
@@ -6,6 +6,7 @@ import genie_gl as gg
 from genie_gl.sensors import simulate
 from genie_gl.sensors.edges import EdgeDropout, FlyingPixels
 from genie_gl.sensors.effects import EFFECTS, DepthNoise
+from genie_gl.sensors.miscalibration import CalibrationError
 from genie_gl.sensors.surface import IncidenceDropout, LateralNoise, Multipath
 
 W, H = 200, 160          # 32 000 pixels: a σ measured over them is good to ~0.4 %
@@ -146,8 +147,42 @@ def test_multipath_biases_concave_corners_only():
     assert (grow[:, far] == 0).all()
 
 
+def test_calibration_error_resamples_into_the_true_camera():
+    cols = np.arange(W)[None].repeat(H, 0)
+    f = frame(np.full((H, W), 2.0), instance=cols + 1)
+    out = CalibrationError(sigma_f_px=4.0, sigma_c_px=3.0).apply(f, np.random.default_rng(7))
+    Kt = np.array(out.meta["calibration_error"]["K_true"])
+    K = f.sensor.K
+    assert not np.allclose(Kt, K)
+    rows = np.arange(H)[:, None].repeat(W, 1)
+    src = K[0, 0] / Kt[0, 0] * (cols - Kt[0, 2]) + K[0, 2]           # where each true pixel looks
+    src_v = K[1, 1] / Kt[1, 1] * (rows - Kt[1, 2]) + K[1, 2]
+    ok = out.depth > 0
+    np.testing.assert_array_equal(out.instance[ok], np.rint(src[ok]).astype(np.uint32) + 1)
+    np.testing.assert_array_equal(ok, (src > -0.5) & (src < W - 0.5) & (src_v > -0.5) & (src_v < H - 0.5))
+    np.testing.assert_array_equal(out.sensor.K, K)                       # the calibrated K is what we report
+    eff = CalibrationError(2.0, 0.5)
+    draws = np.array([eff.true_K(f.sensor, np.random.default_rng(i)) - K for i in range(2000)])
+    assert np.std(draws[:, 0, 0]) == pytest.approx(2.0, rel=0.05)
+    assert np.std(draws[:, 1, 2]) == pytest.approx(0.5, rel=0.05)
+
+
+def test_sigma_d_and_baseline_come_from_the_calibration_unless_the_profile_sets_them():
+    meta = {"reprojection_error_px": 0.3, "baseline_m": 0.06}
+    f = frame(np.full((H, W), 2.0), meta=meta)
+    eff = DepthNoise(model="stereo")
+    assert eff.sigma_d_px(f.sensor) == 0.3 and eff.baseline(f.sensor) == 0.06
+    out = eff.apply(f, np.random.default_rng(0))
+    assert np.std(out.depth.astype(np.float64) - 2.0) == pytest.approx(4.0 * 0.3 / (500.0 * 0.06), rel=0.05)
+    assert DepthNoise(model="stereo", subpixel=0.08).sigma_d_px(f.sensor) == 0.08
+    assert DepthNoise(model="stereo").sigma_d_px(gg.Sensor.pinhole(8, 8, 10.0)) == 0.08
+    d435 = gg.load_sensor("realsense_d435")
+    assert d435.meta["reprojection_error_px"] == 0.25
+    np.testing.assert_allclose(d435.meta["stereo_T"], [-0.05, 0, 0])
+
+
 ZERO = {"lateral_noise": dict(model="constant", sigma_px=0.0), "flying_pixels": dict(probability=0.0),
-        "multipath": dict(bias_m=0.0),
+        "multipath": dict(bias_m=0.0), "calibration_error": dict(sigma_f_px=0.0, sigma_c_px=0.0),
         "depth_noise": dict(model="tof_linear", a_m=0.0, b=0.0), "edge_dropout": dict(span_m=100.0),
         "incidence_dropout": dict(max_angle_deg=90.0), "range": {}}
 
