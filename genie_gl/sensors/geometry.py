@@ -45,11 +45,18 @@ def camera_points(frame: Frame) -> np.ndarray:
     return np.concatenate([xy * z[..., None], z[..., None]], axis=-1)
 
 
-def view_directions(sensor: Sensor) -> np.ndarray:
-    """(H, W, 3) float64 unit vectors from the camera centre through every pixel."""
-    xy = pixel_rays(sensor)
+@lru_cache(maxsize=16)
+def _directions(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
+    xy = _rays(w, h, K, dist)
     d = np.concatenate([xy, np.ones(xy.shape[:2] + (1,))], axis=-1)
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    d.setflags(write=False)
+    return d
+
+
+def view_directions(sensor: Sensor) -> np.ndarray:
+    """(H, W, 3) float64 unit vectors from the camera centre through every pixel; cached."""
+    return _directions(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
 
 
 def surface_normals(frame: Frame) -> np.ndarray:
@@ -84,6 +91,7 @@ def incidence_angle(frame: Frame) -> np.ndarray:
     """(H, W) float64 incidence angle θ in radians, in [0, π/2]: the angle between the surface
     normal and the ray back to the camera. 0 where there is no return or no normal."""
     n = surface_normals(frame)
-    cos = -(n * view_directions(frame.sensor)).sum(-1)
-    has = (frame.depth > 0) & (np.abs(n).sum(-1) > 0)
+    d = view_directions(frame.sensor)
+    cos = -(n[..., 0] * d[..., 0] + n[..., 1] * d[..., 1] + n[..., 2] * d[..., 2])
+    has = (frame.depth > 0) & ((n[..., 0] != 0) | (n[..., 1] != 0) | (n[..., 2] != 0))
     return np.where(has, np.arccos(np.clip(cos, 0.0, 1.0)), 0.0)

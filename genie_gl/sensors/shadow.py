@@ -22,7 +22,7 @@ from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
 from .effects import Effect, drop, effect, record
-from .geometry import camera_points
+from .geometry import pixel_rays
 
 
 @effect
@@ -108,16 +108,20 @@ class StereoShadow(Effect):
         second = self.second_from_first(frame.sensor)
         view = self.view_sensor(frame.sensor)
         depth2 = render_depth(view, frame.world_from_camera @ np.linalg.inv(second))
-        P = camera_points(frame)[valid]
-        Q = P @ second[:3, :3].T + second[:3, 3]
-        z2 = Q[:, 2]
+        idx = np.flatnonzero(valid)
+        z = frame.depth.ravel()[idx].astype(np.float64)
+        xy = pixel_rays(frame.sensor).reshape(-1, 2)
+        X, Y = xy[idx, 0] * z, xy[idx, 1] * z
+        R, t = second[:3, :3], second[:3, 3]
+        # one column at a time: an (N, 3) @ (3, 3) product is several times slower
+        x2, y2, z2 = (R[k, 0] * X + R[k, 1] * Y + R[k, 2] * z + t[k] for k in range(3))
         front = z2 > view.near_m
         zs = np.where(front, z2, 1.0)
         K = view.K
-        u = np.rint((K[0, 0] * Q[:, 0] + K[0, 1] * Q[:, 1]) / zs + K[0, 2])
-        v = np.rint(K[1, 1] * Q[:, 1] / zs + K[1, 2])
+        u = np.rint((K[0, 0] * x2 + K[0, 1] * y2) / zs + K[0, 2])
+        v = np.rint(K[1, 1] * y2 / zs + K[1, 2])
         inside = front & (u >= 0) & (u < view.width) & (v >= 0) & (v < view.height)
-        seen = np.zeros(len(P), dtype=np.float64)
+        seen = np.zeros(len(idx), dtype=np.float64)
         seen[inside] = depth2[v[inside].astype(np.intp), u[inside].astype(np.intp)]
         tol = self.tolerance_m + self.tolerance_rel * seen
         hidden = inside & (seen > 0) & (z2 > seen + tol)
