@@ -1,40 +1,45 @@
 """Per-pixel geometry of a frame for the effects: rays, camera-frame points, normals, incidence.
 
 All arrays are in the camera frame (OpenCV: x right, y down, z forward) and indexed like the
-frame's buffers (row v, column u). Pure numpy (and OpenCV for distorted rays): no GL.
+frame's buffers (row v, column u). Pure numpy (OpenCV, through distortion.py, for the rays
+of a distorted lens): no GL.
 """
 from __future__ import annotations
 
 from functools import lru_cache
 
-import cv2
 import numpy as np
 
 from ..frame import Frame
 from .camera import Sensor
-
-CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+from .distortion import undistorted_rays
 
 
 @lru_cache(maxsize=16)
-def _rays(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
+def _pinhole_rays(w: int, h: int, K: bytes) -> np.ndarray:
     Km = np.frombuffer(K).reshape(3, 3)
-    D = np.frombuffer(dist)
     u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    if np.any(D):
-        xy = cv2.undistortPoints(np.stack([u, v], -1).reshape(-1, 1, 2), Km, D, None, None, None,
-                                 CRITERIA).reshape(h, w, 2)
-    else:
-        y = (v - Km[1, 2]) / Km[1, 1]
-        xy = np.stack([(u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0], y], -1)
+    y = (v - Km[1, 2]) / Km[1, 1]
+    xy = np.stack([(u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0], y], -1)
+    xy.setflags(write=False)
+    return xy
+
+
+@lru_cache(maxsize=16)
+def _lens_rays(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
+    s = Sensor(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist))
+    xy = np.nan_to_num(undistorted_rays(s))   # pixels without a ray (past the fold): (0, 0)
     xy.setflags(write=False)
     return xy
 
 
 def pixel_rays(sensor: Sensor) -> np.ndarray:
     """(H, W, 2) float64: x and y of the camera-frame ray (z = 1) of every pixel (the
-    undistorted ray for a distorted sensor); cached per camera model, read-only."""
-    return _rays(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
+    undistorted ray for a distorted sensor, shared with its distortion maps); cached per
+    camera model, read-only."""
+    if sensor.is_pinhole:
+        return _pinhole_rays(sensor.width, sensor.height, sensor.K.tobytes())
+    return _lens_rays(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
 
 
 def camera_points(frame: Frame) -> np.ndarray:
@@ -47,7 +52,7 @@ def camera_points(frame: Frame) -> np.ndarray:
 
 @lru_cache(maxsize=16)
 def _directions(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
-    xy = _rays(w, h, K, dist)
+    xy = pixel_rays(Sensor(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist)))
     d = np.concatenate([xy, np.ones(xy.shape[:2] + (1,))], axis=-1)
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     d.setflags(write=False)

@@ -5,7 +5,7 @@ import pytest
 
 import genie_gl as gg
 from genie_gl.sensors import Calibration, read_calibration, simulate, write_calibration
-from genie_gl.sensors.distortion import distortion_maps
+from genie_gl.sensors.distortion import distortion_maps, project
 from genie_gl.sensors.effects import DepthNoise, RangeLimits, build_effects
 from genie_gl.sensors.placement import CoverageProblem, genetic_placement, greedy_placement
 
@@ -119,6 +119,18 @@ def test_distortion_maps_put_rays_where_cv2_projects_them(dist):
     assert np.abs(uv.reshape(-1, 2) - np.stack([u, v], -1)).max() < 0.1
     corners = [(0, 0), (0, 319), (239, 0), (239, 319)]
     assert all(m.valid[c] for c in corners)
+
+
+@pytest.mark.parametrize("dist", [[0.1, 0, 0, 0], [0.1, -0.05, 0.001, -0.002, 0.01],
+                                  [3.1306, 2.3249, 8.1e-5, -5.1e-5, 0.1304, 3.4587, 3.3501, 0.6629],
+                                  [-0.2, 0.05, 0, 0, 0, 0, 0, 0, 0.001, 0, -0.001, 0.002],
+                                  [0.1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0.01, -0.02]])
+def test_numpy_lens_projection_equals_cv2(dist):
+    xy = np.random.default_rng(0).uniform(-0.6, 0.6, (5000, 2))
+    pts = np.concatenate([xy, np.ones((len(xy), 1))], 1).reshape(-1, 1, 3)
+    for Km in (K, K + [[0, 0.5, 0], [0, 0, 0], [0, 0, 0]]):     # a skewed K goes through cv2
+        ref = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), Km, np.array(dist))[0].reshape(-1, 2)
+        np.testing.assert_allclose(project(xy, Km, np.array(dist)), ref, atol=1e-9)
 
 
 def test_strong_barrel_distortion_drops_what_the_model_folds():
