@@ -89,3 +89,20 @@ def test_rendered_normals_drive_incidence_effects():
     err = noisy.depth.astype(np.float64) - ideal.depth
     steep, mild = hit & (theta > 65), hit & (theta < 55)
     assert np.std(err[steep]) > 1.5 * np.std(err[mild])
+
+
+def test_structured_light_profile_end_to_end():
+    s = gg.load_sensor("zivid2_m70")
+    scene = gg.Scene()
+    scene.add(trimesh.creation.box((3, 3, 0.02)), [0, 0, 0.91])        # wall face at 0.9 m
+    scene.add(trimesh.creation.box((0.1, 0.1, 0.1)), [0, 0, 0.65])     # a cube 0.3 m before it
+    ideal_sensor = gg.Sensor(s.width, s.height, s.K, s.dist)
+    with Renderer(scene) as r:
+        out = simulate(s, np.eye(4), render=r.render, rng=np.random.default_rng(0))
+        ideal = simulate(ideal_sensor, np.eye(4), render=r.render, rng=np.random.default_rng(0))
+    wall = (ideal.depth > 0.85) & (out.depth > 0)
+    assert wall.sum() > 10_000 and np.isfinite(out.depth).all()
+    expected = 0.9 ** 2 * 0.023 / (s.fx * 0.135)                       # 0.1 mm
+    assert np.std(out.depth[wall].astype(np.float64) - ideal.depth[wall]) == pytest.approx(expected, rel=0.05)
+    # the projector, 135 mm to the right, cannot light a strip left of the cube
+    assert out.meta["stereo_shadow"]["occluded"] > 0 and out.meta["stereo_shadow"]["outside"] > 0
