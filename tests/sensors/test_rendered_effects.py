@@ -1,12 +1,15 @@
-"""Effects that need the scene (stereo shadowing, normals), rendered on llvmpipe through EGL."""
+"""Effects that need the scene (stereo shadowing, normals) and visibility placement, rendered
+on llvmpipe through EGL."""
 import numpy as np
 import pytest
 import trimesh
 
 import genie_gl as gg
+from genie_gl.layout.model import Layout, Region, RegionType
 from genie_gl.render import Renderer
 from genie_gl.sensors import simulate
 from genie_gl.sensors.effects import DepthNoise
+from genie_gl.sensors.placement import VisibilityProblem
 from genie_gl.sensors.shadow import StereoShadow
 from genie_gl.sensors.surface import IncidenceDropout
 
@@ -106,3 +109,28 @@ def test_structured_light_profile_end_to_end():
     assert np.std(out.depth[wall].astype(np.float64) - ideal.depth[wall]) == pytest.approx(expected, rel=0.05)
     # the projector, 135 mm to the right, cannot light a strip left of the cube
     assert out.meta["stereo_shadow"]["occluded"] > 0 and out.meta["stereo_shadow"]["outside"] > 0
+
+
+def test_a_wall_lowers_visibility_coverage_below_circle_coverage():
+    types = {"work": RegionType("work", final=True, asset_group="pallets")}
+    layout = Layout.from_regions([Region(7, 1, 4, 4, "work")], types, (0, 0, 12, 6))
+    fits = {}
+    for wall in (False, True):
+        scene = gg.Scene()
+        scene.add(trimesh.creation.box((12, 6, 0.1)), [6, 3, -0.05])
+        if wall:                                           # 3 m high, between x = 5.9 and 6.1
+            scene.add(trimesh.creation.box((0.2, 6, 3.0)), [6.0, 3, 1.5])
+        with Renderer(scene) as r:
+            problem = VisibilityProblem(layout, 6.0, render=r.render)
+            pose, = gg.place_sensors(layout, None, n=1, method="greedy", fitness="visibility", render=r.render)
+        assert pose[0, 3] > 6.1 or not wall                   # behind the wall it sees nothing
+        k = np.array([int(np.argmin(((problem.candidates - [3.5, 3.5]) ** 2).sum(1)))])
+        circle = float(problem.weight[problem.disc[k].any(0)].sum()) / problem.total
+        fits[wall] = (circle, problem.fitness(k))
+    (circle, open_vis), (circle_w, walled_vis) = fits[False], fits[True]
+    assert circle == circle_w and circle > 0.5            # the disc reaches into the region
+    assert open_vis > 0.9 * circle                        # seen from 3.5 m with nothing in the way
+    assert walled_vis < 0.1 * circle                      # the wall hides it
+    with Renderer(gg.Scene()) as r:
+        with pytest.raises(gg.ConfigError, match="did you mean 'visibility'"):
+            gg.place_sensors(layout, None, n=1, fitness="visibilty", render=r.render)
