@@ -6,6 +6,13 @@ union of the discs (weights per region type; background 0 by default). Elitism k
 chromosome, so the best fitness never decreases across generations. The result becomes camera
 poses: each camera at ``mount_height_m`` above its disc's centre, turned towards the weighted
 centroid of what its disc covers and tilted down to it.
+
+``fitness="visibility"`` counts what the cameras really see instead of discs: each candidate's
+camera (the pose above) renders a low-resolution depth image of the scene (80x60 by default),
+its returns are unprojected, and a raster cell of the disc counts as covered when a return
+lands in it (on the floor or on whatever stands there). Racks and walls so shadow coverage,
+and the field of view matters. The render comes in as a function (``Renderer(scene).render``),
+so placement never imports the renderer.
 """
 from __future__ import annotations
 
@@ -13,9 +20,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout
 from . import coverage
+
+
+FITNESS = ("circle", "visibility")
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,11 +59,12 @@ class CoverageProblem:
         self.candidates = np.stack(np.meshgrid(cx, cy), -1).reshape(-1, 2)
         keep = self.weight > 0
         self.px, self.weight = self.px[keep], self.weight[keep]
-        index = np.full(H * W, -1, np.int64)
-        index[keep] = np.arange(int(keep.sum()))
+        self.shape, self.origin_xy, self.resolution_m = (H, W), (x0, y0), float(resolution_m)
+        self.cell = np.full(H * W, -1, np.int64)        # raster cell (row-major) -> weighted index
+        self.cell[np.flatnonzero(keep)] = np.arange(int(keep.sum()))
         # which weighted cells each candidate's disc covers, as a sparse matrix (CSR)
         self.indptr, self.indices = coverage.disc_cells(self.candidates[:, 0].copy(), self.candidates[:, 1].copy(),
-                                                        index.reshape(H, W), float(x0), float(y0),
+                                                        self.cell.reshape(H, W), float(x0), float(y0),
                                                         float(resolution_m), float(radius_m))
         self.total = float(self.weight.sum()) or 1.0
         self._stamp, self._mark = np.zeros(len(self.weight), np.int64), 0
@@ -66,6 +77,12 @@ class CoverageProblem:
         dense[rows, self.indices] = True
         return dense
 
+    def set_cover(self, cover: np.ndarray) -> None:
+        """Replace what each candidate covers by a dense (candidates, weighted cells) matrix."""
+        rows, cols = np.nonzero(cover)
+        self.indptr = np.r_[0, np.cumsum(np.bincount(rows, minlength=len(self.candidates)))].astype(np.int64)
+        self.indices = cols.astype(np.int64)
+
     def fitnesses(self, population: np.ndarray) -> np.ndarray:
         """Covered weight share of each chromosome (rows of candidate indices)."""
         w, self._mark = coverage.union_weights(np.ascontiguousarray(population, np.int64), self.indptr,
@@ -74,6 +91,69 @@ class CoverageProblem:
 
     def fitness(self, chrom: np.ndarray) -> float:
         return float(self.fitnesses(np.asarray(chrom).reshape(1, -1))[0])
+
+
+class VisibilityProblem(CoverageProblem):
+    """Weighted coverage by what each candidate camera sees in a low-resolution depth render.
+
+    ``cover[k, j]`` is True when a return of candidate k's render lands in weighted cell j
+    and j lies in k's disc (so visibility coverage never exceeds circle coverage); ``disc``
+    keeps the circle model's cover, for comparison. Fitness, greedy and genetic search are those of
+    :class:`CoverageProblem`.
+
+    Parameters
+    ----------
+    render : ``render(sensor, pose, *, depth_only) -> Frame`` (e.g. ``Renderer(scene).render``).
+    sensor : the camera (its pinhole K, scaled to fit ``size``); None: a 87°x68° pinhole.
+    size : (width, height) bound of the low-resolution render, pixels.
+    """
+
+    def __init__(self, layout: Layout, radius_m: float, *, render, sensor=None, mount_height_m: float = 3.5,
+                 size: tuple[int, int] = (80, 60), resolution_m: float = 0.5, step_m: float = 1.0,
+                 weights: dict[str, float] | None = None) -> None:
+        super().__init__(layout, radius_m, resolution_m, step_m, weights)
+        self.disc = self.cover
+        self.view = low_resolution(sensor, size)
+        self.poses = poses_from_centres(self, self.candidates, radius_m, mount_height_m)
+        cover = np.zeros_like(self.disc)
+        for k, pose in enumerate(self.poses):
+            depth = render(self.view, pose, depth_only=True).depth
+            cover[k, self.seen(depth, pose)] = True
+        self.set_cover(cover & self.disc)
+
+    def seen(self, depth: np.ndarray, pose: np.ndarray) -> np.ndarray:
+        """Weighted-cell indices hit by the returns of ``depth`` (the view's) taken at ``pose``."""
+        v, u = np.nonzero(depth > 0)
+        z = depth[v, u].astype(np.float64)
+        K = self.view.K
+        y = (v - K[1, 2]) / K[1, 1]
+        x = (u - K[0, 2] - K[0, 1] * y) / K[0, 0]
+        world = np.stack([x * z, y * z, z], 1) @ pose[:3, :3].T + pose[:3, 3]
+        H, W = self.shape
+        col = np.floor((world[:, 0] - self.origin_xy[0]) / self.resolution_m).astype(np.intp)
+        row = np.floor((world[:, 1] - self.origin_xy[1]) / self.resolution_m).astype(np.intp)
+        inside = (col >= 0) & (col < W) & (row >= 0) & (row < H)
+        cells = self.cell[row[inside] * W + col[inside]]
+        return np.unique(cells[cells >= 0])
+
+
+def low_resolution(sensor, size: tuple[int, int]):
+    """The pinhole camera of ``sensor`` scaled to fit in ``size`` (width, height)."""
+    from .camera import Sensor
+
+    w_max, h_max = int(size[0]), int(size[1])
+    if w_max < 2 or h_max < 2:
+        raise ConfigError(f"placement: visibility size must be at least 2x2, got {size}")
+    if sensor is None:  # a D435-like field of view
+        return Sensor.pinhole(w_max, h_max, w_max / 2 / np.tan(np.radians(43.5)))
+    s = min(w_max / sensor.width, h_max / sensor.height)
+    w, h = max(2, int(round(sensor.width * s))), max(2, int(round(sensor.height * s)))
+    K = sensor.K.copy()
+    K[0, :] *= w / sensor.width
+    K[1, :] *= h / sensor.height
+    K[0, 2] = (sensor.cx + 0.5) * w / sensor.width - 0.5
+    K[1, 2] = (sensor.cy + 0.5) * h / sensor.height - 0.5
+    return Sensor(w, h, K, near_m=sensor.near_m, far_m=sensor.far_m, name=f"{sensor.name}-placement")
 
 
 def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Generator, population: int = 32,
@@ -144,9 +224,26 @@ def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: 
 
 def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, radius_m: float = 6.0,
                   mount_height_m: float = 3.5, method: str = "genetic",
-                  weights: dict[str, float] | None = None) -> list[np.ndarray]:
-    """Place ``n`` cameras over ``layout``; returns (4, 4) float64 world_from_camera poses."""
-    problem = CoverageProblem(layout, radius_m, weights=weights)
+                  weights: dict[str, float] | None = None, fitness: str = "circle", render=None,
+                  visibility_size: tuple[int, int] = (80, 60)) -> list[np.ndarray]:
+    """Place ``n`` cameras over ``layout``; returns (4, 4) float64 world_from_camera poses.
+
+    ``fitness`` is "circle" (discs of ``radius_m``) or "visibility" (what each camera sees in
+    a ``visibility_size`` depth render made by ``render``, e.g. ``Renderer(scene).render``)::
+
+        with gg.Renderer(scene) as r:
+            poses = gg.place_sensors(layout, sensor, n=8, fitness="visibility", render=r.render)
+    """
+    if fitness == "circle":
+        problem = CoverageProblem(layout, radius_m, weights=weights)
+    elif fitness == "visibility":
+        if render is None:
+            raise ConfigError("placement fitness 'visibility' needs render=, e.g. Renderer(scene).render")
+        problem = VisibilityProblem(layout, radius_m, render=render, sensor=sensor,
+                                    mount_height_m=mount_height_m, size=visibility_size, weights=weights)
+    else:
+        raise ConfigError(f"placement fitness {fitness!r} is unknown{did_you_mean(fitness, FITNESS)}; "
+                          f"expected {' or '.join(FITNESS)}")
     rng = np.random.default_rng(seed)
     if method == "genetic":
         result = genetic_placement(problem, n, rng=rng)

@@ -4,13 +4,28 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from ..errors import ConfigError
 from ..resources import resolve
-from .calibration import read_calibration
+from .calibration import Calibration, read_calibration
 from .camera import Sensor
 from .effects import build_effects
+
+
+def calibration_meta(calib: Calibration) -> dict:
+    """What effects read from a calibration (``Sensor.meta``): ``calibration`` (its path),
+    ``baseline_m``, ``stereo_R`` and ``stereo_T`` (``X2 = R·X1 + T``) when it is a stereo
+    calibration, ``reprojection_error_px`` (OpenCV's RMS) when it has one."""
+    meta: dict = {"calibration": calib.source}
+    if calib.T is not None:
+        meta["baseline_m"] = calib.baseline_m
+        meta["stereo_R"] = np.eye(3) if calib.R is None else np.array(calib.R, dtype=np.float64)
+        meta["stereo_T"] = np.array(calib.T, dtype=np.float64)
+    if calib.reprojection_error is not None:
+        meta["reprojection_error_px"] = float(calib.reprojection_error)
+    return meta
 
 
 def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m: float = 1.0e4) -> Sensor:
@@ -19,7 +34,8 @@ def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m:
     text = Path(path).read_text()
     if "opencv-matrix" in text or text.lstrip().startswith("<?xml"):
         calib = read_calibration(path)
-        return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem)
+        return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem,
+                      meta=calibration_meta(calib))
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -28,8 +44,9 @@ def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m:
         raise ConfigError(f"{path}: a sensor profile needs a 'calibration' field (an OpenCV calibration file)")
     calib = read_calibration(Path(path).parent / data["calibration"])
     effects = build_effects(data.get("effects") or [], str(path))
-    meta = {"profile": str(path), "calibration": calib.source}
-    if calib.baseline_m is not None:
-        meta["baseline_m"] = calib.baseline_m
+    meta = calibration_meta(calib)
+    meta["profile"] = str(path)
+    if calib.T is None and data.get("baseline_m") is not None:
+        meta["baseline_m"] = float(data["baseline_m"])
     return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, effects,
                   name=str(data.get("name", Path(path).stem)), meta=meta)

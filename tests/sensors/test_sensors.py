@@ -5,7 +5,7 @@ import pytest
 
 import genie_gl as gg
 from genie_gl.sensors import Calibration, read_calibration, simulate, write_calibration
-from genie_gl.sensors.distortion import distortion_maps
+from genie_gl.sensors.distortion import distortion_maps, project
 from genie_gl.sensors.effects import DepthNoise, RangeLimits, build_effects
 from genie_gl.sensors.placement import CoverageProblem, genetic_placement, greedy_placement
 
@@ -121,6 +121,18 @@ def test_distortion_maps_put_rays_where_cv2_projects_them(dist):
     assert all(m.valid[c] for c in corners)
 
 
+@pytest.mark.parametrize("dist", [[0.1, 0, 0, 0], [0.1, -0.05, 0.001, -0.002, 0.01],
+                                  [3.1306, 2.3249, 8.1e-5, -5.1e-5, 0.1304, 3.4587, 3.3501, 0.6629],
+                                  [-0.2, 0.05, 0, 0, 0, 0, 0, 0, 0.001, 0, -0.001, 0.002],
+                                  [0.1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0.01, -0.02]])
+def test_numpy_lens_projection_equals_cv2(dist):
+    xy = np.random.default_rng(0).uniform(-0.6, 0.6, (5000, 2))
+    pts = np.concatenate([xy, np.ones((len(xy), 1))], 1).reshape(-1, 1, 3)
+    for Km in (K, K + [[0, 0.5, 0], [0, 0, 0], [0, 0, 0]]):     # a skewed K goes through cv2
+        ref = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), Km, np.array(dist))[0].reshape(-1, 2)
+        np.testing.assert_allclose(project(xy, Km, np.array(dist)), ref, atol=1e-9)
+
+
 def test_strong_barrel_distortion_drops_what_the_model_folds():
     s = gg.Sensor(320, 240, np.array([[150.0, 0, 160], [0, 150.0, 120], [0, 0, 1]]), [-0.5, 0, 0, 0, 0])
     m = distortion_maps(s)
@@ -130,10 +142,16 @@ def test_strong_barrel_distortion_drops_what_the_model_folds():
 
 
 def test_shipped_profiles_load():
-    for name in ("ideal_pinhole", "realsense_d435", "azure_kinect_nfov", "kinect_v2"):
+    for name in ("ideal_pinhole", "realsense_d435", "azure_kinect_nfov", "kinect_v2", "zivid2_m70"):
         s = gg.load_sensor(name)
         assert s.width > 0 and s.fx > 0
     assert gg.load_sensor("realsense_d435").meta["baseline_m"] == pytest.approx(0.05)
+    zivid = gg.load_sensor("zivid2_m70")
+    assert zivid.size == (972, 600) and zivid.meta["baseline_m"] == pytest.approx(0.135)
+    assert np.degrees(2 * np.arctan(486 / zivid.fx)) == pytest.approx(38.8, abs=0.1)
+    assert [e.name for e in zivid.effects] == ["range", "stereo_shadow", "incidence_dropout", "depth_noise"]
+    # 60 um point precision at 0.7 m, the figure the profile's sigma_d was derived from
+    assert zivid.effects[-1].sigma(np.array([0.7]), zivid.fx, None, zivid)[0] == pytest.approx(60e-6, rel=0.02)
     with pytest.raises(gg.ConfigError, match="did you mean 'kinect_v2'"):
         gg.load_sensor("kinect_v3")
 

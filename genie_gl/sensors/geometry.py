@@ -1,0 +1,102 @@
+"""Per-pixel geometry of a frame for the effects: rays, camera-frame points, normals, incidence.
+
+All arrays are in the camera frame (OpenCV: x right, y down, z forward) and indexed like the
+frame's buffers (row v, column u). Pure numpy (OpenCV, through distortion.py, for the rays
+of a distorted lens): no GL.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from ..frame import Frame
+from .camera import Sensor
+from .distortion import undistorted_rays
+
+
+@lru_cache(maxsize=16)
+def _pinhole_rays(w: int, h: int, K: bytes) -> np.ndarray:
+    Km = np.frombuffer(K).reshape(3, 3)
+    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    y = (v - Km[1, 2]) / Km[1, 1]
+    xy = np.stack([(u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0], y], -1)
+    xy.setflags(write=False)
+    return xy
+
+
+@lru_cache(maxsize=16)
+def _lens_rays(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
+    s = Sensor(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist))
+    xy = np.nan_to_num(undistorted_rays(s))   # pixels without a ray (past the fold): (0, 0)
+    xy.setflags(write=False)
+    return xy
+
+
+def pixel_rays(sensor: Sensor) -> np.ndarray:
+    """(H, W, 2) float64: x and y of the camera-frame ray (z = 1) of every pixel (the
+    undistorted ray for a distorted sensor, shared with its distortion maps); cached per
+    camera model, read-only."""
+    if sensor.is_pinhole:
+        return _pinhole_rays(sensor.width, sensor.height, sensor.K.tobytes())
+    return _lens_rays(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
+
+
+def camera_points(frame: Frame) -> np.ndarray:
+    """(H, W, 3) float64: the camera-frame point of every pixel, depth · (x, y, 1); zero where
+    there is no return."""
+    z = frame.depth.astype(np.float64)
+    xy = pixel_rays(frame.sensor)
+    return np.concatenate([xy * z[..., None], z[..., None]], axis=-1)
+
+
+@lru_cache(maxsize=16)
+def _directions(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
+    xy = pixel_rays(Sensor(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist)))
+    d = np.concatenate([xy, np.ones(xy.shape[:2] + (1,))], axis=-1)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    d.setflags(write=False)
+    return d
+
+
+def view_directions(sensor: Sensor) -> np.ndarray:
+    """(H, W, 3) float64 unit vectors from the camera centre through every pixel; cached."""
+    return _directions(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
+
+
+def surface_normals(frame: Frame) -> np.ndarray:
+    """(H, W, 3) float64 unit normals facing the camera; zero where unknown.
+
+    ``frame.normal`` (the renderer's exact face normals) when the frame has it; otherwise
+    estimated from the depth image by central differences of the camera-frame points (pixels
+    on the border or beside a hole get no normal). The estimate is a fallback for frames made
+    elsewhere: ``simulate`` renders normals for every effect that declares ``needs_normals``.
+    """
+    if frame.normal is not None:
+        return frame.normal.astype(np.float64)
+    P = camera_points(frame)
+    valid = frame.depth > 0
+    n = np.zeros_like(P)
+    du = P[1:-1, 2:] - P[1:-1, :-2]
+    dv = P[2:, 1:-1] - P[:-2, 1:-1]
+    c = np.cross(du, dv)
+    ok = (valid[1:-1, 2:] & valid[1:-1, :-2] & valid[2:, 1:-1] & valid[:-2, 1:-1] & valid[1:-1, 1:-1])
+    length = np.linalg.norm(c, axis=-1)
+    ok &= length > 0
+    c[ok] /= length[ok, None]
+    c[~ok] = 0
+    # face the camera: the normal points against the viewing ray
+    flip = (c * P[1:-1, 1:-1]).sum(-1) > 0
+    c[flip] *= -1
+    n[1:-1, 1:-1] = c
+    return n
+
+
+def incidence_angle(frame: Frame) -> np.ndarray:
+    """(H, W) float64 incidence angle θ in radians, in [0, π/2]: the angle between the surface
+    normal and the ray back to the camera. 0 where there is no return or no normal."""
+    n = surface_normals(frame)
+    d = view_directions(frame.sensor)
+    cos = -(n[..., 0] * d[..., 0] + n[..., 1] * d[..., 1] + n[..., 2] * d[..., 2])
+    has = (frame.depth > 0) & ((n[..., 0] != 0) | (n[..., 1] != 0) | (n[..., 2] != 0))
+    return np.where(has, np.arccos(np.clip(cos, 0.0, 1.0)), 0.0)

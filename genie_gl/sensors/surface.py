@@ -1,0 +1,171 @@
+"""Effects that depend on the surface's orientation: lateral noise, incidence-angle dropout and
+a simple multipath bias in concave corners. They read the normals ``simulate`` renders for
+them (``needs_normals``); a frame without normals gets normals estimated from its depth.
+
+* ``lateral_noise`` — Nguyen, Izadi & Lovell 2012 (3DIMPVT), lateral noise of the Kinect:
+  σ_L(θ) = 0.8 + 0.035·θ/(π/2 − θ) pixels (θ the incidence angle), i.e. σ_L·z/f metres.
+* ``incidence_dropout`` — no return beyond a maximum incidence angle (too little light comes
+  back from grazing surfaces, and structured-light patterns smear there).
+* ``multipath`` — off unless listed: ToF light that bounces off a second surface before
+  returning lengthens the measured path, so concave corners read too far.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..frame import Frame
+from .effects import Effect, drop, effect, record
+from .geometry import camera_points, incidence_angle, surface_normals
+
+
+def nguyen_lateral_px(theta: np.ndarray) -> np.ndarray:
+    """Nguyen et al. 2012 lateral σ in pixels at incidence ``theta`` (radians, < π/2)."""
+    return 0.8 + 0.035 * theta / (np.pi / 2 - theta)
+
+
+@effect
+@dataclass
+class LateralNoise(Effect):
+    """Each pixel reports the depth of a point displaced across the image by N(0, σ_L²) in u
+    and in v (a jittered sampling position; depth, ids and normal move together, colour does
+    not).
+
+    The depth at the displaced position is interpolated bilinearly when its four neighbours
+    are one surface (all valid, one instance, depth span under ``continuity_rel``·z) and taken
+    from the nearest pixel otherwise, so silhouettes jitter and never blend (blending is
+    ``flying_pixels``' job). Pixels without a return move with σ_L(0) and may pick one up:
+    edges jitter both ways.
+
+    Parameters
+    ----------
+    model : "nguyen2012" (σ_L(θ) above, θ clamped to ``max_angle_deg``) or "constant".
+    sigma_px : σ_L of the constant model, pixels.
+    max_angle_deg : clamp of θ for the Nguyen model (it diverges at 90°).
+    continuity_rel : relative depth span below which four neighbours count as one surface.
+    """
+
+    name: ClassVar[str] = "lateral_noise"
+    draws: ClassVar[bool] = True
+    needs_normals: ClassVar[bool] = True
+    model: str = "nguyen2012"
+    sigma_px: float = 0.8
+    max_angle_deg: float = 80.0
+    continuity_rel: float = 0.1
+
+    def __post_init__(self) -> None:
+        if self.model not in ("nguyen2012", "constant"):
+            raise ConfigError(f"lateral_noise.model: unknown model {self.model!r}; "
+                              "expected nguyen2012 or constant")
+        if not 0 <= self.max_angle_deg < 90:
+            raise ConfigError(f"lateral_noise.max_angle_deg: expected 0 <= angle < 90, "
+                              f"got {self.max_angle_deg}")
+
+    def sigma(self, theta: np.ndarray) -> np.ndarray:
+        """σ_L in pixels at incidence angles ``theta`` (radians)."""
+        if self.model == "constant":
+            return np.full(np.shape(theta), float(self.sigma_px))
+        return nguyen_lateral_px(np.minimum(theta, np.radians(self.max_angle_deg)))
+
+    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+        H, W = frame.depth.shape
+        s = self.sigma(incidence_angle(frame))          # 0 rad (σ_L(0)) where no return
+        v, u = np.mgrid[0:H, 0:W].astype(np.float64)
+        su = np.clip(u + rng.standard_normal((H, W)) * s, 0, W - 1)
+        sv = np.clip(v + rng.standard_normal((H, W)) * s, 0, H - 1)
+        ui, vi = np.rint(su).astype(np.intp), np.rint(sv).astype(np.intp)
+        z = frame.depth.astype(np.float64)
+        depth = z[vi, ui]
+        if W > 1 and H > 1:  # bilinear where the four neighbours are one surface
+            u0 = np.minimum(np.floor(su).astype(np.intp), W - 2)
+            v0 = np.minimum(np.floor(sv).astype(np.intp), H - 2)
+            fu, fv = su - u0, sv - v0
+            corners = [(v0, u0), (v0, u0 + 1), (v0 + 1, u0), (v0 + 1, u0 + 1)]
+            zc = np.stack([z[c] for c in corners])
+            ids = np.stack([frame.instance[c] for c in corners])
+            one = ((zc > 0).all(0) & (ids == ids[0]).all(0)
+                   & (zc.max(0) - zc.min(0) <= self.continuity_rel * zc.min(0)))
+            bil = (zc[0] * (1 - fu) * (1 - fv) + zc[1] * fu * (1 - fv)
+                   + zc[2] * (1 - fu) * fv + zc[3] * fu * fv)
+            depth = np.where(one, bil, depth)
+        normal = None if frame.normal is None else frame.normal[vi, ui]
+        out = frame.replace(depth=depth.astype(np.float32), instance=frame.instance[vi, ui],
+                            semantic=frame.semantic[vi, ui], normal=normal)
+        return out
+
+
+@effect
+@dataclass
+class IncidenceDropout(Effect):
+    """No return where the incidence angle exceeds ``max_angle_deg``."""
+
+    name: ClassVar[str] = "incidence_dropout"
+    needs_normals: ClassVar[bool] = True
+    max_angle_deg: float = 75.0
+
+    def __post_init__(self) -> None:
+        if not 0 < self.max_angle_deg <= 90:
+            raise ConfigError(f"incidence_dropout.max_angle_deg: expected 0 < angle <= 90, "
+                              f"got {self.max_angle_deg}")
+
+    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+        steep = (frame.depth > 0) & (incidence_angle(frame) > np.radians(self.max_angle_deg))
+        out = drop(frame, steep) if steep.any() else frame
+        return record(out, self.name, dropped=int(steep.sum()))
+
+
+# offsets of the multipath neighbourhood: 8 directions at the full and at half the radius
+_DIRECTIONS = np.array([(np.cos(a), np.sin(a)) for a in np.arange(8) * np.pi / 4])
+
+
+@effect
+@dataclass
+class Multipath(Effect):
+    """A small positive range bias in concave corners (ToF multipath), deterministic.
+
+    The model, simple on purpose: sample 16 neighbours of each pixel (8 directions at
+    ``radius_px`` and at half of it); a neighbour "faces" the pixel when it lies in front of
+    the pixel's tangent plane (on the side its normal points to) by more than
+    ``min_offset_m`` — in a concave corner the other wall does, on a plane or a convex edge
+    nothing does. The range grows by ``bias_m`` times the share of facing neighbours (so at
+    most ``bias_m``, about half of it right in a corner, nothing beyond ``radius_px`` from
+    one); the depth grows by the same factor along the ray. Real multipath depends on
+    reflectances and on the whole scene; this captures its sign and where it appears.
+    """
+
+    name: ClassVar[str] = "multipath"
+    needs_normals: ClassVar[bool] = True
+    bias_m: float = 0.01
+    radius_px: int = 8
+    min_offset_m: float = 0.01
+
+    def __post_init__(self) -> None:
+        if int(self.radius_px) < 1:
+            raise ConfigError(f"multipath.radius_px: expected >= 1, got {self.radius_px}")
+
+    def share(self, frame: Frame) -> np.ndarray:
+        """(H, W) float64: share of the 16 neighbours that face each pixel (0 where no return)."""
+        P = camera_points(frame)
+        n = surface_normals(frame)
+        valid = frame.depth > 0
+        H, W = valid.shape
+        r = int(self.radius_px)
+        pad = ((r, r), (r, r), (0, 0))
+        Pp, Vp = np.pad(P, pad), np.pad(valid, r)
+        count = np.zeros((H, W))
+        offsets = np.rint(np.concatenate([_DIRECTIONS * r, _DIRECTIONS * (r / 2)])).astype(int)
+        for dx, dy in offsets:
+            Q = Pp[r + dy:r + dy + H, r + dx:r + dx + W]
+            ok = Vp[r + dy:r + dy + H, r + dx:r + dx + W]
+            count += ok & (((Q - P) * n).sum(-1) > self.min_offset_m)
+        return np.where(valid, count / len(offsets), 0.0)
+
+    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+        c = self.share(frame)
+        z = frame.depth.astype(np.float64)
+        rng_len = np.linalg.norm(camera_points(frame), axis=-1)
+        grow = np.where(c > 0, 1.0 + self.bias_m * c / np.maximum(rng_len, 1e-9), 1.0)
+        return frame.replace(depth=(z * grow).astype(np.float32))
