@@ -38,6 +38,7 @@ _EXPORTS: dict[str, str] = {
     "Mesh": "genie_gl.scene.model",
     "Instance": "genie_gl.scene.model",
     "build_scene": "genie_gl.scene",
+    "register_asset": "genie_gl.scene",
     # sensors
     "Sensor": "genie_gl.sensors.camera",
     "load_sensor": "genie_gl.sensors",

@@ -217,6 +217,12 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
     """Make every missing scene of the dataset described by ``cfg`` (see ``add_arguments``)."""
     from tqdm import tqdm
 
+    from .scene import ASSETS
+
+    if ASSETS.registered() and (cfg["executor"] == "ray" or cfg["workers"] > 1):
+        raise ConfigError(f"assets registered with register_asset ({ASSETS.registered()}) stay in this "
+                          "process and worker processes would not see them; list them in the strategy's "
+                          "scene.assets, or use one worker")
     out = Path(cfg["out"])
     for parent in (out / "sequences", out / "scenes"):  # what an interrupted run left half-made
         for stale in parent.glob(".tmp-*") if parent.is_dir() else []:

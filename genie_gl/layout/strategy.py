@@ -198,7 +198,25 @@ def load_strategy(path_or_name: str | Path) -> Strategy:
         data = json.loads(Path(path).read_text())
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
-    return parse_strategy(data, str(path))
+    return parse_strategy(_anchor_assets(data, Path(path).resolve().parent), str(path))
+
+
+def _anchor_assets(data: Any, base: Path) -> Any:
+    """Make the relative file paths of ``scene.assets`` (the scene stage's) relative to ``base``."""
+    scene = data.get("scene") if isinstance(data, dict) else None
+    assets = scene.get("assets") if isinstance(scene, dict) else None
+    if not isinstance(assets, dict):
+        return data
+
+    def anchor(e: Any) -> Any:
+        if isinstance(e, str):
+            return str(base / e)  # an absolute path stays as it is
+        if isinstance(e, dict) and isinstance(e.get("path"), str):
+            return {**e, "path": str(base / e["path"])}
+        return e
+
+    fixed = {c: [anchor(e) for e in es] if isinstance(es, list) else es for c, es in assets.items()}
+    return {**data, "scene": {**scene, "assets": fixed}}
 
 
 __all__ = ["GENERATORS", "ORIENTATIONS", "Strategy", "json_schema", "load_strategy", "parse_strategy"]

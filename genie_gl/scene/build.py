@@ -9,7 +9,10 @@ strategy's ``scene`` section), each off unless asked for — and when off, no RN
 * ``jitter``: ``{"position_m": σ, "yaw_rad": σ}`` Gaussian placement noise (kept inside);
 * ``dropout`` (0–1): probability a region is left empty;
 * ``color`` (bool): per-instance colour variation;
-* ``clutter`` (0–1): probability a pallet carries a KLT.
+* ``clutter`` (0–1): probability a pallet carries a KLT;
+* ``assets``: ``{class: [file or {"path", "variant", "units", "up"}, ...]}`` meshes that join
+  the class's variants for this build (:func:`.assets.catalogue.load_asset`; a strategy
+  file's relative paths are relative to its folder).
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ import numpy as np
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
 from .assets import library as lib
+from .assets.catalogue import ASSETS, Catalogue
 from .model import Scene
 
 log = logging.getLogger(__name__)
@@ -50,8 +54,9 @@ def _footprint(mesh, yaw: float) -> tuple[float, float]:
 
 
 class SceneBuilder:
-    def __init__(self, layout: Layout, options: dict[str, Any], rng: np.random.Generator) -> None:
-        self.layout, self.opt, self.rng = layout, options, rng
+    def __init__(self, layout: Layout, options: dict[str, Any], rng: np.random.Generator,
+                 assets: Catalogue) -> None:
+        self.layout, self.opt, self.rng, self.assets = layout, options, rng, assets
         self.scene = Scene(metadata={"layout": layout.meta})
         self._keys: dict[tuple[str, str], str] = {}
 
@@ -64,7 +69,8 @@ class SceneBuilder:
     def add(self, cls: str, variant: str, T: np.ndarray, name: str) -> int:
         key = self._keys.get((cls, variant))
         if key is None:
-            key = self._keys[(cls, variant)] = self.scene.add_mesh(lib.make(cls, variant), name=f"{cls}_{variant}")
+            mesh = self.assets.mesh(cls, variant)
+            key = self._keys[(cls, variant)] = self.scene.add_mesh(mesh, name=f"{cls}_{variant}")
         return self.scene.add(key, T, semantic=lib.SEMANTIC[cls], color=self.color(cls), name=name)
 
     def background(self) -> None:
@@ -104,12 +110,12 @@ class SceneBuilder:
             return
         cls = classes[int(self.rng.integers(len(classes)))] if len(classes) > 1 else classes[0]
         yaw = YAW[reg.orientation]
-        variants = list(lib.VARIANTS[cls])
+        variants = self.assets.variants(cls)
         order = [variants[k] for k in self.rng.permutation(len(variants))]
         choice = None
         for turn in (0.0, np.pi / 2):  # the region's facing first; a quarter turn if nothing fits
             for v in order:
-                fw, fd = _footprint(lib.make(cls, v), yaw + turn)
+                fw, fd = _footprint(self.assets.mesh(cls, v), yaw + turn)
                 if fw <= reg.w + 1e-9 and fd <= reg.h + 1e-9:
                     choice = (v, yaw + turn, fw, fd)
                     break
@@ -130,7 +136,7 @@ class SceneBuilder:
             diag = np.hypot(fw, fd) / 2
             if diag <= min(reg.w / 2 - abs(cx - reg.centre[0]), reg.h / 2 - abs(cy - reg.centre[1])):
                 yaw += dyaw
-        mesh = lib.make(cls, v)
+        mesh = self.assets.mesh(cls, v)
         # assets are centred in x, y by construction (bounds centre): correct any offset
         off = (mesh.bounds[0] + mesh.bounds[1]) / 2
         c, s = np.cos(yaw), np.sin(yaw)
@@ -144,20 +150,41 @@ class SceneBuilder:
         for k in range(layers):
             self.add(cls, v, _transform(yaw, cx - ox, cy - oy, k * (height + 0.001)), f"{reg.type}_{i}_{k}")
         if cls == "pallet" and self.opt.get("clutter") and self.rng.random() < float(self.opt["clutter"]):
-            kl = lib.make("klt", "6428")
             self.add("klt", "6428", _transform(yaw, cx - ox, cy - oy, layers * (height + 0.001)), f"{reg.type}_{i}_klt")
-            del kl
+
+
+def _with_assets(spec: Any, base: Catalogue) -> Catalogue:
+    """``base`` plus the ``assets`` option's files, registered into a copy."""
+    if not spec:
+        return base
+    if not isinstance(spec, dict) or not all(isinstance(e, list) for e in spec.values()):
+        raise ConfigError(f"scene.assets: expected {{class: [file, ...]}}, got {spec!r:.80}")
+    cat = base.copy()
+    for cls, entries in spec.items():
+        for k, e in enumerate(entries):
+            e = {"path": e} if isinstance(e, str) else e
+            if not isinstance(e, dict) or "path" not in e or set(e) - {"path", "variant", "units", "up"}:
+                raise ConfigError(f"scene.assets.{cls}[{k}]: expected a file path or "
+                                  f'{{"path", "variant", "units", "up"}}, got {e!r:.80}')
+            try:
+                cat.register(cls, e["path"], variant=e.get("variant"), units=e.get("units"),
+                             up=e.get("up"))
+            except ConfigError as exc:
+                raise ConfigError(f"scene.assets.{cls}[{k}]: {exc}") from None
+    return cat
 
 
 def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None = None,
-                rng: np.random.Generator | None = None) -> Scene:
+                rng: np.random.Generator | None = None, assets: Catalogue | None = None) -> Scene:
     """Build the 3D scene of ``layout``: background, then one asset per region with a group.
 
-    ``options`` defaults to the strategy's ``scene`` section stored in ``layout.meta``.
-    Same layout, options and seed: the same scene (and the same USD bytes).
+    ``options`` defaults to the strategy's ``scene`` section stored in ``layout.meta``;
+    ``assets`` (default: the registry :func:`register_asset` fills) gives each class's variants.
+    Same layout, options, assets and seed: the same scene (and the same USD bytes).
     """
     opts = dict(layout.meta.get("scene", {}) if options is None else options)
-    b = SceneBuilder(layout, opts, np.random.default_rng(seed) if rng is None else rng)
+    cat = _with_assets(opts.get("assets"), ASSETS if assets is None else assets)
+    b = SceneBuilder(layout, opts, np.random.default_rng(seed) if rng is None else rng, cat)
     b.background()
     for i, reg in enumerate(layout.leaves()):
         b.region(i, reg)

@@ -18,7 +18,7 @@ import re
 from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 
 from ..errors import ConfigError
 from .model import Mesh, Scene
@@ -129,18 +129,29 @@ def _triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
     return np.array(faces, dtype=np.int64).reshape(-1, 3)
 
 
-def read_usd(path: str | os.PathLike) -> Scene:
-    """Read any USD stage into a Scene (world Z up, metres)."""
+def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
+             up_axis: str | None = None) -> Scene:
+    """Read any USD stage into a Scene (world Z up, metres).
+
+    ``meters_per_unit`` and ``up_axis`` ("y" or "z") override the stage's ``metersPerUnit``
+    and ``upAxis`` (whose fallbacks, when unauthored, are USD's: centimetres and Y up).
+    """
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: no such USD file")
-    stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
+    try:
+        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
+    except Tf.ErrorException as exc:
+        m = re.search(r" : '([^\n]*)", str(exc))  # the first of USD's "Error in ... : 'why'"
+        why = m.group(1).rstrip("'") if m else str(exc).strip()
+        raise ConfigError(f"{path}: USD could not open the stage ({why}); expected a USD layer") from None
     if stage is None:
         raise ConfigError(f"{path}: USD could not open the stage")
-    mpu = UsdGeom.GetStageMetersPerUnit(stage)
+    mpu = UsdGeom.GetStageMetersPerUnit(stage) if meters_per_unit is None else float(meters_per_unit)
+    up = UsdGeom.GetStageUpAxis(stage) if up_axis is None else up_axis.upper()
     fix = np.eye(4) * mpu
     fix[3, 3] = 1.0
-    if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y:  # Y up -> Z up: +90 deg about x
+    if up == UsdGeom.Tokens.y:  # Y up -> Z up: +90 deg about x
         fix = fix @ np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1.0]])
     scene = Scene()
     cache = UsdGeom.XformCache()
