@@ -73,28 +73,33 @@ class LateralNoise(Effect):
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         H, W = frame.depth.shape
         s = self.sigma(incidence_angle(frame))          # 0 rad (σ_L(0)) where no return
-        v, u = np.mgrid[0:H, 0:W].astype(np.float64)
-        su = np.clip(u + rng.standard_normal((H, W)) * s, 0, W - 1)
-        sv = np.clip(v + rng.standard_normal((H, W)) * s, 0, H - 1)
-        ui, vi = np.rint(su).astype(np.intp), np.rint(sv).astype(np.intp)
-        z = frame.depth.astype(np.float64)
-        depth = z[vi, ui]
+        su = np.arange(W, dtype=np.float64)[None, :] + rng.standard_normal((H, W)) * s
+        sv = np.arange(H, dtype=np.float64)[:, None] + rng.standard_normal((H, W)) * s
+        np.clip(su, 0, W - 1, out=su)
+        np.clip(sv, 0, H - 1, out=sv)
+        # flat indices: 1-D gathers are several times faster than 2-D fancy indexing
+        near = np.rint(sv).astype(np.intp) * W + np.rint(su).astype(np.intp)
+        z, ids = frame.depth.ravel(), frame.instance.ravel()
+        depth = z[near].astype(np.float64)
         if W > 1 and H > 1:  # bilinear where the four neighbours are one surface
-            u0 = np.minimum(np.floor(su).astype(np.intp), W - 2)
-            v0 = np.minimum(np.floor(sv).astype(np.intp), H - 2)
+            u0 = np.minimum(su.astype(np.intp), W - 2)     # su >= 0: truncation is floor
+            v0 = np.minimum(sv.astype(np.intp), H - 2)
             fu, fv = su - u0, sv - v0
-            corners = [(v0, u0), (v0, u0 + 1), (v0 + 1, u0), (v0 + 1, u0 + 1)]
-            zc = np.stack([z[c] for c in corners])
-            ids = np.stack([frame.instance[c] for c in corners])
-            one = ((zc > 0).all(0) & (ids == ids[0]).all(0)
-                   & (zc.max(0) - zc.min(0) <= self.continuity_rel * zc.min(0)))
-            bil = (zc[0] * (1 - fu) * (1 - fv) + zc[1] * fu * (1 - fv)
-                   + zc[2] * (1 - fu) * fv + zc[3] * fu * fv)
+            base = v0 * W + u0
+            corners = (base, base + 1, base + W, base + W + 1)
+            z00, z01, z10, z11 = (z[c] for c in corners)
+            i00, i01, i10, i11 = (ids[c] for c in corners)
+            lo = np.minimum(np.minimum(z00, z01), np.minimum(z10, z11)).astype(np.float64)
+            hi = np.maximum(np.maximum(z00, z01), np.maximum(z10, z11))
+            one = ((lo > 0) & (i00 == i01) & (i00 == i10) & (i00 == i11)
+                   & (hi - lo <= self.continuity_rel * lo))
+            bil = (z00 * (1 - fu) * (1 - fv) + z01 * fu * (1 - fv)
+                   + z10 * (1 - fu) * fv + z11 * fu * fv)
             depth = np.where(one, bil, depth)
-        normal = None if frame.normal is None else frame.normal[vi, ui]
-        out = frame.replace(depth=depth.astype(np.float32), instance=frame.instance[vi, ui],
-                            semantic=frame.semantic[vi, ui], normal=normal)
-        return out
+        normal = None if frame.normal is None else frame.normal.reshape(-1, 3)[near].reshape(H, W, 3)
+        return frame.replace(depth=depth.astype(np.float32), instance=ids[near].reshape(H, W),
+                             semantic=frame.semantic.ravel()[near].reshape(H, W),
+                             normal=normal)
 
 
 @effect
@@ -153,14 +158,17 @@ class Multipath(Effect):
         valid = frame.depth > 0
         H, W = valid.shape
         r = int(self.radius_px)
-        pad = ((r, r), (r, r), (0, 0))
-        Pp, Vp = np.pad(P, pad), np.pad(valid, r)
+        # component planes: (Q − P)·n = Q·n − P·n, three multiply-adds per neighbour
+        Xp, Yp, Zp = (np.pad(P[..., k], r) for k in range(3))
+        nx, ny, nz = (np.ascontiguousarray(n[..., k]) for k in range(3))
+        pn = (P * n).sum(-1) + self.min_offset_m
+        Vp = np.pad(valid, r)
         count = np.zeros((H, W))
         offsets = np.rint(np.concatenate([_DIRECTIONS * r, _DIRECTIONS * (r / 2)])).astype(int)
         for dx, dy in offsets:
-            Q = Pp[r + dy:r + dy + H, r + dx:r + dx + W]
-            ok = Vp[r + dy:r + dy + H, r + dx:r + dx + W]
-            count += ok & (((Q - P) * n).sum(-1) > self.min_offset_m)
+            sl = (slice(r + dy, r + dy + H), slice(r + dx, r + dx + W))
+            facing = Xp[sl] * nx + Yp[sl] * ny + Zp[sl] * nz > pn
+            count += Vp[sl] & facing
         return np.where(valid, count / len(offsets), 0.0)
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
