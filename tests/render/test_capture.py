@@ -64,3 +64,27 @@ def test_osmesa_fallback_renders_the_same_depth():
     assert backend == "osmesa" and float(depth) == pytest.approx(2.5, rel=1e-6)
     egl = gg.render(gg.Scene(), gg.Sensor.pinhole(64, 48, 60.0), np.eye(4))
     assert not egl.depth.any() and int(count) > 200
+
+
+def test_frame_buffers_are_recycled_only_when_no_view_remains():
+    import gc
+
+    from genie_gl.render.renderer import _POOL, frame_buffers
+
+    a = frame_buffers(48, 64, True, True)
+    keep = a["semantic"]                      # one view keeps the whole block lent out
+    addr = a["depth"].ctypes.data
+    del a
+    gc.collect()
+    b = frame_buffers(48, 64, True, True)
+    assert b["depth"].ctypes.data != addr     # still in use: not lent again
+    views = [v for v in b.values()]
+    for i, x in enumerate(views):             # views never overlap
+        for y in views[i + 1:]:
+            assert not np.shares_memory(x, y)
+    del keep
+    gc.collect()
+    c = frame_buffers(48, 64, True, True)
+    assert c["depth"].ctypes.data == addr     # the first block came back and is reused
+    assert c["rgba"].shape == (48, 64, 4) and c["normal"].dtype == np.float32 and c["depth"].flags.writeable
+    assert _POOL.bytes <= _POOL.max_bytes
