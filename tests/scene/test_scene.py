@@ -169,3 +169,53 @@ def test_foreign_stage_y_up_centimetres_references_pointinstancer_ngons(tmp_path
     racks = by_sem[2]
     assert len(racks) == 2
     assert sorted(round(v[:, 2].min(), 9) for v, _ in racks) == [0.0, 2.0]   # 200 cm apart along Y up
+
+
+def _boxes(scene, shrink):
+    """(centre, rotation, half extents) of every non-background instance's mesh box, shrunk
+    by ``shrink`` on every side; background (floor, walls, columns) is left out."""
+    out = []
+    for inst in scene.instances:
+        if inst.mesh.split("_")[0] in ("floor", "wall", "column"):
+            continue
+        v = scene.meshes[inst.mesh].vertices.astype(np.float64)
+        lo, hi = v.min(0), v.max(0)
+        T = inst.world_from_model
+        out.append((inst.name, T[:3, :3] @ ((lo + hi) / 2) + T[:3, 3], T[:3, :3], np.maximum((hi - lo) / 2 - shrink, 0)))
+    return out
+
+
+def _separated(a, b) -> bool:
+    """Separating-axis test of two boxes turned about z only: z intervals, then the four
+    edge normals in the floor plane."""
+    (_, ca, Ra, ha), (_, cb, Rb, hb) = a, b
+    if abs(ca[2] - cb[2]) >= ha[2] + hb[2]:
+        return True
+    d = (cb - ca)[:2]
+    for ax in (Ra[:2, 0], Ra[:2, 1], Rb[:2, 0], Rb[:2, 1]):
+        ax = ax / np.linalg.norm(ax)
+        ra = ha[0] * abs(ax @ Ra[:2, 0]) + ha[1] * abs(ax @ Ra[:2, 1])
+        rb = hb[0] * abs(ax @ Rb[:2, 0]) + hb[1] * abs(ax @ Rb[:2, 1])
+        if abs(d @ ax) >= ra + rb:
+            return True
+    return False
+
+
+@pytest.mark.parametrize("name", ["assembly_line", "storage_area", "logistics_lane"])
+def test_instances_do_not_interpenetrate(name):
+    import itertools
+
+    for seed in range(2):
+        layout = gg.generate_layout(name, seed=seed)
+        options = {**layout.meta.get("scene", {}), "stack": True, "clutter": 0.5,
+                   "jitter": {"position_m": 0.3, "yaw_rad": 0.2}}
+        scene = gg.build_scene(layout, seed=seed, options=options)
+        boxes = _boxes(scene, shrink=0.01)  # 1 cm: stacked items touch, they must not sink in
+        assert len(boxes) > 40
+        clashes = [(a[0], b[0]) for a, b in itertools.combinations(boxes, 2) if not _separated(a, b)]
+        assert not clashes, clashes[:5]
+    # the test sees a clash when there is one: the same box moved by half its size (in its
+    # own frame) overlaps it; moved by 1.5 sizes along its x it does not
+    a = boxes[0]
+    moved = lambda step: (a[0], a[1] + a[2] @ (step * a[3]), a[2], a[3])  # noqa: E731
+    assert not _separated(a, moved(np.r_[1.0, 1.0, 0.0])) and _separated(a, moved(np.r_[3.0, 0.0, 0.0]))
