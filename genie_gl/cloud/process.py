@@ -8,7 +8,7 @@ import numpy as np
 from ..frame import Frame
 from .pointcloud import PointCloud
 from . import kernels
-from .unproject import unproject, unproject_into
+from .unproject import unproject_into, world_normals
 
 FAR = 1.0e4  # beyond this distance from the world origin, clouds get a float64 origin
 
@@ -51,7 +51,7 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
     if max_points is not None and rng is None:
         raise ValueError("to_cloud: max_points needs an rng (numpy.random.Generator)")
     origin = choose_origin(frames) if origin is None else np.asarray(origin, np.float64)
-    counts = np.array([np.count_nonzero(f.depth) for f in frames], np.int64)
+    counts = np.array([kernels.count_valid(f.depth) for f in frames], np.int64)
     ends = np.cumsum(counts)
     n = int(ends[-1])
     # one spare slot: the unprojection kernel writes one point past the valid ones
@@ -65,7 +65,7 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
         # frame k's spare write lands on frame k+1's first slot, which frame k+1 then fills
         unproject_into(f, origin, xyz[a:], sem[a:], inst[a:], None if rgb is None else rgb[a:])
         if with_normal:
-            normal[a:b] = unproject(f, origin=origin).normal
+            normal[a:b] = world_normals(f)
     camera = np.repeat(np.arange(len(frames), dtype=np.uint16), counts)
     cloud = PointCloud(xyz[:n], sem[:n], inst[:n], origin, None if rgb is None else rgb[:n], normal, camera)
     if voxel_m:

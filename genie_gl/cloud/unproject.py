@@ -46,10 +46,20 @@ def ray_table(sensor: Sensor) -> np.ndarray:
 
 @lru_cache(maxsize=32)
 def _axes(w: int, h: int, K: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """The separable rays of a pinhole without skew: x (1, W) by column, y (H, 1) by row."""
     Km = np.frombuffer(K).reshape(3, 3)
     xs = ((np.arange(w) - Km[0, 2]) / Km[0, 0]).astype(np.float32)
     ys = ((np.arange(h) - Km[1, 2]) / Km[1, 1]).astype(np.float32)
-    return xs, ys
+    return xs[None], ys[:, None]
+
+
+def rays(sensor: Sensor) -> tuple[np.ndarray, np.ndarray]:
+    """(tx, ty), the camera-frame ray (x, y, 1) of every pixel as the kernel reads it: (1, W)
+    and (H, 1) for a pinhole without skew, (H, W) tables otherwise; cached per camera model."""
+    if np.any(sensor.dist) or sensor.K[0, 1] != 0:
+        t = ray_table(sensor).reshape(2, sensor.height, sensor.width)
+        return t[0], t[1]
+    return _axes(sensor.width, sensor.height, sensor.K.tobytes())
 
 
 def _pose_rows(frame: Frame, origin: np.ndarray) -> np.ndarray:
@@ -62,34 +72,49 @@ def _pose_rows(frame: Frame, origin: np.ndarray) -> np.ndarray:
 NO_RGB = np.zeros((0, 0, 3), np.uint8)
 
 
+def _colour_source(rgb: np.ndarray) -> np.ndarray:
+    """``rgb`` as the kernel reads it: C-contiguous (H, W, 3), or the (H, W, 4) RGBA block a
+    read-back ``[..., :3]`` view lies in (no copy), else a contiguous copy."""
+    if rgb.flags.c_contiguous:
+        return rgb
+    H, W, _ = rgb.shape
+    if rgb.strides == (4 * W, 4, 1):
+        owner = rgb
+        while isinstance(owner.base, np.ndarray):
+            owner = owner.base
+        lo, hi = owner.ctypes.data, owner.ctypes.data + owner.nbytes
+        if lo <= rgb.ctypes.data and rgb.ctypes.data + 4 * H * W <= hi:
+            return np.lib.stride_tricks.as_strided(rgb, (H, W, 4), (4 * W, 4, 1), writeable=False)
+    return np.ascontiguousarray(rgb)
+
+
 def unproject_into(frame: Frame, origin: np.ndarray, xyz: np.ndarray, semantic: np.ndarray,
                    instance: np.ndarray, rgb: np.ndarray | None = None) -> int:
     """Write ``frame``'s valid points (and colours, when ``rgb`` is given) into the given
     arrays, in pixel order; returns their number n. The outputs need room for n + 1 points
-    (the kernel is branch-free and writes one spare slot; see :mod:`.kernels`)."""
-    s = frame.sensor
+    (the kernel's branch-free compaction writes one spare slot; see :mod:`.kernels`)."""
     colour = rgb is not None and frame.rgb is not None
-    args = (_pose_rows(frame, origin), frame.semantic, frame.instance, frame.rgb if colour else NO_RGB,
-            xyz, semantic, instance, rgb if colour else NO_RGB.reshape(0, 3))
-    depth = np.ascontiguousarray(frame.depth)
-    if np.any(s.dist) or s.K[0, 1] != 0:
-        n = kernels.unproject_table(depth, ray_table(s).reshape(2, s.height, s.width), *args)
-    else:
-        n = kernels.unproject_separable(depth, *_axes(s.width, s.height, s.K.tobytes()), *args)
-    return int(n)
+    tx, ty = rays(frame.sensor)
+    c = np.ascontiguousarray
+    return kernels.unproject(c(frame.depth), tx, ty, _pose_rows(frame, origin), c(frame.semantic), c(frame.instance),
+                             _colour_source(frame.rgb) if colour else NO_RGB, xyz, semantic, instance,
+                             rgb if colour else NO_RGB.reshape(0, 3))
+
+
+def world_normals(frame: Frame) -> np.ndarray:
+    """(n, 3) float32 world-frame normals of the valid pixels, in pixel order."""
+    R = frame.world_from_camera[:3, :3].astype(np.float32)
+    return frame.normal.reshape(-1, 3)[np.flatnonzero(frame.depth > 0)] @ R.T
 
 
 def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: int | None = None) -> PointCloud:
     """The world-frame points of ``frame``'s valid pixels (depth > 0), relative to ``origin``."""
     origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
-    n = int(np.count_nonzero(frame.depth))
+    n = kernels.count_valid(frame.depth)
     xyz = np.empty((n + 1, 3), np.float32)
     sem, inst = np.empty(n + 1, np.uint16), np.empty(n + 1, np.uint32)
     rgb = None if frame.rgb is None else np.empty((n + 1, 3), np.uint8)
     unproject_into(frame, origin, xyz, sem, inst, rgb)
-    normal = None
-    if frame.normal is not None:
-        R = frame.world_from_camera[:3, :3].astype(np.float32)
-        normal = frame.normal.reshape(-1, 3)[np.flatnonzero(frame.depth)] @ R.T
+    normal = None if frame.normal is None else world_normals(frame)
     camera = None if camera_index is None else np.full(n, camera_index, np.uint16)
     return PointCloud(xyz[:n], sem[:n], inst[:n], origin, None if rgb is None else rgb[:n], normal, camera)
