@@ -78,10 +78,10 @@ def unprojection(repeats: int = 12, block: int = 5) -> list[dict]:
         tx, ty = (t.reshape(H, W) for t in ray_table(f.sensor))
         M = f.world_from_camera[:3].astype(np.float32)
         n = count_valid(f.depth)
-        bufs = np.empty((n + 1, 3), np.float32), np.empty(n + 1, np.uint16), np.empty(n + 1, np.uint32)
+        bufs = np.empty((n + 2, 3), np.float32), np.empty(n + 1, np.uint16), np.empty(n + 1, np.uint32)
         ref = _numpy_unproject(f.depth, tx, ty, M, f.semantic, f.instance)
         assert unproject_into(f, np.zeros(3), *bufs) == n and np.abs(bufs[0][:n] - ref[0]).max() < 1e-3
-        fns = {"genie-gl": lambda: unproject_into(f, np.zeros(3), *bufs),
+        fns = {"genie-gl": lambda: unproject_into(f, np.zeros(3), *bufs, n=n),
                "plain numpy": lambda: _numpy_unproject(f.depth, tx, ty, M, f.semantic, f.instance),
                "bare copy": lambda: (f.depth.copy(), f.instance.copy(), f.semantic.copy()),
                "in to_cloud": lambda: to_cloud(frames)}

@@ -55,29 +55,52 @@ def _popcount(typingctx, x):  # pragma: no cover - compiled
     return types.uint64(x), codegen
 
 
+@intrinsic
+def _copy4(typingctx, dst, dst_start, src, src_start):  # pragma: no cover - compiled
+    """dst[dst_start:dst_start + 4] = src[src_start:src_start + 4] as one unaligned 16-byte
+    move (float32 arrays, contiguous): one load and one store for a point's x, y, z (and a
+    fourth float the next point overwrites)."""
+    def codegen(context, builder, signature, args):
+        a, o, b, s = args
+        vty = ir.VectorType(ir.FloatType(), 4)
+        dptr = builder.gep(context.make_array(signature.args[0])(context, builder, a).data, [o])
+        sptr = builder.gep(context.make_array(signature.args[2])(context, builder, b).data, [s])
+        v = builder.load(builder.bitcast(sptr, vty.as_pointer()), align=4)
+        builder.store(v, builder.bitcast(dptr, vty.as_pointer()), align=4)
+        return context.get_dummy_value()
+    return types.void(dst, dst_start, src, src_start), codegen
+
+
 @njit(nogil=True, boundscheck=False, inline="always")
-def _write(separable, colour, dense, p, q, x0, d, tx, ty, sem, inst, rgb, cs, xyz, so, io, co, n, m, a0, a1, a2):  # pragma: no cover - compiled
-    """Write pixels [p, q) (flat indices; x0: the column of p) from slot n on; dense:
-    all of them are valid (a vectorised loop), else branch-free compaction (every pixel
-    writes slot n, only valid ones advance n: the outputs need one spare slot).
-    Returns the new n."""
+def _write(separable, colour, dense, p, q, x0, n, bufs, pose):  # pragma: no cover - compiled
+    """Write the points of pixels [p, q) (flat indices; x0: the column of p) from slot n on;
+    returns the new n. dense: all of them are valid, and the whole pass vectorises. Otherwise
+    the points are computed densely into ``scratch`` (3 (q - p) + 1 floats; vectorised: the
+    arithmetic, not the stores, is what bounds a scalar loop) and then compacted branch-free:
+    every pixel copies its point (one 16-byte move) to slot n, only valid ones advance n, so
+    the outputs need a spare slot, and xyz one more for the move's fourth float. bufs: the
+    frame's flat arrays, pose: (M, and the row's y terms a0, a1, a2; see the caller)."""
+    d, tx, ty, sem, inst, rgb, cs, xyz, so, io, co, scratch = bufs
+    m, a0, a1, a2 = pose
     m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]
     m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]
     m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
     L = q - p
     p, x0, n = uint64(p), uint64(x0), uint64(n)
+    out, base = (xyz, uint64(3) * n) if dense else (scratch, uint64(0))
+    for k in range(uint64(L)):
+        x, dk = tx[x0 + k], d[p + k]
+        if separable:
+            b0, b1, b2 = a0, a1, a2
+        else:
+            y = ty[p + k]
+            b0, b1, b2 = m01 * y + m02, m11 * y + m12, m21 * y + m22
+        o = base + uint64(3) * k
+        out[o] = dk * (m00 * x + b0) + m03
+        out[o + uint64(1)] = dk * (m10 * x + b1) + m13
+        out[o + uint64(2)] = dk * (m20 * x + b2) + m23
     if dense:
         for k in range(uint64(L)):
-            x, dk = tx[x0 + k], d[p + k]
-            if separable:
-                b0, b1, b2 = a0, a1, a2
-            else:
-                y = ty[p + k]
-                b0, b1, b2 = m01 * y + m02, m11 * y + m12, m21 * y + m22
-            o = uint64(3) * (n + k)
-            xyz[o] = dk * (m00 * x + b0) + m03
-            xyz[o + uint64(1)] = dk * (m10 * x + b1) + m13
-            xyz[o + uint64(2)] = dk * (m20 * x + b2) + m23
             so[n + k] = sem[p + k]
             io[n + k] = inst[p + k]
         if colour and cs == 3:
@@ -86,27 +109,20 @@ def _write(separable, colour, dense, p, q, x0, d, tx, ty, sem, inst, rgb, cs, xy
         elif colour:
             for k in range(uint64(L)):
                 c, r = uint64(3) * (n + k), cs * (p + k)
-                co[c], co[c + uint64(1)], co[c + uint64(2)] = rgb[r], rgb[r + uint64(1)], rgb[r + uint64(2)]
+                for j in range(uint64(3)):
+                    co[c + j] = rgb[r + j]
         return int64(n) + L
-    for k in range(uint64(L)):
-        x, dk = tx[x0 + k], d[p + k]
-        if separable:
-            b0, b1, b2 = a0, a1, a2
-        else:
-            y = ty[p + k]
-            b0, b1, b2 = m01 * y + m02, m11 * y + m12, m21 * y + m22
-        o = uint64(3) * n
-        xyz[o] = dk * (m00 * x + b0) + m03
-        xyz[o + uint64(1)] = dk * (m10 * x + b1) + m13
-        xyz[o + uint64(2)] = dk * (m20 * x + b2) + m23
+    for k in range(uint64(L)):  # the 16-byte move spills a float into slot n + 1: xyz has n + 2
+        o, s = uint64(3) * n, uint64(3) * k
+        _copy4(xyz, o, scratch, s)
         so[n] = sem[p + k]
         io[n] = inst[p + k]
         if colour:
             c, r = uint64(3) * n, cs * (p + k)
-            co[c], co[c + uint64(1)], co[c + uint64(2)] = rgb[r], rgb[r + uint64(1)], rgb[r + uint64(2)]
-        n += uint64(dk > 0)
+            for j in range(uint64(3)):
+                co[c + j] = rgb[r + j]
+        n += uint64(d[p + k] > 0)
     return int64(n)
-
 
 
 def _make(separable: bool, colour: bool):
@@ -117,24 +133,25 @@ def _make(separable: bool, colour: bool):
     Both flags are compile-time constants of the closure, passed on to the inlined
     :func:`_write`, so no loop branches on them (a loop-invariant branch inside a loop stops
     its vectorisation). The closure holds only the two flags: a closure holding functions
-    could not be cached on disk. The loops index flat arrays
-    with unsigned offsets: no array views are made per run (each view costs reference-count
-    updates) and no negative-index wrap-around is tested per pixel.
+    could not be cached on disk. The loops index flat arrays with unsigned offsets: no array
+    views are made per run (each view costs reference-count updates) and no negative-index
+    wrap-around is tested per pixel.
     """
 
     @njit(cache=True, nogil=True, boundscheck=False)
-    def unproject(depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out, rgb_out):  # pragma: no cover - compiled
+    def unproject(depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out,
+                  rgb_out):  # pragma: no cover - compiled
         H, W = depth.shape
-        d, sem, inst, rgbf = depth.reshape(-1), semantic.reshape(-1), instance.reshape(-1), rgb.reshape(-1)
-        xyz, co = xyz.reshape(-1), rgb_out.reshape(-1)
+        d, tx, ty = depth.reshape(-1), tx.reshape(-1), ty.reshape(-1)
         cs = uint64(rgb.shape[2])  # channels of the colour source: 3, or 4 (RGBA as read back)
-        tx, ty = tx.reshape(-1), ty.reshape(-1)
+        bufs = (d, tx, ty, semantic.reshape(-1), instance.reshape(-1), rgb.reshape(-1), cs,
+                xyz.reshape(-1), sem_out, inst_out, rgb_out.reshape(-1), np.empty(3 * W + 1, np.float32))
         n = 0
         for v in range(H):
             row = v * W
             xs = 0 if separable else row  # flat index of the row's first ray x
             y = ty[v] if separable else ty[row]
-            a0, a1, a2 = M[0, 1] * y + M[0, 2], M[1, 1] * y + M[1, 2], M[2, 1] * y + M[2, 2]
+            pose = (M, M[0, 1] * y + M[0, 2], M[1, 1] * y + M[1, 2], M[2, 1] * y + M[2, 2])
             # the pending stretch [s0, s1) of the row: a run of valid pixels (dense) or a
             # stretch of scattered ones, written once it cannot grow
             s0 = s1 = 0
@@ -144,8 +161,7 @@ def _make(separable: bool, colour: bool):
                 if b != ~uint64(0) and b != 0 and _popcount(b & ~(b << uint64(1))) > MAX_RUNS:
                     if dense or s1 != c:
                         if s1 > s0:
-                            n = _write(separable, colour, dense, row + s0, row + s1, xs + s0, d, tx, ty, sem, inst, rgbf, cs, xyz, sem_out,
-                                      inst_out, co, n, M, a0, a1, a2)
+                            n = _write(separable, colour, dense, row + s0, row + s1, xs + s0, n, bufs, pose)
                         s0, dense = c, False
                     s1 = c + 64
                     continue
@@ -155,20 +171,17 @@ def _make(separable: bool, colour: bool):
                     e = s + (int64(_ctz(r)) if r != 0 else 64 - s)
                     if not dense or s1 != c + s:
                         if s1 > s0:
-                            n = _write(separable, colour, dense, row + s0, row + s1, xs + s0, d, tx, ty, sem, inst, rgbf, cs, xyz, sem_out,
-                                      inst_out, co, n, M, a0, a1, a2)
+                            n = _write(separable, colour, dense, row + s0, row + s1, xs + s0, n, bufs, pose)
                         s0, dense = c + s, True
                     s1 = c + e
                     if e == 64:
                         break
                     b = (b >> uint64(e)) << uint64(e)
             if s1 > s0:
-                n = _write(separable, colour, dense, row + s0, row + s1, xs + s0, d, tx, ty, sem, inst, rgbf, cs, xyz, sem_out, inst_out, co, n,
-                          M, a0, a1, a2)
+                n = _write(separable, colour, dense, row + s0, row + s1, xs + s0, n, bufs, pose)
             if W % 64:
                 c = W - W % 64
-                n = _write(separable, colour, False, row + c, row + W, xs + c, d, tx, ty, sem, inst, rgbf, cs, xyz, sem_out, inst_out, co, n,
-                          M, a0, a1, a2)
+                n = _write(separable, colour, False, row + c, row + W, xs + c, n, bufs, pose)
         return n
 
     return unproject
@@ -180,14 +193,14 @@ _KERNELS = {(s, c): _make(s, c) for s in (True, False) for c in (True, False)}
 def unproject(depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out, rgb_out) -> int:
     """Write the points of the valid pixels (depth > 0) of one frame, in pixel order; returns
     their number n. The outputs need room for n + 1 points (the spare slot of the branch-free
-    compaction).
+    compaction), xyz for n + 2 (see :func:`_write`).
 
     depth (H, W) float32, C-contiguous. Camera rays (z = 1): tx (1, W) and ty (H, 1) for a
     pinhole without skew, (H, W) tables for any other lens. M (3, 4) float32: the pose, its
     translation already relative to the cloud's origin (the difference taken in float64).
     semantic (H, W) uint16, instance (H, W) uint32; rgb (H, W, 3 or 4) uint8 (channels 0-2 are
     used: RGBA as read back needs no copy) or (0, 0, 3) for none; all C-contiguous;
-    xyz (n + 1, 3) float32, sem_out, inst_out (n + 1,), rgb_out (n + 1, 3) or (0, 3).
+    xyz (n + 2, 3) float32, sem_out, inst_out (n + 1,), rgb_out (n + 1, 3) or (0, 3).
     """
     return int(_KERNELS[tx.shape[0] == 1, rgb.shape[0] > 0](depth, tx, ty, M, semantic, instance, rgb, xyz,
                                                              sem_out, inst_out, rgb_out))

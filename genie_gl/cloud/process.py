@@ -54,16 +54,16 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
     counts = np.array([kernels.count_valid(f.depth) for f in frames], np.int64)
     ends = np.cumsum(counts)
     n = int(ends[-1])
-    # one spare slot: the unprojection kernel writes one point past the valid ones
-    xyz = np.empty((n + 1, 3), np.float32)
+    # spare room: the unprojection kernel writes past the last valid point (see unproject_into)
+    xyz = np.empty((n + 2, 3), np.float32)
     sem, inst = np.empty(n + 1, np.uint16), np.empty(n + 1, np.uint32)
     with_rgb = all(f.rgb is not None for f in frames)
     with_normal = all(f.normal is not None for f in frames)
     rgb = np.empty((n + 1, 3), np.uint8) if with_rgb else None
     normal = np.empty((n, 3), np.float32) if with_normal else None
     for f, a, b in zip(frames, ends - counts, ends):
-        # frame k's spare write lands on frame k+1's first slot, which frame k+1 then fills
-        unproject_into(f, origin, xyz[a:], sem[a:], inst[a:], None if rgb is None else rgb[a:])
+        # frame k's writes past its points land on frame k+1's first slots, which it then fills
+        unproject_into(f, origin, xyz[a:], sem[a:], inst[a:], None if rgb is None else rgb[a:], n=b - a)
         if with_normal:
             normal[a:b] = world_normals(f)
     camera = np.repeat(np.arange(len(frames), dtype=np.uint16), counts)

@@ -89,11 +89,18 @@ def _colour_source(rgb: np.ndarray) -> np.ndarray:
 
 
 def unproject_into(frame: Frame, origin: np.ndarray, xyz: np.ndarray, semantic: np.ndarray,
-                   instance: np.ndarray, rgb: np.ndarray | None = None) -> int:
+                   instance: np.ndarray, rgb: np.ndarray | None = None, *, n: int | None = None) -> int:
     """Write ``frame``'s valid points (and colours, when ``rgb`` is given) into the given
     arrays, in pixel order; returns their number n. The outputs need room for n + 1 points
-    (the kernel's branch-free compaction writes one spare slot; see :mod:`.kernels`)."""
+    and xyz for n + 2 (the kernel's branch-free compaction writes past the last point; see
+    :mod:`.kernels`). n : the frame's valid-pixel count (``kernels.count_valid``) when the
+    caller knows it; the room is checked either way, before anything is written."""
     colour = rgb is not None and frame.rgb is not None
+    n = kernels.count_valid(frame.depth) if n is None else n
+    room = min(xyz.shape[0] - 1, semantic.shape[0], instance.shape[0], rgb.shape[0] if colour else n + 1)
+    if room < n + 1 or xyz.ndim != 2 or xyz.shape[1] != 3:
+        raise ValueError(f"unproject_into: {n} points need xyz (>= {n + 2}, 3) and labels (>= {n + 1},); "
+                         f"got xyz {xyz.shape}, semantic {semantic.shape}, instance {instance.shape}")
     tx, ty = rays(frame.sensor)
     c = np.ascontiguousarray
     return kernels.unproject(c(frame.depth), tx, ty, _pose_rows(frame, origin), c(frame.semantic), c(frame.instance),
@@ -111,10 +118,10 @@ def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: i
     """The world-frame points of ``frame``'s valid pixels (depth > 0), relative to ``origin``."""
     origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
     n = kernels.count_valid(frame.depth)
-    xyz = np.empty((n + 1, 3), np.float32)
+    xyz = np.empty((n + 2, 3), np.float32)
     sem, inst = np.empty(n + 1, np.uint16), np.empty(n + 1, np.uint32)
     rgb = None if frame.rgb is None else np.empty((n + 1, 3), np.uint8)
-    unproject_into(frame, origin, xyz, sem, inst, rgb)
+    unproject_into(frame, origin, xyz, sem, inst, rgb, n=n)
     normal = None if frame.normal is None else world_normals(frame)
     camera = None if camera_index is None else np.full(n, camera_index, np.uint16)
     return PointCloud(xyz[:n], sem[:n], inst[:n], origin, None if rgb is None else rgb[:n], normal, camera)

@@ -52,7 +52,7 @@ def test_kernel_writes_exactly_the_reference_points(W, pattern, separable):
     rgba = rng.integers(0, 256, (H, W, 4)).astype(np.uint8)
     for rgb in (None, np.ascontiguousarray(rgba[..., :3]), rgba):
         n_ref = int(np.count_nonzero(depth > 0))
-        xyz = np.full((n_ref + 1, 3), np.nan, np.float32)
+        xyz = np.full((n_ref + 2, 3), np.nan, np.float32)
         so, io = np.zeros(n_ref + 1, np.uint16), np.zeros(n_ref + 1, np.uint32)
         co = np.zeros((n_ref + 1 if rgb is not None else 0, 3), np.uint8)
         src = np.zeros((0, 0, 3), np.uint8) if rgb is None else rgb
