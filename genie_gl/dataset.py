@@ -53,7 +53,7 @@ def scene_dir(out: Path, index: int, fmt: str, n_scenes: int) -> Path:
 
 def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     """Make scene ``index`` and write it; returns its stats (also in stats.json)."""
-    from .cloud import chunks, keep_cloud, to_cloud
+    from .cloud import frame_chunks, keep_cloud, to_cloud
     from .export import bop, npz, pcd, ply, semantickitti
     from .layout import generate_layout, load_strategy
     from .render import capture
@@ -78,9 +78,11 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1,
                      depth_only=cfg["format"] == "semantickitti")
     t["capture"] = time.perf_counter()
-    cloud = to_cloud(frames)
+    # the chunks straight from the frames: the merged cloud (~12 M points at 40 cameras) is
+    # built only for a preview that shows it
+    tiles, points_total = frame_chunks(frames, cfg["chunk_m"], max_points=cfg["points"], rng=rng["cloud"])
     kept = []
-    for key, tile in chunks(cloud, cfg["chunk_m"], max_points=cfg["points"], rng=rng["cloud"]):
+    for key, tile in tiles:
         ok, why = keep_cloud(tile, min_points=cfg["min_points"], min_labelled_share=cfg["min_labelled_share"])
         if ok:
             kept.append((key, tile))
@@ -108,11 +110,11 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
         meshes = write_bop_scene(scene, frames, tmp)
     layout.to_json(tmp / "layout.json")
     stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
-             "points_total": int(len(cloud)), "chunks": len(kept),
+             "points_total": points_total, "chunks": len(kept),
              "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg["previews"]:
-        write_previews(out / "previews", index, layout, frames, cloud)
+        write_previews(out / "previews", index, layout, frames, to_cloud(frames))
     t["export"] = time.perf_counter()
     tmp.replace(final)  # the scene appears whole, or not at all
     if meshes:

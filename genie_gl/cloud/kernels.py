@@ -225,6 +225,13 @@ def count_valid(depth: np.ndarray) -> int:
     return int(_count_valid(np.ascontiguousarray(depth, np.float32)))
 
 
+@njit(nogil=True, inline="always")
+def _tile(x, inv):  # pragma: no cover - compiled
+    """The tile index of coordinate x for tiles of side 1 / inv: floor(x · inv), one rule for
+    every tiling kernel (a multiplication: a division per coordinate cost 2-3 ms a frame)."""
+    return np.int64(np.floor(x * inv))
+
+
 @njit(cache=True, nogil=True, boundscheck=False)
 def tile_order(xyz, size):  # pragma: no cover - compiled
     """Stable counting sort of the points by their (x, y) tile of side ``size``.
@@ -233,14 +240,15 @@ def tile_order(xyz, size):  # pragma: no cover - compiled
     each tile's points in their original order; tile k holds order[starts[k]:starts[k+1]] and
     has grid index (keys[k] // span + i0, keys[k] % span + j0); empty tiles are left out.
     """
+    inv = 1.0 / size
     n = xyz.shape[0]
     ti = np.empty(n, np.int64)
     tj = np.empty(n, np.int64)
     i0 = j0 = np.int64(2**62)
     i1 = j1 = -np.int64(2**62)
     for p in range(n):
-        i = np.int64(np.floor(xyz[p, 0] / size))
-        j = np.int64(np.floor(xyz[p, 1] / size))
+        i = _tile(xyz[p, 0], inv)
+        j = _tile(xyz[p, 1], inv)
         ti[p] = i
         tj[p] = j
         i0, i1, j0, j1 = min(i0, i), max(i1, i), min(j0, j), max(j1, j)
@@ -270,3 +278,71 @@ def tile_order(xyz, size):  # pragma: no cover - compiled
         order[counts[k]] = p
         counts[k] += 1
     return order, keys, starts, i0, j0, span
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def tile_counts(xyz, size):  # pragma: no cover - compiled
+    """Points per (x, y) tile of side ``size``, as :func:`tile_order` assigns them.
+
+    Returns (i0, j0, counts): counts[i - i0, j - j0] points fall in tile (i, j); counts is
+    (0, 0) for no points. The bounds come from the coordinates' extremes (floor(x · inv) is
+    monotone), and the counts are kept in a register while consecutive points share a tile
+    (they mostly do: a frame's pixels are neighbours), not incremented in memory per point.
+    """
+    inv = 1.0 / size
+    n = xyz.shape[0]
+    if n == 0:
+        return np.int64(0), np.int64(0), np.zeros((0, 0), np.int64)
+    xlo = xhi = xyz[0, 0]
+    ylo = yhi = xyz[0, 1]
+    for p in range(n):
+        x, y = xyz[p, 0], xyz[p, 1]
+        xlo, xhi, ylo, yhi = min(xlo, x), max(xhi, x), min(ylo, y), max(yhi, y)
+    i0, j0 = _tile(xlo, inv), _tile(ylo, inv)
+    counts = np.zeros((_tile(xhi, inv) - i0 + 1, _tile(yhi, inv) - j0 + 1), np.int64)
+    a, b, run = _tile(xyz[0, 0], inv) - i0, _tile(xyz[0, 1], inv) - j0, 0
+    for p in range(n):
+        ap, bp = _tile(xyz[p, 0], inv) - i0, _tile(xyz[p, 1], inv) - j0
+        if ap != a or bp != b:
+            counts[a, b] += run
+            a, b, run = ap, bp, 0
+        run += 1
+    counts[a, b] += run
+    return i0, j0, counts
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def tile_pick(xyz, size, i0, j0, tile, seen, start, picked, taken, src, dst):  # pragma: no cover - compiled
+    """Pick the chosen points of a batch by their rank in their tile, the batches (frames)
+    visited in order; returns how many were picked.
+
+    tile : (I, J) int64, the output tile of grid tile (i0 + a, j0 + b), -1 for none;
+    seen : (T,) points of each tile met so far (updated); start : (T,) where the tile's
+    choices begin in ``picked``, -1 to take every point; picked : bool, per tile and rank;
+    taken : (T,) the next output slot of each tile (updated). Writes the picked points'
+    batch indices to src and their output slots to dst. The current tile's rank is kept in
+    a register while consecutive points share it.
+    """
+    inv = 1.0 / size
+    m = 0
+    t = -1
+    r = 0
+    for p in range(xyz.shape[0]):
+        tp = tile[_tile(xyz[p, 0], inv) - i0, _tile(xyz[p, 1], inv) - j0]
+        if tp != t:
+            if t >= 0:
+                seen[t] = r
+            t = tp
+            if t >= 0:
+                r = seen[t]
+        if t < 0:
+            continue
+        if start[t] < 0 or picked[start[t] + r]:
+            src[m] = p
+            dst[m] = taken[t]
+            taken[t] += 1
+            m += 1
+        r += 1
+    if t >= 0:
+        seen[t] = r
+    return m

@@ -1,0 +1,65 @@
+"""frame_chunks: the dataset's chunks straight from the frames, equal to chunking the merged cloud."""
+import numpy as np
+import pytest
+
+import genie_gl as gg
+from genie_gl.cloud import chunks, frame_chunks, to_cloud
+from genie_gl.render.projection import look_at
+
+
+def ground_frames(shift=(0.0, 0.0, 0.0), n=5, colour=True, normals=True):
+    """Cameras looking down at a ground plane from 3 m, spread over a few 4 m tiles; holes of
+    every kind (rows out of range, scattered dropout)."""
+    rng = np.random.default_rng(11)
+    s = gg.Sensor.pinhole(96, 64, 60.0)
+    frames = []
+    for k in range(n):
+        eye = np.array([2.5 * k - 4.0, 1.5 * (k % 3) - 2.0, 3.0]) + shift
+        pose = look_at(eye, eye + [0.3, 0.2, -3.0])
+        d = rng.uniform(2.8, 3.6, (64, 96)).astype(np.float32)
+        d[rng.random(d.shape) < 0.15] = 0
+        d[: 4 * k] = 0
+        ids = rng.integers(0, 5, d.shape)
+        rgb = rng.integers(0, 256, (64, 96, 3)).astype(np.uint8) if colour else None
+        normal = np.tile(np.array([0.0, 0.0, -1.0], np.float32), (64, 96, 1)) if normals else None
+        frames.append(gg.Frame(d, ids.astype(np.uint32) + 100, ids.astype(np.uint16), rgb, s, pose, normal))
+    return frames
+
+
+def assert_same_tiles(a, b):
+    assert [k for k, _ in a] == [k for k, _ in b]
+    for (_, ta), (_, tb) in zip(a, b):
+        np.testing.assert_array_equal(ta.origin, tb.origin)
+        for name in ("xyz", "semantic", "instance", "rgb", "normal", "camera"):
+            va, vb = getattr(ta, name), getattr(tb, name)
+            assert (va is None) == (vb is None), name
+            if va is not None:
+                np.testing.assert_array_equal(va, vb, err_msg=name)
+
+
+@pytest.mark.parametrize("max_points", [None, 300, 2000])
+@pytest.mark.parametrize("min_points", [1, 1500])
+def test_frame_chunks_equal_chunks_of_the_merged_cloud(max_points, min_points):
+    frames = ground_frames()
+    merged = to_cloud(frames)
+    kw = dict(min_points=min_points, max_points=max_points)
+    a = chunks(merged, 4.0, rng=np.random.default_rng(3), **kw)
+    b, total = frame_chunks(frames, 4.0, rng=np.random.default_rng(3), **kw)
+    assert total == len(merged)
+    assert len(a) >= 2  # several tiles, some down-sampled and some dropped, depending on the case
+    assert_same_tiles(a, b)
+
+
+def test_frame_chunks_far_from_the_origin_and_without_optional_fields():
+    frames = ground_frames(shift=(4.0e5, -3.0e5, 0.0), colour=False, normals=False)
+    a = chunks(to_cloud(frames), 4.0, min_points=10, max_points=500, rng=np.random.default_rng(8))
+    b, _ = frame_chunks(frames, 4.0, min_points=10, max_points=500, rng=np.random.default_rng(8))
+    assert np.abs(b[0][1].origin).max() > 1e5
+    assert_same_tiles(a, b)
+
+
+def test_frame_chunks_of_frames_that_see_nothing():
+    frames = [f.replace(depth=np.zeros_like(f.depth)) for f in ground_frames(n=2)]
+    assert frame_chunks(frames, 4.0, max_points=10, rng=np.random.default_rng(0)) == ([], 0)
+    with pytest.raises(ValueError, match="rng"):
+        frame_chunks(ground_frames(n=1), 4.0, max_points=10)
