@@ -206,6 +206,117 @@ def unproject(depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out,
                                                              sem_out, inst_out, rgb_out))
 
 
+@njit(nogil=True, boundscheck=False, inline="always")
+def _row_points(separable, v, W, d, tx, ty, M, inv, px, py, pz, ka, kb):  # pragma: no cover - compiled
+    """World points (px, py, pz; the expression and order of :func:`_write`, so the same
+    bits) and tile indices (ka, kb) of every pixel of row v, valid or not: dense loops that
+    vectorise (a strided read of a written cloud would cost more than this)."""
+    row = v * W
+    y = ty[v] if separable else ty[row]
+    a0, a1, a2 = M[0, 1] * y + M[0, 2], M[1, 1] * y + M[1, 2], M[2, 1] * y + M[2, 2]
+    m00, m01, m02, m03 = M[0, 0], M[0, 1], M[0, 2], M[0, 3]
+    m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
+    m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
+    for u in range(W):
+        dk = d[row + u]
+        if separable:
+            x = tx[u]
+            b0, b1, b2 = a0, a1, a2
+        else:
+            x, y = tx[row + u], ty[row + u]
+            b0, b1, b2 = m01 * y + m02, m11 * y + m12, m21 * y + m22
+        px[u] = dk * (m00 * x + b0) + m03
+        py[u] = dk * (m10 * x + b1) + m13
+        pz[u] = dk * (m20 * x + b2) + m23
+    for u in range(W):
+        ka[u] = _tile(px[u], inv)
+        kb[u] = _tile(py[u], inv)
+
+
+def _make_tilers(separable: bool):
+    """Tile counting and picking straight from a frame's depth (no cloud is written): the
+    counts of the points per tile, then the points chosen by their rank in their tile."""
+
+    @njit(cache=True, nogil=True, boundscheck=False)
+    def count(depth, tx, ty, M, size, i0, j0, counts):  # pragma: no cover - compiled
+        """Add the frame's valid points per tile to counts[i - i0, j - j0]; returns how many
+        fell outside counts (then nothing is complete: count again with a wider window)."""
+        H, W = depth.shape
+        d, tx, ty = depth.reshape(-1), tx.reshape(-1), ty.reshape(-1)
+        inv = 1.0 / size
+        px, py, pz = np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.float32)
+        ka, kb = np.empty(W, np.int64), np.empty(W, np.int64)
+        I, J = counts.shape
+        outside = 0
+        for v in range(H):
+            _row_points(separable, v, W, d, tx, ty, M, inv, px, py, pz, ka, kb)
+            a, b, inside, run = np.int64(0), np.int64(0), False, 0  # the current tile, its count
+            for u in range(W):
+                if not d[v * W + u] > 0:
+                    continue
+                au, bu = ka[u] - i0, kb[u] - j0
+                if inside and au == a and bu == b:
+                    run += 1
+                    continue
+                if inside:
+                    counts[a, b] += run
+                a, b = au, bu
+                inside = 0 <= a < I and 0 <= b < J
+                run = 1
+                outside += not inside
+            if inside:
+                counts[a, b] += run
+        return outside
+
+    @njit(cache=True, nogil=True, boundscheck=False)
+    def pick(depth, tx, ty, M, size, i0, j0, tile, seen, start, picked, taken, src, dst,
+             xyz):  # pragma: no cover - compiled
+        """Pick the frame's chosen points by their rank in their tile, frames visited in
+        order; returns how many. tile (I, J): the output tile of grid tile (i0 + a, j0 + b),
+        -1 for none; seen (T,): points of each tile met so far; start (T,): where the tile's
+        choices begin in ``picked`` (-1: take all); taken (T,): each tile's next output slot.
+        Writes the picked points to xyz[dst], their pixels' flat indices to src."""
+        H, W = depth.shape
+        d, tx, ty = depth.reshape(-1), tx.reshape(-1), ty.reshape(-1)
+        inv = 1.0 / size
+        px, py, pz = np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.float32)
+        ka, kb = np.empty(W, np.int64), np.empty(W, np.int64)
+        I, J = tile.shape
+        m = 0
+        a, b = np.int64(-1), np.int64(-1)  # the current grid tile, its output tile t, the rank
+        t, r, s = -1, 0, -1  # r of the next point in t, and where t's choices start (s)
+        for v in range(H):
+            _row_points(separable, v, W, d, tx, ty, M, inv, px, py, pz, ka, kb)
+            for u in range(W):
+                if not d[v * W + u] > 0:
+                    continue
+                au, bu = ka[u] - i0, kb[u] - j0
+                if au != a or bu != b:
+                    if t >= 0:
+                        seen[t] = r
+                    a, b = au, bu
+                    t = tile[a, b] if 0 <= a < I and 0 <= b < J else -1  # inside, if counted alike
+                    if t >= 0:
+                        r, s = seen[t], start[t]
+                if t < 0:
+                    continue
+                if s < 0 or picked[s + r]:
+                    o = taken[t]
+                    src[m], dst[m] = v * W + u, o
+                    xyz[o, 0], xyz[o, 1], xyz[o, 2] = px[u], py[u], pz[u]
+                    taken[t] = o + 1
+                    m += 1
+                r += 1
+        if t >= 0:
+            seen[t] = r
+        return m
+
+    return count, pick
+
+
+TILERS = {s: _make_tilers(s) for s in (True, False)}
+
+
 @njit(cache=True, nogil=True, boundscheck=False)
 def _count_valid(depth):  # pragma: no cover - compiled
     d = depth.reshape(-1)
@@ -278,71 +389,3 @@ def tile_order(xyz, size):  # pragma: no cover - compiled
         order[counts[k]] = p
         counts[k] += 1
     return order, keys, starts, i0, j0, span
-
-
-@njit(cache=True, nogil=True, boundscheck=False)
-def tile_counts(xyz, size):  # pragma: no cover - compiled
-    """Points per (x, y) tile of side ``size``, as :func:`tile_order` assigns them.
-
-    Returns (i0, j0, counts): counts[i - i0, j - j0] points fall in tile (i, j); counts is
-    (0, 0) for no points. The bounds come from the coordinates' extremes (floor(x · inv) is
-    monotone), and the counts are kept in a register while consecutive points share a tile
-    (they mostly do: a frame's pixels are neighbours), not incremented in memory per point.
-    """
-    inv = 1.0 / size
-    n = xyz.shape[0]
-    if n == 0:
-        return np.int64(0), np.int64(0), np.zeros((0, 0), np.int64)
-    xlo = xhi = xyz[0, 0]
-    ylo = yhi = xyz[0, 1]
-    for p in range(n):
-        x, y = xyz[p, 0], xyz[p, 1]
-        xlo, xhi, ylo, yhi = min(xlo, x), max(xhi, x), min(ylo, y), max(yhi, y)
-    i0, j0 = _tile(xlo, inv), _tile(ylo, inv)
-    counts = np.zeros((_tile(xhi, inv) - i0 + 1, _tile(yhi, inv) - j0 + 1), np.int64)
-    a, b, run = _tile(xyz[0, 0], inv) - i0, _tile(xyz[0, 1], inv) - j0, 0
-    for p in range(n):
-        ap, bp = _tile(xyz[p, 0], inv) - i0, _tile(xyz[p, 1], inv) - j0
-        if ap != a or bp != b:
-            counts[a, b] += run
-            a, b, run = ap, bp, 0
-        run += 1
-    counts[a, b] += run
-    return i0, j0, counts
-
-
-@njit(cache=True, nogil=True, boundscheck=False)
-def tile_pick(xyz, size, i0, j0, tile, seen, start, picked, taken, src, dst):  # pragma: no cover - compiled
-    """Pick the chosen points of a batch by their rank in their tile, the batches (frames)
-    visited in order; returns how many were picked.
-
-    tile : (I, J) int64, the output tile of grid tile (i0 + a, j0 + b), -1 for none;
-    seen : (T,) points of each tile met so far (updated); start : (T,) where the tile's
-    choices begin in ``picked``, -1 to take every point; picked : bool, per tile and rank;
-    taken : (T,) the next output slot of each tile (updated). Writes the picked points'
-    batch indices to src and their output slots to dst. The current tile's rank is kept in
-    a register while consecutive points share it.
-    """
-    inv = 1.0 / size
-    m = 0
-    t = -1
-    r = 0
-    for p in range(xyz.shape[0]):
-        tp = tile[_tile(xyz[p, 0], inv) - i0, _tile(xyz[p, 1], inv) - j0]
-        if tp != t:
-            if t >= 0:
-                seen[t] = r
-            t = tp
-            if t >= 0:
-                r = seen[t]
-        if t < 0:
-            continue
-        if start[t] < 0 or picked[start[t] + r]:
-            src[m] = p
-            dst[m] = taken[t]
-            taken[t] += 1
-            m += 1
-        r += 1
-    if t >= 0:
-        seen[t] = r
-    return m

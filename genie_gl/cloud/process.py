@@ -8,9 +8,10 @@ import numpy as np
 from ..frame import Frame
 from .pointcloud import PointCloud
 from . import kernels
-from .unproject import unproject_into, world_normals
+from .unproject import _pose_rows, rays, rotate, unproject_into, world_normals
 
 FAR = 1.0e4  # beyond this distance from the world origin, clouds get a float64 origin
+WINDOW = 129  # frame_chunks counts a camera's points in this many tiles a side around it first
 
 
 def choose_origin(frames: Sequence[Frame]) -> np.ndarray:
@@ -121,9 +122,9 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     same points, drawn the same way; returns (tiles, number of points of the merged cloud).
 
     The merged cloud of a 40-camera scene holds ~12 M points (~220 MB) of which the chunks
-    keep a few hundred thousand. Here each frame is unprojected twice into one reused buffer
-    (about a millisecond each): once to count the points per tile, then, once every tile's
-    choice of ranks is drawn, to gather just the chosen points.
+    keep a few hundred thousand. Here each frame's depth is read twice and no cloud is
+    written: once to count the points per tile, then, once every tile's choice of ranks is
+    drawn, to write just the chosen points (their labels gathered by pixel).
     """
     if not frames:
         raise ValueError("frame_chunks: no frames")
@@ -131,26 +132,26 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
         raise ValueError("frame_chunks: max_points needs an rng (numpy.random.Generator)")
     origin = choose_origin(frames) if origin is None else np.asarray(origin, np.float64)
     size = float(size_m)
-    counts = [kernels.count_valid(f.depth) for f in frames]
-    cap = max(counts)
-    xyz, sem, inst = np.empty((cap + 2, 3), np.float32), np.empty(cap + 1, np.uint16), np.empty(cap + 1, np.uint32)
-    with_rgb = all(f.rgb is not None for f in frames)
-    with_normal = all(f.normal is not None for f in frames)
-    rgb = np.empty((cap + 1, 3), np.uint8) if with_rgb else None
-    # pass 1: points per tile
+    inputs = [(np.ascontiguousarray(f.depth, np.float32), *rays(f.sensor), _pose_rows(f, origin),
+               kernels.TILERS[rays(f.sensor)[0].shape[0] == 1]) for f in frames]
+    # pass 1: points per tile, counted in a window of tiles around each camera
     per_tile: dict[tuple[int, int], int] = {}
-    for f, n in zip(frames, counts):
-        unproject_into(f, origin, xyz, sem, inst, n=n)
-        i0, j0, c = kernels.tile_counts(xyz[:n], size)
-        for a, b in zip(*np.nonzero(c)):
-            key = (int(i0 + a), int(j0 + b))
-            per_tile[key] = per_tile.get(key, 0) + int(c[a, b])
+    for f, (depth, tx, ty, M, (count, _)) in zip(frames, inputs):
+        ci, cj = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(np.int64)
+        reach = WINDOW // 2
+        counts = np.zeros((WINDOW, WINDOW), np.int64)
+        while count(depth, tx, ty, M, size, ci - reach, cj - reach, counts):  # a point beyond: widen
+            reach *= 4
+            counts = np.zeros((2 * reach + 1, 2 * reach + 1), np.int64)
+        for a, b in zip(*np.nonzero(counts)):
+            key = (int(ci - reach + a), int(cj - reach + b))
+            per_tile[key] = per_tile.get(key, 0) + int(counts[a, b])
+    total = sum(per_tile.values())
     # the draws, tile by tile in (i, j) order, exactly as chunks() makes them
-    keys = sorted(per_tile)
     kept: list[tuple[int, int]] = []
     start, sizes, chosen = [], [], []
     offset = 0
-    for key in keys:
+    for key in sorted(per_tile):
         c = per_tile[key]
         if c < min_points:
             continue
@@ -165,15 +166,16 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
         else:
             start.append(-1)
             sizes.append(c)
-    total = int(sum(counts))
     if not kept:
         return [], total
-    I0, J0 = min(k[0] for k in keys), min(k[1] for k in keys)
-    grid = np.full((max(k[0] for k in keys) - I0 + 1, max(k[1] for k in keys) - J0 + 1), -1, np.int64)
+    I0, J0 = min(k[0] for k in per_tile), min(k[1] for k in per_tile)
+    grid = np.full((max(k[0] for k in per_tile) - I0 + 1, max(k[1] for k in per_tile) - J0 + 1), -1, np.int64)
     for t, (i, j) in enumerate(kept):
         grid[i - I0, j - J0] = t
     ends = np.cumsum(sizes)
     m_all = int(ends[-1])
+    with_rgb = all(f.rgb is not None for f in frames)
+    with_normal = all(f.normal is not None for f in frames)
     out_xyz, out_sem, out_inst = np.empty((m_all, 3), np.float32), np.empty(m_all, np.uint16), np.empty(m_all, np.uint32)
     out_rgb = np.empty((m_all, 3), np.uint8) if with_rgb else None
     out_normal = np.empty((m_all, 3), np.float32) if with_normal else None
@@ -182,17 +184,18 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     taken = (ends - sizes).astype(np.int64)
     picked = np.concatenate(chosen) if chosen else np.zeros(0, bool)
     start_a = np.array(start, np.int64)
+    cap = max(f.depth.size for f in frames)
     src, dst = np.empty(cap, np.int64), np.empty(cap, np.int64)
-    # pass 2: gather the chosen points
-    for k, (f, n) in enumerate(zip(frames, counts)):
-        unproject_into(f, origin, xyz, sem, inst, rgb, n=n)
-        m = kernels.tile_pick(xyz[:n], size, I0, J0, grid, seen, start_a, picked, taken, src, dst)
+    # pass 2: write the chosen points, gather their labels by pixel
+    for k, (f, (depth, tx, ty, M, (_, pick))) in enumerate(zip(frames, inputs)):
+        m = pick(depth, tx, ty, M, size, I0, J0, grid, seen, start_a, picked, taken, src, dst, out_xyz)
         s, d = src[:m], dst[:m]
-        out_xyz[d], out_sem[d], out_inst[d], out_camera[d] = xyz[s], sem[s], inst[s], k
+        v, u = np.divmod(s, depth.shape[1])
+        out_sem[d], out_inst[d], out_camera[d] = f.semantic[v, u], f.instance[v, u], k
         if with_rgb:
-            out_rgb[d] = rgb[s]
+            out_rgb[d] = f.rgb[v, u]
         if with_normal:
-            out_normal[d] = world_normals(f)[s]
+            out_normal[d] = rotate(f.normal[v, u], f.world_from_camera)
     merged = PointCloud(out_xyz, out_sem, out_inst, origin, out_rgb, out_normal, out_camera)
     tiles = [(key, merged.select(slice(a, b))) for key, a, b in zip(kept, ends - sizes, ends)]
     return tiles, total

@@ -110,8 +110,14 @@ def unproject_into(frame: Frame, origin: np.ndarray, xyz: np.ndarray, semantic: 
 
 def world_normals(frame: Frame) -> np.ndarray:
     """(n, 3) float32 world-frame normals of the valid pixels, in pixel order."""
-    R = frame.world_from_camera[:3, :3].astype(np.float32)
-    return frame.normal.reshape(-1, 3)[np.flatnonzero(frame.depth > 0)] @ R.T
+    return rotate(frame.normal.reshape(-1, 3)[np.flatnonzero(frame.depth > 0)], frame.world_from_camera)
+
+
+def rotate(v: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(n, 3) float32 vectors turned by the pose's rotation, element by element in float32
+    (a matrix product's rounding can depend on how many rows it is given)."""
+    R = pose[:3, :3].astype(np.float32)
+    return np.stack([v[:, 0] * R[r, 0] + v[:, 1] * R[r, 1] + v[:, 2] * R[r, 2] for r in range(3)], 1)
 
 
 def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: int | None = None) -> PointCloud:

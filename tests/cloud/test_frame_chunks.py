@@ -7,11 +7,13 @@ from genie_gl.cloud import chunks, frame_chunks, to_cloud
 from genie_gl.render.projection import look_at
 
 
-def ground_frames(shift=(0.0, 0.0, 0.0), n=5, colour=True, normals=True):
+def ground_frames(shift=(0.0, 0.0, 0.0), n=5, colour=True, normals=True, lens="pinhole"):
     """Cameras looking down at a ground plane from 3 m, spread over a few 4 m tiles; holes of
     every kind (rows out of range, scattered dropout)."""
     rng = np.random.default_rng(11)
     s = gg.Sensor.pinhole(96, 64, 60.0)
+    if lens == "distorted":
+        s = gg.Sensor(96, 64, s.K, dist=np.array([-0.2, 0.05, 0.001, -0.002, 0.0]))
     frames = []
     for k in range(n):
         eye = np.array([2.5 * k - 4.0, 1.5 * (k % 3) - 2.0, 3.0]) + shift
@@ -21,7 +23,7 @@ def ground_frames(shift=(0.0, 0.0, 0.0), n=5, colour=True, normals=True):
         d[: 4 * k] = 0
         ids = rng.integers(0, 5, d.shape)
         rgb = rng.integers(0, 256, (64, 96, 3)).astype(np.uint8) if colour else None
-        normal = np.tile(np.array([0.0, 0.0, -1.0], np.float32), (64, 96, 1)) if normals else None
+        normal = rng.normal(size=(64, 96, 3)).astype(np.float32) if normals else None
         frames.append(gg.Frame(d, ids.astype(np.uint32) + 100, ids.astype(np.uint16), rgb, s, pose, normal))
     return frames
 
@@ -47,6 +49,17 @@ def test_frame_chunks_equal_chunks_of_the_merged_cloud(max_points, min_points):
     b, total = frame_chunks(frames, 4.0, rng=np.random.default_rng(3), **kw)
     assert total == len(merged)
     assert len(a) >= 2  # several tiles, some down-sampled and some dropped, depending on the case
+    assert_same_tiles(a, b)
+
+
+@pytest.mark.parametrize("size", [4.0, 0.02])
+def test_frame_chunks_through_a_distorted_lens_and_tiny_tiles(size):
+    """The ray-table path, and tiles so small that a camera's points reach beyond the first
+    window of tiles counted around it."""
+    frames = ground_frames(lens="distorted")
+    a = chunks(to_cloud(frames), size, min_points=3, max_points=40, rng=np.random.default_rng(2))
+    b, _ = frame_chunks(frames, size, min_points=3, max_points=40, rng=np.random.default_rng(2))
+    assert len(a) > 10
     assert_same_tiles(a, b)
 
 
