@@ -311,7 +311,25 @@ def _make_tilers(separable: bool):
             seen[t] = r
         return m
 
-    return count, pick
+    @njit(cache=True, nogil=True, boundscheck=False)
+    def extent(depth, tx, ty, M, size):  # pragma: no cover - compiled
+        """(i0, i1, j0, j1): the least and greatest tile indices of the frame's valid points
+        (i0 > i1 if there are none)."""
+        H, W = depth.shape
+        d, tx, ty = depth.reshape(-1), tx.reshape(-1), ty.reshape(-1)
+        inv = 1.0 / size
+        px, py, pz = np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.float32)
+        ka, kb = np.empty(W, np.int64), np.empty(W, np.int64)
+        i0 = j0 = np.int64(2**62)
+        i1 = j1 = -np.int64(2**62)
+        for v in range(H):
+            _row_points(separable, v, W, d, tx, ty, M, inv, px, py, pz, ka, kb)
+            for u in range(W):
+                if d[v * W + u] > 0:
+                    i0, i1, j0, j1 = min(i0, ka[u]), max(i1, ka[u]), min(j0, kb[u]), max(j1, kb[u])
+        return i0, i1, j0, j1
+
+    return count, pick, extent
 
 
 TILERS = {s: _make_tilers(s) for s in (True, False)}

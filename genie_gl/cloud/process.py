@@ -12,6 +12,7 @@ from .unproject import _pose_rows, rays, rotate, unproject_into, world_normals
 
 FAR = 1.0e4  # beyond this distance from the world origin, clouds get a float64 origin
 WINDOW = 129  # frame_chunks counts a camera's points in this many tiles a side around it first
+MAX_TILES = 50_000_000  # a tile grid larger than this is a mistake (chunks far too small)
 
 
 def choose_origin(frames: Sequence[Frame]) -> np.ndarray:
@@ -136,15 +137,18 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
                kernels.TILERS[rays(f.sensor)[0].shape[0] == 1]) for f in frames]
     # pass 1: points per tile, counted in a window of tiles around each camera
     per_tile: dict[tuple[int, int], int] = {}
-    for f, (depth, tx, ty, M, (count, _)) in zip(frames, inputs):
-        ci, cj = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(np.int64)
-        reach = WINDOW // 2
+    for f, (depth, tx, ty, M, (count, _, extent)) in zip(frames, inputs):
+        i0, j0 = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(np.int64) - WINDOW // 2
         counts = np.zeros((WINDOW, WINDOW), np.int64)
-        while count(depth, tx, ty, M, size, ci - reach, cj - reach, counts):  # a point beyond: widen
-            reach *= 4
-            counts = np.zeros((2 * reach + 1, 2 * reach + 1), np.int64)
+        if count(depth, tx, ty, M, size, i0, j0, counts):  # points beyond the window: the exact extent
+            i0, i1, j0, j1 = extent(depth, tx, ty, M, size)
+            if (i1 - i0 + 1) * (j1 - j0 + 1) > MAX_TILES:
+                raise ValueError(f"frame_chunks: tiles of {size_m} m are too small for the frames' extent "
+                                 f"({(i1 - i0 + 1) * size:.0f} x {(j1 - j0 + 1) * size:.0f} m)")
+            counts = np.zeros((i1 - i0 + 1, j1 - j0 + 1), np.int64)
+            count(depth, tx, ty, M, size, i0, j0, counts)
         for a, b in zip(*np.nonzero(counts)):
-            key = (int(ci - reach + a), int(cj - reach + b))
+            key = (int(i0 + a), int(j0 + b))
             per_tile[key] = per_tile.get(key, 0) + int(counts[a, b])
     total = sum(per_tile.values())
     # the draws, tile by tile in (i, j) order, exactly as chunks() makes them
@@ -169,7 +173,11 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     if not kept:
         return [], total
     I0, J0 = min(k[0] for k in per_tile), min(k[1] for k in per_tile)
-    grid = np.full((max(k[0] for k in per_tile) - I0 + 1, max(k[1] for k in per_tile) - J0 + 1), -1, np.int64)
+    shape = (max(k[0] for k in per_tile) - I0 + 1, max(k[1] for k in per_tile) - J0 + 1)
+    if shape[0] * shape[1] > MAX_TILES:
+        raise ValueError(f"frame_chunks: tiles of {size_m} m are too small for the frames' extent "
+                         f"({shape[0] * size:.0f} x {shape[1] * size:.0f} m)")
+    grid = np.full(shape, -1, np.int64)
     for t, (i, j) in enumerate(kept):
         grid[i - I0, j - J0] = t
     ends = np.cumsum(sizes)
@@ -187,7 +195,7 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     cap = max(f.depth.size for f in frames)
     src, dst = np.empty(cap, np.int64), np.empty(cap, np.int64)
     # pass 2: write the chosen points, gather their labels by pixel
-    for k, (f, (depth, tx, ty, M, (_, pick))) in enumerate(zip(frames, inputs)):
+    for k, (f, (depth, tx, ty, M, (_, pick, _))) in enumerate(zip(frames, inputs)):
         m = pick(depth, tx, ty, M, size, I0, J0, grid, seen, start_a, picked, taken, src, dst, out_xyz)
         s, d = src[:m], dst[:m]
         v, u = np.divmod(s, depth.shape[1])

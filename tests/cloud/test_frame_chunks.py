@@ -76,3 +76,8 @@ def test_frame_chunks_of_frames_that_see_nothing():
     assert frame_chunks(frames, 4.0, max_points=10, rng=np.random.default_rng(0)) == ([], 0)
     with pytest.raises(ValueError, match="rng"):
         frame_chunks(ground_frames(n=1), 4.0, max_points=10)
+
+
+def test_frame_chunks_refuse_a_tile_grid_beyond_reason():
+    with pytest.raises(ValueError, match="too small for the frames' extent"):
+        frame_chunks(ground_frames(n=2), 1e-4, max_points=10, rng=np.random.default_rng(0))
