@@ -115,3 +115,19 @@ def test_merge_counts_and_normals_agree_with_the_kernel_on_invalid_depths():
         assert (c.instance[m] == k + 1).all() and np.isfinite(c.xyz[m]).all()
         toward = f.world_from_camera[:3, :3] @ [0.0, 0.0, -1.0]
         np.testing.assert_allclose(c.normal[m], np.broadcast_to(toward, (int(m.sum()), 3)), atol=1e-6)
+
+
+def test_unproject_into_checks_the_room_before_writing():
+    import genie_gl as gg
+    from genie_gl.cloud.unproject import unproject_into
+
+    s = gg.Sensor.pinhole(70, 8, 50.0)
+    d = np.ones((8, 70), np.float32)
+    f = gg.Frame(d, np.ones(d.shape, np.uint32), np.ones(d.shape, np.uint16), None, s, np.eye(4))
+    n = d.size
+    ok = np.full((n + 2, 3), 7.0, np.float32), np.zeros(n + 1, np.uint16), np.zeros(n + 1, np.uint32)
+    assert unproject_into(f, np.zeros(3), *ok) == n
+    short = np.full((n + 1, 3), 7.0, np.float32), np.zeros(n + 1, np.uint16), np.zeros(n + 1, np.uint32)
+    with pytest.raises(ValueError, match=f"{n} points need xyz"):
+        unproject_into(f, np.zeros(3), *short)
+    assert (short[0] == 7.0).all()  # nothing written
