@@ -207,10 +207,21 @@ def unproject(depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out,
 
 
 @njit(nogil=True, boundscheck=False, inline="always")
-def _row_points(separable, v, W, d, tx, ty, M, inv, px, py, pz, ka, kb):  # pragma: no cover - compiled
+def _frame_rows(depth, tx, ty, size):  # pragma: no cover - compiled
+    """A frame's flat arrays and one row's buffers for :func:`_row_points`:
+    (H, W, d, tx, ty, 1 / size, (px, py, pz, ka, kb))."""
+    H, W = depth.shape
+    rows = (np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.int64),
+            np.empty(W, np.int64))
+    return H, W, depth.reshape(-1), tx.reshape(-1), ty.reshape(-1), 1.0 / size, rows
+
+
+@njit(nogil=True, boundscheck=False, inline="always")
+def _row_points(separable, v, W, d, tx, ty, M, inv, rows):  # pragma: no cover - compiled
     """World points (px, py, pz; the expression and order of :func:`_write`, so the same
-    bits) and tile indices (ka, kb) of every pixel of row v, valid or not: dense loops that
-    vectorise (a strided read of a written cloud would cost more than this)."""
+    bits) and tile indices (ka, kb) of every pixel of row v, valid or not, into ``rows``:
+    dense loops that vectorise (a strided read of a written cloud would cost more)."""
+    px, py, pz, ka, kb = rows
     row = v * W
     y = ty[v] if separable else ty[row]
     a0, a1, a2 = M[0, 1] * y + M[0, 2], M[1, 1] * y + M[1, 2], M[2, 1] * y + M[2, 2]
@@ -241,15 +252,12 @@ def _make_tilers(separable: bool):
     def count(depth, tx, ty, M, size, i0, j0, counts):  # pragma: no cover - compiled
         """Add the frame's valid points per tile to counts[i - i0, j - j0]; returns how many
         fell outside counts (then nothing is complete: count again with a wider window)."""
-        H, W = depth.shape
-        d, tx, ty = depth.reshape(-1), tx.reshape(-1), ty.reshape(-1)
-        inv = 1.0 / size
-        px, py, pz = np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.float32)
-        ka, kb = np.empty(W, np.int64), np.empty(W, np.int64)
+        H, W, d, tx, ty, inv, rows = _frame_rows(depth, tx, ty, size)
+        px, py, pz, ka, kb = rows
         I, J = counts.shape
         outside = 0
         for v in range(H):
-            _row_points(separable, v, W, d, tx, ty, M, inv, px, py, pz, ka, kb)
+            _row_points(separable, v, W, d, tx, ty, M, inv, rows)
             a, b, inside, run = np.int64(0), np.int64(0), False, 0  # the current tile, its count
             for u in range(W):
                 if not d[v * W + u] > 0:
@@ -276,17 +284,14 @@ def _make_tilers(separable: bool):
         -1 for none; seen (T,): points of each tile met so far; start (T,): where the tile's
         choices begin in ``picked`` (-1: take all); taken (T,): each tile's next output slot.
         Writes the picked points to xyz[dst], their pixels' flat indices to src."""
-        H, W = depth.shape
-        d, tx, ty = depth.reshape(-1), tx.reshape(-1), ty.reshape(-1)
-        inv = 1.0 / size
-        px, py, pz = np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.float32)
-        ka, kb = np.empty(W, np.int64), np.empty(W, np.int64)
+        H, W, d, tx, ty, inv, rows = _frame_rows(depth, tx, ty, size)
+        px, py, pz, ka, kb = rows
         I, J = tile.shape
         m = 0
         a, b = np.int64(-1), np.int64(-1)  # the current grid tile, its output tile t, the rank
         t, r, s = -1, 0, -1  # r of the next point in t, and where t's choices start (s)
         for v in range(H):
-            _row_points(separable, v, W, d, tx, ty, M, inv, px, py, pz, ka, kb)
+            _row_points(separable, v, W, d, tx, ty, M, inv, rows)
             for u in range(W):
                 if not d[v * W + u] > 0:
                     continue
@@ -315,15 +320,12 @@ def _make_tilers(separable: bool):
     def extent(depth, tx, ty, M, size):  # pragma: no cover - compiled
         """(i0, i1, j0, j1): the least and greatest tile indices of the frame's valid points
         (i0 > i1 if there are none)."""
-        H, W = depth.shape
-        d, tx, ty = depth.reshape(-1), tx.reshape(-1), ty.reshape(-1)
-        inv = 1.0 / size
-        px, py, pz = np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.float32)
-        ka, kb = np.empty(W, np.int64), np.empty(W, np.int64)
+        H, W, d, tx, ty, inv, rows = _frame_rows(depth, tx, ty, size)
+        px, py, pz, ka, kb = rows
         i0 = j0 = np.int64(2**62)
         i1 = j1 = -np.int64(2**62)
         for v in range(H):
-            _row_points(separable, v, W, d, tx, ty, M, inv, px, py, pz, ka, kb)
+            _row_points(separable, v, W, d, tx, ty, M, inv, rows)
             for u in range(W):
                 if d[v * W + u] > 0:
                     i0, i1, j0, j1 = min(i0, ka[u]), max(i1, ka[u]), min(j0, kb[u]), max(j1, kb[u])
