@@ -49,35 +49,39 @@ def pose_rng(seed: int, index: int) -> np.random.Generator:
 
 
 def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
-                    indices: Sequence[int], depth_only: bool = False) -> list[Frame]:
+                    indices: Sequence[int], depth_only: bool = False, accuracy: Any = None) -> list[Frame]:
     from ..sensors.simulate import simulate  # effects live in the sensors stage
+    from .supersample import supersampled
 
     render = functools.partial(renderer.render, depth_only=depth_only)
+    if accuracy is not None:
+        render = supersampled(render, accuracy.supersample)
     return [simulate(sensor, np.asarray(poses[k], dtype=np.float64), render=render,
-                     rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
+                     rng=pose_rng(seed, i), accuracy=accuracy) for k, i in enumerate(indices)]
 
 
 # -- process pool: one GL context per worker --------------------------------------------------
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(scene: Scene, backend: str | None, lp_threads: int) -> None:
+def _worker_init(scene: Scene, backend: str | None, lp_threads: int, options: dict | None = None) -> None:
     if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
         from .context import set_default_backend
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
     os.environ.setdefault("LP_NUM_THREADS", str(lp_threads))
-    _WORKER["renderer"] = Renderer(scene, backend=backend)
+    _WORKER["renderer"] = Renderer(scene, backend=backend, **(options or {}))
 
 
 def _worker_render(job: tuple) -> list[Frame]:
-    sensor, poses, seed, indices, depth_only = job
-    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only)
+    sensor, poses, seed, indices, depth_only, accuracy = job
+    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, accuracy)
 
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
-            workers: int | None = 1, backend: str | None = None, depth_only: bool = False) -> list[Frame]:
+            workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
+            accuracy: Any = None) -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -89,19 +93,29 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         this process. The frames do not depend on it.
     backend : GL backend ("egl", "osmesa" or None).
     depth_only : skip the colour target (frames get ``rgb=None``).
+    accuracy : :class:`genie_gl.accuracy.AccuracySettings`; None takes the profile's
+        ``accuracy:`` block, else the defaults (supersampling, lens resampling, depth
+        precision, second-view scale, multipath samples; tessellation is the scene's).
     """
+    from ..accuracy import apply_to_sensor
+    from .supersample import renderer_options, settings_for
+
+    accuracy = settings_for(sensor, accuracy)
+    sensor = apply_to_sensor(sensor, accuracy)
+    options = renderer_options(accuracy)
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     n = len(poses)
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
-        with Renderer(scene, backend=backend) as r:
-            return _capture_serial(r, sensor, poses, seed, range(n), depth_only)
+        with Renderer(scene, backend=backend, **options) as r:
+            return _capture_serial(r, sensor, poses, seed, range(n), depth_only, accuracy)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
-    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads)) as pool:
-        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only) for c in chunks])
+    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, options)) as pool:
+        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, accuracy)
+                                          for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):
         for i, f in zip(c, part):

@@ -46,6 +46,10 @@ def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m:
     effects = build_effects(data.get("effects") or [], str(path))
     meta = calibration_meta(calib)
     meta["profile"] = str(path)
+    if data.get("accuracy") is not None:   # the profile's accuracy: block (genie_gl.accuracy)
+        from ..accuracy import from_dict
+
+        meta["accuracy"] = from_dict(data["accuracy"], str(path))
     if calib.T is None and data.get("baseline_m") is not None:
         meta["baseline_m"] = float(data["baseline_m"])
     return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, effects,

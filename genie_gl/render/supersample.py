@@ -1,0 +1,128 @@
+"""Edge supersampling with ids never blended: render at ``s`` times the resolution, reduce.
+
+Each output pixel takes the ``s x s`` samples of its block in the high-resolution render and
+keeps the **majority instance** among them (no return counts as a candidate too; a tie goes
+to the nearer surface). Its depth is the harmonic mean of that instance's samples — exact on
+a plane, since 1/z is affine in the pixel position and the samples sit symmetrically about
+the pixel centre — and its semantic id, normal and colour come from the same samples. So a
+pixel's id is always one of its own samples' ids: no id that is not in the scene, no
+depth halfway between a box and the wall behind it.
+
+The high-resolution camera puts the block's samples symmetrically about the low-resolution
+pixel centre: ``f' = s·f``, ``c' = s·(c + 0.5) − 0.5`` (pixel centres at integer
+coordinates, DESIGN.md).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..frame import Frame
+from ..sensors.camera import Sensor
+
+NO_RETURN_DEPTH = 1.0e9   # how far "no return" counts when a tie is broken by depth
+
+
+def supersample_sensor(sensor: Sensor, s: int) -> Sensor:
+    """The pinhole camera whose ``s x s`` pixel blocks tile ``sensor``'s pixels."""
+    K = sensor.K.copy()
+    K[0, 0] *= s
+    K[0, 1] *= s
+    K[1, 1] *= s
+    K[0, 2] = s * (sensor.cx + 0.5) - 0.5
+    K[1, 2] = s * (sensor.cy + 0.5) - 0.5
+    return Sensor(sensor.width * s, sensor.height * s, K, near_m=sensor.near_m, far_m=sensor.far_m,
+                  name=f"{sensor.name}-x{s}", meta=sensor.meta)
+
+
+def _blocks(a: np.ndarray, s: int) -> np.ndarray:
+    """(H·s, W·s, ...) -> (H·W, s·s, ...): each output pixel's samples in one row."""
+    H, W = a.shape[0] // s, a.shape[1] // s
+    b = a.reshape(H, s, W, s, *a.shape[2:]).swapaxes(1, 2)
+    return b.reshape(H * W, s * s, *a.shape[2:])
+
+
+def majority(ids: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """Per row of ``ids`` (N, k), the column of a sample of the most frequent id, ties to
+    the smallest depth (``depth`` (N, k), 0 = no return = farthest). Returns (N,) int."""
+    n, k = ids.shape
+    order = np.argsort(ids, axis=1, kind="stable")
+    a = np.take_along_axis(ids, order, 1)
+    cols = np.arange(k)
+    start = np.maximum.accumulate(np.where(np.concatenate([np.ones((n, 1), bool), a[:, 1:] != a[:, :-1]], 1),
+                                           cols, 0), axis=1)
+    end = k - 1 - np.maximum.accumulate(np.where(np.concatenate([np.ones((n, 1), bool), a[:, ::-1][:, 1:]
+                                                                 != a[:, ::-1][:, :-1]], 1), cols, 0), axis=1)[:, ::-1]
+    count = (end - start + 1).astype(np.float64)
+    z = np.take_along_axis(depth, order, 1).astype(np.float64)
+    z = np.where(z > 0, z, NO_RETURN_DEPTH)
+    best = np.argmax(count * (4 * NO_RETURN_DEPTH) - z, axis=1)   # most samples, then nearest
+    return order[np.arange(n), best]
+
+
+def reduce(hi: Frame, sensor: Sensor, s: int) -> Frame:
+    """The ``sensor`` frame made from ``hi``, rendered with :func:`supersample_sensor`."""
+    H, W = sensor.height, sensor.width
+    ids = _blocks(hi.instance, s)
+    depth = _blocks(hi.depth, s)
+    pick = majority(ids, depth)
+    rows = np.arange(H * W)
+    chosen = ids[rows, pick]
+    same = ids == chosen[:, None]
+    hit = same & (depth > 0)
+    inv = np.where(hit, 1.0 / np.where(depth > 0, depth, 1.0).astype(np.float64), 0.0)
+    n_hit = hit.sum(1)
+    z = np.where(n_hit > 0, n_hit / np.maximum(inv.sum(1), 1e-300), 0.0)
+    out_depth = np.where(chosen > 0, z, 0.0).astype(np.float32).reshape(H, W)
+    instance = chosen.astype(np.uint32).reshape(H, W)
+    semantic = _blocks(hi.semantic, s)[rows, pick].reshape(H, W)
+    rgb = None
+    if hi.rgb is not None:  # colour may be antialiased: it is no label
+        rgb = np.rint(_blocks(hi.rgb, s).astype(np.float32).mean(1)).astype(np.uint8).reshape(H, W, 3)
+    normal = None
+    if hi.normal is not None:
+        nb = _blocks(hi.normal, s)
+        m = (nb * same[..., None]).sum(1)
+        norm = np.linalg.norm(m, axis=1, keepdims=True)
+        normal = np.where(norm > 0, m / np.maximum(norm, 1e-30), 0.0).astype(np.float32).reshape(H, W, 3)
+    meta = {**(hi.meta or {}), "supersample": s}
+    return Frame(out_depth, instance, semantic, rgb, sensor, hi.world_from_camera, normal, meta)
+
+
+def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:
+    """``render`` (``(sensor, pose, **kw) -> Frame``, e.g. ``Renderer.render``) made to render
+    every frame at ``s`` times the resolution and reduce it; ``s = 1`` returns ``render``."""
+    if s == 1:
+        return render
+
+    def wrapped(sensor: Sensor, pose: np.ndarray, **kw) -> Frame:
+        return reduce(render(supersample_sensor(sensor, s), pose, **kw), sensor, s)
+
+    return wrapped
+
+
+def renderer_options(accuracy) -> dict:
+    """The :class:`Renderer` keywords an :class:`~genie_gl.accuracy.AccuracySettings` asks
+    for (``depth_precision``); raises ConfigError when this build's renderer lacks one."""
+    import inspect
+
+    from ..errors import ConfigError
+    from .renderer import Renderer
+
+    if accuracy is None or accuracy.depth_precision == "float32":
+        return {}
+    if "depth_precision" not in inspect.signature(Renderer.__init__).parameters:
+        raise ConfigError(f"accuracy.depth_precision: {accuracy.depth_precision!r} needs a renderer with "
+                          "depth_precision=, which this build lacks; use float32")
+    return {"depth_precision": accuracy.depth_precision}
+
+
+def settings_for(sensor: Sensor, accuracy=None):
+    """The settings a capture uses: ``accuracy``, else the profile's ``accuracy:`` block
+    (``sensor.meta["accuracy"]``), else the defaults."""
+    from ..accuracy import AccuracySettings
+
+    if accuracy is not None:
+        return accuracy
+    return sensor.meta.get("accuracy") or AccuracySettings()
