@@ -177,3 +177,47 @@ def manifest_entry(settings: AccuracySettings) -> dict[str, Any]:
 
 def dumps(settings: AccuracySettings) -> str:
     return json.dumps(settings.to_dict(), sort_keys=True)
+
+
+# -- what a dataset cost (manifests) ------------------------------------------------------------
+def frame_costs(frames: Any) -> dict[str, float]:
+    """Milliseconds summed over ``frames`` per part of making them: ``render``, ``distortion``
+    and ``effect:<name>`` (from each frame's ``meta["cost_ms"]``; a frame without it, an
+    ideal pinhole frame, counts its ``render_ms``)."""
+    out: dict[str, float] = {}
+    for f in frames:
+        meta = f.meta or {}
+        cost = meta.get("cost_ms") or {"render": float(meta.get("render_ms", 0.0))}
+        for k, v in cost.items():
+            out[k] = out.get(k, 0.0) + float(v)
+    return out
+
+
+def dataset_cost(stats: list[dict[str, Any]]) -> dict[str, Any]:
+    """The manifest's ``cost`` block from the scenes' stats (``timings_s``, ``frame_cost_ms``,
+    ``cameras``): per stage and per effect, the total and the per-frame milliseconds."""
+    frames = sum(int(s.get("cameras", 0)) for s in stats)
+    stages: dict[str, float] = {}
+    parts: dict[str, float] = {}
+    for s in stats:
+        for k, v in (s.get("timings_s") or {}).items():
+            stages[k] = stages.get(k, 0.0) + 1e3 * float(v)
+        for k, v in (s.get("frame_cost_ms") or {}).items():
+            parts[k] = parts.get(k, 0.0) + float(v)
+    per = max(frames, 1)
+    return {"frames": frames,
+            "stages": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in stages.items()},
+            "capture": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in sorted(parts.items())}}
+
+
+def segments_option(fn: Any, settings: AccuracySettings | None, where: str = "accuracy") -> dict[str, Any]:
+    """``{"segments": n}`` for a scene builder or USD reader ``fn`` when ``settings`` sets a
+    tessellation; ConfigError when it does and ``fn`` takes no ``segments``."""
+    import inspect
+
+    if settings is None or settings.tessellation is None:
+        return {}
+    if "segments" not in inspect.signature(fn).parameters:
+        raise ConfigError(f"{where}: accuracy.tessellation = {settings.tessellation}: this build's "
+                          f"{fn.__name__} takes no segments=; leave it null")
+    return {"segments": int(settings.tessellation)}

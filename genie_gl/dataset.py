@@ -58,6 +58,7 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     from .layout import generate_layout, load_strategy
     from .render import capture
     from .scene import build_scene
+    from .accuracy import AccuracySettings, frame_costs, segments_option
     from .sensors import load_sensor, place_sensors
 
     out = Path(cfg["out"])
@@ -69,14 +70,15 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     strategy = load_strategy(cfg["strategy"])
     layout = generate_layout(strategy, rng=rng["layout"])
     t["layout"] = time.perf_counter()
-    scene = build_scene(layout, rng=rng["scene"])
+    accuracy = AccuracySettings(**cfg["accuracy"]["settings"]) if cfg.get("accuracy") else None
+    scene = build_scene(layout, rng=rng["scene"], **segments_option(build_scene, accuracy))
     t["scene"] = time.perf_counter()
     sensor = load_sensor(cfg["sensor"])
     poses = place_sensors(layout, sensor, n=cfg["cameras"], seed=int(rng["placement"].integers(2**31)))
     t["placement"] = time.perf_counter()
     # SemanticKITTI scans carry no colour: render none (an output not asked for costs nothing)
     frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1,
-                     depth_only=cfg["format"] == "semantickitti")
+                     depth_only=cfg["format"] == "semantickitti", accuracy=accuracy)
     t["capture"] = time.perf_counter()
     # the chunks straight from the frames: the merged cloud (~12 M points at 40 cameras) is
     # built only for a preview that shows it
@@ -121,6 +123,7 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
         bop.write_dataset_files(scene, frames[0], out, meshes)
     keys = ["start", "layout", "scene", "placement", "capture", "cloud", "export"]
     stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
+    stats["frame_cost_ms"] = frame_costs(frames)   # per effect: the manifest's "cost" block
     return stats
 
 
@@ -219,6 +222,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
     """Make every missing scene of the dataset described by ``cfg`` (see ``add_arguments``)."""
     from tqdm import tqdm
 
+    from .accuracy import dataset_cost
     from .scene import ASSETS
 
     if ASSETS.registered() and (cfg["executor"] == "ray" or cfg["workers"] > 1):
@@ -270,11 +274,25 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
         "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
         "scenes_made": len(results), "scenes_skipped": cfg["scenes"] - len(todo),
         "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
+        "cost": dataset_cost(results),
+        "accuracy": accuracy_used(cfg),
     }
     tmp = out / "manifest.json.tmp"
     tmp.write_text(json.dumps(manifest, indent=1))
     tmp.replace(out / "manifest.json")
     return manifest
+
+
+def accuracy_used(cfg: dict[str, Any]) -> dict[str, Any]:
+    """The accuracy settings the captures used and where they came from (--accuracy FILE,
+    the sensor profile's accuracy: block, or the defaults)."""
+    from .accuracy import AccuracySettings
+    from .sensors import load_sensor
+
+    if cfg.get("accuracy"):
+        return {"source": cfg["accuracy"]["file"], "settings": cfg["accuracy"]["settings"]}
+    prof = load_sensor(cfg["sensor"]).meta.get("accuracy")
+    return {"source": "sensor profile" if prof else "defaults", "settings": (prof or AccuracySettings()).to_dict()}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -294,6 +312,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--executor", choices=("process", "ray"), default="process")
     p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--accuracy", default=None, metavar="FILE",
+                   help="accuracy settings: a file with an accuracy: block (genie bench accuracy --budget-mm writes one)")
 
 
 def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
@@ -323,7 +343,16 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
             "format": args.format, "out": str(out), "workers": args.workers, "seed": args.seed,
             "points": args.points, "chunk_m": args.chunk_m, "min_points": args.min_points,
             "min_labelled_share": args.min_labelled_share, "previews": args.previews,
-            "executor": args.executor, "address": args.address}
+            "executor": args.executor, "address": args.address, "accuracy": _accuracy(getattr(args, "accuracy", None))}
+
+
+def _accuracy(path: str | None) -> dict[str, Any] | None:
+    """``--accuracy FILE``: the file and its settings, read and checked now (fail fast)."""
+    if path is None:
+        return None
+    from .accuracy import load_accuracy
+
+    return {"file": str(path), "settings": load_accuracy(path).to_dict()}
 
 
 def run(args: argparse.Namespace) -> int:

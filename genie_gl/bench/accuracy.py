@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
-from .knobs import KNOBS, PLACEMENT_DEFAULT, PLACEMENT_LEVELS, Case, Knob, Setting, exact_setting
+from .knobs import KNOBS, PLACEMENT_DEFAULT, PLACEMENT_LEVELS, Case, Knob, Setting, exact_setting, levels
 
 log = logging.getLogger(__name__)
 ERROR_KEYS = ("depth_median_mm", "depth_p99_mm", "p2s_mean_mm", "id_pct", "silhouette_pct", "edge_px")
@@ -75,6 +75,39 @@ def _poses(path: str) -> list[np.ndarray]:
     return list(arr)
 
 
+def content_poses(scene, n: int, *, distance_m: float = 4.0, height_m: float = 3.0) -> list[np.ndarray]:
+    """``n`` views of a scene with no layout, aimed at its objects: the centres of labelled
+    instances (semantic > 0; all when none is) spread by farthest-point sampling from the one
+    nearest the middle, each seen from ``distance_m`` further out and ``height_m`` above it."""
+    from ..sensors.pose import look_at
+
+    inst = [i for i in scene.instances if i.semantic > 0] or list(scene.instances)
+    if not inst:
+        raise ConfigError("--scene: the stage has no geometry to look at")
+    centres = []
+    for i in inst:
+        b = scene.meshes[i.mesh].bounds
+        c = (b[0] + b[1]) / 2 if np.all(np.isfinite(b)) else np.zeros(3)
+        centres.append(i.world_from_model[:3, :3] @ c + i.world_from_model[:3, 3])
+    centres = np.array(centres)
+    lo, hi = scene.bounds()
+    mid = (lo + hi) / 2
+    chosen = [int(np.argmin(np.linalg.norm(centres[:, :2] - mid[:2], axis=1)))]
+    dist = np.linalg.norm(centres - centres[chosen[0]], axis=1)
+    while len(chosen) < min(n, len(centres)):
+        chosen.append(int(np.argmax(dist)))
+        dist = np.minimum(dist, np.linalg.norm(centres - centres[chosen[-1]], axis=1))
+    poses = []
+    for k in range(n):
+        t = centres[chosen[k % len(chosen)]]
+        out = t[:2] - mid[:2]
+        angle = np.arctan2(out[1], out[0]) if np.linalg.norm(out) > 1e-6 else 0.0
+        angle += 2 * np.pi * (k // len(chosen)) / max(1, -(-n // len(chosen)))
+        eye = [t[0] + distance_m * np.cos(angle), t[1] + distance_m * np.sin(angle), lo[2] + height_m + t[2] - lo[2]]
+        poses.append(look_at(eye, t))
+    return poses
+
+
 def make_case(args: argparse.Namespace) -> Case:
     """The scene, sensor and poses the rows run on."""
     from ..sensors import load_sensor
@@ -89,7 +122,7 @@ def make_case(args: argparse.Namespace) -> Case:
         sensor = analytic.sensor() if args.sensor is None else load_sensor(args.sensor)
         poses = _poses(args.poses) if args.poses else [np.eye(4)]
         return Case("builtin", "built-in analytic scene (wall, floor, box, sphere)", sensor, poses,
-                    lambda t: analytic.scene(32 if t is None else t), tessellation_supported=True)
+                    lambda t: analytic.scene(analytic.DEFAULT_SEGMENTS if t is None else t), tessellation_supported=True)
     sensor = load_sensor(args.sensor or "ideal_pinhole")
     path = Path(args.scene)
     if not path.exists():
@@ -97,7 +130,6 @@ def make_case(args: argparse.Namespace) -> Case:
 
         path = Path(resolve(args.scene, "layouts", (".json",)))
     if path.suffix.lower() in (".usd", ".usda", ".usdc", ".usdz"):
-        from ..render.command import ring_poses
         from ..scene import usd
 
         supported = _takes(usd.read_usd, "segments")
@@ -106,7 +138,7 @@ def make_case(args: argparse.Namespace) -> Case:
             return usd.read_usd(path, segments=t) if (supported and t is not None) else usd.read_usd(path)
 
         scene0 = usd_scene(None)
-        poses = _poses(args.poses) if args.poses else ring_poses(scene0.bounds(), args.cameras, 3.5)
+        poses = _poses(args.poses) if args.poses else content_poses(scene0, args.cameras)
         return Case("usd", str(path), sensor, poses, _cached(usd_scene, scene0), tessellation_supported=supported)
     if path.suffix.lower() != ".json":
         raise ConfigError(f"--scene {path}: expected a USD stage (.usd/.usda/.usdc) or a layout / strategy JSON")
@@ -115,7 +147,7 @@ def make_case(args: argparse.Namespace) -> Case:
     from ..sensors import place_sensors
 
     data = json.loads(path.read_text())
-    layout = Layout.from_json(path) if isinstance(data, dict) and "root" in data else generate_layout(path, seed=args.seed)
+    layout = Layout.from_json(path) if isinstance(data, dict) and "nodes" in data else generate_layout(path, seed=args.seed)
     supported = _takes(build_scene, "segments")
 
     def built(t: int | None):
@@ -337,8 +369,8 @@ def run(args: argparse.Namespace) -> int:
             rows.append({"knob": knob.name, "title": knob.title, "available": False, "reason": why})
             continue
         mode = "analytic" if case.kind == "builtin" and knob.geometric else "exact"
-        for value in knob.levels:
-            rows.append(row_for(runner, knob, value, knob.setting(value), mode, refs))
+        for value, label in levels(knob, case):
+            rows.append(row_for(runner, knob, value, knob.setting(value), mode, refs) | {"level": label})
     result: dict[str, Any] = {
         "case": {"kind": case.kind, "source": case.source, "sensor": case.sensor.name,
                  "effects": [e.name for e in case.sensor.effects], "cameras": len(case.poses),

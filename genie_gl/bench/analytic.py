@@ -21,6 +21,7 @@ SPHERE_C, SPHERE_R = np.array([0.45, 0.0, 2.0]), 0.3
 # instance -> semantic: wall and floor are background (0), the box 1, the sphere 2
 IDS = {"wall": (1, 0), "floor": (2, 0), "box": (3, 1), "sphere": (4, 2)}
 EXTENT = 6.0    # half size of the wall and floor quads
+DEFAULT_SEGMENTS = 32
 RATIONAL = [0.5, 0.2, 0.0, 0.0, 0.01, 0.6, 0.3, 0.05]
 
 
@@ -42,7 +43,7 @@ def sensor():
                   effects=(StereoShadow(baseline_m=0.075), Multipath(bias_m=0.01), DepthNoise()))
 
 
-def scene(segments: int = 32):
+def scene(segments: int = DEFAULT_SEGMENTS):
     """The scene; the sphere is a UV sphere with ``segments`` segments per circle."""
     import trimesh
 

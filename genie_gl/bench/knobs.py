@@ -138,6 +138,33 @@ KNOBS: tuple[Knob, ...] = (
 KNOB = {k.name: k for k in KNOBS}
 
 
+def own_value(knob: Knob, case: Case) -> Any:
+    """What a knob left at its default (None: "keep the owner's") amounts to on ``case``,
+    or None when it cannot be told (the row is then labelled "own")."""
+    d = knob.default()
+    if d is not None:
+        return d
+    if knob.name == "shadow_scale":
+        return getattr(_effect(case.sensor, "stereo_shadow"), "scale", None)
+    if knob.name == "multipath_samples":
+        return getattr(_effect(case.sensor, "multipath"), "samples", None)
+    if knob.name == "tessellation" and case.kind == "builtin":
+        from .analytic import DEFAULT_SEGMENTS
+
+        return DEFAULT_SEGMENTS
+    return None
+
+
+def levels(knob: Knob, case: Case) -> list[tuple[Any, str]]:
+    """(value, label) of the rows of ``knob`` on ``case``: its levels, the one that equals the
+    default given as the default itself (so the default row is shared, not rendered twice)."""
+    d, own = knob.default(), own_value(knob, case)
+    out = [(d if v == own else v, knob.label(v)) for v in knob.levels]
+    if own not in knob.levels:
+        out.insert(0, (d, knob.label(own)))
+    return out
+
+
 def exact_setting(case: Case) -> Setting:
     """Every available knob at its most exact value (the resolution stays the sensor's)."""
     acc = AccuracySettings()

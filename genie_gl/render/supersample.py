@@ -62,32 +62,49 @@ def majority(ids: np.ndarray, depth: np.ndarray) -> np.ndarray:
 
 
 def reduce(hi: Frame, sensor: Sensor, s: int) -> Frame:
-    """The ``sensor`` frame made from ``hi``, rendered with :func:`supersample_sensor`."""
+    """The ``sensor`` frame made from ``hi``, rendered with :func:`supersample_sensor`.
+
+    Blocks of one instance (most of an image) are reduced with area averages (of 1/z, of the
+    normals, of the colour); only blocks on a silhouette go through :func:`majority`."""
+    import cv2
+
     H, W = sensor.height, sensor.width
+    instance = np.ascontiguousarray(hi.instance[::s, ::s])     # each block's first sample
+    semantic = np.ascontiguousarray(hi.semantic[::s, ::s])
+    d = hi.depth
+    inv = np.zeros_like(d)
+    np.divide(1.0, d, out=inv, where=d > 0)
+    mean_inv = cv2.resize(inv, (W, H), interpolation=cv2.INTER_AREA)
+    with np.errstate(divide="ignore"):
+        depth = np.where((instance > 0) & (mean_inv > 0), 1.0 / mean_inv, 0.0).astype(np.float32)
     ids = _blocks(hi.instance, s)
-    depth = _blocks(hi.depth, s)
-    pick = majority(ids, depth)
-    rows = np.arange(H * W)
-    chosen = ids[rows, pick]
-    same = ids == chosen[:, None]
-    hit = same & (depth > 0)
-    inv = np.where(hit, 1.0 / np.where(depth > 0, depth, 1.0).astype(np.float64), 0.0)
-    n_hit = hit.sum(1)
-    z = np.where(n_hit > 0, n_hit / np.maximum(inv.sum(1), 1e-300), 0.0)
-    out_depth = np.where(chosen > 0, z, 0.0).astype(np.float32).reshape(H, W)
-    instance = chosen.astype(np.uint32).reshape(H, W)
-    semantic = _blocks(hi.semantic, s)[rows, pick].reshape(H, W)
-    rgb = None
-    if hi.rgb is not None:  # colour may be antialiased: it is no label
-        rgb = np.rint(_blocks(hi.rgb, s).astype(np.float32).mean(1)).astype(np.uint8).reshape(H, W, 3)
+    mixed = np.flatnonzero((ids != ids[:, :1]).any(1))
     normal = None
     if hi.normal is not None:
-        nb = _blocks(hi.normal, s)
-        m = (nb * same[..., None]).sum(1)
-        norm = np.linalg.norm(m, axis=1, keepdims=True)
-        normal = np.where(norm > 0, m / np.maximum(norm, 1e-30), 0.0).astype(np.float32).reshape(H, W, 3)
+        normal = cv2.resize(hi.normal, (W, H), interpolation=cv2.INTER_AREA).reshape(H * W, 3)
+    if len(mixed):
+        ids = ids[mixed]
+        zb = _blocks(d, s)[mixed]
+        pick = majority(ids, zb)
+        rows = np.arange(len(mixed))
+        chosen = ids[rows, pick]
+        same = ids == chosen[:, None]
+        hit = same & (zb > 0)
+        n_hit = hit.sum(1)
+        sum_inv = np.where(hit, 1.0 / np.where(zb > 0, zb, 1.0).astype(np.float64), 0.0).sum(1)
+        z = np.where((chosen > 0) & (n_hit > 0), n_hit / np.maximum(sum_inv, 1e-300), 0.0)
+        depth.ravel()[mixed] = z
+        instance.ravel()[mixed] = chosen
+        semantic.ravel()[mixed] = _blocks(hi.semantic, s)[mixed][rows, pick]
+        if normal is not None:
+            normal[mixed] = (_blocks(hi.normal, s)[mixed] * same[..., None]).sum(1)
+    if normal is not None:
+        norm = np.linalg.norm(normal, axis=1, keepdims=True)
+        normal = np.where(norm > 0, normal / np.maximum(norm, 1e-30), 0.0).astype(np.float32).reshape(H, W, 3)
+        normal[instance == 0] = 0
+    rgb = None if hi.rgb is None else cv2.resize(hi.rgb, (W, H), interpolation=cv2.INTER_AREA)  # colour is no label
     meta = {**(hi.meta or {}), "supersample": s}
-    return Frame(out_depth, instance, semantic, rgb, sensor, hi.world_from_camera, normal, meta)
+    return Frame(depth, instance, semantic, rgb, sensor, hi.world_from_camera, normal, meta)
 
 
 def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:

@@ -1,0 +1,108 @@
+"""Edge supersampling: ids are never blended, planes keep their exact depth."""
+import numpy as np
+import pytest
+
+from genie_gl.frame import Frame
+from genie_gl.render.supersample import majority, reduce, supersample_sensor, supersampled
+from genie_gl.sensors.camera import Sensor
+
+
+def test_majority_is_the_most_frequent_id_with_ties_to_the_nearer_surface():
+    rng = np.random.default_rng(0)
+    ids = rng.integers(0, 4, (3000, 16)).astype(np.uint32)
+    depth = rng.uniform(0.5, 5, (3000, 16)).astype(np.float32)
+    depth[ids == 0] = 0
+    pick = majority(ids, depth)
+    for i in range(len(ids)):
+        vals, counts = np.unique(ids[i], return_counts=True)
+        top = vals[counts == counts.max()]
+        assert ids[i, pick[i]] in top
+        z = np.where(depth[i] > 0, depth[i], np.inf)
+        assert z[pick[i]] == min(z[k] for k in range(16) if ids[i, k] in top)
+
+
+def test_the_high_resolution_camera_puts_each_block_symmetrically_about_the_pixel_centre():
+    s = Sensor.pinhole(64, 48, 50.0, cx=30.2, cy=20.7)
+    hi = supersample_sensor(s, 4)
+    # pixel (u, v) of s and the centre of its 4 x 4 block in hi see the same ray
+    u, v = 10.0, 7.0
+    x, y = (u - s.cx) / s.fx, (v - s.cy) / s.fy
+    uh, vh = hi.fx * x + hi.cx, hi.fy * y + hi.cy
+    assert (uh, vh) == pytest.approx((4 * u + 1.5, 4 * v + 1.5))
+
+
+def _random_boxes(seed):
+    import trimesh
+
+    from genie_gl.scene.model import Scene
+
+    rng = np.random.default_rng(seed)
+    scene = Scene()
+    scene.add(trimesh.creation.box((8, 8, 0.02)), [0, 0, 4.0], semantic=9, instance=1000)
+    for k in range(30):
+        size = rng.uniform(0.01, 0.3, 3)          # some thinner than a pixel
+        scene.add(trimesh.creation.box(size), [*rng.uniform(-1, 1, 2), rng.uniform(1.5, 3.5)],
+                  semantic=int(rng.integers(1, 8)), instance=int(rng.integers(1, 2**31)))
+    return scene
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("s", [2, 4])
+def test_supersampling_never_produces_an_id_not_in_the_scene(glctx, s):
+    from genie_gl.render import Renderer
+
+    scene = _random_boxes(s)
+    ids = {i.instance for i in scene.instances} | {0}
+    sem_of = {i.instance: i.semantic for i in scene.instances} | {0: 0}
+    sensor = Sensor.pinhole(96, 72, 80.0)
+    with Renderer(scene, context=glctx) as r:
+        f = supersampled(r.render, s)(sensor, np.eye(4))
+        hi = r.render(supersample_sensor(sensor, s), np.eye(4))
+    assert set(np.unique(f.instance).tolist()) <= ids
+    # each pixel's id is one of its own block's samples', its semantic id that instance's
+    blocks = hi.instance.reshape(72, s, 96, s).swapaxes(1, 2).reshape(72, 96, s * s)
+    assert (blocks == f.instance[..., None]).any(-1).all()
+    assert all(sem_of[int(i)] == int(c) for i, c in zip(f.instance.ravel(), f.semantic.ravel()))
+    assert ((f.depth > 0) == (f.instance > 0)).all()
+    # and its depth lies within its instance's own samples (never between two surfaces)
+    zb = hi.depth.reshape(72, s, 96, s).swapaxes(1, 2).reshape(72, 96, s * s)
+    own = blocks == f.instance[..., None]
+    lo = np.where(own, zb, np.inf).min(-1)
+    top = np.where(own, zb, -np.inf).max(-1)
+    hit = f.instance > 0
+    assert (f.depth[hit] >= lo[hit] * (1 - 1e-6)).all() and (f.depth[hit] <= top[hit] * (1 + 1e-6)).all()
+    assert (f.instance != hi.instance[s // 2::s, s // 2::s]).any() or s == 1   # the reduction did something
+
+
+@pytest.mark.gl
+def test_a_tilted_plane_keeps_its_exact_depth_at_every_supersampling(glctx):
+    from genie_gl.render import Renderer
+    from genie_gl.scene.model import Mesh, Scene
+
+    n = np.array([np.sin(0.6), 0.2, -np.cos(0.6)])
+    n /= np.linalg.norm(n)
+    p0 = np.array([0.0, 0.0, 2.5])
+    a = np.cross(n, [0, 1.0, 0])
+    a /= np.linalg.norm(a)
+    b = np.cross(n, a)
+    corners = [p0 + 5 * (sa * a + sb * b) for sa, sb in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
+    scene = Scene()
+    scene.add(Mesh(np.array(corners), np.array([[0, 1, 2], [0, 2, 3]])), semantic=1)
+    sensor = Sensor.pinhole(80, 60, 70.0)
+    u, v = np.meshgrid(np.arange(80.0), np.arange(60.0))
+    d = np.stack([(u - sensor.cx) / sensor.fx, (v - sensor.cy) / sensor.fy, np.ones_like(u)], -1)
+    truth = (n @ p0) / (d @ n)
+    with Renderer(scene, context=glctx) as r:
+        for s in (1, 2, 4):
+            f = supersampled(r.render, s)(sensor, np.eye(4), normals=True)
+            np.testing.assert_allclose(f.depth, truth, rtol=2e-6)
+            np.testing.assert_allclose(np.abs(f.normal.reshape(-1, 3) @ n), 1.0, atol=1e-5)
+
+
+def test_reduce_of_a_uniform_frame_is_the_frame_itself():
+    s = Sensor.pinhole(8, 6, 10.0)
+    hi = supersample_sensor(s, 2)
+    z = np.full((12, 16), 2.0, np.float32)
+    inst = np.full((12, 16), 7, np.uint32)
+    f = reduce(Frame(z, inst, np.full((12, 16), 3, np.uint16), None, hi, np.eye(4)), s, 2)
+    assert (f.depth == 2.0).all() and (f.instance == 7).all() and (f.semantic == 3).all()
