@@ -186,11 +186,23 @@ def frame_costs(frames: Any) -> dict[str, float]:
     ideal pinhole frame, counts its ``render_ms``)."""
     out: dict[str, float] = {}
     for f in frames:
-        meta = f.meta or {}
-        cost = meta.get("cost_ms") or {"render": float(meta.get("render_ms", 0.0))}
-        for k, v in cost.items():
+        for k, v in frame_cost(f.meta or {}).items():
             out[k] = out.get(k, 0.0) + float(v)
     return out
+
+
+def frame_cost(meta: dict[str, Any]) -> dict[str, float]:
+    """One frame's milliseconds per part, from its ``meta``: ``cost_ms`` when it has it, the
+    per-effect log ``effects`` (``[{"name", "run", "ms"}, ...]``) for the effects, and the
+    renderer's ``render_ms`` otherwise."""
+    cost = dict(meta.get("cost_ms") or {})
+    for e in meta.get("effects") or []:
+        if isinstance(e, dict) and "ms" in e and f"effect:{e.get('name')}" not in (meta.get("cost_ms") or {}):
+            key = f"effect:{e.get('name')}"
+            cost[key] = cost.get(key, 0.0) + float(e["ms"])
+    if "render" not in cost:
+        cost["render"] = float(meta.get("render_ms", 0.0))
+    return cost
 
 
 def dataset_cost(stats: list[dict[str, Any]]) -> dict[str, Any]:

@@ -5,8 +5,8 @@ The reference is a dict of (H, W) arrays on the reference camera's pixel grid: `
 a frame rendered at the most exact setting. A frame at another resolution is compared
 through its points: each is projected into the reference camera (same pose, same lens), and
 the reference's 1/z is interpolated bilinearly there when the four neighbours are one
-surface (1/z is affine in the pixel position on a plane, so a plane's depth is recovered
-exactly), else taken at the nearest pixel.
+surface (one instance, depths within 1 % of each other; 1/z is affine in the pixel position on
+a plane, so a plane's depth is recovered exactly), else taken at the nearest pixel.
 
 * ``depth_median_mm``, ``depth_p99_mm``: |Δz| over points whose instance agrees with the
   reference's (mixed ids are counted by the id errors, not here).
@@ -24,6 +24,7 @@ import numpy as np
 
 from ..frame import Frame
 from ..sensors.camera import Sensor
+from ..render.supersample import STEP
 from ..sensors.geometry import pixel_rays
 
 
@@ -65,6 +66,8 @@ def _interp_depth(ref: dict, u: np.ndarray, v: np.ndarray, iu: np.ndarray, iv: n
     ids = [I[q] for q in quad]
     zs = [D[q].astype(np.float64) for q in quad]
     one = np.ones_like(fu, bool)
+    z_lo, z_hi = np.minimum.reduce(zs), np.maximum.reduce(zs)
+    one &= z_hi <= z_lo * (1 + STEP)        # one surface: no depth step between the four
     for i, z in zip(ids, zs):
         one &= (i == I[iv, iu]) & (z > 0)
     w = [(1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv]

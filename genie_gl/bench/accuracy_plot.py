@@ -3,7 +3,7 @@
 Two panels on log axes: the p99 depth error (mm) and the mean silhouette displacement (px),
 each against the median time per frame (ms). Each knob is a line through its levels, every
 level labelled; the default setting is ringed; the Pareto front (no other row both faster and
-more exact) is the dashed staircase. An error of exactly zero (the row equals its reference)
+more exact, among rows measured against the same reference) is the dashed staircase. An error of exactly zero (the row equals its reference)
 cannot sit on a log axis: it is drawn at the panel's floor as an open triangle, and the floor
 is named in the panel. A third panel shows placement coverage against seconds when the scene
 has a layout.
@@ -17,18 +17,22 @@ import numpy as np
 PANELS = (("depth_p99_mm", "p99 |depth error| (mm)"), ("edge_px", "silhouette error (px, mean displacement)"))
 
 
-def pareto(rows: list[dict]) -> dict[str, list[int]]:
-    """Per metric, indices of the available rows on the Pareto front (time vs error), fastest first."""
-    out = {}
+def pareto(rows: list[dict]) -> dict[str, dict[str, list[int]]]:
+    """Per metric and per reference (errors against different references do not compare),
+    indices of the available rows on the Pareto front of time against error, fastest first."""
+    out: dict[str, dict[str, list[int]]] = {}
+    refs = list(dict.fromkeys(r["reference"] for r in rows if r.get("available")))
     for metric, _ in PANELS:
-        pts = sorted((r["time_ms"]["total"]["median"], r["errors"][metric], i)
-                     for i, r in enumerate(rows) if r.get("available"))
-        front, best = [], np.inf
-        for t, e, i in pts:
-            if e < best:
-                front.append(i)
-                best = e
-        out[metric] = front
+        out[metric] = {}
+        for ref in refs:
+            pts = sorted((r["time_ms"]["total"]["median"], r["errors"][metric], i)
+                         for i, r in enumerate(rows) if r.get("available") and r["reference"] == ref)
+            front, best = [], np.inf
+            for t, e, i in pts:
+                if e < best:
+                    front.append(i)
+                    best = e
+            out[metric][ref] = front
     return out
 
 
@@ -67,11 +71,13 @@ def plot(result: dict, path: Path) -> None:
             r = defaults[0]
             ax.plot(r["time_ms"]["total"]["median"], y(r["errors"][metric]), "o", ms=16, mfc="none", mec="k",
                     mew=2, label="default setting")
-        front = [rows[i] for i in result.get("pareto", {}).get(metric, [])]
-        if front:
+        fronts = result.get("pareto", {}).get(metric, {})
+        for j, (ref, idx) in enumerate(fronts.items()):
+            front = [rows[i] for i in idx]
             fx = [r["time_ms"]["total"]["median"] for r in front]
             fy = [y(r["errors"][metric]) for r in front]
-            ax.step(fx, fy, "--", where="post", color="k", lw=1.2, label="Pareto front")
+            ax.step(fx, fy, ("--", ":")[j % 2], where="post", color="k", lw=1.4,
+                    label=f"Pareto front{f' (vs {ref})' if len(fronts) > 1 else ''}")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("time per frame (ms, median over repeats; bars: IQR)")
@@ -95,9 +101,12 @@ def plot(result: dict, path: Path) -> None:
         ax.set_title("placement effort: coverage vs seconds", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
-    fig.suptitle(f"What accuracy costs: {Path(c['source']).name if c['kind'] != 'builtin' else c['source']}, "
-                 f"sensor {c['sensor']} ({c['size'][0]}x{c['size'][1]}), {c['cameras']} cameras; "
-                 f"reference: {c['reference'][:70]}", fontsize=10)
+    import textwrap
+
+    title = (f"What accuracy costs: {Path(c['source']).name if c['kind'] != 'builtin' else c['source']}, "
+             f"sensor {c['sensor']} ({c['size'][0]}x{c['size'][1]}), {c['cameras']} camera(s), "
+             f"{c['repeats']} repeats; reference: {c['reference']}")
+    fig.suptitle("\n".join(textwrap.wrap(title, 70 * n)), fontsize=10)
     fig.tight_layout()
     tmp = path.with_name(f".{path.stem}.tmp.png")
     fig.savefig(tmp, dpi=110)

@@ -6,7 +6,10 @@ to the nearer surface). Its depth is the harmonic mean of that instance's sample
 a plane, since 1/z is affine in the pixel position and the samples sit symmetrically about
 the pixel centre — and its semantic id, normal and colour come from the same samples. So a
 pixel's id is always one of its own samples' ids: no id that is not in the scene, no
-depth halfway between a box and the wall behind it.
+depth halfway between a box and the wall behind it. One instance can also hide part of
+itself (a rack's front beam before its back beam): its samples are split where their sorted
+depths jump by more than ``STEP`` (1 %), and the largest group (ties: the nearest) gives the
+depth, so no depth halfway between two parts of one object either.
 
 The high-resolution camera puts the block's samples symmetrically about the low-resolution
 pixel centre: ``f' = s·f``, ``c' = s·(c + 0.5) − 0.5`` (pixel centres at integer
@@ -22,6 +25,7 @@ from ..frame import Frame
 from ..sensors.camera import Sensor
 
 NO_RETURN_DEPTH = 1.0e9   # how far "no return" counts when a tie is broken by depth
+STEP = 0.01               # a relative jump between sorted depths that separates two surfaces
 
 
 def supersample_sensor(sensor: Sensor, s: int) -> Sensor:
@@ -43,22 +47,48 @@ def _blocks(a: np.ndarray, s: int) -> np.ndarray:
     return b.reshape(H * W, s * s, *a.shape[2:])
 
 
+def _run_lengths(a: np.ndarray) -> np.ndarray:
+    """Rows of ``a`` sorted ascending: for every entry, the length of the run of equal values
+    it belongs to."""
+    n, k = a.shape
+    cols = np.arange(k)
+    first = np.ones((n, 1), bool)
+    start = np.maximum.accumulate(np.where(np.concatenate([first, a[:, 1:] != a[:, :-1]], 1), cols, 0), axis=1)
+    r = a[:, ::-1]
+    end = k - 1 - np.maximum.accumulate(np.where(np.concatenate([first, r[:, 1:] != r[:, :-1]], 1), cols, 0),
+                                        axis=1)[:, ::-1]
+    return end - start + 1
+
+
 def majority(ids: np.ndarray, depth: np.ndarray) -> np.ndarray:
     """Per row of ``ids`` (N, k), the column of a sample of the most frequent id, ties to
     the smallest depth (``depth`` (N, k), 0 = no return = farthest). Returns (N,) int."""
-    n, k = ids.shape
+    n = len(ids)
     order = np.argsort(ids, axis=1, kind="stable")
-    a = np.take_along_axis(ids, order, 1)
-    cols = np.arange(k)
-    start = np.maximum.accumulate(np.where(np.concatenate([np.ones((n, 1), bool), a[:, 1:] != a[:, :-1]], 1),
-                                           cols, 0), axis=1)
-    end = k - 1 - np.maximum.accumulate(np.where(np.concatenate([np.ones((n, 1), bool), a[:, ::-1][:, 1:]
-                                                                 != a[:, ::-1][:, :-1]], 1), cols, 0), axis=1)[:, ::-1]
-    count = (end - start + 1).astype(np.float64)
+    count = _run_lengths(np.take_along_axis(ids, order, 1)).astype(np.float64)
     z = np.take_along_axis(depth, order, 1).astype(np.float64)
     z = np.where(z > 0, z, NO_RETURN_DEPTH)
     best = np.argmax(count * (4 * NO_RETURN_DEPTH) - z, axis=1)   # most samples, then nearest
     return order[np.arange(n), best]
+
+
+def surface(depth: np.ndarray, mask: np.ndarray, step: float = STEP) -> np.ndarray:
+    """(N, k) bool: of the samples ``mask`` selects in each row (returns only), those of the
+    largest group whose sorted depths never jump by more than ``step`` (relative); ties to
+    the nearest group."""
+    n = len(depth)
+    z = np.where(mask & (depth > 0), depth.astype(np.float64), np.inf)
+    order = np.argsort(z, axis=1, kind="stable")
+    zs = np.take_along_axis(z, order, 1)
+    with np.errstate(invalid="ignore"):
+        jump = zs[:, 1:] > zs[:, :-1] * (1 + step)
+    label = np.concatenate([np.zeros((n, 1), np.int64), np.cumsum(jump, 1)], 1)
+    count = np.where(np.isfinite(zs), _run_lengths(label), -1)
+    best = np.argmax(count, axis=1)
+    keep_sorted = (label == label[np.arange(n), best][:, None]) & np.isfinite(zs)
+    keep = np.zeros_like(keep_sorted)
+    np.put_along_axis(keep, order, keep_sorted, 1)
+    return keep
 
 
 def reduce(hi: Frame, sensor: Sensor, s: int) -> Frame:
@@ -78,17 +108,18 @@ def reduce(hi: Frame, sensor: Sensor, s: int) -> Frame:
     with np.errstate(divide="ignore"):
         depth = np.where((instance > 0) & (mean_inv > 0), 1.0 / mean_inv, 0.0).astype(np.float32)
     ids = _blocks(hi.instance, s)
-    mixed = np.flatnonzero((ids != ids[:, :1]).any(1))
+    zb = _blocks(d, s)
+    mixed = np.flatnonzero((ids != ids[:, :1]).any(1) | (zb.max(1) > zb.min(1) * (1 + STEP)))
     normal = None
     if hi.normal is not None:
         normal = cv2.resize(hi.normal, (W, H), interpolation=cv2.INTER_AREA).reshape(H * W, 3)
     if len(mixed):
         ids = ids[mixed]
-        zb = _blocks(d, s)[mixed]
+        zb = zb[mixed]
         pick = majority(ids, zb)
         rows = np.arange(len(mixed))
         chosen = ids[rows, pick]
-        same = ids == chosen[:, None]
+        same = surface(zb, ids == chosen[:, None])
         hit = same & (zb > 0)
         n_hit = hit.sum(1)
         sum_inv = np.where(hit, 1.0 / np.where(zb > 0, zb, 1.0).astype(np.float64), 0.0).sum(1)

@@ -106,3 +106,28 @@ def test_reduce_of_a_uniform_frame_is_the_frame_itself():
     inst = np.full((12, 16), 7, np.uint32)
     f = reduce(Frame(z, inst, np.full((12, 16), 3, np.uint16), None, hi, np.eye(4)), s, 2)
     assert (f.depth == 2.0).all() and (f.instance == 7).all() and (f.semantic == 3).all()
+
+
+@pytest.mark.gl
+def test_one_object_hiding_part_of_itself_gets_no_depth_between_its_parts(glctx):
+    """A bar 1 m before a plate, both one instance: each pixel's depth is the bar's or the
+    plate's, never a mean of the two (the bar's edges cross pixels at random offsets)."""
+    from genie_gl.render import Renderer
+    from genie_gl.scene.model import Mesh, Scene
+
+    def quad(x0, x1, y0, y1, z):
+        return [[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]]
+
+    v = np.array(quad(-0.123, 0.077, -2, 2, 2.0) + quad(-3, 3, -3, 3, 3.0))
+    f = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
+    scene = Scene()
+    scene.add(Mesh(v, f), semantic=1, instance=5)
+    sensor = Sensor.pinhole(64, 48, 60.0)
+    with Renderer(scene, context=glctx) as r:
+        for s in (2, 4):
+            out = supersampled(r.render, s)(sensor, np.eye(4))
+            z = out.depth[out.depth > 0]
+            assert z.size == 64 * 48
+            on_part = np.isclose(z, 2.0, rtol=1e-5) | np.isclose(z, 3.0, rtol=1e-5)
+            assert on_part.all(), np.unique(z[~on_part])
+            assert np.isclose(z, 2.0).sum() > 0 and set(np.unique(out.instance)) == {5}
