@@ -193,19 +193,68 @@ def without(sensor, drop):
 
 
 class Runner:
-    """Runs settings on a case; caches timings per setting and error frames per (setting, mode)."""
+    """Runs settings on a case; caches timings per setting and error frames per (setting, mode).
+
+    Settings are timed side by side (:meth:`time_many`): after one warm-up pass each, the
+    repeats go round the settings in turn, each round starting one setting later, so a slow
+    spell of a shared machine falls on every row alike. One GL context serves every renderer
+    (one per scene variant and renderer option); :meth:`close` frees them.
+    """
 
     def __init__(self, case: Case, repeats: int, seed: int) -> None:
         self.case, self.repeats, self.seed = case, repeats, seed
         self.timings: dict = {}
         self.frames: dict = {}
+        self._gl = None
+        self._renderers: dict = {}
 
     def _renderer(self, setting: Setting):
-        from ..render import Renderer
+        from ..render import Renderer, create_context
         from ..render.supersample import renderer_options
 
-        scene = self.case.scene_for(setting.accuracy.tessellation)
-        return Renderer(scene, **renderer_options(setting.accuracy))
+        opts = renderer_options(setting.accuracy)
+        key = (setting.accuracy.tessellation, tuple(sorted(opts.items())))
+        if key not in self._renderers:
+            if self._gl is None:
+                self._gl = create_context(None)
+            scene = self.case.scene_for(setting.accuracy.tessellation)
+            self._renderers[key] = Renderer(scene, context=self._gl, **opts)
+        return self._renderers[key]
+
+    def close(self) -> None:
+        for r in self._renderers.values():
+            r.release()
+        self._renderers = {}
+        if self._gl is not None:
+            self._gl.release()
+            self._gl = None
+
+    def _render_fn(self, setting: Setting):
+        from ..render.supersample import supersampled
+
+        return supersampled(self._renderer(setting).render, setting.accuracy.supersample)
+
+    def time_many(self, settings: list[Setting]) -> None:
+        """Time every setting not timed yet, side by side (see the class docstring)."""
+        todo = list({s.key(): s for s in settings if s.key() not in self.timings}.values())
+        if todo:
+            self.timings.update(zip([s.key() for s in todo], self.side_by_side(todo)))
+
+    def side_by_side(self, todo: list[Setting]) -> list[dict]:
+        """Per setting, the median and IQR of each part's ms per frame, timed in turns."""
+        jobs = [(s, self._render_fn(s), self._sensor(s, None)) for s in todo]
+        for s, render, sensor in jobs:              # warm-up: shaders, buffers, caches
+            self._pass(render, sensor, s.accuracy)
+        per: dict = {s.key(): [] for s in todo}
+        for k in range(self.repeats):
+            for j in range(len(jobs)):
+                s, render, sensor = jobs[(j + k) % len(jobs)]
+                per[s.key()].append(self._pass(render, sensor, s.accuracy)[1])
+        out = []
+        for runs in per.values():
+            names = sorted({n for c in runs for n in c})
+            out.append({n: _spread([c.get(n, 0.0) for c in runs]) for n in names})
+        return out
 
     def _sensor(self, setting: Setting, mode: str | None):
         from ..accuracy import apply_to_sensor
@@ -247,31 +296,19 @@ class Runner:
 
     def run(self, setting: Setting, modes: tuple[str, ...], timed: bool = True) -> None:
         """Time ``setting`` (unless done, or not ``timed``) and make its error frames for each mode."""
-        from ..render.supersample import supersampled
-
+        if timed:
+            self.time_many([setting])
         key = setting.key()
-        todo = [m for m in modes if (key, m) not in self.frames]
-        if (key in self.timings or not timed) and not todo:
-            return
-        with self._renderer(setting) as r:
-            render = supersampled(r.render, setting.accuracy.supersample)
-            if timed and key not in self.timings:
-                sensor = self._sensor(setting, None)
-                per = []
-                for k in range(self.repeats + 1):
-                    _, c = self._pass(render, sensor, setting.accuracy)
-                    if k:
-                        per.append(c)
-                keys = sorted({k for c in per for k in c})
-                self.timings[key] = {k: _spread([c.get(k, 0.0) for c in per]) for k in keys}
-            for m in todo:
-                normals = m == "reference"
-                sensor = self._sensor(setting, "exact" if m == "reference" else m)
-                frames, _ = self._pass(render, sensor, setting.accuracy)
-                if normals:
-                    ideal, _ = self._pass(render, without(sensor, lambda e: True), setting.accuracy, normals=True)
-                    frames = list(zip(frames, ideal))
-                self.frames[(key, m)] = frames
+        for m in modes:
+            if (key, m) in self.frames:
+                continue
+            render = self._render_fn(setting)
+            sensor = self._sensor(setting, "exact" if m == "reference" else m)
+            frames, _ = self._pass(render, sensor, setting.accuracy)
+            if m == "reference":
+                ideal, _ = self._pass(render, without(sensor, lambda e: True), setting.accuracy, normals=True)
+                frames = list(zip(frames, ideal))
+            self.frames[(key, m)] = frames
 
 
 def _spread(v: list[float]) -> dict[str, float]:
@@ -400,9 +437,6 @@ def placement_rows(case: Case, repeats: int, seed: int) -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .accuracy_budget import pick
-    from .accuracy_plot import pareto, plot
-
     case = make_case(args)
     chosen = KNOBS
     if args.knobs:
@@ -413,11 +447,22 @@ def run(args: argparse.Namespace) -> int:
                               f"{', '.join(k.name for k in KNOBS)}")
         chosen = tuple(k for k in KNOBS if k.name in names)
     runner = Runner(case, args.repeats, args.seed)
+    try:
+        return _run(args, case, chosen, runner)
+    finally:
+        runner.close()
+
+
+def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner: Runner) -> int:
+    from .accuracy_budget import pick
+    from .accuracy_plot import pareto, plot
+
     t0 = time.perf_counter()
     refs = references(runner, None if args.no_cache else Path(args.out) / "cache")
+    plan = [(k, k.requires(case)) for k in chosen]
+    runner.time_many([k.setting(v) for k, why in plan if not why for v, _ in levels(k, case)])
     rows: list[dict] = []
-    for knob in chosen:
-        why = knob.requires(case)
+    for knob, why in plan:
         if why:
             rows.append({"knob": knob.name, "title": knob.title, "available": False, "reason": why})
             continue
