@@ -39,7 +39,8 @@ from .knobs import KNOBS, PLACEMENT_DEFAULT, PLACEMENT_LEVELS, Case, Knob, Setti
 
 log = logging.getLogger(__name__)
 PLACEMENT_CAMERAS = 12
-ERROR_KEYS = ("depth_median_mm", "depth_p99_mm", "p2s_mean_mm", "id_pct", "silhouette_pct", "edge_px")
+ERROR_KEYS = ("depth_median_mm", "depth_p99_mm", "p2s_mean_mm", "id_pct", "silhouette_pct", "edge_px",
+              "sampling_mm")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -512,7 +513,7 @@ def print_table(result: dict) -> None:
           f"({', '.join(c['effects']) or 'no effects'}), {c['cameras']} cameras, {c['repeats']} repeats")
     print(f"reference: {c['reference']}; errors with noise off (noise checked below)")
     head = (f"{'knob':<30}{'level':>10}{'ms/frame':>10}{'IQR':>7}{'render':>8}{'effects':>8}{'unproj':>7}"
-            f"{'dz med':>8}{'dz p99':>8}{'p2s':>8}{'id %':>7}{'sil %':>7}{'edge px':>8}  ref")
+            f"{'dz med':>8}{'dz p99':>8}{'p2s':>8}{'id %':>7}{'sil %':>7}{'edge px':>8}{'gap mm':>7}  ref")
     print(head)
     print("-" * len(head))
     for r in result["rows"]:
@@ -525,10 +526,10 @@ def print_table(result: dict) -> None:
         print(f"{r['title']:<30}{r['level'] + mark:>10}{t['total']['median']:>10.1f}{t['total']['iqr']:>7.1f}"
               f"{t['render']['median']:>8.1f}{eff:>8.1f}{t['unprojection']['median']:>7.1f}"
               f"{e['depth_median_mm']:>8.3f}{e['depth_p99_mm']:>8.2f}{e['p2s_mean_mm']:>8.2f}{e['id_pct']:>7.2f}"
-              f"{e['silhouette_pct']:>7.1f}{e['edge_px']:>8.3f}  {r['reference']}")
+              f"{e['silhouette_pct']:>7.1f}{e['edge_px']:>8.3f}{e['sampling_mm']:>7.2f}  {r['reference']}")
     print("(* default; ms: median per frame over repeats, IQR its spread; dz: |depth error| mm where ids agree; "
           "p2s: mean point-to-surface mm; id %: pixels whose instance differs; sil %: on silhouettes; "
-          "edge px: mean silhouette displacement)")
+          "edge px: mean silhouette displacement; gap mm: median distance from the reference surface to the cloud)")
     for n in result["noise"]:
         cells = ", ".join(f"z {b['z_m']:.2f} m: {b['measured_mm']:.2f} vs {b['model_mm']:.2f} mm" for b in n["bins"])
         print(f"noise {n['effect']} {n['model']}: measured σ vs model σ — {cells}")

@@ -1,7 +1,7 @@
 """``accuracy.png``: error against milliseconds per frame, one series per knob, the Pareto front.
 
-Two panels on log axes: the p99 depth error (mm) and the mean silhouette displacement (px),
-each against the median time per frame (ms). Each knob is a line through its levels, every
+Three panels on log axes: the p99 depth error (mm), the mean silhouette displacement (px)
+and the surface sampling gap (mm, the pay-off of resolution), each against the median time per frame (ms). Each knob is a line through its levels, every
 level labelled; the default setting is ringed; the Pareto front (no other row both faster and
 more exact, among rows measured against the same reference) is the dashed staircase. An error of exactly zero (the row equals its reference)
 cannot sit on a log axis: it is drawn at the panel's floor as an open triangle, and the floor
@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-PANELS = (("depth_p99_mm", "p99 |depth error| (mm)"), ("edge_px", "silhouette error (px, mean displacement)"))
+PANELS = (("depth_p99_mm", "p99 |depth error| (mm)"), ("edge_px", "silhouette error (px, mean displacement)"),
+          ("sampling_mm", "surface sampling gap (mm, median)"))
 
 
 def pareto(rows: list[dict]) -> dict[str, dict[str, list[int]]]:
@@ -45,7 +46,7 @@ def plot(result: dict, path: Path) -> None:
     rows = result["rows"]
     placement = result.get("placement") or []
     n = len(PANELS) + (1 if placement else 0)
-    fig, axes = plt.subplots(1, n, figsize=(6.5 * n, 5.5))
+    fig, axes = plt.subplots(1, n, figsize=(5.6 * n, 5.5))
     colours = plt.get_cmap("tab10")
     knobs = list(dict.fromkeys(r["knob"] for r in rows if r.get("available")))
     c = result["case"]

@@ -183,3 +183,11 @@ def test_the_exact_reference_is_cached_and_a_second_run_measures_the_same_errors
     assert cached.stat().st_mtime_ns == stamp           # read, not rendered again
     again = json.loads((out / "accuracy.json").read_text())
     assert [r["errors"] for r in by_knob(again, "shadow_scale")] == [r["errors"] for r in by_knob(result, "shadow_scale")]
+
+
+def test_resolution_pays_off_in_a_finer_sampling_of_the_surfaces(run):
+    _, result = run
+    gap = {r["value"]: r["errors"]["sampling_mm"] for r in by_knob(result, "resolution")}
+    # the points lie about half as far apart at each doubling of the resolution
+    assert gap[0.5] > 1.6 * gap[1.0] > 0
+    assert gap[1.0] > 1.6 * gap[2.0] > 0
