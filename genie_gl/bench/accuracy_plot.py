@@ -83,10 +83,10 @@ def plot(result: dict, path: Path) -> None:
         ax.set_yscale("log")
         ax.set_xlabel("time per frame (ms, median over repeats; bars: IQR)")
         ax.set_ylabel(ylabel)
-        ax.set_title(f"{ylabel.split(' (')[0]} vs time\n(zero error drawn at {floor:.2g}, open triangles)",
-                     fontsize=10)
+        zeros = len(vals) - len(pos)
+        ax.set_title(f"{ylabel.split(' (')[0]} vs time" + (f"\n({zeros} rows with zero error drawn at {floor:.2g}, "
+                     "open triangles)" if zeros else ""), fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
     if placement:
         ax = axes[-1]
         xs = [p["seconds"]["median"] for p in placement]
@@ -108,7 +108,9 @@ def plot(result: dict, path: Path) -> None:
              f"sensor {c['sensor']} ({c['size'][0]}x{c['size'][1]}), {c['cameras']} camera(s), "
              f"{c['repeats']} repeats; reference: {c['reference']}")
     fig.suptitle("\n".join(textwrap.wrap(title, 70 * n)), fontsize=10)
-    fig.tight_layout()
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 6), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     tmp = path.with_name(f".{path.stem}.tmp.png")
     fig.savefig(tmp, dpi=110)
     plt.close(fig)
