@@ -170,6 +170,18 @@ def apply_to_sensor(sensor: Any, settings: AccuracySettings) -> Any:
     return dataclasses.replace(sensor, effects=tuple(effects))
 
 
+def simulate_options(simulate: Any, settings: AccuracySettings | None) -> dict[str, Any]:
+    """The keywords of ``simulate`` (the sensors stage's) that carry ``settings``: the lens
+    resampling and the wide render's oversampling, where this build's simulate takes them."""
+    import inspect
+
+    if settings is None:
+        return {}
+    params = inspect.signature(simulate).parameters
+    wanted = {"resample": settings.resample, "oversample": settings.oversample}
+    return {k: v for k, v in wanted.items() if k in params and v is not None}
+
+
 def manifest_entry(settings: AccuracySettings) -> dict[str, Any]:
     """What a manifest records: every field and the short label."""
     return {"settings": settings.to_dict(), "label": settings.label()}

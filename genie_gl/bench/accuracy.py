@@ -268,7 +268,7 @@ class Runner:
         return s
 
     def _pass(self, render, sensor, acc, normals: bool = False):
-        from ..accuracy import frame_cost
+        from ..accuracy import frame_cost, simulate_options
         from ..cloud.unproject import unproject
         from ..render.batch import pose_rng
         from ..sensors.simulate import simulate
@@ -281,7 +281,8 @@ class Runner:
         frames, costs = [], defaultdict(float)
         for i, pose in enumerate(self.case.poses):
             t0 = time.perf_counter()
-            f = simulate(sensor, np.asarray(pose, np.float64), render=render, rng=pose_rng(self.seed, i), accuracy=acc)
+            f = simulate(sensor, np.asarray(pose, np.float64), render=render, rng=pose_rng(self.seed, i),
+                         **simulate_options(simulate, acc))
             t1 = time.perf_counter()
             unproject(f)
             t2 = time.perf_counter()

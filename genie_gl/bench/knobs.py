@@ -60,8 +60,12 @@ def _lens(keyword: str) -> Callable[[Case], str | None]:
 
         if case.sensor.is_pinhole:
             return f"{case.sensor.name} has no lens distortion: nothing to resample"
+        from ..sensors.simulate import simulate
+
         if not (_takes(distortion.distort, keyword) or _takes(distortion.distortion_maps, keyword)):
             return f"this build's lens module takes no {keyword}= (not landed)"
+        if not _takes(simulate, keyword):
+            return f"this build's simulate takes no {keyword}= (not landed)"
         return None
     return need
 

@@ -56,8 +56,11 @@ def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarr
     render = functools.partial(renderer.render, depth_only=depth_only)
     if accuracy is not None:
         render = supersampled(render, accuracy.supersample)
+    from ..accuracy import simulate_options
+
+    opts = simulate_options(simulate, accuracy)
     return [simulate(sensor, np.asarray(poses[k], dtype=np.float64), render=render,
-                     rng=pose_rng(seed, i), accuracy=accuracy) for k, i in enumerate(indices)]
+                     rng=pose_rng(seed, i), **opts) for k, i in enumerate(indices)]
 
 
 # -- process pool: one GL context per worker --------------------------------------------------

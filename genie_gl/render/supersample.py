@@ -29,15 +29,22 @@ STEP = 0.01               # a relative jump between sorted depths that separates
 
 
 def supersample_sensor(sensor: Sensor, s: int) -> Sensor:
-    """The pinhole camera whose ``s x s`` pixel blocks tile ``sensor``'s pixels."""
+    """The camera whose ``s x s`` pixel blocks tile ``sensor``'s pixels (same lens model: a
+    distorted sensor's normalised coordinates do not change with the pixel size)."""
+    import dataclasses
+
     K = sensor.K.copy()
     K[0, 0] *= s
     K[0, 1] *= s
     K[1, 1] *= s
     K[0, 2] = s * (sensor.cx + 0.5) - 0.5
     K[1, 2] = s * (sensor.cy + 0.5) - 0.5
-    return Sensor(sensor.width * s, sensor.height * s, K, near_m=sensor.near_m, far_m=sensor.far_m,
-                  name=f"{sensor.name}-x{s}", meta=sensor.meta)
+    kw = {"width": sensor.width * s, "height": sensor.height * s, "K": K}
+    if hasattr(sensor, "effects"):
+        kw["effects"] = ()
+    if hasattr(sensor, "name"):
+        kw["name"] = f"{sensor.name}-x{s}"
+    return dataclasses.replace(sensor, **kw)
 
 
 def _blocks(a: np.ndarray, s: int) -> np.ndarray:

@@ -10,8 +10,7 @@ normals are dropped from the result again); effects that declare ``needs_render`
 effects and no distortion the result is ``render(sensor, pose)`` itself, bit for bit, and no
 RNG draw is made.
 
-``accuracy`` (:class:`genie_gl.accuracy.AccuracySettings`) passes the lens resampling knobs
-(``resample``, ``oversample``) to the distortion module where it takes them. Every frame's
+``resample`` and ``oversample`` go to the distortion module where it takes them. Every frame's
 ``meta["cost_ms"]`` holds what making it cost, in milliseconds: ``render`` (the pinhole
 render, supersampling included), ``distortion`` (the remap) and one entry per effect, named
 ``effect:<name>`` (an effect's second-view render counts as the effect's); an ideal pinhole
@@ -40,7 +39,7 @@ def _accepted(fn: Callable, wanted: dict[str, Any]) -> dict[str, Any]:
 
 
 def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.random.Generator,
-             accuracy: Any = None) -> Frame:
+             resample: str = "exact", oversample: float | None = None) -> Frame:
     """Render ``sensor`` at ``pose`` (world_from_camera) and apply its effects in order."""
     normals = any(eff.needs_normals for eff in sensor.effects)
     kw = {"normals": True} if normals else {}
@@ -52,7 +51,7 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
     else:
         from .distortion import distort, distortion_maps
 
-        knobs = {} if accuracy is None else {"resample": accuracy.resample, "oversample": accuracy.oversample}
+        knobs = {"resample": resample, "oversample": oversample}
         maps = distortion_maps(sensor, **_accepted(distortion_maps, knobs))
         wide = render(maps.render_sensor, pose, **kw)
         t1 = time.perf_counter()
