@@ -191,3 +191,107 @@ def test_resolution_pays_off_in_a_finer_sampling_of_the_surfaces(run):
     # the points lie about half as far apart at each doubling of the resolution
     assert gap[0.5] > 1.6 * gap[1.0] > 0
     assert gap[1.0] > 1.6 * gap[2.0] > 0
+
+
+@pytest.fixture(scope="module")
+def small_usd(tmp_path_factory):
+    import trimesh
+
+    from genie_gl.scene.model import Scene
+
+    scene = Scene()
+    scene.add(trimesh.creation.box((12, 12, 0.1)), [0, 0, -0.05], semantic=0)
+    for k, (x, y) in enumerate([(0, 0), (2, 1), (-2, 1.5)]):
+        scene.add(trimesh.creation.box((1.0, 0.8, 1.2)), [x, y, 0.6], semantic=k + 1)
+    path = tmp_path_factory.mktemp("usd") / "small.usda"
+    scene.to_usd(path)
+    return path
+
+
+def test_a_usd_stage_with_views_from_a_poses_file(small_usd, small_profile, tmp_path):
+    from genie_gl.bench.accuracy import content_poses
+    from genie_gl.scene.model import Scene
+
+    poses = content_poses(Scene.from_usd(small_usd), 2)
+    (tmp_path / "poses.json").write_text(json.dumps([p.tolist() for p in poses]))
+    assert main(["bench", "accuracy", "--scene", str(small_usd), "--sensor", str(small_profile),
+                 "--poses", str(tmp_path / "poses.json"), "--knobs", "supersample,shadow_scale,tessellation",
+                 "--repeats", "1", "--out", str(tmp_path / "o")]) == 0
+    result = json.loads((tmp_path / "o" / "accuracy.json").read_text())
+    assert result["case"]["kind"] == "usd" and result["case"]["cameras"] == 2
+    rows = [r for r in result["rows"] if r["available"]]
+    assert {r["reference"] for r in rows} == {"exact setting"}
+    # the exact reference is supersampled 4x (and its second view 2x): the 4x row has its
+    # depths but where a coarser second view drops other returns (and multipath sees them)
+    (x4,) = [r for r in rows if r["knob"] == "supersample" and r["value"] == 4]
+    (x1,) = [r for r in rows if r["knob"] == "supersample" and r["value"] == 1]
+    assert x4["errors"]["depth_p99_mm"] < 0.1 * x1["errors"]["depth_p99_mm"]
+    assert x1["errors"]["silhouette_pct"] > x4["errors"]["silhouette_pct"]
+    (tmp_path / "bad.json").write_text("[[1, 2]]")
+    assert main(["bench", "accuracy", "--scene", str(small_usd), "--poses", str(tmp_path / "bad.json"),
+                 "--out", str(tmp_path / "o")]) == 2
+
+
+def test_a_layout_json_built_with_the_seed_and_placement_effort(small_profile, tmp_path):
+    from genie_gl.layout import generate_layout
+
+    generate_layout("layouts/logistics_lane.json", seed=3).to_json(tmp_path / "layout.json")
+    assert main(["bench", "accuracy", "--scene", str(tmp_path / "layout.json"), "--sensor", str(small_profile),
+                 "--cameras", "2", "--knobs", "shadow_scale", "--repeats", "1", "--budget-px", "0.5",
+                 "--out", str(tmp_path / "o")]) == 0
+    result = json.loads((tmp_path / "o" / "accuracy.json").read_text())
+    assert result["case"]["kind"] == "strategy" and len(result["placement"]) == 4
+    b = result["budget"]
+    if b["within"]:
+        assert b["row"]["errors"]["edge_px"] <= 0.5
+
+
+def test_the_budget_combines_each_knobs_fastest_level_within_it_and_keeps_it_only_if_it_holds():
+    """The selection logic alone, on rows of known figures: a row-measuring function that
+    answers from a table stands in for the renderer (the bench tests above render)."""
+    from genie_gl.accuracy import AccuracySettings
+    from genie_gl.bench.accuracy_budget import pick
+    from genie_gl.bench.knobs import Setting
+
+    def row(knob, value, ms, p99, edge):
+        acc = AccuracySettings(**{knob: value})
+        return {"knob": knob, "title": knob, "level": str(value), "value": value, "available": True,
+                "settings": acc.to_dict(), "reference": "exact setting",
+                "time_ms": {"total": {"median": ms, "iqr": 0.0}},
+                "errors": {"depth_p99_mm": p99, "edge_px": edge}}
+
+    rows = [row("resample", "nearest", 70, 0.8, 0.2), row("resample", "exact", 100, 0.5, 0.1),
+            row("shadow_scale", 0.25, 80, 0.9, 0.3), row("shadow_scale", 1.0, 120, 0.1, 0.05),
+            {"knob": "resolution", "available": True, "value": 0.5, "settings": {},
+             "time_ms": {"total": {"median": 1.0, "iqr": 0}}, "errors": {"depth_p99_mm": 0.0, "edge_px": 0.0}}]
+
+    class Runner:
+        timings: dict = {}
+
+        def __init__(self, combined_ms, combined_p99):
+            self.combined_ms, self.combined_p99 = combined_ms, combined_p99
+
+        def side_by_side(self, settings):
+            return [{"total": {"median": 70.0, "iqr": 0}}, {"total": {"median": self.combined_ms, "iqr": 0}}]
+
+    def row_for(runner, knob, value, setting, mode, refs):
+        assert isinstance(setting, Setting) and setting.accuracy == AccuracySettings(resample="nearest", shadow_scale=0.25)
+        return {"settings": setting.accuracy.to_dict(), "reference": "exact setting", "level": "combined",
+                "time_ms": runner.timings[setting.key()],
+                "errors": {"depth_p99_mm": runner.combined_p99, "edge_px": 0.3}}
+
+    # within 1 mm: nearest resampling (70 ms) and shadow 1/4 (80 ms) are each the fastest of their
+    # knob; the resolution row (1 ms, exact) is never picked: it changes the sensor, not a setting
+    b = pick(Runner(52.5, 0.95), rows, {"exact": []}, 1.0, None, row_for)
+    assert b["row"]["level"] == "combined"
+    assert b["settings"]["shadow_scale"] == 0.25 and b["settings"]["resample"] == "nearest"
+    assert b["row"]["ratio_to_fastest_single"] == pytest.approx(0.75)
+    # the combination breaks the budget: the fastest single row within it is kept
+    b = pick(Runner(52.5, 1.5), rows, {"exact": []}, 1.0, None, row_for)
+    assert b["row"] is rows[0] and b["within"]
+    # within the budget but not faster, side by side: the fastest single row is kept too
+    b = pick(Runner(75.0, 0.95), rows, {"exact": []}, 1.0, None, row_for)
+    assert b["row"] is rows[0]
+    # nothing meets 0.01 mm: the most exact measured row is written, and said to miss
+    b = pick(Runner(52.5, 1.5), rows, {"exact": []}, 0.01, None, row_for)
+    assert not b["within"] and b["row"] is rows[3] and "no measured setting meets" in b["comment"]
