@@ -155,7 +155,8 @@ def write_accuracy(path: str | os.PathLike, settings: AccuracySettings, *, comme
 
 def apply_to_sensor(sensor: Any, settings: AccuracySettings) -> Any:
     """``sensor`` with the effect-level knobs set: the stereo shadow's second-view scale and
-    the multipath samples (when the multipath model takes ``samples``)."""
+    the samples of every multipath model that takes ``samples`` (``multipath``,
+    ``tof_multipath``)."""
     from .sensors.camera import Sensor  # noqa: F401  (the sensors stage owns effects)
 
     effects = []
@@ -163,7 +164,7 @@ def apply_to_sensor(sensor: Any, settings: AccuracySettings) -> Any:
         names = {f.name for f in fields(eff)} if dataclasses.is_dataclass(eff) else set()
         if getattr(eff, "name", "") == "stereo_shadow" and "scale" in names and settings.shadow_scale is not None:
             eff = dataclasses.replace(eff, scale=float(settings.shadow_scale))
-        if (getattr(eff, "name", "") == "multipath" and "samples" in names
+        if ("multipath" in getattr(eff, "name", "") and "samples" in names
                 and settings.multipath_samples is not None):
             eff = dataclasses.replace(eff, samples=int(settings.multipath_samples))
         effects.append(eff)

@@ -513,22 +513,26 @@ def print_table(result: dict) -> None:
     print(f"accuracy on {c['source']}, sensor {c['sensor']} {c['size'][0]}x{c['size'][1]} "
           f"({', '.join(c['effects']) or 'no effects'}), {c['cameras']} cameras, {c['repeats']} repeats")
     print(f"reference: {c['reference']}; errors with noise off (noise checked below)")
-    head = (f"{'knob':<30}{'level':>10}{'ms/frame':>10}{'IQR':>7}{'render':>8}{'effects':>8}{'unproj':>7}"
-            f"{'dz med':>8}{'dz p99':>8}{'p2s':>8}{'id %':>7}{'sil %':>7}{'edge px':>8}{'gap mm':>7}  ref")
+    parts = sorted({k for r in result["rows"] if r["available"] for k in r["time_ms"]
+                    if k.startswith("effect:") or k == "distortion"})
+    names = [k.split(":", 1)[-1][:9] for k in parts]
+    head = (f"{'knob':<30}{'level':>8}{'ms/frame':>9}{'IQR':>6}{'render':>7}" + "".join(f"{n:>10}" for n in names)
+            + f"{'unproj':>7}{'dz med':>7}{'dz p99':>7}{'p2s':>6}{'id %':>6}{'sil %':>6}{'edge px':>8}{'gap mm':>7}  ref")
     print(head)
     print("-" * len(head))
     for r in result["rows"]:
         if not r["available"]:
-            print(f"{r['title']:<30}{'—':>10}  unavailable: {r['reason']}")
+            print(f"{r['title']:<30}{'—':>8}  unavailable: {r['reason']}")
             continue
         t, e = r["time_ms"], r["errors"]
-        eff = sum(v["median"] for k, v in t.items() if k.startswith("effect:") or k == "distortion")
         mark = " *" if r["is_default"] else ""
-        print(f"{r['title']:<30}{r['level'] + mark:>10}{t['total']['median']:>10.1f}{t['total']['iqr']:>7.1f}"
-              f"{t['render']['median']:>8.1f}{eff:>8.1f}{t['unprojection']['median']:>7.1f}"
-              f"{e['depth_median_mm']:>8.3f}{e['depth_p99_mm']:>8.2f}{e['p2s_mean_mm']:>8.2f}{e['id_pct']:>7.2f}"
-              f"{e['silhouette_pct']:>7.1f}{e['edge_px']:>8.3f}{e['sampling_mm']:>7.2f}  {r['reference']}")
-    print("(* default; ms: median per frame over repeats, IQR its spread; dz: |depth error| mm where ids agree; "
+        cells = "".join(f"{t[k]['median'] if k in t else 0.0:>10.1f}" for k in parts)
+        print(f"{r['title']:<30}{r['level'] + mark:>8}{t['total']['median']:>9.1f}{t['total']['iqr']:>6.1f}"
+              f"{t['render']['median']:>7.1f}{cells}{t['unprojection']['median']:>7.1f}"
+              f"{e['depth_median_mm']:>7.3f}{e['depth_p99_mm']:>7.2f}{e['p2s_mean_mm']:>6.2f}{e['id_pct']:>6.2f}"
+              f"{e['silhouette_pct']:>6.1f}{e['edge_px']:>8.3f}{e['sampling_mm']:>7.2f}  {r['reference']}")
+    print("(* default; ms: median per frame over repeats, IQR its spread, then the median ms of the render and "
+          "of each effect; dz: |depth error| mm where ids agree; "
           "p2s: mean point-to-surface mm; id %: pixels whose instance differs; sil %: on silhouettes; "
           "edge px: mean silhouette displacement; gap mm: median distance from the reference surface to the cloud)")
     for n in result["noise"]:

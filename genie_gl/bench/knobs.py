@@ -80,11 +80,17 @@ def _shadow(case: Case) -> str | None:
     return None if _effect(case.sensor, "stereo_shadow") else f"{case.sensor.name} has no stereo_shadow effect"
 
 
+def _multipaths(sensor) -> list:
+    return [e for e in sensor.effects if "multipath" in getattr(e, "name", "")]
+
+
 def _multipath(case: Case) -> str | None:
-    eff = _effect(case.sensor, "multipath")
-    if eff is None:
+    effs = _multipaths(case.sensor)
+    if not effs:
         return f"{case.sensor.name} has no multipath effect"
-    return None if hasattr(eff, "samples") else "this build's multipath model takes no samples= (not landed)"
+    if any(hasattr(e, "samples") for e in effs):
+        return None
+    return "this build's multipath model takes no samples= (not landed)"
 
 
 def _tessellation(case: Case) -> str | None:
@@ -137,7 +143,7 @@ KNOBS: tuple[Knob, ...] = (
     Knob("shadow_scale", "second-view scale", "shadow_scale", (0.25, 0.5, 1.0), 2.0, False, _shadow),
     Knob("tessellation", "tessellation (segments/circle)", "tessellation", (8, 16, 32, 64), 128, True,
          _tessellation),
-    Knob("multipath_samples", "multipath samples", "multipath_samples", (4, 8, 16), 32, False, _multipath),
+    Knob("multipath_samples", "multipath samples", "multipath_samples", (8, 16, 32, 64), 128, False, _multipath),
 )
 KNOB = {k.name: k for k in KNOBS}
 
@@ -151,7 +157,7 @@ def own_value(knob: Knob, case: Case) -> Any:
     if knob.name == "shadow_scale":
         return getattr(_effect(case.sensor, "stereo_shadow"), "scale", None)
     if knob.name == "multipath_samples":
-        return getattr(_effect(case.sensor, "multipath"), "samples", None)
+        return next((e.samples for e in _multipaths(case.sensor) if hasattr(e, "samples")), None)
     if knob.name == "tessellation" and case.kind == "builtin":
         from .analytic import DEFAULT_SEGMENTS
 

@@ -98,11 +98,14 @@ def surface(depth: np.ndarray, mask: np.ndarray, step: float = STEP) -> np.ndarr
     return keep
 
 
-def reduce(hi: Frame, sensor: Sensor, s: int) -> Frame:
+def reduce(hi: Frame, sensor: Sensor, s: int, centre: Frame | None = None) -> Frame:
     """The ``sensor`` frame made from ``hi``, rendered with :func:`supersample_sensor`.
 
     Blocks of one instance (most of an image) are reduced with area averages (of 1/z, of the
-    normals, of the colour); only blocks on a silhouette go through :func:`majority`."""
+    normals, of the colour); only blocks on a silhouette go through :func:`majority`.
+    ``centre``, the frame rendered at the sensor's own resolution (its pixel-centre rays),
+    gives the depth and normal wherever its instance is the one the block keeps: the exact
+    depth on the centre ray, where an average over a block would round a crease."""
     import cv2
 
     H, W = sensor.height, sensor.width
@@ -136,6 +139,11 @@ def reduce(hi: Frame, sensor: Sensor, s: int) -> Frame:
         semantic.ravel()[mixed] = _blocks(hi.semantic, s)[mixed][rows, pick]
         if normal is not None:
             normal[mixed] = (_blocks(hi.normal, s)[mixed] * same[..., None]).sum(1)
+    if centre is not None:   # the centre ray's own depth wherever it saw the instance kept
+        keep = ((centre.instance == instance) & (centre.depth > 0)).ravel()
+        depth.ravel()[keep] = centre.depth.ravel()[keep]
+        if normal is not None and centre.normal is not None:
+            normal[keep] = centre.normal.reshape(-1, 3)[keep]
     if normal is not None:
         norm = np.linalg.norm(normal, axis=1, keepdims=True)
         normal = np.where(norm > 0, normal / np.maximum(norm, 1e-30), 0.0).astype(np.float32).reshape(H, W, 3)
@@ -147,12 +155,14 @@ def reduce(hi: Frame, sensor: Sensor, s: int) -> Frame:
 
 def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:
     """``render`` (``(sensor, pose, **kw) -> Frame``, e.g. ``Renderer.render``) made to render
-    every frame at ``s`` times the resolution and reduce it; ``s = 1`` returns ``render``."""
+    every frame at ``s`` times the resolution and reduce it (with a render at the sensor's own
+    resolution for the centre rays' depth, ``1/s²`` more pixels); ``s = 1`` returns ``render``."""
     if s == 1:
         return render
 
     def wrapped(sensor: Sensor, pose: np.ndarray, **kw) -> Frame:
-        return reduce(render(supersample_sensor(sensor, s), pose, **kw), sensor, s)
+        centre = render(sensor, pose, **{**kw, "depth_only": True})
+        return reduce(render(supersample_sensor(sensor, s), pose, **kw), sensor, s, centre)
 
     return wrapped
 
