@@ -17,8 +17,8 @@ are measured (:mod:`genie_gl.bench.accuracy_errors`) against a reference:
 
 Errors are measured with the effects that draw random numbers (noise) switched off, so they
 show the knobs and not the noise; the noise is checked on its own, as a distribution: the
-measured σ against the model's at several depths. Writes ``accuracy.json`` and
-``accuracy.png``; ``--budget-mm`` / ``--budget-px`` also write ``accuracy.yaml``, the fastest
+measured σ against the model's at several depths. Writes ``accuracy.json``, ``accuracy.png``
+and ``accuracy.md`` (the table in Markdown); ``--budget-mm`` / ``--budget-px`` also write ``accuracy.yaml``, the fastest
 setting within the budget, as an ``accuracy:`` block that ``genie dataset --accuracy`` reads.
 """
 from __future__ import annotations
@@ -492,6 +492,9 @@ def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner:
     tmp.write_text(json.dumps(result, indent=1, default=_json))
     tmp.replace(out / "accuracy.json")
     plot(result, out / "accuracy.png")
+    tmp = out / ".accuracy.md.tmp"
+    tmp.write_text(markdown(result))
+    tmp.replace(out / "accuracy.md")
     if "budget" in result:
         from ..accuracy import AccuracySettings, write_accuracy
 
@@ -506,6 +509,23 @@ def _json(o: Any) -> Any:
     if isinstance(o, np.generic):
         return o.item()
     raise TypeError(type(o).__name__)
+
+
+def markdown(result: dict) -> str:
+    """The rows as a Markdown table (what ``accuracy.md`` holds, for a README or a report)."""
+    out = ["| knob | level | ms/frame (IQR) | render ms | effects ms | dz p99 mm | p2s mm | id % | sil % | "
+           "edge px | gap mm | reference |", "|" + " --- |" * 12]
+    for r in result["rows"]:
+        if not r["available"]:
+            out.append(f"| {r['title']} | — | unavailable: {r['reason']} |" + " |" * 9)
+            continue
+        t, e = r["time_ms"], r["errors"]
+        eff = sum(v["median"] for k, v in t.items() if k.startswith("effect:") or k == "distortion")
+        out.append(f"| {r['title']} | {r['level']}{' (default)' if r['is_default'] else ''} | "
+                   f"{t['total']['median']:.0f} ({t['total']['iqr']:.0f}) | {t['render']['median']:.0f} | {eff:.0f} | "
+                   f"{e['depth_p99_mm']:.2f} | {e['p2s_mean_mm']:.2f} | {e['id_pct']:.2f} | {e['silhouette_pct']:.1f} | "
+                   f"{e['edge_px']:.3f} | {e['sampling_mm']:.2f} | {r['reference']} |")
+    return "\n".join(out) + "\n"
 
 
 def print_table(result: dict) -> None:

@@ -81,6 +81,7 @@ def test_the_plot_and_the_pareto_front(run):
     out, result = run
     from PIL import Image
 
+    assert (out / "accuracy.md").read_text().count("\n") == len(result["rows"]) + 2
     img = Image.open(out / "accuracy.png")
     assert img.format == "PNG" and img.size[0] > 1000 and img.size[1] > 400
     avail = [r for r in result["rows"] if r["available"]]
