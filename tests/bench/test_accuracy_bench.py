@@ -297,3 +297,14 @@ def test_the_budget_combines_each_knobs_fastest_level_within_it_and_keeps_it_onl
     # nothing meets 0.01 mm: the most exact measured row is written, and said to miss
     b = pick(Runner(52.5, 1.5), rows, {"exact": []}, 0.01, None, row_for)
     assert not b["within"] and b["row"] is rows[3] and "no measured setting meets" in b["comment"]
+
+
+def test_a_time_within_the_fastest_rows_spread_is_a_tie_won_by_the_more_exact_row():
+    from genie_gl.bench.accuracy_budget import fastest
+
+    def row(ms, iqr, p99):
+        return {"time_ms": {"total": {"median": ms, "iqr": iqr}}, "errors": {"depth_p99_mm": p99, "edge_px": 0.1}}
+
+    quick, close, slow = row(100, 10, 0.9), row(108, 3, 0.2), row(150, 1, 0.0)
+    assert fastest([quick, close, slow]) is close
+    assert fastest([row(100, 0, 0.9), row(108, 3, 0.2)])["time_ms"]["total"]["median"] == 100
