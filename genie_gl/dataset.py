@@ -326,6 +326,7 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
         raise ConfigError("--scenes, --cameras and --workers must be >= 1")
     strategy = load_strategy(args.strategy)      # fails fast on a missing or bad strategy
     load_sensor(args.sensor)
+    accuracy = _accuracy(getattr(args, "accuracy", None))
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -343,7 +344,7 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
             "format": args.format, "out": str(out), "workers": args.workers, "seed": args.seed,
             "points": args.points, "chunk_m": args.chunk_m, "min_points": args.min_points,
             "min_labelled_share": args.min_labelled_share, "previews": args.previews,
-            "executor": args.executor, "address": args.address, "accuracy": _accuracy(getattr(args, "accuracy", None))}
+            "executor": args.executor, "address": args.address, "accuracy": accuracy}
 
 
 def _accuracy(path: str | None) -> dict[str, Any] | None:

@@ -79,3 +79,13 @@ def test_costs_sum_per_part_and_divide_by_the_frames():
     assert cost["stages"]["capture"]["per_frame_ms"] == pytest.approx(200.0)
     assert cost["capture"]["render"] == {"total_ms": 20.0, "per_frame_ms": 5.0}
     assert from_dict(None, "x") == AccuracySettings() and np.isfinite(cost["stages"]["capture"]["total_ms"])
+
+
+def test_genie_dataset_refuses_a_bad_accuracy_file_in_one_line_before_making_anything(tmp_path, capsys):
+    from genie_gl.cli import main
+
+    (tmp_path / "acc.yaml").write_text("accuracy:\n  depth_precision: half\n")
+    assert main(["dataset", "assembly_line", "--out", str(tmp_path / "o"), "--accuracy", str(tmp_path / "acc.yaml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "acc.yaml: accuracy.depth_precision: expected float32 | depth24 | reversed_z" in err
+    assert len(err.splitlines()) == 1 and not (tmp_path / "o").exists()
