@@ -7,6 +7,19 @@ from genie_gl.render.supersample import majority, reduce, supersample_sensor, su
 from genie_gl.sensors.camera import Sensor
 
 
+@pytest.fixture(scope="module")
+def glctx():
+    """A context of this module's own: pyrender's EGL platform terminates the display when a
+    reference renderer is freed (tests/render/test_reference.py), which ends the session's."""
+    from genie_gl.render import create_context
+
+    gl = create_context("egl")
+    yield gl
+    with gl.ctx:
+        assert gl.ctx.error == "GL_NO_ERROR"
+    gl.release()
+
+
 def test_majority_is_the_most_frequent_id_with_ties_to_the_nearer_surface():
     rng = np.random.default_rng(0)
     ids = rng.integers(0, 4, (3000, 16)).astype(np.uint32)
