@@ -243,14 +243,21 @@ class Runner:
 
     def side_by_side(self, todo: list[Setting]) -> list[dict]:
         """Per setting, the median and IQR of each part's ms per frame, timed in turns."""
+        from tqdm import tqdm
+
         jobs = [(s, self._render_fn(s), self._sensor(s, None)) for s in todo]
+        bar = tqdm(total=len(jobs) * (self.repeats + 1), desc="timing settings in turns", unit="pass",
+                   disable=None, leave=False)
         for s, render, sensor in jobs:              # warm-up: shaders, buffers, caches
             self._pass(render, sensor, s.accuracy)
+            bar.update()
         per: dict = {s.key(): [] for s in todo}
         for k in range(self.repeats):
             for j in range(len(jobs)):
                 s, render, sensor = jobs[(j + k) % len(jobs)]
                 per[s.key()].append(self._pass(render, sensor, s.accuracy)[1])
+                bar.update()
+        bar.close()
         out = []
         for runs in per.values():
             names = sorted({n for c in runs for n in c})
