@@ -157,8 +157,6 @@ def apply_to_sensor(sensor: Any, settings: AccuracySettings) -> Any:
     """``sensor`` with the effect-level knobs set: the stereo shadow's second-view scale and
     the samples of every multipath model that takes ``samples`` (``multipath``,
     ``tof_multipath``)."""
-    from .sensors.camera import Sensor  # noqa: F401  (the sensors stage owns effects)
-
     effects = []
     for eff in sensor.effects:
         names = {f.name for f in fields(eff)} if dataclasses.is_dataclass(eff) else set()
