@@ -38,7 +38,10 @@ SAMPLING_PROBES = 20000
 
 
 def project(sensor: Sensor, xy: np.ndarray) -> np.ndarray:
-    """(N, 2) pixel coordinates of normalised rays ``xy`` (N, 2) through ``sensor``'s lens."""
+    """(N, 2) pixel coordinates of normalised rays ``xy`` (N, 2) through ``sensor``'s lens
+    (the camera model's own forward map where it has one: every lens model)."""
+    if callable(getattr(sensor, "project", None)):
+        return np.asarray(sensor.project(np.concatenate([xy, np.ones((len(xy), 1))], 1)), np.float64)[:, :2]
     if sensor.is_pinhole:
         K = sensor.K
         return np.stack([K[0, 0] * xy[:, 0] + K[0, 1] * xy[:, 1] + K[0, 2], K[1, 1] * xy[:, 1] + K[1, 2]], 1)

@@ -39,7 +39,8 @@ def sensor():
     from ..sensors.surface import Multipath
 
     base = Sensor.pinhole(640, 480, 525.0)
-    return Sensor(640, 480, base.K, RATIONAL, near_m=0.1, far_m=20.0, name="builtin-rational",
+    return Sensor(width=640, height=480, K=base.K, dist=np.array(RATIONAL), near_m=0.1, far_m=20.0,
+                  name="builtin-rational",
                   effects=(StereoShadow(baseline_m=0.075), Multipath(bias_m=0.01), DepthNoise()))
 
 
