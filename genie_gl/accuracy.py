@@ -190,7 +190,31 @@ def dumps(settings: AccuracySettings) -> str:
     return json.dumps(settings.to_dict(), sort_keys=True)
 
 
-# -- what a dataset cost (manifests) ------------------------------------------------------------
+# -- datasets: the --accuracy option, what was used, what it cost (manifests) ---------------------
+def option(path: str | os.PathLike | None) -> dict[str, Any] | None:
+    """``--accuracy FILE``: ``{"file", "settings"}`` (a plain dict, for configs and manifests),
+    read and checked now so a bad file fails before any work; None without the option."""
+    if path is None:
+        return None
+    return {"file": str(path), "settings": load_accuracy(path).to_dict()}
+
+
+def settings_of(block: dict[str, Any] | None) -> AccuracySettings | None:
+    """The settings of an :func:`option` block (None: none given)."""
+    return AccuracySettings(**block["settings"]) if block else None
+
+
+def used(block: dict[str, Any] | None, sensor: str) -> dict[str, Any]:
+    """What a manifest records: the settings the captures used and where they came from
+    (the --accuracy file, the sensor profile's accuracy: block, or the defaults)."""
+    if block:
+        return {"source": block["file"], "settings": block["settings"]}
+    from .sensors import load_sensor
+
+    prof = load_sensor(sensor).meta.get("accuracy")
+    return {"source": "sensor profile" if prof else "defaults", "settings": (prof or AccuracySettings()).to_dict()}
+
+
 def frame_costs(frames: Any) -> dict[str, float]:
     """Milliseconds summed over ``frames`` per part of making them: ``render``, ``distortion``
     and ``effect:<name>`` (from each frame's ``meta["cost_ms"]``; a frame without it, an

@@ -58,7 +58,7 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     from .layout import generate_layout, load_strategy
     from .render import capture
     from .scene import build_scene
-    from .accuracy import AccuracySettings, frame_costs, segments_option
+    from .accuracy import frame_costs, segments_option, settings_of
     from .sensors import load_sensor, place_sensors
 
     out = Path(cfg["out"])
@@ -70,7 +70,7 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     strategy = load_strategy(cfg["strategy"])
     layout = generate_layout(strategy, rng=rng["layout"])
     t["layout"] = time.perf_counter()
-    accuracy = AccuracySettings(**cfg["accuracy"]["settings"]) if cfg.get("accuracy") else None
+    accuracy = settings_of(cfg.get("accuracy"))
     scene = build_scene(layout, rng=rng["scene"], **segments_option(build_scene, accuracy))
     t["scene"] = time.perf_counter()
     sensor = load_sensor(cfg["sensor"])
@@ -222,7 +222,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
     """Make every missing scene of the dataset described by ``cfg`` (see ``add_arguments``)."""
     from tqdm import tqdm
 
-    from .accuracy import dataset_cost
+    from .accuracy import dataset_cost, used
     from .scene import ASSETS
 
     if ASSETS.registered() and (cfg["executor"] == "ray" or cfg["workers"] > 1):
@@ -275,24 +275,12 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
         "scenes_made": len(results), "scenes_skipped": cfg["scenes"] - len(todo),
         "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
         "cost": dataset_cost(results),
-        "accuracy": accuracy_used(cfg),
+        "accuracy": used(cfg.get("accuracy"), cfg["sensor"]),
     }
     tmp = out / "manifest.json.tmp"
     tmp.write_text(json.dumps(manifest, indent=1))
     tmp.replace(out / "manifest.json")
     return manifest
-
-
-def accuracy_used(cfg: dict[str, Any]) -> dict[str, Any]:
-    """The accuracy settings the captures used and where they came from (--accuracy FILE,
-    the sensor profile's accuracy: block, or the defaults)."""
-    from .accuracy import AccuracySettings
-    from .sensors import load_sensor
-
-    if cfg.get("accuracy"):
-        return {"source": cfg["accuracy"]["file"], "settings": cfg["accuracy"]["settings"]}
-    prof = load_sensor(cfg["sensor"]).meta.get("accuracy")
-    return {"source": "sensor profile" if prof else "defaults", "settings": (prof or AccuracySettings()).to_dict()}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -326,7 +314,9 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
         raise ConfigError("--scenes, --cameras and --workers must be >= 1")
     strategy = load_strategy(args.strategy)      # fails fast on a missing or bad strategy
     load_sensor(args.sensor)
-    accuracy = _accuracy(getattr(args, "accuracy", None))
+    from .accuracy import option
+
+    accuracy = option(getattr(args, "accuracy", None))
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -345,15 +335,6 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
             "points": args.points, "chunk_m": args.chunk_m, "min_points": args.min_points,
             "min_labelled_share": args.min_labelled_share, "previews": args.previews,
             "executor": args.executor, "address": args.address, "accuracy": accuracy}
-
-
-def _accuracy(path: str | None) -> dict[str, Any] | None:
-    """``--accuracy FILE``: the file and its settings, read and checked now (fail fast)."""
-    if path is None:
-        return None
-    from .accuracy import load_accuracy
-
-    return {"file": str(path), "settings": load_accuracy(path).to_dict()}
 
 
 def run(args: argparse.Namespace) -> int:
