@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..accuracy import simulate_options
 from ..errors import ConfigError
 from .knobs import Case, Setting, exact_setting
 
@@ -115,7 +116,9 @@ class Runner:
         return s
 
     def _pass(self, render, sensor, acc, normals: bool = False):
-        from ..accuracy import frame_cost, simulate_options
+        """Every pose once: the frames, and the mean ms per frame of the render (all but the
+        effects), of each effect (timed here, whatever simulate records), of the lens remap
+        where simulate reports it apart, and of the unprojection."""
         from ..cloud.unproject import unproject
         from ..render.batch import pose_rng
         from ..sensors.simulate import simulate
@@ -125,22 +128,28 @@ class Runner:
 
             def render(s, p, **kw):  # noqa: E306 - the reference's normals, for point-to-surface
                 return base(s, p, **{**kw, "normals": True})
+        clock: dict[str, float] = defaultdict(float)
+        timed = dataclasses.replace(sensor, effects=tuple(Timed(e, clock) for e in sensor.effects))
+        options = simulate_options(simulate, acc)
         frames, costs = [], defaultdict(float)
         for i, pose in enumerate(self.case.poses):
+            clock.clear()
             t0 = time.perf_counter()
-            f = simulate(sensor, np.asarray(pose, np.float64), render=render, rng=pose_rng(self.seed, i),
-                         **simulate_options(simulate, acc))
+            f = simulate(timed, np.asarray(pose, np.float64), render=render, rng=pose_rng(self.seed, i), **options)
             t1 = time.perf_counter()
             unproject(f)
             t2 = time.perf_counter()
-            cost = frame_cost(f.meta or {})
+            cost = dict(clock)
+            lens = (f.meta or {}).get("cost_ms", {}).get("distortion")
+            if lens is not None:
+                cost["distortion"] = lens
             total = 1e3 * (t1 - t0)
-            cost["render"] = total - sum(v for k, v in cost.items() if k != "render")
+            cost["render"] = total - sum(cost.values())
             cost["unprojection"] = 1e3 * (t2 - t1)
             cost["total"] = total + cost["unprojection"]
             for k, v in cost.items():
                 costs[k] += v / len(self.case.poses)
-            frames.append(f)
+            frames.append(f.replace(sensor=sensor) if f.sensor is timed else f)
         return frames, dict(costs)
 
     def run(self, setting: Setting, modes: tuple[str, ...], timed: bool = True) -> None:
@@ -158,6 +167,24 @@ class Runner:
                 ideal, _ = self._pass(render, without(sensor, lambda e: True), setting.accuracy, normals=True)
                 frames = list(zip(frames, ideal))
             self.frames[(key, m)] = frames
+
+
+class Timed:
+    """An effect that adds the milliseconds of each of its runs to ``clock["effect:<name>"]``;
+    everything else (name, needs, check, skip, parameters) is the effect's own."""
+
+    def __init__(self, effect, clock: dict) -> None:
+        self._effect, self._clock = effect, clock
+
+    def __getattr__(self, name: str):
+        return getattr(self._effect, name)
+
+    def apply(self, frame, rng, **kw):
+        t = time.perf_counter()
+        try:
+            return self._effect.apply(frame, rng, **kw)
+        finally:
+            self._clock[f"effect:{self._effect.name}"] += 1e3 * (time.perf_counter() - t)
 
 
 def spread(v: list[float]) -> dict[str, float]:
