@@ -152,7 +152,7 @@ def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner:
     }
     result["pareto"] = pareto(rows)
     if args.budget_mm is not None or args.budget_px is not None:
-        result["budget"] = pick(runner, rows, refs, args.budget_mm, args.budget_px, row_for)
+        result["budget"] = pick(runner, rows, refs, args.budget_mm, args.budget_px, row_for, dataset_cannot())
     result["wall_s"] = time.perf_counter() - t0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -172,6 +172,16 @@ def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner:
         print(f"budget: {b['comment'].splitlines()[0]} -> {out / 'accuracy.yaml'}")
     print(f"wrote {out / 'accuracy.json'} and {out / 'accuracy.png'} ({result['wall_s']:.0f} s)")
     return 0
+
+
+def dataset_cannot() -> tuple[str, ...]:
+    """Knobs that ``genie dataset --accuracy`` cannot apply in this build (the budget leaves
+    them at their defaults)."""
+    import inspect
+
+    from ..scene import build_scene
+
+    return () if "segments" in inspect.signature(build_scene).parameters else ("tessellation",)
 
 
 def _json(o: Any) -> Any:

@@ -6,7 +6,9 @@ first combines, knob by knob, the fastest level whose own row is within the budg
 combination is rendered and measured like any row, and kept when it is within the budget and
 faster than the fastest single row within it (the two timed again side by side); otherwise
 the fastest single row is kept. "Fastest" counts times within the fastest row's IQR as ties,
-won by the more exact row. The resolution is left out (it changes the sensor, not a setting).
+won by the more exact row. The resolution is left out (it changes the sensor, not a setting),
+and so is a knob this build's dataset run cannot apply (tessellation without a scene builder
+that takes ``segments``).
 """
 from __future__ import annotations
 
@@ -39,11 +41,12 @@ def fastest(rows: list[dict]) -> dict:
 
 
 def pick(runner, rows: list[dict], refs: dict, budget_mm: float | None, budget_px: float | None,
-         row_for: Callable) -> dict[str, Any]:
-    """The chosen setting, the row that measured it and a comment for the written file."""
+         row_for: Callable, skip: tuple[str, ...] = ()) -> dict[str, Any]:
+    """The chosen setting, the row that measured it and a comment for the written file;
+    knobs named in ``skip`` (those a dataset run cannot apply) keep their defaults."""
     text = " and ".join(t for t in (f"p99 depth error <= {budget_mm:g} mm" if budget_mm is not None else "",
                                     f"edge error <= {budget_px:g} px" if budget_px is not None else "") if t)
-    eligible = [r for r in rows if r.get("available") and r["knob"] != "resolution"]
+    eligible = [r for r in rows if r.get("available") and r["knob"] not in (set(skip) | {"resolution"})]
     ok = [r for r in eligible if within(r["errors"], budget_mm, budget_px)]
     if not ok:
         best = min(eligible, key=lambda r: (r["errors"]["depth_p99_mm"], r["errors"]["edge_px"]))

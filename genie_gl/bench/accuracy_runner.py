@@ -244,7 +244,8 @@ def references(runner: Runner, cache: Path | None = None) -> dict[str, list[dict
             for i, (f, ideal) in enumerate(runner.frames[(exact.key(), "reference")]):
                 arrays |= {f"depth{i}": f.depth, f"instance{i}": f.instance, f"semantic{i}": f.semantic,
                            f"idepth{i}": ideal.depth, f"iinstance{i}": ideal.instance,
-                           f"isemantic{i}": ideal.semantic, f"inormal{i}": ideal.normal}
+                           f"isemantic{i}": ideal.semantic,
+                           f"inormal{i}": surface_normals(ideal).astype(np.float32)}
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(f".{path.stem}.tmp.npz")
             np.savez_compressed(tmp, **arrays)
