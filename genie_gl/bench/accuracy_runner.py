@@ -251,7 +251,8 @@ def references(runner: Runner, cache: Path | None = None) -> dict[str, list[dict
             np.savez_compressed(tmp, **arrays)
             tmp.replace(path)
     refs = {"exact": [{"depth": f.depth, "instance": f.instance, "semantic": f.semantic,
-                       "normal": surface_normals(ideal)} for f, ideal in runner.frames[(exact.key(), "reference")]]}
+                       "normal": surface_normals(ideal).astype(np.float32)}   # as cached
+                      for f, ideal in runner.frames[(exact.key(), "reference")]]}
     if case.kind == "builtin":
         from . import analytic
 
