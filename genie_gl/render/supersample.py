@@ -2,7 +2,7 @@
 
 Each output pixel takes the ``s x s`` samples of its block in the high-resolution render and
 keeps the **majority instance** among them (no return counts as a candidate too; a tie goes
-to the nearer surface). Its depth is the harmonic mean of that instance's samples — exact on
+to the id of the pixel's centre ray, else to the nearer surface). Its depth is the harmonic mean of that instance's samples — exact on
 a plane, since 1/z is affine in the pixel position and the samples sit symmetrically about
 the pixel centre — and its semantic id, normal and colour come from the same samples. So a
 pixel's id is always one of its own samples' ids: no id that is not in the scene, no
@@ -67,15 +67,21 @@ def _run_lengths(a: np.ndarray) -> np.ndarray:
     return end - start + 1
 
 
-def majority(ids: np.ndarray, depth: np.ndarray) -> np.ndarray:
-    """Per row of ``ids`` (N, k), the column of a sample of the most frequent id, ties to
-    the smallest depth (``depth`` (N, k), 0 = no return = farthest). Returns (N,) int."""
+def majority(ids: np.ndarray, depth: np.ndarray, prefer: np.ndarray | None = None) -> np.ndarray:
+    """Per row of ``ids`` (N, k), the column of a sample of the most frequent id; a tie goes
+    to ``prefer`` (N,) when it is one of the tied ids (the pixel centre's own id: no bias to
+    either side of an edge), else to the smallest depth (``depth`` (N, k), 0 = no return =
+    farthest). Returns (N,) int."""
     n = len(ids)
     order = np.argsort(ids, axis=1, kind="stable")
-    count = _run_lengths(np.take_along_axis(ids, order, 1)).astype(np.float64)
+    a = np.take_along_axis(ids, order, 1)
+    count = _run_lengths(a).astype(np.float64)
     z = np.take_along_axis(depth, order, 1).astype(np.float64)
     z = np.where(z > 0, z, NO_RETURN_DEPTH)
-    best = np.argmax(count * (4 * NO_RETURN_DEPTH) - z, axis=1)   # most samples, then nearest
+    score = count * (8 * NO_RETURN_DEPTH) - z          # most samples, then nearest
+    if prefer is not None:
+        score += (a == np.asarray(prefer)[:, None]) * (4 * NO_RETURN_DEPTH)
+    best = np.argmax(score, axis=1)
     return order[np.arange(n), best]
 
 
@@ -126,7 +132,7 @@ def reduce(hi: Frame, sensor: Sensor, s: int, centre: Frame | None = None) -> Fr
     if len(mixed):
         ids = ids[mixed]
         zb = zb[mixed]
-        pick = majority(ids, zb)
+        pick = majority(ids, zb, None if centre is None else centre.instance.ravel()[mixed])
         rows = np.arange(len(mixed))
         chosen = ids[rows, pick]
         same = surface(zb, ids == chosen[:, None])

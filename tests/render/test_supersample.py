@@ -32,6 +32,12 @@ def test_majority_is_the_most_frequent_id_with_ties_to_the_nearer_surface():
         assert ids[i, pick[i]] in top
         z = np.where(depth[i] > 0, depth[i], np.inf)
         assert z[pick[i]] == min(z[k] for k in range(16) if ids[i, k] in top)
+    prefer = rng.integers(0, 4, len(ids)).astype(np.uint32)
+    pick = majority(ids, depth, prefer)
+    for i in range(len(ids)):
+        vals, counts = np.unique(ids[i], return_counts=True)
+        top = vals[counts == counts.max()]
+        assert ids[i, pick[i]] == prefer[i] if prefer[i] in top else ids[i, pick[i]] in top
 
 
 def test_the_high_resolution_camera_puts_each_block_symmetrically_about_the_pixel_centre():
