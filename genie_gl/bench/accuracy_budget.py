@@ -5,7 +5,7 @@ mean silhouette displacement (``edge_px``). The rows turn one knob at a time, so
 first combines, knob by knob, the fastest level whose own row is within the budget; that
 combination is rendered and measured like any row, and kept when it is within the budget and
 faster than the fastest single row within it (the two timed again side by side); otherwise
-the fastest single row is kept. "Fastest" counts times within the fastest row's IQR as ties,
+the fastest single row is kept. "Fastest" counts times within half the fastest row's IQR as ties,
 won by the more exact row. The resolution is left out (it changes the sensor, not a setting),
 and so is a knob this build's dataset run cannot apply (tessellation without a scene builder
 that takes ``segments``).
@@ -31,11 +31,11 @@ def _ms(row: dict) -> float:
 
 
 def fastest(rows: list[dict]) -> dict:
-    """The fastest row, where a time within the fastest's spread (its IQR) counts as a tie
-    that the more exact row wins (p99 depth error, then edge error): a shared machine's noise
+    """The fastest row, where a time within half the fastest's spread (its IQR) counts as a
+    tie that the more exact row wins (p99 depth error, then edge error): a shared machine's noise
     never buys a less exact setting."""
     best = min(rows, key=_ms)
-    band = _ms(best) + best["time_ms"]["total"].get("iqr", 0.0)
+    band = _ms(best) + 0.5 * best["time_ms"]["total"].get("iqr", 0.0)
     tied = [r for r in rows if _ms(r) <= band]
     return min(tied, key=lambda r: (r["errors"]["depth_p99_mm"], r["errors"]["edge_px"], _ms(r)))
 
