@@ -43,6 +43,17 @@ def silhouettes(renderer: Renderer, sensor: Sensor, pose: np.ndarray, ids: Seque
     return out
 
 
+def limit_threads(threads: int) -> None:
+    """Let this process use ``threads`` cores: llvmpipe's rasteriser threads (read when the
+    driver loads, so call this before the first GL context of the process; an
+    ``LP_NUM_THREADS`` already set wins) and numba's (the culling kernels)."""
+    threads = max(1, int(threads))
+    os.environ.setdefault("LP_NUM_THREADS", str(threads))
+    import numba
+
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+
 def pose_rng(seed: int, index: int) -> np.random.Generator:
     """The generator of pose ``index`` of a capture seeded with ``seed``."""
     return np.random.default_rng(np.random.SeedSequence([int(seed), int(index)]))
@@ -67,7 +78,7 @@ def _worker_init(scene: Scene, backend: str | None, lp_threads: int) -> None:
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
-    os.environ.setdefault("LP_NUM_THREADS", str(lp_threads))
+    limit_threads(lp_threads)
     _WORKER["renderer"] = Renderer(scene, backend=backend)
 
 

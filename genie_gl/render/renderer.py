@@ -345,10 +345,10 @@ class Renderer:
         ctx.front_face = "cw"
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)  # 0.0f has all bits zero: ids clear to 0
         drawn = self._submit(program, lists)
-        d24 = None
+        fbo24 = None
         if self.depth_precision == "depth24":
             n, f = float(sensor.near_m), float(sensor.far_m)
-            fbo24, d24 = extra
+            fbo24 = extra[0]
             p24 = self._program(("NO_LINEAR_DEPTH", "DEPTH_ONLY"))
             p24["u_proj_x"].value = tuple(proj_x.astype(np.float32))
             p24["u_proj_y"].value = tuple(proj_y.astype(np.float32))
@@ -366,8 +366,7 @@ class Renderer:
         if linear:
             fbo.read_into(depth, components=1, attachment=0, dtype="f4")
         else:
-            src = d24 if d24 is not None else fbo
-            src.read_into(depth, components=1, attachment=-1, dtype="f4")
+            (fbo24 or fbo).read_into(depth, components=1, attachment=-1, dtype="f4")
         fbo.read_into(instance, components=1, attachment=1, dtype="u4")
         fbo.read_into(semantic, components=1, attachment=2, dtype="u2")
         rgb = normal = None
