@@ -192,8 +192,6 @@ def capture_per_frame(scene, poses, repeats: int) -> float:
 def _worker(args) -> tuple[int, float, float]:
     name, size, barrier, frames, lp_threads = args
     os.environ["LP_NUM_THREADS"] = str(lp_threads)
-    import resource
-
     from ..render.batch import limit_threads
 
     limit_threads(lp_threads)
@@ -207,7 +205,16 @@ def _worker(args) -> tuple[int, float, float]:
         tool.frame(sensor, poses[i % len(poses)])
     dt = time.perf_counter() - t
     tool.release()
-    return frames, dt, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return frames, dt, peak_rss_mib()
+
+
+def peak_rss_mib() -> float:
+    """This process's peak resident memory (VmHWM; unlike ru_maxrss it does not carry the
+    parent's peak across the exec of a spawned worker)."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
 
 
 def whole_machine(name: str, size: str, frames: int) -> dict:

@@ -22,8 +22,12 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import njit, prange
+
+# numba's TBB layer refuses the TBB found here (with a warning); try OpenMP first
+numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
 
 CLUSTER = 128          # faces per cluster (bounding sphere per cluster)
 BASE_EPS_PX = 1.0 / 64  # pixels: covers sub-pixel snapping and rounding of window coordinates
@@ -74,7 +78,7 @@ def clusters(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nd
     return centres, radii, vrange
 
 
-@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy", fastmath=True)
 def _select(vertices, faces, jobs, cfm, backcull, csph_c, csph_r, vrange, proj, planes, near, width, height,
             window, out, counts):
     """Faces of each job (slot, first face, face count, vertex base, cluster, out offset,
