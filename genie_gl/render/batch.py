@@ -1,7 +1,6 @@
 """``render`` (one ideal frame) and ``capture`` (many poses, sensor effects, all cores)."""
 from __future__ import annotations
 
-import functools
 import multiprocessing as mp
 import os
 from collections.abc import Sequence
@@ -59,13 +58,50 @@ def pose_rng(seed: int, index: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed), int(index)]))
 
 
+class _Prefetched:
+    """``render`` for :func:`simulate` that serves each pose's main render from
+    :meth:`Renderer.frames` (frame i+1 renders while the effects of frame i run); any other
+    render (an effect's extra view, a different sensor) goes to :meth:`Renderer.render`."""
+
+    def __init__(self, renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], depth_only: bool,
+                 normals: bool) -> None:
+        self.renderer, self.sensor, self.poses = renderer, sensor, poses
+        self.depth_only, self.normals = depth_only, normals
+        self.frames = renderer.frames(sensor, poses, depth_only=depth_only, normals=normals)
+        self.next = 0
+
+    def _is_main(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool, only: Any) -> bool:
+        if only is not None or depth_only != self.depth_only or normals != self.normals or self.next >= len(self.poses):
+            return False
+        s = self.sensor
+        same_sensor = sensor is s or (sensor.size == s.size and np.array_equal(sensor.K, s.K)
+                                      and sensor.near_m == s.near_m and sensor.far_m == s.far_m)
+        want = self.poses[self.next]
+        return same_sensor and (pose is want or np.array_equal(pose, want))
+
+    def __call__(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool | None = None, normals: bool = False,
+                 only: Any = None) -> Frame:
+        depth_only = self.depth_only if depth_only is None else depth_only
+        if self._is_main(sensor, pose, depth_only, normals, only):
+            self.next += 1
+            return next(self.frames)
+        return self.renderer.render(sensor, pose, depth_only=depth_only, normals=normals, only=only)
+
+
 def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
                     indices: Sequence[int], depth_only: bool = False) -> list[Frame]:
     from ..sensors.simulate import simulate  # effects live in the sensors stage
 
-    render = functools.partial(renderer.render, depth_only=depth_only)
-    return [simulate(sensor, np.asarray(poses[k], dtype=np.float64), render=render,
-                     rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
+    poses = [np.asarray(p, dtype=np.float64) for p in poses]
+    normals = any(eff.needs_normals for eff in sensor.effects)
+    if sensor.is_pinhole:
+        view = sensor
+    else:
+        from ..sensors.distortion import distortion_maps
+
+        view = distortion_maps(sensor).render_sensor
+    render = _Prefetched(renderer, view, poses, depth_only, normals)
+    return [simulate(sensor, poses[k], render=render, rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
 
 
 # -- process pool: one GL context per worker --------------------------------------------------

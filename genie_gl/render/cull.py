@@ -26,8 +26,9 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-# numba's TBB layer refuses the TBB found here (with a warning); try OpenMP first
-numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+# numba's own work queue first: its threads sleep between kernels (OpenMP's spin, taking
+# cores from llvmpipe's rasteriser threads), and the TBB found here is refused with a warning
+numba.config.THREADING_LAYER_PRIORITY = ["workqueue", "omp", "tbb"]
 
 CLUSTER = 128          # faces per cluster (bounding sphere per cluster)
 BASE_EPS_PX = 1.0 / 64  # pixels: covers sub-pixel snapping and rounding of window coordinates

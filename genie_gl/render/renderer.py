@@ -11,7 +11,7 @@ from __future__ import annotations
 import ctypes
 import logging
 import time
-from collections.abc import Collection
+from collections.abc import Collection, Iterable, Iterator
 from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Any
@@ -173,6 +173,7 @@ class Renderer:
         self._fbos: dict = {}
         self._vaos: dict = {}
         self._clip_control = self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
+        self._gl_flush = None
         with self._current():
             self._upload(scene)
         self.stats: dict[str, float] = {}
@@ -271,8 +272,8 @@ class Renderer:
             self._vaos[key] = vao
         return vao
 
-    def _framebuffer(self, width: int, height: int, color: bool, normals: bool) -> tuple:
-        key = (width, height, color, normals)
+    def _framebuffer(self, width: int, height: int, color: bool, normals: bool, slot: int = 0) -> tuple:
+        key = (width, height, color, normals, slot)
         if key in self._fbos:
             return self._fbos[key]
         ctx, size = self.ctx, (width, height)
@@ -315,16 +316,39 @@ class Renderer:
         with self._current():
             return self._render(sensor, pose, depth_only, normals, only)
 
+    def frames(self, sensor: Sensor, poses: Iterable[np.ndarray], *, depth_only: bool = False,
+               normals: bool = False) -> Iterator[Frame]:
+        """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose,
+        with CPU and GL overlapped: frame i+1 is culled and submitted (into a second set of
+        targets) before frame i is read back, and renders while the caller works on frame i."""
+        pending = None
+        for k, pose in enumerate(poses):
+            with self._current():
+                job = self._draw(sensor, pose, not depth_only, normals, None, slot=1 + k % 2)
+                self._flush()  # llvmpipe rasterises a frame's bins once they are flushed
+                frame = self._read(pending) if pending is not None else None
+            if frame is not None:
+                yield frame
+            pending = job
+        if pending is not None:
+            with self._current():
+                frame = self._read(pending)
+            yield frame
+
     def _render(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool,
                 only: Collection[int] | None = None) -> Frame:
+        return self._read(self._draw(sensor, pose, not depth_only, normals, only, slot=0), finish=True)
+
+    def _draw(self, sensor: Sensor, pose: np.ndarray, color: bool, normals: bool,
+              only: Collection[int] | None, slot: int) -> dict:
+        """Cull and issue the draws of one frame into the targets of ``slot``."""
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = np.asarray(pose, dtype=np.float64)
         if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
             raise RenderError(f"pose must be a finite (4, 4) matrix, got shape {pose.shape}")
-        color = not depth_only
         ctx = self.ctx
-        fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals)
+        fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals, slot)
         linear = self.depth_precision == "float32"
         defines = (("WITH_COLOR",) if color else ()) + (("WITH_NORMAL",) if normals else ()) + \
             (() if linear else ("NO_LINEAR_DEPTH",))
@@ -358,9 +382,24 @@ class Renderer:
             fbo24.clear(depth=1.0)
             self._submit(p24, lists)
         ctx.disable(moderngl.CULL_FACE)
-        ctx.finish()  # so that the read-back time below is the copy alone
-        t2 = time.perf_counter()
+        return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
+                "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
+                "t0": t0, "t1": t1}
 
+    def _flush(self) -> None:
+        if self._gl_flush is None:
+            self._gl_flush = self.gl.gl_function("glFlush", None)
+        self._gl_flush()
+
+    def _read(self, job: dict, finish: bool = False) -> Frame:
+        """Read a drawn frame back (waits for its rasterisation) and make the Frame."""
+        ctx, sensor, color, normals = self.ctx, job["sensor"], job["color"], job["normals"]
+        fbo, fbo24 = job["fbo"], job["fbo24"]
+        W, H = sensor.width, sensor.height
+        if finish:
+            ctx.finish()  # so that the read-back time below is the copy alone
+        t2 = time.perf_counter()
+        linear = self.depth_precision == "float32"
         out = frame_buffers(H, W, color, normals)
         depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
         if linear:
@@ -382,7 +421,7 @@ class Renderer:
         if not linear:
             self._linearise(depth, instance, sensor)
         t3 = time.perf_counter()
-        if drawn and float(depth.max()) > sensor.far_m:  # infinite-far projection: clip here
+        if job["drawn"] and float(depth.max()) > sensor.far_m:  # infinite-far projection: clip here
             beyond = depth > sensor.far_m
             depth[beyond] = 0
             instance[beyond] = 0
@@ -391,9 +430,10 @@ class Renderer:
                 rgb[beyond] = 0
             if normal is not None:
                 normal[beyond] = 0
-        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": drawn,
-                      "triangles_drawn": int(sum(int(c["count"].sum()) for c, _ in lists) // 3)}
-        return Frame(depth, instance, semantic, rgb, sensor, pose, normal,
+        t0, t1 = job["t0"], job["t1"]
+        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
+                      "triangles_drawn": job["triangles"]}
+        return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)})
 
     def _linearise(self, depth: np.ndarray, instance: np.ndarray, sensor: Sensor) -> None:

@@ -183,3 +183,18 @@ def test_depth_precision_against_analytic_plane_depth(glctx, precision):
     if precision == "depth24":
         # error / z^2 stays of one order from 0.5 m to 32 m: it grows as z^2
         assert max(worst) < 20 * min(worst)
+
+
+def test_overlapped_frames_equal_frame_by_frame_renders(glctx):
+    layout = gg.generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=1)
+    scene = gg.build_scene(layout, seed=1)
+    sensor = gg.Sensor.pinhole(120, 90, 100.0)
+    poses = gg.place_sensors(layout, sensor, n=5, seed=1)
+    with Renderer(scene, context=glctx) as r:
+        one_by_one = [r.render(sensor, p, normals=True) for p in poses]
+        overlapped = list(r.frames(sensor, poses, normals=True))
+    assert len(overlapped) == len(poses)
+    for a, b in zip(one_by_one, overlapped):
+        assert_same_frames(a, b)
+        assert a.normal.tobytes() == b.normal.tobytes()
+        assert np.array_equal(a.world_from_camera, b.world_from_camera)
