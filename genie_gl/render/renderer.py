@@ -249,16 +249,23 @@ class Renderer:
                                       np.concatenate(cl_v) if cl_v else np.zeros((1, 2), np.int64))
         self._vbo = ctx.buffer(vertices.tobytes())
         self._ibo = ctx.buffer(all_faces.tobytes())
-        self._dyn_ibo = ctx.buffer(reserve=max(12, 12 * self.triangles)) if self.cull else None
-        self._inst_buf = ctx.buffer(reserve=max(1, N) * INSTANCE_DTYPE.itemsize)
-        self._cmd_buf = ctx.buffer(reserve=max(1, N) * COMMAND_DTYPE.itemsize)
+        self._streams: dict[int, tuple] = {}  # per-frame buffers, one set per frame in flight
+
+    def _stream(self, parity: int) -> tuple:
+        """(instance rows, culled indices, draw commands): the buffers a frame writes."""
+        if parity not in self._streams:
+            ctx, n = self.ctx, max(1, len(self._mesh))
+            self._streams[parity] = (ctx.buffer(reserve=n * INSTANCE_DTYPE.itemsize),
+                                     ctx.buffer(reserve=max(12, 12 * self.triangles)) if self.cull else None,
+                                     ctx.buffer(reserve=n * COMMAND_DTYPE.itemsize))
+        return self._streams[parity]
 
     # -- GL objects ---------------------------------------------------------------------------
     def _program(self, defines: tuple[str, ...]) -> moderngl.Program:
         return load_program(self.ctx, "geometry", defines, cache=self._programs)
 
-    def _vao(self, program: moderngl.Program, dynamic: bool) -> moderngl.VertexArray:
-        key = (id(program), dynamic)
+    def _vao(self, program: moderngl.Program, parity: int) -> moderngl.VertexArray:
+        key = (id(program), parity)
         vao = self._vaos.get(key)
         if vao is None:
             # attributes a program does not use (colour in depth-only mode) become padding
@@ -266,8 +273,8 @@ class Renderer:
             attrs = [a for _, _, a in INSTANCE_FIELDS if a in program]
             vao = self.ctx.vertex_array(
                 program,
-                [(self._vbo, "3f", "in_position"), (self._inst_buf, fmt, *attrs)],
-                index_buffer=self._dyn_ibo if dynamic else self._ibo, index_element_size=4,
+                [(self._vbo, "3f", "in_position"), (self._stream(parity)[0], fmt, *attrs)],
+                index_buffer=self._stream(parity)[1] if self.cull else self._ibo, index_element_size=4,
             )
             self._vaos[key] = vao
         return vao
@@ -358,7 +365,8 @@ class Renderer:
         program["u_proj_y"].value = tuple(proj_y.astype(np.float32))
         program["u_depth"].value = (0.0, float(sensor.near_m))  # reversed, infinite far: near / z
 
-        lists = self._commands(pose, K, W, H, sensor.near_m, only)
+        parity = slot % 2
+        lists = self._commands(pose, K, W, H, sensor.near_m, only, parity)
         t1 = time.perf_counter()
         fbo.use()
         ctx.viewport = (0, 0, W, H)
@@ -368,7 +376,7 @@ class Renderer:
         # v grows with window y (row 0 = v = 0) mirrors the image, so outward CCW faces are CW
         ctx.front_face = "cw"
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)  # 0.0f has all bits zero: ids clear to 0
-        drawn = self._submit(program, lists)
+        drawn = self._submit(program, lists, parity)
         fbo24 = None
         if self.depth_precision == "depth24":
             n, f = float(sensor.near_m), float(sensor.far_m)
@@ -380,7 +388,7 @@ class Renderer:
             fbo24.use()
             ctx.depth_func = "<"
             fbo24.clear(depth=1.0)
-            self._submit(p24, lists)
+            self._submit(p24, lists, parity)
         ctx.disable(moderngl.CULL_FACE)
         return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
                 "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
@@ -449,7 +457,7 @@ class Renderer:
         depth[...] = z
 
     def _commands(self, pose: np.ndarray, K: np.ndarray, W: int, H: int, near: float,
-                  only: Collection[int] | None) -> list[tuple[np.ndarray, bool]]:
+                  only: Collection[int] | None, parity: int = 0) -> list[tuple[np.ndarray, bool]]:
         """Draw commands of a frame: [(commands, back-face culling)], nothing in Python per
         instance."""
         n = len(self._mesh)
@@ -475,14 +483,15 @@ class Renderer:
         inside = ((eye >= self._lo[m] - pad) & (eye <= self._hi[m] + pad)).all(axis=1)
         backcull = self._closed[m] & ~inside
         self._rows["rows"] = cfm
-        self._inst_buf.write(self._rows)
+        inst_buf, dyn_ibo, _ = self._stream(parity)
+        inst_buf.write(self._rows)
         cmd = np.zeros(len(slots), COMMAND_DTYPE)
         cmd["instances"] = 1
         cmd["base_vertex"] = self._vbase[m]
         cmd["base_instance"] = slots
         if self.cull:
             indices, first, count = self._culler.select(slots, m, backcull, cfm, K, W, H, near, planes)
-            self._dyn_ibo.write(indices)
+            dyn_ibo.write(indices)
             cmd["first"], cmd["count"] = first, count
             keep = count > 0
             cmd, backcull = cmd[keep], backcull[keep]
@@ -490,20 +499,21 @@ class Renderer:
             cmd["first"], cmd["count"] = 3 * self._fbase[m], 3 * self._nfaces[m]
         return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
 
-    def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]]) -> int:
+    def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0) -> int:
         """Issue the frame's multi-draw calls; returns the number of instances drawn."""
         if not lists:
             return 0
-        vao = self._vao(program, self.cull)
+        vao = self._vao(program, parity)
+        cmd_buf = self._stream(parity)[2]
         everything = np.concatenate([c for c, _ in lists])
-        self._cmd_buf.write(everything)
+        cmd_buf.write(everything)
         at = 0
         for cmd, flag in lists:
             if flag:
                 self.ctx.enable(moderngl.CULL_FACE)
             else:
                 self.ctx.disable(moderngl.CULL_FACE)
-            vao.render_indirect(self._cmd_buf, moderngl.TRIANGLES, count=len(cmd), first=at)
+            vao.render_indirect(cmd_buf, moderngl.TRIANGLES, count=len(cmd), first=at)
             at += len(cmd)
         return at
 
@@ -521,7 +531,7 @@ class Renderer:
         self.ctx.detect_framebuffer(0).use()
         for vao in self._vaos.values():
             vao.release()
-        for buf in (self._vbo, self._ibo, self._dyn_ibo, self._inst_buf, self._cmd_buf):
+        for buf in (self._vbo, self._ibo, *(b for bufs in self._streams.values() for b in bufs)):
             if buf is not None:
                 buf.release()
         for fbo, targets, depth, extra in self._fbos.values():
@@ -529,7 +539,8 @@ class Renderer:
             for t in (*targets, depth, *extra):
                 t.release()
         self._vaos, self._fbos = {}, {}
-        self._vbo = self._ibo = self._dyn_ibo = self._inst_buf = self._cmd_buf = None
+        self._vbo = self._ibo = None
+        self._streams = {}
 
     def __enter__(self) -> "Renderer":
         return self
