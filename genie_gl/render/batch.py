@@ -15,13 +15,13 @@ from .renderer import Renderer
 
 
 def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | None = None,
-           depth_only: bool = False, normals: bool = False) -> Frame:
+           depth_only: bool = False, normals: bool = False, depth_precision: str = "float32") -> Frame:
     """One ideal pinhole frame of ``scene`` seen by ``sensor`` at ``pose`` (world_from_camera).
 
     Creates and frees a GL context: to render many poses use :class:`Renderer` or
     :func:`capture`.
     """
-    with Renderer(scene, backend=backend) as r:
+    with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
         return r.render(sensor, pose, depth_only=depth_only, normals=normals)
 
 
@@ -108,14 +108,14 @@ def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarr
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(scene: Scene, backend: str | None, lp_threads: int) -> None:
+def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32") -> None:
     if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
         from .context import set_default_backend
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
     limit_threads(lp_threads)
-    _WORKER["renderer"] = Renderer(scene, backend=backend)
+    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision)
 
 
 def _worker_render(job: tuple) -> list[Frame]:
@@ -124,7 +124,8 @@ def _worker_render(job: tuple) -> list[Frame]:
 
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
-            workers: int | None = 1, backend: str | None = None, depth_only: bool = False) -> list[Frame]:
+            workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
+            depth_precision: str = "float32") -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -136,18 +137,19 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         this process. The frames do not depend on it.
     backend : GL backend ("egl", "osmesa" or None).
     depth_only : skip the colour target (frames get ``rgb=None``).
+    depth_precision : "float32", "depth24" or "reversed_z" (see :class:`Renderer`).
     """
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     n = len(poses)
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
-        with Renderer(scene, backend=backend) as r:
+        with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
             return _capture_serial(r, sensor, poses, seed, range(n), depth_only)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
-    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads)) as pool:
+    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
         parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only) for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):

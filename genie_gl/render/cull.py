@@ -1,20 +1,22 @@
 """Exact culling of what cannot change a pixel (numba, parallel, cached on disk).
 
-Per frame, for the instances that survive frustum culling, :func:`cull_triangles` keeps the
-triangles that may cover a pixel centre and writes their indices, instance by instance, into
-one index array the renderer uploads and draws with one multi-draw call.
+Per frame, for the instances that survive frustum culling, :meth:`TriangleCuller.select`
+keeps the triangles that may change a pixel and writes their indices, instance by instance,
+into one index array the renderer uploads and draws with one multi-draw call.
 
-A triangle is dropped only when no pixel centre can lie inside it:
+A triangle is dropped only when it cannot write a pixel:
 
-* its cluster (a run of :data:`CLUSTER` faces of one mesh, with a bounding sphere) lies
-  wholly outside the frustum, or
+* its cluster (a run of :data:`CLUSTER` faces of one mesh, close in space, with a bounding
+  sphere) lies wholly outside the frustum, or
 * all three vertices are in front of the near plane and the triangle's screen bounding box,
   widened by an error bound, holds no pixel centre of the image (a sub-pixel triangle
-  between centres, or one outside the image).
+  between centres, or one outside the image), or
+* it is drawn with back-face culling and faces away by more than moving each vertex by its
+  error bound could change (the GPU would cull it too).
 
 The error bound covers what separates this float64 test from the GPU's float32 vertex
-transform and its sub-pixel snapping (1/256 pixel on llvmpipe, coarser on no driver we
-know): ``1/64`` pixel plus a relative term scaled by the size of the numbers involved. A
+transform and its sub-pixel snapping (1/256 pixel on llvmpipe; the tests catch a bound of
+1/1024): ``1/64`` pixel plus a relative term scaled by the size of the numbers involved. A
 triangle the GPU would rasterise is therefore never dropped, and the culled render is the
 unculled render bit for bit (tests compare both on generated and benchmark scenes).
 """
@@ -89,7 +91,8 @@ def _select(vertices, faces, jobs, cfm, backcull, csph_c, csph_r, vrange, proj, 
     scale = fx + abs(s) + fy
     near_keep = near * (1.0 + 1e-6) + 1e-9
     for q in prange(len(jobs)):
-        slot, f0, nf, vb, cl, at, sb = jobs[q, 0], jobs[q, 1], jobs[q, 2], jobs[q, 3], jobs[q, 4], jobs[q, 5], jobs[q, 6]
+        slot, f0, nf, vb = jobs[q, 0], jobs[q, 1], jobs[q, 2], jobs[q, 3]
+        cl, at, sb = jobs[q, 4], jobs[q, 5], jobs[q, 6]
         m = cfm[slot]
         bc = backcull[q]
         counts[q] = 0
@@ -135,7 +138,8 @@ def _select(vertices, faces, jobs, cfm, backcull, csph_c, csph_r, vrange, proj, 
             keep = True
             if window[a, 2] > near_keep and window[b, 2] > near_keep and window[c, 2] > near_keep:
                 ea, eb, ec = window[a, 3], window[b, 3], window[c, 3]
-                ua, va, ub, vb_, uc, vc = window[a, 0], window[a, 1], window[b, 0], window[b, 1], window[c, 0], window[c, 1]
+                ua, va, ub = window[a, 0], window[a, 1], window[b, 0]
+                vb_, uc, vc = window[b, 1], window[c, 0], window[c, 1]
                 ulo = max(math.ceil(min(ua - ea, min(ub - eb, uc - ec))), 0.0)
                 uhi = min(math.floor(max(ua + ea, max(ub + eb, uc + ec))), width - 1.0)
                 vlo = max(math.ceil(min(va - ea, min(vb_ - eb, vc - ec))), 0.0)
