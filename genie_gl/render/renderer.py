@@ -136,6 +136,7 @@ class Renderer:
 
         with gg.Renderer(scene) as r:
             frames = [r.render(sensor, pose) for pose in poses]
+            frames = list(r.frames(sensor, poses))   # the same frames, CPU and GL overlapped
 
     All meshes of the scene share one vertex and one index buffer, uploaded once; a frame is
     at most two multi-draw calls (instances drawn with and without back-face culling), one
