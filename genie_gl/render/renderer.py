@@ -170,7 +170,7 @@ class Renderer:
         self._own_context = context is None
         self.gl = context or create_context(backend)
         self.ctx = self.gl.ctx
-        self._programs: dict = {}
+        self._programs = self.gl.programs  # one build per context, whatever the renderer
         self._fbos: dict = {}
         self._vaos: dict = {}
         self._clip_control = self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
