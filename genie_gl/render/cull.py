@@ -35,6 +35,7 @@ numba.config.THREADING_LAYER_PRIORITY = ["workqueue", "omp", "tbb"]
 CLUSTER = 128          # faces per cluster (bounding sphere per cluster)
 BASE_EPS_PX = 1.0 / 64  # pixels: covers sub-pixel snapping and rounding of window coordinates
 REL_EPS = 1e-6          # relative error bound of the float32 eye coordinates (~16 ulp)
+PARALLEL_FACES = 200_000  # below this many faces in view, one thread culls a frame
 
 
 def _morton(q: np.ndarray) -> np.ndarray:
@@ -212,10 +213,19 @@ class TriangleCuller:
             self._buf = np.empty(total_i, np.uint32)
             self._out = np.empty(total_i, np.uint32)
         counts = np.empty(len(jobs), np.int64)
-        _select(self.vertices, self.faces, jobs, cfm, backcull[job_inst], self.centres, self.radii, self.vrange,
-                proj, planes, float(near), float(width), float(height), self._window, self._buf, counts)
+        # threads only for big frames: a parallel launch costs a wake-up of every thread,
+        # milliseconds when the machine is busy
+        threads = numba.get_num_threads()
+        if threads > 1 and total_i < 3 * PARALLEL_FACES:
+            numba.set_num_threads(1)
         starts = np.zeros(len(jobs) + 1, np.int64)
-        np.cumsum(3 * counts, out=starts[1:])
-        _compact(self._buf, jobs, counts, starts, self._out)
+        try:
+            _select(self.vertices, self.faces, jobs, cfm, backcull[job_inst], self.centres, self.radii,
+                    self.vrange, proj, planes, float(near), float(width), float(height), self._window, self._buf,
+                    counts)
+            np.cumsum(3 * counts, out=starts[1:])
+            _compact(self._buf, jobs, counts, starts, self._out)
+        finally:
+            numba.set_num_threads(threads)
         per_slot = np.add.reduceat(3 * counts, first_job) if len(jobs) else np.zeros(0, np.int64)
         return self._out[:starts[-1]], starts[first_job], per_slot
