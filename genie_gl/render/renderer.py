@@ -158,8 +158,11 @@ class Renderer:
         (near and far planes of the sensor), read back and linearised; its error grows as
         z² (as on most real-time renderers). "reversed_z": the float32 reversed, infinite-far
         depth buffer (near / z) read back and linearised.
-    cull : drop triangles that cannot cover a pixel centre (exact; False draws everything).
+    cull : drop triangles that cannot cover a pixel centre (exact; False draws everything). A
+        frame with fewer than ``cull_min_faces`` faces in view is drawn whole either way.
     """
+
+    cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True):
@@ -175,6 +178,7 @@ class Renderer:
         self._vaos: dict = {}
         self._clip_control = self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
         self._gl_flush = None
+        self._culled = False
         with self._current():
             self._upload(scene)
         self.stats: dict[str, float] = {}
@@ -265,8 +269,8 @@ class Renderer:
     def _program(self, defines: tuple[str, ...]) -> moderngl.Program:
         return load_program(self.ctx, "geometry", defines, cache=self._programs)
 
-    def _vao(self, program: moderngl.Program, parity: int) -> moderngl.VertexArray:
-        key = (id(program), parity)
+    def _vao(self, program: moderngl.Program, parity: int, culled: bool) -> moderngl.VertexArray:
+        key = (id(program), parity, culled)
         vao = self._vaos.get(key)
         if vao is None:
             # attributes a program does not use (colour in depth-only mode) become padding
@@ -275,7 +279,7 @@ class Renderer:
             vao = self.ctx.vertex_array(
                 program,
                 [(self._vbo, "3f", "in_position"), (self._stream(parity)[0], fmt, *attrs)],
-                index_buffer=self._stream(parity)[1] if self.cull else self._ibo, index_element_size=4,
+                index_buffer=self._stream(parity)[1] if culled else self._ibo, index_element_size=4,
             )
             self._vaos[key] = vao
         return vao
@@ -490,7 +494,9 @@ class Renderer:
         cmd["instances"] = 1
         cmd["base_vertex"] = self._vbase[m]
         cmd["base_instance"] = slots
-        if self.cull:
+        culled = self.cull and int(self._nfaces[m].sum()) >= self.cull_min_faces
+        self._culled = culled
+        if culled:
             indices, first, count = self._culler.select(slots, m, backcull, cfm, K, W, H, near, planes)
             dyn_ibo.write(indices)
             cmd["first"], cmd["count"] = first, count
@@ -504,7 +510,7 @@ class Renderer:
         """Issue the frame's multi-draw calls; returns the number of instances drawn."""
         if not lists:
             return 0
-        vao = self._vao(program, parity)
+        vao = self._vao(program, parity, self._culled)
         cmd_buf = self._stream(parity)[2]
         everything = np.concatenate([c for c, _ in lists])
         cmd_buf.write(everything)

@@ -27,6 +27,7 @@ def assert_same_frames(a, b):
 
 def culled_and_unculled(glctx, scene, sensor, poses, **kw):
     with Renderer(scene, context=glctx, cull=False) as a, Renderer(scene, context=glctx, cull=True) as b:
+        b.cull_min_faces = 0  # cull however few faces are in view
         out = []
         for p in poses:
             fa, fb = a.render(sensor, p, **kw), b.render(sensor, p, **kw)
@@ -58,7 +59,7 @@ def test_culling_changes_no_pixel_on_a_generated_scene(glctx):
     for fa, fb, na, nb in culled_and_unculled(glctx, scene, sensor, poses, normals=True):
         assert_same_frames(fa, fb)
         assert fa.normal.tobytes() == fb.normal.tobytes()
-        assert (fa.instance > 0).any() and nb <= na
+        assert (fa.instance > 0).any() and nb < na
 
 
 def test_culling_changes_no_pixel_with_sub_pixel_triangles_near_pixel_centres():
