@@ -22,11 +22,16 @@ unculled render bit for bit (tests compare both on generated and benchmark scene
 """
 from __future__ import annotations
 
+import logging
 import math
 
 import numba
 import numpy as np
 from numba import njit, prange
+
+from ..scene.model import Mesh
+
+log = logging.getLogger(__name__)
 
 # numba's own work queue first: its threads sleep between kernels (OpenMP's spin, taking
 # cores from llvmpipe's rasteriser threads), and the TBB found here is refused with a warning
@@ -36,6 +41,26 @@ CLUSTER = 128          # faces per cluster (bounding sphere per cluster)
 BASE_EPS_PX = 1.0 / 64  # pixels: covers sub-pixel snapping and rounding of window coordinates
 REL_EPS = 1e-6          # relative error bound of the float32 eye coordinates (~16 ulp)
 PARALLEL_FACES = 200_000  # below this many faces in view, one thread culls a frame
+
+
+def sanitize(mesh: Mesh, name: str) -> np.ndarray:
+    """Faces of ``mesh`` safe to rasterise: drops faces with non-finite or coincident vertices.
+
+    Returns (F', 3) uint32. Dropped faces are reported once, as a warning naming the mesh.
+    """
+    faces = mesh.faces
+    if len(faces) == 0:
+        return faces
+    v = mesh.vertices.astype(np.float64)
+    tri = v[faces]
+    finite = np.isfinite(tri).all(axis=(1, 2))
+    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    keep = finite & (area2 > 0)
+    if not keep.all():
+        log.warning("mesh %r: skipped %d of %d faces (%d with NaN/Inf vertices, %d degenerate)",
+                    name, int((~keep).sum()), len(faces), int((~finite).sum()),
+                    int((finite & ~(area2 > 0)).sum()))
+    return np.ascontiguousarray(faces[keep])
 
 
 def _morton(q: np.ndarray) -> np.ndarray:

@@ -9,11 +9,9 @@ bounding box, and only the triangles that may cover a pixel centre (``render/cul
 from __future__ import annotations
 
 import ctypes
-import logging
 import time
 from collections.abc import Collection, Iterable, Iterator
 from contextlib import nullcontext
-from dataclasses import dataclass
 from typing import Any
 
 import moderngl
@@ -21,14 +19,13 @@ import numpy as np
 
 from ..errors import ConfigError, RenderError
 from ..frame import Frame
-from ..scene.model import Mesh, Scene
+from ..scene.model import Scene
 from ..sensors.camera import Sensor
-from .cull import TriangleCuller, cluster_order, clusters
+from .cull import TriangleCuller, cluster_order, clusters, sanitize
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
+from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
 from .projection import clip_coefficients, frustum_planes, rigid_inverse
 from .shader import load_program
-
-log = logging.getLogger(__name__)
 
 # one row per drawn instance: camera_from_model (3 rows), ids, colour
 INSTANCE_DTYPE = np.dtype([("rows", "<f4", (3, 4)), ("instance", "<u4"), ("semantic", "<u4"),
@@ -40,89 +37,6 @@ GL_TEXTURE_2D = 0x0DE1
 GL_DEPTH_COMPONENT32F = 0x8CAC
 GL_DEPTH_COMPONENT = 0x1902
 GL_FLOAT = 0x1406
-
-
-def sanitize(mesh: Mesh, name: str) -> np.ndarray:
-    """Faces of ``mesh`` safe to rasterise: drops faces with non-finite or coincident vertices.
-
-    Returns (F', 3) uint32. Dropped faces are reported once, as a warning naming the mesh.
-    """
-    faces = mesh.faces
-    if len(faces) == 0:
-        return faces
-    v = mesh.vertices.astype(np.float64)
-    tri = v[faces]
-    finite = np.isfinite(tri).all(axis=(1, 2))
-    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    keep = finite & (area2 > 0)
-    if not keep.all():
-        log.warning("mesh %r: skipped %d of %d faces (%d with NaN/Inf vertices, %d degenerate)",
-                    name, int((~keep).sum()), len(faces), int((~finite).sum()),
-                    int((finite & ~(area2 > 0)).sum()))
-    return np.ascontiguousarray(faces[keep])
-
-
-class _Pool:
-    """Recycled memory for frame buffers.
-
-    A fresh array is page-faulted in on its first write, 4 KiB at a time: for a 640 x 480
-    frame that costs several times the read-back itself. A frame's buffers are views into one
-    block lent from this pool; when the last view dies (the frame is dropped), the block comes
-    back and the next frame of that size writes into memory that is already mapped.
-    """
-
-    def __init__(self, max_bytes: int = 512 << 20) -> None:
-        self.free: dict[int, list[np.ndarray]] = {}
-        self.max_bytes, self.bytes = max_bytes, 0
-        self.types: dict[int, type] = {}
-
-    def lend(self, size: int) -> np.ndarray:
-        """A writable uint8 array of ``size`` bytes, returned to the pool when it dies."""
-        blocks = self.free.get(size)
-        if blocks:
-            raw = blocks.pop()
-            self.bytes -= size
-        else:
-            raw = np.empty(size, np.uint8)
-        lease_type = self.types.get(size)
-        if lease_type is None:
-            pool = self
-
-            class Lease(ctypes.c_ubyte * size):  # type: ignore[misc, valid-type]
-                def __del__(self) -> None:  # the last view of the block is gone
-                    pool.give_back(self._raw)
-
-            lease_type = self.types[size] = Lease
-        lease = lease_type.from_address(raw.ctypes.data)
-        lease._raw = raw  # keeps the memory alive as long as any view of the lease
-        return np.frombuffer(lease, np.uint8)
-
-    def give_back(self, raw: np.ndarray) -> None:
-        if self.bytes + raw.nbytes <= self.max_bytes:
-            self.free.setdefault(raw.nbytes, []).append(raw)
-            self.bytes += raw.nbytes
-
-
-_POOL = _Pool()
-
-
-def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.ndarray]:
-    """A frame's output arrays as views into one block of recycled memory (see :class:`_Pool`)."""
-    parts = [("depth", np.float32, (H, W)), ("instance", np.uint32, (H, W))]
-    if normals:
-        parts.append(("normal", np.float32, (H, W, 3)))
-    if color:
-        parts.append(("rgba", np.uint8, (H, W, 4)))
-    parts.append(("semantic", np.uint16, (H, W)))
-    sizes = [-(-int(np.prod(shape)) * np.dtype(dt).itemsize // 64) * 64 for _, dt, shape in parts]
-    block = _POOL.lend(sum(sizes))
-    out, at = {}, 0
-    for (name, dt, shape), b in zip(parts, sizes):
-        n = int(np.prod(shape)) * np.dtype(dt).itemsize
-        out[name] = block[at:at + n].view(dt).reshape(shape)
-        at += b
-    return out
-
 
 DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z")
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
