@@ -42,8 +42,8 @@ PLACEMENT_CAMERAS = 12
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", default=None,
                    help="USD stage, or layout / strategy JSON (default: the built-in analytic case)")
-    p.add_argument("--sensor", default=None, help="sensor profile or calibration (default: the built-in "
-                                                   "rational-lens sensor; ideal_pinhole-like otherwise)")
+    p.add_argument("--sensor", default=None, help="sensor profile or calibration file (default: the built-in "
+                                                   "rational-lens stereo sensor without --scene, ideal_pinhole with one)")
     p.add_argument("--seed", type=int, default=0, help="seed of the layout, scene, placement and noise")
     views = p.add_mutually_exclusive_group()
     views.add_argument("--cameras", type=int, default=3, help="cameras placed over the scene (default 3)")
