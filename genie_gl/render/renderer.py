@@ -260,16 +260,24 @@ class Renderer:
     # -- rendering -----------------------------------------------------------------------------
     def render(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool = False,
                normals: bool = False, only: Collection[int] | None = None) -> Frame:
-        """Render the ideal pinhole frame of ``sensor`` (its distortion ignored) at ``pose``.
+        """Render the frame of ``sensor`` at ``pose``, without its effects.
+
+        A distorted sensor is rendered through its lens (pinhole views resampled by
+        :func:`genie_gl.sensors.distortion.render_through_lens`, exact by default). Surfaces
+        nearer than the sensor's minimum range ``near_m`` give no return (depth 0, ids 0).
 
         Parameters
         ----------
-        sensor : Sensor, image size and K.
+        sensor : Sensor (or Camera), image size, K, lens and range.
         pose : (4, 4) float64 world_from_camera (OpenCV camera frame).
         depth_only : skip the colour buffer (``Frame.rgb`` is None).
         normals : also render camera-frame unit normals (``Frame.normal``).
         only : draw just the instances with these ids (e.g. an object's full silhouette).
         """
+        if not sensor.is_pinhole:
+            from ..sensors.distortion import render_through_lens
+
+            return render_through_lens(self.render, sensor, pose, depth_only=depth_only, normals=normals, only=only)
         with self._current():
             return self._render(sensor, pose, depth_only, normals, only)
 
@@ -287,7 +295,9 @@ class Renderer:
         proj_x, proj_y = clip_coefficients(K, W, H)
         program["u_proj_x"].value = tuple(proj_x.astype(np.float32))
         program["u_proj_y"].value = tuple(proj_y.astype(np.float32))
-        program["u_near"].value = float(sensor.near_m)
+        # the GL near plane lies far below the sensor's minimum range: what is nearer than the
+        # range is drawn (and masked below), never clipped away to show what lies behind it
+        program["u_near"].value = float(sensor.clip_near_m)
 
         fbo.use()
         ctx.viewport = (0, 0, W, H)
@@ -298,7 +308,7 @@ class Renderer:
         ctx.front_face = "cw"
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)  # 0.0f has all bits zero: ids clear to 0
 
-        drawn = self._draw(program, rigid_inverse(pose), K, W, H, sensor.near_m, only)
+        drawn = self._draw(program, rigid_inverse(pose), K, W, H, sensor.clip_near_m, only)
         ctx.disable(moderngl.CULL_FACE)
         ctx.finish()  # so that the read-back time below is the copy alone
         t1 = time.perf_counter()
@@ -319,8 +329,11 @@ class Renderer:
         if err != "GL_NO_ERROR":
             raise RenderError(f"OpenGL error after rendering: {err}")
         t2 = time.perf_counter()
-        if drawn and float(depth.max()) > sensor.far_m:  # infinite-far projection: clip here
-            beyond = depth > sensor.far_m
+        half = 0.5 * sensor.near_m
+        too_near = np.abs(depth - np.float32(half)) < np.float32(half) if drawn else None  # 0 < depth < near_m
+        if drawn and (float(depth.max()) > sensor.far_m or too_near.any()):
+            # infinite-far projection, near plane below the range: the range is applied here
+            beyond = (depth > sensor.far_m) | too_near
             depth[beyond] = 0
             instance[beyond] = 0
             semantic[beyond] = 0
