@@ -242,20 +242,22 @@ class Scene:
         color: tuple[int, int, int] | None = None,
         name: str = "",
         degenerate: str = "raise",
+        where: str = "",
     ) -> int:
         """Place ``mesh`` (a key of ``meshes``, a ``Mesh``, a trimesh, or ``(V, F)`` arrays).
 
         Returns the instance id: ``instance`` if given (must be unused, 1..2**32-1), else the
         next free id. A transform with a zero, non-finite or singular scale is refused with a
         ConfigError naming the instance (``degenerate="raise"``), or skipped and counted in
-        :meth:`report` (``degenerate="drop"``; then 0 is returned).
+        :meth:`report` (``degenerate="drop"``; then 0 is returned). ``where`` names the
+        instance in those messages (a USD prim path; default: ``name``).
         """
         key = mesh if isinstance(mesh, str) else self.add_mesh(mesh)
         if key not in self.meshes:
             raise ConfigError(f"scene.add: no mesh named {key!r} in the scene")
         t = np.array(transform, dtype=np.float64) if transform is not None else None
         if t is not None and t.shape == (4, 4) and (why := degenerate_reason(t)) is not None:
-            who = name or (f"instance {instance}" if instance is not None else f"mesh {key}")
+            who = where or name or (f"instance {instance}" if instance is not None else f"mesh {key}")
             if degenerate == "drop":
                 self.dropped.append(f"{who}: {why}")
                 log.warning("scene: dropped %s: %s", who, why)

@@ -281,3 +281,18 @@ def test_degenerate_transforms_are_named_one_line_and_never_a_traceback():
         assert "/World/Part_7" in str(e.value) and "\n" not in str(e.value)
     with pytest.raises(gg.ConfigError, match="NaN"):
         scene.add(trimesh.creation.box(), np.full((4, 4), np.nan))
+
+
+def test_usd_prim_with_zero_scale_is_dropped_and_counted_by_path(tmp_path):
+    from pxr import Gf, Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "hidden.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.Xform.Define(stage, "/World/Hidden").AddScaleOp().Set(Gf.Vec3f(0, 1, 1))
+    for path, pts in (("/World/Hidden/Part", [(0, 0, 0), (1, 0, 0), (0, 1, 0)]), ("/World/Ok", [(0, 0, 0), (2, 0, 0), (0, 2, 0)])):
+        m = UsdGeom.Mesh.Define(stage, path)
+        m.CreatePointsAttr(pts), m.CreateFaceVertexCountsAttr([3]), m.CreateFaceVertexIndicesAttr([0, 1, 2])
+    stage.Save()
+    rep = gg.Scene.from_usd(tmp_path / "hidden.usda").report()
+    assert rep["instances"] == 1 and rep["dropped_instances"] == 1
+    assert rep["dropped"][0].startswith("/World/Hidden/Part: its transform has a zero scale")
