@@ -324,12 +324,13 @@ def lens_rows(name: str, context=None, resample: str = "exact", oversample: floa
         vv, uu = np.nonzero(mask)
         worst = max(worst, float(np.hypot(u.mean() - uu.mean(), v.mean() - vv.mean())))
         quant = max(quant, float(np.hypot(*(np.array([uu.mean(), vv.mean()]) - marker_truth(cam, c, e1, e2, rad)))))
-    from ..sensors.distortion import DEFAULT_OVERSAMPLE
+    from ..sensors.distortion import lens_views
 
-    bound = 0.5 / (oversample or DEFAULT_OVERSAMPLE)   # an id is the nearest view pixel's
-    rows.append(Row(f"{name}: marker centroids vs a ray caster through the lens", bound, worst, "px",
-                    f"{len(markers)} discs, corners included; ids come from the nearest view pixel (within "
-                    f"0.5/oversample px); the pixel grid alone moves a centroid {quant:.2f} px from OpenCV's"))
+    # an id is its nearest view pixel's: within half a view pixel, 0.5 / scale lens pixels
+    scale = min(m.scale_min for m in lens_views(cam, oversample=oversample))
+    rows.append(Row(f"{name}: marker centroids vs a ray caster through the lens", 0.5 / scale, worst, "px",
+                    f"{len(markers)} discs, corners included; {scale:.2f} view px per lens px at least; "
+                    f"the pixel grid alone moves a centroid {quant:.2f} px from OpenCV's"))
     # a tilted plane through the lens: depth along every ray, and the cloud on the plane
     n_cam = np.array([0.3, -0.4, -1.0])
     n_cam /= np.linalg.norm(n_cam)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -143,7 +144,7 @@ class Instance:
     name: str = ""
 
 
-def _as_transform(transform: Any) -> np.ndarray:
+def _as_transform(transform: Any, check: bool = True) -> np.ndarray:
     t = np.eye(4) if transform is None else np.array(transform, dtype=np.float64)
     if t.shape == (3,):
         m = np.eye(4)
@@ -151,24 +152,26 @@ def _as_transform(transform: Any) -> np.ndarray:
         t = m
     if t.shape != (4, 4):
         raise ConfigError(f"transform: expected a (4, 4) matrix or a (3,) translation, got {t.shape}")
-    if not np.all(np.isfinite(t)):
+    if check and not np.all(np.isfinite(t)):
         raise ConfigError("transform: contains NaN or Inf")
     return t
 
 
 def degenerate_reason(t: np.ndarray) -> str | None:
-    """Why the (4, 4) transform ``t`` cannot place geometry, or None when it can: a zero or
-    non-finite scale, a singular (flattening) linear part, or a projective last row."""
-    if not np.all(np.isfinite(t)):
+    """Why the (4, 4) transform ``t`` cannot place geometry, or None when it can: a NaN or Inf,
+    a zero scale, a singular (flattening) linear part, or a projective last row. (Plain Python
+    arithmetic: it runs once per instance, and scenes have hundreds of thousands.)"""
+    (a, b, c, x), (d, e, f, y), (g, h, i, z), last = t.tolist()
+    if not all(map(math.isfinite, (a, b, c, x, d, e, f, y, g, h, i, z, *last))):
         return "its transform contains NaN or Inf"
-    if not np.allclose(t[3], [0, 0, 0, 1]):
-        return f"its transform's last row is {t[3].tolist()}, expected [0, 0, 0, 1]"
-    A = t[:3, :3]
-    scale = np.linalg.norm(A, axis=0)
-    if scale.min() == 0:
-        return f"its transform has a zero scale ({scale.round(6).tolist()})"
-    if abs(np.linalg.det(A)) <= 1e-12 * float(np.prod(scale)):
-        return f"its transform is singular (it flattens the mesh; scale {scale.round(6).tolist()})"
+    if abs(last[0]) + abs(last[1]) + abs(last[2]) + abs(last[3] - 1) > 1e-12:
+        return f"its transform's last row is {last}, expected [0, 0, 0, 1]"
+    scale = [math.sqrt(a * a + d * d + g * g), math.sqrt(b * b + e * e + h * h), math.sqrt(c * c + f * f + i * i)]
+    if min(scale) == 0:
+        return f"its transform has a zero scale ({[round(v, 6) for v in scale]})"
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    if abs(det) <= 1e-12 * scale[0] * scale[1] * scale[2]:
+        return f"its transform is singular (it flattens the mesh; scale {[round(v, 6) for v in scale]})"
     return None
 
 
@@ -255,15 +258,16 @@ class Scene:
         key = mesh if isinstance(mesh, str) else self.add_mesh(mesh)
         if key not in self.meshes:
             raise ConfigError(f"scene.add: no mesh named {key!r} in the scene")
-        t = np.array(transform, dtype=np.float64) if transform is not None else None
-        if t is not None and t.shape == (4, 4) and (why := degenerate_reason(t)) is not None:
+        t = _as_transform(transform, check=False)
+        if (why := degenerate_reason(t)) is not None:
             who = where or name or (f"instance {instance}" if instance is not None else f"mesh {key}")
             if degenerate == "drop":
                 self.dropped.append(f"{who}: {why}")
                 log.warning("scene: dropped %s: %s", who, why)
                 return 0
             raise ConfigError(f"scene.add: {who!r}: {why}; fix or remove it (or add it with degenerate='drop')")
-        transform = _as_transform(transform) @ _translation(self.meshes[key].origin)
+        origin = self.meshes[key].origin
+        transform = t if not origin.any() else t @ _translation(origin)
         used = self._used_ids
         if instance is None:
             instance = max(used, default=0) + 1 if len(used) != len(self.instances) else self._next_id()
@@ -275,7 +279,7 @@ class Scene:
             raise ConfigError(f"scene.add: semantic id must be in 0..65535, got {semantic}")
         col = _palette(int(instance)) if color is None else tuple(int(c) for c in color[:3])
         self.instances.append(
-            Instance(key, _as_transform(transform), int(semantic), int(instance), col, name)  # type: ignore[arg-type]
+            Instance(key, transform, int(semantic), int(instance), col, name)  # type: ignore[arg-type]
         )
         used.add(int(instance))
         return int(instance)

@@ -18,7 +18,10 @@ its ray's sample from its view:
     everything from the nearest view pixel (the depth of that pixel's ray).
 
 ``oversample`` scales the views' focal lengths (more pixels per ray of the lens, so ids and
-edges land closer to where the lens puts them). Pixels whose ray the lens does not have
+edges land closer to where the lens puts them: an id is its nearest view pixel's, within
+half a view pixel of where the lens puts the ray). The default, 0, is automatic: the smallest
+whole factor that gives every lens pixel at least one view pixel (1 for barrel distortion and
+fisheyes, 2 for k1 = +0.5 pincushion), so ids land within half a lens pixel. Pixels whose ray the lens does not have
 (past its fold, 90° or more off the axis) get no return. The lens maps themselves are
 :meth:`genie_gl.camera.Camera.unproject` / ``project``, written once.
 """
@@ -26,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
@@ -38,7 +41,8 @@ from .camera import Sensor
 
 RESAMPLE_MODES = ("nearest", "bilinear", "exact")
 DEFAULT_RESAMPLE = "exact"
-DEFAULT_OVERSAMPLE = 2.0
+DEFAULT_OVERSAMPLE = 0.0   # automatic (see the module docstring)
+MAX_AUTO_OVERSAMPLE = 4
 MAX_SINGLE_VIEW_TAN = math.tan(math.radians(75.0))  # wider than this: cube faces
 MAX_VIEW_PX = 4096
 FACES = {  # camera_from_view rotations: columns are the view's x, y, z axes in the camera frame
@@ -72,6 +76,8 @@ class DistortionMaps:
     ray_x: np.ndarray | None = None
     ray_y: np.ndarray | None = None
     z_scale: np.ndarray | None = None
+    scale_min: float = 1.0
+    cache: dict = field(default_factory=dict, repr=False)   # resampling plans, per source camera
 
 
 def check_resample(resample: str, oversample: float | None) -> float:
@@ -79,13 +85,13 @@ def check_resample(resample: str, oversample: float | None) -> float:
     if resample not in RESAMPLE_MODES:
         raise ConfigError(f"resample: unknown mode {resample!r}; expected one of {', '.join(RESAMPLE_MODES)}")
     os_ = DEFAULT_OVERSAMPLE if oversample is None else float(oversample)
-    if not (0.25 <= os_ <= 8):
-        raise ConfigError(f"oversample: expected a factor in [0.25, 8], got {oversample}")
+    if not (0.25 <= os_ <= 8 or os_ == 0):
+        raise ConfigError(f"oversample: expected 0 (automatic) or a factor in [0.25, 8], got {oversample}")
     return os_
 
 
 def _view(sensor: Camera, rot: np.ndarray, name: str, serve: np.ndarray, xv: np.ndarray, yv: np.ndarray,
-          fx: float, fy: float, cx0: float, cy0: float, z_scale: np.ndarray) -> DistortionMaps:
+          fx: float, fy: float, cx0: float, cy0: float, z_scale: np.ndarray | None) -> DistortionMaps:
     """A view with focal (fx, fy) whose principal point is (cx0, cy0) shifted by whole pixels
     so that every served ray lies at least 1 pixel inside it."""
     H, W = sensor.height, sensor.width
@@ -107,11 +113,33 @@ def _view(sensor: Camera, rot: np.ndarray, name: str, serve: np.ndarray, xv: np.
     mx = np.where(serve, fx * xv + cx, -1.0)
     my = np.where(serve, fy * yv + cy, -1.0)
     return DistortionMaps(view, mx.astype(np.float32), my.astype(np.float32), serve, rot,
-                          np.where(serve, xv, 0.0), np.where(serve, yv, 0.0), np.where(serve, z_scale, 0.0))
+                          np.where(serve, xv, 0.0), np.where(serve, yv, 0.0),
+                          None if z_scale is None else np.where(serve, z_scale, 0.0), _scale_min(mx, my, serve))
+
+
+def _scale_min(mx: np.ndarray, my: np.ndarray, serve: np.ndarray) -> float:
+    """The fewest view pixels per lens pixel: the smallest singular value of d(map)/d(u, v)."""
+    if serve.shape[0] < 2 or serve.shape[1] < 2:
+        return 1.0
+    a, c = mx[:-1, 1:] - mx[:-1, :-1], my[:-1, 1:] - my[:-1, :-1]   # d/du
+    b, d = mx[1:, :-1] - mx[:-1, :-1], my[1:, :-1] - my[:-1, :-1]   # d/dv
+    ok = serve[:-1, :-1] & serve[:-1, 1:] & serve[1:, :-1]
+    if not ok.any():
+        return 1.0
+    a, b, c, d = a[ok], b[ok], c[ok], d[ok]
+    s1 = a * a + b * b + c * c + d * d
+    det = np.abs(a * d - b * c)
+    smin = np.sqrt(np.maximum(s1 / 2 - np.sqrt(np.maximum((s1 / 2) ** 2 - det ** 2, 0)), 0))
+    return float(smin.min())
 
 
 @lru_cache(maxsize=16)
 def _lens_views(key: tuple, near_m: float, far_m: float, name: str, oversample: float) -> tuple[DistortionMaps, ...]:
+    if oversample == 0:   # automatic: at least one view pixel per lens pixel everywhere
+        views = _lens_views(key, near_m, far_m, name, 1.0)
+        need = 1.0 / max(min(v.scale_min for v in views), 1e-6)
+        factor = min(MAX_AUTO_OVERSAMPLE, max(1, int(np.ceil(need - 1e-3))))
+        return views if factor == 1 else _lens_views(key, near_m, far_m, name, float(factor))
     model, W, H, K, dist = key
     cam = Sensor(W, H, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), near_m, far_m, model=model, name=name)
     d = cam.directions()
@@ -127,7 +155,7 @@ def _lens_views(key: tuple, near_m: float, far_m: float, name: str, oversample: 
         # principal point aligned to the sensor's pixel grid: u_view = os (u - cx) + whole pixels
         cx0, cy0 = oversample * cam.cx, oversample * cam.cy
         return (_view(cam, FACES["front"], "pinhole-margin", valid, np.where(valid, x, 0), np.where(valid, y, 0),
-                      fx, fy, cx0, cy0, np.ones((H, W))),)
+                      fx, fy, cx0, cy0, None),)
     f = max(fx, fy)
     axes = np.stack([FACES[k][:, 2] for k in FACES])           # each face's optical axis
     face = np.argmax(np.nan_to_num(d) @ axes.T, axis=-1)
@@ -176,57 +204,80 @@ def undistorted_rays(sensor: Camera) -> np.ndarray:
 
 
 # -- resampling -------------------------------------------------------------------------------
-def _sample(frame: Frame, maps: DistortionMaps, resample: str) -> tuple:
-    """The samples of one view for the pixels it serves: (index, depth, ids, sem, rgb, normal)."""
-    sel = np.flatnonzero(maps.valid.ravel())
-    src = frame.sensor
+def _plan(maps: DistortionMaps, src: Camera) -> dict:
+    """What resampling from ``src`` through ``maps`` needs every time, computed once per maps:
+    the served pixels, their nearest view pixels, bilinear corners and weights, and for the
+    exact mode each pixel's own ray and its nearest view pixel's ray."""
+    key = src.lens_key
+    plan = maps.cache.get(key)
+    if plan is not None:
+        return plan
     h, w = src.height, src.width
-    mx = maps.map_x.ravel()[sel].astype(np.float64)
-    my = maps.map_y.ravel()[sel].astype(np.float64)
-    if maps.ray_x is not None and src.is_pinhole:   # the exact sample position, from the float64 rays
+    sel = np.flatnonzero(maps.valid.ravel())
+    if maps.ray_x is not None and src.is_pinhole:   # the exact sample position, from float64 rays
         K = src.K
-        mx = K[0, 0] * maps.ray_x.ravel()[sel] + K[0, 1] * maps.ray_y.ravel()[sel] + K[0, 2]
-        my = K[1, 1] * maps.ray_y.ravel()[sel] + K[1, 2]
+        rx, ry = maps.ray_x.ravel()[sel], maps.ray_y.ravel()[sel]
+        mx, my = K[0, 0] * rx + K[0, 1] * ry + K[0, 2], K[1, 1] * ry + K[1, 2]
+    else:
+        mx = maps.map_x.ravel()[sel].astype(np.float64)
+        my = maps.map_y.ravel()[sel].astype(np.float64)
     iu = np.floor(mx + 0.5).astype(np.int64)
     iv = np.floor(my + 0.5).astype(np.int64)
     inside = (iu >= 0) & (iu < w) & (iv >= 0) & (iv < h)
     sel, mx, my, iu, iv = sel[inside], mx[inside], my[inside], iu[inside], iv[inside]
-    flat = iv * w + iu
-    z_n = frame.depth.ravel()[flat].astype(np.float64)
-    ids = frame.instance.ravel()[flat]
+    x0 = np.clip(np.floor(mx).astype(np.int64), 0, w - 2)
+    y0 = np.clip(np.floor(my).astype(np.int64), 0, h - 2)
+    plan = {"sel": sel, "flat": iv * w + iu, "f00": y0 * w + x0,
+            "ax": np.clip(mx - x0, 0, 1), "ay": np.clip(my - y0, 0, 1),
+            "zs": maps.z_scale.ravel()[sel] if maps.z_scale is not None else None}
+    if maps.ray_x is not None:
+        rays = src.rays()
+        plan["p"] = (rays[..., 0].ravel()[plan["flat"]], rays[..., 1].ravel()[plan["flat"]])
+        plan["d"] = (maps.ray_x.ravel()[sel], maps.ray_y.ravel()[sel])
+    maps.cache[key] = plan
+    return plan
+
+
+def _sample(frame: Frame, maps: DistortionMaps, resample: str) -> tuple:
+    """The samples of one view for the pixels it serves: (index, depth, ids, sem, rgb, normal)."""
+    plan = _plan(maps, frame.sensor)
+    sel, flat = plan["sel"], plan["flat"]
+    w = frame.sensor.width
+    depth = frame.depth.ravel()
+    z_n = depth.take(flat).astype(np.float64)
+    ids = frame.instance.ravel().take(flat)
     z = z_n
+    n = None
+    if frame.normal is not None:
+        n = frame.normal.reshape(-1, 3).take(flat, axis=0)
     if resample == "bilinear":
-        x0 = np.clip(np.floor(mx).astype(np.int64), 0, w - 2)
-        y0 = np.clip(np.floor(my).astype(np.int64), 0, h - 2)
-        ax, ay = np.clip(mx - x0, 0, 1), np.clip(my - y0, 0, 1)
-        f00 = y0 * w + x0
-        corners = (f00, f00 + 1, f00 + w, f00 + w + 1)
-        zc = [frame.depth.ravel()[c].astype(np.float64) for c in corners]
+        f00, ax, ay = plan["f00"], plan["ax"], plan["ay"]
+        inst = frame.instance.ravel()
         same = np.ones(len(sel), bool)
-        for c, zz in zip(corners, zc):
-            same &= (frame.instance.ravel()[c] == ids) & (zz > 0)
+        zc = []
+        for c in (f00, f00 + 1, f00 + w, f00 + w + 1):
+            zz = depth.take(c)
+            same &= (inst.take(c) == ids) & (zz > 0)
+            zc.append(zz.astype(np.float64))
         zb = (zc[0] * (1 - ax) + zc[1] * ax) * (1 - ay) + (zc[2] * (1 - ax) + zc[3] * ax) * ay
         z = np.where(same, zb, z_n)
-    elif resample == "exact" and frame.normal is not None and maps.ray_x is not None:
-        rays = src.rays().reshape(-1, 2)
-        px, py = rays[flat, 0], rays[flat, 1]
-        n = frame.normal.reshape(-1, 3)[flat].astype(np.float64)
-        dx, dy = maps.ray_x.ravel()[sel], maps.ray_y.ravel()[sel]
-        nd = n[:, 0] * dx + n[:, 1] * dy + n[:, 2]
-        nP = z_n * (n[:, 0] * px + n[:, 1] * py + n[:, 2])
+    elif resample == "exact" and n is not None and "p" in plan:
+        (px, py), (dx, dy) = plan["p"], plan["d"]
+        n0, n1, n2 = n[:, 0].astype(np.float64), n[:, 1].astype(np.float64), n[:, 2].astype(np.float64)
+        nd = n0 * dx + n1 * dy + n2
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = nP / nd
-        ok = (z_n > 0) & (np.abs(nd) > 1e-6) & (t > 0.5 * z_n) & (t < 2 * z_n)
+            t = z_n * (n0 * px + n1 * py + n2) / nd
+        ok = (np.abs(nd) > 1e-6) & (t > 0.5 * z_n) & (t < 2 * z_n)
         z = np.where(ok, t, z_n)
-    zs = maps.z_scale.ravel()[sel] if maps.z_scale is not None else 1.0
-    z = np.where(z_n > 0, z * zs, 0.0)
-    rgb = None if frame.rgb is None else frame.rgb.reshape(-1, 3)[flat]
+    if plan["zs"] is not None:
+        z = z * plan["zs"]
+    z = np.where(z_n > 0, z, 0.0)
+    rgb = None if frame.rgb is None else frame.rgb.reshape(-1, 3).take(flat, axis=0)
     normal = None
-    if frame.normal is not None:
-        normal = frame.normal.reshape(-1, 3)[flat].astype(np.float64)
-        if maps.rotation is not None:
-            normal = normal @ maps.rotation.T
-    return sel, z, ids, frame.semantic.ravel()[flat], rgb, normal
+    if n is not None:
+        normal = n if maps.rotation is None or not np.any(maps.rotation - np.eye(3)) else \
+            (n.astype(np.float64) @ maps.rotation.T).astype(np.float32)
+    return sel, z, ids, frame.semantic.ravel().take(flat), rgb, normal
 
 
 def resample_views(frames: list[Frame], sensor: Camera, views: tuple[DistortionMaps, ...], pose: np.ndarray,
