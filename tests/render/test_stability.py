@@ -17,6 +17,19 @@ from genie_gl.sensors.distortion import lens_views, render_through_lens
 pytestmark = pytest.mark.gl
 
 
+@pytest.fixture(scope="module")
+def glctx():
+    """A context of this module's own: pyrender's reference renderer (test_reference.py)
+    terminates the EGL display when it is deleted, which kills a session-wide context."""
+    from genie_gl.render import create_context
+
+    context = create_context("egl")
+    yield context
+    with context.ctx:
+        assert context.ctx.error == "GL_NO_ERROR"
+    context.release()
+
+
 @pytest.mark.parametrize("name", sorted(set(st.CASES) - {"translation"}))
 def test_hard_case_holds_its_tolerance(glctx, name):
     rows = st.CASES[name](context=glctx)
@@ -296,3 +309,19 @@ def test_usd_prim_with_zero_scale_is_dropped_and_counted_by_path(tmp_path):
     rep = gg.Scene.from_usd(tmp_path / "hidden.usda").report()
     assert rep["instances"] == 1 and rep["dropped_instances"] == 1
     assert rep["dropped"][0].startswith("/World/Hidden/Part: its transform has a zero scale")
+
+
+@pytest.mark.parametrize("lens", ["k1=+0.5 (pincushion)", "k1=-0.5 (barrel)", "fisheye 180°"])
+def test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel(lens):
+    """k1 = +0.5 once sampled only 57 % distinct pixels of a same-focal render."""
+    from genie_gl.sensors.distortion import _plan
+
+    cam = st.lens_sensor(lens)
+    views = lens_views(cam)
+    assert min(m.scale_min for m in views) >= 1.0
+    served = sum(len(_plan(m, m.render_sensor)["sel"]) for m in views)
+    distinct = sum(len(np.unique(_plan(m, m.render_sensor)["flat"])) for m in views)
+    assert distinct / served > 0.97
+    one = lens_views(cam, oversample=1.0)
+    if lens.startswith("k1=+0.5"):
+        assert min(m.scale_min for m in one) < 0.7     # the same-focal render under-samples pincushion
