@@ -42,7 +42,7 @@ def plane_depth(cam: Sensor, n: np.ndarray, p0: np.ndarray) -> np.ndarray:
     d = np.nan_to_num(cam.directions())
     with np.errstate(divide="ignore", invalid="ignore"):
         t = (n @ p0) / (d @ n)
-    z = t * d[..., 2]
+        z = t * d[..., 2]
     return np.where(np.isfinite(z) & (t > 0), z, 0.0)
 
 

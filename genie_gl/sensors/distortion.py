@@ -20,8 +20,9 @@ its ray's sample from its view:
 ``oversample`` scales the views' focal lengths (more pixels per ray of the lens, so ids and
 edges land closer to where the lens puts them: an id is its nearest view pixel's, within
 half a view pixel of where the lens puts the ray). The default, 0, is automatic: the smallest
-whole factor that gives every lens pixel at least one view pixel (1 for barrel distortion and
-fisheyes, 2 for k1 = +0.5 pincushion), so ids land within half a lens pixel. Pixels whose ray the lens does not have
+whole factor that gives every lens pixel at least 0.8 view pixels (1 for barrel distortion
+and the shipped profiles, 2 for k1 = +0.5 pincushion and a 180° fisheye's rim), so ids land
+within 0.625 lens pixels. Pixels whose ray the lens does not have
 (past its fold, 90° or more off the axis) get no return. The lens maps themselves are
 :meth:`genie_gl.camera.Camera.unproject` / ``project``, written once.
 """
@@ -38,11 +39,13 @@ from ..camera import Camera
 from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
+from .resample import MODES, resample_view
 
 RESAMPLE_MODES = ("nearest", "bilinear", "exact")
 DEFAULT_RESAMPLE = "exact"
 DEFAULT_OVERSAMPLE = 0.0   # automatic (see the module docstring)
 MAX_AUTO_OVERSAMPLE = 4
+AUTO_MIN_SCALE = 0.8   # automatic oversampling keeps at least this many view pixels per lens pixel
 MAX_SINGLE_VIEW_TAN = math.tan(math.radians(75.0))  # wider than this: cube faces
 MAX_VIEW_PX = 4096
 FACES = {  # camera_from_view rotations: columns are the view's x, y, z axes in the camera frame
@@ -137,8 +140,8 @@ def _scale_min(mx: np.ndarray, my: np.ndarray, serve: np.ndarray) -> float:
 def _lens_views(key: tuple, near_m: float, far_m: float, name: str, oversample: float) -> tuple[DistortionMaps, ...]:
     if oversample == 0:   # automatic: at least one view pixel per lens pixel everywhere
         views = _lens_views(key, near_m, far_m, name, 1.0)
-        need = 1.0 / max(min(v.scale_min for v in views), 1e-6)
-        factor = min(MAX_AUTO_OVERSAMPLE, max(1, int(np.ceil(need - 1e-3))))
+        need = AUTO_MIN_SCALE / max(min(v.scale_min for v in views), 1e-6)
+        factor = min(MAX_AUTO_OVERSAMPLE, max(1, int(np.ceil(need - 1e-9))))
         return views if factor == 1 else _lens_views(key, near_m, far_m, name, float(factor))
     model, W, H, K, dist = key
     cam = Sensor(W, H, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), near_m, far_m, model=model, name=name)
@@ -238,74 +241,55 @@ def _plan(maps: DistortionMaps, src: Camera) -> dict:
     return plan
 
 
-def _sample(frame: Frame, maps: DistortionMaps, resample: str) -> tuple:
-    """The samples of one view for the pixels it serves: (index, depth, ids, sem, rgb, normal)."""
-    plan = _plan(maps, frame.sensor)
-    sel, flat = plan["sel"], plan["flat"]
-    w = frame.sensor.width
-    depth = frame.depth.ravel()
-    z_n = depth.take(flat).astype(np.float64)
-    ids = frame.instance.ravel().take(flat)
-    z = z_n
-    n = None
-    if frame.normal is not None:
-        n = frame.normal.reshape(-1, 3).take(flat, axis=0)
-    if resample == "bilinear":
-        f00, ax, ay = plan["f00"], plan["ax"], plan["ay"]
-        inst = frame.instance.ravel()
-        same = np.ones(len(sel), bool)
-        zc = []
-        for c in (f00, f00 + 1, f00 + w, f00 + w + 1):
-            zz = depth.take(c)
-            same &= (inst.take(c) == ids) & (zz > 0)
-            zc.append(zz.astype(np.float64))
-        zb = (zc[0] * (1 - ax) + zc[1] * ax) * (1 - ay) + (zc[2] * (1 - ax) + zc[3] * ax) * ay
-        z = np.where(same, zb, z_n)
-    elif resample == "exact" and n is not None and "p" in plan:
-        (px, py), (dx, dy) = plan["p"], plan["d"]
-        n0, n1, n2 = n[:, 0].astype(np.float64), n[:, 1].astype(np.float64), n[:, 2].astype(np.float64)
-        nd = n0 * dx + n1 * dy + n2
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = z_n * (n0 * px + n1 * py + n2) / nd
-        ok = (np.abs(nd) > 1e-6) & (t > 0.5 * z_n) & (t < 2 * z_n)
-        z = np.where(ok, t, z_n)
-    if plan["zs"] is not None:
-        z = z * plan["zs"]
-    z = np.where(z_n > 0, z, 0.0)
-    rgb = None if frame.rgb is None else frame.rgb.reshape(-1, 3).take(flat, axis=0)
-    normal = None
-    if n is not None:
-        normal = n if maps.rotation is None or not np.any(maps.rotation - np.eye(3)) else \
-            (n.astype(np.float64) @ maps.rotation.T).astype(np.float32)
-    return sel, z, ids, frame.semantic.ravel().take(flat), rgb, normal
+def _pixels(rgb: np.ndarray) -> np.ndarray:
+    """(H·W, 3) uint8 rows of an (H, W, 3) image without a copy when it is contiguous or the
+    colour part of an RGBA block (as the renderer reads it back)."""
+    if rgb.flags.c_contiguous:
+        return rgb.reshape(-1, 3)
+    H, W, _ = rgb.shape
+    if rgb.strides == (4 * W, 4, 1):
+        return np.lib.stride_tricks.as_strided(rgb, (H * W, 3), (4, 1), writeable=False)
+    return np.ascontiguousarray(rgb).reshape(-1, 3)
+
+
+NO_F64 = np.zeros(0)
+NO_RGB = np.zeros((0, 3), np.uint8)
+NO_NORMAL = np.zeros((0, 3), np.float32)
 
 
 def resample_views(frames: list[Frame], sensor: Camera, views: tuple[DistortionMaps, ...], pose: np.ndarray,
                    *, resample: str = DEFAULT_RESAMPLE) -> Frame:
-    """Resample the rendered ``frames`` of ``views`` into ``sensor``'s image at ``pose``;
-    surfaces nearer than ``sensor.near_m`` or farther than ``far_m`` give no return."""
+    """Resample the rendered ``frames`` of ``views`` into ``sensor``'s image at ``pose``
+    (one compiled pass per view, :mod:`.resample`); surfaces nearer than ``sensor.near_m`` or
+    farther than ``far_m`` give no return."""
     H, W = sensor.height, sensor.width
+    colour = all(f.rgb is not None for f in frames)
+    normals = all(f.normal is not None for f in frames)
     depth = np.zeros(H * W, np.float32)
     inst = np.zeros(H * W, np.uint32)
     sem = np.zeros(H * W, np.uint16)
-    colour = all(f.rgb is not None for f in frames)
-    normals = all(f.normal is not None for f in frames)
-    rgb = np.zeros((H * W, 3), np.uint8) if colour else None
-    normal = np.zeros((H * W, 3), np.float32) if normals else None
+    rgb = np.zeros((H * W, 3), np.uint8) if colour else NO_RGB
+    normal = np.zeros((H * W, 3), np.float32) if normals else NO_NORMAL
+    mode = MODES[resample]
     for f, m in zip(frames, views):
-        sel, z, ids, s, c, n = _sample(f, m, resample)
-        keep = (z >= sensor.near_m) & (z <= sensor.far_m)
-        sel, z, ids, s = sel[keep], z[keep], ids[keep], s[keep]
-        depth[sel], inst[sel], sem[sel] = z, ids, s
-        if colour:
-            rgb[sel] = c[keep]
-        if normals:
-            normal[sel] = n[keep]
+        plan = _plan(m, f.sensor)
+        p, d = plan.get("p", (NO_F64, NO_F64)), plan.get("d", (NO_F64, NO_F64))
+        if mode == MODES["exact"] and (f.normal is None or not len(p[0])):
+            mode_v = MODES["nearest"]
+        else:
+            mode_v = mode
+        R = np.eye(3) if m.rotation is None else np.ascontiguousarray(m.rotation, np.float64)
+        resample_view(mode_v, plan["sel"], plan["flat"], plan["f00"], plan["ax"], plan["ay"], p[0], p[1], d[0], d[1],
+                      NO_F64 if plan["zs"] is None else plan["zs"], f.sensor.width, sensor.near_m, sensor.far_m, R,
+                      np.ascontiguousarray(f.depth).reshape(-1), np.ascontiguousarray(f.instance).reshape(-1),
+                      np.ascontiguousarray(f.semantic).reshape(-1), _pixels(f.rgb) if colour else NO_RGB,
+                      np.ascontiguousarray(f.normal).reshape(-1, 3) if f.normal is not None else NO_NORMAL,
+                      depth, inst, sem, rgb, normal)
     meta = {"render_ms": sum(float((f.meta or {}).get("render_ms", 0.0)) for f in frames),
             "lens_views": len(views), "resample": resample}
     return Frame(depth.reshape(H, W), inst.reshape(H, W), sem.reshape(H, W),
-                 None if rgb is None else rgb.reshape(H, W, 3), sensor, pose,
-                 None if normal is None else normal.reshape(H, W, 3), meta)
+                 rgb.reshape(H, W, 3) if colour else None, sensor, pose,
+                 normal.reshape(H, W, 3) if normals else None, meta)
 
 
 def distort(wide: Frame, sensor: Camera, maps: DistortionMaps, *, resample: str = "nearest") -> Frame:
