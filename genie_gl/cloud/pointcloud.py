@@ -17,7 +17,7 @@ class PointCloud:
     ----------
     xyz : (N, 3) float32 (float64 when asked for, ``to_cloud(precision="float64")``), world
         frame relative to ``origin``, metres.
-    origin : (3,) float64, world position of xyz = 0 (the cameras' mean, rounded to 1 m).
+    origin : (3,) float64, world position of xyz = 0 (the cameras' mean snapped to 100 m).
     semantic : (N,) uint16; instance : (N,) uint32.
     rgb : (N, 3) uint8 or None; normal : (N, 3) float32 or None (world frame);
     camera : (N,) uint16 or None, index of the frame that saw the point.

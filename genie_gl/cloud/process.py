@@ -14,14 +14,19 @@ WINDOW = 129  # frame_chunks counts a camera's points in this many tiles a side 
 MAX_TILES = 50_000_000  # a tile grid larger than this is a mistake (chunks far too small)
 
 
+ORIGIN_GRID_M = 100.0   # the cloud's origin is the cameras' mean snapped to this grid
+
+
 def choose_origin(frames: Sequence[Frame]) -> np.ndarray:
-    """The cloud's float64 origin: the mean of the camera centres rounded to 1 m (zero for no
-    frames), wherever the scene lies, so float32 coordinates stay small: a point within
-    1.6 km of it keeps 0.1 mm, whether the site sits at the world origin or 1e7 m away."""
+    """The cloud's float64 origin: the mean of the camera centres snapped to a 100 m grid
+    (zero for no frames, and for a scene around the world origin), wherever the scene lies,
+    so float32 coordinates stay small: a point within 1.6 km of the origin keeps 0.1 mm
+    (float32 rounds to 2⁻²⁴ of the distance), i.e. any point within 1.5 km of the cameras'
+    mean, whether the site sits at the world origin or 1e7 m away."""
     centres = np.array([f.world_from_camera[:3, 3] for f in frames])
     if len(centres) == 0:
         return np.zeros(3)
-    return np.round(centres.mean(0)) + 0.0   # + 0.0: no negative zeros in written headers
+    return np.round(centres.mean(0) / ORIGIN_GRID_M) * ORIGIN_GRID_M + 0.0   # + 0.0: no -0.0 in headers
 
 
 def voxel_downsample(cloud: PointCloud, voxel_m: float) -> PointCloud:
@@ -50,7 +55,8 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
     clouds, no concatenation). voxel_m : optional voxel down-sampling; max_points : random
     down-sampling to at most that many points (needs ``rng``).
 
-    Precision: ``xyz`` is relative to the float64 ``origin`` (the cameras' mean by default).
+    Precision: ``xyz`` is relative to the float64 ``origin`` (the cameras' mean, snapped to
+    100 m, by default).
     ``precision="float32"`` keeps 0.1 mm within 1.6 km of the origin (float32 rounding is
     |xyz|·2⁻²⁴); ``"float64"`` gives float64 ``xyz``, each frame unprojected relative to its
     own camera first, so a site of any size (20 km and more) keeps 0.1 mm.
