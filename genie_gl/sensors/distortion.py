@@ -35,7 +35,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..camera import Camera
+from ..camera import Camera, distort_normalized
 from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
@@ -138,7 +138,7 @@ def _scale_min(mx: np.ndarray, my: np.ndarray, serve: np.ndarray) -> float:
 
 @lru_cache(maxsize=16)
 def _lens_views(key: tuple, near_m: float, far_m: float, name: str, oversample: float) -> tuple[DistortionMaps, ...]:
-    if oversample == 0:   # automatic: at least one view pixel per lens pixel everywhere
+    if oversample == 0:   # automatic: at least AUTO_MIN_SCALE view pixels per lens pixel everywhere
         views = _lens_views(key, near_m, far_m, name, 1.0)
         need = AUTO_MIN_SCALE / max(min(v.scale_min for v in views), 1e-6)
         factor = min(MAX_AUTO_OVERSAMPLE, max(1, int(np.ceil(need - 1e-9))))
@@ -195,8 +195,6 @@ def project(xy: np.ndarray, K: np.ndarray, D: np.ndarray) -> np.ndarray:
     """(N, 2) pixels of the normalised points ``xy`` (N, 2) through OpenCV's pinhole lens
     (:meth:`genie_gl.camera.Camera.project`, the one copy of the lens equations)."""
     D = np.asarray(D, np.float64)
-    from ..camera import distort_normalized
-
     xd, yd = distort_normalized(xy[:, 0], xy[:, 1], D) if len(D) else (xy[:, 0], xy[:, 1])
     return np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], 1)
 

@@ -44,6 +44,7 @@ class CalibrationError(Effect):
 
     name: ClassVar[str] = "calibration_error"
     draws: ClassVar[bool] = True
+    needs_normals: ClassVar[bool] = True   # the exact resampling: depth from each surface's plane
     sigma_f_px: float = 1.0
     sigma_c_px: float = 0.5
 
