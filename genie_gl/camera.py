@@ -16,6 +16,9 @@ Lens models
 ``"fisheye"``: OpenCV's ``cv2.fisheye`` (Kannala-Brandt) model with 4 coefficients
     (k1 k2 k3 k4): θ_d = θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸), ROS ``equidistant``, Kalibr
     ``equidistant``.
+``"omni"``: the unified (Mei) omnidirectional model of ``cv2.omnidir`` and Kalibr ``omni``,
+    5 coefficients (ξ k1 k2 p1 p2): the point on the unit sphere projected from (0, 0, -ξ),
+    then radial-tangential distortion.
 
 A lens folds back past some angle (strong barrel distortion, an over-fitted polynomial): rays
 beyond the fold are not imaged and pixels beyond it have no ray (NaN), never a wrapped one.
@@ -37,7 +40,7 @@ import numpy as np
 from .errors import ConfigError
 
 PINHOLE_LENGTHS = (0, 4, 5, 8, 12, 14)
-MODELS: dict[str, tuple[int, ...]] = {"pinhole": PINHOLE_LENGTHS, "fisheye": (0, 4)}
+MODELS: dict[str, tuple[int, ...]] = {"pinhole": PINHOLE_LENGTHS, "fisheye": (0, 4), "omni": (1, 5)}
 NEAR_CLIP_RATIO = 1.0 / 1024   # the GL near plane, as a share of the sensor's minimum range
 MAX_OFF_AXIS = np.radians(89.9)  # rays beyond this are not represented (depth is z)
 
@@ -81,6 +84,13 @@ def _fold(model: str, dist: bytes) -> float:
     """The off-axis limit of the lens: the radius r = tan θ (pinhole model) or the angle θ
     (fisheye) where its radial map stops increasing; past it rays are not imaged."""
     d = np.frombuffer(dist)
+    if model == "omni":   # the angle where the sphere's projection reaches the radtan fold
+        r_fold = _fold("pinhole", np.ascontiguousarray(d[1:]).tobytes())
+        t = np.linspace(0, MAX_OFF_AXIS, 200001)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.sin(t) / (np.cos(t) + d[0])
+        bad = np.flatnonzero(~(np.cos(t[1:]) + d[0] > 0) | (np.diff(r) <= 0) | (r[1:] >= r_fold))
+        return float(t[bad[0]]) if len(bad) else float(MAX_OFF_AXIS)
     if model == "fisheye":
         t = np.linspace(0, np.pi, 200001)
         f = fisheye_theta_d(t, d)
@@ -192,7 +202,7 @@ class Camera:
     def max_off_axis(self) -> float:
         """The largest angle (radians) from the optical axis that the lens images."""
         fold = _fold(self.model, self.dist.tobytes())
-        lim = fold if self.model == "fisheye" else np.arctan(fold)
+        lim = fold if self.model in ("fisheye", "omni") else np.arctan(fold)
         return float(min(lim, MAX_OFF_AXIS))
 
     # -- the lens, forward ------------------------------------------------------------------
@@ -204,7 +214,14 @@ class Camera:
         with np.errstate(divide="ignore", invalid="ignore"):
             theta = np.arctan2(np.hypot(x, y), z)
             ok = theta < self.max_off_axis + 1e-12
-            if self.model == "fisheye":   # the image direction of the point, scaled to θ_d
+            if self.model == "omni":      # onto the unit sphere, seen from (0, 0, -ξ)
+                norm = np.sqrt(x * x + y * y + z * z)
+                den = z / norm + self.dist[0]
+                ok &= den > 0
+                xd, yd = x / norm / den, y / norm / den
+                if len(self.dist) > 1 and np.any(self.dist[1:]):
+                    xd, yd = distort_normalized(xd, yd, self.dist[1:])
+            elif self.model == "fisheye":   # the image direction of the point, scaled to θ_d
                 r = np.hypot(x, y)
                 s = np.where(r > 0, fisheye_theta_d(theta, self.dist) / np.where(r > 0, r, 1), 0.0)
                 xd, yd = x * s, y * s
@@ -226,6 +243,8 @@ class Camera:
         xd = (uv[:, 0] - K[0, 2] - K[0, 1] * yd) / K[0, 0]
         if self.model == "fisheye":
             d = _fisheye_inverse(xd, yd, self.dist, self.max_off_axis)
+        elif self.model == "omni":
+            d = _omni_inverse(xd, yd, self.dist, self.max_off_axis)
         else:
             x, y = _pinhole_inverse(xd, yd, self.dist, np.tan(self.max_off_axis))
             d = np.stack([x, y, np.ones_like(x)], 1)
@@ -303,6 +322,24 @@ def _fisheye_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max
         c = np.where(td > 0, np.sin(theta) / np.where(td > 0, td, 1), 0.0)
     d = np.stack([xd * c, yd * c, np.cos(theta)], 1)
     d[~inside] = np.nan
+    return d
+
+
+def _omni_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max: float) -> np.ndarray:
+    """Unit directions of the unified model: undistort the radial-tangential part, then lift
+    the point back onto the unit sphere."""
+    xi = dist[0]
+    rad = dist[1:] if len(dist) > 1 else np.zeros(0)
+    r_fold = _fold("pinhole", np.ascontiguousarray(rad).tobytes())
+    x, y = _pinhole_inverse(xd, yd, rad, r_fold)
+    r2 = x * x + y * y
+    with np.errstate(invalid="ignore"):
+        disc = 1 + (1 - xi * xi) * r2
+        f = (xi + np.sqrt(disc)) / (r2 + 1)
+    d = np.stack([f * x, f * y, f - xi], 1)
+    with np.errstate(invalid="ignore"):
+        bad = ~(disc >= 0) | ~(np.arctan2(np.hypot(d[:, 0], d[:, 1]), d[:, 2]) < theta_max + 1e-12)
+    d[bad] = np.nan
     return d
 
 

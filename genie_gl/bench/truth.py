@@ -1,5 +1,6 @@
 """Scenes and cameras with closed-form answers for ``genie bench stability``: planes, discs,
-lenses against OpenCV's own projection (``cv2.projectPoints``, ``cv2.fisheye.projectPoints``)."""
+lenses against OpenCV's own projection (``cv2.projectPoints``, ``cv2.fisheye.projectPoints``,
+``cv2.omnidir.projectPoints``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -72,6 +73,7 @@ LENSES: dict[str, dict] = {
     "rational (8)": dict(dist=[3.1306, 2.3249, 8.1e-5, -5.1e-5, 0.1304, 3.4587, 3.3501, 0.6629]),
     "tilted (14)": dict(dist=[0.1, -0.05, 0.001, -0.002, 0.01, 0, 0, 0, 0.001, 0, -0.001, 0, 0.01, -0.02]),
     "fisheye 180°": dict(dist=[0.0, 0.0, 0.0, 0.0], model="fisheye"),
+    "omni ξ=0.9 (Mei)": dict(dist=[0.9, -0.2, 0.05, 0.001, -0.002], model="omni"),
 }
 
 
@@ -81,6 +83,10 @@ def lens_sensor(name: str, width: int = 320, height: int = 240) -> Sensor:
         f = (min(width, height) / 2 - 2) / (np.pi / 2)
         K = [[f, 0, (width - 1) / 2 + 0.3], [0, f, (height - 1) / 2 - 0.2], [0, 0, 1]]
         return Sensor(width, height, K, spec["dist"], model="fisheye", name=name)
+    if spec.get("model") == "omni":
+        f = 0.5 * width
+        K = [[f, 0, (width - 1) / 2 + 0.3], [0, f + 1, (height - 1) / 2 - 0.2], [0, 0, 1]]
+        return Sensor(width, height, K, spec["dist"], model="omni", name=name)
     K = [[0.9 * width, 0, (width - 1) / 2 + 0.3], [0, 0.9 * width + 5, (height - 1) / 2 - 0.2], [0, 0, 1]]
     return Sensor(width, height, K, spec["dist"], name=name)
 
@@ -90,6 +96,9 @@ def opencv_project(cam: Sensor, points: np.ndarray) -> np.ndarray:
     pts = np.asarray(points, np.float64).reshape(-1, 1, 3)
     if cam.model == "fisheye":
         return cv2.fisheye.projectPoints(pts, np.zeros((3, 1)), np.zeros((3, 1)), cam.K, cam.dist)[0].reshape(-1, 2)
+    if cam.model == "omni":   # opencv-contrib's cv2.omnidir (Mei's unified model)
+        return cv2.omnidir.projectPoints(pts, np.zeros(3), np.zeros(3), cam.K, float(cam.dist[0]),
+                                         cam.dist[1:].reshape(1, 4))[0].reshape(-1, 2)
     return cv2.projectPoints(pts, np.zeros(3), np.zeros(3), cam.K, cam.dist)[0].reshape(-1, 2)
 
 

@@ -4,7 +4,8 @@ Reads OpenCV ``FileStorage`` YAML/XML as ``calibrateCamera`` / ``stereoCalibrate
 ``cv2.fisheye.calibrate`` programs write them (any of the common key spellings), ROS
 ``camera_info`` YAML (``distortion_model`` ``plumb_bob``, ``rational_polynomial``,
 ``equidistant``) and Kalibr camchain YAML (``camera_model: pinhole`` with ``distortion_model``
-``radtan``, ``equidistant`` or ``none``; the first camera, and the baseline to the second);
+``radtan``, ``equidistant`` or ``none``, and ``camera_model: omni``; the first camera, and the
+baseline to the second);
 writes OpenCV YAML/XML with OpenCV's lower-case keys (plus ``distortion_model`` for a
 fisheye lens). A file without K or the image size, with a malformed matrix, or with a lens
 model genie-gl does not know is rejected with an error naming the file, the field and the
@@ -36,7 +37,7 @@ LENS_NAMES: dict[str, tuple[str, tuple[int, ...]]] = {
     "rational_polynomial": ("pinhole", (8, 12, 14)), "opencv": ("pinhole", MODELS["pinhole"]),
     "pinhole": ("pinhole", MODELS["pinhole"]), "none": ("pinhole", (0,)),
     "equidistant": ("fisheye", (4,)), "fisheye": ("fisheye", (4,)), "kannala_brandt": ("fisheye", (4,)),
-    "kannala-brandt": ("fisheye", (4,)),
+    "kannala-brandt": ("fisheye", (4,)), "omni": ("omni", (5,)), "mei": ("omni", (5,)),
 }
 
 
@@ -119,18 +120,28 @@ def _kalibr(data: dict, path: Path) -> Calibration:
     if not isinstance(cam, dict):
         raise ConfigError(f"{where}: expected a mapping of camera fields")
     kind = str(cam.get("camera_model", "pinhole"))
-    if kind != "pinhole":
+    if kind not in ("pinhole", "omni"):
         raise ConfigError(f"{where}: camera_model {kind!r} is not supported (genie-gl reads Kalibr 'pinhole' "
-                          "cameras with 'radtan', 'equidistant' or 'none' distortion)")
+                          "cameras with 'radtan', 'equidistant' or 'none' distortion, and 'omni' with 'radtan' or "
+                          "'none')")
     for key in ("intrinsics", "resolution"):
         if key not in cam:
             raise ConfigError(f"{where}: missing field {key}")
-    if np.size(cam["intrinsics"]) != 4:
-        raise ConfigError(f"{where}: intrinsics: expected [fu, fv, pu, pv], got {cam['intrinsics']!r}")
-    fu, fv, pu, pv = _matrix(cam["intrinsics"], f"{where}: intrinsics", (4,))
+    n_in = 5 if kind == "omni" else 4
+    if np.size(cam["intrinsics"]) != n_in:
+        spelled = "[xi, fu, fv, pu, pv]" if kind == "omni" else "[fu, fv, pu, pv]"
+        raise ConfigError(f"{where}: intrinsics: expected {spelled}, got {cam['intrinsics']!r}")
+    values = _matrix(cam["intrinsics"], f"{where}: intrinsics", (n_in,))
+    fu, fv, pu, pv = values[-4:]
     W, H = (int(v) for v in cam["resolution"])
     dist = np.asarray(cam.get("distortion_coeffs") or [], float)
     model = lens_model(cam.get("distortion_model", "none"), len(dist), f"{where}: distortion_model")
+    if kind == "omni":
+        if model != "pinhole":
+            raise ConfigError(f"{where}: an omni camera takes 'radtan' or 'none' distortion, got "
+                              f"{cam.get('distortion_model')!r}")
+        dist = np.concatenate([[values[0]], dist if len(dist) else np.zeros(4)])
+        model = "omni"
     K = np.array([[fu, 0, pu], [0, fv, pv], [0, 0, 1.0]])
     R = T = None
     if isinstance(data.get("cam1"), dict) and "T_cn_cnm1" in data["cam1"]:
@@ -198,7 +209,7 @@ def write_calibration(calib: Calibration, path: str | os.PathLike) -> Path:
     fs.write("camera_matrix", np.asarray(calib.K, np.float64))
     fs.write("distortion_coefficients", np.asarray(calib.dist, np.float64).reshape(-1, 1))
     if calib.model != "pinhole":
-        fs.write("distortion_model", {"fisheye": "equidistant"}[calib.model])
+        fs.write("distortion_model", {"fisheye": "equidistant", "omni": "omni"}[calib.model])
     if calib.reprojection_error is not None:
         fs.write("avg_reprojection_error", float(calib.reprojection_error))
     if calib.R is not None:

@@ -99,6 +99,22 @@ def test_fisheye_lens_project_equals_cv2_fisheye(k):
     assert err < 1e-6
 
 
+@settings(max_examples=25, deadline=None, derandomize=True)
+@given(xi=hs.floats(0.0, 1.8), k=hs.lists(hs.floats(-0.05, 0.05, allow_nan=False), min_size=4, max_size=4))
+def test_omni_lens_project_equals_cv2_omnidir(xi, k):
+    cam = gg.Sensor(160, 120, [[80.0, 0, 80.3], [0, 81.0, 59.6], [0, 0, 1]], [xi, k[0], k[1], 0.05 * k[2], 0.05 * k[3]],
+                    model="omni")
+    pts = np.random.default_rng(2).normal(size=(400, 3))
+    pts[:, 2] = np.abs(pts[:, 2]) + 0.05
+    ours = cam.project(pts)
+    ok = np.isfinite(ours).all(1)
+    np.testing.assert_allclose(ours[ok], st.opencv_project(cam, pts)[ok], atol=1e-6)
+    theta = np.arctan2(np.hypot(pts[:, 0], pts[:, 1]), pts[:, 2])
+    assert (theta[~ok] >= cam.max_off_axis - 1e-9).all()    # only rays past the lens's fold are dropped
+    err, n = st.lens_map_error(cam)
+    assert err < 1e-6 and n > 0
+
+
 def test_lens_folds_are_dropped_not_wrapped():
     cam = st.lens_sensor("k1=-0.5 (barrel)")
     d = cam.directions()
@@ -162,8 +178,12 @@ cam1:
                                  "1.76187114e-05]", "distortion_model: equidistant\n  distortion_coeffs: [0.01, 0.02, 0.0, 0.0]")
     p.write_text(text)
     assert gg.load_sensor(p).model == "fisheye"
-    p.write_text("cam0:\n  camera_model: omni\n  intrinsics: [0.8, 458, 457, 367, 248]\n  resolution: [752, 480]\n")
-    with pytest.raises(gg.ConfigError, match=r"camchain.yaml: cam0: camera_model 'omni' is not supported"):
+    p.write_text("cam0:\n  camera_model: omni\n  intrinsics: [0.8, 458, 457, 367, 248]\n  distortion_model: radtan\n"
+                 "  distortion_coeffs: [-0.1, 0.01, 0.001, 0.0005]\n  resolution: [752, 480]\n")
+    s = gg.load_sensor(p)
+    assert s.model == "omni" and list(s.dist) == [0.8, -0.1, 0.01, 0.001, 0.0005] and s.cx == 367
+    p.write_text("cam0:\n  camera_model: ds\n  intrinsics: [0.5, 0.6, 458, 457, 367, 248]\n  resolution: [752, 480]\n")
+    with pytest.raises(gg.ConfigError, match=r"camchain.yaml: cam0: camera_model 'ds' is not supported"):
         gg.load_sensor(p)
 
 
