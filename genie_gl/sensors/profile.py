@@ -48,6 +48,12 @@ def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m:
         raise ConfigError(f"{path}: a sensor profile needs a 'calibration' field (an OpenCV calibration file)")
     calib = read_calibration(Path(path).parent / data["calibration"])
     effects = build_effects(data.get("effects") or [], str(path))
+    # the sensor's range (minimum range: nearer surfaces give no return) may be the profile's
+    try:
+        near_m, far_m = float(data.get("near_m", near_m)), float(data.get("far_m", far_m))
+    except (TypeError, ValueError):
+        raise ConfigError(f"{path}: near_m and far_m must be numbers (metres), got {data.get('near_m')!r}, "
+                          f"{data.get('far_m')!r}") from None
     meta = calibration_meta(calib)
     meta["profile"] = str(path)
     if calib.T is None and data.get("baseline_m") is not None:

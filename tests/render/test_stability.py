@@ -347,3 +347,14 @@ def test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel(lens):
     one = lens_views(cam, oversample=1.0)
     if lens.startswith("k1=+0.5"):
         assert min(m.scale_min for m in one) < 0.7     # the same-focal render under-samples pincushion
+
+
+def test_a_profile_sets_the_sensors_range(tmp_path):
+    (tmp_path / "cam.yaml").write_text(
+        "image_width: 64\nimage_height: 48\ncamera_matrix: {rows: 3, cols: 3, data: [50, 0, 31.5, 0, 50, 23.5, 0, 0, 1]}\n")
+    (tmp_path / "p.yaml").write_text("name: p\ncalibration: cam.yaml\nnear_m: 0.2\nfar_m: 12\n")
+    s = gg.load_sensor(tmp_path / "p.yaml")
+    assert (s.near_m, s.far_m, s.clip_near_m) == (0.2, 12.0, 0.2 / 1024)
+    (tmp_path / "bad.yaml").write_text("name: p\ncalibration: cam.yaml\nnear_m: close\n")
+    with pytest.raises(gg.ConfigError, match="bad.yaml: near_m and far_m must be numbers"):
+        gg.load_sensor(tmp_path / "bad.yaml")
