@@ -111,8 +111,11 @@ def _view(sensor: Camera, rot: np.ndarray, name: str, serve: np.ndarray, xv: np.
         raise ConfigError(f"sensor {getattr(sensor, 'name', '')}: its lens needs a {w}x{h} pinhole view "
                           f"(more than {MAX_VIEW_PX}); lower oversample")
     K = np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]])
-    clip = sensor.clip_near_m
-    view = Sensor(w, h, K, near_m=clip, far_m=max(sensor.far_m * 1e3, 1.0), name=f"{getattr(sensor, 'name', '')}-{name}")
+    # a front view's z is the camera's: it takes the sensor's range; a cube face's z is not,
+    # so it renders everything and the range is applied after resampling
+    front = rot is None or not np.any(rot - np.eye(3))
+    near, far = (sensor.near_m, sensor.far_m) if front else (sensor.clip_near_m, max(sensor.far_m * 1e3, 1.0))
+    view = Sensor(w, h, K, near_m=near, far_m=far, name=f"{getattr(sensor, 'name', '')}-{name}")
     mx = np.where(serve, fx * xv + cx, -1.0)
     my = np.where(serve, fy * yv + cy, -1.0)
     return DistortionMaps(view, mx.astype(np.float32), my.astype(np.float32), serve, rot,
