@@ -91,10 +91,12 @@ def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarr
     normals = any(eff.needs_normals for eff in sensor.effects)
     if sensor.is_pinhole:
         view = sensor
-    else:
-        from ..sensors.distortion import distortion_maps
+    else:  # the pinhole view the lens is resampled from (the default, exact, needs its normals)
+        from ..sensors.distortion import lens_views
 
-        view = distortion_maps(sensor).render_sensor
+        views = lens_views(sensor)
+        view = views[0].render_sensor if len(views) == 1 else sensor   # cube faces: no prefetch
+        normals = True
     render = _Prefetched(renderer, view, poses, depth_only, normals)
     return [simulate(sensor, poses[k], render=render, rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
 
