@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
@@ -57,7 +58,11 @@ class ReferenceRenderer:
         self._cam_node = None
 
     def render(self, sensor: Sensor, pose: np.ndarray, **_: Any) -> Frame:
-        """Depth (pyrender's linearised depth buffer), instance and semantic; no colour."""
+        """Depth (pyrender's linearised depth buffer), instance and semantic; no colour. A
+        pinhole camera only: a sensor with a lens is refused (``gg.render`` renders it)."""
+        if not sensor.is_pinhole:
+            raise ConfigError(f"reference renderer: sensor {getattr(sensor, 'name', '')!r} has lens distortion ({sensor.model} model); "
+                              "it renders ideal pinhole cameras only (gg.render / Renderer.render render the lens)")
         pr = self._pyrender
         if self._size != (sensor.width, sensor.height):
             if self._renderer is not None:

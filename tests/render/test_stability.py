@@ -358,3 +358,11 @@ def test_a_profile_sets_the_sensors_range(tmp_path):
     (tmp_path / "bad.yaml").write_text("name: p\ncalibration: cam.yaml\nnear_m: close\n")
     with pytest.raises(gg.ConfigError, match="bad.yaml: near_m and far_m must be numbers"):
         gg.load_sensor(tmp_path / "bad.yaml")
+
+
+def test_the_pinhole_reference_renderer_refuses_a_lens_by_name():
+    from genie_gl.render.reference import ReferenceRenderer
+
+    cam = st.lens_sensor("k1=-0.5 (barrel)", 64, 48)
+    with pytest.raises(gg.ConfigError, match=r"sensor 'k1=-0.5 \(barrel\)' has lens distortion .*gg.render"):
+        ReferenceRenderer(gg.Scene()).render(cam, np.eye(4))
