@@ -49,6 +49,9 @@ _EXPORTS: dict[str, str] = {
     "Renderer": "genie_gl.render",
     "render": "genie_gl.render",
     "capture": "genie_gl.render",
+    # accuracy settings (the accuracy: block)
+    "AccuracySettings": "genie_gl.accuracy",
+    "load_accuracy": "genie_gl.accuracy",
     # clouds and exports
     "PointCloud": "genie_gl.cloud",
     "to_cloud": "genie_gl.cloud",
