@@ -37,6 +37,7 @@ _EXPORTS: dict[str, str] = {
     "Scene": "genie_gl.scene.model",
     "Mesh": "genie_gl.scene.model",
     "Instance": "genie_gl.scene.model",
+    "Material": "genie_gl.scene.model",
     "build_scene": "genie_gl.scene",
     "register_asset": "genie_gl.scene",
     # sensors
