@@ -49,12 +49,14 @@ def pose_rng(seed: int, index: int) -> np.random.Generator:
 
 
 def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
-                    indices: Sequence[int], depth_only: bool = False) -> list[Frame]:
+                    indices: Sequence[int], depth_only: bool = False, plan: Any = None) -> list[Frame]:
     from ..sensors.simulate import simulate  # effects live in the sensors stage
 
     render = functools.partial(renderer.render, depth_only=depth_only)
+    materials = None if plan is None else plan.materials
     return [simulate(sensor, np.asarray(poses[k], dtype=np.float64), render=render,
-                     rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
+                     rng=pose_rng(seed, i), materials=materials,
+                     plan=None if plan is None else plan.frames[i]) for k, i in enumerate(indices)]
 
 
 # -- process pool: one GL context per worker --------------------------------------------------
@@ -72,12 +74,13 @@ def _worker_init(scene: Scene, backend: str | None, lp_threads: int) -> None:
 
 
 def _worker_render(job: tuple) -> list[Frame]:
-    sensor, poses, seed, indices, depth_only = job
-    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only)
+    sensor, poses, seed, indices, depth_only, plan = job
+    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, plan)
 
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
-            workers: int | None = 1, backend: str | None = None, depth_only: bool = False) -> list[Frame]:
+            workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
+            plan: Any = True) -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -89,19 +92,28 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         this process. The frames do not depend on it.
     backend : GL backend ("egl", "osmesa" or None).
     depth_only : skip the colour target (frames get ``rgb=None``).
+    plan : True (default): follow :func:`genie_gl.plan` of these poses (culling, far plane,
+        effects skipped where the view cannot call for them; same output as running them);
+        a :class:`~genie_gl.plan.Plan` of these poses; None: no plan (every effect decided
+        on its frame, no culling). Each frame's ``meta["effects"]`` records what ran.
     """
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     n = len(poses)
+    if plan is True:
+        from ..plan import plan as make_plan
+
+        plan = make_plan(scene, sensor, poses)
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
         with Renderer(scene, backend=backend) as r:
-            return _capture_serial(r, sensor, poses, seed, range(n), depth_only)
+            return _capture_serial(r, sensor, poses, seed, range(n), depth_only, plan)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads)) as pool:
-        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only) for c in chunks])
+        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan)
+                                          for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):
         for i, f in zip(c, part):

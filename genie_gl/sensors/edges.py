@@ -17,7 +17,19 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..frame import Frame
-from .effects import Effect, drop, effect, record
+from typing import Any
+
+from .effect import Effect, drop, record
+
+
+def has_step(depth: np.ndarray, jump_m: float) -> bool:
+    """True when two valid 4-neighbours differ in depth by more than ``jump_m``."""
+    v = depth > 0
+    for a, b, va, vb in ((depth[1:], depth[:-1], v[1:], v[:-1]),
+                         (depth[:, 1:], depth[:, :-1], v[:, 1:], v[:, :-1])):
+        if (va & vb & (np.abs(a - b) > jump_m)).any():
+            return True
+    return False
 
 
 def largest_step(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -43,7 +55,6 @@ def largest_step(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return step, other
 
 
-@effect
 @dataclass
 class FlyingPixels(Effect):
     """Pixels on a depth edge report, with probability ``probability``, a blend
@@ -57,6 +68,7 @@ class FlyingPixels(Effect):
 
     name: ClassVar[str] = "flying_pixels"
     draws: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 60.0
     probability: float = 0.5
     jump_m: float = 0.05
 
@@ -65,6 +77,10 @@ class FlyingPixels(Effect):
             raise ConfigError(f"flying_pixels.probability: expected 0..1, got {self.probability}")
         if not self.jump_m > 0:
             raise ConfigError(f"flying_pixels.jump_m: expected > 0, got {self.jump_m}")
+
+    def check(self, frame: Frame, **needs: Any) -> str | None:
+        # no edge: the draws below have size 0 and the depth is unchanged
+        return None if has_step(frame.depth, self.jump_m) else f"no depth step over {self.jump_m} m"
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         step, other = largest_step(frame.depth)
@@ -78,17 +94,25 @@ class FlyingPixels(Effect):
         return record(out, self.name, edge_pixels=int(edge.size), mixed=int(idx.size))
 
 
-@effect
 @dataclass
 class EdgeDropout(Effect):
     """No return where the valid depths of the 3x3 neighbourhood span more than ``span_m``."""
 
     name: ClassVar[str] = "edge_dropout"
+    cost_ms_per_mpx: ClassVar[float] = 25.0
     span_m: float = 0.8
 
     def __post_init__(self) -> None:
         if not self.span_m > 0:
             raise ConfigError(f"edge_dropout.span_m: expected > 0, got {self.span_m}")
+
+    def check(self, frame: Frame, **needs: Any) -> str | None:
+        z = frame.depth[frame.depth > 0]
+        if z.size == 0:
+            return "no return in the frame"
+        if float(z.max()) - float(z.min()) <= self.span_m:
+            return f"no 3x3 neighbourhood spans over {self.span_m} m"
+        return None
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         z = frame.depth

@@ -10,6 +10,11 @@ edge at z_b is b·(z_w − z_b)/z_b wide on the wall, f·b·(1/z_b − 1/z_w) pi
 Done geometrically: every valid pixel's camera-frame point goes into the second view's frame,
 is projected there, and is compared with a low-resolution depth render of the scene from that
 view (``render_depth``, which ``simulate`` hands to effects with ``needs_render``).
+
+The second view is rendered only when the frame has an edge that can hide something from it:
+two neighbouring returns whose depth gap exceeds the tolerance and whose shadow,
+f·b·(1/z_near − 1/z_far) pixels, reaches half a pixel. Without one, no point can lie behind
+another as the second view sees it, and only the border band (pure geometry) is dropped.
 """
 from __future__ import annotations
 
@@ -21,11 +26,10 @@ import numpy as np
 from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
-from .effects import Effect, drop, effect, record
+from .effect import Effect, drop, record
 from .geometry import pixel_rays
 
 
-@effect
 @dataclass
 class StereoShadow(Effect):
     """Drop the returns the second view (camera or projector) cannot see.
@@ -49,6 +53,7 @@ class StereoShadow(Effect):
 
     name: ClassVar[str] = "stereo_shadow"
     needs_render: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 120.0
     baseline_m: float | None = None
     axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
     scale: float = 0.5
@@ -98,7 +103,21 @@ class StereoShadow(Effect):
         K[1, 2] = (base.cy + 0.5) * sy - 0.5
         return Sensor(w, h, K, near_m=base.near_m, far_m=base.far_m, name=f"{sensor.name}-second-view")
 
-    def apply(self, frame: Frame, rng: np.random.Generator, *, render_depth=None) -> Frame:
+    def casts_shadow(self, frame: Frame) -> bool:
+        """True when some depth edge can hide a point from the second view (module docstring)."""
+        b = float(np.linalg.norm(self.second_from_first(frame.sensor)[:3, 3]))
+        fb = max(frame.sensor.fx, frame.sensor.fy) * b
+        z = frame.depth
+        v = z > 0
+        for a, c, va, vc in ((z[1:], z[:-1], v[1:], v[:-1]), (z[:, 1:], z[:, :-1], v[:, 1:], v[:, :-1])):
+            ok = va & vc
+            near, far = np.minimum(a, c)[ok].astype(np.float64), np.maximum(a, c)[ok].astype(np.float64)
+            gap = far - near > 0.5 * (self.tolerance_m + self.tolerance_rel * near)
+            if (gap & (fb * (1.0 / near - 1.0 / far) >= 0.5)).any():
+                return True
+        return False
+
+    def apply(self, frame: Frame, rng: np.random.Generator, *, render_depth=None, **needs) -> Frame:
         if render_depth is None:
             raise ConfigError("stereo_shadow needs a renderer: run it through simulate()/capture(), "
                               "or pass render_depth=(sensor, pose) -> depth")
@@ -107,7 +126,9 @@ class StereoShadow(Effect):
             return frame
         second = self.second_from_first(frame.sensor)
         view = self.view_sensor(frame.sensor)
-        depth2 = render_depth(view, frame.world_from_camera @ np.linalg.inv(second))
+        rendered = self.casts_shadow(frame)
+        depth2 = (render_depth(view, frame.world_from_camera @ np.linalg.inv(second)) if rendered
+                  else np.zeros((view.height, view.width), np.float32))
         idx = np.flatnonzero(valid)
         z = frame.depth.ravel()[idx].astype(np.float64)
         xy = pixel_rays(frame.sensor).reshape(-1, 2)
@@ -128,4 +149,5 @@ class StereoShadow(Effect):
         gone = np.zeros_like(valid)
         gone[valid] = hidden | ~inside
         out = drop(frame, gone) if gone.any() else frame
-        return record(out, self.name, occluded=int(hidden.sum()), outside=int((~inside).sum()))
+        return record(out, self.name, occluded=int(hidden.sum()), outside=int((~inside).sum()),
+                      second_view=rendered)

@@ -1,0 +1,342 @@
+"""Time-of-flight physics: multipath from one indirect bounce, mixed pixels, phase
+wrapping and low-albedo range loss.
+
+An AMCW ToF camera (Kinect v2, Azure Kinect) measures the phase of its modulated light; a
+pixel that receives light over several paths measures the phase of the *sum* of their
+phasors. Everything here mixes in that phase domain, at the profile's modulation frequency
+``frequency_mhz`` (a round trip of length L has phase 2π·f·L/c; the range is half the path).
+
+* ``tof_multipath`` — one indirect bounce, computed from a reflective shadow map (Dachsbacher
+  & Stamminger, "Reflective Shadow Maps", I3D 2005; as OpenGL ToF simulators do, e.g.
+  Keller & Kolb, "Real-time simulation of time-of-flight sensors", SIMPAT 2009, and
+  Meister et al., "Simulation of Time-of-Flight Sensors using Global Illumination", VMV
+  2013): the illuminator sits beside the lens, so the scene seen from it is the camera's own
+  render. ``samples`` pixels of it (a stratified grid, no random draw) become virtual point
+  lights with the flux their pixel footprint receives, reflected by the surface's material
+  (Lambertian albedo·(1 − metallic) plus a Phong lobe around the mirror direction, exponent
+  2/roughness⁴ − 2, weighted by F0 = lerp(0.04, albedo, metallic)). Each pixel adds every
+  light that faces it (both cosines > 0; occlusion between the two is ignored, as in RSMs)
+  as a phasor of relative amplitude (indirect irradiance / direct irradiance) and extra path
+  ΔL = r_Q + |Q − P| − r_P ≥ 0. While ΔL stays under half the modulation wavelength every
+  phasor lies in the upper half plane, so the measured range only grows: multipath pushes
+  depth away from the sensor, never closer. Two surfaces that do not face each other (one
+  convex object) give exactly nothing.
+* ``mixed_pixels`` — a pixel on a depth edge sees a share α ~ U(0, 1) of the near surface and
+  1 − α of the far one; it reports the range of α·A_n·e^{iφ_n} + (1 − α)·A_f·e^{iφ_f}, with
+  A = albedo / r² (the flying pixels of ToF cameras, which can land outside the gap once the
+  path difference nears half a wavelength).
+* ``ambiguity`` — a phase is known modulo 2π: a return beyond the ambiguity range c/(2f) of
+  the (unwrapped) modulation is reported at r mod ambiguity_m when the device wraps, or
+  dropped when its depth engine filters them.
+* ``low_albedo`` — the return's signal falls as albedo/r²: a pixel returns only while
+  albedo/r² ≥ ref_albedo/ref_range_m², the device's stated operating point (Azure Kinect: 15 %
+  reflectivity at the NFOV range limit).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from numba import njit
+
+from ..errors import ConfigError
+from ..frame import Frame
+from .effect import Decision, Effect, View, drop, record
+from .geometry import camera_points, pixel_rays, surface_normals
+
+C_M_PER_S = 299_792_458.0
+
+
+def _ranges(frame: Frame) -> np.ndarray:
+    """(H, W) float64 range (distance along the ray) of every pixel; 0 where no return."""
+    xy = pixel_rays(frame.sensor)
+    z = frame.depth.astype(np.float64)
+    return z * np.sqrt(1.0 + xy[..., 0] ** 2 + xy[..., 1] ** 2)
+
+
+def _with_range(frame: Frame, r_new: np.ndarray, r_old: np.ndarray, where: np.ndarray) -> Frame:
+    z = frame.depth.astype(np.float64)
+    out = z.copy()
+    out[where] = z[where] * (r_new[where] / r_old[where])
+    return frame.replace(depth=out.astype(np.float32))
+
+
+@njit(cache=True, nogil=True)
+def _indirect(P, N, r, cos_in, vpl, flux, rho, kd, ks, shine, refl, k, min_d):  # pragma: no cover
+    """Per receiver pixel: the real and imaginary sums of its indirect phasors, relative to
+    its direct one. P, N (M, 3) points and normals; r, cos_in (M,) range and cosine of the
+    light's incidence; vpl (K,) pixel indices of the lights; flux (K,) their footprint factor;
+    rho, kd, ks, shine (K,) their material; refl (K, 3) mirror direction of the light at each."""
+    M = P.shape[0]
+    re = np.zeros(M)
+    im = np.zeros(M)
+    for p in range(M):
+        if r[p] <= 0.0:
+            continue
+        px, py, pz = P[p, 0], P[p, 1], P[p, 2]
+        nx, ny, nz = N[p, 0], N[p, 1], N[p, 2]
+        scale = r[p] * r[p] / max(cos_in[p], 0.05)
+        for j in range(vpl.shape[0]):
+            q = vpl[j]
+            dx, dy, dz = P[q, 0] - px, P[q, 1] - py, P[q, 2] - pz
+            d2 = dx * dx + dy * dy + dz * dz
+            if d2 < min_d * min_d:
+                continue
+            cos_p = nx * dx + ny * dy + nz * dz
+            if cos_p <= 0.0:
+                continue
+            cos_q = -(N[q, 0] * dx + N[q, 1] * dy + N[q, 2] * dz)
+            if cos_q <= 0.0:
+                continue
+            d = np.sqrt(d2)
+            cos_p /= d
+            cos_q /= d
+            f = kd[j] * rho[j] / np.pi
+            if ks[j] > 0.0:
+                c = -(refl[j, 0] * dx + refl[j, 1] * dy + refl[j, 2] * dz) / d
+                if c > 0.0:
+                    f += ks[j] * (shine[j] + 2.0) / (2.0 * np.pi) * c ** shine[j]
+            a = f * flux[j] * cos_q * cos_p / d2 * scale
+            dl = r[q] + d - r[p]
+            if dl < 0.0:
+                dl = 0.0
+            re[p] += a * np.cos(k * dl)
+            im[p] += a * np.sin(k * dl)
+    return re, im
+
+
+@dataclass
+class TofMultipath(Effect):
+    """One indirect bounce mixed in the phase domain (see the module docstring).
+
+    Parameters
+    ----------
+    frequency_mhz : modulation frequency whose phase is mixed (the lowest of a multi-frequency
+        device: the one its unwrapped range comes from).
+    samples : virtual point lights taken from the reflective shadow map (accuracy knob).
+    min_distance_m : lights nearer a pixel than this are left out (the integrand's
+        singularity; the pixel's own surface).
+    """
+
+    name: ClassVar[str] = "tof_multipath"
+    needs_normals: ClassVar[bool] = True
+    needs_materials: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 400.0
+    frequency_mhz: float = 16.0
+    samples: int = 64
+    min_distance_m: float = 0.02
+
+    def __post_init__(self) -> None:
+        if not self.frequency_mhz > 0:
+            raise ConfigError(f"tof_multipath.frequency_mhz: expected > 0, got {self.frequency_mhz}")
+        if int(self.samples) < 1:
+            raise ConfigError(f"tof_multipath.samples: expected >= 1, got {self.samples}")
+
+    def plan(self, view: View) -> Decision | None:
+        if view.empty:
+            return Decision(False, "nothing in range or view")
+        if len(view.ids) == 1 and bool(view.convex[0]):
+            return Decision(False, "one convex object in view: no surface faces another, no second bounce")
+        what = "reflective material" if view.reflective.any() else "surfaces that may face each other"
+        return Decision(True, f"{what} in range ({len(view.ids)} objects, "
+                              f"{int((~view.convex).sum())} non-convex): a second bounce can reach the sensor")
+
+    def lights(self, valid: np.ndarray) -> tuple[np.ndarray, float]:
+        """Flat pixel indices of the virtual point lights (centres of a stratified grid, valid
+        pixels only) and the pixels each stands for."""
+        H, W = valid.shape
+        cell = max(1, int(np.ceil(np.sqrt(H * W / int(self.samples)))))
+        v, u = np.meshgrid(np.arange(cell // 2, H, cell), np.arange(cell // 2, W, cell), indexing="ij")
+        idx = (v * W + u).ravel()
+        return idx[valid.ravel()[idx]], float(cell * cell)
+
+    def indirect(self, frame: Frame, materials: Any) -> np.ndarray:
+        """(H, W) float64 range change (m, >= 0 while the extra paths stay under half a
+        wavelength); 0 where no return."""
+        valid = frame.depth > 0
+        H, W = valid.shape
+        vpl, cell = self.lights(valid)
+        if len(vpl) == 0:
+            return np.zeros((H, W))
+        P = camera_points(frame).reshape(-1, 3)
+        N = surface_normals(frame).reshape(-1, 3)
+        r = _ranges(frame).ravel()
+        rs = np.maximum(r, 1e-9)
+        cos_in = np.maximum(-(P * N).sum(1) / rs, 0.0)
+        rows = materials.rows(frame.instance.ravel()[vpl])
+        rho = materials.albedo[rows]
+        metal = materials.metallic[rows]
+        rough = np.maximum(materials.roughness[rows], 0.05)
+        kd = 1.0 - metal
+        ks = 0.04 + (rho - 0.04) * metal
+        shine = 2.0 / rough ** 4 - 2.0
+        incoming = P[vpl] / rs[vpl, None]
+        nq = N[vpl]
+        refl = incoming - 2.0 * (incoming * nq).sum(1)[:, None] * nq
+        f = frame.sensor.fx
+        flux = (P[vpl, 2] / rs[vpl]) ** 2 * cell / (f * f)
+        k = 2 * np.pi * self.frequency_mhz * 1e6 / C_M_PER_S
+        re, im = _indirect(P, N, np.where(valid.ravel(), r, 0.0), cos_in, vpl.astype(np.int64), flux,
+                           rho, kd, ks, shine, refl, k, float(self.min_distance_m))
+        dr = np.arctan2(im, 1.0 + re) / (2 * k)
+        return np.where(valid.ravel(), dr, 0.0).reshape(H, W)
+
+    def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None) -> Frame:
+        if materials is None:
+            raise ConfigError("tof_multipath needs the scene's materials: run it through simulate()/capture()")
+        dr = self.indirect(frame, materials)
+        moved = dr != 0
+        if not moved.any():
+            return record(frame, self.name, moved=0)
+        r = _ranges(frame)
+        out = _with_range(frame, r + dr, r, moved)
+        return record(out, self.name, moved=int(moved.sum()), max_m=float(dr.max()))
+
+
+def _edges(depth: np.ndarray, jump_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Flat indices of pixels with a valid 4-neighbour more than ``jump_m`` away in depth, and
+    that neighbour's flat index (the largest step)."""
+    H, W = depth.shape
+    z = depth.astype(np.float64)
+    valid = z > 0
+    best = np.zeros((H, W))
+    other = np.full((H, W), -1, np.int64)
+    flat = np.arange(H * W).reshape(H, W)
+    for dy, dx in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+        ys = slice(max(dy, 0), H + min(dy, 0))
+        yd = slice(max(-dy, 0), H + min(-dy, 0))
+        xs = slice(max(dx, 0), W + min(dx, 0))
+        xd = slice(max(-dx, 0), W + min(-dx, 0))
+        step = np.zeros((H, W))
+        ok = valid[yd, xd] & valid[ys, xs]
+        step[yd, xd] = np.where(ok, np.abs(z[ys, xs] - z[yd, xd]), 0.0)
+        nb = np.full((H, W), -1, np.int64)
+        nb[yd, xd] = flat[ys, xs]
+        larger = step > best
+        best = np.where(larger, step, best)
+        other = np.where(larger, nb, other)
+    edge = np.flatnonzero(best > jump_m)
+    return edge, other.ravel()[edge]
+
+
+@dataclass
+class MixedPixels(Effect):
+    """ToF flying pixels: edge pixels report the mixed phase of their two surfaces."""
+
+    name: ClassVar[str] = "mixed_pixels"
+    draws: ClassVar[bool] = True
+    needs_materials: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 60.0
+    frequency_mhz: float = 16.0
+    jump_m: float = 0.05
+
+    def __post_init__(self) -> None:
+        if not self.jump_m > 0 or not self.frequency_mhz > 0:
+            raise ConfigError(f"mixed_pixels: jump_m and frequency_mhz must be > 0 "
+                              f"(got {self.jump_m}, {self.frequency_mhz})")
+
+    def check(self, frame: Frame, **needs: Any) -> str | None:
+        z = frame.depth
+        v = z > 0
+        for a, b, va, vb in ((z[1:], z[:-1], v[1:], v[:-1]), (z[:, 1:], z[:, :-1], v[:, 1:], v[:, :-1])):
+            if (va & vb & (np.abs(a - b) > self.jump_m)).any():
+                return None
+        return f"no depth step over {self.jump_m} m between neighbours"
+
+    def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None) -> Frame:
+        edge, nb = _edges(frame.depth, self.jump_m)
+        alpha = rng.random(edge.size)
+        if edge.size == 0:
+            return record(frame, self.name, mixed=0)
+        r = _ranges(frame).ravel()
+        rho = (np.full(r.shape, 0.5) if materials is None
+               else materials.albedo[materials.rows(frame.instance.ravel())])
+        k = 2 * np.pi * self.frequency_mhz * 1e6 / C_M_PER_S
+        a_self = alpha * rho[edge] / r[edge] ** 2
+        a_nb = (1 - alpha) * rho[nb] / r[nb] ** 2
+        dphi = 2 * k * (r[nb] - r[edge])
+        shift = np.arctan2(a_nb * np.sin(dphi), a_self + a_nb * np.cos(dphi)) / (2 * k)
+        z = frame.depth.astype(np.float64).ravel()
+        z[edge] *= (r[edge] + shift) / r[edge]
+        out = frame.replace(depth=np.maximum(z, 0).reshape(frame.depth.shape).astype(np.float32))
+        return record(out, self.name, mixed=int(edge.size))
+
+
+@dataclass
+class Ambiguity(Effect):
+    """Returns beyond the ambiguity range: reported at r mod ``ambiguity_m`` (``wrap``) or dropped."""
+
+    name: ClassVar[str] = "ambiguity"
+    cost_ms_per_mpx: ClassVar[float] = 15.0
+    ambiguity_m: float = 18.75
+    wrap: bool = True
+    max_wraps: int = 1
+
+    def __post_init__(self) -> None:
+        if not self.ambiguity_m > 0:
+            raise ConfigError(f"ambiguity.ambiguity_m: expected > 0, got {self.ambiguity_m}")
+
+    def plan(self, view: View) -> Decision | None:
+        if view.empty:
+            return Decision(False, "nothing in range or view")
+        if view.r_max <= self.ambiguity_m:
+            return Decision(False, f"everything in view lies within the {self.ambiguity_m} m ambiguity range")
+        return None
+
+    def check(self, frame: Frame, **needs: Any) -> str | None:
+        if not (_ranges(frame) > self.ambiguity_m).any():
+            return f"no return beyond the {self.ambiguity_m} m ambiguity range"
+        return None
+
+    def reach_m(self, sensor: Any) -> float | None:
+        return self.ambiguity_m * (self.max_wraps + 1) if self.wrap else None
+
+    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+        r = _ranges(frame)
+        beyond = r > self.ambiguity_m
+        if not beyond.any():
+            return frame
+        if not self.wrap:
+            return drop(frame, beyond)
+        out = _with_range(frame, np.mod(r, self.ambiguity_m), r, beyond)
+        gone = beyond & ~(out.depth > 0)
+        return drop(out, gone) if gone.any() else out
+
+
+@dataclass
+class LowAlbedo(Effect):
+    """No return where albedo / r² < ref_albedo / ref_range_m² (too little light comes back)."""
+
+    name: ClassVar[str] = "low_albedo"
+    needs_materials: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 20.0
+    ref_albedo: float = 0.15
+    ref_range_m: float = 3.86
+
+    def __post_init__(self) -> None:
+        if not (0 < self.ref_albedo <= 1 and self.ref_range_m > 0):
+            raise ConfigError(f"low_albedo: need 0 < ref_albedo <= 1 and ref_range_m > 0 "
+                              f"(got {self.ref_albedo}, {self.ref_range_m})")
+
+    @property
+    def threshold(self) -> float:
+        return self.ref_albedo / self.ref_range_m ** 2
+
+    def plan(self, view: View) -> Decision | None:
+        if view.empty:
+            return Decision(False, "nothing in range or view")
+        worst = float(view.albedo.min()) / max(view.r_max, 1e-9) ** 2
+        if worst >= self.threshold:
+            return Decision(False, f"darkest surface in view (albedo {view.albedo.min():.2f}) still returns "
+                                   f"at {view.r_max:.2f} m")
+        return None
+
+    def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None) -> Frame:
+        if materials is None:
+            raise ConfigError("low_albedo needs the scene's materials: run it through simulate()/capture()")
+        r = _ranges(frame)
+        rho = materials.albedo[materials.rows(frame.instance)]
+        lost = (frame.depth > 0) & (rho < self.threshold * r * r)
+        out = drop(frame, lost) if lost.any() else frame
+        return record(out, self.name, dropped=int(lost.sum()))
