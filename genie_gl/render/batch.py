@@ -49,11 +49,11 @@ def pose_rng(seed: int, index: int) -> np.random.Generator:
 
 
 def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
-                    indices: Sequence[int], depth_only: bool = False, plan: Any = None) -> list[Frame]:
+                    indices: Sequence[int], depth_only: bool = False, plan: Any = None,
+                    materials: Any = None) -> list[Frame]:
     from ..sensors.simulate import simulate  # effects live in the sensors stage
 
     render = functools.partial(renderer.render, depth_only=depth_only)
-    materials = None if plan is None else plan.materials
     return [simulate(sensor, np.asarray(poses[k], dtype=np.float64), render=render,
                      rng=pose_rng(seed, i), materials=materials,
                      plan=None if plan is None else plan.frames[i]) for k, i in enumerate(indices)]
@@ -74,8 +74,8 @@ def _worker_init(scene: Scene, backend: str | None, lp_threads: int) -> None:
 
 
 def _worker_render(job: tuple) -> list[Frame]:
-    sensor, poses, seed, indices, depth_only, plan = job
-    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, plan)
+    sensor, poses, seed, indices, depth_only, plan, materials = job
+    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, plan, materials)
 
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
@@ -103,16 +103,23 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         from ..plan import plan as make_plan
 
         plan = make_plan(scene, sensor, poses)
+    materials = None
+    if plan is not None:
+        materials = plan.materials
+    elif any(e.needs_materials for e in sensor.effects):
+        from ..scene.materials import MaterialTable
+
+        materials = MaterialTable.from_scene(scene)
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
         with Renderer(scene, backend=backend) as r:
-            return _capture_serial(r, sensor, poses, seed, range(n), depth_only, plan)
+            return _capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads)) as pool:
-        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan)
+        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan, materials)
                                           for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):
