@@ -110,13 +110,30 @@ class MaterialTable:
                    np.array([m.roughness for m in mats]), np.array([m.opacity for m in mats]),
                    np.array([m.ior for m in mats]))
 
+    @classmethod
+    def empty(cls) -> "MaterialTable":
+        """No instance: every pixel reads as the default material."""
+        return cls.from_scene(Scene())
+
     def rows(self, instance: np.ndarray) -> np.ndarray:
         """Row of each id in ``instance`` (any shape, uint32); -1 for 0 and unknown ids."""
+        instance = np.asarray(instance)
         if len(self.ids) == 0:
             return np.full(instance.shape, -1, np.intp)
+        if int(self.ids[-1]) < (1 << 20):   # small ids (the usual case): one gather from a table
+            lut = self._lut()
+            return lut[np.minimum(instance, len(lut) - 1)]
         k = np.searchsorted(self.ids, instance)
         k = np.minimum(k, len(self.ids) - 1)
         return np.where(self.ids[k] == instance, k, -1)
+
+    def _lut(self) -> np.ndarray:
+        lut = self.__dict__.get("_lut_cache")
+        if lut is None:
+            lut = np.full(int(self.ids[-1]) + 2, -1, np.intp)   # the last entry: ids beyond the table
+            lut[self.ids] = np.arange(len(self.ids))
+            object.__setattr__(self, "_lut_cache", lut)
+        return lut
 
     def reflective(self, instance: np.ndarray) -> np.ndarray:
         """(same shape) bool: metallic >= 0.5 or roughness <= 0.3 (see ``Material.reflective``)."""

@@ -87,6 +87,10 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
         if eff.needs_render:
             needs.update(render_depth=render_depth, render_frame=render_frame)
         if eff.needs_materials:
+            if materials is None:   # no scene table: every surface is the default material
+                from ..scene.materials import MaterialTable
+
+                materials = MaterialTable.empty()
             needs["materials"] = materials
         reason = decided.reason if decided is not None else None
         run = decided.run if decided is not None else True
