@@ -21,7 +21,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline \
+.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -61,6 +61,7 @@ bench: setup ## run every benchmark (render, layout, accuracy, pipeline); figure
 	$(GENIE) bench layout --out $(OUT)/bench
 	$(GENIE) bench accuracy --out $(OUT)/bench
 	$(GENIE) bench pipeline --out $(OUT)/bench
+	$(GENIE) bench planning --out $(OUT)/bench
 
 bench-render: setup ## renderer against pyrender and Open3D
 	$(GENIE) bench render --out $(OUT)/bench
@@ -70,6 +71,8 @@ bench-accuracy: setup ## what each sensor effect and accuracy knob costs in time
 	$(GENIE) bench accuracy --out $(OUT)/bench
 bench-pipeline: setup ## seconds per scene end to end
 	$(GENIE) bench pipeline --out $(OUT)/bench
+bench-planning: setup ## a full D435 / Azure frame before and after planning (x the ideal render)
+	$(GENIE) bench planning --out $(OUT)/bench
 
 dataset-assembly-line: setup ## the paper's setup: make dataset-assembly-line SCENES=499 CAMERAS=40
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \

@@ -88,7 +88,7 @@ def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: floa
             raise ConfigError(
                 f"placement: sensor {sensor.name!r} (range {lo:g}-{hi:g} m, {np.degrees(2 * half_v):.1f}° "
                 f"vertical field) cannot see the floor from any mount between {min_mount_m:g} and "
-                f"{ceiling_m:g} m (it needs a mount below {fit:.2f} m); give mount_height_m= for a low mount")
+                f"{ceiling_m:g} m (it needs a mount below {fit:.2f} m); give a mount height (mount_height_m=, genie --mount)")
     else:
         h = float(mount_height_m)
         if h <= 0:
@@ -345,3 +345,30 @@ def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, rad
     else:
         raise ConfigError(f"placement method {method!r} is unknown; expected genetic, greedy or random")
     return poses_from_centres(problem, result.centres, radius_m, mount_height_m, mount.pitch_rad)
+
+
+def scene_poses(scene, sensor, n: int, seed: int = 0, *, mount_height_m: float | None = None,
+                margin_m: float = 0.3) -> list[np.ndarray]:
+    """Poses for a scene without its layout (e.g. a USD stage): placement over its floor (the
+    bounding box's footprint, ``margin_m`` inside the walls), under its height as the ceiling,
+    mounted for the sensor's range (:func:`mount_for`) — never outside the hall."""
+    from ..layout.model import Layout, Region, RegionType
+
+    lo, hi = scene.bounds()
+    if not np.all(np.isfinite(lo)):
+        raise ConfigError("placement: the scene is empty")
+    w, h = float(hi[0] - lo[0]), float(hi[1] - lo[1])
+    m = min(margin_m, 0.25 * w, 0.25 * h)
+    floor = Region(float(lo[0]) + m, float(lo[1]) + m, w - 2 * m, h - 2 * m, type="floor")
+    layout = Layout.from_regions([floor], {"floor": RegionType("floor", asset_group="floor")},
+                                 (float(lo[0]), float(lo[1]), w, h))
+    height = float(hi[2] - lo[2])
+    ceiling = height if height > MIN_MOUNT_M + 0.5 else DEFAULT_CEILING_M
+    step = max(0.25, min(1.0, min(w, h) / 4))
+    mount = mount_for(sensor, ceiling_m=ceiling, mount_height_m=mount_height_m)
+    problem = CoverageProblem(layout, mount.radius_m, resolution_m=step / 2, step_m=step)
+    result = genetic_placement(problem, n, rng=np.random.default_rng(seed), generations=40)
+    poses = poses_from_centres(problem, result.centres, mount.radius_m, mount.height_m, mount.pitch_rad)
+    for p in poses:      # the floor of a foreign stage need not lie at z = 0
+        p[2, 3] += float(lo[2])
+    return poses
