@@ -127,6 +127,16 @@ class MaterialTable:
         k = np.minimum(k, len(self.ids) - 1)
         return np.where(self.ids[k] == instance, k, -1)
 
+    def per_pixel(self, values: np.ndarray, instance: np.ndarray) -> np.ndarray:
+        """``values`` (N + 1,: one per row, the default's last) looked up for every id of
+        ``instance`` (any shape): one gather from an id-indexed table when ids are small."""
+        values = np.asarray(values)
+        instance = np.asarray(instance)
+        if len(self.ids) and int(self.ids[-1]) < (1 << 20):
+            by_id = values[self._lut()]
+            return by_id[np.minimum(instance, len(by_id) - 1)]
+        return values[self.rows(instance)]
+
     def _lut(self) -> np.ndarray:
         lut = self.__dict__.get("_lut_cache")
         if lut is None:

@@ -19,17 +19,13 @@ from ..errors import ConfigError
 from ..frame import Frame
 from typing import Any
 
+from . import kernels
 from .effect import Effect, drop, record
 
 
 def has_step(depth: np.ndarray, jump_m: float) -> bool:
     """True when two valid 4-neighbours differ in depth by more than ``jump_m``."""
-    v = depth > 0
-    for a, b, va, vb in ((depth[1:], depth[:-1], v[1:], v[:-1]),
-                         (depth[:, 1:], depth[:, :-1], v[:, 1:], v[:, :-1])):
-        if (va & vb & (np.abs(a - b) > jump_m)).any():
-            return True
-    return False
+    return bool(kernels.has_step(depth, float(jump_m)))
 
 
 def largest_step(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -107,10 +103,10 @@ class EdgeDropout(Effect):
             raise ConfigError(f"edge_dropout.span_m: expected > 0, got {self.span_m}")
 
     def check(self, frame: Frame, **needs: Any) -> str | None:
-        z = frame.depth[frame.depth > 0]
-        if z.size == 0:
+        lo, hi = kernels.valid_span(frame.depth)
+        if hi == 0:
             return "no return in the frame"
-        if float(z.max()) - float(z.min()) <= self.span_m:
+        if hi - lo <= self.span_m:
             return f"no 3x3 neighbourhood spans over {self.span_m} m"
         return None
 

@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
+from . import kernels
 from .effect import Decision, Effect, View, drop
 from .geometry import incidence_angle
 
@@ -46,8 +47,8 @@ class RangeLimits(Effect):
         return None
 
     def check(self, frame: Frame, **needs: Any) -> str | None:
-        z = frame.depth
-        if not ((z > 0) & ((z < self.min_m) | (z > self.max_m))).any():
+        lo, hi = kernels.valid_span(frame.depth)
+        if hi == 0 or (lo >= self.min_m and hi <= self.max_m):
             return f"every return lies inside [{self.min_m}, {self.max_m}] m"
         return None
 
@@ -139,6 +140,18 @@ class DepthNoise(Effect):
         return self.a_m + self.b * np.maximum(z - self.z0_m, 0.0)
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+        if self.model == "stereo":   # one compiled pass; the draws in the same order as below
+            fb = frame.sensor.fx * self.baseline(frame.sensor)
+            draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
+            depth, lost = kernels.stereo_noise(frame.depth, draws, fb, self.sigma_d_px(frame.sensor),
+                                               float(self.subpixel_step))
+            out = frame.replace(depth=depth)
+            return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
+        if self.model == "tof_linear":
+            draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
+            depth, lost = kernels.linear_noise(frame.depth, draws, float(self.a_m), float(self.b), float(self.z0_m))
+            out = frame.replace(depth=depth)
+            return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
         z = frame.depth.astype(np.float64)
         valid = z > 0
         f = frame.sensor.fx

@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
+from . import kernels
 from .effect import Effect, drop, record
 from .geometry import pixel_rays
 
@@ -107,15 +108,7 @@ class StereoShadow(Effect):
         """True when some depth edge can hide a point from the second view (module docstring)."""
         b = float(np.linalg.norm(self.second_from_first(frame.sensor)[:3, 3]))
         fb = max(frame.sensor.fx, frame.sensor.fy) * b
-        z = frame.depth
-        v = z > 0
-        for a, c, va, vc in ((z[1:], z[:-1], v[1:], v[:-1]), (z[:, 1:], z[:, :-1], v[:, 1:], v[:, :-1])):
-            ok = va & vc
-            near, far = np.minimum(a, c)[ok].astype(np.float64), np.maximum(a, c)[ok].astype(np.float64)
-            gap = far - near > 0.5 * (self.tolerance_m + self.tolerance_rel * near)
-            if (gap & (fb * (1.0 / near - 1.0 / far) >= 0.5)).any():
-                return True
-        return False
+        return bool(kernels.casts_shadow(frame.depth, fb, float(self.tolerance_m), float(self.tolerance_rel)))
 
     def apply(self, frame: Frame, rng: np.random.Generator, *, render_depth=None, **needs) -> Frame:
         if render_depth is None:
@@ -128,26 +121,11 @@ class StereoShadow(Effect):
         view = self.view_sensor(frame.sensor)
         rendered = self.casts_shadow(frame)
         depth2 = (render_depth(view, frame.world_from_camera @ np.linalg.inv(second)) if rendered
-                  else np.zeros((view.height, view.width), np.float32))
-        idx = np.flatnonzero(valid)
-        z = frame.depth.ravel()[idx].astype(np.float64)
-        xy = pixel_rays(frame.sensor).reshape(-1, 2)
-        X, Y = xy[idx, 0] * z, xy[idx, 1] * z
-        R, t = second[:3, :3], second[:3, 3]
-        # one column at a time: an (N, 3) @ (3, 3) product is several times slower
-        x2, y2, z2 = (R[k, 0] * X + R[k, 1] * Y + R[k, 2] * z + t[k] for k in range(3))
-        front = z2 > view.near_m
-        zs = np.where(front, z2, 1.0)
-        K = view.K
-        u = np.rint((K[0, 0] * x2 + K[0, 1] * y2) / zs + K[0, 2])
-        v = np.rint(K[1, 1] * y2 / zs + K[1, 2])
-        inside = front & (u >= 0) & (u < view.width) & (v >= 0) & (v < view.height)
-        seen = np.zeros(len(idx), dtype=np.float64)
-        seen[inside] = depth2[v[inside].astype(np.intp), u[inside].astype(np.intp)]
-        tol = self.tolerance_m + self.tolerance_rel * seen
-        hidden = inside & (seen > 0) & (z2 > seen + tol)
-        gone = np.zeros_like(valid)
-        gone[valid] = hidden | ~inside
+                  else np.zeros((1, 1), np.float32))
+        gone, occluded, outside = kernels.shadow_mask(
+            frame.depth, pixel_rays(frame.sensor), np.ascontiguousarray(second[:3, :3]),
+            np.ascontiguousarray(second[:3, 3]), view.K, view.width, view.height, float(view.near_m), depth2,
+            rendered, float(self.tolerance_m), float(self.tolerance_rel))
         out = drop(frame, gone) if gone.any() else frame
-        return record(out, self.name, occluded=int(hidden.sum()), outside=int((~inside).sum()),
+        return record(out, self.name, occluded=int(occluded), outside=int(outside),
                       second_view=rendered)

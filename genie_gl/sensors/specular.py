@@ -22,9 +22,35 @@ import numpy as np
 from ..errors import ConfigError
 from ..frame import Frame
 from .effect import Decision, Effect, View, drop, record
-from .geometry import incidence_angle
+from .geometry import pixel_rays, view_directions
 
 TRANSPARENT = ("drop", "behind")
+
+
+def _cos_incidence(frame: Frame, idx: np.ndarray) -> np.ndarray:
+    """cos θ at flat pixel indices ``idx``: the rendered normal when the frame has one, else
+    the normal of the depth image (central differences; 0 beside a hole or the border)."""
+    d = view_directions(frame.sensor).reshape(-1, 3)[idx]
+    if frame.normal is not None:
+        n = frame.normal.reshape(-1, 3)[idx].astype(np.float64)
+        return -(n * d).sum(1)
+    H, W = frame.depth.shape
+    v, u = np.divmod(idx, W)
+    xy = pixel_rays(frame.sensor)
+    z = frame.depth
+
+    def point(vv, uu):
+        zz = z[vv, uu].astype(np.float64)
+        return np.stack([xy[vv, uu, 0] * zz, xy[vv, uu, 1] * zz, zz], 1), zz > 0
+
+    ul, ur = np.maximum(u - 1, 0), np.minimum(u + 1, W - 1)
+    vu, vd = np.maximum(v - 1, 0), np.minimum(v + 1, H - 1)
+    (a, va), (b, vb), (c, vc), (e, ve) = point(v, ur), point(v, ul), point(vd, u), point(vu, u)
+    n = np.cross(a - b, c - e)
+    length = np.linalg.norm(n, axis=1)
+    ok = va & vb & vc & ve & (ur > ul) & (vd > vu) & (length > 0)
+    n = n / np.where(ok, length, 1.0)[:, None]
+    return np.where(ok, np.abs((n * d).sum(1)), 0.0)
 
 
 @dataclass
@@ -33,7 +59,6 @@ class SpecularLoss(Effect):
     return nothing or what lies behind them."""
 
     name: ClassVar[str] = "specular_loss"
-    needs_normals: ClassVar[bool] = True
     needs_materials: ClassVar[bool] = True
     needs_render: ClassVar[bool] = True
     cost_ms_per_mpx: ClassVar[float] = 30.0
@@ -54,12 +79,21 @@ class SpecularLoss(Effect):
             return Decision(False, "no shiny or clear surface in view")
         return None
 
+    def _kinds(self, frame: Frame, materials: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per pixel: shiny, shiny metal without a diffuse part, clear (bool, (H, W))."""
+        m = materials
+        code = (((m.metallic >= 0.5) | (m.roughness <= 0.3)).astype(np.uint8)
+                | (((m.metallic >= 0.5) & (m.roughness < self.metal_min_roughness)) << 1).astype(np.uint8)
+                | ((m.opacity < 0.5) << 2).astype(np.uint8))
+        kind = m.per_pixel(code, frame.instance)   # id 0 (no return) reads the default: 0
+        kind = np.where(frame.depth > 0, kind, np.uint8(0))
+        return (kind & 1).astype(bool), (kind & 2).astype(bool), (kind & 4).astype(bool)
+
     def check(self, frame: Frame, *, materials: Any = None, **needs: Any) -> str | None:
         if materials is None or not (frame.depth > 0).any():
             return "no return in the frame" if materials is not None else None
-        ids = np.unique(frame.instance)
-        rows = materials.rows(ids)
-        if not (materials.reflective(ids) | (materials.opacity[rows] < 0.5)).any():
+        shiny, _, clear = self._kinds(frame, materials)
+        if not (shiny.any() or clear.any()):
             return "no shiny or clear surface visible"
         return None
 
@@ -67,15 +101,12 @@ class SpecularLoss(Effect):
               render_frame: Any = None, **needs: Any) -> Frame:
         if materials is None:
             raise ConfigError("specular_loss needs the scene's materials: run it through simulate()/capture()")
-        rows = materials.rows(frame.instance)
-        valid = frame.depth > 0
-        shiny = valid & ((materials.metallic[rows] >= 0.5) | (materials.roughness[rows] <= 0.3))
-        clear = valid & (materials.opacity[rows] < 0.5)
-        lost = np.zeros_like(valid)
-        if shiny.any():
-            theta = incidence_angle(frame)
-            lost |= shiny & (theta < np.radians(self.glare_deg))
-            lost |= shiny & (materials.metallic[rows] >= 0.5) & (materials.roughness[rows] < self.metal_min_roughness)
+        shiny, bare, clear = self._kinds(frame, materials)
+        lost = bare.copy()
+        idx = np.flatnonzero(shiny & ~bare)
+        if idx.size:   # incidence only where it matters: the shiny pixels
+            cos = _cos_incidence(frame, idx)
+            lost.ravel()[idx[cos > np.cos(np.radians(self.glare_deg))]] = True
         behind = 0
         out = frame
         if clear.any() and self.transparent == "behind" and render_frame is not None:

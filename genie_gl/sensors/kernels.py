@@ -1,0 +1,171 @@
+"""Compiled per-pixel loops of the sensor effects (numba, cached on disk).
+
+Each kernel does in one pass what the numpy version did in a dozen full-frame temporaries;
+the effects keep the model (and its docstring), these keep the arithmetic. Random draws stay
+in numpy (``rng.standard_normal``) so the RNG stream is the generator's own.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def has_step(depth, jump):  # pragma: no cover - compiled
+    """True when two valid 4-neighbours differ in depth by more than ``jump``."""
+    H, W = depth.shape
+    for v in range(H):
+        for u in range(W):
+            z = depth[v, u]
+            if z <= 0:
+                continue
+            if u + 1 < W:
+                n = depth[v, u + 1]
+                if n > 0 and abs(n - z) > jump:
+                    return True
+            if v + 1 < H:
+                n = depth[v + 1, u]
+                if n > 0 and abs(n - z) > jump:
+                    return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def casts_shadow(depth, fb, tol_m, tol_rel):  # pragma: no cover - compiled
+    """True when two valid 4-neighbours differ by more than half the shadow tolerance and the
+    shadow of the nearer on the farther, fb·(1/z_near − 1/z_far) pixels, reaches half a pixel."""
+    H, W = depth.shape
+    for v in range(H):
+        for u in range(W):
+            z = np.float64(depth[v, u])
+            if z <= 0:
+                continue
+            for dv, du in ((0, 1), (1, 0)):
+                if v + dv >= H or u + du >= W:
+                    continue
+                n = np.float64(depth[v + dv, u + du])
+                if n <= 0:
+                    continue
+                near, far = min(z, n), max(z, n)
+                if far - near > 0.5 * (tol_m + tol_rel * near) and fb * (1.0 / near - 1.0 / far) >= 0.5:
+                    return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def shadow_mask(depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_rel):  # pragma: no cover
+    """Which returns the second view cannot see: (gone (H, W) bool, occluded, outside).
+
+    Every valid pixel's point (depth · (x, y, 1)) goes to the second view (X2 = R·X + t), is
+    projected with K (rounded half to even, as ``np.rint``) and, when ``rendered``, compared
+    with ``depth2`` there: hidden when it lies behind by more than tol_m + tol_rel·seen."""
+    H, W = depth.shape
+    gone = np.zeros((H, W), np.bool_)
+    occluded = 0
+    outside = 0
+    for v in range(H):
+        for u in range(W):
+            z = np.float64(depth[v, u])
+            if z <= 0:
+                continue
+            X, Y = xy[v, u, 0] * z, xy[v, u, 1] * z
+            x2 = R[0, 0] * X + R[0, 1] * Y + R[0, 2] * z + t[0]
+            y2 = R[1, 0] * X + R[1, 1] * Y + R[1, 2] * z + t[1]
+            z2 = R[2, 0] * X + R[2, 1] * Y + R[2, 2] * z + t[2]
+            if not z2 > near2:
+                gone[v, u] = True
+                outside += 1
+                continue
+            pu = np.rint((K[0, 0] * x2 + K[0, 1] * y2) / z2 + K[0, 2])
+            pv = np.rint(K[1, 1] * y2 / z2 + K[1, 2])
+            if not (pu >= 0 and pu < w2 and pv >= 0 and pv < h2):
+                gone[v, u] = True
+                outside += 1
+                continue
+            if rendered:
+                seen = np.float64(depth2[int(pv), int(pu)])
+                if seen > 0 and z2 > seen + (tol_m + tol_rel * seen):
+                    gone[v, u] = True
+                    occluded += 1
+    return gone, occluded, outside
+
+
+@njit(cache=True, nogil=True)
+def stereo_noise(depth, draws, fb, sigma_d, step):  # pragma: no cover - compiled
+    """z + N·z²σ_d/(f·b) per valid pixel (``draws`` in row-major order of the valid pixels),
+    then disparity quantised to ``step`` px (0: none); (new depth float32, pixels lost)."""
+    H, W = depth.shape
+    out = np.zeros((H, W), np.float32)
+    k = 0
+    lost = 0
+    for v in range(H):
+        for u in range(W):
+            z = np.float64(depth[v, u])
+            if z <= 0:
+                continue
+            noisy = z + draws[k] * (z * z * sigma_d / fb)
+            k += 1
+            if step > 0:
+                disp = fb / max(noisy, 1e-6)
+                disp = np.round(disp / step) * step
+                noisy = fb / max(disp, 1e-12) if disp > 0 else 0.0
+            if noisy > 0:
+                out[v, u] = np.float32(noisy)
+            if not np.float32(noisy) > 0:
+                out[v, u] = 0
+                lost += 1
+    return out, lost
+
+
+@njit(cache=True, nogil=True)
+def linear_noise(depth, draws, a, b, z0):  # pragma: no cover - compiled
+    """z + N·(a + b·max(z − z0, 0)) per valid pixel (``draws`` in row-major order of the valid
+    pixels); (new depth float32, pixels lost: the noise pushed them to <= 0)."""
+    H, W = depth.shape
+    out = np.zeros((H, W), np.float32)
+    k = 0
+    lost = 0
+    for v in range(H):
+        for u in range(W):
+            z = np.float64(depth[v, u])
+            if z <= 0:
+                continue
+            noisy = np.float32(z + draws[k] * (a + b * max(z - z0, 0.0)))
+            k += 1
+            if noisy > 0:
+                out[v, u] = noisy
+            else:
+                lost += 1
+    return out, lost
+
+
+@njit(cache=True, nogil=True)
+def dim_returns(depth, xy, albedo, threshold):  # pragma: no cover - compiled
+    """Pixels whose albedo / r² falls under ``threshold``: ((H, W) bool, count)."""
+    H, W = depth.shape
+    lost = np.zeros((H, W), np.bool_)
+    n = 0
+    for v in range(H):
+        for u in range(W):
+            z = np.float64(depth[v, u])
+            if z <= 0:
+                continue
+            x, y = xy[v, u, 0], xy[v, u, 1]
+            if albedo[v, u] < threshold * z * z * (1.0 + x * x + y * y):
+                lost[v, u] = True
+                n += 1
+    return lost, n
+
+
+@njit(cache=True, nogil=True)
+def valid_span(depth):  # pragma: no cover - compiled
+    """(smallest, largest) valid depth; (0, 0) when there is none."""
+    lo, hi = np.inf, 0.0
+    H, W = depth.shape
+    for v in range(H):
+        for u in range(W):
+            z = np.float64(depth[v, u])
+            if z > 0:
+                lo = min(lo, z)
+                hi = max(hi, z)
+    return (0.0, 0.0) if hi == 0.0 else (lo, hi)
