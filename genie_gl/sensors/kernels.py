@@ -169,3 +169,15 @@ def valid_span(depth):  # pragma: no cover - compiled
                 lo = min(lo, z)
                 hi = max(hi, z)
     return (0.0, 0.0) if hi == 0.0 else (lo, hi)
+
+
+@njit(cache=True, nogil=True)
+def changed(d1, d2, i1, i2):  # pragma: no cover - compiled
+    """Pixels whose depth or instance id differ between two frames."""
+    H, W = d1.shape
+    n = 0
+    for v in range(H):
+        for u in range(W):
+            if d1[v, u] != d2[v, u] or i1[v, u] != i2[v, u]:
+                n += 1
+    return n

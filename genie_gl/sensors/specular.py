@@ -80,7 +80,16 @@ class SpecularLoss(Effect):
         return None
 
     def _kinds(self, frame: Frame, materials: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per pixel: shiny, shiny metal without a diffuse part, clear (bool, (H, W))."""
+        """Per pixel: shiny, shiny metal without a diffuse part, clear (bool, (H, W)); the last
+        frame's are kept, so check() and apply() of one frame look them up once."""
+        memo = self.__dict__.get("_memo")
+        if memo is not None and memo[0] is frame.instance and memo[1] is frame.depth and memo[2] is materials:
+            return memo[3]
+        kinds = self._lookup(frame, materials)
+        self.__dict__["_memo"] = (frame.instance, frame.depth, materials, kinds)
+        return kinds
+
+    def _lookup(self, frame: Frame, materials: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         m = materials
         code = (((m.metallic >= 0.5) | (m.roughness <= 0.3)).astype(np.uint8)
                 | (((m.metallic >= 0.5) & (m.roughness < self.metal_min_roughness)) << 1).astype(np.uint8)
@@ -94,6 +103,7 @@ class SpecularLoss(Effect):
             return "no return in the frame" if materials is not None else None
         shiny, _, clear = self._kinds(frame, materials)
         if not (shiny.any() or clear.any()):
+            self.__dict__.pop("_memo", None)
             return "no shiny or clear surface visible"
         return None
 
@@ -102,6 +112,7 @@ class SpecularLoss(Effect):
         if materials is None:
             raise ConfigError("specular_loss needs the scene's materials: run it through simulate()/capture()")
         shiny, bare, clear = self._kinds(frame, materials)
+        self.__dict__.pop("_memo", None)   # the frame's buffers are not kept past its run
         lost = bare.copy()
         idx = np.flatnonzero(shiny & ~bare)
         if idx.size:   # incidence only where it matters: the shiny pixels
