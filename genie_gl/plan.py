@@ -118,6 +118,27 @@ class Plan:
         return "\n".join(lines)
 
 
+def effect_totals(frames: Sequence[Any]) -> dict[str, dict[str, Any]]:
+    """Per effect over captured frames (their ``meta["effects"]``): frames it ran on, frames
+    it skipped, its total milliseconds and the pixels it changed."""
+    out: dict[str, dict[str, Any]] = {}
+    for f in frames:
+        for e in (f.meta or {}).get("effects", []):
+            add_totals(out, {e["name"]: {"run": int(e["run"]), "skipped": int(not e["run"]), "ms": e["ms"],
+                                         "changed": e["changed"]}})
+    return out
+
+
+def add_totals(into: dict[str, dict[str, Any]], more: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Sum ``more`` (as :func:`effect_totals` gives) into ``into``; returns ``into``."""
+    for name, t in more.items():
+        acc = into.setdefault(name, {"run": 0, "skipped": 0, "ms": 0.0, "changed": 0})
+        for k in ("run", "skipped", "changed"):
+            acc[k] += int(t.get(k, 0))
+        acc["ms"] = round(acc["ms"] + float(t.get("ms", 0.0)), 3)
+    return into
+
+
 def _spheres(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World bounding spheres of the instances: ids (N,), centres (N, 3), radii (N,)."""
     cache: dict[str, tuple[np.ndarray, float]] = {}

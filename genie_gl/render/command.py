@@ -29,18 +29,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] (instead of --cameras)")
 
 
-def effect_totals(frames) -> dict:
-    """Per effect over ``frames``: frames run, frames skipped, total ms, pixels changed."""
-    out: dict = {}
-    for f in frames:
-        for e in (f.meta or {}).get("effects", []):
-            t = out.setdefault(e["name"], {"run": 0, "skipped": 0, "ms": 0.0, "changed": 0})
-            t["run" if e["run"] else "skipped"] += 1
-            t["ms"] = round(t["ms"] + e["ms"], 3)
-            t["changed"] += int(e["changed"])
-    return out
-
-
 def run(args: argparse.Namespace) -> int:
     from ..cloud import to_cloud
     from ..export import FORMATS, export
@@ -53,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}")
     if args.cameras < 1:
         raise ConfigError("--cameras must be >= 1")
+    from ..plan import effect_totals
     from ..plan import plan as make_plan
     from ..plan_command import read_poses, warn_empty
     from ..sensors.placement import scene_poses

@@ -41,6 +41,7 @@ DEFAULT_MOUNT_M = 3.5      # above people and vehicles, below a typical hall's l
 DEFAULT_RADIUS_M = 6.0     # a sensor without a range: the disc of the paper's placement
 MIN_MOUNT_M = 2.0          # lowest mount out of people's and forklifts' way [U: a site rule of thumb]
 DEFAULT_CEILING_M = 5.0    # hall height when the layout gives none (the scene stage's wall height)
+CEILING_CLEARANCE_M = 0.2  # a camera hangs this far below the ceiling at most
 
 
 @dataclass(frozen=True)
@@ -83,7 +84,7 @@ def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: floa
     reach = 0.95 * hi
     fit = reach * np.cos(half_v)           # straight down, the top edge meets the floor at `reach`
     if mount_height_m is None:
-        h = min(DEFAULT_MOUNT_M, float(ceiling_m), 0.85 * fit)
+        h = min(DEFAULT_MOUNT_M, float(ceiling_m) - CEILING_CLEARANCE_M, 0.85 * fit)
         if h < min_mount_m:
             raise ConfigError(
                 f"placement: sensor {sensor.name!r} (range {lo:g}-{hi:g} m, {np.degrees(2 * half_v):.1f}° "
