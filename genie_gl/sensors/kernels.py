@@ -181,3 +181,68 @@ def changed(d1, d2, i1, i2):  # pragma: no cover - compiled
             if d1[v, u] != d2[v, u] or i1[v, u] != i2[v, u]:
                 n += 1
     return n
+
+
+@njit(cache=True, nogil=True)
+def pixel_codes(depth, ids, code_by_id):  # pragma: no cover - compiled
+    """Each returning pixel's material code (``code_by_id[id]``, ids beyond the table read its
+    last entry; 0 where no return) and how many pixels have a non-zero code."""
+    H, W = depth.shape
+    out = np.zeros((H, W), np.uint8)
+    last = code_by_id.shape[0] - 1
+    n = 0
+    for v in range(H):
+        for u in range(W):
+            if depth[v, u] > 0:
+                c = code_by_id[min(ids[v, u], last)]
+                out[v, u] = c
+                if c:
+                    n += 1
+    return out, n
+
+
+@njit(cache=True, nogil=True)
+def specular_lost(depth, xy, normal, kind, cos_glare):  # pragma: no cover - compiled
+    """Returns lost on shiny surfaces: bare metal (code bit 1) always, other shiny pixels (bit
+    0) where cos θ > ``cos_glare``, θ from ``normal`` ((H, W, 3); an empty array: the depth
+    image's central differences, none beside a hole or the border). (lost (H, W) bool, count)."""
+    H, W = depth.shape
+    lost = np.zeros((H, W), np.bool_)
+    n = 0
+    have_normal = normal.shape[0] == H
+    for v in range(H):
+        for u in range(W):
+            c = kind[v, u]
+            if c & 2:
+                lost[v, u] = True
+                n += 1
+                continue
+            if not c & 1:
+                continue
+            x, y, z = xy[v, u, 0], xy[v, u, 1], np.float64(depth[v, u])
+            dl = np.sqrt(x * x + y * y + 1.0)
+            dx, dy, dz = x / dl, y / dl, 1.0 / dl
+            if have_normal:
+                nx, ny, nz = np.float64(normal[v, u, 0]), np.float64(normal[v, u, 1]), np.float64(normal[v, u, 2])
+            else:
+                if u == 0 or v == 0 or u == W - 1 or v == H - 1:
+                    continue
+                za, zb = np.float64(depth[v, u + 1]), np.float64(depth[v, u - 1])
+                zc, ze = np.float64(depth[v + 1, u]), np.float64(depth[v - 1, u])
+                if za <= 0 or zb <= 0 or zc <= 0 or ze <= 0:
+                    continue
+                ax = xy[v, u + 1, 0] * za - xy[v, u - 1, 0] * zb
+                ay = xy[v, u + 1, 1] * za - xy[v, u - 1, 1] * zb
+                az = za - zb
+                bx = xy[v + 1, u, 0] * zc - xy[v - 1, u, 0] * ze
+                by = xy[v + 1, u, 1] * zc - xy[v - 1, u, 1] * ze
+                bz = zc - ze
+                nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+                ln = np.sqrt(nx * nx + ny * ny + nz * nz)
+                if ln == 0:
+                    continue
+                nx, ny, nz = nx / ln, ny / ln, nz / ln
+            if abs(nx * dx + ny * dy + nz * dz) > cos_glare:
+                lost[v, u] = True
+                n += 1
+    return lost, n

@@ -21,36 +21,11 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..frame import Frame
+from . import kernels
 from .effect import Decision, Effect, View, drop, record
-from .geometry import pixel_rays, view_directions
+from .geometry import pixel_rays
 
 TRANSPARENT = ("drop", "behind")
-
-
-def _cos_incidence(frame: Frame, idx: np.ndarray) -> np.ndarray:
-    """cos θ at flat pixel indices ``idx``: the rendered normal when the frame has one, else
-    the normal of the depth image (central differences; 0 beside a hole or the border)."""
-    d = view_directions(frame.sensor).reshape(-1, 3)[idx]
-    if frame.normal is not None:
-        n = frame.normal.reshape(-1, 3)[idx].astype(np.float64)
-        return -(n * d).sum(1)
-    H, W = frame.depth.shape
-    v, u = np.divmod(idx, W)
-    xy = pixel_rays(frame.sensor)
-    z = frame.depth
-
-    def point(vv, uu):
-        zz = z[vv, uu].astype(np.float64)
-        return np.stack([xy[vv, uu, 0] * zz, xy[vv, uu, 1] * zz, zz], 1), zz > 0
-
-    ul, ur = np.maximum(u - 1, 0), np.minimum(u + 1, W - 1)
-    vu, vd = np.maximum(v - 1, 0), np.minimum(v + 1, H - 1)
-    (a, va), (b, vb), (c, vc), (e, ve) = point(v, ur), point(v, ul), point(vd, u), point(vu, u)
-    n = np.cross(a - b, c - e)
-    length = np.linalg.norm(n, axis=1)
-    ok = va & vb & vc & ve & (ur > ul) & (vd > vu) & (length > 0)
-    n = n / np.where(ok, length, 1.0)[:, None]
-    return np.where(ok, np.abs((n * d).sum(1)), 0.0)
 
 
 @dataclass
@@ -79,9 +54,10 @@ class SpecularLoss(Effect):
             return Decision(False, "no shiny or clear surface in view")
         return None
 
-    def _kinds(self, frame: Frame, materials: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per pixel: shiny, shiny metal without a diffuse part, clear (bool, (H, W)); the last
-        frame's are kept, so check() and apply() of one frame look them up once."""
+    def _kinds(self, frame: Frame, materials: Any) -> tuple[np.ndarray, int]:
+        """Per pixel a code (bit 0 shiny, bit 1 shiny metal without a diffuse part, bit 2
+        clear; (H, W) uint8) and how many pixels have one; the last frame's are kept, so
+        check() and apply() of one frame look them up once."""
         memo = self.__dict__.get("_memo")
         if memo is not None and memo[0] is frame.instance and memo[1] is frame.depth and memo[2] is materials:
             return memo[3]
@@ -89,20 +65,19 @@ class SpecularLoss(Effect):
         self.__dict__["_memo"] = (frame.instance, frame.depth, materials, kinds)
         return kinds
 
-    def _lookup(self, frame: Frame, materials: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _lookup(self, frame: Frame, materials: Any) -> tuple[np.ndarray, int]:
         m = materials
         code = (((m.metallic >= 0.5) | (m.roughness <= 0.3)).astype(np.uint8)
                 | (((m.metallic >= 0.5) & (m.roughness < self.metal_min_roughness)) << 1).astype(np.uint8)
                 | ((m.opacity < 0.5) << 2).astype(np.uint8))
-        kind = m.per_pixel(code, frame.instance)   # id 0 (no return) reads the default: 0
-        kind = np.where(frame.depth > 0, kind, np.uint8(0))
-        return (kind & 1).astype(bool), (kind & 2).astype(bool), (kind & 4).astype(bool)
+        by_id = m.per_pixel(code, np.arange(int(m.ids[-1]) + 2 if len(m.ids) else 1, dtype=np.uint32))
+        return kernels.pixel_codes(frame.depth, frame.instance, np.ascontiguousarray(by_id, np.uint8))
 
     def check(self, frame: Frame, *, materials: Any = None, **needs: Any) -> str | None:
         if materials is None or not (frame.depth > 0).any():
             return "no return in the frame" if materials is not None else None
-        shiny, _, clear = self._kinds(frame, materials)
-        if not (shiny.any() or clear.any()):
+        _, n = self._kinds(frame, materials)
+        if n == 0:
             self.__dict__.pop("_memo", None)
             return "no shiny or clear surface visible"
         return None
@@ -111,13 +86,15 @@ class SpecularLoss(Effect):
               render_frame: Any = None, **needs: Any) -> Frame:
         if materials is None:
             raise ConfigError("specular_loss needs the scene's materials: run it through simulate()/capture()")
-        shiny, bare, clear = self._kinds(frame, materials)
+        kind, n = self._kinds(frame, materials)
         self.__dict__.pop("_memo", None)   # the frame's buffers are not kept past its run
-        lost = bare.copy()
-        idx = np.flatnonzero(shiny & ~bare)
-        if idx.size:   # incidence only where it matters: the shiny pixels
-            cos = _cos_incidence(frame, idx)
-            lost.ravel()[idx[cos > np.cos(np.radians(self.glare_deg))]] = True
+        if n == 0:
+            return record(frame, self.name, dropped=0, behind=0)
+        # incidence only where it matters: the shiny pixels
+        normal = frame.normal if frame.normal is not None else np.zeros((0, 0, 3), np.float32)
+        lost, _ = kernels.specular_lost(frame.depth, pixel_rays(frame.sensor), normal, kind,
+                                        float(np.cos(np.radians(self.glare_deg))))
+        clear = (kind & 4).astype(bool)
         behind = 0
         out = frame
         if clear.any() and self.transparent == "behind" and render_frame is not None:
