@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import functools
+import logging
 import multiprocessing as mp
 import os
 from collections.abc import Sequence
@@ -13,6 +14,8 @@ from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
 from .renderer import Renderer
+
+log = logging.getLogger(__name__)
 
 
 def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | None = None,
@@ -106,6 +109,9 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     materials = None
     if plan is not None:
         materials = plan.materials
+        for f in plan.frames:
+            if f.empty:
+                log.warning("capture: frame %d: %s (its cloud will be empty)", f.index, f.reason)
     elif any(e.needs_materials for e in sensor.effects):
         from ..scene.materials import MaterialTable
 

@@ -246,3 +246,35 @@ def specular_lost(depth, xy, normal, kind, cos_glare):  # pragma: no cover - com
                 lost[v, u] = True
                 n += 1
     return lost, n
+
+
+@njit(cache=True, nogil=True)
+def edge_pixels(depth, jump):  # pragma: no cover - compiled
+    """Pixels on a depth edge, in row-major order: those with a valid 4-neighbour more than
+    ``jump`` away in depth. Returns (flat indices (N,) int64, flat index of the neighbour with
+    the largest |step| (N,) int64; ties: the first of up, down, left, right)."""
+    H, W = depth.shape
+    idx = np.empty(H * W, np.int64)
+    nb = np.empty(H * W, np.int64)
+    n = 0
+    for v in range(H):
+        for u in range(W):
+            z = np.float64(depth[v, u])
+            if z <= 0:
+                continue
+            best, other = 0.0, -1
+            for dv, du in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                vv, uu = v + dv, u + du
+                if vv < 0 or vv >= H or uu < 0 or uu >= W:
+                    continue
+                zn = np.float64(depth[vv, uu])
+                if zn <= 0:
+                    continue
+                d = abs(zn - z)
+                if d > best:
+                    best, other = d, vv * W + uu
+            if best > jump:
+                idx[n] = v * W + u
+                nb[n] = other
+                n += 1
+    return idx[:n].copy(), nb[:n].copy()

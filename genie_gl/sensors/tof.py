@@ -238,32 +238,6 @@ class TofMultipath(Effect):
         return record(frame.replace(depth=depth), self.name, moved=int(moved))
 
 
-def _edges(depth: np.ndarray, jump_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Flat indices of pixels with a valid 4-neighbour more than ``jump_m`` away in depth, and
-    that neighbour's flat index (the largest step)."""
-    H, W = depth.shape
-    z = depth.astype(np.float64)
-    valid = z > 0
-    best = np.zeros((H, W))
-    other = np.full((H, W), -1, np.int64)
-    flat = np.arange(H * W).reshape(H, W)
-    for dy, dx in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-        ys = slice(max(dy, 0), H + min(dy, 0))
-        yd = slice(max(-dy, 0), H + min(-dy, 0))
-        xs = slice(max(dx, 0), W + min(dx, 0))
-        xd = slice(max(-dx, 0), W + min(-dx, 0))
-        step = np.zeros((H, W))
-        ok = valid[yd, xd] & valid[ys, xs]
-        step[yd, xd] = np.where(ok, np.abs(z[ys, xs] - z[yd, xd]), 0.0)
-        nb = np.full((H, W), -1, np.int64)
-        nb[yd, xd] = flat[ys, xs]
-        larger = step > best
-        best = np.where(larger, step, best)
-        other = np.where(larger, nb, other)
-    edge = np.flatnonzero(best > jump_m)
-    return edge, other.ravel()[edge]
-
-
 @dataclass
 class MixedPixels(Effect):
     """ToF flying pixels: edge pixels report the mixed phase of their two surfaces."""
@@ -286,7 +260,7 @@ class MixedPixels(Effect):
         return f"no depth step over {self.jump_m} m between neighbours"
 
     def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None) -> Frame:
-        edge, nb = _edges(frame.depth, self.jump_m)
+        edge, nb = kernels.edge_pixels(frame.depth, float(self.jump_m))
         alpha = rng.random(edge.size)
         if edge.size == 0:
             return record(frame, self.name, mixed=0)

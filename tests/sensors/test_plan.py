@@ -240,3 +240,16 @@ def test_stereo_shadow_renders_the_second_view_only_for_an_edge():
         assert out.meta["stereo_shadow"]["second_view"] is rendered
         assert same(out, forced)
         assert out.meta["effects"][0]["changed"] > 0     # the border band, and the strip
+
+
+def test_edge_pixels_are_those_of_the_full_frame_step():
+    """The compiled edge search finds the pixels and neighbours largest_step() does."""
+    from genie_gl.sensors import kernels
+    from genie_gl.sensors.edges import largest_step
+
+    d = np.random.default_rng(0).choice([0.0, 1.0, 1.02, 2.0, 3.5], (60, 80)).astype(np.float32)
+    step, other = largest_step(d)
+    edge = np.flatnonzero(np.abs(step) > 0.05)
+    got, nb = kernels.edge_pixels(d, 0.05)
+    assert len(edge) > 100 and np.array_equal(got, edge)
+    assert np.array_equal(d.ravel()[nb].astype(np.float64), other.ravel()[edge])
