@@ -79,7 +79,7 @@ class FramePlan:
     def to_dict(self) -> dict[str, Any]:
         return {"frame": self.index, "far_m": round(self.far_m, 3), "empty": self.empty, "reason": self.reason,
                 "drawn": len(self.drawn), "culled_range": self.culled_range.tolist(),
-                "culled_frustum": len(self.culled_frustum), "render_ms": round(self.render_ms, 2),
+                "culled_frustum": self.culled_frustum.tolist(), "render_ms": round(self.render_ms, 2),
                 "cost_ms": round(self.cost_ms, 2), "effects": [e.to_dict() for e in self.effects]}
 
 
@@ -159,17 +159,14 @@ def _spheres(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return (np.array(ids, np.uint32), np.array(centres).reshape(-1, 3), np.array(radii))
 
 
-def _convex(scene: Scene) -> dict[str, bool]:
+def _is_convex(mesh: Any) -> bool:
+    """True for a closed convex mesh, or a single triangle (no surface of it faces another)."""
     import trimesh
 
-    out = {}
-    for key, m in scene.meshes.items():
-        if len(m.faces) < 4:
-            out[key] = len(m.faces) <= 1   # a single triangle faces nothing of its own
-            continue
-        t = trimesh.Trimesh(m.vertices, m.faces, process=True)
-        out[key] = bool(t.is_watertight and t.is_convex)
-    return out
+    if len(mesh.faces) < 4:
+        return len(mesh.faces) <= 1
+    t = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
+    return bool(t.is_watertight and t.is_convex)
 
 
 def far_plane(sensor: Sensor) -> float:
@@ -205,9 +202,9 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
     ids, centres, radii = _spheres(scene)
     table = MaterialTable.from_scene(scene) if materials is None else materials
     mesh_of = np.array([i.mesh for i in scene.instances])
+    # convexity decides only views of a single object (multipath): computed for those alone
     wants_convex = any(e.name in ("multipath", "tof_multipath") for e in sensor.effects)
-    convex_mesh = _convex(scene) if wants_convex else {}
-    convex = np.array([convex_mesh.get(m, False) for m in mesh_of], bool)
+    convex_mesh: dict[str, bool] = {}
     rows = table.rows(ids)
     reflective = table.reflective(ids)
     transparent = table.opacity[rows] < 0.5
@@ -230,9 +227,15 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
         z_lo = np.maximum(c[seen, 2] - radii[seen], near)
         z_hi = np.minimum(c[seen, 2] + radii[seen], far)
         r_hi = np.linalg.norm(c[seen], axis=1) + radii[seen]
+        convex = np.zeros(int(seen.sum()), bool)   # unknown (False) unless one object is seen
+        if wants_convex and len(convex) == 1:
+            key = str(mesh_of[seen][0])
+            if key not in convex_mesh:
+                convex_mesh[key] = _is_convex(scene.meshes[key])
+            convex[0] = convex_mesh[key]
         view = View(sensor, pose, ids[seen], float(z_lo.min()) if seen.any() else 0.0,
                     float(z_hi.max()) if seen.any() else 0.0, float(r_hi.max()) if seen.any() else 0.0,
-                    convex[seen], reflective[seen], transparent[seen], albedo[seen])
+                    convex, reflective[seen], transparent[seen], albedo[seen])
         effects = []
         for eff in sensor.effects:
             d = eff.plan(view)

@@ -46,7 +46,8 @@ class View:
     z_min, z_max : depth span (m) of those instances' bounding spheres (clipped to the
         frustum's near plane); 0, 0 when ``ids`` is empty.
     r_max : the farthest range (distance from the camera centre) of those spheres.
-    convex : (N,) bool, each instance's mesh is convex.
+    convex : (N,) bool, each instance's mesh is convex (computed only when N == 1 and an
+        effect asks; False = not known to be convex).
     reflective, transparent : (N,) bool, from the instances' materials (metallic >= 0.5 or
         roughness <= 0.3; opacity < 0.5).
     albedo : (N,) float64, mean diffuse albedo of each instance's material.

@@ -185,8 +185,7 @@ class Multipath(Effect):
             return Decision(False, "nothing in range or view")
         if len(view.ids) == 1 and bool(view.convex[0]):
             return Decision(False, "one convex object in view: no concave corner")
-        return Decision(True, f"{len(view.ids)} objects in view ({int((~view.convex).sum())} non-convex): "
-                              "concave corners possible")
+        return Decision(True, f"{len(view.ids)} objects in view, or one not convex: concave corners possible")
 
     def share(self, frame: Frame) -> np.ndarray:
         """(H, W) float64: share of the 16 neighbours that face each pixel (0 where no return)."""

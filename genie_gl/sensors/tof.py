@@ -186,8 +186,7 @@ class TofMultipath(Effect):
         if len(view.ids) == 1 and bool(view.convex[0]):
             return Decision(False, "one convex object in view: no surface faces another, no second bounce")
         what = "reflective material" if view.reflective.any() else "surfaces that may face each other"
-        return Decision(True, f"{what} in range ({len(view.ids)} objects, "
-                              f"{int((~view.convex).sum())} non-convex): a second bounce can reach the sensor")
+        return Decision(True, f"{what} in range ({len(view.ids)} objects): a second bounce can reach the sensor")
 
     def lights(self, valid: np.ndarray) -> tuple[np.ndarray, float]:
         """Flat pixel indices of the virtual point lights (centres of a stratified grid, valid
