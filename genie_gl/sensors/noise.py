@@ -139,6 +139,22 @@ class DepthNoise(Effect):
             return z * z * self.sigma_d_px(sensor) / (f_px * self.baseline(sensor))
         return self.a_m + self.b * np.maximum(z - self.z0_m, 0.0)
 
+    @staticmethod
+    def steep_angles(frame: Frame, valid: np.ndarray) -> np.ndarray:
+        """Incidence angles of the valid pixels (row-major), computed only where they can
+        exceed 60° (the Nguyen term's threshold); 0 elsewhere, which gives the same σ."""
+        if frame.normal is None:
+            return incidence_angle(frame)[valid]
+        from .geometry import view_directions
+
+        n = frame.normal[valid].astype(np.float64)
+        d = view_directions(frame.sensor)[valid]
+        cos = -(n[:, 0] * d[:, 0] + n[:, 1] * d[:, 1] + n[:, 2] * d[:, 2])
+        theta = np.zeros(len(cos))
+        cand = (cos < 0.5 + 1e-9) & (n != 0).any(axis=1)     # θ > 60° only where cos θ < 1/2
+        theta[cand] = np.arccos(np.clip(cos[cand], 0.0, 1.0))
+        return theta
+
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         if self.model == "stereo":   # one compiled pass; the draws in the same order as below
             fb = frame.sensor.fx * self.baseline(frame.sensor)
@@ -157,7 +173,7 @@ class DepthNoise(Effect):
         f = frame.sensor.fx
         noisy = z.copy()
         zv = z[valid]
-        theta = incidence_angle(frame)[valid] if self.needs_normals else None
+        theta = self.steep_angles(frame, valid) if self.needs_normals else None
         noisy[valid] = zv + rng.standard_normal(zv.size) * self.sigma(zv, f, theta, frame.sensor)
         if self.model == "stereo" and self.subpixel_step > 0:
             fb = f * self.baseline(frame.sensor)

@@ -253,3 +253,23 @@ def test_edge_pixels_are_those_of_the_full_frame_step():
     got, nb = kernels.edge_pixels(d, 0.05)
     assert len(edge) > 100 and np.array_equal(got, edge)
     assert np.array_equal(d.ravel()[nb].astype(np.float64), other.ravel()[edge])
+
+
+def test_nguyen_incidence_term_computed_only_where_it_applies_gives_the_same_sigma():
+    """Angles are computed only where cos θ < 1/2 (θ > 60°); σ is the full computation's."""
+    from genie_gl.sensors.geometry import incidence_angle
+
+    rng = np.random.default_rng(0)
+    d = rng.uniform(0.5, 4, (H, W)).astype(np.float32)
+    d[::5] = 0
+    n = rng.normal(size=(H, W, 3))
+    n[..., 2] = -np.abs(n[..., 2])
+    n = (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype(np.float32)
+    n[d == 0] = 0
+    f = gg.Frame(d, (d > 0).astype(np.uint32), (d > 0).astype(np.uint16), None, gg.Sensor.pinhole(W, H, 60.0),
+                 np.eye(4), n)
+    eff, valid = DepthNoise(model="kinect_nguyen2012"), d > 0
+    full = incidence_angle(f)[valid]
+    assert (full > np.pi / 3).sum() > 100
+    np.testing.assert_array_equal(eff.sigma(d[valid].astype(float), 60.0, DepthNoise.steep_angles(f, valid)),
+                                  eff.sigma(d[valid].astype(float), 60.0, full))
