@@ -180,20 +180,26 @@ def far_plane(sensor: Sensor) -> float:
     return float(min(sensor.far_m, far * (1 + MARGIN_REL) + MARGIN_M + b))
 
 
-def _frustum(sensor: Sensor) -> tuple[np.ndarray, float]:
-    """(4, 3) inward unit normals of the side planes through the camera centre, and near."""
-    base = sensor
-    if not sensor.is_pinhole:
-        from .sensors.distortion import distortion_maps
-
-        base = distortion_maps(sensor).render_sensor
-    K = base.K
-    x0, x1 = (-1.5 - K[0, 2]) / K[0, 0], (base.width + 0.5 - K[0, 2]) / K[0, 0]
-    y0, y1 = (-1.5 - K[1, 2]) / K[1, 1], (base.height + 0.5 - K[1, 2]) / K[1, 1]
+def _side_planes(view: Sensor) -> np.ndarray:
+    """(4, 3) inward unit normals of a pinhole view's side planes through its centre (a pixel
+    of margin, skew included)."""
+    K = view.K
+    x0, x1 = (-1.5 - K[0, 2]) / K[0, 0], (view.width + 0.5 - K[0, 2]) / K[0, 0]
+    y0, y1 = (-1.5 - K[1, 2]) / K[1, 1], (view.height + 0.5 - K[1, 2]) / K[1, 1]
     skew = abs(K[0, 1]) * max(abs(y0), abs(y1)) / K[0, 0]
     x0, x1 = x0 - skew, x1 + skew
     n = np.array([[1.0, 0, -x0], [-1.0, 0, x1], [0, 1.0, -y0], [0, -1.0, y1]])
-    return n / np.linalg.norm(n, axis=1, keepdims=True), float(sensor.near_m)
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def _frustum(sensor: Sensor) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The pinhole views a frame is rendered from (one for a pinhole or a narrow lens, cube
+    faces for a fisheye): per view, (camera_from_view rotation, side planes in the view)."""
+    if sensor.is_pinhole:
+        return [(np.eye(3), _side_planes(sensor))]
+    from .sensors.distortion import lens_views
+
+    return [(m.rotation, _side_planes(m.render_sensor)) for m in lens_views(sensor)]
 
 
 def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
@@ -210,7 +216,8 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
     transparent = table.opacity[rows] < 0.5
     albedo = table.albedo[rows]
     far = far_plane(sensor)
-    normals, near = _frustum(sensor)
+    views = _frustum(sensor)
+    near = float(sensor.near_m)
     tri = {k: len(m.faces) for k, m in scene.meshes.items()}
     tri_of = np.array([tri[m] for m in mesh_of], np.float64)
     mpx = sensor.width * sensor.height / 1e6
@@ -220,8 +227,11 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
         R, t = pose[:3, :3], pose[:3, 3]
         c = (centres - t) @ R              # camera-frame centres
         ok = radii >= 0
-        in_front = c[:, 2] + radii >= near
-        sides = (c @ normals.T >= -radii[:, None]).all(axis=1)
+        in_front = (c[:, 2] + radii >= near) if len(views) == 1 else np.ones(len(c), bool)
+        sides = np.zeros(len(c), bool)
+        for rot, normals in views:   # in view when inside any of the lens's pinhole views
+            cv = c @ rot                        # view-frame centres (camera_from_view = rot)
+            sides |= (cv @ normals.T >= -radii[:, None]).all(axis=1) & (cv[:, 2] + radii > 0)
         beyond = ok & (c[:, 2] - radii > far)
         seen = ok & in_front & sides & ~beyond
         z_lo = np.maximum(c[seen, 2] - radii[seen], near)

@@ -270,10 +270,13 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             while next_id[0] in taken:
                 next_id[0] += 1
             inst = next_id[0]
-        taken.add(inst)
         material = _material(prim)
-        missing[0] += material is None
-        scene.add(key, fix @ world, semantic=sem or 0, instance=inst, name=name, material=material)
+        # a prim with a zero or singular scale (a common way to hide one) is dropped and
+        # counted in Scene.report(), named by its path
+        if scene.add(key, fix @ world, semantic=sem or 0, instance=inst, name=name,
+                     degenerate="drop", where=str(prim.GetPath()), material=material):
+            taken.add(inst)
+            missing[0] += material is None
 
     def is_geometry(p: Usd.Prim) -> bool:
         return p.IsA(UsdGeom.Mesh) or any(p.IsA(t) for t in GPRIMS.values())

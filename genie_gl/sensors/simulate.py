@@ -2,9 +2,10 @@
 
 ``simulate(sensor, pose, render=..., rng=...)`` is what ``genie_gl.capture`` calls for each
 camera. ``render(sensor, pose, *, depth_only=False, normals=False[, only=ids]) -> Frame``
-renders an ideal pinhole frame of any sensor (its ``dist`` ignored), as
-:meth:`Renderer.render` does. A distorted sensor is rendered as a wider pinhole image and
-remapped; then the sensor's effects run in order. Effects that declare ``needs_normals`` get
+renders an ideal pinhole frame of a pinhole camera, as :meth:`Renderer.render` does. A
+distorted sensor is rendered through its lens (:func:`.distortion.render_through_lens`:
+pinhole views, resampled with ``resample`` / ``oversample``); then the sensor's effects run
+in order. Effects that declare ``needs_normals`` get
 the frame rendered with normals (the normals are dropped from the result again); effects that
 declare ``needs_render`` also get ``render_depth(sensor, pose) -> (H, W) float32``, a
 depth-only render from any pose, and ``render_frame(sensor, pose, exclude=ids) -> Frame``;
@@ -46,11 +47,14 @@ def _changed(a: Frame, b: Frame) -> int:
 
 
 def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.random.Generator,
-             materials: Any = None, plan: Any = None) -> Frame:
+             resample: str = "exact", oversample: float | None = None, materials: Any = None,
+             plan: Any = None) -> Frame:
     """Render ``sensor`` at ``pose`` (world_from_camera) and apply its effects in order.
 
-    ``materials``: the scene's MaterialTable (effects that need it get it); ``plan``: this
-    frame's :class:`~genie_gl.plan.FramePlan` (None: every effect is decided on the frame).
+    ``resample`` and ``oversample``: how a distorted sensor's image is made from its pinhole
+    views (see :mod:`.distortion`; ignored for a pinhole sensor). ``materials``: the scene's
+    MaterialTable (effects that need it get it); ``plan``: this frame's
+    :class:`~genie_gl.plan.FramePlan` (None: every effect is decided on the frame).
     """
     only = None if plan is None else plan.drawn
     far = None if plan is None else plan.far_m
@@ -70,10 +74,9 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
     if sensor.is_pinhole:
         frame = draw(sensor, pose, **kw)
     else:
-        from .distortion import distort, distortion_maps
+        from .distortion import render_through_lens
 
-        maps = distortion_maps(sensor)
-        frame = distort(draw(maps.render_sensor, pose, **kw), sensor, maps)
+        frame = render_through_lens(draw, sensor, pose, resample=resample, oversample=oversample, **kw)
     if not sensor.effects:
         return frame
 
