@@ -279,7 +279,8 @@ class MixedPixels(Effect):
 
 @dataclass
 class Ambiguity(Effect):
-    """Returns beyond the ambiguity range: reported at r mod ``ambiguity_m`` (``wrap``) or dropped."""
+    """Returns beyond the ambiguity range: reported at r mod ``ambiguity_m`` (``wrap``, up to
+    ``max_wraps`` wraps; farther ones dropped) or dropped."""
 
     name: ClassVar[str] = "ambiguity"
     cost_ms_per_mpx: ClassVar[float] = 15.0
@@ -314,7 +315,8 @@ class Ambiguity(Effect):
         if not self.wrap:
             return drop(frame, beyond)
         out = _with_range(frame, np.mod(r, self.ambiguity_m), r, beyond)
-        gone = beyond & ~(out.depth > 0)
+        # past max_wraps wraps the return is too weak to count (and the far plane is its reach)
+        gone = beyond & (~(out.depth > 0) | (r > self.reach_m(frame.sensor)))
         return drop(out, gone) if gone.any() else out
 
 
