@@ -34,13 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def _before(sensor, pose, render, rng, materials):
     """Every effect, every frame: the unplanned pipeline."""
     normals = any(e.needs_normals for e in sensor.effects)
-    if sensor.is_pinhole:
-        frame = render(sensor, pose, normals=normals)
-    else:
-        from ..sensors.distortion import distort, distortion_maps
+    from ..sensors.distortion import render_through_lens
 
-        maps = distortion_maps(sensor)
-        frame = distort(render(maps.render_sensor, pose, normals=normals), sensor, maps)
+    frame = render_through_lens(render, sensor, pose, normals=normals)   # as simulate renders it
 
     def render_depth(view, view_pose):
         return render(view, view_pose, depth_only=True).depth
