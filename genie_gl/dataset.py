@@ -124,6 +124,9 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     keys = ["start", "layout", "scene", "placement", "capture", "cloud", "export"]
     stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
     stats["frame_cost_ms"] = frame_costs(frames)   # per effect: the manifest's "cost" block
+    from .plan import effect_totals  # what each sensor effect did (issue 12); timings: not in stats.json
+
+    stats["effects"] = effect_totals(frames)
     return stats
 
 
@@ -221,6 +224,16 @@ def _worker(job: tuple[dict, int]) -> dict:
     return run_scene(*job)
 
 
+def _effects_total(results: list[dict]) -> dict:
+    """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
+    from .plan import add_totals
+
+    total: dict = {}
+    for r in results:
+        add_totals(total, r.get("effects", {}))
+    return total
+
+
 def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]:
     """Make every missing scene of the dataset described by ``cfg`` (see ``add_arguments``)."""
     from tqdm import tqdm
@@ -279,6 +292,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
         "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
         "cost": dataset_cost(results),
         "accuracy": used(cfg.get("accuracy"), cfg["sensor"]),
+        "effects": _effects_total(results),
     }
     tmp = out / "manifest.json.tmp"
     tmp.write_text(json.dumps(manifest, indent=1))
