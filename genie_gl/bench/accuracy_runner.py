@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import logging
 import time
 from collections import defaultdict
@@ -49,6 +50,7 @@ class Runner:
         self.frames: dict = {}
         self._gl = None
         self._renderers: dict = {}
+        self._materials: dict = {}
 
     def _renderer(self, setting: Setting):
         from ..render import Renderer, create_context
@@ -61,6 +63,7 @@ class Runner:
                 self._gl = create_context(None)
             scene = self.case.scene_for(setting.accuracy.tessellation)
             self._renderers[key] = Renderer(scene, context=self._gl, **opts)
+            self._materials[key] = _materials(scene)
         return self._renderers[key]
 
     def close(self) -> None:
@@ -72,9 +75,14 @@ class Runner:
             self._gl = None
 
     def _render_fn(self, setting: Setting):
+        """The setting's render function, carrying its scene's material table (effects that
+        read materials get the scene's, as in a capture)."""
         from ..render.supersample import supersampled
 
-        return supersampled(self._renderer(setting).render, setting.accuracy.supersample)
+        r = self._renderer(setting)
+        fn = supersampled(r.render, setting.accuracy.supersample)
+        key = next(k for k, v in self._renderers.items() if v is r)
+        return _WithMaterials(fn, self._materials[key])
 
     def time_many(self, settings: list[Setting]) -> None:
         """Time every setting not timed yet, side by side (see the class docstring)."""
@@ -123,6 +131,7 @@ class Runner:
         from ..render.batch import pose_rng
         from ..sensors.simulate import simulate
 
+        materials = getattr(render, "materials", None)
         if normals:
             base = render
 
@@ -131,6 +140,8 @@ class Runner:
         clock: dict[str, float] = defaultdict(float)
         timed = dataclasses.replace(sensor, effects=tuple(Timed(e, clock) for e in sensor.effects))
         options = simulate_options(simulate, acc)
+        if materials is not None and "materials" in inspect.signature(simulate).parameters:
+            options["materials"] = materials
         frames, costs = [], defaultdict(float)
         for i, pose in enumerate(self.case.poses):
             clock.clear()
@@ -167,6 +178,25 @@ class Runner:
                 ideal, _ = self._pass(render, without(sensor, lambda e: True), setting.accuracy, normals=True)
                 frames = list(zip(frames, ideal))
             self.frames[(key, m)] = frames
+
+
+def _materials(scene):
+    """The scene's material table, where this build has one (None otherwise)."""
+    try:
+        from ..scene.materials import MaterialTable
+    except ImportError:
+        return None
+    return MaterialTable.from_scene(scene)
+
+
+class _WithMaterials:
+    """A render function that also carries the material table of the scene it renders."""
+
+    def __init__(self, fn, materials) -> None:
+        self.fn, self.materials = fn, materials
+
+    def __call__(self, *a, **kw):
+        return self.fn(*a, **kw)
 
 
 class Timed:
