@@ -61,19 +61,38 @@ def wall(z=2.0, size=(200, 160), f=500.0):
     return gg.Frame(d, np.ones_like(d, np.uint32), np.ones_like(d, np.uint16), None, s, np.eye(4))
 
 
-@pytest.mark.parametrize("model, z, expected", [
-    ("kinect_nguyen2012", 2.0, 0.0012 + 0.0019 * 1.6 ** 2),
-    ("stereo", 2.0, 4.0 * 0.08 / (500.0 * 0.05)),
-    ("tof_linear", 3.0, 0.0005 + 0.001 * 2.5),
-])
-def test_noise_sigma_on_a_flat_wall_matches_the_model(model, z, expected):
+def model_sigma(model, z):
+    """σ_z written out from the papers (not from the package): Nguyen et al. 2012 (Kinect),
+    z²·σ_d/(f·b) for stereo (σ_d 0.08 px, f 500 px, b 0.05 m), a + b·(z − z0) for ToF."""
+    return {"kinect_nguyen2012": 0.0012 + 0.0019 * (z - 0.4) ** 2,
+            "stereo": z * z * 0.08 / (500.0 * 0.05),
+            "tof_linear": 0.0005 + 0.001 * max(z - 0.5, 0.0)}[model]
+
+
+@pytest.mark.parametrize("model", ["kinect_nguyen2012", "stereo", "tof_linear"])
+@pytest.mark.parametrize("z", [0.5, 1.0, 2.0, 4.0])
+def test_noise_sigma_on_a_flat_wall_matches_the_model(model, z):
+    """σ(z) at four depths (z² and 2z agree only at 2 m), unbiased and Gaussian."""
     f = wall(z)
     out = DepthNoise(model=model).apply(f, np.random.default_rng(0))
-    assert out.depth.size >= 10_000
-    assert np.std(out.depth.astype(np.float64) - z) == pytest.approx(expected, rel=0.05)
+    err = out.depth.astype(np.float64) - z
+    expected = model_sigma(model, z)
+    n = err.size
+    assert n >= 30_000
+    assert np.std(err) == pytest.approx(expected, rel=0.03)      # σ of a σ over 32 000 draws: 0.4 %
+    assert abs(np.mean(err)) < 5 * expected / np.sqrt(n) + 2e-7 * z  # float32 rounding of z
+    inside = np.mean(np.abs(err) < expected)                     # 68.27 % within 1σ for a Gaussian
+    assert inside == pytest.approx(0.6827, abs=0.015)
     again = DepthNoise(model=model).apply(f, np.random.default_rng(0))
     assert out.depth.tobytes() == again.depth.tobytes()
     assert np.isfinite(out.depth).all()
+
+
+def test_stereo_noise_grows_with_the_square_of_depth():
+    """σ(4 m) / σ(1 m) = 16 for stereo (it would be 4 were σ linear in z)."""
+    s = [np.std(DepthNoise(model="stereo").apply(wall(z), np.random.default_rng(1)).depth.astype(np.float64) - z)
+         for z in (1.0, 4.0)]
+    assert s[1] / s[0] == pytest.approx(16.0, rel=0.04)
 
 
 def test_disparity_quantisation_steps_equal_theory():
@@ -119,6 +138,29 @@ def test_distortion_maps_put_rays_where_cv2_projects_them(dist):
     assert np.abs(uv.reshape(-1, 2) - np.stack([u, v], -1)).max() < 0.1
     corners = [(0, 0), (0, 319), (239, 0), (239, 319)]
     assert all(m.valid[c] for c in corners)
+
+
+@pytest.mark.parametrize("K_r", [(300.0, 360.0), (360.0, 300.0)])   # fx ≠ fy either way round
+@pytest.mark.parametrize("dist", [[0.1, -0.05, 0.001, -0.002, 0.01], [-0.25, 0.06, 0, 0, 0]])
+def test_distortion_maps_stay_inside_the_wide_render(K_r, dist):
+    """Every valid distorted pixel samples the wide pinhole render inside its image (nearest
+    neighbour: the rounded sample lies in [0, W) x [0, H)), and the wide render covers the
+    distorted field: the rays of the distorted image's four edges, from cv2.undistortPoints
+    (the independent inverse), land inside it."""
+    fx, fy = K_r
+    s = gg.Sensor(320, 240, np.array([[fx, 0, 161.0], [0, fy, 118.5], [0, 0, 1.0]]), dist)
+    m = distortion_maps(s)
+    r = m.render_sensor
+    assert m.valid.all()                               # a mild lens: every pixel has a ray
+    mx, my = np.rint(m.map_x[m.valid]), np.rint(m.map_y[m.valid])
+    assert mx.min() >= 0 and my.min() >= 0 and mx.max() <= r.width - 1 and my.max() <= r.height - 1
+    u = np.r_[np.arange(320), np.arange(320), np.zeros(240), np.full(240, 319)]
+    v = np.r_[np.zeros(320), np.full(320, 239), np.arange(240), np.arange(240)]
+    xy = cv2.undistortPoints(np.stack([u, v], -1).reshape(-1, 1, 2), s.K, s.dist, None, None, None,
+                             (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)).reshape(-1, 2)
+    wide = np.c_[xy, np.ones(len(xy))] @ r.K.T
+    assert (wide[:, 0] >= -0.5).all() and (wide[:, 0] <= r.width - 0.5).all()
+    assert (wide[:, 1] >= -0.5).all() and (wide[:, 1] <= r.height - 0.5).all()
 
 
 @pytest.mark.parametrize("dist", [[0.1, 0, 0, 0], [0.1, -0.05, 0.001, -0.002, 0.01],
