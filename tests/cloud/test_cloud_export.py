@@ -85,6 +85,23 @@ def test_semantickitti_reads_back_as_its_api_does(tmp_path):
     assert {"labels", "color_map", "learning_map", "learning_map_inv", "learning_ignore", "content"} <= set(cfg)
 
 
+def test_semantickitti_label_words_are_the_documented_bits(tmp_path):
+    """The .label file holds, per point, the little-endian uint32 semantic + 65536 · instance
+    (SemanticKITTI's README: lower 16 bits the class, upper 16 the instance), written out by
+    hand here for ids that set the high bits of both halves."""
+    sem = np.array([0, 1, 9, 255, 40000, 65535], np.uint16)
+    inst = np.array([0, 1, 2, 32769, 65535, 70001], np.uint32)   # 70001 keeps its low 16 bits
+    words = [0, 1 + 65536, 9 + 2 * 65536, 255 + 32769 * 65536, 40000 + 65535 * 65536, 65535 + 4465 * 65536]
+    raw = b"".join(int(w).to_bytes(4, "little") for w in words)
+    assert semantickitti.pack_labels(sem, inst).tobytes() == raw
+    c = gg.PointCloud(np.arange(18, dtype=np.float32).reshape(6, 3), sem, inst, np.zeros(3))
+    gg.export(c, tmp_path, format="semantickitti")
+    assert (tmp_path / "sequences/00/labels/000000.label").read_bytes() == raw
+    xyz, s2, i2 = semantickitti.read(tmp_path / "sequences/00/velodyne/000000.bin")
+    np.testing.assert_array_equal(s2, sem)
+    np.testing.assert_array_equal(i2, inst & 0xFFFF)
+
+
 def test_ply_reads_in_plyfile_and_open3d(tmp_path):
     c = random_cloud()
     path = gg.export(c, tmp_path, format="ply")
@@ -128,13 +145,30 @@ def test_exports_are_byte_identical_for_the_same_input(tmp_path):
 def test_sampling_and_cleaning():
     c = random_cloud(5000)
     v = voxel_downsample(c, 0.5)
-    keys = np.floor(v.xyz / 0.5).astype(int)
-    assert len(np.unique(keys, axis=0)) == len(v)
+    # the truth, one point at a time: the first point met in each occupied voxel, in order
+    first: dict[tuple, int] = {}
+    for i, p in enumerate(c.xyz.astype(np.float64)):
+        first.setdefault(tuple(int(k) for k in np.floor(p / 0.5)), i)
+    keep = np.array(sorted(first.values()))
+    assert len(v) == len(first) > 500
+    np.testing.assert_array_equal(v.xyz, c.xyz[keep])
+    np.testing.assert_array_equal(v.semantic, c.semantic[keep])
+    np.testing.assert_array_equal(v.instance, c.instance[keep])
+    np.testing.assert_array_equal(v.rgb, c.rgb[keep])
+    full = to_cloud([plane_frame(np.eye(4))])
     s = to_cloud([plane_frame(np.eye(4))], max_points=100, rng=np.random.default_rng(0))
     assert len(s) == 100
+    # a subset of the full cloud, without repeats, in the cloud's order
+    idx = [int(np.flatnonzero((full.xyz == p).all(1))[0]) for p in s.xyz]
+    assert len(set(idx)) == 100 and idx == sorted(idx)
+    assert random_downsample(full, 10**6, rng=np.random.default_rng(0)) is full
     assert keep_cloud(c, min_points=10)[0]
     assert keep_cloud(c.select(c.semantic == 0), min_points=1) == (False, "background only")
-    assert not keep_cloud(c, min_points=10**6)[0]
+    assert keep_cloud(c, min_points=10**6) == (False, f"5000 points < {10**6}")
+    assert keep_cloud(c, min_points=5000)[0]
+    labelled = c.select(np.r_[np.flatnonzero(c.semantic != 0)[:10], np.flatnonzero(c.semantic == 0)[:190]])
+    assert keep_cloud(labelled, min_points=1, min_labelled_share=0.05)[0]          # 10 / 200 = 0.05
+    assert keep_cloud(labelled, min_points=1, min_labelled_share=0.051) == (False, "labelled share 0.050 < 0.051")
 
 
 def reference_points(f):
