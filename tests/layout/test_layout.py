@@ -104,6 +104,18 @@ def test_label_raster_counts_cells():
     assert (r.labels == r.type_names.index("cell")).all()
 
 
+def test_label_raster_puts_each_label_in_its_cells():
+    """Row r covers y in [y0 + r·res, ...), column c x in [x0 + c·res, ...): a raster flipped
+    or transposed, or a region a cell too wide, fails against the array written out here."""
+    layout = hand_made([(0, 0, 4, 1, "a", None), (0, 1, 1, 1, "b", None), (1, 1, 3, 1, "c", None)],
+                       root=(4.0, 2.0))
+    r = layout.label_raster(0.5)
+    a, b, c = (r.type_names.index(t) for t in "abc")
+    expected = np.array([[a] * 8, [a] * 8, [b, b] + [c] * 6, [b, b] + [c] * 6])
+    np.testing.assert_array_equal(r.labels, expected)
+    assert r.origin_xy == (0.0, 0.0) and r.resolution_m == 0.5
+
+
 def test_random_rooms_places_what_fits_and_reports_it():
     s = strategy(levels=[{"hall": {"generator": "random_rooms",
                                    "args": {"count": [30, 30], "width": [3, 3], "height": [3, 3], "attempts": 20},
@@ -124,6 +136,118 @@ def test_merge_joins_siblings_and_preserves_area():
     for t in ("a", "b"):
         assert sum(r.area for r in after.leaves() if r.type == t) == pytest.approx(
             sum(r.area for r in before.leaves() if r.type == t))
+    assert_merge_keeps_the_ground(before, after)
+
+
+@register("hand_made")
+class HandMade(Generator):
+    """Children given as (x, y, w, h, slot, orientation) relative to the parent."""
+    slots = ("a", "b", "c")
+
+    def generate(self, parent, rng):
+        return [Child(parent.x + x, parent.y + y, w, h, slot, o) for x, y, w, h, slot, o in self.args["cells"]]
+
+
+def hand_made(cells, merge=False, root=(6.0, 2.0)):
+    s = strategy(root={"width": root[0], "height": root[1], "type": "hall"},
+                 region_types={"hall": {}, "a": {"final": True}, "b": {"final": True}, "c": {"final": True}},
+                 levels=[{"hall": {"generator": "hand_made", "args": {"cells": [list(c) for c in cells]},
+                                   "children": {k: k for k in "abc"}, "orientation": "suggested"}}]
+                 + (["merge"] if merge else []))
+    return generate_layout(parse_strategy(s), seed=0)
+
+
+def rects(layout):
+    return sorted((round(r.x, 9), round(r.y, 9), round(r.w, 9), round(r.h, 9), r.type, r.orientation)
+                  for r in layout.leaves())
+
+
+def assert_merge_keeps_the_ground(before, after):
+    """Whatever merges, the floor is covered by the same types as before: same area per type,
+    the same label raster cell for cell, no two leaves overlapping."""
+    for t in {(r.type, r.orientation) for r in before.leaves()}:
+        assert sum(r.area for r in after.leaves() if (r.type, r.orientation) == t) == pytest.approx(
+            sum(r.area for r in before.leaves() if (r.type, r.orientation) == t), abs=1e-9)
+    np.testing.assert_array_equal(after.label_raster(0.25).labels, before.label_raster(0.25).labels)
+    leaves = after.leaves()
+    assert not any(p.overlaps(q, tol=1e-9) for i, p in enumerate(leaves) for q in leaves[i + 1:])
+
+
+@pytest.mark.parametrize("cells, merged", [
+    # a row: runs of a type that border with the same height join; b splits them
+    ([(0, 0, 1, 2, "a", "up"), (1, 0, 1, 2, "a", "up"), (2, 0, 1, 2, "a", "up"), (3, 0, 1, 2, "b", "up"),
+      (4, 0, 1, 2, "a", "up"), (5, 0, 1, 2, "a", "up")],
+     [(0, 0, 3, 2, "a", "up"), (3, 0, 1, 2, "b", "up"), (4, 0, 2, 2, "a", "up")]),
+    # the same row listed right to left, and a column listed top to bottom
+    ([(5, 0, 1, 2, "a", "up"), (4, 0, 1, 2, "a", "up"), (3, 0, 1, 2, "a", "up"), (2, 0, 1, 1, "b", "up"),
+      (2, 1, 1, 1, "b", "up"), (1, 1, 1, 1, "b", "up")],
+     [(1, 1, 1, 1, "b", "up"), (2, 0, 1, 2, "b", "up"), (3, 0, 3, 2, "a", "up")]),
+    # a column: same x and width, bordering in y
+    ([(0, 0, 2, 0.5, "a", "up"), (0, 0.5, 2, 1.5, "a", "up"), (2, 0, 4, 2, "b", "up")],
+     [(0, 0, 2, 2, "a", "up"), (2, 0, 4, 2, "b", "up")]),
+    # a 2 x 2 block of one type becomes one rectangle, whatever the order of the joins
+    ([(0, 0, 1, 1, "a", "up"), (1, 0, 1, 1, "a", "up"), (0, 1, 1, 1, "a", "up"), (1, 1, 1, 1, "a", "up")],
+     [(0, 0, 2, 2, "a", "up")]),
+    # bordering but of unequal height: the union is no rectangle, nothing joins
+    ([(0, 0, 1, 2, "a", "up"), (1, 0, 1, 1, "a", "up"), (1, 1, 1, 1, "b", "up")],
+     [(0, 0, 1, 2, "a", "up"), (1, 0, 1, 1, "a", "up"), (1, 1, 1, 1, "b", "up")]),
+    # same height but shifted in y: they share only part of an edge
+    ([(0, 0, 1, 1, "a", "up"), (1, 0.5, 1, 1, "a", "up")],
+     [(0, 0, 1, 1, "a", "up"), (1, 0.5, 1, 1, "a", "up")]),
+    # different types or orientations never join
+    ([(0, 0, 1, 2, "a", "up"), (1, 0, 1, 2, "b", "up"), (2, 0, 1, 2, "a", "up"), (3, 0, 1, 2, "a", "left")],
+     [(0, 0, 1, 2, "a", "up"), (1, 0, 1, 2, "b", "up"), (2, 0, 1, 2, "a", "up"), (3, 0, 1, 2, "a", "left")]),
+    # same type and size, not bordering (a gap of 0.5 m)
+    ([(0, 0, 1, 2, "a", "up"), (1.5, 0, 1, 2, "a", "up")],
+     [(0, 0, 1, 2, "a", "up"), (1.5, 0, 1, 2, "a", "up")]),
+])
+def test_merge_on_hand_made_layouts_gives_the_exact_rectangles(cells, merged):
+    before = hand_made(cells)
+    after = hand_made(cells, merge=True)
+    assert rects(before) == sorted((float(x), float(y), float(w), float(h), t, o) for x, y, w, h, t, o in cells)
+    assert rects(after) == sorted((float(x), float(y), float(w), float(h), t, o) for x, y, w, h, t, o in merged)
+    assert_merge_keeps_the_ground(before, after)
+
+
+def guillotine(rng, x, y, w, h, depth):
+    """A random mosaic: rectangles split in x or y at quarter-metre steps, typed a or b."""
+    if depth == 0 or (w < 1 and h < 1) or (depth < 5 and rng.random() < 0.15):
+        return [(x, y, w, h, "ab"[rng.integers(2)], ["up", "left"][int(rng.random() < 0.2)])]
+    if w >= h:
+        k = 0.25 * rng.integers(1, round(w / 0.25))
+        return guillotine(rng, x, y, k, h, depth - 1) + guillotine(rng, x + k, y, w - k, h, depth - 1)
+    k = 0.25 * rng.integers(1, round(h / 0.25))
+    return guillotine(rng, x, y, w, k, depth - 1) + guillotine(rng, x, y + k, w, h - k, depth - 1)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_merge_of_random_mosaics_keeps_the_ground_and_joins_what_it_can(seed):
+    """Random mosaics of bordering cells of unequal sizes: the merged floor is the same, and
+    no two leaves left are still joinable (same type and orientation, one shared whole edge)."""
+    cells = guillotine(np.random.default_rng(seed), 0.0, 0.0, 6.0, 2.0, 6)[::1 if seed % 2 else -1]
+    before, after = hand_made(cells), hand_made(cells, merge=True)
+    assert len(before.leaves()) == len(cells) >= 8
+    assert_merge_keeps_the_ground(before, after)
+    leaves = after.leaves()
+    for i, p in enumerate(leaves):
+        for q in leaves[i + 1:]:
+            if (p.type, p.orientation) != (q.type, q.orientation):
+                continue
+            side = np.isclose(p.y, q.y) and np.isclose(p.h, q.h) and (
+                np.isclose(p.x + p.w, q.x) or np.isclose(q.x + q.w, p.x))
+            stacked = np.isclose(p.x, q.x) and np.isclose(p.w, q.w) and (
+                np.isclose(p.y + p.h, q.y) or np.isclose(q.y + q.h, p.y))
+            assert not (side or stacked), (p, q)
+
+
+def test_merge_keeps_the_ground_of_every_shipped_strategy():
+    from pathlib import Path
+    for name in ("assembly_line", "storage_area", "logistics_lane"):
+        s = json.loads((Path(__file__).parents[2] / "layouts" / f"{name}.json").read_text())
+        s["levels"] = [lv for lv in s["levels"] if lv != "merge"]
+        before = generate_layout(parse_strategy(s), seed=1)
+        after = generate_layout(parse_strategy({**s, "levels": s["levels"] + ["merge"]}), seed=1)
+        assert_merge_keeps_the_ground(before, after)
 
 
 sizes = st.floats(0.5, 6.0)
