@@ -134,6 +134,61 @@ def test_pcd_and_npz_read_back(tmp_path):
         gg.export(c, tmp_path, format="plyy")
 
 
+def test_pcd_header_and_packed_colour_as_pcl_reads_them(tmp_path):
+    """PCL's header words (upper-case types) and rgb packed as 0x00RRGGBB, written out by hand
+    and read back by Open3D; the origin in the comment; npz and ply with normals round-trip."""
+    import open3d as o3d
+    import plyfile
+
+    from genie_gl.export import npz
+
+    c = random_cloud(300)
+    c = gg.PointCloud(c.xyz, c.semantic, c.instance, c.origin, c.rgb,
+                      np.random.default_rng(5).normal(size=(300, 3)).astype(np.float32))
+    pcd_path = gg.export(c, tmp_path, format="pcd")
+    header, body = pcd_path.read_bytes().split(b"DATA binary\n", 1)
+    lines = header.decode().splitlines()
+    assert lines[1:] == ["VERSION 0.7", "FIELDS x y z rgb label instance", "SIZE 4 4 4 4 4 4", "TYPE F F F U U U",
+                         "COUNT 1 1 1 1 1 1", "WIDTH 300", "HEIGHT 1", "VIEWPOINT 0 0 0 1 0 0 0", "POINTS 300"]
+    assert lines[0].endswith(f"({c.origin[0]!r} {c.origin[1]!r} {c.origin[2]!r})")
+    rgb = np.frombuffer(body, "<u4").reshape(300, 6)[:, 3]
+    r, g, b = (c.rgb[:, k].astype(np.int64) for k in range(3))
+    np.testing.assert_array_equal(rgb, r * 65536 + g * 256 + b)
+    pc = o3d.io.read_point_cloud(str(pcd_path))
+    np.testing.assert_allclose(np.asarray(pc.colors) * 255, c.rgb, atol=0.5)
+    v = plyfile.PlyData.read(str(gg.export(c, tmp_path, format="ply")))
+    np.testing.assert_array_equal(np.stack([v["vertex"][k] for k in ("nx", "ny", "nz")], 1), c.normal)
+    origin = [float(x) for x in v.comments[1].split()[1:]]
+    np.testing.assert_array_equal(origin, c.origin)
+    back = npz.read(gg.export(c, tmp_path, format="npz"))
+    for k in ("xyz", "origin", "semantic", "instance", "rgb", "normal"):
+        np.testing.assert_array_equal(getattr(back, k), getattr(c, k))
+
+
+def test_semantickitti_sequence_files_for_several_scans(tmp_path):
+    """poses.txt and times.txt get one line per scan, in scan order, whatever order the scans
+    are written in; calib.txt is the identity for every matrix; scans read back as float32."""
+    clouds = [gg.PointCloud(random_cloud(50, seed=k).xyz, np.full(50, k, np.uint16), np.zeros(50, np.uint32),
+                            np.array([10.0 * k, -1.0, 0.5])) for k in range(3)]
+    for k in (1, 0, 2):
+        semantickitti.write(clouds[k], tmp_path, sequence=4, frame=k)
+    seq = tmp_path / "sequences" / "04"
+    poses = [np.array(line.split(), float).reshape(3, 4) for line in (seq / "poses.txt").read_text().splitlines()]
+    assert len(poses) == 3
+    for k, P in enumerate(poses):
+        np.testing.assert_array_equal(P, np.c_[np.eye(3), clouds[k].origin])
+    assert [float(t) for t in (seq / "times.txt").read_text().splitlines()] == [0.0, 1.0, 2.0]
+    for line in (seq / "calib.txt").read_text().splitlines():
+        name, values = line.split(":")
+        np.testing.assert_array_equal(np.array(values.split(), float).reshape(3, 4), np.eye(4)[:3])
+    xyz, sem, inst = semantickitti.read(seq / "velodyne" / "000002.bin")
+    assert xyz.dtype == np.float32 and xyz.shape == (50, 3)
+    np.testing.assert_array_equal(xyz, clouds[2].xyz)
+    assert (sem == 2).all()
+    raw = np.fromfile(seq / "velodyne" / "000002.bin", "<f4").reshape(-1, 4)
+    assert (raw[:, 3] == 0).all()   # remission: none
+
+
 def test_exports_are_byte_identical_for_the_same_input(tmp_path):
     c = random_cloud()
     for fmt in ("ply", "pcd", "npz"):
