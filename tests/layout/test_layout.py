@@ -116,6 +116,50 @@ def test_label_raster_puts_each_label_in_its_cells():
     assert r.origin_xy == (0.0, 0.0) and r.resolution_m == 0.5
 
 
+def grid_rects(args, root=(10.5, 4.3), orientation="up"):
+    s = strategy(root={"width": root[0], "height": root[1], "type": "hall", "orientation": orientation},
+                 region_types={"hall": {}, "a": {"final": True}, "b": {"final": True}},
+                 levels=[{"hall": {"generator": "grid", "args": args, "children": {"cell": "a", "empty": "b"}}}])
+    return sorted((round(r.x, 9), round(r.y, 9), round(r.w, 9), round(r.h, 9), r.type)
+                  for r in generate_layout(parse_strategy(s), seed=0).leaves())
+
+
+def test_grid_cells_spacing_leftover_and_aisles_are_exact():
+    """A 10.5 x 4.3 m hall in 2 x 1 m cells 0.5 m apart: 4 across (4·2 + 3·0.5 = 9.5 m), 3 rows
+    (at 0, 1.5, 3), the leftover a strip 1 m wide on the right and one 0.3 m high on top; with
+    'spread' the 2.5 m left over goes between the cells; an aisle of 1 m after every 2nd row
+    leaves room for 2 rows; a hall facing left runs the cells' height along x."""
+    cells = [(x, y, 2.0, 1.0, "a") for y in (0.0, 1.5, 3.0) for x in (0.0, 2.5, 5.0, 7.5)]
+    assert grid_rects({"cell": [2, 1], "spacing": 0.5}) == sorted(
+        cells + [(9.5, 0.0, 1.0, 4.3, "b"), (0.0, 4.0, 9.5, 0.3, "b")])
+    spread = [(round(i * (2 + 2.5 / 3), 9), y, 2.0, 1.0, "a") for y in (0.0, 1.5, 3.0) for i in range(4)]
+    assert grid_rects({"cell": [2, 1], "spacing": 0.5, "leftover": "spread"}) == sorted(spread)
+    aisle = [(x, y, 2.0, 1.0, "a") for y in (0.0, 1.5) for x in (0.0, 2.5, 5.0, 7.5)]
+    assert grid_rects({"cell": [2, 1], "spacing": 0.5, "aisle": 1.0, "aisle_every": 2}) == sorted(
+        aisle + [(9.5, 0.0, 1.0, 4.3, "b"), (0.0, 2.5, 9.5, 1.8, "b")])
+    # facing left: across is y (4.3 m: one 2 m cell, 2.3 m left over), along is x (10.5 m: 7 rows
+    # of 1 m, 0.5 m between, 0.5 m left over)
+    left = [(x, 0.0, 1.0, 2.0, "a") for x in (0.0, 1.5, 3.0, 4.5, 6.0, 7.5, 9.0)]
+    assert grid_rects({"cell": [2, 1], "spacing": 0.5}, orientation="left") == sorted(
+        left + [(0.0, 2.0, 10.5, 2.3, "b"), (10.0, 0.0, 0.5, 2.0, "b")])
+
+
+def test_rectangles_cover_a_mask_exactly():
+    from genie_gl.layout.generators import rectangles
+
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        mask = rng.random((7, 9)) < 0.6
+        mask[2:5, 3:8] = True
+        cover = np.zeros(mask.shape, int)
+        for r0, r1, c0, c1 in rectangles(mask):
+            assert r0 < r1 and c0 < c1
+            cover[r0:r1, c0:c1] += 1
+        np.testing.assert_array_equal(cover, mask.astype(int))     # every cell once, nothing else
+    assert rectangles(np.ones((3, 4), bool)) == [(0, 3, 0, 4)]
+    assert rectangles(np.array([[1, 1, 0, 1], [1, 1, 0, 1]], bool)) == [(0, 2, 0, 2), (0, 2, 3, 4)]
+
+
 def test_random_rooms_places_what_fits_and_reports_it():
     s = strategy(levels=[{"hall": {"generator": "random_rooms",
                                    "args": {"count": [30, 30], "width": [3, 3], "height": [3, 3], "attempts": 20},
@@ -197,6 +241,9 @@ def assert_merge_keeps_the_ground(before, after):
     # different types or orientations never join
     ([(0, 0, 1, 2, "a", "up"), (1, 0, 1, 2, "b", "up"), (2, 0, 1, 2, "a", "up"), (3, 0, 1, 2, "a", "left")],
      [(0, 0, 1, 2, "a", "up"), (1, 0, 1, 2, "b", "up"), (2, 0, 1, 2, "a", "up"), (3, 0, 1, 2, "a", "left")]),
+    # a column facing left keeps its orientation
+    ([(0, 0, 1, 1, "a", "left"), (0, 1, 1, 1, "a", "left"), (1, 0, 1, 2, "b", "left")],
+     [(0, 0, 1, 2, "a", "left"), (1, 0, 1, 2, "b", "left")]),
     # same type and size, not bordering (a gap of 0.5 m)
     ([(0, 0, 1, 2, "a", "up"), (1.5, 0, 1, 2, "a", "up")],
      [(0, 0, 1, 2, "a", "up"), (1.5, 0, 1, 2, "a", "up")]),
