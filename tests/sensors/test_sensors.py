@@ -223,3 +223,50 @@ def test_sparse_disc_coverage_equals_brute_force(radius):
     expected = [p.weight[dense[c].any(0)].sum() / p.total for c in pop]
     np.testing.assert_allclose(p.fitnesses(pop), expected, rtol=1e-12)
     np.testing.assert_allclose([p.fitness(c) for c in pop], expected, rtol=1e-12)  # marks never collide
+
+
+def test_depth_noise_drops_what_it_pushes_behind_the_camera_and_keeps_holes():
+    """Noise that would make a depth ≤ 0 drops the return (depth 0, ids 0), at the rate the
+    Gaussian gives (σ = 5 m at z = 1 m: P(z + ε ≤ 0) = Φ(−0.2) = 0.4207); holes stay holes."""
+    f = wall(1.0)
+    d = f.depth.copy()
+    d[:, :20] = 0                                        # a hole: no return, no noise
+    f = f.replace(depth=d, instance=np.where(d > 0, 7, 0).astype(np.uint32),
+                  semantic=np.where(d > 0, 2, 0).astype(np.uint16))
+    out = DepthNoise(model="tof_linear", a_m=5.0, b=0.0).apply(f, np.random.default_rng(3))
+    assert (out.depth >= 0).all() and not out.depth[:, :20].any()
+    lost = (out.depth[:, 20:] == 0).mean()
+    assert lost == pytest.approx(0.4207, abs=0.01)
+    np.testing.assert_array_equal(out.instance == 0, out.depth == 0)
+    np.testing.assert_array_equal(out.semantic == 0, out.depth == 0)
+
+
+def test_disparity_quantisation_rounds_to_the_nearest_step_with_the_calibration_baseline():
+    """z = f·b / (step · round(f·b / (z · step))), with b from the sensor's calibration."""
+    s = gg.Sensor.pinhole(200, 160, 500.0, meta={"baseline_m": 0.1})
+    z = np.linspace(2.0, 3.0, 200 * 160).reshape(160, 200)
+    f = gg.Frame(z.astype(np.float32), np.ones((160, 200), np.uint32), np.ones((160, 200), np.uint16), None, s,
+                 np.eye(4))
+    out = DepthNoise(model="stereo", subpixel=1e-9, subpixel_step=0.125).apply(f, np.random.default_rng(0))
+    fb = 500.0 * 0.1
+    expected = fb / (0.125 * np.round(fb / (f.depth.astype(np.float64) * 0.125)))
+    np.testing.assert_allclose(out.depth, expected, rtol=1e-6)
+
+
+def test_nguyen_incidence_term_only_past_60_degrees_clamped_at_85_and_only_when_asked():
+    z, f = np.array([1.5]), 500.0
+    base = 0.0012 + 0.0019 * (1.5 - 0.4) ** 2
+
+    def term(deg):
+        t = np.radians(deg)
+        return 0.0001 / np.sqrt(1.5) * t ** 2 / (np.pi / 2 - t) ** 2
+
+    on, off = DepthNoise(), DepthNoise(incidence=False)
+    for deg in (0.0, 30.0, 50.0, 59.0):
+        assert on.sigma(z, f, np.radians([deg]))[0] == pytest.approx(base, rel=1e-12)
+    for deg in (61.0, 70.0, 84.0):
+        assert on.sigma(z, f, np.radians([deg]))[0] == pytest.approx(base + term(deg), rel=1e-9)
+    for deg in (85.0, 88.0, 89.9):
+        assert on.sigma(z, f, np.radians([deg]))[0] == pytest.approx(base + term(85.0), rel=1e-9)
+    assert off.sigma(z, f, np.radians([80.0]))[0] == pytest.approx(base, rel=1e-12)
+    assert on.sigma(z, f, None)[0] == pytest.approx(base, rel=1e-12)
