@@ -288,3 +288,30 @@ def test_chunks_down_sample_each_tile_as_random_downsample_does():
     for (i, j), t in tiles:
         ij = np.floor(t.xyz[:, :2] / 2.5)
         assert (ij == [i, j]).all()
+
+
+def test_single_frame_unprojection_with_normals_colour_and_an_origin():
+    """unproject(frame, origin=, camera_index=): points relative to the origin, normals turned
+    into the world by the pose (float64 truth), colours and the camera index per point."""
+    rng = np.random.default_rng(8)
+    pose = look_at([2.0, -3.0, 1.5], [0.0, 0.5, 0.2])
+    s = gg.Sensor(40, 30, np.array([[35.0, 0, 19.5], [0, 37.0, 14.5], [0, 0, 1]]))
+    d = rng.uniform(1, 4, (30, 40)).astype(np.float32)
+    d[rng.random(d.shape) < 0.2] = 0
+    n_cam = rng.normal(size=(30, 40, 3)).astype(np.float32)
+    rgb = rng.integers(0, 256, (30, 40, 3)).astype(np.uint8)
+    ids = rng.integers(1, 9, d.shape)
+    f = gg.Frame(d, ids.astype(np.uint32), ids.astype(np.uint16), rgb, s, pose, n_cam)
+    origin = np.array([1e4, -2.0, 3.0])
+    c = unproject(f, origin=origin, camera_index=5)
+    valid = d > 0
+    assert len(c) == valid.sum()
+    np.testing.assert_array_equal(c.origin, origin)
+    np.testing.assert_allclose(c.world_xyz, reference_points(f), atol=2e-3)   # float32 relative to 1e4
+    np.testing.assert_allclose(c.normal, n_cam[valid].astype(np.float64) @ pose[:3, :3].T, atol=1e-5)
+    np.testing.assert_array_equal(c.rgb, rgb[valid])
+    np.testing.assert_array_equal(c.instance, ids[valid])
+    assert (c.camera == 5).all() and c.camera.dtype == np.uint16
+    plain = unproject(f.replace(normal=None, rgb=None))
+    assert plain.normal is None and plain.rgb is None and not plain.origin.any()
+    np.testing.assert_allclose(plain.world_xyz, reference_points(f), atol=1e-5)
