@@ -29,10 +29,11 @@ ROOT = Path(__file__).resolve().parents[1]
 GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
     # group: (modules to mutate, the functions in them where a wrong number is silent
     #         (mutmut name globs), tests that must kill the mutants)
-    "projection": (["genie_gl/render/projection.py", "genie_gl/sensors/distortion.py"],
-                   ["*.projection.x_clip_coefficients__*", "*.projection.x_rigid_inverse__*",
-                    "*.distortion.x_project__*", "*.distortion.x__maps__*"],
-                   ["tests/sensors/test_sensors.py", "tests/render/test_analytic.py", "tests/render/test_hard_cases.py"]),
+    "projection": (["genie_gl/render/projection.py"],
+                   ["*.projection.x_clip_coefficients__*", "*.projection.x_rigid_inverse__*"],
+                   ["tests/render/test_analytic.py", "tests/render/test_hard_cases.py"]),
+    "lens": (["genie_gl/sensors/distortion.py"], ["*.distortion.x_project__*", "*.distortion.x__maps__*"],
+             ["tests/sensors/test_sensors.py", "tests/render/test_analytic.py"]),
     "unprojection": (["genie_gl/cloud/unproject.py"], ["*.unproject.x_*"],
                      ["tests/cloud/test_unproject_kernel.py", "tests/cloud/test_cloud_export.py",
                       "tests/cloud/test_frame_chunks.py"]),
