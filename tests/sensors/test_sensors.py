@@ -108,6 +108,12 @@ def test_range_limits_drop_returns_and_ids():
     f = wall(5.0)
     out = RangeLimits(0.3, 4.0).apply(f, np.random.default_rng(0))
     assert not out.depth.any() and not out.instance.any()
+    d = np.tile(np.array([0.0, 0.5, 1.0, 1.5, 2.0, 2.5], np.float32), (160, 34))[:, :200]
+    g = f.replace(depth=d, instance=np.where(d > 0, 3, 0).astype(np.uint32))
+    out = RangeLimits(1.0, 2.0).apply(g, np.random.default_rng(0))
+    keep = (d >= 1.0) & (d <= 2.0)                       # the limits themselves are in range
+    np.testing.assert_array_equal(out.depth, np.where(keep, d, 0))
+    np.testing.assert_array_equal(out.instance, np.where(keep, 3, 0))
 
 
 def test_no_effects_means_the_ideal_frame_bit_for_bit_and_no_draw():
@@ -244,7 +250,7 @@ def test_depth_noise_drops_what_it_pushes_behind_the_camera_and_keeps_holes():
 def test_disparity_quantisation_rounds_to_the_nearest_step_with_the_calibration_baseline():
     """z = f·b / (step · round(f·b / (z · step))), with b from the sensor's calibration."""
     s = gg.Sensor.pinhole(200, 160, 500.0, meta={"baseline_m": 0.1})
-    z = np.linspace(2.0, 3.0, 200 * 160).reshape(160, 200)
+    z = np.linspace(0.4, 3.0, 200 * 160).reshape(160, 200)
     f = gg.Frame(z.astype(np.float32), np.ones((160, 200), np.uint32), np.ones((160, 200), np.uint16), None, s,
                  np.eye(4))
     out = DepthNoise(model="stereo", subpixel=1e-9, subpixel_step=0.125).apply(f, np.random.default_rng(0))
@@ -269,4 +275,8 @@ def test_nguyen_incidence_term_only_past_60_degrees_clamped_at_85_and_only_when_
     for deg in (85.0, 88.0, 89.9):
         assert on.sigma(z, f, np.radians([deg]))[0] == pytest.approx(base + term(85.0), rel=1e-9)
     assert off.sigma(z, f, np.radians([80.0]))[0] == pytest.approx(base, rel=1e-12)
+    near = 0.0012 + 0.0019 * (0.5 - 0.4) ** 2 + 0.0001 / np.sqrt(0.5) * np.radians(70.0) ** 2 / np.radians(20.0) ** 2
+    assert on.sigma(np.array([0.5]), f, np.radians([70.0]))[0] == pytest.approx(near, rel=1e-9)
+    # without a sensor: the default baseline (0.05 m) and σ_d (0.08 px)
+    assert DepthNoise(model="stereo").sigma(np.array([2.0]), f)[0] == pytest.approx(4 * 0.08 / (500 * 0.05))
     assert on.sigma(z, f, None)[0] == pytest.approx(base, rel=1e-12)
