@@ -83,6 +83,9 @@ def test_semantickitti_reads_back_as_its_api_does(tmp_path):
     import yaml
     cfg = yaml.safe_load((tmp_path / "genie-gl.yaml").read_text())
     assert {"labels", "color_map", "learning_map", "learning_map_inv", "learning_ignore", "content"} <= set(cfg)
+    # content: each class's share of the points (SemanticKITTI's frequencies), from the first scan
+    for k, share in cfg["content"].items():
+        assert share == pytest.approx(np.mean(c.semantic == k))
 
 
 def test_semantickitti_label_words_are_the_documented_bits(tmp_path):
