@@ -144,6 +144,18 @@ def test_grid_cells_spacing_leftover_and_aisles_are_exact():
         left + [(0.0, 2.0, 10.5, 2.3, "b"), (10.0, 0.0, 0.5, 2.0, "b")])
 
 
+def test_grid_exact_fit_two_across_facing_left_and_lone_aisle_arguments():
+    cells = [(x, y, 2.0, 1.0, "a") for y in (0.0, 1.5, 3.0) for x in (0.0, 2.5, 5.0, 7.5)]
+    assert grid_rects({"cell": [2, 1], "spacing": 0.5}, root=(9.5, 4.0)) == sorted(cells)   # no leftover
+    for lone in ({"aisle": 1.0}, {"aisle_every": 1}):        # an aisle needs both: alone, nothing changes
+        assert grid_rects({"cell": [2, 1], "spacing": 0.5, **lone}, root=(9.5, 4.0)) == sorted(cells)
+    assert grid_rects({"cell": [2, 1], "spacing": 0.5, "leftover": "spread"}, root=(5.0, 1.0)) == [
+        (0.0, 0.0, 2.0, 1.0, "a"), (3.0, 0.0, 2.0, 1.0, "a")]
+    left = [(x, y, 1.0, 2.0, "a") for x in (0.0, 1.5, 3.0, 4.5, 6.0, 7.5, 9.0) for y in (0.0, 2.5)]
+    assert grid_rects({"cell": [2, 1], "spacing": 0.5}, root=(10.5, 5.0), orientation="left") == sorted(
+        left + [(0.0, 4.5, 10.5, 0.5, "b"), (10.0, 0.0, 0.5, 4.5, "b")])
+
+
 def test_rectangles_cover_a_mask_exactly():
     from genie_gl.layout.generators import rectangles
 
