@@ -299,7 +299,7 @@ def test_single_frame_unprojection_with_normals_colour_and_an_origin():
     rng = np.random.default_rng(8)
     pose = look_at([2.0, -3.0, 1.5], [0.0, 0.5, 0.2])
     s = gg.Sensor(40, 30, np.array([[35.0, 0, 19.5], [0, 37.0, 14.5], [0, 0, 1]]))
-    d = rng.uniform(1, 4, (30, 40)).astype(np.float32)
+    d = rng.uniform(0.3, 4, (30, 40)).astype(np.float32)      # below 1 m too
     d[rng.random(d.shape) < 0.2] = 0
     n_cam = rng.normal(size=(30, 40, 3)).astype(np.float32)
     rgb = rng.integers(0, 256, (30, 40, 3)).astype(np.uint8)
