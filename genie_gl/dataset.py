@@ -121,6 +121,9 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
         bop.write_dataset_files(scene, frames[0], out, meshes)
     keys = ["start", "layout", "scene", "placement", "capture", "cloud", "export"]
     stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
+    from .plan import effect_totals  # what each sensor effect did (issue 12); timings: not in stats.json
+
+    stats["effects"] = effect_totals(frames)
     return stats
 
 
@@ -212,7 +215,20 @@ def _worker(job: tuple[dict, int]) -> dict:
         from .render.context import set_default_backend
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
+    from .render import limit_threads  # workers share the cores: llvmpipe and numba threads
+
+    limit_threads((os.cpu_count() or 1) // max(1, int(job[0]["workers"])))
     return run_scene(*job)
+
+
+def _effects_total(results: list[dict]) -> dict:
+    """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
+    from .plan import add_totals
+
+    total: dict = {}
+    for r in results:
+        add_totals(total, r.get("effects", {}))
+    return total
 
 
 def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]:
@@ -270,6 +286,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
         "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
         "scenes_made": len(results), "scenes_skipped": cfg["scenes"] - len(todo),
         "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
+        "effects": _effects_total(results),
     }
     tmp = out / "manifest.json.tmp"
     tmp.write_text(json.dumps(manifest, indent=1))
