@@ -189,7 +189,7 @@ ZERO = {"lateral_noise": dict(model="constant", sigma_px=0.0), "flying_pixels": 
 
 # strengths that must change scene_like() (defaults where they already do)
 STRONG = {"range": dict(min_m=1.5, max_m=3.5), "incidence_dropout": dict(max_angle_deg=30.0),
-          "edge_dropout": dict(span_m=0.5)}
+          "edge_dropout": dict(span_m=0.5), "ambiguity": dict(ambiguity_m=2.5)}
 
 
 def scene_like():
