@@ -134,6 +134,9 @@ def run_group(group: str, timeout: float, children: int) -> list[tuple[str, int,
         if "BadTestExecutionCommandsException" not in (work / f"mutmut-run-{attempt}.log").read_text():
             finished = r.returncode == 0
             break
+        # the failed run's partial test-to-function stats would hide tests from the retry
+        for stale in (work / "mutants").glob("mutmut-stats*.json"):
+            stale.unlink()
     status = {k: v for k, v in results(work, env).items()
               if any(fnmatch.fnmatch(k, f) for f in functions)}
     rows = []
