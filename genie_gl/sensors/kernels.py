@@ -95,6 +95,24 @@ def shadow_mask(depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_
 
 
 @njit(cache=True, nogil=True)
+def shadow_drop(depth, instance, semantic, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m,
+                tol_rel):  # pragma: no cover - compiled
+    """:func:`shadow_mask` and :func:`~genie_gl.sensors.effect.drop` in one pass: ``depth``,
+    ``instance`` and ``semantic`` (copies the caller made) are zeroed in place where the
+    second view cannot see; (gone, occluded, outside) as :func:`shadow_mask` returns them."""
+    gone, occluded, outside = shadow_mask(depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_rel)
+    if occluded + outside:
+        H, W = depth.shape
+        for v in range(H):
+            for u in range(W):
+                if gone[v, u]:
+                    depth[v, u] = 0
+                    instance[v, u] = 0
+                    semantic[v, u] = 0
+    return gone, occluded, outside
+
+
+@njit(cache=True, nogil=True)
 def stereo_noise(depth, draws, fb, sigma_d, step):  # pragma: no cover - compiled
     """z + N·z²σ_d/(f·b) per valid pixel (``draws`` in row-major order of the valid pixels),
     then disparity quantised to ``step`` px (0: none); (new depth float32, pixels lost)."""
