@@ -1,5 +1,6 @@
-"""Binary little-endian PLY with ``x y z`` (float), ``red green blue`` (uchar), ``nx ny nz``
-(when present), ``semantic`` (ushort) and ``instance`` (uint): reads in plyfile and Open3D."""
+"""Binary little-endian PLY with ``x y z`` (float), ``nx ny nz`` (when present), ``red green
+blue`` (uchar), ``semantic`` and ``instance`` (int, i.e. int32): the types that plyfile,
+CloudCompare and Open3D's tensor reader all keep (Open3D skips ``ushort`` and ``uint``)."""
 from __future__ import annotations
 
 import os
@@ -8,16 +9,23 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
+from ..errors import ExportError
 from ._atomic import atomic_write_bytes
+
+INT32_MAX = 2**31 - 1
+PLY_TYPE = {"<f4": "float", "u1": "uchar", "<i4": "int"}
 
 
 def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
+    if len(cloud) and int(cloud.instance.max()) > INT32_MAX:
+        raise ExportError(f"{path}: instance id {int(cloud.instance.max())} exceeds the PLY int range "
+                          f"({INT32_MAX}); use npz, which keeps uint32")
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
     if cloud.normal is not None:
         fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
     if cloud.rgb is not None:
         fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
-    fields += [("semantic", "<u2"), ("instance", "<u4")]
+    fields += [("semantic", "<i4"), ("instance", "<i4")]
     rec = np.empty(len(cloud), dtype=fields)
     rec["x"], rec["y"], rec["z"] = cloud.xyz.T
     if cloud.normal is not None:
@@ -25,11 +33,10 @@ def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
     if cloud.rgb is not None:
         rec["red"], rec["green"], rec["blue"] = cloud.rgb.T
     rec["semantic"], rec["instance"] = cloud.semantic, cloud.instance
-    ply_type = {"<f4": "float", "u1": "uchar", "<u2": "ushort", "<u4": "uint"}
     header = ["ply", "format binary_little_endian 1.0",
               "comment genie-gl point cloud; world = xyz + origin",
-              "comment origin " + " ".join(repr(float(v)) for v in cloud.origin),
+              "comment origin " + " ".join(f"{float(v):.17g}" for v in cloud.origin),
               f"element vertex {len(cloud)}"]
-    header += [f"property {ply_type[t]} {n}" for n, t in fields]
+    header += [f"property {PLY_TYPE[t]} {n}" for n, t in fields]
     header.append("end_header")
     return atomic_write_bytes(path, ("\n".join(header) + "\n").encode() + rec.tobytes())

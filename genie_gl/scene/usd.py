@@ -20,15 +20,13 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 
+from .. import labels
 from ..errors import ConfigError
 from .model import Mesh, Scene
 
 log = logging.getLogger(__name__)
 
-CLASS_NAMES = {0: "background", 1: "pallet", 2: "rack", 3: "car", 4: "jack", 5: "stillage",
-               6: "cabinet", 7: "dolly", 8: "forklift", 9: "small_load_carrier"}
-CLASS_IDS = {v: k for k, v in CLASS_NAMES.items()}
-CLASS_IDS.update({"klt": 9, "floor": 0, "wall": 0})
+CLASS_NAMES = labels.CLASSES  # the one label map (genie_gl/labels.py)
 
 
 def _ident(name: str, fallback: str) -> str:
@@ -74,7 +72,7 @@ def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
         prim = x.GetPrim()
         prim.GetReferences().AddInternalReference(proto_path[inst.mesh])
         prim.SetInstanceable(True)
-        label = CLASS_NAMES.get(inst.semantic, f"class_{inst.semantic}")
+        label = labels.name(inst.semantic)
         prim.AddAppliedSchema("SemanticsAPI:Semantics")
         prim.CreateAttribute("semantic:Semantics:params:semanticType", Sdf.ValueTypeNames.String).Set("class")
         prim.CreateAttribute("semantic:Semantics:params:semanticData", Sdf.ValueTypeNames.String).Set(label)
@@ -111,10 +109,8 @@ def _label(prim: Usd.Prim) -> tuple[int | None, int | None]:
                     if b and b.HasAuthoredValue():
                         name = str(b.Get())
                 if name is not None:
-                    sem = CLASS_IDS.get(name.lower())
-                    if sem is None:
-                        m = re.fullmatch(r"class_(\d+)", name)
-                        sem = int(m.group(1)) if m else 0
+                    sem = labels.class_id(name)
+                    sem = 0 if sem is None else sem
         p = p.GetParent()
     return sem, inst
 

@@ -74,7 +74,10 @@ def test_semantickitti_reads_back_as_its_api_does(tmp_path):
     label = np.fromfile(tmp_path / "sequences/03/labels/000001.label", dtype=np.uint32)
     np.testing.assert_array_equal(scan[:, :3], c.xyz)
     np.testing.assert_array_equal(label & 0xFFFF, c.semantic)
-    np.testing.assert_array_equal(label >> 16, c.instance & 0xFFFF)
+    # ids beyond 16 bits: renumbered in order within the scan, the table beside it restores them
+    ids = np.unique(c.instance)
+    np.testing.assert_array_equal(label >> 16, np.searchsorted(ids, c.instance) + (ids[0] != 0))
+    np.testing.assert_array_equal(semantickitti.read(b)[2], c.instance)
     assert semantickitti.pack_labels(np.array([10]), np.array([3]))[0].tobytes() == bytes([0x0A, 0, 3, 0])
     poses = (tmp_path / "sequences/03/poses.txt").read_text().splitlines()
     assert float(poses[1].split()[3]) == pytest.approx(1e5)
