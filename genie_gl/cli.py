@@ -1,7 +1,8 @@
 """The ``genie`` command.
 
-Each subcommand lives in the stage that owns it, as a module with ``add_arguments(parser)``
-and ``run(args) -> int``; this file only wires them up, reads the environment (the one place
+Each subcommand is a module of :mod:`genie_gl.commands` (or a stage's own command module)
+with ``add_arguments(parser)`` and ``run(args) -> int``, listed in :data:`COMMANDS` one line
+each; this file only wires them up, reads the environment (the one place
 that does) and turns :class:`~genie_gl.errors.GenieError` into one clear line and exit code 2.
 """
 from __future__ import annotations
@@ -17,10 +18,10 @@ from .errors import GenieError
 
 # subcommand -> (module with add_arguments/run, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
-    "layout": ("genie_gl.layout.command", "generate a region layout tree from a JSON strategy"),
-    "scene": ("genie_gl.scene.command", "build a 3D scene (USD) from a layout JSON"),
-    "capture": ("genie_gl.render.command", "render a scene from K placed cameras and export clouds"),
-    "dataset": ("genie_gl.dataset", "run the whole pipeline for N scenes"),
+    "layout": ("genie_gl.commands.layout", "generate a region layout tree from a JSON strategy"),
+    "scene": ("genie_gl.commands.scene", "build a 3D scene (USD) from a layout JSON"),
+    "capture": ("genie_gl.commands.capture", "render a scene from K placed cameras and export clouds"),
+    "dataset": ("genie_gl.commands.dataset", "run the whole pipeline for N scenes"),
     "bench": ("genie_gl.bench", "benchmarks: render | layout | accuracy | pipeline"),
 }
 

@@ -260,3 +260,25 @@ def write_scene_files(scene: Scene, frames: Sequence[Frame], folder: str | os.Pa
     (tmp / "scene_gt.json").write_text(bop_json(gts))
     (tmp / "scene_gt_info.json").write_text(bop_json(infos))
     return sorted(used)
+
+
+# --- the dataset format: DIR/train_pbr/NNNNNN per scene, models and camera at the root
+
+def _write_dataset_scene(data, folder: Path) -> None:
+    from ..render import Renderer, silhouettes
+
+    with Renderer(data.scene) as r:
+        full = [silhouettes(r, f.sensor, f.world_from_camera,
+                            np.unique(f.instance[(f.semantic != 0) & (f.depth > 0)]).tolist()) for f in data.frames]
+    data.extra["bop_meshes"] = write_scene_files(data.scene, data.frames, folder, full_masks=full)
+
+
+def _before_rename(data, out: Path) -> None:
+    write_dataset_files(data.scene, data.frames[0], out, data.extra.get("bop_meshes", []))
+
+
+from .registry import DatasetFormat, register_format  # noqa: E402
+
+DATASET = register_format(DatasetFormat(
+    "bop", "train_pbr", digits=6, chunks=False, write_scene=_write_dataset_scene, before_rename=_before_rename,
+    description="BOP scene-wise RGB-D frames, masks, poses and object models"))

@@ -32,3 +32,13 @@ def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
               f"COUNT {' '.join('1' for _ in names)}\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
               f"POINTS {n}\nDATA binary\n")
     return atomic_write_bytes(path, header.encode() + rec.tobytes())
+
+
+def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object) -> Path:
+    return write(cloud, Path(out_dir) / f"{name}.pcd")
+
+
+from .registry import DatasetFormat, register_format, write_chunks  # noqa: E402
+
+DATASET = register_format(DatasetFormat("pcd", "scenes", write_scene=write_chunks("pcd", write),
+                                        write_cloud=_write_cloud, description=__doc__.splitlines()[0]))

@@ -40,3 +40,13 @@ def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
     header += [f"property {PLY_TYPE[t]} {n}" for n, t in fields]
     header.append("end_header")
     return atomic_write_bytes(path, ("\n".join(header) + "\n").encode() + rec.tobytes())
+
+
+def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object) -> Path:
+    return write(cloud, Path(out_dir) / f"{name}.ply")
+
+
+from .registry import DatasetFormat, register_format, write_chunks  # noqa: E402
+
+DATASET = register_format(DatasetFormat("ply", "scenes", write_scene=write_chunks("ply", write),
+                                        write_cloud=_write_cloud, description=__doc__.splitlines()[0]))

@@ -187,3 +187,92 @@ def read(bin_path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarra
             lut[int(a)] = int(b)
         inst = lut[inst]
     return scan[:, :3], label & 0xFFFF, inst
+
+
+# --- the dataset format: each scene is one sequence's worth of scans in DIR/scenes/NNNN;
+# once every scene is there the sequences are assembled (hard links) into DIR/sequences/NN,
+# several scenes to a sequence past 100 scenes, with the label map and split over them all.
+
+def _link(src: Path, dst: Path) -> None:
+    try:
+        os.link(src, dst)
+    except OSError:
+        import shutil
+
+        shutil.copyfile(src, dst)
+
+
+def scenes_per_sequence(n_scenes: int) -> int:
+    return max(1, -(-n_scenes // MAX_SEQUENCES))
+
+
+def assemble_sequences(out: str | os.PathLike, scene_dirs: Sequence[Path], *,
+                       counts: Mapping[int, int] | None = None,
+                       split: Sequence[float] = (0.8, 0.1, 0.1)) -> dict[int, list[int]]:
+    """Build ``sequences/NN`` from the scenes' scan folders (in order, several to a sequence
+    past 100) and ``genie-gl.yaml``; returns {sequence: [scene indices]}."""
+    import shutil
+
+    root = Path(out) / "sequences"
+    root.mkdir(parents=True, exist_ok=True)
+    per = scenes_per_sequence(len(scene_dirs))
+    groups = {s: list(range(s * per, min(len(scene_dirs), (s + 1) * per)))
+              for s in range(-(-len(scene_dirs) // per))}
+    for s, members in groups.items():
+        tmp = root / f".tmp-{s:02d}-{os.getpid()}"
+        shutil.rmtree(tmp, ignore_errors=True)
+        for sub in ("velodyne", "labels"):
+            (tmp / sub).mkdir(parents=True)
+        poses: list[str] = []
+        for i in members:
+            src = Path(scene_dirs[i])
+            lines = (src / "poses.txt").read_text().splitlines() if (src / "poses.txt").exists() else []
+            for j, pose in enumerate(lines):
+                k = len(poses)
+                _link(src / "velodyne" / f"{j:06d}.bin", tmp / "velodyne" / f"{k:06d}.bin")
+                _link(src / "labels" / f"{j:06d}.label", tmp / "labels" / f"{k:06d}.label")
+                table = src / "instance_maps" / f"{j:06d}.txt"
+                if table.exists():
+                    (tmp / "instance_maps").mkdir(exist_ok=True)
+                    _link(table, tmp / "instance_maps" / f"{k:06d}.txt")
+                poses.append(pose)
+        (tmp / "poses.txt").write_text("".join(p + "\n" for p in poses))
+        (tmp / "times.txt").write_text("".join(f"{float(t):e}\n" for t in range(len(poses))))
+        eye = _fmt(np.eye(4)[:3].ravel())
+        (tmp / "calib.txt").write_text("".join(f"{k}: {eye}\n" for k in ("P0", "P1", "P2", "P3", "Tr")))
+        final = root / f"{s:02d}"
+        if final.exists():
+            shutil.rmtree(final)
+        tmp.replace(final)
+    for old in root.iterdir():  # sequences of an earlier, larger grouping
+        if old.name.isdigit() and int(old.name) not in groups:
+            shutil.rmtree(old)
+    atomic_write_text(Path(out) / "genie-gl.yaml", label_map_yaml(counts, split_sequences(len(groups), split)))
+    return groups
+
+
+def _write_scene(data, folder: Path) -> None:
+    write_scans([tile for _, tile in data.chunks], folder)
+
+
+def _finish(out: Path, cfg, stats: list[dict]) -> None:
+    counts: dict[int, int] = {}
+    for s in stats:
+        for k, v in s["class_points"].items():
+            counts[int(k)] = counts.get(int(k), 0) + int(v)
+    groups = assemble_sequences(out, [DATASET.scene_dir(out, i) for i in range(len(stats))], counts=counts,
+                                split=tuple(cfg.split) if cfg is not None else (0.8, 0.1, 0.1))
+    for s in stats:
+        s["sequence"] = next(q for q, members in groups.items() if s["scene"] in members)
+
+
+def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, sequence: int = 0, frame: int = 0,
+                 **_: object) -> Path:
+    return write(cloud, out_dir, sequence=sequence, frame=frame)
+
+
+from .registry import DatasetFormat, register_format  # noqa: E402
+
+DATASET = register_format(DatasetFormat(
+    "semantickitti", "scenes", colour=False, write_scene=_write_scene, finish=_finish, write_cloud=_write_cloud,
+    stale=("sequences",), description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))

@@ -25,7 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def ring_poses(bounds: np.ndarray, n: int, height: float) -> list[np.ndarray]:
-    from .projection import look_at
+    from ..render.projection import look_at
 
     lo, hi = bounds
     centre = (lo + hi) / 2
@@ -37,13 +37,14 @@ def ring_poses(bounds: np.ndarray, n: int, height: float) -> list[np.ndarray]:
 def run(args: argparse.Namespace) -> int:
     from ..cloud import to_cloud
     from ..export import FORMATS, export
-    from ..errors import ConfigError
+    from ..errors import ConfigError, did_you_mean
     from ..scene.model import Scene
     from ..sensors import load_sensor
-    from .batch import capture
+    from ..render.batch import capture
 
     if args.format not in FORMATS:
-        raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}")
+        raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
+                          f"{did_you_mean(args.format, FORMATS)}")
     if args.cameras < 1:
         raise ConfigError("--cameras must be >= 1")
     sensor = load_sensor(args.sensor)

@@ -23,7 +23,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from . import generate_layout, json_schema, load_strategy, save_layout_png
+    from ..layout import generate_layout, json_schema, load_strategy, save_layout_png
 
     if args.schema:
         json.dump(json_schema(), sys.stdout, indent=2)

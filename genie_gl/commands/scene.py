@@ -26,7 +26,7 @@ def overview_pose(bounds):
 
 def run(args: argparse.Namespace) -> int:
     from ..layout import Layout
-    from . import build_scene
+    from ..scene import build_scene
 
     out = Path(args.out)
     if out.suffix not in (".usda", ".usdc", ".usd"):

@@ -1,0 +1,62 @@
+"""Where scenes are made: in this process, in worker processes, or on a Ray cluster. Each
+scene depends only on (seed, index), so every executor writes the same bytes."""
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from .config import DatasetConfig
+
+
+def _worker(job: tuple[DatasetConfig, int, bool]) -> dict:
+    if os.environ.get("GENIE_GL_BACKEND"):  # a spawned worker: the CLI's choice, inherited
+        from ..render.context import set_default_backend
+
+        set_default_backend(os.environ["GENIE_GL_BACKEND"])
+    from .run import run_scene
+
+    cfg, index, verify = job
+    return run_scene(cfg, index, verify=verify)
+
+
+def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = False) -> list[dict[str, Any]]:
+    """Run every scene of ``cfg`` (finished ones are checked and skipped); returns their stats.
+    The progress bar names the scene and stage being worked on (this process) or the scenes
+    under way (workers)."""
+    from tqdm import tqdm
+
+    from .run import run_scene
+
+    bar = tqdm(total=cfg.scenes, unit="scene", disable=not progress, desc="scenes", mininterval=0.5)
+    results: list[dict] = []
+
+    def done(r: dict) -> None:
+        results.append(r)
+        bar.update(1)
+
+    try:
+        if cfg.executor == "ray":
+            import ray
+
+            ray.init(address=cfg.address, ignore_reinit_error=True, log_to_driver=False)
+            remote = ray.remote(_worker)
+            pending = [remote.remote((cfg, i, verify)) for i in range(cfg.scenes)]
+            bar.set_postfix_str(f"{len(pending)} scenes on Ray")
+            while pending:
+                ready, pending = ray.wait(pending, num_returns=1)
+                done(ray.get(ready[0]))
+        elif cfg.workers <= 1 or cfg.scenes <= 1:
+            for i in range(cfg.scenes):
+                done(run_scene(cfg, i, verify=verify,
+                               stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}", refresh=True)))
+        else:
+            import multiprocessing as mp
+
+            n = min(cfg.workers, cfg.scenes)
+            bar.set_postfix_str(f"{n} worker processes: layout, scene, placement, capture, export")
+            with mp.get_context("spawn").Pool(n) as pool:
+                for r in pool.imap_unordered(_worker, [(cfg, i, verify) for i in range(cfg.scenes)]):
+                    done(r)
+    finally:
+        bar.close()
+    return results

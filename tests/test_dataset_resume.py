@@ -1,0 +1,112 @@
+"""Runs that never lose work: killed at random moments they resume to the bytes of an
+uninterrupted run (SemanticKITTI and BOP); a folder of other inputs, a second run into the
+same folder and damaged scenes are each handled."""
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from genie_gl.cli import main
+
+pytestmark = pytest.mark.gl
+ARGS = ["assembly_line", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "3000",
+        "--min-points", "500", "--no-progress", "--previews", "1", "--scenes", "2", "--workers", "1"]
+
+
+def digest(root: Path) -> dict[str, str]:
+    """Hash of every file but the manifest (it holds timings): computed here, not by genie-gl."""
+    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file() and p.name != "manifest.json"}
+
+
+def cli(*extra: str) -> list[str]:
+    return [sys.executable, "-m", "genie_gl.cli", "dataset", *ARGS, *extra]
+
+
+@pytest.fixture(scope="module", params=["semantickitti", "bop"])
+def reference(request, tmp_path_factory):
+    out = tmp_path_factory.mktemp(f"ref-{request.param}")
+    t = time.perf_counter()
+    assert main(["dataset", *ARGS, "--format", request.param, "--out", str(out)]) == 0
+    return request.param, out, time.perf_counter() - t
+
+
+def test_killed_at_random_moments_resumes_to_the_same_bytes(reference, tmp_path):
+    fmt, ref, wall = reference
+    rng = np.random.default_rng(7)
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).parent.parent))
+    kills = 0
+    for delay in rng.uniform(0.3, 1.0, 2) * (wall + 2.0):  # + interpreter start-up
+        proc = subprocess.Popen(cli("--format", fmt, "--out", str(tmp_path)), env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            proc.wait(timeout=delay)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGKILL)
+            proc.wait()
+            kills += 1
+    assert kills >= 1, "the run finished before any kill: nothing was tested"
+    assert main(["dataset", *ARGS, "--format", fmt, "--out", str(tmp_path)]) == 0
+    assert digest(tmp_path) == digest(ref)
+    m = json.loads((tmp_path / "manifest.json").read_text())
+    assert len(m["runs"]) >= 1 and m["runs"][-1]["scenes_made"] + m["runs"][-1]["scenes_skipped"] == 2
+
+
+def test_damaged_scene_is_made_again_and_timings_are_appended(reference, tmp_path):
+    fmt, ref, _ = reference
+    if fmt != "semantickitti":
+        pytest.skip("one format is enough")
+    import shutil
+    shutil.copytree(ref, tmp_path / "d")
+    out = tmp_path / "d"
+    victim = next((out / "scenes" / "0001").rglob("*.bin"))
+    victim.write_bytes(victim.read_bytes()[:-16])  # truncated
+    (out / "scenes" / "0000" / "layout.json").unlink()  # missing
+    assert main(["dataset", *ARGS, "--out", str(out)]) == 0
+    assert digest(out) == digest(ref)
+    m = json.loads((out / "manifest.json").read_text())
+    assert [r["scenes_made"] for r in m["runs"]] == [2, 2]
+    assert main(["dataset", *ARGS, "--out", str(out)]) == 0  # nothing to redo: appended, not overwritten
+    assert [r["scenes_made"] for r in json.loads((out / "manifest.json").read_text())["runs"]] == [2, 2, 0]
+
+
+@pytest.mark.parametrize("change, what", [(["--seed", "1"], "seed 0 -> 1"), (["--points", "2000"], "points"),
+                                          (["--sensor", "kinect_v2"], "sensor profile")])
+def test_resume_into_a_folder_of_other_inputs_is_refused(reference, tmp_path, capsys, change, what):
+    fmt, ref, _ = reference
+    if fmt != "semantickitti":
+        pytest.skip("one format is enough")
+    import shutil
+    shutil.copytree(ref, tmp_path / "d")
+    before = digest(tmp_path / "d")
+    assert main(["dataset", *ARGS, *change, "--out", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "made from other inputs" in err and what in err and len(err.splitlines()) == 1
+    assert digest(tmp_path / "d") == before
+
+
+def test_a_second_run_into_the_same_folder_is_refused_while_the_first_holds_it(tmp_path, capsys):
+    from genie_gl.dataset.manifest import OutputLock
+
+    tmp_path.mkdir(exist_ok=True)
+    held = subprocess.Popen([sys.executable, "-c", "import fcntl, sys, time; f = open(sys.argv[1], 'a+'); "
+                             "f.write('pid 1 test'); f.flush(); fcntl.flock(f, fcntl.LOCK_EX); print('held', flush=True); "
+                             "time.sleep(60)", str(tmp_path / ".genie-lock")], stdout=subprocess.PIPE, text=True)
+    try:
+        assert held.stdout.readline().strip() == "held"
+        assert main(["dataset", *ARGS, "--out", str(tmp_path)]) == 2
+        err = capsys.readouterr().err
+        assert "another genie dataset run" in err and len(err.strip().splitlines()) == 1
+    finally:
+        held.kill()
+        held.wait()
+    with OutputLock(tmp_path):  # the holder died: its lock is stale and taken over
+        assert (tmp_path / ".genie-lock").read_text().startswith(f"pid {os.getpid()}")
+    assert not (tmp_path / ".genie-lock").exists()  # released on exit
