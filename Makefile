@@ -43,6 +43,9 @@ $(STAMP): pyproject.toml
 	# pyrender (the reference renderer) pins PyOpenGL==3.1.0, whose OSMesa import is broken:
 	# install it without its pins; its real dependencies come with the test extra.
 	$(PY) -m pip install -q --no-deps "pyrender==0.1.45"
+	# semantic-kitti-api's declared dependencies pull torch, PyQt5 and vispy (~6 GB); its reader
+	# and evaluation classes need only numpy and PyYAML: install it without them (tests read with it)
+	$(PY) -m pip install -q --no-deps "semantic-kitti-api==0.1"
 	touch $(STAMP)
 
 setup: $(STAMP) ## install system libraries, create .venv and install genie-gl with its test extras
