@@ -41,7 +41,7 @@ def config_from_args(args: argparse.Namespace) -> DatasetConfig:
                                              "previews", "executor", "address", "max_nodes", "max_memory_gb",
                                              "max_disk_gb")}
     fields["split"] = parse_split(args.split)
-    return DatasetConfig.parse(fields, "genie dataset")
+    return DatasetConfig.parse(fields, "")
 
 
 def run(args: argparse.Namespace) -> int:

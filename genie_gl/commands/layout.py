@@ -36,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=".layout-", dir=out.parent))
+    tmp.chmod(0o755)  # mkdtemp makes 0700: the usual permissions for an output folder
     try:
         layout.to_json(tmp / "layout.json")
         save_layout_png(layout, tmp / "layout.png")

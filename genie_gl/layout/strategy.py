@@ -29,7 +29,7 @@ from typing import Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import ConfigError, did_you_mean
-from ..resources import resolve
+from ..resources import read_text, resolve
 from .generators import GENERATORS, Generator, get_generator
 from .model import ORIENTATIONS, RegionType
 from .providers import OrientationProvider, TypeProvider
@@ -153,8 +153,14 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
             if types[tname].final:
                 raise ConfigError(f"{source}: {where}: region type {tname!r} is final and cannot have a generator")
             cls = get_generator(rule.generator, f"{source}: {where}.generator")
-            gen = cls(**rule.args)
-            gen.check(f"{source}: {where}")
+            try:
+                gen = cls(**rule.args)
+                gen.check(f"{source}: {where}")
+            except ConfigError:
+                raise
+            except (TypeError, ValueError, KeyError, IndexError, OverflowError) as exc:  # an argument of the wrong kind
+                raise ConfigError(f"{source}: {where}.args: {rule.generator} cannot use these arguments "
+                                  f"({type(exc).__name__}: {exc})") from None
             providers = {}
             for slot, pspec in rule.children.items():
                 if cls.slots and slot not in cls.slots:
@@ -195,7 +201,7 @@ def load_strategy(path_or_name: str | Path) -> Strategy:
     """Load and validate a strategy file, or a shipped one by name (``"assembly_line"``)."""
     path = resolve(path_or_name, "layouts", (".json",))
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(read_text(path, "strategy JSON"))
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
     return parse_strategy(_anchor_assets(data, Path(path).resolve().parent), str(path))

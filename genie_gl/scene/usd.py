@@ -167,7 +167,11 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             v = np.asarray(pts, dtype=np.float64)
             if not np.all(np.isfinite(v)):
                 raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()} has NaN or Inf points")
-            faces = _triangulate(np.asarray(counts), np.asarray(idx))
+            counts, idx = np.asarray(counts, np.int64), np.asarray(idx, np.int64)
+            if (counts < 0).any() or counts.sum() != len(idx) or (len(idx) and (idx.min() < 0 or idx.max() >= len(v))):
+                raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()}: faceVertexCounts (sum {int(counts.sum())}) and "
+                                  f"faceVertexIndices ({len(idx)} indices into {len(v)} points) do not agree")
+            faces = _triangulate(counts, idx)
             keys[k] = scene.add_mesh(Mesh(v, faces), name=_ident(src.GetName(), "mesh"))
         return keys[k]
 

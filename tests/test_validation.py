@@ -1,0 +1,186 @@
+"""Bad input refused at the edge: one line naming the file or option, the field and what was
+expected; exit status 2 in the CLI, a GenieError in the API; nothing written. Limits checked
+before any work. A seeded, bounded fuzz test: every input ends in a result or a GenieError."""
+import json
+import time
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import genie_gl as gg
+from genie_gl.cli import main
+from genie_gl.layout import load_strategy
+from genie_gl.resources import data_dir
+
+
+def one_line_error(argv, capsys, message):
+    t = time.perf_counter()
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err, err
+    assert len(err.splitlines()) == 1, err
+    assert time.perf_counter() - t < 20
+
+
+def write_calibration(path, w, h):
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    fs.write("image_width", w)
+    fs.write("image_height", h)
+    fs.write("camera_matrix", np.array([[w, 0, w / 2], [0, w, h / 2], [0, 0, 1]], np.float64))
+    fs.write("distortion_coefficients", np.zeros((5, 1)))
+    fs.release()
+    return path
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--points", "0"], "--points: Input should be greater than or equal to 1"),
+    (["--chunk-m", "0"], "--chunk-m: Input should be greater than 0"),
+    (["--chunk-m", "nan"], "--chunk-m: Input should be a finite number"),
+    (["--seed", "-1"], "--seed: Input should be greater than or equal to 0"),
+    (["--cameras", "x"], "argument --cameras: invalid int value: 'x'"),
+    (["--min-labelled-share", "1.5"], "--min-labelled-share: Input should be less than or equal to 1"),
+    (["--split", "1,x,0"], "--split '1,x,0': expected three shares"),
+    (["--format", "plyy"], "did you mean 'ply'"),
+    (["--sensor", "elsewhere/kinect_v2.yaml"], "elsewhere/kinect_v2.yaml: no such file; the shipped sensor"),
+])
+def test_bad_dataset_options_get_one_line_and_exit_2(args, message, tmp_path, capsys):
+    one_line_error(["dataset", "assembly_line", *args, "--out", str(tmp_path / "o")], capsys, message)
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_missing_path_never_falls_back_to_a_shipped_file(tmp_path, capsys):
+    one_line_error(["dataset", "nowhere/assembly_line.json", "--out", str(tmp_path / "o")], capsys,
+                   "nowhere/assembly_line.json: no such file")
+    with pytest.raises(gg.ConfigError, match="no such file"):
+        load_strategy(tmp_path / "assembly_line.json")
+    assert load_strategy("assembly_line").source.endswith("assembly_line.json")  # the bare name still works
+
+
+def test_a_binary_file_given_as_a_profile_is_refused(tmp_path, capsys):
+    p = tmp_path / "profile.yaml"
+    p.write_bytes(bytes(range(256)) * 4)
+    one_line_error(["dataset", "assembly_line", "--sensor", str(p), "--out", str(tmp_path / "o")], capsys,
+                   "a binary file, expected a sensor profile")
+
+
+def big_strategy(tmp_path, level):
+    s = json.loads((data_dir("layouts") / "assembly_line.json").read_text())
+    s["levels"] = [level] * 6 if isinstance(level, dict) else level
+    s["root"]["width"], s["root"]["height"] = 1000, 1000
+    s["region_types"] = {"hall": {}, "cell": {}, "empty": {}, "room": {"final": True}}
+    s["root"]["type"] = "hall"
+    p = tmp_path / "big.json"
+    p.write_text(json.dumps(s))
+    return p
+
+
+def test_limits_are_checked_before_any_work(tmp_path, capsys):
+    grid = {t: {"generator": "grid", "args": {"cell": [0.01, 0.01]}, "children": {"cell": "cell", "empty": "empty"}}
+            for t in ("hall", "cell")}
+    p = big_strategy(tmp_path, grid)
+    one_line_error(["dataset", str(p), "--out", str(tmp_path / "o")], capsys, "raise it with --max-nodes")
+    rooms = big_strategy(tmp_path, [{"hall": {"generator": "random_rooms", "args": {"count": [100000, 100000]},
+                                              "children": {"room": "room"}}}])
+    one_line_error(["dataset", str(rooms), "--out", str(tmp_path / "o")], capsys, "--max-nodes")
+    huge = write_calibration(tmp_path / "huge.yml", 16000, 16000)
+    one_line_error(["dataset", "assembly_line", "--sensor", str(huge), "--out", str(tmp_path / "o")], capsys,
+                   "raise the limit with --max-memory-gb")
+    giant = write_calibration(tmp_path / "giant.yml", 20000, 20000)
+    one_line_error(["dataset", "assembly_line", "--sensor", str(giant), "--max-memory-gb", "1e6",
+                    "--out", str(tmp_path / "o")], capsys, "each side must be at most 16384 px")
+    one_line_error(["dataset", "assembly_line", "--scenes", "1000000", "--max-disk-gb", "1",
+                    "--out", str(tmp_path / "o")], capsys, "raise the limit with --max-disk-gb")
+    assert not (tmp_path / "o").exists()
+
+
+def test_an_unwritable_out_is_refused(tmp_path, capsys):
+    (tmp_path / "file").write_text("")
+    one_line_error(["dataset", "assembly_line", "--out", str(tmp_path / "file" / "o")], capsys, "not writable")
+
+
+# --- fuzz: any input ends in a result or a GenieError (seeded, bounded)
+
+values = st.one_of(st.none(), st.booleans(), st.integers(-10**12, 10**12),
+                   st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=8),
+                   st.lists(st.floats(-1e30, 1e30), max_size=3), st.just([5, 1]), st.just({}))
+FUZZ = settings(max_examples=40, deadline=None, derandomize=True, database=None,
+                suppress_health_check=list(HealthCheck))
+
+
+def _ends_well(call):
+    try:
+        call()
+    except gg.GenieError:
+        pass
+
+
+@FUZZ
+@given(level=st.integers(0, 2), key=st.sampled_from(["args", "children", "orientation", "generator", "bogus"]),
+       sub=st.sampled_from(["cell", "count", "paths", "line_width", "steps", "block", "spacing", "x"]), value=values)
+def test_fuzz_strategies(level, key, sub, value):
+    from genie_gl.dataset.limits import layout_estimate
+    from genie_gl.layout import generate_layout
+    from genie_gl.layout.strategy import parse_strategy
+
+    s = json.loads((data_dir("layouts") / "assembly_line.json").read_text())
+    levels = [lv for lv in s["levels"] if isinstance(lv, dict)]
+    rule = next(iter(levels[level % len(levels)].values()))
+    if key == "args":
+        rule.setdefault("args", {})[sub] = value
+    else:
+        rule[key] = value
+
+    def run():
+        strategy = parse_strategy(s, "fuzz.json")
+        if layout_estimate(strategy)[1] < 20000:
+            generate_layout(strategy, seed=0)
+    _ends_well(run)
+
+
+@FUZZ
+@given(text=st.one_of(st.text(max_size=200).map(lambda t: t.encode("utf-8", "surrogatepass")), st.binary(max_size=200),
+                      st.builds(lambda k, v: f"%YAML:1.0\n---\n{k}: {v}\n",
+                                st.sampled_from(["image_width", "camera_matrix", "calibration", "effects"]),
+                                st.sampled_from(["-1", "1e30", "nan", "[1, 2]", "x", "!!opencv-matrix {rows: 3}"])
+                                ).map(str.encode)))
+def test_fuzz_profiles_and_calibrations(tmp_path_factory, text):
+    p = tmp_path_factory.mktemp("fuzz") / "sensor.yaml"
+    p.write_bytes(text)
+    _ends_well(lambda: gg.load_sensor(p))
+
+
+@FUZZ
+@given(mpu=st.sampled_from(["1", "0", "-1", "nan", "1e30"]), counts=st.sampled_from(["[3]", "[4]", "[2]", "[-1]", "[3, 3]"]),
+       point=st.sampled_from(["(0, 0, 0)", "(1e30, 0, 0)", "(nan, 0, 0)"]), scale=st.sampled_from(["1", "0", "-2"]))
+def test_fuzz_usd(tmp_path_factory, mpu, counts, point, scale):
+    p = tmp_path_factory.mktemp("usd") / "s.usda"
+    p.write_text(f'''#usda 1.0
+(
+    metersPerUnit = {mpu}
+    upAxis = "Z"
+)
+def Xform "World" {{
+    def Mesh "m" {{
+        float3 xformOp:scale = ({scale}, 1, 1)
+        uniform token[] xformOpOrder = ["xformOp:scale"]
+        point3f[] points = [{point}, (1, 0, 0), (0, 1, 0)]
+        int[] faceVertexCounts = {counts}
+        int[] faceVertexIndices = [0, 1, 2]
+    }}
+}}
+''')
+    _ends_well(lambda: gg.Scene.from_usd(p))
+
+
+@FUZZ
+@given(opt=st.sampled_from(["--scenes", "--cameras", "--points", "--chunk-m", "--seed", "--workers", "--split",
+                            "--min-points", "--min-labelled-share", "--format", "--sensor", "--previews"]),
+       value=st.one_of(st.integers(-10**20, 10**20).map(str), st.floats().map(str), st.text(max_size=6)))
+def test_fuzz_cli_arguments(tmp_path_factory, opt, value):
+    out = tmp_path_factory.mktemp("cli") / "o"
+    # --max-nodes 1: every configuration that passes validation stops at the limits, before any work
+    rc = main(["dataset", "assembly_line", opt, value, "--max-nodes", "1", "--no-progress", "--out", str(out)])
+    assert rc == 2
