@@ -184,3 +184,29 @@ def test_fuzz_cli_arguments(tmp_path_factory, opt, value):
     # --max-nodes 1: every configuration that passes validation stops at the limits, before any work
     rc = main(["dataset", "assembly_line", opt, value, "--max-nodes", "1", "--no-progress", "--out", str(out)])
     assert rc == 2
+
+
+@pytest.mark.gl
+def test_a_full_disk_is_one_line_and_nothing_half_written_is_left(tmp_path):
+    """The run is given a file-size limit (RLIMIT_FSIZE; writes beyond it fail with EFBIG as
+    on a full disk): exit 2 with one line; what it left is resumed by a run without the limit."""
+    import os
+    import resource
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    def small_files():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+
+    out = tmp_path / "o"
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).parent.parent))
+    r = subprocess.run([sys.executable, "-m", "genie_gl.cli", "dataset", "assembly_line", "--scenes", "1", "--cameras",
+                        "2", "--sensor", "ideal_pinhole", "--points", "3000", "--min-points", "500", "--previews", "0",
+                        "--workers", "1", "--no-progress", "--out", str(out)], env=env, preexec_fn=small_files,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2, r.stderr
+    assert "disk full or file too large" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not (out / "scenes" / "0000").exists()  # the scene was not renamed into place half-written

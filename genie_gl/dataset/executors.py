@@ -13,7 +13,7 @@ def _worker(job: tuple[DatasetConfig, int, bool]) -> dict:
         from ..render.context import set_default_backend
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
-    from .run import run_scene
+    from .scene import run_scene
 
     cfg, index, verify = job
     return run_scene(cfg, index, verify=verify)
@@ -25,7 +25,7 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
     under way (workers)."""
     from tqdm import tqdm
 
-    from .run import run_scene
+    from .scene import run_scene
 
     bar = tqdm(total=cfg.scenes, unit="scene", disable=not progress, desc="scenes", mininterval=0.5)
     results: list[dict] = []
