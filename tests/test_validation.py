@@ -36,12 +36,12 @@ def write_calibration(path, w, h):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--points", "0"], "--points: Input should be greater than or equal to 1"),
-    (["--chunk-m", "0"], "--chunk-m: Input should be greater than 0"),
-    (["--chunk-m", "nan"], "--chunk-m: Input should be a finite number"),
-    (["--seed", "-1"], "--seed: Input should be greater than or equal to 0"),
+    (["--points", "0"], "--points 0: Input should be greater than or equal to 1"),
+    (["--chunk-m", "0"], "--chunk-m 0.0: Input should be greater than 0"),
+    (["--chunk-m", "nan"], "--chunk-m nan: Input should be a finite number"),
+    (["--seed", "-1"], "--seed -1: Input should be greater than or equal to 0"),
     (["--cameras", "x"], "argument --cameras: invalid int value: 'x'"),
-    (["--min-labelled-share", "1.5"], "--min-labelled-share: Input should be less than or equal to 1"),
+    (["--min-labelled-share", "1.5"], "--min-labelled-share 1.5: Input should be less than or equal to 1"),
     (["--split", "1,x,0"], "--split '1,x,0': expected three shares"),
     (["--format", "plyy"], "did you mean 'ply'"),
     (["--sensor", "elsewhere/kinect_v2.yaml"], "elsewhere/kinect_v2.yaml: no such file; the shipped sensor"),

@@ -78,7 +78,7 @@ class DatasetConfig(BaseModel):
             name = OPTION.get(str(e["loc"][0]) if e["loc"] else "", field)
             msg = e["msg"].removeprefix("Value error, ")
             got = e.get("input")
-            raise ConfigError(f"{source + ': ' if source else ''}{name}: {msg} (got {got!r:.60})") from None
+            raise ConfigError(f"{source + ': ' if source else ''}{name} {got!r:.60}: {msg}") from None
         except TypeError as exc:
             raise ConfigError(f"{source}: {exc}") from None
 

@@ -54,7 +54,7 @@ def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
     strategy = load_strategy(cfg.strategy)
     sensor = load_sensor(cfg.sensor)
     out = Path(cfg.out)
-    check_limits(cfg, strategy, sensor, out)
+    made = [p for p in (out, *out.parents) if not p.exists()]
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / ".write-test"
@@ -62,6 +62,15 @@ def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
         probe.unlink()
     except OSError as exc:
         raise ConfigError(f"--out {out}: not writable ({exc.strerror})") from None
+    try:
+        check_limits(cfg, strategy, sensor, out)
+    except ConfigError:
+        for p in made:  # refused before any work: leave no trace
+            try:
+                p.rmdir()
+            except OSError:
+                break
+        raise
     if cfg.executor == "ray":
         try:
             import ray  # noqa: F401
