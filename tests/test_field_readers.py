@@ -2,6 +2,7 @@
 classes and its evaluation logic, bop_toolkit's loaders (a faithful reading of inout.py, the
 package is not on PyPI), Open3D's tensor PLY and PCD readers."""
 import json
+import os
 import struct
 from pathlib import Path
 
@@ -232,3 +233,14 @@ def test_bop_toolkit_loaders_and_checks_accept_the_dataset(tmp_path):
             assert t[2] > 0 and set(inf) >= {"bbox_obj", "bbox_visib", "px_count_all", "px_count_valid",
                                               "px_count_visib", "visib_fract"}
     assert not list((tmp_path / "train_pbr").glob(".tmp-*"))
+
+
+@pytest.mark.gl
+def test_output_folders_and_files_get_the_usual_permissions(kitti):
+    old = os.umask(0o022)
+    os.umask(old)
+    if old != 0o022:
+        pytest.skip(f"umask {old:o}: the usual permissions follow from umask 022")
+    modes = {p: p.stat().st_mode & 0o777 for p in kitti.rglob("*")}  # the root is pytest's (0700)
+    assert {oct(m) for p, m in modes.items() if p.is_dir()} == {"0o755"}
+    assert {oct(m) for p, m in modes.items() if p.is_file()} == {"0o644"}
