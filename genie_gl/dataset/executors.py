@@ -8,15 +8,32 @@ from typing import Any
 from .config import DatasetConfig
 
 
-def _worker(job: tuple[DatasetConfig, int, bool]) -> dict:
+def _worker(job: tuple) -> dict:
     if os.environ.get("GENIE_GL_BACKEND"):  # a spawned worker: the CLI's choice, inherited
         from ..render.context import set_default_backend
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     from .scene import run_scene
 
-    cfg, index, verify = job
-    return run_scene(cfg, index, verify=verify)
+    cfg, index, verify, status = job if len(job) == 4 else (*job, None)
+
+    def stage(name: str) -> None:
+        if status is not None:
+            status[index] = name
+
+    try:
+        return run_scene(cfg, index, verify=verify, stage=stage)
+    finally:
+        if status is not None:
+            status.pop(index, None)
+
+
+def _describe(status) -> str:
+    try:
+        items = sorted(dict(status).items())
+    except Exception:  # the manager went away: nothing to show
+        return ""
+    return ", ".join(f"scene {i}: {name}" for i, name in items)
 
 
 def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = False) -> list[dict[str, Any]]:
@@ -39,7 +56,7 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
             import ray
 
             ray.init(address=cfg.address, ignore_reinit_error=True, log_to_driver=False)
-            remote = ray.remote(_worker)
+            remote = ray.remote(_worker)  # stages are not reported back from the cluster
             pending = [remote.remote((cfg, i, verify)) for i in range(cfg.scenes)]
             bar.set_postfix_str(f"{len(pending)} scenes on Ray")
             while pending:
@@ -53,10 +70,19 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
             import multiprocessing as mp
 
             n = min(cfg.workers, cfg.scenes)
-            bar.set_postfix_str(f"{n} worker processes: layout, scene, placement, capture, export")
-            with mp.get_context("spawn").Pool(n) as pool:
-                for r in pool.imap_unordered(_worker, [(cfg, i, verify) for i in range(cfg.scenes)]):
+            ctx = mp.get_context("spawn")
+            with ctx.Manager() as manager, ctx.Pool(n) as pool:
+                status = manager.dict()  # scene -> the stage its worker is in, for the bar
+                it = pool.imap_unordered(_worker, [(cfg, i, verify, status) for i in range(cfg.scenes)])
+                left = cfg.scenes
+                while left:
+                    try:
+                        r = it.next(timeout=0.5)
+                    except mp.TimeoutError:
+                        bar.set_postfix_str(_describe(status), refresh=True)
+                        continue
                     done(r)
+                    left -= 1
     finally:
         bar.close()
     return results

@@ -84,12 +84,38 @@ def cloud_top_picture(cloud, bounds, title: str, path: Path) -> None:
     _save(fig, path)
 
 
+def layout_picture(layout, title: str, path: Path) -> None:
+    """The layout's leaves coloured by region type, with a legend of the types and axes in metres."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    from ..layout.picture import layout_image
+
+    x0, y0, w, h = layout.bounds
+    s = max(4.0, min(20.0, 900.0 / max(w, h)))
+    img = np.asarray(layout_image(layout, px_per_m=s, legend=False))
+    fig, ax = plt.subplots(figsize=(9, 9 * h / w * 0.9 + 1.2) if w >= h else (7, 7 * h / w))
+    ax.imshow(img, extent=(x0, x0 + img.shape[1] / s, y0 + h - img.shape[0] / s, y0 + h))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title)
+    used = sorted({r.type for r in layout.leaves()})
+    ax.legend(handles=[Patch(color=np.array(layout.region_types[t].color) / 255, label=t) for t in used],
+              loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False, title="region type",
+              title_fontsize=8)
+    fig.tight_layout()
+    _save(fig, path)
+
+
 def write_previews(folder: Path, index: int, layout, frames) -> None:
     from ..cloud import to_cloud
-    from ..layout import save_layout_png
 
     folder.mkdir(parents=True, exist_ok=True)
-    save_layout_png(layout, folder / f"scene_{index:04d}_layout.png")
+    layout_picture(layout, f"scene {index}: layout ({len(layout.leaves())} regions)",
+                   folder / f"scene_{index:04d}_layout.png")
     for c, f in enumerate(frames[:2]):
         camera_picture(f, f"scene {index}, camera {c}", folder / f"scene_{index:04d}_cam{c:02d}.png")
     cloud = to_cloud(frames)
