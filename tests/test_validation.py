@@ -210,3 +210,77 @@ def test_a_full_disk_is_one_line_and_nothing_half_written_is_left(tmp_path):
     assert r.returncode == 2, r.stderr
     assert "disk full or file too large" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     assert not (out / "scenes" / "0000").exists()  # the scene was not renamed into place half-written
+
+
+def _profile_with(tmp_path, effects):
+    import shutil
+
+    import yaml
+    for f in data_dir("sensors").iterdir():
+        shutil.copy(f, tmp_path / f.name)
+    prof = yaml.safe_load((data_dir("sensors") / "kinect_v2.yaml").read_text())
+    prof["effects"] = effects
+    (tmp_path / "x.yaml").write_text(yaml.safe_dump(prof))
+    return tmp_path / "x.yaml"
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda s: s["scene"].update(wals=True), r"\$\.scene\.wals: unknown scene option; did you mean 'walls'"),
+    (lambda s: s["scene"].update(dropout=1.5), r"\$\.scene\.dropout: Input should be less than or equal to 1"),
+    (lambda s: next(iter(s["levels"][0].values()))["args"].update(pahts=2), r"args\.pahts: not an argument of"),
+    (lambda s: next(iter(s["levels"][0].values()))["args"].update(line_width=[5, 1]), r"0 < min <= max, got \[5, 1\]"),
+    (lambda s: next(iter(s["levels"][0].values()))["args"].update(line_width="wide"), r"args\.line_width"),
+])
+def test_bad_strategy_fields_are_named(mutate, message):
+    from genie_gl.layout.strategy import parse_strategy
+
+    s = json.loads((data_dir("layouts") / "assembly_line.json").read_text())
+    mutate(s)
+    with pytest.raises(gg.ConfigError, match=message):
+        parse_strategy(s, "x.json")
+
+
+@pytest.mark.parametrize("effects, message", [
+    ([{"type": "depth_noise", "model": "tof_linear", "a_m": -0.01}], r"x\.yaml: effects\[0\] \(depth_noise\)\.a_m: expected a value >= 0"),
+    ([{"type": "flying_pixels", "probability": 1.5}], r"probability"),
+    ([{"type": "range", "min_m": 5, "max_m": 1}], r"x\.yaml: effects\[0\] \(range\): min_m 5 is above max_m 1"),
+    ([{"type": "edge_dropout", "span_m": "far"}], r"span_m: expected a number"),
+])
+def test_bad_profile_fields_are_named(tmp_path, effects, message):
+    with pytest.raises(gg.ConfigError, match=message):
+        gg.load_sensor(_profile_with(tmp_path, effects))
+
+
+def test_bad_geometry_is_refused_by_name(tmp_path):
+    import trimesh
+    scene = gg.Scene()
+    scene.add(trimesh.creation.box((1, 1, 1)), np.eye(4), semantic=1, instance=5)
+    with pytest.raises(gg.ConfigError, match="instance id 5 is already used"):
+        scene.add(trimesh.creation.box((1, 1, 1)), np.eye(4), semantic=1, instance=5)
+    far = np.eye(4)
+    far[:3, 3] = 1e30
+    with pytest.raises(gg.ConfigError, match="absurd coordinates"):
+        scene.add(trimesh.creation.box((1, 1, 1)), far, semantic=1)
+    usd = tmp_path / "s.usda"
+    usd.write_text('#usda 1.0\n(\n    metersPerUnit = -1\n)\ndef Mesh "m" {\n    point3f[] points = [(0,0,0),(1,0,0),(0,1,0)]\n'
+                   '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0,1,2]\n}\n')
+    with pytest.raises(gg.ConfigError, match=r"s\.usda: metersPerUnit -1\.0: expected a number > 0"):
+        gg.Scene.from_usd(usd)
+    usd.write_text(usd.read_text().replace("metersPerUnit = -1", "metersPerUnit = 1").replace("[3]", "[4]"))
+    with pytest.raises(gg.ConfigError, match=r"faceVertexCounts \(sum 4\) and faceVertexIndices \(3 indices"):
+        gg.Scene.from_usd(usd)
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("entry, value, message", [
+    ("scale", 2.0, r"not a rotation \(\|RᵀR - I\| = 3, det 2\)"), ("shear", 0.5, "not a rotation"),
+    ("mirror", -1.0, "det -1"), ("nan", float("nan"), "NaN or Inf")])
+def test_poses_with_scale_shear_or_mirror_are_refused(entry, value, message):
+    import trimesh
+    scene = gg.Scene()
+    scene.add(trimesh.creation.box((1, 1, 1)), np.eye(4), semantic=1)
+    T = np.eye(4)
+    T[:3, 3] = [0, 0, -3]
+    T[{"scale": (0, 0), "shear": (0, 1), "mirror": (0, 0), "nan": (1, 1)}[entry]] = value
+    with pytest.raises(gg.ConfigError, match=message):
+        gg.capture(scene, gg.Sensor.pinhole(32, 24, 30.0), [T], seed=0)

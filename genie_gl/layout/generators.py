@@ -86,6 +86,8 @@ class Generator:
     """
 
     slots: ClassVar[tuple[str, ...]] = ()
+    # the argument names it reads; None: any (a strategy naming another one is refused)
+    arguments: ClassVar[tuple[str, ...] | None] = None
 
     def __init__(self, **args: Any) -> None:
         self.args = args
@@ -159,6 +161,7 @@ class Grid(Generator):
     region (``leftover: "empty"``) or spread between cells (``"spread"``)."""
 
     slots = ("cell", "empty")
+    arguments = ('aisle', 'aisle_every', 'cell', 'leftover', 'spacing')
 
     def check(self, where: str) -> None:
         cell = self.args.get("cell")
@@ -217,6 +220,7 @@ class AssemblyLine(Generator):
     ``direction``: "horizontal", "vertical" or "random" (line along x or y)."""
 
     slots = ("line", "material", "path", "rest")
+    arguments = ('direction', 'line_width', 'material_width', 'path_spacing', 'path_width', 'paths')
 
     def check(self, where: str) -> None:
         a = self.args
@@ -301,6 +305,7 @@ class RandomRooms(Generator):
     placed (never loops forever)."""
 
     slots = ("room",)
+    arguments = ('attempts', 'count', 'gap', 'height', 'width')
 
     def check(self, where: str) -> None:
         a = self.args
@@ -334,6 +339,7 @@ class DrunkardWalk(Generator):
     into rectangles (maximal row runs merged downwards): irregular rooms."""
 
     slots = ("room",)
+    arguments = ('block', 'steps')
 
     def check(self, where: str) -> None:
         if float(self.args.get("block", 1.0)) <= 0 or int(self.args.get("steps", 1)) < 1:

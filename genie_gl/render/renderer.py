@@ -17,6 +17,7 @@ from typing import Any
 import moderngl
 import numpy as np
 
+from ..checks import check_pose
 from ..errors import RenderError
 from ..frame import Frame
 from ..scene.model import Mesh, Scene
@@ -270,6 +271,7 @@ class Renderer:
         normals : also render camera-frame unit normals (``Frame.normal``).
         only : draw just the instances with these ids (e.g. an object's full silhouette).
         """
+        pose = check_pose(pose, "Renderer.render pose")
         with self._current():
             return self._render(sensor, pose, depth_only, normals, only)
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
+from ..scene_options import check_scene_options
 from .assets import library as lib
 from .assets.catalogue import ASSETS, Catalogue
 from .model import Scene
@@ -182,7 +183,8 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
     ``assets`` (default: the registry :func:`register_asset` fills) gives each class's variants.
     Same layout, options, assets and seed: the same scene (and the same USD bytes).
     """
-    opts = dict(layout.meta.get("scene", {}) if options is None else options)
+    opts = check_scene_options(layout.meta.get("scene", {}) if options is None else options,
+                               "build_scene options" if options is not None else "layout scene options")
     cat = _with_assets(opts.get("assets"), ASSETS if assets is None else assets)
     b = SceneBuilder(layout, opts, np.random.default_rng(seed) if rng is None else rng, cat)
     b.background()

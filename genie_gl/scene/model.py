@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import MAX_COORD_M
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -125,6 +126,8 @@ def _as_transform(transform: Any) -> np.ndarray:
         raise ConfigError(f"transform: expected a (4, 4) matrix or a (3,) translation, got {t.shape}")
     if not np.all(np.isfinite(t)):
         raise ConfigError("transform: contains NaN or Inf")
+    if np.abs(t[:3, 3]).max() > MAX_COORD_M:
+        raise ConfigError(f"transform: translation {t[:3, 3].tolist()} m is beyond {MAX_COORD_M:g} m (absurd coordinates)")
     return t
 
 

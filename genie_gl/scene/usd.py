@@ -144,6 +144,8 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     if stage is None:
         raise ConfigError(f"{path}: USD could not open the stage")
     mpu = UsdGeom.GetStageMetersPerUnit(stage) if meters_per_unit is None else float(meters_per_unit)
+    if not (np.isfinite(mpu) and 0 < mpu <= 1e6):
+        raise ConfigError(f"{path}: metersPerUnit {mpu}: expected a number > 0 (1 = metres, 0.01 = centimetres)")
     up = UsdGeom.GetStageUpAxis(stage) if up_axis is None else up_axis.upper()
     fix = np.eye(4) * mpu
     fix[3, 3] = 1.0
