@@ -55,8 +55,8 @@ def _footprint(mesh, yaw: float) -> tuple[float, float]:
 
 
 class SceneBuilder:
-    def __init__(self, layout: Layout, options: dict[str, Any], rng: np.random.Generator,
-                 assets: Catalogue) -> None:
+    def __init__(self, layout: Layout, options: dict[str, Any], assets: Catalogue, *,
+                 rng: np.random.Generator) -> None:
         self.layout, self.opt, self.rng, self.assets = layout, options, rng, assets
         self.scene = Scene(metadata={"layout": layout.meta})
         self._keys: dict[tuple[str, str], str] = {}
@@ -186,7 +186,7 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
     opts = check_scene_options(layout.meta.get("scene", {}) if options is None else options,
                                "build_scene options" if options is not None else "layout scene options")
     cat = _with_assets(opts.get("assets"), ASSETS if assets is None else assets)
-    b = SceneBuilder(layout, opts, np.random.default_rng(seed) if rng is None else rng, cat)
+    b = SceneBuilder(layout, opts, cat, rng=np.random.default_rng(seed) if rng is None else rng)
     b.background()
     for i, reg in enumerate(layout.leaves()):
         b.region(i, reg)
