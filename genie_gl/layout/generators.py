@@ -1,6 +1,6 @@
 """Region generators: split a parent region into labelled child rectangles ("slots").
 
-A generator is a class with ``generate(parent, rng) -> list[Child]``; its constructor takes
+A generator is a class with ``generate(parent, *, rng) -> list[Child]``; its constructor takes
 the strategy's ``args``. Register a new one with one line::
 
     @register("my_generator")
