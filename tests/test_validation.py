@@ -284,3 +284,23 @@ def test_poses_with_scale_shear_or_mirror_are_refused(entry, value, message):
     T[{"scale": (0, 0), "shear": (0, 1), "mirror": (0, 0), "nan": (1, 1)}[entry]] = value
     with pytest.raises(gg.ConfigError, match=message):
         gg.capture(scene, gg.Sensor.pinhole(32, 24, 30.0), [T], seed=0)
+
+
+@FUZZ
+@given(opt=st.sampled_from(["--seed", "--resolution"]),
+       value=st.one_of(st.integers(-10**20, 10**20).map(str), st.floats().map(str), st.text(max_size=6)))
+def test_fuzz_layout_command_arguments(tmp_path_factory, opt, value):
+    out = tmp_path_factory.mktemp("layout") / "o"
+    rc = main(["layout", "assembly_line", opt, value, "--out", str(out)])
+    assert rc in (0, 2) and (rc == 2) != (out / "layout.json").exists()
+
+
+def test_seeds_and_sizes_of_every_command_are_checked(tmp_path, capsys):
+    one_line_error(["layout", "assembly_line", "--seed", "-1", "--out", str(tmp_path / "l")], capsys,
+                   "argument --seed: expected a whole number in 0..2**63-1, got -1")
+    one_line_error(["layout", "assembly_line", "--resolution", "1e-5", "--out", str(tmp_path / "l")], capsys,
+                   "use a coarser --resolution")
+    one_line_error(["scene", "x.json", "--seed", "x", "--out", str(tmp_path / "s.usda")], capsys,
+                   "argument --seed: expected a whole number >= 0, got 'x'")
+    one_line_error(["capture", "x.usda", "--cameras", "0", "--out", str(tmp_path / "c")], capsys,
+                   "argument --cameras: expected a whole number in 1..10000, got 0")

@@ -12,16 +12,18 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from . import count, positive, seed, stages
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", help="USD scene (.usda/.usdc/.usd)")
     p.add_argument("--sensor", default="ideal_pinhole", help="sensor profile name or path")
-    p.add_argument("--cameras", type=int, default=8)
+    p.add_argument("--cameras", type=count(1, 10_000), default=8)
     p.add_argument("--out", required=True)
+    p.add_argument("--no-progress", action="store_true")
     p.add_argument("--format", default="ply")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--height", type=float, default=3.5, help="camera height above the scene's floor (m)")
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--height", type=positive(1e4), default=3.5, help="camera height above the scene's floor (m)")
 
 
 def ring_poses(bounds: np.ndarray, n: int, height: float) -> list[np.ndarray]:
@@ -45,16 +47,19 @@ def run(args: argparse.Namespace) -> int:
     if args.format not in FORMATS:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
                           f"{did_you_mean(args.format, FORMATS)}")
-    if args.cameras < 1:
-        raise ConfigError("--cameras must be >= 1")
     sensor = load_sensor(args.sensor)
-    scene = Scene.from_usd(args.scene)
-    poses = ring_poses(scene.bounds(), args.cameras, args.height)
-    frames = capture(scene, sensor, poses, seed=args.seed, workers=None)
-    cloud = to_cloud(frames)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    path = export(cloud, out, format=args.format)
+    with stages(["read scene", "render", "cloud", "export"], title="genie capture", enabled=not args.no_progress) as step:
+        step("read scene")
+        scene = Scene.from_usd(args.scene)
+        poses = ring_poses(scene.bounds(), args.cameras, args.height)
+        step(f"render {args.cameras} cameras")
+        frames = capture(scene, sensor, poses, seed=args.seed, workers=None)
+        step("cloud")
+        cloud = to_cloud(frames)
+        step("export")
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        path = export(cloud, out, format=args.format)
     (out / "manifest.json").write_text(json.dumps({
         "genie_gl": __version__, "command": "capture", "scene": args.scene, "sensor": args.sensor,
         "cameras": args.cameras, "seed": args.seed, "format": args.format, "points": len(cloud)}, indent=1))
