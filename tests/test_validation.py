@@ -304,3 +304,14 @@ def test_seeds_and_sizes_of_every_command_are_checked(tmp_path, capsys):
                    "argument --seed: expected a whole number >= 0, got 'x'")
     one_line_error(["capture", "x.usda", "--cameras", "0", "--out", str(tmp_path / "c")], capsys,
                    "argument --cameras: expected a whole number in 1..10000, got 0")
+
+
+@pytest.mark.parametrize("name", ["assembly_line", "storage_area", "logistics_lane"])
+def test_the_layout_estimate_bounds_the_regions_made(name):
+    from genie_gl.dataset.limits import layout_estimate
+    from genie_gl.layout import generate_layout
+
+    strategy = load_strategy(name)
+    nodes, work = layout_estimate(strategy)
+    made = max(len(generate_layout(strategy, seed=s)) for s in range(8))
+    assert made <= nodes <= work and nodes < 20 * made  # an upper bound, and not a vacuous one

@@ -55,7 +55,7 @@ def layout_estimate(strategy) -> tuple[int, int]:
     """(regions, work) a layout of ``strategy`` can make at most (see the module's text)."""
     W, H = strategy.root.width, strategy.root.height
     area, big = W * H, max(W, H)
-    nodes, level_nodes, work = 1, 1, 1
+    nodes, work = 1, 1  # a level may split any region made so far: all of them are its parents
     for level in strategy.levels:
         if level == "merge" or not isinstance(level, dict):
             continue
@@ -66,22 +66,22 @@ def layout_estimate(strategy) -> tuple[int, int]:
                 cw, ch = (float(c) for c in a.get("cell", (1.0, 1.0)))
                 sp = float(a.get("spacing", 0.0))
                 n = (big / (min(cw, ch) + sp) + 1) ** 2 + 1
-                area_cap = min(area_cap, area / (cw * ch) + level_nodes)
+                area_cap = min(area_cap, 2 * area / (cw * ch) + 2 * nodes)
             elif name == "random_rooms":
                 n = _hi(a.get("count"), 1.0)
-                work += int(n * n * _hi(a.get("attempts"), 50.0) / 2 / 10) * level_nodes
+                work += int(n * n * _hi(a.get("attempts"), 50.0) / 2 / 10) * nodes
             elif name == "drunkard_walk":
                 b = float(a.get("block", 1.0))
                 n = min(_hi(a.get("steps"), 50.0) + 1, (big / b) ** 2)
-                area_cap = min(area_cap, area / (b * b) + level_nodes)
+                area_cap = min(area_cap, 2 * area / (b * b) + 2 * nodes)
             elif name == "assembly_line":
                 n = 2 * _hi(a.get("paths"), 2.0) + 8
             else:  # a generator of the user's: as a grid of 4 m cells would
                 n = (big / 4.0 + 1) ** 2
             per_parent = max(per_parent, n)
-        level_nodes = int(min(level_nodes * per_parent, area_cap, 1e18))
-        nodes += level_nodes
-        work += level_nodes
+        made = int(min(nodes * per_parent, area_cap, 1e18))
+        nodes += made
+        work += made
     return int(min(nodes, 1e18)), int(min(work, 1e18))
 
 
