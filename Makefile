@@ -21,7 +21,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline \
+.PHONY: help setup system-deps test demo docs-images bench bench-render bench-layout bench-accuracy bench-pipeline \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -52,6 +52,9 @@ setup: $(STAMP) ## install system libraries, create .venv and install genie-gl w
 
 test: setup ## run the test suite (real GL on EGL/llvmpipe)
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+docs-images: setup ## remake the README's pictures (one scene, seed 0) into docs/images
+	$(PY) docs/make_images.py $(OUT)/docs
 
 demo: setup ## generate a 3-scene demo dataset with preview pictures into out/demo
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \

@@ -5,6 +5,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import ConfigError
+from ..dataset.previews import overview_pose  # noqa: F401  (kept importable from here)
 from . import seed, stages
 
 
@@ -14,16 +15,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="scene file (.usda text or .usdc binary)")
     p.add_argument("--no-picture", action="store_true", help="skip the overview PNG")
     p.add_argument("--no-progress", action="store_true")
-
-
-def overview_pose(bounds):
-    """A camera above one corner of the hall looking at its centre (world_from_camera)."""
-    import numpy as np
-
-    from ..render.projection import look_at
-
-    x0, y0, w, h = bounds
-    return look_at([x0 - 0.15 * w, y0 - 0.35 * h, 0.45 * max(w, h)], [x0 + w / 2, y0 + h / 2, 0.0])
 
 
 def run(args: argparse.Namespace) -> int:

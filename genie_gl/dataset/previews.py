@@ -110,7 +110,34 @@ def layout_picture(layout, title: str, path: Path) -> None:
     _save(fig, path)
 
 
-def write_previews(folder: Path, index: int, layout, frames) -> None:
+def overview_pose(bounds):
+    """A camera above one corner of the hall looking at its centre (world_from_camera)."""
+    from ..render.projection import look_at
+
+    x0, y0, w, h = bounds
+    return look_at([x0 - 0.15 * w, y0 - 0.35 * h, 0.45 * max(w, h)], [x0 + w / 2, y0 + h / 2, 0.0])
+
+
+def overview_picture(scene, layout, title: str, path: Path) -> None:
+    """The scene rendered from above one corner of the hall, with a title."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..render import render
+    from ..sensors.camera import Sensor
+
+    frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds))
+    fig, ax = plt.subplots(figsize=(10.24, 6.9))
+    ax.imshow(frame.rgb)
+    ax.set_axis_off()
+    ax.set_title(title)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def write_previews(folder: Path, index: int, layout, frames, scene=None) -> None:
     from ..cloud import to_cloud
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -118,6 +145,9 @@ def write_previews(folder: Path, index: int, layout, frames) -> None:
                    folder / f"scene_{index:04d}_layout.png")
     for c, f in enumerate(frames[:2]):
         camera_picture(f, f"scene {index}, camera {c}", folder / f"scene_{index:04d}_cam{c:02d}.png")
+    if scene is not None:
+        overview_picture(scene, layout, f"scene {index}: {len(scene.instances)} objects, rendered from above a corner",
+                         folder / f"scene_{index:04d}_overview.png")
     cloud = to_cloud(frames)
     cloud_top_picture(cloud, layout.bounds, f"scene {index}: merged cloud from above ({len(cloud):,} points)",
                       folder / f"scene_{index:04d}_cloud_top.png")

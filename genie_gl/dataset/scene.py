@@ -97,7 +97,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     if index < cfg.previews:
         from .previews import write_previews
 
-        write_previews(out / "previews", index, layout, frames)
+        write_previews(out / "previews", index, layout, frames, scene)
     if fmt.before_rename is not None:
         fmt.before_rename(data, out)
     t["export"] = time.perf_counter()
