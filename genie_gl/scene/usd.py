@@ -177,8 +177,20 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             keys[k] = scene.add_mesh(Mesh(v, faces), name=_ident(src.GetName(), "mesh"))
         return keys[k]
 
+    authored: dict[int, str] = {}  # genie:instanceId -> the prim that authored it
+
     def place(key: str, world: np.ndarray, prim: Usd.Prim, name: str) -> None:
         sem, inst = _label(prim)
+        if inst is not None:
+            owner = prim
+            while owner and not owner.HasAttribute("genie:instanceId"):
+                owner = owner.GetParent()
+            where = str(owner.GetPath()) if owner else str(prim.GetPath())
+            if prim.IsInstanceProxy():
+                where = str(owner.GetPrimInPrototype().GetPath()) if owner else where
+            if authored.setdefault(inst, where) != where and not prim.IsInstanceProxy():
+                raise ConfigError(f"{path}: genie:instanceId {inst} is authored on both {authored[inst]} and {where}; "
+                                  "expected one id per object")
         if inst is None or inst in taken:
             while next_id[0] in taken:
                 next_id[0] += 1
