@@ -244,3 +244,13 @@ def test_output_folders_and_files_get_the_usual_permissions(kitti):
     modes = {p: p.stat().st_mode & 0o777 for p in kitti.rglob("*")}  # the root is pytest's (0700)
     assert {oct(m) for p, m in modes.items() if p.is_dir()} == {"0o755"}
     assert {oct(m) for p, m in modes.items() if p.is_file()} == {"0o644"}
+
+
+def test_ply_and_npz_keep_the_full_instance_range(tmp_path):
+    import plyfile
+    c = gg.PointCloud(np.zeros((3, 3), np.float32), np.array([1, 2, 65535], np.uint16),
+                      np.array([1, 2**31, 2**32 - 1], np.uint32), np.zeros(3))
+    v = plyfile.PlyData.read(str(gg.export(c, tmp_path, format="ply")))["vertex"].data
+    assert v["instance"].tolist() == c.instance.tolist() and v["semantic"].tolist() == [1, 2, 65535]
+    z = np.load(gg.export(c, tmp_path, format="npz"))
+    assert z["instance"].dtype == np.uint32 and z["instance"].tolist() == c.instance.tolist()

@@ -1,31 +1,35 @@
 """Binary little-endian PLY with ``x y z`` (float), ``nx ny nz`` (when present), ``red green
 blue`` (uchar), ``semantic`` and ``instance`` (int, i.e. int32): the types that plyfile,
-CloudCompare and Open3D's tensor reader all keep (Open3D skips ``ushort`` and ``uint``)."""
+CloudCompare and Open3D's tensor reader all keep (Open3D skips ``ushort`` and ``uint``).
+Instance ids above 2**31 - 1 (rare: ids are per scene) are written as ``uint`` instead, so the
+full uint32 range is kept (plyfile, CloudCompare), with a warning that Open3D skips them."""
 from __future__ import annotations
 
+import logging
 import os
 from pathlib import Path
 
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
-from ..errors import ExportError
 from ._atomic import atomic_write_bytes
 
 INT32_MAX = 2**31 - 1
-PLY_TYPE = {"<f4": "float", "u1": "uchar", "<i4": "int"}
+PLY_TYPE = {"<f4": "float", "u1": "uchar", "<i4": "int", "<u4": "uint"}
+log = logging.getLogger(__name__)
 
 
 def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
-    if len(cloud) and int(cloud.instance.max()) > INT32_MAX:
-        raise ExportError(f"{path}: instance id {int(cloud.instance.max())} exceeds the PLY int range "
-                          f"({INT32_MAX}); use npz, which keeps uint32")
+    wide = bool(len(cloud)) and int(cloud.instance.max()) > INT32_MAX
+    if wide:  # the full uint32 range kept (plyfile, CloudCompare); Open3D's tensor reader skips uint
+        log.warning("%s: instance ids above %d written as PLY uint, which Open3D's tensor reader skips",
+                    path, INT32_MAX)
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
     if cloud.normal is not None:
         fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
     if cloud.rgb is not None:
         fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
-    fields += [("semantic", "<i4"), ("instance", "<i4")]
+    fields += [("semantic", "<i4"), ("instance", "<u4" if wide else "<i4")]
     rec = np.empty(len(cloud), dtype=fields)
     rec["x"], rec["y"], rec["z"] = cloud.xyz.T
     if cloud.normal is not None:
