@@ -28,7 +28,7 @@ def kitti(tmp_path_factory):
 @pytest.mark.gl
 def test_semantic_kitti_api_loads_and_evaluates_the_dataset(kitti):
     """evaluate_semantics.py's steps (the script is not in the wheel) with the API's own classes."""
-    laserscan = pytest.importorskip("auxiliary.laserscan", reason="pip install --no-deps semantic-kitti-api")
+    from auxiliary import laserscan  # semantic-kitti-api (make setup: pip install --no-deps semantic-kitti-api)
     from auxiliary.np_ioueval import iouEval
 
     DATA = yaml.safe_load((kitti / "genie-gl.yaml").read_text())
@@ -115,7 +115,7 @@ def random_cloud(n=300, seed=0):
 
 
 def test_open3d_tensor_readers_keep_the_labels(tmp_path):
-    o3d = pytest.importorskip("open3d")
+    import open3d as o3d
     c = random_cloud()
     ply = o3d.t.io.read_point_cloud(str(gg.export(c, tmp_path, format="ply")))
     np.testing.assert_array_equal(ply.point["positions"].numpy(), c.xyz)
@@ -254,3 +254,16 @@ def test_ply_and_npz_keep_the_full_instance_range(tmp_path):
     assert v["instance"].tolist() == c.instance.tolist() and v["semantic"].tolist() == [1, 2, 65535]
     z = np.load(gg.export(c, tmp_path, format="npz"))
     assert z["instance"].dtype == np.uint32 and z["instance"].tolist() == c.instance.tolist()
+
+
+@pytest.mark.gl
+def test_every_stage_of_a_scene_is_named_for_the_progress_bar(tmp_path):
+    from genie_gl.dataset import DatasetConfig, run_scene
+    from genie_gl.dataset.scene import STAGES
+
+    cfg = DatasetConfig(strategy="assembly_line", out=str(tmp_path), scenes=1, cameras=1, sensor="ideal_pinhole",
+                        points=1000, min_points=100, previews=0)
+    seen = []
+    stats = run_scene(cfg, 0, stage=seen.append)
+    assert seen == list(STAGES) and set(stats["timings_s"]) == set(STAGES)
+    assert run_scene(cfg, 0, stage=seen.append)["skipped"] and len(seen) == len(STAGES)  # a finished scene: no stages
