@@ -191,7 +191,7 @@ def bop_load_ply(path):
 
 @pytest.mark.gl
 def test_bop_toolkit_loaders_and_checks_accept_the_dataset(tmp_path):
-    import cv2
+    import imageio.v2 as imageio
 
     assert main(["dataset", *ARGS, "--scenes", "1", "--format", "bop", "--out", str(tmp_path)]) == 0
     cam = bop_load_json(tmp_path / "camera.json")
@@ -220,7 +220,7 @@ def test_bop_toolkit_loaders_and_checks_accept_the_dataset(tmp_path):
     for im in sc:
         K = np.array(sc[im]["cam_K"]).reshape(3, 3)
         assert "cam_model" not in sc[im]
-        depth = cv2.imread(str(scene / "depth" / f"{im:06d}.png"), cv2.IMREAD_UNCHANGED).astype(np.float32)
+        depth = imageio.imread(scene / "depth" / f"{im:06d}.png").astype(np.float32)  # inout.load_depth
         depth_mm = depth * sc[im]["depth_scale"]
         assert depth.max() <= 65535 and depth_mm.max() > 0
         assert 65535 * sc[im]["depth_scale"] / 10 < depth_mm.max() <= 65535 * sc[im]["depth_scale"] or \
