@@ -218,9 +218,16 @@ def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
 SIGNED = {"bias_m", "axis"}  # parameters that may be negative
 
 
+def _magnitude(name: str) -> bool:
+    """A parameter that is a size, spread, share or angle by its name (so never negative)."""
+    return name not in SIGNED and ("sigma" in name or "probability" in name or name in ("scale", "subpixel", "b")
+                                   or name.endswith(("_m", "_px", "_mm", "_deg", "_rel", "_step")))
+
+
 def _check_numbers(e: Effect, where: str) -> None:
-    """The checks every effect's numbers share: real numbers, not NaN; none negative but those
-    in :data:`SIGNED`; probabilities in [0, 1], angles in [0, 90] degrees, min <= max."""
+    """The checks every effect's numbers share: real numbers, not NaN; sizes, spreads, shares
+    and angles (by name, :func:`_magnitude`) not negative; probabilities in [0, 1], angles in
+    [0, 90] degrees, min <= max."""
     import dataclasses
     import math
 
@@ -232,7 +239,7 @@ def _check_numbers(e: Effect, where: str) -> None:
         for x in values:
             if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x):
                 raise ConfigError(f"{where}.{f.name}: expected a number, got {v!r:.40}")
-            if x < 0 and f.name not in SIGNED:
+            if x < 0 and _magnitude(f.name):
                 raise ConfigError(f"{where}.{f.name}: expected a value >= 0, got {v!r}")
             if "probability" in f.name and x > 1:
                 raise ConfigError(f"{where}.{f.name}: expected a probability in [0, 1], got {v!r}")
