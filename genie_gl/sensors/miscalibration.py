@@ -81,6 +81,6 @@ class CalibrationError(Effect):
         return DistortionMaps(sensor, mx.astype(np.float32), my.astype(np.float32), valid)
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
-        K_true = self.true_K(frame.sensor, rng=rng)
+        K_true = self.true_K(frame.sensor, rng)
         out = distort(frame, frame.sensor, self.maps(frame.sensor, K_true))
         return record(out, self.name, K_true=K_true.tolist())

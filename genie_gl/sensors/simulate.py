@@ -40,9 +40,9 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
 
     for eff in sensor.effects:
         if eff.needs_render:
-            frame = eff.apply(frame, rng=rng, render_depth=render_depth)
+            frame = eff.apply(frame, rng, render_depth=render_depth)
         else:
-            frame = eff.apply(frame, rng=rng)
+            frame = eff.apply(frame, rng)
     if normals:
         frame = frame.replace(normal=None)
     return frame
