@@ -1,9 +1,5 @@
 """The dataset pipeline end to end: determinism across workers, resuming, bad input."""
 import hashlib
-import os
-import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 

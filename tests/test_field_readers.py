@@ -4,7 +4,6 @@ package is not on PyPI), Open3D's tensor PLY and PCD readers."""
 import json
 import os
 import struct
-from pathlib import Path
 
 import numpy as np
 import pytest
