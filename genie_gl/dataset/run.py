@@ -98,8 +98,6 @@ def _write_manifest(out: Path, manifest: dict) -> None:
 def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False) -> dict[str, Any]:
     """Make every missing (or damaged) scene of the dataset described by ``cfg``."""
     from ..export import get_format
-    from .executors import map_scenes
-    from .report import histogram
 
     _check_registered_assets(cfg)
     if isinstance(cfg, dict):
@@ -119,38 +117,46 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
         }
         _write_manifest(out, manifest)  # before any scene: a later resume knows the inputs
         _clear_leftovers(out, fmt)
-        started = time.time()
-        t0 = time.perf_counter()
         try:
-            results = map_scenes(cfg, progress=progress, verify=verify)
+            _run(cfg, out, fmt, manifest, runs, progress=progress, verify=verify)
         except OSError as exc:
             if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
                 raise ConfigError(f"--out {out}: disk full or file too large while writing "
                                   f"({exc.filename or 'a scene'}: {exc.strerror}); finished scenes are kept: free "
                                   "space and run the same command again") from None
             raise
-        elapsed = time.perf_counter() - t0
-        stats = [scene_complete(fmt.scene_dir(out, i)) for i in range(cfg.scenes)]
-        missing = [i for i, s in enumerate(stats) if s is None]
-        if missing:
-            raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
-        if fmt.finish is not None:
-            fmt.finish(out, cfg, stats)
-        hist = histogram(out, stats)
-        made = [r for r in results if not r.get("skipped")]
-        stage_t: dict[str, float] = {}
-        for r in made:
-            for k, v in r.get("timings_s", {}).items():
-                stage_t[k] = stage_t.get(k, 0.0) + v
-        manifest["runs"] = runs + [{
-            "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
-            "scenes_made": len(made), "scenes_skipped": cfg.scenes - len(made), "workers": cfg.workers,
-            "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t}]
-        manifest["scenes_made"], manifest["scenes_skipped"] = len(made), cfg.scenes - len(made)
-        manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
-        if any("sequence" in s for s in stats):
-            manifest["sequences"] = {f"{s['sequence']:02d}": [] for s in stats}
-            for s in stats:
-                manifest["sequences"][f"{s['sequence']:02d}"].append(s["scene"])
-        _write_manifest(out, manifest)
     return manifest
+
+
+def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, progress: bool, verify: bool) -> None:
+    """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
+    from .executors import map_scenes
+    from .report import histogram
+
+    started = time.time()
+    t0 = time.perf_counter()
+    results = map_scenes(cfg, progress=progress, verify=verify)
+    elapsed = time.perf_counter() - t0
+    stats = [scene_complete(fmt.scene_dir(out, i)) for i in range(cfg.scenes)]
+    missing = [i for i, s in enumerate(stats) if s is None]
+    if missing:
+        raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
+    if fmt.finish is not None:
+        fmt.finish(out, cfg, stats)
+    hist = histogram(out, stats)
+    made = [r for r in results if not r.get("skipped")]
+    stage_t: dict[str, float] = {}
+    for r in made:
+        for k, v in r.get("timings_s", {}).items():
+            stage_t[k] = stage_t.get(k, 0.0) + v
+    manifest["runs"] = runs + [{
+        "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
+        "scenes_made": len(made), "scenes_skipped": cfg.scenes - len(made), "workers": cfg.workers,
+        "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t}]
+    manifest["scenes_made"], manifest["scenes_skipped"] = len(made), cfg.scenes - len(made)
+    manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
+    if any("sequence" in s for s in stats):
+        manifest["sequences"] = {f"{s['sequence']:02d}": [] for s in stats}
+        for s in stats:
+            manifest["sequences"][f"{s['sequence']:02d}"].append(s["scene"])
+    _write_manifest(out, manifest)
