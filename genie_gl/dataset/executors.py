@@ -13,9 +13,11 @@ def _worker(job: tuple) -> dict:
         from ..render.context import set_default_backend
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
+    from ..render import limit_threads  # workers share the cores: llvmpipe and numba threads
     from .scene import run_scene
 
     cfg, index, verify, status = job if len(job) == 4 else (*job, None)
+    limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
 
     def stage(name: str) -> None:
         if status is not None:
