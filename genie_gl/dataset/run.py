@@ -89,6 +89,16 @@ def _clear_leftovers(out: Path, fmt) -> None:
             p.unlink()
 
 
+def _effects_total(results: list[dict]) -> dict:
+    """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
+    from ..plan import add_totals
+
+    total: dict = {}
+    for r in results:
+        add_totals(total, r.get("effects", {}))
+    return total
+
+
 def _write_manifest(out: Path, manifest: dict) -> None:
     tmp = out / "manifest.json.tmp"
     tmp.write_text(json.dumps(manifest, indent=1))
@@ -152,9 +162,10 @@ def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, prog
     manifest["runs"] = runs + [{
         "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
         "scenes_made": len(made), "scenes_skipped": cfg.scenes - len(made), "workers": cfg.workers,
-        "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t}]
+        "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made)}]
     manifest["scenes_made"], manifest["scenes_skipped"] = len(made), cfg.scenes - len(made)
     manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
+    manifest["effects"] = manifest["runs"][-1]["effects"]
     if any("sequence" in s for s in stats):
         manifest["sequences"] = {f"{s['sequence']:02d}": [] for s in stats}
         for s in stats:

@@ -106,4 +106,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     tmp.replace(final)  # the scene appears whole, or not at all
     keys = ("start",) + STAGES
     stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
+    from ..plan import effect_totals  # what each sensor effect did (issue 12); timings: not in stats.json
+
+    stats["effects"] = effect_totals(frames)
     return stats
