@@ -99,8 +99,11 @@ def _check_numbers(e: Effect, where: str) -> None:
     for f in dataclasses.fields(e):
         v = getattr(e, f.name)
         values = v if isinstance(v, (tuple, list)) else [v]
-        if f.name in ("model",) or v is None or isinstance(v, bool):
-            continue
+        d = f.default
+        numeric = (isinstance(d, (int, float)) and not isinstance(d, bool)) or \
+            (isinstance(d, tuple) and all(isinstance(x, (int, float)) for x in d))
+        if not numeric and not (d is None and isinstance(v, (int, float))) or v is None or isinstance(v, bool):
+            continue  # a name, a mode or a flag: the effect checks its own
         for x in values:
             if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x):
                 raise ConfigError(f"{where}.{f.name}: expected a number, got {v!r:.40}")
