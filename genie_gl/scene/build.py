@@ -188,16 +188,22 @@ def _with_assets(spec: Any, base: Catalogue) -> Catalogue:
 
 
 def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None = None,
-                rng: np.random.Generator | None = None, assets: Catalogue | None = None) -> Scene:
+                rng: np.random.Generator | None = None, assets: Catalogue | None = None,
+                segments: int | None = None) -> Scene:
     """Build the 3D scene of ``layout``: background, then one asset per region with a group.
 
     ``options`` defaults to the strategy's ``scene`` section stored in ``layout.meta``;
     ``assets`` (default: the registry :func:`register_asset` fills) gives each class's variants.
-    Same layout, options, assets and seed: the same scene (and the same USD bytes).
+    ``segments`` (an integer >= 3): segments per full circle of every curved part of the
+    built-in assets (the tessellation accuracy knob); None keeps each part's own count.
+    Same layout, options, assets, seed and segments: the same scene (and the same USD bytes).
     """
+    segments = lib.check_segments(segments, "build_scene")
     opts = check_scene_options(layout.meta.get("scene", {}) if options is None else options,
                                "build_scene options" if options is not None else "layout scene options")
     cat = _with_assets(opts.get("assets"), ASSETS if assets is None else assets)
+    if segments is not None:
+        cat = cat.copy(segments=segments)
     b = SceneBuilder(layout, opts, cat, rng=np.random.default_rng(seed) if rng is None else rng)
     b.background()
     for i, reg in enumerate(layout.leaves()):

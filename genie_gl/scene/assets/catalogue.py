@@ -133,8 +133,9 @@ def load_asset(path: str | os.PathLike, *, units: str | float | None = None,
 class Catalogue:
     """Asset class -> variant names: the library's built-in variants, then registered meshes."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, segments: int | None = None) -> None:
         self._registered: dict[str, dict[str, trimesh.Trimesh]] = {}
+        self.segments = lib.check_segments(segments, "Catalogue")
 
     def register(self, cls: str, path: str | os.PathLike, *, variant: str | None = None,
                  units: str | float | None = None, up: str | None = None) -> str:
@@ -164,13 +165,17 @@ class Catalogue:
         return {c: list(v) for c, v in self._registered.items() if v}
 
     def mesh(self, cls: str, variant: str) -> trimesh.Trimesh:
-        """The mesh of a variant (built-in ones are built once per process)."""
+        """The mesh of a variant (built-in ones are built once per process and tessellation,
+        with this catalogue's ``segments`` per circle; registered meshes are used as loaded)."""
         registered = self._registered.get(cls, {})
-        return registered[variant] if variant in registered else lib.make(cls, variant)
+        return registered[variant] if variant in registered else lib.make(cls, variant, self.segments)
 
-    def copy(self) -> "Catalogue":
-        """A catalogue with the same registrations; registering into it leaves this one as is."""
-        other = Catalogue()
+    def copy(self, *, segments: int | None = None) -> "Catalogue":
+        """A catalogue with the same registrations; registering into it leaves this one as is.
+
+        ``segments`` (segments per circle of the built-in curved assets) replaces this one's
+        when given."""
+        other = Catalogue(segments=self.segments if segments is None else segments)
         other._registered = {c: dict(v) for c, v in self._registered.items()}
         return other
 

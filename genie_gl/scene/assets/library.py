@@ -3,14 +3,20 @@
 Every asset function takes its parameters and returns a ``trimesh.Trimesh`` standing on
 z = 0, centred on x = y = 0, its front facing +y. ``VARIANTS`` lists named variants per
 class; :func:`make` builds (and caches) one.
+
+Curved parts (wheels, rollers, the tiller, the car body's cross-sections) are polygons. The
+assets that have some (``CURVED``) take a keyword ``segments``: None keeps each part's own
+count, ``n`` gives every full circle ``n`` segments (the tessellation accuracy knob).
 """
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import lru_cache, partial
+from typing import Any
 
 import numpy as np
 import trimesh
 
+from ...errors import ConfigError
 from .parts import assemble, box, box_min, cylinder, loft
 
 # -- pallets ------------------------------------------------------------------------------
@@ -70,7 +76,8 @@ def rack(bays: int = 1, levels: int = 3, bay_width: float = 2.7, depth: float = 
 # -- car body ------------------------------------------------------------------------------
 
 
-def car(length: float = 4.6, width: float = 1.8, height: float = 1.45, wheel_r: float = 0.32) -> trimesh.Trimesh:
+def car(length: float = 4.6, width: float = 1.8, height: float = 1.45, wheel_r: float = 0.32, *,
+        segments: int | None = None) -> trimesh.Trimesh:
     """A car body lofted through sections (bonnet, cabin, boot) with four wheels.
 
     The car's length runs along y (its front towards +y).
@@ -80,11 +87,11 @@ def car(length: float = 4.6, width: float = 1.8, height: float = 1.45, wheel_r: 
     half = width / 2 * (0.86 + 0.14 * np.sin(np.pi * np.clip(u * 1.1 - 0.05, 0, 1)) ** 0.5)
     z0 = np.full_like(xs, 0.18)
     roof = np.interp(u, [0, 0.12, 0.3, 0.42, 0.75, 0.88, 1], [0.55, 0.75, 0.85, 1.0, 1.0, 0.8, 0.6]) * height
-    body = loft(xs, half, z0, roof, ring=20)
+    body = loft(xs, half, z0, roof, ring=segments or 20)
     wheels = []
     for x in (-length / 2 + 0.8, length / 2 - 0.8):
         for y in (-width / 2 + 0.2, width / 2 - 0.2):
-            wheels.append(cylinder(wheel_r, 0.2, [x, y, wheel_r], axis="y", sections=18))
+            wheels.append(cylinder(wheel_r, 0.2, [x, y, wheel_r], axis="y", sections=segments or 18))
     m = assemble([body] + wheels)
     m.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 0, 1]))
     m.apply_translation([0, 0, -m.bounds[0][2]])  # polygonal wheels: stand on z = 0
@@ -94,17 +101,17 @@ def car(length: float = 4.6, width: float = 1.8, height: float = 1.45, wheel_r: 
 # -- handling equipment ---------------------------------------------------------------------
 
 
-def pallet_jack(fork_length: float = 1.15, width: float = 0.54) -> trimesh.Trimesh:
+def pallet_jack(fork_length: float = 1.15, width: float = 0.54, *, segments: int | None = None) -> trimesh.Trimesh:
     """Hand pallet truck: two forks, a pump body, a tiller handle and wheels (forks along -y)."""
     parts = [box([0.16, fork_length, 0.08], [x, -fork_length / 2, 0.045]) for x in (-width / 2 + 0.08, width / 2 - 0.08)]
     parts.append(box([width, 0.25, 0.3], [0, 0.12, 0.2]))
-    parts.append(cylinder(0.025, 1.1, [0, 0.3, 0.85], axis="z", sections=10))
+    parts.append(cylinder(0.025, 1.1, [0, 0.3, 0.85], axis="z", sections=segments or 10))
     parts.append(box([0.3, 0.05, 0.05], [0, 0.3, 1.42]))
-    parts.append(cylinder(0.09, 0.06, [0, 0.12, 0.09], axis="x", sections=14))
+    parts.append(cylinder(0.09, 0.06, [0, 0.12, 0.09], axis="x", sections=segments or 14))
     return assemble(parts)
 
 
-def forklift(length: float = 2.3, width: float = 1.1) -> trimesh.Trimesh:
+def forklift(length: float = 2.3, width: float = 1.1, *, segments: int | None = None) -> trimesh.Trimesh:
     """Counterbalance forklift: chassis, counterweight, mast, forks, overhead guard, wheels.
 
     Forks point to +y.
@@ -122,17 +129,17 @@ def forklift(length: float = 2.3, width: float = 1.1) -> trimesh.Trimesh:
     parts.append(box([width, 1.0, 0.05], [0, -0.1, 2.075]))                # guard roof
     for y in (-0.65, 0.55):
         for x in (-width / 2 + 0.05, width / 2 - 0.05):
-            parts.append(cylinder(0.25, 0.18, [x + np.sign(x) * 0.04, y, 0.25], axis="x", sections=18))
+            parts.append(cylinder(0.25, 0.18, [x + np.sign(x) * 0.04, y, 0.25], axis="x", sections=segments or 18))
     return assemble(parts)
 
 
-def dolly(length: float = 1.2, width: float = 0.8) -> trimesh.Trimesh:
+def dolly(length: float = 1.2, width: float = 0.8, *, segments: int | None = None) -> trimesh.Trimesh:
     """Transport dolly: a platform on four casters (carried by the STRs)."""
     parts = [box([length, width, 0.05], [0, 0, 0.2])]
     for x in (-length / 2 + 0.1, length / 2 - 0.1):
         for y in (-width / 2 + 0.1, width / 2 - 0.1):
             parts.append(box([0.05, 0.05, 0.07], [x, y, 0.14]))
-            parts.append(cylinder(0.05, 0.04, [x, y, 0.05], axis="x", sections=12))
+            parts.append(cylinder(0.05, 0.04, [x, y, 0.05], axis="x", sections=segments or 12))
     return assemble(parts)
 
 
@@ -208,10 +215,10 @@ VARIANTS = {
     "pallet": {"eur": pallet, "half": half_pallet},
     "rack": {"1bay_3lv": lambda: rack(1, 3), "1bay_2lv": lambda: rack(1, 2, level_height=1.3),
              "narrow_3lv": lambda: rack(1, 3, bay_width=1.9, depth=0.9)},
-    "car": {"sedan": car, "hatchback": lambda: car(4.1, 1.75, 1.5), "estate": lambda: car(4.8, 1.85, 1.5)},
-    "jack": {"standard": pallet_jack, "short": lambda: pallet_jack(0.9, 0.52)},
-    "forklift": {"standard": forklift, "compact": lambda: forklift(2.0, 1.0)},
-    "dolly": {"standard": dolly, "small": lambda: dolly(0.8, 0.6)},
+    "car": {"sedan": car, "hatchback": partial(car, 4.1, 1.75, 1.5), "estate": partial(car, 4.8, 1.85, 1.5)},
+    "jack": {"standard": pallet_jack, "short": partial(pallet_jack, 0.9, 0.52)},
+    "forklift": {"standard": forklift, "compact": partial(forklift, 2.0, 1.0)},
+    "dolly": {"standard": dolly, "small": partial(dolly, 0.8, 0.6)},
     "klt": {"6428": klt, "4314": lambda: klt(0.4, 0.3, 0.147), "6422": lambda: klt(0.6, 0.4, 0.22)},
     "stillage": {"standard": stillage, "low": lambda: stillage(1.24, 0.835, 0.6)},
     "cabinet": {"two_door": cabinet, "one_door": lambda: cabinet(0.6, 0.5, 1.8, doors=1)},
@@ -222,9 +229,31 @@ VARIANTS = {
 SEMANTIC = {"pallet": 1, "rack": 2, "car": 3, "jack": 4, "stillage": 5, "cabinet": 6, "dolly": 7,
             "forklift": 8, "klt": 9, "conveyor": 0, "floor": 0, "wall": 0, "column": 0}
 STACKABLE = {"pallet", "klt", "stillage"}
+# classes with curved parts: their variants take ``segments=``
+CURVED = {"car", "jack", "forklift", "dolly"}
+
+
+def check_segments(segments: Any, where: str) -> int | None:
+    """``segments`` as an int (None stays None); ConfigError unless an integer >= 3."""
+    if segments is None:
+        return None
+    if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or segments < 3:
+        raise ConfigError(f"{where}: segments must be an integer >= 3 (segments per circle) or None, "
+                          f"got {segments!r}")
+    return int(segments)
+
+
+def make(cls: str, variant: str, segments: int | None = None) -> trimesh.Trimesh:
+    """Build (once per process and tessellation) variant ``variant`` of asset class ``cls``.
+
+    ``segments`` (None or an integer >= 3): segments per circle of its curved parts; a class
+    without any (not in ``CURVED``) ignores it and shares one mesh for every value.
+    """
+    segments = check_segments(segments, f"asset {cls}/{variant}")
+    return _make(cls, variant, segments if cls in CURVED else None)
 
 
 @lru_cache(maxsize=None)
-def make(cls: str, variant: str) -> trimesh.Trimesh:
-    """Build (once per process) variant ``variant`` of asset class ``cls``."""
-    return VARIANTS[cls][variant]()
+def _make(cls: str, variant: str, segments: int | None) -> trimesh.Trimesh:
+    build = VARIANTS[cls][variant]
+    return build() if segments is None else build(segments=segments)
