@@ -109,10 +109,33 @@ def module_of(mutant: str, modules: list[str]) -> str:
     return "?"
 
 
-def run_group(group: str, timeout: float, children: int) -> list[tuple[str, int, int, list[str]]]:
+def recheck(work: Path, env: dict, status: dict[str, str], tests: list[str], budget: float) -> None:
+    """Run the group's tests once more, plainly, against each survivor: mutmut attributes tests
+    to functions from one stats run, and a test it failed to attribute (seen on the merged
+    sensors and cloud tests) leaves a mutant 'survived' that a test does kill. Bounded."""
+    t = time.perf_counter()
+    for name in sorted(k for k, v in status.items() if v == "survived"):
+        if time.perf_counter() - t > budget:
+            break
+        run_env = dict(env, MUTANT_UNDER_TEST=name)
+        try:
+            r = subprocess.run([sys.executable, "-P", "-m", "pytest", "-p", "no:xdist", "-p", "no:cacheprovider",
+                                "-x", "-q", "-m", "not slow", *tests], cwd=work / "mutants", env=run_env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=300)
+            if r.returncode == 1:       # a test failed (not a usage or collection error)
+                status[name] = "killed"
+        except subprocess.TimeoutExpired:
+            status[name] = "timeout"
+
+
+def run_group(group: str, timeout: float, children: int, recheck_s: float = 600,
+              report_only: bool = False) -> list[tuple[str, int, int, list[str]]]:
     modules, functions, _ = GROUPS[group]
     work = ROOT / "build" / "mutants" / group
-    prepare(group, work)
+    if report_only:     # the results of the last run in build/mutants/<group>, rechecked
+        timeout = 0
+    else:
+        prepare(group, work)
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH",)}
     env["PYTHONPATH"] = str(work / "mutants")
     env["HYPOTHESIS_PROFILE"] = "mutants"   # fixed examples, no deadline (mutmut's tracing slows code)
@@ -148,6 +171,7 @@ def run_group(group: str, timeout: float, children: int) -> list[tuple[str, int,
             stale.unlink()
     status = {k: v for k, v in results(work, env).items()
               if any(fnmatch.fnmatch(k, f) for f in functions)}
+    recheck(work, env, status, GROUPS[group][2], budget=recheck_s)
     rows = []
     for mod in modules:
         mine = {k: v for k, v in status.items() if module_of(k, modules) == mod}
@@ -174,6 +198,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--modules", default="all", help=f"comma-separated groups: {', '.join(GROUPS)} (or all)")
     p.add_argument("--timeout", type=float, default=1200, help="seconds per group (the machine is shared)")
     p.add_argument("--children", type=int, default=2, help="mutants run side by side")
+    p.add_argument("--report-only", action="store_true", help="no new run: report (and recheck) the last one")
+    p.add_argument("--recheck", type=float, default=600, help="seconds per group to rerun the tests on survivors")
     a = p.parse_args(argv)
     groups = list(GROUPS) if a.modules == "all" else a.modules.split(",")
     unknown = [g for g in groups if g not in GROUPS]
@@ -181,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"unknown group(s) {unknown}; expected {', '.join(GROUPS)}")
     total_k = total_n = 0
     for g in groups:
-        for _, k, n, _, _ in run_group(g, a.timeout, a.children):
+        for _, k, n, _, _ in run_group(g, a.timeout, a.children, a.recheck, a.report_only):
             total_k, total_n = total_k + k, total_n + n
     if total_n:
         print(f"all groups: {total_k} / {total_n} killed ({100 * total_k / total_n:.1f} %)")

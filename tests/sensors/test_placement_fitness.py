@@ -74,3 +74,14 @@ def test_greedy_takes_the_disc_with_most_new_weight_each_time():
         k = int(np.argmin(np.hypot(*(cands - centre).T)))
         assert (inside[k] & ~got) @ w == pytest.approx(gain, rel=1e-12)
         got |= inside[k]
+
+
+def test_defaults_are_half_metre_cells_and_one_metre_candidates_and_radius_must_be_positive():
+    layout = gg.generate_layout("assembly_line", seed=2)
+    px, w, cands = reference(layout, 2.5, 0.5, 1.0)
+    p = CoverageProblem(layout, 2.5)
+    np.testing.assert_allclose(p.candidates, cands, atol=1e-9)
+    assert p.total == pytest.approx(w.sum(), rel=1e-12) and p.resolution_m == 0.5
+    for bad in (0.0, -1.0):
+        with pytest.raises(gg.ConfigError, match="radius_m must be > 0"):
+            CoverageProblem(layout, bad)
