@@ -240,7 +240,8 @@ def test_sparse_disc_coverage_equals_brute_force(radius):
     # Nguyen 2012 at z = 0.5 mm: σ = 0.0012 + 0.0019·(0.0005 − 0.4)² = 1.5033 mm: Φ(−0.3326)
     (0.0005, dict(model="kinect_nguyen2012", incidence=False), 0.3697),
     # stereo: disparity f·b/z = 500·0.05/10 = 2.5 px, σ_d = 5 px, lost when ≤ 0: Φ(−0.5)
-    (10.0, dict(model="stereo", subpixel=5.0, baseline_m=0.05), 0.3085)])
+    (10.0, dict(model="stereo", subpixel=5.0, baseline_m=0.05), 0.3085),
+    (0.5, dict(model="stereo", subpixel=100.0, baseline_m=0.05), 0.3085)])    # 50 px, σ_d 100 px
 def test_depth_noise_drops_what_it_pushes_behind_the_camera_and_keeps_holes(z, noise, p_lost):
     """Noise that would make a depth ≤ 0 drops the return (depth 0, ids 0), at the rate the
     Gaussian gives (P(z + ε ≤ 0) = Φ(−z/σ)); holes stay holes."""
