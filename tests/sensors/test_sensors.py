@@ -323,3 +323,12 @@ def test_sigma_models_against_the_papers_at_several_depths():
     th = np.array([np.pi / 3, np.radians(70.0)])
     np.testing.assert_allclose(kin.sigma(np.full(2, 1.5), 500.0, th),
                                [base, base + 0.0001 / np.sqrt(1.5) * th[1] ** 2 / (np.pi / 2 - th[1]) ** 2], rtol=1e-12)
+
+
+def test_project_without_distortion_is_the_pinhole_k():
+    """No coefficients: u = fx·x + cx, v = fy·y + cy, each from its own coordinate."""
+    K = np.array([[400.0, 0.0, 321.0], [0.0, 380.0, 239.0], [0.0, 0.0, 1.0]])
+    xy = np.array([[0.1, -0.2], [-0.3, 0.05], [0.0, 0.4]])
+    want = np.stack([400.0 * xy[:, 0] + 321.0, 380.0 * xy[:, 1] + 239.0], 1)
+    np.testing.assert_allclose(project(xy, K, np.zeros(0)), want, rtol=1e-12)
+    np.testing.assert_allclose(project(xy, K, np.zeros(5)), want, rtol=1e-12)
