@@ -23,7 +23,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test test-slow mutants demo bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability \
+.PHONY: help setup system-deps test test-slow mutants demo docs-images bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -47,12 +47,18 @@ $(STAMP): pyproject.toml
 	# pyrender (the reference renderer) pins PyOpenGL==3.1.0, whose OSMesa import is broken:
 	# install it without its pins; its real dependencies come with the test extra.
 	$(PY) -m pip install -q --no-deps "pyrender==0.1.45"
+	# semantic-kitti-api's declared dependencies pull torch, PyQt5 and vispy (~6 GB); its reader
+	# and evaluation classes need only numpy and PyYAML: install it without them (tests read with it)
+	$(PY) -m pip install -q --no-deps "semantic-kitti-api==0.1"
 	touch $(STAMP)
 
 setup: $(STAMP) ## install system libraries, create .venv and install genie-gl with its test extras
 
 test: setup ## run the test suite (real GL on EGL/llvmpipe); tests marked slow are left to test-slow
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+docs-images: setup ## remake the README's pictures (one scene, seed 0) into docs/images
+	$(PY) docs/make_images.py $(OUT)/docs
 
 test-slow: setup ## run only the slow tests (the cloud kernels again with numba's bounds checks on)
 	$(PY) -m pytest $(PYTEST_ARGS) -m slow

@@ -1,7 +1,8 @@
 """The ``genie`` command.
 
-Each subcommand lives in the stage that owns it, as a module with ``add_arguments(parser)``
-and ``run(args) -> int``; this file only wires them up, reads the environment (the one place
+Each subcommand is a module of :mod:`genie_gl.commands` (or a stage's own command module)
+with ``add_arguments(parser)`` and ``run(args) -> int``, listed in :data:`COMMANDS` one line
+each; this file only wires them up, reads the environment (the one place
 that does) and turns :class:`~genie_gl.errors.GenieError` into one clear line and exit code 2.
 """
 from __future__ import annotations
@@ -17,22 +18,29 @@ from .errors import GenieError
 
 # subcommand -> (module with add_arguments/run, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
-    "layout": ("genie_gl.layout.command", "generate a region layout tree from a JSON strategy"),
-    "scene": ("genie_gl.scene.command", "build a 3D scene (USD) from a layout JSON"),
-    "capture": ("genie_gl.render.command", "render a scene from K placed cameras and export clouds"),
+    "layout": ("genie_gl.commands.layout", "generate a region layout tree from a JSON strategy"),
+    "scene": ("genie_gl.commands.scene", "build a 3D scene (USD) from a layout JSON"),
+    "capture": ("genie_gl.commands.capture", "render a scene from K placed cameras and export clouds"),
     "plan": ("genie_gl.plan_command", "print which effects run where, and why, before rendering"),
-    "dataset": ("genie_gl.dataset", "run the whole pipeline for N scenes"),
+    "dataset": ("genie_gl.commands.dataset", "run the whole pipeline for N scenes"),
     "bench": ("genie_gl.bench", "benchmarks: render | layout | accuracy | pipeline"),
 }
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (the option and what was expected), exit status 2."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="genie", description="genie-gl: labelled synthetic point clouds of industrial scenes"
     )
     parser.add_argument("--version", action="version", version=f"genie-gl {__version__}")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, (module, help_text) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         try:
@@ -49,7 +57,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse's one-line error (or --help, --version)
+        return int(exc.code or 0)
     logging.basicConfig(
         level=logging.WARNING - 10 * min(args.verbose, 2), format="%(levelname)s %(name)s: %(message)s"
     )

@@ -38,3 +38,12 @@ def did_you_mean(value: str, choices: Iterable[str]) -> str:
     """Return ``"; did you mean 'x'?"`` for the closest choice, or ``""`` when none is close."""
     close = difflib.get_close_matches(str(value), list(choices), n=1)
     return f"; did you mean '{close[0]}'?" if close else ""
+
+
+class ExportError(GenieError, ValueError):
+    """Data that a format cannot hold (an id beyond its range, ...); the message names the limit."""
+
+
+class LimitError(ConfigError):
+    """A run estimated to need more memory, disk or work than allowed; the message gives the
+    estimate and the option that raises the limit."""

@@ -27,19 +27,41 @@ def data_dir(kind: str) -> Path:
 
 
 def resolve(name_or_path: str | Path, kind: str, suffixes: tuple[str, ...]) -> Path:
-    """Resolve a user's argument to a file: an existing path, or the name of a shipped file.
+    """Resolve a user's argument to a file: an existing path, or the bare name of a shipped file.
 
     ``resolve("realsense_d435", "sensors", (".yaml",))`` finds ``sensors/realsense_d435.yaml``.
+    A path with a folder in it that does not exist is an error: it never falls back to a
+    shipped file of the same name.
     """
     path = Path(name_or_path)
     if path.is_file():
         return path
+    if path.exists():
+        raise ConfigError(f"{name_or_path}: not a file")
     shipped = data_dir(kind)
-    for candidate in [shipped / path.name, *(shipped / (path.name + s) for s in suffixes)]:
-        if candidate.is_file():
-            return candidate
     names = sorted({p.stem for s in suffixes for p in shipped.glob(f"*{s}")})
-    raise ConfigError(
-        f"{name_or_path}: no such file, and no shipped {kind[:-1]} of that name "
-        f"(shipped: {', '.join(names) or 'none'}){did_you_mean(path.stem, names)}"
-    )
+    bare = path.name == str(name_or_path) and str(name_or_path) not in ("", ".", "..")
+    if bare:
+        for candidate in [shipped / path.name, *(shipped / (path.name + s) for s in suffixes)]:
+            if candidate.is_file():
+                return candidate
+        raise ConfigError(
+            f"{name_or_path}: no such file, and no shipped {kind[:-1]} of that name "
+            f"(shipped: {', '.join(names) or 'none'}){did_you_mean(path.stem, names)}")
+    hint = f"; the shipped {kind[:-1]} of that name is reached by its bare name '{path.stem}'" \
+        if path.stem in names else ""
+    raise ConfigError(f"{name_or_path}: no such file{hint}")
+
+
+def read_text(path: str | Path, what: str) -> str:
+    """The text of an input file; a binary or unreadable file is a one-line ConfigError."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read the {what} ({exc.strerror})") from None
+    if b"\0" in data[:4096]:
+        raise ConfigError(f"{path}: a binary file, expected a {what} (text)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text at byte {exc.start}, expected a {what}") from None

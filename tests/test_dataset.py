@@ -1,7 +1,6 @@
 """The dataset pipeline end to end: determinism across workers, resuming, bad input."""
 import functools
 import hashlib
-import os
 import signal
 import subprocess
 import sys
@@ -64,7 +63,7 @@ def assert_scenes_are_what_the_public_api_makes(root: Path) -> None:
     for index in (0, 1):
         layout, semantic_of, cloud = public_api_scene(index)
         seq = root / "sequences" / f"{index:02d}"
-        assert gg.Layout.from_json(seq / "layout.json") == layout
+        assert gg.Layout.from_json(root / "scenes" / f"{index:04d}" / "layout.json") == layout
         tree = cKDTree(cloud.world_xyz)
         scans = sorted((seq / "velodyne").glob("*.bin"))
         assert scans
@@ -95,18 +94,19 @@ def test_one_and_two_workers_give_the_same_bytes(reference, tmp_path):
 
 
 def test_a_killed_run_resumes_to_the_same_bytes(reference, tmp_path):
+    """Killed just after its first scene is whole (dataset/ tests kill at random moments too)."""
     cmd = [sys.executable, "-m", "genie_gl.cli", "dataset", *ARGS, "--scenes", "2", "--workers", "1",
            "--out", str(tmp_path)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
-    while not (tmp_path / "sequences" / "00").exists() and time.time() < deadline and proc.poll() is None:
+    while not (tmp_path / "scenes" / "0000").exists() and time.time() < deadline and proc.poll() is None:
         time.sleep(0.05)
     proc.send_signal(signal.SIGKILL)  # mid-way through scene 1
     proc.wait()
-    assert not (tmp_path / "sequences" / "01").exists()
+    assert not (tmp_path / "scenes" / "0001").exists()
     assert main(["dataset", *ARGS, "--scenes", "2", "--workers", "1", "--out", str(tmp_path)]) == 0
     # the killed scene's temporary folder is cleared away; the rest equals an uninterrupted run
-    assert not [p for p in (tmp_path / "sequences").iterdir() if p.name.startswith(".tmp")]
+    assert not [p for p in (tmp_path / "scenes").iterdir() if p.name.startswith(".tmp")]
     assert digest(tmp_path) == digest(reference)
     assert_scenes_are_what_the_public_api_makes(tmp_path)
 

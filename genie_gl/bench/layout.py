@@ -32,12 +32,12 @@ def _register() -> None:
 
         slots = ("strip",)
 
-        def generate(self, parent, rng):
+        def generate(self, parent, *, rng):
             n = int(self.args["n"])
             w = parent.w / n
             return [Child(parent.x + i * w, parent.y, w, parent.h, "strip") for i in range(n)]
 
-        def generate_batch(self, parents, rng):  # every parent at once
+        def generate_batch(self, parents, *, rng):  # every parent at once
             n, m = int(self.args["n"]), len(parents)
             w = np.repeat(parents.w / n, n)
             x = np.repeat(parents.x, n) + np.tile(np.arange(n), m) * w

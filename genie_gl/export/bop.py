@@ -28,7 +28,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, ExportError
 from ..frame import Frame
 from ..scene.model import Scene
 from ._atomic import atomic_write_bytes, atomic_write_text
@@ -83,55 +83,122 @@ def _camera(frame: Frame, depth_scale: float) -> dict:
             "fx": float(s.K[0, 0]), "fy": float(s.K[1, 1]), "height": s.height, "width": s.width}
 
 
+DEPTH_SCALES = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0)
+
+
+def choose_depth_scale(max_depth_m: float) -> float:
+    """The finest of the usual steps (0.1, 0.2, 0.5, 1, 2, 5 ... mm per unit) at which
+    ``max_depth_m`` still fits a 16-bit PNG (BOP writes it per image in scene_camera.json)."""
+    need = float(max_depth_m) * 1000.0 / MAX_U16
+    for s in DEPTH_SCALES:
+        if need <= s:
+            return s
+    raise ExportError(f"BOP depth: {max_depth_m:.6g} m is beyond the 16-bit PNG range at "
+                      f"{DEPTH_SCALES[-1]:g} mm per unit ({MAX_U16 * DEPTH_SCALES[-1] / 1000:g} m)")
+
+
+def model_ply(vertices_mm: np.ndarray, faces: np.ndarray, normals: np.ndarray) -> bytes:
+    """Binary PLY of a model as bop_toolkit's ``load_ply`` reads it (only float, double, int and
+    uchar; triangles as ``list uchar int vertex_indices``), with vertex normals."""
+    v = np.empty(len(vertices_mm), [("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
+                                    ("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")])
+    v["x"], v["y"], v["z"] = np.asarray(vertices_mm, np.float64).T
+    v["nx"], v["ny"], v["nz"] = np.asarray(normals, np.float64).T
+    f = np.empty(len(faces), [("n", "u1"), ("i", "<i4", (3,))])
+    f["n"], f["i"] = 3, faces
+    header = ["ply", "format binary_little_endian 1.0", "comment genie-gl object model, mm",
+              f"element vertex {len(v)}"] + [f"property float {k}" for k in ("x", "y", "z", "nx", "ny", "nz")] + \
+             [f"element face {len(f)}", "property list uchar int vertex_indices", "end_header"]
+    return ("\n".join(header) + "\n").encode() + v.tobytes() + f.tobytes()
+
+
+def _rot(axis: int, degrees: int) -> np.ndarray:
+    a = np.deg2rad(degrees)
+    c, s = round(np.cos(a)), round(np.sin(a))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    R = np.eye(4)
+    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+    return R
+
+
+def discrete_symmetries(vertices_mm: np.ndarray, tol_mm: float = 1.0) -> list[list[float]]:
+    """Turns about the model's axes (90/180/270 degrees about z, 180 about x and y) that map its
+    vertex set onto itself within ``tol_mm``: BOP's ``symmetries_discrete`` (4x4 row-major, mm)."""
+    from scipy.spatial import cKDTree
+
+    v = np.asarray(vertices_mm, np.float64)
+    if len(v) < 2:
+        return []
+    tree = cKDTree(v)
+    found = []
+    for axis, deg in ((2, 90), (2, 180), (2, 270), (0, 180), (1, 180)):
+        R = _rot(axis, deg)
+        d, _ = tree.query(v @ R[:3, :3].T)
+        if d.max() <= tol_mm:
+            found.append(R.ravel().tolist())
+    return found
+
+
 def write_models(scene: Scene, out_dir: str | os.PathLike, names: Sequence[str]) -> dict[int, dict]:
-    """Write ``models/obj_XXXXXX.ply`` (mm, centred on the bounding box) for the named meshes
-    and merge their entries into ``models_info.json``; returns the entries written."""
+    """Write ``models/obj_XXXXXX.ply`` (mm, centred on the bounding box, with vertex normals) for
+    the named meshes and merge their entries into ``models_info.json`` (diameter, box,
+    ``symmetries_discrete`` where the model has them) and ``models/names.json``; returns the
+    entries written."""
     import trimesh
 
     out = Path(out_dir) / "models"
     info: dict[int, dict] = {}
+    names_of: dict[int, str] = {}
     for name in sorted(set(names)):
         m = scene.meshes[name]
         v = m.vertices.astype(np.float64)
         lo, hi = v.min(0), v.max(0)
         v_mm = (v - (lo + hi) / 2) * 1000.0
-        hull = trimesh.Trimesh(v_mm, m.faces, process=False).convex_hull.vertices
+        tm = trimesh.Trimesh(v_mm, m.faces, process=False)
+        hull = tm.convex_hull.vertices if len(v_mm) > 3 else v_mm
         diameter = float(np.sqrt(((hull[:, None] - hull[None]) ** 2).sum(-1)).max()) if len(hull) > 1 else 0.0
         oid = object_id(name)
-        data = trimesh.Trimesh(v_mm, m.faces, process=False).export(file_type="ply", encoding="binary")
-        atomic_write_bytes(out / f"obj_{oid:06d}.ply", data)
+        atomic_write_bytes(out / f"obj_{oid:06d}.ply", model_ply(v_mm, m.faces, tm.vertex_normals))
         size = (hi - lo) * 1000.0
         info[oid] = {"diameter": diameter, "min_x": float(-size[0] / 2), "min_y": float(-size[1] / 2),
                      "min_z": float(-size[2] / 2), "size_x": float(size[0]), "size_y": float(size[1]),
-                     "size_z": float(size[2]), "name": name}
-    path = out / "models_info.json"
+                     "size_z": float(size[2])}
+        sym = discrete_symmetries(v_mm)
+        if sym:
+            info[oid]["symmetries_discrete"] = sym
+        names_of[oid] = name
     out.mkdir(parents=True, exist_ok=True)
     with open(out / ".lock", "w") as lock:  # dataset workers add their scenes' models concurrently
         fcntl.flock(lock, fcntl.LOCK_EX)
-        known = {int(k): v for k, v in json.loads(path.read_text()).items()} if path.exists() else {}
-        atomic_write_text(path, bop_json({**known, **info}))
+        for file, new in (("models_info.json", info), ("names.json", names_of)):
+            path = out / file
+            known = {int(k): v for k, v in json.loads(path.read_text()).items()} if path.exists() else {}
+            atomic_write_text(path, bop_json({**known, **new}))
     return info
 
 
 def write_scene(scene: Scene, frames: Sequence[Frame], out_dir: str | os.PathLike, *, scene_id: int = 0,
-                split: str = "train_pbr", depth_scale: float = 1.0,
+                split: str = "train_pbr", depth_scale: float | None = None,
                 full_masks: Sequence[Mapping[int, np.ndarray]] | None = None) -> Path:
-    """Write ``frames`` of ``scene`` as BOP scene ``scene_id`` under ``out_dir`` (its folder
-    appears whole or not at all), with ``camera.json`` and the models it uses; returns the
-    scene folder.
+    """Write ``frames`` of ``scene`` as BOP scene ``scene_id`` under ``out_dir`` with
+    ``camera.json`` and the models it uses; returns the scene folder. The models and the camera
+    are written first and the scene folder is renamed into place last, so a run killed at any
+    moment leaves a dataset whose every scene loads.
 
-    depth_scale : mm per depth-PNG unit (1.0: 1 mm steps up to 65.535 m; industrial halls
-        need the range). full_masks : per frame, {instance id: (H, W) bool full silhouette}.
+    depth_scale : mm per depth-PNG unit; None (default): chosen for this scene, the finest step
+        at which its farthest depth fits 16 bits (:func:`choose_depth_scale`).
+    full_masks : per frame, {instance id: (H, W) bool full silhouette}.
     """
     out = Path(out_dir)
     final = out / split / f"{scene_id:06d}"
+    for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
+        shutil.rmtree(stale, ignore_errors=True)
     tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
-    shutil.rmtree(tmp, ignore_errors=True)
     used = write_scene_files(scene, frames, tmp, depth_scale=depth_scale, full_masks=full_masks)
+    write_dataset_files(scene, frames[0], out, used, 1.0 if depth_scale is None else depth_scale)
     if final.exists():
         shutil.rmtree(final)
     tmp.replace(final)
-    write_dataset_files(scene, frames[0], out, used, depth_scale)
     return final
 
 
@@ -142,7 +209,8 @@ def write_dataset_files(scene: Scene, frame: Frame, out_dir: str | os.PathLike, 
     write_models(scene, out_dir, meshes)
 
 
-def write_scene_files(scene: Scene, frames: Sequence[Frame], folder: str | os.PathLike, *, depth_scale: float = 1.0,
+def write_scene_files(scene: Scene, frames: Sequence[Frame], folder: str | os.PathLike, *,
+                      depth_scale: float | None = None,
                       full_masks: Sequence[Mapping[int, np.ndarray]] | None = None) -> list[str]:
     """The files of one BOP scene folder (images, masks, the three JSON files) written into
     ``folder``; returns the names of the meshes its ground truth refers to."""
@@ -150,6 +218,8 @@ def write_scene_files(scene: Scene, frames: Sequence[Frame], folder: str | os.Pa
         raise ConfigError("BOP export: no frames")
     if full_masks is not None and len(full_masks) != len(frames):
         raise ConfigError(f"BOP export: full_masks has {len(full_masks)} entries for {len(frames)} frames")
+    if depth_scale is None:
+        depth_scale = choose_depth_scale(max(float(f.depth.max()) if f.depth.size else 0.0 for f in frames))
     tmp = Path(folder)
     for sub in ("depth", "mask_visib") + (("rgb",) if frames[0].rgb is not None else ()) + \
                (("mask",) if full_masks is not None else ()):
@@ -190,3 +260,25 @@ def write_scene_files(scene: Scene, frames: Sequence[Frame], folder: str | os.Pa
     (tmp / "scene_gt.json").write_text(bop_json(gts))
     (tmp / "scene_gt_info.json").write_text(bop_json(infos))
     return sorted(used)
+
+
+# --- the dataset format: DIR/train_pbr/NNNNNN per scene, models and camera at the root
+
+def _write_dataset_scene(data, folder: Path) -> None:
+    from ..render import Renderer, silhouettes
+
+    with Renderer(data.scene) as r:
+        full = [silhouettes(r, f.sensor, f.world_from_camera,
+                            np.unique(f.instance[(f.semantic != 0) & (f.depth > 0)]).tolist()) for f in data.frames]
+    data.extra["bop_meshes"] = write_scene_files(data.scene, data.frames, folder, full_masks=full)
+
+
+def _before_rename(data, out: Path) -> None:
+    write_dataset_files(data.scene, data.frames[0], out, data.extra.get("bop_meshes", []))
+
+
+from .registry import DatasetFormat, register_format  # noqa: E402
+
+DATASET = register_format(DatasetFormat(
+    "bop", "train_pbr", digits=6, chunks=False, write_scene=_write_dataset_scene, before_rename=_before_rename,
+    description="BOP scene-wise RGB-D frames, masks, poses and object models"))

@@ -22,3 +22,13 @@ def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
 def read(path: str | os.PathLike) -> PointCloud:
     with np.load(path) as z:
         return PointCloud(**{k: z[k] for k in z.files})
+
+
+def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object) -> Path:
+    return write(cloud, Path(out_dir) / f"{name}.npz")
+
+
+from .registry import DatasetFormat, register_format, write_chunks  # noqa: E402
+
+DATASET = register_format(DatasetFormat("npz", "scenes", write_scene=write_chunks("npz", write),
+                                        write_cloud=_write_cloud, description=__doc__.splitlines()[0]))

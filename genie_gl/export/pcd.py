@@ -1,4 +1,6 @@
-"""PCL's PCD, binary: ``x y z rgb`` (packed float as PCL has it) ``label instance``."""
+"""PCL's PCD v0.7, binary: ``x y z`` (F), ``rgb`` (U, 0x00RRGGBB as PCL packs it), ``label``
+(U, PCL's PointXYZL field) and ``instance`` (U). The header holds only PCD keys and plain
+numbers; the cloud's float64 origin (world = xyz + origin) is in a ``#`` comment line."""
 from __future__ import annotations
 
 import os
@@ -12,10 +14,11 @@ from ._atomic import atomic_write_bytes
 
 def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
     n = len(cloud)
-    names, sizes, types, dtype = ["x", "y", "z"], [4, 4, 4], ["F", "F", "F"], [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    names, types = ["x", "y", "z"], ["F", "F", "F"]
+    dtype = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
     if cloud.rgb is not None:
-        names.append("rgb"); sizes.append(4); types.append("U"); dtype.append(("rgb", "<u4"))
-    names += ["label", "instance"]; sizes += [4, 4]; types += ["U", "U"]
+        names.append("rgb"); types.append("U"); dtype.append(("rgb", "<u4"))  # noqa: E702
+    names += ["label", "instance"]; types += ["U", "U"]  # noqa: E702
     dtype += [("label", "<u4"), ("instance", "<u4")]
     rec = np.empty(n, dtype=dtype)
     rec["x"], rec["y"], rec["z"] = cloud.xyz.T
@@ -23,9 +26,19 @@ def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
         c = cloud.rgb.astype(np.uint32)
         rec["rgb"] = (c[:, 0] << 16) | (c[:, 1] << 8) | c[:, 2]
     rec["label"], rec["instance"] = cloud.semantic, cloud.instance
-    ox, oy, oz = cloud.origin
-    header = (f"# .PCD v0.7 - genie-gl; world = xyz + origin ({ox!r} {oy!r} {oz!r})\nVERSION 0.7\n"
-              f"FIELDS {' '.join(names)}\nSIZE {' '.join(map(str, sizes))}\nTYPE {' '.join(types)}\n"
+    origin = " ".join(f"{float(v):.17g}" for v in cloud.origin)
+    header = (f"# .PCD v0.7 - genie-gl point cloud; world = xyz + origin {origin}\nVERSION 0.7\n"
+              f"FIELDS {' '.join(names)}\nSIZE {' '.join('4' for _ in names)}\nTYPE {' '.join(types)}\n"
               f"COUNT {' '.join('1' for _ in names)}\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
               f"POINTS {n}\nDATA binary\n")
     return atomic_write_bytes(path, header.encode() + rec.tobytes())
+
+
+def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object) -> Path:
+    return write(cloud, Path(out_dir) / f"{name}.pcd")
+
+
+from .registry import DatasetFormat, register_format, write_chunks  # noqa: E402
+
+DATASET = register_format(DatasetFormat("pcd", "scenes", write_scene=write_chunks("pcd", write),
+                                        write_cloud=_write_cloud, description=__doc__.splitlines()[0]))

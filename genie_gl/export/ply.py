@@ -1,7 +1,11 @@
-"""Binary little-endian PLY with ``x y z`` (float), ``red green blue`` (uchar), ``nx ny nz``
-(when present), ``semantic`` (ushort) and ``instance`` (uint): reads in plyfile and Open3D."""
+"""Binary little-endian PLY with ``x y z`` (float), ``nx ny nz`` (when present), ``red green
+blue`` (uchar), ``semantic`` and ``instance`` (int, i.e. int32): the types that plyfile,
+CloudCompare and Open3D's tensor reader all keep (Open3D skips ``ushort`` and ``uint``).
+Instance ids above 2**31 - 1 (rare: ids are per scene) are written as ``uint`` instead, so the
+full uint32 range is kept (plyfile, CloudCompare), with a warning that Open3D skips them."""
 from __future__ import annotations
 
+import logging
 import os
 from pathlib import Path
 
@@ -10,14 +14,22 @@ import numpy as np
 from ..cloud.pointcloud import PointCloud
 from ._atomic import atomic_write_bytes
 
+INT32_MAX = 2**31 - 1
+PLY_TYPE = {"<f4": "float", "u1": "uchar", "<i4": "int", "<u4": "uint"}
+log = logging.getLogger(__name__)
+
 
 def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
+    wide = bool(len(cloud)) and int(cloud.instance.max()) > INT32_MAX
+    if wide:  # the full uint32 range kept (plyfile, CloudCompare); Open3D's tensor reader skips uint
+        log.warning("%s: instance ids above %d written as PLY uint, which Open3D's tensor reader skips",
+                    path, INT32_MAX)
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
     if cloud.normal is not None:
         fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
     if cloud.rgb is not None:
         fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
-    fields += [("semantic", "<u2"), ("instance", "<u4")]
+    fields += [("semantic", "<i4"), ("instance", "<u4" if wide else "<i4")]
     rec = np.empty(len(cloud), dtype=fields)
     rec["x"], rec["y"], rec["z"] = cloud.xyz.T
     if cloud.normal is not None:
@@ -25,11 +37,20 @@ def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
     if cloud.rgb is not None:
         rec["red"], rec["green"], rec["blue"] = cloud.rgb.T
     rec["semantic"], rec["instance"] = cloud.semantic, cloud.instance
-    ply_type = {"<f4": "float", "u1": "uchar", "<u2": "ushort", "<u4": "uint"}
     header = ["ply", "format binary_little_endian 1.0",
               "comment genie-gl point cloud; world = xyz + origin",
-              "comment origin " + " ".join(repr(float(v)) for v in cloud.origin),
+              "comment origin " + " ".join(f"{float(v):.17g}" for v in cloud.origin),
               f"element vertex {len(cloud)}"]
-    header += [f"property {ply_type[t]} {n}" for n, t in fields]
+    header += [f"property {PLY_TYPE[t]} {n}" for n, t in fields]
     header.append("end_header")
     return atomic_write_bytes(path, ("\n".join(header) + "\n").encode() + rec.tobytes())
+
+
+def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object) -> Path:
+    return write(cloud, Path(out_dir) / f"{name}.ply")
+
+
+from .registry import DatasetFormat, register_format, write_chunks  # noqa: E402
+
+DATASET = register_format(DatasetFormat("ply", "scenes", write_scene=write_chunks("ply", write),
+                                        write_cloud=_write_cloud, description=__doc__.splitlines()[0]))

@@ -1,79 +1,278 @@
-"""SemanticKITTI: ``sequences/NN/velodyne/NNNNNN.bin``, ``labels/NNNNNN.label``, ``poses.txt``,
-``calib.txt``, ``times.txt``, and a label-map YAML with SemanticKITTI's key names.
+"""SemanticKITTI (FORMATS.md §1): ``sequences/NN/velodyne/NNNNNN.bin``, ``labels/NNNNNN.label``,
+``poses.txt``, ``calib.txt``, ``times.txt``, and ``genie-gl.yaml``, a label map in the
+semantic-kitti-api's own format (``labels``, ``color_map`` (BGR), ``content``,
+``learning_map``, ``learning_map_inv``, ``learning_ignore``, ``split``).
 
 Points are written in the scan frame: the cloud's own frame (world minus its origin), and the
 scan's pose (``poses.txt``) is the translation to the origin, so ``pose @ xyz`` is the world.
-Labels: ``(instance << 16) | semantic`` as little-endian uint32.
+Labels: ``(instance << 16) | semantic`` as little-endian uint32. Instance ids hold 16 bits:
+a scan whose ids exceed 65535 is written with its ids renumbered 1..n in increasing order and
+the table beside it (``instance_maps/NNNNNN.txt``: one ``scan_id original_id`` line per id);
+more than 65535 instances in one scan is refused. Sequence folders are two digits (00-99), as
+the API formats them.
 """
 from __future__ import annotations
 
+import math
 import os
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from .. import labels as label_map
 from ..cloud.pointcloud import PointCloud
+from ..errors import ExportError
 from ._atomic import atomic_write_bytes, atomic_write_text
 
-CLASSES = {0: "background", 1: "pallet", 2: "rack", 3: "car", 4: "jack", 5: "stillage", 6: "cabinet",
-           7: "dolly", 8: "forklift", 9: "small_load_carrier"}
-COLORS_RGB = {0: (170, 170, 160), 1: (141, 110, 99), 2: (94, 53, 177), 3: (229, 57, 53), 4: (240, 98, 146),
-              5: (67, 160, 71), 6: (0, 137, 123), 7: (253, 216, 53), 8: (251, 140, 0), 9: (30, 136, 229)}
+CLASSES = label_map.CLASSES  # kept for callers of genie-gl <= 0.1
+COLORS_RGB = label_map.COLORS_RGB
+MAX_SEQUENCES = 100  # '{:02d}'
+MAX_ID16 = 0xFFFF
 
 
-def label_map_yaml(counts: dict[int, int] | None = None) -> str:
-    total = sum((counts or {}).values()) or 1
+def label_map_yaml(counts: Mapping[int, int] | None = None,
+                   split: Mapping[str, Sequence[int]] | None = None) -> str:
+    """The label map in the API's format; ``counts``: points per class over the whole dataset
+    (``content``), ``split``: sequence numbers of train/valid/test."""
+    counts = {int(k): int(v) for k, v in (counts or {}).items()}
+    ids = sorted(set(label_map.CLASSES) | set(counts))
+    total = sum(counts.values()) or 1
+    split = split or {"train": [], "valid": [], "test": []}
     data = {
         "name": "genie-gl",
-        "labels": CLASSES,
-        "color_map": {k: [c[2], c[1], c[0]] for k, c in COLORS_RGB.items()},  # BGR, as SemanticKITTI
-        "content": {k: float((counts or {}).get(k, 0)) / total for k in CLASSES},
-        "learning_map": {k: k for k in CLASSES},
-        "learning_map_inv": {k: k for k in CLASSES},
-        "learning_ignore": {k: k == 0 for k in CLASSES},
-        "split": {"train": [], "valid": [], "test": []},
+        "labels": {k: label_map.name(k) for k in ids},
+        "color_map": {k: list(label_map.color(k)[::-1]) for k in ids},  # BGR, as SemanticKITTI
+        "content": {k: counts.get(k, 0) / total for k in ids},
+        # raw id -> train id: the classes are already dense (0 = background, ignored)
+        "learning_map": {k: k for k in ids},
+        "learning_map_inv": {k: k for k in ids},
+        "learning_ignore": {k: k == 0 for k in ids},
+        "split": {s: [int(q) for q in split.get(s, [])] for s in ("train", "valid", "test")},
     }
     return yaml.safe_dump(data, sort_keys=False)
 
 
+def split_sequences(n: int, ratios: Sequence[float] = (0.8, 0.1, 0.1)) -> dict[str, list[int]]:
+    """Sequences 0..n-1 into train/valid/test, contiguous in that order (as KITTI's), sized by
+    ``ratios`` (largest remainder) with at least one sequence in every split whose ratio is
+    above 0; with fewer sequences than such splits the last sequence serves the later ones too."""
+    names = ("train", "valid", "test")
+    if len(ratios) != 3 or min(ratios) < 0 or sum(ratios) <= 0:
+        raise ExportError(f"split ratios {tuple(ratios)}: expected three numbers >= 0 (train, valid, test), not all 0")
+    want = [i for i in range(3) if ratios[i] > 0]
+    if n < len(want):
+        out = {name: [] for name in names}
+        for j, i in enumerate(want):
+            out[names[i]] = [min(j, n - 1)] if n else []
+        return out
+    exact = [n * r / sum(ratios) for r in ratios]
+    sizes = [math.floor(e) for e in exact]
+    for i in sorted(want, key=lambda i: (sizes[i] - exact[i], i))[: n - sum(sizes)]:
+        sizes[i] += 1
+    for i in want:
+        if sizes[i] == 0:
+            sizes[max(range(3), key=lambda k: sizes[k])] -= 1
+            sizes[i] = 1
+    out, start = {}, 0
+    for name, size in zip(names, sizes):
+        out[name] = list(range(start, start + size))
+        start += size
+    return out
+
+
+def encode_instances(instance: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """16-bit instance ids of a scan, and the table (original ids, index = scan id - 1) when
+    they had to be renumbered; None when every id fits."""
+    instance = np.asarray(instance)
+    if not len(instance) or int(instance.max()) <= MAX_ID16:
+        return instance.astype(np.uint32), None
+    ids, inverse = np.unique(instance, return_inverse=True)
+    nonzero = ids[ids != 0]
+    if len(nonzero) > MAX_ID16:
+        raise ExportError(f"SemanticKITTI labels hold 16-bit instance ids: a scan has {len(nonzero)} instances "
+                          f"(limit {MAX_ID16}); use smaller chunks, or the ply/npz formats (32-bit ids)")
+    scan_ids = np.arange(len(ids), dtype=np.uint32) + (0 if ids[0] == 0 else 1)
+    return scan_ids[inverse.ravel()], nonzero
+
+
 def pack_labels(semantic: np.ndarray, instance: np.ndarray) -> np.ndarray:
-    """``(instance << 16) | semantic`` as '<u4' (instance ids above 65535 wrap: warn upstream)."""
-    return ((instance.astype(np.uint32) & 0xFFFF) << 16 | semantic.astype(np.uint32)).astype("<u4")
+    """``(instance << 16) | semantic`` as '<u4'; an id that does not fit its 16 bits is refused."""
+    semantic, instance = np.asarray(semantic), np.asarray(instance)
+    for what, a in (("semantic", semantic), ("instance", instance)):
+        if a.size and int(a.max()) > MAX_ID16:
+            raise ExportError(f"SemanticKITTI labels hold 16-bit {what} ids (limit {MAX_ID16}), got {int(a.max())}"
+                              + ("; renumber the scan's ids with encode_instances" if what == "instance" else ""))
+    return (instance.astype(np.uint32) << 16 | semantic.astype(np.uint32)).astype("<u4")
+
+
+def _fmt(values) -> str:
+    return " ".join(f"{float(v):.12e}" for v in values)
+
+
+def write_scans(clouds: Sequence[PointCloud], seq_dir: str | os.PathLike, *,
+                times: Sequence[float] | None = None) -> list[Path]:
+    """Write ``clouds`` as scans 0..n-1 of one sequence folder (velodyne, labels, poses, times,
+    calib; instance tables where needed); returns the .bin paths."""
+    seq = Path(seq_dir)
+    paths, poses = [], []
+    for j, cloud in enumerate(clouds):
+        paths.append(_write_scan(cloud, seq, j))
+        pose = np.eye(4)[:3]
+        pose[:, 3] = cloud.origin
+        poses.append(_fmt(pose.ravel()))
+    times = list(range(len(clouds))) if times is None else times
+    atomic_write_text(seq / "poses.txt", "".join(p + "\n" for p in poses))
+    atomic_write_text(seq / "times.txt", "".join(f"{float(t):e}\n" for t in times))
+    eye = _fmt(np.eye(4)[:3].ravel())
+    atomic_write_text(seq / "calib.txt", "".join(f"{k}: {eye}\n" for k in ("P0", "P1", "P2", "P3", "Tr")))
+    return paths
+
+
+def _write_scan(cloud: PointCloud, seq: Path, frame: int) -> Path:
+    scan = np.zeros((len(cloud), 4), "<f4")
+    scan[:, :3] = cloud.xyz
+    inst, table = encode_instances(cloud.instance)
+    bin_path = atomic_write_bytes(seq / "velodyne" / f"{frame:06d}.bin", scan.tobytes())
+    atomic_write_bytes(seq / "labels" / f"{frame:06d}.label", pack_labels(cloud.semantic, inst).tobytes())
+    table_path = seq / "instance_maps" / f"{frame:06d}.txt"
+    if table is not None:
+        atomic_write_text(table_path, "".join(f"{i + 1} {int(v)}\n" for i, v in enumerate(table)))
+    elif table_path.exists():
+        table_path.unlink()
+    return bin_path
 
 
 def write(cloud: PointCloud, out_dir: str | os.PathLike, *, sequence: int = 0, frame: int = 0,
-          time_s: float | None = None, digits: int = 2) -> Path:
-    """Append ``cloud`` as scan ``frame`` of ``sequence`` under ``out_dir``; returns the .bin path."""
+          time_s: float | None = None) -> Path:
+    """Put ``cloud`` as scan ``frame`` of ``sequence`` under ``out_dir`` (other scans of the
+    sequence are kept); writes ``genie-gl.yaml`` (content: this scan) when there is none.
+    Returns the .bin path."""
+    if not 0 <= sequence < MAX_SEQUENCES:
+        raise ExportError(f"SemanticKITTI sequence {sequence}: folders are two digits, 00-99")
     root = Path(out_dir)
-    seq = root / "sequences" / f"{sequence:0{digits}d}"
-    scan = np.zeros((len(cloud), 4), "<f4")
-    scan[:, :3] = cloud.xyz
-    bin_path = atomic_write_bytes(seq / "velodyne" / f"{frame:06d}.bin", scan.tobytes())
-    atomic_write_bytes(seq / "labels" / f"{frame:06d}.label", pack_labels(cloud.semantic, cloud.instance).tobytes())
+    seq = root / "sequences" / f"{sequence:02d}"
+    bin_path = _write_scan(cloud, seq, frame)
     pose = np.eye(4)[:3]
     pose[:, 3] = cloud.origin
-    lines = {}
-    for name, line in (("poses.txt", " ".join(f"{v:.12e}" for v in pose.ravel())),
-                       ("times.txt", f"{(frame if time_s is None else time_s):e}")):
+    for name, line in (("poses.txt", _fmt(pose.ravel())), ("times.txt", f"{(frame if time_s is None else time_s):e}")):
         p = seq / name
         old = p.read_text().splitlines() if p.exists() else []
         old = (old + [""] * (frame + 1))[: max(len(old), frame + 1)]
         old[frame] = line
-        lines[name] = "\n".join(old) + "\n"
-        atomic_write_text(p, lines[name])
-    eye = " ".join(f"{v:.12e}" for v in np.eye(4)[:3].ravel())
+        atomic_write_text(p, "\n".join(old) + "\n")
+    eye = _fmt(np.eye(4)[:3].ravel())
     atomic_write_text(seq / "calib.txt", "".join(f"{k}: {eye}\n" for k in ("P0", "P1", "P2", "P3", "Tr")))
-    counts = dict(zip(*np.unique(cloud.semantic, return_counts=True)))
     cfg = root / "genie-gl.yaml"
     if not cfg.exists():
-        atomic_write_text(cfg, label_map_yaml({int(k): int(v) for k, v in counts.items()}))
+        counts = dict(zip(*np.unique(cloud.semantic, return_counts=True)))
+        atomic_write_text(cfg, label_map_yaml(counts, {"train": [sequence], "valid": [sequence],
+                                                       "test": [sequence]}))
     return bin_path
 
 
 def read(bin_path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Read a scan back as the SemanticKITTI API does: (xyz, semantic, instance)."""
+    """Read a scan back as the SemanticKITTI API does: (xyz, semantic, instance), with the
+    scan's renumbered instance ids turned back into the original ones when it has a table."""
     bin_path = Path(bin_path)
     scan = np.fromfile(bin_path, dtype="<f4").reshape(-1, 4)
     label = np.fromfile(bin_path.parent.parent / "labels" / (bin_path.stem + ".label"), dtype="<u4")
-    return scan[:, :3], label & 0xFFFF, label >> 16
+    inst = label >> 16
+    table = bin_path.parent.parent / "instance_maps" / (bin_path.stem + ".txt")
+    if table.exists():
+        lut = np.zeros(MAX_ID16 + 1, np.uint32)
+        for line in table.read_text().splitlines():
+            a, b = line.split()
+            lut[int(a)] = int(b)
+        inst = lut[inst]
+    return scan[:, :3], label & 0xFFFF, inst
+
+
+# --- the dataset format: each scene is one sequence's worth of scans in DIR/scenes/NNNN;
+# once every scene is there the sequences are assembled (hard links) into DIR/sequences/NN,
+# several scenes to a sequence past 100 scenes, with the label map and split over them all.
+
+def _link(src: Path, dst: Path) -> None:
+    try:
+        os.link(src, dst)
+    except OSError:
+        import shutil
+
+        shutil.copyfile(src, dst)
+
+
+def scenes_per_sequence(n_scenes: int) -> int:
+    return max(1, -(-n_scenes // MAX_SEQUENCES))
+
+
+def assemble_sequences(out: str | os.PathLike, scene_dirs: Sequence[Path], *,
+                       counts: Mapping[int, int] | None = None,
+                       split: Sequence[float] = (0.8, 0.1, 0.1)) -> dict[int, list[int]]:
+    """Build ``sequences/NN`` from the scenes' scan folders (in order, several to a sequence
+    past 100) and ``genie-gl.yaml``; returns {sequence: [scene indices]}."""
+    import shutil
+
+    root = Path(out) / "sequences"
+    root.mkdir(parents=True, exist_ok=True)
+    per = scenes_per_sequence(len(scene_dirs))
+    groups = {s: list(range(s * per, min(len(scene_dirs), (s + 1) * per)))
+              for s in range(-(-len(scene_dirs) // per))}
+    for s, members in groups.items():
+        tmp = root / f".tmp-{s:02d}-{os.getpid()}"
+        shutil.rmtree(tmp, ignore_errors=True)
+        for sub in ("velodyne", "labels"):
+            (tmp / sub).mkdir(parents=True)
+        poses: list[str] = []
+        for i in members:
+            src = Path(scene_dirs[i])
+            lines = (src / "poses.txt").read_text().splitlines() if (src / "poses.txt").exists() else []
+            for j, pose in enumerate(lines):
+                k = len(poses)
+                _link(src / "velodyne" / f"{j:06d}.bin", tmp / "velodyne" / f"{k:06d}.bin")
+                _link(src / "labels" / f"{j:06d}.label", tmp / "labels" / f"{k:06d}.label")
+                table = src / "instance_maps" / f"{j:06d}.txt"
+                if table.exists():
+                    (tmp / "instance_maps").mkdir(exist_ok=True)
+                    _link(table, tmp / "instance_maps" / f"{k:06d}.txt")
+                poses.append(pose)
+        (tmp / "poses.txt").write_text("".join(p + "\n" for p in poses))
+        (tmp / "times.txt").write_text("".join(f"{float(t):e}\n" for t in range(len(poses))))
+        eye = _fmt(np.eye(4)[:3].ravel())
+        (tmp / "calib.txt").write_text("".join(f"{k}: {eye}\n" for k in ("P0", "P1", "P2", "P3", "Tr")))
+        final = root / f"{s:02d}"
+        if final.exists():
+            shutil.rmtree(final)
+        tmp.replace(final)
+    for old in root.iterdir():  # sequences of an earlier, larger grouping
+        if old.name.isdigit() and int(old.name) not in groups:
+            shutil.rmtree(old)
+    atomic_write_text(Path(out) / "genie-gl.yaml", label_map_yaml(counts, split_sequences(len(groups), split)))
+    return groups
+
+
+def _write_scene(data, folder: Path) -> None:
+    write_scans([tile for _, tile in data.chunks], folder)
+
+
+def _finish(out: Path, cfg, stats: list[dict]) -> None:
+    counts: dict[int, int] = {}
+    for s in stats:
+        for k, v in s["class_points"].items():
+            counts[int(k)] = counts.get(int(k), 0) + int(v)
+    groups = assemble_sequences(out, [DATASET.scene_dir(out, i) for i in range(len(stats))], counts=counts,
+                                split=tuple(cfg.split) if cfg is not None else (0.8, 0.1, 0.1))
+    for s in stats:
+        s["sequence"] = next(q for q, members in groups.items() if s["scene"] in members)
+
+
+def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, sequence: int = 0, frame: int = 0,
+                 **_: object) -> Path:
+    return write(cloud, out_dir, sequence=sequence, frame=frame)
+
+
+from .registry import DatasetFormat, register_format  # noqa: E402
+
+DATASET = register_format(DatasetFormat(
+    "semantickitti", "scenes", colour=False, write_scene=_write_scene, finish=_finish, write_cloud=_write_cloud,
+    stale=("sequences",), description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))

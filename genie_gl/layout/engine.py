@@ -36,13 +36,13 @@ def generate_layout(strategy: Strategy | str | Path, seed: int = 0, *,
         if level == "merge":
             tree = Tree.from_nodes(merge(tree.to_nodes()), names)
             continue
-        tree = _expand_level(tree, level, strat.region_types, rng, li, reports)
+        tree = _expand_level(tree, level, strat.region_types, li, reports, rng=rng)
     meta = {"strategy": strat.name, "seed": int(seed), "reports": reports, "scene": strat.scene}
     return Layout(tree, strat.region_types, meta)
 
 
-def _expand_level(tree: Tree, level: dict[str, Rule], types: dict[str, RegionType], rng: np.random.Generator,
-                  li: int, reports: list[dict]) -> Tree:
+def _expand_level(tree: Tree, level: dict[str, Rule], types: dict[str, RegionType],
+                  li: int, reports: list[dict], *, rng: np.random.Generator) -> Tree:
     names = tree.type_names
     leaves = np.flatnonzero(tree.n_children() == 0)
     parts = []
@@ -53,12 +53,12 @@ def _expand_level(tree: Tree, level: dict[str, Rule], types: dict[str, RegionTyp
         if len(sel) == 0:
             continue
         kids = rule.generator.generate_batch(Parents(tree.x[sel], tree.y[sel], tree.w[sel], tree.h[sel],
-                                                     tree.orient[sel], tname), rng)
+                                                     tree.orient[sel], tname), rng=rng)
         for k, rep in kids.reports:
             if rep.get("placed", 0) < rep.get("requested", 0):
                 reports.append({"level": li, "region": int(sel[k]), **rep})
                 log.info("level %d: %s placed %d of %d rooms", li, rule.generator_name, rep["placed"], rep["requested"])
-        parts.append(_assign(tree, sel, kids, rule, rng))
+        parts.append(_assign(tree, sel, kids, rule, rng=rng))
     if not parts:
         return tree
     new = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
@@ -69,7 +69,7 @@ def _expand_level(tree: Tree, level: dict[str, Rule], types: dict[str, RegionTyp
                 np.concatenate([tree.parent, new["parent"].astype(np.int32)]), names)
 
 
-def _assign(tree: Tree, sel: np.ndarray, kids: Children, rule: Rule, rng: np.random.Generator) -> dict[str, np.ndarray]:
+def _assign(tree: Tree, sel: np.ndarray, kids: Children, rule: Rule, *, rng: np.random.Generator) -> dict[str, np.ndarray]:
     """Region types and orientations of a batch's children; children whose slot has no type
     provider are dropped."""
     names = tree.type_names

@@ -1,6 +1,6 @@
 """Region generators: split a parent region into labelled child rectangles ("slots").
 
-A generator is a class with ``generate(parent, rng) -> list[Child]``; its constructor takes
+A generator is a class with ``generate(parent, *, rng) -> list[Child]``; its constructor takes
 the strategy's ``args``. Register a new one with one line::
 
     @register("my_generator")
@@ -79,27 +79,29 @@ class Generator:
     """Base class: ``slots`` lists the slot names the generator can produce.
 
     Implement ``generate(parent, rng) -> list[Child]`` for one region; the engine calls
-    ``generate_batch(parents, rng) -> Children`` once per level and region type, which by
+    ``generate_batch(parents, *, rng) -> Children`` once per level and region type, which by
     default loops over ``generate``. A generator that splits many regions the same way can
     override ``generate_batch`` with array code (the benchmark's does): the tree then grows a
     level at a time without a Python object per node.
     """
 
     slots: ClassVar[tuple[str, ...]] = ()
+    # the argument names it reads; None: any (a strategy naming another one is refused)
+    arguments: ClassVar[tuple[str, ...] | None] = None
 
     def __init__(self, **args: Any) -> None:
         self.args = args
 
-    def generate(self, parent: Region, rng: np.random.Generator) -> list[Child]:
+    def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         raise NotImplementedError
 
-    def generate_batch(self, parents: Parents, rng: np.random.Generator) -> Children:
+    def generate_batch(self, parents: Parents, *, rng: np.random.Generator) -> Children:
         slot_index = {s: k for k, s in enumerate(self.slots)}
         rows: list[tuple] = []
         reports: list[tuple[int, dict]] = []
         for i in range(len(parents)):
             self.report = None
-            for c in self.generate(parents.region(i), rng):
+            for c in self.generate(parents.region(i), rng=rng):
                 rows.append((i, c.x, c.y, c.w, c.h, slot_index[c.slot],
                              -1 if c.orientation is None else ORIENTATIONS.index(c.orientation)))
             if self.report:
@@ -143,7 +145,7 @@ def _range(value: Any, where: str, name: str, positive: bool = True) -> tuple[fl
     return float(lo), float(hi)
 
 
-def _draw(rng: np.random.Generator, r: tuple[float, float]) -> float:
+def _draw(r: tuple[float, float], *, rng: np.random.Generator) -> float:
     return r[0] if r[0] == r[1] else float(rng.uniform(r[0], r[1]))
 
 
@@ -159,6 +161,7 @@ class Grid(Generator):
     region (``leftover: "empty"``) or spread between cells (``"spread"``)."""
 
     slots = ("cell", "empty")
+    arguments = ('aisle', 'aisle_every', 'cell', 'leftover', 'spacing')
 
     def check(self, where: str) -> None:
         cell = self.args.get("cell")
@@ -170,7 +173,7 @@ class Grid(Generator):
         if self.args.get("leftover", "empty") not in ("empty", "spread"):
             raise ConfigError(f"{where}.args.leftover: expected 'empty' or 'spread', got {self.args['leftover']!r}")
 
-    def generate(self, parent: Region, rng: np.random.Generator) -> list[Child]:
+    def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         cw, ch = map(float, self.args["cell"])
         sp = float(self.args.get("spacing", 0.0))
         aisle, every = float(self.args.get("aisle", 0.0)), int(self.args.get("aisle_every", 0))
@@ -217,6 +220,7 @@ class AssemblyLine(Generator):
     ``direction``: "horizontal", "vertical" or "random" (line along x or y)."""
 
     slots = ("line", "material", "path", "rest")
+    arguments = ('direction', 'line_width', 'material_width', 'path_spacing', 'path_width', 'paths')
 
     def check(self, where: str) -> None:
         a = self.args
@@ -230,22 +234,22 @@ class AssemblyLine(Generator):
         if a.get("direction", "random") not in ("horizontal", "vertical", "random"):
             raise ConfigError(f"{where}.args.direction: expected horizontal, vertical or random, got {a['direction']!r}")
 
-    def generate(self, parent: Region, rng: np.random.Generator) -> list[Child]:
+    def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
         direction = a.get("direction", "random")
         if direction == "random":
             direction = "horizontal" if rng.random() < 0.5 else "vertical"
         horiz = direction == "horizontal"
         span = parent.h if horiz else parent.w          # across the line
-        line_w = _draw(rng, _range(a.get("line_width", 4.0), "", "line_width"))
-        mat_w = _draw(rng, _range(a.get("material_width", 0.0), "", "material_width", False))
+        line_w = _draw(_range(a.get("line_width", 4.0), "", "line_width"), rng=rng)
+        mat_w = _draw(_range(a.get("material_width", 0.0), "", "material_width", False), rng=rng)
         lo, hi = _range(a.get("paths", [1, 2]), "", "paths", False)
         n_paths = int(rng.integers(int(lo), int(hi) + 1)) if hi > lo else int(lo)
         path_w = _range(a.get("path_width", 2.5), "", "path_width")
         path_sp = _range(a.get("path_spacing", 0.0), "", "path_spacing", False)
         # strips stacked across the line: paths, material, line, material, paths
-        widths = [_draw(rng, path_w) for _ in range(n_paths)]
-        gaps = [_draw(rng, path_sp) for _ in range(n_paths)]
+        widths = [_draw(path_w, rng=rng) for _ in range(n_paths)]
+        gaps = [_draw(path_sp, rng=rng) for _ in range(n_paths)]
         core = line_w + 2 * mat_w
         side = [(w, g) for w, g in zip(widths, gaps)]
         below = side[: (n_paths + 1) // 2]
@@ -301,6 +305,7 @@ class RandomRooms(Generator):
     placed (never loops forever)."""
 
     slots = ("room",)
+    arguments = ('attempts', 'count', 'gap', 'height', 'width')
 
     def check(self, where: str) -> None:
         a = self.args
@@ -308,7 +313,7 @@ class RandomRooms(Generator):
         _range(a.get("width", 1.0), f"{where}.args", "width")
         _range(a.get("height", 1.0), f"{where}.args", "height")
 
-    def generate(self, parent: Region, rng: np.random.Generator) -> list[Child]:
+    def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
         lo, hi = _range(a.get("count", [1, 1]), "", "count")
         want = int(rng.integers(int(lo), int(hi) + 1))
@@ -317,7 +322,7 @@ class RandomRooms(Generator):
         placed: list[Child] = []
         for _ in range(want):
             for _ in range(attempts):
-                w, h = min(_draw(rng, wr), parent.w), min(_draw(rng, hr), parent.h)
+                w, h = min(_draw(wr, rng=rng), parent.w), min(_draw(hr, rng=rng), parent.h)
                 x = parent.x + float(rng.uniform(0, parent.w - w)) if parent.w > w else parent.x
                 y = parent.y + float(rng.uniform(0, parent.h - h)) if parent.h > h else parent.y
                 c = Region(x - gap / 2, y - gap / 2, w + gap, h + gap, "")
@@ -334,12 +339,13 @@ class DrunkardWalk(Generator):
     into rectangles (maximal row runs merged downwards): irregular rooms."""
 
     slots = ("room",)
+    arguments = ('block', 'steps')
 
     def check(self, where: str) -> None:
         if float(self.args.get("block", 1.0)) <= 0 or int(self.args.get("steps", 1)) < 1:
             raise ConfigError(f"{where}.args: block must be > 0 and steps >= 1")
 
-    def generate(self, parent: Region, rng: np.random.Generator) -> list[Child]:
+    def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         b = float(self.args.get("block", 1.0))
         nx, ny = int(parent.w // b), int(parent.h // b)
         if nx == 0 or ny == 0:

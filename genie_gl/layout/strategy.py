@@ -29,7 +29,7 @@ from typing import Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import ConfigError, did_you_mean
-from ..resources import resolve
+from ..resources import read_text, resolve
 from .generators import GENERATORS, Generator, get_generator
 from .model import ORIENTATIONS, RegionType
 from .providers import OrientationProvider, TypeProvider
@@ -153,8 +153,18 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
             if types[tname].final:
                 raise ConfigError(f"{source}: {where}: region type {tname!r} is final and cannot have a generator")
             cls = get_generator(rule.generator, f"{source}: {where}.generator")
-            gen = cls(**rule.args)
-            gen.check(f"{source}: {where}")
+            unknown = sorted(set(rule.args) - set(cls.arguments)) if cls.arguments is not None else []
+            if unknown:
+                raise ConfigError(f"{source}: {where}.args.{unknown[0]}: not an argument of {rule.generator}"
+                                  f"{did_you_mean(unknown[0], cls.arguments)} (it takes: {', '.join(cls.arguments)})")
+            try:
+                gen = cls(**rule.args)
+                gen.check(f"{source}: {where}")
+            except ConfigError:
+                raise
+            except (TypeError, ValueError, KeyError, IndexError, OverflowError) as exc:  # an argument of the wrong kind
+                raise ConfigError(f"{source}: {where}.args{_culprit(cls, rule.args, where)}: {rule.generator} cannot use "
+                                  f"this value ({type(exc).__name__}: {exc})") from None
             providers = {}
             for slot, pspec in rule.children.items():
                 if cls.slots and slot not in cls.slots:
@@ -172,6 +182,9 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
                 _check_fits(rule, spec.root, f"{source}: {where}")
             rules[tname] = Rule(gen, rule.generator, providers, orient)
         levels.append(rules)
+    from ..scene_options import check_scene_options  # the scene stage's options, typed at the bottom
+
+    check_scene_options(spec.scene, f"{source}: $.scene")
     return Strategy(spec.name, spec.root, types, levels, spec.scene, source)
 
 
@@ -191,11 +204,21 @@ def _check_fits(rule: RuleSpec, root: RootSpec, where: str) -> None:
                               f"({root.width} x {root.height} m)")
 
 
+def _culprit(cls, args: dict[str, Any], where: str) -> str:
+    """``.name (got value)`` of the first argument that fails the generator's check alone."""
+    for k, v in args.items():
+        try:
+            cls(**{k: v}).check(where)
+        except Exception:  # noqa: BLE001  (any failure names this argument)
+            return f".{k} (got {v!r:.40})"
+    return ""
+
+
 def load_strategy(path_or_name: str | Path) -> Strategy:
     """Load and validate a strategy file, or a shipped one by name (``"assembly_line"``)."""
     path = resolve(path_or_name, "layouts", (".json",))
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(read_text(path, "strategy JSON"))
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
     return parse_strategy(_anchor_assets(data, Path(path).resolve().parent), str(path))

@@ -17,6 +17,7 @@ from typing import Any
 import moderngl
 import numpy as np
 
+from ..checks import check_pose
 from ..errors import ConfigError, RenderError
 from ..frame import Frame
 from ..scene.model import Scene
@@ -280,9 +281,7 @@ class Renderer:
         """Cull and issue the draws of one frame into the targets of ``slot``."""
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
-        pose = np.asarray(pose, dtype=np.float64)
-        if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
-            raise RenderError(f"pose must be a finite (4, 4) matrix, got shape {pose.shape}")
+        pose = check_pose(pose, "render pose")  # a rigid world_from_camera: no scale, shear or mirror
         ctx = self.ctx
         fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals, slot)
         linear = self.depth_precision == "float32"

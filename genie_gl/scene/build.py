@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
+from ..scene_options import check_scene_options
 from .assets import library as lib
 from .assets.catalogue import ASSETS, Catalogue
 from .materials import class_material
@@ -58,8 +59,8 @@ def _footprint(mesh, yaw: float) -> tuple[float, float]:
 
 
 class SceneBuilder:
-    def __init__(self, layout: Layout, options: dict[str, Any], rng: np.random.Generator,
-                 assets: Catalogue) -> None:
+    def __init__(self, layout: Layout, options: dict[str, Any], assets: Catalogue, *,
+                 rng: np.random.Generator) -> None:
         self.layout, self.opt, self.rng, self.assets = layout, options, rng, assets
         self.scene = Scene(metadata={"layout": layout.meta})
         self._keys: dict[tuple[str, str], str] = {}
@@ -194,9 +195,10 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
     ``assets`` (default: the registry :func:`register_asset` fills) gives each class's variants.
     Same layout, options, assets and seed: the same scene (and the same USD bytes).
     """
-    opts = dict(layout.meta.get("scene", {}) if options is None else options)
+    opts = check_scene_options(layout.meta.get("scene", {}) if options is None else options,
+                               "build_scene options" if options is not None else "layout scene options")
     cat = _with_assets(opts.get("assets"), ASSETS if assets is None else assets)
-    b = SceneBuilder(layout, opts, np.random.default_rng(seed) if rng is None else rng, cat)
+    b = SceneBuilder(layout, opts, cat, rng=np.random.default_rng(seed) if rng is None else rng)
     b.background()
     for i, reg in enumerate(layout.leaves()):
         b.region(i, reg)

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import MAX_COORD_M
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -208,6 +209,8 @@ def _as_transform(transform: Any, check: bool = True) -> np.ndarray:
         raise ConfigError(f"transform: expected a (4, 4) matrix or a (3,) translation, got {t.shape}")
     if check and not np.all(np.isfinite(t)):
         raise ConfigError("transform: contains NaN or Inf")
+    if np.abs(t[:3, 3]).max() > MAX_COORD_M:
+        raise ConfigError(f"transform: translation {t[:3, 3].tolist()} m is beyond {MAX_COORD_M:g} m (absurd coordinates)")
     return t
 
 

@@ -28,16 +28,14 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt
 
+from .. import labels
 from ..errors import ConfigError
 from .gprims import tessellate
 from .model import Material, Mesh, Scene
 
 log = logging.getLogger(__name__)
 
-CLASS_NAMES = {0: "background", 1: "pallet", 2: "rack", 3: "car", 4: "jack", 5: "stillage",
-               6: "cabinet", 7: "dolly", 8: "forklift", 9: "small_load_carrier"}
-CLASS_IDS = {v: k for k, v in CLASS_NAMES.items()}
-CLASS_IDS.update({"klt": 9, "floor": 0, "wall": 0})
+CLASS_NAMES = labels.CLASSES  # the one label map (genie_gl/labels.py)
 
 
 def _ident(name: str, fallback: str) -> str:
@@ -85,7 +83,7 @@ def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
         prim = x.GetPrim()
         prim.GetReferences().AddInternalReference(proto_path[inst.mesh])
         prim.SetInstanceable(True)
-        label = CLASS_NAMES.get(inst.semantic, f"class_{inst.semantic}")
+        label = labels.name(inst.semantic)
         prim.AddAppliedSchema("SemanticsAPI:Semantics")
         prim.CreateAttribute("semantic:Semantics:params:semanticType", Sdf.ValueTypeNames.String).Set("class")
         prim.CreateAttribute("semantic:Semantics:params:semanticData", Sdf.ValueTypeNames.String).Set(label)
@@ -191,10 +189,8 @@ def _label(prim: Usd.Prim) -> tuple[int | None, int | None]:
                     if b and b.HasAuthoredValue():
                         name = str(b.Get())
                 if name is not None:
-                    sem = CLASS_IDS.get(name.lower())
-                    if sem is None:
-                        m = re.fullmatch(r"class_(\d+)", name)
-                        sem = int(m.group(1)) if m else 0
+                    sem = labels.class_id(name)
+                    sem = 0 if sem is None else sem
         p = p.GetParent()
     return sem, inst
 
@@ -232,6 +228,8 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     if stage is None:
         raise ConfigError(f"{path}: USD could not open the stage")
     mpu = UsdGeom.GetStageMetersPerUnit(stage) if meters_per_unit is None else float(meters_per_unit)
+    if not (np.isfinite(mpu) and 0 < mpu <= 1e6):
+        raise ConfigError(f"{path}: metersPerUnit {mpu}: expected a number > 0 (1 = metres, 0.01 = centimetres)")
     up = UsdGeom.GetStageUpAxis(stage) if up_axis is None else up_axis.upper()
     fix = np.eye(4) * mpu
     fix[3, 3] = 1.0
@@ -258,14 +256,29 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             v = np.asarray(pts, dtype=np.float64)
             if not np.all(np.isfinite(v)):
                 raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()} has NaN or Inf points")
-            faces = _triangulate(np.asarray(counts), np.asarray(idx))
+            counts, idx = np.asarray(counts, np.int64), np.asarray(idx, np.int64)
+            if (counts < 0).any() or counts.sum() != len(idx) or (len(idx) and (idx.min() < 0 or idx.max() >= len(v))):
+                raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()}: faceVertexCounts (sum {int(counts.sum())}) and "
+                                  f"faceVertexIndices ({len(idx)} indices into {len(v)} points) do not agree")
+            faces = _triangulate(counts, idx)
             keys[k] = scene.add_mesh(Mesh(v, faces), name=_ident(src.GetName(), "mesh"))
         return keys[k]
 
+    authored: dict[int, str] = {}  # genie:instanceId -> the prim that authored it
     missing = [0]
 
     def place(key: str, world: np.ndarray, prim: Usd.Prim, name: str) -> None:
         sem, inst = _label(prim)
+        if inst is not None:
+            owner = prim
+            while owner and not owner.HasAttribute("genie:instanceId"):
+                owner = owner.GetParent()
+            where = str(owner.GetPath()) if owner else str(prim.GetPath())
+            if prim.IsInstanceProxy():
+                where = str(owner.GetPrimInPrototype().GetPath()) if owner else where
+            if authored.setdefault(inst, where) != where and not prim.IsInstanceProxy():
+                raise ConfigError(f"{path}: genie:instanceId {inst} is authored on both {authored[inst]} and {where}; "
+                                  "expected one id per object")
         if inst is None or inst in taken:
             while next_id[0] in taken:
                 next_id[0] += 1

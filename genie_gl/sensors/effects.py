@@ -65,8 +65,55 @@ def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
         if cls is None:
             raise ConfigError(f"{where}: effects[{i}].type: unknown effect {spec['type']!r}"
                               f"{did_you_mean(spec['type'], EFFECTS)} (known: {', '.join(sorted(EFFECTS))})")
+        import dataclasses
+
+        for f in dataclasses.fields(cls):  # a number where the effect expects one, before it looks
+            d, v = f.default, params.get(f.name)
+            if f.name in params and isinstance(d, (int, float)) and not isinstance(d, bool) and \
+                    (isinstance(v, bool) or not isinstance(v, (int, float))):
+                raise ConfigError(f"{where}: effects[{i}] ({spec['type']}).{f.name}: expected a number, got {v!r:.40}")
         try:
             out.append(cls(**params))
         except TypeError as exc:
             raise ConfigError(f"{where}: effects[{i}] ({spec['type']}): {exc}") from None
+        _check_numbers(out[-1], f"{where}: effects[{i}] ({spec['type']})")
     return tuple(out)
+
+
+SIGNED = {"bias_m", "axis"}  # parameters that may be negative
+
+
+def _magnitude(name: str) -> bool:
+    """A parameter that is a size, spread, share or angle by its name (so never negative)."""
+    return name not in SIGNED and ("sigma" in name or "probability" in name or name in ("scale", "subpixel", "b")
+                                   or name.endswith(("_m", "_px", "_mm", "_deg", "_rel", "_step")))
+
+
+def _check_numbers(e: Effect, where: str) -> None:
+    """The checks every effect's numbers share: real numbers, not NaN; sizes, spreads, shares
+    and angles (by name, :func:`_magnitude`) not negative; probabilities in [0, 1], angles in
+    [0, 90] degrees, min <= max."""
+    import dataclasses
+    import math
+
+    for f in dataclasses.fields(e):
+        v = getattr(e, f.name)
+        values = v if isinstance(v, (tuple, list)) else [v]
+        d = f.default
+        numeric = (isinstance(d, (int, float)) and not isinstance(d, bool)) or \
+            (isinstance(d, tuple) and all(isinstance(x, (int, float)) for x in d))
+        if not numeric and not (d is None and isinstance(v, (int, float))) or v is None or isinstance(v, bool):
+            continue  # a name, a mode or a flag: the effect checks its own
+        for x in values:
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or math.isnan(x):
+                raise ConfigError(f"{where}.{f.name}: expected a number, got {v!r:.40}")
+            if x < 0 and _magnitude(f.name):
+                raise ConfigError(f"{where}.{f.name}: expected a value >= 0, got {v!r}")
+            if "probability" in f.name and x > 1:
+                raise ConfigError(f"{where}.{f.name}: expected a probability in [0, 1], got {v!r}")
+            if f.name.endswith("_deg") and x > 90:
+                raise ConfigError(f"{where}.{f.name}: expected an angle in [0, 90] degrees, got {v!r}")
+    lo, hi = getattr(e, "min_m", None), getattr(e, "max_m", None)
+    if lo is not None and hi is not None and lo > hi:
+        raise ConfigError(f"{where}: min_m {lo} is above max_m {hi}; expected min_m <= max_m")
+

@@ -4,11 +4,12 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import cv2
 import numpy as np
 import yaml
 
 from ..errors import ConfigError
-from ..resources import resolve
+from ..resources import read_text, resolve
 from .calibration import Calibration, read_calibration
 from .camera import Sensor
 from .effects import build_effects
@@ -31,7 +32,18 @@ def calibration_meta(calib: Calibration) -> dict:
 def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m: float = 1.0e4) -> Sensor:
     """A sensor from a profile (``sensors/<name>.yaml`` or a path) or a bare calibration file."""
     path = resolve(name_or_path, "sensors", (".yaml",))
-    text = Path(path).read_text()
+    try:
+        return _load_sensor(path, near_m, far_m)
+    except ConfigError:
+        raise
+    except (cv2.error, TypeError, ValueError, KeyError, IndexError, AttributeError, OverflowError) as exc:
+        # a field of the wrong kind that no check above named: still one line naming the file
+        why = str(exc).strip().splitlines()[-1][:160] if str(exc).strip() else type(exc).__name__
+        raise ConfigError(f"{path}: not a usable sensor profile or OpenCV calibration ({why})") from None
+
+
+def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
+    text = read_text(path, "sensor profile or OpenCV calibration")
     if "opencv-matrix" in text or text.lstrip().startswith("<?xml"):
         calib = read_calibration(path)
         return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem,

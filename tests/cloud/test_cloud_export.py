@@ -74,7 +74,10 @@ def test_semantickitti_reads_back_as_its_api_does(tmp_path):
     label = np.fromfile(tmp_path / "sequences/03/labels/000001.label", dtype=np.uint32)
     np.testing.assert_array_equal(scan[:, :3], c.xyz)
     np.testing.assert_array_equal(label & 0xFFFF, c.semantic)
-    np.testing.assert_array_equal(label >> 16, c.instance & 0xFFFF)
+    # ids beyond 16 bits: renumbered in order within the scan, the table beside it restores them
+    ids = np.unique(c.instance)
+    np.testing.assert_array_equal(label >> 16, np.searchsorted(ids, c.instance) + (ids[0] != 0))
+    np.testing.assert_array_equal(semantickitti.read(b)[2], c.instance)
     assert semantickitti.pack_labels(np.array([10]), np.array([3]))[0].tobytes() == bytes([0x0A, 0, 3, 0])
     poses = (tmp_path / "sequences/03/poses.txt").read_text().splitlines()
     assert float(poses[1].split()[3]) == pytest.approx(1e5)
@@ -93,7 +96,7 @@ def test_semantickitti_label_words_are_the_documented_bits(tmp_path):
     (SemanticKITTI's README: lower 16 bits the class, upper 16 the instance), written out by
     hand here for ids that set the high bits of both halves."""
     sem = np.array([0, 1, 9, 255, 40000, 65535], np.uint16)
-    inst = np.array([0, 1, 2, 32769, 65535, 70001], np.uint32)   # 70001 keeps its low 16 bits
+    inst = np.array([0, 1, 2, 32769, 65535, 4465], np.uint32)   # ids beyond 16 bits: renumbered (test_field_readers)
     words = [0, 1 + 65536, 9 + 2 * 65536, 255 + 32769 * 65536, 40000 + 65535 * 65536, 65535 + 4465 * 65536]
     raw = b"".join(int(w).to_bytes(4, "little") for w in words)
     assert semantickitti.pack_labels(sem, inst).tobytes() == raw
@@ -102,7 +105,7 @@ def test_semantickitti_label_words_are_the_documented_bits(tmp_path):
     assert (tmp_path / "sequences/00/labels/000000.label").read_bytes() == raw
     xyz, s2, i2 = semantickitti.read(tmp_path / "sequences/00/velodyne/000000.bin")
     np.testing.assert_array_equal(s2, sem)
-    np.testing.assert_array_equal(i2, inst & 0xFFFF)
+    np.testing.assert_array_equal(i2, inst)
 
 
 def test_ply_reads_in_plyfile_and_open3d(tmp_path):
@@ -153,7 +156,7 @@ def test_pcd_header_and_packed_colour_as_pcl_reads_them(tmp_path):
     lines = header.decode().splitlines()
     assert lines[1:] == ["VERSION 0.7", "FIELDS x y z rgb label instance", "SIZE 4 4 4 4 4 4", "TYPE F F F U U U",
                          "COUNT 1 1 1 1 1 1", "WIDTH 300", "HEIGHT 1", "VIEWPOINT 0 0 0 1 0 0 0", "POINTS 300"]
-    assert lines[0].endswith(f"({c.origin[0]!r} {c.origin[1]!r} {c.origin[2]!r})")
+    assert lines[0].endswith("origin " + " ".join(f"{float(v):.17g}" for v in c.origin))  # plain numbers, no reprs
     rgb = np.frombuffer(body, "<u4").reshape(300, 6)[:, 3]
     r, g, b = (c.rgb[:, k].astype(np.int64) for k in range(3))
     np.testing.assert_array_equal(rgb, r * 65536 + g * 256 + b)

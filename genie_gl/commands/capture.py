@@ -12,19 +12,19 @@ import argparse
 import json
 from pathlib import Path
 
-import numpy as np
-
 from .. import __version__
+from . import count, positive, seed, stages
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", help="USD scene (.usda/.usdc/.usd)")
     p.add_argument("--sensor", default="ideal_pinhole", help="sensor profile name or path")
-    p.add_argument("--cameras", type=int, default=8)
+    p.add_argument("--cameras", type=count(1, 10_000), default=8)
     p.add_argument("--out", required=True)
+    p.add_argument("--no-progress", action="store_true")
     p.add_argument("--format", default="ply")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--height", type=float, default=None,
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--height", type=positive(1e4), default=None,
                    help="camera height above the scene's floor (m); default: chosen for the sensor's range")
     p.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] (instead of --cameras)")
 
@@ -32,31 +32,37 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..cloud import to_cloud
     from ..export import FORMATS, export
-    from ..errors import ConfigError
+    from ..errors import ConfigError, did_you_mean
     from ..scene.model import Scene
     from ..sensors import load_sensor
-    from .batch import capture
+    from ..render.batch import capture
 
     if args.format not in FORMATS:
-        raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}")
-    if args.cameras < 1:
-        raise ConfigError("--cameras must be >= 1")
+        raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
+                          f"{did_you_mean(args.format, FORMATS)}")
     from ..plan import effect_totals
     from ..plan import plan as make_plan
     from ..plan_command import read_poses, warn_empty
     from ..sensors.placement import scene_poses
 
     sensor = load_sensor(args.sensor)
-    scene = Scene.from_usd(args.scene)
-    poses = (read_poses(args.poses) if args.poses
-             else scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.height))
-    plan = make_plan(scene, sensor, poses)
-    warn_empty(plan, "capture")
-    frames = capture(scene, sensor, poses, seed=args.seed, workers=None, plan=plan)
-    cloud = to_cloud(frames)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    path = export(cloud, out, format=args.format)
+    with stages(["read scene", "plan", "render", "cloud", "export"], title="genie capture",
+                enabled=not args.no_progress) as step:
+        step("read scene")
+        scene = Scene.from_usd(args.scene)
+        step("place cameras and plan")
+        poses = (read_poses(args.poses) if args.poses
+                 else scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.height))
+        plan = make_plan(scene, sensor, poses)
+        warn_empty(plan, "capture")
+        step(f"render {len(poses)} cameras")
+        frames = capture(scene, sensor, poses, seed=args.seed, workers=None, plan=plan)
+        step("cloud")
+        cloud = to_cloud(frames)
+        step("export")
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        path = export(cloud, out, format=args.format)
     (out / "manifest.json").write_text(json.dumps({
         "genie_gl": __version__, "command": "capture", "scene": args.scene, "sensor": args.sensor,
         "cameras": len(poses), "seed": args.seed, "format": args.format, "points": len(cloud),

@@ -11,19 +11,22 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..errors import ConfigError
+from ..errors import ConfigError, LimitError
+from . import positive, seed
+
+MAX_RASTER_CELLS = 100_000_000  # the label raster: 100 M cells (~200 MB as uint16)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("strategy", nargs="?", help="strategy JSON file, or a shipped name (assembly_line, ...)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--out", help="output folder (layout.json, layout.png, labels.npy, manifest.json)")
-    p.add_argument("--resolution", type=float, default=0.1, help="label raster cell size in metres")
+    p.add_argument("--resolution", type=positive(1e3), default=0.1, help="label raster cell size in metres")
     p.add_argument("--schema", action="store_true", help="print the strategy JSON Schema and exit")
 
 
 def run(args: argparse.Namespace) -> int:
-    from . import generate_layout, json_schema, load_strategy, save_layout_png
+    from ..layout import generate_layout, json_schema, load_strategy, save_layout_png
 
     if args.schema:
         json.dump(json_schema(), sys.stdout, indent=2)
@@ -32,10 +35,16 @@ def run(args: argparse.Namespace) -> int:
     if not args.strategy or not args.out:
         raise ConfigError("give a STRATEGY and --out DIR (or --schema)")
     strategy = load_strategy(args.strategy)
+    x0, y0, w, h = strategy.root.x, strategy.root.y, strategy.root.width, strategy.root.height
+    cells = (w / args.resolution + 1) * (h / args.resolution + 1)
+    if cells > MAX_RASTER_CELLS:
+        raise LimitError(f"--resolution {args.resolution}: a {w:g} x {h:g} m hall makes a label raster of {cells:.3g} "
+                         f"cells, more than {MAX_RASTER_CELLS:,}; use a coarser --resolution")
     layout = generate_layout(strategy, seed=args.seed)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=".layout-", dir=out.parent))
+    tmp.chmod(0o755)  # mkdtemp makes 0700: the usual permissions for an output folder
     try:
         layout.to_json(tmp / "layout.json")
         save_layout_png(layout, tmp / "layout.png")

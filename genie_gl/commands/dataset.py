@@ -1,0 +1,54 @@
+"""``genie dataset STRATEGY --scenes N --cameras K --sensor S --format F --out DIR``."""
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from ..dataset.config import DatasetConfig, parse_split
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from ..export import DATASET_FORMATS
+
+    p.add_argument("strategy", help="strategy JSON file, or a shipped name (assembly_line, ...)")
+    p.add_argument("--scenes", type=int, default=3)
+    p.add_argument("--cameras", type=int, default=8)
+    p.add_argument("--sensor", default="realsense_d435", help="sensor profile: a file, or a shipped name")
+    p.add_argument("--format", default="semantickitti", help=f"one of {', '.join(DATASET_FORMATS)}")
+    p.add_argument("--out", required=True)
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    p.add_argument("--seed", type=int, default=0, help="dataset seed, >= 0")
+    p.add_argument("--points", type=int, default=25000, help="points per chunk (the paper: 25 000)")
+    p.add_argument("--chunk-m", type=float, default=12.0, help="chunk size in metres")
+    p.add_argument("--min-points", type=int, default=2000)
+    p.add_argument("--min-labelled-share", type=float, default=0.05)
+    p.add_argument("--previews", type=int, default=3, help="scenes that get preview pictures")
+    p.add_argument("--split", default="0.8,0.1,0.1",
+                   help="SemanticKITTI train,valid,test shares of the sequences (deterministic, in order)")
+    p.add_argument("--executor", choices=("process", "ray"), default="process")
+    p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
+    p.add_argument("--max-nodes", type=int, default=2_000_000, help="limit on a layout's regions (see README: limits)")
+    p.add_argument("--max-memory-gb", type=float, default=None, help="memory limit (default: 80%% of what is free)")
+    p.add_argument("--max-disk-gb", type=float, default=None, help="disk limit (default: the free space of --out)")
+    p.add_argument("--verify", action="store_true", help="check finished scenes' file hashes, not only sizes")
+    p.add_argument("--no-progress", action="store_true")
+
+
+def config_from_args(args: argparse.Namespace) -> DatasetConfig:
+    fields = {k: getattr(args, k) for k in ("strategy", "scenes", "cameras", "sensor", "format", "out", "workers",
+                                             "seed", "points", "chunk_m", "min_points", "min_labelled_share",
+                                             "previews", "executor", "address", "max_nodes", "max_memory_gb",
+                                             "max_disk_gb")}
+    fields["split"] = parse_split(args.split)
+    return DatasetConfig.parse(fields, "")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..dataset import run_dataset
+
+    cfg = config_from_args(args)
+    m = run_dataset(cfg, progress=not args.no_progress, verify=args.verify)
+    print(f"dataset: {m['scenes_made']} scenes made, {m['scenes_skipped']} already there, "
+          f"{m['wall_s']:.1f} s -> {cfg.out} (previews in {Path(cfg.out) / 'previews'})")
+    return 0

@@ -1,0 +1,105 @@
+"""The typed configuration of a dataset run, checked where it enters.
+
+:class:`DatasetConfig` is what ``genie dataset`` and :func:`~genie_gl.dataset.run_dataset`
+take; every field is validated here (numbers finite and in range, names known) so that the
+run below it never sees a bad value. A mistake is one line naming the field (or option) and
+what was expected, raised as :class:`~genie_gl.errors.ConfigError`.
+"""
+from __future__ import annotations
+
+import math
+import os
+from typing import Any, ClassVar, Literal, Optional
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from ..errors import ConfigError, did_you_mean
+
+# the CLI spelling of each field, for messages
+OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
+          "format": "--format", "out": "--out", "workers": "--workers", "seed": "--seed", "points": "--points",
+          "chunk_m": "--chunk-m", "min_points": "--min-points", "min_labelled_share": "--min-labelled-share",
+          "previews": "--previews", "executor": "--executor", "address": "--address", "split": "--split",
+          "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb"}
+
+
+class DatasetConfig(BaseModel):
+    """Inputs of a dataset run (the CLI's options; see ``genie dataset --help``)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    strategy: str = Field(min_length=1)
+    out: str = Field(min_length=1)
+    scenes: int = Field(3, ge=1, le=1_000_000)
+    cameras: int = Field(8, ge=1, le=10_000)
+    sensor: str = Field("realsense_d435", min_length=1)
+    format: str = "semantickitti"
+    workers: int = Field(1, ge=1, le=4096)
+    seed: int = Field(0, ge=0, lt=2**63)
+    points: int = Field(25000, ge=1, le=100_000_000)
+    chunk_m: float = Field(12.0, gt=0, le=1e6)
+    min_points: int = Field(2000, ge=0)
+    min_labelled_share: float = Field(0.05, ge=0, le=1)
+    previews: int = Field(3, ge=0)
+    executor: Literal["process", "ray"] = "process"
+    address: Optional[str] = None
+    split: tuple[float, float, float] = (0.8, 0.1, 0.1)
+    max_nodes: int = Field(2_000_000, ge=1)
+    max_memory_gb: Optional[float] = Field(None, gt=0)
+    max_disk_gb: Optional[float] = Field(None, gt=0)
+
+    @field_validator("format")
+    @classmethod
+    def _known_format(cls, v: str) -> str:
+        from ..export.registry import DATASET_FORMATS
+
+        if v not in DATASET_FORMATS:
+            raise ValueError(f"unknown; expected one of {', '.join(DATASET_FORMATS)}{did_you_mean(v, DATASET_FORMATS)}")
+        return v
+
+    @field_validator("split")
+    @classmethod
+    def _split(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
+        if min(v) < 0 or sum(v) <= 0:
+            raise ValueError("expected three shares >= 0 (train, valid, test), not all 0")
+        return v
+
+    # the fields that decide the bytes written: resuming with any other value is refused
+    FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points", "min_labelled_share", "split")
+
+    @classmethod
+    def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":
+        """Validate ``data``; the first problem as one-line :class:`ConfigError`."""
+        try:
+            return cls(**data)
+        except ValidationError as exc:
+            e = exc.errors()[0]
+            field = ".".join(str(p) for p in e["loc"]) or "?"
+            name = OPTION.get(str(e["loc"][0]) if e["loc"] else "", field)
+            msg = e["msg"].removeprefix("Value error, ")
+            got = e.get("input")
+            raise ConfigError(f"{source + ': ' if source else ''}{name} {got!r:.60}: {msg}") from None
+        except TypeError as exc:
+            raise ConfigError(f"{source}: {exc}") from None
+
+
+def parse_split(text: str) -> tuple[float, float, float]:
+    """``"0.8,0.1,0.1"`` -> (0.8, 0.1, 0.1); a bad value is a one-line ConfigError."""
+    try:
+        parts = tuple(float(p) for p in str(text).split(","))
+    except ValueError:
+        parts = ()
+    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
+        raise ConfigError(f"--split {text!r}: expected three shares TRAIN,VALID,TEST such as 0.8,0.1,0.1")
+    return parts  # type: ignore[return-value]
+
+
+def available_memory_bytes() -> int:
+    """Memory this process may still use: MemAvailable from /proc/meminfo (or total RAM)."""
+    try:
+        for line in open("/proc/meminfo"):
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")

@@ -1,0 +1,90 @@
+"""Where scenes are made: in this process, in worker processes, or on a Ray cluster. Each
+scene depends only on (seed, index), so every executor writes the same bytes."""
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from .config import DatasetConfig
+
+
+def _worker(job: tuple) -> dict:
+    if os.environ.get("GENIE_GL_BACKEND"):  # a spawned worker: the CLI's choice, inherited
+        from ..render.context import set_default_backend
+
+        set_default_backend(os.environ["GENIE_GL_BACKEND"])
+    from ..render import limit_threads  # workers share the cores: llvmpipe and numba threads
+    from .scene import run_scene
+
+    cfg, index, verify, status = job if len(job) == 4 else (*job, None)
+    limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
+
+    def stage(name: str) -> None:
+        if status is not None:
+            status[index] = name
+
+    try:
+        return run_scene(cfg, index, verify=verify, stage=stage)
+    finally:
+        if status is not None:
+            status.pop(index, None)
+
+
+def _describe(status) -> str:
+    try:
+        items = sorted(dict(status).items())
+    except Exception:  # the manager went away: nothing to show
+        return ""
+    return ", ".join(f"scene {i}: {name}" for i, name in items)
+
+
+def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = False) -> list[dict[str, Any]]:
+    """Run every scene of ``cfg`` (finished ones are checked and skipped); returns their stats.
+    The progress bar names the scene and stage being worked on (this process) or the scenes
+    under way (workers)."""
+    from tqdm import tqdm
+
+    from .scene import run_scene
+
+    bar = tqdm(total=cfg.scenes, unit="scene", disable=not progress, desc="scenes", mininterval=0.5)
+    results: list[dict] = []
+
+    def done(r: dict) -> None:
+        results.append(r)
+        bar.update(1)
+
+    try:
+        if cfg.executor == "ray":
+            import ray
+
+            ray.init(address=cfg.address, ignore_reinit_error=True, log_to_driver=False)
+            remote = ray.remote(_worker)  # stages are not reported back from the cluster
+            pending = [remote.remote((cfg, i, verify)) for i in range(cfg.scenes)]
+            bar.set_postfix_str(f"{len(pending)} scenes on Ray")
+            while pending:
+                ready, pending = ray.wait(pending, num_returns=1)
+                done(ray.get(ready[0]))
+        elif cfg.workers <= 1 or cfg.scenes <= 1:
+            for i in range(cfg.scenes):
+                done(run_scene(cfg, i, verify=verify,
+                               stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}", refresh=True)))
+        else:
+            import multiprocessing as mp
+
+            n = min(cfg.workers, cfg.scenes)
+            ctx = mp.get_context("spawn")
+            with ctx.Manager() as manager, ctx.Pool(n) as pool:
+                status = manager.dict()  # scene -> the stage its worker is in, for the bar
+                it = pool.imap_unordered(_worker, [(cfg, i, verify, status) for i in range(cfg.scenes)])
+                left = cfg.scenes
+                while left:
+                    try:
+                        r = it.next(timeout=0.5)
+                    except mp.TimeoutError:
+                        bar.set_postfix_str(_describe(status), refresh=True)
+                        continue
+                    done(r)
+                    left -= 1
+    finally:
+        bar.close()
+    return results

@@ -1,0 +1,45 @@
+"""The dataset's report: points per class as text, JSON and a bar chart (the paper's Table 3)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .. import labels
+
+
+def class_totals(stats: list[dict]) -> dict[int, int]:
+    total: dict[int, int] = {}
+    for s in stats:
+        for k, v in s["class_points"].items():
+            total[int(k)] = total.get(int(k), 0) + int(v)
+    return total
+
+
+def histogram(out: Path, stats: list[dict]) -> dict[str, int]:
+    """Write ``histogram.{txt,json,png}`` under ``out``; returns {class name: points}."""
+    total = class_totals(stats)
+    n = sum(total.values()) or 1
+    lines = [f"{'id':>3}  {'class':<20}{'points':>14}{'share':>9}"]
+    for k in sorted(total):
+        lines.append(f"{k:>3}  {labels.name(k):<20}{total[k]:>14,}{100 * total[k] / n:>8.2f}%")
+    (out / "histogram.txt").write_text("\n".join(lines) + "\n")
+    (out / "histogram.json").write_text(json.dumps({labels.name(k): v for k, v in sorted(total.items())}, indent=1))
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    keys = sorted(total)
+    ax.bar([labels.name(k) for k in keys], [total[k] for k in keys],
+           color=[np.array(labels.color(k)) / 255 for k in keys])
+    ax.set_yscale("log")
+    ax.set_ylabel("points")
+    ax.set_title(f"points per class ({len(stats)} scenes, {sum(total.values()):,} points)")
+    plt.setp(ax.get_xticklabels(), rotation=30, ha="right")
+    fig.tight_layout()
+    fig.savefig(out / "histogram.png", dpi=100, metadata={"Software": None})
+    plt.close(fig)
+    return {labels.name(k): v for k, v in total.items()}

@@ -1,0 +1,173 @@
+"""``genie dataset``: layout → scene → placement → capture → clouds → export, for N scenes.
+
+Scene i depends only on (seed, i): its generators come from ``SeedSequence([seed, i])``,
+whatever the worker count or executor. Each scene is written into a temporary folder, its
+files recorded (size, SHA-256) in its ``stats.json``, the dataset-level files it needs written
+(BOP models and camera), and only then renamed into place, so a run killed at any moment
+leaves no half-written scene and a re-run makes exactly the missing or damaged ones. Layout
+of ``--out DIR``::
+
+    DIR/manifest.json                 inputs and their fingerprint, seeds, versions, every run's timings
+    DIR/histogram.{txt,json,png}      points per class (the paper's Table 3)
+    DIR/previews/                     layout, depth/label images, top-down cloud
+    DIR/scenes/NNNN/                  ply, pcd, npz: cloud_XXX.<ext> per chunk; semantickitti: the
+                                      scene's scans; each with layout.json and stats.json
+    DIR/sequences/NN/, genie-gl.yaml  semantickitti: the sequences (hard links to the scenes' scans)
+    DIR/train_pbr/NNNNNN/             bop: the scene's RGB-D frames, masks and ground truth
+    DIR/camera.json, DIR/models/      bop: the camera and the object models (mm)
+"""
+from __future__ import annotations
+
+import errno
+import json
+import platform
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+from .. import __version__
+from ..errors import ConfigError
+from .config import DatasetConfig
+from .manifest import OutputLock, check_resume, fingerprint, scene_complete
+from .scene import STAGES, run_scene, scene_dir, scene_rngs  # noqa: F401  (the run's public names)
+
+
+
+def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
+    from ..scene import ASSETS
+
+    get = cfg.get if isinstance(cfg, dict) else lambda k, d=None: getattr(cfg, k, d)
+    if ASSETS.registered() and (get("executor", "process") == "ray" or get("workers", 1) > 1):
+        raise ConfigError(f"assets registered with register_asset ({ASSETS.registered()}) stay in this "
+                          "process and worker processes would not see them; list them in the strategy's "
+                          "scene.assets, or use one worker")
+
+
+def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
+    """Check what a run needs before any work: the strategy and sensor load, the output folder
+    is writable, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
+    from ..layout import load_strategy
+    from ..sensors import load_sensor
+    from .limits import check_limits
+
+    strategy = load_strategy(cfg.strategy)
+    sensor = load_sensor(cfg.sensor)
+    out = Path(cfg.out)
+    made = [p for p in (out, *out.parents) if not p.exists()]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise ConfigError(f"--out {out}: not writable ({exc.strerror})") from None
+    try:
+        check_limits(cfg, strategy, sensor, out)
+    except ConfigError:
+        for p in made:  # refused before any work: leave no trace
+            try:
+                p.rmdir()
+            except OSError:
+                break
+        raise
+    if cfg.executor == "ray":
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise ConfigError("--executor ray needs Ray: pip install 'genie-gl[ray]'") from None
+    return strategy, sensor, fingerprint(cfg, strategy, sensor)
+
+
+def _clear_leftovers(out: Path, fmt) -> None:
+    """Remove what a killed run left half-made: scene folders and files being written."""
+    for parent in {out / fmt.folder, *(out / s for s in fmt.stale)}:
+        for stale in parent.glob(".tmp-*") if parent.is_dir() else []:
+            shutil.rmtree(stale, ignore_errors=True)
+    for p in out.rglob("*.tmp*"):
+        if p.is_file() and (p.name.endswith(".tmp") or p.name.endswith(".tmp.png")):
+            p.unlink()
+
+
+def _effects_total(results: list[dict]) -> dict:
+    """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
+    from ..plan import add_totals
+
+    total: dict = {}
+    for r in results:
+        add_totals(total, r.get("effects", {}))
+    return total
+
+
+def _write_manifest(out: Path, manifest: dict) -> None:
+    tmp = out / "manifest.json.tmp"
+    tmp.write_text(json.dumps(manifest, indent=1))
+    tmp.replace(out / "manifest.json")
+
+
+def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False) -> dict[str, Any]:
+    """Make every missing (or damaged) scene of the dataset described by ``cfg``."""
+    from ..export import get_format
+
+    _check_registered_assets(cfg)
+    if isinstance(cfg, dict):
+        cfg = DatasetConfig.parse(cfg)
+    strategy, sensor, fp = prepare(cfg)
+    out = Path(cfg.out)
+    fmt = get_format(cfg.format)
+    with OutputLock(out):
+        old = check_resume(out, fp)
+        runs = list(old.get("runs", [])) if old else []
+        manifest = {
+            "genie_gl": __version__, "python": platform.python_version(), "command": "dataset",
+            "fingerprint": fp,
+            "inputs": {k: v for k, v in cfg.model_dump().items() if k != "out"},
+            "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
+            "runs": runs,
+        }
+        _write_manifest(out, manifest)  # before any scene: a later resume knows the inputs
+        _clear_leftovers(out, fmt)
+        try:
+            _run(cfg, out, fmt, manifest, runs, progress=progress, verify=verify)
+        except OSError as exc:
+            if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+                raise ConfigError(f"--out {out}: disk full or file too large while writing "
+                                  f"({exc.filename or 'a scene'}: {exc.strerror}); finished scenes are kept: free "
+                                  "space and run the same command again") from None
+            raise
+    return manifest
+
+
+def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, progress: bool, verify: bool) -> None:
+    """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
+    from .executors import map_scenes
+    from .report import histogram
+
+    started = time.time()
+    t0 = time.perf_counter()
+    results = map_scenes(cfg, progress=progress, verify=verify)
+    elapsed = time.perf_counter() - t0
+    stats = [scene_complete(fmt.scene_dir(out, i)) for i in range(cfg.scenes)]
+    missing = [i for i, s in enumerate(stats) if s is None]
+    if missing:
+        raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
+    if fmt.finish is not None:
+        fmt.finish(out, cfg, stats)
+    hist = histogram(out, stats)
+    made = [r for r in results if not r.get("skipped")]
+    stage_t: dict[str, float] = {}
+    for r in made:
+        for k, v in r.get("timings_s", {}).items():
+            stage_t[k] = stage_t.get(k, 0.0) + v
+    manifest["runs"] = runs + [{
+        "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
+        "scenes_made": len(made), "scenes_skipped": cfg.scenes - len(made), "workers": cfg.workers,
+        "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made)}]
+    manifest["scenes_made"], manifest["scenes_skipped"] = len(made), cfg.scenes - len(made)
+    manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
+    manifest["effects"] = manifest["runs"][-1]["effects"]
+    if any("sequence" in s for s in stats):
+        manifest["sequences"] = {f"{s['sequence']:02d}": [] for s in stats}
+        for s in stats:
+            manifest["sequences"][f"{s['sequence']:02d}"].append(s["scene"])
+    _write_manifest(out, manifest)

@@ -1,0 +1,112 @@
+"""One dataset scene, start to finish: layout, scene, placement, capture, chunks, export;
+written into a temporary folder with its file record and renamed into place when whole."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .config import DatasetConfig
+from .manifest import record_files, scene_complete
+
+STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
+
+
+def scene_rngs(seed: int, index: int) -> dict[str, np.random.Generator]:
+    """Independent generators of scene ``index`` (layout, scene, placement, capture, cloud)."""
+    names = ("layout", "scene", "placement", "capture", "cloud")
+    kids = np.random.SeedSequence([int(seed), int(index)]).spawn(len(names))
+    return {n: np.random.default_rng(k) for n, k in zip(names, kids)}
+
+
+def scene_dir(out: Path, index: int, fmt: str, n_scenes: int = 0) -> Path:
+    """Where scene ``index`` of a dataset in format ``fmt`` lives."""
+    from ..export import get_format
+
+    return get_format(fmt).scene_dir(out, index)
+
+
+def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None) -> dict[str, Any]:
+    """Make scene ``index`` and write it; returns its stats (also in stats.json).
+    ``stage(name)`` is called as each stage starts (progress display)."""
+    from ..cloud import frame_chunks, keep_cloud
+    from ..export import SceneData, get_format
+    from ..layout import generate_layout, load_strategy
+    from ..render import capture
+    from ..scene import build_scene
+    from ..sensors import load_sensor, place_sensors
+
+    stage = stage or (lambda name: None)
+    out = Path(cfg.out)
+    fmt = get_format(cfg.format)
+    final = fmt.scene_dir(out, index)
+    done = scene_complete(final, verify=verify)
+    if done is not None:
+        return done | {"skipped": True}
+    rng = scene_rngs(cfg.seed, index)
+    t = {"start": time.perf_counter()}
+    stage("layout")
+    layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"])
+    t["layout"] = time.perf_counter()
+    stage("scene")
+    scene = build_scene(layout, rng=rng["scene"])
+    t["scene"] = time.perf_counter()
+    stage("placement")
+    sensor = load_sensor(cfg.sensor)
+    poses = place_sensors(layout, sensor, n=cfg.cameras, seed=int(rng["placement"].integers(2**31)))
+    t["placement"] = time.perf_counter()
+    stage("capture")
+    # a format that stores no colour renders none (an output not asked for costs nothing)
+    frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1,
+                     depth_only=not fmt.colour)
+    t["capture"] = time.perf_counter()
+    stage("cloud")
+    kept, points_total, counts = [], 0, np.zeros(65536, np.int64)
+    if fmt.chunks:
+        # the chunks straight from the frames: the merged cloud (~12 M points at 40 cameras)
+        # is built only for a preview that shows it
+        tiles, points_total = frame_chunks(frames, cfg.chunk_m, max_points=cfg.points, rng=rng["cloud"])
+        for key, tile in tiles:
+            if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
+                kept.append((key, tile))
+                np.add.at(counts, tile.semantic, 1)
+    else:
+        for f in frames:
+            ok = f.depth > 0
+            points_total += int(ok.sum())
+            np.add.at(counts, f.semantic[ok], 1)
+    t["cloud"] = time.perf_counter()
+    stage("export")
+    for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
+        shutil.rmtree(stale, ignore_errors=True)
+    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
+    tmp.mkdir(parents=True)
+    data = SceneData(index, scene, layout, frames, kept, cfg)
+    fmt.write_scene(data, tmp)
+    layout.to_json(tmp / "layout.json")
+    stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
+             "points_total": int(points_total), "chunks": len(kept),
+             "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+    stats["files"] = record_files(tmp)
+    (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
+    if index < cfg.previews:
+        from .previews import write_previews
+
+        write_previews(out / "previews", index, layout, frames, scene)
+    if fmt.before_rename is not None:
+        fmt.before_rename(data, out)
+    t["export"] = time.perf_counter()
+    if final.exists():  # an incomplete scene of an earlier run
+        shutil.rmtree(final)
+    tmp.replace(final)  # the scene appears whole, or not at all
+    keys = ("start",) + STAGES
+    stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
+    from ..plan import effect_totals  # what each sensor effect did (issue 12); timings: not in stats.json
+
+    stats["effects"] = effect_totals(frames)
+    return stats

@@ -1,0 +1,77 @@
+"""The export registry: each format is one module that registers a :class:`DatasetFormat`
+(as sensor effects register themselves); ``gg.export``, ``genie capture`` and ``genie dataset``
+all look formats up here, so a new format is one new module imported in ``export/__init__``.
+
+A format says where a dataset scene goes, what the scene needs (colour, chunks), how one
+scene is written into its (temporary) folder, what dataset-level files the scene needs before
+its folder is renamed into place, and what is written once all scenes are there.
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import ConfigError, did_you_mean
+
+
+@dataclass
+class SceneData:
+    """What a format may write for one dataset scene."""
+
+    index: int
+    scene: Any                  # genie_gl.Scene
+    layout: Any                 # genie_gl.Layout
+    frames: list                # list[Frame]
+    chunks: list                # [(tile key, PointCloud)] kept by the cleaning rules
+    options: Any = None         # DatasetConfig
+    extra: dict = field(default_factory=dict)  # what write_scene hands to before_rename
+
+
+@dataclass(frozen=True)
+class DatasetFormat:
+    name: str
+    folder: str                                                   # scenes go to DIR/<folder>/<index>
+    digits: int = 4
+    colour: bool = True                                           # render RGB (False: depth and ids only)
+    chunks: bool = True                                           # needs the cleaned chunks
+    write_scene: Callable[[SceneData, Path], None] | None = None  # the scene's files into a folder
+    before_rename: Callable[[SceneData, Path], None] | None = None  # dataset files the scene needs (out dir)
+    finish: Callable[[Path, Any, list[dict]], None] | None = None  # after every scene: (out, config, stats)
+    write_cloud: Callable[..., Path] | None = None                # one cloud: (cloud, out_dir, name=, **kw)
+    description: str = ""
+    stale: tuple[str, ...] = field(default=())                    # extra folders whose .tmp-* a run clears
+
+    def scene_dir(self, out: str | os.PathLike, index: int) -> Path:
+        return Path(out) / self.folder / f"{index:0{self.digits}d}"
+
+
+DATASET_FORMATS: dict[str, DatasetFormat] = {}
+
+
+def register_format(fmt: DatasetFormat) -> DatasetFormat:
+    DATASET_FORMATS[fmt.name] = fmt
+    return fmt
+
+
+def get_format(name: str, where: str = "--format") -> DatasetFormat:
+    try:
+        return DATASET_FORMATS[name]
+    except KeyError:
+        raise ConfigError(f"{where} {name!r}: unknown{did_you_mean(name, DATASET_FORMATS)}; expected one of "
+                          f"{', '.join(DATASET_FORMATS)}") from None
+
+
+def cloud_formats() -> tuple[str, ...]:
+    return tuple(n for n, f in DATASET_FORMATS.items() if f.write_cloud is not None)
+
+
+def write_chunks(ext: str, write: Callable) -> Callable[[SceneData, Path], None]:
+    """A ``write_scene`` that writes each chunk as ``cloud_NNN.<ext>``."""
+    def write_scene(data: SceneData, folder: Path) -> None:
+        folder.mkdir(parents=True, exist_ok=True)
+        for j, (_, tile) in enumerate(data.chunks):
+            write(tile, folder / f"cloud_{j:03d}.{ext}")
+    return write_scene
