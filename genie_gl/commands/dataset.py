@@ -33,6 +33,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-disk-gb", type=float, default=None, help="disk limit (default: the free space of --out)")
     p.add_argument("--verify", action="store_true", help="check finished scenes' file hashes, not only sizes")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--accuracy", default=None, metavar="FILE",
+                   help="accuracy settings: a file with an accuracy: block (genie bench accuracy --budget-mm writes one)")
 
 
 def config_from_args(args: argparse.Namespace) -> DatasetConfig:
@@ -41,6 +43,9 @@ def config_from_args(args: argparse.Namespace) -> DatasetConfig:
                                              "previews", "executor", "address", "max_nodes", "max_memory_gb",
                                              "max_disk_gb")}
     fields["split"] = parse_split(args.split)
+    from ..accuracy import option
+
+    fields["accuracy"] = option(getattr(args, "accuracy", None))   # read and checked before any work
     return DatasetConfig.parse(fields, "")
 
 

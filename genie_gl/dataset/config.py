@@ -20,7 +20,8 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "format": "--format", "out": "--out", "workers": "--workers", "seed": "--seed", "points": "--points",
           "chunk_m": "--chunk-m", "min_points": "--min-points", "min_labelled_share": "--min-labelled-share",
           "previews": "--previews", "executor": "--executor", "address": "--address", "split": "--split",
-          "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb"}
+          "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
+          "accuracy": "--accuracy"}
 
 
 class DatasetConfig(BaseModel):
@@ -47,6 +48,7 @@ class DatasetConfig(BaseModel):
     max_nodes: int = Field(2_000_000, ge=1)
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
+    accuracy: Optional[dict[str, Any]] = None   # genie_gl.accuracy.option(): {"file", "settings"}
 
     @field_validator("format")
     @classmethod
@@ -65,7 +67,7 @@ class DatasetConfig(BaseModel):
         return v
 
     # the fields that decide the bytes written: resuming with any other value is refused
-    FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points", "min_labelled_share", "split")
+    FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points", "min_labelled_share", "split", "accuracy")
 
     @classmethod
     def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":
