@@ -174,11 +174,6 @@ class DepthNoise(Effect):
         zv = z[valid]
         theta = self.steep_angles(frame, valid) if self.needs_normals else None
         noisy[valid] = zv + rng.standard_normal(zv.size) * self.sigma(zv, f, theta, frame.sensor)
-        if self.model == "stereo" and self.subpixel_step > 0:
-            fb = f * self.baseline(frame.sensor)
-            disp = fb / np.maximum(noisy[valid], 1e-6)
-            disp = np.round(disp / self.subpixel_step) * self.subpixel_step
-            noisy[valid] = np.where(disp > 0, fb / np.maximum(disp, 1e-12), 0.0)
         bad = valid & ~(noisy > 0)
         out = frame.replace(depth=noisy.astype(np.float32))
         return drop(out, bad) if bad.any() else out

@@ -223,3 +223,26 @@ def test_zero_strength_effects_give_the_ideal_frame_and_strong_ones_stay_finite(
     assert a.depth.tobytes() != f.depth.tobytes()
     if name == "range":  # exactly what lies outside [1.5, 3.5] m is dropped
         np.testing.assert_array_equal(a.depth > 0, (f.depth >= 1.5) & (f.depth <= 3.5))
+
+
+def test_steep_angles_are_the_incidence_beyond_60_degrees_pixel_by_pixel():
+    """θ = arccos(−n·r̂) with r the pixel's ray through its centre, reported where θ > 60°
+    (the Nguyen term's threshold) and 0 elsewhere, for normals that differ pixel by pixel."""
+    h, w, fpx = 40, 60, 50.0                                   # wide field: rays far off axis
+    rng = np.random.default_rng(4)
+    n = rng.normal(size=(h, w, 3))
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    d = np.full((h, w), 2.0)
+    d[:3] = 0                                                  # holes are not in the list
+    valid = d > 0
+    u, v = np.meshgrid(np.arange(w) + 0.5 - w / 2, np.arange(h) + 0.5 - h / 2)
+    r = np.stack([u / fpx, v / fpx, np.ones_like(u)], -1)
+    r /= np.linalg.norm(r, axis=-1, keepdims=True)
+    n *= -np.sign((n * r).sum(-1, keepdims=True))              # every surface seen from the front
+    n[5, :10] = 0                                              # no normal: no angle
+    f = frame(d, f=fpx, normal=n)
+    theta = np.arccos(np.clip(-(n * r).sum(-1), -1.0, 1.0))
+    expected = np.where((theta > np.pi / 3) & (n != 0).any(-1), theta, 0.0)[valid]
+    got = DepthNoise.steep_angles(f, valid)
+    assert 0.2 < (expected > 0).mean() < 0.9
+    np.testing.assert_allclose(got, expected, atol=2e-6)

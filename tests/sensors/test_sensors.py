@@ -235,20 +235,42 @@ def test_sparse_disc_coverage_equals_brute_force(radius):
     np.testing.assert_allclose([p.fitness(c) for c in pop], expected, rtol=1e-12)  # marks never collide
 
 
-def test_depth_noise_drops_what_it_pushes_behind_the_camera_and_keeps_holes():
+@pytest.mark.parametrize("z,noise,p_lost", [
+    (1.0, dict(model="tof_linear", a_m=5.0, b=0.0), 0.4207),       # σ = 5 m: Φ(−0.2)
+    # Nguyen 2012 at z = 0.5 mm: σ = 0.0012 + 0.0019·(0.0005 − 0.4)² = 1.5033 mm: Φ(−0.3326)
+    (0.0005, dict(model="kinect_nguyen2012", incidence=False), 0.3697),
+    # stereo: disparity f·b/z = 500·0.05/10 = 2.5 px, σ_d = 5 px, lost when ≤ 0: Φ(−0.5)
+    (10.0, dict(model="stereo", subpixel=5.0, baseline_m=0.05), 0.3085),
+    (0.5, dict(model="stereo", subpixel=100.0, baseline_m=0.05), 0.3085)])    # 50 px, σ_d 100 px
+def test_depth_noise_drops_what_it_pushes_behind_the_camera_and_keeps_holes(z, noise, p_lost):
     """Noise that would make a depth ≤ 0 drops the return (depth 0, ids 0), at the rate the
-    Gaussian gives (σ = 5 m at z = 1 m: P(z + ε ≤ 0) = Φ(−0.2) = 0.4207); holes stay holes."""
-    f = wall(1.0)
+    Gaussian gives (P(z + ε ≤ 0) = Φ(−z/σ)); holes stay holes."""
+    f = wall(z)
     d = f.depth.copy()
     d[:, :20] = 0                                        # a hole: no return, no noise
     f = f.replace(depth=d, instance=np.where(d > 0, 7, 0).astype(np.uint32),
                   semantic=np.where(d > 0, 2, 0).astype(np.uint16))
-    out = DepthNoise(model="tof_linear", a_m=5.0, b=0.0).apply(f, np.random.default_rng(3))
+    out = DepthNoise(**noise).apply(f, np.random.default_rng(3))
     assert (out.depth >= 0).all() and not out.depth[:, :20].any()
     lost = (out.depth[:, 20:] == 0).mean()
-    assert lost == pytest.approx(0.4207, abs=0.01)
+    assert lost == pytest.approx(p_lost, abs=0.01)
     np.testing.assert_array_equal(out.instance == 0, out.depth == 0)
     np.testing.assert_array_equal(out.semantic == 0, out.depth == 0)
+
+
+@pytest.mark.parametrize("model", ["stereo", "tof_linear", "kinect_nguyen2012"])
+def test_depth_noise_draws_one_normal_per_return(model):
+    """Same seed, same dataset: every model takes exactly one normal per pixel with a return
+    (none for holes), so the effects after it see the generator where the Kinect model leaves it."""
+    f = wall(2.0)
+    d = f.depth.copy()
+    d[:40] = 0
+    f = f.replace(depth=d)
+    rng = np.random.default_rng(9)
+    DepthNoise(model=model, incidence=False).apply(f, rng)
+    ref = np.random.default_rng(9)
+    ref.standard_normal(int((d > 0).sum()))
+    assert rng.random() == ref.random()
 
 
 def test_disparity_quantisation_rounds_to_the_nearest_step_with_the_calibration_baseline():
@@ -284,3 +306,29 @@ def test_nguyen_incidence_term_only_past_60_degrees_clamped_at_85_and_only_when_
     # without a sensor: the default baseline (0.05 m) and σ_d (0.08 px)
     assert DepthNoise(model="stereo").sigma(np.array([2.0]), f)[0] == pytest.approx(4 * 0.08 / (500 * 0.05))
     assert on.sigma(z, f, None)[0] == pytest.approx(base, rel=1e-12)
+
+
+def test_sigma_models_against_the_papers_at_several_depths():
+    """σ_z as each model's formula gives it, evaluated independently: ToF a + b·max(z − z0, 0)
+    (flat below z0), stereo z²·σ_d/(f·b) with σ_d and b from the calibration, Nguyen's
+    incidence term only beyond 60° (not at it)."""
+    z = np.array([0.2, 0.5, 1.0, 2.5, 6.0])
+    tof = DepthNoise(model="tof_linear", a_m=0.002, b=0.004, z0_m=0.8)
+    np.testing.assert_allclose(tof.sigma(z, 500.0), [0.002, 0.002, 0.0028, 0.0088, 0.0228], rtol=1e-12)
+    s = gg.Sensor.pinhole(200, 160, 400.0, meta={"baseline_m": 0.12, "reprojection_error_px": 0.3})
+    np.testing.assert_allclose(DepthNoise(model="stereo").sigma(z, 400.0, None, s), z * z * 0.3 / (400.0 * 0.12),
+                               rtol=1e-12)
+    kin = DepthNoise(model="kinect_nguyen2012")
+    base = 0.0012 + 0.0019 * (1.5 - 0.4) ** 2
+    th = np.array([np.pi / 3, np.radians(70.0)])
+    np.testing.assert_allclose(kin.sigma(np.full(2, 1.5), 500.0, th),
+                               [base, base + 0.0001 / np.sqrt(1.5) * th[1] ** 2 / (np.pi / 2 - th[1]) ** 2], rtol=1e-12)
+
+
+def test_project_without_distortion_is_the_pinhole_k():
+    """No coefficients: u = fx·x + cx, v = fy·y + cy, each from its own coordinate."""
+    K = np.array([[400.0, 0.0, 321.0], [0.0, 380.0, 239.0], [0.0, 0.0, 1.0]])
+    xy = np.array([[0.1, -0.2], [-0.3, 0.05], [0.0, 0.4]])
+    want = np.stack([400.0 * xy[:, 0] + 321.0, 380.0 * xy[:, 1] + 239.0], 1)
+    np.testing.assert_allclose(project(xy, K, np.zeros(0)), want, rtol=1e-12)
+    np.testing.assert_allclose(project(xy, K, np.zeros(5)), want, rtol=1e-12)

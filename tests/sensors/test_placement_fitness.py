@@ -1,0 +1,87 @@
+"""Placement fitness against coverage counted independently of CoverageProblem: cell centres
+and candidate grid from the layout's own geometry, one loop per cell (a wrong coverage count
+would otherwise be silent: the GA just optimises the wrong number)."""
+import numpy as np
+import pytest
+
+import genie_gl as gg
+from genie_gl.sensors.placement import CoverageProblem, greedy_placement
+
+
+def reference(layout, radius, res, step, weights=None):
+    """(cell centres, their weights, candidate centres), counted cell by cell from the leaves."""
+    bx, by, bw, bh = layout.bounds
+    leaves = list(layout.leaves())
+    centres, wts = [], []
+    for j in range(int(np.ceil(bh / res - 1e-9))):
+        for i in range(int(np.ceil(bw / res - 1e-9))):
+            x, y = bx + (i + 0.5) * res, by + (j + 0.5) * res
+            owner = None
+            for r in leaves:    # later leaves over earlier ones; a leaf owns [x, x + w) x [y, y + h)
+                if r.x - 1e-9 <= x < r.x + r.w - 1e-9 and r.y - 1e-9 <= y < r.y + r.h - 1e-9:
+                    owner = r.type
+            if owner is None:
+                continue
+            default = 0.0 if layout.region_types[owner].asset_group is None else 1.0
+            w = (weights or {}).get(owner, default)
+            if w > 0:
+                centres.append((x, y))
+                wts.append(w)
+    cands = [(x, y) for y in np.arange(by + step / 2, by + bh, step) for x in np.arange(bx + step / 2, bx + bw, step)]
+    return np.array(centres), np.array(wts), np.array(cands)
+
+
+@pytest.mark.parametrize("strategy,radius,weights", [("storage_area", 3.0, None),
+                                                     ("assembly_line", 4.5, None),
+                                                     ("storage_area", 2.0, {"rack": 3.0, "hall": 0.5})])
+def test_fitness_is_the_covered_weight_share_counted_cell_by_cell(strategy, radius, weights):
+    layout = gg.generate_layout(strategy, seed=2)
+    res, step = 0.5, 1.5
+    px, w, cands = reference(layout, radius, res, step, weights)
+    p = CoverageProblem(layout, radius, resolution_m=res, step_m=step, weights=weights)
+    np.testing.assert_allclose(p.candidates, cands, atol=1e-9)
+    assert p.total == pytest.approx(w.sum(), rel=1e-12)
+    rng = np.random.default_rng(5)
+    pop = rng.integers(0, len(cands), (10, 6))
+    pop[1] = pop[1, 0]                            # one disc repeated: counted once
+    expected = []
+    for chrom in pop:
+        hit = np.zeros(len(px), bool)
+        for c in chrom:
+            hit |= np.hypot(*(px - cands[c]).T) <= radius
+        expected.append(w[hit].sum() / w.sum())
+    np.testing.assert_allclose(p.fitnesses(pop), expected, rtol=1e-12)
+    np.testing.assert_allclose([p.fitness(c) for c in pop], expected, rtol=1e-12)
+    assert sum(e > 0 for e in expected) >= 5 and max(expected) < 1   # not a trivial all-or-nothing
+
+
+def test_greedy_takes_the_disc_with_most_new_weight_each_time():
+    layout = gg.generate_layout("storage_area", seed=2)
+    radius, res, step = 3.0, 0.5, 1.5
+    px, w, cands = reference(layout, radius, res, step)
+    p = CoverageProblem(layout, radius, resolution_m=res, step_m=step)
+    inside = np.hypot(px[None, :, 0] - cands[:, None, 0], px[None, :, 1] - cands[:, None, 1]) <= radius
+    hit, best = np.zeros(len(px), bool), []
+    for _ in range(4):
+        gain = (inside & ~hit) @ w
+        best.append(gain.max())
+        hit |= inside[gain.argmax()]
+    g = greedy_placement(p, 4)
+    assert g.coverage == pytest.approx(w[hit].sum() / w.sum(), rel=1e-12)
+    # each chosen disc's centre adds the greedy gain (ties may pick another disc of equal gain)
+    got = np.zeros(len(px), bool)
+    for centre, gain in zip(g.centres, best):
+        k = int(np.argmin(np.hypot(*(cands - centre).T)))
+        assert (inside[k] & ~got) @ w == pytest.approx(gain, rel=1e-12)
+        got |= inside[k]
+
+
+def test_defaults_are_half_metre_cells_and_one_metre_candidates_and_radius_must_be_positive():
+    layout = gg.generate_layout("assembly_line", seed=2)
+    px, w, cands = reference(layout, 2.5, 0.5, 1.0)
+    p = CoverageProblem(layout, 2.5)
+    np.testing.assert_allclose(p.candidates, cands, atol=1e-9)
+    assert p.total == pytest.approx(w.sum(), rel=1e-12) and p.resolution_m == 0.5
+    for bad in (0.0, -1.0):
+        with pytest.raises(gg.ConfigError, match="radius_m must be > 0"):
+            CoverageProblem(layout, bad)
