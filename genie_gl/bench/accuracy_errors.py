@@ -211,7 +211,7 @@ def noise_check(effect, frames: list[Frame], *, rng: np.random.Generator, bins: 
 
     res, zs, model = [], [], []
     for f in frames:
-        noisy = effect.apply(f, rng)
+        noisy = effect.apply(f, rng=rng)
         both = (f.depth > 0) & (noisy.depth > 0)
         z = f.depth[both].astype(np.float64)
         theta = incidence_angle(f)[both] if getattr(effect, "needs_normals", False) else None

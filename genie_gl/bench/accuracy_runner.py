@@ -209,10 +209,10 @@ class Timed:
     def __getattr__(self, name: str):
         return getattr(self._effect, name)
 
-    def apply(self, frame, rng, **kw):
+    def apply(self, frame, *, rng, **kw):
         t = time.perf_counter()
         try:
-            return self._effect.apply(frame, rng, **kw)
+            return self._effect.apply(frame, rng=rng, **kw)
         finally:
             self._clock[f"effect:{self._effect.name}"] += 1e3 * (time.perf_counter() - t)
 

@@ -56,7 +56,7 @@ def _before(sensor, pose, render, rng, materials):
             kw["materials"] = materials
         if eff.name == "stereo_shadow":   # the second view always rendered, as before planning
             eff = _AlwaysSecondView(**{f.name: getattr(eff, f.name) for f in dataclasses.fields(eff)})
-        frame = eff.apply(frame, rng, **kw)
+        frame = eff.apply(frame, rng=rng, **kw)
     return frame
 
 
@@ -82,9 +82,9 @@ def _reference(sensor):
     from ..sensors.shadow import StereoShadow
 
     class NumpyDraws(DepthNoise):
-        def apply(self, frame, rng):
+        def apply(self, frame, *, rng):
             if self.model not in ("stereo", "tof_linear"):
-                return super().apply(frame, rng)
+                return super().apply(frame, rng=rng)
             draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
             if self.model == "stereo":
                 depth, lost = kernels.stereo_noise(frame.depth, draws, frame.sensor.fx * self.baseline(frame.sensor),
@@ -96,7 +96,7 @@ def _reference(sensor):
             return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
 
     class MaskThenDrop(StereoShadow):
-        def apply(self, frame, rng, *, render_depth=None, **needs):
+        def apply(self, frame, *, rng, render_depth=None, **needs):
             if not (frame.depth > 0).any():
                 return frame
             second, view = self.second_from_first(frame.sensor), self.view_sensor(frame.sensor)

@@ -78,7 +78,7 @@ class FlyingPixels(Effect):
         # no edge: the draws below have size 0 and the depth is unchanged
         return None if has_step(frame.depth, self.jump_m) else f"no depth step over {self.jump_m} m"
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         # the edge pixels alone (one compiled pass), in the order largest_step() gives them
         edge, nb = kernels.edge_pixels(frame.depth, float(self.jump_m))
         pick = rng.random(edge.size) < self.probability
@@ -110,7 +110,7 @@ class EdgeDropout(Effect):
             return f"no 3x3 neighbourhood spans over {self.span_m} m"
         return None
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         z = frame.depth
         valid = z > 0
         kernel = np.ones((3, 3), np.uint8)

@@ -70,7 +70,7 @@ class View:
 
 
 class Effect:
-    """Base class: ``apply(frame, rng, **needs)`` returns the frame the sensor would report.
+    """Base class: ``apply(frame, *, rng, **needs)`` returns the frame the sensor would report.
 
     Class flags ask ``simulate`` for more than the ideal frame: ``needs_normals`` (rendered
     normals), ``needs_render`` (``render_depth=``, a depth render from any pose),
@@ -86,7 +86,7 @@ class Effect:
     needs_materials: ClassVar[bool] = False
     cost_ms_per_mpx: ClassVar[float] = 10.0
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         raise NotImplementedError
 
     def plan(self, view: View) -> Decision | None:

@@ -3,7 +3,7 @@
 This module is the one place that lists the effects: :data:`EFFECTS` (name -> class). The
 base class lives in :mod:`.effect`; the effects in their topic modules, which import only
 the base (never this list). An effect is built from its profile parameters;
-``apply(frame, rng)`` returns a new Frame. Noise draws come only from ``rng``; an effect not
+``apply(frame, *, rng)`` returns a new Frame. Noise draws come only from ``rng``; an effect not
 in a sensor's list never runs and never draws. Two class flags ask ``simulate`` for more than
 the ideal frame: ``needs_normals`` (the frame is rendered with ``Frame.normal``; the normals are
 dropped again before the frame is returned) and ``needs_render`` (``apply`` also receives

@@ -91,7 +91,7 @@ class CalibrationError(Effect):
         return DistortionMaps(sensor, mx.astype(np.float32), my.astype(np.float32), valid, None,
                               np.where(valid, rx, 0.0), np.where(valid, ry, 0.0), None)
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         K_true = self.true_K(frame.sensor, rng)
         mode = "exact" if frame.normal is not None else "bilinear"
         out = distort(frame, frame.sensor, self.maps(frame.sensor, K_true), resample=mode)

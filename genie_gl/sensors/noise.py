@@ -55,7 +55,7 @@ class RangeLimits(Effect):
     def reach_m(self, sensor: Any) -> float | None:
         return float(self.max_m)
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         z = frame.depth
         return drop(frame, (z > 0) & ((z < self.min_m) | (z > self.max_m)))
 
@@ -155,7 +155,7 @@ class DepthNoise(Effect):
         theta[cand] = np.arccos(np.clip(cos[cand], 0.0, 1.0))
         return theta
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         if self.model == "stereo":   # one compiled pass drawing from rng: the draws as below
             fb = frame.sensor.fx * self.baseline(frame.sensor)
             depth, lost = kernels.stereo_noise_rng(frame.depth, rng, fb, self.sigma_d_px(frame.sensor),

@@ -110,7 +110,7 @@ class StereoShadow(Effect):
         fb = max(frame.sensor.fx, frame.sensor.fy) * b
         return bool(kernels.casts_shadow(frame.depth, fb, float(self.tolerance_m), float(self.tolerance_rel)))
 
-    def apply(self, frame: Frame, rng: np.random.Generator, *, render_depth=None, **needs) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator, render_depth=None, **needs) -> Frame:
         if render_depth is None:
             raise ConfigError("stereo_shadow needs a renderer: run it through simulate()/capture(), "
                               "or pass render_depth=(sensor, pose) -> depth")

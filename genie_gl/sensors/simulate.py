@@ -107,7 +107,7 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
                 run, reason = False, why
         if run:
             before = frame
-            frame = eff.apply(frame, rng, **needs) if needs else eff.apply(frame, rng)
+            frame = eff.apply(frame, rng=rng, **needs) if needs else eff.apply(frame, rng=rng)
             changed = _changed(before, frame)
         else:
             eff.skip(frame, rng)

@@ -82,7 +82,7 @@ class SpecularLoss(Effect):
             return "no shiny or clear surface visible"
         return None
 
-    def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None,
+    def apply(self, frame: Frame, *, rng: np.random.Generator, materials: Any = None,
               render_frame: Any = None, **needs: Any) -> Frame:
         if materials is None:
             raise ConfigError("specular_loss needs the scene's materials: run it through simulate()/capture()")

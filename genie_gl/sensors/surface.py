@@ -85,7 +85,7 @@ class LateralNoise(Effect):
             return np.full(np.shape(theta), float(self.sigma_px))
         return nguyen_lateral_px(np.minimum(theta, np.radians(self.max_angle_deg)))
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         H, W = frame.depth.shape
         s = self.sigma(incidence_angle(frame))          # 0 rad (σ_L(0)) where no return
         su = np.arange(W, dtype=np.float64)[None, :] + rng.standard_normal((H, W)) * s
@@ -145,7 +145,7 @@ class IncidenceDropout(Effect):
                 return f"no surface beyond {self.max_angle_deg}° incidence"
         return None
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         steep = (frame.depth > 0) & (incidence_angle(frame) > np.radians(self.max_angle_deg))
         out = drop(frame, steep) if steep.any() else frame
         return record(out, self.name, dropped=int(steep.sum()))
@@ -207,7 +207,7 @@ class Multipath(Effect):
             count += Vp[sl] & facing
         return np.where(valid, count / len(offsets), 0.0)
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         c = self.share(frame)
         z = frame.depth.astype(np.float64)
         rng_len = np.linalg.norm(camera_points(frame), axis=-1)

@@ -228,7 +228,7 @@ class TofMultipath(Effect):
                           np.ascontiguousarray(nq), rq, flux, rho, kd, ks, shine, cut, np.ascontiguousarray(refl), k,
                           float(self.min_distance_m))
 
-    def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator, materials: Any = None) -> Frame:
         if materials is None:
             raise ConfigError("tof_multipath needs the scene's materials: run it through simulate()/capture()")
         depth, moved = self.multipath_depth(frame, materials)
@@ -258,7 +258,7 @@ class MixedPixels(Effect):
             return None
         return f"no depth step over {self.jump_m} m between neighbours"
 
-    def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator, materials: Any = None) -> Frame:
         edge, nb = kernels.edge_pixels(frame.depth, float(self.jump_m))
         alpha = rng.random(edge.size)
         if edge.size == 0:
@@ -307,7 +307,7 @@ class Ambiguity(Effect):
     def reach_m(self, sensor: Any) -> float | None:
         return self.ambiguity_m * (self.max_wraps + 1) if self.wrap else None
 
-    def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         r = _ranges(frame)
         beyond = r > self.ambiguity_m
         if not beyond.any():
@@ -348,7 +348,7 @@ class LowAlbedo(Effect):
                                    f"at {view.r_max:.2f} m")
         return None
 
-    def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None) -> Frame:
+    def apply(self, frame: Frame, *, rng: np.random.Generator, materials: Any = None) -> Frame:
         if materials is None:
             raise ConfigError("low_albedo needs the scene's materials: run it through simulate()/capture()")
         albedo = materials.per_pixel(materials.albedo, frame.instance)

@@ -36,20 +36,20 @@ def test_lateral_noise_sigma_matches_nguyen2012(theta_deg):
     theta = np.radians(theta_deg)
     ramp = 2.0 + 1e-3 * np.arange(W)[None].repeat(H, 0)     # depth linear in u: du = Δz / 1e-3
     f = frame(ramp, f=5000.0, normal=tilted_normal(theta))   # narrow field: θ the same everywhere
-    out = LateralNoise().apply(f, np.random.default_rng(1))
+    out = LateralNoise().apply(f, rng=np.random.default_rng(1))
     du = (out.depth.astype(np.float64) - f.depth) / 1e-3
     inner = du[8:-8, 8:-8]                                   # away from the clamped border
     assert inner.size >= 10_000 and np.isfinite(out.depth).all()
     expected = 0.8 + 0.035 * theta / (np.pi / 2 - theta)
     assert np.std(inner) == pytest.approx(expected, rel=0.05)
     assert abs(np.mean(inner)) < 0.02
-    again = LateralNoise().apply(f, np.random.default_rng(1))
+    again = LateralNoise().apply(f, rng=np.random.default_rng(1))
     assert out.depth.tobytes() == again.depth.tobytes()
 
 
 def test_lateral_noise_jitters_silhouettes_without_blending():
     f = step()
-    out = LateralNoise(model="constant", sigma_px=1.0).apply(f, np.random.default_rng(0))
+    out = LateralNoise(model="constant", sigma_px=1.0).apply(f, rng=np.random.default_rng(0))
     assert set(np.unique(out.depth)) == {1.0, 2.0}           # nearest across the edge: no mixing
     moved = out.depth != f.depth
     assert moved[:, :W // 2 - 6].sum() == 0 and moved[:, W // 2 + 6:].sum() == 0
@@ -61,12 +61,12 @@ def test_lateral_noise_jitters_silhouettes_without_blending():
 def test_nguyen2012_axial_sigma_with_the_angle_term_beyond_60_degrees(theta_deg, z):
     theta = np.radians(theta_deg)
     f = frame(np.full((H, W), z), f=5000.0, normal=tilted_normal(theta))
-    out = DepthNoise(model="kinect_nguyen2012").apply(f, np.random.default_rng(2))
+    out = DepthNoise(model="kinect_nguyen2012").apply(f, rng=np.random.default_rng(2))
     expected = 0.0012 + 0.0019 * (z - 0.4) ** 2
     if theta_deg > 60:
         expected += 0.0001 / np.sqrt(z) * theta ** 2 / (np.pi / 2 - theta) ** 2
     assert np.std(out.depth.astype(np.float64) - z) == pytest.approx(expected, rel=0.05)
-    off = DepthNoise(model="kinect_nguyen2012", incidence=False).apply(f, np.random.default_rng(2))
+    off = DepthNoise(model="kinect_nguyen2012", incidence=False).apply(f, rng=np.random.default_rng(2))
     base = 0.0012 + 0.0019 * (z - 0.4) ** 2
     assert np.std(off.depth.astype(np.float64) - z) == pytest.approx(base, rel=0.05)
 
@@ -74,7 +74,7 @@ def test_nguyen2012_axial_sigma_with_the_angle_term_beyond_60_degrees(theta_deg,
 def test_incidence_dropout_follows_the_analytic_angle():
     n = np.array(tilted_normal(np.radians(60.0)))
     f = frame(np.full((H, W), 2.0), f=150.0, normal=n)     # wide field: θ varies over the image
-    out = IncidenceDropout(max_angle_deg=60.0).apply(f, np.random.default_rng(0))
+    out = IncidenceDropout(max_angle_deg=60.0).apply(f, rng=np.random.default_rng(0))
     u, v = np.meshgrid(np.arange(W) - (W - 1) / 2, np.arange(H) - (H - 1) / 2)
     rays = np.stack([u / 150.0, v / 150.0, np.ones_like(u)], -1)
     theta = np.degrees(np.arccos(-(rays @ n) / np.linalg.norm(rays, axis=-1)))
@@ -87,7 +87,7 @@ def test_incidence_dropout_follows_the_analytic_angle():
 
 def test_flying_pixels_blend_the_two_sides_of_an_edge():
     f = step()
-    out = FlyingPixels(probability=0.5, jump_m=0.05).apply(f, np.random.default_rng(3))
+    out = FlyingPixels(probability=0.5, jump_m=0.05).apply(f, rng=np.random.default_rng(3))
     assert out.meta["flying_pixels"]["edge_pixels"] == 2 * H          # one column each side
     changed = out.depth != f.depth
     assert not changed[:, :W // 2 - 1].any() and not changed[:, W // 2 + 1:].any()
@@ -95,20 +95,20 @@ def test_flying_pixels_blend_the_two_sides_of_an_edge():
     assert abs(n - H) < 3 * np.sqrt(2 * H * 0.25)                        # binomial(320, 0.5)
     z = out.depth[changed].astype(np.float64)
     assert ((z > 1.0) & (z < 2.0)).all()
-    every = FlyingPixels(probability=1.0).apply(f, np.random.default_rng(3))
+    every = FlyingPixels(probability=1.0).apply(f, rng=np.random.default_rng(3))
     assert every.meta["flying_pixels"]["mixed"] == 2 * H
     edge = every.depth[:, W // 2 - 1:W // 2 + 1].astype(np.float64)
     alpha = np.abs(edge - f.depth[:, W // 2 - 1:W // 2 + 1])             # step 1 m: α itself
     assert np.mean(alpha) == pytest.approx(0.5, abs=0.06)                # U(0, 1): σ of the mean 0.016
     assert np.std(alpha) == pytest.approx(np.sqrt(1 / 12), rel=0.15)
-    small = FlyingPixels(jump_m=1.5).apply(f, np.random.default_rng(3))
+    small = FlyingPixels(jump_m=1.5).apply(f, rng=np.random.default_rng(3))
     assert small.depth.tobytes() == f.depth.tobytes()
 
 
 @pytest.mark.parametrize("far, dropped", [(2.0, 2 * H), (1.5, 0)])
 def test_edge_dropout_uses_the_3x3_span(far, dropped):
     f = step(1.0, far)
-    out = EdgeDropout(span_m=0.8).apply(f, np.random.default_rng(0))
+    out = EdgeDropout(span_m=0.8).apply(f, rng=np.random.default_rng(0))
     gone = out.depth == 0
     assert int(gone.sum()) == dropped
     if dropped:
@@ -133,11 +133,11 @@ def groove(kind, z0=2.0, g=1.0, f=500.0):
 def test_multipath_biases_concave_corners_only():
     eff = Multipath(bias_m=0.01, radius_px=8)
     flat = frame(np.full((H, W), 2.0), normal=(0.0, 0.0, -1.0))
-    assert eff.apply(flat, None).depth.tobytes() == flat.depth.tobytes()
+    assert eff.apply(flat, rng=None).depth.tobytes() == flat.depth.tobytes()
     ridge = groove("convex")
-    assert eff.apply(ridge, None).depth.tobytes() == ridge.depth.tobytes()
+    assert eff.apply(ridge, rng=None).depth.tobytes() == ridge.depth.tobytes()
     g = groove("concave")
-    out = eff.apply(g, None)
+    out = eff.apply(g, rng=None)
     v, u = np.mgrid[0:H, 0:W]
     ray_len = np.sqrt(((u - (W - 1) / 2) / 500.0) ** 2 + ((v - (H - 1) / 2) / 500.0) ** 2 + 1)
     grow = (out.depth.astype(np.float64) - g.depth) * ray_len         # range bias, metres
@@ -150,7 +150,7 @@ def test_multipath_biases_concave_corners_only():
 def test_calibration_error_resamples_into_the_true_camera():
     cols = np.arange(W)[None].repeat(H, 0)
     f = frame(np.full((H, W), 2.0), instance=cols + 1)
-    out = CalibrationError(sigma_f_px=4.0, sigma_c_px=3.0).apply(f, np.random.default_rng(7))
+    out = CalibrationError(sigma_f_px=4.0, sigma_c_px=3.0).apply(f, rng=np.random.default_rng(7))
     Kt = np.array(out.meta["calibration_error"]["K_true"])
     K = f.sensor.K
     assert not np.allclose(Kt, K)
@@ -172,7 +172,7 @@ def test_sigma_d_and_baseline_come_from_the_calibration_unless_the_profile_sets_
     f = frame(np.full((H, W), 2.0), meta=meta)
     eff = DepthNoise(model="stereo")
     assert eff.sigma_d_px(f.sensor) == 0.3 and eff.baseline(f.sensor) == 0.06
-    out = eff.apply(f, np.random.default_rng(0))
+    out = eff.apply(f, rng=np.random.default_rng(0))
     assert np.std(out.depth.astype(np.float64) - 2.0) == pytest.approx(4.0 * 0.3 / (500.0 * 0.06), rel=0.05)
     assert DepthNoise(model="stereo", subpixel=0.08).sigma_d_px(f.sensor) == 0.08
     assert DepthNoise(model="stereo").sigma_d_px(gg.Sensor.pinhole(8, 8, 10.0)) == 0.08

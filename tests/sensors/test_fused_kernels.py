@@ -56,7 +56,7 @@ def test_depth_noise_apply_leaves_the_generator_where_numpy_draws_would(model):
     inst = (d > 0).astype(np.uint32)
     f = gg.Frame(d, inst, inst.astype(np.uint16), None, s, np.eye(4), None)
     g = np.random.default_rng(11)
-    DepthNoise(model=model, baseline_m=0.05, subpixel=0.08).apply(f, g)
+    DepthNoise(model=model, baseline_m=0.05, subpixel=0.08).apply(f, rng=g)
     ref = np.random.default_rng(11)
     ref.standard_normal(int((d > 0).sum()))
     assert g.standard_normal(4).tolist() == ref.standard_normal(4).tolist()

@@ -57,7 +57,7 @@ def simulated(eff, f, materials=None, seed=0):
     out = simulate(sensor, np.eye(4), render=lambda s, p, **kw: f.replace(sensor=s), rng=rng_a,
                    materials=materials)
     needs = {"materials": materials} if eff.needs_materials else {}
-    forced = eff.apply(f.replace(sensor=sensor), rng_b, **needs)
+    forced = eff.apply(f.replace(sensor=sensor), rng=rng_b, **needs)
     return out, out.meta["effects"][0], forced, rng_a, rng_b
 
 

@@ -70,7 +70,7 @@ def test_stereo_shadow_fused_pass_equals_mask_then_drop(box_and_wall):
     f = box_and_wall.render(s, np.eye(4), normals=True)
     second, view = eff.second_from_first(s), eff.view_sensor(s)
     depth2 = box_and_wall.render(view, np.linalg.inv(second), depth_only=True).depth
-    out = eff.apply(f, np.random.default_rng(0), render_depth=lambda v, p: box_and_wall.render(
+    out = eff.apply(f, rng=np.random.default_rng(0), render_depth=lambda v, p: box_and_wall.render(
         v, p, depth_only=True).depth)
     gone, occluded, outside = kernels.shadow_mask(
         f.depth, pixel_rays(s), np.ascontiguousarray(second[:3, :3]), np.ascontiguousarray(second[:3, 3]),
@@ -89,7 +89,7 @@ def test_stereo_shadow_without_baseline_or_renderer_is_a_clear_error(box_and_wal
         shadowed(box_and_wall, StereoShadow())
     f = box_and_wall.render(gg.Sensor.pinhole(32, 24, 30.0), np.eye(4))
     with pytest.raises(gg.ConfigError, match="needs a renderer"):
-        StereoShadow(baseline_m=0.05).apply(f, np.random.default_rng(0))
+        StereoShadow(baseline_m=0.05).apply(f, rng=np.random.default_rng(0))
 
 
 def test_rendered_normals_drive_incidence_effects():

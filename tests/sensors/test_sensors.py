@@ -74,7 +74,7 @@ def model_sigma(model, z):
 def test_noise_sigma_on_a_flat_wall_matches_the_model(model, z):
     """σ(z) at four depths (z² and 2z agree only at 2 m), unbiased and Gaussian."""
     f = wall(z)
-    out = DepthNoise(model=model).apply(f, np.random.default_rng(0))
+    out = DepthNoise(model=model).apply(f, rng=np.random.default_rng(0))
     err = out.depth.astype(np.float64) - z
     expected = model_sigma(model, z)
     n = err.size
@@ -83,14 +83,14 @@ def test_noise_sigma_on_a_flat_wall_matches_the_model(model, z):
     assert abs(np.mean(err)) < 5 * expected / np.sqrt(n) + 2e-7 * z  # float32 rounding of z
     inside = np.mean(np.abs(err) < expected)                     # 68.27 % within 1σ for a Gaussian
     assert inside == pytest.approx(0.6827, abs=0.015)
-    again = DepthNoise(model=model).apply(f, np.random.default_rng(0))
+    again = DepthNoise(model=model).apply(f, rng=np.random.default_rng(0))
     assert out.depth.tobytes() == again.depth.tobytes()
     assert np.isfinite(out.depth).all()
 
 
 def test_stereo_noise_grows_with_the_square_of_depth():
     """σ(4 m) / σ(1 m) = 16 for stereo (it would be 4 were σ linear in z)."""
-    s = [np.std(DepthNoise(model="stereo").apply(wall(z), np.random.default_rng(1)).depth.astype(np.float64) - z)
+    s = [np.std(DepthNoise(model="stereo").apply(wall(z), rng=np.random.default_rng(1)).depth.astype(np.float64) - z)
          for z in (1.0, 4.0)]
     assert s[1] / s[0] == pytest.approx(16.0, rel=0.04)
 
@@ -98,7 +98,7 @@ def test_stereo_noise_grows_with_the_square_of_depth():
 def test_disparity_quantisation_steps_equal_theory():
     f = wall(3.0)
     f = f.replace(depth=np.linspace(2.0, 3.0, f.depth.size, dtype=np.float32).reshape(f.depth.shape))
-    out = DepthNoise(model="stereo", subpixel=1e-9, subpixel_step=0.125, baseline_m=0.05).apply(f, np.random.default_rng(0))
+    out = DepthNoise(model="stereo", subpixel=1e-9, subpixel_step=0.125, baseline_m=0.05).apply(f, rng=np.random.default_rng(0))
     disp = 500.0 * 0.05 / np.unique(out.depth.astype(np.float64))
     steps = np.diff(np.sort(disp))
     np.testing.assert_allclose(steps, 0.125, rtol=1e-4)
@@ -106,11 +106,11 @@ def test_disparity_quantisation_steps_equal_theory():
 
 def test_range_limits_drop_returns_and_ids():
     f = wall(5.0)
-    out = RangeLimits(0.3, 4.0).apply(f, np.random.default_rng(0))
+    out = RangeLimits(0.3, 4.0).apply(f, rng=np.random.default_rng(0))
     assert not out.depth.any() and not out.instance.any()
     d = np.tile(np.array([0.0, 0.5, 1.0, 1.5, 2.0, 2.5], np.float32), (160, 34))[:, :200]
     g = f.replace(depth=d, instance=np.where(d > 0, 3, 0).astype(np.uint32))
-    out = RangeLimits(1.0, 2.0).apply(g, np.random.default_rng(0))
+    out = RangeLimits(1.0, 2.0).apply(g, rng=np.random.default_rng(0))
     keep = (d >= 1.0) & (d <= 2.0)                       # the limits themselves are in range
     np.testing.assert_array_equal(out.depth, np.where(keep, d, 0))
     np.testing.assert_array_equal(out.instance, np.where(keep, 3, 0))
@@ -250,7 +250,7 @@ def test_depth_noise_drops_what_it_pushes_behind_the_camera_and_keeps_holes(z, n
     d[:, :20] = 0                                        # a hole: no return, no noise
     f = f.replace(depth=d, instance=np.where(d > 0, 7, 0).astype(np.uint32),
                   semantic=np.where(d > 0, 2, 0).astype(np.uint16))
-    out = DepthNoise(**noise).apply(f, np.random.default_rng(3))
+    out = DepthNoise(**noise).apply(f, rng=np.random.default_rng(3))
     assert (out.depth >= 0).all() and not out.depth[:, :20].any()
     lost = (out.depth[:, 20:] == 0).mean()
     assert lost == pytest.approx(p_lost, abs=0.01)
@@ -267,7 +267,7 @@ def test_depth_noise_draws_one_normal_per_return(model):
     d[:40] = 0
     f = f.replace(depth=d)
     rng = np.random.default_rng(9)
-    DepthNoise(model=model, incidence=False).apply(f, rng)
+    DepthNoise(model=model, incidence=False).apply(f, rng=rng)
     ref = np.random.default_rng(9)
     ref.standard_normal(int((d > 0).sum()))
     assert rng.random() == ref.random()
@@ -279,7 +279,7 @@ def test_disparity_quantisation_rounds_to_the_nearest_step_with_the_calibration_
     z = np.linspace(0.4, 3.0, 200 * 160).reshape(160, 200)
     f = gg.Frame(z.astype(np.float32), np.ones((160, 200), np.uint32), np.ones((160, 200), np.uint16), None, s,
                  np.eye(4))
-    out = DepthNoise(model="stereo", subpixel=1e-9, subpixel_step=0.125).apply(f, np.random.default_rng(0))
+    out = DepthNoise(model="stereo", subpixel=1e-9, subpixel_step=0.125).apply(f, rng=np.random.default_rng(0))
     fb = 500.0 * 0.1
     expected = fb / (0.125 * np.round(fb / (f.depth.astype(np.float64) * 0.125)))
     np.testing.assert_allclose(out.depth, expected, rtol=1e-6)
