@@ -1,0 +1,176 @@
+"""The merge layer (paper Algorithm 1, lines 4-6): identical, bordering regions become one.
+
+After the levels before it, every pair of leaves of the same region type and orientation
+that share a whole edge (so that their union is a rectangle) is joined, whatever generator
+or parent made them, until no such pair is left. L-shaped unions are never made: two
+leaves that border along part of an edge only stay apart.
+
+The merged region hangs under the smallest region that holds all its parts (the lowest
+common ancestor: their parent when they were siblings), so every node still lies inside its
+parent; a region whose children have all merged away is removed. Everything is array code
+over the layout's :class:`~.model.Tree`; only groups whose parts came from different parents
+walk the tree. Each merge is recorded (:class:`MergeRecord`) for the layout's ``meta``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import Tree
+
+TOL_M = 1e-6  # edges closer than this (metres) are the same edge
+
+
+@dataclass(frozen=True)
+class MergeRecord:
+    """One merged region: its node index in the tree returned, and its parts' rectangles
+    (x, y, w, h in metres) and former parents (node indices in the tree before merging)."""
+
+    node: int
+    parts: tuple[tuple[float, float, float, float], ...]
+    parents: tuple[int, ...]
+
+    def to_dict(self, level: int) -> dict:
+        return {"level": level, "node": self.node, "parts": [list(p) for p in self.parts],
+                "parents": list(self.parents)}
+
+
+def _pass(x, y, w, h, key_t, along_x: bool, tol: float):
+    """One sweep: runs of rectangles with the same type, orientation and cross extent that
+    follow each other without a gap along one axis. Returns (run id per rectangle, start of
+    each run in the sorted order, sort order)."""
+    pos, size, cpos, csize = (x, w, y, h) if along_x else (y, h, x, w)
+    k1 = np.round(cpos / tol).astype(np.int64)
+    k2 = np.round(csize / tol).astype(np.int64)
+    order = np.lexsort((pos, k2, k1, key_t))
+    same = (key_t[order][1:] == key_t[order][:-1]) & (k1[order][1:] == k1[order][:-1]) \
+        & (k2[order][1:] == k2[order][:-1])
+    touch = np.abs(pos[order][:-1] + size[order][:-1] - pos[order][1:]) <= tol
+    joined = same & touch
+    run = np.concatenate([[0], np.cumsum(~joined)])
+    return run, order, joined.any()
+
+
+def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M):
+    """Merge rectangles of equal ``key`` sharing a whole edge until none do.
+
+    Parameters
+    ----------
+    x, y, w, h : (n,) float64 rectangles; key : (n,) int64, only equal keys merge.
+
+    Returns
+    -------
+    group : (n,) int64, for each rectangle the index of the group it ended in;
+    gx, gy, gw, gh : (g,) float64, each group's rectangle.
+    """
+    x, y, w, h = (np.asarray(a, np.float64).copy() for a in (x, y, w, h))
+    key = np.asarray(key, np.int64)
+    group = np.arange(len(x))
+    changed, along_x, idle = True, True, 0
+    while len(x) > 1 and idle < 2:
+        run, order, changed = _pass(x, y, w, h, key, along_x, tol)
+        if changed:
+            n = run[-1] + 1
+            first = np.searchsorted(run, np.arange(n))
+            last = np.r_[first[1:], len(run)] - 1
+            o_first, o_last = order[first], order[last]
+            if along_x:
+                nx, nw = x[o_first], x[o_last] + w[o_last] - x[o_first]
+                ny, nh = y[o_first], h[o_first]
+            else:
+                ny, nh = y[o_first], y[o_last] + h[o_last] - y[o_first]
+                nx, nw = x[o_first], w[o_first]
+            where = np.empty(len(x), np.int64)
+            where[order] = run
+            group = where[group]
+            x, y, w, h, key = nx, ny, nw, nh, key[o_first]
+            idle = 0
+        else:
+            idle += 1
+        along_x = not along_x
+    return group, x, y, w, h
+
+
+def _ancestors(parent: np.ndarray, i: int) -> list[int]:
+    out = []
+    while i >= 0:
+        out.append(i)
+        i = int(parent[i])
+    return out
+
+
+def merge_tree(tree: Tree, tol: float = TOL_M) -> tuple[Tree, list[MergeRecord], np.ndarray]:
+    """The merge layer over a whole tree: returns the new tree (breadth-first, siblings
+    consecutive), a record per merged region, and each old node's new index (a part's is
+    its merged region's; -1 for a removed region)."""
+    n = len(tree)
+    if n < 2:
+        return tree, [], np.arange(n)
+    leaves = np.flatnonzero(tree.n_children() == 0)
+    key = tree.type[leaves].astype(np.int64) * 4 + tree.orient[leaves]
+    group, gx, gy, gw, gh = merge_leaves(tree.x[leaves], tree.y[leaves], tree.w[leaves], tree.h[leaves], key, tol)
+    sizes = np.bincount(group, minlength=len(gx))
+    if np.all(sizes == 1):
+        return tree, [], np.arange(n)
+    x, y, w, h = tree.x.copy(), tree.y.copy(), tree.w.copy(), tree.h.copy()
+    parent, depth = tree.parent.copy(), tree.depth.copy()
+    keep = np.ones(n, bool)
+    # representative of each group: its first part in breadth-first order
+    order = np.lexsort((leaves, group))
+    starts = np.searchsorted(group[order], np.arange(len(gx)))
+    rep = leaves[order[starts]]
+    multi = np.flatnonzero(sizes > 1)
+    x[rep[multi]], y[rep[multi]], w[rep[multi]], h[rep[multi]] = gx[multi], gy[multi], gw[multi], gh[multi]
+    absorbed = leaves[rep[group] != leaves]
+    keep[absorbed] = False
+    records_raw = []
+    lp = parent[leaves]
+    pmin = np.full(len(gx), n, np.int64)
+    pmax = np.full(len(gx), -1, np.int64)
+    np.minimum.at(pmin, group, lp)
+    np.maximum.at(pmax, group, lp)
+    for g in multi.tolist():
+        members = leaves[order[starts[g]:starts[g] + sizes[g]]]
+        r = int(rep[g])
+        if pmin[g] != pmax[g]:  # parts from several parents: hang it under their common ancestor
+            common = _ancestors(tree.parent, int(tree.parent[members[0]]))
+            for m in members[1:].tolist():
+                anc = set(_ancestors(tree.parent, int(tree.parent[m])))
+                common = [a for a in common if a in anc]
+            parent[r], depth[r] = common[0], tree.depth[common[0]] + 1
+        records_raw.append((r, tuple((float(tree.x[m]), float(tree.y[m]), float(tree.w[m]), float(tree.h[m]))
+                                     for m in members.tolist()),
+                            tuple(sorted({int(tree.parent[m]) for m in members.tolist()}))))
+    # regions whose children all merged away go too (their area is in the merged regions)
+    had_kids = tree.n_children() > 0
+    while True:
+        kids = np.bincount(parent[1:][keep[1:]], minlength=n)
+        empty = keep & had_kids & (kids == 0)
+        empty[0] = False
+        if not empty.any():
+            break
+        keep &= ~empty
+    # breadth-first order again: by depth, then parent's new position, then old position
+    new_index = np.full(n, -1, np.int64)
+    pos = 0
+    for d in range(int(depth[keep].max()) + 1):
+        idx = np.flatnonzero(keep & (depth == d))
+        if d > 0:
+            idx = idx[np.lexsort((idx, new_index[parent[idx]]))]
+        new_index[idx] = np.arange(pos, pos + len(idx))
+        pos += len(idx)
+    old = np.empty(pos, np.int64)
+    old[new_index[keep]] = np.flatnonzero(keep)
+    new_parent = np.where(old == 0, -1, new_index[parent[old]]).astype(np.int32)
+    out = Tree(x[old], y[old], w[old], h[old], tree.type[old], tree.orient[old], depth[old].astype(np.int32),
+               new_parent, tree.type_names)
+    records = [MergeRecord(int(new_index[r]), parts, parents) for r, parts, parents in records_raw]
+    new_index[absorbed] = new_index[rep[group[np.searchsorted(leaves, absorbed)]]]
+    return out, sorted(records, key=lambda m: m.node), new_index
+
+
+def renumber(old_records: list[dict], mapping: np.ndarray) -> list[dict]:
+    """Earlier merge records with their node indices moved to a later merge's numbering
+    (``mapping``: old index -> new index)."""
+    return [{**r, "node": int(mapping[r["node"]])} for r in old_records]
