@@ -92,12 +92,15 @@ def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M):
     return group, x, y, w, h
 
 
-def _ancestors(parent: np.ndarray, i: int) -> list[int]:
-    out = []
-    while i >= 0:
-        out.append(i)
-        i = int(parent[i])
-    return out
+def _common_ancestor(parent: np.ndarray, depth: np.ndarray, nodes: np.ndarray) -> int:
+    """The deepest node that is an ancestor of (or one of) every node in ``nodes``."""
+    a = np.unique(nodes)
+    low = depth[a].min()
+    while len(a) > 1 and depth[a].max() > low:
+        a = np.unique(np.where(depth[a] > low, parent[a], a))
+    while len(a) > 1:
+        a = np.unique(parent[a])
+    return int(a[0])
 
 
 def merge_tree(tree: Tree, tol: float = TOL_M) -> tuple[Tree, list[MergeRecord], np.ndarray]:
@@ -134,11 +137,8 @@ def merge_tree(tree: Tree, tol: float = TOL_M) -> tuple[Tree, list[MergeRecord],
         members = leaves[order[starts[g]:starts[g] + sizes[g]]]
         r = int(rep[g])
         if pmin[g] != pmax[g]:  # parts from several parents: hang it under their common ancestor
-            common = _ancestors(tree.parent, int(tree.parent[members[0]]))
-            for m in members[1:].tolist():
-                anc = set(_ancestors(tree.parent, int(tree.parent[m])))
-                common = [a for a in common if a in anc]
-            parent[r], depth[r] = common[0], tree.depth[common[0]] + 1
+            common = _common_ancestor(tree.parent, tree.depth, tree.parent[members])
+            parent[r], depth[r] = common, tree.depth[common] + 1
         records_raw.append((r, tuple((float(tree.x[m]), float(tree.y[m]), float(tree.w[m]), float(tree.h[m]))
                                      for m in members.tolist()),
                             tuple(sorted({int(tree.parent[m]) for m in members.tolist()}))))
