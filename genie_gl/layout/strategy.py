@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..errors import ConfigError, did_you_mean
 from ..resources import resolve
@@ -39,11 +39,63 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+Span = Union[float, tuple[float, float]]  # a value, or a range [min, max] drawn from the scene's Generator
+Count = Union[int, tuple[int, int]]
+
+
+class FillSpec(_Strict):
+    """How a region of this type is furnished (the scene stage reads it).
+
+    ``mode``: ``one`` asset in the middle (the default); a ``row`` along the region's long
+    side; a ``grid`` over the region; a ``stack`` (one footprint stacked up to ``stack_m``).
+    ``spacing_m``: clearance between neighbours; ``count``: at most this many (default: as
+    many as fit); ``stack_m``: stack stackable classes (pallet, KLT, stillage) up to this
+    height; ``load``: what each shelf of a rack carries, ``{class or "empty": weight}``,
+    each loaded object its own instance of its own class. Ranges are ``[min, max]``.
+    """
+
+    mode: Literal["one", "row", "grid", "stack"] = "one"
+    spacing_m: Span = 0.1
+    count: Count | None = None
+    stack_m: Span | None = None
+    load: dict[str, float] | None = None
+
+    @field_validator("spacing_m", "stack_m")
+    @classmethod
+    def _span(cls, v):
+        if v is None:
+            return v
+        lo, hi = (v, v) if isinstance(v, (int, float)) else v
+        if lo < 0 or hi < lo:
+            raise ValueError(f"expected a value >= 0 or a range [min, max] with 0 <= min <= max, got {v!r}")
+        return v
+
+    @field_validator("count")
+    @classmethod
+    def _count(cls, v):
+        if v is None:
+            return v
+        lo, hi = (v, v) if isinstance(v, int) else v
+        if lo < 1 or hi < lo:
+            raise ValueError(f"expected a count >= 1 or a range [min, max] with 1 <= min <= max, got {v!r}")
+        return v
+
+    @field_validator("load")
+    @classmethod
+    def _load(cls, v):
+        if v is None:
+            return v
+        if not v or any(p < 0 for p in v.values()) or sum(v.values()) <= 0:
+            raise ValueError(f"expected {{class or 'empty': weight >= 0}} with a positive sum, got {v!r}")
+        return v
+
+
 class RegionTypeSpec(_Strict):
     final: bool = False
     color: Union[str, list[int]] = "#c8c8c8"
     semantic: int | None = Field(default=None, ge=0, le=65535)
     asset_group: str | None = None
+    fill: FillSpec | None = None
     description: str | None = None
 
 
@@ -113,6 +165,13 @@ def _color(value: Any, where: str) -> tuple[int, int, int]:
     raise ConfigError(f"{where}: expected a colour '#rrggbb' or [r, g, b] (0-255), got {value!r}")
 
 
+def _fill(fill: FillSpec, source: str, name: str) -> dict[str, Any]:
+    """The fill as a plain dict (it travels in layout JSON; the scene stage checks the load's
+    class names, which the layout stage does not know)."""
+    out = fill.model_dump()
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in out.items()}
+
+
 def _path(loc: tuple) -> str:
     out = "$"
     for p in loc:
@@ -131,7 +190,7 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
     types = {}
     for name, t in spec.region_types.items():
         types[name] = RegionType(name, t.final, _color(t.color, f"{source}: $.region_types.{name}.color"),
-                                 t.semantic, t.asset_group)
+                                 t.semantic, t.asset_group, None if t.fill is None else _fill(t.fill, source, name))
 
     def known(name: str, where: str) -> None:
         if name not in types:
