@@ -117,10 +117,10 @@ class SceneBuilder:
             return
         mode = fill.get("mode", "one")
         if mode in ("one", "stack"):
-            self._place(cls, choice, reg, f"{reg.type}_{i}", fill)
+            self._place(cls, choice, reg, reg.type, i, fill)
             return
         for k, slot in enumerate(self._slots(reg, choice, fill, grid=mode == "grid")):
-            self._place(cls, choice, slot, f"{reg.type}_{i}_{k}", fill)
+            self._place(cls, choice, slot, f"{reg.type}_s{k}", i, fill)
 
     def _fit(self, cls: str, yaw: float, w: float, h: float) -> tuple[str, float, float, float] | None:
         """A variant of ``cls`` (in a random order) whose footprint fits w x h turned to
@@ -156,16 +156,20 @@ class SceneBuilder:
             if not lay:
                 return [(start, start + length)]
             off = start + float(self.rng.uniform(0, max(0.0, length - n * size - (n - 1) * s)))
-            return [(max(start, off + k * (size + s) - s / 2), min(start + length, off + k * (size + s) + size + s / 2))
-                    for k in range(n)]
+            out = []
+            for k in range(n):  # centred on its item, at most half the spacing past it
+                c = off + k * (size + s) + size / 2
+                half = size / 2 + max(0.0, min(s / 2, c - size / 2 - start, start + length - c - size / 2))
+                out.append((c - half, c + half))
+            return out
 
         xs = cells(lay_x, nx, reg.x, reg.w, fw)
         ys = cells(lay_y, ny, reg.y, reg.h, fd)
         return [Region(x0, y0, x1 - x0, y1 - y0, reg.type, reg.orientation) for y0, y1 in ys for x0, x1 in xs]
 
-    def _place(self, cls: str, choice: tuple, slot: Region, name: str, fill: dict) -> None:
+    def _place(self, cls: str, choice: tuple, slot: Region, base: str, i: int, fill: dict) -> None:
         """One item (a stack, a loaded rack) in the middle of ``slot``, with the jitter the
-        options ask for kept inside it."""
+        options ask for kept inside it. Instance names end in ``_<region index>_<layer>``."""
         v, yaw, fw, fd = choice
         cx, cy = slot.centre
         jit = self.opt.get("jitter")
@@ -188,11 +192,11 @@ class SceneBuilder:
             max_layers = max(1, int(limit // height))
             layers = int(self.rng.integers(1, max_layers + 1))
         for k in range(layers):
-            self._put(cls, v, yaw, cx, cy, k * (height + 0.001), f"{name}_{k}")
+            self._put(cls, v, yaw, cx, cy, k * (height + 0.001), f"{base}_{i}_{k}")
         if cls == "pallet" and self.opt.get("clutter") and self.rng.random() < float(self.opt["clutter"]):
-            self._put("klt", "6428", yaw, cx, cy, layers * (height + 0.001), f"{name}_klt")
+            self._put("klt", "6428", yaw, cx, cy, layers * (height + 0.001), f"{base}_{i}_klt")
         if cls == "rack" and fill.get("load"):
-            self._load(v, yaw, cx, cy, fill["load"], name)
+            self._load(v, yaw, cx, cy, fill["load"], base, i)
 
     def _put(self, cls: str, v: str, yaw: float, cx: float, cy: float, z: float, name: str) -> int:
         """An instance whose footprint centre lands on (cx, cy), turned by ``yaw``."""
@@ -202,14 +206,15 @@ class SceneBuilder:
         ox, oy = c * off[0] - s * off[1], s * off[0] + c * off[1]
         return self.add(cls, v, _transform(yaw, cx - ox, cy - oy, z), name)
 
-    def _load(self, variant: str, yaw: float, cx: float, cy: float, load: dict[str, float], name: str) -> None:
+    def _load(self, variant: str, yaw: float, cx: float, cy: float, load: dict[str, float], base: str,
+              i: int) -> None:
         """Each shelf of a built-in rack gets one class drawn from ``load``: as many of it
         side by side as the shelf holds (KLTs stacked to the shelf's clear height, pallets
         sometimes carrying a KLT), each its own instance of its own class."""
         shelves = lib.SHELVES.get("rack", {}).get(variant)
         if not shelves:
             return
-        names = list(load)
+        names = sorted(load)  # layout JSON sorts keys: the draw must not depend on their order
         p = np.array([load[k] for k in names], float)
         p /= p.sum()
         c, s = np.cos(yaw), np.sin(yaw)
@@ -233,9 +238,9 @@ class SceneBuilder:
                 lx = x0 + k * (fw + gap)
                 wx, wy = cx + c * lx, cy + s * lx
                 for m in range(layers):
-                    self._put(item, v, yaw + turn, wx, wy, z + m * (h + 0.001), f"{name}_shelf{lv}_{k}_{m}")
+                    self._put(item, v, yaw + turn, wx, wy, z + m * (h + 0.001), f"{base}_shelf{lv}n{k}m{m}_{i}_load")
                 if item == "pallet" and h + 0.28 <= clear and self.rng.random() < 0.5:
-                    self._put("klt", "6428", yaw, wx, wy, z + h + 0.001, f"{name}_shelf{lv}_{k}_klt")
+                    self._put("klt", "6428", yaw, wx, wy, z + h + 0.001, f"{base}_shelf{lv}n{k}klt_{i}_load")
 
 
 def _span(rng: np.random.Generator, value) -> float:
