@@ -54,7 +54,7 @@ def scene_dir(out: Path, index: int, fmt: str, n_scenes: int) -> Path:
 def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     """Make scene ``index`` and write it; returns its stats (also in stats.json)."""
     from .cloud import frame_chunks, keep_cloud, to_cloud
-    from .export import bop, npz, pcd, ply, semantickitti
+    from .export import bop
     from .layout import generate_layout, load_strategy
     from .render import capture
     from .scene import build_scene
@@ -87,24 +87,19 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
         if ok:
             kept.append((key, tile))
     t["cloud"] = time.perf_counter()
+    if balancing(cfg):  # the whole dataset is balanced once every scene is made: keep the chunks
+        from .cloud.balance import save_chunks
+
+        save_chunks(out / ".balance" / f"{index:06d}.npz", kept,
+                    {"layout": layout.to_dict(), "instances": len(scene.instances), "cameras": len(frames),
+                     "points_total": points_total})
+        if index < cfg["previews"]:
+            write_previews(out / "previews", index, layout, frames, to_cloud(frames))
+        return {"scene": index, "pending": True}
     tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
-    counts = np.zeros(65536, np.int64)
-    for j, (key, tile) in enumerate(kept):
-        np.add.at(counts, tile.semantic, 1)
-        if cfg["format"] == "bop":
-            continue
-        if cfg["format"] == "semantickitti":
-            # the scan files are written inside the scene's own folder: a sequence folder
-            semantickitti.write(tile, tmp / "_root", sequence=0, frame=j)
-        else:
-            {"ply": ply.write, "pcd": pcd.write, "npz": npz.write}[cfg["format"]](
-                tile, tmp / f"cloud_{j:03d}.{EXT[cfg['format']]}")
-    if cfg["format"] == "semantickitti" and kept:
-        for p in (tmp / "_root" / "sequences" / "00").iterdir():
-            p.replace(tmp / p.name)
-        shutil.rmtree(tmp / "_root")
+    counts = write_chunks(cfg, tmp, kept)
     meshes: list[str] = []
     if cfg["format"] == "bop":
         meshes = write_bop_scene(scene, frames, tmp)
@@ -122,6 +117,63 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
     keys = ["start", "layout", "scene", "placement", "capture", "cloud", "export"]
     stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
     return stats
+
+
+def write_chunks(cfg: dict[str, Any], tmp: Path, kept: list) -> np.ndarray:
+    """Write a scene's chunks into ``tmp`` in the dataset's format; returns points per class."""
+    from .export import npz, pcd, ply, semantickitti
+
+    counts = np.zeros(65536, np.int64)
+    for j, (key, tile) in enumerate(kept):
+        np.add.at(counts, tile.semantic, 1)
+        if cfg["format"] == "bop":
+            continue
+        if cfg["format"] == "semantickitti":
+            # the scan files are written inside the scene's own folder: a sequence folder
+            semantickitti.write(tile, tmp / "_root", sequence=0, frame=j)
+        else:
+            {"ply": ply.write, "pcd": pcd.write, "npz": npz.write}[cfg["format"]](
+                tile, tmp / f"cloud_{j:03d}.{EXT[cfg['format']]}")
+    if cfg["format"] == "semantickitti" and kept:
+        for p in (tmp / "_root" / "sequences" / "00").iterdir():
+            p.replace(tmp / p.name)
+        shutil.rmtree(tmp / "_root")
+    return counts
+
+
+def balancing(cfg: dict[str, Any]) -> bool:
+    return bool(cfg.get("class_balance") or cfg.get("points_budget"))
+
+
+def finish_balanced(cfg: dict[str, Any]) -> None:
+    """``--class-balance`` / ``--points-budget``: one plan over every scene's chunks
+    (cloud/balance.py), then each unwritten scene sub-sampled with its own sixth generator
+    and written whole. Scene order, not worker count, decides the plan."""
+    from .cloud.balance import apply_plan, load_chunks, plan_dataset
+    from .layout import Layout
+
+    out = Path(cfg["out"])
+    target = cfg.get("class_balance")
+    target = None if not target else {int(k): v for k, v in target["target"].items()}
+    caches = [out / ".balance" / f"{i:06d}.npz" for i in range(cfg["scenes"])]
+    plans = plan_dataset(caches, target, budget=cfg.get("points_budget"), min_points=cfg["min_points"])
+    for i, (cache, (quota, keep, report)) in enumerate(zip(caches, plans)):
+        final = scene_dir(out, i, cfg["format"], cfg["scenes"])
+        if final.exists():
+            continue
+        chunks, info = load_chunks(cache)
+        rng = np.random.default_rng(np.random.SeedSequence([int(cfg["seed"]), i]).spawn(6)[5])
+        kept = apply_plan(chunks, quota, keep, rng=rng)
+        tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir(parents=True)
+        counts = write_chunks(cfg, tmp, kept)
+        Layout.from_dict(info["layout"]).to_json(tmp / "layout.json")
+        stats = {"scene": i, "instances": info["instances"], "cameras": info["cameras"],
+                 "points_total": info["points_total"], "chunks": len(kept),
+                 "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}, "balance": report}
+        (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
+        tmp.replace(final)
 
 
 def write_bop_scene(scene, frames, folder: Path) -> list[str]:
@@ -175,7 +227,7 @@ def _save(img, path: Path) -> None:
     tmp.replace(path)
 
 
-def histogram(out: Path, stats: list[dict]) -> dict[str, int]:
+def histogram(out: Path, stats: list[dict], target: dict[int, float] | None = None) -> dict[str, int]:
     from .export.semantickitti import CLASSES, COLORS_RGB
 
     total: dict[int, int] = {}
@@ -183,9 +235,10 @@ def histogram(out: Path, stats: list[dict]) -> dict[str, int]:
         for k, v in s["class_points"].items():
             total[int(k)] = total.get(int(k), 0) + v
     n = sum(total.values()) or 1
-    lines = [f"{'id':>3}  {'class':<20}{'points':>14}{'share':>9}"]
-    for k in sorted(total):
-        lines.append(f"{k:>3}  {CLASSES.get(k, f'class_{k}'):<20}{total[k]:>14,}{100 * total[k] / n:>8.2f}%")
+    lines = [f"{'id':>3}  {'class':<20}{'points':>14}{'share':>9}" + (f"{'target':>9}" if target else "")]
+    for k in sorted(set(total) | set(target or {})):
+        lines.append(f"{k:>3}  {CLASSES.get(k, f'class_{k}'):<20}{total.get(k, 0):>14,}{100 * total.get(k, 0) / n:>8.2f}%"
+                     + (f"{100 * target.get(k, 0.0):>8.2f}%" if target else ""))
     (out / "histogram.txt").write_text("\n".join(lines) + "\n")
     (out / "histogram.json").write_text(json.dumps({CLASSES.get(k, str(k)): v for k, v in sorted(total.items())}, indent=1))
     import matplotlib
@@ -229,7 +282,8 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
     for parent in (out / "sequences", out / "scenes"):  # what an interrupted run left half-made
         for stale in parent.glob(".tmp-*") if parent.is_dir() else []:
             shutil.rmtree(stale, ignore_errors=True)
-    todo = [i for i in range(cfg["scenes"]) if not scene_dir(out, i, cfg["format"], cfg["scenes"]).exists()]
+    todo = [i for i in range(cfg["scenes"]) if not scene_dir(out, i, cfg["format"], cfg["scenes"]).exists()
+            and not (balancing(cfg) and (out / ".balance" / f"{i:06d}.npz").exists())]
     results: list[dict] = []
     t0 = time.perf_counter()
     bar = tqdm(total=cfg["scenes"], initial=cfg["scenes"] - len(todo), unit="scene", disable=not progress,
@@ -256,10 +310,14 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
                 results.append(r)
                 bar.update(1)
     bar.close()
+    if balancing(cfg):
+        finish_balanced(cfg)
     elapsed = time.perf_counter() - t0
     stats = [json.loads((scene_dir(out, i, cfg["format"], cfg["scenes"]) / "stats.json").read_text())
              for i in range(cfg["scenes"])]
-    hist = histogram(out, stats)
+    target = cfg.get("class_balance")
+    target = None if not target else {int(k): v for k, v in target["target"].items()}
+    hist = histogram(out, stats, target)
     stage_t: dict[str, float] = {}
     for r in results:
         for k, v in r.get("timings_s", {}).items():
@@ -271,6 +329,15 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
         "scenes_made": len(results), "scenes_skipped": cfg["scenes"] - len(todo),
         "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
     }
+    if cfg.get("class_balance") or cfg.get("points_budget"):
+        from .cloud.balance import summary
+        from .export.semantickitti import CLASSES
+
+        points: dict[int, int] = {}
+        for st in stats:
+            for k, v in st["class_points"].items():
+                points[int(k)] = points.get(int(k), 0) + v
+        manifest["class_balance"] = summary(points, target, stats[0].get("balance", {}).get("short", {}), CLASSES)
     tmp = out / "manifest.json.tmp"
     tmp.write_text(json.dumps(manifest, indent=1))
     tmp.replace(out / "manifest.json")
@@ -293,6 +360,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--previews", type=int, default=3, help="scenes that get preview pictures")
     p.add_argument("--executor", choices=("process", "ray"), default="process")
     p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
+    p.add_argument("--class-balance", default=None, metavar="paper|FILE",
+                   help="sub-sample chunks and points towards a class distribution: 'paper' (Table 3's "
+                        "synthetic column) or a JSON file {class: share}")
+    p.add_argument("--points-budget", type=int, default=None, metavar="N", help="at most N points in the dataset")
     p.add_argument("--no-progress", action="store_true")
 
 
@@ -304,6 +375,19 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}")
     if args.scenes < 1 or args.cameras < 1 or args.workers < 1:
         raise ConfigError("--scenes, --cameras and --workers must be >= 1")
+    if args.format == "bop" and (getattr(args, "class_balance", None) or getattr(args, "points_budget", None)):
+        raise ConfigError("--class-balance and --points-budget sub-sample point clouds; --format bop writes "
+                          "images: use a point-cloud format")
+    balance = None
+    if getattr(args, "class_balance", None):
+        from .cloud.balance import load_target
+        from .export.semantickitti import CLASSES
+
+        balance = {"name": args.class_balance,
+                   "target": {str(k): v for k, v in load_target(args.class_balance, CLASSES).items()}}
+    budget = getattr(args, "points_budget", None)
+    if budget is not None and budget < 1:
+        raise ConfigError(f"--points-budget {budget}: expected a number of points >= 1")
     strategy = load_strategy(args.strategy)      # fails fast on a missing or bad strategy
     load_sensor(args.sensor)
     out = Path(args.out)
@@ -323,7 +407,8 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
             "format": args.format, "out": str(out), "workers": args.workers, "seed": args.seed,
             "points": args.points, "chunk_m": args.chunk_m, "min_points": args.min_points,
             "min_labelled_share": args.min_labelled_share, "previews": args.previews,
-            "executor": args.executor, "address": args.address}
+            "executor": args.executor, "address": args.address,
+            **({"class_balance": balance} if balance else {}), **({"points_budget": budget} if budget else {})}
 
 
 def run(args: argparse.Namespace) -> int:
