@@ -5,10 +5,11 @@ sub-samples to a budget; its synthetic set ends with the class shares of Table 3
 (``PAPER``). Here a target distribution is reached by keeping, of each class, the share of
 its points the target asks for:
 
-1. :func:`plan` finds the largest total N whose target counts ``p_c · N`` the data can give,
-   allowing the classes that are short of points (too rare in the scenes) a total deficit of
-   at most ``tolerance · N``; each class keeps ``min(available, p_c · N)`` points, scaled
-   down to the budget if there is one, and the short classes are named with the reason.
+1. :func:`plan` finds the largest total N whose target counts ``p_c · N`` the data can give
+   for every class whose target share is above ``rare`` (2 %); each class keeps
+   ``min(available, p_c · N)`` points (a rare class, or one with no points at all, may fall
+   short: Table 3's rare classes hold 3.1 % together, so the others' shares can grow by at
+   most that), scaled down to the budget if there is one; short classes are named with why.
 2. The counts are spread over the chunks in proportion to what each holds (largest
    remainders, ties to the earlier chunk); a chunk left with fewer than ``min_points``
    points, or with background only, is dropped and the plan made again without it.
@@ -32,7 +33,7 @@ from .pointcloud import PointCloud
 # Table 3, synthetic column: points per class id (DESIGN.md label map)
 PAPER: dict[int, int] = {0: 4_931_280, 1: 254_597, 2: 2_797_079, 3: 4_131_134, 4: 2_531, 5: 5_096_091,
                          6: 2_270_590, 7: 56_680, 8: 70_289, 9: 239_697}
-TOLERANCE = 0.02  # short classes may miss at most this share of the total, together
+RARE = 0.02  # a class whose target share is at most this may fall short (it gives what it has)
 
 
 @dataclass
@@ -84,23 +85,15 @@ def load_target(spec: str, names: Mapping[int, str]) -> dict[int, float]:
     return {k: v / total for k, v in sorted(out.items())}
 
 
-def _largest_total(available: np.ndarray, p: np.ndarray, tolerance: float) -> float:
-    """The largest N with sum_c max(0, p_c·N − A_c) <= tolerance·N (the deficit's share
-    grows with N, so bisection finds it)."""
-    pos = p > 0
-    if not pos.any():
+def _largest_total(available: np.ndarray, p: np.ndarray, rare: float) -> float:
+    """The largest N whose target counts p_c·N every class above the ``rare`` share can give
+    (rare classes give what they have; a class without points is left out)."""
+    has = (p > 0) & (available > 0)
+    if not has.any():
         return 0.0
-    hi = float(np.max(available[pos] / p[pos])) + 1.0
-    if np.maximum(0.0, p - available / hi).sum() <= tolerance:
-        return hi
-    lo = 0.0
-    for _ in range(80):
-        mid = (lo + hi) / 2
-        if mid <= 0 or np.maximum(0.0, p - available / mid).sum() <= tolerance:
-            lo = mid
-        else:
-            hi = mid
-    return lo
+    major = has & (p > rare)
+    use = major if major.any() else has
+    return float(np.min(available[use] / p[use]))
 
 
 def _spread(counts: np.ndarray, want: np.ndarray) -> np.ndarray:
@@ -118,7 +111,7 @@ def _spread(counts: np.ndarray, want: np.ndarray) -> np.ndarray:
     return np.minimum(q, counts)
 
 
-def plan(counts: np.ndarray, target: np.ndarray | None, *, tolerance: float = TOLERANCE,
+def plan(counts: np.ndarray, target: np.ndarray | None, *, rare: float = RARE,
          budget: int | None = None, min_points: int = 1, background: int = 0) -> Plan:
     """How many points of each class each chunk keeps.
 
@@ -127,7 +120,7 @@ def plan(counts: np.ndarray, target: np.ndarray | None, *, tolerance: float = TO
     counts : (chunks, classes) int, points per chunk and class id.
     target : (classes,) float shares summing to 1, or None (keep the data's own shares;
         with ``budget`` only, a uniform sub-sample).
-    tolerance : the share of the total that short classes may miss together.
+    rare : classes whose target share is at most this may fall short.
     budget : at most this many points in all.
     min_points : a chunk left with fewer is dropped (as is one left with background only).
     """
@@ -143,7 +136,7 @@ def plan(counts: np.ndarray, target: np.ndarray | None, *, tolerance: float = TO
             total_n = float(avail.sum())
         else:
             p = np.asarray(target, np.float64)
-            total_n = _largest_total(avail, p, tolerance)
+            total_n = _largest_total(avail, p, rare)
             want = np.minimum(avail, np.floor(p * total_n + 1e-9))
             short = {}
             for k in np.flatnonzero((p > 0) & (avail < p * total_n - 0.5)).tolist():
@@ -174,7 +167,7 @@ def sample(semantic: np.ndarray, quota: np.ndarray, *, rng: np.random.Generator)
 
 
 def balance_chunks(chunks: list[tuple[tuple[int, int], PointCloud]], target: Mapping[int, float] | None, *,
-                   rng: np.random.Generator, budget: int | None = None, tolerance: float = TOLERANCE,
+                   rng: np.random.Generator, budget: int | None = None, rare: float = RARE,
                    min_points: int = 1) -> tuple[list[tuple[tuple[int, int], PointCloud]], Plan]:
     """The chunks sub-sampled towards ``target`` ({class id: share}) and capped at
     ``budget`` points, with the plan that chose them."""
@@ -185,7 +178,7 @@ def balance_chunks(chunks: list[tuple[tuple[int, int], PointCloud]], target: Map
         for k, v in target.items():
             p[k] = v
         counts = np.pad(counts, ((0, 0), (0, len(p) - counts.shape[1])))
-    pl = plan(counts, p, tolerance=tolerance, budget=budget, min_points=min_points)
+    pl = plan(counts, p, rare=rare, budget=budget, min_points=min_points)
     return apply_plan(chunks, pl.quota, pl.keep, rng=rng), pl
 
 
@@ -226,7 +219,7 @@ def load_chunks(path: Path) -> tuple[list[tuple[tuple[int, int], PointCloud]], d
 
 
 def plan_dataset(caches: list[Path], target: Mapping[int, float] | None, *, budget: int | None = None,
-                 tolerance: float = TOLERANCE, min_points: int = 1) -> list[tuple[np.ndarray, np.ndarray, dict]]:
+                 rare: float = RARE, min_points: int = 1) -> list[tuple[np.ndarray, np.ndarray, dict]]:
     """One :func:`plan` over every scene's chunks (read from their caches' counts, in scene
     order); returns per scene (quota, keep, report)."""
     per_scene = []
@@ -240,7 +233,7 @@ def plan_dataset(caches: list[Path], target: Mapping[int, float] | None, *, budg
         p = np.zeros(n_cls)
         for k, v in target.items():
             p[k] = v
-    pl = plan(counts, p, tolerance=tolerance, budget=budget, min_points=min_points)
+    pl = plan(counts, p, rare=rare, budget=budget, min_points=min_points)
     out, a = [], 0
     short = {str(c): r for c, r in pl.short.items()}
     for m in per_scene:
