@@ -1,7 +1,12 @@
-"""From a ``Layout`` to a ``Scene``: one asset per region with an asset group (paper §3.3).
+"""From a ``Layout`` to a ``Scene``: each region with an asset group furnished (paper §3.3).
 
 Each region draws an asset class from its group and a variant that fits its rectangle,
-turned to face the region's orientation; assets are never stretched. Options (the
+turned to face the region's orientation; assets are never stretched. The region type's
+``fill`` says how the region is furnished: ``one`` asset in its middle (the default), a
+``row`` along its long side or a ``grid`` of them ``spacing_m`` apart (at most ``count``),
+a ``stack`` up to ``stack_m``; racks with a ``load`` carry, shelf by shelf, pallets,
+stillages or KLTs, each its own instance of its own class. Every item keeps to its own cell
+of the region, so items never interpenetrate. Options (the
 strategy's ``scene`` section), each off unless asked for — and when off, no RNG draw:
 
 * ``walls`` (bool), ``columns`` (spacing in m, 0 = none): the hall around the layout;
