@@ -227,7 +227,8 @@ def _save(img, path: Path) -> None:
     tmp.replace(path)
 
 
-def histogram(out: Path, stats: list[dict], target: dict[int, float] | None = None) -> dict[str, int]:
+def histogram(out: Path, stats: list[dict], target: dict[int, float] | None = None,
+              short: dict[str, str] | None = None) -> dict[str, int]:
     from .export.semantickitti import CLASSES, COLORS_RGB
 
     total: dict[int, int] = {}
@@ -239,6 +240,8 @@ def histogram(out: Path, stats: list[dict], target: dict[int, float] | None = No
     for k in sorted(set(total) | set(target or {})):
         lines.append(f"{k:>3}  {CLASSES.get(k, f'class_{k}'):<20}{total.get(k, 0):>14,}{100 * total.get(k, 0) / n:>8.2f}%"
                      + (f"{100 * target.get(k, 0.0):>8.2f}%" if target else ""))
+    for k, why in sorted((short or {}).items(), key=lambda kv: int(kv[0])):
+        lines.append(f"short of its target: {CLASSES.get(int(k), f'class_{k}')}: {why}")
     (out / "histogram.txt").write_text("\n".join(lines) + "\n")
     (out / "histogram.json").write_text(json.dumps({CLASSES.get(k, str(k)): v for k, v in sorted(total.items())}, indent=1))
     import matplotlib
@@ -317,7 +320,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
              for i in range(cfg["scenes"])]
     target = cfg.get("class_balance")
     target = None if not target else {int(k): v for k, v in target["target"].items()}
-    hist = histogram(out, stats, target)
+    hist = histogram(out, stats, target, stats[0].get("balance", {}).get("short") if stats else None)
     stage_t: dict[str, float] = {}
     for r in results:
         for k, v in r.get("timings_s", {}).items():
