@@ -13,6 +13,9 @@ re-run skips finished scenes. Layout of ``--out DIR``::
     DIR/train_pbr/NNNNNN/             bop: the scene's RGB-D frames, masks and ground truth
     DIR/camera.json, DIR/models/      bop: the camera and the object models (mm)
     (each scene folder also holds layout.json and stats.json)
+    DIR/.balance/NNNNNN.npz           --class-balance / --points-budget: each scene's chunks
+                                      before balancing (one plan needs them all; kept so a
+                                      re-run resumes)
 """
 from __future__ import annotations
 

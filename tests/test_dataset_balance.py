@@ -42,3 +42,15 @@ def test_points_budget_caps_the_dataset(tmp_path):
     assert 4900 <= points <= 5000
     stats = [json.loads(p.read_text()) for p in sorted(tmp_path.glob("sequences/*/stats.json"))]
     assert sum(sum(s["class_points"].values()) for s in stats) == points
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--class-balance", "nowhere.json"], "cannot read the file"),
+    (["--class-balance", "paper", "--format", "bop"], "point-cloud format"),
+    (["--points-budget", "0"], "--points-budget 0"),
+])
+def test_bad_balance_input_fails_with_one_line(extra, message, tmp_path, capsys):
+    args = [a for a in ARGS if a not in ("--class-balance", "paper")]
+    assert main(["dataset", *args, *extra, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert message in err and len(err.splitlines()) == 1

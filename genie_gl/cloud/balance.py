@@ -224,6 +224,9 @@ def plan_dataset(caches: list[Path], target: Mapping[int, float] | None, *, budg
     order); returns per scene (quota, keep, report)."""
     per_scene = []
     for c in caches:
+        if not Path(c).is_file():
+            raise ConfigError(f"{c}: the unbalanced chunks of this scene are gone, and balancing needs every "
+                              "scene's; make the dataset again into an empty folder")
         with np.load(c) as z:
             per_scene.append(z["counts"])
     n_cls = max([m.shape[1] for m in per_scene] + [max(target or {0: 0}) + 1])
