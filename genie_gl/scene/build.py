@@ -149,6 +149,7 @@ class SceneBuilder:
         lay_x, lay_y = grid or along_x, grid or not along_x
         nx = max(1, int((reg.w + s + 1e-9) // (fw + s))) if lay_x else 1
         ny = max(1, int((reg.h + s + 1e-9) // (fd + s))) if lay_y else 1
+        n = None
         if fill.get("count") is not None:
             lo, hi = (fill["count"], fill["count"]) if isinstance(fill["count"], int) else fill["count"]
             n = int(self.rng.integers(lo, hi + 1))
@@ -170,7 +171,8 @@ class SceneBuilder:
 
         xs = cells(lay_x, nx, reg.x, reg.w, fw)
         ys = cells(lay_y, ny, reg.y, reg.h, fd)
-        return [Region(x0, y0, x1 - x0, y1 - y0, reg.type, reg.orientation) for y0, y1 in ys for x0, x1 in xs]
+        out = [Region(x0, y0, x1 - x0, y1 - y0, reg.type, reg.orientation) for y0, y1 in ys for x0, x1 in xs]
+        return out if n is None else out[:n]
 
     def _place(self, cls: str, choice: tuple, slot: Region, base: str, i: int, fill: dict) -> None:
         """One item (a stack, a loaded rack) in the middle of ``slot``, with the jitter the

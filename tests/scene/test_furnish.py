@@ -1,6 +1,8 @@
 """Furnished regions: rows, grids, stacks and loaded racks, each item its own instance."""
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import genie_gl as gg
 from genie_gl.layout import Layout, Region, RegionType, parse_strategy
@@ -46,6 +48,9 @@ def test_count_caps_a_row_and_grid_fills_both_ways():
     lane = RegionType("lane", final=True, semantic=8, asset_group="forklift",
                       fill={"mode": "row", "count": [2, 2], "spacing_m": 3.0})
     assert len(_placed(_scene(lane, 40.0, 3.0), "forklift")) == 2
+    capped = RegionType("pallets", final=True, semantic=1, asset_group="pallet",
+                        fill={"mode": "grid", "spacing_m": 0.2, "count": 5})
+    assert len(_placed(_scene(capped, 4.0, 4.0, seed=1), "pallet")) == 5     # of 12 that fit
     grid = RegionType("pallets", final=True, semantic=1, asset_group="pallet",
                       fill={"mode": "grid", "spacing_m": 0.2})
     pallets = _placed(_scene(grid, 4.0, 4.0, seed=1), "pallet")
@@ -113,3 +118,29 @@ def test_the_assembly_line_runs_both_ways():
         line = next(r for r in gg.generate_layout("assembly_line", seed=seed).regions() if r[0].type == "line")[0]
         directions.add("horizontal" if line.w > line.h else "vertical")
     assert directions == {"horizontal", "vertical"}
+
+
+@settings(max_examples=25, deadline=None)
+@given(w=st.floats(1.5, 9.0), h=st.floats(1.3, 6.0), cls=st.sampled_from(["rack", "stillage", "pallet", "klt", "cabinet",
+                                                                        "forklift", "dolly"]),
+       mode=st.sampled_from(["one", "row", "grid", "stack"]), spacing=st.floats(0.0, 0.5),
+       count=st.one_of(st.none(), st.integers(1, 6)), stack=st.one_of(st.none(), st.floats(0.2, 2.5)),
+       jitter=st.booleans(), seed=st.integers(0, 2**16), orientation=st.sampled_from(["up", "right", "down", "left"]))
+def test_furnished_items_never_interpenetrate_and_stay_inside(w, h, cls, mode, spacing, count, stack, jitter, seed,
+                                                               orientation):
+    import itertools
+
+    from tests.scene.test_scene import _boxes, _clash
+
+    fill = {"mode": mode, "spacing_m": spacing, "count": count, "stack_m": stack,
+            "load": {"pallet": 1, "stillage": 1, "klt": 1, "empty": 1} if cls == "rack" else None}
+    t = RegionType("r", final=True, semantic=1, asset_group=cls, fill=fill)
+    layout = Layout.from_regions([Region(0.0, 0.0, w, h, "r", orientation)], {"r": t}, (0.0, 0.0, w, h))
+    options = {"jitter": {"position_m": 0.3, "yaw_rad": 0.2}} if jitter else {}
+    scene = gg.build_scene(layout, seed=seed, options=options)
+    boxes = _boxes(scene, shrink=0.01)
+    assert not [(a[0], b[0]) for a, b in itertools.combinations(boxes, 2) if _clash(scene, a, b, 0.01)]
+    for inst in scene.instances[1:]:                      # the floor first, then the items
+        v = scene.meshes[inst.mesh].vertices.astype(np.float64)
+        xy = (np.c_[v, np.ones(len(v))] @ inst.world_from_model.T)[:, :2]
+        assert xy.min() >= -1e-6 and xy[:, 0].max() <= w + 1e-6 and xy[:, 1].max() <= h + 1e-6
