@@ -159,7 +159,9 @@ def finish_balanced(cfg: dict[str, Any]) -> None:
     target = cfg.get("class_balance")
     target = None if not target else {int(k): v for k, v in target["target"].items()}
     caches = [out / ".balance" / f"{i:06d}.npz" for i in range(cfg["scenes"])]
-    plans = plan_dataset(caches, target, budget=cfg.get("points_budget"), min_points=cfg["min_points"])
+    # the chunks a budget keeps are drawn from the dataset's own generator (seed, "balance")
+    rng = np.random.default_rng(np.random.SeedSequence([int(cfg["seed"]), 0x62616C616E6365]))
+    plans = plan_dataset(caches, target, rng=rng, budget=cfg.get("points_budget"), min_points=cfg["min_points"])
     for i, (cache, (quota, keep, report)) in enumerate(zip(caches, plans)):
         final = scene_dir(out, i, cfg["format"], cfg["scenes"])
         if final.exists():
@@ -288,6 +290,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
     for parent in (out / "sequences", out / "scenes"):  # what an interrupted run left half-made
         for stale in parent.glob(".tmp-*") if parent.is_dir() else []:
             shutil.rmtree(stale, ignore_errors=True)
+    there = sum(scene_dir(out, i, cfg["format"], cfg["scenes"]).exists() for i in range(cfg["scenes"]))
     todo = [i for i in range(cfg["scenes"]) if not scene_dir(out, i, cfg["format"], cfg["scenes"]).exists()
             and not (balancing(cfg) and (out / ".balance" / f"{i:06d}.npz").exists())]
     results: list[dict] = []
@@ -332,7 +335,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
         "genie_gl": __version__, "python": platform.python_version(), "command": "dataset",
         "inputs": {k: v for k, v in cfg.items() if k != "out"},
         "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
-        "scenes_made": len(results), "scenes_skipped": cfg["scenes"] - len(todo),
+        "scenes_made": cfg["scenes"] - there, "scenes_skipped": there,
         "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
     }
     if cfg.get("class_balance") or cfg.get("points_budget"):

@@ -85,9 +85,12 @@ def load_target(spec: str, names: Mapping[int, str]) -> dict[int, float]:
     return {k: v / total for k, v in sorted(out.items())}
 
 
-def _largest_total(available: np.ndarray, p: np.ndarray, rare: float) -> float:
+def _largest_total(available: np.ndarray, p: np.ndarray, rare: float, required: np.ndarray | None = None) -> float:
     """The largest N whose target counts p_c·N every class above the ``rare`` share can give
-    (rare classes give what they have; a class without points is left out)."""
+    (rare classes give what they have; a class without points is left out, unless it is
+    ``required``: then N is 0)."""
+    if required is not None and np.any(required & (p > rare) & (available == 0)):
+        return 0.0
     has = (p > 0) & (available > 0)
     if not has.any():
         return 0.0
@@ -111,20 +114,59 @@ def _spread(counts: np.ndarray, want: np.ndarray) -> np.ndarray:
     return np.minimum(q, counts)
 
 
-def plan(counts: np.ndarray, target: np.ndarray | None, *, rare: float = RARE,
+def plan(counts: np.ndarray, target: np.ndarray | None, *, rng: np.random.Generator, rare: float = RARE,
          budget: int | None = None, min_points: int = 1, background: int = 0) -> Plan:
     """How many points of each class each chunk keeps.
 
     Parameters
     ----------
     counts : (chunks, classes) int, points per chunk and class id.
-    target : (classes,) float shares summing to 1, or None (keep the data's own shares;
-        with ``budget`` only, a uniform sub-sample).
+    target : (classes,) float shares summing to 1, or None (keep the data's own shares).
+    rng : draws the chunks a budget keeps (nothing is drawn without a binding budget).
     rare : classes whose target share is at most this may fall short.
-    budget : at most this many points in all.
+    budget : at most this many points in all. As the paper did, whole chunks are
+        sub-sampled first: the fewest chunks, in a random order, whose plan reaches the
+        budget, then thinned to it (not every chunk thinned, which would leave them all
+        below ``min_points``).
     min_points : a chunk left with fewer is dropped (as is one left with background only).
     """
     counts = np.asarray(counts, np.int64)
+    full = _plan(counts, target, rare, None, min_points, background)
+    if budget is None or full.quota.sum() <= budget:
+        return full
+    # the chunks kept must hold every class above the rare share that the data holds
+    required = full.quota.sum(0) > 0
+    order = rng.permutation(len(counts))
+
+    def prefix(k: int, cap: int | None, req: np.ndarray | None = required) -> Plan:
+        sub = np.zeros(len(counts), bool)
+        sub[order[:k]] = True
+        return _plan(counts * sub[:, None], target, rare, cap, min_points, background, req)
+
+    lo, hi = 1, len(counts)
+    while lo < hi:  # the shortest prefix of the order whose plan reaches the budget
+        mid = (lo + hi) // 2
+        if prefix(mid, None).quota.sum() >= budget:
+            hi = mid
+        else:
+            lo = mid + 1
+    # thinned to the budget, some chunks may fall below min_points: take a few more chunks
+    # until the thinned plan comes within 1 % of the budget (or the fullest one tried)
+    best = None
+    for req in (required, None):  # without the required classes only if nothing else works
+        for k in sorted({*range(lo, min(len(counts), lo + 16) + 1), len(counts)}):
+            cand = prefix(k, budget, req)
+            if best is None or cand.quota.sum() > best.quota.sum():
+                best = cand
+            if best.quota.sum() >= 0.99 * budget:
+                return best
+        if best.quota.sum() > 0:
+            return best
+    return best
+
+
+def _plan(counts: np.ndarray, target: np.ndarray | None, rare: float, budget: int | None, min_points: int,
+          background: int, required: np.ndarray | None = None) -> Plan:
     n_chunks, n_cls = counts.shape
     keep = counts.sum(1) > 0
     short: dict[int, str] = {}
@@ -136,7 +178,7 @@ def plan(counts: np.ndarray, target: np.ndarray | None, *, rare: float = RARE,
             total_n = float(avail.sum())
         else:
             p = np.asarray(target, np.float64)
-            total_n = _largest_total(avail, p, rare)
+            total_n = _largest_total(avail, p, rare, required)
             want = np.minimum(avail, np.floor(p * total_n + 1e-9))
             short = {}
             for k in np.flatnonzero((p > 0) & (avail < p * total_n - 0.5)).tolist():
@@ -178,7 +220,7 @@ def balance_chunks(chunks: list[tuple[tuple[int, int], PointCloud]], target: Map
         for k, v in target.items():
             p[k] = v
         counts = np.pad(counts, ((0, 0), (0, len(p) - counts.shape[1])))
-    pl = plan(counts, p, rare=rare, budget=budget, min_points=min_points)
+    pl = plan(counts, p, rng=rng, rare=rare, budget=budget, min_points=min_points)
     return apply_plan(chunks, pl.quota, pl.keep, rng=rng), pl
 
 
@@ -218,8 +260,9 @@ def load_chunks(path: Path) -> tuple[list[tuple[tuple[int, int], PointCloud]], d
         return [((int(k[0]), int(k[1])), merged.select(slice(a, b))) for k, a, b in zip(z["keys"], starts, ends)], info
 
 
-def plan_dataset(caches: list[Path], target: Mapping[int, float] | None, *, budget: int | None = None,
-                 rare: float = RARE, min_points: int = 1) -> list[tuple[np.ndarray, np.ndarray, dict]]:
+def plan_dataset(caches: list[Path], target: Mapping[int, float] | None, *, rng: np.random.Generator,
+                 budget: int | None = None, rare: float = RARE,
+                 min_points: int = 1) -> list[tuple[np.ndarray, np.ndarray, dict]]:
     """One :func:`plan` over every scene's chunks (read from their caches' counts, in scene
     order); returns per scene (quota, keep, report)."""
     per_scene = []
@@ -236,7 +279,7 @@ def plan_dataset(caches: list[Path], target: Mapping[int, float] | None, *, budg
         p = np.zeros(n_cls)
         for k, v in target.items():
             p[k] = v
-    pl = plan(counts, p, rare=rare, budget=budget, min_points=min_points)
+    pl = plan(counts, p, rng=rng, rare=rare, budget=budget, min_points=min_points)
     out, a = [], 0
     short = {str(c): r for c, r in pl.short.items()}
     for m in per_scene:

@@ -9,6 +9,7 @@ from genie_gl.cloud import PointCloud
 from genie_gl.cloud.balance import PAPER, balance_chunks, load_target, plan, sample
 
 NAMES = {0: "background", 1: "pallet", 2: "rack", 6: "storage cabinet"}
+RNG = lambda: np.random.default_rng(0)  # noqa: E731
 
 
 def _cloud(counts: dict[int, int], seed: int = 0) -> PointCloud:
@@ -20,7 +21,7 @@ def _cloud(counts: dict[int, int], seed: int = 0) -> PointCloud:
 
 def test_plan_reaches_the_target_exactly_when_every_class_has_enough():
     counts = np.array([[800, 100, 100], [400, 300, 300]])      # background, pallet, rack
-    p = plan(counts, np.array([0.5, 0.25, 0.25]))
+    p = plan(counts, np.array([0.5, 0.25, 0.25]), rng=RNG())
     # rack and pallet hold 400 each: N = 1600, background 800 of its 1200
     assert p.quota.sum(0).tolist() == [800, 400, 400]
     assert not p.short and p.keep.all()
@@ -30,22 +31,35 @@ def test_plan_reaches_the_target_exactly_when_every_class_has_enough():
 
 def test_a_rare_class_is_short_within_the_tolerance_and_named():
     counts = np.array([[5000, 3000, 10]])
-    p = plan(counts, np.array([0.6, 0.39, 0.01]), rare=0.02)
+    p = plan(counts, np.array([0.6, 0.39, 0.01]), rng=RNG(), rare=0.02)
     got = p.quota.sum(0)
     assert got[2] == 10                                       # all it has
     share = got / got.sum()
     assert abs(share[0] - 0.6) < 0.02 and abs(share[1] - 0.39) < 0.02
     assert list(p.short) == [2] and "10 points in the data" in p.short[2]
     # a class with no points at all is named too
-    p = plan(np.array([[100, 100, 0]]), np.array([0.5, 0.49, 0.01]))
+    p = plan(np.array([[100, 100, 0]]), np.array([0.5, 0.49, 0.01]), rng=RNG())
     assert p.short[2] == "no points in the chunks kept"
 
 
 def test_budget_caps_and_small_or_background_only_chunks_are_dropped():
     counts = np.array([[1000, 1000], [50, 0], [10, 10]])
-    p = plan(counts, None, budget=1000, min_points=100)
+    p = plan(counts, None, rng=RNG(), budget=1000, min_points=100)
     assert p.quota.sum() <= 1000 and p.keep.tolist() == [True, False, False]
     assert p.quota.sum() >= 990
+
+
+def test_a_budget_keeps_whole_chunks_rather_than_thinning_them_all():
+    counts = np.tile([1000, 2000], (12, 1))                 # 12 chunks of 3000 points
+    target = np.array([0.25, 0.75])
+    p = plan(counts, target, rng=RNG(), budget=10_000, min_points=2000)
+    assert p.keep.sum() == 4                                 # 4 x 3000 is the fewest that reach 10 000
+    assert 9990 <= p.quota.sum() <= 10_000 and p.quota[p.keep].sum(1).min() >= 2000
+    np.testing.assert_allclose(p.quota.sum(0) / p.quota.sum(), target, atol=1e-3)
+    # the chunks kept are drawn: another seed keeps others, the same seed the same
+    other = plan(counts, target, rng=np.random.default_rng(1), budget=10_000, min_points=2000)
+    again = plan(counts, target, rng=RNG(), budget=10_000, min_points=2000)
+    assert np.array_equal(again.keep, p.keep) and not np.array_equal(other.keep, p.keep)
 
 
 def test_sample_takes_the_quota_of_each_class_without_repeats():
