@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__
+from . import curation
 from .errors import ConfigError
 
 log = logging.getLogger(__name__)
@@ -90,15 +91,11 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
         if ok:
             kept.append((key, tile))
     t["cloud"] = time.perf_counter()
-    if balancing(cfg):  # the whole dataset is balanced once every scene is made: keep the chunks
-        from .cloud.balance import save_chunks
-
-        save_chunks(out / ".balance" / f"{index:06d}.npz", kept,
-                    {"layout": layout.to_dict(), "instances": len(scene.instances), "cameras": len(frames),
-                     "points_total": points_total})
+    if curation.active(cfg):  # balanced once every scene is made (curation.py)
         if index < cfg["previews"]:
             write_previews(out / "previews", index, layout, frames, to_cloud(frames))
-        return {"scene": index, "pending": True}
+        return curation.cache_scene(cfg, index, kept, layout, {"instances": len(scene.instances),
+                                                               "cameras": len(frames), "points_total": points_total})
     tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
@@ -142,43 +139,6 @@ def write_chunks(cfg: dict[str, Any], tmp: Path, kept: list) -> np.ndarray:
             p.replace(tmp / p.name)
         shutil.rmtree(tmp / "_root")
     return counts
-
-
-def balancing(cfg: dict[str, Any]) -> bool:
-    return bool(cfg.get("class_balance") or cfg.get("points_budget"))
-
-
-def finish_balanced(cfg: dict[str, Any]) -> None:
-    """``--class-balance`` / ``--points-budget``: one plan over every scene's chunks
-    (cloud/balance.py), then each unwritten scene sub-sampled with its own sixth generator
-    and written whole. Scene order, not worker count, decides the plan."""
-    from .cloud.balance import apply_plan, load_chunks, plan_dataset
-    from .layout import Layout
-
-    out = Path(cfg["out"])
-    target = cfg.get("class_balance")
-    target = None if not target else {int(k): v for k, v in target["target"].items()}
-    caches = [out / ".balance" / f"{i:06d}.npz" for i in range(cfg["scenes"])]
-    # the chunks a budget keeps are drawn from the dataset's own generator (seed, "balance")
-    rng = np.random.default_rng(np.random.SeedSequence([int(cfg["seed"]), 0x62616C616E6365]))
-    plans = plan_dataset(caches, target, rng=rng, budget=cfg.get("points_budget"), min_points=cfg["min_points"])
-    for i, (cache, (quota, keep, report)) in enumerate(zip(caches, plans)):
-        final = scene_dir(out, i, cfg["format"], cfg["scenes"])
-        if final.exists():
-            continue
-        chunks, info = load_chunks(cache)
-        rng = np.random.default_rng(np.random.SeedSequence([int(cfg["seed"]), i]).spawn(6)[5])
-        kept = apply_plan(chunks, quota, keep, rng=rng)
-        tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
-        shutil.rmtree(tmp, ignore_errors=True)
-        tmp.mkdir(parents=True)
-        counts = write_chunks(cfg, tmp, kept)
-        Layout.from_dict(info["layout"]).to_json(tmp / "layout.json")
-        stats = {"scene": i, "instances": info["instances"], "cameras": info["cameras"],
-                 "points_total": info["points_total"], "chunks": len(kept),
-                 "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}, "balance": report}
-        (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
-        tmp.replace(final)
 
 
 def write_bop_scene(scene, frames, folder: Path) -> list[str]:
@@ -292,7 +252,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
             shutil.rmtree(stale, ignore_errors=True)
     there = sum(scene_dir(out, i, cfg["format"], cfg["scenes"]).exists() for i in range(cfg["scenes"]))
     todo = [i for i in range(cfg["scenes"]) if not scene_dir(out, i, cfg["format"], cfg["scenes"]).exists()
-            and not (balancing(cfg) and (out / ".balance" / f"{i:06d}.npz").exists())]
+            and not (curation.active(cfg) and curation.cache_path(cfg, i).exists())]
     results: list[dict] = []
     t0 = time.perf_counter()
     bar = tqdm(total=cfg["scenes"], initial=cfg["scenes"] - len(todo), unit="scene", disable=not progress,
@@ -319,14 +279,12 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
                 results.append(r)
                 bar.update(1)
     bar.close()
-    if balancing(cfg):
-        finish_balanced(cfg)
+    if curation.active(cfg):
+        curation.finish(cfg, lambda i: scene_dir(out, i, cfg["format"], cfg["scenes"]), write_chunks)
     elapsed = time.perf_counter() - t0
     stats = [json.loads((scene_dir(out, i, cfg["format"], cfg["scenes"]) / "stats.json").read_text())
              for i in range(cfg["scenes"])]
-    target = cfg.get("class_balance")
-    target = None if not target else {int(k): v for k, v in target["target"].items()}
-    hist = histogram(out, stats, target, stats[0].get("balance", {}).get("short") if stats else None)
+    hist = histogram(out, stats, curation.target(cfg), curation.short(stats))
     stage_t: dict[str, float] = {}
     for r in results:
         for k, v in r.get("timings_s", {}).items():
@@ -338,15 +296,9 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
         "scenes_made": cfg["scenes"] - there, "scenes_skipped": there,
         "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
     }
-    if cfg.get("class_balance") or cfg.get("points_budget"):
-        from .cloud.balance import summary
-        from .export.semantickitti import CLASSES
+    from .export.semantickitti import CLASSES
 
-        points: dict[int, int] = {}
-        for st in stats:
-            for k, v in st["class_points"].items():
-                points[int(k)] = points.get(int(k), 0) + v
-        manifest["class_balance"] = summary(points, target, stats[0].get("balance", {}).get("short", {}), CLASSES)
+    manifest.update(curation.manifest(cfg, stats, CLASSES))
     tmp = out / "manifest.json.tmp"
     tmp.write_text(json.dumps(manifest, indent=1))
     tmp.replace(out / "manifest.json")
@@ -369,10 +321,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--previews", type=int, default=3, help="scenes that get preview pictures")
     p.add_argument("--executor", choices=("process", "ray"), default="process")
     p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
-    p.add_argument("--class-balance", default=None, metavar="paper|FILE",
-                   help="sub-sample chunks and points towards a class distribution: 'paper' (Table 3's "
-                        "synthetic column) or a JSON file {class: share}")
-    p.add_argument("--points-budget", type=int, default=None, metavar="N", help="at most N points in the dataset")
+    curation.add_arguments(p)
     p.add_argument("--no-progress", action="store_true")
 
 
@@ -384,19 +333,9 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}")
     if args.scenes < 1 or args.cameras < 1 or args.workers < 1:
         raise ConfigError("--scenes, --cameras and --workers must be >= 1")
-    if args.format == "bop" and (getattr(args, "class_balance", None) or getattr(args, "points_budget", None)):
-        raise ConfigError("--class-balance and --points-budget sub-sample point clouds; --format bop writes "
-                          "images: use a point-cloud format")
-    balance = None
-    if getattr(args, "class_balance", None):
-        from .cloud.balance import load_target
-        from .export.semantickitti import CLASSES
+    from .export.semantickitti import CLASSES
 
-        balance = {"name": args.class_balance,
-                   "target": {str(k): v for k, v in load_target(args.class_balance, CLASSES).items()}}
-    budget = getattr(args, "points_budget", None)
-    if budget is not None and budget < 1:
-        raise ConfigError(f"--points-budget {budget}: expected a number of points >= 1")
+    curated = curation.config(args, CLASSES)
     strategy = load_strategy(args.strategy)      # fails fast on a missing or bad strategy
     load_sensor(args.sensor)
     out = Path(args.out)
@@ -417,7 +356,7 @@ def config_from_args(args: argparse.Namespace) -> dict[str, Any]:
             "points": args.points, "chunk_m": args.chunk_m, "min_points": args.min_points,
             "min_labelled_share": args.min_labelled_share, "previews": args.previews,
             "executor": args.executor, "address": args.address,
-            **({"class_balance": balance} if balance else {}), **({"points_budget": budget} if budget else {})}
+            **curated}
 
 
 def run(args: argparse.Namespace) -> int:
