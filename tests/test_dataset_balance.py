@@ -8,7 +8,7 @@ import pytest
 from genie_gl.cli import main
 
 pytestmark = pytest.mark.gl
-ARGS = ["assembly_line", "--scenes", "2", "--cameras", "3", "--sensor", "ideal_pinhole", "--points", "4000",
+ARGS = ["assembly_line", "--scenes", "2", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "4000",
         "--min-points", "200", "--no-progress", "--previews", "0", "--class-balance", "paper"]
 
 
