@@ -38,8 +38,8 @@ class MergeRecord:
 
 def _pass(x, y, w, h, key_t, along_x: bool, tol: float):
     """One sweep: runs of rectangles with the same type, orientation and cross extent that
-    follow each other without a gap along one axis. Returns (run id per rectangle, start of
-    each run in the sorted order, sort order)."""
+    follow each other without a gap along one axis. Returns (run id of each rectangle in the
+    sorted order, that order, whether any two joined)."""
     pos, size, cpos, csize = (x, w, y, h) if along_x else (y, h, x, w)
     k1 = np.round(cpos / tol).astype(np.int64)
     k2 = np.round(csize / tol).astype(np.int64)
@@ -172,5 +172,5 @@ def merge_tree(tree: Tree, tol: float = TOL_M) -> tuple[Tree, list[MergeRecord],
 
 def renumber(old_records: list[dict], mapping: np.ndarray) -> list[dict]:
     """Earlier merge records with their node indices moved to a later merge's numbering
-    (``mapping``: old index -> new index)."""
+    (``mapping``: old index -> new index; -1: the region was removed since)."""
     return [{**r, "node": int(mapping[r["node"]])} for r in old_records]
