@@ -36,7 +36,7 @@ class MergeRecord:
                 "parents": list(self.parents)}
 
 
-def _pass(x, y, w, h, key_t, along_x: bool, tol: float):
+def _pass(x, y, w, h, key_t, along_x: bool, tol: float, origin: np.ndarray):
     """One sweep: runs of rectangles with the same type, orientation and cross extent that
     follow each other without a gap along one axis. Returns (run id of each rectangle in the
     sorted order, that order, whether any two joined)."""
@@ -47,17 +47,20 @@ def _pass(x, y, w, h, key_t, along_x: bool, tol: float):
     same = (key_t[order][1:] == key_t[order][:-1]) & (k1[order][1:] == k1[order][:-1]) \
         & (k2[order][1:] == k2[order][:-1])
     touch = np.abs(pos[order][:-1] + size[order][:-1] - pos[order][1:]) <= tol
-    joined = same & touch
+    o = origin[order]
+    joined = same & touch & ((o[1:] < 0) | (o[1:] != o[:-1]))  # pieces of one cut leaf never rejoin
     run = np.concatenate([[0], np.cumsum(~joined)])
     return run, order, joined.any()
 
 
-def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M):
+def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M, origin: np.ndarray | None = None):
     """Merge rectangles of equal ``key`` sharing a whole edge until none do.
 
     Parameters
     ----------
     x, y, w, h : (n,) float64 rectangles; key : (n,) int64, only equal keys merge.
+    origin : (n,) int64 or None, rectangles with the same origin >= 0 (pieces of one cut
+        leaf) never merge with each other.
 
     Returns
     -------
@@ -66,10 +69,11 @@ def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M):
     """
     x, y, w, h = (np.asarray(a, np.float64).copy() for a in (x, y, w, h))
     key = np.asarray(key, np.int64)
+    origin = np.full(len(x), -1, np.int64) if origin is None else np.asarray(origin, np.int64).copy()
     group = np.arange(len(x))
     changed, along_x, idle = True, True, 0
     while len(x) > 1 and idle < 2:
-        run, order, changed = _pass(x, y, w, h, key, along_x, tol)
+        run, order, changed = _pass(x, y, w, h, key, along_x, tol, origin)
         if changed:
             n = run[-1] + 1
             first = np.searchsorted(run, np.arange(n))
@@ -84,7 +88,9 @@ def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M):
             where = np.empty(len(x), np.int64)
             where[order] = run
             group = where[group]
+            single = (last - first) == 0
             x, y, w, h, key = nx, ny, nw, nh, key[o_first]
+            origin = np.where(single, origin[o_first], -1)
             idle = 0
         else:
             idle += 1
@@ -103,18 +109,70 @@ def _common_ancestor(parent: np.ndarray, depth: np.ndarray, nodes: np.ndarray) -
     return int(a[0])
 
 
-def merge_tree(tree: Tree, tol: float = TOL_M) -> tuple[Tree, list[MergeRecord], np.ndarray]:
+def _strip_cuts(tree: Tree, leaves: np.ndarray, key: np.ndarray, tol: float) -> tuple[Tree, np.ndarray]:
+    """``l_shape: strip``: every leaf that borders a leaf of its key along part of an edge is
+    cut where the other's edge ends. Returns the tree with the pieces (a cut leaf keeps its
+    first piece; the others are appended as its siblings) and each node's origin (the cut
+    leaf's index for its pieces, -1 elsewhere)."""
+    x, y, w, h = (a[leaves] for a in (tree.x, tree.y, tree.w, tree.h))
+    cuts = [(set(), set()) for _ in range(len(leaves))]  # x cuts, y cuts
+
+    def scan(lo, size, clo, csize, axis):
+        ends: dict[tuple[int, int], list[int]] = {}
+        for i in range(len(leaves)):
+            ends.setdefault((int(key[i]), round((lo[i] + size[i]) / tol)), []).append(i)
+        for j in range(len(leaves)):
+            for i in ends.get((int(key[j]), round(lo[j] / tol)), []):
+                o0, o1 = max(clo[i], clo[j]), min(clo[i] + csize[i], clo[j] + csize[j])
+                if o1 - o0 > tol and (abs(clo[i] - clo[j]) > tol or abs(csize[i] - csize[j]) > tol):
+                    for k in (i, j):
+                        cuts[k][axis].update(c for c in (o0, o1) if clo[k] + tol < c < clo[k] + csize[k] - tol)
+
+    scan(x, w, y, h, 1)  # side by side along x: cut across y
+    scan(y, h, x, w, 0)  # one above the other: cut across x
+    origin = np.full(len(tree), -1, np.int64)
+    extra: list[tuple] = []
+    rect = {k: getattr(tree, k).copy() for k in ("x", "y", "w", "h")}
+    for i, (cx, cy) in enumerate(cuts):
+        if not cx and not cy:
+            continue
+        node = int(leaves[i])
+        xs = [x[i], *sorted(cx), x[i] + w[i]]
+        ys = [y[i], *sorted(cy), y[i] + h[i]]
+        pieces = [(x0, y0, x1 - x0, y1 - y0) for y0, y1 in zip(ys, ys[1:]) for x0, x1 in zip(xs, xs[1:])]
+        origin[node] = node
+        rect["x"][node], rect["y"][node], rect["w"][node], rect["h"][node] = pieces[0]
+        extra += [(node, *p) for p in pieces[1:]]
+    if not extra:
+        return tree, origin
+    src = np.array([e[0] for e in extra], np.int64)
+    cat = lambda a, b: np.concatenate([a, np.asarray(b, a.dtype)])  # noqa: E731
+    out = Tree(*(cat(rect[k], [e[1 + c] for e in extra]) for c, k in enumerate(("x", "y", "w", "h"))),
+               cat(tree.type, tree.type[src]), cat(tree.orient, tree.orient[src]), cat(tree.depth, tree.depth[src]),
+               cat(tree.parent, tree.parent[src]), tree.type_names)
+    return out, np.concatenate([origin, src])
+
+
+def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep") -> tuple[Tree, list[MergeRecord], np.ndarray]:
     """The merge layer over a whole tree: returns the new tree (breadth-first, siblings
     consecutive), a record per merged region, and each old node's new index (a part's is
-    its merged region's; -1 for a removed region)."""
-    n = len(tree)
-    if n < 2:
-        return tree, [], np.arange(n)
+    its merged region's; -1 for a removed region). ``l_shape``: "keep" or "strip" (see
+    :class:`~.strategy.MergeSpec`)."""
+    n0 = len(tree)
+    if n0 < 2:
+        return tree, [], np.arange(n0)
     leaves = np.flatnonzero(tree.n_children() == 0)
     key = tree.type[leaves].astype(np.int64) * 4 + tree.orient[leaves]
-    group, gx, gy, gw, gh = merge_leaves(tree.x[leaves], tree.y[leaves], tree.w[leaves], tree.h[leaves], key, tol)
+    origin = np.full(n0, -1, np.int64)
+    if l_shape == "strip":
+        tree, origin = _strip_cuts(tree, leaves, key, tol)
+        leaves = np.flatnonzero(tree.n_children() == 0)
+        key = tree.type[leaves].astype(np.int64) * 4 + tree.orient[leaves]
+    n = len(tree)
+    group, gx, gy, gw, gh = merge_leaves(tree.x[leaves], tree.y[leaves], tree.w[leaves], tree.h[leaves], key, tol,
+                                         origin[leaves])
     sizes = np.bincount(group, minlength=len(gx))
-    if np.all(sizes == 1):
+    if np.all(sizes == 1) and n == n0:
         return tree, [], np.arange(n)
     x, y, w, h = tree.x.copy(), tree.y.copy(), tree.w.copy(), tree.h.copy()
     parent, depth = tree.parent.copy(), tree.depth.copy()
@@ -167,7 +225,7 @@ def merge_tree(tree: Tree, tol: float = TOL_M) -> tuple[Tree, list[MergeRecord],
                new_parent, tree.type_names)
     records = [MergeRecord(int(new_index[r]), parts, parents) for r, parts, parents in records_raw]
     new_index[absorbed] = new_index[rep[group[np.searchsorted(leaves, absorbed)]]]
-    return out, sorted(records, key=lambda m: m.node), new_index
+    return out, sorted(records, key=lambda m: m.node), new_index[:n0]
 
 
 def renumber(old_records: list[dict], mapping: np.ndarray) -> list[dict]:

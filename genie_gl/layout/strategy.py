@@ -115,12 +115,22 @@ class RuleSpec(_Strict):
     orientation: Any = "inherit"
 
 
+class MergeSpec(_Strict):
+    """What the ``"merge"`` levels do with two leaves of one type and orientation that
+    border along part of an edge only (their union an L or a T): ``keep`` them apart (the
+    default), or ``strip``: cut each where the other's edge ends, so the bordering parts
+    merge into one strip and the rest stays as its own region (once per merge level)."""
+
+    l_shape: Literal["keep", "strip"] = "keep"
+
+
 class StrategySpec(_Strict):
     name: str
     description: str | None = None
     root: RootSpec
     region_types: dict[str, RegionTypeSpec] = Field(min_length=1)
     levels: list[Union[Literal["merge"], dict[str, RuleSpec]]] = Field(min_length=1)
+    merge: MergeSpec = MergeSpec()
     scene: dict[str, Any] = {}
 
 
@@ -150,6 +160,7 @@ class Strategy:
     levels: list[Union[str, dict[str, Rule]]]
     scene: dict[str, Any] = field(default_factory=dict)
     source: str = "<dict>"
+    l_shape: str = "keep"
 
 
 def _color(value: Any, where: str) -> tuple[int, int, int]:
@@ -231,7 +242,7 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
                 _check_fits(rule, spec.root, f"{source}: {where}")
             rules[tname] = Rule(gen, rule.generator, providers, orient)
         levels.append(rules)
-    return Strategy(spec.name, spec.root, types, levels, spec.scene, source)
+    return Strategy(spec.name, spec.root, types, levels, spec.scene, source, spec.merge.l_shape)
 
 
 def _check_fits(rule: RuleSpec, root: RootSpec, where: str) -> None:

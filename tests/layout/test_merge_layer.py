@@ -18,7 +18,7 @@ class Rects(Generator):
         return [Child(parent.x + x, parent.y + y, w, h, "r") for x, y, w, h in self.args["rects"]]
 
 
-def _strategy(left_kids, right_kids, right_orientation="inherit", merge=True):
+def _strategy(left_kids, right_kids, right_orientation="inherit", merge=True, l_shape=None):
     types = {"hall": {}, "zone_l": {}, "zone_r": {}, "a": {"final": True}, "b": {"final": True}}
     levels = [
         {"hall": {"generator": "test_rects", "args": {"rects": [[0, 0, 5, 4], [5, 0, 5, 4]]},
@@ -29,8 +29,9 @@ def _strategy(left_kids, right_kids, right_orientation="inherit", merge=True):
                     "children": {"r": {"sequential": [t for _, t in right_kids]}},
                     "orientation": right_orientation}},
     ] + (["merge"] if merge else [])
+    extra = {} if l_shape is None else {"merge": {"l_shape": l_shape}}
     return parse_strategy({"name": "m", "root": {"width": 10, "height": 4, "type": "hall"},
-                           "region_types": types, "levels": levels})
+                           "region_types": types, "levels": levels, **extra})
 
 
 def _leaves(layout):
@@ -103,6 +104,37 @@ def test_an_l_shaped_union_is_not_made():
                                ("b", "up", 5.0, 2.0, 5.0, 2.0)]
 
 
+def test_strip_cuts_an_l_so_the_bordering_parts_merge():
+    left = [([0, 0, 5, 4], "a")]
+    right = [([0, 0, 5, 2], "a"), ([0, 2, 5, 2], "b")]
+    layout = generate_layout(_strategy(left, right, l_shape="strip"), seed=0)
+    assert _leaves(layout) == [("a", "up", 0.0, 0.0, 10.0, 2.0), ("a", "up", 0.0, 2.0, 5.0, 2.0),
+                               ("b", "up", 5.0, 2.0, 5.0, 2.0)]
+    _check_tree(layout)
+    (rec,) = layout.meta["merges"]
+    assert sorted(map(tuple, rec["parts"])) == [(0, 0, 5, 2), (5, 0, 5, 2)]
+    # "keep" (the default) leaves the L apart
+    assert len(generate_layout(_strategy(left, right, l_shape="keep"), seed=0).leaves()) == 3
+
+
+def test_strip_handles_a_t_and_the_transposed_l():
+    # a T: the right cell borders the middle of the left one, which is cut in three
+    left = [([0, 0, 5, 4], "a")]
+    right = [([0, 0, 5, 1], "b"), ([0, 1, 5, 2], "a"), ([0, 3, 5, 1], "b")]
+    layout = generate_layout(_strategy(left, right, l_shape="strip"), seed=0)
+    assert _leaves(layout) == [("a", "up", 0.0, 0.0, 5.0, 1.0), ("a", "up", 0.0, 1.0, 10.0, 2.0),
+                               ("a", "up", 0.0, 3.0, 5.0, 1.0), ("b", "up", 5.0, 0.0, 5.0, 1.0),
+                               ("b", "up", 5.0, 3.0, 5.0, 1.0)]
+    _check_tree(layout)
+    # one above the other: a 3 m wide cell on a 5 m wide one is cut across x
+    left = [([0, 0, 5, 2], "a"), ([0, 2, 3, 2], "a"), ([3, 2, 2, 2], "b")]
+    right = [([0, 0, 5, 4], "b")]
+    layout = generate_layout(_strategy(left, right, l_shape="strip"), seed=0)
+    leaves = [r for r in _leaves(layout) if r[0] == "a"]
+    assert leaves == [("a", "up", 0.0, 0.0, 3.0, 4.0), ("a", "up", 3.0, 0.0, 2.0, 2.0)]
+    _check_tree(layout)
+
+
 def test_without_the_merge_level_nothing_merges():
     left = [([0, 0, 5, 4], "a")]
     right = [([0, 0, 5, 4], "a")]
@@ -157,8 +189,9 @@ from hypothesis import strategies as st  # noqa: E402
 
 @settings(max_examples=30, deadline=None)
 @given(w=st.floats(4, 30), h=st.floats(4, 30), c1=st.floats(1.5, 8), c2=st.floats(0.4, 3), sp=st.sampled_from([0.0, 0.3]),
-       gen=st.sampled_from(["grid", "assembly_line", "random_rooms"]), seed=st.integers(0, 2**16))
-def test_two_levels_then_merge_keep_the_tree_sound(w, h, c1, c2, sp, gen, seed):
+       gen=st.sampled_from(["grid", "assembly_line", "random_rooms"]), seed=st.integers(0, 2**16),
+       l_shape=st.sampled_from(["keep", "strip"]))
+def test_two_levels_then_merge_keep_the_tree_sound(w, h, c1, c2, sp, gen, seed, l_shape):
     args = {"grid": {"cell": [c1, c1]}, "assembly_line": {"line_width": c1, "paths": [0, 2], "path_width": c2},
             "random_rooms": {"count": [1, 5], "width": [c1, c1 + 2], "height": [c1, c1 + 2]}}[gen]
     slots = {"grid": ["cell"], "assembly_line": ["line", "path", "rest"], "random_rooms": ["room"]}[gen]
@@ -167,12 +200,14 @@ def test_two_levels_then_merge_keep_the_tree_sound(w, h, c1, c2, sp, gen, seed):
          "levels": [{"hall": {"generator": gen, "args": args, "children": {k: {"random": ["zone", "a"]} for k in slots}}},
                     {"zone": {"generator": "grid", "args": {"cell": [c2, c2], "spacing": sp},
                               "children": {"cell": {"random": ["a", "b"]}}, "orientation": {"random": ["up", "left"]}}},
-                    "merge"]}
+                    "merge"], "merge": {"l_shape": l_shape}}
     try:
         strat = parse_strategy(s)
     except Exception:
         return  # a parent too small for its generator is refused; other tests check the message
     raw = generate_layout(parse_strategy({**s, "levels": s["levels"][:2]}), seed=seed)
+    if l_shape == "keep":  # no leaf of the result is a piece of a cut one
+        assert len(generate_layout(strat, seed=seed).leaves()) <= len(raw.leaves())
     layout = generate_layout(strat, seed=seed)
     _check_tree(layout)
     leaves = layout.leaves()
