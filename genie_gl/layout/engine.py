@@ -36,8 +36,8 @@ def generate_layout(strategy: Strategy | str | Path, seed: int = 0, *,
     merges: list[dict] = []
     for li, level in enumerate(strat.levels):
         if level == "merge":
-            tree, records, mapping = merge_tree(tree, l_shape=strat.l_shape)
-            merges = renumber(merges, mapping) + [r.to_dict(li) for r in records]
+            tree, record, mapping = merge_tree(tree, l_shape=strat.l_shape, level=li)
+            merges = [renumber(m, mapping) for m in merges] + ([record] if record else [])
             continue
         tree = _expand_level(tree, level, strat.region_types, rng, li, reports)
     meta = {"strategy": strat.name, "seed": int(seed), "reports": reports, "scene": strat.scene}

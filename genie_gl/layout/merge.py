@@ -9,31 +9,16 @@ The merged region hangs under the smallest region that holds all its parts (the 
 common ancestor: their parent when they were siblings), so every node still lies inside its
 parent; a region whose children have all merged away is removed. Everything is array code
 over the layout's :class:`~.model.Tree`; only groups whose parts came from different parents
-walk the tree. Each merge is recorded (:class:`MergeRecord`) for the layout's ``meta``.
+walk the tree. Each merged region is recorded for the layout's ``meta``: its node, its
+parts' rectangles and its parts' former parents.
 """
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
 from .model import Tree
 
 TOL_M = 1e-6  # edges closer than this (metres) are the same edge
-
-
-@dataclass(frozen=True)
-class MergeRecord:
-    """One merged region: its node index in the tree returned, and its parts' rectangles
-    (x, y, w, h in metres) and former parents (node indices in the tree before merging)."""
-
-    node: int
-    parts: tuple[tuple[float, float, float, float], ...]
-    parents: tuple[int, ...]
-
-    def to_dict(self, level: int) -> dict:
-        return {"level": level, "node": self.node, "parts": [list(p) for p in self.parts],
-                "parents": list(self.parents)}
 
 
 def _pass(x, y, w, h, key_t, along_x: bool, tol: float, origin: np.ndarray):
@@ -98,15 +83,23 @@ def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M, origin: np.nda
     return group, x, y, w, h
 
 
-def _common_ancestor(parent: np.ndarray, depth: np.ndarray, nodes: np.ndarray) -> int:
-    """The deepest node that is an ancestor of (or one of) every node in ``nodes``."""
-    a = np.unique(nodes)
-    low = depth[a].min()
-    while len(a) > 1 and depth[a].max() > low:
-        a = np.unique(np.where(depth[a] > low, parent[a], a))
-    while len(a) > 1:
-        a = np.unique(parent[a])
-    return int(a[0])
+def _common_ancestors(parent: np.ndarray, depth: np.ndarray, g: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """For each group (``g``: (m,) group labels, sorted), the deepest node that is an
+    ancestor of (or one of) its ``nodes``: all groups at once, a level at a time. Returns
+    one node per distinct label, in label order."""
+    starts = np.flatnonzero(np.r_[True, g[1:] != g[:-1]])
+    size = np.diff(np.r_[starts, len(g)])
+    a = nodes.astype(np.int64)
+    while True:
+        d = depth[a]
+        dmin, dmax = np.minimum.reduceat(d, starts), np.maximum.reduceat(d, starts)
+        amin, amax = np.minimum.reduceat(a, starts), np.maximum.reduceat(a, starts)
+        unresolved = np.repeat(amin != amax, size)
+        if not unresolved.any():
+            return amin
+        # lift the deepest of a group's nodes; when all are equally deep, lift them all
+        lift = unresolved & ((d == np.repeat(dmax, size)) | np.repeat(dmin == dmax, size))
+        a = np.where(lift, parent[a], a)
 
 
 def _strip_cuts(tree: Tree, leaves: np.ndarray, key: np.ndarray, tol: float) -> tuple[Tree, np.ndarray]:
@@ -153,14 +146,15 @@ def _strip_cuts(tree: Tree, leaves: np.ndarray, key: np.ndarray, tol: float) -> 
     return out, np.concatenate([origin, src])
 
 
-def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep") -> tuple[Tree, list[MergeRecord], np.ndarray]:
+def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep",
+               level: int = -1) -> tuple[Tree, dict | None, np.ndarray]:
     """The merge layer over a whole tree: returns the new tree (breadth-first, siblings
-    consecutive), a record per merged region, and each old node's new index (a part's is
-    its merged region's; -1 for a removed region). ``l_shape``: "keep" or "strip" (see
-    :class:`~.strategy.MergeSpec`)."""
+    consecutive), the level's record (None when nothing merged; see :func:`records`), and
+    each old node's new index (a part's is its merged region's; -1 for a removed region).
+    ``l_shape``: "keep" or "strip" (see :class:`~.strategy.MergeSpec`)."""
     n0 = len(tree)
     if n0 < 2:
-        return tree, [], np.arange(n0)
+        return tree, None, np.arange(n0)
     leaves = np.flatnonzero(tree.n_children() == 0)
     key = tree.type[leaves].astype(np.int64) * 4 + tree.orient[leaves]
     origin = np.full(n0, -1, np.int64)
@@ -173,7 +167,7 @@ def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep") -> tuple[T
                                          origin[leaves])
     sizes = np.bincount(group, minlength=len(gx))
     if np.all(sizes == 1) and n == n0:
-        return tree, [], np.arange(n)
+        return tree, None, np.arange(n)
     x, y, w, h = tree.x.copy(), tree.y.copy(), tree.w.copy(), tree.h.copy()
     parent, depth = tree.parent.copy(), tree.depth.copy()
     keep = np.ones(n, bool)
@@ -185,21 +179,19 @@ def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep") -> tuple[T
     x[rep[multi]], y[rep[multi]], w[rep[multi]], h[rep[multi]] = gx[multi], gy[multi], gw[multi], gh[multi]
     absorbed = leaves[rep[group] != leaves]
     keep[absorbed] = False
-    records_raw = []
-    lp = parent[leaves]
-    pmin = np.full(len(gx), n, np.int64)
-    pmax = np.full(len(gx), -1, np.int64)
-    np.minimum.at(pmin, group, lp)
-    np.maximum.at(pmax, group, lp)
-    for g in multi.tolist():
-        members = leaves[order[starts[g]:starts[g] + sizes[g]]]
-        r = int(rep[g])
-        if pmin[g] != pmax[g]:  # parts from several parents: hang it under their common ancestor
-            common = _common_ancestor(tree.parent, tree.depth, tree.parent[members])
-            parent[r], depth[r] = common, tree.depth[common] + 1
-        records_raw.append((r, tuple((float(tree.x[m]), float(tree.y[m]), float(tree.w[m]), float(tree.h[m]))
-                                     for m in members.tolist()),
-                            tuple(sorted({int(tree.parent[m]) for m in members.tolist()}))))
+    lp = parent[leaves][order]  # by group
+    pmin, pmax = np.minimum.reduceat(lp, starts), np.maximum.reduceat(lp, starts)
+    cross = np.flatnonzero(pmin != pmax)
+    if len(cross):  # parts from several parents: hang the region under their common ancestor
+        sel = np.isin(group[order], cross)
+        common = _common_ancestors(tree.parent, tree.depth, group[order][sel], lp[sel])
+        parent[rep[cross]], depth[rep[cross]] = common, tree.depth[common] + 1
+    # the record, in flat columns (tens of thousands of merges stay cheap): each merged
+    # region's parts (breadth-first) and their former parents
+    in_multi = sizes[group[order]] > 1
+    m_nodes, m_groups = leaves[order][in_multi], group[order][in_multi]
+    pk = np.unique(m_groups.astype(np.int64) * (n + 1) + tree.parent[m_nodes])  # (group, parent) pairs
+    pairs = np.stack([pk // (n + 1), pk % (n + 1)], 1)
     # regions whose children all merged away go too (their area is in the merged regions)
     had_kids = tree.n_children() > 0
     while True:
@@ -223,12 +215,31 @@ def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep") -> tuple[T
     new_parent = np.where(old == 0, -1, new_index[parent[old]]).astype(np.int32)
     out = Tree(x[old], y[old], w[old], h[old], tree.type[old], tree.orient[old], depth[old].astype(np.int32),
                new_parent, tree.type_names)
-    records = [MergeRecord(int(new_index[r]), parts, parents) for r, parts, parents in records_raw]
+    record = {"level": level, "nodes": new_index[rep[multi]].tolist(),
+              "part_counts": sizes[multi].tolist(),
+              "parts": np.stack([tree.x[m_nodes], tree.y[m_nodes], tree.w[m_nodes], tree.h[m_nodes]], 1).ravel().tolist(),
+              "parent_counts": np.bincount(pairs[:, 0], minlength=len(gx))[multi].tolist(),
+              "parents": pairs[:, 1].tolist()}
     new_index[absorbed] = new_index[rep[group[np.searchsorted(leaves, absorbed)]]]
-    return out, sorted(records, key=lambda m: m.node), new_index[:n0]
+    return out, record, new_index[:n0]
 
 
-def renumber(old_records: list[dict], mapping: np.ndarray) -> list[dict]:
-    """Earlier merge records with their node indices moved to a later merge's numbering
+def renumber(record: dict, mapping: np.ndarray) -> dict:
+    """An earlier level's record with its nodes moved to a later merge's numbering
     (``mapping``: old index -> new index; -1: the region was removed since)."""
-    return [{**r, "node": int(mapping[r["node"]])} for r in old_records]
+    return {**record, "nodes": mapping[np.asarray(record["nodes"], np.int64)].tolist()}
+
+
+def records(merges: list[dict]) -> list[dict]:
+    """The merge records of ``layout.meta["merges"]`` one merged region at a time:
+    ``{"level", "node", "parts": [[x, y, w, h], ...], "parents": [...]}`` (parents: node
+    indices of the tree before that merge level)."""
+    out = []
+    for m in merges:
+        p, q = 0, 0
+        for node, k, j in zip(m["nodes"], m["part_counts"], m["parent_counts"]):
+            out.append({"level": m["level"], "node": node,
+                        "parts": [m["parts"][4 * i:4 * i + 4] for i in range(p, p + k)],
+                        "parents": m["parents"][q:q + j]})
+            p, q = p + k, q + j
+    return out

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from genie_gl.layout import Child, Generator, Layout, generate_layout, parse_strategy, register
-from genie_gl.layout.merge import merge_leaves
+from genie_gl.layout.merge import merge_leaves, records
 
 
 @register("test_rects")
@@ -61,7 +61,7 @@ def test_leaves_under_different_parents_merge_into_the_exact_rectangle():
     regions = layout.regions()
     assert [r.type for r, _, _ in regions] == ["hall", "zone_l", "a", "b"]
     assert [p for _, _, p in regions] == [-1, 0, 0, 1]
-    (rec,) = layout.meta["merges"]
+    (rec,) = records(layout.meta["merges"])
     assert rec["node"] == 2 and rec["level"] == 2
     assert sorted(map(tuple, rec["parts"])) == [(1, 0, 2, 4), (3, 0, 2, 4), (5, 0, 2, 4), (7, 0, 3, 4)]
     assert len(rec["parents"]) == 2
@@ -111,7 +111,7 @@ def test_strip_cuts_an_l_so_the_bordering_parts_merge():
     assert _leaves(layout) == [("a", "up", 0.0, 0.0, 10.0, 2.0), ("a", "up", 0.0, 2.0, 5.0, 2.0),
                                ("b", "up", 5.0, 2.0, 5.0, 2.0)]
     _check_tree(layout)
-    (rec,) = layout.meta["merges"]
+    (rec,) = records(layout.meta["merges"])
     assert sorted(map(tuple, rec["parts"])) == [(0, 0, 5, 2), (5, 0, 5, 2)]
     # "keep" (the default) leaves the L apart
     assert len(generate_layout(_strategy(left, right, l_shape="keep"), seed=0).leaves()) == 3
@@ -162,10 +162,10 @@ def test_random_grids_keep_area_per_type_and_the_same_seed_gives_the_same_tree()
             area = lambda lay: sum(r.area for r in lay.leaves() if (r.type, r.orientation) == key)  # noqa: E731
             assert area(a) == pytest.approx(area(raw))
         # some merges joined cells of different 3 x 3 zones
-        assert any(len(m["parents"]) > 1 for m in a.meta["merges"])
+        assert any(len(m["parents"]) > 1 for m in records(a.meta["merges"]))
         # every merged region is exactly tiled by its parts, all of its own type (area sums)
         leaves = a.tree
-        for m in a.meta["merges"]:
+        for m in records(a.meta["merges"]):
             i = m["node"]
             assert sum(w * h for _, _, w, h in m["parts"]) == pytest.approx(leaves.w[i] * leaves.h[i])
 
@@ -215,6 +215,6 @@ def test_two_levels_then_merge_keep_the_tree_sound(w, h, c1, c2, sp, gen, seed, 
     for key in {(r.type, r.orientation) for r in raw.leaves()}:
         area = lambda lay: sum(r.area for r in lay.leaves() if (r.type, r.orientation) == key)  # noqa: E731
         assert area(layout) == pytest.approx(area(raw), rel=1e-9, abs=1e-9)
-    for m in layout.meta.get("merges", []):
+    for m in records(layout.meta.get("merges", [])):
         i = m["node"]
         assert sum(pw * ph for _, _, pw, ph in m["parts"]) == pytest.approx(layout.tree.w[i] * layout.tree.h[i])
