@@ -102,33 +102,51 @@ def _common_ancestors(parent: np.ndarray, depth: np.ndarray, g: np.ndarray, node
         a = np.where(lift, parent[a], a)
 
 
+def _endpoints_inside(lo, size, clo, csize, key, tol: float) -> tuple[list[int], list[float]]:
+    """Where rectangles of one key meet on a line (one's far edge on the other's near edge),
+    the ends of each one's neighbours' intervals that fall strictly inside its own interval:
+    (rectangle, coordinate) pairs. Sorted searches over all lines at once."""
+    q = lambda v: np.round(v / tol).astype(np.int64)  # noqa: E731
+    near, far, c0, c1 = q(lo), q(lo + size), q(clo), q(clo + csize)
+    cmin = min(near.min(), far.min())
+    span = max(near.max(), far.max()) - cmin + 1
+    _, rank = np.unique(np.r_[key * span + near - cmin, key * span + far - cmin], return_inverse=True)
+    rank_near, rank_far = rank[:len(lo)], rank[len(lo):]
+    emin = c0.min()
+    Q = c1.max() - emin + 3
+    out_i, out_c = [], []
+    for mine, theirs in ((rank_far, rank_near), (rank_near, rank_far)):
+        ek = np.r_[theirs * Q + c0 - emin, theirs * Q + c1 - emin]
+        ev = np.r_[clo, clo + csize]
+        order = np.argsort(ek, kind="stable")
+        ek, ev = ek[order], ev[order]
+        a = np.searchsorted(ek, mine * Q + c0 - emin + 1, "left")
+        b = np.searchsorted(ek, mine * Q + c1 - emin - 1, "right")
+        n = np.maximum(b - a, 0)
+        if n.sum() == 0:
+            continue
+        who = np.repeat(np.arange(len(lo)), n)
+        pos = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n) + np.repeat(a, n)
+        out_i += who.tolist()
+        out_c += ev[pos].tolist()
+    return out_i, out_c
+
+
 def _strip_cuts(tree: Tree, leaves: np.ndarray, key: np.ndarray, tol: float) -> tuple[Tree, np.ndarray]:
     """``l_shape: strip``: every leaf that borders a leaf of its key along part of an edge is
     cut where the other's edge ends. Returns the tree with the pieces (a cut leaf keeps its
     first piece; the others are appended as its siblings) and each node's origin (the cut
     leaf's index for its pieces, -1 elsewhere)."""
     x, y, w, h = (a[leaves] for a in (tree.x, tree.y, tree.w, tree.h))
-    cuts = [(set(), set()) for _ in range(len(leaves))]  # x cuts, y cuts
-
-    def scan(lo, size, clo, csize, axis):
-        ends: dict[tuple[int, int], list[int]] = {}
-        for i in range(len(leaves)):
-            ends.setdefault((int(key[i]), round((lo[i] + size[i]) / tol)), []).append(i)
-        for j in range(len(leaves)):
-            for i in ends.get((int(key[j]), round(lo[j] / tol)), []):
-                o0, o1 = max(clo[i], clo[j]), min(clo[i] + csize[i], clo[j] + csize[j])
-                if o1 - o0 > tol and (abs(clo[i] - clo[j]) > tol or abs(csize[i] - csize[j]) > tol):
-                    for k in (i, j):
-                        cuts[k][axis].update(c for c in (o0, o1) if clo[k] + tol < c < clo[k] + csize[k] - tol)
-
-    scan(x, w, y, h, 1)  # side by side along x: cut across y
-    scan(y, h, x, w, 0)  # one above the other: cut across x
+    cuts: dict[int, tuple[set, set]] = {}
+    for axis, (lo, size, clo, csize) in ((1, (x, w, y, h)), (0, (y, h, x, w))):
+        # side by side along x: cut across y (axis 1); one above the other: across x (axis 0)
+        for i, c in zip(*_endpoints_inside(lo, size, clo, csize, key, tol)):
+            cuts.setdefault(i, (set(), set()))[axis].add(c)
     origin = np.full(len(tree), -1, np.int64)
     extra: list[tuple] = []
     rect = {k: getattr(tree, k).copy() for k in ("x", "y", "w", "h")}
-    for i, (cx, cy) in enumerate(cuts):
-        if not cx and not cy:
-            continue
+    for i, (cx, cy) in sorted(cuts.items()):
         node = int(leaves[i])
         xs = [x[i], *sorted(cx), x[i] + w[i]]
         ys = [y[i], *sorted(cy), y[i] + h[i]]
