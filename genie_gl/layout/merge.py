@@ -3,7 +3,9 @@
 After the levels before it, every pair of leaves of the same region type and orientation
 that share a whole edge (so that their union is a rectangle) is joined, whatever generator
 or parent made them, until no such pair is left. L-shaped unions are never made: two
-leaves that border along part of an edge only stay apart.
+leaves that border along part of an edge only stay apart, unless the strategy asks for
+``"merge": {"l_shape": "strip"}``: then each is first cut where the other's edge ends, so
+the bordering parts merge into one strip (the pieces of one cut leaf never rejoin).
 
 The merged region hangs under the smallest region that holds all its parts (the lowest
 common ancestor: their parent when they were siblings), so every node still lies inside its
