@@ -37,7 +37,7 @@ class RegionType:
     color: tuple[int, int, int] = (200, 200, 200)
     semantic: int | None = None
     asset_group: str | None = None
-    fill: dict | None = None
+    fill: dict | None = field(default=None, hash=False)  # a dict: kept out of the hash
 
 
 @dataclass(frozen=True)
