@@ -144,7 +144,7 @@ class SceneBuilder:
         ``spacing_m`` apart, at most ``count`` of them, the block at a random offset. A cell
         reaches half the spacing past its item, so neighbours' cells touch, never overlap."""
         _, _, fw, fd = choice
-        s = _span(self.rng, fill.get("spacing_m", 0.1))
+        s = _span(fill.get("spacing_m", 0.1), rng=self.rng)
         along_x = reg.w >= reg.h
         lay_x, lay_y = grid or along_x, grid or not along_x
         nx = max(1, int((reg.w + s + 1e-9) // (fw + s))) if lay_x else 1
@@ -193,7 +193,7 @@ class SceneBuilder:
         height = float(mesh.bounds[1][2])
         layers = 1
         if cls in lib.STACKABLE and fill.get("stack_m") is not None:
-            layers = max(1, int(_span(self.rng, fill["stack_m"]) // (height + 0.001)))
+            layers = max(1, int(_span(fill["stack_m"], rng=self.rng) // (height + 0.001)))
         elif self.opt.get("stack") and cls in lib.STACKABLE:
             limit = float(self.opt.get("stack_height_m", 1.6))
             max_layers = max(1, int(limit // height))
@@ -250,7 +250,7 @@ class SceneBuilder:
                     self._put("klt", "6428", yaw, wx, wy, z + h + 0.001, f"{base}_shelf{lv}n{k}klt_{i}_load")
 
 
-def _span(rng: np.random.Generator, value) -> float:
+def _span(value, *, rng: np.random.Generator) -> float:
     """A value, or one drawn uniformly from a range [min, max]."""
     if isinstance(value, (int, float)):
         return float(value)
