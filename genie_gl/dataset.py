@@ -233,6 +233,9 @@ def _worker(job: tuple[dict, int]) -> dict:
         from .render.context import set_default_backend
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
+    from .render import limit_threads  # workers share the cores: llvmpipe and numba threads
+
+    limit_threads((os.cpu_count() or 1) // max(1, int(job[0]["workers"])))
     return run_scene(*job)
 
 

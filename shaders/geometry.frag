@@ -6,15 +6,21 @@
 //   2: semantic id                                       R16UI
 //   3: colour, Lambert with a head light (WITH_COLOR)    RGBA8
 //   4: camera-frame unit normal (WITH_NORMAL)            RGBA32F
+// NO_LINEAR_DEPTH leaves target 0 alone (depth then comes from the depth buffer);
+// DEPTH_ONLY writes no target (the 24-bit depth pass).
 
 in vec3 v_eye;
 flat in uint v_instance;
 flat in uint v_semantic;
 flat in vec3 v_color;
 
+#ifndef NO_LINEAR_DEPTH
 layout(location = 0) out float o_depth;
+#endif
+#ifndef DEPTH_ONLY
 layout(location = 1) out uint o_instance;
 layout(location = 2) out uint o_semantic;
+#endif
 #ifdef WITH_COLOR
 layout(location = 3) out vec4 o_color;
 #endif
@@ -23,9 +29,13 @@ layout(location = 4) out vec4 o_normal;
 #endif
 
 void main() {
+#ifndef NO_LINEAR_DEPTH
     o_depth = v_eye.z;
+#endif
+#ifndef DEPTH_ONLY
     o_instance = v_instance;
     o_semantic = v_semantic;
+#endif
 #if defined(WITH_COLOR) || defined(WITH_NORMAL)
     // Face normal from screen-space derivatives (exact for planar triangles); turned to face
     // the camera. A vanishing cross product (grazing, sub-pixel) falls back to the view ray.

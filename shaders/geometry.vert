@@ -15,7 +15,8 @@ in vec4 in_color;       // normalised RGBA8
 // integer (u, v). Window x = u + 0.5, window y = v + 0.5 (row 0 of the read-back is v = 0).
 uniform vec3 u_proj_x;  // (2 fx / W, 2 s / W, 2 (cx + 0.5) / W - 1)
 uniform vec2 u_proj_y;  // (2 fy / H, 2 (cy + 0.5) / H - 1)
-uniform float u_near;   // reversed, infinite-far Z: z_ndc = near / z, in [0, 1] with clip control
+uniform vec2 u_depth;   // window depth = A + B / z (clip z = A z + B, w = z), [0, 1] with clip
+                        // control: (0, near) is reversed, infinite-far Z (near / z)
 
 out vec3 v_eye;
 flat out uint v_instance;
@@ -31,6 +32,6 @@ void main() {
     v_color = in_color.rgb;
     gl_Position = vec4(u_proj_x.x * e.x + u_proj_x.y * e.y + u_proj_x.z * e.z,
                        u_proj_y.x * e.y + u_proj_y.y * e.z,
-                       u_near,
+                       u_depth.x * e.z + u_depth.y,
                        e.z);
 }

@@ -8,11 +8,11 @@ attributes of the parent, so the package itself is made callable and forwards to
 import sys
 import types
 
-from .batch import capture, render, silhouettes
+from .batch import capture, limit_threads, render, silhouettes
 from .context import BACKENDS, GLContext, create_context
 from .renderer import Renderer
 
-__all__ = ["BACKENDS", "GLContext", "Renderer", "capture", "create_context", "render", "silhouettes"]
+__all__ = ["BACKENDS", "GLContext", "Renderer", "capture", "create_context", "limit_threads", "render", "silhouettes"]
 
 
 class _CallableModule(types.ModuleType):

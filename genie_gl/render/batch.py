@@ -1,7 +1,6 @@
 """``render`` (one ideal frame) and ``capture`` (many poses, sensor effects, all cores)."""
 from __future__ import annotations
 
-import functools
 import multiprocessing as mp
 import os
 from collections.abc import Sequence
@@ -16,13 +15,13 @@ from .renderer import Renderer
 
 
 def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | None = None,
-           depth_only: bool = False, normals: bool = False) -> Frame:
+           depth_only: bool = False, normals: bool = False, depth_precision: str = "float32") -> Frame:
     """One ideal pinhole frame of ``scene`` seen by ``sensor`` at ``pose`` (world_from_camera).
 
     Creates and frees a GL context: to render many poses use :class:`Renderer` or
     :func:`capture`.
     """
-    with Renderer(scene, backend=backend) as r:
+    with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
         return r.render(sensor, pose, depth_only=depth_only, normals=normals)
 
 
@@ -43,32 +42,80 @@ def silhouettes(renderer: Renderer, sensor: Sensor, pose: np.ndarray, ids: Seque
     return out
 
 
+def limit_threads(threads: int) -> None:
+    """Let this process use ``threads`` cores: llvmpipe's rasteriser threads (read when the
+    driver loads, so call this before the first GL context of the process; an
+    ``LP_NUM_THREADS`` already set wins) and numba's (the culling kernels)."""
+    threads = max(1, int(threads))
+    os.environ.setdefault("LP_NUM_THREADS", str(threads))
+    import numba
+
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+
 def pose_rng(seed: int, index: int) -> np.random.Generator:
     """The generator of pose ``index`` of a capture seeded with ``seed``."""
     return np.random.default_rng(np.random.SeedSequence([int(seed), int(index)]))
+
+
+class _Prefetched:
+    """``render`` for :func:`simulate` that serves each pose's main render from
+    :meth:`Renderer.frames` (frame i+1 renders while the effects of frame i run); any other
+    render (an effect's extra view, a different sensor) goes to :meth:`Renderer.render`."""
+
+    def __init__(self, renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], depth_only: bool,
+                 normals: bool) -> None:
+        self.renderer, self.sensor, self.poses = renderer, sensor, poses
+        self.depth_only, self.normals = depth_only, normals
+        self.frames = renderer.frames(sensor, poses, depth_only=depth_only, normals=normals)
+        self.next = 0
+
+    def _is_main(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool, only: Any) -> bool:
+        if only is not None or depth_only != self.depth_only or normals != self.normals or self.next >= len(self.poses):
+            return False
+        s = self.sensor
+        same_sensor = sensor is s or (sensor.size == s.size and np.array_equal(sensor.K, s.K)
+                                      and sensor.near_m == s.near_m and sensor.far_m == s.far_m)
+        want = self.poses[self.next]
+        return same_sensor and (pose is want or np.array_equal(pose, want))
+
+    def __call__(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool | None = None, normals: bool = False,
+                 only: Any = None) -> Frame:
+        depth_only = self.depth_only if depth_only is None else depth_only
+        if self._is_main(sensor, pose, depth_only, normals, only):
+            self.next += 1
+            return next(self.frames)
+        return self.renderer.render(sensor, pose, depth_only=depth_only, normals=normals, only=only)
 
 
 def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
                     indices: Sequence[int], depth_only: bool = False) -> list[Frame]:
     from ..sensors.simulate import simulate  # effects live in the sensors stage
 
-    render = functools.partial(renderer.render, depth_only=depth_only)
-    return [simulate(sensor, np.asarray(poses[k], dtype=np.float64), render=render,
-                     rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
+    poses = [np.asarray(p, dtype=np.float64) for p in poses]
+    normals = any(eff.needs_normals for eff in sensor.effects)
+    if sensor.is_pinhole:
+        view = sensor
+    else:
+        from ..sensors.distortion import distortion_maps
+
+        view = distortion_maps(sensor).render_sensor
+    render = _Prefetched(renderer, view, poses, depth_only, normals)
+    return [simulate(sensor, poses[k], render=render, rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
 
 
 # -- process pool: one GL context per worker --------------------------------------------------
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(scene: Scene, backend: str | None, lp_threads: int) -> None:
+def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32") -> None:
     if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
         from .context import set_default_backend
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
-    os.environ.setdefault("LP_NUM_THREADS", str(lp_threads))
-    _WORKER["renderer"] = Renderer(scene, backend=backend)
+    limit_threads(lp_threads)
+    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision)
 
 
 def _worker_render(job: tuple) -> list[Frame]:
@@ -77,7 +124,8 @@ def _worker_render(job: tuple) -> list[Frame]:
 
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
-            workers: int | None = 1, backend: str | None = None, depth_only: bool = False) -> list[Frame]:
+            workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
+            depth_precision: str = "float32") -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -89,18 +137,19 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         this process. The frames do not depend on it.
     backend : GL backend ("egl", "osmesa" or None).
     depth_only : skip the colour target (frames get ``rgb=None``).
+    depth_precision : "float32", "depth24" or "reversed_z" (see :class:`Renderer`).
     """
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     n = len(poses)
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
-        with Renderer(scene, backend=backend) as r:
+        with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
             return _capture_serial(r, sensor, poses, seed, range(n), depth_only)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
-    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads)) as pool:
+    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
         parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only) for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):

@@ -50,6 +50,7 @@ class GLContext:
     renderer: str
     _get_proc: Callable[[bytes], int] = field(repr=False)
     _keepalive: list[Any] = field(default_factory=list, repr=False)
+    programs: dict = field(default_factory=dict, repr=False)  # built shaders, shared by renderers
 
     def gl_function(self, name: str, restype: Any, *argtypes: Any) -> Callable[..., Any]:
         """A ctypes binding of a GL entry point moderngl does not expose (e.g. glClipControl)."""
@@ -60,6 +61,7 @@ class GLContext:
 
     def release(self) -> None:
         """Free the context and everything created in it."""
+        self.programs.clear()
         self.ctx.release()
         self._keepalive.clear()
 

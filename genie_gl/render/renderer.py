@@ -1,31 +1,31 @@
 """The moderngl renderer: one geometry pass into depth, instance, semantic, colour, normals.
 
-Geometry is uploaded once per scene and reused for every camera; each mesh is drawn once
-per camera, instanced, for the instances that survive frustum culling. Closed meshes are
-drawn with back-face culling unless the camera is inside their bounding box.
+Geometry is uploaded once per scene, all meshes in one vertex and one index buffer, and
+reused for every camera. A frame is at most two multi-draw-indirect calls: one command per
+instance that survives frustum culling (its camera_from_model row picked by the command's
+base instance), with back-face culling for closed meshes unless the camera is inside their
+bounding box, and only the triangles that may cover a pixel centre (``render/cull.py``).
 """
 from __future__ import annotations
 
 import ctypes
-import logging
 import time
-from collections.abc import Collection
+from collections.abc import Collection, Iterable, Iterator
 from contextlib import nullcontext
-from dataclasses import dataclass
 from typing import Any
 
 import moderngl
 import numpy as np
 
-from ..errors import RenderError
+from ..errors import ConfigError, RenderError
 from ..frame import Frame
-from ..scene.model import Mesh, Scene
+from ..scene.model import Scene
 from ..sensors.camera import Sensor
+from .cull import TriangleCuller, cluster_order, clusters, sanitize
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
+from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
 from .projection import clip_coefficients, frustum_planes, rigid_inverse
 from .shader import load_program
-
-log = logging.getLogger(__name__)
 
 # one row per drawn instance: camera_from_model (3 rows), ids, colour
 INSTANCE_DTYPE = np.dtype([("rows", "<f4", (3, 4)), ("instance", "<u4"), ("semantic", "<u4"),
@@ -38,102 +38,9 @@ GL_DEPTH_COMPONENT32F = 0x8CAC
 GL_DEPTH_COMPONENT = 0x1902
 GL_FLOAT = 0x1406
 
-
-def sanitize(mesh: Mesh, name: str) -> np.ndarray:
-    """Faces of ``mesh`` safe to rasterise: drops faces with non-finite or coincident vertices.
-
-    Returns (F', 3) uint32. Dropped faces are reported once, as a warning naming the mesh.
-    """
-    faces = mesh.faces
-    if len(faces) == 0:
-        return faces
-    v = mesh.vertices.astype(np.float64)
-    tri = v[faces]
-    finite = np.isfinite(tri).all(axis=(1, 2))
-    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    keep = finite & (area2 > 0)
-    if not keep.all():
-        log.warning("mesh %r: skipped %d of %d faces (%d with NaN/Inf vertices, %d degenerate)",
-                    name, int((~keep).sum()), len(faces), int((~finite).sum()),
-                    int((finite & ~(area2 > 0)).sum()))
-    return np.ascontiguousarray(faces[keep])
-
-
-@dataclass(eq=False)
-class _GpuMesh:
-    vbo: moderngl.Buffer
-    ibo: moderngl.Buffer
-    closed: bool
-    centre: np.ndarray        # (3,) bounding-sphere centre, model frame
-    radius: float
-    lo: np.ndarray            # (3,) model AABB
-    hi: np.ndarray
-    first: int                # this mesh's instances are rows [first, last) of the sorted table
-    last: int
-    inst_buf: moderngl.Buffer | None = None
-    vaos: dict | None = None
-
-
-class _Pool:
-    """Recycled memory for frame buffers.
-
-    A fresh array is page-faulted in on its first write, 4 KiB at a time: for a 640 x 480
-    frame that costs several times the read-back itself. A frame's buffers are views into one
-    block lent from this pool; when the last view dies (the frame is dropped), the block comes
-    back and the next frame of that size writes into memory that is already mapped.
-    """
-
-    def __init__(self, max_bytes: int = 512 << 20) -> None:
-        self.free: dict[int, list[np.ndarray]] = {}
-        self.max_bytes, self.bytes = max_bytes, 0
-        self.types: dict[int, type] = {}
-
-    def lend(self, size: int) -> np.ndarray:
-        """A writable uint8 array of ``size`` bytes, returned to the pool when it dies."""
-        blocks = self.free.get(size)
-        if blocks:
-            raw = blocks.pop()
-            self.bytes -= size
-        else:
-            raw = np.empty(size, np.uint8)
-        lease_type = self.types.get(size)
-        if lease_type is None:
-            pool = self
-
-            class Lease(ctypes.c_ubyte * size):  # type: ignore[misc, valid-type]
-                def __del__(self) -> None:  # the last view of the block is gone
-                    pool.give_back(self._raw)
-
-            lease_type = self.types[size] = Lease
-        lease = lease_type.from_address(raw.ctypes.data)
-        lease._raw = raw  # keeps the memory alive as long as any view of the lease
-        return np.frombuffer(lease, np.uint8)
-
-    def give_back(self, raw: np.ndarray) -> None:
-        if self.bytes + raw.nbytes <= self.max_bytes:
-            self.free.setdefault(raw.nbytes, []).append(raw)
-            self.bytes += raw.nbytes
-
-
-_POOL = _Pool()
-
-
-def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.ndarray]:
-    """A frame's output arrays as views into one block of recycled memory (see :class:`_Pool`)."""
-    parts = [("depth", np.float32, (H, W)), ("instance", np.uint32, (H, W))]
-    if normals:
-        parts.append(("normal", np.float32, (H, W, 3)))
-    if color:
-        parts.append(("rgba", np.uint8, (H, W, 4)))
-    parts.append(("semantic", np.uint16, (H, W)))
-    sizes = [-(-int(np.prod(shape)) * np.dtype(dt).itemsize // 64) * 64 for _, dt, shape in parts]
-    block = _POOL.lend(sum(sizes))
-    out, at = {}, 0
-    for (name, dt, shape), b in zip(parts, sizes):
-        n = int(np.prod(shape)) * np.dtype(dt).itemsize
-        out[name] = block[at:at + n].view(dt).reshape(shape)
-        at += b
-    return out
+DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z")
+COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
+                          ("base_instance", "<u4")])  # DrawElementsIndirectCommand
 
 
 class Renderer:
@@ -143,6 +50,15 @@ class Renderer:
 
         with gg.Renderer(scene) as r:
             frames = [r.render(sensor, pose) for pose in poses]
+            frames = list(r.frames(sensor, poses))   # the same frames, CPU and GL overlapped
+
+    All meshes of the scene share one vertex and one index buffer, uploaded once; a frame is
+    at most two multi-draw calls (instances drawn with and without back-face culling), one
+    command per instance, whatever the number of instances. Per frame, camera_from_model of
+    every instance is composed in float64 by one vectorised product and cast to float32, so
+    depth does not depend on where in the world the scene sits. With ``cull=True`` (the
+    default) only the triangles that may cover a pixel centre are drawn
+    (:mod:`genie_gl.render.cull`); the frames are the same bit for bit.
 
     Parameters
     ----------
@@ -150,15 +66,33 @@ class Renderer:
     backend : "egl", "osmesa" or None (EGL, falling back to OSMesa).
     context : GLContext, an existing context to share (then ``backend`` is ignored and the
         context is not released with the renderer).
+    depth_precision : how ``Frame.depth`` is obtained; ids never depend on it.
+        "float32" (default): view z interpolated per fragment into a float32 target.
+        "depth24": a 24-bit fixed-point window depth buffer of a conventional projection
+        (near and far planes of the sensor), read back and linearised; its error grows as
+        z² (as on most real-time renderers). "reversed_z": the float32 reversed, infinite-far
+        depth buffer (near / z) read back and linearised.
+    cull : drop triangles that cannot cover a pixel centre (exact; False draws everything). A
+        frame with fewer than ``cull_min_faces`` faces in view is drawn whole either way.
     """
 
-    def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None):
+    cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
+
+    def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
+                 depth_precision: str = "float32", cull: bool = True):
+        if depth_precision not in DEPTH_PRECISIONS:
+            raise ConfigError(f"Renderer depth_precision={depth_precision!r} is unknown; expected one of "
+                              f"{', '.join(DEPTH_PRECISIONS)}")
+        self.depth_precision, self.cull = depth_precision, bool(cull)
         self._own_context = context is None
         self.gl = context or create_context(backend)
         self.ctx = self.gl.ctx
-        self._programs: dict = {}
+        self._programs = self.gl.programs  # one build per context, whatever the renderer
         self._fbos: dict = {}
+        self._vaos: dict = {}
         self._clip_control = self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
+        self._gl_flush = None
+        self._culled = False
         with self._current():
             self._upload(scene)
         self.stats: dict[str, float] = {}
@@ -175,66 +109,97 @@ class Renderer:
         index = {k: i for i, k in enumerate(keys)}
         inst = scene.instances
         mesh_of = np.array([index[i.mesh] for i in inst], dtype=np.int64)
-        order = np.argsort(mesh_of, kind="stable")
-        self._mesh_of = mesh_of[order]
-        self._world_from_model = (np.stack([inst[i].world_from_model for i in order])
-                                  if len(inst) else np.zeros((0, 4, 4)))
-        self._ids = np.array([inst[i].instance for i in order], dtype=np.uint32)
-        self._sem = np.array([inst[i].semantic for i in order], dtype=np.uint32)
-        colors = np.full((len(inst), 4), 255, dtype=np.uint8)
-        if len(inst):
-            colors[:, :3] = np.array([inst[i].color for i in order], dtype=np.uint8)
-        self._colors = colors
-        # scale of each instance (for bounding spheres): largest column norm
-        self._scale = (np.linalg.norm(self._world_from_model[:, :3, :3], axis=1).max(axis=1)
-                       if len(inst) else np.zeros(0))
-        self._meshes: list[_GpuMesh | None] = []
-        bounds = np.searchsorted(self._mesh_of, np.arange(len(keys) + 1))
-        self.triangles = 0
+        has_inst = np.zeros(len(keys), bool)
+        has_inst[mesh_of] = True
+        # meshes: faces safe to draw, vertices and faces concatenated, cluster spheres
+        faces_of, verts, faces, cl_c, cl_r, cl_v = {}, [], [], [], [], []
+        n = len(keys)
+        vbase, nverts, fbase, nfaces, cbase = (np.zeros(n, np.int64) for _ in range(5))
+        closed, lo, hi = np.zeros(n, bool), np.zeros((n, 3)), np.zeros((n, 3))
+        centre, radius = np.zeros((n, 3)), np.zeros(n)
+        v_at = f_at = c_at = 0
         for i, key in enumerate(keys):
-            mesh = scene.meshes[key]
-            faces = sanitize(mesh, key)
-            first, last = int(bounds[i]), int(bounds[i + 1])
-            if len(faces) == 0 or last == first:
-                self._meshes.append(None)
+            if not has_inst[i]:
                 continue
-            used = mesh.vertices[np.unique(faces)].astype(np.float64)
-            lo, hi = used.min(axis=0), used.max(axis=0)
-            centre = (lo + hi) / 2
-            radius = float(np.linalg.norm(used - centre, axis=1).max())
-            self._meshes.append(_GpuMesh(
-                vbo=ctx.buffer(np.ascontiguousarray(mesh.vertices, dtype="<f4").tobytes()),
-                ibo=ctx.buffer(np.ascontiguousarray(faces, dtype="<u4").tobytes()),
-                closed=bool(mesh.closed), centre=centre, radius=radius, lo=lo, hi=hi,
-                first=first, last=last,
-                inst_buf=ctx.buffer(reserve=max(1, last - first) * INSTANCE_DTYPE.itemsize),
-                vaos={},
-            ))
-            self.triangles += len(faces) * (last - first)
-        self._centres = np.array([m.centre if m else np.zeros(3) for m in self._meshes]).reshape(-1, 3)
-        self._radii = np.array([m.radius if m else 0.0 for m in self._meshes])
+            mesh = scene.meshes[key]
+            f = sanitize(mesh, key)
+            if len(f) == 0:
+                continue
+            faces_of[i] = f
+            v, f = cluster_order(np.asarray(mesh.vertices), f)
+            used = v.astype(np.float64)
+            lo[i], hi[i] = used.min(axis=0), used.max(axis=0)
+            centre[i] = (lo[i] + hi[i]) / 2
+            radius[i] = float(np.linalg.norm(used - centre[i], axis=1).max())
+            closed[i] = bool(mesh.closed)
+            c, r, vr = clusters(v, f)
+            vbase[i], nverts[i], fbase[i], nfaces[i], cbase[i] = v_at, len(v), f_at, len(f), c_at
+            verts.append(v)
+            faces.append(np.ascontiguousarray(f, dtype="<u4"))
+            cl_c.append(c)
+            cl_r.append(r)
+            cl_v.append(vr)
+            v_at, f_at, c_at = v_at + len(v), f_at + len(f), c_at + len(c)
+        drawable = np.array([i in faces_of for i in range(n)], bool)
+        keep = [k for k in range(len(inst)) if drawable[mesh_of[k]]]
+        order = sorted(keep, key=lambda k: mesh_of[k])  # stable: same mesh, scene order
+        self._mesh = mesh_of[order]
+        N = len(order)
+        self._world_from_model = (np.stack([inst[k].world_from_model for k in order]).astype(np.float64)
+                                  if N else np.zeros((0, 4, 4)))
+        self._model_from_world = np.linalg.inv(self._world_from_model) if N else np.zeros((0, 4, 4))
+        self._ids = np.array([inst[k].instance for k in order], dtype=np.uint32)
+        self._scale = (np.linalg.norm(self._world_from_model[:, :3, :3], axis=1).max(axis=1)
+                       if N else np.zeros(0))
+        self._rows = np.zeros(N, INSTANCE_DTYPE)
+        self._rows["instance"] = self._ids
+        self._rows["semantic"] = [inst[k].semantic for k in order]
+        self._rows["color"][:, 3] = 255
+        if N:
+            self._rows["color"][:, :3] = np.array([inst[k].color for k in order], dtype=np.uint8)
+        self._vbase, self._nverts, self._fbase, self._nfaces = vbase, nverts, fbase, nfaces
+        self._closed, self._lo, self._hi, self._centre, self._radius = closed, lo, hi, centre, radius
+        self.triangles = int(nfaces[self._mesh].sum()) if N else 0
+        vertices = np.concatenate(verts) if verts else np.zeros((1, 3), "<f4")
+        all_faces = np.concatenate(faces) if faces else np.zeros((1, 3), "<u4")
+        self._culler = TriangleCuller(vertices, all_faces, vbase, nverts, fbase, nfaces, cbase,
+                                      np.concatenate(cl_c) if cl_c else np.zeros((1, 3)),
+                                      np.concatenate(cl_r) if cl_r else np.zeros(1),
+                                      np.concatenate(cl_v) if cl_v else np.zeros((1, 2), np.int64))
+        self._vbo = ctx.buffer(vertices.tobytes())
+        self._ibo = ctx.buffer(all_faces.tobytes())
+        self._streams: dict[int, tuple] = {}  # per-frame buffers, one set per frame in flight
+
+    def _stream(self, parity: int) -> tuple:
+        """(instance rows, culled indices, draw commands): the buffers a frame writes."""
+        if parity not in self._streams:
+            ctx, n = self.ctx, max(1, len(self._mesh))
+            self._streams[parity] = (ctx.buffer(reserve=n * INSTANCE_DTYPE.itemsize),
+                                     ctx.buffer(reserve=max(12, 12 * self.triangles)) if self.cull else None,
+                                     ctx.buffer(reserve=n * COMMAND_DTYPE.itemsize))
+        return self._streams[parity]
 
     # -- GL objects ---------------------------------------------------------------------------
-    def _program(self, color: bool, normals: bool) -> moderngl.Program:
-        defines = (["WITH_COLOR"] if color else []) + (["WITH_NORMAL"] if normals else [])
+    def _program(self, defines: tuple[str, ...]) -> moderngl.Program:
         return load_program(self.ctx, "geometry", defines, cache=self._programs)
 
-    def _vao(self, mesh: _GpuMesh, program: moderngl.Program) -> moderngl.VertexArray:
-        vao = mesh.vaos.get(id(program))
+    def _vao(self, program: moderngl.Program, parity: int, culled: bool) -> moderngl.VertexArray:
+        key = (id(program), parity, culled)
+        vao = self._vaos.get(key)
         if vao is None:
             # attributes a program does not use (colour in depth-only mode) become padding
             fmt = " ".join(f if a in program else f"{n}x" for f, n, a in INSTANCE_FIELDS) + "/i"
             attrs = [a for _, _, a in INSTANCE_FIELDS if a in program]
             vao = self.ctx.vertex_array(
                 program,
-                [(mesh.vbo, "3f", "in_position"), (mesh.inst_buf, fmt, *attrs)],
-                index_buffer=mesh.ibo, index_element_size=4,
+                [(self._vbo, "3f", "in_position"), (self._stream(parity)[0], fmt, *attrs)],
+                index_buffer=self._stream(parity)[1] if culled else self._ibo, index_element_size=4,
             )
-            mesh.vaos[id(program)] = vao
+            self._vaos[key] = vao
         return vao
 
-    def _framebuffer(self, width: int, height: int, color: bool, normals: bool) -> tuple:
-        key = (width, height, color, normals)
+    def _framebuffer(self, width: int, height: int, color: bool, normals: bool, slot: int = 0) -> tuple:
+        key = (width, height, color, normals, slot)
         if key in self._fbos:
             return self._fbos[key]
         ctx, size = self.ctx, (width, height)
@@ -254,7 +219,11 @@ class Renderer:
         teximage(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT32F, width, height, 0, GL_DEPTH_COMPONENT, GL_FLOAT, None)
         bind(GL_TEXTURE_2D, 0)
         fbo = ctx.framebuffer(color_attachments=targets, depth_attachment=depth)
-        self._fbos[key] = (fbo, targets, depth)
+        extra = []
+        if self.depth_precision == "depth24":  # a second, depth-only target of 24 bits
+            d24 = ctx.depth_texture(size)
+            extra = [ctx.framebuffer(depth_attachment=d24), d24]
+        self._fbos[key] = (fbo, targets, depth, extra)
         return self._fbos[key]
 
     # -- rendering -----------------------------------------------------------------------------
@@ -273,22 +242,51 @@ class Renderer:
         with self._current():
             return self._render(sensor, pose, depth_only, normals, only)
 
+    def frames(self, sensor: Sensor, poses: Iterable[np.ndarray], *, depth_only: bool = False,
+               normals: bool = False) -> Iterator[Frame]:
+        """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose,
+        with CPU and GL overlapped: frame i+1 is culled and submitted (into a second set of
+        targets) before frame i is read back, and renders while the caller works on frame i."""
+        pending = None
+        for k, pose in enumerate(poses):
+            with self._current():
+                job = self._draw(sensor, pose, not depth_only, normals, None, slot=1 + k % 2)
+                self._flush()  # llvmpipe rasterises a frame's bins once they are flushed
+                frame = self._read(pending) if pending is not None else None
+            if frame is not None:
+                yield frame
+            pending = job
+        if pending is not None:
+            with self._current():
+                frame = self._read(pending)
+            yield frame
+
     def _render(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool,
                 only: Collection[int] | None = None) -> Frame:
+        return self._read(self._draw(sensor, pose, not depth_only, normals, only, slot=0), finish=True)
+
+    def _draw(self, sensor: Sensor, pose: np.ndarray, color: bool, normals: bool,
+              only: Collection[int] | None, slot: int) -> dict:
+        """Cull and issue the draws of one frame into the targets of ``slot``."""
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = np.asarray(pose, dtype=np.float64)
         if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
             raise RenderError(f"pose must be a finite (4, 4) matrix, got shape {pose.shape}")
-        color = not depth_only
         ctx = self.ctx
-        fbo, targets, _ = self._framebuffer(W, H, color, normals)
-        program = self._program(color, normals)
+        fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals, slot)
+        linear = self.depth_precision == "float32"
+        defines = (("WITH_COLOR",) if color else ()) + (("WITH_NORMAL",) if normals else ()) + \
+            (() if linear else ("NO_LINEAR_DEPTH",))
+        program = self._program(defines)
         proj_x, proj_y = clip_coefficients(K, W, H)
         program["u_proj_x"].value = tuple(proj_x.astype(np.float32))
         program["u_proj_y"].value = tuple(proj_y.astype(np.float32))
-        program["u_near"].value = float(sensor.near_m)
+        program["u_depth"].value = (0.0, float(sensor.near_m))  # reversed, infinite far: near / z
 
+        parity = slot % 2
+        lists = self._commands(pose, K, W, H, sensor.near_m, only, parity)
+        t1 = time.perf_counter()
         fbo.use()
         ctx.viewport = (0, 0, W, H)
         self._clip_control(GL_LOWER_LEFT, GL_ZERO_TO_ONE)
@@ -297,15 +295,44 @@ class Renderer:
         # v grows with window y (row 0 = v = 0) mirrors the image, so outward CCW faces are CW
         ctx.front_face = "cw"
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)  # 0.0f has all bits zero: ids clear to 0
-
-        drawn = self._draw(program, rigid_inverse(pose), K, W, H, sensor.near_m, only)
+        drawn = self._submit(program, lists, parity)
+        fbo24 = None
+        if self.depth_precision == "depth24":
+            n, f = float(sensor.near_m), float(sensor.far_m)
+            fbo24 = extra[0]
+            p24 = self._program(("NO_LINEAR_DEPTH", "DEPTH_ONLY"))
+            p24["u_proj_x"].value = tuple(proj_x.astype(np.float32))
+            p24["u_proj_y"].value = tuple(proj_y.astype(np.float32))
+            p24["u_depth"].value = (f / (f - n), -f * n / (f - n))  # window depth = A + B / z
+            fbo24.use()
+            ctx.depth_func = "<"
+            fbo24.clear(depth=1.0)
+            self._submit(p24, lists, parity)
         ctx.disable(moderngl.CULL_FACE)
-        ctx.finish()  # so that the read-back time below is the copy alone
-        t1 = time.perf_counter()
+        return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
+                "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
+                "t0": t0, "t1": t1}
 
+    def _flush(self) -> None:
+        if self._gl_flush is None:
+            self._gl_flush = self.gl.gl_function("glFlush", None)
+        self._gl_flush()
+
+    def _read(self, job: dict, finish: bool = False) -> Frame:
+        """Read a drawn frame back (waits for its rasterisation) and make the Frame."""
+        ctx, sensor, color, normals = self.ctx, job["sensor"], job["color"], job["normals"]
+        fbo, fbo24 = job["fbo"], job["fbo24"]
+        W, H = sensor.width, sensor.height
+        if finish:
+            ctx.finish()  # so that the read-back time below is the copy alone
+        t2 = time.perf_counter()
+        linear = self.depth_precision == "float32"
         out = frame_buffers(H, W, color, normals)
         depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
-        fbo.read_into(depth, components=1, attachment=0, dtype="f4")
+        if linear:
+            fbo.read_into(depth, components=1, attachment=0, dtype="f4")
+        else:
+            (fbo24 or fbo).read_into(depth, components=1, attachment=-1, dtype="f4")
         fbo.read_into(instance, components=1, attachment=1, dtype="u4")
         fbo.read_into(semantic, components=1, attachment=2, dtype="u2")
         rgb = normal = None
@@ -318,8 +345,10 @@ class Renderer:
         err = ctx.error
         if err != "GL_NO_ERROR":
             raise RenderError(f"OpenGL error after rendering: {err}")
-        t2 = time.perf_counter()
-        if drawn and float(depth.max()) > sensor.far_m:  # infinite-far projection: clip here
+        if not linear:
+            self._linearise(depth, instance, sensor)
+        t3 = time.perf_counter()
+        if job["drawn"] and float(depth.max()) > sensor.far_m:  # infinite-far projection: clip here
             beyond = depth > sensor.far_m
             depth[beyond] = 0
             instance[beyond] = 0
@@ -328,60 +357,86 @@ class Renderer:
                 rgb[beyond] = 0
             if normal is not None:
                 normal[beyond] = 0
-        self.stats = {"draw_s": t1 - t0, "readback_s": t2 - t1, "instances_drawn": drawn}
-        return Frame(depth, instance, semantic, rgb, sensor, pose, normal,
+        t0, t1 = job["t0"], job["t1"]
+        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
+                      "triangles_drawn": job["triangles"]}
+        return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)})
 
-    def _draw(self, program: moderngl.Program, camera_from_world: np.ndarray, K: np.ndarray,
-              W: int, H: int, near: float, only: Collection[int] | None = None) -> int:
-        n = len(self._mesh_of)
+    def _linearise(self, depth: np.ndarray, instance: np.ndarray, sensor: Sensor) -> None:
+        """Window depth read back into ``depth`` -> z in metres (0 where no instance)."""
+        n = np.float64(sensor.near_m)
+        d = depth.astype(np.float64)
+        hit = instance != 0
+        if self.depth_precision == "reversed_z":  # d = near / z
+            z = np.divide(n, d, out=np.zeros_like(d), where=hit & (d > 0))
+        else:  # d = A + B / z with A = f / (f - n), B = -f n / (f - n)
+            f = np.float64(sensor.far_m)
+            z = np.divide(f * n, f - d * (f - n), out=np.zeros_like(d), where=hit & (d < 1))
+        depth[...] = z
+
+    def _commands(self, pose: np.ndarray, K: np.ndarray, W: int, H: int, near: float,
+                  only: Collection[int] | None, parity: int = 0) -> list[tuple[np.ndarray, bool]]:
+        """Draw commands of a frame: [(commands, back-face culling)], nothing in Python per
+        instance."""
+        n = len(self._mesh)
         if n == 0:
-            return 0
-        cfm = np.matmul(camera_from_world, self._world_from_model)  # float64, camera-relative
-        centres = np.einsum("nij,nj->ni", cfm[:, :3, :3], self._centres[self._mesh_of]) + cfm[:, :3, 3]
-        radii = self._radii[self._mesh_of] * self._scale
+            return []
+        camera_from_world = rigid_inverse(pose)
+        # float64 composition relative to the camera, then float32 (far scenes stay exact)
+        cfm = np.einsum("ij,njk->nik", camera_from_world[:3], self._world_from_model)
+        mesh = self._mesh
+        centres = np.einsum("nij,nj->ni", cfm[:, :, :3], self._centre[mesh]) + cfm[:, :, 3]
+        radii = self._radius[mesh] * self._scale
         planes = frustum_planes(K, W, H, near)
         visible = ((centres @ planes[:, :3].T + planes[:, 3]) >= -radii[:, None]).all(axis=1)
         if only is not None:
             visible &= np.isin(self._ids, np.fromiter(only, np.int64))
-        if not visible.any():
+        slots = np.flatnonzero(visible)
+        if len(slots) == 0:
+            return []
+        m = mesh[slots]
+        # camera inside the (slightly grown) box of a closed mesh: draw both faces to see the inside
+        eye = np.einsum("nij,j->ni", self._model_from_world[slots, :3], pose[:, 3])
+        pad = 1e-6 * (1 + np.abs(self._hi[m] - self._lo[m]))
+        inside = ((eye >= self._lo[m] - pad) & (eye <= self._hi[m] + pad)).all(axis=1)
+        backcull = self._closed[m] & ~inside
+        self._rows["rows"] = cfm
+        inst_buf, dyn_ibo, _ = self._stream(parity)
+        inst_buf.write(self._rows)
+        cmd = np.zeros(len(slots), COMMAND_DTYPE)
+        cmd["instances"] = 1
+        cmd["base_vertex"] = self._vbase[m]
+        cmd["base_instance"] = slots
+        culled = self.cull and int(self._nfaces[m].sum()) >= self.cull_min_faces
+        self._culled = culled
+        if culled:
+            indices, first, count = self._culler.select(slots, m, backcull, cfm, K, W, H, near, planes)
+            dyn_ibo.write(indices)
+            cmd["first"], cmd["count"] = first, count
+            keep = count > 0
+            cmd, backcull = cmd[keep], backcull[keep]
+        else:
+            cmd["first"], cmd["count"] = 3 * self._fbase[m], 3 * self._nfaces[m]
+        return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
+
+    def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0) -> int:
+        """Issue the frame's multi-draw calls; returns the number of instances drawn."""
+        if not lists:
             return 0
-        rows = np.empty(n, INSTANCE_DTYPE)
-        rows["rows"] = cfm[:, :3, :4]
-        rows["instance"] = self._ids
-        rows["semantic"] = self._sem
-        rows["color"] = self._colors
-        drawn = 0
-        ctx = self.ctx
-        for mesh in self._meshes:
-            if mesh is None:
-                continue
-            sl = slice(mesh.first, mesh.last)
-            vis = visible[sl]
-            if not vis.any():
-                continue
-            cull = np.zeros(len(vis), bool)
-            if mesh.closed:
-                # camera inside the (slightly grown) box: draw both faces to see the inside
-                m = cfm[sl]
-                eye = np.linalg.solve(m, np.broadcast_to([0.0, 0.0, 0.0, 1.0], (len(m), 4))[..., None])[:, :3, 0]
-                pad = 1e-6 * (1 + np.abs(mesh.hi - mesh.lo))
-                inside = ((eye >= mesh.lo - pad) & (eye <= mesh.hi + pad)).all(axis=1)
-                cull = ~inside
-            vao = self._vao(mesh, program)
-            for flag in (True, False):
-                sel = vis & (cull == flag)
-                k = int(sel.sum())
-                if k == 0:
-                    continue
-                mesh.inst_buf.write(rows[sl][sel].tobytes())
-                if flag:
-                    ctx.enable(moderngl.CULL_FACE)
-                else:
-                    ctx.disable(moderngl.CULL_FACE)
-                vao.render(moderngl.TRIANGLES, instances=k)
-                drawn += k
-        return drawn
+        vao = self._vao(program, parity, self._culled)
+        cmd_buf = self._stream(parity)[2]
+        everything = np.concatenate([c for c, _ in lists])
+        cmd_buf.write(everything)
+        at = 0
+        for cmd, flag in lists:
+            if flag:
+                self.ctx.enable(moderngl.CULL_FACE)
+            else:
+                self.ctx.disable(moderngl.CULL_FACE)
+            vao.render_indirect(cmd_buf, moderngl.TRIANGLES, count=len(cmd), first=at)
+            at += len(cmd)
+        return at
 
     # -- lifetime ---------------------------------------------------------------------------
     def release(self) -> None:
@@ -395,18 +450,18 @@ class Renderer:
         # moderngl re-binds the last framebuffer used when it creates another: leave the
         # default one bound, never a deleted name.
         self.ctx.detect_framebuffer(0).use()
-        for mesh in self._meshes:
-            if mesh is not None:
-                for vao in mesh.vaos.values():
-                    vao.release()
-                mesh.vbo.release()
-                mesh.ibo.release()
-                mesh.inst_buf.release()
-        for fbo, targets, depth in self._fbos.values():
+        for vao in self._vaos.values():
+            vao.release()
+        for buf in (self._vbo, self._ibo, *(b for bufs in self._streams.values() for b in bufs)):
+            if buf is not None:
+                buf.release()
+        for fbo, targets, depth, extra in self._fbos.values():
             fbo.release()
-            for t in (*targets, depth):
+            for t in (*targets, depth, *extra):
                 t.release()
-        self._meshes, self._fbos = [], {}
+        self._vaos, self._fbos = {}, {}
+        self._vbo = self._ibo = None
+        self._streams = {}
 
     def __enter__(self) -> "Renderer":
         return self

@@ -1,0 +1,68 @@
+"""Frame memory: a frame's output arrays as views into recycled blocks (see :class:`_Pool`)."""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+
+class _Pool:
+    """Recycled memory for frame buffers.
+
+    A fresh array is page-faulted in on its first write, 4 KiB at a time: for a 640 x 480
+    frame that costs several times the read-back itself. A frame's buffers are views into one
+    block lent from this pool; when the last view dies (the frame is dropped), the block comes
+    back and the next frame of that size writes into memory that is already mapped.
+    """
+
+    def __init__(self, max_bytes: int = 512 << 20) -> None:
+        self.free: dict[int, list[np.ndarray]] = {}
+        self.max_bytes, self.bytes = max_bytes, 0
+        self.types: dict[int, type] = {}
+
+    def lend(self, size: int) -> np.ndarray:
+        """A writable uint8 array of ``size`` bytes, returned to the pool when it dies."""
+        blocks = self.free.get(size)
+        if blocks:
+            raw = blocks.pop()
+            self.bytes -= size
+        else:
+            raw = np.empty(size, np.uint8)
+        lease_type = self.types.get(size)
+        if lease_type is None:
+            pool = self
+
+            class Lease(ctypes.c_ubyte * size):  # type: ignore[misc, valid-type]
+                def __del__(self) -> None:  # the last view of the block is gone
+                    pool.give_back(self._raw)
+
+            lease_type = self.types[size] = Lease
+        lease = lease_type.from_address(raw.ctypes.data)
+        lease._raw = raw  # keeps the memory alive as long as any view of the lease
+        return np.frombuffer(lease, np.uint8)
+
+    def give_back(self, raw: np.ndarray) -> None:
+        if self.bytes + raw.nbytes <= self.max_bytes:
+            self.free.setdefault(raw.nbytes, []).append(raw)
+            self.bytes += raw.nbytes
+
+
+_POOL = _Pool()
+
+
+def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.ndarray]:
+    """A frame's output arrays as views into one block of recycled memory (see :class:`_Pool`)."""
+    parts = [("depth", np.float32, (H, W)), ("instance", np.uint32, (H, W))]
+    if normals:
+        parts.append(("normal", np.float32, (H, W, 3)))
+    if color:
+        parts.append(("rgba", np.uint8, (H, W, 4)))
+    parts.append(("semantic", np.uint16, (H, W)))
+    sizes = [-(-int(np.prod(shape)) * np.dtype(dt).itemsize // 64) * 64 for _, dt, shape in parts]
+    block = _POOL.lend(sum(sizes))
+    out, at = {}, 0
+    for (name, dt, shape), b in zip(parts, sizes):
+        n = int(np.prod(shape)) * np.dtype(dt).itemsize
+        out[name] = block[at:at + n].view(dt).reshape(shape)
+        at += b
+    return out
