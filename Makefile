@@ -21,7 +21,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline \
+.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline bench-stability \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -55,12 +55,13 @@ demo: setup ## generate a 3-scene demo dataset with preview pictures into out/de
 	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/demo --workers $(WORKERS) --seed $(SEED)
 	@echo "demo dataset and previews in $(OUT)/demo (open $(OUT)/demo/previews/)"
 
-bench: setup ## run every benchmark (render, layout, accuracy, pipeline); figures into out/bench
+bench: setup ## run every benchmark (render, layout, accuracy, pipeline, stability); figures into out/bench
 	$(VENV)/bin/pip install -q "open3d>=0.18" && { ldconfig -p | grep -q libusb-1.0 || apt-get install -y -qq libusb-1.0-0; } || echo "open3d unavailable: the render bench skips it"
 	$(GENIE) bench render --out $(OUT)/bench
 	$(GENIE) bench layout --out $(OUT)/bench
 	$(GENIE) bench accuracy --out $(OUT)/bench
 	$(GENIE) bench pipeline --out $(OUT)/bench
+	$(GENIE) bench stability --out $(OUT)/bench
 
 bench-render: setup ## renderer against pyrender and Open3D
 	$(GENIE) bench render --out $(OUT)/bench
@@ -70,6 +71,8 @@ bench-accuracy: setup ## what each sensor effect and accuracy knob costs in time
 	$(GENIE) bench accuracy --out $(OUT)/bench
 bench-pipeline: setup ## seconds per scene end to end
 	$(GENIE) bench pipeline --out $(OUT)/bench
+bench-stability: setup ## hard cases against analytic truth (exit 1 if one fails its tolerance)
+	$(GENIE) bench stability --out $(OUT)/bench
 
 dataset-assembly-line: setup ## the paper's setup: make dataset-assembly-line SCENES=499 CAMERAS=40
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \

@@ -40,6 +40,7 @@ _EXPORTS: dict[str, str] = {
     "build_scene": "genie_gl.scene",
     "register_asset": "genie_gl.scene",
     # sensors
+    "Camera": "genie_gl.camera",
     "Sensor": "genie_gl.sensors.camera",
     "load_sensor": "genie_gl.sensors",
     "place_sensors": "genie_gl.sensors",

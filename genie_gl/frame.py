@@ -2,12 +2,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-if TYPE_CHECKING:  # the sensors package imports Frame for its effects
-    from .sensors.camera import Sensor
+from .camera import Camera
 
 
 @dataclass(frozen=True, eq=False)
@@ -20,7 +19,7 @@ class Frame:
     instance : (H, W) uint32, instance id, 0 = none.
     semantic : (H, W) uint16, class id (0 where nothing was hit, and for background).
     rgb : (H, W, 3) uint8 or None (None in depth-only mode).
-    sensor : Sensor, the camera that made the frame.
+    sensor : Camera, the camera that made the frame (a ``Sensor`` when it came from one).
     world_from_camera : (4, 4) float64, the pose (OpenCV camera frame).
     normal : (H, W, 3) float32 or None, unit normals in the camera frame (0 where no hit).
     meta : dict, free-form (timings, effect records).
@@ -31,12 +30,14 @@ class Frame:
     instance: np.ndarray
     semantic: np.ndarray
     rgb: np.ndarray | None
-    sensor: "Sensor"
+    sensor: Camera
     world_from_camera: np.ndarray
     normal: np.ndarray | None = None
     meta: dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
+        if not isinstance(self.sensor, Camera):
+            raise ValueError(f"Frame.sensor: expected a genie_gl Camera or Sensor, got {type(self.sensor).__name__}")
         H, W = self.sensor.height, self.sensor.width
         checks = [("depth", self.depth, (H, W), np.float32),
                   ("instance", self.instance, (H, W), np.uint32),

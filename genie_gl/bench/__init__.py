@@ -13,6 +13,7 @@ BENCHMARKS: dict[str, str] = {
     "layout": "layout engine throughput, the paper's Table 7 (nodes/s)",
     "accuracy": "what each sensor effect and accuracy knob costs in time (error vs ms)",
     "pipeline": "seconds per scene end to end, share of each stage, scaling with workers",
+    "stability": "hard cases against analytic truth: tolerance and worst error per case (exit 1 on a failure)",
 }
 
 

@@ -15,8 +15,9 @@ class PointCloud:
 
     Attributes
     ----------
-    xyz : (N, 3) float32, world frame relative to ``origin``, metres.
-    origin : (3,) float64, world position of xyz = 0 (zero unless the scene is far away).
+    xyz : (N, 3) float32 (float64 when asked for, ``to_cloud(precision="float64")``), world
+        frame relative to ``origin``, metres.
+    origin : (3,) float64, world position of xyz = 0 (the cameras' mean snapped to 100 m).
     semantic : (N,) uint16; instance : (N,) uint32.
     rgb : (N, 3) uint8 or None; normal : (N, 3) float32 or None (world frame);
     camera : (N,) uint16 or None, index of the frame that saw the point.
@@ -39,6 +40,8 @@ class PointCloud:
             a = getattr(self, name)
             if a is None:
                 continue
+            if name == "xyz" and a.dtype == np.float64:
+                dtype = np.float64
             if a.shape != shape or a.dtype != dtype:
                 raise ValueError(f"PointCloud.{name}: expected {shape} {np.dtype(dtype).name}, got {a.shape} {a.dtype}")
 
@@ -58,7 +61,7 @@ class PointCloud:
 
     def with_origin(self, origin: np.ndarray) -> "PointCloud":
         origin = np.asarray(origin, np.float64)
-        xyz = ((self.xyz.astype(np.float64) + (self.origin - origin))).astype(np.float32)
+        xyz = ((self.xyz.astype(np.float64) + (self.origin - origin))).astype(self.xyz.dtype)
         return replace(self, xyz=xyz, origin=origin)
 
     @staticmethod

@@ -10,17 +10,23 @@ from .pointcloud import PointCloud
 from . import kernels
 from .unproject import _pose_rows, rays, rotate, unproject_into, world_normals
 
-FAR = 1.0e4  # beyond this distance from the world origin, clouds get a float64 origin
 WINDOW = 129  # frame_chunks counts a camera's points in this many tiles a side around it first
 MAX_TILES = 50_000_000  # a tile grid larger than this is a mistake (chunks far too small)
 
 
+ORIGIN_GRID_M = 100.0   # the cloud's origin is the cameras' mean snapped to this grid
+
+
 def choose_origin(frames: Sequence[Frame]) -> np.ndarray:
-    """Zero, unless the cameras are far from the world origin: then their mean, rounded to 1 m."""
+    """The cloud's float64 origin: the mean of the camera centres snapped to a 100 m grid
+    (zero for no frames, and for a scene around the world origin), wherever the scene lies,
+    so float32 coordinates stay small: a point within 1.6 km of the origin keeps 0.1 mm
+    (float32 rounds to 2⁻²⁴ of the distance), i.e. any point within 1.5 km of the cameras'
+    mean, whether the site sits at the world origin or 1e7 m away."""
     centres = np.array([f.world_from_camera[:3, 3] for f in frames])
-    if len(centres) == 0 or np.abs(centres).max() < FAR:
+    if len(centres) == 0:
         return np.zeros(3)
-    return np.round(centres.mean(0))
+    return np.round(centres.mean(0) / ORIGIN_GRID_M) * ORIGIN_GRID_M + 0.0   # + 0.0: no -0.0 in headers
 
 
 def voxel_downsample(cloud: PointCloud, voxel_m: float) -> PointCloud:
@@ -41,13 +47,22 @@ def random_downsample(cloud: PointCloud, n: int, *, rng: np.random.Generator) ->
 
 
 def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_points: int | None = None,
-             rng: np.random.Generator | None = None, origin: np.ndarray | None = None) -> PointCloud:
+             rng: np.random.Generator | None = None, origin: np.ndarray | None = None,
+             precision: str = "float32") -> PointCloud:
     """Merge frames into one world-frame cloud with semantic, instance, colour, normal, camera.
 
     Every frame is unprojected straight into its slice of the merged arrays (no per-frame
     clouds, no concatenation). voxel_m : optional voxel down-sampling; max_points : random
     down-sampling to at most that many points (needs ``rng``).
+
+    Precision: ``xyz`` is relative to the float64 ``origin`` (the cameras' mean, snapped to
+    100 m, by default).
+    ``precision="float32"`` keeps 0.1 mm within 1.6 km of the origin (float32 rounding is
+    |xyz|·2⁻²⁴); ``"float64"`` gives float64 ``xyz``, each frame unprojected relative to its
+    own camera first, so a site of any size (20 km and more) keeps 0.1 mm.
     """
+    if precision not in ("float32", "float64"):
+        raise ValueError(f"to_cloud: precision must be 'float32' or 'float64', got {precision!r}")
     if not frames:
         raise ValueError("to_cloud: no frames")
     if max_points is not None and rng is None:
@@ -63,13 +78,18 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
     with_normal = all(f.normal is not None for f in frames)
     rgb = np.empty((n + 1, 3), np.uint8) if with_rgb else None
     normal = np.empty((n, 3), np.float32) if with_normal else None
+    wide = np.empty((n, 3), np.float64) if precision == "float64" else None
     for f, a, b in zip(frames, ends - counts, ends):
         # frame k's writes past its points land on frame k+1's first slots, which it then fills
-        unproject_into(f, origin, xyz[a:], sem[a:], inst[a:], None if rgb is None else rgb[a:], n=b - a)
+        at = origin if wide is None else np.round(f.world_from_camera[:3, 3])
+        unproject_into(f, at, xyz[a:], sem[a:], inst[a:], None if rgb is None else rgb[a:], n=b - a)
+        if wide is not None:   # small float32 offsets from the camera, made float64 here
+            wide[a:b] = xyz[a:b].astype(np.float64) + (at - origin)
         if with_normal:
             normal[a:b] = world_normals(f)
     camera = np.repeat(np.arange(len(frames), dtype=np.uint16), counts)
-    cloud = PointCloud(xyz[:n], sem[:n], inst[:n], origin, None if rgb is None else rgb[:n], normal, camera)
+    cloud = PointCloud(xyz[:n] if wide is None else wide, sem[:n], inst[:n], origin,
+                       None if rgb is None else rgb[:n], normal, camera)
     if voxel_m:
         cloud = voxel_downsample(cloud, voxel_m)
     if max_points is not None:

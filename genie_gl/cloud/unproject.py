@@ -3,45 +3,36 @@ fused; see :mod:`.kernels`).
 
 A pinhole camera's rays are separable (x from the column, y from the row), so no table is read;
 a distorted (or skewed) camera reads a ray table computed once per camera model, holding for
-every pixel the camera-frame direction with z = 1 of its undistorted ray.
+every pixel the camera-frame direction with z = 1 of its undistorted ray: the inverse of the
+frame's lens (:meth:`genie_gl.camera.Camera.rays`), never K alone.
 """
 from __future__ import annotations
 
 from functools import lru_cache
 
-import cv2
 import numpy as np
 
+from ..camera import Camera
 from ..frame import Frame
-from ..sensors.camera import Sensor
 from . import kernels
 from .pointcloud import PointCloud
 
-CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
-
 
 @lru_cache(maxsize=32)
-def _table(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
-    Km = np.frombuffer(K).reshape(3, 3)
-    D = np.frombuffer(dist)
-    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    if np.any(D):
-        xy = cv2.undistortPoints(np.stack([u, v], -1).reshape(-1, 1, 2), Km, D, None, None, None,
-                                 CRITERIA).reshape(h, w, 2)
-        x, y = xy[..., 0], xy[..., 1]
-    else:
-        y = (v - Km[1, 2]) / Km[1, 1]
-        x = (u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0]
-    # x and y as two contiguous rows (z is 1): gathers from them are twice as fast
-    table = np.stack([x.ravel(), y.ravel()]).astype(np.float32)
+def _table(key: tuple) -> np.ndarray:
+    model, w, h, K, dist = key
+    xy = Camera(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), model=model).rays()
+    # x and y as two contiguous rows (z is 1): gathers from them are twice as fast. A pixel
+    # without a ray (past the lens's fold) gets none here either; rendering gives it no return.
+    table = np.nan_to_num(np.stack([xy[..., 0].ravel(), xy[..., 1].ravel()])).astype(np.float32)
     table.setflags(write=False)
     return table
 
 
-def ray_table(sensor: Sensor) -> np.ndarray:
-    """(2, H·W) float32: x and y of the camera-frame ray (z = 1) of every pixel, row-major;
-    cached per camera model."""
-    return _table(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
+def ray_table(sensor: Camera) -> np.ndarray:
+    """(2, H·W) float32: x and y of the camera-frame ray (z = 1) of every pixel, row-major,
+    through the inverse of the camera's lens; cached per camera model."""
+    return _table(sensor.lens_key)
 
 
 @lru_cache(maxsize=32)
@@ -53,10 +44,10 @@ def _axes(w: int, h: int, K: bytes) -> tuple[np.ndarray, np.ndarray]:
     return xs[None], ys[:, None]
 
 
-def rays(sensor: Sensor) -> tuple[np.ndarray, np.ndarray]:
+def rays(sensor: Camera) -> tuple[np.ndarray, np.ndarray]:
     """(tx, ty), the camera-frame ray (x, y, 1) of every pixel as the kernel reads it: (1, W)
     and (H, 1) for a pinhole without skew, (H, W) tables otherwise; cached per camera model."""
-    if np.any(sensor.dist) or sensor.K[0, 1] != 0:
+    if not sensor.is_pinhole or sensor.K[0, 1] != 0:
         t = ray_table(sensor).reshape(2, sensor.height, sensor.width)
         return t[0], t[1]
     return _axes(sensor.width, sensor.height, sensor.K.tobytes())

@@ -16,7 +16,8 @@ from .renderer import Renderer
 
 def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | None = None,
            depth_only: bool = False, normals: bool = False, depth_precision: str = "float32") -> Frame:
-    """One ideal pinhole frame of ``scene`` seen by ``sensor`` at ``pose`` (world_from_camera).
+    """One frame of ``scene`` seen by ``sensor`` at ``pose`` (world_from_camera), through the
+    sensor's lens, without its effects (:func:`capture` applies them).
 
     Creates and frees a GL context: to render many poses use :class:`Renderer` or
     :func:`capture`.
@@ -30,14 +31,8 @@ def silhouettes(renderer: Renderer, sensor: Sensor, pose: np.ndarray, ids: Seque
     ``pose``: one render of the instance alone (through the lens model, for distorted sensors).
     Returns {id: (H, W) bool}."""
     out = {}
-    for i in ids:
-        if sensor.is_pinhole:
-            f = renderer.render(sensor, pose, depth_only=True, only=(int(i),))
-        else:
-            from ..sensors.distortion import distort, distortion_maps
-
-            maps = distortion_maps(sensor)
-            f = distort(renderer.render(maps.render_sensor, pose, depth_only=True, only=(int(i),)), sensor, maps)
+    for i in ids:   # Renderer.render renders a distorted sensor through its lens
+        f = renderer.render(sensor, pose, depth_only=True, only=(int(i),))
         out[int(i)] = f.instance == int(i)
     return out
 
@@ -96,10 +91,12 @@ def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarr
     normals = any(eff.needs_normals for eff in sensor.effects)
     if sensor.is_pinhole:
         view = sensor
-    else:
-        from ..sensors.distortion import distortion_maps
+    else:  # the pinhole view the lens is resampled from (the default, exact, needs its normals)
+        from ..sensors.distortion import lens_views
 
-        view = distortion_maps(sensor).render_sensor
+        views = lens_views(sensor)
+        view = views[0].render_sensor if len(views) == 1 else sensor   # cube faces: no prefetch
+        normals = True
     render = _Prefetched(renderer, view, poses, depth_only, normals)
     return [simulate(sensor, poses[k], render=render, rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
 

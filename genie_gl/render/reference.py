@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
@@ -57,11 +58,14 @@ class ReferenceRenderer:
         self._cam_node = None
 
     def render(self, sensor: Sensor, pose: np.ndarray, **_: Any) -> Frame:
-        """Depth (pyrender's linearised depth buffer), instance and semantic; no colour."""
+        """Depth (pyrender's linearised depth buffer), instance and semantic; no colour. A
+        pinhole camera only: a sensor with a lens is refused (``gg.render`` renders it)."""
+        if not sensor.is_pinhole:
+            raise ConfigError(f"reference renderer: sensor {getattr(sensor, 'name', '')!r} has lens distortion ({sensor.model} model); "
+                              "it renders ideal pinhole cameras only (gg.render / Renderer.render render the lens)")
         pr = self._pyrender
         if self._size != (sensor.width, sensor.height):
-            if self._renderer is not None:
-                self._renderer.delete()
+            self.release()
             self._renderer = pr.OffscreenRenderer(sensor.width, sensor.height)
             self._size = (sensor.width, sensor.height)
         cam = pr.IntrinsicsCamera(sensor.fx, sensor.fy, sensor.cx + 0.5, sensor.cy + 0.5,
@@ -80,9 +84,30 @@ class ReferenceRenderer:
                      semantic.astype(np.uint16), None, sensor, np.asarray(pose, float))
 
     def release(self) -> None:
-        if self._renderer is not None:
-            self._renderer.delete()
-            self._renderer = None
+        """Free pyrender's GL objects and its context, but not the EGL display.
+
+        pyrender's own ``OffscreenRenderer.delete`` ends with ``eglTerminate`` on the default
+        display, which every other EGL context of the process shares (ours included): after
+        it, our contexts fail. So the context is destroyed here and the display left alone.
+        """
+        r, self._renderer, self._size = self._renderer, None, None
+        if r is None:
+            return
+        platform = r._platform
+        platform.make_current()
+        r._renderer.delete()
+        display, context = getattr(platform, "_egl_display", None), getattr(platform, "_egl_context", None)
+        if display is None:  # another platform (OSMesa): nothing shared to protect
+            platform.delete_context()
+        else:
+            from OpenGL import EGL  # noqa: PLC0415
+
+            EGL.eglMakeCurrent(display, EGL.EGL_NO_SURFACE, EGL.EGL_NO_SURFACE, EGL.EGL_NO_CONTEXT)
+            if context is not None:
+                EGL.eglDestroyContext(display, context)
+        # what pyrender's delete leaves behind, so that its __del__ finds nothing to delete
+        # (it would otherwise terminate the display after all)
+        r._renderer = r._platform = None
 
     def __enter__(self) -> "ReferenceRenderer":
         return self

@@ -229,16 +229,24 @@ class Renderer:
     # -- rendering -----------------------------------------------------------------------------
     def render(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool = False,
                normals: bool = False, only: Collection[int] | None = None) -> Frame:
-        """Render the ideal pinhole frame of ``sensor`` (its distortion ignored) at ``pose``.
+        """Render the frame of ``sensor`` at ``pose``, without its effects.
+
+        A distorted sensor is rendered through its lens (pinhole views resampled by
+        :func:`genie_gl.sensors.distortion.render_through_lens`, exact by default). Surfaces
+        nearer than the sensor's minimum range ``near_m`` give no return (depth 0, ids 0).
 
         Parameters
         ----------
-        sensor : Sensor, image size and K.
+        sensor : Sensor (or Camera), image size, K, lens and range.
         pose : (4, 4) float64 world_from_camera (OpenCV camera frame).
         depth_only : skip the colour buffer (``Frame.rgb`` is None).
         normals : also render camera-frame unit normals (``Frame.normal``).
         only : draw just the instances with these ids (e.g. an object's full silhouette).
         """
+        if not sensor.is_pinhole:
+            from ..sensors.distortion import render_through_lens
+
+            return render_through_lens(self.render, sensor, pose, depth_only=depth_only, normals=normals, only=only)
         with self._current():
             return self._render(sensor, pose, depth_only, normals, only)
 
@@ -282,10 +290,13 @@ class Renderer:
         proj_x, proj_y = clip_coefficients(K, W, H)
         program["u_proj_x"].value = tuple(proj_x.astype(np.float32))
         program["u_proj_y"].value = tuple(proj_y.astype(np.float32))
-        program["u_depth"].value = (0.0, float(sensor.near_m))  # reversed, infinite far: near / z
+        # the GL near plane lies far below the sensor's minimum range: what is nearer than the
+        # range is drawn (and masked in _read), never clipped away to show what lies behind it
+        clip_near = self._clip_near(sensor)
+        program["u_depth"].value = (0.0, clip_near)  # reversed, infinite far: near / z
 
         parity = slot % 2
-        lists = self._commands(pose, K, W, H, sensor.near_m, only, parity)
+        lists = self._commands(pose, K, W, H, clip_near, only, parity)
         t1 = time.perf_counter()
         fbo.use()
         ctx.viewport = (0, 0, W, H)
@@ -348,8 +359,11 @@ class Renderer:
         if not linear:
             self._linearise(depth, instance, sensor)
         t3 = time.perf_counter()
-        if job["drawn"] and float(depth.max()) > sensor.far_m:  # infinite-far projection: clip here
-            beyond = depth > sensor.far_m
+        half = np.float32(0.5 * sensor.near_m)
+        too_near = np.abs(depth - half) < half if job["drawn"] else None  # 0 < depth < near_m
+        if job["drawn"] and (float(depth.max()) > sensor.far_m or too_near.any()):
+            # infinite-far projection, near plane below the range: the range is applied here
+            beyond = (depth > sensor.far_m) | too_near
             depth[beyond] = 0
             instance[beyond] = 0
             semantic[beyond] = 0
@@ -363,9 +377,16 @@ class Renderer:
         return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)})
 
+    def _clip_near(self, sensor: Sensor) -> float:
+        """The GL near plane: 1/1024 of the sensor's minimum range (``Camera.clip_near_m``),
+        except with a 24-bit window depth buffer, whose precision (z² / (near·2²⁴)) needs the
+        near plane at the minimum range itself: there, a surface nearer than the range is
+        clipped and what lies behind it shows (the float depth modes give no return)."""
+        return float(sensor.near_m if self.depth_precision == "depth24" else sensor.clip_near_m)
+
     def _linearise(self, depth: np.ndarray, instance: np.ndarray, sensor: Sensor) -> None:
         """Window depth read back into ``depth`` -> z in metres (0 where no instance)."""
-        n = np.float64(sensor.near_m)
+        n = np.float64(self._clip_near(sensor))
         d = depth.astype(np.float64)
         hit = instance != 0
         if self.depth_precision == "reversed_z":  # d = near / z

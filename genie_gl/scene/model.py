@@ -2,11 +2,21 @@
 
 This is the contract between the scene stage and the renderer (DESIGN.md): the renderer
 uploads each :class:`Mesh` once and draws its instances, instanced.
+
+Precision: world position lives in the float64 instance transforms, never in float32
+vertices. A mesh given with vertices far from its own origin (a part baked at 1e5 m) is
+recentred on the way in, before the float32 cast: ``Mesh.origin`` keeps the float64 offset and
+:meth:`Scene.add` composes it into the instance's transform. Degenerate input never reaches
+the renderer as a traceback: a transform with a zero, non-finite or singular scale is refused
+with an error naming the instance (or dropped and counted, ``degenerate="drop"``), and faces
+with non-finite vertices or zero area are counted by :meth:`Scene.report` (the renderer
+skips them).
 """
 from __future__ import annotations
 
 import hashlib
 import logging
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -15,6 +25,8 @@ import numpy as np
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
+
+RECENTRE_RATIO = 4.0   # vertices whose centre lies farther than this many radii out are recentred
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,6 +40,10 @@ class Mesh:
     normals : (V, 3) float32 or None, unit vertex normals.
     colors : (V, 3) uint8 or None, per-vertex colours.
     closed : bool, True when the mesh is watertight (the renderer may cull back faces).
+    origin : (3,) float64, where the vertices' frame lies in the frame they were given in: zero,
+        unless they were given far from their own origin (more than ``RECENTRE_RATIO`` times
+        their radius and 1 m away), then their bounding-box centre rounded to 1 mm, removed in
+        float64 before the float32 cast. ``Scene.add`` composes it into the instance transform.
     """
 
     vertices: np.ndarray
@@ -35,9 +51,22 @@ class Mesh:
     normals: np.ndarray | None = None
     colors: np.ndarray | None = None
     closed: bool = False
+    origin: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        v = np.ascontiguousarray(self.vertices, dtype=np.float32)
+        given = np.asarray(self.vertices)
+        origin = np.zeros(3) if self.origin is None else np.asarray(self.origin, np.float64).reshape(3)
+        if given.ndim == 2 and given.shape[1] == 3 and len(given) and self.origin is None:
+            v64 = given.astype(np.float64)
+            finite = np.isfinite(v64).all(axis=1)
+            if finite.any():
+                lo, hi = v64[finite].min(axis=0), v64[finite].max(axis=0)
+                centre, radius = (lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2
+                if np.linalg.norm(centre) > max(RECENTRE_RATIO * radius, 1.0):
+                    origin = np.round(centre, 3)
+                    given = v64 - origin
+        object.__setattr__(self, "origin", origin)
+        v = np.ascontiguousarray(given, dtype=np.float32)
         f = np.ascontiguousarray(self.faces)
         if v.ndim != 2 or v.shape[1] != 3:
             raise ConfigError(f"mesh vertices: expected shape (V, 3), got {v.shape}")
@@ -79,7 +108,7 @@ class Mesh:
     def digest(self) -> str:
         """A content hash: equal geometry gives an equal digest (used to store meshes once)."""
         h = hashlib.blake2b(digest_size=12)
-        for a in (self.vertices, self.faces, self.normals, self.colors):
+        for a in (self.vertices, self.faces, self.normals, self.colors, self.origin):
             h.update(b"-" if a is None else a.tobytes())
         h.update(b"c" if self.closed else b"o")
         return h.hexdigest()
@@ -115,7 +144,7 @@ class Instance:
     name: str = ""
 
 
-def _as_transform(transform: Any) -> np.ndarray:
+def _as_transform(transform: Any, check: bool = True) -> np.ndarray:
     t = np.eye(4) if transform is None else np.array(transform, dtype=np.float64)
     if t.shape == (3,):
         m = np.eye(4)
@@ -123,8 +152,45 @@ def _as_transform(transform: Any) -> np.ndarray:
         t = m
     if t.shape != (4, 4):
         raise ConfigError(f"transform: expected a (4, 4) matrix or a (3,) translation, got {t.shape}")
-    if not np.all(np.isfinite(t)):
+    if check and not np.all(np.isfinite(t)):
         raise ConfigError("transform: contains NaN or Inf")
+    return t
+
+
+def degenerate_reason(t: np.ndarray) -> str | None:
+    """Why the (4, 4) transform ``t`` cannot place geometry, or None when it can: a NaN or Inf,
+    a zero scale, a singular (flattening) linear part, or a projective last row. (Plain Python
+    arithmetic: it runs once per instance, and scenes have hundreds of thousands.)"""
+    (a, b, c, x), (d, e, f, y), (g, h, i, z), last = t.tolist()
+    if not all(map(math.isfinite, (a, b, c, x, d, e, f, y, g, h, i, z, *last))):
+        return "its transform contains NaN or Inf"
+    if abs(last[0]) + abs(last[1]) + abs(last[2]) + abs(last[3] - 1) > 1e-12:
+        return f"its transform's last row is {last}, expected [0, 0, 0, 1]"
+    scale = [math.sqrt(a * a + d * d + g * g), math.sqrt(b * b + e * e + h * h), math.sqrt(c * c + f * f + i * i)]
+    if min(scale) == 0:
+        return f"its transform has a zero scale ({[round(v, 6) for v in scale]})"
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    if abs(det) <= 1e-12 * scale[0] * scale[1] * scale[2]:
+        return f"its transform is singular (it flattens the mesh; scale {[round(v, 6) for v in scale]})"
+    return None
+
+
+def face_defects(mesh: "Mesh") -> tuple[np.ndarray, np.ndarray]:
+    """(F,) bool masks of ``mesh``'s faces with a non-finite vertex, and of finite faces with
+    zero area (the faces the renderer skips)."""
+    if len(mesh.faces) == 0:
+        return np.zeros(0, bool), np.zeros(0, bool)
+    tri = mesh.vertices.astype(np.float64)[mesh.faces]
+    finite = np.isfinite(tri).all(axis=(1, 2))
+    with np.errstate(invalid="ignore"):
+        area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    return ~finite, finite & ~(area2 > 0)
+
+
+def _translation(offset: np.ndarray | None) -> np.ndarray:
+    t = np.eye(4)
+    if offset is not None:
+        t[:3, 3] = offset
     return t
 
 
@@ -151,6 +217,7 @@ class Scene:
     metadata: dict[str, Any] = field(default_factory=dict)
     _digests: dict[str, str] = field(default_factory=dict, repr=False)
     _ids: set[int] | None = field(default=None, repr=False)
+    dropped: list[str] = field(default_factory=list, repr=False)
 
     def add_mesh(self, mesh: Any, name: str | None = None) -> str:
         """Store a mesh (``Mesh``, ``trimesh.Trimesh`` or ``(vertices, faces)``); return its key.
@@ -177,15 +244,30 @@ class Scene:
         instance: int | None = None,
         color: tuple[int, int, int] | None = None,
         name: str = "",
+        degenerate: str = "raise",
+        where: str = "",
     ) -> int:
         """Place ``mesh`` (a key of ``meshes``, a ``Mesh``, a trimesh, or ``(V, F)`` arrays).
 
         Returns the instance id: ``instance`` if given (must be unused, 1..2**32-1), else the
-        next free id.
+        next free id. A transform with a zero, non-finite or singular scale is refused with a
+        ConfigError naming the instance (``degenerate="raise"``), or skipped and counted in
+        :meth:`report` (``degenerate="drop"``; then 0 is returned). ``where`` names the
+        instance in those messages (a USD prim path; default: ``name``).
         """
         key = mesh if isinstance(mesh, str) else self.add_mesh(mesh)
         if key not in self.meshes:
             raise ConfigError(f"scene.add: no mesh named {key!r} in the scene")
+        t = _as_transform(transform, check=False)
+        if (why := degenerate_reason(t)) is not None:
+            who = where or name or (f"instance {instance}" if instance is not None else f"mesh {key}")
+            if degenerate == "drop":
+                self.dropped.append(f"{who}: {why}")
+                log.warning("scene: dropped %s: %s", who, why)
+                return 0
+            raise ConfigError(f"scene.add: {who!r}: {why}; fix or remove it (or add it with degenerate='drop')")
+        origin = self.meshes[key].origin
+        transform = t if not origin.any() else t @ _translation(origin)
         used = self._used_ids
         if instance is None:
             instance = max(used, default=0) + 1 if len(used) != len(self.instances) else self._next_id()
@@ -197,10 +279,25 @@ class Scene:
             raise ConfigError(f"scene.add: semantic id must be in 0..65535, got {semantic}")
         col = _palette(int(instance)) if color is None else tuple(int(c) for c in color[:3])
         self.instances.append(
-            Instance(key, _as_transform(transform), int(semantic), int(instance), col, name)  # type: ignore[arg-type]
+            Instance(key, transform, int(semantic), int(instance), col, name)  # type: ignore[arg-type]
         )
         used.add(int(instance))
         return int(instance)
+
+    def report(self) -> dict[str, Any]:
+        """What the scene holds and what of it cannot be drawn: instances dropped for a
+        degenerate transform (with why), and faces skipped for non-finite vertices or zero
+        area (counted over the instances that draw them)."""
+        per_mesh = {k: face_defects(m) for k, m in self.meshes.items()}
+        uses: dict[str, int] = {}
+        for inst in self.instances:
+            uses[inst.mesh] = uses.get(inst.mesh, 0) + 1
+        nonfinite = sum(int(per_mesh[k][0].sum()) * n for k, n in uses.items())
+        zero_area = sum(int(per_mesh[k][1].sum()) * n for k, n in uses.items())
+        return {"instances": len(self.instances), "meshes": len(self.meshes),
+                "triangles": sum(len(self.meshes[k].faces) * n for k, n in uses.items()),
+                "dropped_instances": len(self.dropped), "dropped": list(self.dropped),
+                "faces_nonfinite": nonfinite, "faces_zero_area": zero_area}
 
     @property
     def _used_ids(self) -> set[int]:

@@ -181,8 +181,11 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             while next_id[0] in taken:
                 next_id[0] += 1
             inst = next_id[0]
-        taken.add(inst)
-        scene.add(key, fix @ world, semantic=sem or 0, instance=inst, name=name)
+        # a prim with a zero or singular scale (a common way to hide one) is dropped and
+        # counted in Scene.report(), named by its path
+        if scene.add(key, fix @ world, semantic=sem or 0, instance=inst, name=name,
+                     degenerate="drop", where=str(prim.GetPath())):
+            taken.add(inst)
 
     for prim in stage.Traverse(Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)):
         if not prim.IsActive() or prim.IsAbstract() or _in_instancer(prim):

@@ -1,33 +1,51 @@
-"""OpenCV and ROS calibration files in and out.
+"""OpenCV, ROS and Kalibr calibration files in and out.
 
-Reads OpenCV ``FileStorage`` YAML/XML as ``calibrateCamera`` / ``stereoCalibrate`` programs
-write them (any of the common key spellings) and ROS ``camera_info`` YAML; writes OpenCV
-YAML/XML with OpenCV's lower-case keys. A file without K or the image size, or with a
-malformed matrix, is rejected with an error naming the file and the field.
+Reads OpenCV ``FileStorage`` YAML/XML as ``calibrateCamera`` / ``stereoCalibrate`` /
+``cv2.fisheye.calibrate`` programs write them (any of the common key spellings), ROS
+``camera_info`` YAML (``distortion_model`` ``plumb_bob``, ``rational_polynomial``,
+``equidistant``) and Kalibr camchain YAML (``camera_model: pinhole`` with ``distortion_model``
+``radtan``, ``equidistant`` or ``none``, and ``camera_model: omni``; the first camera, and the
+baseline to the second);
+writes OpenCV YAML/XML with OpenCV's lower-case keys (plus ``distortion_model`` for a
+fisheye lens). A file without K or the image size, with a malformed matrix, or with a lens
+model genie-gl does not know is rejected with an error naming the file, the field and the
+model, never read as another model.
 """
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 import yaml
 
 from ..errors import ConfigError
-from .camera import DIST_LENGTHS
+from ..camera import MODELS
 
 K_KEYS = ("camera_matrix", "Camera_Matrix", "cameraMatrix", "K", "K1", "M1", "intrinsics")
 D_KEYS = ("distortion_coefficients", "Distortion_Coefficients", "dist_coeffs", "distCoeffs", "D", "D1")
 W_KEYS = ("image_width", "image_Width", "imageWidth", "width")
 H_KEYS = ("image_height", "image_Height", "imageHeight", "height")
 ERR_KEYS = ("avg_reprojection_error", "Avg_Reprojection_Error", "reprojection_error", "rms")
+MODEL_KEYS = ("distortion_model", "Distortion_Model", "lens_model", "camera_model")
+# lens model names as ROS, OpenCV programs and Kalibr write them -> (genie-gl model, counts)
+LENS_NAMES: dict[str, tuple[str, tuple[int, ...]]] = {
+    "plumb_bob": ("pinhole", (4, 5)), "radtan": ("pinhole", (4, 5)), "radial-tangential": ("pinhole", (4, 5)),
+    "rational_polynomial": ("pinhole", (8, 12, 14)), "opencv": ("pinhole", MODELS["pinhole"]),
+    "pinhole": ("pinhole", MODELS["pinhole"]), "none": ("pinhole", (0,)),
+    "equidistant": ("fisheye", (4,)), "fisheye": ("fisheye", (4,)), "kannala_brandt": ("fisheye", (4,)),
+    "kannala-brandt": ("fisheye", (4,)), "omni": ("omni", (5,)), "mei": ("omni", (5,)),
+}
 
 
 @dataclass(frozen=True, eq=False)
 class Calibration:
-    """A camera calibration: size, K (3x3), distortion (N,), optional RMS error, stereo R, T."""
+    """A camera calibration: size, K (3x3), lens coefficients (N,), optional RMS error, stereo
+    R, T (X2 = R·X1 + T), and the lens model (``"pinhole"`` or ``"fisheye"``, see
+    :mod:`genie_gl.camera`)."""
 
     width: int
     height: int
@@ -37,6 +55,7 @@ class Calibration:
     R: np.ndarray | None = None
     T: np.ndarray | None = None
     source: str = ""
+    model: str = "pinhole"
 
     @property
     def baseline_m(self) -> float | None:
@@ -82,8 +101,57 @@ def _read_filestorage(path: Path) -> dict:
     return out
 
 
+def lens_model(name: Any, n: int, where: str) -> str:
+    """The genie-gl lens model of a file's model name with ``n`` coefficients; an unknown
+    name, or a count the model does not have, is refused by name."""
+    key = str(name).strip().lower()
+    if key not in LENS_NAMES:
+        raise ConfigError(f"{where}: unknown lens model {name!r}; genie-gl reads {', '.join(sorted(LENS_NAMES))}")
+    model, counts = LENS_NAMES[key]
+    if n not in counts and not (n == 0 and key != "none"):
+        raise ConfigError(f"{where}: lens model {name!r} takes {' or '.join(map(str, counts))} coefficients, got {n}")
+    return model
+
+
+def _kalibr(data: dict, path: Path) -> Calibration:
+    """The first camera of a Kalibr camchain (and the baseline to the second, if any)."""
+    cam = data["cam0"]
+    where = f"{path}: cam0"
+    if not isinstance(cam, dict):
+        raise ConfigError(f"{where}: expected a mapping of camera fields")
+    kind = str(cam.get("camera_model", "pinhole"))
+    if kind not in ("pinhole", "omni"):
+        raise ConfigError(f"{where}: camera_model {kind!r} is not supported (genie-gl reads Kalibr 'pinhole' "
+                          "cameras with 'radtan', 'equidistant' or 'none' distortion, and 'omni' with 'radtan' or "
+                          "'none')")
+    for key in ("intrinsics", "resolution"):
+        if key not in cam:
+            raise ConfigError(f"{where}: missing field {key}")
+    n_in = 5 if kind == "omni" else 4
+    if np.size(cam["intrinsics"]) != n_in:
+        spelled = "[xi, fu, fv, pu, pv]" if kind == "omni" else "[fu, fv, pu, pv]"
+        raise ConfigError(f"{where}: intrinsics: expected {spelled}, got {cam['intrinsics']!r}")
+    values = _matrix(cam["intrinsics"], f"{where}: intrinsics", (n_in,))
+    fu, fv, pu, pv = values[-4:]
+    W, H = (int(v) for v in cam["resolution"])
+    dist = np.asarray(cam.get("distortion_coeffs") or [], float)
+    model = lens_model(cam.get("distortion_model", "none"), len(dist), f"{where}: distortion_model")
+    if kind == "omni":
+        if model != "pinhole":
+            raise ConfigError(f"{where}: an omni camera takes 'radtan' or 'none' distortion, got "
+                              f"{cam.get('distortion_model')!r}")
+        dist = np.concatenate([[values[0]], dist if len(dist) else np.zeros(4)])
+        model = "omni"
+    K = np.array([[fu, 0, pu], [0, fv, pv], [0, 0, 1.0]])
+    R = T = None
+    if isinstance(data.get("cam1"), dict) and "T_cn_cnm1" in data["cam1"]:
+        M = _matrix(data["cam1"]["T_cn_cnm1"], f"{path}: cam1: T_cn_cnm1", (4, 4))
+        R, T = M[:3, :3], M[:3, 3]
+    return Calibration(W, H, K, dist, None, R, T, str(path), model)
+
+
 def read_calibration(path: str | os.PathLike) -> Calibration:
-    """Read an OpenCV (YAML/XML) or ROS camera_info calibration file."""
+    """Read an OpenCV (YAML/XML), ROS camera_info or Kalibr camchain calibration file."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: no such calibration file")
@@ -97,6 +165,8 @@ def read_calibration(path: str | os.PathLike) -> Calibration:
             raise ConfigError(f"{path}: not valid YAML ({exc})") from None
         if not isinstance(data, dict):
             raise ConfigError(f"{path}: expected a mapping of calibration fields")
+        if "cam0" in data:
+            return _kalibr(data, path)
 
     def first(keys, field):
         for k in keys:
@@ -116,12 +186,17 @@ def read_calibration(path: str | os.PathLike) -> Calibration:
         raise ConfigError(f"{path}: missing field image_width/image_height (the image size)")
     d_key, D = first(D_KEYS, "distortion_coefficients")
     dist = np.zeros(0) if D is None else _matrix(D, f"{path}: {d_key}").ravel()
-    if len(dist) not in DIST_LENGTHS:
-        raise ConfigError(f"{path}: {d_key}: expected 4, 5, 8, 12 or 14 coefficients, got {len(dist)}")
+    m_key, name = first(MODEL_KEYS, "distortion_model")
+    if name is None or name == "":
+        model = "pinhole"
+        if len(dist) not in MODELS["pinhole"]:
+            raise ConfigError(f"{path}: {d_key}: expected 4, 5, 8, 12 or 14 coefficients, got {len(dist)}")
+    else:
+        model = lens_model(name, len(dist), f"{path}: {m_key}")
     _, err = first(ERR_KEYS, "avg_reprojection_error")
     R = _matrix(data["R"], f"{path}: R", (3, 3)) if "R" in data and np.size(data["R"]) == 9 else None
     T = _matrix(data["T"], f"{path}: T").ravel() if "T" in data and np.size(data["T"]) == 3 else None
-    return Calibration(int(W), int(H), K, dist, None if err is None else float(err), R, T, str(path))
+    return Calibration(int(W), int(H), K, dist, None if err is None else float(err), R, T, str(path), model)
 
 
 def write_calibration(calib: Calibration, path: str | os.PathLike) -> Path:
@@ -133,6 +208,8 @@ def write_calibration(calib: Calibration, path: str | os.PathLike) -> Path:
     fs.write("image_height", int(calib.height))
     fs.write("camera_matrix", np.asarray(calib.K, np.float64))
     fs.write("distortion_coefficients", np.asarray(calib.dist, np.float64).reshape(-1, 1))
+    if calib.model != "pinhole":
+        fs.write("distortion_model", {"fisheye": "equidistant", "omni": "omni"}[calib.model])
     if calib.reprojection_error is not None:
         fs.write("avg_reprojection_error", float(calib.reprojection_error))
     if calib.R is not None:

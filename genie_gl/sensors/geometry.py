@@ -1,8 +1,7 @@
 """Per-pixel geometry of a frame for the effects: rays, camera-frame points, normals, incidence.
 
 All arrays are in the camera frame (OpenCV: x right, y down, z forward) and indexed like the
-frame's buffers (row v, column u). Pure numpy (OpenCV, through distortion.py, for the rays
-of a distorted lens): no GL.
+frame's buffers (row v, column u). Pure numpy (the lens maps of :mod:`genie_gl.camera`): no GL.
 """
 from __future__ import annotations
 
@@ -10,36 +9,23 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..camera import Camera
 from ..frame import Frame
-from .camera import Sensor
-from .distortion import undistorted_rays
 
 
-@lru_cache(maxsize=16)
-def _pinhole_rays(w: int, h: int, K: bytes) -> np.ndarray:
-    Km = np.frombuffer(K).reshape(3, 3)
-    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    y = (v - Km[1, 2]) / Km[1, 1]
-    xy = np.stack([(u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0], y], -1)
-    xy.setflags(write=False)
-    return xy
-
-
-@lru_cache(maxsize=16)
-def _lens_rays(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
-    s = Sensor(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist))
-    xy = np.nan_to_num(undistorted_rays(s))   # pixels without a ray (past the fold): (0, 0)
-    xy.setflags(write=False)
-    return xy
-
-
-def pixel_rays(sensor: Sensor) -> np.ndarray:
+def pixel_rays(sensor: Camera) -> np.ndarray:
     """(H, W, 2) float64: x and y of the camera-frame ray (z = 1) of every pixel (the
-    undistorted ray for a distorted sensor, shared with its distortion maps); cached per
-    camera model, read-only."""
-    if sensor.is_pinhole:
-        return _pinhole_rays(sensor.width, sensor.height, sensor.K.tobytes())
-    return _lens_rays(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
+    undistorted ray for a distorted sensor: :meth:`Camera.rays`; (0, 0) for a pixel without
+    one, past the lens's fold); cached per camera model, read-only."""
+    return _safe_rays(sensor.lens_key)
+
+
+@lru_cache(maxsize=16)
+def _safe_rays(key: tuple) -> np.ndarray:
+    model, w, h, K, dist = key
+    xy = np.nan_to_num(Camera(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), model=model).rays())
+    xy.setflags(write=False)
+    return xy
 
 
 def camera_points(frame: Frame) -> np.ndarray:
@@ -51,17 +37,17 @@ def camera_points(frame: Frame) -> np.ndarray:
 
 
 @lru_cache(maxsize=16)
-def _directions(w: int, h: int, K: bytes, dist: bytes) -> np.ndarray:
-    xy = pixel_rays(Sensor(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist)))
+def _directions(key: tuple) -> np.ndarray:
+    xy = _safe_rays(key)
     d = np.concatenate([xy, np.ones(xy.shape[:2] + (1,))], axis=-1)
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     d.setflags(write=False)
     return d
 
 
-def view_directions(sensor: Sensor) -> np.ndarray:
+def view_directions(sensor: Camera) -> np.ndarray:
     """(H, W, 3) float64 unit vectors from the camera centre through every pixel; cached."""
-    return _directions(sensor.width, sensor.height, sensor.K.tobytes(), sensor.dist.tobytes())
+    return _directions(sensor.lens_key)
 
 
 def surface_normals(frame: Frame) -> np.ndarray:

@@ -12,20 +12,24 @@ perturbed one instead would model the opposite case, an exact camera with a wron
 would change the very K the dataset reports.)
 
 The depth of a pixel is the z of the point on its true ray, so it needs no correction; the
-lens distortion is taken to be known exactly.
+lens distortion is taken to be known exactly. The re-sampling is sub-pixel: depth along each
+true ray recomputed from the plane of the surface it hits when the frame has normals, else
+interpolated between same-instance neighbours (:mod:`.distortion`), so a shift of a fraction
+of a pixel changes the depth image; ids are never blended.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import ClassVar
 
-import cv2
+from dataclasses import replace
+
 import numpy as np
 
 from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
-from .distortion import CRITERIA, DistortionMaps, distort
+from .distortion import DistortionMaps, distort
 from .effects import Effect, effect, record
 
 
@@ -40,6 +44,7 @@ class CalibrationError(Effect):
 
     name: ClassVar[str] = "calibration_error"
     draws: ClassVar[bool] = True
+    needs_normals: ClassVar[bool] = True   # the exact resampling: depth from each surface's plane
     sigma_f_px: float = 1.0
     sigma_c_px: float = 0.5
 
@@ -64,23 +69,20 @@ class CalibrationError(Effect):
         """Where each pixel of the true camera samples the frame rendered with ``sensor.K``."""
         W, H = sensor.width, sensor.height
         u, v = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
-        if sensor.is_pinhole:
-            y = (v - K_true[1, 2]) / K_true[1, 1]
-            x = (u - K_true[0, 2] - K_true[0, 1] * y) / K_true[0, 0]
-            K = sensor.K
-            mx, my = K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]
-        else:
-            xy = cv2.undistortPoints(np.stack([u, v], -1).reshape(-1, 1, 2), K_true, sensor.dist, None, None,
-                                     None, CRITERIA).reshape(-1, 2)
-            pts = np.concatenate([xy, np.ones((len(xy), 1))], 1).reshape(-1, 1, 3)
-            uv, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), sensor.K, sensor.dist)
-            mx, my = uv[:, 0, 0].reshape(H, W), uv[:, 0, 1].reshape(H, W)
-        valid = (np.isfinite(mx) & np.isfinite(my) & (mx > -0.5) & (mx < W - 0.5)
-                 & (my > -0.5) & (my < H - 0.5))
+        true = replace(sensor, K=K_true)           # the same lens with the true intrinsics
+        d = true.unproject(np.stack([u.ravel(), v.ravel()], 1))
+        uv = sensor.project(d)                     # where the calibrated render holds that ray
+        mx, my = uv[:, 0].reshape(H, W), uv[:, 1].reshape(H, W)
+        with np.errstate(invalid="ignore"):
+            valid = (np.isfinite(mx) & np.isfinite(my) & (mx > -0.5) & (mx < W - 0.5)
+                     & (my > -0.5) & (my < H - 0.5))
+            rx, ry = (d[:, 0] / d[:, 2]).reshape(H, W), (d[:, 1] / d[:, 2]).reshape(H, W)
         mx, my = np.where(valid, mx, -1), np.where(valid, my, -1)
-        return DistortionMaps(sensor, mx.astype(np.float32), my.astype(np.float32), valid)
+        return DistortionMaps(sensor, mx.astype(np.float32), my.astype(np.float32), valid, None,
+                              np.where(valid, rx, 0.0), np.where(valid, ry, 0.0), None)
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         K_true = self.true_K(frame.sensor, rng)
-        out = distort(frame, frame.sensor, self.maps(frame.sensor, K_true))
+        mode = "exact" if frame.normal is not None else "bilinear"
+        out = distort(frame, frame.sensor, self.maps(frame.sensor, K_true), resample=mode)
         return record(out, self.name, K_true=K_true.tolist())

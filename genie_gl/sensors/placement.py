@@ -125,9 +125,7 @@ class VisibilityProblem(CoverageProblem):
         """Weighted-cell indices hit by the returns of ``depth`` (the view's) taken at ``pose``."""
         v, u = np.nonzero(depth > 0)
         z = depth[v, u].astype(np.float64)
-        K = self.view.K
-        y = (v - K[1, 2]) / K[1, 1]
-        x = (u - K[0, 2] - K[0, 1] * y) / K[0, 0]
+        x, y = self.view.rays()[v, u].T   # the camera model's pixel rays (genie_gl.camera)
         world = np.stack([x * z, y * z, z], 1) @ pose[:3, :3].T + pose[:3, 3]
         H, W = self.shape
         col = np.floor((world[:, 0] - self.origin_xy[0]) / self.resolution_m).astype(np.intp)

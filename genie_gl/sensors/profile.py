@@ -35,18 +35,28 @@ def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m:
     if "opencv-matrix" in text or text.lstrip().startswith("<?xml"):
         calib = read_calibration(path)
         return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem,
-                      meta=calibration_meta(calib))
+                      meta=calibration_meta(calib), model=calib.model)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    if isinstance(data, dict) and "calibration" not in data and ("cam0" in data or "camera_matrix" in data):
+        calib = read_calibration(path)   # a bare ROS camera_info or Kalibr camchain
+        return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem,
+                      meta=calibration_meta(calib), model=calib.model)
     if not isinstance(data, dict) or "calibration" not in data:
         raise ConfigError(f"{path}: a sensor profile needs a 'calibration' field (an OpenCV calibration file)")
     calib = read_calibration(Path(path).parent / data["calibration"])
     effects = build_effects(data.get("effects") or [], str(path))
+    # the sensor's range (minimum range: nearer surfaces give no return) may be the profile's
+    try:
+        near_m, far_m = float(data.get("near_m", near_m)), float(data.get("far_m", far_m))
+    except (TypeError, ValueError):
+        raise ConfigError(f"{path}: near_m and far_m must be numbers (metres), got {data.get('near_m')!r}, "
+                          f"{data.get('far_m')!r}") from None
     meta = calibration_meta(calib)
     meta["profile"] = str(path)
     if calib.T is None and data.get("baseline_m") is not None:
         meta["baseline_m"] = float(data["baseline_m"])
     return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, effects,
-                  name=str(data.get("name", Path(path).stem)), meta=meta)
+                  name=str(data.get("name", Path(path).stem)), meta=meta, model=calib.model)

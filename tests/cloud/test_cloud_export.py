@@ -179,7 +179,7 @@ def test_unprojection_matches_first_principles_for_every_lens(lens):
     # merging writes every frame into its slice of one array: same as concatenating
     g = f.replace(depth=np.roll(d, 7), world_from_camera=np.eye(4))
     merged = to_cloud([f, g, f])
-    parts = [unproject(x, camera_index=i) for i, x in enumerate([f, g, f])]
+    parts = [unproject(x, origin=merged.origin, camera_index=i) for i, x in enumerate([f, g, f])]
     for name in ("xyz", "semantic", "instance", "rgb", "camera"):
         np.testing.assert_array_equal(getattr(merged, name), np.concatenate([getattr(p, name) for p in parts]))
 

@@ -48,3 +48,19 @@ def test_agrees_with_pyrender_seg_mode(glctx):
             assert not (differ & interior(ours.instance, 1)).any()
             assert (ours.semantic == theirs.semantic)[~differ].all()
     ref.release()
+
+
+def test_releasing_the_reference_leaves_our_contexts_working(glctx):
+    """pyrender's own delete terminates the process's EGL display; ours must survive it."""
+    scene = gg.Scene()
+    scene.add(trimesh.creation.box((4, 4, 0.02)), [0, 0, -0.01], semantic=1)
+    sensor = gg.Sensor(64, 48, np.array([[50.0, 0, 31.5], [0, 50.0, 23.5], [0, 0, 1]]))
+    pose = look_at([0.0, 0.0, 3.0], [0, 0, 0], up=[0, 1, 0])
+    ref = ReferenceRenderer(scene)
+    ref.render(sensor, pose)
+    ref.render(gg.Sensor(32, 24, sensor.K / [2, 2, 1]), pose)  # a new size releases the old one
+    ref.release()
+    with Renderer(scene, context=glctx) as r:
+        depth = r.render(sensor, pose, depth_only=True).depth
+    # the floor's top face at z = 0 seen from 3 m straight down: depth 3 at every pixel
+    np.testing.assert_allclose(depth, 3.0, rtol=1e-6)
