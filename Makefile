@@ -21,7 +21,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline bench-stability \
+.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -62,6 +62,7 @@ bench: setup ## run every benchmark (render, layout, accuracy, pipeline, stabili
 	$(GENIE) bench accuracy --out $(OUT)/bench
 	$(GENIE) bench pipeline --out $(OUT)/bench
 	$(GENIE) bench stability --out $(OUT)/bench
+	$(GENIE) bench planning --out $(OUT)/bench
 
 bench-render: setup ## renderer against pyrender and Open3D
 	$(GENIE) bench render --out $(OUT)/bench
@@ -73,6 +74,8 @@ bench-pipeline: setup ## seconds per scene end to end
 	$(GENIE) bench pipeline --out $(OUT)/bench
 bench-stability: setup ## hard cases against analytic truth (exit 1 if one fails its tolerance)
 	$(GENIE) bench stability --out $(OUT)/bench
+bench-planning: setup ## a full D435 / Azure frame before and after planning (x the ideal render)
+	$(GENIE) bench planning --out $(OUT)/bench
 
 dataset-assembly-line: setup ## the paper's setup: make dataset-assembly-line SCENES=499 CAMERAS=40
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \

@@ -7,6 +7,7 @@ The public API, one name per pipeline stage (DESIGN.md)::
     scene  = gg.build_scene(layout, seed=0)
     sensor = gg.load_sensor("sensors/realsense_d435.yaml")
     poses  = gg.place_sensors(layout, sensor, n=40, seed=0)
+    plan   = gg.plan(scene, sensor, poses)      # what will run where, and why
     frames = gg.capture(scene, sensor, poses, seed=0)
     cloud  = gg.to_cloud(frames)
     gg.export(cloud, "out/", format="semantickitti")
@@ -37,6 +38,7 @@ _EXPORTS: dict[str, str] = {
     "Scene": "genie_gl.scene.model",
     "Mesh": "genie_gl.scene.model",
     "Instance": "genie_gl.scene.model",
+    "Material": "genie_gl.scene.model",
     "build_scene": "genie_gl.scene",
     "register_asset": "genie_gl.scene",
     # sensors
@@ -49,6 +51,9 @@ _EXPORTS: dict[str, str] = {
     "Renderer": "genie_gl.render",
     "render": "genie_gl.render",
     "capture": "genie_gl.render",
+    # planning
+    "plan": "genie_gl.plan",
+    "Plan": "genie_gl.plan",
     # clouds and exports
     "PointCloud": "genie_gl.cloud",
     "to_cloud": "genie_gl.cloud",

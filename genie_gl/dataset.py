@@ -116,6 +116,9 @@ def run_scene(cfg: dict[str, Any], index: int) -> dict[str, Any]:
         bop.write_dataset_files(scene, frames[0], out, meshes)
     keys = ["start", "layout", "scene", "placement", "capture", "cloud", "export"]
     stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
+    from .plan import effect_totals  # what each sensor effect did (issue 12); timings: not in stats.json
+
+    stats["effects"] = effect_totals(frames)
     return stats
 
 
@@ -239,6 +242,16 @@ def _worker(job: tuple[dict, int]) -> dict:
     return run_scene(*job)
 
 
+def _effects_total(results: list[dict]) -> dict:
+    """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
+    from .plan import add_totals
+
+    total: dict = {}
+    for r in results:
+        add_totals(total, r.get("effects", {}))
+    return total
+
+
 def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]:
     """Make every missing scene of the dataset described by ``cfg`` (see ``add_arguments``)."""
     from tqdm import tqdm
@@ -298,6 +311,7 @@ def run_dataset(cfg: dict[str, Any], *, progress: bool = True) -> dict[str, Any]
         "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
         "scenes_made": cfg["scenes"] - there, "scenes_skipped": there,
         "wall_s": elapsed, "stage_s_total": stage_t, "class_points": hist,
+        "effects": _effects_total(results),
     }
     from .export.semantickitti import CLASSES
 

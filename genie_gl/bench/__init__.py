@@ -14,6 +14,7 @@ BENCHMARKS: dict[str, str] = {
     "accuracy": "what each sensor effect and accuracy knob costs in time (error vs ms)",
     "pipeline": "seconds per scene end to end, share of each stage, scaling with workers",
     "stability": "hard cases against analytic truth: tolerance and worst error per case (exit 1 on a failure)",
+    "planning": "a full D435 and Azure frame before and after planning, as multiples of the ideal render",
 }
 
 

@@ -1,6 +1,8 @@
 """``render`` (one ideal frame) and ``capture`` (many poses, sensor effects, all cores)."""
 from __future__ import annotations
 
+import dataclasses
+import logging
 import multiprocessing as mp
 import os
 from collections.abc import Sequence
@@ -12,6 +14,8 @@ from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
 from .renderer import Renderer
+
+log = logging.getLogger(__name__)
 
 
 def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | None = None,
@@ -59,14 +63,19 @@ class _Prefetched:
     render (an effect's extra view, a different sensor) goes to :meth:`Renderer.render`."""
 
     def __init__(self, renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], depth_only: bool,
-                 normals: bool) -> None:
+                 normals: bool, only: Sequence[Any] | None = None) -> None:
         self.renderer, self.sensor, self.poses = renderer, sensor, poses
         self.depth_only, self.normals = depth_only, normals
-        self.frames = renderer.frames(sensor, poses, depth_only=depth_only, normals=normals)
+        self.only = [None] * len(poses) if only is None else list(only)   # the plan's drawn ids per pose
+        self.frames = renderer.frames(sensor, poses, depth_only=depth_only, normals=normals, only=self.only)
         self.next = 0
 
     def _is_main(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool, only: Any) -> bool:
-        if only is not None or depth_only != self.depth_only or normals != self.normals or self.next >= len(self.poses):
+        if depth_only != self.depth_only or normals != self.normals or self.next >= len(self.poses):
+            return False
+        want_only = self.only[self.next]
+        if (only is None) != (want_only is None) or (
+                only is not None and not (only is want_only or np.array_equal(only, want_only))):
             return False
         s = self.sensor
         same_sensor = sensor is s or (sensor.size == s.size and np.array_equal(sensor.K, s.K)
@@ -84,7 +93,8 @@ class _Prefetched:
 
 
 def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
-                    indices: Sequence[int], depth_only: bool = False) -> list[Frame]:
+                    indices: Sequence[int], depth_only: bool = False, plan: Any = None,
+                    materials: Any = None) -> list[Frame]:
     from ..sensors.simulate import simulate  # effects live in the sensors stage
 
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
@@ -97,8 +107,16 @@ def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarr
         views = lens_views(sensor)
         view = views[0].render_sensor if len(views) == 1 else sensor   # cube faces: no prefetch
         normals = True
-    render = _Prefetched(renderer, view, poses, depth_only, normals)
-    return [simulate(sensor, poses[k], render=render, rng=pose_rng(seed, i)) for k, i in enumerate(indices)]
+    frame_plans = None if plan is None else [plan.frames[i] for i in indices]
+    only = None
+    if frame_plans is not None:   # the plan's culling and far plane, as simulate asks for them
+        only = [f.drawn for f in frame_plans]
+        far = frame_plans[0].far_m if frame_plans else view.far_m
+        if far < view.far_m:
+            view = dataclasses.replace(view, far_m=far)
+    render = _Prefetched(renderer, view, poses, depth_only, normals, only)
+    return [simulate(sensor, poses[k], render=render, rng=pose_rng(seed, i), materials=materials,
+                     plan=None if frame_plans is None else frame_plans[k]) for k, i in enumerate(indices)]
 
 
 # -- process pool: one GL context per worker --------------------------------------------------
@@ -116,13 +134,13 @@ def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_preci
 
 
 def _worker_render(job: tuple) -> list[Frame]:
-    sensor, poses, seed, indices, depth_only = job
-    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only)
+    sensor, poses, seed, indices, depth_only, plan, materials = job
+    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, plan, materials)
 
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
             workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
-            depth_precision: str = "float32") -> list[Frame]:
+            depth_precision: str = "float32", plan: Any = True) -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -135,19 +153,38 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     backend : GL backend ("egl", "osmesa" or None).
     depth_only : skip the colour target (frames get ``rgb=None``).
     depth_precision : "float32", "depth24" or "reversed_z" (see :class:`Renderer`).
+    plan : True (default): follow :func:`genie_gl.plan` of these poses (culling, far plane,
+        effects skipped where the view cannot call for them; same output as running them);
+        a :class:`~genie_gl.plan.Plan` of these poses; None: no plan (every effect decided
+        on its frame, no culling). Each frame's ``meta["effects"]`` records what ran.
     """
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     n = len(poses)
+    if plan is True:
+        from ..plan import plan as make_plan
+
+        plan = make_plan(scene, sensor, poses)
+    materials = None
+    if plan is not None:
+        materials = plan.materials
+        for f in plan.frames:
+            if f.empty:
+                log.warning("capture: frame %d: %s (its cloud will be empty)", f.index, f.reason)
+    elif any(e.needs_materials for e in sensor.effects):
+        from ..scene.materials import MaterialTable
+
+        materials = MaterialTable.from_scene(scene)
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
         with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
-            return _capture_serial(r, sensor, poses, seed, range(n), depth_only)
+            return _capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
-        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only) for c in chunks])
+        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan, materials)
+                                          for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):
         for i, f in zip(c, part):

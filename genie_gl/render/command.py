@@ -1,7 +1,10 @@
 """``genie capture SCENE.usda --sensor PROFILE --cameras K --out DIR --format FMT``.
 
-Renders a USD scene (any stage) from K cameras on a ring around it, looking at its centre,
-merges the frames into one labelled cloud and exports it.
+Renders a USD scene (any stage) from K cameras placed inside it (mounted for the sensor's
+range, :func:`genie_gl.sensors.placement.scene_poses`) or from ``--poses FILE``, following the
+plan (:mod:`genie_gl.plan`); warns about frames with nothing in range; merges the frames into
+one labelled cloud and exports it. The manifest sums, per effect, the frames it ran on, its
+milliseconds and the pixels it changed.
 """
 from __future__ import annotations
 
@@ -21,17 +24,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True)
     p.add_argument("--format", default="ply")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--height", type=float, default=3.5, help="camera height above the scene's floor (m)")
-
-
-def ring_poses(bounds: np.ndarray, n: int, height: float) -> list[np.ndarray]:
-    from .projection import look_at
-
-    lo, hi = bounds
-    centre = (lo + hi) / 2
-    radius = 0.5 * float(np.linalg.norm(hi[:2] - lo[:2])) * 0.8
-    return [look_at([centre[0] + radius * np.cos(a), centre[1] + radius * np.sin(a), lo[2] + height],
-                    [centre[0], centre[1], lo[2]]) for a in np.linspace(0, 2 * np.pi, n, endpoint=False)]
+    p.add_argument("--height", type=float, default=None,
+                   help="camera height above the scene's floor (m); default: chosen for the sensor's range")
+    p.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] (instead of --cameras)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,16 +41,25 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}")
     if args.cameras < 1:
         raise ConfigError("--cameras must be >= 1")
+    from ..plan import effect_totals
+    from ..plan import plan as make_plan
+    from ..plan_command import read_poses, warn_empty
+    from ..sensors.placement import scene_poses
+
     sensor = load_sensor(args.sensor)
     scene = Scene.from_usd(args.scene)
-    poses = ring_poses(scene.bounds(), args.cameras, args.height)
-    frames = capture(scene, sensor, poses, seed=args.seed, workers=None)
+    poses = (read_poses(args.poses) if args.poses
+             else scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.height))
+    plan = make_plan(scene, sensor, poses)
+    warn_empty(plan, "capture")
+    frames = capture(scene, sensor, poses, seed=args.seed, workers=None, plan=plan)
     cloud = to_cloud(frames)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     path = export(cloud, out, format=args.format)
     (out / "manifest.json").write_text(json.dumps({
         "genie_gl": __version__, "command": "capture", "scene": args.scene, "sensor": args.sensor,
-        "cameras": args.cameras, "seed": args.seed, "format": args.format, "points": len(cloud)}, indent=1))
+        "cameras": len(poses), "seed": args.seed, "format": args.format, "points": len(cloud),
+        "effects": effect_totals(frames), "empty_frames": plan.empty_frames}, indent=1))
     print(f"capture: {len(frames)} frames, {len(cloud):,} points -> {path}")
     return 0

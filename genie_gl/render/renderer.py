@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import ctypes
 import time
-from collections.abc import Collection, Iterable, Iterator
+from collections.abc import Collection, Iterable, Iterator, Sequence
 from contextlib import nullcontext
 from typing import Any
 
@@ -251,14 +251,16 @@ class Renderer:
             return self._render(sensor, pose, depth_only, normals, only)
 
     def frames(self, sensor: Sensor, poses: Iterable[np.ndarray], *, depth_only: bool = False,
-               normals: bool = False) -> Iterator[Frame]:
+               normals: bool = False, only: Sequence[Collection[int] | None] | None = None) -> Iterator[Frame]:
         """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose,
         with CPU and GL overlapped: frame i+1 is culled and submitted (into a second set of
-        targets) before frame i is read back, and renders while the caller works on frame i."""
+        targets) before frame i is read back, and renders while the caller works on frame i.
+        ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``."""
         pending = None
         for k, pose in enumerate(poses):
             with self._current():
-                job = self._draw(sensor, pose, not depth_only, normals, None, slot=1 + k % 2)
+                job = self._draw(sensor, pose, not depth_only, normals, None if only is None else only[k],
+                                 slot=1 + k % 2)
                 self._flush()  # llvmpipe rasterises a frame's bins once they are flushed
                 frame = self._read(pending) if pending is not None else None
             if frame is not None:

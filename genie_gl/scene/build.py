@@ -18,6 +18,9 @@ strategy's ``scene`` section), each off unless asked for — and when off, no RN
 * ``assets``: ``{class: [file or {"path", "variant", "units", "up"}, ...]}`` meshes that join
   the class's variants for this build (:func:`.assets.catalogue.load_asset`; a strategy
   file's relative paths are relative to its folder).
+
+Every instance gets a material of its class (:mod:`.materials`), drawn from a generator
+spawned from the scene's (``rng.spawn``): materials never shift the layout's draws.
 """
 from __future__ import annotations
 
@@ -30,6 +33,7 @@ from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
 from .assets import library as lib
 from .assets.catalogue import ASSETS, Catalogue
+from .materials import class_material
 from .model import Scene
 
 log = logging.getLogger(__name__)
@@ -64,6 +68,11 @@ class SceneBuilder:
         self.layout, self.opt, self.rng, self.assets = layout, options, rng, assets
         self.scene = Scene(metadata={"layout": layout.meta})
         self._keys: dict[tuple[str, str], str] = {}
+        # a child stream: drawing materials leaves the placement draws as they were
+        self.material_rng = rng.spawn(1)[0]
+
+    def material(self, cls: str):
+        return class_material(cls, rng=self.material_rng)
 
     def color(self, cls: str) -> tuple[int, int, int]:
         base = np.array(BASE_COLOR.get(cls, (160, 160, 160)), float)
@@ -76,20 +85,22 @@ class SceneBuilder:
         if key is None:
             mesh = self.assets.mesh(cls, variant)
             key = self._keys[(cls, variant)] = self.scene.add_mesh(mesh, name=f"{cls}_{variant}")
-        return self.scene.add(key, T, semantic=lib.SEMANTIC[cls], color=self.color(cls), name=name)
+        return self.scene.add(key, T, semantic=lib.SEMANTIC[cls], color=self.color(cls), name=name,
+                              material=self.material(cls))
 
     def background(self) -> None:
         x0, y0, w, h = self.layout.bounds
         f = lib.floor(w, h)
         self.scene.add(self.scene.add_mesh(f, "floor"), _transform(0, x0, y0), semantic=0,
-                       color=BASE_COLOR["floor"], name="floor")
+                       color=BASE_COLOR["floor"], name="floor", material=self.material("floor"))
         if self.opt.get("walls"):
             t, H = 0.2, float(self.opt.get("wall_height_m", 5.0))
             for i, (sx, sy, cx, cy) in enumerate([(w + 2 * t, t, w / 2, -t / 2), (w + 2 * t, t, w / 2, h + t / 2),
                                                   (t, h, -t / 2, h / 2), (t, h, w + t / 2, h / 2)]):
                 m = lib.box([sx, sy, H], [0, 0, H / 2])
                 self.scene.add(self.scene.add_mesh(m, f"wall_{i}"), _transform(0, x0 + cx, y0 + cy),
-                               semantic=0, color=BASE_COLOR["wall"], name=f"wall_{i}")
+                               semantic=0, color=BASE_COLOR["wall"], name=f"wall_{i}",
+                               material=self.material("wall"))
         spacing = float(self.opt.get("columns", 0) or 0)
         if spacing > 0:
             key = self.scene.add_mesh(lib.column(), "column")
@@ -97,7 +108,8 @@ class SceneBuilder:
             for cx in np.arange(spacing, w - 1e-6, spacing):
                 for cy in (0.25, h - 0.25):
                     self.scene.add(key, _transform(0, x0 + cx, y0 + cy), semantic=0,
-                                   color=BASE_COLOR["column"], name=f"column_{k}")
+                                   color=BASE_COLOR["column"], name=f"column_{k}",
+                                   material=self.material("column"))
                     k += 1
 
     def region(self, i: int, reg: Region) -> None:

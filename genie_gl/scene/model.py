@@ -122,6 +122,58 @@ class Mesh:
         return np.stack([np.nanmin(v, axis=0), np.nanmax(v, axis=0)])
 
 
+@dataclass(frozen=True)
+class Material:
+    """The UsdPreviewSurface inputs sensor effects read (nothing else does).
+
+    Attributes
+    ----------
+    diffuse_color : (3,) floats in [0, 1], linear RGB albedo (``inputs:diffuseColor``).
+    metallic : 0 (dielectric) .. 1 (bare metal) (``inputs:metallic``).
+    roughness : 0 (mirror) .. 1 (matte) (``inputs:roughness``).
+    opacity : 0 (clear) .. 1 (opaque) (``inputs:opacity``).
+    ior : index of refraction (``inputs:ior``).
+
+    The defaults are UsdPreviewSurface's own (a matte grey dielectric): what a prim without a
+    bound material is read as.
+    """
+
+    diffuse_color: tuple[float, float, float] = (0.18, 0.18, 0.18)
+    metallic: float = 0.0
+    roughness: float = 0.5
+    opacity: float = 1.0
+    ior: float = 1.5
+
+    def __post_init__(self) -> None:
+        # values held at float32 precision, as USD stores them: a round trip is exact
+        c = tuple(float(np.float32(x)) for x in self.diffuse_color)
+        if len(c) != 3 or not all(0.0 <= x <= 1.0 for x in c):
+            raise ConfigError(f"material diffuse_color: expected 3 values in [0, 1], got {self.diffuse_color!r}")
+        for name in ("metallic", "roughness", "opacity"):
+            v = float(np.float32(getattr(self, name)))
+            if not 0.0 <= v <= 1.0:
+                raise ConfigError(f"material {name}: expected a value in [0, 1], got {v}")
+            object.__setattr__(self, name, v)
+        if not 1.0 <= float(self.ior) <= 5.0:
+            raise ConfigError(f"material ior: expected 1 <= ior <= 5, got {self.ior}")
+        object.__setattr__(self, "diffuse_color", c)
+        object.__setattr__(self, "ior", float(np.float32(self.ior)))
+
+    @property
+    def albedo(self) -> float:
+        """Mean diffuse reflectance (the grey a ToF sensor's near-infrared light sees)."""
+        return float(sum(self.diffuse_color) / 3.0)
+
+    @property
+    def reflective(self) -> bool:
+        """True for surfaces that reflect specularly enough to matter to active sensors:
+        metallic >= 0.5 or roughness <= 0.3 (see :mod:`genie_gl.scene.materials`)."""
+        return self.metallic >= 0.5 or self.roughness <= 0.3
+
+
+DEFAULT_MATERIAL = Material()
+
+
 @dataclass(frozen=True, eq=False)
 class Instance:
     """One placed copy of a library mesh.
@@ -134,6 +186,7 @@ class Instance:
     instance : int, unique within the scene, > 0, fits uint32.
     color : (3,) uint8, the colour the renderer shades with.
     name : str, a human-readable name (the USD prim name when written).
+    material : Material or None (None: no material bound; read as ``DEFAULT_MATERIAL``).
     """
 
     mesh: str
@@ -142,6 +195,7 @@ class Instance:
     instance: int
     color: tuple[int, int, int]
     name: str = ""
+    material: Material | None = None
 
 
 def _as_transform(transform: Any, check: bool = True) -> np.ndarray:
@@ -246,6 +300,7 @@ class Scene:
         name: str = "",
         degenerate: str = "raise",
         where: str = "",
+        material: Material | None = None,
     ) -> int:
         """Place ``mesh`` (a key of ``meshes``, a ``Mesh``, a trimesh, or ``(V, F)`` arrays).
 
@@ -277,9 +332,11 @@ class Scene:
             raise ConfigError(f"scene.add: instance id {instance} is already used")
         if not 0 <= int(semantic) < 2**16:
             raise ConfigError(f"scene.add: semantic id must be in 0..65535, got {semantic}")
+        if material is not None and not isinstance(material, Material):
+            raise ConfigError(f"scene.add: material must be a genie_gl.Material, got {type(material).__name__}")
         col = _palette(int(instance)) if color is None else tuple(int(c) for c in color[:3])
         self.instances.append(
-            Instance(key, transform, int(semantic), int(instance), col, name)  # type: ignore[arg-type]
+            Instance(key, transform, int(semantic), int(instance), col, name, material)  # type: ignore[arg-type]
         )
         used.add(int(instance))
         return int(instance)
@@ -332,11 +389,13 @@ class Scene:
         return write_usd(self, path)
 
     @classmethod
-    def from_usd(cls, path: Any) -> "Scene":
-        """Read any USD stage (meshes, references, instancing, point instancers) into a Scene."""
+    def from_usd(cls, path: Any, **kw: Any) -> "Scene":
+        """Read any USD stage (meshes, implicit gprims, references, instancing, point
+        instancers, UsdPreviewSurface materials) into a Scene; ``kw`` as in
+        :func:`genie_gl.scene.usd.read_usd` (``segments=``, ...)."""
         from .usd import read_usd
 
-        return read_usd(path)
+        return read_usd(path, **kw)
 
 
 def _as_mesh(mesh: Any) -> Mesh:

@@ -6,9 +6,17 @@ instancing), with a full-precision ``xformOp:transform``, its class labelled bot
 SemanticsAPI that Omniverse Replicator reads and the newer UsdSemantics labels, its instance
 id as ``genie:instanceId`` and its colour as a constant ``primvars:displayColor``.
 
-Reading accepts any stage: meshes with any face sizes (fan-triangulated), xform stacks,
-references, payloads, variants, scenegraph instancing and PointInstancers, Y-up and other
-units, labels in either API.
+Every distinct material is a ``UsdShade.Material`` under ``/World/Looks`` whose surface is a
+``UsdPreviewSurface`` shader (inputs ``diffuseColor``, ``metallic``, ``roughness``,
+``opacity``, ``ior``), bound to its instances with ``MaterialBindingAPI``.
+
+Reading accepts any stage: meshes with any face sizes (fan-triangulated), implicit gprims
+(``Sphere``, ``Cube``, ``Cylinder``, ``Cone``, ``Capsule``: tessellated with ``segments``
+per circle, an accuracy knob), xform stacks, references, payloads, variants, scenegraph
+instancing and PointInstancers, Y-up and other units, labels in either API, and the bound
+UsdPreviewSurface inputs of each prim (a prim without one gets no material, read by effects
+as :data:`~genie_gl.scene.model.DEFAULT_MATERIAL`, UsdPreviewSurface's own defaults; how many
+prims had none is ``scene.metadata["prims_without_material"]``).
 """
 from __future__ import annotations
 
@@ -18,10 +26,11 @@ import re
 from pathlib import Path
 
 import numpy as np
-from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt
 
 from ..errors import ConfigError
-from .model import Mesh, Scene
+from .gprims import tessellate
+from .model import Material, Mesh, Scene
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +72,8 @@ def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
         mesh.CreateDoubleSidedAttr(not m.closed)
         mesh.GetPrim().CreateAttribute("genie:closed", Sdf.ValueTypeNames.Bool).Set(bool(m.closed))
         proto_path[key] = p
+    looks = UsdGeom.Scope.Define(stage, world.GetPath().AppendChild("Looks"))
+    materials: dict[Material, UsdShade.Material] = {}
     used: set[str] = set()
     for inst in scene.instances:
         name = _ident(inst.name, f"instance_{inst.instance}")
@@ -85,10 +96,79 @@ def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
         pv = UsdGeom.PrimvarsAPI(prim).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
                                                      UsdGeom.Tokens.constant)
         pv.Set([Gf.Vec3f(*(c / 255.0 for c in inst.color))])
+        if inst.material is not None:
+            mat = materials.get(inst.material)
+            if mat is None:
+                mat = materials[inst.material] = _define_material(
+                    stage, looks.GetPath().AppendChild(f"Material_{len(materials):04d}"), inst.material)
+            UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat)
     stage.GetRootLayer().Save()
     del stage
     tmp.replace(path)
     return path
+
+
+GPRIMS = {"Sphere": UsdGeom.Sphere, "Cube": UsdGeom.Cube, "Cylinder": UsdGeom.Cylinder,
+          "Cone": UsdGeom.Cone, "Capsule": UsdGeom.Capsule}
+
+
+def _gprim(prim: Usd.Prim) -> tuple[str, dict]:
+    """(kind, parameters) of an implicit gprim; attributes unauthored take USD's fallbacks."""
+    for kind, schema in GPRIMS.items():
+        if prim.IsA(schema):
+            g = schema(prim)
+            if kind == "Cube":
+                return kind, {"size": float(g.GetSizeAttr().Get())}
+            params = {"radius": float(g.GetRadiusAttr().Get())}
+            if kind != "Sphere":
+                params["height"] = float(g.GetHeightAttr().Get())
+                params["axis"] = str(g.GetAxisAttr().Get())
+            return kind, params
+    raise ConfigError(f"{prim.GetPath()}: not an implicit gprim")
+
+
+def _define_material(stage: Usd.Stage, path: Sdf.Path, m: Material) -> UsdShade.Material:
+    mat = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, path.AppendChild("PreviewSurface"))
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*m.diffuse_color))
+    for name in ("metallic", "roughness", "opacity", "ior"):
+        shader.CreateInput(name, Sdf.ValueTypeNames.Float).Set(getattr(m, name))
+    mat.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return mat
+
+
+_INPUTS = {"diffuseColor": "diffuse_color", "metallic": "metallic", "roughness": "roughness",
+           "opacity": "opacity", "ior": "ior"}
+
+
+def _material(prim: Usd.Prim) -> Material | None:
+    """The UsdPreviewSurface inputs bound to ``prim`` (None when it has no such material).
+
+    An input without an authored value, or connected to a texture, takes the
+    UsdPreviewSurface default (:class:`Material`'s)."""
+    mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+    if not mat:
+        return None
+    shader, _, _ = mat.ComputeSurfaceSource()
+    if not shader or shader.GetIdAttr().Get() != "UsdPreviewSurface":
+        return None
+    values = {}
+    for usd_name, field in _INPUTS.items():
+        inp = shader.GetInput(usd_name)
+        if not inp:
+            continue
+        attrs = inp.GetValueProducingAttributes()
+        if not attrs or not UsdShade.Input.IsInput(attrs[0]):
+            continue  # driven by a texture or another node's output
+        value = attrs[0].Get()
+        if value is None:
+            continue
+        values[field] = tuple(float(c) for c in value) if usd_name == "diffuseColor" else float(value)
+    try:
+        return Material(**values)
+    except ConfigError as exc:
+        raise ConfigError(f"material {mat.GetPath()}: {exc}") from None
 
 
 def _label(prim: Usd.Prim) -> tuple[int | None, int | None]:
@@ -130,12 +210,16 @@ def _triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
 
 
 def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
-             up_axis: str | None = None) -> Scene:
+             up_axis: str | None = None, segments: int = 32) -> Scene:
     """Read any USD stage into a Scene (world Z up, metres).
 
     ``meters_per_unit`` and ``up_axis`` ("y" or "z") override the stage's ``metersPerUnit``
     and ``upAxis`` (whose fallbacks, when unauthored, are USD's: centimetres and Y up).
+    ``segments`` (>= 3): segments per circle of tessellated implicit gprims (a sphere of
+    radius r deviates from its facets by at most r·(1 − cos(π/segments))).
     """
+    if int(segments) < 3:
+        raise ConfigError(f"{path}: segments must be >= 3 (segments per circle), got {segments}")
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: no such USD file")
@@ -162,6 +246,9 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     def mesh_key(mesh_prim: Usd.Prim) -> str | None:
         src = mesh_prim.GetPrimInPrototype() if mesh_prim.IsInstanceProxy() else mesh_prim
         k = str(src.GetPath())
+        if k not in keys and not mesh_prim.IsA(UsdGeom.Mesh):
+            kind, params = _gprim(mesh_prim)
+            keys[k] = scene.add_mesh(tessellate(kind, int(segments), **params), name=_ident(src.GetName(), "mesh"))
         if k not in keys:
             m = UsdGeom.Mesh(mesh_prim)
             pts = m.GetPointsAttr().Get()
@@ -175,22 +262,29 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             keys[k] = scene.add_mesh(Mesh(v, faces), name=_ident(src.GetName(), "mesh"))
         return keys[k]
 
+    missing = [0]
+
     def place(key: str, world: np.ndarray, prim: Usd.Prim, name: str) -> None:
         sem, inst = _label(prim)
         if inst is None or inst in taken:
             while next_id[0] in taken:
                 next_id[0] += 1
             inst = next_id[0]
+        material = _material(prim)
         # a prim with a zero or singular scale (a common way to hide one) is dropped and
         # counted in Scene.report(), named by its path
         if scene.add(key, fix @ world, semantic=sem or 0, instance=inst, name=name,
-                     degenerate="drop", where=str(prim.GetPath())):
+                     degenerate="drop", where=str(prim.GetPath()), material=material):
             taken.add(inst)
+            missing[0] += material is None
+
+    def is_geometry(p: Usd.Prim) -> bool:
+        return p.IsA(UsdGeom.Mesh) or any(p.IsA(t) for t in GPRIMS.values())
 
     for prim in stage.Traverse(Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)):
         if not prim.IsActive() or prim.IsAbstract() or _in_instancer(prim):
             continue
-        if prim.IsA(UsdGeom.Mesh):
+        if is_geometry(prim):
             key = mesh_key(prim)
             if key is not None:
                 world = np.array(cache.GetLocalToWorldTransform(prim)).T
@@ -205,7 +299,7 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
                 proto = stage.GetPrimAtPath(targets[pidx])
                 proto_world = np.array(cache.GetLocalToWorldTransform(proto)).T
                 for sub in Usd.PrimRange(proto):
-                    if sub.IsA(UsdGeom.Mesh):
+                    if is_geometry(sub):
                         key = mesh_key(sub)
                         if key is None:
                             continue
@@ -214,6 +308,10 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
                         place(key, base @ np.array(m).T @ rel, sub, f"{prim.GetName()}_{j}")
     if not scene.instances:
         raise ConfigError(f"{path}: the stage holds no mesh")
+    scene.metadata["prims_without_material"] = missing[0]
+    if missing[0]:
+        log.info("%s: %d of %d prims have no UsdPreviewSurface material (read as the default)",
+                 path, missing[0], len(scene.instances))
     return scene
 
 

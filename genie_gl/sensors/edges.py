@@ -17,7 +17,15 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..frame import Frame
-from .effects import Effect, drop, effect, record
+from typing import Any
+
+from . import kernels
+from .effect import Effect, drop, record
+
+
+def has_step(depth: np.ndarray, jump_m: float) -> bool:
+    """True when two valid 4-neighbours differ in depth by more than ``jump_m``."""
+    return bool(kernels.has_step(depth, float(jump_m)))
 
 
 def largest_step(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -43,7 +51,6 @@ def largest_step(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return step, other
 
 
-@effect
 @dataclass
 class FlyingPixels(Effect):
     """Pixels on a depth edge report, with probability ``probability``, a blend
@@ -57,6 +64,7 @@ class FlyingPixels(Effect):
 
     name: ClassVar[str] = "flying_pixels"
     draws: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 60.0
     probability: float = 0.5
     jump_m: float = 0.05
 
@@ -66,29 +74,41 @@ class FlyingPixels(Effect):
         if not self.jump_m > 0:
             raise ConfigError(f"flying_pixels.jump_m: expected > 0, got {self.jump_m}")
 
+    def check(self, frame: Frame, **needs: Any) -> str | None:
+        # no edge: the draws below have size 0 and the depth is unchanged
+        return None if has_step(frame.depth, self.jump_m) else f"no depth step over {self.jump_m} m"
+
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
-        step, other = largest_step(frame.depth)
-        edge = np.flatnonzero(np.abs(step) > self.jump_m)
+        # the edge pixels alone (one compiled pass), in the order largest_step() gives them
+        edge, nb = kernels.edge_pixels(frame.depth, float(self.jump_m))
         pick = rng.random(edge.size) < self.probability
         alpha = rng.random(edge.size)
         z = frame.depth.astype(np.float64).ravel()
         idx = edge[pick]
-        z[idx] += alpha[pick] * (other.ravel()[idx] - z[idx])
+        z[idx] += alpha[pick] * (z[nb[pick]] - z[idx])
         out = frame.replace(depth=z.reshape(frame.depth.shape).astype(np.float32))
         return record(out, self.name, edge_pixels=int(edge.size), mixed=int(idx.size))
 
 
-@effect
 @dataclass
 class EdgeDropout(Effect):
     """No return where the valid depths of the 3x3 neighbourhood span more than ``span_m``."""
 
     name: ClassVar[str] = "edge_dropout"
+    cost_ms_per_mpx: ClassVar[float] = 25.0
     span_m: float = 0.8
 
     def __post_init__(self) -> None:
         if not self.span_m > 0:
             raise ConfigError(f"edge_dropout.span_m: expected > 0, got {self.span_m}")
+
+    def check(self, frame: Frame, **needs: Any) -> str | None:
+        lo, hi = kernels.valid_span(frame.depth)
+        if hi == 0:
+            return "no return in the frame"
+        if hi - lo <= self.span_m:
+            return f"no 3x3 neighbourhood spans over {self.span_m} m"
+        return None
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         z = frame.depth

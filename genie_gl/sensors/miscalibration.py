@@ -30,10 +30,9 @@ from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
 from .distortion import DistortionMaps, distort
-from .effects import Effect, effect, record
+from .effect import Decision, Effect, View, record
 
 
-@effect
 @dataclass
 class CalibrationError(Effect):
     """Per-camera intrinsics drawn around the calibrated ones: fx' = fx + N(0, σ_f²),
@@ -45,6 +44,7 @@ class CalibrationError(Effect):
     name: ClassVar[str] = "calibration_error"
     draws: ClassVar[bool] = True
     needs_normals: ClassVar[bool] = True   # the exact resampling: depth from each surface's plane
+    cost_ms_per_mpx: ClassVar[float] = 60.0
     sigma_f_px: float = 1.0
     sigma_c_px: float = 0.5
 
@@ -52,6 +52,16 @@ class CalibrationError(Effect):
         if self.sigma_f_px < 0 or self.sigma_c_px < 0:
             raise ConfigError(f"calibration_error: sigmas must be >= 0, got sigma_f_px={self.sigma_f_px}, "
                               f"sigma_c_px={self.sigma_c_px}")
+
+    def plan(self, view: View) -> Decision | None:
+        if self.sigma_f_px == 0 and self.sigma_c_px == 0:
+            return Decision(False, "sigma_f_px = sigma_c_px = 0: the true K is the calibrated one")
+        if view.empty:
+            return Decision(False, "nothing in range or view")
+        return Decision(True, "the camera's true K differs from the calibrated one: every ray moves")
+
+    def skip(self, frame: Frame, rng: np.random.Generator) -> None:
+        rng.standard_normal(4)   # a run's one draw per frame
 
     def true_K(self, sensor: Sensor, rng: np.random.Generator) -> np.ndarray:
         """(3, 3) float64: the camera's true K, drawn (four standard normals, fx fy cx cy)."""

@@ -13,9 +13,18 @@ its returns are unprojected, and a raster cell of the disc counts as covered whe
 lands in it (on the floor or on whatever stands there). Racks and walls so shadow coverage,
 and the field of view matters. The render comes in as a function (``Renderer(scene).render``),
 so placement never imports the renderer.
+
+Placement knows the sensor's range (its ``range`` effect): :func:`mount_for` picks the mount
+height and the downward tilt so that the floor a camera covers lies within [min, max] range —
+the highest mount (up to the usual 3.5 m and the ceiling) from which the top edge of the
+image still meets the floor within 95 % of the maximum range, tilted as little as that
+allows (the widest footprint), the disc radius the horizontal reach of that top edge. A
+sensor whose range cannot reach the floor from any mount between ``min_mount_m`` and the
+ceiling is refused with a one-line error, unless the caller gives ``mount_height_m``.
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,7 +34,74 @@ from ..layout.model import Layout
 from . import coverage
 
 
+log = logging.getLogger(__name__)
+
 FITNESS = ("circle", "visibility")
+DEFAULT_MOUNT_M = 3.5      # above people and vehicles, below a typical hall's lights
+DEFAULT_RADIUS_M = 6.0     # a sensor without a range: the disc of the paper's placement
+MIN_MOUNT_M = 2.0          # lowest mount out of people's and forklifts' way [U: a site rule of thumb]
+DEFAULT_CEILING_M = 5.0    # hall height when the layout gives none (the scene stage's wall height)
+CEILING_CLEARANCE_M = 0.2  # a camera hangs this far below the ceiling at most
+
+
+@dataclass(frozen=True)
+class Mount:
+    """Where cameras go: height above the floor (m), downward tilt of the optical axis below
+    the horizon (rad; None: look at the covered centroid), disc radius (m)."""
+
+    height_m: float
+    pitch_rad: float | None
+    radius_m: float
+
+
+def sensor_range(sensor) -> tuple[float, float] | None:
+    """(min, max) range of the sensor's ``range`` effect, or None when it has none."""
+    for eff in getattr(sensor, "effects", ()):
+        if eff.name == "range" and np.isfinite(eff.max_m):
+            return float(eff.min_m), float(eff.max_m)
+    return None
+
+
+def layout_ceiling(layout: Layout) -> float:
+    """The hall's height: the strategy's wall height when it builds walls, else the default."""
+    scene = layout.meta.get("scene", {}) if isinstance(layout.meta, dict) else {}
+    return float(scene.get("wall_height_m", DEFAULT_CEILING_M)) if scene.get("walls") else DEFAULT_CEILING_M
+
+
+def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: float = MIN_MOUNT_M,
+              mount_height_m: float | None = None, radius_m: float | None = None) -> Mount:
+    """Mount height, tilt and disc radius that keep what ``sensor`` covers within its range.
+
+    Raises ConfigError (one line) when no mount in [min_mount_m, ceiling_m] lets the range
+    reach the floor, unless ``mount_height_m`` is given (then only the tilt is chosen).
+    """
+    rng = sensor_range(sensor)
+    if rng is None:
+        h = DEFAULT_MOUNT_M if mount_height_m is None else float(mount_height_m)
+        return Mount(h, None, DEFAULT_RADIUS_M if radius_m is None else float(radius_m))
+    lo, hi = rng
+    half_v = float(np.arctan2(sensor.height / 2, sensor.fy))
+    reach = 0.95 * hi
+    fit = reach * np.cos(half_v)           # straight down, the top edge meets the floor at `reach`
+    if mount_height_m is None:
+        h = min(DEFAULT_MOUNT_M, float(ceiling_m) - CEILING_CLEARANCE_M, 0.85 * fit)
+        if h < min_mount_m:
+            raise ConfigError(
+                f"placement: sensor {sensor.name!r} (range {lo:g}-{hi:g} m, {np.degrees(2 * half_v):.1f}° "
+                f"vertical field) cannot see the floor from any mount between {min_mount_m:g} and "
+                f"{ceiling_m:g} m (it needs a mount below {fit:.2f} m); give a mount height (mount_height_m=, genie --mount)")
+    else:
+        h = float(mount_height_m)
+        if h <= 0:
+            raise ConfigError(f"placement: mount_height_m must be > 0, got {h}")
+        if h > fit:
+            log.warning("placement: at %.2f m the floor lies beyond %s's %.2f m range", h, sensor.name, hi)
+    # the least tilt whose top edge meets the floor within reach (90°: straight down)
+    top = np.arcsin(min(1.0, h / reach))
+    pitch = float(min(np.pi / 2, half_v + top))
+    top_angle = pitch - half_v
+    r = h / np.tan(top_angle) if top_angle > 1e-6 else h
+    return Mount(h, pitch, float(r) if radius_m is None else float(radius_m))
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,11 +186,11 @@ class VisibilityProblem(CoverageProblem):
 
     def __init__(self, layout: Layout, radius_m: float, *, render, sensor=None, mount_height_m: float = 3.5,
                  size: tuple[int, int] = (80, 60), resolution_m: float = 0.5, step_m: float = 1.0,
-                 weights: dict[str, float] | None = None) -> None:
+                 weights: dict[str, float] | None = None, pitch_rad: float | None = None) -> None:
         super().__init__(layout, radius_m, resolution_m, step_m, weights)
         self.disc = self.cover
         self.view = low_resolution(sensor, size)
-        self.poses = poses_from_centres(self, self.candidates, radius_m, mount_height_m)
+        self.poses = poses_from_centres(self, self.candidates, radius_m, mount_height_m, pitch_rad)
         cover = np.zeros_like(self.disc)
         for k, pose in enumerate(self.poses):
             depth = render(self.view, pose, depth_only=True).depth
@@ -201,8 +277,9 @@ def random_placement(problem: CoverageProblem, n: int, *, rng: np.random.Generat
 
 
 def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: float,
-                       mount_height_m: float) -> list[np.ndarray]:
-    """world_from_camera poses: above each centre, looking at the weighted centroid it covers."""
+                       mount_height_m: float, pitch_rad: float | None = None) -> list[np.ndarray]:
+    """world_from_camera poses: above each centre, turned towards the weighted centroid it
+    covers; tilted down to it, or by ``pitch_rad`` below the horizon when given."""
     from .pose import look_at
 
     poses = []
@@ -216,29 +293,44 @@ def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: 
         if np.linalg.norm(d) < 0.3 * radius_m:  # nothing to turn to: look outwards at half radius
             d = np.array([1.0, 0.0]) if np.linalg.norm(d) < 1e-9 else d / np.linalg.norm(d)
             target = c + 0.5 * radius_m * d
+        if pitch_rad is not None:
+            d = target - c
+            d = d / max(float(np.linalg.norm(d)), 1e-12)
+            if pitch_rad >= np.pi / 2 - 1e-9:   # straight down: keep the yaw through the up vector
+                poses.append(look_at([c[0], c[1], mount_height_m], [c[0], c[1], 0.0], up=(d[0], d[1], 0.0)))
+                continue
+            target = c + d * mount_height_m / np.tan(pitch_rad)
         poses.append(look_at([c[0], c[1], mount_height_m], [target[0], target[1], 0.0]))
     return poses
 
 
-def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, radius_m: float = 6.0,
-                  mount_height_m: float = 3.5, method: str = "genetic",
+def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, radius_m: float | None = None,
+                  mount_height_m: float | None = None, method: str = "genetic",
                   weights: dict[str, float] | None = None, fitness: str = "circle", render=None,
-                  visibility_size: tuple[int, int] = (80, 60)) -> list[np.ndarray]:
+                  visibility_size: tuple[int, int] = (80, 60), ceiling_m: float | None = None,
+                  min_mount_m: float = MIN_MOUNT_M) -> list[np.ndarray]:
     """Place ``n`` cameras over ``layout``; returns (4, 4) float64 world_from_camera poses.
 
+    Mount height, tilt and disc radius come from the sensor's range (:func:`mount_for`, under
+    ``ceiling_m``, default the layout's wall height or 5 m) unless given; a sensor without a
+    range mounts at 3.5 m with 6 m discs, looking at what its disc covers.
     ``fitness`` is "circle" (discs of ``radius_m``) or "visibility" (what each camera sees in
     a ``visibility_size`` depth render made by ``render``, e.g. ``Renderer(scene).render``)::
 
         with gg.Renderer(scene) as r:
             poses = gg.place_sensors(layout, sensor, n=8, fitness="visibility", render=r.render)
     """
+    mount = mount_for(sensor, ceiling_m=layout_ceiling(layout) if ceiling_m is None else float(ceiling_m),
+                      min_mount_m=min_mount_m, mount_height_m=mount_height_m, radius_m=radius_m)
+    radius_m, mount_height_m = mount.radius_m, mount.height_m
     if fitness == "circle":
         problem = CoverageProblem(layout, radius_m, weights=weights)
     elif fitness == "visibility":
         if render is None:
             raise ConfigError("placement fitness 'visibility' needs render=, e.g. Renderer(scene).render")
         problem = VisibilityProblem(layout, radius_m, render=render, sensor=sensor,
-                                    mount_height_m=mount_height_m, size=visibility_size, weights=weights)
+                                    mount_height_m=mount_height_m, size=visibility_size, weights=weights,
+                                    pitch_rad=mount.pitch_rad)
     else:
         raise ConfigError(f"placement fitness {fitness!r} is unknown{did_you_mean(fitness, FITNESS)}; "
                           f"expected {' or '.join(FITNESS)}")
@@ -251,4 +343,31 @@ def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, rad
         result = random_placement(problem, n, rng=rng)
     else:
         raise ConfigError(f"placement method {method!r} is unknown; expected genetic, greedy or random")
-    return poses_from_centres(problem, result.centres, radius_m, mount_height_m)
+    return poses_from_centres(problem, result.centres, radius_m, mount_height_m, mount.pitch_rad)
+
+
+def scene_poses(scene, sensor, n: int, seed: int = 0, *, mount_height_m: float | None = None,
+                margin_m: float = 0.3) -> list[np.ndarray]:
+    """Poses for a scene without its layout (e.g. a USD stage): placement over its floor (the
+    bounding box's footprint, ``margin_m`` inside the walls), under its height as the ceiling,
+    mounted for the sensor's range (:func:`mount_for`) — never outside the hall."""
+    from ..layout.model import Layout, Region, RegionType
+
+    lo, hi = scene.bounds()
+    if not np.all(np.isfinite(lo)):
+        raise ConfigError("placement: the scene is empty")
+    w, h = float(hi[0] - lo[0]), float(hi[1] - lo[1])
+    m = min(margin_m, 0.25 * w, 0.25 * h)
+    floor = Region(float(lo[0]) + m, float(lo[1]) + m, w - 2 * m, h - 2 * m, type="floor")
+    layout = Layout.from_regions([floor], {"floor": RegionType("floor", asset_group="floor")},
+                                 (float(lo[0]), float(lo[1]), w, h))
+    height = float(hi[2] - lo[2])
+    ceiling = height if height > MIN_MOUNT_M + 0.5 else DEFAULT_CEILING_M
+    step = max(0.25, min(1.0, min(w, h) / 4))
+    mount = mount_for(sensor, ceiling_m=ceiling, mount_height_m=mount_height_m)
+    problem = CoverageProblem(layout, mount.radius_m, resolution_m=step / 2, step_m=step)
+    result = genetic_placement(problem, n, rng=np.random.default_rng(seed), generations=40)
+    poses = poses_from_centres(problem, result.centres, mount.radius_m, mount.height_m, mount.pitch_rad)
+    for p in poses:      # the floor of a foreign stage need not lie at z = 0
+        p[2, 3] += float(lo[2])
+    return poses

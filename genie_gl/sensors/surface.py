@@ -12,13 +12,13 @@ them (``needs_normals``); a frame without normals gets normals estimated from it
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from ..errors import ConfigError
 from ..frame import Frame
-from .effects import Effect, drop, effect, record
+from .effect import Decision, Effect, View, drop, record
 from .geometry import camera_points, incidence_angle, surface_normals
 
 
@@ -27,7 +27,6 @@ def nguyen_lateral_px(theta: np.ndarray) -> np.ndarray:
     return 0.8 + 0.035 * theta / (np.pi / 2 - theta)
 
 
-@effect
 @dataclass
 class LateralNoise(Effect):
     """Each pixel reports the depth of a point displaced across the image by N(0, σ_L²) in u
@@ -51,6 +50,7 @@ class LateralNoise(Effect):
     name: ClassVar[str] = "lateral_noise"
     draws: ClassVar[bool] = True
     needs_normals: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 250.0
     model: str = "nguyen2012"
     sigma_px: float = 0.8
     max_angle_deg: float = 80.0
@@ -63,6 +63,21 @@ class LateralNoise(Effect):
         if not 0 <= self.max_angle_deg < 90:
             raise ConfigError(f"lateral_noise.max_angle_deg: expected 0 <= angle < 90, "
                               f"got {self.max_angle_deg}")
+
+    def plan(self, view: View) -> Decision | None:
+        if view.empty:
+            return Decision(False, "nothing in range or view")
+        if self.model == "constant" and self.sigma_px == 0:
+            return Decision(False, "sigma_px = 0: no pixel moves")
+        return Decision(True, "σ_L >= 0.8 px at every angle (Nguyen 2012): every pixel moves")
+
+    def check(self, frame: Frame, **needs: Any) -> str | None:
+        return None  # draws per pixel whatever the frame holds: decided in plan()
+
+    def skip(self, frame: Frame, rng: np.random.Generator) -> None:
+        H, W = frame.depth.shape
+        rng.standard_normal((H, W))
+        rng.standard_normal((H, W))
 
     def sigma(self, theta: np.ndarray) -> np.ndarray:
         """σ_L in pixels at incidence angles ``theta`` (radians)."""
@@ -102,19 +117,33 @@ class LateralNoise(Effect):
                              normal=normal)
 
 
-@effect
 @dataclass
 class IncidenceDropout(Effect):
     """No return where the incidence angle exceeds ``max_angle_deg``."""
 
     name: ClassVar[str] = "incidence_dropout"
     needs_normals: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 50.0
     max_angle_deg: float = 75.0
 
     def __post_init__(self) -> None:
         if not 0 < self.max_angle_deg <= 90:
             raise ConfigError(f"incidence_dropout.max_angle_deg: expected 0 < angle <= 90, "
                               f"got {self.max_angle_deg}")
+
+    def check(self, frame: Frame, **needs: Any) -> str | None:
+        if not (frame.depth > 0).any():
+            return "no return in the frame"
+        if frame.normal is not None:
+            # cos θ = −n·d: steeper than the threshold only where |n·d| < cos(max)
+            from .geometry import view_directions
+
+            d = view_directions(frame.sensor)
+            n = frame.normal
+            cos = -(n[..., 0] * d[..., 0] + n[..., 1] * d[..., 1] + n[..., 2] * d[..., 2])
+            if not ((frame.depth > 0) & (cos < np.cos(np.radians(self.max_angle_deg)) + 1e-6)).any():
+                return f"no surface beyond {self.max_angle_deg}° incidence"
+        return None
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
         steep = (frame.depth > 0) & (incidence_angle(frame) > np.radians(self.max_angle_deg))
@@ -126,7 +155,6 @@ class IncidenceDropout(Effect):
 _DIRECTIONS = np.array([(np.cos(a), np.sin(a)) for a in np.arange(8) * np.pi / 4])
 
 
-@effect
 @dataclass
 class Multipath(Effect):
     """A small positive range bias in concave corners (ToF multipath), deterministic.
@@ -143,6 +171,7 @@ class Multipath(Effect):
 
     name: ClassVar[str] = "multipath"
     needs_normals: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 300.0
     bias_m: float = 0.01
     radius_px: int = 8
     min_offset_m: float = 0.01
@@ -150,6 +179,13 @@ class Multipath(Effect):
     def __post_init__(self) -> None:
         if int(self.radius_px) < 1:
             raise ConfigError(f"multipath.radius_px: expected >= 1, got {self.radius_px}")
+
+    def plan(self, view: View) -> Decision | None:
+        if view.empty:
+            return Decision(False, "nothing in range or view")
+        if len(view.ids) == 1 and bool(view.convex[0]):
+            return Decision(False, "one convex object in view: no concave corner")
+        return Decision(True, f"{len(view.ids)} objects in view, or one not convex: concave corners possible")
 
     def share(self, frame: Frame) -> np.ndarray:
         """(H, W) float64: share of the 16 neighbours that face each pixel (0 where no return)."""

@@ -152,7 +152,8 @@ def test_shipped_profiles_load():
     zivid = gg.load_sensor("zivid2_m70")
     assert zivid.size == (972, 600) and zivid.meta["baseline_m"] == pytest.approx(0.135)
     assert np.degrees(2 * np.arctan(486 / zivid.fx)) == pytest.approx(38.8, abs=0.1)
-    assert [e.name for e in zivid.effects] == ["range", "stereo_shadow", "incidence_dropout", "depth_noise"]
+    assert [e.name for e in zivid.effects] == ["range", "stereo_shadow", "specular_loss", "incidence_dropout",
+                                               "depth_noise"]
     # 60 um point precision at 0.7 m, the figure the profile's sigma_d was derived from
     assert zivid.effects[-1].sigma(np.array([0.7]), zivid.fx, None, zivid)[0] == pytest.approx(60e-6, rel=0.02)
     with pytest.raises(gg.ConfigError, match="did you mean 'kinect_v2'"):

@@ -1,0 +1,150 @@
+"""``genie bench planning``: what a full sensor frame costs before and after planning, as
+multiples of the ideal render of the same view, measured side by side in one run.
+
+For each profile (the full RealSense D435 and the full Azure Kinect NFOV, multipath included)
+on a generated scene (the assembly line, cameras placed for the sensor's range):
+
+* ideal — the frame through the lens, no effect (what ``gg.render`` gives);
+* before — every effect of the profile run on every frame, nothing culled (the pipeline
+  before the planner);
+* planned — ``capture``'s path: the plan's culling and far plane, effects skipped where the
+  view or the frame cannot call for them (same output as running them).
+
+One more row: the Azure profile on a matte convex sphere, where the planner skips multipath
+(goal: within 5 % of the ideal render). Methods take turns frame by frame (the machine is
+noisy); the median of the per-frame ratios to the ideal is quoted. Goals (issue 12): D435 at
+<= 2x the ideal render, Azure with multipath at <= 3x.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--cameras", type=int, default=4)
+    p.add_argument("--rounds", type=int, default=3)
+
+
+def _before(sensor, pose, render, rng, materials):
+    """Every effect, every frame: the unplanned pipeline."""
+    normals = any(e.needs_normals for e in sensor.effects)
+    from ..sensors.distortion import render_through_lens
+
+    frame = render_through_lens(render, sensor, pose, normals=normals)   # as simulate renders it
+
+    def render_depth(view, view_pose):
+        return render(view, view_pose, depth_only=True).depth
+
+    def render_frame(view, view_pose, exclude=()):
+        keep = np.setdiff1d(materials.ids, np.asarray(exclude, np.uint32))
+        return render(view, view_pose, depth_only=True, only=keep)
+
+    for eff in sensor.effects:
+        kw = {}
+        if eff.needs_render:
+            kw.update(render_depth=render_depth, render_frame=render_frame)
+        if eff.needs_materials:
+            kw["materials"] = materials
+        if eff.name == "stereo_shadow":   # the second view always rendered, as before planning
+            eff = _AlwaysSecondView(**{f.name: getattr(eff, f.name) for f in dataclasses.fields(eff)})
+        frame = eff.apply(frame, rng, **kw)
+    return frame
+
+
+def _always():
+    from ..sensors.shadow import StereoShadow
+
+    class AlwaysSecondView(StereoShadow):
+        def casts_shadow(self, frame):
+            return True
+
+    return AlwaysSecondView
+
+
+_AlwaysSecondView = None
+
+
+def _time(fn) -> float:
+    t = time.perf_counter()
+    fn()
+    return 1e3 * (time.perf_counter() - t)
+
+
+def _rows(label, scene, sensor, poses, rounds):
+    import dataclasses
+
+    from ..plan import plan as make_plan
+    from ..render import Renderer
+    from ..sensors.simulate import simulate
+
+    p = make_plan(scene, sensor, poses)
+    ideal_sensor = dataclasses.replace(sensor, effects=())
+    ms = {"ideal": [], "before": [], "planned": []}
+    with Renderer(scene) as r:
+        for k, pose in enumerate(poses):   # warm: compiled kernels, caches, GL objects
+            simulate(sensor, pose, render=r.render, rng=np.random.default_rng(k), materials=p.materials,
+                     plan=p.frames[k])
+            _before(sensor, pose, r.render, np.random.default_rng(k), p.materials)
+        for _ in range(rounds):
+            for k, pose in enumerate(poses):
+                ms["ideal"].append(_time(lambda: simulate(ideal_sensor, pose, render=r.render,
+                                                          rng=np.random.default_rng(k))))
+                ms["before"].append(_time(lambda: _before(sensor, pose, r.render, np.random.default_rng(k),
+                                                          p.materials)))
+                ms["planned"].append(_time(lambda: simulate(sensor, pose, render=r.render,
+                                                            rng=np.random.default_rng(k),
+                                                            materials=p.materials, plan=p.frames[k])))
+        last = simulate(sensor, poses[0], render=r.render, rng=np.random.default_rng(0), materials=p.materials,
+                        plan=p.frames[0])
+    ideal = np.array(ms["ideal"])
+    row = {"case": label, "ideal_ms": round(float(np.median(ideal)), 1)}
+    # what a skipped effect costs, as a share of the ideal render (goal: under 5 %)
+    row["skipped_share"] = {e["name"]: round(e["ms"] / float(np.median(ideal)), 4)
+                            for e in last.meta["effects"] if not e["run"]}
+    for key in ("before", "planned"):
+        row[f"{key}_ms"] = round(float(np.median(ms[key])), 1)
+        row[f"{key}_x"] = round(float(np.median(np.array(ms[key]) / ideal)), 2)
+    return row
+
+
+def run(args: argparse.Namespace) -> int:
+    import trimesh
+
+    import genie_gl as gg
+    from ..render.projection import look_at
+    from ..resources import resolve
+    from ..scene.model import Material
+
+    global _AlwaysSecondView
+    _AlwaysSecondView = _always()
+    layout = gg.generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=0)
+    scene = gg.build_scene(layout, seed=0)
+    rows = []
+    for name in ("realsense_d435", "azure_kinect_nfov"):
+        sensor = gg.load_sensor(resolve(name, "sensors", (".yaml",)))
+        poses = gg.place_sensors(layout, sensor, n=args.cameras, seed=0)
+        rows.append(_rows(f"{name}, assembly line", scene, sensor, poses, args.rounds))
+        print(rows[-1], flush=True)
+    sphere = gg.Scene()
+    sphere.add(trimesh.creation.icosphere(subdivisions=4, radius=0.5), np.eye(4), semantic=1,
+               material=Material((0.5, 0.5, 0.5), 0.0, 0.9))
+    azure = gg.load_sensor(resolve("azure_kinect_nfov", "sensors", (".yaml",)))
+    pose = look_at([0.0, 0.0, 2.0], [0.0, 0.0, 0.0], up=(0, 1, 0))
+    rows.append(_rows("azure_kinect_nfov, matte convex sphere", sphere, azure, [pose] * 2, args.rounds))
+    print(rows[-1], flush=True)
+    print(f"\n{'case':<42} {'ideal ms':>9} {'before':>14} {'planned':>14}   skipped effects (share of the render)")
+    for r in rows:
+        skipped = ", ".join(f"{k} {100 * v:.1f} %" for k, v in r["skipped_share"].items()) or "-"
+        print(f"{r['case']:<42} {r['ideal_ms']:>9.1f} {r['before_ms']:>7.1f} ({r['before_x']:>4.2f}x)"
+              f" {r['planned_ms']:>7.1f} ({r['planned_x']:>4.2f}x)   {skipped}")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "planning.json").write_text(json.dumps({"rows": rows, "goals": {"realsense_d435": 2.0,
+                                                                           "azure_kinect_nfov": 3.0}}, indent=1))
+    return 0

@@ -1,0 +1,86 @@
+"""``genie plan --scene SCENE.usda --sensor PROFILE [--cameras K | --poses FILE] [--json]``.
+
+Prints, before anything is rendered, what a capture of the scene would do: per effect how
+many frames run it, skip it (and why) or decide on the rendered frame; frames with nothing in
+range; the instances culled; the predicted time of the capture and of a dataset run of
+``--scenes`` such scenes.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ConfigError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scene", required=True, help="USD scene (.usda/.usdc/.usd)")
+    p.add_argument("--sensor", default="ideal_pinhole", help="sensor profile name or path")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--cameras", type=int, default=8, help="cameras placed inside the scene (default 8)")
+    g.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] world_from_camera")
+    p.add_argument("--mount", type=float, default=None,
+                   help="camera height above the floor (m); default: chosen for the sensor's range")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--scenes", type=int, default=1, help="scenes of a dataset run, for the predicted time")
+    p.add_argument("--json", action="store_true", help="print the whole plan as JSON")
+
+
+def read_poses(path: str | Path) -> list[np.ndarray]:
+    """Poses from a .npy (K, 4, 4) array or a JSON list of 4x4 matrices."""
+    path = Path(path)
+    try:
+        data = np.load(path) if path.suffix == ".npy" else np.array(json.loads(path.read_text()), dtype=np.float64)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{path}: cannot read poses ({exc}); expected .npy (K, 4, 4) or JSON [[4x4], ...]") from None
+    data = np.asarray(data, dtype=np.float64)
+    if data.ndim != 3 or data.shape[1:] != (4, 4) or not np.isfinite(data).all():
+        raise ConfigError(f"{path}: poses: expected K finite 4x4 matrices, got shape {data.shape}")
+    return list(data)
+
+
+def scene_sensor_poses(args: argparse.Namespace):
+    from .scene.model import Scene
+    from .sensors import load_sensor
+    from .sensors.placement import scene_poses
+
+    if getattr(args, "cameras", 1) is not None and args.cameras < 1:
+        raise ConfigError("--cameras must be >= 1")
+    sensor = load_sensor(args.sensor)
+    scene = Scene.from_usd(args.scene)
+    if getattr(args, "poses", None):
+        poses = read_poses(args.poses)
+    else:
+        poses = scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.mount)
+    return scene, sensor, poses
+
+
+def warn_empty(plan, command: str) -> None:
+    for f in plan.frames:
+        if f.empty:
+            print(f"genie {command}: warning: frame {f.index}: {f.reason} (its cloud will be empty)", file=sys.stderr)
+
+
+def run(args: argparse.Namespace) -> int:
+    from .plan import plan as make_plan
+
+    scene, sensor, poses = scene_sensor_poses(args)
+    p = make_plan(scene, sensor, poses)
+    if args.json:
+        out = p.to_dict()
+        out["predicted_dataset_s"] = round(p.predicted_s * max(1, args.scenes), 3)
+        print(json.dumps(out, indent=1))
+    else:
+        print(p.summary())
+        for f in p.frames:
+            culled = f"{len(f.culled_range)} culled by range" if len(f.culled_range) else "none culled by range"
+            print(f"  frame {f.index}: {len(f.drawn)} drawn, {culled}, far plane {f.far_m:.2f} m, "
+                  f"~{f.cost_ms:.0f} ms" + (f" — {f.reason}" if f.empty else ""))
+        print(f"predicted: {p.predicted_s:.2f} s for this capture; {p.predicted_s * max(1, args.scenes):.1f} s "
+              f"of capture for {max(1, args.scenes)} scene(s) of {len(poses)} cameras")
+    warn_empty(p, "plan")
+    return 0

@@ -1,0 +1,111 @@
+"""Active stereo and structured light on shiny and clear surfaces: returns lost where the
+projected pattern does not come back.
+
+A D400 or a Zivid matches a projected pattern; a Lambertian surface scatters it back to the
+imager, a mirror-like one sends it away (bare metal, whose reflection is all specular, keeps
+no pattern below ``metal_min_roughness``), and at near-mirror angles (incidence under
+``glare_deg``) a reflective surface sends the projector's light straight into the imager and
+saturates it. A clear surface (opacity < 0.5: safety glass, polycarbonate guards) shows no
+pattern of its own: a structured-light camera gets nothing there (``transparent: drop``), an
+active stereo pair matches what lies behind it (``transparent: behind``).
+
+Figures are engineering ones [U: no datasheet gives them; vendors' application notes on
+shiny and transparent objects describe the behaviour, not thresholds].
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..frame import Frame
+from . import kernels
+from .effect import Decision, Effect, View, drop, record
+from .geometry import pixel_rays
+
+TRANSPARENT = ("drop", "behind")
+
+
+@dataclass
+class SpecularLoss(Effect):
+    """No return on shiny surfaces at mirror angles or without a diffuse part; clear surfaces
+    return nothing or what lies behind them."""
+
+    name: ClassVar[str] = "specular_loss"
+    needs_materials: ClassVar[bool] = True
+    needs_render: ClassVar[bool] = True
+    cost_ms_per_mpx: ClassVar[float] = 30.0
+    glare_deg: float = 8.0
+    metal_min_roughness: float = 0.25
+    transparent: str = "drop"
+
+    def __post_init__(self) -> None:
+        if self.transparent not in TRANSPARENT:
+            raise ConfigError(f"specular_loss.transparent: expected drop or behind, got {self.transparent!r}")
+        if not 0 <= self.glare_deg < 90:
+            raise ConfigError(f"specular_loss.glare_deg: expected 0 <= angle < 90, got {self.glare_deg}")
+
+    def plan(self, view: View) -> Decision | None:
+        if view.empty:
+            return Decision(False, "nothing in range or view")
+        if not view.reflective.any() and not view.transparent.any():
+            return Decision(False, "no shiny or clear surface in view")
+        return None
+
+    def _kinds(self, frame: Frame, materials: Any) -> tuple[np.ndarray, int]:
+        """Per pixel a code (bit 0 shiny, bit 1 shiny metal without a diffuse part, bit 2
+        clear; (H, W) uint8) and how many pixels have one; the last frame's are kept, so
+        check() and apply() of one frame look them up once."""
+        memo = self.__dict__.get("_memo")
+        if memo is not None and memo[0] is frame.instance and memo[1] is frame.depth and memo[2] is materials:
+            return memo[3]
+        kinds = self._lookup(frame, materials)
+        self.__dict__["_memo"] = (frame.instance, frame.depth, materials, kinds)
+        return kinds
+
+    def _lookup(self, frame: Frame, materials: Any) -> tuple[np.ndarray, int]:
+        m = materials
+        code = (((m.metallic >= 0.5) | (m.roughness <= 0.3)).astype(np.uint8)
+                | (((m.metallic >= 0.5) & (m.roughness < self.metal_min_roughness)) << 1).astype(np.uint8)
+                | ((m.opacity < 0.5) << 2).astype(np.uint8))
+        by_id = m.per_pixel(code, np.arange(int(m.ids[-1]) + 2 if len(m.ids) else 1, dtype=np.uint32))
+        return kernels.pixel_codes(frame.depth, frame.instance, np.ascontiguousarray(by_id, np.uint8))
+
+    def check(self, frame: Frame, *, materials: Any = None, **needs: Any) -> str | None:
+        if materials is None or not (frame.depth > 0).any():
+            return "no return in the frame" if materials is not None else None
+        _, n = self._kinds(frame, materials)
+        if n == 0:
+            self.__dict__.pop("_memo", None)
+            return "no shiny or clear surface visible"
+        return None
+
+    def apply(self, frame: Frame, rng: np.random.Generator, *, materials: Any = None,
+              render_frame: Any = None, **needs: Any) -> Frame:
+        if materials is None:
+            raise ConfigError("specular_loss needs the scene's materials: run it through simulate()/capture()")
+        kind, n = self._kinds(frame, materials)
+        self.__dict__.pop("_memo", None)   # the frame's buffers are not kept past its run
+        if n == 0:
+            return record(frame, self.name, dropped=0, behind=0)
+        # incidence only where it matters: the shiny pixels
+        normal = frame.normal if frame.normal is not None else np.zeros((0, 0, 3), np.float32)
+        lost, _ = kernels.specular_lost(frame.depth, pixel_rays(frame.sensor), normal, kind,
+                                        float(np.cos(np.radians(self.glare_deg))))
+        clear = (kind & 4).astype(bool)
+        behind = 0
+        out = frame
+        if clear.any() and self.transparent == "behind" and render_frame is not None:
+            glass = np.unique(frame.instance[clear])
+            seen = render_frame(frame.sensor, frame.world_from_camera, exclude=glass)
+            take = clear & ~lost
+            d, i, s = frame.depth.copy(), frame.instance.copy(), frame.semantic.copy()
+            d[take], i[take], s[take] = seen.depth[take], seen.instance[take], seen.semantic[take]
+            out = frame.replace(depth=d, instance=i, semantic=s)
+            behind = int(take.sum())
+        else:
+            lost |= clear
+        out = drop(out, lost) if lost.any() else out
+        return record(out, self.name, dropped=int(lost.sum()), behind=behind)
