@@ -10,7 +10,9 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 GENIE := $(VENV)/bin/genie
-APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6
+# GL for the renderer (EGL/Mesa, OSMesa fallback); libgl1, libx11-6, libusb-1.0-0 and libgomp1
+# for Open3D, one of the independent readers the tests use
+APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6 libgl1 libx11-6 libusb-1.0-0 libgomp1
 STAMP := $(VENV)/.setup-stamp
 OUT ?= out
 SEED ?= 0
@@ -21,7 +23,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test demo bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability \
+.PHONY: help setup system-deps test test-slow mutants demo bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -29,6 +31,8 @@ help: ## list the targets
 
 system-deps: ## install the system GL libraries (EGL/Mesa, OSMesa) with apt-get when missing
 	@if ! ldconfig -p | grep -q 'libEGL_mesa.so.0' || ! ldconfig -p | grep -q 'libOSMesa.so' \
+	    || ! ldconfig -p | grep -q 'libusb-1.0.so.0' || ! ldconfig -p | grep -q 'libGL.so.1' \
+	    || ! ldconfig -p | grep -q 'libgomp.so.1' || ! ldconfig -p | grep -q 'libX11.so.6' \
 	    || ! ls /usr/lib/*/dri/swrast_dri.so >/dev/null 2>&1; then \
 	  echo "installing $(APT_PACKAGES)"; \
 	  SUDO=$$( [ "$$(id -u)" = 0 ] && echo "" || echo sudo ); \
@@ -47,8 +51,17 @@ $(STAMP): pyproject.toml
 
 setup: $(STAMP) ## install system libraries, create .venv and install genie-gl with its test extras
 
-test: setup ## run the test suite (real GL on EGL/llvmpipe)
+test: setup ## run the test suite (real GL on EGL/llvmpipe); tests marked slow are left to test-slow
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+test-slow: setup ## run only the slow tests (the cloud kernels again with numba's bounds checks on)
+	$(PY) -m pytest $(PYTEST_ARGS) -m slow
+
+MUTANT_MODULES ?= all
+MUTANT_TIMEOUT ?= 1200
+mutants: setup ## mutation testing of the numerical core: kill rate per module and the surviving mutants
+	$(PY) -m pip install -q -e ".[mutants]"
+	$(PY) tools/mutants.py --modules $(MUTANT_MODULES) --timeout $(MUTANT_TIMEOUT)
 
 demo: setup ## generate a 3-scene demo dataset with preview pictures into out/demo
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \

@@ -8,7 +8,10 @@ on a generated scene (the assembly line, cameras placed for the sensor's range):
 * before — every effect of the profile run on every frame, nothing culled (the pipeline
   before the planner);
 * planned — ``capture``'s path: the plan's culling and far plane, effects skipped where the
-  view or the frame cannot call for them (same output as running them).
+  view or the frame cannot call for them (same output as running them);
+* reference — the planned path with the effects' reference computations where a fused one
+  replaced them (noise drawn by numpy's ``rng.standard_normal(n)`` before the compiled pass;
+  the shadow mask, then ``drop``): the same bytes, checked on every view before timing.
 
 One more row: the Azure profile on a matte convex sphere, where the planner skips multipath
 (goal: within 5 % of the ideal render). Methods take turns frame by frame (the machine is
@@ -70,6 +73,49 @@ def _always():
 _AlwaysSecondView = None
 
 
+def _reference(sensor):
+    """``sensor`` with its fused effects replaced by their reference computations."""
+    from ..sensors import kernels
+    from ..sensors.effect import drop, record
+    from ..sensors.effects import DepthNoise
+    from ..sensors.geometry import pixel_rays
+    from ..sensors.shadow import StereoShadow
+
+    class NumpyDraws(DepthNoise):
+        def apply(self, frame, rng):
+            if self.model not in ("stereo", "tof_linear"):
+                return super().apply(frame, rng)
+            draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
+            if self.model == "stereo":
+                depth, lost = kernels.stereo_noise(frame.depth, draws, frame.sensor.fx * self.baseline(frame.sensor),
+                                                   self.sigma_d_px(frame.sensor), float(self.subpixel_step))
+            else:
+                depth, lost = kernels.linear_noise(frame.depth, draws, float(self.a_m), float(self.b),
+                                                   float(self.z0_m))
+            out = frame.replace(depth=depth)
+            return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
+
+    class MaskThenDrop(StereoShadow):
+        def apply(self, frame, rng, *, render_depth=None, **needs):
+            if not (frame.depth > 0).any():
+                return frame
+            second, view = self.second_from_first(frame.sensor), self.view_sensor(frame.sensor)
+            rendered = self.casts_shadow(frame)
+            depth2 = (render_depth(view, frame.world_from_camera @ np.linalg.inv(second)) if rendered
+                      else np.zeros((1, 1), np.float32))
+            gone, occluded, outside = kernels.shadow_mask(
+                frame.depth, pixel_rays(frame.sensor), np.ascontiguousarray(second[:3, :3]),
+                np.ascontiguousarray(second[:3, 3]), view.K, view.width, view.height, float(view.near_m), depth2,
+                rendered, float(self.tolerance_m), float(self.tolerance_rel))
+            out = drop(frame, gone) if gone.any() else frame
+            return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=rendered)
+
+    swap = {DepthNoise: NumpyDraws, StereoShadow: MaskThenDrop}
+    effects = tuple(swap[type(e)](**{f.name: getattr(e, f.name) for f in dataclasses.fields(e)})
+                    if type(e) in swap else e for e in sensor.effects)
+    return dataclasses.replace(sensor, effects=effects)
+
+
 def _time(fn) -> float:
     t = time.perf_counter()
     fn()
@@ -85,11 +131,14 @@ def _rows(label, scene, sensor, poses, rounds):
 
     p = make_plan(scene, sensor, poses)
     ideal_sensor = dataclasses.replace(sensor, effects=())
-    ms = {"ideal": [], "before": [], "planned": []}
+    reference = _reference(sensor)
+    ms = {"ideal": [], "before": [], "reference": [], "planned": []}
     with Renderer(scene) as r:
         for k, pose in enumerate(poses):   # warm: compiled kernels, caches, GL objects
-            simulate(sensor, pose, render=r.render, rng=np.random.default_rng(k), materials=p.materials,
-                     plan=p.frames[k])
+            a, b = (simulate(s, pose, render=r.render, rng=np.random.default_rng(k), materials=p.materials,
+                             plan=p.frames[k]) for s in (sensor, reference))
+            if any(getattr(a, n).tobytes() != getattr(b, n).tobytes() for n in ("depth", "instance", "semantic")):
+                raise AssertionError(f"{label}: the fused effects differ from their reference on view {k}")
             _before(sensor, pose, r.render, np.random.default_rng(k), p.materials)
         for _ in range(rounds):
             for k, pose in enumerate(poses):
@@ -97,6 +146,9 @@ def _rows(label, scene, sensor, poses, rounds):
                                                           rng=np.random.default_rng(k))))
                 ms["before"].append(_time(lambda: _before(sensor, pose, r.render, np.random.default_rng(k),
                                                           p.materials)))
+                ms["reference"].append(_time(lambda: simulate(reference, pose, render=r.render,
+                                                              rng=np.random.default_rng(k),
+                                                              materials=p.materials, plan=p.frames[k])))
                 ms["planned"].append(_time(lambda: simulate(sensor, pose, render=r.render,
                                                             rng=np.random.default_rng(k),
                                                             materials=p.materials, plan=p.frames[k])))
@@ -107,7 +159,7 @@ def _rows(label, scene, sensor, poses, rounds):
     # what a skipped effect costs, as a share of the ideal render (goal: under 5 %)
     row["skipped_share"] = {e["name"]: round(e["ms"] / float(np.median(ideal)), 4)
                             for e in last.meta["effects"] if not e["run"]}
-    for key in ("before", "planned"):
+    for key in ("before", "reference", "planned"):
         row[f"{key}_ms"] = round(float(np.median(ms[key])), 1)
         row[f"{key}_x"] = round(float(np.median(np.array(ms[key]) / ideal)), 2)
     return row
@@ -138,10 +190,12 @@ def run(args: argparse.Namespace) -> int:
     pose = look_at([0.0, 0.0, 2.0], [0.0, 0.0, 0.0], up=(0, 1, 0))
     rows.append(_rows("azure_kinect_nfov, matte convex sphere", sphere, azure, [pose] * 2, args.rounds))
     print(rows[-1], flush=True)
-    print(f"\n{'case':<42} {'ideal ms':>9} {'before':>14} {'planned':>14}   skipped effects (share of the render)")
+    print(f"\n{'case':<42} {'ideal ms':>9} {'before':>14} {'planned, ref.':>14} {'planned':>14}"
+          "   skipped effects (share of the render)")
     for r in rows:
         skipped = ", ".join(f"{k} {100 * v:.1f} %" for k, v in r["skipped_share"].items()) or "-"
         print(f"{r['case']:<42} {r['ideal_ms']:>9.1f} {r['before_ms']:>7.1f} ({r['before_x']:>4.2f}x)"
+              f" {r['reference_ms']:>7.1f} ({r['reference_x']:>4.2f}x)"
               f" {r['planned_ms']:>7.1f} ({r['planned_x']:>4.2f}x)   {skipped}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -126,4 +126,4 @@ def drop(frame: Frame, mask: np.ndarray, depth: np.ndarray | None = None) -> Fra
     if normal is not None and mask.any():
         normal = normal.copy()
         normal[mask] = 0
-    return frame.replace(depth=d.astype(np.float32), instance=inst, semantic=sem, normal=normal)
+    return frame.replace(depth=d.astype(np.float32, copy=False), instance=inst, semantic=sem, normal=normal)

@@ -156,16 +156,15 @@ class DepthNoise(Effect):
         return theta
 
     def apply(self, frame: Frame, rng: np.random.Generator) -> Frame:
-        if self.model == "stereo":   # one compiled pass; the draws in the same order as below
+        if self.model == "stereo":   # one compiled pass drawing from rng: the draws as below
             fb = frame.sensor.fx * self.baseline(frame.sensor)
-            draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
-            depth, lost = kernels.stereo_noise(frame.depth, draws, fb, self.sigma_d_px(frame.sensor),
-                                               float(self.subpixel_step))
+            depth, lost = kernels.stereo_noise_rng(frame.depth, rng, fb, self.sigma_d_px(frame.sensor),
+                                                   float(self.subpixel_step))
             out = frame.replace(depth=depth)
             return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
         if self.model == "tof_linear":
-            draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
-            depth, lost = kernels.linear_noise(frame.depth, draws, float(self.a_m), float(self.b), float(self.z0_m))
+            depth, lost = kernels.linear_noise_rng(frame.depth, rng, float(self.a_m), float(self.b),
+                                                   float(self.z0_m))
             out = frame.replace(depth=depth)
             return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
         z = frame.depth.astype(np.float64)

@@ -83,6 +83,26 @@ def test_semantickitti_reads_back_as_its_api_does(tmp_path):
     import yaml
     cfg = yaml.safe_load((tmp_path / "genie-gl.yaml").read_text())
     assert {"labels", "color_map", "learning_map", "learning_map_inv", "learning_ignore", "content"} <= set(cfg)
+    # content: each class's share of the points (SemanticKITTI's frequencies), from the first scan
+    for k, share in cfg["content"].items():
+        assert share == pytest.approx(np.mean(c.semantic == k))
+
+
+def test_semantickitti_label_words_are_the_documented_bits(tmp_path):
+    """The .label file holds, per point, the little-endian uint32 semantic + 65536 · instance
+    (SemanticKITTI's README: lower 16 bits the class, upper 16 the instance), written out by
+    hand here for ids that set the high bits of both halves."""
+    sem = np.array([0, 1, 9, 255, 40000, 65535], np.uint16)
+    inst = np.array([0, 1, 2, 32769, 65535, 70001], np.uint32)   # 70001 keeps its low 16 bits
+    words = [0, 1 + 65536, 9 + 2 * 65536, 255 + 32769 * 65536, 40000 + 65535 * 65536, 65535 + 4465 * 65536]
+    raw = b"".join(int(w).to_bytes(4, "little") for w in words)
+    assert semantickitti.pack_labels(sem, inst).tobytes() == raw
+    c = gg.PointCloud(np.arange(18, dtype=np.float32).reshape(6, 3), sem, inst, np.zeros(3))
+    gg.export(c, tmp_path, format="semantickitti")
+    assert (tmp_path / "sequences/00/labels/000000.label").read_bytes() == raw
+    xyz, s2, i2 = semantickitti.read(tmp_path / "sequences/00/velodyne/000000.bin")
+    np.testing.assert_array_equal(s2, sem)
+    np.testing.assert_array_equal(i2, inst & 0xFFFF)
 
 
 def test_ply_reads_in_plyfile_and_open3d(tmp_path):
@@ -94,7 +114,7 @@ def test_ply_reads_in_plyfile_and_open3d(tmp_path):
     np.testing.assert_array_equal(v["semantic"], c.semantic)
     np.testing.assert_array_equal(v["instance"], c.instance)
     np.testing.assert_array_equal(np.stack([v["red"], v["green"], v["blue"]], 1), c.rgb)
-    o3d = pytest.importorskip("open3d")
+    import open3d as o3d  # installed by the test extra: a missing reader fails, never skips
     pc = o3d.io.read_point_cloud(str(path))
     np.testing.assert_allclose(np.asarray(pc.points), c.xyz, rtol=1e-6)
     np.testing.assert_allclose(np.asarray(pc.colors) * 255, c.rgb, atol=0.5)
@@ -111,10 +131,65 @@ def test_pcd_and_npz_read_back(tmp_path):
     rec = np.frombuffer(body, dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("rgb", "<u4"),
                                      ("label", "<u4"), ("instance", "<u4")])
     np.testing.assert_array_equal(rec["label"], c.semantic)
-    o3d = pytest.importorskip("open3d")
+    import open3d as o3d  # installed by the test extra: a missing reader fails, never skips
     np.testing.assert_allclose(np.asarray(o3d.io.read_point_cloud(str(path)).points), c.xyz, rtol=1e-6)
     with pytest.raises(gg.ConfigError, match="did you mean 'ply'"):
         gg.export(c, tmp_path, format="plyy")
+
+
+def test_pcd_header_and_packed_colour_as_pcl_reads_them(tmp_path):
+    """PCL's header words (upper-case types) and rgb packed as 0x00RRGGBB, written out by hand
+    and read back by Open3D; the origin in the comment; npz and ply with normals round-trip."""
+    import open3d as o3d
+    import plyfile
+
+    from genie_gl.export import npz
+
+    c = random_cloud(300)
+    c = gg.PointCloud(c.xyz, c.semantic, c.instance, c.origin, c.rgb,
+                      np.random.default_rng(5).normal(size=(300, 3)).astype(np.float32))
+    pcd_path = gg.export(c, tmp_path, format="pcd")
+    header, body = pcd_path.read_bytes().split(b"DATA binary\n", 1)
+    lines = header.decode().splitlines()
+    assert lines[1:] == ["VERSION 0.7", "FIELDS x y z rgb label instance", "SIZE 4 4 4 4 4 4", "TYPE F F F U U U",
+                         "COUNT 1 1 1 1 1 1", "WIDTH 300", "HEIGHT 1", "VIEWPOINT 0 0 0 1 0 0 0", "POINTS 300"]
+    assert lines[0].endswith(f"({c.origin[0]!r} {c.origin[1]!r} {c.origin[2]!r})")
+    rgb = np.frombuffer(body, "<u4").reshape(300, 6)[:, 3]
+    r, g, b = (c.rgb[:, k].astype(np.int64) for k in range(3))
+    np.testing.assert_array_equal(rgb, r * 65536 + g * 256 + b)
+    pc = o3d.io.read_point_cloud(str(pcd_path))
+    np.testing.assert_allclose(np.asarray(pc.colors) * 255, c.rgb, atol=0.5)
+    v = plyfile.PlyData.read(str(gg.export(c, tmp_path, format="ply")))
+    np.testing.assert_array_equal(np.stack([v["vertex"][k] for k in ("nx", "ny", "nz")], 1), c.normal)
+    origin = [float(x) for x in v.comments[1].split()[1:]]
+    np.testing.assert_array_equal(origin, c.origin)
+    back = npz.read(gg.export(c, tmp_path, format="npz"))
+    for k in ("xyz", "origin", "semantic", "instance", "rgb", "normal"):
+        np.testing.assert_array_equal(getattr(back, k), getattr(c, k))
+
+
+def test_semantickitti_sequence_files_for_several_scans(tmp_path):
+    """poses.txt and times.txt get one line per scan, in scan order, whatever order the scans
+    are written in; calib.txt is the identity for every matrix; scans read back as float32."""
+    clouds = [gg.PointCloud(random_cloud(50, seed=k).xyz, np.full(50, k, np.uint16), np.zeros(50, np.uint32),
+                            np.array([10.0 * k, -1.0, 0.5])) for k in range(3)]
+    for k in (1, 0, 2):
+        semantickitti.write(clouds[k], tmp_path, sequence=4, frame=k)
+    seq = tmp_path / "sequences" / "04"
+    poses = [np.array(line.split(), float).reshape(3, 4) for line in (seq / "poses.txt").read_text().splitlines()]
+    assert len(poses) == 3
+    for k, P in enumerate(poses):
+        np.testing.assert_array_equal(P, np.c_[np.eye(3), clouds[k].origin])
+    assert [float(t) for t in (seq / "times.txt").read_text().splitlines()] == [0.0, 1.0, 2.0]
+    for line in (seq / "calib.txt").read_text().splitlines():
+        name, values = line.split(":")
+        np.testing.assert_array_equal(np.array(values.split(), float).reshape(3, 4), np.eye(4)[:3])
+    xyz, sem, inst = semantickitti.read(seq / "velodyne" / "000002.bin")
+    assert xyz.dtype == np.float32 and xyz.shape == (50, 3)
+    np.testing.assert_array_equal(xyz, clouds[2].xyz)
+    assert (sem == 2).all()
+    raw = np.fromfile(seq / "velodyne" / "000002.bin", "<f4").reshape(-1, 4)
+    assert (raw[:, 3] == 0).all()   # remission: none
 
 
 def test_exports_are_byte_identical_for_the_same_input(tmp_path):
@@ -128,13 +203,30 @@ def test_exports_are_byte_identical_for_the_same_input(tmp_path):
 def test_sampling_and_cleaning():
     c = random_cloud(5000)
     v = voxel_downsample(c, 0.5)
-    keys = np.floor(v.xyz / 0.5).astype(int)
-    assert len(np.unique(keys, axis=0)) == len(v)
+    # the truth, one point at a time: the first point met in each occupied voxel, in order
+    first: dict[tuple, int] = {}
+    for i, p in enumerate(c.xyz.astype(np.float64)):
+        first.setdefault(tuple(int(k) for k in np.floor(p / 0.5)), i)
+    keep = np.array(sorted(first.values()))
+    assert len(v) == len(first) > 500
+    np.testing.assert_array_equal(v.xyz, c.xyz[keep])
+    np.testing.assert_array_equal(v.semantic, c.semantic[keep])
+    np.testing.assert_array_equal(v.instance, c.instance[keep])
+    np.testing.assert_array_equal(v.rgb, c.rgb[keep])
+    full = to_cloud([plane_frame(np.eye(4))])
     s = to_cloud([plane_frame(np.eye(4))], max_points=100, rng=np.random.default_rng(0))
     assert len(s) == 100
+    # a subset of the full cloud, without repeats, in the cloud's order
+    idx = [int(np.flatnonzero((full.xyz == p).all(1))[0]) for p in s.xyz]
+    assert len(set(idx)) == 100 and idx == sorted(idx)
+    assert random_downsample(full, 10**6, rng=np.random.default_rng(0)) is full
     assert keep_cloud(c, min_points=10)[0]
     assert keep_cloud(c.select(c.semantic == 0), min_points=1) == (False, "background only")
-    assert not keep_cloud(c, min_points=10**6)[0]
+    assert keep_cloud(c, min_points=10**6) == (False, f"5000 points < {10**6}")
+    assert keep_cloud(c, min_points=5000)[0]
+    labelled = c.select(np.r_[np.flatnonzero(c.semantic != 0)[:10], np.flatnonzero(c.semantic == 0)[:190]])
+    assert keep_cloud(labelled, min_points=1, min_labelled_share=0.05)[0]          # 10 / 200 = 0.05
+    assert keep_cloud(labelled, min_points=1, min_labelled_share=0.051) == (False, "labelled share 0.050 < 0.051")
 
 
 def reference_points(f):
@@ -199,3 +291,30 @@ def test_chunks_down_sample_each_tile_as_random_downsample_does():
     for (i, j), t in tiles:
         ij = np.floor(t.xyz[:, :2] / 2.5)
         assert (ij == [i, j]).all()
+
+
+def test_single_frame_unprojection_with_normals_colour_and_an_origin():
+    """unproject(frame, origin=, camera_index=): points relative to the origin, normals turned
+    into the world by the pose (float64 truth), colours and the camera index per point."""
+    rng = np.random.default_rng(8)
+    pose = look_at([2.0, -3.0, 1.5], [0.0, 0.5, 0.2])
+    s = gg.Sensor(40, 30, np.array([[35.0, 0, 19.5], [0, 37.0, 14.5], [0, 0, 1]]))
+    d = rng.uniform(0.3, 4, (30, 40)).astype(np.float32)      # below 1 m too
+    d[rng.random(d.shape) < 0.2] = 0
+    n_cam = rng.normal(size=(30, 40, 3)).astype(np.float32)
+    rgb = rng.integers(0, 256, (30, 40, 3)).astype(np.uint8)
+    ids = rng.integers(1, 9, d.shape)
+    f = gg.Frame(d, ids.astype(np.uint32), ids.astype(np.uint16), rgb, s, pose, n_cam)
+    origin = np.array([1e4, -2.0, 3.0])
+    c = unproject(f, origin=origin, camera_index=5)
+    valid = d > 0
+    assert len(c) == valid.sum()
+    np.testing.assert_array_equal(c.origin, origin)
+    np.testing.assert_allclose(c.world_xyz, reference_points(f), atol=2e-3)   # float32 relative to 1e4
+    np.testing.assert_allclose(c.normal, n_cam[valid].astype(np.float64) @ pose[:3, :3].T, atol=1e-5)
+    np.testing.assert_array_equal(c.rgb, rgb[valid])
+    np.testing.assert_array_equal(c.instance, ids[valid])
+    assert (c.camera == 5).all() and c.camera.dtype == np.uint16
+    plain = unproject(f.replace(normal=None, rgb=None))
+    assert plain.normal is None and plain.rgb is None and not plain.origin.any()
+    np.testing.assert_allclose(plain.world_xyz, reference_points(f), atol=1e-5)

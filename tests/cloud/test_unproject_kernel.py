@@ -17,6 +17,17 @@ def reference(depth, tx, ty, M, sem, inst, rgb):
     return xyz, sem[m], inst[m], None if rgb is None else rgb[m][:, :3]
 
 
+def first_principles(depth, tx, ty, M):
+    """Independent truth in float64: a pixel is a return only if its depth is a finite
+    positive number; its point is the pose applied to depth · (x, y, 1)."""
+    H, W = depth.shape
+    d = depth.astype(np.float64)
+    ok = np.isfinite(d) & (np.nan_to_num(d, nan=-1.0) > 0)
+    rays = np.stack([np.broadcast_to(tx, (H, W)), np.broadcast_to(ty, (H, W)), np.ones((H, W))], -1)[ok]
+    Md = M.astype(np.float64)
+    return (rays.astype(np.float64) * d[ok][:, None]) @ Md[:, :3].T + Md[:, 3]
+
+
 def patterned_depth(rng, H, W, pattern):
     d = rng.uniform(0.3, 40.0, (H, W)).astype(np.float32)
     if pattern == "scattered":  # random dropout: pixel-by-pixel path
@@ -26,6 +37,11 @@ def patterned_depth(rng, H, W, pattern):
             for _ in range(rng.integers(0, 6)):
                 a = rng.integers(0, W)
                 d[v, a:a + rng.integers(1, 150)] = 0
+    elif pattern == "nan_scattered":  # NaN, negative and zero holes in words of many runs
+        r = rng.random((H, W))
+        d[r < 0.2] = np.nan
+        d[(r >= 0.2) & (r < 0.3)] = -rng.uniform(0.1, 5.0, int(((r >= 0.2) & (r < 0.3)).sum()))
+        d[(r >= 0.3) & (r < 0.35)] = 0
     elif pattern == "empty":
         d[:] = 0
     elif pattern == "mixed":  # words of every kind in one frame, NaN and negative depths invalid
@@ -38,7 +54,7 @@ def patterned_depth(rng, H, W, pattern):
 
 
 @pytest.mark.parametrize("W", [5, 64, 200, 640, 848])
-@pytest.mark.parametrize("pattern", ["full", "scattered", "runs", "empty", "mixed"])
+@pytest.mark.parametrize("pattern", ["full", "scattered", "runs", "empty", "mixed", "nan_scattered"])
 @pytest.mark.parametrize("separable", [True, False])
 def test_kernel_writes_exactly_the_reference_points(W, pattern, separable):
     rng = np.random.default_rng(W * 7 + len(pattern))
@@ -58,6 +74,11 @@ def test_kernel_writes_exactly_the_reference_points(W, pattern, separable):
         src = np.zeros((0, 0, 3), np.uint8) if rgb is None else rgb
         n = kernels.unproject(depth, tx, ty, M, sem, inst, src, xyz, so, io, co)
         assert n == n_ref
+        if rgb is None:  # the count and the points against first principles (NaN is no return)
+            truth = first_principles(depth, tx, ty, M)
+            assert n == len(truth)
+            scale = np.abs(truth).max() if len(truth) else 1.0
+            np.testing.assert_allclose(xyz[:n], truth, rtol=0, atol=1e-5 * scale)
         rx, rs, ri, rc = reference(depth, tx, ty, M, sem, inst, rgb)
         np.testing.assert_array_equal(xyz[:n], rx)  # bit for bit: both paths, same expression
         np.testing.assert_array_equal(so[:n], rs)

@@ -187,6 +187,11 @@ ZERO = {"lateral_noise": dict(model="constant", sigma_px=0.0), "flying_pixels": 
         "incidence_dropout": dict(max_angle_deg=90.0), "range": {}, "ambiguity": dict(ambiguity_m=1e6)}
 
 
+# strengths that must change scene_like() (defaults where they already do)
+STRONG = {"range": dict(min_m=1.5, max_m=3.5), "incidence_dropout": dict(max_angle_deg=30.0),
+          "edge_dropout": dict(span_m=0.5), "ambiguity": dict(ambiguity_m=2.5)}
+
+
 def scene_like():
     """A frame with a hole, a step and a slanted part."""
     d = np.full((H, W), 3.0)
@@ -206,7 +211,7 @@ def test_zero_strength_effects_give_the_ideal_frame_and_strong_ones_stay_finite(
                    render=lambda sensor, pose, **kw: f.replace(sensor=sensor), rng=np.random.default_rng(0))
     assert out.depth.tobytes() == f.depth.tobytes() and out.instance.tobytes() == f.instance.tobytes()
     assert out.normal is None
-    strong = EFFECTS[name]()
+    strong = EFFECTS[name](**STRONG.get(name, {}))
     a = simulate(gg.Sensor(s.width, s.height, s.K, effects=(strong,)), np.eye(4),
                  render=lambda sensor, pose, **kw: f.replace(sensor=sensor), rng=np.random.default_rng(4))
     b = simulate(gg.Sensor(s.width, s.height, s.K, effects=(strong,)), np.eye(4),
@@ -214,3 +219,7 @@ def test_zero_strength_effects_give_the_ideal_frame_and_strong_ones_stay_finite(
     assert np.isfinite(a.depth).all() and (a.depth >= 0).all()
     assert a.depth.tobytes() == b.depth.tobytes()
     assert not a.instance[a.depth == 0].any()
+    # an effect that does nothing fails here: at strength it changes the frame
+    assert a.depth.tobytes() != f.depth.tobytes()
+    if name == "range":  # exactly what lies outside [1.5, 3.5] m is dropped
+        np.testing.assert_array_equal(a.depth > 0, (f.depth >= 1.5) & (f.depth <= 3.5))

@@ -58,6 +58,32 @@ def test_stereo_shadow_strip_has_the_analytic_width(box_and_wall):
     assert calibrated.depth.tobytes() == out.depth.tobytes()
 
 
+def test_stereo_shadow_fused_pass_equals_mask_then_drop(box_and_wall):
+    """apply() masks and drops in one compiled pass; the reference is shadow_mask's mask
+    handed to drop(), normals included."""
+    from genie_gl.sensors import kernels
+    from genie_gl.sensors.effect import drop
+    from genie_gl.sensors.geometry import pixel_rays
+
+    eff = StereoShadow(baseline_m=B)
+    s = gg.Sensor.pinhole(320, 240, F)
+    f = box_and_wall.render(s, np.eye(4), normals=True)
+    second, view = eff.second_from_first(s), eff.view_sensor(s)
+    depth2 = box_and_wall.render(view, np.linalg.inv(second), depth_only=True).depth
+    out = eff.apply(f, np.random.default_rng(0), render_depth=lambda v, p: box_and_wall.render(
+        v, p, depth_only=True).depth)
+    gone, occluded, outside = kernels.shadow_mask(
+        f.depth, pixel_rays(s), np.ascontiguousarray(second[:3, :3]), np.ascontiguousarray(second[:3, 3]),
+        view.K, view.width, view.height, float(view.near_m), depth2, True, eff.tolerance_m, eff.tolerance_rel)
+    ref = drop(f, gone)
+    assert occluded > 1000 and outside > 1000
+    assert out.meta["stereo_shadow"]["occluded"] == occluded and out.meta["stereo_shadow"]["outside"] == outside
+    for a, b in ((out.depth, ref.depth), (out.instance, ref.instance), (out.semantic, ref.semantic),
+                 (out.normal, ref.normal)):
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+    assert f.depth[gone].all()          # the input frame is left as it was
+
+
 def test_stereo_shadow_without_baseline_or_renderer_is_a_clear_error(box_and_wall):
     with pytest.raises(gg.ConfigError, match="no baseline"):
         shadowed(box_and_wall, StereoShadow())

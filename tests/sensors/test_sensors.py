@@ -61,19 +61,38 @@ def wall(z=2.0, size=(200, 160), f=500.0):
     return gg.Frame(d, np.ones_like(d, np.uint32), np.ones_like(d, np.uint16), None, s, np.eye(4))
 
 
-@pytest.mark.parametrize("model, z, expected", [
-    ("kinect_nguyen2012", 2.0, 0.0012 + 0.0019 * 1.6 ** 2),
-    ("stereo", 2.0, 4.0 * 0.08 / (500.0 * 0.05)),
-    ("tof_linear", 3.0, 0.0005 + 0.001 * 2.5),
-])
-def test_noise_sigma_on_a_flat_wall_matches_the_model(model, z, expected):
+def model_sigma(model, z):
+    """σ_z written out from the papers (not from the package): Nguyen et al. 2012 (Kinect),
+    z²·σ_d/(f·b) for stereo (σ_d 0.08 px, f 500 px, b 0.05 m), a + b·(z − z0) for ToF."""
+    return {"kinect_nguyen2012": 0.0012 + 0.0019 * (z - 0.4) ** 2,
+            "stereo": z * z * 0.08 / (500.0 * 0.05),
+            "tof_linear": 0.0005 + 0.001 * max(z - 0.5, 0.0)}[model]
+
+
+@pytest.mark.parametrize("model", ["kinect_nguyen2012", "stereo", "tof_linear"])
+@pytest.mark.parametrize("z", [0.5, 1.0, 2.0, 4.0])
+def test_noise_sigma_on_a_flat_wall_matches_the_model(model, z):
+    """σ(z) at four depths (z² and 2z agree only at 2 m), unbiased and Gaussian."""
     f = wall(z)
     out = DepthNoise(model=model).apply(f, np.random.default_rng(0))
-    assert out.depth.size >= 10_000
-    assert np.std(out.depth.astype(np.float64) - z) == pytest.approx(expected, rel=0.05)
+    err = out.depth.astype(np.float64) - z
+    expected = model_sigma(model, z)
+    n = err.size
+    assert n >= 30_000
+    assert np.std(err) == pytest.approx(expected, rel=0.03)      # σ of a σ over 32 000 draws: 0.4 %
+    assert abs(np.mean(err)) < 5 * expected / np.sqrt(n) + 2e-7 * z  # float32 rounding of z
+    inside = np.mean(np.abs(err) < expected)                     # 68.27 % within 1σ for a Gaussian
+    assert inside == pytest.approx(0.6827, abs=0.015)
     again = DepthNoise(model=model).apply(f, np.random.default_rng(0))
     assert out.depth.tobytes() == again.depth.tobytes()
     assert np.isfinite(out.depth).all()
+
+
+def test_stereo_noise_grows_with_the_square_of_depth():
+    """σ(4 m) / σ(1 m) = 16 for stereo (it would be 4 were σ linear in z)."""
+    s = [np.std(DepthNoise(model="stereo").apply(wall(z), np.random.default_rng(1)).depth.astype(np.float64) - z)
+         for z in (1.0, 4.0)]
+    assert s[1] / s[0] == pytest.approx(16.0, rel=0.04)
 
 
 def test_disparity_quantisation_steps_equal_theory():
@@ -89,6 +108,12 @@ def test_range_limits_drop_returns_and_ids():
     f = wall(5.0)
     out = RangeLimits(0.3, 4.0).apply(f, np.random.default_rng(0))
     assert not out.depth.any() and not out.instance.any()
+    d = np.tile(np.array([0.0, 0.5, 1.0, 1.5, 2.0, 2.5], np.float32), (160, 34))[:, :200]
+    g = f.replace(depth=d, instance=np.where(d > 0, 3, 0).astype(np.uint32))
+    out = RangeLimits(1.0, 2.0).apply(g, np.random.default_rng(0))
+    keep = (d >= 1.0) & (d <= 2.0)                       # the limits themselves are in range
+    np.testing.assert_array_equal(out.depth, np.where(keep, d, 0))
+    np.testing.assert_array_equal(out.instance, np.where(keep, 3, 0))
 
 
 def test_no_effects_means_the_ideal_frame_bit_for_bit_and_no_draw():
@@ -119,6 +144,29 @@ def test_distortion_maps_put_rays_where_cv2_projects_them(dist):
     assert np.abs(uv.reshape(-1, 2) - np.stack([u, v], -1)).max() < 0.1
     corners = [(0, 0), (0, 319), (239, 0), (239, 319)]
     assert all(m.valid[c] for c in corners)
+
+
+@pytest.mark.parametrize("K_r", [(300.0, 360.0), (360.0, 300.0)])   # fx ≠ fy either way round
+@pytest.mark.parametrize("dist", [[0.1, -0.05, 0.001, -0.002, 0.01], [-0.25, 0.06, 0, 0, 0]])
+def test_distortion_maps_stay_inside_the_wide_render(K_r, dist):
+    """Every valid distorted pixel samples the wide pinhole render inside its image (nearest
+    neighbour: the rounded sample lies in [0, W) x [0, H)), and the wide render covers the
+    distorted field: the rays of the distorted image's four edges, from cv2.undistortPoints
+    (the independent inverse), land inside it."""
+    fx, fy = K_r
+    s = gg.Sensor(320, 240, np.array([[fx, 0, 161.0], [0, fy, 118.5], [0, 0, 1.0]]), dist)
+    m = distortion_maps(s)
+    r = m.render_sensor
+    assert m.valid.all()                               # a mild lens: every pixel has a ray
+    mx, my = np.rint(m.map_x[m.valid]), np.rint(m.map_y[m.valid])
+    assert mx.min() >= 0 and my.min() >= 0 and mx.max() <= r.width - 1 and my.max() <= r.height - 1
+    u = np.r_[np.arange(320), np.arange(320), np.zeros(240), np.full(240, 319)]
+    v = np.r_[np.zeros(320), np.full(320, 239), np.arange(240), np.arange(240)]
+    xy = cv2.undistortPoints(np.stack([u, v], -1).reshape(-1, 1, 2), s.K, s.dist, None, None, None,
+                             (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)).reshape(-1, 2)
+    wide = np.c_[xy, np.ones(len(xy))] @ r.K.T
+    assert (wide[:, 0] >= -0.5).all() and (wide[:, 0] <= r.width - 0.5).all()
+    assert (wide[:, 1] >= -0.5).all() and (wide[:, 1] <= r.height - 0.5).all()
 
 
 @pytest.mark.parametrize("dist", [[0.1, 0, 0, 0], [0.1, -0.05, 0.001, -0.002, 0.01],
@@ -185,3 +233,54 @@ def test_sparse_disc_coverage_equals_brute_force(radius):
     expected = [p.weight[dense[c].any(0)].sum() / p.total for c in pop]
     np.testing.assert_allclose(p.fitnesses(pop), expected, rtol=1e-12)
     np.testing.assert_allclose([p.fitness(c) for c in pop], expected, rtol=1e-12)  # marks never collide
+
+
+def test_depth_noise_drops_what_it_pushes_behind_the_camera_and_keeps_holes():
+    """Noise that would make a depth ≤ 0 drops the return (depth 0, ids 0), at the rate the
+    Gaussian gives (σ = 5 m at z = 1 m: P(z + ε ≤ 0) = Φ(−0.2) = 0.4207); holes stay holes."""
+    f = wall(1.0)
+    d = f.depth.copy()
+    d[:, :20] = 0                                        # a hole: no return, no noise
+    f = f.replace(depth=d, instance=np.where(d > 0, 7, 0).astype(np.uint32),
+                  semantic=np.where(d > 0, 2, 0).astype(np.uint16))
+    out = DepthNoise(model="tof_linear", a_m=5.0, b=0.0).apply(f, np.random.default_rng(3))
+    assert (out.depth >= 0).all() and not out.depth[:, :20].any()
+    lost = (out.depth[:, 20:] == 0).mean()
+    assert lost == pytest.approx(0.4207, abs=0.01)
+    np.testing.assert_array_equal(out.instance == 0, out.depth == 0)
+    np.testing.assert_array_equal(out.semantic == 0, out.depth == 0)
+
+
+def test_disparity_quantisation_rounds_to_the_nearest_step_with_the_calibration_baseline():
+    """z = f·b / (step · round(f·b / (z · step))), with b from the sensor's calibration."""
+    s = gg.Sensor.pinhole(200, 160, 500.0, meta={"baseline_m": 0.1})
+    z = np.linspace(0.4, 3.0, 200 * 160).reshape(160, 200)
+    f = gg.Frame(z.astype(np.float32), np.ones((160, 200), np.uint32), np.ones((160, 200), np.uint16), None, s,
+                 np.eye(4))
+    out = DepthNoise(model="stereo", subpixel=1e-9, subpixel_step=0.125).apply(f, np.random.default_rng(0))
+    fb = 500.0 * 0.1
+    expected = fb / (0.125 * np.round(fb / (f.depth.astype(np.float64) * 0.125)))
+    np.testing.assert_allclose(out.depth, expected, rtol=1e-6)
+
+
+def test_nguyen_incidence_term_only_past_60_degrees_clamped_at_85_and_only_when_asked():
+    z, f = np.array([1.5]), 500.0
+    base = 0.0012 + 0.0019 * (1.5 - 0.4) ** 2
+
+    def term(deg):
+        t = np.radians(deg)
+        return 0.0001 / np.sqrt(1.5) * t ** 2 / (np.pi / 2 - t) ** 2
+
+    on, off = DepthNoise(), DepthNoise(incidence=False)
+    for deg in (0.0, 30.0, 50.0, 59.0):
+        assert on.sigma(z, f, np.radians([deg]))[0] == pytest.approx(base, rel=1e-12)
+    for deg in (61.0, 70.0, 84.0):
+        assert on.sigma(z, f, np.radians([deg]))[0] == pytest.approx(base + term(deg), rel=1e-9)
+    for deg in (85.0, 88.0, 89.9):
+        assert on.sigma(z, f, np.radians([deg]))[0] == pytest.approx(base + term(85.0), rel=1e-9)
+    assert off.sigma(z, f, np.radians([80.0]))[0] == pytest.approx(base, rel=1e-12)
+    near = 0.0012 + 0.0019 * (0.5 - 0.4) ** 2 + 0.0001 / np.sqrt(0.5) * np.radians(70.0) ** 2 / np.radians(20.0) ** 2
+    assert on.sigma(np.array([0.5]), f, np.radians([70.0]))[0] == pytest.approx(near, rel=1e-9)
+    # without a sensor: the default baseline (0.05 m) and σ_d (0.08 px)
+    assert DepthNoise(model="stereo").sigma(np.array([2.0]), f)[0] == pytest.approx(4 * 0.08 / (500 * 0.05))
+    assert on.sigma(z, f, None)[0] == pytest.approx(base, rel=1e-12)

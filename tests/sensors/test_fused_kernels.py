@@ -1,0 +1,62 @@
+"""The noise kernels that draw from the Generator inside their loop give what the reference
+computation gives: numpy's ``rng.standard_normal(n)`` over the valid pixels, then the model
+in numpy (value for value, and the same generator state afterwards)."""
+import numpy as np
+import pytest
+
+import genie_gl as gg
+from genie_gl.sensors import kernels
+from genie_gl.sensors.effects import DepthNoise
+
+
+def depth_with_holes(seed=0, h=40, w=50):
+    g = np.random.default_rng(seed)
+    d = g.uniform(0.3, 6.0, (h, w)).astype(np.float32)
+    d[g.random((h, w)) < 0.3] = 0.0
+    return d
+
+
+def test_stereo_noise_rng_equals_numpy_draws_and_model():
+    d = depth_with_holes()
+    fb, sigma_d, step = 426.2 * 0.05, 0.08, 1 / 32
+    out, lost = kernels.stereo_noise_rng(d, np.random.default_rng(7), fb, sigma_d, step)
+    ref_rng = np.random.default_rng(7)
+    valid = d > 0
+    z = d.astype(np.float64)[valid]
+    noisy = z + ref_rng.standard_normal(z.size) * (z * z * sigma_d / fb)   # the model, in numpy
+    disp = np.round(fb / np.maximum(noisy, 1e-6) / step) * step
+    noisy = np.where(disp > 0, fb / np.maximum(disp, 1e-12), 0.0)
+    ref = np.zeros_like(d)
+    ref[valid] = noisy.astype(np.float32)
+    assert lost == 0 and out.tobytes() == ref.tobytes()
+    old, old_lost = kernels.stereo_noise(d, np.random.default_rng(7).standard_normal(z.size), fb, sigma_d, step)
+    assert old_lost == lost and old.tobytes() == out.tobytes()
+
+
+def test_linear_noise_rng_equals_numpy_draws_and_counts_lost():
+    d = depth_with_holes(1)
+    a, b, z0 = 1.0, 0.0, 0.5          # σ 1 m: about a fifth of the returns pushed to <= 0
+    g = np.random.default_rng(3)
+    out, lost = kernels.linear_noise_rng(d, g, a, b, z0)
+    ref_rng = np.random.default_rng(3)
+    valid = d > 0
+    z = d.astype(np.float64)[valid]
+    noisy = (z + ref_rng.standard_normal(z.size) * (a + b * np.maximum(z - z0, 0.0))).astype(np.float32)
+    ref = np.zeros_like(d)
+    ref[valid] = np.where(noisy > 0, noisy, 0)
+    assert lost == int((noisy <= 0).sum()) > 0
+    assert out.tobytes() == ref.tobytes()
+    assert g.standard_normal() == ref_rng.standard_normal()   # the same state afterwards
+
+
+@pytest.mark.parametrize("model", ["stereo", "tof_linear"])
+def test_depth_noise_apply_leaves_the_generator_where_numpy_draws_would(model):
+    d = depth_with_holes(2)
+    s = gg.Sensor.pinhole(d.shape[1], d.shape[0], 400.0)
+    inst = (d > 0).astype(np.uint32)
+    f = gg.Frame(d, inst, inst.astype(np.uint16), None, s, np.eye(4), None)
+    g = np.random.default_rng(11)
+    DepthNoise(model=model, baseline_m=0.05, subpixel=0.08).apply(f, g)
+    ref = np.random.default_rng(11)
+    ref.standard_normal(int((d > 0).sum()))
+    assert g.standard_normal(4).tolist() == ref.standard_normal(4).tolist()

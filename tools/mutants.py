@@ -1,0 +1,183 @@
+"""`make mutants`: mutation testing of the numerical core with mutmut.
+
+Each group below names the modules where a wrong number is silent and the tests that must
+catch it. For every group a scratch copy of the checkout is made under build/mutants/<group>
+(the worktree is never touched), mutmut mutates only that group's modules, runs only that
+group's tests against each mutant (stopping at the first failure), and this script prints
+the kill rate per module and every surviving mutant with its diff.
+
+mutmut leaves decorated functions alone: the numba kernels (``@njit``) are not mutated, only
+the Python around them (ray tables, poses, counts, buffers). Their own truths are the kernel
+tests (tests/cloud/test_unproject_kernel.py: first principles in float64, NaN holes).
+
+    python tools/mutants.py --modules layout,labels --timeout 900
+"""
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
+    # group: (modules to mutate, the functions in them where a wrong number is silent
+    #         (mutmut name globs), tests that must kill the mutants)
+    "projection": (["genie_gl/render/projection.py"],
+                   ["*.projection.x_clip_coefficients__*", "*.projection.x_rigid_inverse__*"],
+                   ["tests/render/test_analytic.py", "tests/render/test_hard_cases.py"]),
+    "lens": (["genie_gl/camera.py", "genie_gl/sensors/distortion.py"],
+             ["*.camera.x_distort_normalized__*", "*.camera.x_fisheye_theta_d__*", "*.camera.x__pinhole_inverse__*",
+              "*.camera.x__fisheye_inverse__*", "*.camera.xǁCameraǁproject__*", "*.camera.xǁCameraǁunproject__*",
+              "*.distortion.x_project__*", "*.distortion.x__view__*", "*.distortion.x__lens_views__*"],
+             ["tests/sensors/test_sensors.py", "tests/render/test_analytic.py", "tests/render/test_stability.py"]),
+    "unprojection": (["genie_gl/cloud/unproject.py"], ["*.unproject.x_*"],
+                     ["tests/cloud/test_unproject_kernel.py", "tests/cloud/test_cloud_export.py",
+                      "tests/cloud/test_frame_chunks.py"]),
+    "noise": (["genie_gl/sensors/noise.py"], ["*.noise.xǁDepthNoiseǁ*", "*.noise.xǁRangeLimitsǁapply__*"],
+              ["tests/sensors/test_sensors.py", "tests/sensors/test_effects.py"]),
+    "labels": (["genie_gl/export/semantickitti.py", "genie_gl/export/ply.py", "genie_gl/export/pcd.py",
+                "genie_gl/export/npz.py"],
+               ["*.semantickitti.x_pack_labels__*", "*.semantickitti.x_write__*", "*.semantickitti.x_read__*",
+                "*.ply.x_*", "*.pcd.x_*", "*.npz.x_*"], ["tests/cloud/test_cloud_export.py"]),
+    "layout": (["genie_gl/layout/engine.py", "genie_gl/layout/generators.py"],
+               ["*.engine.x_merge__*", "*.engine.x__join__*", "*.generators.xǁGridǁgenerate__*",
+                "*.generators.x_rectangles__*"],
+               ["tests/layout/test_layout.py", "-k", "not shipped_strategies_generate"]),
+    "placement": (["genie_gl/sensors/placement.py"],
+                  ["*.placement.xǁCoverageProblemǁfitness*", "*.placement.x_greedy_indices__*",
+                   "*.placement.x_genetic_placement__*"], ["tests/sensors/test_sensors.py"]),
+}
+# lines that only word an error or a log message: not numbers
+NOT_NUMBERS = [r"raise \w+Error\(", r"^\s*f?\"[^\"]*\"\)?$", r"log\.(info|warning|debug)\(", r"warnings\.warn\("]
+COPY = ["genie_gl", "tests", "layouts", "sensors", "shaders", "pyproject.toml", "README.md"]
+
+
+def toml_list(items: list[str]) -> str:
+    return "[" + ", ".join(f'"{i}"' for i in items) + "]"
+
+
+def prepare(group: str, work: Path) -> None:
+    modules, _, tests = GROUPS[group]
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    for name in COPY:
+        src = ROOT / name
+        if src.is_dir():
+            shutil.copytree(src, work / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        elif src.exists():
+            shutil.copy2(src, work / name)
+    with open(work / "pyproject.toml", "a") as f:
+        f.write(f"""
+[tool.mutmut]
+source_paths = ["genie_gl"]
+only_mutate = {toml_list(modules)}
+also_copy = ["layouts", "sensors", "shaders", "README.md"]
+pytest_add_cli_args = ["-p", "no:xdist", "-p", "no:cacheprovider", "-x", "-q", "-m", "not slow"]
+pytest_add_cli_args_test_selection = {toml_list(tests)}
+do_not_mutate_patterns = [{", ".join("'" + p + "'" for p in NOT_NUMBERS)}]
+use_git_change_detection = false
+timeout_multiplier = 4.0
+""")
+
+
+def results(work: Path, env: dict) -> dict[str, str]:
+    out = subprocess.run([sys.executable, "-m", "mutmut", "results", "--all", "true"], cwd=work, env=env,
+                         capture_output=True, text=True).stdout
+    status = {}
+    for line in out.splitlines():
+        m = re.match(r"\s*([\w.]+__mutmut_\d+): (.+)$", line)
+        if m:
+            status[m.group(1)] = m.group(2).strip()
+    return status
+
+
+def module_of(mutant: str, modules: list[str]) -> str:
+    for mod in modules:
+        dotted = mod[:-3].replace("/", ".")
+        if mutant.startswith(dotted + "."):
+            return mod
+    return "?"
+
+
+def run_group(group: str, timeout: float, children: int) -> list[tuple[str, int, int, list[str]]]:
+    modules, functions, _ = GROUPS[group]
+    work = ROOT / "build" / "mutants" / group
+    prepare(group, work)
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH",)}
+    env["PYTHONPATH"] = str(work / "mutants")
+    env["HYPOTHESIS_PROFILE"] = "mutants"   # fixed examples, no deadline (mutmut's tracing slows code)
+    t = time.perf_counter()
+    finished = False
+    for attempt in range(2):  # a first run can fail its setup while numba fills its cache: once more
+        left = timeout - (time.perf_counter() - t)
+        if left <= 0:
+            break
+        with open(work / f"mutmut-run-{attempt}.log", "w") as log:
+            # its own session: on the time bound, mutmut and every mutant it forked stop together
+            proc = subprocess.Popen([sys.executable, "-m", "mutmut", "run", "--max-children", str(children),
+                                     *functions], cwd=work, env=env, stdin=subprocess.DEVNULL, stdout=log,
+                                    stderr=subprocess.STDOUT, start_new_session=True)
+            try:
+                proc.wait(timeout=left)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+                break
+        r = proc
+        if "BadTestExecutionCommandsException" not in (work / f"mutmut-run-{attempt}.log").read_text():
+            finished = r.returncode == 0
+            break
+        # the failed run's partial test-to-function stats would hide tests from the retry
+        for stale in (work / "mutants").glob("mutmut-stats*.json"):
+            stale.unlink()
+    status = {k: v for k, v in results(work, env).items()
+              if any(fnmatch.fnmatch(k, f) for f in functions)}
+    rows = []
+    for mod in modules:
+        mine = {k: v for k, v in status.items() if module_of(k, modules) == mod}
+        tested = {k: v for k, v in mine.items() if v not in ("not checked", "skipped")}
+        killed = [k for k, v in tested.items() if v in ("killed", "timeout", "caught by type check")]
+        survived = sorted(k for k, v in tested.items() if v not in ("killed", "timeout", "caught by type check"))
+        rows.append((mod, len(killed), len(tested), survived, len(mine) - len(tested)))
+    print(f"[{group}] {'done' if finished else f'stopped at the {timeout:.0f} s bound'} "
+          f"in {time.perf_counter() - t:.0f} s", flush=True)
+    for mod, k, n, surv, unchecked in rows:
+        rate = f"{100 * k / n:5.1f} %" if n else "   - "
+        print(f"  {mod:40s} {k:4d} / {n:4d} killed  {rate}" + (f"  ({unchecked} not run)" if unchecked else ""))
+    for mod, k, n, surv, _ in rows:
+        for name in surv:
+            print(f"  survived: {name} ({status[name]})")
+            diff = subprocess.run([sys.executable, "-m", "mutmut", "show", name], cwd=work, env=env,
+                                  capture_output=True, text=True).stdout
+            print("    " + "\n    ".join(line for line in diff.splitlines() if line[:1] in "+-" and line[:3] not in ("+++", "---")))
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--modules", default="all", help=f"comma-separated groups: {', '.join(GROUPS)} (or all)")
+    p.add_argument("--timeout", type=float, default=1200, help="seconds per group (the machine is shared)")
+    p.add_argument("--children", type=int, default=2, help="mutants run side by side")
+    a = p.parse_args(argv)
+    groups = list(GROUPS) if a.modules == "all" else a.modules.split(",")
+    unknown = [g for g in groups if g not in GROUPS]
+    if unknown:
+        p.error(f"unknown group(s) {unknown}; expected {', '.join(GROUPS)}")
+    total_k = total_n = 0
+    for g in groups:
+        for _, k, n, _, _ in run_group(g, a.timeout, a.children):
+            total_k, total_n = total_k + k, total_n + n
+    if total_n:
+        print(f"all groups: {total_k} / {total_n} killed ({100 * total_k / total_n:.1f} %)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
