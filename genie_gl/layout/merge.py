@@ -58,7 +58,7 @@ def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M, origin: np.nda
     key = np.asarray(key, np.int64)
     origin = np.full(len(x), -1, np.int64) if origin is None else np.asarray(origin, np.int64).copy()
     group = np.arange(len(x))
-    changed, along_x, idle = True, True, 0
+    changed, along_x, idle = True, False, 0  # columns first, then rows, until neither joins
     while len(x) > 1 and idle < 2:
         run, order, changed = _pass(x, y, w, h, key, along_x, tol, origin)
         if changed:
