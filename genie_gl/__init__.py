@@ -51,6 +51,9 @@ _EXPORTS: dict[str, str] = {
     "Renderer": "genie_gl.render",
     "render": "genie_gl.render",
     "capture": "genie_gl.render",
+    # accuracy settings (the accuracy: block)
+    "AccuracySettings": "genie_gl.accuracy",
+    "load_accuracy": "genie_gl.accuracy",
     # planning
     "plan": "genie_gl.plan",
     "Plan": "genie_gl.plan",

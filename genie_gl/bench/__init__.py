@@ -11,7 +11,7 @@ import importlib
 BENCHMARKS: dict[str, str] = {
     "render": "renderer against pyrender and Open3D (ms/frame, frames/s, ratios)",
     "layout": "layout engine throughput, the paper's Table 7 (nodes/s)",
-    "accuracy": "what each sensor effect and accuracy knob costs in time (error vs ms)",
+    "accuracy": "what accuracy costs on your scene and sensor: every knob's error vs ms, Pareto plot, --budget-mm",
     "pipeline": "seconds per scene end to end, share of each stage, scaling with workers",
     "stability": "hard cases against analytic truth: tolerance and worst error per case (exit 1 on a failure)",
     "planning": "a full D435 and Azure frame before and after planning, as multiples of the ideal render",

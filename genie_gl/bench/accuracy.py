@@ -1,11 +1,25 @@
-"""``genie bench accuracy``: what accuracy costs in time. For each effect and knob, the time
-per frame beside the depth error against analytic truth, and a plot.
+"""``genie bench accuracy``: what accuracy costs, on the user's own scene and sensor.
 
-Scenes with closed-form depth, all seen from the identity pose: a wall tilted by 0.5 rad at
-2.5 m, the same wall at 70° (steep incidence), a box 1 m away before a wall at 2 m (edges,
-shadows), and a floor meeting a wall (a concave corner). A ``note`` gives each effect's own
-check: shadow strip width against b·f·(1/z_box − 1/z_wall), dropout against the analytic
-incidence angle, the multipath bias.
+``genie bench accuracy [--scene PATH] [--sensor PROFILE] [--seed S] [--cameras N | --poses FILE]
+[--repeats R] [--budget-mm X] [--budget-px Y] --out DIR``
+
+Every knob of :mod:`genie_gl.bench.knobs` is turned through its levels, one at a time, the
+others left at their defaults. Each row is timed over ``--repeats`` passes over the cameras
+after one warm-up pass, all in this process, split into render, lens remap, each effect and
+unprojection (median and interquartile range of the per-frame milliseconds); and its errors
+are measured (:mod:`genie_gl.bench.accuracy_errors`) against a reference:
+
+* ``--scene`` omitted: the built-in case (:mod:`genie_gl.bench.analytic`); knobs that change
+  geometry are measured against analytic truth, knobs that change how faithfully an effect
+  is simulated against the exact setting.
+* a USD stage, or a layout / strategy JSON (built with ``--seed``): against the most exact
+  setting of every knob at once, rendered once per run and reused by every row.
+
+Errors are measured with the effects that draw random numbers (noise) switched off, so they
+show the knobs and not the noise; the noise is checked on its own, as a distribution: the
+measured σ against the model's at several depths. Writes ``accuracy.json``, ``accuracy.png``
+and ``accuracy.md`` (the table in Markdown); ``--budget-mm`` / ``--budget-px`` also write ``accuracy.yaml``, the fastest
+setting within the budget, as an ``accuracy:`` block that ``genie dataset --accuracy`` reads.
 """
 from __future__ import annotations
 
@@ -13,194 +27,218 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-Z_BOX, Z_WALL, BOX_HALF = 1.0, 2.0, (0.2, 0.3)   # box face at z = 1 m, x ±0.2 m, y ±0.3 m
+from ..errors import ConfigError
+from .accuracy_case import content_poses, make_case  # noqa: F401  (content_poses: public)
+from .accuracy_runner import Runner, spread, references
+from .knobs import KNOBS, PLACEMENT_DEFAULT, PLACEMENT_LEVELS, Case, Knob, Setting, exact_setting, levels
+
+PLACEMENT_CAMERAS = 12
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--scene", default=None,
+                   help="USD stage, or layout / strategy JSON (default: the built-in analytic case)")
+    p.add_argument("--sensor", default=None, help="sensor profile or calibration file (default: the built-in "
+                                                   "rational-lens stereo sensor without --scene, ideal_pinhole with one)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the layout, scene, placement and noise")
+    views = p.add_mutually_exclusive_group()
+    views.add_argument("--cameras", type=int, default=3, help="cameras placed over the scene (default 3)")
+    views.add_argument("--poses", default=None, help="JSON list of 4x4 world_from_camera, or .npy (N, 4, 4)")
+    p.add_argument("--repeats", type=int, default=5, help="timed passes per row after one warm-up (default 5)")
+    p.add_argument("--budget-mm", type=float, default=None, help="depth error budget (p99, mm)")
+    p.add_argument("--budget-px", type=float, default=None, help="silhouette budget (mean edge error, px)")
+    p.add_argument("--knobs", default=None, help="comma-separated subset of knobs to run (default: all)")
+    p.add_argument("--no-cache", action="store_true",
+                   help="render the exact reference again (default: reuse OUT/cache/reference-*.npz of the same inputs)")
 
 
-def _quad(s, p0, a, b, half=6.0, semantic=1):
-    from ..scene.model import Mesh
+# -- the case -----------------------------------------------------------------------------------
+# -- the bench --------------------------------------------------------------------------------
+def row_for(runner: Runner, knob: Knob | None, value: Any, setting: Setting, mode: str, refs: dict) -> dict:
+    from .accuracy_errors import compare, pool
 
-    corners = [p0 + half * (sa * a + sb * b) for sa, sb in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
-    s.add(Mesh(np.array(corners), np.array([[0, 1, 2], [0, 2, 3]])), semantic=semantic)
-
-
-def _plane(angle: float, dist: float):
-    """A wall turned by ``angle`` about y, through (0, 0, dist): scene, unit normal n, point p0."""
-    from ..scene.model import Scene
-
-    n = np.array([np.sin(angle), 0.0, -np.cos(angle)])
-    p0 = np.array([0.0, 0.0, dist])
-    a = np.cross(n, [0, 1, 0])
-    a /= np.linalg.norm(a)
-    s = Scene()
-    _quad(s, p0, a, np.cross(n, a))
-    return s, [(n, p0)]
+    runner.run(setting, (mode,))
+    parts = [compare(f, ref, runner.case.sensor) for f, ref in zip(runner.frames[(setting.key(), mode)], refs[mode])]
+    return {"knob": knob.name if knob else "budget", "title": knob.title if knob else "budget pick",
+            "level": knob.label(value) if knob else setting.accuracy.label(), "value": value,
+            "resolution": setting.resolution, "settings": setting.accuracy.to_dict(),
+            "is_default": setting.key() == Setting().key(),
+            "reference": {"analytic": "analytic truth", "exact": "exact setting"}[mode],
+            "available": True, "time_ms": runner.timings[setting.key()], "errors": pool(parts)}
 
 
-def _box_before_wall():
-    import trimesh
+def noise_rows(runner: Runner) -> list[dict]:
+    """σ measured against the model's, per depth-noise effect of the sensor."""
+    from .accuracy_errors import noise_check
 
-    from ..scene.model import Scene
-
-    s = Scene()
-    s.add(trimesh.creation.box((6, 6, 0.02)), [0, 0, Z_WALL + 0.01], semantic=0)
-    s.add(trimesh.creation.box((2 * BOX_HALF[0], 2 * BOX_HALF[1], 0.2)), [0, 0, Z_BOX + 0.1], semantic=1)
-    return s, None
-
-
-def _corner():
-    """A floor 0.6 m below the camera (y down) meeting a wall at z = 2.5 m."""
-    from ..scene.model import Scene
-
-    s = Scene()
-    floor_n, floor_p = np.array([0.0, -1.0, 0.0]), np.array([0.0, 0.6, 2.5])
-    wall_n, wall_p = np.array([0.0, 0.0, -1.0]), np.array([0.0, -2.4, 2.5])
-    _quad(s, floor_p + [0, 0, -3.0], np.array([1.0, 0, 0]), np.array([0, 0, 1.0]), half=3.0)
-    _quad(s, wall_p, np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), half=3.0)
-    return s, [(floor_n, floor_p), (wall_n, wall_p)]
+    exact = exact_setting(runner.case)
+    ideal = [i for _, i in runner.frames[(exact.key(), "reference")]]
+    out = []
+    for k, eff in enumerate(runner.case.sensor.effects):
+        if hasattr(eff, "sigma") and getattr(eff, "draws", False):
+            bins = noise_check(eff, ideal, rng=np.random.default_rng([runner.seed, k]))
+            out.append({"effect": eff.name, "model": getattr(eff, "model", ""), "bins": bins})
+    return out
 
 
-def _rays(sensor) -> np.ndarray:
-    from ..cloud.unproject import ray_table
+def placement_rows(case: Case, repeats: int, seed: int) -> list[dict]:
+    """Coverage against seconds for the genetic placement's effort (strategy scenes only), for
+    at least ``PLACEMENT_CAMERAS`` cameras (discs of 6 m, the placement's default)."""
+    from ..sensors.placement import CoverageProblem, genetic_placement, greedy_placement
 
-    t = ray_table(sensor)
-    return np.stack([t[0], t[1], np.ones_like(t[0])], 1).astype(np.float64)
-
-
-def _truth(sensor, planes) -> np.ndarray:
-    """Depth of the nearest plane in front of every pixel's ray (planes: (normal, point))."""
-    d = _rays(sensor)
-    if planes is None:  # the box before the wall
-        inside = (np.abs(d[:, 0] * Z_BOX) <= BOX_HALF[0]) & (np.abs(d[:, 1] * Z_BOX) <= BOX_HALF[1])
-        z = np.where(inside, Z_BOX, Z_WALL)
-    else:
-        z = np.full(len(d), np.inf)
-        for n, p0 in planes:
-            with np.errstate(divide="ignore"):
-                t = (n @ p0) / (d @ n)
-            z = np.where((t > 0) & (t < z), t, z)
-    return z.reshape(sensor.height, sensor.width)
-
-
-def _theta(sensor, n) -> np.ndarray:
-    d = _rays(sensor)
-    return np.degrees(np.arccos(np.abs(d @ n) / np.linalg.norm(d, axis=1))).reshape(sensor.height, sensor.width)
-
-
-def _shadow_note(f, ideal, sensor, b):
-    """Mean |measured − analytic| hidden strip width (px) over the box's rows."""
-    hidden = (ideal.depth > 0) & (f.depth == 0)
-    box = ideal.depth == np.float32(Z_BOX)
-    rows = np.flatnonzero(box.any(1))[3:-3]
-    left = [int(np.flatnonzero(box[v])[0]) for v in rows]
-    widths = np.array([hidden[v, max(0, u - 60):u].sum() for v, u in zip(rows, left)])
-    analytic = sensor.fx * b * (1 / Z_BOX - 1 / Z_WALL)
-    return f"strip {widths.mean():.2f} px vs {analytic:.2f} (max |err| {np.abs(widths - analytic).max():.2f})"
+    problem = CoverageProblem(case.layout, 6.0)
+    n = max(len(case.poses), PLACEMENT_CAMERAS)   # a few cameras leave a search nothing to find
+    rows = []
+    for gens, popn in PLACEMENT_LEVELS:
+        ts, cov = [], 0.0
+        for _ in range(min(repeats, 3) + 1):
+            t = time.perf_counter()
+            res = (greedy_placement(problem, n) if gens == 0 else
+                   genetic_placement(problem, n, rng=np.random.default_rng(seed), population=popn, generations=gens))
+            ts.append(time.perf_counter() - t)
+            cov = res.coverage
+        rows.append({"generations": gens, "population": popn, "label": "greedy" if gens == 0 else f"{gens}x{popn}",
+                     "is_default": (gens, popn) == PLACEMENT_DEFAULT, "coverage_pct": 100.0 * cov,
+                     "cameras": n, "seconds": spread(ts[1:])})
+    return rows
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..render import Renderer
-    from ..sensors.camera import Sensor
-    from ..sensors.edges import EdgeDropout, FlyingPixels
-    from ..sensors.effects import DepthNoise
-    from ..sensors.miscalibration import CalibrationError
-    from ..sensors.shadow import StereoShadow
-    from ..sensors.simulate import simulate
-    from ..sensors.surface import IncidenceDropout, LateralNoise, Multipath
+    case = make_case(args)
+    chosen = KNOBS
+    if args.knobs:
+        names = [s.strip() for s in args.knobs.split(",") if s.strip()]
+        unknown = [n for n in names if n not in {k.name for k in KNOBS}]
+        if unknown:
+            raise ConfigError(f"--knobs: unknown {', '.join(unknown)}; expected some of "
+                              f"{', '.join(k.name for k in KNOBS)}")
+        chosen = tuple(k for k in KNOBS if k.name in names)
+    runner = Runner(case, args.repeats, args.seed)
+    try:
+        return _run(args, case, chosen, runner)
+    finally:
+        runner.close()
 
-    scenes = {"tilted": _plane(0.5, 2.5), "steep": _plane(np.radians(70.0), 2.5),
-              "box": _box_before_wall(), "corner": _corner()}
-    base = Sensor.pinhole(640, 480, 525.0)
-    B = 0.075
-    cases = [("ideal 320x240", "tilted", Sensor.pinhole(320, 240, 262.5), ()),
-             ("ideal 640x480", "tilted", base, ()),
-             ("ideal 1280x960", "tilted", Sensor.pinhole(1280, 960, 1050.0), ()),
-             ("distortion (rational, Azure-like)", "tilted",
-              Sensor(640, 480, base.K, [0.5, 0.2, 0, 0, 0.01, 0.6, 0.3, 0.05]), ()),
-             ("noise kinect_nguyen2012", "tilted", base, (DepthNoise(model="kinect_nguyen2012"),)),
-             ("noise stereo D435 (+1/32 px steps)", "tilted", base,
-              (DepthNoise(model="stereo", subpixel=0.08, subpixel_step=1 / 32),)),
-             ("noise tof_linear", "tilted", base, (DepthNoise(model="tof_linear"),)),
-             ("nguyen2012, wall at 70°, no angle term", "steep", base, (DepthNoise(incidence=False),)),
-             ("nguyen2012, wall at 70°, angle term", "steep", base, (DepthNoise(),)),
-             ("lateral_noise nguyen2012", "tilted", base, (LateralNoise(),)),
-             ("incidence_dropout 30°", "tilted", base, (IncidenceDropout(max_angle_deg=30.0),)),
-             ("stereo_shadow b 75 mm (render 1/2)", "box", base, (StereoShadow(baseline_m=B),)),
-             ("stereo_shadow b 75 mm (render 1/4)", "box", base, (StereoShadow(baseline_m=B, scale=0.25),)),
-             ("flying_pixels p 0.5", "box", base, (FlyingPixels(probability=0.5),)),
-             ("edge_dropout span 0.8 m", "box", base, (EdgeDropout(span_m=0.8),)),
-             ("multipath 1 cm (floor-wall corner)", "corner", base, (Multipath(bias_m=0.01),)),
-             ("calibration_error σf 2 px σc 1 px", "tilted", base, (CalibrationError(2.0, 1.0),))]
-    rows = []
-    for name, key, sensor, effects in cases:
-        scene, planes = scenes[key]
-        s = Sensor(sensor.width, sensor.height, sensor.K, sensor.dist, effects=effects)
-        with Renderer(scene) as r:
-            ts = []
-            for k in range(args.repeats):
-                t = time.perf_counter()
-                f = simulate(s, np.eye(4), render=r.render, rng=np.random.default_rng(k))
-                ts.append(1e3 * (time.perf_counter() - t))
-            ideal = simulate(Sensor(s.width, s.height, s.K, s.dist), np.eye(4), render=r.render,
-                             rng=np.random.default_rng(0))
-        truth = _truth(s, planes)
-        hit = f.depth > 0
-        err = np.abs(f.depth[hit] - truth[hit]) if hit.any() else np.zeros(1)
-        note = ""
-        if key == "box" and isinstance(effects[0], StereoShadow):
-            note = _shadow_note(f, ideal, s, B)
-        elif isinstance(effects[:1] and effects[0], IncidenceDropout):
-            theta = _theta(s, planes[0][0])
-            want = (ideal.depth > 0) & (theta > effects[0].max_angle_deg)
-            got = (ideal.depth > 0) & (f.depth == 0)
-            note = f"{int((want != got).sum())} of {int(want.sum())} dropped px off the analytic θ mask"
-        elif isinstance(effects[:1] and effects[0], DepthNoise):
-            eff = effects[0]
-            theta = np.radians(_theta(s, planes[0][0])) if eff.needs_normals else None
-            model = eff.sigma(truth.astype(np.float64), s.fx, theta, s)
-            ratio = np.std((f.depth[hit] - truth[hit]) / model[hit])
-            note = f"σ / σ_model = {ratio:.3f}"
-        elif isinstance(effects[:1] and effects[0], FlyingPixels):
-            mixed = f.depth != ideal.depth
-            note = (f"{int(mixed.sum())} of {f.meta['flying_pixels']['edge_pixels']} edge px mixed, "
-                    f"max |dz| {1e3 * float(np.abs(f.depth - truth)[mixed].max()):.0f} mm")
-        elif isinstance(effects[:1] and effects[0], EdgeDropout):
-            note = f"{f.meta['edge_dropout']['dropped']} px dropped along the box outline"
-        elif key == "corner":
-            corner = (ideal.depth > 0)
-            bias = (f.depth.astype(np.float64) - ideal.depth)[corner]
-            note = f"bias max {1e3 * bias.max():.2f} mm, {100 * (bias > 0).mean():.1f} % of pixels biased"
-        elif isinstance(effects[:1] and effects[0], CalibrationError):
-            note = "K' − K = " + ", ".join(f"{d:+.2f}" for d in (np.array(f.meta["calibration_error"]["K_true"])
-                                                               - s.K)[[0, 1, 0, 1], [0, 1, 2, 2]])
-        rows.append({"case": name, "ms": float(np.median(ts)), "median_err_mm": 1e3 * float(np.median(err)),
-                     "p99_err_mm": 1e3 * float(np.percentile(err, 99)), "valid": float(hit.mean()), "note": note})
-    print(f"{'case':<42}{'ms/frame':>10}{'median |dz| mm':>16}{'p99 mm':>10}{'valid':>8}  note")
-    for row in rows:
-        print(f"{row['case']:<42}{row['ms']:>10.1f}{row['median_err_mm']:>16.4f}{row['p99_err_mm']:>10.3f}"
-              f"{row['valid']:>8.3f}  {row['note']}")
+
+def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner: Runner) -> int:
+    from .accuracy_budget import pick
+    from .accuracy_plot import pareto, plot
+
+    t0 = time.perf_counter()
+    refs = references(runner, None if args.no_cache else Path(args.out) / "cache")
+    plan = [(k, k.requires(case)) for k in chosen]
+    runner.time_many([k.setting(v) for k, why in plan if not why for v, _ in levels(k, case)])
+    rows: list[dict] = []
+    for knob, why in plan:
+        if why:
+            rows.append({"knob": knob.name, "title": knob.title, "available": False, "reason": why})
+            continue
+        mode = "analytic" if case.kind == "builtin" and knob.geometric else "exact"
+        for value, label in levels(knob, case):
+            rows.append(row_for(runner, knob, value, knob.setting(value), mode, refs) | {"level": label})
+    result: dict[str, Any] = {
+        "case": {"kind": case.kind, "source": case.source, "sensor": case.sensor.name,
+                 "effects": [e.name for e in case.sensor.effects], "cameras": len(case.poses),
+                 "repeats": args.repeats, "seed": args.seed,
+                 "size": [case.sensor.width, case.sensor.height],
+                 "reference": ("analytic truth for geometric knobs, the exact setting for effect knobs"
+                               if case.kind == "builtin" else "the exact setting: " + exact_setting(case).accuracy.label())},
+        "rows": rows, "noise": noise_rows(runner),
+        "placement": placement_rows(case, args.repeats, args.seed) if case.layout is not None else [],
+    }
+    result["pareto"] = pareto(rows)
+    if args.budget_mm is not None or args.budget_px is not None:
+        result["budget"] = pick(runner, rows, refs, args.budget_mm, args.budget_px, row_for, dataset_cannot())
+    result["wall_s"] = time.perf_counter() - t0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "accuracy.json").write_text(json.dumps(rows, indent=1))
-    import matplotlib
+    print_table(result)
+    tmp = out / ".accuracy.json.tmp"
+    tmp.write_text(json.dumps(result, indent=1, default=_json))
+    tmp.replace(out / "accuracy.json")
+    plot(result, out / "accuracy.png")
+    tmp = out / ".accuracy.md.tmp"
+    tmp.write_text(markdown(result))
+    tmp.replace(out / "accuracy.md")
+    if "budget" in result:
+        from ..accuracy import AccuracySettings, write_accuracy
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 5))
-    for row in rows:
-        ax.scatter(row["ms"], max(row["median_err_mm"], 1e-6), label=row["case"])
-    ax.set_yscale("log")
-    ax.set_xlabel("ms per frame")
-    ax.set_ylabel("median |depth error| (mm)")
-    ax.legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(out / "accuracy.png", dpi=100)
-    print(f"wrote {out / 'accuracy.json'} and {out / 'accuracy.png'}")
+        b = result["budget"]
+        write_accuracy(out / "accuracy.yaml", AccuracySettings(**b["settings"]), comment=b["comment"])
+        print(f"budget: {b['comment'].splitlines()[0]} -> {out / 'accuracy.yaml'}")
+    print(f"wrote {out / 'accuracy.json'} and {out / 'accuracy.png'} ({result['wall_s']:.0f} s)")
     return 0
+
+
+def dataset_cannot() -> tuple[str, ...]:
+    """Knobs that ``genie dataset --accuracy`` cannot apply in this build (the budget leaves
+    them at their defaults)."""
+    import inspect
+
+    from ..scene import build_scene
+
+    return () if "segments" in inspect.signature(build_scene).parameters else ("tessellation",)
+
+
+def _json(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    raise TypeError(type(o).__name__)
+
+
+def markdown(result: dict) -> str:
+    """The rows as a Markdown table (what ``accuracy.md`` holds, for a README or a report)."""
+    out = ["| knob | level | ms/frame (IQR) | render ms | effects ms | dz p99 mm | p2s mm | id % | sil % | "
+           "edge px | gap mm | reference |", "|" + " --- |" * 12]
+    for r in result["rows"]:
+        if not r["available"]:
+            out.append(f"| {r['title']} | — | unavailable: {r['reason']} |" + " |" * 9)
+            continue
+        t, e = r["time_ms"], r["errors"]
+        eff = sum(v["median"] for k, v in t.items() if k.startswith("effect:") or k == "distortion")
+        out.append(f"| {r['title']} | {r['level']}{' (default)' if r['is_default'] else ''} | "
+                   f"{t['total']['median']:.0f} ({t['total']['iqr']:.0f}) | {t['render']['median']:.0f} | {eff:.0f} | "
+                   f"{e['depth_p99_mm']:.2f} | {e['p2s_mean_mm']:.2f} | {e['id_pct']:.2f} | {e['silhouette_pct']:.1f} | "
+                   f"{e['edge_px']:.3f} | {e['sampling_mm']:.2f} | {r['reference']} |")
+    return "\n".join(out) + "\n"
+
+
+def print_table(result: dict) -> None:
+    c = result["case"]
+    print(f"accuracy on {c['source']}, sensor {c['sensor']} {c['size'][0]}x{c['size'][1]} "
+          f"({', '.join(c['effects']) or 'no effects'}), {c['cameras']} cameras, {c['repeats']} repeats")
+    print(f"reference: {c['reference']}; errors with noise off (noise checked below)")
+    parts = sorted({k for r in result["rows"] if r["available"] for k in r["time_ms"]
+                    if k.startswith("effect:") or k == "distortion"})
+    names = [k.split(":", 1)[-1][:9] for k in parts]
+    head = (f"{'knob':<30}{'level':>8}{'ms/frame':>9}{'IQR':>6}{'render':>7}" + "".join(f"{n:>10}" for n in names)
+            + f"{'unproj':>7}{'dz med':>7}{'dz p99':>7}{'p2s':>6}{'id %':>6}{'sil %':>6}{'edge px':>8}{'gap mm':>7}  ref")
+    print(head)
+    print("-" * len(head))
+    for r in result["rows"]:
+        if not r["available"]:
+            print(f"{r['title']:<30}{'—':>8}  unavailable: {r['reason']}")
+            continue
+        t, e = r["time_ms"], r["errors"]
+        mark = " *" if r["is_default"] else ""
+        cells = "".join(f"{t[k]['median'] if k in t else 0.0:>10.1f}" for k in parts)
+        print(f"{r['title']:<30}{r['level'] + mark:>8}{t['total']['median']:>9.1f}{t['total']['iqr']:>6.1f}"
+              f"{t['render']['median']:>7.1f}{cells}{t['unprojection']['median']:>7.1f}"
+              f"{e['depth_median_mm']:>7.3f}{e['depth_p99_mm']:>7.2f}{e['p2s_mean_mm']:>6.2f}{e['id_pct']:>6.2f}"
+              f"{e['silhouette_pct']:>6.1f}{e['edge_px']:>8.3f}{e['sampling_mm']:>7.2f}  {r['reference']}")
+    print("(* default; ms: median per frame over repeats, IQR its spread, then the median ms of the render and "
+          "of each effect; dz: |depth error| mm where ids agree; "
+          "p2s: mean point-to-surface mm; id %: pixels whose instance differs; sil %: on silhouettes; "
+          "edge px: mean silhouette displacement; gap mm: median distance from the reference surface to the cloud)")
+    for n in result["noise"]:
+        cells = ", ".join(f"z {b['z_m']:.2f} m: {b['measured_mm']:.2f} vs {b['model_mm']:.2f} mm" for b in n["bins"])
+        print(f"noise {n['effect']} {n['model']}: measured σ vs model σ — {cells}")
+    for p in result["placement"]:
+        print(f"placement {p['label']:>8} ({p['cameras']} cameras): coverage {p['coverage_pct']:.2f} % in "
+              f"{1e3 * p['seconds']['median']:.1f} ms (IQR {1e3 * p['seconds']['iqr']:.1f}){' *' if p['is_default'] else ''}")
+    if "budget" in result:
+        print(f"budget pick: {result['budget']['comment'].splitlines()[0]}")

@@ -36,6 +36,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     curation_arguments(p)
     p.add_argument("--verify", action="store_true", help="check finished scenes' file hashes, not only sizes")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--accuracy", default=None, metavar="FILE",
+                   help="accuracy settings: a file with an accuracy: block (genie bench accuracy --budget-mm writes one)")
 
 
 def config_from_args(args: argparse.Namespace) -> DatasetConfig:
@@ -44,8 +46,10 @@ def config_from_args(args: argparse.Namespace) -> DatasetConfig:
                                              "previews", "executor", "address", "max_nodes", "max_memory_gb",
                                              "max_disk_gb")}
     fields["split"] = parse_split(args.split)
+    from ..accuracy import option
     from ..curation import config as curation_config
 
+    fields["accuracy"] = option(getattr(args, "accuracy", None))   # read and checked before any work
     fields.update(curation_config(args))
     return DatasetConfig.parse(fields, "")
 

@@ -21,7 +21,7 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "chunk_m": "--chunk-m", "min_points": "--min-points", "min_labelled_share": "--min-labelled-share",
           "previews": "--previews", "executor": "--executor", "address": "--address", "split": "--split",
           "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
-          "class_balance": "--class-balance", "points_budget": "--points-budget"}
+          "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget"}
 
 
 class DatasetConfig(BaseModel):
@@ -48,6 +48,7 @@ class DatasetConfig(BaseModel):
     max_nodes: int = Field(2_000_000, ge=1)
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
+    accuracy: Optional[dict[str, Any]] = None   # genie_gl.accuracy.option(): {"file", "settings"}
     # curation (genie_gl.curation): {"name": "paper" or a file, "target": {class id: share}};
     # given as the name, the target is read here, so the fingerprint holds the shares
     class_balance: Optional[dict[str, Any]] = None
@@ -87,7 +88,8 @@ class DatasetConfig(BaseModel):
 
     # the fields that decide the bytes written: resuming with any other value is refused
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
-                                                "min_labelled_share", "split", "class_balance", "points_budget")
+                                                "min_labelled_share", "split", "accuracy", "class_balance",
+                                                "points_budget")
 
     @classmethod
     def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":

@@ -144,6 +144,7 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
 def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, progress: bool, verify: bool) -> None:
     """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
     from .executors import map_scenes
+    from ..accuracy import dataset_cost, used
     from .report import histogram
 
     started = time.time()
@@ -167,7 +168,9 @@ def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, prog
     manifest["runs"] = runs + [{
         "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
         "scenes_made": n_made, "scenes_skipped": cfg.scenes - n_made, "workers": cfg.workers,
-        "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made)}]
+        "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made),
+        "cost": dataset_cost(made)}]
+    manifest["cost"], manifest["accuracy"] = dataset_cost(made), used(cfg.accuracy, cfg.sensor)
     manifest["scenes_made"], manifest["scenes_skipped"] = n_made, cfg.scenes - n_made
     manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
     manifest["effects"] = manifest["runs"][-1]["effects"]

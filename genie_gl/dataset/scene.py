@@ -40,6 +40,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     from ..layout import generate_layout, load_strategy
     from ..render import capture
     from ..scene import build_scene
+    from ..accuracy import segments_option, settings_of
     from ..sensors import load_sensor, place_sensors
 
     stage = stage or (lambda name: None)
@@ -57,7 +58,8 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"])
     t["layout"] = time.perf_counter()
     stage("scene")
-    scene = build_scene(layout, rng=rng["scene"])
+    accuracy = settings_of(cfg.accuracy)
+    scene = build_scene(layout, rng=rng["scene"], **segments_option(build_scene, accuracy))
     t["scene"] = time.perf_counter()
     stage("placement")
     sensor = load_sensor(cfg.sensor)
@@ -66,7 +68,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     stage("capture")
     # a format that stores no colour renders none (an output not asked for costs nothing)
     frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1,
-                     depth_only=not fmt.colour)
+                     depth_only=not fmt.colour, accuracy=accuracy)
     t["capture"] = time.perf_counter()
     stage("cloud")
     kept, points_total, counts = [], 0, np.zeros(65536, np.int64)
@@ -120,8 +122,11 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
 
 
 def _timings(t: dict[str, float], frames: list) -> dict[str, Any]:
-    """Seconds per stage and what each sensor effect did (issue 12): not in stats.json."""
+    """Seconds per stage, the frames' cost (the manifest's "cost" block) and what each sensor
+    effect did (issue 12): not in stats.json."""
+    from ..accuracy import frame_costs
     from ..plan import effect_totals
 
     keys = ("start",) + STAGES
-    return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "effects": effect_totals(frames)}
+    return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "frame_cost_ms": frame_costs(frames),
+            "effects": effect_totals(frames)}

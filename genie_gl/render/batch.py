@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import multiprocessing as mp
 import os
@@ -94,7 +95,7 @@ class _Prefetched:
 
 def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
                     indices: Sequence[int], depth_only: bool = False, plan: Any = None,
-                    materials: Any = None) -> list[Frame]:
+                    materials: Any = None, accuracy: Any = None) -> list[Frame]:
     from ..sensors.simulate import simulate  # effects live in the sensors stage
 
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
@@ -104,7 +105,7 @@ def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarr
     else:  # the pinhole view the lens is resampled from (the default, exact, needs its normals)
         from ..sensors.distortion import lens_views
 
-        views = lens_views(sensor)
+        views = lens_views(sensor, oversample=None if accuracy is None else accuracy.oversample)
         view = views[0].render_sensor if len(views) == 1 else sensor   # cube faces: no prefetch
         normals = True
     frame_plans = None if plan is None else [plan.frames[i] for i in indices]
@@ -114,9 +115,17 @@ def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarr
         far = frame_plans[0].far_m if frame_plans else view.far_m
         if far < view.far_m:
             view = dataclasses.replace(view, far_m=far)
-    render = _Prefetched(renderer, view, poses, depth_only, normals, only)
+    if accuracy is not None and accuracy.supersample > 1:   # every render through the supersampler
+        from .supersample import supersampled
+
+        render = supersampled(functools.partial(renderer.render, depth_only=depth_only), accuracy.supersample)
+    else:
+        render = _Prefetched(renderer, view, poses, depth_only, normals, only)
+    from ..accuracy import simulate_options
+
+    opts = simulate_options(simulate, accuracy)
     return [simulate(sensor, poses[k], render=render, rng=pose_rng(seed, i), materials=materials,
-                     plan=None if frame_plans is None else frame_plans[k]) for k, i in enumerate(indices)]
+                     plan=None if frame_plans is None else frame_plans[k], **opts) for k, i in enumerate(indices)]
 
 
 # -- process pool: one GL context per worker --------------------------------------------------
@@ -134,13 +143,13 @@ def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_preci
 
 
 def _worker_render(job: tuple) -> list[Frame]:
-    sensor, poses, seed, indices, depth_only, plan, materials = job
-    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, plan, materials)
+    sensor, poses, seed, indices, depth_only, plan, materials, accuracy = job
+    return _capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, plan, materials, accuracy)
 
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
             workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
-            depth_precision: str = "float32", plan: Any = True) -> list[Frame]:
+            depth_precision: str = "float32", plan: Any = True, accuracy: Any = None) -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -157,7 +166,18 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         effects skipped where the view cannot call for them; same output as running them);
         a :class:`~genie_gl.plan.Plan` of these poses; None: no plan (every effect decided
         on its frame, no culling). Each frame's ``meta["effects"]`` records what ran.
+    accuracy : :class:`genie_gl.accuracy.AccuracySettings`; None takes the profile's
+        ``accuracy:`` block, else the defaults (supersampling, lens resampling, depth
+        precision unless ``depth_precision`` is given, second-view scale, multipath samples;
+        tessellation is the scene's).
     """
+    from ..accuracy import apply_to_sensor
+    from .supersample import settings_for
+
+    accuracy = settings_for(sensor, accuracy)
+    sensor = apply_to_sensor(sensor, accuracy)
+    if depth_precision == "float32":
+        depth_precision = accuracy.depth_precision
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     n = len(poses)
     if plan is True:
@@ -178,12 +198,13 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     workers = min(workers, n)
     if workers <= 1:
         with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
-            return _capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials)
+            return _capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials, accuracy)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
-        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan, materials)
+        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan, materials,
+                                           accuracy)
                                           for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):

@@ -68,6 +68,10 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
                           f"{data.get('far_m')!r}") from None
     meta = calibration_meta(calib)
     meta["profile"] = str(path)
+    if data.get("accuracy") is not None:   # the profile's accuracy: block (genie_gl.accuracy)
+        from ..accuracy import from_dict
+
+        meta["accuracy"] = from_dict(data["accuracy"], str(path))
     if calib.T is None and data.get("baseline_m") is not None:
         meta["baseline_m"] = float(data["baseline_m"])
     return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, effects,

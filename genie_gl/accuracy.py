@@ -1,0 +1,270 @@
+"""Accuracy settings: the knobs that trade exactness for time, and the ``accuracy:`` block.
+
+A sensor profile (``sensors/*.yaml``) and ``genie dataset --accuracy FILE`` accept a block::
+
+    accuracy:
+      supersample: 2          # render at 2x and reduce; ids never blended
+      resample: exact         # nearest | bilinear | exact (distorted lenses)
+      depth_precision: float32
+
+``genie bench accuracy --budget-mm X`` writes such a file: the fastest setting whose error
+stays within the budget. Every key is optional; a missing key keeps the default. A value of
+``None`` (``null``) for ``oversample``, ``shadow_scale``, ``tessellation`` and
+``multipath_samples`` keeps the owner's own default (the lens module's margin, the profile's
+second-view scale, each asset's segment count, the multipath model's neighbourhood).
+
+This module sits at the bottom of the package (it imports nothing of it but the errors), so
+any stage may read the settings; :func:`apply_to_sensor` imports the sensors stage lazily.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from .errors import ConfigError, did_you_mean
+
+RESAMPLE = ("nearest", "bilinear", "exact")
+DEPTH_PRECISION = ("float32", "depth24", "reversed_z")
+SUPERSAMPLE = (1, 2, 4)
+
+
+@dataclass(frozen=True)
+class AccuracySettings:
+    """How exactly a frame is made (every field has a cheaper and a more exact end).
+
+    Attributes
+    ----------
+    supersample : 1, 2 or 4; render at ``s`` times the resolution and reduce each ``s x s``
+        block to one pixel (the majority instance, its samples' mean depth; ids never blended).
+    resample : how a distorted image is sampled from its wide pinhole render: "nearest",
+        "bilinear" (depth-aware: never across a silhouette) or "exact" (depth along each
+        distorted ray recomputed from the plane of the triangle it hit).
+    oversample : float or None, resolution of that wide pinhole render relative to the
+        sensor's (None: the lens module's default).
+    depth_precision : "float32" (linear view-z target), "depth24" (24-bit window depth read
+        back and linearised) or "reversed_z" (reversed-Z float depth).
+    shadow_scale : float or None, resolution of the second view's render (stereo /
+        structured-light shadow) relative to the sensor's (None: the profile's).
+    tessellation : int or None, segments per circle of curved assets and USD implicit gprims
+        (None: each asset's own).
+    multipath_samples : int or None, neighbours the multipath model samples (None: its own).
+    """
+
+    supersample: int = 1
+    resample: str = "exact"
+    oversample: float | None = None
+    depth_precision: str = "float32"
+    shadow_scale: float | None = None
+    tessellation: int | None = None
+    multipath_samples: int | None = None
+
+    def __post_init__(self) -> None:
+        check(self, "accuracy")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``accuracy:`` block (every field, ``None`` kept as null)."""
+        return dataclasses.asdict(self)
+
+    def changed(self) -> dict[str, Any]:
+        """Only the fields that differ from the defaults."""
+        base = AccuracySettings()
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) != getattr(base, f.name)}
+
+    def label(self) -> str:
+        """A short name: ``default`` or ``supersample=2, resample=nearest``."""
+        ch = self.changed()
+        return ", ".join(f"{k}={v}" for k, v in ch.items()) or "default"
+
+
+def check(s: AccuracySettings, where: str) -> None:
+    """Raise ConfigError naming ``where`` and the field when a value is out of range."""
+    def bad(name: str, expected: str) -> ConfigError:
+        return ConfigError(f"{where}: accuracy.{name}: expected {expected}, got {getattr(s, name)!r}")
+
+    if not isinstance(s.supersample, int) or isinstance(s.supersample, bool) or s.supersample not in SUPERSAMPLE:
+        raise bad("supersample", "1, 2 or 4")
+    if s.resample not in RESAMPLE:
+        raise bad("resample", " | ".join(RESAMPLE) + did_you_mean(s.resample, RESAMPLE))
+    if s.depth_precision not in DEPTH_PRECISION:
+        raise bad("depth_precision", " | ".join(DEPTH_PRECISION) + did_you_mean(s.depth_precision, DEPTH_PRECISION))
+    if s.oversample is not None and not (_number(s.oversample) and 0.25 <= s.oversample <= 8):
+        raise bad("oversample", "a number in [0.25, 8] or null")
+    if s.shadow_scale is not None and not (_number(s.shadow_scale) and 0 < s.shadow_scale <= 4):
+        raise bad("shadow_scale", "a number in (0, 4] or null")
+    for name, lo in (("tessellation", 3), ("multipath_samples", 1)):
+        v = getattr(s, name)
+        if v is not None and (not isinstance(v, int) or isinstance(v, bool) or v < lo):
+            raise bad(name, f"an integer >= {lo} or null")
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and v == v
+
+
+def from_dict(data: Any, where: str) -> AccuracySettings:
+    """Settings from an ``accuracy:`` mapping; unknown keys and bad values are named."""
+    if data is None:
+        return AccuracySettings()
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: accuracy: expected a mapping of settings, got {type(data).__name__}")
+    names = [f.name for f in fields(AccuracySettings)]
+    for key in data:
+        if key not in names:
+            raise ConfigError(f"{where}: accuracy.{key}: unknown setting{did_you_mean(key, names)}; "
+                              f"expected some of {', '.join(names)}")
+    try:
+        return AccuracySettings(**data)
+    except ConfigError as exc:
+        raise ConfigError(str(exc).replace("accuracy: accuracy.", f"{where}: accuracy.", 1)) from None
+
+
+def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
+    """Settings from a YAML or JSON file holding an ``accuracy:`` block (a profile, or what
+    ``genie bench accuracy --budget-mm`` wrote), or the bare mapping."""
+    import yaml
+
+    p = Path(path)
+    try:
+        data = yaml.safe_load(p.read_text())   # JSON is YAML
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read accuracy settings ({exc.strerror})") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{p}: not valid YAML or JSON ({str(exc).splitlines()[0]})") from None
+    if isinstance(data, dict) and "accuracy" in data:
+        data = data["accuracy"]
+    return from_dict(data, str(p))
+
+
+def write_accuracy(path: str | os.PathLike, settings: AccuracySettings, *, comment: str = "") -> Path:
+    """Write ``settings`` as a YAML file with an ``accuracy:`` block (write, then rename)."""
+    import yaml
+
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    head = "".join(f"# {line}\n" for line in comment.splitlines())
+    text = head + yaml.safe_dump({"accuracy": settings.to_dict()}, sort_keys=False)
+    tmp = p.with_name(f".{p.name}.tmp")
+    tmp.write_text(text)
+    tmp.replace(p)
+    return p
+
+
+def apply_to_sensor(sensor: Any, settings: AccuracySettings) -> Any:
+    """``sensor`` with the effect-level knobs set: the stereo shadow's second-view scale and
+    the samples of every multipath model that takes ``samples`` (``multipath``,
+    ``tof_multipath``)."""
+    effects = []
+    for eff in sensor.effects:
+        names = {f.name for f in fields(eff)} if dataclasses.is_dataclass(eff) else set()
+        if getattr(eff, "name", "") == "stereo_shadow" and "scale" in names and settings.shadow_scale is not None:
+            eff = dataclasses.replace(eff, scale=float(settings.shadow_scale))
+        if ("multipath" in getattr(eff, "name", "") and "samples" in names
+                and settings.multipath_samples is not None):
+            eff = dataclasses.replace(eff, samples=int(settings.multipath_samples))
+        effects.append(eff)
+    return dataclasses.replace(sensor, effects=tuple(effects))
+
+
+def simulate_options(simulate: Any, settings: AccuracySettings | None) -> dict[str, Any]:
+    """The keywords of ``simulate`` (the sensors stage's) that carry ``settings``: the lens
+    resampling and the wide render's oversampling, where this build's simulate takes them."""
+    import inspect
+
+    if settings is None:
+        return {}
+    params = inspect.signature(simulate).parameters
+    wanted = {"resample": settings.resample, "oversample": settings.oversample}
+    return {k: v for k, v in wanted.items() if k in params and v is not None}
+
+
+def manifest_entry(settings: AccuracySettings) -> dict[str, Any]:
+    """What a manifest records: every field and the short label."""
+    return {"settings": settings.to_dict(), "label": settings.label()}
+
+
+def dumps(settings: AccuracySettings) -> str:
+    return json.dumps(settings.to_dict(), sort_keys=True)
+
+
+# -- datasets: the --accuracy option, what was used, what it cost (manifests) ---------------------
+def option(path: str | os.PathLike | None) -> dict[str, Any] | None:
+    """``--accuracy FILE``: ``{"file", "settings"}`` (a plain dict, for configs and manifests),
+    read and checked now so a bad file fails before any work; None without the option."""
+    if path is None:
+        return None
+    return {"file": str(path), "settings": load_accuracy(path).to_dict()}
+
+
+def settings_of(block: dict[str, Any] | None) -> AccuracySettings | None:
+    """The settings of an :func:`option` block (None: none given)."""
+    return AccuracySettings(**block["settings"]) if block else None
+
+
+def used(block: dict[str, Any] | None, sensor: str) -> dict[str, Any]:
+    """What a manifest records: the settings the captures used and where they came from
+    (the --accuracy file, the sensor profile's accuracy: block, or the defaults)."""
+    if block:
+        return {"source": block["file"], "settings": block["settings"]}
+    from .sensors import load_sensor
+
+    prof = load_sensor(sensor).meta.get("accuracy")
+    return {"source": "sensor profile" if prof else "defaults", "settings": (prof or AccuracySettings()).to_dict()}
+
+
+def frame_costs(frames: Any) -> dict[str, float]:
+    """Milliseconds summed over ``frames`` per part of making them: ``render``, ``distortion``
+    and ``effect:<name>`` (from each frame's ``meta["cost_ms"]``; a frame without it, an
+    ideal pinhole frame, counts its ``render_ms``)."""
+    out: dict[str, float] = {}
+    for f in frames:
+        for k, v in frame_cost(f.meta or {}).items():
+            out[k] = out.get(k, 0.0) + float(v)
+    return out
+
+
+def frame_cost(meta: dict[str, Any]) -> dict[str, float]:
+    """One frame's milliseconds per part, from its ``meta``: ``cost_ms`` when it has it, the
+    per-effect log ``effects`` (``[{"name", "run", "ms"}, ...]``) for the effects, and the
+    renderer's ``render_ms`` otherwise."""
+    cost = dict(meta.get("cost_ms") or {})
+    for e in meta.get("effects") or []:
+        if isinstance(e, dict) and "ms" in e and f"effect:{e.get('name')}" not in (meta.get("cost_ms") or {}):
+            key = f"effect:{e.get('name')}"
+            cost[key] = cost.get(key, 0.0) + float(e["ms"])
+    if "render" not in cost:
+        cost["render"] = float(meta.get("render_ms", 0.0))
+    return cost
+
+
+def dataset_cost(stats: list[dict[str, Any]]) -> dict[str, Any]:
+    """The manifest's ``cost`` block from the scenes' stats (``timings_s``, ``frame_cost_ms``,
+    ``cameras``): per stage and per effect, the total and the per-frame milliseconds."""
+    frames = sum(int(s.get("cameras", 0)) for s in stats)
+    stages: dict[str, float] = {}
+    parts: dict[str, float] = {}
+    for s in stats:
+        for k, v in (s.get("timings_s") or {}).items():
+            stages[k] = stages.get(k, 0.0) + 1e3 * float(v)
+        for k, v in (s.get("frame_cost_ms") or {}).items():
+            parts[k] = parts.get(k, 0.0) + float(v)
+    per = max(frames, 1)
+    return {"frames": frames,
+            "stages": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in stages.items()},
+            "capture": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in sorted(parts.items())}}
+
+
+def segments_option(fn: Any, settings: AccuracySettings | None, where: str = "accuracy") -> dict[str, Any]:
+    """``{"segments": n}`` for a scene builder or USD reader ``fn`` when ``settings`` sets a
+    tessellation; ConfigError when it does and ``fn`` takes no ``segments``."""
+    import inspect
+
+    if settings is None or settings.tessellation is None:
+        return {}
+    if "segments" not in inspect.signature(fn).parameters:
+        raise ConfigError(f"{where}: accuracy.tessellation = {settings.tessellation}: this build's "
+                          f"{fn.__name__} takes no segments=; leave it null")
+    return {"segments": int(settings.tessellation)}
