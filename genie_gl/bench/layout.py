@@ -51,6 +51,31 @@ def _register() -> None:
         generate_batch = Generator.generate_batch
 
 
+def _merge_cost(repeats: int) -> dict:
+    """The merge layer's cost beside the expansion it follows, measured side by side: R=10,
+    L=5 (100 000 leaves) typed leaf, leaf, leaf2, ... so that neighbours merge, within a
+    parent and across parents."""
+    from ..layout import generate_layout, parse_strategy
+
+    s = _strategy(10, 5)
+    s["region_types"]["leaf2"] = {"final": True}
+    s["levels"][-1]["n"]["children"]["strip"] = {"sequential": ["leaf", "leaf", "leaf2"]}
+    without, with_merge = parse_strategy(s), parse_strategy({**s, "levels": s["levels"] + ["merge"]})
+    t_without = t_with = np.inf
+    for _ in range(repeats):
+        for strat in (without, with_merge):
+            t = time.perf_counter()
+            layout = generate_layout(strat, seed=0)
+            dt = time.perf_counter() - t
+            if strat is without:
+                t_without, before = min(t_without, dt), len(layout.leaf_indices())
+            else:
+                t_with, after = min(t_with, dt), len(layout.leaf_indices())
+    print(f"merge layer, R=10 L=5 ({before:,} leaves -> {after:,}): {1e3 * t_with:.0f} ms with it, "
+          f"{1e3 * t_without:.0f} ms without (x{t_with / t_without:.2f})")
+    return {"leaves_before": before, "leaves_after": after, "ms_with": 1e3 * t_with, "ms_without": 1e3 * t_without}
+
+
 def run(args: argparse.Namespace) -> int:
     from ..layout import generate_layout, parse_strategy
 
@@ -77,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
     loop_s = time.perf_counter() - t0
     print(f"R=20, L=4 with a per-region generator (no array code): {1e3 * loop_s:.0f} ms, "
           f"{len(slow) / loop_s:,.0f} nodes/s")
+    merge = _merge_cost(args.repeats)
     t0 = time.perf_counter()
     for _ in range(5):
         generate_layout("assembly_line", seed=0)
@@ -85,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "layout.json").write_text(json.dumps({"rows": rows, "us_per_node": k * 1e3, "r2": r2,
-                                                 "assembly_line_ms": real_ms,
+                                                 "assembly_line_ms": real_ms, "merge_layer": merge,
                                                  "per_region_nodes_per_s": len(slow) / loop_s}, indent=1))
     import matplotlib
 

@@ -11,7 +11,7 @@ import math
 import os
 from typing import Any, ClassVar, Literal, Optional
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ..errors import ConfigError, did_you_mean
 
@@ -21,7 +21,7 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "chunk_m": "--chunk-m", "min_points": "--min-points", "min_labelled_share": "--min-labelled-share",
           "previews": "--previews", "executor": "--executor", "address": "--address", "split": "--split",
           "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
-          "accuracy": "--accuracy"}
+          "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget"}
 
 
 class DatasetConfig(BaseModel):
@@ -49,6 +49,10 @@ class DatasetConfig(BaseModel):
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
     accuracy: Optional[dict[str, Any]] = None   # genie_gl.accuracy.option(): {"file", "settings"}
+    # curation (genie_gl.curation): {"name": "paper" or a file, "target": {class id: share}};
+    # given as the name, the target is read here, so the fingerprint holds the shares
+    class_balance: Optional[dict[str, Any]] = None
+    points_budget: Optional[int] = Field(None, ge=1)
 
     @field_validator("format")
     @classmethod
@@ -66,8 +70,26 @@ class DatasetConfig(BaseModel):
             raise ValueError("expected three shares >= 0 (train, valid, test), not all 0")
         return v
 
+    @field_validator("class_balance", mode="before")
+    @classmethod
+    def _class_balance(cls, v: Any) -> Any:
+        from ..curation import resolve_target
+
+        return resolve_target(v)
+
+    @model_validator(mode="after")
+    def _curated_clouds(self) -> "DatasetConfig":
+        from ..export.registry import DATASET_FORMATS
+
+        if (self.class_balance or self.points_budget) and not DATASET_FORMATS[self.format].chunks:
+            raise ConfigError(f"--class-balance and --points-budget sub-sample point clouds; --format "
+                              f"{self.format} writes images: use a point-cloud format")
+        return self
+
     # the fields that decide the bytes written: resuming with any other value is refused
-    FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points", "min_labelled_share", "split", "accuracy")
+    FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
+                                                "min_labelled_share", "split", "accuracy", "class_balance",
+                                                "points_budget")
 
     @classmethod
     def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":
@@ -76,6 +98,9 @@ class DatasetConfig(BaseModel):
             return cls(**data)
         except ValidationError as exc:
             e = exc.errors()[0]
+            own = (e.get("ctx") or {}).get("error")
+            if isinstance(own, ConfigError):  # a check that names its field itself
+                raise ConfigError(f"{source + ': ' if source else ''}{own}") from None
             field = ".".join(str(p) for p in e["loc"]) or "?"
             name = OPTION.get(str(e["loc"][0]) if e["loc"] else "", field)
             msg = e["msg"].removeprefix("Value error, ")

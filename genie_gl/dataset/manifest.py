@@ -57,6 +57,8 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
         parts[role] = _file_hash(path) if Path(path).is_file() else f"missing: {path}"
     for k in DatasetConfig.FINGERPRINTED:
         v = getattr(cfg, k)
+        if v is None:  # an option not asked for (--class-balance, ...): the fingerprint of a run without it
+            continue
         parts[k] = list(v) if isinstance(v, tuple) else v
     blob = json.dumps(parts, sort_keys=True).encode()
     return {"sha256": hashlib.sha256(blob).hexdigest(), "parts": parts}

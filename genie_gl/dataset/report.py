@@ -17,13 +17,19 @@ def class_totals(stats: list[dict]) -> dict[int, int]:
     return total
 
 
-def histogram(out: Path, stats: list[dict]) -> dict[str, int]:
-    """Write ``histogram.{txt,json,png}`` under ``out``; returns {class name: points}."""
+def histogram(out: Path, stats: list[dict], target: dict[int, float] | None = None,
+              short: dict[str, str] | None = None) -> dict[str, int]:
+    """Write ``histogram.{txt,json,png}`` under ``out``; returns {class name: points}. With a
+    ``target`` distribution (``--class-balance``) the text shows it next to the share reached,
+    and names the classes ``short`` of it, with why."""
     total = class_totals(stats)
     n = sum(total.values()) or 1
-    lines = [f"{'id':>3}  {'class':<20}{'points':>14}{'share':>9}"]
-    for k in sorted(total):
-        lines.append(f"{k:>3}  {labels.name(k):<20}{total[k]:>14,}{100 * total[k] / n:>8.2f}%")
+    lines = [f"{'id':>3}  {'class':<20}{'points':>14}{'share':>9}" + (f"{'target':>9}" if target else "")]
+    for k in sorted(set(total) | set(target or {})):
+        lines.append(f"{k:>3}  {labels.name(k):<20}{total.get(k, 0):>14,}{100 * total.get(k, 0) / n:>8.2f}%"
+                     + (f"{100 * target.get(k, 0.0):>8.2f}%" if target else ""))
+    for k, why in sorted((short or {}).items(), key=lambda kv: int(kv[0])):
+        lines.append(f"short of its target: {labels.name(int(k))}: {why}")
     (out / "histogram.txt").write_text("\n".join(lines) + "\n")
     (out / "histogram.json").write_text(json.dumps({labels.name(k): v for k, v in sorted(total.items())}, indent=1))
     import matplotlib

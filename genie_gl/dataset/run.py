@@ -15,6 +15,9 @@ of ``--out DIR``::
     DIR/sequences/NN/, genie-gl.yaml  semantickitti: the sequences (hard links to the scenes' scans)
     DIR/train_pbr/NNNNNN/             bop: the scene's RGB-D frames, masks and ground truth
     DIR/camera.json, DIR/models/      bop: the camera and the object models (mm)
+    DIR/.balance/NNNNNN.npz           --class-balance / --points-budget: each scene's chunks
+                                      before balancing (one plan needs them all; kept so a
+                                      re-run resumes): see genie_gl/curation.py
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
+from .. import __version__, curation
 from ..errors import ConfigError
 from .config import DatasetConfig
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete
@@ -147,6 +150,7 @@ def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, prog
     started = time.time()
     t0 = time.perf_counter()
     results = map_scenes(cfg, progress=progress, verify=verify)
+    balanced = curation.finish(cfg, verify=verify) if curation.active(cfg) else None  # one plan over every scene
     elapsed = time.perf_counter() - t0
     stats = [scene_complete(fmt.scene_dir(out, i)) for i in range(cfg.scenes)]
     missing = [i for i, s in enumerate(stats) if s is None]
@@ -154,23 +158,25 @@ def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, prog
         raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
     if fmt.finish is not None:
         fmt.finish(out, cfg, stats)
-    hist = histogram(out, stats)
+    hist = histogram(out, stats, curation.target(cfg), curation.short(stats))
     made = [r for r in results if not r.get("skipped")]
+    n_made = len(made) if balanced is None else len(balanced)  # balanced: the scenes written by this run
     stage_t: dict[str, float] = {}
     for r in made:
         for k, v in r.get("timings_s", {}).items():
             stage_t[k] = stage_t.get(k, 0.0) + v
     manifest["runs"] = runs + [{
         "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
-        "scenes_made": len(made), "scenes_skipped": cfg.scenes - len(made), "workers": cfg.workers,
+        "scenes_made": n_made, "scenes_skipped": cfg.scenes - n_made, "workers": cfg.workers,
         "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made),
         "cost": dataset_cost(made)}]
     manifest["cost"], manifest["accuracy"] = dataset_cost(made), used(cfg.accuracy, cfg.sensor)
-    manifest["scenes_made"], manifest["scenes_skipped"] = len(made), cfg.scenes - len(made)
+    manifest["scenes_made"], manifest["scenes_skipped"] = n_made, cfg.scenes - n_made
     manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
     manifest["effects"] = manifest["runs"][-1]["effects"]
     if any("sequence" in s for s in stats):
         manifest["sequences"] = {f"{s['sequence']:02d}": [] for s in stats}
         for s in stats:
             manifest["sequences"][f"{s['sequence']:02d}"].append(s["scene"])
+    manifest.update(curation.manifest(cfg, stats))
     _write_manifest(out, manifest)

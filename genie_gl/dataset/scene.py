@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import curation
 from .config import DatasetConfig
 from .manifest import record_files, scene_complete
 
@@ -39,7 +40,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     from ..layout import generate_layout, load_strategy
     from ..render import capture
     from ..scene import build_scene
-    from ..accuracy import frame_costs, segments_option, settings_of
+    from ..accuracy import segments_option, settings_of
     from ..sensors import load_sensor, place_sensors
 
     stage = stage or (lambda name: None)
@@ -49,6 +50,8 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     done = scene_complete(final, verify=verify)
     if done is not None:
         return done | {"skipped": True}
+    if curation.active(cfg) and curation.cache_path(cfg, index).is_file():  # made, waiting to be balanced
+        return {"scene": index, "pending": True, "skipped": True}
     rng = scene_rngs(cfg.seed, index)
     t = {"start": time.perf_counter()}
     stage("layout")
@@ -83,6 +86,15 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
             points_total += int(ok.sum())
             np.add.at(counts, f.semantic[ok], 1)
     t["cloud"] = time.perf_counter()
+    if curation.active(cfg):  # balanced once every scene is made (genie_gl/curation.py)
+        if index < cfg.previews:
+            from .previews import write_previews
+
+            write_previews(out / "previews", index, layout, frames, scene)
+        stats = curation.cache_scene(cfg, index, kept, layout, {"instances": len(scene.instances),
+                                                                "cameras": len(frames), "points_total": int(points_total)})
+        t["export"] = time.perf_counter()
+        return stats | _timings(t, frames)
     stage("export")
     for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
         shutil.rmtree(stale, ignore_errors=True)
@@ -106,10 +118,15 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     if final.exists():  # an incomplete scene of an earlier run
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
-    keys = ("start",) + STAGES
-    stats["timings_s"] = {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}
-    stats["frame_cost_ms"] = frame_costs(frames)   # the manifest's "cost" block (not in stats.json)
-    from ..plan import effect_totals  # what each sensor effect did (issue 12); timings: not in stats.json
+    return stats | _timings(t, frames)
 
-    stats["effects"] = effect_totals(frames)
-    return stats
+
+def _timings(t: dict[str, float], frames: list) -> dict[str, Any]:
+    """Seconds per stage, the frames' cost (the manifest's "cost" block) and what each sensor
+    effect did (issue 12): not in stats.json."""
+    from ..accuracy import frame_costs
+    from ..plan import effect_totals
+
+    keys = ("start",) + STAGES
+    return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "frame_cost_ms": frame_costs(frames),
+            "effects": effect_totals(frames)}

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .generators import Children, Parents
+from .merge import merge_tree, renumber
 from .model import ORIENTATIONS, Layout, Node, Region, RegionType, Tree
 from .strategy import Rule, Strategy, load_strategy
 
@@ -32,12 +33,16 @@ def generate_layout(strategy: Strategy | str | Path, seed: int = 0, *,
                 np.array([names.index(r.type)], np.int32), np.array([ORIENTATIONS.index(r.orientation)], np.int8),
                 np.zeros(1, np.int32), np.full(1, -1, np.int32), names)
     reports: list[dict] = []
+    merges: list[dict] = []
     for li, level in enumerate(strat.levels):
         if level == "merge":
-            tree = Tree.from_nodes(merge(tree.to_nodes()), names)
+            tree, record, mapping = merge_tree(tree, l_shape=strat.l_shape, level=li)
+            merges = [renumber(m, mapping) for m in merges] + ([record] if record else [])
             continue
         tree = _expand_level(tree, level, strat.region_types, li, reports, rng=rng)
     meta = {"strategy": strat.name, "seed": int(seed), "reports": reports, "scene": strat.scene}
+    if merges:
+        meta["merges"] = merges
     return Layout(tree, strat.region_types, meta)
 
 
@@ -99,46 +104,9 @@ def _assign(tree: Tree, sel: np.ndarray, kids: Children, rule: Rule, *, rng: np.
 
 
 def merge(nodes: list[Node], tol: float = 1e-9) -> list[Node]:
-    """Merge sibling leaves of the same type that share a whole edge into one rectangle,
-    until none do; area and type coverage are preserved. Returns a re-indexed node list."""
-    regions = {i: n.region for i, n in enumerate(nodes)}
-    children = {i: list(n.children) for i, n in enumerate(nodes)}
-    for p in range(len(nodes)):
-        leaves = [c for c in children[p] if not nodes[c].children]
-        changed = True
-        while changed:
-            changed = False
-            for a_i, a in enumerate(leaves):
-                ra = regions[a]
-                for b in leaves[a_i + 1:]:
-                    rb = regions[b]
-                    m = _join(ra, rb, tol)
-                    if m is not None:
-                        regions[a] = m
-                        leaves.remove(b)
-                        children[p].remove(b)
-                        changed = True
-                        break
-                if changed:
-                    break
-    # re-index breadth-first
-    out: list[Node] = []
-    queue, new_index = [(0, -1)], {}
-    while queue:
-        old, parent = queue.pop(0)
-        new_index[old] = len(out)
-        out.append(Node(regions[old], nodes[old].depth, parent))
-        if parent >= 0:
-            out[parent].children.append(new_index[old])
-        queue.extend((c, new_index[old]) for c in children[old])
-    return out
-
-
-def _join(a: Region, b: Region, tol: float) -> Region | None:
-    if a.type != b.type or a.orientation != b.orientation:
-        return None
-    if abs(a.y - b.y) < tol and abs(a.h - b.h) < tol and (abs(a.x + a.w - b.x) < tol or abs(b.x + b.w - a.x) < tol):
-        return Region(min(a.x, b.x), a.y, a.w + b.w, a.h, a.type, a.orientation)
-    if abs(a.x - b.x) < tol and abs(a.w - b.w) < tol and (abs(a.y + a.h - b.y) < tol or abs(b.y + b.h - a.y) < tol):
-        return Region(a.x, min(a.y, b.y), a.w, a.h + b.h, a.type, a.orientation)
-    return None
+    """The merge layer on a node list (see :mod:`.merge`): leaves of the same type and
+    orientation sharing a whole edge become one rectangle, whatever their parents, until
+    none do; area and type coverage are preserved. Returns a re-indexed node list."""
+    names = tuple(dict.fromkeys(n.region.type for n in nodes))
+    tree, _, _ = merge_tree(Tree.from_nodes(nodes, names), tol=max(tol, 1e-9))
+    return tree.to_nodes()

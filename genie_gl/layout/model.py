@@ -27,6 +27,9 @@ class RegionType:
     color : (r, g, b) uint8, its colour in pictures.
     semantic : int or None, class id (DESIGN.md label map) of what the scene stage puts there.
     asset_group : str or None, the asset group the scene stage draws from (None: empty floor).
+    fill : dict or None, how the scene stage furnishes a region of this type (validated
+        :class:`~.strategy.FillSpec` as a plain dict: mode, spacing_m, count, stack_m, load);
+        None: one asset.
     """
 
     name: str
@@ -34,6 +37,7 @@ class RegionType:
     color: tuple[int, int, int] = (200, 200, 200)
     semantic: int | None = None
     asset_group: str | None = None
+    fill: dict | None = field(default=None, hash=False)  # a dict: kept out of the hash
 
 
 @dataclass(frozen=True)

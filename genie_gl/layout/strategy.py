@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..errors import ConfigError, did_you_mean
 from ..resources import read_text, resolve
@@ -39,11 +39,63 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+Span = Union[float, tuple[float, float]]  # a value, or a range [min, max] drawn from the scene's Generator
+Count = Union[int, tuple[int, int]]
+
+
+class FillSpec(_Strict):
+    """How a region of this type is furnished (the scene stage reads it).
+
+    ``mode``: ``one`` asset in the middle (the default); a ``row`` along the region's long
+    side; a ``grid`` over the region; a ``stack`` (one footprint stacked up to ``stack_m``).
+    ``spacing_m``: clearance between neighbours; ``count``: at most this many (default: as
+    many as fit); ``stack_m``: stack stackable classes (pallet, KLT, stillage) up to this
+    height; ``load``: what each shelf of a rack carries, ``{class or "empty": weight}``,
+    each loaded object its own instance of its own class. Ranges are ``[min, max]``.
+    """
+
+    mode: Literal["one", "row", "grid", "stack"] = "one"
+    spacing_m: Span = 0.1
+    count: Count | None = None
+    stack_m: Span | None = None
+    load: dict[str, float] | None = None
+
+    @field_validator("spacing_m", "stack_m")
+    @classmethod
+    def _span(cls, v):
+        if v is None:
+            return v
+        lo, hi = (v, v) if isinstance(v, (int, float)) else v
+        if lo < 0 or hi < lo:
+            raise ValueError(f"expected a value >= 0 or a range [min, max] with 0 <= min <= max, got {v!r}")
+        return v
+
+    @field_validator("count")
+    @classmethod
+    def _count(cls, v):
+        if v is None:
+            return v
+        lo, hi = (v, v) if isinstance(v, int) else v
+        if lo < 1 or hi < lo:
+            raise ValueError(f"expected a count >= 1 or a range [min, max] with 1 <= min <= max, got {v!r}")
+        return v
+
+    @field_validator("load")
+    @classmethod
+    def _load(cls, v):
+        if v is None:
+            return v
+        if not v or any(p < 0 for p in v.values()) or sum(v.values()) <= 0:
+            raise ValueError(f"expected {{class or 'empty': weight >= 0}} with a positive sum, got {v!r}")
+        return v
+
+
 class RegionTypeSpec(_Strict):
     final: bool = False
     color: Union[str, list[int]] = "#c8c8c8"
     semantic: int | None = Field(default=None, ge=0, le=65535)
     asset_group: str | None = None
+    fill: FillSpec | None = None
     description: str | None = None
 
 
@@ -63,12 +115,22 @@ class RuleSpec(_Strict):
     orientation: Any = "inherit"
 
 
+class MergeSpec(_Strict):
+    """What the ``"merge"`` levels do with two leaves of one type and orientation that
+    border along part of an edge only (their union an L or a T): ``keep`` them apart (the
+    default), or ``strip``: cut each where the other's edge ends, so the bordering parts
+    merge into one strip and the rest stays as its own region (once per merge level)."""
+
+    l_shape: Literal["keep", "strip"] = "keep"
+
+
 class StrategySpec(_Strict):
     name: str
     description: str | None = None
     root: RootSpec
     region_types: dict[str, RegionTypeSpec] = Field(min_length=1)
     levels: list[Union[Literal["merge"], dict[str, RuleSpec]]] = Field(min_length=1)
+    merge: MergeSpec = MergeSpec()
     scene: dict[str, Any] = {}
 
 
@@ -98,6 +160,7 @@ class Strategy:
     levels: list[Union[str, dict[str, Rule]]]
     scene: dict[str, Any] = field(default_factory=dict)
     source: str = "<dict>"
+    l_shape: str = "keep"
 
 
 def _color(value: Any, where: str) -> tuple[int, int, int]:
@@ -111,6 +174,13 @@ def _color(value: Any, where: str) -> tuple[int, int, int]:
     elif isinstance(value, list) and len(value) == 3 and all(isinstance(c, int) and 0 <= c <= 255 for c in value):
         return tuple(value)  # type: ignore[return-value]
     raise ConfigError(f"{where}: expected a colour '#rrggbb' or [r, g, b] (0-255), got {value!r}")
+
+
+def _fill(fill: FillSpec, source: str, name: str) -> dict[str, Any]:
+    """The fill as a plain dict (it travels in layout JSON; the scene stage checks the load's
+    class names, which the layout stage does not know)."""
+    out = fill.model_dump()
+    return {k: (list(v) if isinstance(v, tuple) else v) for k, v in out.items()}
 
 
 def _path(loc: tuple) -> str:
@@ -131,7 +201,7 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
     types = {}
     for name, t in spec.region_types.items():
         types[name] = RegionType(name, t.final, _color(t.color, f"{source}: $.region_types.{name}.color"),
-                                 t.semantic, t.asset_group)
+                                 t.semantic, t.asset_group, None if t.fill is None else _fill(t.fill, source, name))
 
     def known(name: str, where: str) -> None:
         if name not in types:
@@ -185,7 +255,7 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
     from ..scene_options import check_scene_options  # the scene stage's options, typed at the bottom
 
     check_scene_options(spec.scene, f"{source}: $.scene")
-    return Strategy(spec.name, spec.root, types, levels, spec.scene, source)
+    return Strategy(spec.name, spec.root, types, levels, spec.scene, source, spec.merge.l_shape)
 
 
 def _check_fits(rule: RuleSpec, root: RootSpec, where: str) -> None:

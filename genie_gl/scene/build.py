@@ -1,7 +1,12 @@
-"""From a ``Layout`` to a ``Scene``: one asset per region with an asset group (paper §3.3).
+"""From a ``Layout`` to a ``Scene``: each region with an asset group furnished (paper §3.3).
 
 Each region draws an asset class from its group and a variant that fits its rectangle,
-turned to face the region's orientation; assets are never stretched. Options (the
+turned to face the region's orientation; assets are never stretched. The region type's
+``fill`` says how the region is furnished: ``one`` asset in its middle (the default), a
+``row`` along its long side or a ``grid`` of them ``spacing_m`` apart (at most ``count``),
+a ``stack`` up to ``stack_m``; racks with a ``load`` carry, shelf by shelf, pallets,
+stillages or KLTs, each its own instance of its own class. Every item keeps to its own cell
+of the region, so items never interpenetrate. Options (the
 strategy's ``scene`` section), each off unless asked for — and when off, no RNG draw:
 
 * ``walls`` (bool), ``columns`` (spacing in m, 0 = none): the hall around the layout;
@@ -121,49 +126,156 @@ class SceneBuilder:
             return
         if self.opt.get("dropout") and self.rng.random() < float(self.opt["dropout"]):
             return
+        fill = rtype.fill or {}
+        _check_load(reg.type, fill.get("load"))
         cls = classes[int(self.rng.integers(len(classes)))] if len(classes) > 1 else classes[0]
-        yaw = YAW[reg.orientation]
-        variants = self.assets.variants(cls)
-        order = [variants[k] for k in self.rng.permutation(len(variants))]
-        choice = None
-        for turn in (0.0, np.pi / 2):  # the region's facing first; a quarter turn if nothing fits
-            for v in order:
-                fw, fd = _footprint(self.assets.mesh(cls, v), yaw + turn)
-                if fw <= reg.w + 1e-9 and fd <= reg.h + 1e-9:
-                    choice = (v, yaw + turn, fw, fd)
-                    break
-            if choice:
-                break
+        choice = self._fit(cls, YAW[reg.orientation], reg.w, reg.h)
         if choice is None:
             log.debug("region %d (%s, %.2f x %.2f m): no %s variant fits", i, reg.type, reg.w, reg.h, cls)
             return
+        mode = fill.get("mode", "one")
+        if mode in ("one", "stack"):
+            self._place(cls, choice, reg, reg.type, i, fill)
+            return
+        for k, slot in enumerate(self._slots(reg, choice, fill, grid=mode == "grid")):
+            self._place(cls, choice, slot, f"{reg.type}_s{k}", i, fill)
+
+    def _fit(self, cls: str, yaw: float, w: float, h: float) -> tuple[str, float, float, float] | None:
+        """A variant of ``cls`` (in a random order) whose footprint fits w x h turned to
+        ``yaw``, else a quarter turn; (variant, yaw, footprint along x, along y) or None."""
+        variants = self.assets.variants(cls)
+        order = [variants[k] for k in self.rng.permutation(len(variants))]
+        for turn in (0.0, np.pi / 2):  # the region's facing first; a quarter turn if nothing fits
+            for v in order:
+                fw, fd = _footprint(self.assets.mesh(cls, v), yaw + turn)
+                if fw <= w + 1e-9 and fd <= h + 1e-9:
+                    return v, yaw + turn, fw, fd
+        return None
+
+    def _slots(self, reg: Region, choice: tuple, fill: dict, grid: bool) -> list[Region]:
+        """Cells of one item each: a row along the region's long side (or a grid), items
+        ``spacing_m`` apart, at most ``count`` of them, the block at a random offset. A cell
+        reaches half the spacing past its item, so neighbours' cells touch, never overlap."""
+        _, _, fw, fd = choice
+        s = _span(fill.get("spacing_m", 0.1), rng=self.rng)
+        along_x = reg.w >= reg.h
+        lay_x, lay_y = grid or along_x, grid or not along_x
+        nx = max(1, int((reg.w + s + 1e-9) // (fw + s))) if lay_x else 1
+        ny = max(1, int((reg.h + s + 1e-9) // (fd + s))) if lay_y else 1
+        n = None
+        if fill.get("count") is not None:
+            lo, hi = (fill["count"], fill["count"]) if isinstance(fill["count"], int) else fill["count"]
+            n = int(self.rng.integers(lo, hi + 1))
+            if along_x:
+                nx = min(nx, -(-n // ny))
+            else:
+                ny = min(ny, -(-n // nx))
+
+        def cells(lay: bool, n: int, start: float, length: float, size: float) -> list[tuple[float, float]]:
+            if not lay:
+                return [(start, start + length)]
+            off = start + float(self.rng.uniform(0, max(0.0, length - n * size - (n - 1) * s)))
+            out = []
+            for k in range(n):  # centred on its item, at most half the spacing past it
+                c = off + k * (size + s) + size / 2
+                half = size / 2 + max(0.0, min(s / 2, c - size / 2 - start, start + length - c - size / 2))
+                out.append((c - half, c + half))
+            return out
+
+        xs = cells(lay_x, nx, reg.x, reg.w, fw)
+        ys = cells(lay_y, ny, reg.y, reg.h, fd)
+        out = [Region(x0, y0, x1 - x0, y1 - y0, reg.type, reg.orientation) for y0, y1 in ys for x0, x1 in xs]
+        return out if n is None else out[:n]
+
+    def _place(self, cls: str, choice: tuple, slot: Region, base: str, i: int, fill: dict) -> None:
+        """One item (a stack, a loaded rack) in the middle of ``slot``, with the jitter the
+        options ask for kept inside it. Instance names end in ``_<region index>_<layer>``."""
         v, yaw, fw, fd = choice
-        cx, cy = reg.centre
+        cx, cy = slot.centre
         jit = self.opt.get("jitter")
         if jit:
-            slack_x, slack_y = (reg.w - fw) / 2, (reg.h - fd) / 2
+            slack_x, slack_y = (slot.w - fw) / 2, (slot.h - fd) / 2
             cx += float(np.clip(self.rng.normal(0, jit.get("position_m", 0.0)), -slack_x, slack_x))
             cy += float(np.clip(self.rng.normal(0, jit.get("position_m", 0.0)), -slack_y, slack_y))
             # a yaw turn must keep the turned footprint inside: only where there is room
             dyaw = float(self.rng.normal(0, jit.get("yaw_rad", 0.0)))
             diag = np.hypot(fw, fd) / 2
-            if diag <= min(reg.w / 2 - abs(cx - reg.centre[0]), reg.h / 2 - abs(cy - reg.centre[1])):
+            if diag <= min(slot.w / 2 - abs(cx - slot.centre[0]), slot.h / 2 - abs(cy - slot.centre[1])):
                 yaw += dyaw
         mesh = self.assets.mesh(cls, v)
-        # assets are centred in x, y by construction (bounds centre): correct any offset
-        off = (mesh.bounds[0] + mesh.bounds[1]) / 2
-        c, s = np.cos(yaw), np.sin(yaw)
-        ox, oy = c * off[0] - s * off[1], s * off[0] + c * off[1]
-        layers = 1
         height = float(mesh.bounds[1][2])
-        if self.opt.get("stack") and cls in lib.STACKABLE:
+        layers = 1
+        if cls in lib.STACKABLE and fill.get("stack_m") is not None:
+            layers = max(1, int(_span(fill["stack_m"], rng=self.rng) // (height + 0.001)))
+        elif self.opt.get("stack") and cls in lib.STACKABLE:
             limit = float(self.opt.get("stack_height_m", 1.6))
             max_layers = max(1, int(limit // height))
             layers = int(self.rng.integers(1, max_layers + 1))
         for k in range(layers):
-            self.add(cls, v, _transform(yaw, cx - ox, cy - oy, k * (height + 0.001)), f"{reg.type}_{i}_{k}")
+            self._put(cls, v, yaw, cx, cy, k * (height + 0.001), f"{base}_{i}_{k}")
         if cls == "pallet" and self.opt.get("clutter") and self.rng.random() < float(self.opt["clutter"]):
-            self.add("klt", "6428", _transform(yaw, cx - ox, cy - oy, layers * (height + 0.001)), f"{reg.type}_{i}_klt")
+            self._put("klt", "6428", yaw, cx, cy, layers * (height + 0.001), f"{base}_{i}_klt")
+        if cls == "rack" and fill.get("load"):
+            self._load(v, yaw, cx, cy, fill["load"], base, i)
+
+    def _put(self, cls: str, v: str, yaw: float, cx: float, cy: float, z: float, name: str) -> int:
+        """An instance whose footprint centre lands on (cx, cy), turned by ``yaw``."""
+        mesh = self.assets.mesh(cls, v)
+        off = (mesh.bounds[0] + mesh.bounds[1]) / 2
+        c, s = np.cos(yaw), np.sin(yaw)
+        ox, oy = c * off[0] - s * off[1], s * off[0] + c * off[1]
+        return self.add(cls, v, _transform(yaw, cx - ox, cy - oy, z), name)
+
+    def _load(self, variant: str, yaw: float, cx: float, cy: float, load: dict[str, float], base: str,
+              i: int) -> None:
+        """Each shelf of a built-in rack gets one class drawn from ``load``: as many of it
+        side by side as the shelf holds (KLTs stacked to the shelf's clear height, pallets
+        sometimes carrying a KLT), each its own instance of its own class."""
+        shelves = lib.SHELVES.get("rack", {}).get(variant)
+        if not shelves:
+            return
+        names = sorted(load)  # layout JSON sorts keys: the draw must not depend on their order
+        p = np.array([load[k] for k in names], float)
+        p /= p.sum()
+        c, s = np.cos(yaw), np.sin(yaw)
+        for lv, (z, clear, inner_w, depth) in enumerate(shelves):
+            item = names[int(self.rng.choice(len(names), p=p))]
+            if item == "empty":
+                continue
+            choice = self._fit(item, 0.0, inner_w, depth)
+            if choice is None:
+                continue
+            v, turn, fw, _ = choice
+            h = float(self.assets.mesh(item, v).bounds[1][2])
+            if h > clear:
+                continue
+            gap = 0.05
+            n_fit = max(1, int((inner_w + gap + 1e-9) // (fw + gap)))
+            n = int(self.rng.integers(max(1, n_fit // 2), n_fit + 1))
+            x0 = -(n * fw + (n - 1) * gap) / 2 + fw / 2
+            layers = int(self.rng.integers(1, int(clear // (h + 0.001)) + 1)) if item == "klt" else 1
+            for k in range(n):
+                lx = x0 + k * (fw + gap)
+                wx, wy = cx + c * lx, cy + s * lx
+                for m in range(layers):
+                    self._put(item, v, yaw + turn, wx, wy, z + m * (h + 0.001), f"{base}_shelf{lv}n{k}m{m}_{i}_load")
+                if item == "pallet" and h + 0.28 <= clear and self.rng.random() < 0.5:
+                    self._put("klt", "6428", yaw, wx, wy, z + h + 0.001, f"{base}_shelf{lv}n{k}klt_{i}_load")
+
+
+def _span(value, *, rng: np.random.Generator) -> float:
+    """A value, or one drawn uniformly from a range [min, max]."""
+    if isinstance(value, (int, float)):
+        return float(value)
+    lo, hi = value
+    return float(lo) if lo == hi else float(rng.uniform(lo, hi))
+
+
+def _check_load(rtype: str, load: dict | None) -> None:
+    for cls in load or {}:
+        if cls != "empty" and cls not in lib.VARIANTS:
+            raise ConfigError(f"region type {rtype!r}: fill.load.{cls}: unknown asset class {cls!r}"
+                              f"{did_you_mean(cls, lib.VARIANTS)} (known: empty, {', '.join(sorted(lib.VARIANTS))})")
 
 
 def _with_assets(spec: Any, base: Catalogue) -> Catalogue:

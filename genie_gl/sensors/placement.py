@@ -40,6 +40,8 @@ FITNESS = ("circle", "visibility")
 DEFAULT_MOUNT_M = 3.5      # above people and vehicles, below a typical hall's lights
 DEFAULT_RADIUS_M = 6.0     # a sensor without a range: the disc of the paper's placement
 MIN_MOUNT_M = 2.0          # lowest mount out of people's and forklifts' way [U: a site rule of thumb]
+LOW_MOUNT_M = 1.5          # a camera mounted lower stands on free floor (it would sit inside furniture)
+FREE_MARGIN_M = 0.25       # ... this far from any furnished region
 DEFAULT_CEILING_M = 5.0    # hall height when the layout gives none (the scene stage's wall height)
 CEILING_CLEARANCE_M = 0.2  # a camera hangs this far below the ceiling at most
 
@@ -117,7 +119,7 @@ class CoverageProblem:
     """Weighted coverage of a label raster by discs at candidate positions."""
 
     def __init__(self, layout: Layout, radius_m: float, resolution_m: float = 0.5, step_m: float = 1.0,
-                 weights: dict[str, float] | None = None) -> None:
+                 weights: dict[str, float] | None = None, free_floor: bool = False) -> None:
         if radius_m <= 0:
             raise ConfigError(f"placement: radius_m must be > 0, got {radius_m}")
         r = layout.label_raster(resolution_m)
@@ -133,6 +135,14 @@ class CoverageProblem:
         cx = np.arange(bx + step_m / 2, bx + bw, step_m)
         cy = np.arange(by + step_m / 2, by + bh, step_m)
         self.candidates = np.stack(np.meshgrid(cx, cy), -1).reshape(-1, 2)
+        if free_floor:  # a low mount stands where nothing is furnished (not inside a rack or a stack)
+            rects = np.array([(g.x, g.y, g.x + g.w, g.y + g.h) for g in layout.leaves()
+                              if layout.region_types[g.type].asset_group is not None]).reshape(-1, 4)
+            px, py, m = self.candidates[:, :1], self.candidates[:, 1:], FREE_MARGIN_M
+            inside = ((px > rects[:, 0] - m) & (px < rects[:, 2] + m) & (py > rects[:, 1] - m)
+                      & (py < rects[:, 3] + m)).any(1)
+            if not inside.all():
+                self.candidates = self.candidates[~inside]
         keep = self.weight > 0
         self.px, self.weight = self.px[keep], self.weight[keep]
         self.shape, self.origin_xy, self.resolution_m = (H, W), (x0, y0), float(resolution_m)
@@ -324,7 +334,7 @@ def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, rad
                       min_mount_m=min_mount_m, mount_height_m=mount_height_m, radius_m=radius_m)
     radius_m, mount_height_m = mount.radius_m, mount.height_m
     if fitness == "circle":
-        problem = CoverageProblem(layout, radius_m, weights=weights)
+        problem = CoverageProblem(layout, radius_m, weights=weights, free_floor=mount_height_m < LOW_MOUNT_M)
     elif fitness == "visibility":
         if render is None:
             raise ConfigError("placement fitness 'visibility' needs render=, e.g. Renderer(scene).render")

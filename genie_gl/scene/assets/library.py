@@ -225,6 +225,20 @@ VARIANTS = {
     "conveyor": {"skid": conveyor, "short_skid": lambda: conveyor(4.0, 1.2)},
 }
 
+
+
+def rack_shelves(levels: int = 3, bay_width: float = 2.7, depth: float = 1.1, level_height: float = 1.0,
+                 post: float = 0.08) -> list[tuple[float, float, float, float]]:
+    """The shelves of a one-bay :func:`rack`, bottom up: (deck top z, clear height under the
+    next beams, inner width between the uprights, depth) in metres, in the rack's frame."""
+    return [(0.15 + lv * level_height + 0.12, level_height - 0.12, bay_width - 2 * post, depth)
+            for lv in range(levels)]
+
+
+# what the built-in racks can carry (scene building loads them)
+SHELVES = {"rack": {"1bay_3lv": rack_shelves(3), "1bay_2lv": rack_shelves(2, level_height=1.3),
+                    "narrow_3lv": rack_shelves(3, bay_width=1.9, depth=0.9)}}
+
 # semantic ids of DESIGN.md's label map
 SEMANTIC = {"pallet": 1, "rack": 2, "car": 3, "jack": 4, "stillage": 5, "cabinet": 6, "dolly": 7,
             "forklift": 8, "klt": 9, "conveyor": 0, "floor": 0, "wall": 0, "column": 0}
