@@ -218,3 +218,28 @@ def test_two_levels_then_merge_keep_the_tree_sound(w, h, c1, c2, sp, gen, seed, 
     for m in records(layout.meta.get("merges", [])):
         i = m["node"]
         assert sum(pw * ph for _, _, pw, ph in m["parts"]) == pytest.approx(layout.tree.w[i] * layout.tree.h[i])
+
+
+def test_merge_on_a_node_list_by_hand():
+    """``layout.merge(nodes)``: the two ``a`` halves under different zones become one region
+    under the hall (their common ancestor), the zone left empty goes, and the result is
+    re-indexed breadth-first; a gap wider than ``tol`` keeps them apart."""
+    from genie_gl.layout import merge
+    from genie_gl.layout.model import Node, Region
+
+    def nodes(gap):
+        return [Node(Region(0, 0, 10, 4, "hall"), 0, -1, [1, 2]),
+                Node(Region(0, 0, 5, 4, "zone"), 1, 0, [3]),
+                Node(Region(5, 0, 5, 4, "zone"), 1, 0, [4, 5]),
+                Node(Region(0, 1, 5, 2, "a"), 2, 1),
+                Node(Region(5 + gap, 1, 5 - gap, 2, "a"), 2, 2),
+                Node(Region(5, 3, 5, 1, "b", "left"), 2, 2)]
+
+    out = merge(nodes(0.0))
+    got = [(n.region.type, n.region.orientation, n.region.x, n.region.y, n.region.w, n.region.h, n.depth, n.parent)
+           for n in out]
+    assert got == [("hall", "up", 0, 0, 10, 4, 0, -1), ("zone", "up", 5, 0, 5, 4, 1, 0),
+                   ("a", "up", 0, 1, 10, 2, 1, 0), ("b", "left", 5, 3, 5, 1, 2, 1)]
+    assert [n.children for n in out] == [[1, 2], [3], [], []]
+    assert len(merge(nodes(1e-7))) == 6                    # the default tol (1e-9): apart
+    assert len(merge(nodes(1e-7), tol=1e-6)) == 4          # a wider tol: joined
