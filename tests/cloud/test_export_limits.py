@@ -34,13 +34,13 @@ def test_label_words_at_the_16_bit_limits():
 def test_renumbering_table_by_hand():
     # ids that fit are written as they are, with no table (65535 is the largest that fits)
     ids, table = semantickitti.encode_instances(np.array([0, 65535, 4]))
-    assert ids.tolist() == [0, 65535, 4] and table is None
+    assert ids.tolist() == [0, 65535, 4] and table is None and ids.dtype == np.uint32
     # with a 0 (no instance): 0 stays 0, the others 1..n in increasing order of the original id
     ids, table = semantickitti.encode_instances(np.array([70000, 0, 9, 2**32 - 1, 9]))
     assert ids.tolist() == [2, 0, 1, 3, 1] and table.tolist() == [9, 70000, 2**32 - 1]
     # without a 0: still from 1, so no point reads as "no instance"
     ids, table = semantickitti.encode_instances(np.array([65536, 8]))
-    assert ids.tolist() == [2, 1] and table.tolist() == [8, 65536]
+    assert ids.tolist() == [2, 1] and table.tolist() == [8, 65536] and ids.dtype == np.uint32
     # exactly 65535 instances (and a 0) fit: the last one gets scan id 65535
     many = np.r_[0, np.arange(100000, 100000 + 65535)]
     ids, table = semantickitti.encode_instances(many)
