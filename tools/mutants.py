@@ -47,11 +47,15 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
     "labels": (["genie_gl/export/semantickitti.py", "genie_gl/export/ply.py", "genie_gl/export/pcd.py",
                 "genie_gl/export/npz.py"],
                ["*.semantickitti.x_pack_labels__*", "*.semantickitti.x_write__*", "*.semantickitti.x_read__*",
-                "*.ply.x_*", "*.pcd.x_*", "*.npz.x_*"], ["tests/cloud/test_cloud_export.py"]),
-    "layout": (["genie_gl/layout/engine.py", "genie_gl/layout/generators.py"],
-               ["*.engine.x_merge__*", "*.engine.x__join__*", "*.generators.xǁGridǁgenerate__*",
+                "*.semantickitti.x_encode_instances__*", "*.ply.x_*", "*.pcd.x_*", "*.npz.x_*"],
+               ["tests/cloud/test_cloud_export.py", "tests/cloud/test_export_limits.py"]),
+    "layout": (["genie_gl/layout/engine.py", "genie_gl/layout/generators.py", "genie_gl/layout/merge.py"],
+               # the merge layer (layout/merge.py since the rewrite; engine.merge is its node-list
+               # front), the grid generator and the rectangle cover of a mask
+               ["*.engine.x_merge__*", "*.merge.x_*", "*.generators.xǁGridǁgenerate__*",
                 "*.generators.x_rectangles__*"],
-               ["tests/layout/test_layout.py", "-k", "not shipped_strategies_generate"]),
+               ["tests/layout/test_merge_layer.py", "tests/layout/test_layout.py",
+                "-k", "not shipped_strategies_generate"]),
     "placement": (["genie_gl/sensors/placement.py"],
                   # the coverage a placement is scored by; the GA's operators (selection, crossover,
                   # mutation rate) only change how good a search is, never a reported number: left out

@@ -368,3 +368,14 @@ def test_array_generators_grow_the_same_tree_as_per_region_ones():
     assert len(fast.leaves()) == 216 and all(r.type == "leaf" for r in fast.leaves())
     again = gg.Layout.from_dict(fast.to_dict())
     assert again == fast and np.array_equal(again.tree.parent, t.parent)
+
+
+def test_grid_in_a_parent_smaller_than_one_cell_leaves_it_empty():
+    """No cell fits (across, along, or both): one ``empty`` child, exactly the parent, with
+    the parent's orientation."""
+    from genie_gl.layout.generators import Grid
+    from genie_gl.layout.model import Region
+    for w, h in ((2.0, 9.0), (9.0, 2.0), (2.0, 2.5)):
+        parent = Region(1.5, -2.0, w, h, "zone", "left")
+        kids = Grid(cell=[3, 3]).generate(parent, rng=np.random.default_rng(0))
+        assert [(c.x, c.y, c.w, c.h, c.slot, c.orientation) for c in kids] == [(1.5, -2.0, w, h, "empty", "left")]

@@ -218,3 +218,56 @@ def test_two_levels_then_merge_keep_the_tree_sound(w, h, c1, c2, sp, gen, seed, 
     for m in records(layout.meta.get("merges", [])):
         i = m["node"]
         assert sum(pw * ph for _, _, pw, ph in m["parts"]) == pytest.approx(layout.tree.w[i] * layout.tree.h[i])
+
+
+def _hand_nodes(gap):
+    from genie_gl.layout.model import Node, Region
+    return [Node(Region(0, 0, 10, 4, "hall"), 0, -1, [1, 2]),
+            Node(Region(0, 0, 5, 4, "zone"), 1, 0, [3]),
+            Node(Region(5, 0, 5, 4, "zone"), 1, 0, [4, 5]),
+            Node(Region(0, 1, 5, 2, "a"), 2, 1),
+            Node(Region(5 + gap, 1, 5 - gap, 2, "a"), 2, 2),
+            Node(Region(5, 3, 5, 1, "b", "left"), 2, 2)]
+
+
+def test_merge_tree_mapping_and_record_by_hand():
+    """merge_tree on the hand-made tree: each old node's new index (-1 for the emptied zone,
+    the merged region's for both halves), the record's parts and former parents; the record
+    renumbered by a later mapping; records() split per region (counts by hand)."""
+    from genie_gl.layout.merge import merge_tree, renumber
+    from genie_gl.layout.model import Tree
+
+    tree = Tree.from_nodes(_hand_nodes(0.0), ("hall", "zone", "a", "b"))
+    out, rec, mapping = merge_tree(tree, level=3)
+    assert mapping.tolist() == [0, -1, 1, 2, 2, 3]
+    assert out.parent.tolist() == [-1, 0, 0, 1] and out.depth.tolist() == [0, 1, 1, 2]
+    assert out.depth.dtype == np.int32
+    assert rec == {"level": 3, "nodes": [2], "part_counts": [2], "parts": [0, 1, 5, 2, 5, 1, 5, 2],
+                   "parent_counts": [2], "parents": [1, 2]}
+    assert renumber(rec, np.array([9, 8, 7, 6]))["nodes"] == [7]
+    assert renumber({"level": 0, "nodes": [1, 3]}, np.array([0, -1, 5, 2])) == {"level": 0, "nodes": [-1, 2]}
+    two = {"level": 1, "nodes": [4, 9], "part_counts": [2, 3], "parts": list(range(20)),
+           "parent_counts": [1, 2], "parents": [7, 8, 9]}
+    assert records([two]) == [
+        {"level": 1, "node": 4, "parts": [[0, 1, 2, 3], [4, 5, 6, 7]], "parents": [7]},
+        {"level": 1, "node": 9, "parts": [[8, 9, 10, 11], [12, 13, 14, 15], [16, 17, 18, 19]], "parents": [8, 9]}]
+    # nothing to join (a gap): the same tree back, no record, the identity mapping
+    same, none, ident = merge_tree(Tree.from_nodes(_hand_nodes(0.5), ("hall", "zone", "a", "b")))
+    assert none is None and ident.tolist() == list(range(6)) and len(same) == 6
+
+
+def test_merge_on_a_node_list_by_hand():
+    """``layout.merge(nodes)``: the two ``a`` halves under different zones become one region
+    under the hall (their common ancestor), the zone left empty goes, and the result is
+    re-indexed breadth-first; a gap wider than ``tol`` keeps them apart."""
+    from genie_gl.layout import merge
+    nodes = _hand_nodes
+
+    out = merge(nodes(0.0))
+    got = [(n.region.type, n.region.orientation, n.region.x, n.region.y, n.region.w, n.region.h, n.depth, n.parent)
+           for n in out]
+    assert got == [("hall", "up", 0, 0, 10, 4, 0, -1), ("zone", "up", 5, 0, 5, 4, 1, 0),
+                   ("a", "up", 0, 1, 10, 2, 1, 0), ("b", "left", 5, 3, 5, 1, 2, 1)]
+    assert [n.children for n in out] == [[1, 2], [3], [], []]
+    assert len(merge(nodes(1e-7))) == 6                    # the default tol (1e-9): apart
+    assert len(merge(nodes(1e-7), tol=1e-6)) == 4          # a wider tol: joined
