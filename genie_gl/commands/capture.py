@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
                           f"{did_you_mean(args.format, FORMATS)}")
     from ..plan import effect_totals
     from ..plan import plan as make_plan
-    from ..plan_command import read_poses, warn_empty
+    from .plan import read_poses, warn_empty
     from ..sensors.placement import scene_poses
 
     sensor = load_sensor(args.sensor)

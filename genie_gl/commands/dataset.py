@@ -31,7 +31,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-nodes", type=int, default=2_000_000, help="limit on a layout's regions (see README: limits)")
     p.add_argument("--max-memory-gb", type=float, default=None, help="memory limit (default: 80%% of what is free)")
     p.add_argument("--max-disk-gb", type=float, default=None, help="disk limit (default: the free space of --out)")
-    from ..curation import add_arguments as curation_arguments
+    from ..dataset.curation import add_arguments as curation_arguments
 
     curation_arguments(p)
     p.add_argument("--verify", action="store_true", help="check finished scenes' file hashes, not only sizes")
@@ -47,7 +47,7 @@ def config_from_args(args: argparse.Namespace) -> DatasetConfig:
                                              "max_disk_gb")}
     fields["split"] = parse_split(args.split)
     from ..accuracy import option
-    from ..curation import config as curation_config
+    from ..dataset.curation import config as curation_config
 
     fields["accuracy"] = option(getattr(args, "accuracy", None))   # read and checked before any work
     fields.update(curation_config(args))

@@ -49,7 +49,7 @@ class DatasetConfig(BaseModel):
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
     accuracy: Optional[dict[str, Any]] = None   # genie_gl.accuracy.option(): {"file", "settings"}
-    # curation (genie_gl.curation): {"name": "paper" or a file, "target": {class id: share}};
+    # curation (genie_gl.dataset.curation): {"name": "paper" or a file, "target": {class id: share}};
     # given as the name, the target is read here, so the fingerprint holds the shares
     class_balance: Optional[dict[str, Any]] = None
     points_budget: Optional[int] = Field(None, ge=1)
@@ -73,7 +73,7 @@ class DatasetConfig(BaseModel):
     @field_validator("class_balance", mode="before")
     @classmethod
     def _class_balance(cls, v: Any) -> Any:
-        from ..curation import resolve_target
+        from .curation import resolve_target
 
         return resolve_target(v)
 

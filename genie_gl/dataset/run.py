@@ -17,7 +17,7 @@ of ``--out DIR``::
     DIR/camera.json, DIR/models/      bop: the camera and the object models (mm)
     DIR/.balance/NNNNNN.npz           --class-balance / --points-budget: each scene's chunks
                                       before balancing (one plan needs them all; kept so a
-                                      re-run resumes): see genie_gl/curation.py
+                                      re-run resumes): see genie_gl/dataset/curation.py
 """
 from __future__ import annotations
 
@@ -29,7 +29,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .. import __version__, curation
+from .. import __version__
+from . import curation
 from ..errors import ConfigError
 from .config import DatasetConfig
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import curation
+from . import curation
 from .config import DatasetConfig
 from .manifest import record_files, scene_complete
 
@@ -86,7 +86,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
             points_total += int(ok.sum())
             np.add.at(counts, f.semantic[ok], 1)
     t["cloud"] = time.perf_counter()
-    if curation.active(cfg):  # balanced once every scene is made (genie_gl/curation.py)
+    if curation.active(cfg):  # balanced once every scene is made (genie_gl/dataset/curation.py)
         if index < cfg.previews:
             from .previews import write_previews
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ConfigError
+from ..errors import ConfigError
 
 BALANCE_SEED = 0x62616C616E6365  # "balance": the dataset's generator for the chunks a budget keeps
 
@@ -45,8 +45,8 @@ def resolve_target(spec: Any) -> dict[str, Any] | None:
     """``class_balance`` as the config holds it: ``"paper"`` or a file name read into
     {"name": spec, "target": {class id (str): share}}; that dict itself is taken as it is
     (a manifest's inputs)."""
-    from .cloud.balance import load_target
-    from .labels import CLASSES
+    from ..cloud.balance import load_target
+    from ..labels import CLASSES
 
     if spec is None or spec == "":
         return None
@@ -79,7 +79,7 @@ def cache_path(cfg, index: int) -> Path:
 def cache_scene(cfg, index: int, kept: list, layout, info: dict) -> dict[str, Any]:
     """Keep scene ``index``'s unbalanced chunks, its layout and ``info`` (instances, cameras,
     points_total) until every scene is made; the scene's result, pending."""
-    from .cloud.balance import save_chunks
+    from ..cloud.balance import save_chunks
 
     save_chunks(cache_path(cfg, index), kept, {"layout": layout.to_dict(), **info})
     return {"scene": index, "pending": True}
@@ -89,10 +89,10 @@ def finish(cfg, *, verify: bool = False) -> list[int]:
     """One plan over every scene's chunks, then each scene not complete yet sub-sampled with
     its sixth generator (``SeedSequence([seed, index]).spawn(6)[5]``), written into a
     temporary folder with its file record and renamed into place; returns the scenes written."""
-    from .cloud.balance import apply_plan, load_chunks, plan_dataset
-    from .dataset.manifest import RECORD, record_files, scene_complete
-    from .export import SceneData, get_format
-    from .layout import Layout
+    from ..cloud.balance import apply_plan, load_chunks, plan_dataset
+    from .manifest import RECORD, record_files, scene_complete
+    from ..export import SceneData, get_format
+    from ..layout import Layout
 
     out, fmt = Path(cfg.out), get_format(cfg.format)
     for stale in (out / ".balance").glob("*.tmp.npz"):  # a cache a killed run left half-written
@@ -142,8 +142,8 @@ def short(stats: list[dict]) -> dict[str, str] | None:
 
 def manifest(cfg, stats: list[dict]) -> dict[str, Any]:
     """The manifest's ``class_balance`` entry: reached next to target, short classes."""
-    from .cloud.balance import summary
-    from .labels import CLASSES
+    from ..cloud.balance import summary
+    from ..labels import CLASSES
 
     if not active(cfg):
         return {}

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError
+from ..errors import ConfigError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -44,9 +44,9 @@ def read_poses(path: str | Path) -> list[np.ndarray]:
 
 
 def scene_sensor_poses(args: argparse.Namespace):
-    from .scene.model import Scene
-    from .sensors import load_sensor
-    from .sensors.placement import scene_poses
+    from ..scene.model import Scene
+    from ..sensors import load_sensor
+    from ..sensors.placement import scene_poses
 
     if getattr(args, "cameras", 1) is not None and args.cameras < 1:
         raise ConfigError("--cameras must be >= 1")
@@ -66,7 +66,7 @@ def warn_empty(plan, command: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .plan import plan as make_plan
+    from ..plan import plan as make_plan
 
     scene, sensor, poses = scene_sensor_poses(args)
     p = make_plan(scene, sensor, poses)
