@@ -169,16 +169,13 @@ def apply_to_sensor(sensor: Any, settings: AccuracySettings) -> Any:
     return dataclasses.replace(sensor, effects=tuple(effects))
 
 
-def simulate_options(simulate: Any, settings: AccuracySettings | None) -> dict[str, Any]:
-    """The keywords of ``simulate`` (the sensors stage's) that carry ``settings``: the lens
-    resampling and the wide render's oversampling, where this build's simulate takes them."""
-    import inspect
-
+def simulate_options(settings: AccuracySettings | None) -> dict[str, Any]:
+    """The keywords of :func:`~genie_gl.sensors.simulate.simulate` that carry ``settings``: the
+    lens resampling and the wide render's oversampling (those set)."""
     if settings is None:
         return {}
-    params = inspect.signature(simulate).parameters
     wanted = {"resample": settings.resample, "oversample": settings.oversample}
-    return {k: v for k, v in wanted.items() if k in params and v is not None}
+    return {k: v for k, v in wanted.items() if v is not None}
 
 
 def manifest_entry(settings: AccuracySettings) -> dict[str, Any]:
@@ -257,14 +254,9 @@ def dataset_cost(stats: list[dict[str, Any]]) -> dict[str, Any]:
             "capture": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in sorted(parts.items())}}
 
 
-def segments_option(fn: Any, settings: AccuracySettings | None, where: str = "accuracy") -> dict[str, Any]:
-    """``{"segments": n}`` for a scene builder or USD reader ``fn`` when ``settings`` sets a
-    tessellation; ConfigError when it does and ``fn`` takes no ``segments``."""
-    import inspect
-
+def segments_option(settings: AccuracySettings | None) -> dict[str, Any]:
+    """``{"segments": n}`` for the scene builder or USD reader when ``settings`` sets a
+    tessellation (segments per circle of curved parts), else nothing."""
     if settings is None or settings.tessellation is None:
         return {}
-    if "segments" not in inspect.signature(fn).parameters:
-        raise ConfigError(f"{where}: accuracy.tessellation = {settings.tessellation}: this build's "
-                          f"{fn.__name__} takes no segments=; leave it null")
     return {"segments": int(settings.tessellation)}

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import logging
 import time
 from collections import defaultdict
@@ -139,8 +138,8 @@ class Runner:
                 return base(s, p, **{**kw, "normals": True})
         clock: dict[str, float] = defaultdict(float)
         timed = dataclasses.replace(sensor, effects=tuple(Timed(e, clock) for e in sensor.effects))
-        options = simulate_options(simulate, acc)
-        if materials is not None and "materials" in inspect.signature(simulate).parameters:
+        options = simulate_options(acc)
+        if materials is not None:
             options["materials"] = materials
         frames, costs = [], defaultdict(float)
         for i, pose in enumerate(self.case.poses):

@@ -59,7 +59,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     t["layout"] = time.perf_counter()
     stage("scene")
     accuracy = settings_of(cfg.accuracy)
-    scene = build_scene(layout, rng=rng["scene"], **segments_option(build_scene, accuracy))
+    scene = build_scene(layout, rng=rng["scene"], **segments_option(accuracy))
     t["scene"] = time.perf_counter()
     stage("placement")
     sensor = load_sensor(cfg.sensor)

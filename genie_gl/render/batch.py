@@ -123,7 +123,7 @@ def _capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarr
         render = _Prefetched(renderer, view, poses, depth_only, normals, only)
     from ..accuracy import simulate_options
 
-    opts = simulate_options(simulate, accuracy)
+    opts = simulate_options(accuracy)
     return [simulate(sensor, poses[k], render=render, rng=pose_rng(seed, i), materials=materials,
                      plan=None if frame_plans is None else frame_plans[k], **opts) for k, i in enumerate(indices)]
 

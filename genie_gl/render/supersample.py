@@ -175,17 +175,9 @@ def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:
 
 def renderer_options(accuracy) -> dict:
     """The :class:`Renderer` keywords an :class:`~genie_gl.accuracy.AccuracySettings` asks
-    for (``depth_precision``); raises ConfigError when this build's renderer lacks one."""
-    import inspect
-
-    from ..errors import ConfigError
-    from .renderer import Renderer
-
+    for (``depth_precision``; float32 is the renderer's default and asks for nothing)."""
     if accuracy is None or accuracy.depth_precision == "float32":
         return {}
-    if "depth_precision" not in inspect.signature(Renderer.__init__).parameters:
-        raise ConfigError(f"accuracy.depth_precision: {accuracy.depth_precision!r} needs a renderer with "
-                          "depth_precision=, which this build lacks; use float32")
     return {"depth_precision": accuracy.depth_precision}
 
 
