@@ -10,20 +10,8 @@ dropped again before the frame is returned) and ``needs_render`` (``apply`` also
 ``render_depth(sensor, pose) -> (H, W) float32``, a depth-only render of the scene from any
 pose, e.g. the second view of a stereo pair at low resolution).
 
-``range`` and ``depth_noise`` (noise.py) — the published noise models offered by name
-(``depth_noise`` ``model:``):
-
-* ``kinect_nguyen2012`` — Nguyen, Izadi & Lovell, "Modeling Kinect Sensor Noise for Improved
-  3D Reconstruction and Tracking", 3DIMPVT 2012, axial noise (their eqs. for σ_z(z, θ)):
-  σ_z = 0.0012 + 0.0019·(z − 0.4)² m for θ ≤ 60°, plus 0.0001/√z · θ²/(π/2 − θ)² m for
-  θ > 60° (θ the incidence angle, from the surface normals; ``incidence: false`` drops the term);
-* ``stereo`` — σ_z = z²·σ_d / (f·b) (RealSense D400 RMS model with σ_d = subpixel ≈ 0.08 px;
-  Redwood/PrimeSense σ_d ≈ 1/36 px), plus quantisation of disparity to ``subpixel_step``.
-  Without ``subpixel`` in the profile, σ_d comes from the calibration's RMS reprojection error
-  (see :meth:`DepthNoise.sigma_d_px`); without ``baseline_m``, b comes from the calibration's
-  stereo T;
-* ``tof_linear`` — σ_z = a + b·max(z − z0, 0) (Azure Kinect evaluation: 0.5 mm + 1 mm/m
-  beyond 0.5 m).
+``range`` and ``depth_noise`` (noise.py, whose docstring lists the published noise models
+offered by name with their sources).
 
 More effects, one module per topic: ``stereo_shadow`` (shadow.py); ``lateral_noise``,
 ``incidence_dropout``, ``multipath`` (surface.py); ``flying_pixels``, ``edge_dropout``
