@@ -79,8 +79,7 @@ def fisheye_theta_d(theta: np.ndarray, k: np.ndarray) -> np.ndarray:
     return theta * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
 
 
-@lru_cache(maxsize=64)
-def _fold(model: str, dist: bytes) -> float:
+def _find_fold(model: str, dist: bytes) -> float:
     """The off-axis limit of the lens: the radius r = tan θ (pinhole model) or the angle θ
     (fisheye) where its radial map stops increasing; past it rays are not imaged."""
     d = np.frombuffer(dist)
@@ -105,6 +104,11 @@ def _fold(model: str, dist: bytes) -> float:
         lim = np.inf
     bad = np.flatnonzero((np.diff(f) <= 0) | ~np.isfinite(f[1:]))
     return float(t[bad[0]]) if len(bad) else lim
+
+
+# cached here rather than decorated, so that mutation testing (mutmut leaves decorated
+# functions alone) reaches the body
+_fold = lru_cache(maxsize=64)(_find_fold)
 
 
 @dataclass(frozen=True, eq=False)
@@ -201,9 +205,7 @@ class Camera:
     @property
     def max_off_axis(self) -> float:
         """The largest angle (radians) from the optical axis that the lens images."""
-        fold = _fold(self.model, self.dist.tobytes())
-        lim = fold if self.model in ("fisheye", "omni") else np.arctan(fold)
-        return float(min(lim, MAX_OFF_AXIS))
+        return _max_off_axis(self.model, self.dist)
 
     # -- the lens, forward ------------------------------------------------------------------
     def project(self, points: np.ndarray) -> np.ndarray:
@@ -259,6 +261,12 @@ class Camera:
         """(H, W, 2) float64: x and y of every pixel's ray on the plane z = 1 (NaN where the
         pixel has none); the undistorted rays of a lens. Cached, read-only."""
         return _rays(self.lens_key)
+
+
+def _max_off_axis(model: str, dist: np.ndarray) -> float:
+    fold = _fold(model, dist.tobytes())
+    lim = fold if model in ("fisheye", "omni") else np.arctan(fold)
+    return float(min(lim, MAX_OFF_AXIS))
 
 
 def _pinhole_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: float) -> tuple[np.ndarray, np.ndarray]:
@@ -343,8 +351,7 @@ def _omni_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max: f
     return d
 
 
-@lru_cache(maxsize=32)
-def _directions(key: tuple) -> np.ndarray:
+def _pixel_directions(key: tuple) -> np.ndarray:
     model, w, h, K, dist = key
     cam = Camera(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), model=model)
     u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
@@ -353,8 +360,7 @@ def _directions(key: tuple) -> np.ndarray:
     return d
 
 
-@lru_cache(maxsize=32)
-def _rays(key: tuple) -> np.ndarray:
+def _pixel_rays(key: tuple) -> np.ndarray:
     model, w, h, K, dist = key
     if model == "pinhole" and not np.any(np.frombuffer(dist)):
         Km = np.frombuffer(K).reshape(3, 3)
@@ -367,3 +373,7 @@ def _rays(key: tuple) -> np.ndarray:
             xy = d[..., :2] / d[..., 2:]
     xy.setflags(write=False)
     return xy
+
+
+_directions = lru_cache(maxsize=32)(_pixel_directions)
+_rays = lru_cache(maxsize=32)(_pixel_rays)

@@ -139,8 +139,10 @@ def _scale_min(mx: np.ndarray, my: np.ndarray, serve: np.ndarray) -> float:
     return float(smin.min())
 
 
-@lru_cache(maxsize=16)
-def _lens_views(key: tuple, near_m: float, far_m: float, name: str, oversample: float) -> tuple[DistortionMaps, ...]:
+def _build_lens_views(key: tuple, near_m: float, far_m: float, name: str,
+                      oversample: float) -> tuple[DistortionMaps, ...]:
+    """The views behind a lens (cached as ``_lens_views``; not decorated, so that mutation
+    testing reaches it)."""
     if oversample == 0:   # automatic: at least AUTO_MIN_SCALE view pixels per lens pixel everywhere
         views = _lens_views(key, near_m, far_m, name, 1.0)
         need = AUTO_MIN_SCALE / max(min(v.scale_min for v in views), 1e-6)
@@ -176,6 +178,9 @@ def _lens_views(key: tuple, near_m: float, far_m: float, name: str, oversample: 
             zs = np.where(serve, d[..., 2] / dv[..., 2], 0.0)
         views.append(_view(cam, R, nm, serve, np.where(serve, xv, 0), np.where(serve, yv, 0), f, f, 0.0, 0.0, zs))
     return tuple(views)
+
+
+_lens_views = lru_cache(maxsize=16)(_build_lens_views)
 
 
 def lens_views(sensor: Camera, *, oversample: float | None = None) -> tuple[DistortionMaps, ...]:
