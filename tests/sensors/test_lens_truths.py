@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from genie_gl.camera import MAX_OFF_AXIS, Camera
-from genie_gl.sensors.distortion import _scale_min, lens_views
+from genie_gl.errors import ConfigError
+from genie_gl.sensors.distortion import _scale_min, distortion_maps, lens_views
 
 W, H = 160, 120
 K = np.array([[150.0, 0.0, 80.3], [0.0, 163.0, 58.6], [0.0, 0.0, 1.0]])   # fx ≠ fy, off-centre
@@ -178,6 +179,17 @@ def test_fisheye_fold_is_where_theta_d_turns_back():
     assert np.isfinite(d).all() and np.arccos(d[0, 2]) < t_fold
 
 
+def test_fisheye_without_coefficients_is_equidistant():
+    """No coefficients: r = f θ exactly (Kannala-Brandt with k = 0)."""
+    cam = Camera(W, H, np.array([[40.0, 0, 80], [0, 44.0, 60], [0, 0, 1]]), [], model="fisheye")
+    th = np.radians([0.0, 10, 45, 80, 89])
+    pts = np.stack([np.sin(th), np.zeros(5), np.cos(th)], 1)
+    np.testing.assert_allclose(cam.project(pts), np.stack([80 + 40 * th, np.full(5, 60.0)], 1), atol=1e-12)
+    np.testing.assert_allclose(cam.project(pts[:, [1, 0, 2]]), np.stack([np.full(5, 80.0), 60 + 44 * th], 1), atol=1e-12)
+    np.testing.assert_allclose(cam.unproject(np.stack([80 + 40 * th, np.full(5, 60.0)], 1)), pts, atol=1e-12)
+    assert cam.max_off_axis == pytest.approx(float(MAX_OFF_AXIS))
+
+
 # -- the omnidirectional (Mei) lens -----------------------------------------------------------------
 @pytest.mark.parametrize("xi, k", [(0.8, [0.02, -0.01, 0.001, -0.002]), (1.6, [-0.05, 0.01, -0.002, 0.001]),
                                    (1.0, [0.0, 0.0, 0.0, 0.0])])
@@ -221,6 +233,28 @@ def test_omni_fold_is_where_the_sphere_meets_the_radial_fold():
                                atol=1e-7)
 
 
+def test_omni_rays_past_90_degrees_have_no_pixel_ray():
+    """ξ = 0.5 images the sphere out to 120° (cos θ = -ξ), but depth is z: pixels whose lifted
+    ray lies past 89.9° (along x or along y) get no ray, those just inside do; ξ = 1.6 folds at
+    r = 1/sqrt(ξ² - 1), beyond which the sphere has no point (NaN), and a lens given ξ alone is
+    the same as one with zero radial-tangential terms."""
+    Ko = np.array([[30.0, 0, 80], [0, 30.0, 60], [0, 0, 1]])
+    cam = Camera(W, H, Ko, [0.5, 0, 0, 0, 0], model="omni")
+    alone = Camera(W, H, Ko, [0.5], model="omni")
+    for th, finite in ((89.85, True), (89.95, False), (100.0, False), (115.0, False)):
+        r = np.sin(np.radians(th)) / (np.cos(np.radians(th)) + 0.5)
+        uv = np.array([[80 + 30 * r, 60.0], [80.0, 60 - 30 * r]])
+        for c in (cam, alone):
+            d = c.unproject(uv)
+            assert np.isfinite(d).all() == finite and np.isfinite(d).any() == finite, (th, c.dist)
+            if finite:
+                np.testing.assert_allclose(np.degrees(np.arccos(d[:, 2])), th, atol=1e-9)
+    np.testing.assert_allclose(alone.directions(), cam.directions(), atol=1e-15, equal_nan=True)
+    fold = Camera(W, H, Ko, [1.6, 0, 0, 0, 0], model="omni")
+    r_max = 1 / np.sqrt(1.6 ** 2 - 1)
+    assert np.isnan(fold.unproject(np.array([[80 + 30 * 1.05 * r_max, 60.0]]))).all()
+
+
 # -- the pinhole views behind a lens (distortion.py) -------------------------------------------------
 @pytest.mark.parametrize("dist, oversample", [([0.12, -0.05, 0.002, -0.003, 0.01], 1.0),
                                               ([-0.25, 0.06, 0.001, 0.002, 0], 2.0),
@@ -237,7 +271,9 @@ def test_the_wide_view_holds_every_ray_one_pixel_inside_its_border(dist, oversam
     for c, c0 in ((r.cx, 80.3), (r.cy, 58.6)):
         frac = (c - oversample * c0) % 1
         assert min(frac, 1 - frac) < 1e-9
+    np.testing.assert_array_equal(r.K, [[r.fx, 0, r.cx], [0, r.fy, r.cy], [0, 0, 1]])   # no skew
     assert (r.near_m, r.far_m) == (0.3, 9.0) and r.is_pinhole and m.z_scale is None
+    assert m.map_x.dtype == np.float32 and m.map_y.dtype == np.float32
     assert m.valid.all()
     u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
     und = cv2.undistortPoints(np.stack([u, v], -1).reshape(-1, 1, 2), K, np.array(dist), None, None, None,
@@ -248,6 +284,10 @@ def test_the_wide_view_holds_every_ray_one_pixel_inside_its_border(dist, oversam
     np.testing.assert_allclose(m.map_x, mx, atol=2e-3)
     np.testing.assert_allclose(m.map_y, my, atol=2e-3)
     assert 1 <= mx.min() < 2 and 1 <= my.min() < 2
+    # the view's own pinhole projection of each ray lands on the pixel's sample
+    uv = r.project(np.stack([und[..., 0], und[..., 1], np.ones((H, W))], -1))
+    np.testing.assert_allclose(uv[:, 0], m.map_x.ravel(), atol=2e-3)
+    np.testing.assert_allclose(uv[:, 1], m.map_y.ravel(), atol=2e-3)
     assert r.width - 4 < mx.max() <= r.width - 3 and r.height - 4 < my.max() <= r.height - 3
 
 
@@ -301,17 +341,35 @@ def test_the_fewest_view_pixels_per_lens_pixel_is_the_smallest_singular_value():
     serve = u >= 5                                    # only where the three pixels are served
     assert _scale_min(np.where(serve, 2 * u, -1.0), 3.0 * v, serve) == pytest.approx(2.0)
     assert _scale_min(mx, my, np.zeros(u.shape, bool)) == 1.0
-    assert _scale_min(mx[:1], my[:1], np.ones((1, 12), bool)) == 1.0
+    assert _scale_min(mx[:1], my[:1], np.ones((1, 12), bool)) == 1.0          # one row: no d/dv
+    assert _scale_min(mx[:, :1], my[:, :1], np.ones((9, 1), bool)) == 1.0     # one column: no d/du
+    J = np.array([[0.6, -0.2], [0.3, 0.9]])                                    # two rows, two columns
+    smin = np.linalg.svd(J, compute_uv=False).min()
+    mx, my = J[0, 0] * u + J[0, 1] * v, J[1, 0] * u + J[1, 1] * v
+    assert _scale_min(mx[:2], my[:2], np.ones((2, 12), bool)) == pytest.approx(smin, rel=1e-9)
+    assert _scale_min(mx[:, :2], my[:, :2], np.ones((9, 2), bool)) == pytest.approx(smin, rel=1e-9)
+    rows = v >= 4                                     # served rows only: the squeezed top rows do not count
+    squeeze = np.where(rows, 2 * u, 0.1 * u)
+    assert _scale_min(squeeze, 3.0 * v, rows) == pytest.approx(2.0)
+    cols = u <= 6                                     # served columns only
+    assert _scale_min(np.where(cols, 2 * u, 0.1 * u), 3.0 * v, cols) == pytest.approx(2.0)
 
 
-@pytest.mark.parametrize("dist", [[0.5, 0, 0, 0], [0.9, 0.3, 0, 0]])
-def test_automatic_oversampling_is_the_smallest_whole_factor_giving_0_8_view_pixels(dist):
+@pytest.mark.parametrize("dist, want", [([0.2, 0, 0, 0], 2), ([0.5, 0, 0, 0], 3), ([0.9, 0.3, 0, 0], 4),
+                                        ([-0.2, 0, 0, 0], 1)])
+def test_automatic_oversampling_is_the_smallest_whole_factor_giving_0_8_view_pixels(dist, want):
+    """Pincushion spreads the lens's pixels apart in the view: the automatic factor is the
+    smallest whole one giving at least 0.8 view pixels per lens pixel (up to 4); barrel needs 1.
+    distortion_maps() keeps the sensor's focal unless told otherwise."""
     sensor = Camera(W, H, np.array([[60.0, 0, 80], [0, 64.0, 60], [0, 0, 1]]), dist)
     (auto,) = lens_views(sensor)
     factor = auto.render_sensor.fx / 60.0
-    assert factor == int(factor) and 2 <= factor <= 4 and auto.render_sensor.fy == 64.0 * factor
+    assert factor == want and auto.render_sensor.fy == 64.0 * factor
     assert auto.scale_min >= 0.8
-    (less,) = lens_views(sensor, oversample=factor - 1)
-    assert less.scale_min < 0.8
+    if factor > 1:
+        (less,) = lens_views(sensor, oversample=factor - 1)
+        assert less.scale_min < 0.8
+    assert distortion_maps(sensor).render_sensor.fx == 60.0
+    assert distortion_maps(sensor, oversample=2.0).render_sensor.fy == 128.0
     (one,) = lens_views(sensor, oversample=1.0)
     assert auto.scale_min == pytest.approx(factor * one.scale_min, rel=1e-4)   # the maps scale with the focal
