@@ -44,6 +44,10 @@ def test_ideal_pinhole_is_k_analytically_both_ways():
     want = np.stack([150.0 * X / Z + 0.7 * Y / Z + 80.3, 163.0 * Y / Z + 58.6], 1)
     np.testing.assert_allclose(cam.project(pts), want, rtol=1e-13)
     assert np.isnan(cam.project(np.array([[0.1, 0.1, -1.0]]))).all()      # behind the camera
+    p32 = (pts * [1, 1, 1.001]).astype(np.float32)                         # float32 points: float64 maths
+    assert cam.project(p32).dtype == np.float64
+    np.testing.assert_array_equal(cam.project(p32), cam.project(p32.astype(np.float64)))
+    np.testing.assert_array_equal(cam.unproject(want.astype(np.float32)), cam.unproject(want.astype(np.float32).astype(float)))
     d = cam.unproject(want)
     np.testing.assert_allclose(d, pts / np.linalg.norm(pts, axis=1, keepdims=True), atol=1e-13)
     u, v = np.meshgrid(np.arange(W, dtype=float), np.arange(H, dtype=float))
@@ -192,7 +196,7 @@ def test_fisheye_without_coefficients_is_equidistant():
 
 # -- the omnidirectional (Mei) lens -----------------------------------------------------------------
 @pytest.mark.parametrize("xi, k", [(0.8, [0.02, -0.01, 0.001, -0.002]), (1.6, [-0.05, 0.01, -0.002, 0.001]),
-                                   (1.0, [0.0, 0.0, 0.0, 0.0])])
+                                   (1.0, [0.0, 0.0, 0.0, 0.0]), (1.0, [0.1, 0.0, 0.0, 0.0])])
 def test_omni_projects_as_cv2_omnidir_and_unprojects_back(xi, k):
     Ko = np.array([[50.0 * (1 + xi), 0.4, 80.3], [0, 52.0 * (1 + xi), 58.6], [0, 0, 1]])
     cam = Camera(W, H, Ko, [xi, *k], model="omni")
@@ -267,6 +271,7 @@ def test_the_wide_view_holds_every_ray_one_pixel_inside_its_border(dist, oversam
     sensor = Camera(W, H, K, dist, near_m=0.3, far_m=9.0)
     (m,) = lens_views(sensor, oversample=oversample)
     r = m.render_sensor
+    np.testing.assert_array_equal(m.rotation, np.eye(3))
     np.testing.assert_allclose([r.fx, r.fy], [150.0 * oversample, 163.0 * oversample], rtol=1e-15)
     for c, c0 in ((r.cx, 80.3), (r.cy, 58.6)):
         frac = (c - oversample * c0) % 1
@@ -301,15 +306,17 @@ def test_a_folding_lens_serves_only_pixels_with_a_ray():
     assert m.map_x[m.valid].min() >= 1 and m.map_y[m.valid].min() >= 1
 
 
-def test_a_fisheye_past_150_degrees_renders_cube_faces_that_hold_its_rays():
-    """A 180° fisheye: a front view and four side faces; each served pixel's ray, turned by its
-    face's rotation, is the lens's ray (cv2.fisheye projects it back onto the pixel), lies 1 pixel
-    or more inside its face, and z_scale converts the face's depth to the camera's."""
+@pytest.mark.parametrize("cx, faces", [(79.5, 5), (5.0, 4)])
+def test_a_fisheye_past_150_degrees_renders_cube_faces_that_hold_its_rays(cx, faces):
+    """A 180° fisheye: a front view and four side faces (three when its principal point sits at
+    the image's left edge: nothing looks along -x); each served pixel's ray, turned by its face's
+    rotation, is the lens's ray (cv2.fisheye projects it back onto the pixel), lies 1 pixel or
+    more inside its face, and z_scale converts the face's depth to the camera's."""
     f = 47.0
-    sensor = Camera(W, H, np.array([[f, 0, 79.5], [0, f, 59.5], [0, 0, 1]]), [0.0] * 4, model="fisheye",
+    sensor = Camera(W, H, np.array([[f, 0, cx], [0, f, 59.5], [0, 0, 1]]), [0.0] * 4, model="fisheye",
                     near_m=0.2, far_m=5.0)
     views = lens_views(sensor, oversample=1.0)
-    assert len(views) == 5
+    assert len(views) == faces
     served = np.zeros((H, W), int)
     for m in views:
         served += m.valid
@@ -373,3 +380,21 @@ def test_automatic_oversampling_is_the_smallest_whole_factor_giving_0_8_view_pix
     assert distortion_maps(sensor, oversample=2.0).render_sensor.fy == 128.0
     (one,) = lens_views(sensor, oversample=1.0)
     assert auto.scale_min == pytest.approx(factor * one.scale_min, rel=1e-4)   # the maps scale with the focal
+
+
+def test_one_view_up_to_75_degrees_and_4096_pixels_else_cube_faces():
+    """One pinhole view holds a lens whose rays stay within 75° of the axis on each image axis
+    and whose view needs at most 4096 pixels; otherwise cube faces. Two-row images keep it cheap:
+    f = 1000 and 4000 columns (63.4°) fit one 4008-pixel view, 4098 columns (64.0°) do not; a
+    fisheye wide along x only (86°) and narrow along y needs faces; a 3000 px telephoto fits."""
+    def views(w, h, K, dist, model="pinhole"):
+        return lens_views(Camera(w, h, np.array(K, float), dist, model=model), oversample=1.0)
+
+    (one,) = views(4000, 2, [[1000, 0, 1999.5], [0, 1000, 0.5], [0, 0, 1]], [1e-4, 0, 0, 0])
+    assert 4000 < one.render_sensor.width <= 4096
+    many = views(4098, 2, [[1000, 0, 2048.5], [0, 1000, 0.5], [0, 0, 1]], [1e-4, 0, 0, 0])
+    assert len(many) == 3 and all(m.render_sensor.width <= 2010 for m in many)
+    wide_x = views(64, 2, [[21.0, 0, 31.5], [0, 21.0, 0.5], [0, 0, 1]], [], model="fisheye")
+    assert len(wide_x) == 3
+    (tele,) = views(64, 48, [[3000, 0, 31.5], [0, 3000, 23.5], [0, 0, 1]], [0.1, 0, 0, 0])
+    assert tele.render_sensor.width < 80 and tele.render_sensor.height < 60
