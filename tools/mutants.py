@@ -98,6 +98,12 @@ def prepare(group: str, work: Path) -> None:
             shutil.copytree(src, work / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         elif src.exists():
             shutil.copy2(src, work / name)
+    # mutmut writes the mutated copy to work/mutants, which PYTHONPATH names; it must exist
+    # before mutmut starts: Python caches a missing sys.path entry as "no finder" for the life of
+    # the process, so the stats run imported genie_gl and tests from the editable install's
+    # checkout (/work/main on sys.path through its .pth) instead: no trampoline was hit ("could
+    # not find any test case"), or tests that only this copy has failed to import
+    (work / "mutants").mkdir()
     with open(work / "pyproject.toml", "a") as f:
         f.write(f"""
 [tool.mutmut]
@@ -224,9 +230,9 @@ def run_group(group: str, timeout: float, children: int, recheck_s: float = 600,
                 break
         r = proc
         log_text = (work / f"mutmut-run-{attempt}.log").read_text()
-        # a first run over a fresh copy can fail its stats run (pytest usage error while numba
-        # fills its cache) or see no test hit any mutant (the run that generated the mutants):
-        # a second run over the generated mutants collects the stats properly
+        # a first run over a fresh copy could fail its stats run or see no test hit any mutant
+        # (it imported the installed checkout: see prepare(), which now prevents it); kept as a
+        # fallback: a second run over the generated mutants collects the stats properly
         if not any(s in log_text for s in ("BadTestExecutionCommandsException", "failed to collect stats",
                                            "could not find any test case for any mutant")):
             finished = r.returncode == 0
