@@ -163,12 +163,13 @@ for name, tests in job["mutants"]:
 
 def recheck(work: Path, env: dict, status: dict[str, str], tests: list[str], budget: float) -> None:
     """Run the tests once more, plainly, against each survivor, each in a fresh fork of one
-    process that has imported pytest and the package (about a second a mutant, not the ten
-    of a new interpreter). mutmut 3.8 reports mutants as survivors that its own tests kill when
-    run plainly (every mutant of camera._pixel_rays, reached through an lru_cache, even one
-    that makes it raise), and "no tests" where its stats run missed a caller: the recheck
-    runs the tests mutmut attributed to the mutated function, or the group's whole test
-    selection where it attributed none. Bounded by ``budget`` seconds."""
+    process that has imported pytest and the package but run no test (about a second a mutant,
+    not the ten of a new interpreter). A safety net for mutmut's attribution: it runs only the
+    tests its stats run saw reach the mutated function, and forks each mutant from the process
+    that ran the clean tests (tests/conftest.py empties the package's caches for this; a cache
+    it does not know would hide a mutant again). The recheck runs the tests mutmut attributed
+    to the function, or the group's whole selection where it attributed none ("no tests").
+    Bounded by ``budget`` seconds."""
     import json
 
     stats_file = work / "mutants" / "mutmut-stats.json"
