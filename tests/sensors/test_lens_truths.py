@@ -192,6 +192,9 @@ def test_fisheye_without_coefficients_is_equidistant():
     np.testing.assert_allclose(cam.project(pts[:, [1, 0, 2]]), np.stack([np.full(5, 80.0), 60 + 44 * th], 1), atol=1e-12)
     np.testing.assert_allclose(cam.unproject(np.stack([80 + 40 * th, np.full(5, 60.0)], 1)), pts, atol=1e-12)
     assert cam.max_off_axis == pytest.approx(float(MAX_OFF_AXIS))
+    u = np.arange(21, 140, dtype=float)               # the rays on z = 1 along the middle row: tan θ
+    np.testing.assert_allclose(cam.rays()[60, 21:140, 0], np.tan((u - 80) / 40), rtol=1e-12)
+    assert not cam.rays().flags.writeable and not Camera(W, H, K).rays().flags.writeable
 
 
 # -- the omnidirectional (Mei) lens -----------------------------------------------------------------
@@ -394,7 +397,27 @@ def test_one_view_up_to_75_degrees_and_4096_pixels_else_cube_faces():
     assert 4000 < one.render_sensor.width <= 4096
     many = views(4098, 2, [[1000, 0, 2048.5], [0, 1000, 0.5], [0, 0, 1]], [1e-4, 0, 0, 0])
     assert len(many) == 3 and all(m.render_sensor.width <= 2010 for m in many)
+    tall = views(2, 4098, [[1000, 0, 0.5], [0, 1000, 2048.5], [0, 0, 1]], [1e-4, 0, 0, 0])
+    assert len(tall) == 3 and all(m.render_sensor.height <= 2010 for m in tall)
     wide_x = views(64, 2, [[21.0, 0, 31.5], [0, 21.0, 0.5], [0, 0, 1]], [], model="fisheye")
-    assert len(wide_x) == 3
-    (tele,) = views(64, 48, [[3000, 0, 31.5], [0, 3000, 23.5], [0, 0, 1]], [0.1, 0, 0, 0])
-    assert tele.render_sensor.width < 80 and tele.render_sensor.height < 60
+    wide_y = views(2, 64, [[21.0, 0, 0.5], [0, 21.0, 31.5], [0, 0, 1]], [], model="fisheye")
+    assert len(wide_x) == len(wide_y) == 3
+    # telephotos (a 3000 px focal, the second folding at 36 px from the centre): one front view
+    for dist in ([0.1, 0, 0, 0], [-1000.0, 0, 0, 0]):
+        (tele,) = views(64, 48, [[3000, 0, 31.5], [0, 3000, 23.5], [0, 0, 1]], dist)
+        assert tele.z_scale is None and tele.render_sensor.width < 100 and tele.render_sensor.height < 80
+    assert not tele.valid.all() and tele.valid[24, 32]
+    # a lens with no ray at any pixel (its centre far off the image, past its fold): an empty view
+    (empty,) = views(16, 12, [[50.0, 0, 1000], [0, 50.0, 6], [0, 0, 1]], [-0.5, 0, 0, 0])
+    assert not empty.valid.any() and empty.render_sensor.width <= 4 and empty.render_sensor.height <= 4
+
+
+def test_cube_faces_render_everything_and_the_range_is_applied_after():
+    """A side face's depth is not the camera's: it renders from the GL near plane to 1000x the
+    sensor's range (at least 1 m), and the range is applied after resampling."""
+    Kf = np.array([[20.0, 0, 31.5], [0, 20.0, 23.5], [0, 0, 1]])
+    for far, want in ((5.0, 5000.0), (0.0015, 1.5)):
+        views = lens_views(Camera(64, 48, Kf, [], model="fisheye", near_m=1e-4, far_m=far), oversample=1.0)
+        sides = [m for m in views if np.any(m.rotation - np.eye(3))]
+        assert len(sides) == 4 and all(m.render_sensor.far_m == want for m in sides)
+        assert all(m.render_sensor.near_m == 1e-4 / 1024 for m in sides)
