@@ -20,6 +20,7 @@ PINHOLE = {   # every coefficient count OpenCV's pinhole model takes, each term 
     "rational8": [0.3, -0.1, 0.002, -0.004, 0.02, 0.25, -0.05, 0.03],
     "prism12": [-0.15, 0.04, 0.001, 0.002, 0.01, 0.02, -0.01, 0.005, 0.004, -0.003, 0.006, -0.002],
     "tilted14": [0.1, -0.03, 0.002, -0.001, 0.01, 0.03, -0.02, 0.01, 0.003, 0.002, -0.004, 0.001, 0.04, -0.03],
+    "tilted_x": [0.1, -0.03, 0.002, -0.001, 0.01, 0, 0, 0, 0, 0, 0, 0, 0.05, 0],   # τx alone
 }
 CRIT = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-15)
 
@@ -112,6 +113,27 @@ def test_pinhole_fold_is_where_the_radial_map_turns_back():
     assert np.isnan(cam.directions()[0, 0]).all() and np.isfinite(cam.directions()[60, 80]).all()
 
 
+@pytest.mark.parametrize("dist, r_fold", [
+    ([0, 0, 0, 0, -0.1], (1 / 0.7) ** (1 / 6)),                 # r (1 + k3 r⁶): 1 + 7 k3 r⁶ = 0
+    ([0, 0, 0, 0, 0, 0, 0.2, 0], (1 / 0.6) ** (1 / 4)),         # r / (1 + k5 r⁴): 1 = 3 k5 r⁴
+    ([0, 0, 0, 0, 0, 0, 0, 0.2], 1.0),                          # r / (1 + k6 r⁶): 1 = 5 k6 r⁶
+])
+def test_pinhole_fold_of_each_radial_term(dist, r_fold):
+    assert Camera(W, H, K, dist).max_off_axis == pytest.approx(np.arctan(r_fold), abs=2e-4)
+
+
+@pytest.mark.parametrize("k, t_fold", [([-0.5, 0, 0, 0], np.sqrt(2 / 3)),        # 1 + 3 k1 θ² = 0 (46.8°)
+                                       ([0, 0, -0.1, 0], (1 / 0.7) ** (1 / 6))])  # 1 + 7 k3 θ⁶ = 0
+def test_fisheye_fold_of_each_term(k, t_fold):
+    assert Camera(W, H, K, k, model="fisheye").max_off_axis == pytest.approx(t_fold, abs=1e-4)
+
+
+def test_omni_fold_below_one_radian():
+    """ξ = 0 is the pinhole on the sphere: r = tan θ folds where r (1 - 0.5 r²) does (39.2°)."""
+    assert Camera(W, H, K, [0.0, -0.5, 0, 0, 0], model="omni").max_off_axis == pytest.approx(
+        np.arctan(np.sqrt(2 / 3)), abs=1e-4)
+
+
 def test_rational_fold_and_an_unfolded_lens():
     """The rational model's fold: r (1 + k1 r²) / (1 + k4 r²) with k1 = -0.2, k4 = 0.3 peaks
     where its derivative vanishes, (1 - 3 (-k1) r² ... ) solved here by numpy's roots; a lens that
@@ -195,6 +217,7 @@ def test_fisheye_without_coefficients_is_equidistant():
     u = np.arange(21, 140, dtype=float)               # the rays on z = 1 along the middle row: tan θ
     np.testing.assert_allclose(cam.rays()[60, 21:140, 0], np.tan((u - 80) / 40), rtol=1e-12)
     assert not cam.rays().flags.writeable and not Camera(W, H, K).rays().flags.writeable
+    assert not cam.directions().flags.writeable
 
 
 # -- the omnidirectional (Mei) lens -----------------------------------------------------------------
