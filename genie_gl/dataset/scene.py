@@ -32,13 +32,14 @@ def scene_dir(out: Path, index: int, fmt: str, n_scenes: int = 0) -> Path:
     return get_format(fmt).scene_dir(out, index)
 
 
-def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None) -> dict[str, Any]:
+def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None, prepare=None) -> dict[str, Any]:
     """Make scene ``index`` and write it; returns its stats (also in stats.json).
-    ``stage(name)`` is called as each stage starts (progress display)."""
+    ``stage(name)`` is called as each stage starts (progress display); ``prepare()`` once the
+    scene is known to need making, before its clock starts (a worker's warm-up)."""
     from ..cloud import frame_chunks, keep_cloud
     from ..export import SceneData, get_format
     from ..layout import generate_layout, load_strategy
-    from ..render import capture
+    from ..render import capture, shared_context
     from ..scene import build_scene
     from ..accuracy import segments_option, settings_of
     from ..sensors import load_sensor, place_sensors
@@ -52,6 +53,8 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         return done | {"skipped": True}
     if curation.active(cfg) and curation.cache_path(cfg, index).is_file():  # made, waiting to be balanced
         return {"scene": index, "pending": True, "skipped": True}
+    if prepare is not None:
+        prepare()
     rng = scene_rngs(cfg.seed, index)
     t = {"start": time.perf_counter()}
     stage("layout")
@@ -68,7 +71,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     stage("capture")
     # a format that stores no colour renders none (an output not asked for costs nothing)
     frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1,
-                     depth_only=not fmt.colour, accuracy=accuracy)
+                     depth_only=not fmt.colour, accuracy=accuracy, context=shared_context())
     t["capture"] = time.perf_counter()
     stage("cloud")
     kept, points_total, counts = [], 0, np.zeros(65536, np.int64)

@@ -66,3 +66,13 @@ def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.nd
         out[name] = block[at:at + n].view(dt).reshape(shape)
         at += b
     return out
+
+
+def prefault(H: int, W: int, color: bool, normals: bool, frames: int) -> None:
+    """Put ``frames`` frames' blocks, written once (mapped), in the pool: a process's first
+    scene then renders into mapped memory as every later one does (a worker's warm-up)."""
+    held = [frame_buffers(H, W, color, normals) for _ in range(frames)]
+    for bufs in held:
+        for a in bufs.values():
+            a.fill(0)
+    del held  # the blocks go back to the pool
