@@ -172,7 +172,7 @@ def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, prog
         "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made),
         "cost": dataset_cost(made), "warmup_s": [r["warmup_s"] for r in made if "warmup_s" in r],
         "scene_s": [{"scene": r.get("scene"), "worker": r.get("worker"), "nth": r.get("nth"),
-                     "stages": r.get("timings_s", {})} for r in sorted(made, key=lambda r: r.get("scene", -1))]}]
+                     "stages": r.get("timings_s", {}), "cpu_s": r.get("cpu_s")} for r in sorted(made, key=lambda r: r.get("scene", -1))]}]
     manifest["cost"], manifest["accuracy"] = dataset_cost(made), used(cfg.accuracy, cfg.sensor)
     manifest["scenes_made"], manifest["scenes_skipped"] = n_made, cfg.scenes - n_made
     manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist

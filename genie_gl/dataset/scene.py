@@ -57,6 +57,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         prepare()
     rng = scene_rngs(cfg.seed, index)
     t = {"start": time.perf_counter()}
+    cpu = time.process_time()  # the process's CPU time, its rasteriser and kernel threads included
     stage("layout")
     layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"])
     t["layout"] = time.perf_counter()
@@ -97,7 +98,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         stats = curation.cache_scene(cfg, index, kept, layout, {"instances": len(scene.instances),
                                                                 "cameras": len(frames), "points_total": int(points_total)})
         t["export"] = time.perf_counter()
-        return stats | _timings(t, frames)
+        return stats | _timings(t, frames, cpu)
     stage("export")
     for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
         shutil.rmtree(stale, ignore_errors=True)
@@ -121,15 +122,16 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     if final.exists():  # an incomplete scene of an earlier run
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
-    return stats | _timings(t, frames)
+    return stats | _timings(t, frames, cpu)
 
 
-def _timings(t: dict[str, float], frames: list) -> dict[str, Any]:
-    """Seconds per stage, the frames' cost (the manifest's "cost" block) and what each sensor
-    effect did (issue 12): not in stats.json."""
+def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:
+    """Seconds per stage, CPU seconds of the scene (all threads), the frames' cost (the
+    manifest's "cost" block) and what each sensor effect did (issue 12): not in stats.json."""
     from ..accuracy import frame_costs
     from ..plan import effect_totals
 
     keys = ("start",) + STAGES
-    return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "frame_cost_ms": frame_costs(frames),
+    return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "cpu_s": time.process_time() - cpu,
+            "frame_cost_ms": frame_costs(frames),
             "effects": effect_totals(frames)}
