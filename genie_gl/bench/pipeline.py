@@ -117,6 +117,53 @@ def dataset_runs(args: argparse.Namespace) -> list[dict]:
     return summary
 
 
+def readback(repeats: int = 8) -> list[dict]:
+    """ms per frame (wall and CPU of the process, rasteriser threads included) of
+    ``Renderer.frames`` over 40 cameras of three generated scenes, depth only, for the three
+    read-backs: three separate targets, the packed target (the default), the packed target
+    through pixel buffer objects. Modes take turns, scene by scene; medians."""
+    import genie_gl as gg
+    from ..dataset.scene import scene_rngs
+    from ..layout import generate_layout, load_strategy
+    from ..render import Renderer, create_context
+
+    sensor = gg.load_sensor("ideal_pinhole")
+    data = []
+    for i in range(3):
+        rng = scene_rngs(0, i)
+        layout = generate_layout(load_strategy("assembly_line"), rng=rng["layout"])
+        scene = gg.build_scene(layout, rng=rng["scene"])
+        data.append((scene, gg.place_sensors(layout, sensor, n=40, seed=int(rng["placement"].integers(2**31)))))
+    modes = {"separate targets": {"targets": "separate"}, "packed (default)": {},
+             "packed + PBO": {"readback": "pbo"}}
+    gl = create_context()
+    try:
+        renderers = {k: [Renderer(s, context=gl, **kw) for s, _ in data] for k, kw in modes.items()}
+        wall: dict[str, list[float]] = {k: [] for k in modes}
+        cpu: dict[str, list[float]] = {k: [] for k in modes}
+        for rep in range(repeats + 1):
+            for k in modes:
+                for r, (_, poses) in zip(renderers[k], data):
+                    t, c = time.perf_counter(), time.process_time()
+                    for _ in r.frames(sensor, poses, depth_only=True):
+                        pass
+                    if rep:  # the first round warms up
+                        wall[k].append(1e3 * (time.perf_counter() - t) / len(poses))
+                        cpu[k].append(1e3 * (time.process_time() - c) / len(poses))
+        for rs in renderers.values():
+            for r in rs:
+                r.release()
+    finally:
+        gl.release()
+    ref = float(np.median(cpu["separate targets"]))
+    rows = [{"read-back": k, "wall ms": float(np.median(wall[k])), "cpu ms": float(np.median(cpu[k])),
+             "cpu vs separate": float(np.median(cpu[k])) / ref} for k in modes]
+    print(f"read-back, ms per 640x480 frame through Renderer.frames (median of {repeats} x 3 scenes, modes taking turns):")
+    for r in rows:
+        print(f"   {r['read-back']:18s} wall {r['wall ms']:6.2f}  CPU {r['cpu ms']:6.2f}  CPU / separate {r['cpu vs separate']:.2f}")
+    return rows
+
+
 def _frames() -> list[tuple[str, list]]:
     """Frames to unproject: a synthetic worst case (10 % of pixels without a return, scattered
     at random, so no run is long) and rendered frames of the assembly line through three
@@ -201,6 +248,7 @@ def run(args: argparse.Namespace) -> int:
         results["dataset"] = dataset_runs(args)
     if args.dataset_only:
         return _write(args, results)
+    results["readback_ms_per_frame"] = readback()
     u = unprojection()
     results["unprojection_ms_per_frame"] = u
     print("unprojection, ms per frame (median; methods take turns in blocks):")

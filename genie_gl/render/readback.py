@@ -18,17 +18,36 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _unpack(bits, ids, sems, depth, instance, semantic, with_depth, half, far):  # pragma: no cover - compiled
+def _unpack(bits, lut, depth, instance, semantic, with_depth, half, far):  # pragma: no cover - compiled
     """Split packed (depth bits, instance) pixels into ``depth`` (when ``with_depth``),
-    ``instance`` and ``semantic`` (``sems[k]`` for ``ids[k]``, ids sorted; 0 for id 0). With
-    ``with_depth``, a pixel with depth beyond ``far`` or within ``|z - half| < half`` (0 < z <
-    near, in float32 as numpy computes it) gets no return (0, 0, 0). Returns how many pixels
-    were emptied so."""
+    ``instance`` and ``semantic`` (``lut[instance]``). With ``with_depth``, a pixel with depth
+    beyond ``far`` or within ``|z - half| < half`` (0 < z < near, in float32 as numpy computes
+    it) gets no return (0, 0, 0). Branch-free; returns how many pixels were emptied so."""
     z_of = bits.view(np.float32)
-    n = instance.shape[0]
+    emptied = 0
+    for p in range(instance.shape[0]):
+        i = bits[2 * p + 1]
+        sem = lut[i]
+        if with_depth:
+            z = z_of[2 * p]
+            bad = (z > far) | (abs(z - half) < half)
+            emptied += bad
+            depth[p] = np.float32(0) if bad else z
+            instance[p] = np.uint32(0) if bad else i
+            semantic[p] = np.uint16(0) if bad else sem
+        else:
+            instance[p] = i
+            semantic[p] = sem
+    return emptied
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _unpack_sorted(bits, ids, sems, depth, instance, semantic, with_depth, half, far):  # pragma: no cover
+    """:func:`_unpack` for ids too large for a table: each new id looked up in sorted ``ids``."""
+    z_of = bits.view(np.float32)
     last, last_sem = np.uint32(0), np.uint16(0)
     emptied = 0
-    for p in range(n):
+    for p in range(instance.shape[0]):
         i = bits[2 * p + 1]
         if i != last:
             last = i
@@ -48,14 +67,23 @@ def _unpack(bits, ids, sems, depth, instance, semantic, with_depth, half, far): 
     return emptied
 
 
-def semantic_table(ids: np.ndarray, semantic: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """(sorted ids uint32, their semantic ids uint16) for :func:`unpack`; None when an id
-    occurs twice (then ids alone cannot tell the class: the renderer keeps three targets)."""
+LUT_MAX_ID = 1 << 20  # ids up to this: a direct table (2 MB at most); larger ones: a sorted search
+
+
+def semantic_table(ids: np.ndarray, semantic: np.ndarray) -> tuple[np.ndarray, ...] | None:
+    """The semantic id of each instance id for :func:`unpack`: (table,) indexed by id when the
+    ids are small, else (sorted ids uint32, their semantic ids uint16); None when an id occurs
+    twice (then ids alone cannot tell the class: the renderer keeps three targets)."""
     order = np.argsort(ids, kind="stable")
     ids_sorted = np.ascontiguousarray(ids[order], np.uint32)
     if len(ids_sorted) > 1 and (np.diff(ids_sorted.astype(np.int64)) == 0).any():
         return None
-    return ids_sorted, np.ascontiguousarray(np.asarray(semantic)[order], np.uint16)
+    sems = np.ascontiguousarray(np.asarray(semantic)[order], np.uint16)
+    if len(ids_sorted) == 0 or int(ids_sorted[-1]) < LUT_MAX_ID:
+        lut = np.zeros(int(ids_sorted[-1]) + 1 if len(ids_sorted) else 1, np.uint16)
+        lut[ids_sorted] = sems
+        return (lut,)
+    return ids_sorted, sems
 
 
 def unpack(packed: np.ndarray, table: tuple[np.ndarray, np.ndarray], depth: np.ndarray | None,
@@ -65,5 +93,7 @@ def unpack(packed: np.ndarray, table: tuple[np.ndarray, np.ndarray], depth: np.n
     Returns the number of pixels emptied."""
     with_depth = depth is not None
     d = depth.reshape(-1) if with_depth else np.zeros(1, np.float32)
-    return int(_unpack(packed.reshape(-1), table[0], table[1], d, instance.reshape(-1), semantic.reshape(-1),
-                       with_depth, np.float32(0.5 * near_m), np.float32(far_m)))
+    args = (d, instance.reshape(-1), semantic.reshape(-1), with_depth, np.float32(0.5 * near_m), np.float32(far_m))
+    if len(table) == 1:
+        return int(_unpack(packed.reshape(-1), table[0], *args))
+    return int(_unpack_sorted(packed.reshape(-1), *table, *args))

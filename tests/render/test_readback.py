@@ -66,17 +66,22 @@ def test_packed_equals_separate_targets_in_other_depth_precisions(glctx, generat
             same(a, b)
 
 
-def test_unpack_looks_semantic_ids_up_by_instance():
-    ids, sem = np.array([7, 3, 2**32 - 1], np.uint32), np.array([5, 9, 65535], np.uint16)
+@pytest.mark.parametrize("big", [2**32 - 1, 40])  # a sorted search, a direct table
+def test_unpack_looks_semantic_ids_up_by_instance(big):
+    ids, sem = np.array([7, 3, big], np.uint32), np.array([5, 9, 65535], np.uint16)
     table = semantic_table(ids, sem)
-    z = np.array([[1.5, 0.0, 4.0, 0.5, 12.0, 3.0]], np.float32)
-    inst = np.array([[3, 0, 7, 7, 3, 2**32 - 1]], np.uint32)
+    assert len(table) == (2 if big > 2**20 else 1)
+    z = np.array([[1.5, 0.0, 4.0, 0.5, 12.0, 3.0, 10.0, 1.0]], np.float32)
+    inst = np.array([[3, 0, 7, 7, 3, big, 7, 3]], np.uint32)
     packed = np.stack([z.view(np.uint32), inst], axis=-1)
     depth, instance, semantic = np.empty_like(z), np.empty_like(inst), np.empty(z.shape, np.uint16)
     assert unpack(packed, table, depth, instance, semantic, near_m=1.0, far_m=10.0) == 2  # 0.5 m, 12 m
-    assert depth.tolist() == [[1.5, 0.0, 4.0, 0.0, 0.0, 3.0]]
-    assert instance.tolist() == [[3, 0, 7, 0, 0, 2**32 - 1]]
-    assert semantic.tolist() == [[9, 0, 5, 0, 0, 65535]]
+    assert depth.tolist() == [[1.5, 0.0, 4.0, 0.0, 0.0, 3.0, 10.0, 1.0]]  # 10 m and 1 m are in range
+    assert instance.tolist() == [[3, 0, 7, 0, 0, big, 7, 3]]
+    assert semantic.tolist() == [[9, 0, 5, 0, 0, 65535, 5, 9]]
+    depth[:] = -1
+    assert unpack(packed, table, None, instance, semantic, near_m=1.0, far_m=10.0) == 0  # ids alone
+    assert instance.tolist() == inst.tolist() and (depth == -1).all()
     assert semantic_table(np.array([4, 4], np.uint32), np.array([1, 2], np.uint16)) is None
 
 
