@@ -31,7 +31,7 @@ def warm_up(cfg: DatasetConfig) -> float:
     from ..cloud import frame_chunks, keep_cloud
     from ..export import get_format
     from ..layout import generate_layout, load_strategy
-    from ..render import Renderer, capture, shared_context
+    from ..render import capture, shared_context
     from ..render.memory import prefault
     from ..scene import build_scene
     from ..sensors import load_sensor, place_sensors
@@ -43,13 +43,8 @@ def warm_up(cfg: DatasetConfig) -> float:
     scene = build_scene(layout, rng=rng["scene"], **segments_option(accuracy))
     sensor = load_sensor(cfg.sensor)
     poses = place_sensors(layout, sensor, n=min(WARM_CAMERAS, cfg.cameras), seed=WARM_SEED)
-    saved = Renderer.cull_min_faces
-    Renderer.cull_min_faces = 0  # the culled draw path too, whatever these views hold
-    try:
-        frames = capture(scene, sensor, poses, seed=WARM_SEED, workers=1, depth_only=not fmt.colour,
-                         accuracy=accuracy, context=shared_context())
-    finally:
-        Renderer.cull_min_faces = saved
+    # (the culling kernels load only if a view of this scene draws enough faces to cull: the
+    # assembly line's views never do, so its scenes never load them)
     frames = capture(scene, sensor, poses, seed=WARM_SEED, workers=1, depth_only=not fmt.colour,
                      accuracy=accuracy, context=shared_context())
     if frames:  # every frame of a scene is held until its clouds are made: map their memory now
