@@ -89,3 +89,16 @@ def test_unknown_targets_or_readback_is_a_config_error():
     for kw in ({"targets": "rg"}, {"readback": "async"}):
         with pytest.raises(ConfigError, match=next(iter(kw))):
             Renderer(gg.Scene(), **kw)
+
+
+def test_prefault_puts_mapped_blocks_in_the_pool_and_never_more_than_it_keeps(monkeypatch):
+    from genie_gl.render import memory
+
+    pool = memory._Pool(max_bytes=10 * 64 * 48 * 10)  # room for 10 frames of 64 x 48 (10 bytes a pixel)
+    monkeypatch.setattr(memory, "_POOL", pool)
+    assert memory.prefault(48, 64, False, False, 4) == 4
+    size = sum(memory._parts(48, 64, False, False)[1])
+    assert size == 64 * 48 * 10 and len(pool.free[size]) == 4
+    frame = memory.frame_buffers(48, 64, False, False)
+    assert len(pool.free[size]) == 3 and (frame["depth"] == 0).all()  # lent from the pool, written
+    assert memory.prefault(48, 64, False, False, 40) == 10  # capped by the pool's size
