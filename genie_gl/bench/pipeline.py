@@ -104,9 +104,12 @@ def dataset_runs(args: argparse.Namespace) -> list[dict]:
     if one is not None and one["steady_median_s"] is not None:
         best = min(s["machine_s_per_scene"] for s in summary)
         met = one["steady_median_s"] <= TARGET_S
+        cpu = float(np.median(one["steady_cpu_s"])) if one["steady_cpu_s"] else float("nan")
+        load = float(np.median([r["load_avg_1min"] for r in runs]))
         print(f"   target (issue 16): <= {TARGET_S} s of stage time per scene on 2 cores: {one['steady_median_s']:.2f} s "
-              f"per scene after the first (1 worker: llvmpipe and numba on both cores) -> {'met' if met else 'NOT met'}; "
-              f"whole machine {best:.2f} s per scene at best")
+              f"per scene after the first (1 worker: llvmpipe and numba on both cores) -> {'met' if met else 'NOT met'} "
+              f"at load average {load:.1f} on {os.cpu_count()} cores; whole machine {best:.2f} s per scene at best; "
+              f"CPU {cpu:.2f} s per steady scene (about its stage time on idle cores with 1 worker)")
         stages = [st for r in runs if r["workers"] == 1 for st in r["steady_stages"]]
         med = {k: float(np.median([st[k] for st in stages])) for k in stages[0]} if stages else {}
         print("   steady scene, 1 worker, median s per stage: " + ", ".join(f"{k} {v:.3f}" for k, v in med.items()))
