@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import ctypes
+import functools
+import math
 
 import numpy as np
 
@@ -50,15 +52,17 @@ class _Pool:
 _POOL = _Pool()
 
 
-def _parts(H: int, W: int, color: bool, normals: bool) -> tuple[list, list[int]]:
-    """A frame's arrays (name, dtype, shape) and their sizes in its block, 64-byte aligned."""
+@functools.lru_cache(maxsize=64)
+def _parts(H: int, W: int, color: bool, normals: bool) -> tuple[tuple, tuple[int, ...]]:
+    """A frame's arrays (name, dtype, shape, bytes) and their sizes in its block, 64-byte aligned."""
     parts = [("depth", np.float32, (H, W)), ("instance", np.uint32, (H, W))]
     if normals:
         parts.append(("normal", np.float32, (H, W, 3)))
     if color:
         parts.append(("rgba", np.uint8, (H, W, 4)))
     parts.append(("semantic", np.uint16, (H, W)))
-    return parts, [-(-int(np.prod(shape)) * np.dtype(dt).itemsize // 64) * 64 for _, dt, shape in parts]
+    parts = [(name, dt, shape, math.prod(shape) * np.dtype(dt).itemsize) for name, dt, shape in parts]
+    return tuple(parts), tuple(-(-n // 64) * 64 for *_, n in parts)
 
 
 def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.ndarray]:
@@ -66,8 +70,7 @@ def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.nd
     parts, sizes = _parts(H, W, color, normals)
     block = _POOL.lend(sum(sizes))
     out, at = {}, 0
-    for (name, dt, shape), b in zip(parts, sizes):
-        n = int(np.prod(shape)) * np.dtype(dt).itemsize
+    for (name, dt, shape, n), b in zip(parts, sizes):
         out[name] = block[at:at + n].view(dt).reshape(shape)
         at += b
     return out
