@@ -94,10 +94,10 @@ def dataset_runs(args: argparse.Namespace) -> list[dict]:
         cpu = [x for r in rs for x in r["steady_cpu_s"]]
         machine = float(np.median(steady)) / w if steady else float("nan")
         command = float(np.median([r["command_wall_s"] for r in rs])) / args.scenes
+        median = float(np.median(steady)) if steady else None
         summary.append({"workers": w, "processes": max(r["processes"] for r in rs), "warmup_s": warm,
-                        "first_scene_s": first, "steady_s": steady, "steady_median_s": float(np.median(steady)) if steady
-                        else None, "machine_s_per_scene": machine, "command_s_per_scene": command,
-                        "steady_cpu_s": cpu})
+                        "first_scene_s": first, "steady_s": steady, "steady_median_s": median,
+                        "machine_s_per_scene": machine, "command_s_per_scene": command, "steady_cpu_s": cpu})
         print(f"   {w:7d} {max(r['processes'] for r in rs):9d} {_spread(warm):>17s} {_spread(first):>14s} "
               f"{_spread(steady):>21s} {machine:15.2f} {command:15.2f} {_spread(cpu):>12s}")
     one = next((s for s in summary if s["workers"] == 1), None)
@@ -106,8 +106,9 @@ def dataset_runs(args: argparse.Namespace) -> list[dict]:
         met = one["steady_median_s"] <= TARGET_S
         cpu = float(np.median(one["steady_cpu_s"])) if one["steady_cpu_s"] else float("nan")
         load = float(np.median([r["load_avg_1min"] for r in runs]))
-        print(f"   target (issue 16): <= {TARGET_S} s of stage time per scene on 2 cores: {one['steady_median_s']:.2f} s "
-              f"per scene after the first (1 worker: llvmpipe and numba on both cores) -> {'met' if met else 'NOT met'} "
+        print(f"   target (issue 16): <= {TARGET_S} s of stage time per scene on 2 cores: "
+              f"{one['steady_median_s']:.2f} s per scene after the first (1 worker: llvmpipe and numba on both "
+              f"cores) -> {'met' if met else 'NOT met'} "
               f"at load average {load:.1f} on {os.cpu_count()} cores; whole machine {best:.2f} s per scene at best; "
               f"CPU {cpu:.2f} s per steady scene (about its stage time on idle cores with 1 worker)")
         stages = [st for r in runs if r["workers"] == 1 for st in r["steady_stages"]]
@@ -161,9 +162,11 @@ def readback(repeats: int = 8) -> list[dict]:
     ref = float(np.median(cpu["separate targets"]))
     rows = [{"read-back": k, "wall ms": float(np.median(wall[k])), "cpu ms": float(np.median(cpu[k])),
              "cpu vs separate": float(np.median(cpu[k])) / ref} for k in modes]
-    print(f"read-back, ms per 640x480 frame through Renderer.frames (median of {repeats} x 3 scenes, modes taking turns):")
+    print(f"read-back, ms per 640x480 frame through Renderer.frames (median of {repeats} x 3 scenes, "
+          "modes taking turns):")
     for r in rows:
-        print(f"   {r['read-back']:18s} wall {r['wall ms']:6.2f}  CPU {r['cpu ms']:6.2f}  CPU / separate {r['cpu vs separate']:.2f}")
+        print(f"   {r['read-back']:18s} wall {r['wall ms']:6.2f}  CPU {r['cpu ms']:6.2f}  "
+              f"CPU / separate {r['cpu vs separate']:.2f}")
     return rows
 
 

@@ -36,7 +36,8 @@ def warm_up(cfg: DatasetConfig) -> float:
     from ..scene import build_scene
     from ..sensors import load_sensor, place_sensors
 
-    rng = {n: np.random.default_rng(np.random.SeedSequence([WARM_SEED, k])) for k, n in enumerate(("layout", "scene", "cloud"))}
+    rng = {n: np.random.default_rng(np.random.SeedSequence([WARM_SEED, k]))
+           for k, n in enumerate(("layout", "scene", "cloud"))}
     fmt = get_format(cfg.format)
     layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"])
     accuracy = settings_of(cfg.accuracy)

@@ -344,7 +344,6 @@ class Renderer:
             self._submit(p24, lists, parity)
         ctx.disable(moderngl.CULL_FACE)
         return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
-
                 "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
                 "t0": t0, "t1": t1}
 
