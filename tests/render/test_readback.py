@@ -102,3 +102,23 @@ def test_prefault_puts_mapped_blocks_in_the_pool_and_never_more_than_it_keeps(mo
     frame = memory.frame_buffers(48, 64, False, False)
     assert len(pool.free[size]) == 3 and (frame["depth"] == 0).all()  # lent from the pool, written
     assert memory.prefault(48, 64, False, False, 40) == 10  # capped by the pool's size
+
+
+def test_a_shared_context_serves_scene_after_scene_with_the_same_frames(generated):
+    from genie_gl.render import capture, release_shared_contexts, shared_context
+
+    scene, sensor, poses = generated
+    gl = shared_context()
+    assert shared_context() is gl
+    try:
+        alone = capture(scene, sensor, poses, seed=1, depth_only=True)
+        for _ in range(2):  # the context (and its shaders) outlive each capture's renderer
+            shared = capture(scene, sensor, poses, seed=1, depth_only=True, context=gl)
+            for a, b in zip(alone, shared):
+                same(a, b)
+        with gl.ctx:
+            assert gl.ctx.error == "GL_NO_ERROR"
+    finally:
+        release_shared_contexts()
+    assert shared_context() is not gl
+    release_shared_contexts()
