@@ -7,6 +7,7 @@ the first) and, on the first, the warm-up's seconds (``warmup_s``)."""
 from __future__ import annotations
 
 import os
+from contextlib import nullcontext
 from typing import Any
 
 from .config import DatasetConfig
@@ -103,15 +104,18 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
 
             n = min(cfg.workers, cfg.scenes)
             ctx = mp.get_context("spawn")
-            with ctx.Manager() as manager, ctx.Pool(n) as pool:
-                status = manager.dict()  # scene -> the stage its worker is in, for the bar
+            # the stages under way are shown through a manager's dict: a server process of its
+            # own, started only when there is a bar to show them on
+            with ctx.Manager() if progress else nullcontext() as manager, ctx.Pool(n) as pool:
+                status = manager.dict() if manager is not None else None  # scene -> its worker's stage
                 it = pool.imap_unordered(_worker, [(cfg, i, verify, status) for i in range(cfg.scenes)])
                 left = cfg.scenes
                 while left:
                     try:
                         r = it.next(timeout=0.5)
                     except mp.TimeoutError:
-                        bar.set_postfix_str(_describe(status), refresh=True)
+                        if status is not None:
+                            bar.set_postfix_str(_describe(status), refresh=True)
                         continue
                     done(r)
                     left -= 1
