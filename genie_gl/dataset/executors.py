@@ -39,7 +39,12 @@ def make_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=No
     """:func:`~genie_gl.dataset.scene.run_scene` with this process's warm-up and bookkeeping."""
     from .scene import run_scene
 
-    return _made(run_scene(cfg, index, verify=verify, stage=stage, prepare=lambda: _prepare(cfg)))
+    def prepare() -> None:
+        if stage is not None and not _PROCESS.get("warm"):
+            stage("warm-up")  # the bar shows the worker's warm-up as a stage of its first scene
+        _prepare(cfg)
+
+    return _made(run_scene(cfg, index, verify=verify, stage=stage, prepare=prepare))
 
 
 def _worker(job: tuple) -> dict:
