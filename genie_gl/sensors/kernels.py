@@ -10,6 +10,8 @@ three times faster, with no (n,) array in between; tests check it value for valu
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -143,10 +145,18 @@ def stereo_noise(depth, draws, fb, sigma_d, step):  # pragma: no cover - compile
 def stereo_noise_rng(depth, rng, fb, sigma_d, step):  # pragma: no cover - compiled
     """:func:`stereo_noise` drawing its normals from ``rng`` inside the loop, one per valid
     pixel in row-major order: the same values as ``stereo_noise(depth,
-    rng.standard_normal(n_valid), ...)``."""
+    rng.standard_normal(n_valid), ...)``; (new depth, pixels lost, pixels whose depth
+    changed). A power-of-two ``step`` divides by multiplying with its inverse (the same
+    float64, exactly)."""
     H, W = depth.shape
     out = np.zeros((H, W), np.float32)
     lost = 0
+    changed = 0
+    inv = 0.0
+    if step > 0:
+        m, _ = math.frexp(step)
+        if m == 0.5:
+            inv = 1.0 / step
     for v in range(H):
         for u in range(W):
             z = np.float64(depth[v, u])
@@ -155,23 +165,27 @@ def stereo_noise_rng(depth, rng, fb, sigma_d, step):  # pragma: no cover - compi
             noisy = z + rng.standard_normal() * (z * z * sigma_d / fb)
             if step > 0:
                 disp = fb / max(noisy, 1e-6)
-                disp = np.round(disp / step) * step
+                disp = np.round(disp * inv if inv > 0 else disp / step) * step
                 noisy = fb / max(disp, 1e-12) if disp > 0 else 0.0
             if noisy > 0:
                 out[v, u] = np.float32(noisy)
             if not np.float32(noisy) > 0:
                 out[v, u] = 0
                 lost += 1
-    return out, lost
+            if out[v, u] != depth[v, u]:
+                changed += 1
+    return out, lost, changed
 
 
 @njit(cache=True, nogil=True)
 def linear_noise_rng(depth, rng, a, b, z0):  # pragma: no cover - compiled
     """:func:`linear_noise` drawing its normals from ``rng`` inside the loop (the same values
-    as ``linear_noise(depth, rng.standard_normal(n_valid), ...)``)."""
+    as ``linear_noise(depth, rng.standard_normal(n_valid), ...)``); (new depth, pixels lost,
+    pixels whose depth changed)."""
     H, W = depth.shape
     out = np.zeros((H, W), np.float32)
     lost = 0
+    changed = 0
     for v in range(H):
         for u in range(W):
             z = np.float64(depth[v, u])
@@ -182,7 +196,9 @@ def linear_noise_rng(depth, rng, a, b, z0):  # pragma: no cover - compiled
                 out[v, u] = noisy
             else:
                 lost += 1
-    return out, lost
+            if out[v, u] != depth[v, u]:
+                changed += 1
+    return out, lost, changed
 
 
 @njit(cache=True, nogil=True)
@@ -270,17 +286,25 @@ def pixel_codes(depth, ids, code_by_id):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def specular_lost(depth, xy, normal, kind, cos_glare):  # pragma: no cover - compiled
+def specular_lost(depth, xy, normal, kind, cos_glare, drop_clear=False):  # pragma: no cover - compiled
     """Returns lost on shiny surfaces: bare metal (code bit 1) always, other shiny pixels (bit
     0) where cos θ > ``cos_glare``, θ from ``normal`` ((H, W, 3); an empty array: the depth
-    image's central differences, none beside a hole or the border). (lost (H, W) bool, count)."""
+    image's central differences, none beside a hole or the border); with ``drop_clear``,
+    clear ones (bit 2) too. (lost (H, W) bool, count, clear pixels)."""
     H, W = depth.shape
     lost = np.zeros((H, W), np.bool_)
     n = 0
+    n_clear = 0
     have_normal = normal.shape[0] == H
     for v in range(H):
         for u in range(W):
             c = kind[v, u]
+            if c & 4:
+                n_clear += 1
+                if drop_clear:
+                    lost[v, u] = True
+                    n += 1
+                    continue
             if c & 2:
                 lost[v, u] = True
                 n += 1
@@ -313,7 +337,7 @@ def specular_lost(depth, xy, normal, kind, cos_glare):  # pragma: no cover - com
             if abs(nx * dx + ny * dy + nz * dz) > cos_glare:
                 lost[v, u] = True
                 n += 1
-    return lost, n
+    return lost, n, n_clear
 
 
 @njit(cache=True, nogil=True)
@@ -346,3 +370,116 @@ def edge_pixels(depth, jump):  # pragma: no cover - compiled
                 nb[n] = other
                 n += 1
     return idx[:n].copy(), nb[:n].copy()
+
+
+@njit(cache=True, nogil=True)
+def _cover(ib, lo, hi, xa, ia, slope):  # pragma: no cover - compiled
+    """Draw into the row's inverse-depth buffer ``ib`` (largest 1/z wins) the columns whose
+    centres lie in [lo, hi) (half-open, as a rasteriser fills) of the line 1/z = ia + slope·(x − xa)."""
+    W = ib.shape[0]
+    c0 = max(int(np.ceil(lo)), 0)
+    c1 = min(int(np.ceil(hi)) - 1, W - 1)
+    for c in range(c0, c1 + 1):
+        i = ia + slope * (c - xa)
+        if i > ib[c]:
+            ib[c] = i
+
+
+@njit(cache=True, nogil=True)
+def _half(ib, x, i, side):  # pragma: no cover - compiled
+    """Half a pixel at inverse depth ``i`` from ``x`` towards ``side`` (+1 or -1)."""
+    _cover(ib, min(x, x + 0.5 * side), max(x, x + 0.5 * side), x, i, 0.0)
+
+
+@njit(cache=True, nogil=True)
+def scanline_shadow(depth, shift, tol_m, tol_rel):  # pragma: no cover - compiled
+    """Which returns the second view of a rectified pair cannot see, from the depth image
+    alone: (gone (H, W) bool, occluded, outside).
+
+    The second view has the same pinhole K and sits at X2 = X1 + (tx, 0, 0): a return at
+    column u and depth z appears in the same row at x2 = u + shift/z, shift = fx·tx. Each row
+    is drawn into a one-dimensional depth buffer of the second view (W columns, centres at
+    integers): two neighbours whose depths differ by at most the tolerance are one surface
+    (the segment between them, 1/z linear in x2: exact for a plane); a return without such a
+    neighbour on one side covers half a pixel on that side at its own depth.
+
+    Only returns on the second view's side can hide a return (of two points whose order the
+    views swap, the one on that side is the nearer), so the row is walked from that side: each
+    return is looked up before it and the segment to its predecessor are drawn, which also
+    keeps it from hiding behind its own surface. It is outside when rint(x2) leaves [0, W),
+    hidden when the buffer there holds a surface nearer than z − (tol_m + tol_rel·seen)."""
+    H, W = depth.shape
+    gone = np.zeros((H, W), np.bool_)
+    counts = np.zeros((H, 2), np.int64)
+    ib = np.empty(W, np.float64)
+    for v in range(H):
+        _scan_row(depth, v, shift, tol_m, tol_rel, gone, ib, counts)
+    return gone, int(counts[:, 0].sum()), int(counts[:, 1].sum())
+
+
+@njit(cache=True, nogil=True)
+def _scan_row(depth, v, shift, tol_m, tol_rel, gone, ib, counts):  # pragma: no cover - compiled
+    """Row ``v`` of :func:`scanline_shadow`: ``gone[v]`` and counts[v] = (occluded, outside)."""
+    W = depth.shape[1]
+    occluded = 0
+    outside = 0
+    step = -1 if shift < 0 else 1          # second view at +x (shift < 0): walk right to left
+    first = W - 1 if shift < 0 else 0
+    for c in range(W):
+        ib[c] = 0.0
+    has_prev = False
+    prev_i = 0.0
+    prev_x = 0.0
+    prev_z = 0.0
+    for k in range(W):
+        u = first + step * k
+        z = np.float64(depth[v, u])
+        if z <= 0:
+            if has_prev:               # the predecessor's half pixel towards the hole
+                _half(ib, prev_x, prev_i, step)
+            has_prev = False
+            continue
+        linked = has_prev and abs(prev_z - z) <= tol_m + tol_rel * min(prev_z, z)
+        if has_prev and not linked:    # the predecessor's half pixel towards this return
+            _half(ib, prev_x, prev_i, step)
+        iz = 1.0 / z
+        x = u + shift * iz
+        c = np.rint(x)
+        if not (c >= 0 and c < W):
+            gone[v, u] = True
+            outside += 1
+        elif ib[int(c)] > iz:
+            seen = 1.0 / ib[int(c)]
+            if z > seen + (tol_m + tol_rel * seen):
+                gone[v, u] = True
+                occluded += 1
+        if linked:                     # the surface between the two, after the look-up
+            dx = prev_x - x
+            _cover(ib, min(x, prev_x), max(x, prev_x), x, iz, (prev_i - iz) / dx if dx != 0 else 0.0)
+        else:                          # its own half pixel towards the predecessor
+            _half(ib, x, iz, -step)
+        has_prev = True
+        prev_i, prev_x, prev_z = iz, x, z
+    counts[v, 0] = occluded
+    counts[v, 1] = outside
+
+
+@njit(cache=True, nogil=True)
+def drop_where(depth, instance, semantic, gone):  # pragma: no cover - compiled
+    """Copies of ``depth`` (as float32), ``instance`` and ``semantic`` with 0 where ``gone``
+    (the bytes of :func:`~genie_gl.sensors.effect.drop`), in one pass."""
+    H, W = depth.shape
+    d = np.empty((H, W), np.float32)
+    i = np.empty_like(instance)
+    s = np.empty_like(semantic)
+    for v in range(H):
+        for u in range(W):
+            if gone[v, u]:
+                d[v, u] = 0
+                i[v, u] = 0
+                s[v, u] = 0
+            else:
+                d[v, u] = depth[v, u]
+                i[v, u] = instance[v, u]
+                s[v, u] = semantic[v, u]
+    return d, i, s

@@ -25,7 +25,7 @@ from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
 from . import kernels
-from .effect import Decision, Effect, View, drop
+from .effect import Decision, Effect, View, drop, record
 from .geometry import incidence_angle
 
 
@@ -155,18 +155,23 @@ class DepthNoise(Effect):
         theta[cand] = np.arccos(np.clip(cos[cand], 0.0, 1.0))
         return theta
 
+    def _noisy(self, frame: Frame, depth: np.ndarray, lost: int, changed: int) -> Frame:
+        """``frame`` with the compiled pass's depth; the returns it lost dropped (ids 0); the
+        pixels it changed recorded for ``simulate``."""
+        out = frame.replace(depth=depth)
+        out = drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
+        return record(out, self.name, changed=int(changed))
+
     def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         if self.model == "stereo":   # one compiled pass drawing from rng: the draws as below
             fb = frame.sensor.fx * self.baseline(frame.sensor)
-            depth, lost = kernels.stereo_noise_rng(frame.depth, rng, fb, self.sigma_d_px(frame.sensor),
-                                                   float(self.subpixel_step))
-            out = frame.replace(depth=depth)
-            return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
+            depth, lost, changed = kernels.stereo_noise_rng(frame.depth, rng, fb, self.sigma_d_px(frame.sensor),
+                                                            float(self.subpixel_step))
+            return self._noisy(frame, depth, lost, changed)
         if self.model == "tof_linear":
-            depth, lost = kernels.linear_noise_rng(frame.depth, rng, float(self.a_m), float(self.b),
-                                                   float(self.z0_m))
-            out = frame.replace(depth=depth)
-            return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
+            depth, lost, changed = kernels.linear_noise_rng(frame.depth, rng, float(self.a_m), float(self.b),
+                                                            float(self.z0_m))
+            return self._noisy(frame, depth, lost, changed)
         z = frame.depth.astype(np.float64)
         valid = z > 0
         f = frame.sensor.fx

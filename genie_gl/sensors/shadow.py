@@ -31,6 +31,9 @@ from .effect import Effect, record
 from .geometry import pixel_rays
 
 
+METHODS = ("auto", "scanline", "render")
+
+
 @dataclass
 class StereoShadow(Effect):
     """Drop the returns the second view (camera or projector) cannot see.
@@ -60,8 +63,11 @@ class StereoShadow(Effect):
     scale: float = 0.5
     tolerance_m: float = 0.005
     tolerance_rel: float = 0.02
+    method: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ConfigError(f"stereo_shadow.method: expected {' | '.join(METHODS)}, got {self.method!r}")
         a = np.asarray(self.axis, dtype=np.float64)
         if a.shape != (3,) or not np.isfinite(a).all() or np.linalg.norm(a) == 0:
             raise ConfigError(f"stereo_shadow.axis: expected a non-zero 3-vector, got {self.axis!r}")
@@ -87,6 +93,29 @@ class StereoShadow(Effect):
         out[:3, 3] = -float(b) * a / np.linalg.norm(a)   # X2 = X1 − C2, C2 = b·axis
         return out
 
+    def scanline_shift(self, sensor: Sensor) -> float | None:
+        """fx·tx (pixel·metres) when the second view is the first one moved along its x axis
+        only (R = I, T = (tx, 0, 0)) and the sensor is an undistorted pinhole without skew, so
+        that a return at depth z appears in the same row, fx·tx/z pixels along; else None."""
+        if not sensor.is_pinhole or sensor.K[0, 1] != 0:
+            return None
+        second = self.second_from_first(sensor)
+        R, t = second[:3, :3], second[:3, 3]
+        if np.abs(R - np.eye(3)).max() > 1e-12 or abs(t[1]) > 1e-12 or abs(t[2]) > 1e-12:
+            return None
+        return float(sensor.fx * t[0])
+
+    def resolved_method(self, sensor: Sensor) -> str:
+        """"scanline" or "render": what ``method`` amounts to for ``sensor``."""
+        if self.method == "render":
+            return "render"
+        if self.scanline_shift(sensor) is not None:
+            return "scanline"
+        if self.method == "scanline":
+            raise ConfigError(f"stereo_shadow.method: scanline needs a rectified pair (R = I, T along x) "
+                              f"and an undistorted pinhole sensor; {sensor.name!r} is not one (use render)")
+        return "render"
+
     def view_sensor(self, sensor: Sensor) -> Sensor:
         """The pinhole camera of the second view's low-resolution render."""
         base = sensor
@@ -111,6 +140,8 @@ class StereoShadow(Effect):
         return bool(kernels.casts_shadow(frame.depth, fb, float(self.tolerance_m), float(self.tolerance_rel)))
 
     def apply(self, frame: Frame, *, rng: np.random.Generator, render_depth=None, **needs) -> Frame:
+        if self.resolved_method(frame.sensor) == "scanline":
+            return self.apply_scanline(frame)
         if render_depth is None:
             raise ConfigError("stereo_shadow needs a renderer: run it through simulate()/capture(), "
                               "or pass render_depth=(sensor, pose) -> depth")
@@ -138,4 +169,19 @@ class StereoShadow(Effect):
                 normal[gone] = 0
             out = frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)
         return record(out, self.name, occluded=int(occluded), outside=int(outside),
-                      second_view=rendered)
+                      second_view=rendered, method="render", changed=int(occluded + outside))
+
+    def apply_scanline(self, frame: Frame) -> Frame:
+        """The scanline method: the second view from the depth image (no render)."""
+        gone, occluded, outside = kernels.scanline_shadow(
+            frame.depth, float(self.scanline_shift(frame.sensor)), float(self.tolerance_m), float(self.tolerance_rel))
+        out = frame
+        if occluded + outside:
+            depth, inst, sem = kernels.drop_where(frame.depth, frame.instance, frame.semantic, gone)
+            normal = frame.normal
+            if normal is not None:
+                normal = normal.copy()
+                normal[gone] = 0
+            out = frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)
+        return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=False,
+                      method="scanline", changed=int(occluded + outside))

@@ -89,23 +89,30 @@ class SpecularLoss(Effect):
         kind, n = self._kinds(frame, materials)
         self.__dict__.pop("_memo", None)   # the frame's buffers are not kept past its run
         if n == 0:
-            return record(frame, self.name, dropped=0, behind=0)
-        # incidence only where it matters: the shiny pixels
+            return record(frame, self.name, dropped=0, behind=0, changed=0)
+        # incidence only where it matters: the shiny pixels; clear ones dropped in the same
+        # pass unless the pair sees what lies behind them
         normal = frame.normal if frame.normal is not None else np.zeros((0, 0, 3), np.float32)
-        lost, _ = kernels.specular_lost(frame.depth, pixel_rays(frame.sensor), normal, kind,
-                                        float(np.cos(np.radians(self.glare_deg))))
+        behind_glass = self.transparent == "behind" and render_frame is not None
+        lost, n_lost, n_clear = kernels.specular_lost(frame.depth, pixel_rays(frame.sensor), normal, kind,
+                                                      float(np.cos(np.radians(self.glare_deg))), not behind_glass)
+        if not (behind_glass and n_clear):
+            out = frame
+            if n_lost:
+                depth, inst, sem = kernels.drop_where(frame.depth, frame.instance, frame.semantic, lost)
+                normal = frame.normal
+                if normal is not None:
+                    normal = normal.copy()
+                    normal[lost] = 0
+                out = frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)
+            return record(out, self.name, dropped=int(n_lost), behind=0, changed=int(n_lost))
         clear = (kind & 4).astype(bool)
-        behind = 0
-        out = frame
-        if clear.any() and self.transparent == "behind" and render_frame is not None:
-            glass = np.unique(frame.instance[clear])
-            seen = render_frame(frame.sensor, frame.world_from_camera, exclude=glass)
-            take = clear & ~lost
-            d, i, s = frame.depth.copy(), frame.instance.copy(), frame.semantic.copy()
-            d[take], i[take], s[take] = seen.depth[take], seen.instance[take], seen.semantic[take]
-            out = frame.replace(depth=d, instance=i, semantic=s)
-            behind = int(take.sum())
-        else:
-            lost |= clear
+        glass = np.unique(frame.instance[clear])
+        seen = render_frame(frame.sensor, frame.world_from_camera, exclude=glass)
+        take = clear & ~lost
+        d, i, s = frame.depth.copy(), frame.instance.copy(), frame.semantic.copy()
+        d[take], i[take], s[take] = seen.depth[take], seen.instance[take], seen.semantic[take]
+        out = frame.replace(depth=d, instance=i, semantic=s)
+        behind = int(take.sum())
         out = drop(out, lost) if lost.any() else out
         return record(out, self.name, dropped=int(lost.sum()), behind=behind)
