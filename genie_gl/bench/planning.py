@@ -11,7 +11,9 @@ on a generated scene (the assembly line, cameras placed for the sensor's range):
   view or the frame cannot call for them (same output as running them);
 * reference — the planned path with the effects' reference computations where a fused one
   replaced them (noise drawn by numpy's ``rng.standard_normal(n)`` before the compiled pass;
-  the shadow mask, then ``drop``): the same bytes, checked on every view before timing.
+  the shadow mask, then ``drop``): the same bytes, checked on every view before timing;
+* shadow rendered — the planned path with the stereo shadow's second view rendered (method
+  "render", the default before the scanline method: what this column was before it);
 
 One more row: the Azure profile on a matte convex sphere, where the planner skips multipath
 (goal: within 5 % of the ideal render). Methods take turns frame by frame (the machine is
@@ -55,7 +57,8 @@ def _before(sensor, pose, render, rng, materials):
         if eff.needs_materials:
             kw["materials"] = materials
         if eff.name == "stereo_shadow":   # the second view always rendered, as before planning
-            eff = _AlwaysSecondView(**{f.name: getattr(eff, f.name) for f in dataclasses.fields(eff)})
+            eff = _AlwaysSecondView(**{**{f.name: getattr(eff, f.name) for f in dataclasses.fields(eff)},
+                                       "method": "render"})
         frame = eff.apply(frame, rng=rng, **kw)
     return frame
 
@@ -97,6 +100,13 @@ def _reference(sensor):
 
     class MaskThenDrop(StereoShadow):
         def apply(self, frame, *, rng, render_depth=None, **needs):
+            if self.resolved_method(frame.sensor) == "scanline":
+                gone, occluded, outside = kernels.scanline_shadow(
+                    frame.depth, float(self.scanline_shift(frame.sensor)), float(self.tolerance_m),
+                    float(self.tolerance_rel))
+                out = drop(frame, gone) if gone.any() else frame
+                return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=False,
+                              method="scanline")
             if not (frame.depth > 0).any():
                 return frame
             second, view = self.second_from_first(frame.sensor), self.view_sensor(frame.sensor)
@@ -116,6 +126,16 @@ def _reference(sensor):
     return dataclasses.replace(sensor, effects=effects)
 
 
+def _rendered_shadow(sensor):
+    """``sensor`` with its stereo shadow's second view rendered (method "render": the default
+    before the scanline method)."""
+    from ..sensors.shadow import StereoShadow
+
+    effects = tuple(dataclasses.replace(e, method="render") if isinstance(e, StereoShadow) else e
+                    for e in sensor.effects)
+    return dataclasses.replace(sensor, effects=effects)
+
+
 def _time(fn) -> float:
     t = time.perf_counter()
     fn()
@@ -132,7 +152,8 @@ def _rows(label, scene, sensor, poses, rounds):
     p = make_plan(scene, sensor, poses)
     ideal_sensor = dataclasses.replace(sensor, effects=())
     reference = _reference(sensor)
-    ms = {"ideal": [], "before": [], "reference": [], "planned": []}
+    rendered = _rendered_shadow(sensor)
+    ms = {"ideal": [], "before": [], "reference": [], "rendered": [], "planned": []}
     with Renderer(scene) as r:
         for k, pose in enumerate(poses):   # warm: compiled kernels, caches, GL objects
             a, b = (simulate(s, pose, render=r.render, rng=np.random.default_rng(k), materials=p.materials,
@@ -149,6 +170,9 @@ def _rows(label, scene, sensor, poses, rounds):
                 ms["reference"].append(_time(lambda: simulate(reference, pose, render=r.render,
                                                               rng=np.random.default_rng(k),
                                                               materials=p.materials, plan=p.frames[k])))
+                ms["rendered"].append(_time(lambda: simulate(rendered, pose, render=r.render,
+                                                             rng=np.random.default_rng(k),
+                                                             materials=p.materials, plan=p.frames[k])))
                 ms["planned"].append(_time(lambda: simulate(sensor, pose, render=r.render,
                                                             rng=np.random.default_rng(k),
                                                             materials=p.materials, plan=p.frames[k])))
@@ -159,7 +183,7 @@ def _rows(label, scene, sensor, poses, rounds):
     # what a skipped effect costs, as a share of the ideal render (goal: under 5 %)
     row["skipped_share"] = {e["name"]: round(e["ms"] / float(np.median(ideal)), 4)
                             for e in last.meta["effects"] if not e["run"]}
-    for key in ("before", "reference", "planned"):
+    for key in ("before", "reference", "rendered", "planned"):
         row[f"{key}_ms"] = round(float(np.median(ms[key])), 1)
         row[f"{key}_x"] = round(float(np.median(np.array(ms[key]) / ideal)), 2)
     return row
@@ -190,12 +214,13 @@ def run(args: argparse.Namespace) -> int:
     pose = look_at([0.0, 0.0, 2.0], [0.0, 0.0, 0.0], up=(0, 1, 0))
     rows.append(_rows("azure_kinect_nfov, matte convex sphere", sphere, azure, [pose] * 2, args.rounds))
     print(rows[-1], flush=True)
-    print(f"\n{'case':<42} {'ideal ms':>9} {'before':>14} {'planned, ref.':>14} {'planned':>14}"
-          "   skipped effects (share of the render)")
+    print(f"\n{'case':<42} {'ideal ms':>9} {'before':>14} {'planned, ref.':>14} {'shadow rendered':>16}"
+          f" {'planned':>14}   skipped effects (share of the render)")
     for r in rows:
         skipped = ", ".join(f"{k} {100 * v:.1f} %" for k, v in r["skipped_share"].items()) or "-"
         print(f"{r['case']:<42} {r['ideal_ms']:>9.1f} {r['before_ms']:>7.1f} ({r['before_x']:>4.2f}x)"
               f" {r['reference_ms']:>7.1f} ({r['reference_x']:>4.2f}x)"
+              f" {r['rendered_ms']:>9.1f} ({r['rendered_x']:>4.2f}x)"
               f" {r['planned_ms']:>7.1f} ({r['planned_x']:>4.2f}x)   {skipped}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -372,27 +372,7 @@ def edge_pixels(depth, jump):  # pragma: no cover - compiled
     return idx[:n].copy(), nb[:n].copy()
 
 
-@njit(cache=True, nogil=True)
-def _cover(ib, lo, hi, xa, ia, slope):  # pragma: no cover - compiled
-    """Draw into the row's inverse-depth buffer ``ib`` (largest 1/z wins) the columns whose
-    centres lie in [lo, hi) (half-open, as a rasteriser fills) of the line 1/z = ia + slope·(x − xa)."""
-    W = ib.shape[0]
-    c0 = max(int(np.ceil(lo)), 0)
-    c1 = min(int(np.ceil(hi)) - 1, W - 1)
-    for c in range(c0, c1 + 1):
-        i = ia + slope * (c - xa)
-        if i > ib[c]:
-            ib[c] = i
-
-
-@njit(cache=True, nogil=True)
-def _half(ib, x, i, side):  # pragma: no cover - compiled
-    """Half a pixel at inverse depth ``i`` from ``x`` towards ``side`` (+1 or -1)."""
-    _cover(ib, min(x, x + 0.5 * side), max(x, x + 0.5 * side), x, i, 0.0)
-
-
-@njit(cache=True, nogil=True)
-def scanline_shadow(depth, shift, tol_m, tol_rel):  # pragma: no cover - compiled
+def scanline_shadow(depth: np.ndarray, shift: float, tol_m: float, tol_rel: float):
     """Which returns the second view of a rectified pair cannot see, from the depth image
     alone: (gone (H, W) bool, occluded, outside).
 
@@ -407,61 +387,104 @@ def scanline_shadow(depth, shift, tol_m, tol_rel):  # pragma: no cover - compile
     views swap, the one on that side is the nearer), so the row is walked from that side: each
     return is looked up before it and the segment to its predecessor are drawn, which also
     keeps it from hiding behind its own surface. It is outside when rint(x2) leaves [0, W),
-    hidden when the buffer there holds a surface nearer than z − (tol_m + tol_rel·seen)."""
-    H, W = depth.shape
-    gone = np.zeros((H, W), np.bool_)
-    counts = np.zeros((H, 2), np.int64)
-    ib = np.empty(W, np.float64)
-    for v in range(H):
-        _scan_row(depth, v, shift, tol_m, tol_rel, gone, ib, counts)
-    return gone, int(counts[:, 0].sum()), int(counts[:, 1].sum())
+    hidden when the buffer there holds a surface nearer than z − (tol_m + tol_rel·seen).
+
+    Computed for the second view on the +x side (shift < 0, :func:`_scanline_right`); one on
+    the −x side is its mirror image (the image flipped left to right, the shift negated)."""
+    depth = np.ascontiguousarray(depth, dtype=np.float32)
+    if shift <= 0:
+        return _scanline_right(depth, float(shift), float(tol_m), float(tol_rel))
+    gone, occluded, outside = _scanline_right(np.ascontiguousarray(depth[:, ::-1]), -float(shift), float(tol_m),
+                                              float(tol_rel))
+    return np.ascontiguousarray(gone[:, ::-1]), occluded, outside
 
 
 @njit(cache=True, nogil=True)
-def _scan_row(depth, v, shift, tol_m, tol_rel, gone, ib, counts):  # pragma: no cover - compiled
-    """Row ``v`` of :func:`scanline_shadow`: ``gone[v]`` and counts[v] = (occluded, outside)."""
-    W = depth.shape[1]
+def _scanline_right(depth, shift, tol_m, tol_rel):  # pragma: no cover - compiled
+    """:func:`scanline_shadow` for shift <= 0: rows walked right to left.
+
+    A column is drawn when its centre lies in [lo, hi) (as a rasteriser fills). A draw that
+    no later look-up can read is skipped, which changes nothing: ``fut[u]``, the rightmost
+    column a return left of u looks up, lies left of it (the usual case: a surface both views
+    see, walked right to left, maps to columns further and further left); and a look-up left
+    of every column drawn so far finds nothing. Only near a fold of x2 (an edge whose shadow
+    reaches a pixel) is anything drawn."""
+    H, W = depth.shape
+    gone = np.zeros((H, W), np.bool_)
+    ib = np.empty(W, np.float64)
+    izr = np.empty(W, np.float64)
+    xr = np.empty(W, np.float64)
+    col = np.empty(W, np.int64)
+    fut = np.empty(W, np.int64)
     occluded = 0
     outside = 0
-    step = -1 if shift < 0 else 1          # second view at +x (shift < 0): walk right to left
-    first = W - 1 if shift < 0 else 0
-    for c in range(W):
-        ib[c] = 0.0
-    has_prev = False
-    prev_i = 0.0
-    prev_x = 0.0
-    prev_z = 0.0
-    for k in range(W):
-        u = first + step * k
-        z = np.float64(depth[v, u])
-        if z <= 0:
-            if has_prev:               # the predecessor's half pixel towards the hole
-                _half(ib, prev_x, prev_i, step)
-            has_prev = False
-            continue
-        linked = has_prev and abs(prev_z - z) <= tol_m + tol_rel * min(prev_z, z)
-        if has_prev and not linked:    # the predecessor's half pixel towards this return
-            _half(ib, prev_x, prev_i, step)
-        iz = 1.0 / z
-        x = u + shift * iz
-        c = np.rint(x)
-        if not (c >= 0 and c < W):
-            gone[v, u] = True
-            outside += 1
-        elif ib[int(c)] > iz:
-            seen = 1.0 / ib[int(c)]
-            if z > seen + (tol_m + tol_rel * seen):
+    for v in range(H):
+        for u in range(W):                 # one vectorised pass: 1/z, x2, the column looked up
+            z = np.float64(depth[v, u])
+            i = 1.0 / z if z > 0 else 0.0
+            x = u + shift * i
+            izr[u] = i
+            xr[u] = x
+            c = np.rint(x)
+            col[u] = int(c) if (z > 0 and c >= 0 and c < W) else -1
+            ib[u] = 0.0
+        last = -1                          # fut[u] = max(col[:u])
+        for u in range(W):
+            fut[u] = last
+            last = max(last, col[u])
+        drawn = W                          # the leftmost column drawn in this row
+        has_prev = False
+        prev_i = 0.0
+        prev_x = 0.0
+        prev_z = 0.0
+        for u in range(W - 1, -1, -1):
+            iz = izr[u]
+            if iz == 0.0:
+                if has_prev and fut[u] >= prev_x - 0.5:   # the predecessor's half pixel towards the hole
+                    drawn = _draw(ib, prev_x - 0.5, prev_x, prev_x, prev_i, 0.0, drawn)
+                has_prev = False
+                continue
+            x = xr[u]
+            reach = max(fut[u], col[u])
+            if col[u] < 0:
                 gone[v, u] = True
-                occluded += 1
-        if linked:                     # the surface between the two, after the look-up
-            dx = prev_x - x
-            _cover(ib, min(x, prev_x), max(x, prev_x), x, iz, (prev_i - iz) / dx if dx != 0 else 0.0)
-        else:                          # its own half pixel towards the predecessor
-            _half(ib, x, iz, -step)
-        has_prev = True
-        prev_i, prev_x, prev_z = iz, x, z
-    counts[v, 0] = occluded
-    counts[v, 1] = outside
+                outside += 1
+            if not has_prev or reach >= min(x, prev_x) - 0.5 or x >= drawn - 0.5:
+                z = np.float64(depth[v, u])
+                linked = has_prev and abs(prev_z - z) <= tol_m + tol_rel * min(prev_z, z)
+                if has_prev and not linked and reach >= prev_x - 0.5:   # the predecessor's half pixel
+                    drawn = _draw(ib, prev_x - 0.5, prev_x, prev_x, prev_i, 0.0, drawn)
+                c = col[u]
+                if c >= drawn and ib[c] > iz:
+                    seen = 1.0 / ib[c]
+                    if z > seen + (tol_m + tol_rel * seen):
+                        gone[v, u] = True
+                        occluded += 1
+                if linked:                 # the surface between the two, after the look-up
+                    if fut[u] >= min(x, prev_x):
+                        drawn = _draw(ib, min(x, prev_x), max(x, prev_x), x, iz, (prev_i - iz) / (prev_x - x), drawn)
+                elif fut[u] >= x:          # its own half pixel towards the predecessor
+                    drawn = _draw(ib, x, x + 0.5, x, iz, 0.0, drawn)
+                prev_z = z
+            else:
+                prev_z = np.float64(depth[v, u])
+            has_prev = True
+            prev_i, prev_x = iz, x
+    return gone, occluded, outside
+
+
+@njit(cache=True, nogil=True)
+def _draw(ib, lo, hi, xa, ia, slope, drawn):  # pragma: no cover - compiled
+    """Draw the columns whose centres lie in [lo, hi) of the line 1/z = ia + slope·(x − xa)
+    into the row's inverse-depth buffer ``ib`` (the largest 1/z, the nearest, wins); the new
+    leftmost drawn column."""
+    W = ib.shape[0]
+    c0, c1 = max(int(np.ceil(lo)), 0), min(int(np.ceil(hi)) - 1, W - 1)
+    for c in range(c0, c1 + 1):
+        i = ia + slope * (c - xa)
+        if i > ib[c]:
+            ib[c] = i
+    return min(drawn, c0) if c0 <= c1 else drawn
 
 
 @njit(cache=True, nogil=True)
