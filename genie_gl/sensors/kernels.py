@@ -142,62 +142,70 @@ def stereo_noise(depth, draws, fb, sigma_d, step):  # pragma: no cover - compile
 
 
 @njit(cache=True, nogil=True)
-def stereo_noise_rng(depth, rng, fb, sigma_d, step):  # pragma: no cover - compiled
-    """:func:`stereo_noise` drawing its normals from ``rng`` inside the loop, one per valid
-    pixel in row-major order: the same values as ``stereo_noise(depth,
-    rng.standard_normal(n_valid), ...)``; (new depth, pixels lost, pixels whose depth
-    changed). A power-of-two ``step`` divides by multiplying with its inverse (the same
-    float64, exactly)."""
+def _normals_at(depth, rng):  # pragma: no cover - compiled
+    """(H, W) float64: one ``rng.standard_normal()`` per valid pixel, in row-major order (the
+    values of ``rng.standard_normal(n_valid)``); undefined where there is no return."""
     H, W = depth.shape
-    out = np.zeros((H, W), np.float32)
-    lost = 0
-    changed = 0
+    out = np.empty((H, W), np.float64)
+    for v in range(H):
+        for u in range(W):
+            if depth[v, u] > 0:
+                out[v, u] = rng.standard_normal()
+    return out
+
+
+@njit(cache=True, nogil=True)
+def stereo_noise_rng(depth, rng, fb, sigma_d, step):  # pragma: no cover - compiled
+    """:func:`stereo_noise` drawing its normals from ``rng``, one per valid pixel in row-major
+    order: the same values as ``stereo_noise(depth, rng.standard_normal(n_valid), ...)``;
+    (new depth, pixels lost, pixels whose depth changed). The draws come first, then the
+    model in a branch-free pass the compiler vectorises; a power-of-two ``step`` divides by
+    multiplying with its inverse (the same float64, exactly)."""
+    H, W = depth.shape
+    draws = _normals_at(depth, rng)
+    out = np.empty((H, W), np.float32)
     inv = 0.0
     if step > 0:
         m, _ = math.frexp(step)
         if m == 0.5:
             inv = 1.0 / step
-    for v in range(H):
-        for u in range(W):
-            z = np.float64(depth[v, u])
-            if z <= 0:
-                continue
-            noisy = z + rng.standard_normal() * (z * z * sigma_d / fb)
-            if step > 0:
-                disp = fb / max(noisy, 1e-6)
-                disp = np.round(disp * inv if inv > 0 else disp / step) * step
-                noisy = fb / max(disp, 1e-12) if disp > 0 else 0.0
-            if noisy > 0:
-                out[v, u] = np.float32(noisy)
-            if not np.float32(noisy) > 0:
-                out[v, u] = 0
-                lost += 1
-            if out[v, u] != depth[v, u]:
-                changed += 1
-    return out, lost, changed
-
-
-@njit(cache=True, nogil=True)
-def linear_noise_rng(depth, rng, a, b, z0):  # pragma: no cover - compiled
-    """:func:`linear_noise` drawing its normals from ``rng`` inside the loop (the same values
-    as ``linear_noise(depth, rng.standard_normal(n_valid), ...)``); (new depth, pixels lost,
-    pixels whose depth changed)."""
-    H, W = depth.shape
-    out = np.zeros((H, W), np.float32)
     lost = 0
     changed = 0
     for v in range(H):
         for u in range(W):
             z = np.float64(depth[v, u])
-            if z <= 0:
-                continue
-            noisy = np.float32(z + rng.standard_normal() * (a + b * max(z - z0, 0.0)))
-            if noisy > 0:
-                out[v, u] = noisy
-            else:
-                lost += 1
-            if out[v, u] != depth[v, u]:
-                changed += 1
+            noisy = z + draws[v, u] * (z * z * sigma_d / fb)
+            if step > 0:
+                disp = fb / max(noisy, 1e-6)
+                disp = np.round(disp * inv if inv > 0 else disp / step) * step
+                noisy = fb / max(disp, 1e-12) if disp > 0 else 0.0
+            o = np.float32(noisy) if noisy > 0 else np.float32(0.0)
+            o = o if z > 0 else np.float32(0.0)
+            out[v, u] = o
+            lost += (z > 0) & (o == 0)
+            changed += o != depth[v, u]
+    return out, lost, changed
+
+
+@njit(cache=True, nogil=True)
+def linear_noise_rng(depth, rng, a, b, z0):  # pragma: no cover - compiled
+    """:func:`linear_noise` drawing its normals from ``rng`` (the same values as
+    ``linear_noise(depth, rng.standard_normal(n_valid), ...)``); (new depth, pixels lost,
+    pixels whose depth changed). Draws first, then the model in a vectorised pass."""
+    H, W = depth.shape
+    draws = _normals_at(depth, rng)
+    out = np.empty((H, W), np.float32)
+    lost = 0
+    changed = 0
+    for v in range(H):
+        for u in range(W):
+            z = np.float64(depth[v, u])
+            noisy = np.float32(z + draws[v, u] * (a + b * max(z - z0, 0.0)))
+            o = noisy if noisy > 0 else np.float32(0.0)
+            o = o if z > 0 else np.float32(0.0)
+            out[v, u] = o
+            lost += (z > 0) & (o == 0)
+            changed += o != depth[v, u]
     return out, lost, changed
 
 
@@ -296,6 +304,7 @@ def specular_lost(depth, xy, normal, kind, cos_glare, drop_clear=False):  # prag
     n = 0
     n_clear = 0
     have_normal = normal.shape[0] == H
+    cos2 = cos_glare * cos_glare if cos_glare > 0 else 0.0
     for v in range(H):
         for u in range(W):
             c = kind[v, u]
@@ -312,8 +321,6 @@ def specular_lost(depth, xy, normal, kind, cos_glare, drop_clear=False):  # prag
             if not c & 1:
                 continue
             x, y, z = xy[v, u, 0], xy[v, u, 1], np.float64(depth[v, u])
-            dl = np.sqrt(x * x + y * y + 1.0)
-            dx, dy, dz = x / dl, y / dl, 1.0 / dl
             if have_normal:
                 nx, ny, nz = np.float64(normal[v, u, 0]), np.float64(normal[v, u, 1]), np.float64(normal[v, u, 2])
             else:
@@ -330,7 +337,16 @@ def specular_lost(depth, xy, normal, kind, cos_glare, drop_clear=False):  # prag
                 by = xy[v + 1, u, 1] * zc - xy[v - 1, u, 1] * ze
                 bz = zc - ze
                 nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-                ln = np.sqrt(nx * nx + ny * ny + nz * nz)
+            # cos θ = |n·r| / (|n|·|r|), r = (x, y, 1): first squared, without a root or a
+            # division, with a margin far beyond its rounding; only near the threshold exactly
+            nr = nx * x + ny * y + nz
+            n2 = nx * nx + ny * ny + nz * nz
+            if nr * nr < cos2 * n2 * (x * x + y * y + 1.0) * (1.0 - 1e-5):
+                continue
+            dl = np.sqrt(x * x + y * y + 1.0)
+            dx, dy, dz = x / dl, y / dl, 1.0 / dl
+            if not have_normal:
+                ln = np.sqrt(n2)
                 if ln == 0:
                     continue
                 nx, ny, nz = nx / ln, ny / ln, nz / ln
