@@ -17,7 +17,10 @@ on a generated scene (the assembly line, cameras placed for the sensor's range):
 
 One more row: the Azure profile on a matte convex sphere, where the planner skips multipath
 (goal: within 5 % of the ideal render). Methods take turns frame by frame (the machine is
-noisy); the median of the per-frame ratios to the ideal is quoted. Goals (issue 12): D435 at
+noisy); the median of the per-frame ratios to the ideal is quoted, of wall time and of the
+process's CPU time (all renderer threads included: steadier where other work shares the
+cores, since a busy machine stretches a single-threaded effect's wall time more than a
+render spread over every core). Goals (issue 12): D435 at
 <= 2x the ideal render, Azure with multipath at <= 3x.
 """
 from __future__ import annotations
@@ -136,10 +139,11 @@ def _rendered_shadow(sensor):
     return dataclasses.replace(sensor, effects=effects)
 
 
-def _time(fn) -> float:
-    t = time.perf_counter()
+def _time(fn) -> tuple[float, float]:
+    """(wall ms, CPU ms of the whole process: every renderer thread included)."""
+    t, c = time.perf_counter(), time.process_time()
     fn()
-    return 1e3 * (time.perf_counter() - t)
+    return 1e3 * (time.perf_counter() - t), 1e3 * (time.process_time() - c)
 
 
 def _rows(label, scene, sensor, poses, rounds):
@@ -154,6 +158,7 @@ def _rows(label, scene, sensor, poses, rounds):
     reference = _reference(sensor)
     rendered = _rendered_shadow(sensor)
     ms = {"ideal": [], "before": [], "reference": [], "rendered": [], "planned": []}
+    cpu = {key: [] for key in ms}
     with Renderer(scene) as r:
         for k, pose in enumerate(poses):   # warm: compiled kernels, caches, GL objects
             a, b = (simulate(s, pose, render=r.render, rng=np.random.default_rng(k), materials=p.materials,
@@ -163,30 +168,37 @@ def _rows(label, scene, sensor, poses, rounds):
             _before(sensor, pose, r.render, np.random.default_rng(k), p.materials)
         for _ in range(rounds):
             for k, pose in enumerate(poses):
-                ms["ideal"].append(_time(lambda: simulate(ideal_sensor, pose, render=r.render,
+                _add(ms, cpu, "ideal", _time(lambda: simulate(ideal_sensor, pose, render=r.render,
                                                           rng=np.random.default_rng(k))))
-                ms["before"].append(_time(lambda: _before(sensor, pose, r.render, np.random.default_rng(k),
+                _add(ms, cpu, "before", _time(lambda: _before(sensor, pose, r.render, np.random.default_rng(k),
                                                           p.materials)))
-                ms["reference"].append(_time(lambda: simulate(reference, pose, render=r.render,
+                _add(ms, cpu, "reference", _time(lambda: simulate(reference, pose, render=r.render,
                                                               rng=np.random.default_rng(k),
                                                               materials=p.materials, plan=p.frames[k])))
-                ms["rendered"].append(_time(lambda: simulate(rendered, pose, render=r.render,
+                _add(ms, cpu, "rendered", _time(lambda: simulate(rendered, pose, render=r.render,
                                                              rng=np.random.default_rng(k),
                                                              materials=p.materials, plan=p.frames[k])))
-                ms["planned"].append(_time(lambda: simulate(sensor, pose, render=r.render,
+                _add(ms, cpu, "planned", _time(lambda: simulate(sensor, pose, render=r.render,
                                                             rng=np.random.default_rng(k),
                                                             materials=p.materials, plan=p.frames[k])))
         last = simulate(sensor, poses[0], render=r.render, rng=np.random.default_rng(0), materials=p.materials,
                         plan=p.frames[0])
-    ideal = np.array(ms["ideal"])
-    row = {"case": label, "ideal_ms": round(float(np.median(ideal)), 1)}
+    ideal, ideal_cpu = np.array(ms["ideal"]), np.array(cpu["ideal"])
+    row = {"case": label, "ideal_ms": round(float(np.median(ideal)), 1),
+           "ideal_cpu_ms": round(float(np.median(ideal_cpu)), 1)}
     # what a skipped effect costs, as a share of the ideal render (goal: under 5 %)
     row["skipped_share"] = {e["name"]: round(e["ms"] / float(np.median(ideal)), 4)
                             for e in last.meta["effects"] if not e["run"]}
     for key in ("before", "reference", "rendered", "planned"):
         row[f"{key}_ms"] = round(float(np.median(ms[key])), 1)
         row[f"{key}_x"] = round(float(np.median(np.array(ms[key]) / ideal)), 2)
+        row[f"{key}_cpu_x"] = round(float(np.median(np.array(cpu[key]) / ideal_cpu)), 2)
     return row
+
+
+def _add(ms, cpu, key, wall_cpu) -> None:
+    ms[key].append(wall_cpu[0])
+    cpu[key].append(wall_cpu[1])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -222,6 +234,10 @@ def run(args: argparse.Namespace) -> int:
               f" {r['reference_ms']:>7.1f} ({r['reference_x']:>4.2f}x)"
               f" {r['rendered_ms']:>9.1f} ({r['rendered_x']:>4.2f}x)"
               f" {r['planned_ms']:>7.1f} ({r['planned_x']:>4.2f}x)   {skipped}")
+    print("\nCPU time of the process (every renderer thread included), as multiples of the ideal's:")
+    for r in rows:
+        print(f"{r['case']:<42} {r['ideal_cpu_ms']:>6.1f} ms {r['before_cpu_x']:>13.2f}x {r['reference_cpu_x']:>13.2f}x"
+              f" {r['rendered_cpu_x']:>15.2f}x {r['planned_cpu_x']:>13.2f}x")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "planning.json").write_text(json.dumps({"rows": rows, "goals": {"realsense_d435": 2.0,

@@ -142,27 +142,24 @@ def stereo_noise(depth, draws, fb, sigma_d, step):  # pragma: no cover - compile
 
 
 @njit(cache=True, nogil=True)
-def _normals_at(depth, rng):  # pragma: no cover - compiled
-    """(H, W) float64: one ``rng.standard_normal()`` per valid pixel, in row-major order (the
-    values of ``rng.standard_normal(n_valid)``); undefined where there is no return."""
-    H, W = depth.shape
-    out = np.empty((H, W), np.float64)
-    for v in range(H):
-        for u in range(W):
-            if depth[v, u] > 0:
-                out[v, u] = rng.standard_normal()
-    return out
+def _normals_in_row(depth, v, rng, out):  # pragma: no cover - compiled
+    """``out[u]``: one ``rng.standard_normal()`` per valid pixel of row ``v``, left to right
+    (row by row, the values of ``rng.standard_normal(n_valid)``); untouched where there is
+    no return."""
+    for u in range(depth.shape[1]):
+        if depth[v, u] > 0:
+            out[u] = rng.standard_normal()
 
 
 @njit(cache=True, nogil=True)
 def stereo_noise_rng(depth, rng, fb, sigma_d, step):  # pragma: no cover - compiled
     """:func:`stereo_noise` drawing its normals from ``rng``, one per valid pixel in row-major
     order: the same values as ``stereo_noise(depth, rng.standard_normal(n_valid), ...)``;
-    (new depth, pixels lost, pixels whose depth changed). The draws come first, then the
-    model in a branch-free pass the compiler vectorises; a power-of-two ``step`` divides by
-    multiplying with its inverse (the same float64, exactly)."""
+    (new depth, pixels lost, pixels whose depth changed). Each row's draws come first, then
+    the model over the row in a branch-free pass the compiler vectorises; a power-of-two
+    ``step`` divides by multiplying with its inverse (the same float64, exactly)."""
     H, W = depth.shape
-    draws = _normals_at(depth, rng)
+    draws = np.zeros(W, np.float64)
     out = np.empty((H, W), np.float32)
     inv = 0.0
     if step > 0:
@@ -172,9 +169,10 @@ def stereo_noise_rng(depth, rng, fb, sigma_d, step):  # pragma: no cover - compi
     lost = 0
     changed = 0
     for v in range(H):
+        _normals_in_row(depth, v, rng, draws)
         for u in range(W):
             z = np.float64(depth[v, u])
-            noisy = z + draws[v, u] * (z * z * sigma_d / fb)
+            noisy = z + draws[u] * (z * z * sigma_d / fb)
             if step > 0:
                 disp = fb / max(noisy, 1e-6)
                 disp = np.round(disp * inv if inv > 0 else disp / step) * step
@@ -191,16 +189,17 @@ def stereo_noise_rng(depth, rng, fb, sigma_d, step):  # pragma: no cover - compi
 def linear_noise_rng(depth, rng, a, b, z0):  # pragma: no cover - compiled
     """:func:`linear_noise` drawing its normals from ``rng`` (the same values as
     ``linear_noise(depth, rng.standard_normal(n_valid), ...)``); (new depth, pixels lost,
-    pixels whose depth changed). Draws first, then the model in a vectorised pass."""
+    pixels whose depth changed). Each row's draws first, then the model over the row."""
     H, W = depth.shape
-    draws = _normals_at(depth, rng)
+    draws = np.zeros(W, np.float64)
     out = np.empty((H, W), np.float32)
     lost = 0
     changed = 0
     for v in range(H):
+        _normals_in_row(depth, v, rng, draws)
         for u in range(W):
             z = np.float64(depth[v, u])
-            noisy = np.float32(z + draws[v, u] * (a + b * max(z - z0, 0.0)))
+            noisy = np.float32(z + draws[u] * (a + b * max(z - z0, 0.0)))
             o = noisy if noisy > 0 else np.float32(0.0)
             o = o if z > 0 else np.float32(0.0)
             out[v, u] = o
