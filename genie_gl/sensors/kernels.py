@@ -292,12 +292,26 @@ def pixel_codes(depth, ids, code_by_id):  # pragma: no cover - compiled
     return out, n
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _xat(X, v, u):  # pragma: no cover - compiled
+    return X[v if X.shape[0] > 1 else 0, u]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _yat(Y, v, u):  # pragma: no cover - compiled
+    return Y[v, u if Y.shape[1] > 1 else 0]
+
+
 @njit(cache=True, nogil=True)
-def specular_lost(depth, xy, normal, kind, cos_glare, drop_clear=False):  # pragma: no cover - compiled
+def specular_lost(depth, X, Y, normal, kind, cos_glare, drop_clear=False):  # pragma: no cover - compiled
     """Returns lost on shiny surfaces: bare metal (code bit 1) always, other shiny pixels (bit
     0) where cos θ > ``cos_glare``, θ from ``normal`` ((H, W, 3); an empty array: the depth
     image's central differences, none beside a hole or the border); with ``drop_clear``,
-    clear ones (bit 2) too. (lost (H, W) bool, count, clear pixels)."""
+    clear ones (bit 2) too. (lost (H, W) bool, count, clear pixels).
+
+    ``X``, ``Y``: the rays' x and y (:func:`~genie_gl.sensors.geometry.pixel_rays_xy`), (H, W)
+    each, or (1, W) and (H, 1) for a pinhole sensor, whose x depends on the column only and
+    y on the row only (the same values, without streaming a full (H, W, 2) array)."""
     H, W = depth.shape
     lost = np.zeros((H, W), np.bool_)
     n = 0
@@ -319,7 +333,7 @@ def specular_lost(depth, xy, normal, kind, cos_glare, drop_clear=False):  # prag
                 continue
             if not c & 1:
                 continue
-            x, y, z = xy[v, u, 0], xy[v, u, 1], np.float64(depth[v, u])
+            x, y, z = _xat(X, v, u), _yat(Y, v, u), np.float64(depth[v, u])
             if have_normal:
                 nx, ny, nz = np.float64(normal[v, u, 0]), np.float64(normal[v, u, 1]), np.float64(normal[v, u, 2])
             else:
@@ -329,11 +343,11 @@ def specular_lost(depth, xy, normal, kind, cos_glare, drop_clear=False):  # prag
                 zc, ze = np.float64(depth[v + 1, u]), np.float64(depth[v - 1, u])
                 if za <= 0 or zb <= 0 or zc <= 0 or ze <= 0:
                     continue
-                ax = xy[v, u + 1, 0] * za - xy[v, u - 1, 0] * zb
-                ay = xy[v, u + 1, 1] * za - xy[v, u - 1, 1] * zb
+                ax = _xat(X, v, u + 1) * za - _xat(X, v, u - 1) * zb
+                ay = _yat(Y, v, u + 1) * za - _yat(Y, v, u - 1) * zb
                 az = za - zb
-                bx = xy[v + 1, u, 0] * zc - xy[v - 1, u, 0] * ze
-                by = xy[v + 1, u, 1] * zc - xy[v - 1, u, 1] * ze
+                bx = _xat(X, v + 1, u) * zc - _xat(X, v - 1, u) * ze
+                by = _yat(Y, v + 1, u) * zc - _yat(Y, v - 1, u) * ze
                 bz = zc - ze
                 nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
             # cos θ = |n·r| / (|n|·|r|), r = (x, y, 1): first squared, without a root or a

@@ -23,7 +23,7 @@ from ..errors import ConfigError
 from ..frame import Frame
 from . import kernels
 from .effect import Decision, Effect, View, drop, record
-from .geometry import pixel_rays
+from .geometry import pixel_rays_xy
 
 TRANSPARENT = ("drop", "behind")
 
@@ -94,7 +94,7 @@ class SpecularLoss(Effect):
         # pass unless the pair sees what lies behind them
         normal = frame.normal if frame.normal is not None else np.zeros((0, 0, 3), np.float32)
         behind_glass = self.transparent == "behind" and render_frame is not None
-        lost, n_lost, n_clear = kernels.specular_lost(frame.depth, pixel_rays(frame.sensor), normal, kind,
+        lost, n_lost, n_clear = kernels.specular_lost(frame.depth, *pixel_rays_xy(frame.sensor), normal, kind,
                                                       float(np.cos(np.radians(self.glare_deg))), not behind_glass)
         if not (behind_glass and n_clear):
             out = frame
