@@ -139,11 +139,11 @@ def _rendered_shadow(sensor):
     return dataclasses.replace(sensor, effects=effects)
 
 
-def _time(fn) -> tuple[float, float]:
-    """(wall ms, CPU ms of the whole process: every renderer thread included)."""
+def _time(fn) -> tuple[float, float, object]:
+    """(wall ms, CPU ms of the whole process: every renderer thread included, fn's result)."""
     t, c = time.perf_counter(), time.process_time()
-    fn()
-    return 1e3 * (time.perf_counter() - t), 1e3 * (time.process_time() - c)
+    out = fn()
+    return 1e3 * (time.perf_counter() - t), 1e3 * (time.process_time() - c), out
 
 
 def _rows(label, scene, sensor, poses, rounds):
@@ -159,6 +159,7 @@ def _rows(label, scene, sensor, poses, rounds):
     rendered = _rendered_shadow(sensor)
     ms = {"ideal": [], "before": [], "reference": [], "rendered": [], "planned": []}
     cpu = {key: [] for key in ms}
+    effect_ms: dict = {}
     with Renderer(scene) as r:
         for k, pose in enumerate(poses):   # warm: compiled kernels, caches, GL objects
             a, b = (simulate(s, pose, render=r.render, rng=np.random.default_rng(k), materials=p.materials,
@@ -177,10 +178,10 @@ def _rows(label, scene, sensor, poses, rounds):
                                                               materials=p.materials, plan=p.frames[k])))
                 _add(ms, cpu, "rendered", _time(lambda: simulate(rendered, pose, render=r.render,
                                                              rng=np.random.default_rng(k),
-                                                             materials=p.materials, plan=p.frames[k])))
+                                                             materials=p.materials, plan=p.frames[k])), effect_ms)
                 _add(ms, cpu, "planned", _time(lambda: simulate(sensor, pose, render=r.render,
                                                             rng=np.random.default_rng(k),
-                                                            materials=p.materials, plan=p.frames[k])))
+                                                            materials=p.materials, plan=p.frames[k])), effect_ms)
         last = simulate(sensor, poses[0], render=r.render, rng=np.random.default_rng(0), materials=p.materials,
                         plan=p.frames[0])
     ideal, ideal_cpu = np.array(ms["ideal"]), np.array(cpu["ideal"])
@@ -189,6 +190,8 @@ def _rows(label, scene, sensor, poses, rounds):
     # what a skipped effect costs, as a share of the ideal render (goal: under 5 %)
     row["skipped_share"] = {e["name"]: round(e["ms"] / float(np.median(ideal)), 4)
                             for e in last.meta["effects"] if not e["run"]}
+    row["effect_ms"] = {key: {name: round(float(np.median(v)), 2) for name, v in per.items()}
+                        for key, per in effect_ms.items()}
     for key in ("before", "reference", "rendered", "planned"):
         row[f"{key}_ms"] = round(float(np.median(ms[key])), 1)
         row[f"{key}_x"] = round(float(np.median(np.array(ms[key]) / ideal)), 2)
@@ -196,9 +199,13 @@ def _rows(label, scene, sensor, poses, rounds):
     return row
 
 
-def _add(ms, cpu, key, wall_cpu) -> None:
-    ms[key].append(wall_cpu[0])
-    cpu[key].append(wall_cpu[1])
+def _add(ms, cpu, key, timed, effects=None) -> None:
+    ms[key].append(timed[0])
+    cpu[key].append(timed[1])
+    meta = getattr(timed[2], "meta", None) or {}
+    if effects is not None:
+        for e in meta.get("effects", []):   # what simulate recorded per effect
+            effects.setdefault(key, {}).setdefault(e["name"], []).append(e["ms"])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -234,6 +241,11 @@ def run(args: argparse.Namespace) -> int:
               f" {r['reference_ms']:>7.1f} ({r['reference_x']:>4.2f}x)"
               f" {r['rendered_ms']:>9.1f} ({r['rendered_x']:>4.2f}x)"
               f" {r['planned_ms']:>7.1f} ({r['planned_x']:>4.2f}x)   {skipped}")
+    print("\nms per effect where it ran or was checked (median), planned vs shadow rendered:")
+    for r in rows:
+        per = r["effect_ms"]
+        print(f"{r['case']:<42} " + ", ".join(f"{n} {per['planned'][n]:.2f} vs {per['rendered'].get(n, 0.0):.2f}"
+                                              for n in per.get("planned", {})))
     print("\nCPU time of the process (every renderer thread included), as multiples of the ideal's:")
     for r in rows:
         print(f"{r['case']:<42} {r['ideal_cpu_ms']:>6.1f} ms {r['before_cpu_x']:>13.2f}x {r['reference_cpu_x']:>13.2f}x"

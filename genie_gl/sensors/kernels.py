@@ -474,16 +474,19 @@ def _scanline_right(depth, shift, tol_m, tol_rel):  # pragma: no cover - compile
                 has_prev = False
                 continue
             x = xr[u]
-            reach = max(fut[u], col[u])
-            if col[u] < 0:
+            c = col[u]
+            reach = max(fut[u], c)
+            if c < 0:
                 gone[v, u] = True
                 outside += 1
-            if not has_prev or reach >= min(x, prev_x) - 0.5 or x >= drawn - 0.5:
+            # the usual case needs nothing: its own draws (from min(x, prev_x) on) lie right of
+            # every later look-up, the predecessor's half pixel right of this one's too, and
+            # its look-up left of every column drawn
+            if not has_prev or fut[u] >= min(x, prev_x) or reach >= prev_x - 0.5 or c >= drawn:
                 z = np.float64(depth[v, u])
                 linked = has_prev and abs(prev_z - z) <= tol_m + tol_rel * min(prev_z, z)
                 if has_prev and not linked and reach >= prev_x - 0.5:   # the predecessor's half pixel
                     drawn = _draw(ib, prev_x - 0.5, prev_x, prev_x, prev_i, 0.0, drawn)
-                c = col[u]
                 if c >= drawn and ib[c] > iz:
                     seen = 1.0 / ib[c]
                     if z > seen + (tol_m + tol_rel * seen):

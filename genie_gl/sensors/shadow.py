@@ -7,14 +7,33 @@ a strip of background that the second view cannot see (the "shadow"), and a band
 image border lies outside the second view's field. The strip on a wall at z_w behind an
 edge at z_b is b·(z_w − z_b)/z_b wide on the wall, f·b·(1/z_b − 1/z_w) pixels in the image.
 
-Done geometrically: every valid pixel's camera-frame point goes into the second view's frame,
-is projected there, and is compared with a low-resolution depth render of the scene from that
-view (``render_depth``, which ``simulate`` hands to effects with ``needs_render``).
+Two methods (``method``; the ``accuracy:`` block's ``shadow``):
 
-The second view is rendered only when the frame has an edge that can hide something from it:
-two neighbouring returns whose depth gap exceeds the tolerance and whose shadow,
-f·b·(1/z_near − 1/z_far) pixels, reaches half a pixel. Without one, no point can lie behind
-another as the second view sees it, and only the border band (pure geometry) is dropped.
+* ``render`` — every valid pixel's camera-frame point goes into the second view's frame, is
+  projected there, and is compared with a low-resolution depth render of the scene from that
+  view (``render_depth``, which ``simulate`` hands to effects with ``needs_render``). Any
+  pair, any lens. The second view is rendered only when the frame has an edge that can hide
+  something from it: two neighbouring returns whose depth gap exceeds the tolerance and whose
+  shadow, f·b·(1/z_near − 1/z_far) pixels, reaches half a pixel. Without one, only the border
+  band (pure geometry) is dropped.
+* ``scanline`` — for a rectified pair (R = I, T along x: the D400's two imagers) and an
+  undistorted pinhole sensor, a return at (u, v, z) appears in the second view in the same
+  row at u + f·t_x/z, so each row of the second view is drawn from the row of the depth
+  image itself (:func:`.kernels.scanline_shadow`, a one-dimensional depth buffer per row):
+  no render, about 1.6 ms at 848 x 480 where the render method took 4-6 ms (the render
+  included). ``auto`` (the default) takes it wherever the pair allows it.
+
+What differs: the scanline method knows only the surfaces the first view sees, as the
+pixels sample them (a pixel covers half a pixel either side of its centre in the second
+view where no neighbour continues its surface). A surface the first view cannot see but the
+second can (the side of a post turned to the second imager, an object just outside the
+first view on the baseline's side) hides nothing, and an edge is placed at the pixel
+boundary rather than where the triangle ends, so the two methods can part by a pixel at an
+edge. Measured on the generated assembly line (D435, 8 views, 407,040 returns each): the
+scanline and a full-resolution render agree on 99.3-99.9 % of the returns; the half-resolution
+render the render method uses by default agrees with the full-resolution one on 98.4-99.8 %
+(tests/sensors/test_scanline_shadow.py: analytic strip widths, a post narrower than its
+shadow, agreement on a cluttered scene).
 """
 from __future__ import annotations
 
