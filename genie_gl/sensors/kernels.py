@@ -275,6 +275,19 @@ def changed(d1, d2, i1, i2):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def any_code(depth, ids, code_by_id):  # pragma: no cover - compiled
+    """True when some returning pixel has a non-zero code (:func:`pixel_codes`); stops at
+    the first."""
+    H, W = depth.shape
+    last = code_by_id.shape[0] - 1
+    for v in range(H):
+        for u in range(W):
+            if depth[v, u] > 0 and code_by_id[min(ids[v, u], last)]:
+                return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def pixel_codes(depth, ids, code_by_id):  # pragma: no cover - compiled
     """Each returning pixel's material code (``code_by_id[id]``, ids beyond the table read its
     last entry; 0 where no return) and how many pixels have a non-zero code."""
@@ -303,11 +316,12 @@ def _yat(Y, v, u):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def specular_lost(depth, X, Y, normal, kind, cos_glare, drop_clear=False):  # pragma: no cover - compiled
+def specular_lost(depth, ids, code_by_id, X, Y, normal, cos_glare, drop_clear=False):  # pragma: no cover
     """Returns lost on shiny surfaces: bare metal (code bit 1) always, other shiny pixels (bit
     0) where cos θ > ``cos_glare``, θ from ``normal`` ((H, W, 3); an empty array: the depth
     image's central differences, none beside a hole or the border); with ``drop_clear``,
-    clear ones (bit 2) too. (lost (H, W) bool, count, clear pixels).
+    clear ones (bit 2) too. A pixel's code is its instance's (``code_by_id[id]`` as
+    :func:`pixel_codes` looks it up, in the same pass). (lost (H, W) bool, count, clear pixels).
 
     ``X``, ``Y``: the rays' x and y (:func:`~genie_gl.sensors.geometry.pixel_rays_xy`), (H, W)
     each, or (1, W) and (H, 1) for a pinhole sensor, whose x depends on the column only and
@@ -318,9 +332,14 @@ def specular_lost(depth, X, Y, normal, kind, cos_glare, drop_clear=False):  # pr
     n_clear = 0
     have_normal = normal.shape[0] == H
     cos2 = cos_glare * cos_glare if cos_glare > 0 else 0.0
+    last = code_by_id.shape[0] - 1
     for v in range(H):
         for u in range(W):
-            c = kind[v, u]
+            if not depth[v, u] > 0:
+                continue
+            c = code_by_id[min(ids[v, u], last)]
+            if c == 0:
+                continue
             if c & 4:
                 n_clear += 1
                 if drop_clear:
