@@ -24,7 +24,6 @@ as ``meta[name]["changed"]`` when it counts them itself, else a comparison of th
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -46,19 +45,6 @@ def _changed(a: Frame, b: Frame) -> int:
     from .kernels import changed
 
     return int(changed(a.depth, b.depth, a.instance, b.instance))
-
-
-def _yield_cpu() -> None:
-    """Give the CPU up once between the render and the effects.
-
-    The renderer's worker threads (llvmpipe) wake briefly after a frame; on a busy machine
-    they preempt the first effect, which then waits a whole time slice behind other
-    processes (measured on the 2-core host under load: the scanline shadow 6.1 ms wall right
-    after a render against 2.1 ms with this yield, 2.06 ms of CPU either way). A no-op on an
-    idle machine (nothing else is runnable) and where the call does not exist."""
-    y = getattr(os, "sched_yield", None)
-    if y is not None:
-        y()
 
 
 def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.random.Generator,
@@ -94,7 +80,6 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
         frame = render_through_lens(draw, sensor, pose, resample=resample, oversample=oversample, **kw)
     if not sensor.effects:
         return frame
-    _yield_cpu()
 
     def render_depth(view: Sensor, view_pose: np.ndarray) -> np.ndarray:
         return draw(view, view_pose, depth_only=True).depth
