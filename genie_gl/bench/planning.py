@@ -13,7 +13,9 @@ on a generated scene (the assembly line, cameras placed for the sensor's range):
   replaced them (noise drawn by numpy's ``rng.standard_normal(n)`` before the compiled pass;
   the shadow mask, then ``drop``): the same bytes, checked on every view before timing;
 * shadow rendered — the planned path with the stereo shadow's second view rendered (method
-  "render", the default before the scanline method: what this column was before it);
+  "render", the default before the scanline method: what this column was before it); where
+  the scanline method is the default, how often it agrees with a full-resolution render of
+  the second view (and how often the render method's half-resolution one does);
 
 One more row: the Azure profile on a matte convex sphere, where the planner skips multipath
 (goal: within 5 % of the ideal render). Methods take turns frame by frame (the machine is
@@ -139,6 +141,35 @@ def _rendered_shadow(sensor):
     return dataclasses.replace(sensor, effects=effects)
 
 
+def _shadow_agreement(sensor, poses, r) -> dict | None:
+    """Where the sensor's stereo shadow is drawn by scanline: the share of returns on which it
+    agrees with a full-resolution render of the second view, and on which the render method's
+    default half-resolution second view does (lowest and highest over the views, %)."""
+    from ..sensors.shadow import StereoShadow
+
+    eff = next((e for e in sensor.effects if isinstance(e, StereoShadow)), None)
+    if eff is None or eff.resolved_method(sensor) != "scanline":
+        return None
+    ideal = dataclasses.replace(sensor, effects=())
+
+    def depth2(view, view_pose):
+        return r.render(view, view_pose, depth_only=True).depth
+
+    scan, half = [], []
+    for pose in poses:
+        f = r.render(ideal, pose).replace(sensor=sensor)
+        valid = f.depth > 0
+        gone = {m: valid & (dataclasses.replace(eff, method=m, scale=sc).apply(
+            f, rng=None, render_depth=depth2).depth == 0) for m, sc in (("scanline", 1.0), ("render", 1.0))}
+        gone["half"] = valid & (dataclasses.replace(eff, method="render", scale=0.5).apply(
+            f, rng=None, render_depth=depth2).depth == 0)
+        n = max(int(valid.sum()), 1)
+        scan.append(100.0 * (1 - (gone["scanline"] != gone["render"]).sum() / n))
+        half.append(100.0 * (1 - (gone["half"] != gone["render"]).sum() / n))
+    return {"scanline_vs_full_render_pct": [round(min(scan), 2), round(max(scan), 2)],
+            "half_render_vs_full_render_pct": [round(min(half), 2), round(max(half), 2)]}
+
+
 def _time(fn) -> tuple[float, float, object]:
     """(wall ms, CPU ms of the whole process: every renderer thread included, fn's result)."""
     t, c = time.perf_counter(), time.process_time()
@@ -182,6 +213,7 @@ def _rows(label, scene, sensor, poses, rounds):
                 _add(ms, cpu, "planned", _time(lambda: simulate(sensor, pose, render=r.render,
                                                             rng=np.random.default_rng(k),
                                                             materials=p.materials, plan=p.frames[k])), effect_ms)
+        agreement = _shadow_agreement(sensor, poses, r)
         last = simulate(sensor, poses[0], render=r.render, rng=np.random.default_rng(0), materials=p.materials,
                         plan=p.frames[0])
     ideal, ideal_cpu = np.array(ms["ideal"]), np.array(cpu["ideal"])
@@ -190,6 +222,8 @@ def _rows(label, scene, sensor, poses, rounds):
     # what a skipped effect costs, as a share of the ideal render (goal: under 5 %)
     row["skipped_share"] = {e["name"]: round(e["ms"] / float(np.median(ideal)), 4)
                             for e in last.meta["effects"] if not e["run"]}
+    if agreement is not None:
+        row["shadow_agreement"] = agreement
     row["effect_ms"] = {key: {name: round(float(np.median(v)), 2) for name, v in per.items()}
                         for key, per in effect_ms.items()}
     for key in ("before", "reference", "rendered", "planned"):
@@ -246,6 +280,14 @@ def run(args: argparse.Namespace) -> int:
         per = r["effect_ms"]
         print(f"{r['case']:<42} " + ", ".join(f"{n} {per['planned'][n]:.2f} vs {per['rendered'].get(n, 0.0):.2f}"
                                               for n in per.get("planned", {})))
+    for r in rows:
+        a = r.get("shadow_agreement")
+        if a:
+            lo, hi = a["scanline_vs_full_render_pct"]
+            lo2, hi2 = a["half_render_vs_full_render_pct"]
+            print(f"{r['case']:<42} stereo shadow, share of returns agreeing with a full-resolution second view:"
+                  f" scanline {lo:.2f}-{hi:.2f} %, half-resolution render (the render method's default)"
+                  f" {lo2:.2f}-{hi2:.2f} %")
     print("\nCPU time of the process (every renderer thread included), as multiples of the ideal's:")
     for r in rows:
         print(f"{r['case']:<42} {r['ideal_cpu_ms']:>6.1f} ms {r['before_cpu_x']:>13.2f}x {r['reference_cpu_x']:>13.2f}x"
