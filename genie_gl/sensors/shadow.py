@@ -20,8 +20,9 @@ Two methods (``method``; the ``accuracy:`` block's ``shadow``):
   undistorted pinhole sensor, a return at (u, v, z) appears in the second view in the same
   row at u + f·t_x/z, so each row of the second view is drawn from the row of the depth
   image itself (:func:`.kernels.scanline_shadow`, a one-dimensional depth buffer per row):
-  no render, about 1.6 ms at 848 x 480 where the render method took 4-6 ms (the render
-  included). ``auto`` (the default) takes it wherever the pair allows it.
+  no render: about 2 ms at 848 x 480 against 10-18 ms for the render method, its render
+  included (``genie bench planning``, 2 shared cores). ``auto`` (the default) takes it
+  wherever the pair allows it.
 
 What differs: the scanline method knows only the surfaces the first view sees, as the
 pixels sample them (a pixel covers half a pixel either side of its centre in the second
@@ -29,11 +30,11 @@ view where no neighbour continues its surface). A surface the first view cannot 
 second can (the side of a post turned to the second imager, an object just outside the
 first view on the baseline's side) hides nothing, and an edge is placed at the pixel
 boundary rather than where the triangle ends, so the two methods can part by a pixel at an
-edge. Measured on the generated assembly line (D435, 8 views, 407,040 returns each): the
-scanline and a full-resolution render agree on 99.3-99.9 % of the returns; the half-resolution
-render the render method uses by default agrees with the full-resolution one on 98.4-99.8 %
-(tests/sensors/test_scanline_shadow.py: analytic strip widths, a post narrower than its
-shadow, agreement on a cluttered scene).
+edge. Measured on the generated assembly line (D435, 4 and 8 views, 407,040 returns each):
+the scanline and a full-resolution render agree on 99.3-99.9 % of the returns; the
+half-resolution render the render method uses by default agrees with the full-resolution one
+on 98.4-99.85 % (``genie bench planning`` prints both; tests/sensors/test_scanline_shadow.py:
+analytic strip widths, a post narrower than its shadow, agreement on a cluttered scene).
 """
 from __future__ import annotations
 
