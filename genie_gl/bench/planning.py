@@ -5,8 +5,8 @@ For each profile (the full RealSense D435 and the full Azure Kinect NFOV, multip
 on a generated scene (the assembly line, cameras placed for the sensor's range):
 
 * ideal — the frame through the lens, no effect (what ``gg.render`` gives);
-* before — every effect of the profile run on every frame, nothing culled (the pipeline
-  before the planner);
+* before — every effect of the profile run on every frame, nothing culled, the stereo second
+  view always rendered (the pipeline before the planner);
 * planned — ``capture``'s path: the plan's culling and far plane, effects skipped where the
   view or the frame cannot call for them (same output as running them);
 * reference — the planned path with the effects' reference computations where a fused one
@@ -22,8 +22,8 @@ One more row: the Azure profile on a matte convex sphere, where the planner skip
 noisy); the median of the per-frame ratios to the ideal is quoted, of wall time and of the
 process's CPU time (all renderer threads included: steadier where other work shares the
 cores, since a busy machine stretches a single-threaded effect's wall time more than a
-render spread over every core). Goals (issue 12): D435 at
-<= 2x the ideal render, Azure with multipath at <= 3x.
+render spread over every core). Goals (issue 12): D435 at <= 2x the ideal render, Azure with
+multipath at <= 3x.
 """
 from __future__ import annotations
 
