@@ -470,13 +470,16 @@ def test_the_record_of_several_merges_by_hand():
                    "parts": [0, 0, 5, 2, 5, 0, 5, 2, 0, 2, 5, 2, 5, 2, 5, 2],
                    "parent_counts": [2, 2], "parents": [1, 2, 1, 6]}
     # the same four cells straight under the hall: the second region's one former parent is
-    # the hall (node 0), listed once per region
-    out, rec, mapping = merge_tree(_tree([(-1, 0, 0, 10, 4, "hall"), (0, 0, 0, 5, 2, "a", 0), (0, 0, 2, 5, 2, "a", 3),
-                                          (0, 5, 0, 5, 2, "a", 0), (0, 5, 2, 5, 2, "a", 3)]))
-    assert _rows(out) == [(-1, 0, "hall", 0, 0.0, 0.0, 10.0, 4.0), (0, 1, "a", 0, 0.0, 0.0, 10.0, 2.0),
-                          (0, 1, "a", 3, 0.0, 2.0, 10.0, 2.0)]
-    assert mapping.tolist() == [0, 1, 2, 1, 2]
-    assert rec["nodes"] == [1, 2] and rec["parent_counts"] == [1, 1] and rec["parents"] == [0, 0]
+    # the hall (node 0), listed once per region; strip mode (nothing to cut) records the same
+    flat = _tree([(-1, 0, 0, 10, 4, "hall"), (0, 0, 0, 5, 2, "a", 0), (0, 0, 2, 5, 2, "a", 3),
+                  (0, 5, 0, 5, 2, "a", 0), (0, 5, 2, 5, 2, "a", 3)])
+    for l_shape in ("keep", "strip"):
+        out, rec, mapping = merge_tree(flat, l_shape=l_shape)
+        assert _rows(out) == [(-1, 0, "hall", 0, 0.0, 0.0, 10.0, 4.0), (0, 1, "a", 0, 0.0, 0.0, 10.0, 2.0),
+                              (0, 1, "a", 3, 0.0, 2.0, 10.0, 2.0)]
+        assert mapping.tolist() == [0, 1, 2, 1, 2]
+        assert rec["nodes"] == [1, 2] and rec["part_counts"] == [2, 2] and rec["parent_counts"] == [1, 1]
+        assert rec["parts"] == [0, 0, 5, 2, 5, 0, 5, 2, 0, 2, 5, 2, 5, 2, 5, 2] and rec["parents"] == [0, 0]
 
 
 def _endpoints_by_brute_force(lo, size, clo, csize, key, tol):
