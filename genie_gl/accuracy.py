@@ -28,6 +28,7 @@ from typing import Any
 from .errors import ConfigError, did_you_mean
 
 RESAMPLE = ("nearest", "bilinear", "exact")
+SHADOW = ("scanline", "render")
 DEPTH_PRECISION = ("float32", "depth24", "reversed_z")
 SUPERSAMPLE = (1, 2, 4)
 
@@ -48,7 +49,12 @@ class AccuracySettings:
     depth_precision : "float32" (linear view-z target), "depth24" (24-bit window depth read
         back and linearised) or "reversed_z" (reversed-Z float depth).
     shadow_scale : float or None, resolution of the second view's render (stereo /
-        structured-light shadow) relative to the sensor's (None: the profile's).
+        structured-light shadow) relative to the sensor's (None: the profile's); used by the
+        "render" shadow method only.
+    shadow : "scanline", "render" or None: how the stereo shadow finds what the second view
+        cannot see (``stereo_shadow`` ``method``: "scanline" draws a rectified pinhole pair's
+        second view row by row from the depth image; "render" renders it). None: the
+        profile's (by default scanline where the pair allows it, else render).
     tessellation : int or None, segments per circle of curved assets and USD implicit gprims
         (None: each asset's own).
     multipath_samples : int or None, neighbours the multipath model samples (None: its own).
@@ -61,6 +67,7 @@ class AccuracySettings:
     shadow_scale: float | None = None
     tessellation: int | None = None
     multipath_samples: int | None = None
+    shadow: str | None = None
 
     def __post_init__(self) -> None:
         check(self, "accuracy")
@@ -95,6 +102,8 @@ def check(s: AccuracySettings, where: str) -> None:
         raise bad("oversample", "a number in [0.25, 8] or null")
     if s.shadow_scale is not None and not (_number(s.shadow_scale) and 0 < s.shadow_scale <= 4):
         raise bad("shadow_scale", "a number in (0, 4] or null")
+    if s.shadow is not None and s.shadow not in SHADOW:
+        raise bad("shadow", " | ".join(SHADOW) + " or null" + did_you_mean(s.shadow, SHADOW))
     for name, lo in (("tessellation", 3), ("multipath_samples", 1)):
         v = getattr(s, name)
         if v is not None and (not isinstance(v, int) or isinstance(v, bool) or v < lo):
@@ -154,14 +163,16 @@ def write_accuracy(path: str | os.PathLike, settings: AccuracySettings, *, comme
 
 
 def apply_to_sensor(sensor: Any, settings: AccuracySettings) -> Any:
-    """``sensor`` with the effect-level knobs set: the stereo shadow's second-view scale and
-    the samples of every multipath model that takes ``samples`` (``multipath``,
+    """``sensor`` with the effect-level knobs set: the stereo shadow's method and second-view
+    scale and the samples of every multipath model that takes ``samples`` (``multipath``,
     ``tof_multipath``)."""
     effects = []
     for eff in sensor.effects:
         names = {f.name for f in fields(eff)} if dataclasses.is_dataclass(eff) else set()
         if getattr(eff, "name", "") == "stereo_shadow" and "scale" in names and settings.shadow_scale is not None:
             eff = dataclasses.replace(eff, scale=float(settings.shadow_scale))
+        if getattr(eff, "name", "") == "stereo_shadow" and "method" in names and settings.shadow is not None:
+            eff = dataclasses.replace(eff, method=settings.shadow)
         if ("multipath" in getattr(eff, "name", "") and "samples" in names
                 and settings.multipath_samples is not None):
             eff = dataclasses.replace(eff, samples=int(settings.multipath_samples))

@@ -249,7 +249,7 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
         effects = []
         for eff in sensor.effects:
             d = eff.plan(view)
-            cost = eff.cost_ms_per_mpx * mpx
+            cost = eff.cost_per_mpx(sensor) * mpx
             if d is None:
                 effects.append(EffectPlan(eff.name, None, "decided on the rendered frame", cost))
             else:

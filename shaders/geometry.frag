@@ -6,6 +6,9 @@
 //   2: semantic id                                       R16UI
 //   3: colour, Lambert with a head light (WITH_COLOR)    RGBA8
 //   4: camera-frame unit normal (WITH_NORMAL)            RGBA32F
+// PACKED_IDS (the renderer's default, genie_gl/render/readback.py): target 0 is RG32UI, the
+//      depth's float bits and the instance id (0 bits with NO_LINEAR_DEPTH), no semantic
+//      target (looked up from the instance id on read-back), colour at 1, normal at 2.
 // NO_LINEAR_DEPTH leaves target 0 alone (depth then comes from the depth buffer);
 // DEPTH_ONLY writes no target (the 24-bit depth pass).
 
@@ -14,6 +17,15 @@ flat in uint v_instance;
 flat in uint v_semantic;
 flat in vec3 v_color;
 
+#ifdef PACKED_IDS
+#define LOC_COLOR 1
+#define LOC_NORMAL 2
+#ifndef DEPTH_ONLY
+layout(location = 0) out uvec2 o_packed;
+#endif
+#else
+#define LOC_COLOR 3
+#define LOC_NORMAL 4
 #ifndef NO_LINEAR_DEPTH
 layout(location = 0) out float o_depth;
 #endif
@@ -21,20 +33,31 @@ layout(location = 0) out float o_depth;
 layout(location = 1) out uint o_instance;
 layout(location = 2) out uint o_semantic;
 #endif
+#endif
 #ifdef WITH_COLOR
-layout(location = 3) out vec4 o_color;
+layout(location = LOC_COLOR) out vec4 o_color;
 #endif
 #ifdef WITH_NORMAL
-layout(location = 4) out vec4 o_normal;
+layout(location = LOC_NORMAL) out vec4 o_normal;
 #endif
 
 void main() {
+#ifdef PACKED_IDS
+#ifndef DEPTH_ONLY
+#ifdef NO_LINEAR_DEPTH
+    o_packed = uvec2(0u, v_instance);
+#else
+    o_packed = uvec2(floatBitsToUint(v_eye.z), v_instance);
+#endif
+#endif
+#else
 #ifndef NO_LINEAR_DEPTH
     o_depth = v_eye.z;
 #endif
 #ifndef DEPTH_ONLY
     o_instance = v_instance;
     o_semantic = v_semantic;
+#endif
 #endif
 #if defined(WITH_COLOR) || defined(WITH_NORMAL)
     // Face normal from screen-space derivatives (exact for planar triangles); turned to face

@@ -11,7 +11,7 @@ from genie_gl.errors import ConfigError
 
 def test_a_written_block_reads_back_equal_through_yaml_and_json(tmp_path):
     s = AccuracySettings(supersample=2, resample="bilinear", depth_precision="reversed_z", shadow_scale=0.25,
-                         tessellation=48, multipath_samples=8, oversample=1.5)
+                         tessellation=48, multipath_samples=8, oversample=1.5, shadow="render")
     path = write_accuracy(tmp_path / "acc.yaml", s, comment="two\nlines")
     assert path.read_text().startswith("# two\n# lines\naccuracy:\n")
     assert load_accuracy(path) == s
@@ -29,6 +29,7 @@ def test_a_written_block_reads_back_equal_through_yaml_and_json(tmp_path):
     ({"resample": "bilinaer"}, "did you mean 'bilinear'"),
     ({"depth_precision": "half"}, "accuracy.depth_precision: expected float32 | depth24 | reversed_z"),
     ({"shadow_scale": 0}, "accuracy.shadow_scale: expected a number in (0, 4]"),
+    ({"shadow": "scanlines"}, "accuracy.shadow: expected scanline | render or null; did you mean 'scanline'?"),
     ({"tessellation": 2}, "accuracy.tessellation: expected an integer >= 3"),
     ({"oversample": "big"}, "accuracy.oversample"),
     ({"supersampel": 2}, "accuracy.supersampel: unknown setting; did you mean 'supersample'?"),
@@ -59,6 +60,11 @@ def test_a_profile_carries_its_accuracy_block_and_capture_settings_apply_to_effe
     # null keeps the profile's own scale
     own = [e for e in apply_to_sensor(sensor, AccuracySettings()).effects if e.name == "stereo_shadow"]
     assert own[0].scale == [e for e in sensor.effects if e.name == "stereo_shadow"][0].scale
+    # the method: the profile's (scanline for the D435's rectified pair) unless the block says
+    assert own[0].resolved_method(sensor) == "scanline"
+    rendered = [e for e in apply_to_sensor(sensor, AccuracySettings(shadow="render")).effects
+                if e.name == "stereo_shadow"]
+    assert rendered[0].method == "render" and rendered[0].resolved_method(sensor) == "render"
     (tmp_path / "bad.yaml").write_text(text + "accuracy:\n  supersample: 5\n")
     with pytest.raises(ConfigError, match="bad.yaml: accuracy.supersample"):
         load_sensor(tmp_path / "bad.yaml")

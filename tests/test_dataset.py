@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from genie_gl.cli import main
+from genie_gl.dataset.scene import STAGES
 
 pytestmark = pytest.mark.gl
 ARGS = ["assembly_line", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "4000",
@@ -91,6 +92,13 @@ def test_one_and_two_workers_give_the_same_bytes(reference, tmp_path):
     import json
     m = json.loads((tmp_path / "manifest.json").read_text())
     assert m["inputs"]["seed"] == 0 and m["scenes_made"] == 2 and "genie_gl" in m
+    # each worker warmed up once, before its first scene, and says so apart from the scenes
+    run = m["runs"][-1]
+    workers = {s["worker"] for s in run["scene_s"]}
+    assert [s["scene"] for s in run["scene_s"]] == [0, 1] and len(run["warmup_s"]) == len(workers) >= 1
+    assert all(w > 0 for w in run["warmup_s"]) and sorted(s["nth"] for s in run["scene_s"]) == (
+        [0, 0] if len(workers) == 2 else [0, 1])
+    assert all(set(s["stages"]) == set(STAGES) and s["cpu_s"] > 0 for s in run["scene_s"])
 
 
 def test_a_killed_run_resumes_to_the_same_bytes(reference, tmp_path):

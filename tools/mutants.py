@@ -72,6 +72,9 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                 "*.generators.x_rectangles__*"],
                ["tests/layout/test_merge_layer.py", "tests/layout/test_layout.py",
                 "-k", "not shipped_strategies_generate"]),
+    "merge": (["genie_gl/layout/merge.py"], ["*.merge.x_*"],  # the merge layer alone (a subset of "layout")
+              ["tests/layout/test_merge_layer.py", "tests/layout/test_layout.py",
+               "-k", "not shipped_strategies_generate"]),
     "placement": (["genie_gl/sensors/placement.py"],
                   # the coverage a placement is scored by; the GA's operators (selection, crossover,
                   # mutation rate) only change how good a search is, never a reported number: left out

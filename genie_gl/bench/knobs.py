@@ -77,7 +77,13 @@ def _depth_precision(case: Case) -> str | None:
 
 
 def _shadow(case: Case) -> str | None:
-    return None if _effect(case.sensor, "stereo_shadow") else f"{case.sensor.name} has no stereo_shadow effect"
+    eff = _effect(case.sensor, "stereo_shadow")
+    if eff is None:
+        return f"{case.sensor.name} has no stereo_shadow effect"
+    resolved = getattr(eff, "resolved_method", None)
+    if resolved is not None and resolved(case.sensor) == "scanline":
+        return f"{case.sensor.name}'s stereo shadow is drawn by scanline: no second view to scale (shadow: render)"
+    return None
 
 
 def _multipaths(sensor) -> list:

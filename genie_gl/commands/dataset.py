@@ -59,6 +59,8 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = config_from_args(args)
     m = run_dataset(cfg, progress=not args.no_progress, verify=args.verify)
+    warm = m["runs"][-1].get("warmup_s", []) if m.get("runs") else []
+    warm_text = f" (warm-up per worker before its first scene: {', '.join(f'{w:.1f}' for w in warm)} s)" if warm else ""
     print(f"dataset: {m['scenes_made']} scenes made, {m['scenes_skipped']} already there, "
-          f"{m['wall_s']:.1f} s -> {cfg.out} (previews in {Path(cfg.out) / 'previews'})")
+          f"{m['wall_s']:.1f} s{warm_text} -> {cfg.out} (previews in {Path(cfg.out) / 'previews'})")
     return 0

@@ -1,11 +1,50 @@
 """Where scenes are made: in this process, in worker processes, or on a Ray cluster. Each
-scene depends only on (seed, index), so every executor writes the same bytes."""
+scene depends only on (seed, index), so every executor writes the same bytes.
+
+Every process warms up once, before the first scene it makes (:mod:`.warmup`); each result
+says which process made it (``worker``), its place among that process's scenes (``nth``, 0 for
+the first) and, on the first, the warm-up's seconds (``warmup_s``)."""
 from __future__ import annotations
 
 import os
+from contextlib import nullcontext
 from typing import Any
 
 from .config import DatasetConfig
+
+_PROCESS: dict[str, Any] = {}  # this process: warmed up?, scenes made, warm-up seconds to report
+
+
+def _prepare(cfg: DatasetConfig) -> None:
+    """The process's warm-up, the first time one of its scenes needs making."""
+    if not _PROCESS.get("warm"):
+        from .warmup import warm_up
+
+        _PROCESS["warmup_s"] = warm_up(cfg)
+        _PROCESS["warm"] = True
+
+
+def _made(r: dict) -> dict:
+    """``r`` with the process's id, the scene's place among its scenes and (first) its warm-up."""
+    if r.get("skipped"):
+        return r
+    r = r | {"worker": os.getpid(), "nth": _PROCESS.get("made", 0)}
+    _PROCESS["made"] = r["nth"] + 1
+    if "warmup_s" in _PROCESS:
+        r["warmup_s"] = _PROCESS.pop("warmup_s")
+    return r
+
+
+def make_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None) -> dict[str, Any]:
+    """:func:`~genie_gl.dataset.scene.run_scene` with this process's warm-up and bookkeeping."""
+    from .scene import run_scene
+
+    def prepare() -> None:
+        if stage is not None and not _PROCESS.get("warm"):
+            stage("warm-up")  # the bar shows the worker's warm-up as a stage of its first scene
+        _prepare(cfg)
+
+    return _made(run_scene(cfg, index, verify=verify, stage=stage, prepare=prepare))
 
 
 def _worker(job: tuple) -> dict:
@@ -14,7 +53,6 @@ def _worker(job: tuple) -> dict:
 
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     from ..render import limit_threads  # workers share the cores: llvmpipe and numba threads
-    from .scene import run_scene
 
     cfg, index, verify, status = job if len(job) == 4 else (*job, None)
     limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
@@ -24,7 +62,7 @@ def _worker(job: tuple) -> dict:
             status[index] = name
 
     try:
-        return run_scene(cfg, index, verify=verify, stage=stage)
+        return make_scene(cfg, index, verify=verify, stage=stage)
     finally:
         if status is not None:
             status.pop(index, None)
@@ -43,8 +81,6 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
     The progress bar names the scene and stage being worked on (this process) or the scenes
     under way (workers)."""
     from tqdm import tqdm
-
-    from .scene import run_scene
 
     bar = tqdm(total=cfg.scenes, unit="scene", disable=not progress, desc="scenes", mininterval=0.5)
     results: list[dict] = []
@@ -66,22 +102,25 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
                 done(ray.get(ready[0]))
         elif cfg.workers <= 1 or cfg.scenes <= 1:
             for i in range(cfg.scenes):
-                done(run_scene(cfg, i, verify=verify,
-                               stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}", refresh=True)))
+                done(make_scene(cfg, i, verify=verify,
+                                stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}", refresh=True)))
         else:
             import multiprocessing as mp
 
             n = min(cfg.workers, cfg.scenes)
             ctx = mp.get_context("spawn")
-            with ctx.Manager() as manager, ctx.Pool(n) as pool:
-                status = manager.dict()  # scene -> the stage its worker is in, for the bar
+            # the stages under way are shown through a manager's dict: a server process of its
+            # own, started only when there is a bar to show them on
+            with ctx.Manager() if progress else nullcontext() as manager, ctx.Pool(n) as pool:
+                status = manager.dict() if manager is not None else None  # scene -> its worker's stage
                 it = pool.imap_unordered(_worker, [(cfg, i, verify, status) for i in range(cfg.scenes)])
                 left = cfg.scenes
                 while left:
                     try:
                         r = it.next(timeout=0.5)
                     except mp.TimeoutError:
-                        bar.set_postfix_str(_describe(status), refresh=True)
+                        if status is not None:
+                            bar.set_postfix_str(_describe(status), refresh=True)
                         continue
                     done(r)
                     left -= 1

@@ -38,6 +38,9 @@ from .scene import STAGES, run_scene, scene_dir, scene_rngs  # noqa: F401  (the 
 
 
 
+SCENE_RECORDS = 1000  # a run's manifest record lists the timings of at most this many scenes
+
+
 def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
     from ..scene import ASSETS
 
@@ -170,7 +173,10 @@ def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, prog
         "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
         "scenes_made": n_made, "scenes_skipped": cfg.scenes - n_made, "workers": cfg.workers,
         "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made),
-        "cost": dataset_cost(made)}]
+        "cost": dataset_cost(made), "warmup_s": [r["warmup_s"] for r in made if "warmup_s" in r],
+        "scene_s": [{"scene": r.get("scene"), "worker": r.get("worker"), "nth": r.get("nth"),
+                     "stages": r.get("timings_s", {}), "cpu_s": r.get("cpu_s")}
+                    for r in sorted(made, key=lambda r: r.get("scene", -1))[:SCENE_RECORDS]]}]
     manifest["cost"], manifest["accuracy"] = dataset_cost(made), used(cfg.accuracy, cfg.sensor)
     manifest["scenes_made"], manifest["scenes_skipped"] = n_made, cfg.scenes - n_made
     manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist

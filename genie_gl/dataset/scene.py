@@ -32,13 +32,14 @@ def scene_dir(out: Path, index: int, fmt: str, n_scenes: int = 0) -> Path:
     return get_format(fmt).scene_dir(out, index)
 
 
-def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None) -> dict[str, Any]:
+def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None, prepare=None) -> dict[str, Any]:
     """Make scene ``index`` and write it; returns its stats (also in stats.json).
-    ``stage(name)`` is called as each stage starts (progress display)."""
+    ``stage(name)`` is called as each stage starts (progress display); ``prepare()`` once the
+    scene is known to need making, before its clock starts (a worker's warm-up)."""
     from ..cloud import frame_chunks, keep_cloud
     from ..export import SceneData, get_format
     from ..layout import generate_layout, load_strategy
-    from ..render import capture
+    from ..render import capture, shared_context
     from ..scene import build_scene
     from ..accuracy import segments_option, settings_of
     from ..sensors import load_sensor, place_sensors
@@ -52,8 +53,11 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         return done | {"skipped": True}
     if curation.active(cfg) and curation.cache_path(cfg, index).is_file():  # made, waiting to be balanced
         return {"scene": index, "pending": True, "skipped": True}
+    if prepare is not None:
+        prepare()
     rng = scene_rngs(cfg.seed, index)
     t = {"start": time.perf_counter()}
+    cpu = time.process_time()  # the process's CPU time, its rasteriser and kernel threads included
     stage("layout")
     layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"])
     t["layout"] = time.perf_counter()
@@ -68,7 +72,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     stage("capture")
     # a format that stores no colour renders none (an output not asked for costs nothing)
     frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1,
-                     depth_only=not fmt.colour, accuracy=accuracy)
+                     depth_only=not fmt.colour, accuracy=accuracy, context=shared_context())
     t["capture"] = time.perf_counter()
     stage("cloud")
     kept, points_total, counts = [], 0, np.zeros(65536, np.int64)
@@ -94,7 +98,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         stats = curation.cache_scene(cfg, index, kept, layout, {"instances": len(scene.instances),
                                                                 "cameras": len(frames), "points_total": int(points_total)})
         t["export"] = time.perf_counter()
-        return stats | _timings(t, frames)
+        return stats | _timings(t, frames, cpu)
     stage("export")
     for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
         shutil.rmtree(stale, ignore_errors=True)
@@ -118,15 +122,16 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     if final.exists():  # an incomplete scene of an earlier run
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
-    return stats | _timings(t, frames)
+    return stats | _timings(t, frames, cpu)
 
 
-def _timings(t: dict[str, float], frames: list) -> dict[str, Any]:
-    """Seconds per stage, the frames' cost (the manifest's "cost" block) and what each sensor
-    effect did (issue 12): not in stats.json."""
+def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:
+    """Seconds per stage, CPU seconds of the scene (all threads), the frames' cost (the
+    manifest's "cost" block) and what each sensor effect did (issue 12): not in stats.json."""
     from ..accuracy import frame_costs
     from ..plan import effect_totals
 
     keys = ("start",) + STAGES
-    return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "frame_cost_ms": frame_costs(frames),
+    return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "cpu_s": time.process_time() - cpu,
+            "frame_cost_ms": frame_costs(frames),
             "effects": effect_totals(frames)}

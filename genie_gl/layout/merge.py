@@ -20,7 +20,7 @@ import numpy as np
 
 from .model import Tree
 
-TOL_M = 1e-6  # edges closer than this (metres) are the same edge
+TOL_M = 1e-6  # edges at most this far apart (metres) are the same edge
 
 
 def _pass(x, y, w, h, key_t, along_x: bool, tol: float, origin: np.ndarray):

@@ -9,10 +9,11 @@ import sys
 import types
 
 from .batch import capture, limit_threads, render, silhouettes
-from .context import BACKENDS, GLContext, create_context
+from .context import BACKENDS, GLContext, create_context, release_shared_contexts, shared_context
 from .renderer import Renderer
 
-__all__ = ["BACKENDS", "GLContext", "Renderer", "capture", "create_context", "limit_threads", "render", "silhouettes"]
+__all__ = ["BACKENDS", "GLContext", "Renderer", "capture", "create_context", "limit_threads", "release_shared_contexts",
+           "render", "shared_context", "silhouettes"]
 
 
 class _CallableModule(types.ModuleType):

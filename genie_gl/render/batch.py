@@ -149,7 +149,8 @@ def _worker_render(job: tuple) -> list[Frame]:
 
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
             workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
-            depth_precision: str = "float32", plan: Any = True, accuracy: Any = None) -> list[Frame]:
+            depth_precision: str = "float32", plan: Any = True, accuracy: Any = None,
+            context: Any = None) -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -170,6 +171,8 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         ``accuracy:`` block, else the defaults (supersampling, lens resampling, depth
         precision unless ``depth_precision`` is given, second-view scale, multipath samples;
         tessellation is the scene's).
+    context : a :class:`~genie_gl.render.GLContext` to render in (``workers=1`` only; e.g.
+        :func:`~genie_gl.render.shared_context`, kept from scene to scene); None makes one.
     """
     from ..accuracy import apply_to_sensor
     from .supersample import settings_for
@@ -197,7 +200,7 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
-        with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
+        with Renderer(scene, backend=backend, depth_precision=depth_precision, context=context) as r:
             return _capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials, accuracy)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)

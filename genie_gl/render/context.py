@@ -101,6 +101,27 @@ def create_context(backend: str | None = None, *, device_index: int = 0) -> GLCo
     )
 
 
+_SHARED: dict[str | None, GLContext] = {}
+
+
+def shared_context(backend: str | None = None) -> GLContext:
+    """This process's long-lived context for ``backend``, created on first use: renderers of
+    successive scenes (``genie dataset``) share it, so the context is made and each shader
+    built and compiled by the driver once per process, not once per scene. Released by
+    :func:`release_shared_contexts` (or when the process ends)."""
+    backend = backend or _default_backend
+    gl = _SHARED.get(backend)
+    if gl is None:
+        gl = _SHARED[backend] = create_context(backend)
+    return gl
+
+
+def release_shared_contexts() -> None:
+    """Release the contexts :func:`shared_context` made in this process."""
+    while _SHARED:
+        _SHARED.popitem()[1].release()
+
+
 def _EGL(device_index: int) -> GLContext:
     ctx = moderngl.create_context(standalone=True, backend="egl", require=330, device_index=device_index)
     lib = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import ctypes
+import functools
+import math
 
 import numpy as np
 
@@ -50,19 +52,38 @@ class _Pool:
 _POOL = _Pool()
 
 
-def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.ndarray]:
-    """A frame's output arrays as views into one block of recycled memory (see :class:`_Pool`)."""
+@functools.lru_cache(maxsize=64)
+def _parts(H: int, W: int, color: bool, normals: bool) -> tuple[tuple, tuple[int, ...]]:
+    """A frame's arrays (name, dtype, shape, bytes) and their sizes in its block, 64-byte aligned."""
     parts = [("depth", np.float32, (H, W)), ("instance", np.uint32, (H, W))]
     if normals:
         parts.append(("normal", np.float32, (H, W, 3)))
     if color:
         parts.append(("rgba", np.uint8, (H, W, 4)))
     parts.append(("semantic", np.uint16, (H, W)))
-    sizes = [-(-int(np.prod(shape)) * np.dtype(dt).itemsize // 64) * 64 for _, dt, shape in parts]
+    parts = [(name, dt, shape, math.prod(shape) * np.dtype(dt).itemsize) for name, dt, shape in parts]
+    return tuple(parts), tuple(-(-n // 64) * 64 for *_, n in parts)
+
+
+def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.ndarray]:
+    """A frame's output arrays as views into one block of recycled memory (see :class:`_Pool`)."""
+    parts, sizes = _parts(H, W, color, normals)
     block = _POOL.lend(sum(sizes))
     out, at = {}, 0
-    for (name, dt, shape), b in zip(parts, sizes):
-        n = int(np.prod(shape)) * np.dtype(dt).itemsize
+    for (name, dt, shape, n), b in zip(parts, sizes):
         out[name] = block[at:at + n].view(dt).reshape(shape)
         at += b
     return out
+
+
+def prefault(H: int, W: int, color: bool, normals: bool, frames: int) -> int:
+    """Put ``frames`` frames' blocks, written once (mapped), in the pool (never more than it
+    keeps): a process's first scene then renders into mapped memory as every later one does
+    (a worker's warm-up). Returns the number of blocks."""
+    frames = min(frames, _POOL.max_bytes // max(1, sum(_parts(H, W, color, normals)[1])))
+    held = [frame_buffers(H, W, color, normals) for _ in range(frames)]
+    for bufs in held:
+        for a in bufs.values():
+            a.fill(0)
+    del held  # the blocks go back to the pool
+    return frames

@@ -26,6 +26,7 @@ from .cull import TriangleCuller, cluster_order, clusters, sanitize
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
 from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
 from .projection import clip_coefficients, frustum_planes, rigid_inverse
+from .readback import semantic_table, unpack
 from .shader import load_program
 
 # one row per drawn instance: camera_from_model (3 rows), ids, colour
@@ -40,6 +41,9 @@ GL_DEPTH_COMPONENT = 0x1902
 GL_FLOAT = 0x1406
 
 DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z")
+TARGETS = ("packed", "separate")
+READBACKS = ("direct", "pbo")
+_BYTES = {"f1": 1, "u2": 2, "u4": 4, "f4": 4}
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
                           ("base_instance", "<u4")])  # DrawElementsIndirectCommand
 
@@ -75,22 +79,33 @@ class Renderer:
         depth buffer (near / z) read back and linearised.
     cull : drop triangles that cannot cover a pixel centre (exact; False draws everything). A
         frame with fewer than ``cull_min_faces`` faces in view is drawn whole either way.
+    targets : "packed" (default): depth and instance id in one RG32UI target, the semantic id
+        looked up per instance on read-back (:mod:`genie_gl.render.readback`); "separate":
+        three targets (depth, instance, semantic). The frames are the same bit for bit.
+    readback : "direct" (default): :meth:`frames` reads each frame's targets into the frame's
+        arrays once the next frame is submitted; "pbo": each frame is read into pixel buffer
+        objects as soon as it is submitted and copied out a frame later (on llvmpipe this
+        costs a second copy and is slower: see ``genie bench pipeline``).
     """
 
     cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
-                 depth_precision: str = "float32", cull: bool = True):
-        if depth_precision not in DEPTH_PRECISIONS:
-            raise ConfigError(f"Renderer depth_precision={depth_precision!r} is unknown; expected one of "
-                              f"{', '.join(DEPTH_PRECISIONS)}")
+                 depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
+                 readback: str = "direct"):
+        for name, value, known in (("depth_precision", depth_precision, DEPTH_PRECISIONS),
+                                   ("targets", targets, TARGETS), ("readback", readback, READBACKS)):
+            if value not in known:
+                raise ConfigError(f"Renderer {name}={value!r} is unknown; expected one of {', '.join(known)}")
         self.depth_precision, self.cull = depth_precision, bool(cull)
+        self.targets, self.readback = targets, readback
         self._own_context = context is None
         self.gl = context or create_context(backend)
         self.ctx = self.gl.ctx
         self._programs = self.gl.programs  # one build per context, whatever the renderer
         self._fbos: dict = {}
         self._vaos: dict = {}
+        self._pbos: dict = {}  # readback="pbo": (framebuffer, read) -> pixel buffer object
         self._clip_control = self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
         self._gl_flush = None
         self._culled = False
@@ -158,6 +173,8 @@ class Renderer:
         self._rows["color"][:, 3] = 255
         if N:
             self._rows["color"][:, :3] = np.array([inst[k].color for k in order], dtype=np.uint8)
+        self._semantics = semantic_table(self._ids, self._rows["semantic"]) if self.targets == "packed" else None
+        self._packed = self._semantics is not None  # an id used twice: three targets
         self._vbase, self._nverts, self._fbase, self._nfaces = vbase, nverts, fbase, nfaces
         self._closed, self._lo, self._hi, self._centre, self._radius = closed, lo, hi, centre, radius
         self.triangles = int(nfaces[self._mesh].sum()) if N else 0
@@ -204,10 +221,13 @@ class Renderer:
         if key in self._fbos:
             return self._fbos[key]
         ctx, size = self.ctx, (width, height)
-        targets = [ctx.texture(size, 1, dtype="f4"), ctx.texture(size, 1, dtype="u4"),
-                   ctx.texture(size, 1, dtype="u2")]
+        if self._packed:  # (depth bits, instance): see render/readback.py
+            targets = [ctx.texture(size, 2, dtype="u4")]
+        else:
+            targets = [ctx.texture(size, 1, dtype="f4"), ctx.texture(size, 1, dtype="u4"),
+                       ctx.texture(size, 1, dtype="u2")]
         if color or normals:
-            targets.append(ctx.texture(size, 4, dtype="f1"))  # location 3 (unused without colour)
+            targets.append(ctx.texture(size, 4, dtype="f1"))  # location 3 or 1 (unused without colour)
         if normals:
             targets.append(ctx.texture(size, 4, dtype="f4"))
         depth = ctx.depth_texture(size)
@@ -263,6 +283,8 @@ class Renderer:
                 job = self._draw(sensor, pose, not depth_only, normals, None if only is None else only[k],
                                  slot=1 + k % 2)
                 self._flush()  # llvmpipe rasterises a frame's bins once they are flushed
+                if self.readback == "pbo":
+                    self._start_read(job)
                 frame = self._read(pending) if pending is not None else None
             if frame is not None:
                 yield frame
@@ -286,7 +308,7 @@ class Renderer:
         fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals, slot)
         linear = self.depth_precision == "float32"
         defines = (("WITH_COLOR",) if color else ()) + (("WITH_NORMAL",) if normals else ()) + \
-            (() if linear else ("NO_LINEAR_DEPTH",))
+            (() if linear else ("NO_LINEAR_DEPTH",)) + (("PACKED_IDS",) if self._packed else ())
         program = self._program(defines)
         proj_x, proj_y = clip_coefficients(K, W, H)
         program["u_proj_x"].value = tuple(proj_x.astype(np.float32))
@@ -312,7 +334,7 @@ class Renderer:
         if self.depth_precision == "depth24":
             n, f = float(sensor.near_m), float(sensor.far_m)
             fbo24 = extra[0]
-            p24 = self._program(("NO_LINEAR_DEPTH", "DEPTH_ONLY"))
+            p24 = self._program(("NO_LINEAR_DEPTH", "DEPTH_ONLY") + (("PACKED_IDS",) if self._packed else ()))
             p24["u_proj_x"].value = tuple(proj_x.astype(np.float32))
             p24["u_proj_y"].value = tuple(proj_y.astype(np.float32))
             p24["u_depth"].value = (f / (f - n), -f * n / (f - n))  # window depth = A + B / z
@@ -330,10 +352,46 @@ class Renderer:
             self._gl_flush = self.gl.gl_function("glFlush", None)
         self._gl_flush()
 
+    def _reads(self, job: dict) -> list[tuple[int, int, str, str]]:
+        """(attachment, components, dtype, name) of every read of a frame; attachment -1 is
+        the depth buffer (of the 24-bit pass when there is one)."""
+        color, normals = job["color"], job["normals"]
+        linear = self.depth_precision == "float32"
+        reads = [] if linear else [(-1, 1, "f4", "depth")]
+        if self._packed:
+            reads.append((0, 2, "u4", "packed"))
+            at = 1
+        else:
+            reads += ([(0, 1, "f4", "depth")] if linear else []) + [(1, 1, "u4", "instance"), (2, 1, "u2", "semantic")]
+            at = 3
+        if color:  # RGBA is read as stored (a 3-component read converts: 7x slower)
+            reads.append((at, 4, "f1", "rgba"))
+        if normals:
+            reads.append((at + 1, 3, "f4", "normal"))  # the colour target is there, used or not
+        return reads
+
+    def _start_read(self, job: dict) -> None:
+        """readback="pbo": copy the frame's targets into its pixel buffer objects now."""
+        W, H = job["sensor"].width, job["sensor"].height
+        job["pbo"] = []
+        for k, (att, comps, dtype, _) in enumerate(self._reads(job)):
+            source = job["fbo24"] if att < 0 and job["fbo24"] is not None else job["fbo"]
+            key = (id(job["fbo"]), k, comps, dtype)
+            if key not in self._pbos:
+                self._pbos[key] = self.ctx.buffer(reserve=W * H * comps * _BYTES[dtype])
+            source.read_into(self._pbos[key], components=comps, attachment=att, dtype=dtype)
+            job["pbo"].append(self._pbos[key])
+
+    def _scratch(self, H: int, W: int) -> np.ndarray:
+        """The packed target's read-back buffer (unpacked at once, so one per size)."""
+        buf = getattr(self, "_packed_buf", None)
+        if buf is None or buf.shape[:2] != (H, W):
+            buf = self._packed_buf = np.empty((H, W, 2), np.uint32)
+        return buf
+
     def _read(self, job: dict, finish: bool = False) -> Frame:
         """Read a drawn frame back (waits for its rasterisation) and make the Frame."""
         ctx, sensor, color, normals = self.ctx, job["sensor"], job["color"], job["normals"]
-        fbo, fbo24 = job["fbo"], job["fbo24"]
         W, H = sensor.width, sensor.height
         if finish:
             ctx.finish()  # so that the read-back time below is the copy alone
@@ -341,37 +399,48 @@ class Renderer:
         linear = self.depth_precision == "float32"
         out = frame_buffers(H, W, color, normals)
         depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
-        if linear:
-            fbo.read_into(depth, components=1, attachment=0, dtype="f4")
-        else:
-            (fbo24 or fbo).read_into(depth, components=1, attachment=-1, dtype="f4")
-        fbo.read_into(instance, components=1, attachment=1, dtype="u4")
-        fbo.read_into(semantic, components=1, attachment=2, dtype="u2")
-        rgb = normal = None
-        if color:  # RGBA is read as stored (a 3-component read converts: 7x slower)
-            fbo.read_into(out["rgba"], components=4, attachment=3, dtype="f1")
-            rgb = out["rgba"][..., :3]
-        if normals:
-            normal = out["normal"]
-            fbo.read_into(normal, components=3, attachment=4, dtype="f4")
+        if self._packed:
+            out["packed"] = self._scratch(H, W)
+        pbos = job.get("pbo")
+        for k, (att, comps, dtype, name) in enumerate(self._reads(job)):
+            if pbos is not None:
+                pbos[k].read_into(out[name])
+            else:
+                source = job["fbo24"] if att < 0 and job["fbo24"] is not None else job["fbo"]
+                source.read_into(out[name], components=comps, attachment=att, dtype=dtype)
+        rgb = out["rgba"][..., :3] if color else None
+        normal = out["normal"] if normals else None
         err = ctx.error
         if err != "GL_NO_ERROR":
             raise RenderError(f"OpenGL error after rendering: {err}")
+        emptied = 0
+        if self._packed:  # ids, semantic ids and (linear) depth with the range applied, in one pass
+            emptied = unpack(out["packed"], self._semantics, depth if linear else None, instance, semantic,
+                             sensor.near_m, sensor.far_m)
         if not linear:
             self._linearise(depth, instance, sensor)
         t3 = time.perf_counter()
-        half = np.float32(0.5 * sensor.near_m)
-        too_near = np.abs(depth - half) < half if job["drawn"] else None  # 0 < depth < near_m
-        if job["drawn"] and (float(depth.max()) > sensor.far_m or too_near.any()):
-            # infinite-far projection, near plane below the range: the range is applied here
-            beyond = (depth > sensor.far_m) | too_near
-            depth[beyond] = 0
-            instance[beyond] = 0
-            semantic[beyond] = 0
-            if rgb is not None:
-                rgb[beyond] = 0
-            if normal is not None:
-                normal[beyond] = 0
+        if self._packed and linear:
+            if emptied and (rgb is not None or normal is not None):
+                beyond = instance == 0
+                beyond &= out["packed"][..., 1] != 0
+                if rgb is not None:
+                    rgb[beyond] = 0
+                if normal is not None:
+                    normal[beyond] = 0
+        else:
+            half = np.float32(0.5 * sensor.near_m)
+            too_near = np.abs(depth - half) < half if job["drawn"] else None  # 0 < depth < near_m
+            if job["drawn"] and (float(depth.max()) > sensor.far_m or too_near.any()):
+                # infinite-far projection, near plane below the range: the range is applied here
+                beyond = (depth > sensor.far_m) | too_near
+                depth[beyond] = 0
+                instance[beyond] = 0
+                semantic[beyond] = 0
+                if rgb is not None:
+                    rgb[beyond] = 0
+                if normal is not None:
+                    normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
         self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
                       "triangles_drawn": job["triangles"]}
@@ -474,14 +543,14 @@ class Renderer:
         self.ctx.detect_framebuffer(0).use()
         for vao in self._vaos.values():
             vao.release()
-        for buf in (self._vbo, self._ibo, *(b for bufs in self._streams.values() for b in bufs)):
+        for buf in (self._vbo, self._ibo, *(b for bufs in self._streams.values() for b in bufs), *self._pbos.values()):
             if buf is not None:
                 buf.release()
         for fbo, targets, depth, extra in self._fbos.values():
             fbo.release()
             for t in (*targets, depth, *extra):
                 t.release()
-        self._vaos, self._fbos = {}, {}
+        self._vaos, self._fbos, self._pbos = {}, {}, {}
         self._vbo = self._ibo = None
         self._streams = {}
 

@@ -56,8 +56,8 @@ def _transform(yaw: float, x: float, y: float, z: float = 0.0) -> np.ndarray:
     return T
 
 
-def _footprint(mesh, yaw: float) -> tuple[float, float]:
-    ext = mesh.bounds[1] - mesh.bounds[0]
+def _footprint(bounds: np.ndarray, yaw: float) -> tuple[float, float]:
+    ext = bounds[1] - bounds[0]
     if abs(np.sin(yaw)) > 0.5:
         return float(ext[1]), float(ext[0])
     return float(ext[0]), float(ext[1])
@@ -69,8 +69,17 @@ class SceneBuilder:
         self.layout, self.opt, self.rng, self.assets = layout, options, rng, assets
         self.scene = Scene(metadata={"layout": layout.meta})
         self._keys: dict[tuple[str, str], str] = {}
+        self._bounds: dict[tuple[str, str], np.ndarray] = {}
         # a child stream: drawing materials leaves the placement draws as they were
         self.material_rng = rng.spawn(1)[0]
+
+    def bounds(self, cls: str, variant: str) -> np.ndarray:
+        """(2, 3) bounds of a variant's mesh, read once (trimesh re-hashes the vertices to
+        check its cache on every ``mesh.bounds``)."""
+        b = self._bounds.get((cls, variant))
+        if b is None:
+            b = self._bounds[(cls, variant)] = np.array(self.assets.mesh(cls, variant).bounds, dtype=np.float64)
+        return b
 
     def material(self, cls: str):
         return class_material(cls, rng=self.material_rng)
@@ -147,7 +156,7 @@ class SceneBuilder:
         order = [variants[k] for k in self.rng.permutation(len(variants))]
         for turn in (0.0, np.pi / 2):  # the region's facing first; a quarter turn if nothing fits
             for v in order:
-                fw, fd = _footprint(self.assets.mesh(cls, v), yaw + turn)
+                fw, fd = _footprint(self.bounds(cls, v), yaw + turn)
                 if fw <= w + 1e-9 and fd <= h + 1e-9:
                     return v, yaw + turn, fw, fd
         return None
@@ -202,8 +211,7 @@ class SceneBuilder:
             diag = np.hypot(fw, fd) / 2
             if diag <= min(slot.w / 2 - abs(cx - slot.centre[0]), slot.h / 2 - abs(cy - slot.centre[1])):
                 yaw += dyaw
-        mesh = self.assets.mesh(cls, v)
-        height = float(mesh.bounds[1][2])
+        height = float(self.bounds(cls, v)[1][2])
         layers = 1
         if cls in lib.STACKABLE and fill.get("stack_m") is not None:
             layers = max(1, int(_span(fill["stack_m"], rng=self.rng) // (height + 0.001)))
@@ -220,8 +228,8 @@ class SceneBuilder:
 
     def _put(self, cls: str, v: str, yaw: float, cx: float, cy: float, z: float, name: str) -> int:
         """An instance whose footprint centre lands on (cx, cy), turned by ``yaw``."""
-        mesh = self.assets.mesh(cls, v)
-        off = (mesh.bounds[0] + mesh.bounds[1]) / 2
+        b = self.bounds(cls, v)
+        off = (b[0] + b[1]) / 2
         c, s = np.cos(yaw), np.sin(yaw)
         ox, oy = c * off[0] - s * off[1], s * off[0] + c * off[1]
         return self.add(cls, v, _transform(yaw, cx - ox, cy - oy, z), name)
@@ -246,7 +254,7 @@ class SceneBuilder:
             if choice is None:
                 continue
             v, turn, fw, _ = choice
-            h = float(self.assets.mesh(item, v).bounds[1][2])
+            h = float(self.bounds(item, v)[1][2])
             if h > clear:
                 continue
             gap = 0.05

@@ -104,6 +104,11 @@ class Effect:
     def skip(self, frame: Frame, rng: np.random.Generator) -> None:
         """Consume what a run would draw from ``rng`` when that does not depend on the frame."""
 
+    def cost_per_mpx(self, sensor: Any) -> float:
+        """The planner's estimate (ms per million pixels) for ``sensor``: ``cost_ms_per_mpx``
+        unless the effect's method depends on the sensor."""
+        return float(self.cost_ms_per_mpx)
+
     def reach_m(self, sensor: Any) -> float | None:
         """The farthest depth (m) whose surfaces can still change this effect's output, or
         None (no bound of its own). The planner's far plane is the largest reach."""

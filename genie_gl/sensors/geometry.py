@@ -20,6 +20,25 @@ def pixel_rays(sensor: Camera) -> np.ndarray:
     return _safe_rays(sensor.lens_key)
 
 
+def pixel_rays_xy(sensor: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """The rays of :func:`pixel_rays` as (X, Y): (1, W) and (H, 1) when x depends on the
+    column only and y on the row only (a pinhole sensor: the same values), else (H, W) each.
+    For compiled loops that would otherwise stream the (H, W, 2) array; read-only."""
+    return _separable_rays(sensor.lens_key)
+
+
+@lru_cache(maxsize=16)
+def _separable_rays(key: tuple) -> tuple[np.ndarray, np.ndarray]:
+    xy = _safe_rays(key)
+    X, Y = xy[..., 0], xy[..., 1]
+    if (X == X[:1]).all() and (Y == Y[:, :1]).all():
+        X, Y = X[:1], Y[:, :1]
+    X, Y = np.ascontiguousarray(X), np.ascontiguousarray(Y)
+    X.setflags(write=False)
+    Y.setflags(write=False)
+    return X, Y
+
+
 @lru_cache(maxsize=16)
 def _safe_rays(key: tuple) -> np.ndarray:
     model, w, h, K, dist = key

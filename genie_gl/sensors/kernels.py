@@ -10,8 +10,13 @@ three times faster, with no (n,) array in between; tests check it value for valu
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
+
+# the stereo shadow's loops live beside it (one topic, one module); named here as well
+from .shadow_kernels import casts_shadow, scanline_shadow, shadow_drop, shadow_mask  # noqa: F401
 
 
 @njit(cache=True, nogil=True)
@@ -32,84 +37,6 @@ def has_step(depth, jump):  # pragma: no cover - compiled
                 if n > 0 and abs(n - z) > jump:
                     return True
     return False
-
-
-@njit(cache=True, nogil=True)
-def casts_shadow(depth, fb, tol_m, tol_rel):  # pragma: no cover - compiled
-    """True when two valid 4-neighbours differ by more than half the shadow tolerance and the
-    shadow of the nearer on the farther, fb·(1/z_near − 1/z_far) pixels, reaches half a pixel."""
-    H, W = depth.shape
-    for v in range(H):
-        for u in range(W):
-            z = np.float64(depth[v, u])
-            if z <= 0:
-                continue
-            for dv, du in ((0, 1), (1, 0)):
-                if v + dv >= H or u + du >= W:
-                    continue
-                n = np.float64(depth[v + dv, u + du])
-                if n <= 0:
-                    continue
-                near, far = min(z, n), max(z, n)
-                if far - near > 0.5 * (tol_m + tol_rel * near) and fb * (1.0 / near - 1.0 / far) >= 0.5:
-                    return True
-    return False
-
-
-@njit(cache=True, nogil=True)
-def shadow_mask(depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_rel):  # pragma: no cover
-    """Which returns the second view cannot see: (gone (H, W) bool, occluded, outside).
-
-    Every valid pixel's point (depth · (x, y, 1)) goes to the second view (X2 = R·X + t), is
-    projected with K (rounded half to even, as ``np.rint``) and, when ``rendered``, compared
-    with ``depth2`` there: hidden when it lies behind by more than tol_m + tol_rel·seen."""
-    H, W = depth.shape
-    gone = np.zeros((H, W), np.bool_)
-    occluded = 0
-    outside = 0
-    for v in range(H):
-        for u in range(W):
-            z = np.float64(depth[v, u])
-            if z <= 0:
-                continue
-            X, Y = xy[v, u, 0] * z, xy[v, u, 1] * z
-            x2 = R[0, 0] * X + R[0, 1] * Y + R[0, 2] * z + t[0]
-            y2 = R[1, 0] * X + R[1, 1] * Y + R[1, 2] * z + t[1]
-            z2 = R[2, 0] * X + R[2, 1] * Y + R[2, 2] * z + t[2]
-            if not z2 > near2:
-                gone[v, u] = True
-                outside += 1
-                continue
-            pu = np.rint((K[0, 0] * x2 + K[0, 1] * y2) / z2 + K[0, 2])
-            pv = np.rint(K[1, 1] * y2 / z2 + K[1, 2])
-            if not (pu >= 0 and pu < w2 and pv >= 0 and pv < h2):
-                gone[v, u] = True
-                outside += 1
-                continue
-            if rendered:
-                seen = np.float64(depth2[int(pv), int(pu)])
-                if seen > 0 and z2 > seen + (tol_m + tol_rel * seen):
-                    gone[v, u] = True
-                    occluded += 1
-    return gone, occluded, outside
-
-
-@njit(cache=True, nogil=True)
-def shadow_drop(depth, instance, semantic, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m,
-                tol_rel):  # pragma: no cover - compiled
-    """:func:`shadow_mask` and :func:`~genie_gl.sensors.effect.drop` in one pass: ``depth``,
-    ``instance`` and ``semantic`` (copies the caller made) are zeroed in place where the
-    second view cannot see; (gone, occluded, outside) as :func:`shadow_mask` returns them."""
-    gone, occluded, outside = shadow_mask(depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_rel)
-    if occluded + outside:
-        H, W = depth.shape
-        for v in range(H):
-            for u in range(W):
-                if gone[v, u]:
-                    depth[v, u] = 0
-                    instance[v, u] = 0
-                    semantic[v, u] = 0
-    return gone, occluded, outside
 
 
 @njit(cache=True, nogil=True)
@@ -140,49 +67,70 @@ def stereo_noise(depth, draws, fb, sigma_d, step):  # pragma: no cover - compile
 
 
 @njit(cache=True, nogil=True)
+def _normals_in_row(depth, v, rng, out):  # pragma: no cover - compiled
+    """``out[u]``: one ``rng.standard_normal()`` per valid pixel of row ``v``, left to right
+    (row by row, the values of ``rng.standard_normal(n_valid)``); untouched where there is
+    no return."""
+    for u in range(depth.shape[1]):
+        if depth[v, u] > 0:
+            out[u] = rng.standard_normal()
+
+
+@njit(cache=True, nogil=True)
 def stereo_noise_rng(depth, rng, fb, sigma_d, step):  # pragma: no cover - compiled
-    """:func:`stereo_noise` drawing its normals from ``rng`` inside the loop, one per valid
-    pixel in row-major order: the same values as ``stereo_noise(depth,
-    rng.standard_normal(n_valid), ...)``."""
+    """:func:`stereo_noise` drawing its normals from ``rng``, one per valid pixel in row-major
+    order: the same values as ``stereo_noise(depth, rng.standard_normal(n_valid), ...)``;
+    (new depth, pixels lost, pixels whose depth changed). Each row's draws come first, then
+    the model over the row in a branch-free pass the compiler vectorises; a power-of-two
+    ``step`` divides by multiplying with its inverse (the same float64, exactly)."""
     H, W = depth.shape
-    out = np.zeros((H, W), np.float32)
+    draws = np.zeros(W, np.float64)
+    out = np.empty((H, W), np.float32)
+    inv = 0.0
+    if step > 0:
+        m, _ = math.frexp(step)
+        if m == 0.5:
+            inv = 1.0 / step
     lost = 0
+    changed = 0
     for v in range(H):
+        _normals_in_row(depth, v, rng, draws)
         for u in range(W):
             z = np.float64(depth[v, u])
-            if z <= 0:
-                continue
-            noisy = z + rng.standard_normal() * (z * z * sigma_d / fb)
+            noisy = z + draws[u] * (z * z * sigma_d / fb)
             if step > 0:
                 disp = fb / max(noisy, 1e-6)
-                disp = np.round(disp / step) * step
+                disp = np.round(disp * inv if inv > 0 else disp / step) * step
                 noisy = fb / max(disp, 1e-12) if disp > 0 else 0.0
-            if noisy > 0:
-                out[v, u] = np.float32(noisy)
-            if not np.float32(noisy) > 0:
-                out[v, u] = 0
-                lost += 1
-    return out, lost
+            o = np.float32(noisy) if noisy > 0 else np.float32(0.0)
+            o = o if z > 0 else np.float32(0.0)
+            out[v, u] = o
+            lost += (z > 0) & (o == 0)
+            changed += o != depth[v, u]
+    return out, lost, changed
 
 
 @njit(cache=True, nogil=True)
 def linear_noise_rng(depth, rng, a, b, z0):  # pragma: no cover - compiled
-    """:func:`linear_noise` drawing its normals from ``rng`` inside the loop (the same values
-    as ``linear_noise(depth, rng.standard_normal(n_valid), ...)``)."""
+    """:func:`linear_noise` drawing its normals from ``rng`` (the same values as
+    ``linear_noise(depth, rng.standard_normal(n_valid), ...)``); (new depth, pixels lost,
+    pixels whose depth changed). Each row's draws first, then the model over the row."""
     H, W = depth.shape
-    out = np.zeros((H, W), np.float32)
+    draws = np.zeros(W, np.float64)
+    out = np.empty((H, W), np.float32)
     lost = 0
+    changed = 0
     for v in range(H):
+        _normals_in_row(depth, v, rng, draws)
         for u in range(W):
             z = np.float64(depth[v, u])
-            if z <= 0:
-                continue
-            noisy = np.float32(z + rng.standard_normal() * (a + b * max(z - z0, 0.0)))
-            if noisy > 0:
-                out[v, u] = noisy
-            else:
-                lost += 1
-    return out, lost
+            noisy = np.float32(z + draws[u] * (a + b * max(z - z0, 0.0)))
+            o = noisy if noisy > 0 else np.float32(0.0)
+            o = o if z > 0 else np.float32(0.0)
+            out[v, u] = o
+            lost += (z > 0) & (o == 0)
+            changed += o != depth[v, u]
+    return out, lost, changed
 
 
 @njit(cache=True, nogil=True)
@@ -252,6 +200,19 @@ def changed(d1, d2, i1, i2):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def any_code(depth, ids, code_by_id):  # pragma: no cover - compiled
+    """True when some returning pixel has a non-zero code (:func:`pixel_codes`); stops at
+    the first."""
+    H, W = depth.shape
+    last = code_by_id.shape[0] - 1
+    for v in range(H):
+        for u in range(W):
+            if depth[v, u] > 0 and code_by_id[min(ids[v, u], last)]:
+                return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def pixel_codes(depth, ids, code_by_id):  # pragma: no cover - compiled
     """Each returning pixel's material code (``code_by_id[id]``, ids beyond the table read its
     last entry; 0 where no return) and how many pixels have a non-zero code."""
@@ -269,27 +230,54 @@ def pixel_codes(depth, ids, code_by_id):  # pragma: no cover - compiled
     return out, n
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _xat(X, v, u):  # pragma: no cover - compiled
+    return X[v if X.shape[0] > 1 else 0, u]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _yat(Y, v, u):  # pragma: no cover - compiled
+    return Y[v, u if Y.shape[1] > 1 else 0]
+
+
 @njit(cache=True, nogil=True)
-def specular_lost(depth, xy, normal, kind, cos_glare):  # pragma: no cover - compiled
+def specular_lost(depth, ids, code_by_id, X, Y, normal, cos_glare, drop_clear=False):  # pragma: no cover
     """Returns lost on shiny surfaces: bare metal (code bit 1) always, other shiny pixels (bit
     0) where cos θ > ``cos_glare``, θ from ``normal`` ((H, W, 3); an empty array: the depth
-    image's central differences, none beside a hole or the border). (lost (H, W) bool, count)."""
+    image's central differences, none beside a hole or the border); with ``drop_clear``,
+    clear ones (bit 2) too. A pixel's code is its instance's (``code_by_id[id]`` as
+    :func:`pixel_codes` looks it up, in the same pass). (lost (H, W) bool, count, clear pixels).
+
+    ``X``, ``Y``: the rays' x and y (:func:`~genie_gl.sensors.geometry.pixel_rays_xy`), (H, W)
+    each, or (1, W) and (H, 1) for a pinhole sensor, whose x depends on the column only and
+    y on the row only (the same values, without streaming a full (H, W, 2) array)."""
     H, W = depth.shape
     lost = np.zeros((H, W), np.bool_)
     n = 0
+    n_clear = 0
     have_normal = normal.shape[0] == H
+    cos2 = cos_glare * cos_glare if cos_glare > 0 else 0.0
+    last = code_by_id.shape[0] - 1
     for v in range(H):
         for u in range(W):
-            c = kind[v, u]
+            if not depth[v, u] > 0:
+                continue
+            c = code_by_id[min(ids[v, u], last)]
+            if c == 0:
+                continue
+            if c & 4:
+                n_clear += 1
+                if drop_clear:
+                    lost[v, u] = True
+                    n += 1
+                    continue
             if c & 2:
                 lost[v, u] = True
                 n += 1
                 continue
             if not c & 1:
                 continue
-            x, y, z = xy[v, u, 0], xy[v, u, 1], np.float64(depth[v, u])
-            dl = np.sqrt(x * x + y * y + 1.0)
-            dx, dy, dz = x / dl, y / dl, 1.0 / dl
+            x, y = _xat(X, v, u), _yat(Y, v, u)
             if have_normal:
                 nx, ny, nz = np.float64(normal[v, u, 0]), np.float64(normal[v, u, 1]), np.float64(normal[v, u, 2])
             else:
@@ -299,21 +287,30 @@ def specular_lost(depth, xy, normal, kind, cos_glare):  # pragma: no cover - com
                 zc, ze = np.float64(depth[v + 1, u]), np.float64(depth[v - 1, u])
                 if za <= 0 or zb <= 0 or zc <= 0 or ze <= 0:
                     continue
-                ax = xy[v, u + 1, 0] * za - xy[v, u - 1, 0] * zb
-                ay = xy[v, u + 1, 1] * za - xy[v, u - 1, 1] * zb
+                ax = _xat(X, v, u + 1) * za - _xat(X, v, u - 1) * zb
+                ay = _yat(Y, v, u + 1) * za - _yat(Y, v, u - 1) * zb
                 az = za - zb
-                bx = xy[v + 1, u, 0] * zc - xy[v - 1, u, 0] * ze
-                by = xy[v + 1, u, 1] * zc - xy[v - 1, u, 1] * ze
+                bx = _xat(X, v + 1, u) * zc - _xat(X, v - 1, u) * ze
+                by = _yat(Y, v + 1, u) * zc - _yat(Y, v - 1, u) * ze
                 bz = zc - ze
                 nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-                ln = np.sqrt(nx * nx + ny * ny + nz * nz)
+            # cos θ = |n·r| / (|n|·|r|), r = (x, y, 1): first squared, without a root or a
+            # division, with a margin far beyond its rounding; only near the threshold exactly
+            nr = nx * x + ny * y + nz
+            n2 = nx * nx + ny * ny + nz * nz
+            if nr * nr < cos2 * n2 * (x * x + y * y + 1.0) * (1.0 - 1e-5):
+                continue
+            dl = np.sqrt(x * x + y * y + 1.0)
+            dx, dy, dz = x / dl, y / dl, 1.0 / dl
+            if not have_normal:
+                ln = np.sqrt(n2)
                 if ln == 0:
                     continue
                 nx, ny, nz = nx / ln, ny / ln, nz / ln
             if abs(nx * dx + ny * dy + nz * dz) > cos_glare:
                 lost[v, u] = True
                 n += 1
-    return lost, n
+    return lost, n, n_clear
 
 
 @njit(cache=True, nogil=True)
@@ -346,3 +343,24 @@ def edge_pixels(depth, jump):  # pragma: no cover - compiled
                 nb[n] = other
                 n += 1
     return idx[:n].copy(), nb[:n].copy()
+
+
+@njit(cache=True, nogil=True)
+def drop_where(depth, instance, semantic, gone):  # pragma: no cover - compiled
+    """Copies of ``depth`` (as float32), ``instance`` and ``semantic`` with 0 where ``gone``
+    (the bytes of :func:`~genie_gl.sensors.effect.drop`), in one pass."""
+    H, W = depth.shape
+    d = np.empty((H, W), np.float32)
+    i = np.empty_like(instance)
+    s = np.empty_like(semantic)
+    for v in range(H):
+        for u in range(W):
+            if gone[v, u]:
+                d[v, u] = 0
+                i[v, u] = 0
+                s[v, u] = 0
+            else:
+                d[v, u] = depth[v, u]
+                i[v, u] = instance[v, u]
+                s[v, u] = semantic[v, u]
+    return d, i, s

@@ -154,6 +154,7 @@ class CoverageProblem:
                                                         float(resolution_m), float(radius_m))
         self.total = float(self.weight.sum()) or 1.0
         self._stamp, self._mark = np.zeros(len(self.weight), np.int64), 0
+        self._bits: tuple | None = None  # (indices they were made from, DiscBits or None)
 
     @property
     def cover(self) -> np.ndarray:
@@ -168,9 +169,22 @@ class CoverageProblem:
         rows, cols = np.nonzero(cover)
         self.indptr = np.r_[0, np.cumsum(np.bincount(rows, minlength=len(self.candidates)))].astype(np.int64)
         self.indices = cols.astype(np.int64)
+        self._bits = None
+
+    def disc_bits(self):
+        """The discs as bit sets (:mod:`.placement_bits`: the same sums, word by word), or None
+        when the weights are not whole numbers."""
+        if self._bits is None or self._bits[0] is not self.indices:
+            from .placement_bits import DiscBits
+
+            self._bits = (self.indices, DiscBits.of(self.indptr, self.indices, self.weight))
+        return self._bits[1]
 
     def fitnesses(self, population: np.ndarray) -> np.ndarray:
         """Covered weight share of each chromosome (rows of candidate indices)."""
+        bits = self.disc_bits()
+        if bits is not None:
+            return bits.fitnesses(population) / self.total
         w, self._mark = coverage.union_weights(np.ascontiguousarray(population, np.int64), self.indptr,
                                                self.indices, self.weight, self._stamp, self._mark)
         return w / self.total
@@ -271,6 +285,9 @@ def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Genera
 
 def greedy_indices(problem: CoverageProblem, n: int) -> np.ndarray:
     """Candidate indices chosen greedily: each adds the most new weight."""
+    bits = problem.disc_bits()
+    if bits is not None:
+        return bits.greedy(n)
     return coverage.greedy(int(n), problem.indptr, problem.indices, problem.weight)
 
 

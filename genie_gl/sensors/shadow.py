@@ -7,14 +7,34 @@ a strip of background that the second view cannot see (the "shadow"), and a band
 image border lies outside the second view's field. The strip on a wall at z_w behind an
 edge at z_b is b·(z_w − z_b)/z_b wide on the wall, f·b·(1/z_b − 1/z_w) pixels in the image.
 
-Done geometrically: every valid pixel's camera-frame point goes into the second view's frame,
-is projected there, and is compared with a low-resolution depth render of the scene from that
-view (``render_depth``, which ``simulate`` hands to effects with ``needs_render``).
+Two methods (``method``; the ``accuracy:`` block's ``shadow``):
 
-The second view is rendered only when the frame has an edge that can hide something from it:
-two neighbouring returns whose depth gap exceeds the tolerance and whose shadow,
-f·b·(1/z_near − 1/z_far) pixels, reaches half a pixel. Without one, no point can lie behind
-another as the second view sees it, and only the border band (pure geometry) is dropped.
+* ``render`` — every valid pixel's camera-frame point goes into the second view's frame, is
+  projected there, and is compared with a low-resolution depth render of the scene from that
+  view (``render_depth``, which ``simulate`` hands to effects with ``needs_render``). Any
+  pair, any lens. The second view is rendered only when the frame has an edge that can hide
+  something from it: two neighbouring returns whose depth gap exceeds the tolerance and whose
+  shadow, f·b·(1/z_near − 1/z_far) pixels, reaches half a pixel. Without one, only the border
+  band (pure geometry) is dropped.
+* ``scanline`` — for a rectified pair (R = I, T along x: the D400's two imagers) and an
+  undistorted pinhole sensor, a return at (u, v, z) appears in the second view in the same
+  row at u + f·t_x/z, so each row of the second view is drawn from the row of the depth
+  image itself (:func:`.kernels.scanline_shadow`, a one-dimensional depth buffer per row):
+  no render: about 2 ms at 848 x 480 against 10-18 ms for the render method, its render
+  included (``genie bench planning``, 2 shared cores). ``auto`` (the default) takes it
+  wherever the pair allows it.
+
+What differs: the scanline method knows only the surfaces the first view sees, as the
+pixels sample them (a pixel covers half a pixel either side of its centre in the second
+view where no neighbour continues its surface). A surface the first view cannot see but the
+second can (the side of a post turned to the second imager, an object just outside the
+first view on the baseline's side) hides nothing, and an edge is placed at the pixel
+boundary rather than where the triangle ends, so the two methods can part by a pixel at an
+edge. Measured on the generated assembly line (D435, 4 and 8 views, 407,040 returns each):
+the scanline and a full-resolution render agree on 99.3-99.9 % of the returns; the
+half-resolution render the render method uses by default agrees with the full-resolution one
+on 98.4-99.85 % (``genie bench planning`` prints both; tests/sensors/test_scanline_shadow.py:
+analytic strip widths, a post narrower than its shadow, agreement on a cluttered scene).
 """
 from __future__ import annotations
 
@@ -29,6 +49,10 @@ from .camera import Sensor
 from . import kernels
 from .effect import Effect, record
 from .geometry import pixel_rays
+
+
+METHODS = ("auto", "scanline", "render")
+SCANLINE_MS_PER_MPX = 5.0   # the planner's estimate of the scanline method (cost_per_mpx)
 
 
 @dataclass
@@ -60,8 +84,11 @@ class StereoShadow(Effect):
     scale: float = 0.5
     tolerance_m: float = 0.005
     tolerance_rel: float = 0.02
+    method: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ConfigError(f"stereo_shadow.method: expected {' | '.join(METHODS)}, got {self.method!r}")
         a = np.asarray(self.axis, dtype=np.float64)
         if a.shape != (3,) or not np.isfinite(a).all() or np.linalg.norm(a) == 0:
             raise ConfigError(f"stereo_shadow.axis: expected a non-zero 3-vector, got {self.axis!r}")
@@ -87,6 +114,34 @@ class StereoShadow(Effect):
         out[:3, 3] = -float(b) * a / np.linalg.norm(a)   # X2 = X1 − C2, C2 = b·axis
         return out
 
+    def scanline_shift(self, sensor: Sensor) -> float | None:
+        """fx·tx (pixel·metres) when the second view is the first one moved along its x axis
+        only (R = I, T = (tx, 0, 0)) and the sensor is an undistorted pinhole without skew, so
+        that a return at depth z appears in the same row, fx·tx/z pixels along; else None."""
+        if not sensor.is_pinhole or sensor.K[0, 1] != 0:
+            return None
+        second = self.second_from_first(sensor)
+        R, t = second[:3, :3], second[:3, 3]
+        if np.abs(R - np.eye(3)).max() > 1e-12 or abs(t[1]) > 1e-12 or abs(t[2]) > 1e-12:
+            return None
+        return float(sensor.fx * t[0])
+
+    def resolved_method(self, sensor: Sensor) -> str:
+        """"scanline" or "render": what ``method`` amounts to for ``sensor``."""
+        if self.method == "render":
+            return "render"
+        if self.scanline_shift(sensor) is not None:
+            return "scanline"
+        if self.method == "scanline":
+            raise ConfigError(f"stereo_shadow.method: scanline needs a rectified pair (R = I, T along x) "
+                              f"and an undistorted pinhole sensor; {sensor.name!r} is not one (use render)")
+        return "render"
+
+    def cost_per_mpx(self, sensor: Sensor) -> float:
+        """The render method's estimate, or the scanline's (measured at 848 x 480 on the
+        llvmpipe host: about 1.6 ms for the pass and 0.3 ms for the drop)."""
+        return SCANLINE_MS_PER_MPX if self.resolved_method(sensor) == "scanline" else float(self.cost_ms_per_mpx)
+
     def view_sensor(self, sensor: Sensor) -> Sensor:
         """The pinhole camera of the second view's low-resolution render."""
         base = sensor
@@ -111,6 +166,8 @@ class StereoShadow(Effect):
         return bool(kernels.casts_shadow(frame.depth, fb, float(self.tolerance_m), float(self.tolerance_rel)))
 
     def apply(self, frame: Frame, *, rng: np.random.Generator, render_depth=None, **needs) -> Frame:
+        if self.resolved_method(frame.sensor) == "scanline":
+            return self.apply_scanline(frame)
         if render_depth is None:
             raise ConfigError("stereo_shadow needs a renderer: run it through simulate()/capture(), "
                               "or pass render_depth=(sensor, pose) -> depth")
@@ -138,4 +195,19 @@ class StereoShadow(Effect):
                 normal[gone] = 0
             out = frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)
         return record(out, self.name, occluded=int(occluded), outside=int(outside),
-                      second_view=rendered)
+                      second_view=rendered, method="render", changed=int(occluded + outside))
+
+    def apply_scanline(self, frame: Frame) -> Frame:
+        """The scanline method: the second view from the depth image (no render)."""
+        gone, occluded, outside = kernels.scanline_shadow(
+            frame.depth, float(self.scanline_shift(frame.sensor)), float(self.tolerance_m), float(self.tolerance_rel))
+        out = frame
+        if occluded + outside:
+            depth, inst, sem = kernels.drop_where(frame.depth, frame.instance, frame.semantic, gone)
+            normal = frame.normal
+            if normal is not None:
+                normal = normal.copy()
+                normal[gone] = 0
+            out = frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)
+        return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=False,
+                      method="scanline", changed=int(occluded + outside))

@@ -18,7 +18,8 @@ are drawn, the far plane is its ``far_m``, an effect it skips is skipped. Every 
 skipped by the plan is asked again on the frame (:meth:`Effect.check`); a skip never changes
 the output or the RNG stream (:meth:`Effect.skip` draws what a run would have). Each frame's
 ``meta["effects"]`` records, per effect: ``name``, ``run``, ``reason``, ``ms`` and
-``changed`` (pixels whose depth or instance id the effect changed).
+``changed`` (pixels whose depth or instance id the effect changed: what the effect recorded
+as ``meta[name]["changed"]`` when it counts them itself, else a comparison of the frames).
 """
 from __future__ import annotations
 
@@ -107,8 +108,13 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
                 run, reason = False, why
         if run:
             before = frame
+            mine = (frame.meta or {}).get(eff.name)
             frame = eff.apply(frame, rng=rng, **needs) if needs else eff.apply(frame, rng=rng)
-            changed = _changed(before, frame)
+            rec = (frame.meta or {}).get(eff.name)
+            if isinstance(rec, dict) and rec is not mine and "changed" in rec:
+                changed = int(rec["changed"])     # the effect counted what it changed
+            else:
+                changed = _changed(before, frame)
         else:
             eff.skip(frame, rng)
             changed = 0

@@ -16,19 +16,22 @@ def depth_with_holes(seed=0, h=40, w=50):
     return d
 
 
-def test_stereo_noise_rng_equals_numpy_draws_and_model():
+@pytest.mark.parametrize("step", [1 / 32, 0.1, 0.0])   # a power of two (multiplied), others divided
+def test_stereo_noise_rng_equals_numpy_draws_and_model(step):
     d = depth_with_holes()
-    fb, sigma_d, step = 426.2 * 0.05, 0.08, 1 / 32
-    out, lost = kernels.stereo_noise_rng(d, np.random.default_rng(7), fb, sigma_d, step)
+    fb, sigma_d = 426.2 * 0.05, 0.08
+    out, lost, changed = kernels.stereo_noise_rng(d, np.random.default_rng(7), fb, sigma_d, step)
     ref_rng = np.random.default_rng(7)
     valid = d > 0
     z = d.astype(np.float64)[valid]
     noisy = z + ref_rng.standard_normal(z.size) * (z * z * sigma_d / fb)   # the model, in numpy
-    disp = np.round(fb / np.maximum(noisy, 1e-6) / step) * step
-    noisy = np.where(disp > 0, fb / np.maximum(disp, 1e-12), 0.0)
+    if step:
+        disp = np.round(fb / np.maximum(noisy, 1e-6) / step) * step
+        noisy = np.where(disp > 0, fb / np.maximum(disp, 1e-12), 0.0)
     ref = np.zeros_like(d)
     ref[valid] = noisy.astype(np.float32)
     assert lost == 0 and out.tobytes() == ref.tobytes()
+    assert changed == int((out != d).sum()) > 0.9 * valid.sum()   # the pixels it changed, counted
     old, old_lost = kernels.stereo_noise(d, np.random.default_rng(7).standard_normal(z.size), fb, sigma_d, step)
     assert old_lost == lost and old.tobytes() == out.tobytes()
 
@@ -37,7 +40,7 @@ def test_linear_noise_rng_equals_numpy_draws_and_counts_lost():
     d = depth_with_holes(1)
     a, b, z0 = 1.0, 0.0, 0.5          # σ 1 m: about a fifth of the returns pushed to <= 0
     g = np.random.default_rng(3)
-    out, lost = kernels.linear_noise_rng(d, g, a, b, z0)
+    out, lost, changed = kernels.linear_noise_rng(d, g, a, b, z0)
     ref_rng = np.random.default_rng(3)
     valid = d > 0
     z = d.astype(np.float64)[valid]
@@ -46,6 +49,7 @@ def test_linear_noise_rng_equals_numpy_draws_and_counts_lost():
     ref[valid] = np.where(noisy > 0, noisy, 0)
     assert lost == int((noisy <= 0).sum()) > 0
     assert out.tobytes() == ref.tobytes()
+    assert changed == int((out != d).sum()) and changed >= lost
     assert g.standard_normal() == ref_rng.standard_normal()   # the same state afterwards
 
 

@@ -92,6 +92,8 @@ def test_a_frame_check_skip_is_the_run_byte_for_byte_and_a_run_changes_pixels(na
     assert rng_a.bit_generator.state == rng_b.bit_generator.state      # the same RNG stream
     out, rec, forced, rng_a, rng_b = simulated(eff, busy, busy_mat)
     assert rec["run"] is True and rec["changed"] > 0 and same(out, forced)
+    # what the effect counted itself (or simulate compared) is the pixels that differ
+    assert rec["changed"] == int(((busy.depth != out.depth) | (busy.instance != out.instance)).sum())
     assert rng_a.bit_generator.state == rng_b.bit_generator.state
 
 
@@ -234,9 +236,9 @@ def test_stereo_shadow_renders_the_second_view_only_for_an_edge():
         def casts_shadow(self, frame):
             return True
 
-    for scene, rendered in ((flat, False), (boxed, True)):
-        out = gg.capture(scene, tof(StereoShadow(baseline_m=0.05)), [pose], seed=0)[0]
-        forced = gg.capture(scene, tof(Always(baseline_m=0.05)), [pose], seed=0)[0]
+    for scene, rendered in ((flat, False), (boxed, True)):   # the render method (scanline renders nothing)
+        out = gg.capture(scene, tof(StereoShadow(baseline_m=0.05, method="render")), [pose], seed=0)[0]
+        forced = gg.capture(scene, tof(Always(baseline_m=0.05, method="render")), [pose], seed=0)[0]
         assert out.meta["stereo_shadow"]["second_view"] is rendered
         assert same(out, forced)
         assert out.meta["effects"][0]["changed"] > 0     # the border band, and the strip

@@ -35,8 +35,9 @@ def shadowed(r, effect, meta=None):
     return ideal, out
 
 
-def test_stereo_shadow_strip_has_the_analytic_width(box_and_wall):
-    ideal, out = shadowed(box_and_wall, StereoShadow(baseline_m=B))   # second view at +x, half resolution
+@pytest.mark.parametrize("method", ["render", "scanline"])
+def test_stereo_shadow_strip_has_the_analytic_width(box_and_wall, method):
+    ideal, out = shadowed(box_and_wall, StereoShadow(baseline_m=B, method=method))   # second view at +x
     gone = (ideal.depth > 0) & (out.depth == 0)
     assert not out.instance[gone].any() and not out.semantic[gone].any()
     assert out.normal is None and np.isfinite(out.depth).all()
@@ -54,7 +55,7 @@ def test_stereo_shadow_strip_has_the_analytic_width(box_and_wall):
     assert np.abs(np.array(bands) - band).max() <= 1.0
     # the same pair from a stereo calibration (X2 = X1 + T, T = (-b, 0, 0)) gives the same frame
     stereo = {"stereo_R": np.eye(3), "stereo_T": np.array([-B, 0, 0])}
-    _, calibrated = shadowed(box_and_wall, StereoShadow(), stereo)
+    _, calibrated = shadowed(box_and_wall, StereoShadow(method=method), stereo)
     assert calibrated.depth.tobytes() == out.depth.tobytes()
 
 
@@ -65,7 +66,7 @@ def test_stereo_shadow_fused_pass_equals_mask_then_drop(box_and_wall):
     from genie_gl.sensors.effect import drop
     from genie_gl.sensors.geometry import pixel_rays
 
-    eff = StereoShadow(baseline_m=B)
+    eff = StereoShadow(baseline_m=B, method="render")
     s = gg.Sensor.pinhole(320, 240, F)
     f = box_and_wall.render(s, np.eye(4), normals=True)
     second, view = eff.second_from_first(s), eff.view_sensor(s)
@@ -89,7 +90,7 @@ def test_stereo_shadow_without_baseline_or_renderer_is_a_clear_error(box_and_wal
         shadowed(box_and_wall, StereoShadow())
     f = box_and_wall.render(gg.Sensor.pinhole(32, 24, 30.0), np.eye(4))
     with pytest.raises(gg.ConfigError, match="needs a renderer"):
-        StereoShadow(baseline_m=0.05).apply(f, rng=np.random.default_rng(0))
+        StereoShadow(baseline_m=0.05, method="render").apply(f, rng=np.random.default_rng(0))
 
 
 def test_rendered_normals_drive_incidence_effects():
