@@ -444,3 +444,39 @@ def test_cube_faces_render_everything_and_the_range_is_applied_after():
         sides = [m for m in views if np.any(m.rotation - np.eye(3))]
         assert len(sides) == 4 and all(m.render_sensor.far_m == want for m in sides)
         assert all(m.render_sensor.near_m == 1e-4 / 1024 for m in sides)
+
+
+def test_view_size_limit_is_inclusive_at_4096_pixels():
+    """A view of exactly MAX_VIEW_PX = 4096 columns is made; one more column is refused by
+    name. With focal 1 and rays on z = 1 from x = 0 to x = X, the view's principal point
+    lands 1 px inside (cx = 1) and its width is ceil(X + cx) + 3: X = 4092 gives 4096."""
+    from genie_gl.sensors.distortion import MAX_VIEW_PX, _view
+
+    cam = Camera(2, 1, np.array([[1.0, 0, 0.5], [0, 1.0, 0], [0, 0, 1]]), [], near_m=0.1, far_m=10.0)
+    serve = np.ones((1, 2), bool)
+    ok = _view(cam, np.eye(3), "t", serve, np.array([[0.0, 4092.0]]), np.zeros((1, 2)), 1.0, 1.0, 0.0, 0.0, None)
+    assert MAX_VIEW_PX == 4096
+    assert (ok.render_sensor.width, ok.render_sensor.height) == (4096, 4)
+    assert ok.render_sensor.cx == 1.0 and ok.map_x.tolist() == [[1.0, 4093.0]]
+    with pytest.raises(ConfigError, match="4097x4 pinhole view"):
+        _view(cam, np.eye(3), "t", serve, np.array([[0.0, 4093.0]]), np.zeros((1, 2)), 1.0, 1.0, 0.0, 0.0, None)
+
+
+def test_one_front_view_while_twice_the_widest_ray_plus_8_fits_4096_pixels():
+    """An ideal-ish pinhole (k1 = 1e-12) 4000 px wide with f = 1000 and its principal point at
+    u = 2043.8: the widest ray is 2043.8 px from the axis, and 2 x 2043.8 + 8 = 4095.6 <= 4096,
+    so one front view holds it (4003 px wide: 1 px of margin on the left, 3 on the right); at
+    u = 2044.3 (4096.6) the lens needs cube faces; exactly 4096 still fits."""
+    def views(cx):
+        K = np.array([[1000.0, 0, cx], [0, 1000.0, 0.5], [0, 0, 1]])
+        return lens_views(Camera(4000, 2, K, [1e-12, 0, 0, 0], near_m=0.1, far_m=10.0), oversample=1.0)
+
+    (one,) = views(2043.8)
+    assert one.z_scale is None and one.render_sensor.width == 4003
+    assert one.render_sensor.cx == pytest.approx(2044.8, abs=1e-9)
+    assert len(views(2044.3)) > 1
+    # the bound itself: f = 1024 and the principal point at u = 2044 put the widest ray at
+    # exactly 2044 px (binary fractions), and 2 x 2044 + 8 = 4096 still takes one view
+    K = np.array([[1024.0, 0, 2044.0], [0, 1024.0, 0.5], [0, 0, 1]])
+    (edge,) = lens_views(Camera(4000, 2, K, [0.0, 0, 0, 0], near_m=0.1, far_m=10.0), oversample=1.0)
+    assert edge.z_scale is None and edge.render_sensor.width == 4003
