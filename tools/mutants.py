@@ -44,7 +44,7 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
              # the lens equations against cv2 and first principles, no GL: a few seconds in all
              # (the rendered lens tests cost minutes per mutant). The lens caches (_fold,
              # _directions, _rays, _lens_views) wrap undecorated bodies so that mutmut reaches them
-             ["tests/sensors/test_lens_truths.py",
+             ["tests/sensors/test_lens_truths.py", "tests/sensors/test_lens_inverse_hard.py",
               *(f"tests/sensors/test_sensors.py::{t}" for t in (
                   "test_distortion_maps_put_rays_where_cv2_projects_them",
                   "test_distortion_maps_stay_inside_the_wide_render", "test_numpy_lens_projection_equals_cv2",
