@@ -132,3 +132,16 @@ def drop(frame: Frame, mask: np.ndarray, depth: np.ndarray | None = None) -> Fra
         normal = normal.copy()
         normal[mask] = 0
     return frame.replace(depth=d.astype(np.float32, copy=False), instance=inst, semantic=sem, normal=normal)
+
+
+def drop_compiled(frame: Frame, mask: np.ndarray) -> Frame:
+    """:func:`drop` in one compiled pass over the frame (the same bytes), for effects that
+    drop on most frames (stereo shadow, specular loss)."""
+    from . import kernels
+
+    depth, inst, sem = kernels.drop_where(frame.depth, frame.instance, frame.semantic, mask)
+    normal = frame.normal
+    if normal is not None:
+        normal = normal.copy()
+        normal[mask] = 0
+    return frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)

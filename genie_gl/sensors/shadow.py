@@ -47,7 +47,7 @@ from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
 from . import kernels
-from .effect import Effect, record
+from .effect import Effect, drop_compiled, record
 from .geometry import pixel_rays
 
 
@@ -201,13 +201,6 @@ class StereoShadow(Effect):
         """The scanline method: the second view from the depth image (no render)."""
         gone, occluded, outside = kernels.scanline_shadow(
             frame.depth, float(self.scanline_shift(frame.sensor)), float(self.tolerance_m), float(self.tolerance_rel))
-        out = frame
-        if occluded + outside:
-            depth, inst, sem = kernels.drop_where(frame.depth, frame.instance, frame.semantic, gone)
-            normal = frame.normal
-            if normal is not None:
-                normal = normal.copy()
-                normal[gone] = 0
-            out = frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)
+        out = drop_compiled(frame, gone) if occluded + outside else frame
         return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=False,
                       method="scanline", changed=int(occluded + outside))

@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..frame import Frame
 from . import kernels
-from .effect import Decision, Effect, View, drop, record
+from .effect import Decision, Effect, View, drop, drop_compiled, record
 from .geometry import pixel_rays_xy
 
 TRANSPARENT = ("drop", "behind")
@@ -93,14 +93,7 @@ class SpecularLoss(Effect):
             frame.depth, frame.instance, self._codes(materials), *pixel_rays_xy(frame.sensor), normal,
             float(np.cos(np.radians(self.glare_deg))), not behind_glass)
         if not (behind_glass and n_clear):
-            out = frame
-            if n_lost:
-                depth, inst, sem = kernels.drop_where(frame.depth, frame.instance, frame.semantic, lost)
-                normal = frame.normal
-                if normal is not None:
-                    normal = normal.copy()
-                    normal[lost] = 0
-                out = frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)
+            out = drop_compiled(frame, lost) if n_lost else frame
             return record(out, self.name, dropped=int(n_lost), behind=0, changed=int(n_lost))
         kind, _ = self._kinds(frame, materials)
         clear = (kind & 4).astype(bool)
