@@ -230,8 +230,8 @@ class Camera:
             else:
                 ok &= z > 0
                 xd, yd = distort_normalized(x / z, y / z, self.dist) if len(self.dist) else (x / z, y / z)
-        K = self.K
-        uv = np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], 1)
+            K = self.K   # (a point at z = 0 gives inf here, masked just below)
+            uv = np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], 1)
         uv[~ok] = np.nan
         return uv
 
@@ -279,14 +279,28 @@ def _pinhole_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: fl
     k[:len(dist)] = dist
     if not (k[12] or k[13]):   # a few fixed-point steps on the radial part (as cv2 does) first
         for _ in range(8):
-            r2 = x * x + y * y
             with np.errstate(all="ignore"):
+                r2 = x * x + y * y
                 radial = (1 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]))) / (1 + r2 * (k[5] + r2 * (k[6] + r2 * k[7])))
                 dx = 2 * k[2] * x * y + k[3] * (r2 + 2 * x * x) + k[8] * r2 + k[9] * r2 * r2
                 dy = k[2] * (r2 + 2 * y * y) + 2 * k[3] * x * y + k[10] * r2 + k[11] * r2 * r2
                 nx, ny = (xd - dx) / radial, (yd - dy) / radial
             good = np.isfinite(nx) & np.isfinite(ny) & (radial > 0)
             x, y = np.where(good, nx, x), np.where(good, ny, y)
+    x, y, ok = _newton(x, y, xd, yd, dist, r_max)
+    for shrink in (0.5, 0.25):   # a start past a strong lens's fold or pole: again from nearer the axis
+        retry = ~ok & np.isfinite(xd) & np.isfinite(yd)
+        if not retry.any():
+            break
+        rx, ry, rok = _newton(shrink * xd[retry], shrink * yd[retry], xd[retry], yd[retry], dist, r_max)
+        x[retry], y[retry], ok[retry] = rx, ry, rok
+    return np.where(ok, x, np.nan), np.where(ok, y, np.nan)
+
+
+def _newton(x: np.ndarray, y: np.ndarray, xd: np.ndarray, yd: np.ndarray, dist: np.ndarray,
+            r_max: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Damped Newton steps (numerical Jacobian) from (x, y) towards distort_normalized = (xd, yd);
+    (x, y, ok) with ok where the root reproduces the pixel inside the fold."""
     h = 1e-7
     with np.errstate(all="ignore"):
         for _ in range(12):
@@ -308,7 +322,7 @@ def _pinhole_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: fl
         fx, fy = distort_normalized(x, y, dist)
         res = np.hypot(fx - xd, fy - yd)
         ok = (res < 1e-9 * (1 + np.hypot(xd, yd))) & (np.hypot(x, y) < r_max) & np.isfinite(x) & np.isfinite(y)
-    return np.where(ok, x, np.nan), np.where(ok, y, np.nan)
+    return x, y, ok
 
 
 def _fisheye_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max: float) -> np.ndarray:
