@@ -7,6 +7,8 @@
 """
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,3 +39,16 @@ def check_pose(pose: Any, where: str = "pose") -> np.ndarray:
         raise ConfigError(f"{where}: not a rotation (|RᵀR - I| = {err:.3g}, det {np.linalg.det(R):.3g}); a camera pose "
                           "has no scale, shear or mirror")
     return T
+
+
+def read_poses(path: str | Path) -> list[np.ndarray]:
+    """Poses from a .npy (K, 4, 4) array or a JSON list of 4x4 matrices."""
+    path = Path(path)
+    try:
+        data = np.load(path) if path.suffix == ".npy" else np.array(json.loads(path.read_text()), dtype=np.float64)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{path}: cannot read poses ({exc}); expected .npy (K, 4, 4) or JSON [[4x4], ...]") from None
+    data = np.asarray(data, dtype=np.float64)
+    if data.ndim != 3 or data.shape[1:] != (4, 4) or not np.isfinite(data).all():
+        raise ConfigError(f"{path}: poses: expected K finite 4x4 matrices, got shape {data.shape}")
+    return list(data)

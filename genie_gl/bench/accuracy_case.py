@@ -11,30 +11,12 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from ..checks import read_poses
 from ..errors import ConfigError
 from .knobs import Case
-
-
-def _takes(fn: Any, name: str) -> bool:
-    import inspect
-
-    return name in inspect.signature(fn).parameters
-
-
-def _poses(path: str) -> list[np.ndarray]:
-    p = Path(path)
-    try:
-        arr = np.load(p) if p.suffix == ".npy" else np.array(json.loads(p.read_text()), dtype=np.float64)
-    except (OSError, ValueError) as exc:
-        raise ConfigError(f"--poses {p}: cannot read poses ({exc})") from None
-    arr = np.asarray(arr, dtype=np.float64)
-    if arr.ndim != 3 or arr.shape[1:] != (4, 4) or not len(arr) or not np.isfinite(arr).all():
-        raise ConfigError(f"--poses {p}: expected a list of finite 4x4 matrices, got shape {arr.shape}")
-    return list(arr)
 
 
 def content_poses(scene, n: int, *, distance_m: float = 4.0, height_m: float = 3.0) -> list[np.ndarray]:
@@ -82,7 +64,7 @@ def make_case(args: argparse.Namespace) -> Case:
         from . import analytic
 
         sensor = analytic.sensor() if args.sensor is None else load_sensor(args.sensor)
-        poses = _poses(args.poses) if args.poses else [np.eye(4)]
+        poses = read_poses(args.poses) if args.poses else [np.eye(4)]
         return Case("builtin", "built-in analytic scene (wall, floor, box, sphere)", sensor, poses,
                     lambda t: analytic.scene(analytic.DEFAULT_SEGMENTS if t is None else t), tessellation_supported=True)
     sensor = load_sensor(args.sensor or "ideal_pinhole")
@@ -94,13 +76,13 @@ def make_case(args: argparse.Namespace) -> Case:
     if path.suffix.lower() in (".usd", ".usda", ".usdc", ".usdz"):
         from ..scene import usd
 
-        supported = _takes(usd.read_usd, "segments")
+        supported = True   # read_usd tessellates implicit gprims with segments=
 
         def usd_scene(t: int | None):
             return usd.read_usd(path, segments=t) if (supported and t is not None) else usd.read_usd(path)
 
         scene0 = usd_scene(None)
-        poses = _poses(args.poses) if args.poses else content_poses(scene0, args.cameras)
+        poses = read_poses(args.poses) if args.poses else content_poses(scene0, args.cameras)
         return Case("usd", str(path), sensor, poses, _cached(usd_scene, scene0), tessellation_supported=supported)
     if path.suffix.lower() != ".json":
         raise ConfigError(f"--scene {path}: expected a USD stage (.usd/.usda/.usdc) or a layout / strategy JSON")
@@ -110,14 +92,14 @@ def make_case(args: argparse.Namespace) -> Case:
 
     data = json.loads(path.read_text())
     layout = Layout.from_json(path) if isinstance(data, dict) and "nodes" in data else generate_layout(path, seed=args.seed)
-    supported = _takes(build_scene, "segments")
+    supported = True   # build_scene tessellates curved assets with segments=
 
     def built(t: int | None):
         if supported and t is not None:
             return build_scene(layout, seed=args.seed, segments=t)
         return build_scene(layout, seed=args.seed)
 
-    poses = _poses(args.poses) if args.poses else place_sensors(layout, sensor, n=args.cameras, seed=args.seed)
+    poses = read_poses(args.poses) if args.poses else place_sensors(layout, sensor, n=args.cameras, seed=args.seed)
     return Case("strategy", str(path), sensor, poses, _cached(built, built(None)), layout=layout,
                 tessellation_supported=supported)
 

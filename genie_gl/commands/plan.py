@@ -10,10 +10,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
-import numpy as np
-
+from ..checks import read_poses  # noqa: F401  (capture imports it from here)
 from ..errors import ConfigError
 
 
@@ -28,19 +26,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--scenes", type=int, default=1, help="scenes of a dataset run, for the predicted time")
     p.add_argument("--json", action="store_true", help="print the whole plan as JSON")
-
-
-def read_poses(path: str | Path) -> list[np.ndarray]:
-    """Poses from a .npy (K, 4, 4) array or a JSON list of 4x4 matrices."""
-    path = Path(path)
-    try:
-        data = np.load(path) if path.suffix == ".npy" else np.array(json.loads(path.read_text()), dtype=np.float64)
-    except (OSError, ValueError) as exc:
-        raise ConfigError(f"{path}: cannot read poses ({exc}); expected .npy (K, 4, 4) or JSON [[4x4], ...]") from None
-    data = np.asarray(data, dtype=np.float64)
-    if data.ndim != 3 or data.shape[1:] != (4, 4) or not np.isfinite(data).all():
-        raise ConfigError(f"{path}: poses: expected K finite 4x4 matrices, got shape {data.shape}")
-    return list(data)
 
 
 def scene_sensor_poses(args: argparse.Namespace):
