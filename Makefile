@@ -23,7 +23,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test test-slow mutants demo docs-images bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability \
+.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -68,6 +68,9 @@ MUTANT_TIMEOUT ?= 1200
 mutants: setup ## mutation testing of the numerical core: kill rate per module and the surviving mutants
 	$(PY) -m pip install -q -e ".[mutants]"
 	$(PY) tools/mutants.py --modules $(MUTANT_MODULES) --timeout $(MUTANT_TIMEOUT)
+
+planted-bugs: setup ## plant issue 18's bugs one at a time in build/planted/ and list the tests that catch each
+	$(PY) tools/planted_bugs.py
 
 demo: setup ## generate a 3-scene demo dataset with preview pictures into out/demo
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \

@@ -232,6 +232,33 @@ def test_sampling_and_cleaning():
     assert keep_cloud(labelled, min_points=1, min_labelled_share=0.051) == (False, "labelled share 0.050 < 0.051")
 
 
+def test_voxel_downsample_keeps_the_first_point_of_each_voxel_by_hand():
+    """Nine points in 0.5 m voxels, the voxel of each worked out by hand: the first point met
+    in each voxel stays, in order. Voxels that differ in one index only (x, y or z, negative
+    included) are distinct: a key with a wrong stride (x·ny + y·nz + z) joins (1, 0, 0) with
+    (0, 1, 0) and keeps fewer."""
+    xyz = np.array([[0.1, 0.1, 0.1],     # 0: voxel (0, 0, 0)
+                    [0.6, 0.1, 0.1],     # 1: (1, 0, 0)
+                    [0.2, 0.3, 0.4],     # 2: (0, 0, 0) again: dropped
+                    [0.1, 0.6, 0.1],     # 3: (0, 1, 0)
+                    [0.1, 0.1, 0.6],     # 4: (0, 0, 1)
+                    [-0.1, 0.1, 0.1],    # 5: (-1, 0, 0)
+                    [0.7, 0.4, 0.2],     # 6: (1, 0, 0) again: dropped
+                    [1.1, 0.6, 0.6],     # 7: (2, 1, 1)
+                    [0.4, 0.4, 0.4]], np.float32)  # 8: (0, 0, 0) again: dropped
+    n = len(xyz)
+    c = gg.PointCloud(xyz, np.arange(n, dtype=np.uint16), np.arange(n, dtype=np.uint32) + 10, np.zeros(3))
+    v = voxel_downsample(c, 0.5)
+    assert v.semantic.tolist() == [0, 1, 3, 4, 5, 7]
+    assert v.instance.tolist() == [10, 11, 13, 14, 15, 17]
+    np.testing.assert_array_equal(v.xyz, xyz[[0, 1, 3, 4, 5, 7]])
+    # a 3 x 4 x 5 block of voxel centres, one point each, shuffled: every one of the 60 kept
+    g = np.stack(np.meshgrid(np.arange(3), np.arange(4), np.arange(5), indexing="ij"), -1).reshape(-1, 3)
+    g = (g[np.random.default_rng(1).permutation(len(g))] * 0.5 + 0.25).astype(np.float32)
+    kept = voxel_downsample(gg.PointCloud(g, np.zeros(60, np.uint16), np.zeros(60, np.uint32), np.zeros(3)), 0.5)
+    np.testing.assert_array_equal(kept.xyz, g)
+
+
 def reference_points(f):
     """World points of a frame's valid pixels from first principles, float64: K⁻¹ (skew
     included) for an ideal lens, OpenCV's undistortPoints for a distorted one; scale by depth,

@@ -87,6 +87,50 @@ def test_kernel_writes_exactly_the_reference_points(W, pattern, separable):
             np.testing.assert_array_equal(co[:n], rc)
 
 
+@pytest.mark.parametrize("separable", [True, False])
+def test_unprojection_drops_nan_depth_in_every_path(separable):
+    """NaN (and negative) depth is no return in each of the kernel's paths: in words written
+    pixel by pixel (more than MAX_RUNS runs), in dense runs, and in the row's tail past its
+    last whole 64-pixel word. The kernel gets room for every pixel, so a NaN counted as a
+    return shows as a wrong count, not as a write past the buffer; the truth is pixel by pixel
+    in float64: the finite positive depths, each scaled along its ray (x, y, 1)."""
+    H, W = 4, 200                                    # 3 whole words and a tail of 8 per row
+    rng = np.random.default_rng(11)
+    d = rng.uniform(0.5, 9.0, (H, W)).astype(np.float32)
+    d[0, 1::2] = np.nan                              # every other pixel: words of 32 runs
+    d[1, 64:128] = np.nan                            # a whole word of NaN between dense runs
+    d[1, 3:60:7] = np.nan                            # and scattered ones before it
+    d[2, 192::2] = np.nan                            # the tail, pixel by pixel
+    d[3, ::3] = np.nan
+    d[3, 1::9] = -1.5
+    d[3, 2::11] = 0.0
+    ok = np.isfinite(d) & (np.nan_to_num(d, nan=-1.0) > 0)
+    # the holes planted above, counted by hand: row 3 has 67 NaN, 23 negatives (none on a
+    # NaN) and 10 zeros (18 minus 6 on a NaN and 2 on a negative)
+    assert ok.sum() == W * H - (100 + 64 + 9 + 4 + 67 + 23 + 10)
+    tx = (np.arange(W, dtype=np.float32) - 99.5) / 150.0
+    ty = (np.arange(H, dtype=np.float32) - 1.5) / 150.0
+    if separable:
+        tx, ty = tx[None, :], ty[:, None]
+    else:
+        tx, ty = np.broadcast_to(tx, (H, W)).copy(), np.broadcast_to(ty[:, None], (H, W)).copy()
+    M = np.array([[0, 0, 1, 2.0], [-1, 0, 0, -3.0], [0, -1, 0, 1.5]], np.float32)
+    xyz = np.full((H * W + 2, 3), np.nan, np.float32)
+    so, io = np.zeros(H * W + 1, np.uint16), np.zeros(H * W + 1, np.uint32)
+    ids = np.arange(H * W, dtype=np.uint32).reshape(H, W)
+    n = kernels.unproject(d, tx, ty, M, ids.astype(np.uint16), ids, np.zeros((0, 0, 3), np.uint8), xyz, so, io,
+                          np.zeros((0, 3), np.uint8))
+    assert n == int(ok.sum())
+    assert kernels.count_valid(d) == int(ok.sum())
+    np.testing.assert_array_equal(io[:n], ids[ok])   # exactly the finite positive pixels, in order
+    v, u = np.nonzero(ok)
+    x = (u - 99.5) / 150.0
+    y = (v - 1.5) / 150.0
+    cam = np.stack([x, y, np.ones_like(x)], 1) * d[ok].astype(np.float64)[:, None]
+    truth = cam @ M[:, :3].astype(np.float64).T + M[:, 3]
+    np.testing.assert_allclose(xyz[:n], truth, rtol=0, atol=1e-5)
+
+
 def test_colour_read_from_an_rgba_view_without_copy():
     """Frames carry colour as an [..., :3] view of the RGBA read-back; the kernel reads it in
     place and gives the same colours as a contiguous copy."""
