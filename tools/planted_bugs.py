@@ -203,7 +203,8 @@ INDEPENDENT = {
         "test_regions_emptied_by_a_merge_go_all_the_way_up",
         "test_a_merged_region_hangs_under_the_lowest_common_ancestor", "test_a_join_elsewhere_keeps_the_pieces_marked",
         "test_strip_cuts_by_hand_anywhere_in_the_plane", "test_the_record_of_several_merges_by_hand",
-        "test_merge_on_hand_made_layouts_gives_the_exact_rectangles")},
+        "test_merge_on_hand_made_layouts_gives_the_exact_rectangles",
+        "test_an_l_shaped_union_is_not_made_whichever_side_is_shorter")},
     # layout label raster (layout/model.py)
     "test_label_raster_puts_each_label_in_its_cells": "the label array written out by hand",
     "test_fitness_is_the_covered_weight_share_counted_cell_by_cell": "coverage counted cell by cell from the leaves",

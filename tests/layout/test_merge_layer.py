@@ -104,6 +104,28 @@ def test_an_l_shaped_union_is_not_made():
                                ("b", "up", 5.0, 2.0, 5.0, 2.0)]
 
 
+def test_an_l_shaped_union_is_not_made_whichever_side_is_shorter():
+    """Neighbours that share their bottom edge's line but not their height never merge, the
+    short one on the left or on the right (the pass sorts by height, so only one of the two
+    orders reaches the equal-height check), side by side or stacked (equal width)."""
+    left = [([0, 0, 5, 2], "a"), ([0, 2, 5, 2], "b")]
+    right = [([0, 0, 5, 4], "a")]
+    layout = generate_layout(_strategy(left, right), seed=0)
+    assert _leaves(layout) == [("a", "up", 0.0, 0.0, 5.0, 2.0), ("a", "up", 5.0, 0.0, 5.0, 4.0),
+                               ("b", "up", 0.0, 2.0, 5.0, 2.0)]
+    assert "merges" not in layout.meta
+    for x, y, w, h in (([0, 1], [0, 0], [1, 1], [1, 2]), ([0, 1], [0, 0], [1, 1], [2, 1]),     # side by side
+                       ([0, 0], [0, 1], [1, 2], [1, 1]), ([0, 0], [0, 1], [2, 1], [1, 1])):    # stacked
+        group, gx, gy, gw, gh = merge_leaves(np.array(x, float), np.array(y, float), np.array(w, float),
+                                             np.array(h, float), np.zeros(2, np.int64))
+        assert group.tolist() == [0, 1] or group.tolist() == [1, 0]
+        assert sorted(zip(gx, gy, gw, gh)) == sorted(zip(x, y, w, h))
+    # equal heights (widths) do merge, into the exact rectangle
+    group, gx, gy, gw, gh = merge_leaves(np.array([1.0, 0.0]), np.zeros(2), np.array([2.0, 1.0]), np.full(2, 3.0),
+                                         np.zeros(2, np.int64))
+    assert group.tolist() == [0, 0] and (gx.tolist(), gy.tolist(), gw.tolist(), gh.tolist()) == ([0], [0], [3], [3])
+
+
 def test_strip_cuts_an_l_so_the_bordering_parts_merge():
     left = [([0, 0, 5, 4], "a")]
     right = [([0, 0, 5, 2], "a"), ([0, 2, 5, 2], "b")]

@@ -61,7 +61,7 @@ def test_old_near_plane_would_fail_the_near_range_case(glctx):
 
 
 # -- lens maps against OpenCV, property-based ----------------------------------------------------
-hyp = pytest.importorskip("hypothesis")
+# hypothesis is in the test extra: a missing one fails here, never skips (no importorskip)
 from hypothesis import given, settings, strategies as hs  # noqa: E402
 
 coef = hs.floats(-0.3, 0.3, allow_nan=False)
