@@ -91,6 +91,15 @@ def toml_list(items: list[str]) -> str:
     return "[" + ", ".join(f'"{i}"' for i in items) + "]"
 
 
+# seconds added to a mutant's expected test time before mutmut's CPU limit (x 8) applies. The
+# unprojection group's mutants can hand the numba kernel an array of another layout or type,
+# which compiles a new specialisation (~40 s); with mutmut's default 1 s such a mutant was
+# stopped before the compile ended (a "timeout", counted as killed without a test failing) and
+# the next one compiled again. With room for the compile, the child writes the kernel to the
+# scratch copy's numba cache (cache=True) and the mutants after it load it: each gets a verdict
+TIMEOUT_CONSTANT = {"unprojection": 30.0}
+
+
 def prepare(group: str, work: Path) -> None:
     modules, _, tests = GROUPS[group]
     shutil.rmtree(work, ignore_errors=True)
@@ -118,6 +127,7 @@ pytest_add_cli_args_test_selection = {toml_list(tests)}
 do_not_mutate_patterns = [{", ".join("'" + p + "'" for p in NOT_NUMBERS)}]
 use_git_change_detection = false
 timeout_multiplier = 4.0
+timeout_constant = {TIMEOUT_CONSTANT.get(group, 1.0)}
 """)
 
 
