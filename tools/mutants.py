@@ -91,12 +91,13 @@ def toml_list(items: list[str]) -> str:
     return "[" + ", ".join(f'"{i}"' for i in items) + "]"
 
 
-# seconds added to a mutant's expected test time before mutmut's CPU limit (x 8) applies. The
-# unprojection group's mutants can hand the numba kernel an array of another layout or type,
-# which compiles a new specialisation (~40 s); with mutmut's default 1 s such a mutant was
-# stopped before the compile ended (a "timeout", counted as killed without a test failing) and
-# the next one compiled again. With room for the compile, the child writes the kernel to the
-# scratch copy's numba cache (cache=True) and the mutants after it load it: each gets a verdict
+# seconds added to a mutant's expected test time before mutmut's CPU limit (x 8; its wall-clock
+# limit is half that) applies. The unprojection group's mutants can hand the numba kernel an
+# array of another layout or type, which compiles a new specialisation in the mutant's child;
+# with mutmut's default 1 s such a mutant could be stopped mid-compile (a "timeout", counted as
+# killed without a test failing). Its renders need genie_gl.render.context's fork rule: mutmut
+# forks every mutant from the process that ran the clean tests through EGL, and a forked child's
+# EGL read-back waited for the parent's driver threads forever (the timeouts of earlier runs)
 TIMEOUT_CONSTANT = {"unprojection": 30.0}
 
 
