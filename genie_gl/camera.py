@@ -55,16 +55,34 @@ def tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:
     return proj_z @ rot
 
 
+def _coefficients(dist: np.ndarray) -> np.ndarray:
+    """The 14 coefficients of OpenCV's pinhole lens (k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 s4 τx τy),
+    zeros after the given ones."""
+    return np.pad(np.asarray(dist, np.float64), (0, 14 - len(dist)))
+
+
+def _radial(r2: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """The rational radial factor (1 + k1 r² + k2 r⁴ + k3 r⁶) / (1 + k4 r² + k5 r⁴ + k6 r⁶)."""
+    k1, k2, _, _, k3, k4, k5, k6, *_ = k
+    return (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+
+
+def _decentring(x: np.ndarray, y: np.ndarray, r2: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The tangential and thin-prism shifts (p1, p2, s1..s4) of the point (x, y), r² = x² + y²."""
+    _, _, p1, p2, _, _, _, _, s1, s2, s3, s4, _, _ = k
+    r4 = r2 * r2
+    return (2 * p1 * x * y + p2 * (r2 + 2 * x * x) + s1 * r2 + s2 * r4,
+            p1 * (r2 + 2 * y * y) + 2 * p2 * x * y + s3 * r2 + s4 * r4)
+
+
 def distort_normalized(x: np.ndarray, y: np.ndarray, dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """OpenCV's pinhole lens on normalised points (x, y) = (X/Z, Y/Z): the distorted (x', y')."""
-    k = np.zeros(14)
-    k[:len(dist)] = dist
-    k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4, tx, ty = k
+    k = _coefficients(dist)
     r2 = x * x + y * y
-    r4 = r2 * r2
-    radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
-    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x) + s1 * r2 + s2 * r4
-    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y + s3 * r2 + s4 * r4
+    radial = _radial(r2, k)
+    dx, dy = _decentring(x, y, r2, k)
+    xd, yd = x * radial + dx, y * radial + dy
+    tx, ty = k[12:]
     if tx or ty:
         T = tilt_matrix(tx, ty)
         w = T[2, 0] * xd + T[2, 1] * yd + T[2, 2]
@@ -96,11 +114,7 @@ def _find_fold(model: str, dist: bytes) -> float:
         lim = np.pi
     elif model == "pinhole":
         t = np.linspace(0, 60.0, 600001)   # r up to tan(89°)
-        kk = np.zeros(14)
-        kk[:len(d)] = d
-        k1, k2, _, _, k3, k4, k5, k6 = kk[:8]
-        r2 = t * t
-        f = t * (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+        f = t * _radial(t * t, _coefficients(d))
         lim = np.inf
     else:
         raise ValueError(f"no lens model {model!r}: expected one of {sorted(MODELS)}")
@@ -277,15 +291,13 @@ def _pinhole_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: fl
     if not np.any(dist):
         return xd.copy(), yd.copy()
     x, y = xd.copy(), yd.copy()
-    k = np.zeros(14)
-    k[:len(dist)] = dist
-    if not (k[12] or k[13]):   # a few fixed-point steps on the radial part (as cv2 does) first
+    k = _coefficients(dist)
+    if not (k[12] or k[13]):   # a few fixed-point steps (as cv2 does) first: x = (x' - shift) / radial
         for _ in range(8):
             with np.errstate(all="ignore"):
                 r2 = x * x + y * y
-                radial = (1 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]))) / (1 + r2 * (k[5] + r2 * (k[6] + r2 * k[7])))
-                dx = 2 * k[2] * x * y + k[3] * (r2 + 2 * x * x) + k[8] * r2 + k[9] * r2 * r2
-                dy = k[2] * (r2 + 2 * y * y) + 2 * k[3] * x * y + k[10] * r2 + k[11] * r2 * r2
+                radial = _radial(r2, k)
+                dx, dy = _decentring(x, y, r2, k)
                 nx, ny = (xd - dx) / radial, (yd - dy) / radial
             good = np.isfinite(nx) & np.isfinite(ny) & (radial > 0)
             x, y = np.where(good, nx, x), np.where(good, ny, y)
