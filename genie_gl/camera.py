@@ -286,29 +286,50 @@ def _max_off_axis(model: str, dist: np.ndarray) -> float:
 
 
 def _pinhole_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: float) -> tuple[np.ndarray, np.ndarray]:
-    """Solve distort_normalized(x, y) = (xd, yd) by Newton's method (numerical Jacobian),
-    from a radial fixed-point start; NaN where it has no solution inside the lens's fold."""
+    """Solve distort_normalized(x, y) = (xd, yd); NaN where no root lies inside the fold.
+
+    The start undoes the lens step by step: the sensor's tilt exactly (a homography), then,
+    twice, the decentring shift at the current estimate and the radial factor by bisection on
+    [0, r_max], where r·radial(r²) increases (r_max is the radial fold; 1e6 for a lens that
+    never folds, ~89.99994° off the axis). Damped Newton steps
+    on the whole lens finish it. (A start from the distorted point itself, refined by cv2's
+    fixed-point steps, can land past a strong lens's fold or pole and converge to the root
+    outside it: ~1 % of strong random lenses' points inside the fold had no ray.)"""
     if not np.any(dist):
         return xd.copy(), yd.copy()
-    x, y = xd.copy(), yd.copy()
     k = _coefficients(dist)
-    if not (k[12] or k[13]):   # a few fixed-point steps (as cv2 does) first: x = (x' - shift) / radial
-        for _ in range(8):
-            with np.errstate(all="ignore"):
-                r2 = x * x + y * y
-                radial = _radial(r2, k)
-                dx, dy = _decentring(x, y, r2, k)
-                nx, ny = (xd - dx) / radial, (yd - dy) / radial
-            good = np.isfinite(nx) & np.isfinite(ny) & (radial > 0)
-            x, y = np.where(good, nx, x), np.where(good, ny, y)
+    xs, ys = _untilt(xd, yd, k)
+    x, y = np.zeros_like(xs), np.zeros_like(ys)
+    with np.errstate(invalid="ignore"):   # an infinite pixel: inf · 0 (NaN: no ray)
+        for _ in range(2):
+            dx, dy = _decentring(x, y, x * x + y * y, k)
+            ux, uy = xs - dx, ys - dy
+            rd = np.hypot(ux, uy)
+            r = _increasing_inverse(lambda t: t * _radial(t * t, k), rd, min(r_max, 1e6))
+            s = np.divide(r, rd, out=np.ones_like(rd), where=rd > 0)
+            x, y = ux * s, uy * s
     x, y, ok = _newton(x, y, xd, yd, dist, r_max)
-    for shrink in (0.5, 0.25):   # a start past a strong lens's fold or pole: again from nearer the axis
-        retry = ~ok & np.isfinite(xd) & np.isfinite(yd)
-        if not retry.any():
-            break
-        rx, ry, rok = _newton(shrink * xd[retry], shrink * yd[retry], xd[retry], yd[retry], dist, r_max)
-        x[retry], y[retry], ok[retry] = rx, ry, rok
     return np.where(ok, x, np.nan), np.where(ok, y, np.nan)
+
+
+def _untilt(xd: np.ndarray, yd: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distorted point before the sensor's tilt (τx, τy = k[12:]): the tilt's homography inverted."""
+    if not (k[12] or k[13]):
+        return xd, yd
+    T = np.linalg.inv(tilt_matrix(k[12], k[13]))
+    w = T[2, 0] * xd + T[2, 1] * yd + T[2, 2]
+    return (T[0, 0] * xd + T[0, 1] * yd + T[0, 2]) / w, (T[1, 0] * xd + T[1, 1] * yd + T[1, 2]) / w
+
+
+def _increasing_inverse(f, target: np.ndarray, top: float) -> np.ndarray:
+    """t in [0, top] with f(t) = target, for f increasing there, by 60 halvings (top / 2⁶⁰:
+    double precision); top where the target lies past f(top)."""
+    lo, hi = np.zeros_like(target), np.full_like(target, top)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        above = f(mid) > target
+        lo, hi = np.where(above, lo, mid), np.where(above, mid, hi)
+    return 0.5 * (lo + hi)
 
 
 def _newton(x: np.ndarray, y: np.ndarray, xd: np.ndarray, yd: np.ndarray, dist: np.ndarray,
@@ -344,13 +365,8 @@ def _fisheye_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max
     (the map is increasing there); 60 halvings leave θ_max / 2⁶⁰ < 3e-18 rad, double precision
     (a Newton step after them moves θ by ~1e-16 at most)."""
     td = np.hypot(xd, yd)
-    lo, hi = np.zeros_like(td), np.full_like(td, theta_max)
     inside = td <= fisheye_theta_d(np.array(theta_max + 1e-12), dist)   # project's tolerance at the rim
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        above = fisheye_theta_d(mid, dist) > td
-        hi, lo = np.where(above, mid, hi), np.where(above, lo, mid)
-    theta = 0.5 * (lo + hi)
+    theta = _increasing_inverse(lambda t: fisheye_theta_d(t, dist), td, theta_max)
     c = np.divide(np.sin(theta), td, out=np.zeros_like(td), where=td > 0)   # the centre pixel: the axis
     d = np.stack([xd * c, yd * c, np.cos(theta)], 1)
     d[~inside] = np.nan
