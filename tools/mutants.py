@@ -33,10 +33,12 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                    ["*.projection.x_clip_coefficients__*", "*.projection.x_rigid_inverse__*"],
                    ["tests/render/test_analytic.py", "tests/render/test_hard_cases.py"]),
     "lens": (["genie_gl/camera.py", "genie_gl/sensors/distortion.py"],
-             ["*.camera.x_tilt_matrix__*", "*.camera.x_distort_normalized__*", "*.camera.x_fisheye_theta_d__*",
+             ["*.camera.x_tilt_matrix__*", "*.camera.x_distort_normalized__*", "*.camera.x__coefficients__*",
+              "*.camera.x__radial__*", "*.camera.x__decentring__*", "*.camera.x_fisheye_theta_d__*",
               "*.camera.x__find_fold__*", "*.camera.x__max_off_axis__*", "*.camera.xǁCameraǁproject__*",
               "*.camera.xǁCameraǁunproject__*", "*.camera.xǁCameraǁdirections__*", "*.camera.xǁCameraǁrays__*",
-              "*.camera.x__pinhole_inverse__*", "*.camera.x__newton__*", "*.camera.x__fisheye_inverse__*", "*.camera.x__omni_inverse__*",
+              "*.camera.x__pinhole_inverse__*", "*.camera.x__newton__*", "*.camera.x__untilt__*",
+              "*.camera.x__increasing_inverse__*", "*.camera.x__fisheye_inverse__*", "*.camera.x__omni_inverse__*",
               "*.camera.x__pixel_directions__*", "*.camera.x__pixel_rays__*",
               "*.distortion.x_project__*", "*.distortion.x__view__*", "*.distortion.x__scale_min__*",
               "*.distortion.x__build_lens_views__*", "*.distortion.x_lens_views__*",
@@ -91,6 +93,16 @@ def toml_list(items: list[str]) -> str:
     return "[" + ", ".join(f'"{i}"' for i in items) + "]"
 
 
+# seconds added to a mutant's expected test time before mutmut's CPU limit (x 8; its wall-clock
+# limit is half that) applies. The unprojection group's mutants can hand the numba kernel an
+# array of another layout or type, which compiles a new specialisation in the mutant's child;
+# with mutmut's default 1 s such a mutant could be stopped mid-compile (a "timeout", counted as
+# killed without a test failing). Its renders need genie_gl.render.context's fork rule: mutmut
+# forks every mutant from the process that ran the clean tests through EGL, and a forked child's
+# EGL read-back waited for the parent's driver threads forever (the timeouts of earlier runs)
+TIMEOUT_CONSTANT = {"unprojection": 30.0}
+
+
 def prepare(group: str, work: Path) -> None:
     modules, _, tests = GROUPS[group]
     shutil.rmtree(work, ignore_errors=True)
@@ -118,6 +130,7 @@ pytest_add_cli_args_test_selection = {toml_list(tests)}
 do_not_mutate_patterns = [{", ".join("'" + p + "'" for p in NOT_NUMBERS)}]
 use_git_change_detection = false
 timeout_multiplier = 4.0
+timeout_constant = {TIMEOUT_CONSTANT.get(group, 1.0)}
 """)
 
 

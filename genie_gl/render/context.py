@@ -10,12 +10,19 @@
 ``backend=None`` tries EGL, then OSMesa. The environment variable ``GENIE_GL_BACKEND`` is read
 by the CLI, never here. When nothing starts, :class:`BackendUnavailableError` says what was
 tried and which Debian packages fix it.
+
+A process forked after it started EGL cannot render through EGL: the driver's threads (Mesa's
+rasterizer, NVIDIA's) stay in the parent, and the child's first read-back waits for them
+forever. In such a child ``backend=None`` goes straight to OSMesa (a separate driver instance,
+started in the child) and ``"egl"`` raises; :func:`shared_context` never hands a child its
+parent's contexts. The package's own worker pools spawn, so this concerns callers that fork.
 """
 from __future__ import annotations
 
 import ctypes
 import ctypes.util
 import logging
+import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -29,6 +36,7 @@ BACKENDS = ("egl", "osmesa")
 APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6"
 
 _default_backend: str | None = None  # set once by the CLI from GENIE_GL_BACKEND
+_egl_pid: int | None = None          # the process that started EGL (its driver threads live there)
 
 GL_LOWER_LEFT = 0x8CA1
 GL_ZERO_TO_ONE = 0x935F
@@ -102,13 +110,23 @@ def create_context(backend: str | None = None, *, device_index: int = 0) -> GLCo
 
 
 _SHARED: dict[str | None, GLContext] = {}
+_shared_pid = os.getpid()
+
+
+def _forget_parents_contexts() -> None:
+    """In a forked child, drop (never release: they are the parent's) the inherited contexts."""
+    global _shared_pid
+    if _shared_pid != os.getpid():
+        _SHARED.clear()
+        _shared_pid = os.getpid()
 
 
 def shared_context(backend: str | None = None) -> GLContext:
     """This process's long-lived context for ``backend``, created on first use: renderers of
     successive scenes (``genie dataset``) share it, so the context is made and each shader
     built and compiled by the driver once per process, not once per scene. Released by
-    :func:`release_shared_contexts` (or when the process ends)."""
+    :func:`release_shared_contexts` (or when the process ends). A forked child gets its own."""
+    _forget_parents_contexts()
     backend = backend or _default_backend
     gl = _SHARED.get(backend)
     if gl is None:
@@ -118,12 +136,18 @@ def shared_context(backend: str | None = None) -> GLContext:
 
 def release_shared_contexts() -> None:
     """Release the contexts :func:`shared_context` made in this process."""
+    _forget_parents_contexts()
     while _SHARED:
         _SHARED.popitem()[1].release()
 
 
 def _EGL(device_index: int) -> GLContext:
+    global _egl_pid
+    if _egl_pid not in (None, os.getpid()):
+        raise BackendUnavailableError(f"EGL was started in process {_egl_pid}, which forked this one "
+                                      f"({os.getpid()}): its driver threads are not here")
     ctx = moderngl.create_context(standalone=True, backend="egl", require=330, device_index=device_index)
+    _egl_pid = os.getpid()
     lib = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
     lib.eglGetProcAddress.restype = ctypes.c_void_p
     lib.eglGetProcAddress.argtypes = [ctypes.c_char_p]

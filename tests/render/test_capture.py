@@ -105,6 +105,49 @@ def test_osmesa_fallback_renders_the_same_depth(tmp_path):
     np.testing.assert_allclose(osmesa.depth[same], egl.depth[same], rtol=1e-5)
 
 
+def test_a_process_forked_after_egl_renders_through_osmesa(tmp_path):
+    """EGL's driver threads stay in the process that started it: a child forked after a render
+    that read back through EGL would wait for them forever. In the child, create_context()
+    goes to OSMesa, "egl" is refused with a clear error, shared_context() is the child's own,
+    and its frame equals the exact ray caster's, as the parent's does."""
+    import signal
+
+    from genie_gl.render import Renderer, shared_context
+    from genie_gl.render import context as glc
+
+    scene, sensor = small_scene(), gg.Sensor.pinhole(96, 72, 80.0)
+    pose = look_at([5.0, -4.0, 3.0], [0, 0, 0.5])
+    parent_shared = shared_context("egl")
+    with Renderer(scene, context=parent_shared) as r:
+        parent = r.render(sensor, pose)
+    pid = os.fork()
+    if pid == 0:   # the child: no assertion here (pytest is the parent's), only an exit code
+        signal.alarm(60)
+        code = 9
+        try:
+            try:
+                create_context("egl")
+                code = 3
+            except gg.BackendUnavailableError as exc:
+                code = 4 if "forked" not in str(exc) else 5
+            if code == 5:
+                gl = create_context()
+                own = shared_context("osmesa") is not parent_shared and shared_context() is not parent_shared
+                with Renderer(scene, context=gl) as r:
+                    f = r.render(sensor, pose)
+                np.savez(tmp_path / "child.npz", depth=f.depth, instance=f.instance)
+                code = 0 if gl.backend == "osmesa" and own else 6
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0, os.waitstatus_to_exitcode(status)
+    assert glc._egl_pid == os.getpid() and shared_context("egl") is parent_shared   # the parent's untouched
+    c = np.load(tmp_path / "child.npz")
+    child = gg.Frame(c["depth"], c["instance"], np.zeros(c["depth"].shape, np.uint16), None, sensor, pose)
+    assert_matches_truth(child, scene, pose)
+    assert_matches_truth(parent, scene, pose)
+
+
 def test_frame_buffers_are_recycled_only_when_no_view_remains():
     import gc
 

@@ -104,10 +104,40 @@ def test_pinhole_inverse_recovers_strong_random_lenses_up_to_their_fold():
         d = cam.unproject(np.stack([K[0, 0] * xd + K[0, 2], K[1, 1] * yd + K[1, 2]], 1))
         err = np.hypot(d[:, 0] / d[:, 2] - x, d[:, 1] / d[:, 2] - y) / (1 + r)
         assert np.all(err < 1e-9), (i, dist, int(np.sum(~(err < 1e-9))), len(err))
-        if np.isfinite(fold) and fold < np.tan(MAX_OFF_AXIS):   # past the fold (radially): no ray
+        # past the image of a fold that is a maximum of the radial map, there is no ray; a rational
+        # lens whose denominator 1 + k4 r² + k5 r⁴ + k6 r⁶ nears 0 folds at a pole instead, and its
+        # image covers every pixel
+        k = np.pad(dist, (0, 14 - len(dist)))
+        r2 = np.linspace(0, fold, 2001) ** 2 if np.isfinite(fold) else np.zeros(0)
+        maximum = len(r2) and (1 + r2 * (k[5] + r2 * (k[6] + r2 * k[7])) > 0.2).all()
+        if maximum and fold < np.tan(MAX_OFF_AXIS):
             xo, yo = distort_normalized(np.array([1.05 * fold]), np.array([0.0]), dist)
             beyond = np.array([[K[0, 0] * xo[0] * 3 + K[0, 2], K[1, 1] * yo[0] * 3 + K[1, 2]]])
             assert np.isnan(cam.unproject(beyond)).all(), (i, dist)
+
+
+def test_every_pixel_imaging_a_point_inside_the_fold_has_a_ray():
+    """Strong random lenses (24), points anywhere inside 0.97 of the radial fold, locally
+    invertible or not: the pixel of each has a ray (some root of the lens inside the fold that
+    reproduces it to 1e-9). A start from the distorted point (cv2's fixed-point steps, then
+    Newton) left 1.2 % of such pixels without one; the radial-bisection start leaves ~0.03 %,
+    where the tangential terms fold the map inside the radial fold."""
+    rng = np.random.default_rng(23)
+    holes = total = 0
+    for i in range(24):
+        dist = random_lens(rng, i % 4)
+        fold = _fold("pinhole", dist.tobytes())
+        r = min(0.97 * fold, 1.5) * np.sqrt(rng.uniform(0, 1, 1000))
+        a = rng.uniform(0, 2 * np.pi, 1000)
+        xd, yd = distort_normalized(r * np.cos(a), r * np.sin(a), dist)
+        cam = Camera(64, 48, K, dist)
+        d = cam.unproject(np.stack([K[0, 0] * xd + K[0, 2], K[1, 1] * yd + K[1, 2]], 1))
+        ok = np.isfinite(d).all(1)
+        bx, by = distort_normalized(d[ok, 0] / d[ok, 2], d[ok, 1] / d[ok, 2], dist)
+        assert np.all(np.hypot(bx - xd[ok], by - yd[ok]) < 1e-9 * (1 + np.hypot(xd[ok], yd[ok]))), (i, dist)
+        assert np.all(np.hypot(d[ok, 0], d[ok, 1]) / d[ok, 2] < np.tan(cam.max_off_axis)), (i, dist)
+        holes, total = holes + int((~ok).sum()), total + len(ok)
+    assert holes <= 0.002 * total, (holes, total)
 
 
 # -- what the views behind a lens are called --------------------------------------------------------
@@ -157,3 +187,66 @@ def test_pinhole_inverse_recovers_a_strong_rational_pincushion_up_to_r_1():
     np.testing.assert_allclose(d[:, 0] / d[:, 2], x, atol=1e-9)
     np.testing.assert_allclose(d[:, 1] / d[:, 2], y, atol=1e-9)
     assert np.isnan(far).all()
+
+
+# -- the optical axis and the rim of the image --------------------------------------------------------
+LENSES = {"ideal": ("pinhole", []), "barrel": ("pinhole", [-0.45, 0.05, 0.001, -0.002]),
+          "fisheye": ("fisheye", [0.05, -0.02, 0.003, -0.001]), "fisheye folding": ("fisheye", [-0.3, 0.01, 0.0, 0.0]),
+          "omni": ("omni", [0.8, -0.2, 0.05, 0.001, 0.002]), "omni sphere only": ("omni", [1.3])}
+
+
+def test_the_axis_is_the_principal_point_both_ways_for_every_lens():
+    """A point on the optical axis projects exactly onto (cx, cy), and (cx, cy) unprojects
+    exactly to (0, 0, 1), whatever the lens (the fisheye's 0/0 at r = 0 included)."""
+    for model, dist in LENSES.values():
+        cam = Camera(128, 96, K, np.array(dist, float), model=model)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            uv = cam.project(np.array([[0.0, 0.0, 2.5]]))
+            d = cam.unproject(np.array([[K[0, 2], K[1, 2]]]))
+        np.testing.assert_array_equal(uv, [[K[0, 2], K[1, 2]]], err_msg=model)
+        np.testing.assert_allclose(d, [[0.0, 0.0, 1.0]], rtol=0, atol=1e-15, err_msg=model)
+
+
+def test_a_point_at_the_lens_limit_is_imaged_and_its_pixel_has_that_ray():
+    """The off-axis limit is inclusive: a point exactly max_off_axis from the axis projects to a
+    pixel whose ray comes back to it (1e-9; at a fold, where the map is flat, to the same
+    pixel), a point 1e-9 rad further has no pixel, for lenses
+    whose limit is a fold (barrel fisheye) or 89.9° (fisheye, omni)."""
+    for name in ("fisheye", "fisheye folding", "omni", "omni sphere only"):
+        model, dist = LENSES[name]
+        cam = Camera(128, 96, K, np.array(dist, float), model=model)
+        lim = cam.max_off_axis
+        for phi in (0.0, 0.7, 2.0):
+            rays = np.array([[np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.cos(t)] for t in (lim, lim + 1e-9)])
+            uv = cam.project(rays)
+            assert np.isfinite(uv[0]).all() and np.isnan(uv[1]).all(), (name, phi, uv)
+            d = cam.unproject(uv[:1])
+            np.testing.assert_allclose(cam.project(d), uv[:1], atol=1e-6, err_msg=name)
+            if name != "fisheye folding":   # at a fold θ_d is flat: θ is known to ~sqrt(eps) only
+                np.testing.assert_allclose(d[0], rays[0], atol=1e-9, err_msg=name)
+
+
+def test_a_fisheye_pixel_exactly_on_the_rim_has_a_ray():
+    """With K the identity the pixel is θ_d itself: the pixel at exactly θ_d(max_off_axis) is
+    inside the image circle (its ray is max_off_axis off the axis); a pixel 1e-9 further is not."""
+    from genie_gl.camera import fisheye_theta_d
+    dist = np.array([0.05, -0.02, 0.003, -0.001])
+    cam = Camera(8, 8, np.eye(3), dist, model="fisheye")
+    rim = float(fisheye_theta_d(np.array(cam.max_off_axis), dist))
+    d = cam.unproject(np.array([[rim, 0.0], [0.0, rim], [rim + 1e-9, 0.0]]))
+    np.testing.assert_allclose(np.arctan2(np.hypot(d[:2, 0], d[:2, 1]), d[:2, 2]), cam.max_off_axis, atol=1e-12)
+    assert np.isnan(d[2]).all()
+
+
+def test_the_ideal_pinhole_rays_are_k_bit_for_bit():
+    """Without a lens, the ray table is ((u - cx) / fx, (v - cy) / fy) exactly (no round trip
+    through unit directions), and a skewed K subtracts the skew's share of the row first."""
+    Ks = K.copy()
+    Ks[0, 1] = 3.5
+    for k in (K, Ks):
+        xy = Camera(32, 24, k, np.zeros(0)).rays()
+        v, u = np.mgrid[0:24, 0:32].astype(float)
+        y = (v - k[1, 2]) / k[1, 1]
+        np.testing.assert_array_equal(xy[..., 1], y)
+        np.testing.assert_array_equal(xy[..., 0], (u - k[0, 2] - k[0, 1] * y) / k[0, 0])
