@@ -37,7 +37,7 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
               "*.camera.x__radial__*", "*.camera.x__decentring__*", "*.camera.x_fisheye_theta_d__*",
               "*.camera.x__find_fold__*", "*.camera.x__max_off_axis__*", "*.camera.xǁCameraǁproject__*",
               "*.camera.xǁCameraǁunproject__*", "*.camera.xǁCameraǁdirections__*", "*.camera.xǁCameraǁrays__*",
-              "*.camera.x__pinhole_inverse__*", "*.camera.x__newton__*", "*.camera.x__untilt__*",
+              "*.camera.x__pinhole_inverse__*", "*.camera.x__newton__*", "*.camera.x__untilt__*", "*.camera.x__homography__*",
               "*.camera.x__increasing_inverse__*", "*.camera.x__fisheye_inverse__*", "*.camera.x__omni_inverse__*",
               "*.camera.x__pixel_directions__*", "*.camera.x__pixel_rays__*",
               "*.distortion.x_project__*", "*.distortion.x__view__*", "*.distortion.x__scale_min__*",
