@@ -58,6 +58,23 @@ def test_omni_lens_maps_raise_no_warnings_at_the_edges():
         quiet(lambda: Camera(128, 96, K, np.array(dist, float), model="omni"))
 
 
+def test_the_views_behind_lenses_raise_no_warnings():
+    """The wide view or cube faces of folding, 180° and barrel lenses (pixels without a ray
+    among them): no RuntimeWarning."""
+    from genie_gl.sensors.camera import Sensor
+    from genie_gl.sensors.distortion import lens_views
+    f = 31.0
+    fish = np.array([[f, 0, 48.0], [0, f, 36.0], [0, 0, 1]])
+    lenses = [(fish, [0.0] * 4, "fisheye"), (fish, [-0.3, 0.01, 0.0, 0.0], "fisheye"),
+              (K, [-0.45, 0.05, 0.001, -0.002], "pinhole"), (K, [0.8, -0.5, 0.1, 0.001, 0.002], "omni")]
+    for k, dist, model in lenses:
+        sensor = Sensor(96, 72, k, dist, 0.2, 5.0, model=model, name="warn")
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            for oversample in (0, 1.0):
+                assert lens_views(sensor, oversample=oversample)
+
+
 # -- the pinhole inverse on strong random lenses ---------------------------------------------------
 def random_lens(rng: np.random.Generator, kind: int) -> np.ndarray:
     """Radial-tangential (5), rational (8), thin prism (12) or tilted (14) coefficients, strong:
