@@ -262,6 +262,7 @@ class Camera:
         """(N, 3) float64 unit camera-frame directions of pixels ``uv`` (N, 2); NaN where the
         lens has no ray (past its fold, or 90° or more off the axis)."""
         uv = np.asarray(uv, np.float64).reshape(-1, 2)
+        uv = np.where(np.isfinite(uv), uv, np.nan)   # an infinite pixel has no ray: NaN, quietly
         K = self.K
         yd = (uv[:, 1] - K[1, 2]) / K[1, 1]
         xd = (uv[:, 0] - K[0, 2] - K[0, 1] * yd) / K[0, 0]

@@ -17,9 +17,10 @@ EDGE_POINTS = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.3, 0.2, 1.0],
 
 
 def edge_pixels(cam: Camera) -> np.ndarray:
-    """The principal point, pixels far past any fold and a NaN pixel."""
+    """The principal point, pixels far past any fold, a NaN pixel and infinite ones."""
     return np.array([[cam.cx, cam.cy], [cam.cx + 1e4, cam.cy], [cam.cx, cam.cy - 1e3],
-                     [cam.cx + 1e8, cam.cy + 1e8], [0.0, 0.0], [np.nan, 3.0]])
+                     [cam.cx + 1e8, cam.cy + 1e8], [0.0, 0.0], [np.nan, 3.0],
+                     [np.inf, 3.0], [-np.inf, np.inf]])
 
 
 def exercise(cam: Camera) -> None:
