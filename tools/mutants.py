@@ -88,7 +88,10 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                   # mutation rate) only change how good a search is, never a reported number: left out
                   ["*.placement.xǁCoverageProblemǁ__init____*", "*.placement.xǁCoverageProblemǁfitness*",
                    "*.placement.x_greedy_indices__*", "*.placement.x_greedy_placement__*"],
-                  ["tests/sensors/test_placement_fitness.py", "tests/sensors/test_sensors.py"]),
+                  # (the bit sets against the cell-by-cell kernels, which fractional weights take; the
+                  # free-floor rule for low mounts)
+                  ["tests/sensors/test_placement_fitness.py", "tests/sensors/test_placement_bits.py",
+                   "tests/sensors/test_placement_free_floor.py", "tests/sensors/test_sensors.py"]),
 }
 # lines that only word an error or a log message: not numbers
 NOT_NUMBERS = [r"raise \w+Error\(", r"^\s*f?\"[^\"]*\"\)?$", r"log\.(info|warning|debug)\(", r"warnings\.warn\("]
