@@ -10,7 +10,16 @@ from __future__ import annotations
 import fnmatch
 import re
 
+NEG = r"reshape\(-2, "
 EQUIVALENT: list[tuple[str, str, str]] = [
+    # -- labels: export/semantickitti.py, ply.py, pcd.py, npz.py
+    ("*.semantickitti.x_read__*", NEG, "reshape(-2, 4): numpy takes any negative size as 'the rest'"),
+    ("*.semantickitti.x_*", r"lut = np\.zeros\(MAX_ID16 \+ 2",
+     "a spare slot in the instance table's lookup (ids go up to MAX_ID16)"),
+    ("*.semantickitti.x_write__*", r"\[\"\"\] \* \(frame \+ 2\)\)\[: max\(len\(old\), frame \+ 1\)\]",
+     "poses.txt padded by one line more, then cut to max(len, frame + 1) lines: the same lines"),
+    ("*.x__write_cloud__*", r'name: str = "(XXcloudXX|CLOUD)"',
+     "the default file name of _write_cloud: its one caller, export(), always passes name="),
 ]
 
 
