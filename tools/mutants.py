@@ -59,7 +59,7 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                   "test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel"))]),
     "unprojection": (["genie_gl/cloud/unproject.py"], ["*.unproject.x_*"],
                      ["tests/cloud/test_unproject_kernel.py", "tests/cloud/test_cloud_export.py",
-                      "tests/cloud/test_frame_chunks.py"]),
+                      "tests/cloud/test_frame_chunks.py", "tests/cloud/test_unproject_contract.py"]),
     "noise": (["genie_gl/sensors/noise.py"], ["*.noise.xǁDepthNoiseǁ*", "*.noise.xǁRangeLimitsǁapply__*"],
               ["tests/sensors/test_sensors.py", "tests/sensors/test_effects.py"]),
     "labels": (["genie_gl/export/semantickitti.py", "genie_gl/export/ply.py", "genie_gl/export/pcd.py",
