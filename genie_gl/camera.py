@@ -46,7 +46,8 @@ MAX_OFF_AXIS = np.radians(89.9)  # rays beyond this are not represented (depth i
 
 
 def tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:
-    """(3, 3) float64: OpenCV's tilted-sensor projection (``computeTiltProjectionMatrix``)."""
+    """(3, 3) float64: OpenCV's tilted-sensor projection (``computeTiltProjectionMatrix``).
+    Lower triangular: T[0, 1] = T[0, 2] = T[1, 2] = 0 (to rounding), as is its inverse."""
     cx, sx, cy, sy = np.cos(tau_x), np.sin(tau_x), np.cos(tau_y), np.sin(tau_y)
     rot_x = np.array([[1, 0, 0], [0, cx, sx], [0, -sx, cx]])
     rot_y = np.array([[cy, 0, -sy], [0, 1, 0], [sy, 0, cy]])
@@ -84,10 +85,14 @@ def distort_normalized(x: np.ndarray, y: np.ndarray, dist: np.ndarray) -> tuple[
     xd, yd = x * radial + dx, y * radial + dy
     tx, ty = k[12:]
     if tx or ty:
-        T = tilt_matrix(tx, ty)
-        w = T[2, 0] * xd + T[2, 1] * yd + T[2, 2]
-        xd, yd = (T[0, 0] * xd + T[0, 1] * yd + T[0, 2]) / w, (T[1, 0] * xd + T[1, 1] * yd + T[1, 2]) / w
+        xd, yd = _homography(tilt_matrix(tx, ty), xd, yd)
     return xd, yd
+
+
+def _homography(T: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) through a lower-triangular homography T (the sensor tilt or its inverse)."""
+    w = T[2, 0] * x + T[2, 1] * y + T[2, 2]
+    return T[0, 0] * x / w, (T[1, 0] * x + T[1, 1] * y) / w
 
 
 def fisheye_theta_d(theta: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -106,7 +111,8 @@ def _find_fold(model: str, dist: bytes) -> float:
         t = np.linspace(0, MAX_OFF_AXIS, 200001)
         with np.errstate(divide="ignore", invalid="ignore"):
             r = np.sin(t) / (np.cos(t) + d[0])
-        bad = np.flatnonzero(~(np.cos(t[1:]) + d[0] > 0) | (np.diff(r) <= 0) | (r[1:] >= r_fold))
+        # (where cos t + ξ reaches 0, r leaps to ±inf: the diff or r_fold flags it)
+        bad = np.flatnonzero((np.diff(r) <= 0) | (r[1:] >= r_fold))
         return float(t[bad[0]]) if len(bad) else float(MAX_OFF_AXIS)
     if model == "fisheye":
         t = np.linspace(0, np.pi, 200001)
@@ -256,6 +262,7 @@ class Camera:
         """(N, 3) float64 unit camera-frame directions of pixels ``uv`` (N, 2); NaN where the
         lens has no ray (past its fold, or 90° or more off the axis)."""
         uv = np.asarray(uv, np.float64).reshape(-1, 2)
+        uv = np.where(np.isfinite(uv), uv, np.nan)   # an infinite pixel has no ray: NaN, quietly
         K = self.K
         yd = (uv[:, 1] - K[1, 2]) / K[1, 1]
         xd = (uv[:, 0] - K[0, 2] - K[0, 1] * yd) / K[0, 0]
@@ -316,9 +323,7 @@ def _untilt(xd: np.ndarray, yd: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, 
     """The distorted point before the sensor's tilt (τx, τy = k[12:]): the tilt's homography inverted."""
     if not (k[12] or k[13]):
         return xd, yd
-    T = np.linalg.inv(tilt_matrix(k[12], k[13]))
-    w = T[2, 0] * xd + T[2, 1] * yd + T[2, 2]
-    return (T[0, 0] * xd + T[0, 1] * yd + T[0, 2]) / w, (T[1, 0] * xd + T[1, 1] * yd + T[1, 2]) / w
+    return _homography(np.linalg.inv(tilt_matrix(k[12], k[13])), xd, yd)
 
 
 def _increasing_inverse(f, target: np.ndarray, top: float) -> np.ndarray:

@@ -153,8 +153,7 @@ def _build_lens_views(key: tuple, near_m: float, far_m: float, name: str,
     d = cam.directions()
     valid = np.isfinite(d).all(-1)
     fx, fy = cam.fx * oversample, cam.fy * oversample
-    with np.errstate(invalid="ignore", divide="ignore"):
-        x, y = d[..., 0] / d[..., 2], d[..., 1] / d[..., 2]
+    x, y = d[..., 0] / d[..., 2], d[..., 1] / d[..., 2]   # NaN without a ray; cos θ is never 0.0
     wide = np.abs(np.where(valid, x, 0)).max(initial=0) * fx, np.abs(np.where(valid, y, 0)).max(initial=0) * fy
     one = (np.abs(np.where(valid, x, 0)).max(initial=0) <= MAX_SINGLE_VIEW_TAN
            and np.abs(np.where(valid, y, 0)).max(initial=0) <= MAX_SINGLE_VIEW_TAN
