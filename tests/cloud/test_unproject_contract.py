@@ -108,7 +108,9 @@ def test_colour_of_an_rgba_read_back_is_a_read_only_view_of_the_block():
     rng = np.random.default_rng(6)
     rgba = rng.integers(0, 256, (H, W, 4)).astype(np.uint8)
     out = _colour_source(rgba[..., :3])
-    assert out.shape == (H, W, 4) and np.shares_memory(out, rgba) and not out.flags.writeable
+    # named first: a failure message must not print an array that points at foreign memory
+    dtype, shape, shared, writeable = out.dtype, out.shape, np.shares_memory(out, rgba), out.flags.writeable
+    assert dtype == np.uint8 and shape == (H, W, 4) and shared and not writeable
     np.testing.assert_array_equal(out, rgba)
 
 
