@@ -129,9 +129,11 @@ class DepthNoise(Effect):
         rms = (sensor.meta if sensor is not None else {}).get("reprojection_error_px")
         return DEFAULT_SIGMA_D_PX if rms is None else float(rms)
 
-    def sigma(self, z: np.ndarray, f_px: float, theta: np.ndarray | None = None,
+    def sigma(self, z: np.ndarray, f_px: float | None = None, theta: np.ndarray | None = None,
               sensor: Sensor | None = None) -> np.ndarray:
-        """σ_z in metres at depths ``z`` (m) and incidence angles ``theta`` (rad, optional)."""
+        """σ_z in metres at depths ``z`` (m) and incidence angles ``theta`` (rad, optional);
+        ``f_px`` (the focal length in pixels) and ``sensor`` (its calibration) are read by the
+        stereo model only."""
         if self.model == "kinect_nguyen2012":
             s = 0.0012 + 0.0019 * (z - 0.4) ** 2
             if self.incidence and theta is not None:
@@ -177,13 +179,12 @@ class DepthNoise(Effect):
             depth, lost, changed = kernels.linear_noise_rng(frame.depth, rng, float(self.a_m), float(self.b),
                                                             float(self.z0_m))
             return self._noisy(frame, depth, lost, changed)
-        z = frame.depth.astype(np.float64)
+        z = frame.depth.astype(np.float64)   # kinect_nguyen2012: neither f nor the sensor enters σ
         valid = z > 0
-        f = frame.sensor.fx
         noisy = z.copy()
         zv = z[valid]
         theta = self.steep_angles(frame, valid) if self.needs_normals else None
-        noisy[valid] = zv + rng.standard_normal(zv.size) * self.sigma(zv, f, theta, frame.sensor)
+        noisy[valid] = zv + rng.standard_normal(zv.size) * self.sigma(zv, theta=theta)
         bad = valid & ~(noisy > 0)
         out = frame.replace(depth=noisy.astype(np.float32))
         return drop(out, bad) if bad.any() else out

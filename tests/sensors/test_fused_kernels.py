@@ -64,3 +64,47 @@ def test_depth_noise_apply_leaves_the_generator_where_numpy_draws_would(model):
     ref = np.random.default_rng(11)
     ref.standard_normal(int((d > 0).sum()))
     assert g.standard_normal(4).tolist() == ref.standard_normal(4).tolist()
+
+
+@pytest.mark.parametrize("model", ["stereo", "tof_linear"])
+def test_compiled_depth_noise_records_the_pixels_it_changed(model):
+    """The compiled models hand simulate their own count of changed pixels (meta["depth_noise"]),
+    so that it need not compare frames; the count is the frames' difference."""
+    d = depth_with_holes(4)
+    s = gg.Sensor.pinhole(d.shape[1], d.shape[0], 400.0)
+    inst = (d > 0).astype(np.uint32)
+    f = gg.Frame(d, inst, inst.astype(np.uint16), None, s, np.eye(4), None)
+    out = DepthNoise(model=model, baseline_m=0.05, subpixel=0.08).apply(f, rng=np.random.default_rng(5))
+    changed = int((out.depth != d).sum())
+    assert out.meta["depth_noise"] == {"changed": changed} and changed > 0.9 * (d > 0).sum()
+
+
+def test_nguyen_noise_is_z_plus_sigma_times_the_generators_normals():
+    """The numpy path (kinect_nguyen2012 with its incidence term): each return is
+    z + σ_z(z, θ)·N, N the generator's standard normals in pixel order, σ_z from Nguyen et al.
+    written out here, θ from the normals and each pixel's ray; rounded once to float32."""
+    h, w, fpx = 30, 40, 60.0
+    rng = np.random.default_rng(8)
+    d = rng.uniform(0.6, 3.0, (h, w)).astype(np.float32)
+    d[rng.random((h, w)) < 0.2] = 0.0
+    s = gg.Sensor.pinhole(w, h, fpx)
+    tilt = np.radians(rng.uniform(0, 84, (h, w)))          # incidence angles from 0° to 84°
+    u, v = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
+    ray = np.stack([(u - s.cx) / fpx, (v - s.cy) / fpx, np.ones_like(u)], -1)
+    ray /= np.linalg.norm(ray, axis=-1, keepdims=True)
+    side = np.cross(ray, [0.0, 1.0, 0.0])
+    side /= np.linalg.norm(side, axis=-1, keepdims=True)
+    normal = -ray * np.cos(tilt)[..., None] + side * np.sin(tilt)[..., None]   # θ from the ray
+    inst = (d > 0).astype(np.uint32)
+    f = gg.Frame(d, inst, inst.astype(np.uint16), None, s, np.eye(4), normal=normal.astype(np.float32))
+    out = DepthNoise(model="kinect_nguyen2012").apply(f, rng=np.random.default_rng(21))
+    valid = d > 0
+    z = d.astype(np.float64)[valid]
+    n = normal.astype(np.float32).astype(np.float64)[valid]
+    t = np.arccos(np.clip(-(n * ray[valid]).sum(-1), 0.0, 1.0))
+    t = np.minimum(t, np.radians(85.0))
+    sigma = 0.0012 + 0.0019 * (z - 0.4) ** 2 + np.where(t > np.pi / 3, 0.0001 / np.sqrt(z) * t ** 2 / (np.pi / 2 - t) ** 2, 0)
+    ref = z + np.random.default_rng(21).standard_normal(z.size) * sigma
+    assert (t > np.pi / 3).sum() > 100
+    np.testing.assert_allclose(out.depth[valid], ref, rtol=0, atol=1e-6)   # float32 rounding of ~3 m
+    assert np.abs(out.depth[valid] - d[valid]).max() > 0.01                 # noise, not the frame
