@@ -62,7 +62,7 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                   "test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel"))]),
     "unprojection": (["genie_gl/cloud/unproject.py"], ["*.unproject.x_*"],
                      ["tests/cloud/test_unproject_kernel.py", "tests/cloud/test_cloud_export.py",
-                      "tests/cloud/test_frame_chunks.py"]),
+                      "tests/cloud/test_frame_chunks.py", "tests/cloud/test_unproject_contract.py"]),
     # the noise models' numbers (DepthNoise's cost_per_mpx is left out: an estimate the planner
     # ranks effects by, measured by `genie bench planning`, never a number in the data)
     "noise": (["genie_gl/sensors/noise.py"],
