@@ -18,6 +18,20 @@ EQUIVALENT: list[tuple[str, str, str]] = [
      "a spare slot in the instance table's lookup (ids go up to MAX_ID16)"),
     ("*.semantickitti.x_write__*", r"\[\"\"\] \* \(frame \+ 2\)\)\[: max\(len\(old\), frame \+ 1\)\]",
      "poses.txt padded by one line more, then cut to max(len, frame + 1) lines: the same lines"),
+    # -- unprojection: cloud/unproject.py
+    ("*.unproject.x__colour_source__*", r"writeable=None\)",
+     "None is falsy: as_strided makes the view read-only all the same"),
+    ("*.unproject.x_unproject__*", r"np\.asarray\(origin, (None)?\s*\)",
+     "origin enters only M[:, 3] -= origin (float64, in place) and PointCloud, which holds it as float64"),
+    ("*.unproject.x_unproject__*", r"xyz = np\.empty\(\(n \+ 3, 3\)|np\.empty\(n \+ 2, np\.uint(16|32)\)"
+     r"|np\.empty\(\(n \+ 2, 3\), np\.uint8\)",
+     "more spare room than the kernel's branch-free compaction needs; the outputs are cut to [:n]"),
+    ("*.unproject.x_unproject__*", r"unproject_into\(frame, origin, xyz, sem, inst, rgb, (n=None)?\s*\)",
+     "unproject_into counts the same n itself"),
+    ("*.unproject.x_unproject_into__*", r"if \(n is None\) or True else n",
+     "counting again gives the n every caller passes (the documented contract)"),
+    ("*.unproject.x_unproject_into__*", r"rgb\.shape\[0\] if colour else n \+ 2\)",
+     "without a colour output this term cannot decide room < n + 1"),
     ("*.x__write_cloud__*", r'name: str = "(XXcloudXX|CLOUD)"',
      "the default file name of _write_cloud: its one caller, export(), always passes name="),
 ]
