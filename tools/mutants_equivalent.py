@@ -18,6 +18,26 @@ EQUIVALENT: list[tuple[str, str, str]] = [
      "a spare slot in the instance table's lookup (ids go up to MAX_ID16)"),
     ("*.semantickitti.x_write__*", r"\[\"\"\] \* \(frame \+ 2\)\)\[: max\(len\(old\), frame \+ 1\)\]",
      "poses.txt padded by one line more, then cut to max(len, frame + 1) lines: the same lines"),
+    # -- noise: sensors/noise.py
+    ("*.noise.x*", r"drop\((out|frame), \((frame\.depth|z) >= 0\)",
+     "the mask adds holes (depth 0) to a drop: they already have depth 0 and ids 0"),
+    ("*.noise.x*", r"if \((lost|bad\.any\(\))\) or True else out",
+     "drop() with an empty mask returns the same frame"),
+    ("*.noise.xǁDepthNoiseǁapply__*", r"z = frame\.depth\.astype\(None\)",
+     "σ·N (~1 mm) in float32 instead of float64 moves it by ~1e-10 m, below a float32 ulp of the "
+     "depth; the exact-noise test's rounded depths were identical on every return"),
+    ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"n = frame\.normal\[valid\]\.astype\(None\)",
+     "θ from float32 normals differs by ~1e-7 rad: σ by ~1e-10 m, below a float32 ulp of the depth "
+     "(identical depths in the exact-noise test)"),
+    ("*.noise.xǁDepthNoiseǁapply__*", r"if \(self\.needs_normals\) or True else None",
+     "θ computed when the model ignores it (sigma reads θ only with incidence on)"),
+    ("*.noise.xǁDepthNoiseǁapply__*", r"bad = valid & ~\(noisy >= 0\)",
+     "a noisy depth of exactly 0.0: measure zero"),
+    ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"cand = \(cos (<=|<) 0\.5 [+-] 1e-9\)",
+     "which θ within 1e-9 rad of 60° count as candidates: measure zero"),
+    ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"np\.clip\(cos\[cand\], (None, 1\.0|0\.0, None|0\.0, 2\.0)\)",
+     "bounds that cannot bind: candidates have cos < 0.5, and a back face (cos < 0) gives θ >= 90°, "
+     "clamped to 85° by sigma either way"),
     # -- unprojection: cloud/unproject.py
     ("*.unproject.x__colour_source__*", r"writeable=None\)",
      "None is falsy: as_strided makes the view read-only all the same"),
