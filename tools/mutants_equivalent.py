@@ -38,6 +38,24 @@ EQUIVALENT: list[tuple[str, str, str]] = [
     ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"np\.clip\(cos\[cand\], (None, 1\.0|0\.0, None|0\.0, 2\.0)\)",
      "bounds that cannot bind: candidates have cos < 0.5, and a back face (cos < 0) gives θ >= 90°, "
      "clamped to 85° by sigma either way"),
+    # -- placement: sensors/placement.py
+    ("*.placement.x*", r"bits = None",
+     "the cell-by-cell kernels instead of the bit sets: the same sums bit for bit "
+     "(test_bit_sets_equal_the_cell_by_cell_kernels)"),
+    ("*.placement.x*", NEG + "|reshape\\(1, -2\\)", "reshape with -2: numpy takes any negative size as 'the rest'"),
+    ("*.placement.xǁCoverageProblemǁ__init____*", r"\(p[xy] >= rects|\(p[xy] <= rects",
+     "a candidate exactly FREE_MARGIN_M (0.25 m) from a furnished edge: a float equality the shipped "
+     "half-metre grids do not meet"),
+    ("*.placement.xǁCoverageProblemǁ__init____*", r"self\.cell = np\.full\(H \* W, -(1, (None)?|2, np\.int64)\s*\)",
+     "the no-cell marker -1 as -2 or as float64 -1.0: the disc kernel reads only its sign and stores "
+     "whole numbers into int64 indices"),
+    ("*.placement.xǁCoverageProblemǁ__init____*", r"self\._stamp, self\._mark = np\.zeros\(len\(self\.weight\), "
+     r"((None)?\s*\), 0|np\.int64\), 1)",
+     "the coverage bookkeeping (coverage.union_weights): each chromosome takes mark + 1, above every "
+     "stamp so far, whether marks start at 0 or 1 and the zero stamps are int64 or float64"),
+    ("*.placement.xǁCoverageProblemǁ__init____*", r"or 2\.0", "the total weight of an empty layout: fitness 0 either way"),
+    ("*.placement.xǁCoverageProblemǁfitnesses__*", r"np\.ascontiguousarray\(population, (None)?\s*\)",
+     "the population is an int64 array already (the GA's and the tests')"),
     # -- unprojection: cloud/unproject.py
     ("*.unproject.x__colour_source__*", r"writeable=None\)",
      "None is falsy: as_strided makes the view read-only all the same"),
