@@ -247,7 +247,7 @@ class Camera:
                     xd, yd = distort_normalized(xd, yd, self.dist[1:])
             elif self.model == "fisheye":   # the image direction of the point, scaled to θ_d
                 r = np.hypot(x, y)
-                s = np.divide(fisheye_theta_d(theta, self.dist), r, out=np.zeros_like(r), where=r > 0)
+                s = fisheye_theta_d(theta, self.dist) / np.where(r > 0, r, 1)   # θ_d = 0 on the axis
                 xd, yd = x * s, y * s
             else:
                 ok &= z > 0
@@ -372,7 +372,7 @@ def _fisheye_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max
     td = np.hypot(xd, yd)
     inside = td <= fisheye_theta_d(np.array(theta_max + 1e-12), dist)   # project's tolerance at the rim
     theta = _increasing_inverse(lambda t: fisheye_theta_d(t, dist), td, theta_max)
-    c = np.divide(np.sin(theta), td, out=np.zeros_like(td), where=td > 0)   # the centre pixel: the axis
+    c = np.sin(theta) / np.where(td > 0, td, 1)   # the centre pixel (td = 0): xd = yd = 0, the axis
     d = np.stack([xd * c, yd * c, np.cos(theta)], 1)
     d[~inside] = np.nan
     return d
@@ -398,7 +398,7 @@ def _omni_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max: f
 def _pixel_directions(key: tuple) -> np.ndarray:
     model, w, h, K, dist = key
     cam = Camera(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), model=model)
-    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    u, v = np.meshgrid(np.arange(w), np.arange(h))   # whole pixel numbers, exact in any dtype
     d = cam.unproject(np.stack([u.ravel(), v.ravel()], 1)).reshape(h, w, 3)
     d.setflags(write=False)
     return d
@@ -408,7 +408,7 @@ def _pixel_rays(key: tuple) -> np.ndarray:
     model, w, h, K, dist = key
     if model == "pinhole" and not np.any(np.frombuffer(dist)):
         Km = np.frombuffer(K).reshape(3, 3)
-        u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+        u, v = np.meshgrid(np.arange(w), np.arange(h))   # whole pixel numbers, exact in any dtype
         y = (v - Km[1, 2]) / Km[1, 1]
         xy = np.stack([(u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0], y], -1)
     else:

