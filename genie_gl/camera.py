@@ -307,14 +307,13 @@ def _pinhole_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: fl
     k = _coefficients(dist)
     xs, ys = _untilt(xd, yd, k)
     x, y = np.zeros_like(xs), np.zeros_like(ys)
-    with np.errstate(invalid="ignore"):   # an infinite pixel: inf · 0 (NaN: no ray)
-        for _ in range(2):
-            dx, dy = _decentring(x, y, x * x + y * y, k)
-            ux, uy = xs - dx, ys - dy
-            rd = np.hypot(ux, uy)
-            r = _increasing_inverse(lambda t: t * _radial(t * t, k), rd, min(r_max, 1e6))
-            s = np.divide(r, rd, out=np.ones_like(rd), where=rd > 0)
-            x, y = ux * s, uy * s
+    for _ in range(2):
+        dx, dy = _decentring(x, y, x * x + y * y, k)
+        ux, uy = xs - dx, ys - dy
+        rd = np.hypot(ux, uy)
+        r = _increasing_inverse(lambda t: t * _radial(t * t, k), rd, min(r_max, 1e6))
+        s = r / np.where(rd > 0, rd, 1)   # (rd = 0: ux = uy = 0)
+        x, y = ux * s, uy * s
     x, y, ok = _newton(x, y, xd, yd, dist, r_max)
     return np.where(ok, x, np.nan), np.where(ok, y, np.nan)
 
