@@ -122,6 +122,46 @@ EQUIVALENT: list[tuple[str, str, str]] = [
     ("*.placement.xǁCoverageProblemǁ__init____*", r"or 2\.0", "the total weight of an empty layout: fitness 0 either way"),
     ("*.placement.xǁCoverageProblemǁfitnesses__*", r"np\.ascontiguousarray\(population, (None)?\s*\)",
      "the population is an int64 array already (the GA's and the tests')"),
+    # -- layout: layout/generators.py, layout/merge.py
+    ("*.generators.x_rectangles__*", r"mask\[r:r1, c:c1\] = None", "None stored into a bool array is False"),
+    ("*.generators.xǁGridǁgenerate__*", r"if [WH] - used_[wh] >= EPS|while y \+ ch < H \+ EPS",
+     "a leftover (or a row's end) exactly EPS: a float equality of measure zero"),
+    ("*.generators.xǁGridǁgenerate__*", r"int\(\(W \+ sp \+ EPS\) / \(cw \+ sp\)\)",
+     "int(a / b) for a // b on positive sizes: the same whole number"),
+    ("*.generators.xǁGridǁgenerate__*", r"^\s*r -= 1$", "-r % every == 0 exactly when r % every == 0"),
+    ("*.generators.xǁGridǁgenerate__*", r"self\.args\.get\(\"leftover\", (None|\"XXemptyXX\"|\"EMPTY\")?\s*\)",
+     "the default of `leftover`: it is only compared with \"spread\""),
+    ("*.merge.x*", r"astype\(None\)|np\.asarray\((key|origin|b|record\[\"nodes\"\]), (None)?\s*\)|"
+     r"np\.array\(\[e\[0\] for e in extra\], (None)?\s*\)|np\.full\((len\(\w+\)|\w+), -1, (None)?\s*\)|"
+     r"np\.bincount\([^)]*, \)",
+     "a dtype or minlength dropped where numpy infers the same (integer input, int64 defaults) or the "
+     "result is only compared and sorted (rounded tolerance quanta: whole numbers, exact in float64), "
+     "and bincount without minlength where every group has a part"),
+    ("*.merge.x*", r"np\.full\((len\(\w+\)|\w+), -2, np\.int64\)|np\.where\(single, origin\[o_first\], -2\)",
+     "-2 for the -1 'not a piece' marker: only its sign is read"),
+    ("*.merge.x__endpoints_inside__*", r"cmin \+ 2$|emin \+ 4$",
+     "a wider stride in the cut finder's line and interval codes: still one block per line"),
+    ("*.merge.x__endpoints_inside__*", r"np\.argsort\(ek, (kind=None|kind=\"STABLE\")?\s*\)",
+     "the endpoint table's sort kind: equal codes lie all inside or all outside a search range, and "
+     "the cuts become sets"),
+    ("*.merge.x__endpoints_inside__*", r"np\.searchsorted\(ek, mine \* Q \+ c0 - emin \+ 1, \)",
+     "searchsorted's default side ('left') on codes that cannot equal the bound"),
+    ("*.merge.x_merge_leaves__*", r"changed, along_x, idle = False, False, 0",
+     "the first value of `changed` is never read"),
+    ("*.merge.x_merge_leaves__*", r"while len\(x\) >= 1 and idle < 2|idle <= 2|idle < 3",
+     "the loop entered with one rectangle (joins nothing) or a third idle pass (repeats the first, "
+     "which joined nothing)"),
+    ("*.merge.x_merge_tree__*", r"l_shape: str = \"(XXkeepXX|KEEP)\"",
+     "a default l_shape other than \"keep\": only \"strip\" is tested for"),
+    ("*.merge.x_merge_tree__*", r"\* 5 \+ tree\.orient",
+     "type * 5 + orient: orientations are < 4, so the same keys' order, one key per type and orientation"),
+    ("*.merge.x_merge_tree__*", r"if n0 (<= 2|< 3):",
+     "a root with one leaf: the same tree, no record and the identity either way"),
+    ("*.merge.x_merge_tree__*", r"(empty\[0\]|keep\[absorbed\]) = None", "None stored into a bool array is False"),
+    ("*.merge.x_merge_tree__*", r"range\(int\(depth\[keep\]\.max\(\)\) \+ 2\)",
+     "one more, empty depth in the re-indexing"),
+    ("*.merge.x_merge_tree__*", r"if d (>= 0|> 1):",
+     "sorting depth 0 (the root alone) or not sorting depth 1 (every node there is a child of the root)"),
     # -- unprojection: cloud/unproject.py
     ("*.unproject.x__colour_source__*", r"writeable=None\)",
      "None is falsy: as_strided makes the view read-only all the same"),
