@@ -64,10 +64,10 @@ test-slow: setup ## run only the slow tests (the cloud kernels again with numba'
 	$(PY) -m pytest $(PYTEST_ARGS) -m slow
 
 MUTANT_MODULES ?= all
-MUTANT_TIMEOUT ?= 1200
+MUTANT_TIMEOUT ?= 3600
 mutants: setup ## mutation testing of the numerical core: kill rate per module and the surviving mutants
 	$(PY) -m pip install -q -e ".[mutants]"
-	$(PY) tools/mutants.py --modules $(MUTANT_MODULES) --timeout $(MUTANT_TIMEOUT)
+	$(PY) tools/mutants.py --modules $(MUTANT_MODULES) --timeout $(MUTANT_TIMEOUT) --recheck 900
 
 planted-bugs: setup ## plant issue 18's bugs one at a time in build/planted/ and list the tests that catch each
 	$(PY) tools/planted_bugs.py
