@@ -49,8 +49,11 @@ EQUIVALENT: list[tuple[str, str, str]] = [
      "the first estimate as a 0-d zero: the first pass's decentring shift at the origin is 0 either way"),
     ("*.camera.x__pinhole_inverse__*", r"min\(r_max, 1000001\.0\)",
      "the bisection's top for a lens that never folds, 1e6 + 1 instead of 1e6 (~89.99994° off the axis)"),
-    ("*.camera.xǁCameraǁproject__*", r"ok &= (z|den) >= 0",
-     "z = 0 (den = 0) is 90° off the axis (the sphere's rim), already outside max_off_axis <= 89.9°"),
+    ("*.camera.xǁCameraǁproject__*", r"ok &= z >= 0",
+     "a point with z = 0 is 90° off the axis, already outside max_off_axis <= 89.9°"),
+    ("*.camera.xǁCameraǁproject__*", r"ok &= den >= 0",
+     "den = cos θ + ξ is 0 only at or past the omni fold (where the sphere's projection leaps), "
+     "outside max_off_axis; exactly at it within the 1e-12 tolerance: measure zero"),
     ("*.camera.xǁCameraǁproject__*", r"if \(len\(self\.dist\)\) or True",
      "distort_normalized without coefficients is the identity (radial 1, no shift)"),
     ("*.camera.xǁCameraǁproject__*", r"ok = theta <= self\.max_off_axis \+ 1e-12",
