@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from genie_gl.cli import main
+from tests.test_dataset import assert_scenes_are_what_the_public_api_makes
 
 pytestmark = pytest.mark.gl
 ARGS = ["assembly_line", "--scenes", "2", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "4000",
@@ -24,6 +25,7 @@ def test_balanced_dataset_is_the_same_with_one_or_two_workers_and_reports_its_ta
     assert main(["dataset", *ARGS, "--workers", "2", "--out", str(b)]) == 0
     da = digest(a)
     assert da == digest(b) and any(k.startswith("sequences/01/velodyne/") for k in da)
+    assert_scenes_are_what_the_public_api_makes(a, points=(1, 4000))   # right, not only the same
     m = json.loads((a / "manifest.json").read_text())["class_balance"]
     rows = m["classes"]
     total = sum(r["points"] for r in rows.values())

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from genie_gl.cli import main
+from tests.test_dataset import assert_scenes_are_what_the_public_api_makes
 
 pytestmark = pytest.mark.gl
 ARGS = ["assembly_line", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "3000",
@@ -93,6 +94,8 @@ def test_killed_at_random_moments_resumes_to_the_same_bytes(references, fmt, tmp
     assert kills >= 1, "the run finished before any kill: nothing was tested"
     assert main(["dataset", *ARGS, "--format", fmt, "--out", str(tmp_path)]) == 0
     assert digest(tmp_path) == digest(ref)
+    if fmt == "semantickitti":   # and the bytes are right, not only the same: the public API's scenes
+        assert_scenes_are_what_the_public_api_makes(tmp_path, points=(500, 3000))
     m = json.loads((tmp_path / "manifest.json").read_text())
     assert len(m["runs"]) >= 1 and m["runs"][-1]["scenes_made"] + m["runs"][-1]["scenes_skipped"] == 2
 
