@@ -36,10 +36,12 @@ EQUIVALENT: list[tuple[str, str, str]] = [
      "a 61st halving, below double precision (top / 2^60 < 3e-18)"),
     ("*.camera.x__newton__*", r"range\(13\)", "a 13th Newton step on converged roots (residual ~1e-16)"),
     ("*.camera.x__newton__*", r"step >= cap", "a step exactly as long as the cap: measure zero"),
-    ("*.camera.x__newton__*", r"ok = \(res (<=|<) 1e-9 (\* \(2|/ \(1|\* \(1) \+ np\.hypot\(xd, yd\)\)\)",
+    ("*.camera.x__newton__*", r"ok = \(res (<= 1e-9 \* \(1|< 1e-9 / \(1|< 1e-9 \* \(2) \+ np\.hypot\(xd, yd\)\)\) "
+     r"& \(np\.hypot\(x, y\) < r_max\)",
      "the acceptance tolerance's form (1e-9·(1 + r) vs ·(2 + r), /(1 + r), <=): converged residuals are "
      "~1e-16, unconverged ones far above any of them"),
-    ("*.camera.x__newton__*", r"np\.hypot\(x, y\) <= r_max", "a root exactly on the fold: measure zero"),
+    ("*.camera.x__newton__*", r"ok = \(res < 1e-9 \* \(1 \+ np\.hypot\(xd, yd\)\)\) & \(np\.hypot\(x, y\) <= r_max\)",
+     "a root exactly on the fold: measure zero"),
     ("*.camera.x__omni_inverse__*", r"~\(disc > 0\)|<= theta_max \+ 1e-12",
      "a pixel whose ray grazes the unit sphere, or lies exactly on the limit: measure zero"),
     ("*.camera.x*", r"np\.where\((rd|r|td) > 0, (rd|r|td), 2\)",
@@ -102,7 +104,7 @@ EQUIVALENT: list[tuple[str, str, str]] = [
      "θ computed when the model ignores it (sigma reads θ only with incidence on)"),
     ("*.noise.xǁDepthNoiseǁapply__*", r"bad = valid & ~\(noisy >= 0\)",
      "a noisy depth of exactly 0.0: measure zero"),
-    ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"cand = \(cos (<=|<) 0\.5 [+-] 1e-9\)",
+    ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"cand = \(cos (<= 0\.5 \+|< 0\.5 -) 1e-9\) & \(n != 0\)\.any\(axis=1\)",
      "which θ within 1e-9 rad of 60° count as candidates: measure zero"),
     ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"np\.clip\(cos\[cand\], (None, 1\.0|0\.0, None|0\.0, 2\.0)\)",
      "bounds that cannot bind: candidates have cos < 0.5, and a back face (cos < 0) gives θ >= 90°, "
