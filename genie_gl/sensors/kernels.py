@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 # the stereo shadow's loops live beside it (one topic, one module); named here as well
-from .shadow_kernels import casts_shadow, scanline_shadow, shadow_drop, shadow_mask  # noqa: F401
+from .shadow_kernels import casts_shadow, scanline_shadow, shadow_mask  # noqa: F401
 
 
 @njit(cache=True, nogil=True)

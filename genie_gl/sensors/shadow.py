@@ -179,21 +179,11 @@ class StereoShadow(Effect):
         rendered = self.casts_shadow(frame)
         depth2 = (render_depth(view, frame.world_from_camera @ np.linalg.inv(second)) if rendered
                   else np.zeros((1, 1), np.float32))
-        # the mask and the drop in one compiled pass over copies (the same bytes as
-        # drop(frame, shadow_mask(...)[0]), which the tests compare it with)
-        depth = frame.depth.astype(np.float32)
-        inst, sem = frame.instance.copy(), frame.semantic.copy()
-        gone, occluded, outside = kernels.shadow_drop(
-            depth, inst, sem, pixel_rays(frame.sensor), np.ascontiguousarray(second[:3, :3]),
+        gone, occluded, outside = kernels.shadow_mask(
+            frame.depth, pixel_rays(frame.sensor), np.ascontiguousarray(second[:3, :3]),
             np.ascontiguousarray(second[:3, 3]), view.K, view.width, view.height, float(view.near_m), depth2,
             rendered, float(self.tolerance_m), float(self.tolerance_rel))
-        out = frame
-        if occluded + outside:
-            normal = frame.normal
-            if normal is not None:
-                normal = normal.copy()
-                normal[gone] = 0
-            out = frame.replace(depth=depth, instance=inst, semantic=sem, normal=normal)
+        out = drop_compiled(frame, gone) if occluded + outside else frame
         return record(out, self.name, occluded=int(occluded), outside=int(outside),
                       second_view=rendered, method="render", changed=int(occluded + outside))
 

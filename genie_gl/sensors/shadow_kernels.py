@@ -1,5 +1,5 @@
 """Compiled loops of the stereo shadow (:mod:`.shadow`): the render method's projection into
-the second view (:func:`shadow_mask`, :func:`shadow_drop`, and :func:`casts_shadow`, which
+the second view (:func:`shadow_mask`, and :func:`casts_shadow`, which
 says whether a second view is worth rendering), and the scanline method's row-by-row second
 view of a rectified pair (:func:`scanline_shadow`). :mod:`.kernels` re-exports them.
 """
@@ -66,24 +66,6 @@ def shadow_mask(depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_
                 if seen > 0 and z2 > seen + (tol_m + tol_rel * seen):
                     gone[v, u] = True
                     occluded += 1
-    return gone, occluded, outside
-
-
-@njit(cache=True, nogil=True)
-def shadow_drop(depth, instance, semantic, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m,
-                tol_rel):  # pragma: no cover - compiled
-    """:func:`shadow_mask` and :func:`~genie_gl.sensors.effect.drop` in one pass: ``depth``,
-    ``instance`` and ``semantic`` (copies the caller made) are zeroed in place where the
-    second view cannot see; (gone, occluded, outside) as :func:`shadow_mask` returns them."""
-    gone, occluded, outside = shadow_mask(depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_rel)
-    if occluded + outside:
-        H, W = depth.shape
-        for v in range(H):
-            for u in range(W):
-                if gone[v, u]:
-                    depth[v, u] = 0
-                    instance[v, u] = 0
-                    semantic[v, u] = 0
     return gone, occluded, outside
 
 

@@ -59,9 +59,9 @@ def test_stereo_shadow_strip_has_the_analytic_width(box_and_wall, method):
     assert calibrated.depth.tobytes() == out.depth.tobytes()
 
 
-def test_stereo_shadow_fused_pass_equals_mask_then_drop(box_and_wall):
-    """apply() masks and drops in one compiled pass; the reference is shadow_mask's mask
-    handed to drop(), normals included."""
+def test_stereo_shadow_compiled_drop_equals_mask_then_drop(box_and_wall):
+    """apply() (render method) drops shadow_mask's returns in one compiled pass; the reference
+    is the same mask handed to drop(), normals included."""
     from genie_gl.sensors import kernels
     from genie_gl.sensors.effect import drop
     from genie_gl.sensors.geometry import pixel_rays
