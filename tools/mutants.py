@@ -18,7 +18,6 @@ import argparse
 import fnmatch
 import os
 import re
-import shutil
 import signal
 import subprocess
 import sys
@@ -27,6 +26,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mutants_equivalent import classify  # noqa: E402  (why each known survivor cannot change a number)
+from scratch import copy_checkout  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
@@ -95,7 +95,6 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
 }
 # lines that only word an error or a log message: not numbers
 NOT_NUMBERS = [r"raise \w+Error\(", r"^\s*f?\"[^\"]*\"\)?$", r"log\.(info|warning|debug)\(", r"warnings\.warn\("]
-COPY = ["genie_gl", "tests", "layouts", "sensors", "shaders", "pyproject.toml", "README.md"]
 
 
 def toml_list(items: list[str]) -> str:
@@ -114,14 +113,7 @@ TIMEOUT_CONSTANT = {"unprojection": 30.0}
 
 def prepare(group: str, work: Path) -> None:
     modules, _, tests = GROUPS[group]
-    shutil.rmtree(work, ignore_errors=True)
-    work.mkdir(parents=True)
-    for name in COPY:
-        src = ROOT / name
-        if src.is_dir():
-            shutil.copytree(src, work / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-        elif src.exists():
-            shutil.copy2(src, work / name)
+    copy_checkout(work)
     # mutmut writes the mutated copy to work/mutants, which PYTHONPATH names; it must exist
     # before mutmut starts: Python caches a missing sys.path entry as "no finder" for the life of
     # the process, so the stats run imported genie_gl and tests from the editable install's

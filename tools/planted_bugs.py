@@ -17,16 +17,17 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import subprocess
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import scratch  # noqa: E402  (the scratch copies, shared with tools/mutants.py)
+
 ROOT = Path(__file__).resolve().parents[1]
 WORK = ROOT / "build" / "planted"
-COPY = ["genie_gl", "tests", "layouts", "sensors", "shaders", "pyproject.toml", "README.md"]
 PYTEST = ["-p", "no:xdist", "-p", "no:cacheprovider", "-p", "no:randomly", "-q", "-m", "not slow",
           "-rfE", "--continue-on-collection-errors", "-p", "_planted_check"]
 
@@ -219,15 +220,8 @@ def independent(test: str) -> str | None:
 
 
 def copy_checkout(dst: Path, src: Path = ROOT, caches: bool = False) -> None:
-    shutil.rmtree(dst, ignore_errors=True)
-    dst.mkdir(parents=True)
-    ignore = shutil.ignore_patterns("*.pyc") if caches else shutil.ignore_patterns("__pycache__", "*.pyc")
-    for name in COPY + (["_planted_check.py"] if caches else []):
-        s = src / name
-        if s.is_dir():
-            shutil.copytree(s, dst / name, ignore=ignore)
-        elif s.exists():
-            shutil.copy2(s, dst / name)
+    """A scratch copy (tools/scratch.py) with this script's pytest plugin in it."""
+    scratch.copy_checkout(dst, src, caches=caches, extra=("_planted_check.py",) if caches else ())
     (dst / "_planted_check.py").write_text(CHECK_PLUGIN)
 
 
