@@ -143,6 +143,8 @@ class DepthNoise(Effect):
                 s = s + np.where(steep, extra, 0.0)
             return s
         if self.model == "stereo":
+            if f_px is None:
+                raise ValueError("DepthNoise.sigma: the stereo model needs f_px, the focal length in pixels")
             return z * z * self.sigma_d_px(sensor) / (f_px * self.baseline(sensor))
         return self.a_m + self.b * np.maximum(z - self.z0_m, 0.0)
 

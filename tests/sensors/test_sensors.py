@@ -305,6 +305,8 @@ def test_nguyen_incidence_term_only_past_60_degrees_clamped_at_85_and_only_when_
     assert on.sigma(np.array([0.5]), f, np.radians([70.0]))[0] == pytest.approx(near, rel=1e-9)
     # without a sensor: the default baseline (0.05 m) and σ_d (0.08 px)
     assert DepthNoise(model="stereo").sigma(np.array([2.0]), f)[0] == pytest.approx(4 * 0.08 / (500 * 0.05))
+    with pytest.raises(ValueError, match="needs f_px"):
+        DepthNoise(model="stereo").sigma(np.array([2.0]))
     assert on.sigma(z, f, None)[0] == pytest.approx(base, rel=1e-12)
 
 
