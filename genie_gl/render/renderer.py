@@ -22,7 +22,8 @@ from ..errors import ConfigError, RenderError
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
-from .cull import TriangleCuller, cluster_order, clusters, sanitize
+from .clusters import Clusters, prepare
+from .cull import TriangleCuller
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
 from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
 from .projection import clip_coefficients, frustum_planes, rigid_inverse
@@ -124,46 +125,35 @@ class Renderer:
         keys = list(scene.meshes)
         index = {k: i for i, k in enumerate(keys)}
         inst = scene.instances
-        mesh_of = np.array([index[i.mesh] for i in inst], dtype=np.int64)
-        has_inst = np.zeros(len(keys), bool)
-        has_inst[mesh_of] = True
-        # meshes: faces safe to draw, vertices and faces concatenated, cluster spheres
-        faces_of, verts, faces, cl_c, cl_r, cl_v = {}, [], [], [], [], []
+        mesh_of = np.fromiter((index[i.mesh] for i in inst), dtype=np.int64, count=len(inst))
         n = len(keys)
-        vbase, nverts, fbase, nfaces, cbase = (np.zeros(n, np.int64) for _ in range(5))
+        # each mesh placed by an instance is prepared once, however many instances place it
+        prepared: dict[int, Clusters] = {}
+        for i in np.unique(mesh_of):
+            c = prepare(scene.meshes[keys[i]], keys[i])
+            if len(c.faces):
+                prepared[int(i)] = c
+        vbase, fbase, nfaces, cbase = (np.zeros(n, np.int64) for _ in range(4))
         closed, lo, hi = np.zeros(n, bool), np.zeros((n, 3)), np.zeros((n, 3))
         centre, radius = np.zeros((n, 3)), np.zeros(n)
         v_at = f_at = c_at = 0
-        for i, key in enumerate(keys):
-            if not has_inst[i]:
-                continue
-            mesh = scene.meshes[key]
-            f = sanitize(mesh, key)
-            if len(f) == 0:
-                continue
-            faces_of[i] = f
-            v, f = cluster_order(np.asarray(mesh.vertices), f)
-            used = v.astype(np.float64)
-            lo[i], hi[i] = used.min(axis=0), used.max(axis=0)
+        for i, c in prepared.items():
+            lo[i], hi[i] = c.lo, c.hi
             centre[i] = (lo[i] + hi[i]) / 2
-            radius[i] = float(np.linalg.norm(used - centre[i], axis=1).max())
-            closed[i] = bool(mesh.closed)
-            c, r, vr = clusters(v, f)
-            vbase[i], nverts[i], fbase[i], nfaces[i], cbase[i] = v_at, len(v), f_at, len(f), c_at
-            verts.append(v)
-            faces.append(np.ascontiguousarray(f, dtype="<u4"))
-            cl_c.append(c)
-            cl_r.append(r)
-            cl_v.append(vr)
-            v_at, f_at, c_at = v_at + len(v), f_at + len(f), c_at + len(c)
-        drawable = np.array([i in faces_of for i in range(n)], bool)
-        keep = [k for k in range(len(inst)) if drawable[mesh_of[k]]]
-        order = sorted(keep, key=lambda k: mesh_of[k])  # stable: same mesh, scene order
+            radius[i] = float(np.sqrt(((c.vertices.astype(np.float64) - centre[i]) ** 2).sum(axis=1).max()))
+            closed[i] = bool(scene.meshes[keys[i]].closed)
+            vbase[i], fbase[i], nfaces[i], cbase[i] = v_at, f_at, len(c.faces), c_at
+            v_at, f_at, c_at = v_at + len(c.vertices), f_at + len(c.faces), c_at + c.count
+        drawable = np.zeros(n, bool)
+        drawable[list(prepared)] = True
+        keep = np.flatnonzero(drawable[mesh_of])
+        order = keep[np.argsort(mesh_of[keep], kind="stable")]  # same mesh, scene order
         self._mesh = mesh_of[order]
         N = len(order)
         self._world_from_model = (np.stack([inst[k].world_from_model for k in order]).astype(np.float64)
                                   if N else np.zeros((0, 4, 4)))
         self._model_from_world = np.linalg.inv(self._world_from_model) if N else np.zeros((0, 4, 4))
+        self._det = np.linalg.det(self._world_from_model[:, :3, :3]) if N else np.zeros(0)
         self._ids = np.array([inst[k].instance for k in order], dtype=np.uint32)
         self._scale = (np.linalg.norm(self._world_from_model[:, :3, :3], axis=1).max(axis=1)
                        if N else np.zeros(0))
@@ -175,15 +165,21 @@ class Renderer:
             self._rows["color"][:, :3] = np.array([inst[k].color for k in order], dtype=np.uint8)
         self._semantics = semantic_table(self._ids, self._rows["semantic"]) if self.targets == "packed" else None
         self._packed = self._semantics is not None  # an id used twice: three targets
-        self._vbase, self._nverts, self._fbase, self._nfaces = vbase, nverts, fbase, nfaces
+        self._vbase, self._fbase, self._nfaces = vbase, fbase, nfaces
         self._closed, self._lo, self._hi, self._centre, self._radius = closed, lo, hi, centre, radius
         self.triangles = int(nfaces[self._mesh].sum()) if N else 0
-        vertices = np.concatenate(verts) if verts else np.zeros((1, 3), "<f4")
-        all_faces = np.concatenate(faces) if faces else np.zeros((1, 3), "<u4")
-        self._culler = TriangleCuller(vertices, all_faces, vbase, nverts, fbase, nfaces, cbase,
-                                      np.concatenate(cl_c) if cl_c else np.zeros((1, 3)),
-                                      np.concatenate(cl_r) if cl_r else np.zeros(1),
-                                      np.concatenate(cl_v) if cl_v else np.zeros((1, 2), np.int64))
+        parts = list(prepared.values())
+
+        def joined(name: str, empty: np.ndarray) -> np.ndarray:
+            return np.concatenate([getattr(c, name) for c in parts]) if parts else empty
+
+        vertices = joined("vertices", np.zeros((1, 3), "<f4"))
+        all_faces = joined("faces", np.zeros((1, 3), "<u4"))
+        self._culler = TriangleCuller(
+            vertices, all_faces, vbase, fbase, nfaces, cbase, joined("centre", np.zeros((1, 3))),
+            joined("radius", np.zeros(1)), joined("vrange", np.zeros((1, 2), np.int64)),
+            joined("axis", np.zeros((1, 3))), joined("cos_a", np.zeros(1)), joined("sin_a", np.zeros(1)),
+            joined("thickness", np.zeros(1)), joined("perimeter", np.ones(1)))
         self._vbo = ctx.buffer(vertices.tobytes())
         self._ibo = ctx.buffer(all_faces.tobytes())
         self._streams: dict[int, tuple] = {}  # per-frame buffers, one set per frame in flight
@@ -192,8 +188,9 @@ class Renderer:
         """(instance rows, culled indices, draw commands): the buffers a frame writes."""
         if parity not in self._streams:
             ctx, n = self.ctx, max(1, len(self._mesh))
+            # the culled index buffer starts small and grows with what a frame draws
             self._streams[parity] = (ctx.buffer(reserve=n * INSTANCE_DTYPE.itemsize),
-                                     ctx.buffer(reserve=max(12, 12 * self.triangles)) if self.cull else None,
+                                     ctx.buffer(reserve=1 << 16) if self.cull else None,
                                      ctx.buffer(reserve=n * COMMAND_DTYPE.itemsize))
         return self._streams[parity]
 
@@ -502,7 +499,10 @@ class Renderer:
         culled = self.cull and int(self._nfaces[m].sum()) >= self.cull_min_faces
         self._culled = culled
         if culled:
-            indices, first, count = self._culler.select(slots, m, backcull, cfm, K, W, H, near, planes)
+            indices, first, count = self._culler.select(slots, m, backcull, cfm, eye, self._det[slots], K, W, H,
+                                                        near, planes)
+            if indices.nbytes > dyn_ibo.size:  # same buffer name: the vertex arrays stay valid
+                dyn_ibo.orphan(max(indices.nbytes, dyn_ibo.size * 3 // 2))
             dyn_ibo.write(indices)
             cmd["first"], cmd["count"] = first, count
             keep = count > 0
