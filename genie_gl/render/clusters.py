@@ -46,6 +46,7 @@ class Clusters:
     thickness : (C,) float64, the smallest 2 · area / perimeter of the cluster's faces (m).
     perimeter : (C,) float64, the smallest perimeter of the cluster's faces (m).
     lo, hi : (3,) float64, the box of the kept faces' vertices (NaN when there are none).
+    bound : float, the distance from the box's centre to the farthest of those vertices (m).
     dropped_nonfinite, dropped_degenerate : faces dropped for a NaN/Inf vertex, for zero area.
     """
 
@@ -61,6 +62,7 @@ class Clusters:
     perimeter: np.ndarray
     lo: np.ndarray
     hi: np.ndarray
+    bound: float
     dropped_nonfinite: int
     dropped_degenerate: int
 
@@ -100,8 +102,10 @@ def _keep_and_codes(v, faces):
             lo[k] = min(lo[k], x)
             hi[k] = max(hi[k], x)
     codes = np.zeros(n, np.uint32)
+    dropped = np.zeros(2, np.int64)
     for f in range(n):
         if state[f] != 2:
+            dropped[state[f]] += 1
             continue
         code = np.uint32(0)
         for k in range(3):
@@ -111,7 +115,7 @@ def _keep_and_codes(v, faces):
             for bit in range(10):
                 code |= np.uint32(((q >> bit) & 1) << (3 * bit + k))
         codes[f] = code
-    return state, codes
+    return state, codes, dropped
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -239,23 +243,33 @@ def _build(v, faces, order, cluster):
                 # widen by a little for the rounding of the normals above
                 cos_a[c] = max(lo_cos - 1e-9, 0.0)
                 sin_a[c] = math.sqrt(max(0.0, 1.0 - cos_a[c] * cos_a[c]))
-    return out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim
+    box = np.full((2, 3), np.nan)
+    mesh_r = 0.0
+    if len(out_v):
+        for k in range(3):
+            box[0, k], box[1, k] = np.inf, -np.inf
+        for q in range(len(out_v)):
+            for k in range(3):
+                box[0, k] = min(box[0, k], np.float64(out_v[q, k]))
+                box[1, k] = max(box[1, k], np.float64(out_v[q, k]))
+        for q in range(len(out_v)):
+            d2 = 0.0
+            for k in range(3):
+                d2 += (out_v[q, k] - (box[0, k] + box[1, k]) / 2) ** 2
+            mesh_r = max(mesh_r, d2)
+    return out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim, box, math.sqrt(mesh_r)
 
 
 def prepare(mesh: Mesh, name: str) -> Clusters:
     """The clusters of ``mesh`` (``name`` only names it in the warning about dropped faces)."""
     v = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
     f = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
-    state, codes = _keep_and_codes(v, f)
+    state, codes, dropped = _keep_and_codes(v, f)
     order = _radix_order(codes, state)
-    nonfinite, degenerate = int((state == 0).sum()), int((state == 1).sum())
+    nonfinite, degenerate = int(dropped[0]), int(dropped[1])
     if nonfinite or degenerate:
         log.warning("mesh %r: skipped %d of %d faces (%d with NaN/Inf vertices, %d degenerate)",
                     name, nonfinite + degenerate, len(f), nonfinite, degenerate)
-    out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim = _build(v, f, order, CLUSTER)
-    if len(out_v):
-        lo, hi = out_v.min(axis=0).astype(np.float64), out_v.max(axis=0).astype(np.float64)
-    else:
-        lo = hi = np.full(3, np.nan)
-    return Clusters(out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim, lo, hi,
-                    nonfinite, degenerate)
+    out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim, box, mesh_r = _build(v, f, order, CLUSTER)
+    return Clusters(out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim, box[0], box[1],
+                    float(mesh_r), nonfinite, degenerate)

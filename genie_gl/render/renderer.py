@@ -140,7 +140,7 @@ class Renderer:
         for i, c in prepared.items():
             lo[i], hi[i] = c.lo, c.hi
             centre[i] = (lo[i] + hi[i]) / 2
-            radius[i] = float(np.sqrt(((c.vertices.astype(np.float64) - centre[i]) ** 2).sum(axis=1).max()))
+            radius[i] = c.bound
             closed[i] = bool(scene.meshes[keys[i]].closed)
             vbase[i], fbase[i], nfaces[i], cbase[i] = v_at, f_at, len(c.faces), c_at
             v_at, f_at, c_at = v_at + len(c.vertices), f_at + len(c.faces), c_at + c.count
