@@ -100,7 +100,7 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         if j_lo >= j_hi:
             continue
         window = np.empty((3 * CLUSTER, 4))
-        keys = np.empty((3 * CLUSTER, 2), np.int64)
+        keys = np.empty((3 * CLUSTER, 2), np.int32)
         q = np.searchsorted(job0, j_lo, side="right") - 1
         for j in range(j_lo, j_hi):
             while job0[q + 1] <= j:
@@ -166,7 +166,7 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
                         if u + e < 0.0:
                             ku = -1
                         elif u - e > width - 1.0:
-                            ku = 1 << 40
+                            ku = 1 << 30
                         else:
                             lo_u = math.floor(u - e)
                             if lo_u == math.floor(u + e):
@@ -174,7 +174,7 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
                         if v + e < 0.0:
                             kv = -1
                         elif v - e > height - 1.0:
-                            kv = 1 << 40
+                            kv = 1 << 30
                         else:
                             lo_v = math.floor(v - e)
                             if lo_v == math.floor(v + e):
@@ -185,10 +185,8 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
                 f = f0 + i
                 a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
                 ka, kb, kc = keys[a, 0], keys[b, 0], keys[c, 0]
-                if ka == kb and kb == kc:
-                    continue
-                ka, kb, kc = keys[a, 1], keys[b, 1], keys[c, 1]
-                if ka == kb and kb == kc:
+                la, lb, lc = keys[a, 1], keys[b, 1], keys[c, 1]
+                if ((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc)):   # one branch, mostly taken
                     continue
                 keep = True
                 if window[a, 2] > near_keep and window[b, 2] > near_keep and window[c, 2] > near_keep:
@@ -231,10 +229,11 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
             counts[j] = n
 
 
-@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
+@njit(cache=True, nogil=True, boundscheck=False)
 def _emit(faces, masks, counts, jobface, starts, out):
-    """The kept faces' indices, job after job, at ``starts``."""
-    for j in prange(len(counts)):
+    """The kept faces' indices, job after job, at ``starts`` (one thread: it writes only what
+    is kept, and a second parallel region per frame costs a wake-up of every thread)."""
+    for j in range(len(counts)):
         if counts[j] == 0:
             continue
         at = starts[j]
