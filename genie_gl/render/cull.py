@@ -99,8 +99,8 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         j_lo, j_hi = ch * per_chunk, min(njobs, (ch + 1) * per_chunk)
         if j_lo >= j_hi:
             continue
-        window = np.empty((3 * CLUSTER, 4))
-        keys = np.empty((3 * CLUSTER, 2), np.int32)
+        wu, wv, wz, we = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+        keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         q = np.searchsorted(job0, j_lo, side="right") - 1
         for j in range(j_lo, j_hi):
             while job0[q + 1] <= j:
@@ -139,60 +139,49 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
                                   c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near_keep):
                 continue
             # window coordinates of the cluster's vertices, and per axis the cell of whole
-            # pixels (centres at integers) that holds the vertex widened by its bound: a
-            # triangle whose three vertices share a cell holds no pixel centre. A vertex
-            # whose widened coordinate holds an integer, or lies behind the near plane, gets
-            # a key of its own (its triangles go on to the full test).
+            # pixels (centres at integers) that holds the vertex widened by its bound e: a
+            # triangle whose three vertices share a cell on either axis holds no pixel centre.
+            # A cell is k when (k, k + 1) holds [u - e, u + e], -1 left of the image, W (H)
+            # right of (below) it; a vertex whose widened coordinate holds a pixel centre, or
+            # that lies behind the near plane, gets a key of its own (its triangles go on to
+            # the full test). Branch-free, so that the loop runs in vector registers.
             v_lo = c_vrange[cl, 0]
-            for jv in range(v_lo, c_vrange[cl, 1]):
-                px = np.float64(vertices[vb + jv, 0])
-                py = np.float64(vertices[vb + jv, 1])
-                pz = np.float64(vertices[vb + jv, 2])
+            nv = c_vrange[cl, 1] - v_lo
+            for w in range(nv):
+                px = np.float64(vertices[vb + v_lo + w, 0])
+                py = np.float64(vertices[vb + v_lo + w, 1])
+                pz = np.float64(vertices[vb + v_lo + w, 2])
                 x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
                 y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
                 z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
-                w = jv - v_lo
-                window[w, 2] = z
-                own = -2 - w
-                ku, kv = own, own
-                if z > 0:
-                    iz = 1.0 / z
-                    u = fx * x * iz + s * y * iz + cx
-                    v = fy * y * iz + cy
-                    err = REL_EPS * (tmag + 3 * rmag * (abs(px) + abs(py) + abs(pz)))
-                    e = BASE_EPS_PX + scale * err * (1 + (abs(x) + abs(y)) * iz) * iz
-                    window[w, 0], window[w, 1], window[w, 3] = u, v, e
-                    if z > near_keep:
-                        if u + e < 0.0:
-                            ku = -1
-                        elif u - e > width - 1.0:
-                            ku = 1 << 30
-                        else:
-                            lo_u = math.floor(u - e)
-                            if lo_u == math.floor(u + e):
-                                ku = int(lo_u)
-                        if v + e < 0.0:
-                            kv = -1
-                        elif v - e > height - 1.0:
-                            kv = 1 << 30
-                        else:
-                            lo_v = math.floor(v - e)
-                            if lo_v == math.floor(v + e):
-                                kv = int(lo_v)
-                keys[w, 0], keys[w, 1] = ku, kv
+                iz = 1.0 / (z if z > 1e-300 else 1.0)
+                u = fx * x * iz + s * y * iz + cx
+                v = fy * y * iz + cy
+                err = REL_EPS * (tmag + 3 * rmag * (abs(px) + abs(py) + abs(pz)))
+                e = BASE_EPS_PX + scale * err * (1 + (abs(x) + abs(y)) * iz) * iz
+                wz[w], wu[w], wv[w], we[w] = z, u, v, e
+                own = -2.0 - w
+                hi_u, hi_v = math.floor(u + e), math.floor(v + e)
+                ku = hi_u if math.ceil(u - e) > hi_u else own
+                kv = hi_v if math.ceil(v - e) > hi_v else own
+                ku = -1.0 if u + e < 0.0 else (width if u - e > width - 1.0 else ku)
+                kv = -1.0 if v + e < 0.0 else (height if v - e > height - 1.0 else kv)
+                front = z > near_keep
+                keys_u[w] = ku if front else own
+                keys_v[w] = kv if front else own
             n = 0
             for i in range(nf):
                 f = f0 + i
                 a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
-                ka, kb, kc = keys[a, 0], keys[b, 0], keys[c, 0]
-                la, lb, lc = keys[a, 1], keys[b, 1], keys[c, 1]
+                ka, kb, kc = keys_u[a], keys_u[b], keys_u[c]
+                la, lb, lc = keys_v[a], keys_v[b], keys_v[c]
                 if ((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc)):   # one branch, mostly taken
                     continue
                 keep = True
-                if window[a, 2] > near_keep and window[b, 2] > near_keep and window[c, 2] > near_keep:
-                    ea, eb, ec = window[a, 3], window[b, 3], window[c, 3]
-                    ua, va, ub = window[a, 0], window[a, 1], window[b, 0]
-                    vb_, uc, vc = window[b, 1], window[c, 0], window[c, 1]
+                if wz[a] > near_keep and wz[b] > near_keep and wz[c] > near_keep:
+                    ea, eb, ec = we[a], we[b], we[c]
+                    ua, va, ub = wu[a], wv[a], wu[b]
+                    vb_, uc, vc = wv[b], wu[c], wv[c]
                     ulo = max(math.ceil(min(ua - ea, min(ub - eb, uc - ec))), 0.0)
                     uhi = min(math.floor(max(ua + ea, max(ub + eb, uc + ec))), width - 1.0)
                     vlo = max(math.ceil(min(va - ea, min(vb_ - eb, vc - ec))), 0.0)
