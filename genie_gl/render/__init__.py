@@ -10,9 +10,10 @@ import types
 
 from .batch import capture, limit_threads, render, silhouettes
 from .context import BACKENDS, GLContext, create_context, release_shared_contexts, shared_context
+from .lod import LevelOfDetail
 from .renderer import Renderer
 
-__all__ = ["BACKENDS", "GLContext", "Renderer", "capture", "create_context", "limit_threads", "release_shared_contexts",
+__all__ = ["BACKENDS", "GLContext", "LevelOfDetail", "Renderer", "capture", "create_context", "limit_threads", "release_shared_contexts",
            "render", "shared_context", "silhouettes"]
 
 

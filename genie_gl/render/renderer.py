@@ -23,6 +23,7 @@ from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
 from .clusters import Clusters, prepare
+from .lod import LevelOfDetail, choose, simplified
 from .cull import TriangleCuller
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
 from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
@@ -83,6 +84,8 @@ class Renderer:
     targets : "packed" (default): depth and instance id in one RG32UI target, the semantic id
         looked up per instance on read-back (:mod:`genie_gl.render.readback`); "separate":
         three targets (depth, instance, semantic). The frames are the same bit for bit.
+    lod : a :class:`~genie_gl.render.lod.LevelOfDetail` to draw instances that look small
+        with simplified copies of their meshes (changes pixels; None, the default: exact).
     readback : "direct" (default): :meth:`frames` reads each frame's targets into the frame's
         arrays once the next frame is submitted; "pbo": each frame is read into pixel buffer
         objects as soon as it is submitted and copied out a frame later (on llvmpipe this
@@ -93,12 +96,14 @@ class Renderer:
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
-                 readback: str = "direct"):
+                 readback: str = "direct", lod: LevelOfDetail | None = None):
         for name, value, known in (("depth_precision", depth_precision, DEPTH_PRECISIONS),
                                    ("targets", targets, TARGETS), ("readback", readback, READBACKS)):
             if value not in known:
                 raise ConfigError(f"Renderer {name}={value!r} is unknown; expected one of {', '.join(known)}")
-        self.depth_precision, self.cull = depth_precision, bool(cull)
+        if lod is not None and not isinstance(lod, LevelOfDetail):
+            raise ConfigError(f"Renderer lod: expected a genie_gl.render.LevelOfDetail or None, got {type(lod).__name__}")
+        self.depth_precision, self.cull, self.lod = depth_precision, bool(cull), lod
         self.targets, self.readback = targets, readback
         self._own_context = context is None
         self.gl = context or create_context(backend)
@@ -110,6 +115,7 @@ class Renderer:
         self._clip_control = self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
         self._gl_flush = None
         self._culled = False
+        self._lod_drawn = 0
         with self._current():
             self._upload(scene)
         self.stats: dict[str, float] = {}
@@ -127,12 +133,22 @@ class Renderer:
         inst = scene.instances
         mesh_of = np.fromiter((index[i.mesh] for i in inst), dtype=np.int64, count=len(inst))
         n = len(keys)
-        # each mesh placed by an instance is prepared once, however many instances place it
+        # each mesh placed by an instance is prepared once, however many instances place it;
+        # with level of detail, its simplified copy goes in a slot of its own after the meshes
         prepared: dict[int, Clusters] = {}
+        copies: list[tuple[int, Clusters, bool]] = []
         for i in np.unique(mesh_of):
             c = prepare(scene.meshes[keys[i]], keys[i])
             if len(c.faces):
                 prepared[int(i)] = c
+                small = simplified(scene.meshes[keys[i]], self.lod) if self.lod is not None else None
+                if small is not None:
+                    copies.append((int(i), prepare(small, keys[i] + " (simplified)"), small.closed))
+        self._copy_of = np.full(n, -1, np.int64)
+        for k, (i, c, _) in enumerate(copies):
+            self._copy_of[i] = n + k
+            prepared[n + k] = c
+        n += len(copies)
         vbase, fbase, nfaces, cbase = (np.zeros(n, np.int64) for _ in range(4))
         closed, lo, hi = np.zeros(n, bool), np.zeros((n, 3)), np.zeros((n, 3))
         centre, radius = np.zeros((n, 3)), np.zeros(n)
@@ -141,11 +157,11 @@ class Renderer:
             lo[i], hi[i] = c.lo, c.hi
             centre[i] = (lo[i] + hi[i]) / 2
             radius[i] = c.bound
-            closed[i] = bool(scene.meshes[keys[i]].closed)
+            closed[i] = bool(scene.meshes[keys[i]].closed) if i < len(keys) else copies[i - len(keys)][2]
             vbase[i], fbase[i], nfaces[i], cbase[i] = v_at, f_at, len(c.faces), c_at
             v_at, f_at, c_at = v_at + len(c.vertices), f_at + len(c.faces), c_at + c.count
-        drawable = np.zeros(n, bool)
-        drawable[list(prepared)] = True
+        drawable = np.zeros(len(keys), bool)
+        drawable[[i for i in prepared if i < len(keys)]] = True
         keep = np.flatnonzero(drawable[mesh_of])
         order = keep[np.argsort(mesh_of[keep], kind="stable")]  # same mesh, scene order
         self._mesh = mesh_of[order]
@@ -342,6 +358,7 @@ class Renderer:
         ctx.disable(moderngl.CULL_FACE)
         return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
                 "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
+                "simplified": self._lod_drawn,
                 "t0": t0, "t1": t1}
 
     def _flush(self) -> None:
@@ -440,7 +457,7 @@ class Renderer:
                     normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
         self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
-                      "triangles_drawn": job["triangles"]}
+                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"]}
         return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)})
 
@@ -468,6 +485,7 @@ class Renderer:
         """Draw commands of a frame: [(commands, back-face culling)], nothing in Python per
         instance."""
         n = len(self._mesh)
+        self._lod_drawn = 0
         if n == 0:
             return []
         camera_from_world = rigid_inverse(pose)
@@ -484,6 +502,9 @@ class Renderer:
         if len(slots) == 0:
             return []
         m = mesh[slots]
+        small = choose(self.lod, self._copy_of[m] >= 0, centres[slots, 2], radii[slots], K)
+        m = np.where(small, self._copy_of[m], m)
+        self._lod_drawn = int(small.sum())
         # camera inside the (slightly grown) box of a closed mesh: draw both faces to see the inside
         eye = np.einsum("nij,j->ni", self._model_from_world[slots, :3], pose[:, 3])
         pad = 1e-6 * (1 + np.abs(self._hi[m] - self._lo[m]))
