@@ -298,6 +298,7 @@ def _print(table: dict, whole: dict) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import ConfigError
+    from ..outputs import atomic_write_text
 
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -330,8 +331,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"\nload average before {load[0]:.1f}, after {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)")
     for name, why in skipped.items():
         print(f"  skipped {name}: {why}")
-    tmp = out_dir / "render.json.tmp"
-    tmp.write_text(json.dumps(results, indent=2))
-    tmp.replace(out_dir / "render.json")
+    atomic_write_text(out_dir / "render.json", json.dumps(results, indent=2))
     print(f"\nwrote {out_dir / 'render.json'}")
     return 0
