@@ -14,8 +14,9 @@ the GPU cannot draw it into a pixel:
 
 * all three vertices are in front of the near plane and no pixel centre lies within the error
   bound of the triangle (its screen box, widened by the bound, holds no pixel centre; or it
-  holds at most four and each lies farther than the bound outside one of its edges: a
-  triangle whose vertices each move by at most e stays within distance e of the original), or
+  holds some, each lies farther than the bound outside one of its edges, checked line by line
+  along the box's shorter side: a triangle whose vertices each move by at most e stays within
+  distance e of the original), or
 * it is drawn with back-face culling and faces away by more than moving each vertex by its
   error bound could change (the GPU would cull it too).
 
@@ -47,6 +48,7 @@ numba.config.THREADING_LAYER_PRIORITY = ["workqueue", "omp", "tbb"]
 BASE_EPS_PX = 1.0 / 64  # pixels: covers sub-pixel snapping and rounding of window coordinates
 REL_EPS = 1e-6          # relative error bound of the float32 eye coordinates (~16 ulp)
 PARALLEL_FACES = 200_000  # below this many faces in view, one thread culls a frame
+SCAN_LINES = 64         # a triangle whose box spans more lines both ways is kept without a scan
 _MASK_WORDS = CLUSTER // 64
 
 
@@ -82,6 +84,49 @@ def _cone_drops(m, det, eye, cc, cr, ax, cos_a, sin_a, thick, perim, ez, ex, ey,
     e = BASE_EPS_PX + (fx + abs(s) + fy) * err * (1 + rx + ry) / zmin
     area = fx * fy * det * thick * dmin / (zmax * zmax * zmax)
     return area > 2.0 * math.sqrt(2.0) * e * jac + (4 * e * e + 1e-9) / perim
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True, inline="always")
+def _span(pu, pv, qu, qv, e, sg, at, lo, hi, rows):
+    """Narrow [lo, hi] to where, on the line ``at`` (a row v = at when ``rows``, else a column
+    u = at), points lie within e of the inner side of edge p->q (sg: the triangle's winding)."""
+    length = math.sqrt((qu - pu) ** 2 + (qv - pv) ** 2) * e
+    if rows:   # sg E(u, at) = c - d u >= -length
+        d = sg * (qv - pv)
+        c = sg * ((qu - pu) * (at - pv) + (qv - pv) * pu)
+    else:      # sg E(at, v) = c - d v >= -length
+        d = -sg * (qu - pu)
+        c = sg * (-(qu - pu) * pv - (qv - pv) * (at - pu))
+    if d > 0:
+        hi = min(hi, (c + length) / d)
+    elif d < 0:
+        lo = max(lo, (c + length) / d)
+    elif c + length < 0:
+        lo, hi = 1.0, 0.0
+    return lo, hi
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
+def _centre_near(ua, va, ub, vb, uc, vc, e, sg, ulo, uhi, vlo, vhi):
+    """True when a pixel centre of the box [ulo, uhi] x [vlo, vhi] (whole numbers) lies within
+    ``e`` of each edge line on the triangle's inner side (a superset of the points within e of
+    the triangle); scans the box's shorter side, line by line. A box of more than
+    :data:`SCAN_LINES` lines both ways is kept without a scan."""
+    rows = (vhi - vlo) <= (uhi - ulo)
+    if min(vhi - vlo, uhi - ulo) + 1 > SCAN_LINES:
+        return True
+    first, last = (vlo, vhi) if rows else (ulo, uhi)
+    lo0, hi0 = (ulo, uhi) if rows else (vlo, vhi)
+    at = first
+    while at <= last:
+        lo, hi = lo0, hi0
+        lo, hi = _span(ua, va, ub, vb, e, sg, at, lo, hi, rows)
+        lo, hi = _span(ub, vb, uc, vc, e, sg, at, lo, hi, rows)
+        lo, hi = _span(uc, vc, ua, va, e, sg, at, lo, hi, rows)
+        if math.ceil(lo) <= math.floor(hi):
+            return True
+        at += 1.0
+    return False
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy", fastmath=True)
@@ -195,23 +240,9 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
                             # (u, v) with v down) beyond what moving each vertex by e can flip
                             spread = abs(ub - ua) + abs(vb_ - va) + abs(uc - ua) + abs(vc - va)
                             keep = area2 <= 2 * e * spread + 4 * e * e + 1e-9
-                        if keep and (uhi - ulo + 1) * (vhi - vlo + 1) <= 4 and abs(area2) > 1e-12:
-                            # few centres in the box: keep only if one lies within e of the triangle
-                            sg = 1.0 if area2 > 0 else -1.0
-                            lab = math.sqrt((ub - ua) ** 2 + (vb_ - va) ** 2) * e
-                            lbc = math.sqrt((uc - ub) ** 2 + (vc - vb_) ** 2) * e
-                            lca = math.sqrt((ua - uc) ** 2 + (va - vc) ** 2) * e
-                            keep = False
-                            pu = ulo
-                            while pu <= uhi and not keep:
-                                pv = vlo
-                                while pv <= vhi and not keep:
-                                    if (sg * ((ub - ua) * (pv - va) - (vb_ - va) * (pu - ua)) >= -lab
-                                            and sg * ((uc - ub) * (pv - vb_) - (vc - vb_) * (pu - ub)) >= -lbc
-                                            and sg * ((ua - uc) * (pv - vc) - (va - vc) * (pu - uc)) >= -lca):
-                                        keep = True
-                                    pv += 1.0
-                                pu += 1.0
+                        if keep and abs(area2) > 1e-12:
+                            keep = _centre_near(ua, va, ub, vb_, uc, vc, e, 1.0 if area2 > 0 else -1.0,
+                                                ulo, uhi, vlo, vhi)
                 if keep:
                     masks[j, i >> 6] |= np.uint64(1) << np.uint64(i & 63)
                     n += 1
