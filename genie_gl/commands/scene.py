@@ -5,7 +5,6 @@ import argparse
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..dataset.previews import overview_pose  # noqa: F401  (kept importable from here)
 from . import seed, stages
 
 
@@ -20,6 +19,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..layout import Layout
     from ..scene import build_scene
+    from ..scene.usd import write_usd
 
     out = Path(args.out)
     if out.suffix not in (".usda", ".usdc", ".usd"):
@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
         scene = build_scene(layout, seed=args.seed)
         step("write USD")
         out.parent.mkdir(parents=True, exist_ok=True)
-        scene.to_usd(out)
+        write_usd(scene, out)
         if not args.no_picture:
             step("render overview")
             png = _overview(scene, layout, out)
@@ -46,7 +46,8 @@ def _overview(scene, layout, out: Path) -> Path:
     """The overview picture beside the scene file (``SCENE.png``)."""
     from PIL import Image
 
-    from ..render import render
+    from ..capture import render
+    from ..dataset.previews import overview_pose
     from ..sensors.camera import Sensor
 
     frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds))

@@ -30,20 +30,25 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from . import curation
+from ..capture import add_totals
 from ..errors import ConfigError
+from ..export import get_format
+from ..layout import load_strategy
+from ..scene import ASSETS
+from ..sensors import load_sensor
+from . import curation
 from .config import DatasetConfig
+from .config import accuracy_used as used
+from .executors import map_scenes
+from .limits import check_limits
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete
+from .report import dataset_cost, histogram
 from .scene import STAGES, run_scene, scene_dir, scene_rngs  # noqa: F401  (the run's public names)
-
-
 
 SCENE_RECORDS = 1000  # a run's manifest record lists the timings of at most this many scenes
 
 
 def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
-    from ..scene import ASSETS
-
     get = cfg.get if isinstance(cfg, dict) else lambda k, d=None: getattr(cfg, k, d)
     if ASSETS.registered() and (get("executor", "process") == "ray" or get("workers", 1) > 1):
         raise ConfigError(f"assets registered with register_asset ({ASSETS.registered()}) stay in this "
@@ -54,10 +59,6 @@ def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
 def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
     """Check what a run needs before any work: the strategy and sensor load, the output folder
     is writable, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
-    from ..layout import load_strategy
-    from ..sensors import load_sensor
-    from .limits import check_limits
-
     strategy = load_strategy(cfg.strategy)
     sensor = load_sensor(cfg.sensor)
     out = Path(cfg.out)
@@ -98,8 +99,6 @@ def _clear_leftovers(out: Path, fmt) -> None:
 
 def _effects_total(results: list[dict]) -> dict:
     """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
-    from ..plan import add_totals
-
     total: dict = {}
     for r in results:
         add_totals(total, r.get("effects", {}))
@@ -114,8 +113,6 @@ def _write_manifest(out: Path, manifest: dict) -> None:
 
 def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False) -> dict[str, Any]:
     """Make every missing (or damaged) scene of the dataset described by ``cfg``."""
-    from ..export import get_format
-
     _check_registered_assets(cfg)
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
@@ -147,10 +144,6 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
 
 def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, progress: bool, verify: bool) -> None:
     """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
-    from .executors import map_scenes
-    from ..accuracy import dataset_cost, used
-    from .report import histogram
-
     started = time.time()
     t0 = time.perf_counter()
     results = map_scenes(cfg, progress=progress, verify=verify)

@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 
 from ..cloud.pointcloud import PointCloud
+from ..errors import ConfigError
 from . import semantickitti, ply, pcd, npz, bop  # noqa: F401, I001  (each registers its format, in this order)
 from .registry import DATASET_FORMATS, DatasetFormat, SceneData, cloud_formats, get_format, register_format
 
@@ -18,24 +19,8 @@ def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semanti
     """Write ``cloud`` under ``out_dir`` in ``format``; returns the main file written."""
     fmt = get_format(format, "export format")
     if fmt.write_cloud is None:
-        from ..errors import ConfigError
-
         raise ConfigError(f"export format {format!r} writes datasets of frames, not clouds (clouds: {', '.join(FORMATS)})")
     return fmt.write_cloud(cloud, Path(out_dir), name=name, sequence=sequence, frame=frame)
 
 
 __all__ = ["DATASET_FORMATS", "DatasetFormat", "FORMATS", "SceneData", "export", "get_format", "register_format"]
-
-
-# ``genie_gl.export`` is both this package and the public function ``gg.export(cloud, ...)``
-# (DESIGN.md): the package forwards calls to :func:`export`, as ``genie_gl.render`` does.
-import sys as _sys  # noqa: E402
-import types as _types  # noqa: E402
-
-
-class _CallableModule(_types.ModuleType):
-    def __call__(self, *args, **kwargs):
-        return export(*args, **kwargs)
-
-
-_sys.modules[__name__].__class__ = _CallableModule
