@@ -27,6 +27,8 @@ divide. A peer that is not installed is listed as skipped with its install comma
 from __future__ import annotations
 
 import argparse
+import gc
+import importlib.util
 import json
 import multiprocessing as mp
 import os
@@ -35,6 +37,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import ConfigError
+from ..outputs import atomic_write_text
+from ..render import Renderer
+from ..render.reference import ReferenceRenderer
+from ..render.threads import limit_threads
+from ..sensors.camera import Sensor
 from .scenes import SIZES, bench_spec, to_scene
 
 CAMERAS = (24, 40)
@@ -50,8 +58,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def sensor_640():
-    from ..sensors.camera import Sensor
-
     return Sensor(640, 480, np.array([[525.0, 0, 319.5], [0, 525.0, 239.5], [0, 0, 1]]), near_m=0.1, far_m=100.0)
 
 
@@ -68,8 +74,6 @@ class _Ours:
     name = "genie-gl"
 
     def __init__(self, spec) -> None:
-        from ..render import Renderer
-
         self.r = Renderer(to_scene(spec))
         self.triangles = self.r.triangles
 
@@ -88,8 +92,6 @@ class _Pyrender:
     name = "pyrender"
 
     def __init__(self, spec, scene=None) -> None:
-        from ..render.reference import ReferenceRenderer
-
         self.r = ReferenceRenderer(scene if scene is not None else to_scene(spec))
 
     def frame(self, sensor, pose) -> None:
@@ -139,16 +141,12 @@ TOOLS = {"genie-gl": _Ours, "Open3D": _Open3D, "pyrender": _Pyrender}
 
 
 def available(name: str) -> bool:
-    import importlib.util
-
     return name not in PEERS or importlib.util.find_spec(PEERS[name][0]) is not None
 
 
 def bench_frames(scene, sensor, poses) -> list:
     """The frames ``genie bench render`` times, made by the object it times (depth and ids,
     what ``capture`` calls for a sensor without effects)."""
-    from ..render import Renderer
-
     with Renderer(scene) as r:
         first = [r.render(sensor, poses[0], depth_only=True)]
         return first + list(r.frames(sensor, poses[1:], depth_only=True))
@@ -170,8 +168,6 @@ def peak_rss_mib() -> float:
 def _measure(args) -> dict:
     """One tool on one scene in this (fresh) process: build, 39 more frames, peak memory."""
     name, scene_name = args
-    import gc
-
     spec = bench_spec(scene_name)
     scene = to_scene(spec) if name == "pyrender" else None   # pyrender's build starts from our Scene
     sensor = sensor_640()
@@ -207,8 +203,6 @@ def _measure(args) -> dict:
 def _worker(args) -> tuple[int, float, float]:
     name, scene_name, barrier, frames, lp_threads = args
     os.environ["LP_NUM_THREADS"] = str(lp_threads)
-    from ..render.batch import limit_threads
-
     limit_threads(lp_threads)
     spec = bench_spec(scene_name)
     sensor = sensor_640()
@@ -297,9 +291,6 @@ def _print(table: dict, whole: dict) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import ConfigError
-    from ..outputs import atomic_write_text
-
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
     scenes = [s.strip() for s in args.scenes.split(",") if s.strip()]

@@ -21,6 +21,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import trimesh
+
+from ..errors import ConfigError
+from ..layout import generate_layout
+from ..resources import resolve
+from ..scene import build_scene
+from ..scene.model import Mesh, Scene
+from ..sensors.pose import look_at
 
 SIZES = ("100k", "1M", "10M", "hall", "generated")
 
@@ -78,8 +86,6 @@ def _arrays(mesh, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
 
 
 def _objects_scene(name: str, rng: np.random.Generator) -> tuple[list, list, list, list]:
-    import trimesh
-
     subdivs, sections, cells = _TESSELLATION[name]
     meshes, mesh_of, T, sem = [_floor(24.0, cells)], [0], [np.eye(4)], [0]
     spheres = {s: trimesh.creation.icosphere(s, radius=1.0) for s in subdivs}
@@ -106,8 +112,6 @@ def _objects_scene(name: str, rng: np.random.Generator) -> tuple[list, list, lis
 
 
 def _hall(rng: np.random.Generator) -> tuple[list, list, list, list]:
-    import trimesh
-
     ball = trimesh.creation.icosphere(6, radius=0.5)   # 81,920 triangles
     meshes = [_floor(24.0, 4), _arrays(ball, np.ones(3))]
     mesh_of, T, sem = [0], [np.eye(4)], [0]
@@ -125,8 +129,6 @@ def _hall(rng: np.random.Generator) -> tuple[list, list, list, list]:
 def poses(n: int, *, rng: np.random.Generator, half_extent_m: float = 10.0) -> np.ndarray:
     """(n, 4, 4) float64 world_from_camera: eyes on a ring at 0.6-1.3 times ``half_extent_m``
     from the middle, 1.2 to 7 m high, looking at points near the middle, 0 to 1 m high."""
-    from ..sensors.pose import look_at
-
     out = []
     for k in range(n):
         a = 2 * np.pi * k / n + rng.uniform(-0.3, 0.3)
@@ -139,12 +141,8 @@ def poses(n: int, *, rng: np.random.Generator, half_extent_m: float = 10.0) -> n
 
 
 def _generated(seed: int) -> SceneSpec:
-    import genie_gl as gg
-
-    from ..resources import resolve
-
-    layout = gg.generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=seed)
-    scene = gg.build_scene(layout, seed=seed)
+    layout = generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=seed)
+    scene = build_scene(layout, seed=seed)
     keys = list(scene.meshes)
     index = {k: i for i, k in enumerate(keys)}
     meshes = [(m.vertices, m.faces, bool(m.closed)) for m in scene.meshes.values()]
@@ -162,8 +160,6 @@ def _generated(seed: int) -> SceneSpec:
 def bench_spec(name: str, seed: int = 0) -> SceneSpec:
     """The benchmark scene ``name`` (one of :data:`SIZES`) with 40 poses."""
     if name not in SIZES:
-        from ..errors import ConfigError
-
         raise ConfigError(f"benchmark scene {name!r} is unknown; expected one of {', '.join(SIZES)}")
     if name == "generated":
         return _generated(seed)
@@ -175,8 +171,6 @@ def bench_spec(name: str, seed: int = 0) -> SceneSpec:
 
 def to_scene(spec: SceneSpec):
     """The ``genie_gl.Scene`` of ``spec`` (each mesh stored once, instances placed)."""
-    from ..scene.model import Mesh, Scene
-
     if spec.scene is not None:
         return spec.scene
     scene = Scene()

@@ -1,5 +1,7 @@
 """Scene upload: a mesh's clusters hold exactly its drawable faces, and their bounds and cones
 hold what they claim; the culler's memory follows what is drawn, not the instances."""
+import importlib
+
 import numpy as np
 import pytest
 import trimesh
@@ -58,7 +60,7 @@ def test_clusters_hold_exactly_the_drawable_faces_with_true_bounds_and_cones():
 
 
 def test_a_mesh_shared_by_many_instances_is_prepared_once(monkeypatch):
-    import genie_gl.render.renderer as renderer_module
+    renderer_module = importlib.import_module("genie_gl.render.renderer")
 
     calls = []
     real = renderer_module.prepare
