@@ -58,3 +58,18 @@ def test_lod_settings_are_checked():
         LevelOfDetail(below_px=0)
     with pytest.raises(ConfigError, match="lod"):
         Renderer(gg.Scene(), lod=0.5)
+
+
+def test_lod_is_an_accuracy_setting_that_capture_follows():
+    from genie_gl.capture import capture
+    from genie_gl.sensors.accuracy import AccuracySettings, from_dict
+
+    scene, pose = balls()
+    sensor = gg.Sensor.pinhole(320, 240, 260.0)
+    exact, = capture(scene, sensor, [pose], seed=0, depth_only=True)
+    lod, = capture(scene, sensor, [pose], seed=0, depth_only=True, accuracy=AccuracySettings(lod_px=60.0))
+    with Renderer(scene, lod=LevelOfDetail(below_px=60.0)) as r:
+        direct = r.render(sensor, pose, depth_only=True)
+    assert lod.depth.tobytes() == direct.depth.tobytes() and lod.depth.tobytes() != exact.depth.tobytes()
+    with pytest.raises(ConfigError, match="lod_px"):
+        from_dict({"lod_px": -3}, "profile.yaml")
