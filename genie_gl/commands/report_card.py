@@ -1,0 +1,112 @@
+"""``genie report-card --sensor NAME [--sensor NAME ...] [--out DIR] [--pages DIR] [--json]
+[--captures DIR --calibration FILE --wall-distance M]``.
+
+Renders the standard test scenes through each profile, measures them with the field's
+depth-quality metrics and prints the card: every published figure of
+``sensors/<name>.reference.yaml`` beside ours, with its source and a verdict, then the
+measurements. ``--sensor all`` takes every shipped profile that has a reference file.
+``--out`` writes ``<name>.card.json`` and ``<name>.card.md`` per sensor and a
+``manifest.json``; ``--pages`` writes the Markdown pages and PNG curves (``docs/sensors/``).
+With ``--captures`` the card also measures a user's own depth PNGs of a wall and puts them in
+the same table (one sensor at a time).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+from ..errors import ConfigError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--sensor", action="append", required=True,
+                   help="profile name or path (repeat for several; 'all' = every shipped profile with a reference file)")
+    p.add_argument("--references", help="a reference file to judge against (default: the shipped one of the profile)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--frames", type=int, default=8, help="frames per test scene (>= 2; default 8)")
+    p.add_argument("--quick", action="store_true", help="fewer distances and angles (a smoke test, not a card)")
+    p.add_argument("--out", help="folder for <name>.card.json, <name>.card.md and manifest.json")
+    p.add_argument("--pages", help="folder for the Markdown pages and PNG curves (e.g. docs/sensors)")
+    p.add_argument("--json", action="store_true", help="print the card as JSON instead of Markdown")
+    p.add_argument("--captures", help="folder of 16-bit depth PNGs of a flat wall from your own camera")
+    p.add_argument("--calibration", help="your camera's OpenCV calibration file (with --captures)")
+    p.add_argument("--wall-distance", type=float, help="the wall's distance on the optical axis, m (with --captures)")
+    p.add_argument("--depth-scale", type=float, default=0.001, help="metres per depth PNG unit (default 0.001)")
+
+
+def _sensors(names: list[str]) -> list[str]:
+    if "all" not in names:
+        return names
+    from ..resources import data_dir
+
+    shipped = sorted(p.name[: -len(".reference.yaml")] for p in data_dir("sensors").glob("*.reference.yaml"))
+    return shipped + [n for n in names if n != "all" and n not in shipped]
+
+
+def _write(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import __version__
+    from ..card import CardSettings, report_card
+    from ..card.captures import load_captures
+    from ..card.pages import card_markdown, write_pages
+    from ..card.references import load_references, reference_path
+    from ..sensors.profile import load_sensor
+
+    if args.frames < 2:
+        raise ConfigError(f"--frames: the temporal metrics need at least 2 frames, got {args.frames}")
+    names = _sensors(args.sensor)
+    given = [x is not None for x in (args.captures, args.calibration, args.wall_distance)]
+    if any(given) and not all(given):
+        raise ConfigError("--captures, --calibration and --wall-distance go together (your depth PNGs, your "
+                          "camera's calibration file and the wall's distance in metres)")
+    if args.captures and len(names) != 1:
+        raise ConfigError("--captures: compare your camera with one profile at a time (one --sensor)")
+    captures = (load_captures(args.captures, args.calibration, args.wall_distance, depth_scale=args.depth_scale)
+                if args.captures else None)
+    settings = CardSettings(frames=args.frames, seed=args.seed)
+    if args.quick:
+        settings = CardSettings(distances_m=(0.5, 1.0, 2.0), angles_deg=(30.0,), angle_distances_m=(1.0,),
+                                step_distances_m=(1.0,), bars_distances_m=(1.0,), panels_distances_m=(1.0,),
+                                frames=args.frames, seed=args.seed)
+    cards, refs = [], {}
+    for name in names:
+        sensor = load_sensor(name)
+        ref = None
+        if args.references:
+            ref = load_references(args.references)
+        elif reference_path(sensor.name).is_file():
+            ref = load_references(sensor.name)
+        if ref is not None and ref.sensor != sensor.name:
+            raise ConfigError(f"{ref.path}: $.sensor is {ref.sensor!r}, but the profile is {sensor.name!r}")
+        print(f"genie report-card: {sensor.name}: rendering the test scenes ...", file=sys.stderr)
+        card = report_card(sensor, settings=settings, references=ref, captures=captures)
+        cards.append(card)
+        if ref is not None:
+            refs[sensor.name] = ref
+        if args.json:
+            print(json.dumps(card.to_dict(), indent=1))
+        else:
+            print(f"# {card.sensor}\n")
+            print(card_markdown(card))
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        for card in cards:
+            _write(out / f"{card.sensor}.card.json", json.dumps(card.to_dict(), indent=1) + "\n")
+            _write(out / f"{card.sensor}.card.md", f"# {card.sensor}\n\n" + card_markdown(card))
+        manifest = {"command": "report-card", "version": __version__, "sensors": [c.sensor for c in cards],
+                    "seed": args.seed, "frames": args.frames, "quick": bool(args.quick),
+                    "captures": args.captures, "references": {c.sensor: c.references for c in cards}}
+        _write(out / "manifest.json", json.dumps(manifest, indent=1) + "\n")
+    if args.pages:
+        for page in write_pages(cards, args.pages, refs):
+            print(f"genie report-card: wrote {page}", file=sys.stderr)
+    return 0
