@@ -75,3 +75,47 @@ def test_same_seed_same_card_other_seed_other_noise():
     assert a == run("azure_kinect_nfov", frames=2, distances_m=(1.0,))
     b = run("azure_kinect_nfov", frames=2, seed=1, distances_m=(1.0,))
     assert b[("temporal_noise_mm", 1.0, 0.0, None)] != a[("temporal_noise_mm", 1.0, 0.0, None)]
+
+
+def test_command_puts_your_captures_beside_the_profile_and_writes_pages(tmp_path, capsys):
+    """genie report-card end to end: the ideal profile (no noise) and a user's noisy captures
+    (sigma 3 mm) judged by one figure (temporal noise <= 2 mm at 1.2 m): the profile passes,
+    the captures differ; JSON, Markdown, manifest, page, curves and index are written."""
+    import json
+
+    from PIL import Image
+
+    from genie_gl import cli
+    from genie_gl.resources import data_dir
+    from genie_gl.sensors.calibration import read_calibration, write_calibration
+
+    rng = np.random.default_rng(2)
+    cap = tmp_path / "cap"
+    cap.mkdir()
+    for i in range(3):
+        Image.fromarray(np.round(1200 + 3 * rng.standard_normal((480, 640))).astype(np.uint16)).save(
+            cap / f"{i}.png")
+    write_calibration(read_calibration(data_dir("sensors") / "ideal_pinhole.calib.yml"),
+                      tmp_path / "c.yml")
+    ref = tmp_path / "ref.yaml"
+    ref.write_text("""sensor: ideal_pinhole
+sources:
+  test: {citation: "a test's own figure, 2024", where: here, verification: read}
+figures:
+  - {metric: temporal_noise_mm, distance_m: 1.2, bound: max, value: 2.0, source: test, quote: "<= 2 mm"}
+""")
+    args = ["report-card", "--sensor", "ideal_pinhole", "--references", str(ref), "--frames", "2", "--quick",
+            "--captures", str(cap), "--calibration", str(tmp_path / "c.yml"), "--wall-distance", "1.2",
+            "--out", str(tmp_path / "out"), "--pages", str(tmp_path / "pages")]
+    assert cli.main(args) == 0
+    printed = capsys.readouterr().out
+    assert "| temporal_noise_mm | 1.2 m | ≤ 2 mm | test (read) | 0 mm (at 1.2 m) | **pass** |" in printed
+    card = json.loads((tmp_path / "out" / "ideal_pinhole.card.json").read_text())
+    (c,) = card["comparisons"]
+    assert c["sim"]["verdict"] == "pass" and c["captures"]["verdict"] == "differs"
+    assert c["captures"]["ours"] == pytest.approx(np.sqrt(9 + 1 / 12), rel=0.02)
+    assert json.loads((tmp_path / "out" / "manifest.json").read_text())["sensors"] == ["ideal_pinhole"]
+    pages = sorted(p.name for p in (tmp_path / "pages").iterdir())
+    assert pages == ["ideal_pinhole.md", "ideal_pinhole_bias.png", "ideal_pinhole_edges.png", "ideal_pinhole_fill.png",
+                     "ideal_pinhole_sigma.png", "index.md"]
+    assert "[ideal_pinhole.md](ideal_pinhole.md)" in (tmp_path / "pages" / "index.md").read_text()
