@@ -4,7 +4,7 @@ published measurements of the real device.
 * :mod:`.metrics` — the metrics (Intel's depth quality tool, Azure Kinect's error
   definitions, edge and banding metrics), pure numpy;
 * :mod:`.scenes` — the standard test scenes (walls, a step, thin bars, material panels);
-* :mod:`.references` — ``sensors/<name>.reference.yaml``: published figures with sources;
+* :mod:`.references` — ``sensors/<name>.reference.yml``: published figures with sources;
 * :mod:`.report` — :func:`report_card`, rendering the scenes through a profile and judging it;
 * :mod:`.captures` — a user's own depth captures of a wall, measured the same way;
 * :mod:`.pages` — the Markdown pages and PNG curves under ``docs/sensors/``.

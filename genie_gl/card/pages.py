@@ -288,7 +288,7 @@ def page_markdown(card: ReportCard, images: list[str], references: dict | None =
              f"The profile `sensors/{card.sensor}.yaml` rendered through the standard test scenes and measured "
              "with the depth-quality metrics of the field (Intel's depth quality tool, Azure Kinect's error "
              "definitions), beside the published figures of `sensors/"
-             f"{card.sensor}.reference.yaml`.", "",
+             f"{card.sensor}.reference.yml`.", "",
              f"Settings: seed {s.seed}, {s.frames} frames per scene, central ROI {s.roi_fraction:g} of width and "
              f"height. Remake with `{COMMAND.format(sensor=card.sensor)}` (or `make sensor-pages`).", ""]
     lines.append(card_markdown(card))

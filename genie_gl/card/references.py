@@ -1,4 +1,4 @@
-"""Published reference figures of a sensor: ``sensors/<name>.reference.yaml`` beside its profile.
+"""Published reference figures of a sensor: ``sensors/<name>.reference.yml`` beside its profile.
 
 A reference file names its sources (authors or maker, title, venue, year, where in it) and
 lists figures, each tied to one source and one metric of the report card
@@ -185,8 +185,8 @@ class References:
 
 
 def reference_path(sensor_name: str) -> Path:
-    """``sensors/<name>.reference.yaml`` among the shipped files."""
-    return data_dir("sensors") / f"{sensor_name}.reference.yaml"
+    """``sensors/<name>.reference.yml`` among the shipped files."""
+    return data_dir("sensors") / f"{sensor_name}.reference.yml"
 
 
 def load_references(path_or_name: str | os.PathLike) -> References:
@@ -196,7 +196,7 @@ def load_references(path_or_name: str | os.PathLike) -> References:
     if not p.is_file():
         shipped = reference_path(str(path_or_name))
         if not shipped.is_file():
-            names = sorted(x.name[: -len(".reference.yaml")] for x in data_dir("sensors").glob("*.reference.yaml"))
+            names = sorted(x.name[: -len(".reference.yml")] for x in data_dir("sensors").glob("*.reference.yml"))
             raise ConfigError(f"{path_or_name}: no such reference file, and no shipped sensor of that name with "
                               f"one (shipped: {', '.join(names) or 'none'}){did_you_mean(str(path_or_name), names)}")
         p = shipped

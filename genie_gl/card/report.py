@@ -8,7 +8,7 @@ them with :mod:`genie_gl.card.metrics` and judges every figure of the sensor's r
 (:mod:`genie_gl.card.references`). The same seed gives the same card, value for value.
 
 What is measured where (distances restricted to the profile's ``range`` effect, plus every
-distance a reference figure names):
+distance a reference figure names, and both ends of its distance range inside the profile's):
 
 * walls at ``distances_m`` facing the camera, and at ``angles_deg`` at ``angle_distances_m``:
   the depth quality tool's metrics per frame (averaged over frames) and the temporal ones over
@@ -351,8 +351,9 @@ def measure(sensor: Sensor, settings: CardSettings | None = None, *, references:
     lo, hi = sensor_range(sensor)
     want: dict[tuple[str, float], set[float]] = {}
     for f in (references.figures if references is not None else ()):
-        if f.distance_m is not None:
-            want.setdefault((f.scene, f.angle_deg), set()).add(f.distance_m)
+        ends = [f.distance_m] if f.distance_m is not None else [max(f.distance_range_m[0], lo),
+                                                                 min(f.distance_range_m[1], hi)]
+        want.setdefault((f.scene, f.angle_deg), set()).update(d for d in ends if math.isfinite(d) and d > 0)
     out: list[Measurement] = []
     for d in _distances(settings.distances_m, lo, hi, want.get(("wall", 0.0), ())):
         out += _wall(bench, scenes.wall(d, 0.0), banding=False)
@@ -400,7 +401,7 @@ def report_card(sensor: Sensor | str, *, settings: CardSettings | None = None, s
     settings : what to render (:class:`CardSettings`; default settings when None).
     seed : overrides ``settings.seed``.
     references : a :class:`References`, a reference file's path, ``"shipped"`` (the default:
-        ``sensors/<profile name>.reference.yaml`` when there is one) or None (no figures).
+        ``sensors/<profile name>.reference.yml`` when there is one) or None (no figures).
     captures : a :class:`~genie_gl.card.captures.Captures` of the user's own camera, measured
         and judged beside the profile.
     context : a GL context to render in (None: this process's shared one).

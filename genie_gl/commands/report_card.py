@@ -3,7 +3,7 @@
 
 Renders the standard test scenes through each profile, measures them with the field's
 depth-quality metrics and prints the card: every published figure of
-``sensors/<name>.reference.yaml`` beside ours, with its source and a verdict, then the
+``sensors/<name>.reference.yml`` beside ours, with its source and a verdict, then the
 measurements. ``--sensor all`` takes every shipped profile that has a reference file.
 ``--out`` writes ``<name>.card.json`` and ``<name>.card.md`` per sensor and a
 ``manifest.json``; ``--pages`` writes the Markdown pages and PNG curves (``docs/sensors/``).
@@ -42,7 +42,7 @@ def _sensors(names: list[str]) -> list[str]:
         return names
     from ..resources import data_dir
 
-    shipped = sorted(p.name[: -len(".reference.yaml")] for p in data_dir("sensors").glob("*.reference.yaml"))
+    shipped = sorted(p.name[: -len(".reference.yml")] for p in data_dir("sensors").glob("*.reference.yml"))
     return shipped + [n for n in names if n != "all" and n not in shipped]
 
 
