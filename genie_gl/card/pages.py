@@ -245,7 +245,11 @@ def write_curves(card: ReportCard, folder: Path) -> list[str]:
         a2.plot(a[:, 0], a[:, 1], "o-", label=f"bars at {d:g} m")
     a2.set(xlabel="bar width (mm)", ylabel="bar pixels returning the bar (%)", ylim=(-5, 105), title="thin bars")
     a2.set_xscale("log")
-    a2.grid(True, which="both", alpha=0.3)
+    widths = sorted({float(m.part.split("_")[1][:-2]) for m in bars})
+    if widths:
+        a2.set_xticks(widths, [f"{w:g}" for w in widths])
+        a2.minorticks_off()
+    a2.grid(True, alpha=0.3)
     if bars:
         a2.legend(fontsize=8)
     fig.tight_layout()
@@ -253,7 +257,7 @@ def write_curves(card: ReportCard, folder: Path) -> list[str]:
     _save(fig, folder / names[-1])
     plt.close(fig)
     # edges: flying pixels and lateral noise at the step
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    fig, ax = plt.subplots(figsize=(6.5, 5.0))
     x, y = _series(ms, "flying_pixel_pct")
     ax.plot(x, y, "o-", label="flying pixels (% of valid pixels within 3 px of the edge)")
     x, y = _series(ms, "edge_fill_pct")
@@ -261,13 +265,15 @@ def write_curves(card: ReportCard, folder: Path) -> list[str]:
     _draw_figures(ax, figs, {"flying_pixel_pct": None})
     ax.set(xlabel="step distance (m)", ylabel="%", title=f"{card.sensor}: at a 0.5 m depth step")
     ax.grid(True, alpha=0.3)
+    handles, labels = ax.get_legend_handles_labels()
     x, y = _series(ms, "lateral_noise_px")
     if len(x):
         ax2 = ax.twinx()
-        ax2.plot(x, y, "^:", color="C3", label="lateral noise of the edge (px)")
+        ax2.plot(x, y, "^:", color="C3", label="lateral noise of the edge (px, right axis)")
         ax2.set_ylabel("lateral noise (px)")
-        ax2.legend(fontsize=7, loc="upper right")
-    ax.legend(fontsize=7, loc="upper left")
+        h2, l2 = ax2.get_legend_handles_labels()
+        handles, labels = handles + h2, labels + l2
+    ax.legend(handles, labels, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=1)
     fig.tight_layout()
     names.append(f"{card.sensor}_edges.png")
     _save(fig, folder / names[-1])

@@ -421,6 +421,10 @@ def report_card(sensor: Sensor | str, *, settings: CardSettings | None = None, s
         refs = load_references(sensor.name) if reference_path(sensor.name).is_file() else None
     else:
         refs = load_references(references)
+    if refs is not None and refs.sensor != sensor.name:
+        from ..errors import ConfigError
+
+        raise ConfigError(f"{refs.path}: $.sensor is {refs.sensor!r}, but the profile is {sensor.name!r}")
     sim = measure(sensor, settings, references=refs, context=context)
     if not sim:
         raise ValueError(f"report card: nothing of {sensor.name} could be measured")

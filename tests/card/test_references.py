@@ -102,3 +102,20 @@ def test_a_range_figure_growing_with_distance_reports_its_worst_case():
     assert j.verdict == "pass" and j.distance_m == 3.0 and j.limit == pytest.approx(14.0)
     j = judge(f, ms + [_m(12.6, d=1.5)])          # limit 12.5 at 1.5 m
     assert (j.verdict, j.distance_m) == ("differs", 1.5)
+
+
+def test_the_metrics_module_starts_no_gl():
+    import subprocess
+    import sys
+
+    code = "import sys, genie_gl.card.metrics; sys.exit(int(any(m in sys.modules for m in ('moderngl', 'OpenGL'))))"
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def test_a_reference_file_of_another_sensor_is_refused(tmp_path):
+    from genie_gl.card import report_card
+
+    p = tmp_path / "r.yml"
+    p.write_text(yaml.safe_dump(_good()))          # sensor: x
+    with pytest.raises(ConfigError, match=r"r.yml: \$\.sensor is 'x', but the profile is 'ideal_pinhole'"):
+        report_card("ideal_pinhole", references=str(p))
