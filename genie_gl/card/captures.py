@@ -94,9 +94,9 @@ def load_captures(folder: str | os.PathLike, calibration: str | os.PathLike, dis
 
 
 def measure_captures(captures: Captures, *, roi_fraction: float) -> list:
-    """The card's wall metrics (:func:`genie_gl.card.report.wall_measurements`) of the
+    """The card's wall metrics (:func:`genie_gl.card.measurements.wall_measurements`) of the
     captures, at their wall distance and incidence 0."""
-    from .report import wall_measurements
+    from .measurements import wall_measurements
 
     cam = captures.camera
     rays = np.asarray(cam.rays(), np.float64)

@@ -6,7 +6,8 @@
 ``<sensor>_bias.png`` (systematic error and Z accuracy), ``<sensor>_fill.png`` (fill rate of
 walls, panels and bars) and ``<sensor>_edges.png`` (flying pixels and lateral noise at the
 step) — with the published figures drawn on them, and ``index.md`` linking the pages.
-Files are written to a temporary name and renamed, so a page is whole or absent.
+The folder is claimed through :mod:`genie_gl.outputs` (only files genie-gl wrote are replaced;
+its ``manifest.json`` records them), and every file is written to a temporary name and renamed.
 """
 from __future__ import annotations
 
@@ -17,8 +18,11 @@ from typing import Iterable
 
 import numpy as np
 
+from ..outputs import PNG_SOFTWARE, OutputFolder, atomic_write_text, claim_folder
 from .references import METRICS, Figure
 from .report import Judgement, Measurement, ReportCard
+
+CURVES = ("sigma", "bias", "fill", "edges")
 
 COMMAND = "genie report-card --sensor {sensor} --pages docs/sensors"
 
@@ -171,9 +175,18 @@ def _draw_figures(ax, figures: Iterable[Figure], metric_to_mm: dict[str, float |
 
 
 def _save(fig, path: Path) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    fig.savefig(tmp, format="png", dpi=110, metadata={"Software": None})
-    os.replace(tmp, path)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
+    try:
+        fig.savefig(tmp, format="png", dpi=110, metadata={"Software": PNG_SOFTWARE})
+        tmp.replace(path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def page_names(sensor: str) -> list[str]:
+    """The files :func:`write_pages` writes for one sensor (the index aside)."""
+    return [f"{sensor}.md", *(f"{sensor}_{c}.png" for c in CURVES)]
 
 
 def write_curves(card: ReportCard, folder: Path) -> list[str]:
@@ -281,12 +294,6 @@ def write_curves(card: ReportCard, folder: Path) -> list[str]:
     return names
 
 
-def _write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-
-
 def page_markdown(card: ReportCard, images: list[str], references: dict | None = None) -> str:
     """A sensor's page: the card, its curves, its sources and how to remake it."""
     s = card.settings
@@ -313,33 +320,41 @@ def page_markdown(card: ReportCard, images: list[str], references: dict | None =
     return "\n".join(lines)
 
 
-def write_pages(cards: Iterable[ReportCard], folder: str | os.PathLike, references: dict | None = None) -> list[Path]:
-    """A page and four curves per card in ``folder`` (created if missing) and ``index.md``
-    listing every ``*.md`` page there; ``references`` maps a sensor to its
-    :class:`~genie_gl.card.references.References` (for the page's source list). Returns the
-    pages written (index last)."""
-    out = Path(folder)
+def write_pages(cards: Iterable[ReportCard], folder: str | os.PathLike | OutputFolder,
+                references: dict | None = None) -> list[Path]:
+    """A page and four curves per card in ``folder`` and ``index.md`` linking every page
+    genie-gl wrote there; ``references`` maps a sensor to its
+    :class:`~genie_gl.card.references.References` (for the page's source list). ``folder`` is a
+    path (claimed here through :func:`genie_gl.outputs.claim_folder`) or a folder already
+    claimed. Returns the pages written (index last)."""
+    cards = list(cards)
+    if not isinstance(folder, OutputFolder):
+        names = [n for c in cards for n in page_names(c.sensor)] + ["index.md"]
+        folder = claim_folder(folder, "report-card", names, option="pages")
+    out = folder.path
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for card in cards:
         images = write_curves(card, out)
         refs = (references or {}).get(card.sensor)
         page = out / f"{card.sensor}.md"
-        _write_text(page, page_markdown(card, images, None if refs is None else refs.sources))
+        atomic_write_text(page, page_markdown(card, images, None if refs is None else refs.sources))
         written.append(page)
-    index = out / "index.md"
     rows = ["# Sensor report cards", "",
             "Each shipped sensor profile rendered through the standard test scenes (flat walls at 0.3–4 m and "
             "0–60°, a depth step, thin bars, dark and shiny panels) and measured with the field's depth-quality "
             "metrics, beside the figures published for the real device. Every figure names its source and how it "
             "was read.", "", "| sensor | counted figures: pass / differ / not measured | page |", "| --- | --- | --- |"]
-    for page in sorted(out.glob("*.md")):
-        if page.name == "index.md":
+    for name in folder.outputs():
+        page = out / name
+        if not name.endswith(".md") or name == "index.md" or not page.is_file():
             continue
         text = page.read_text(encoding="utf-8")
         summary = next((ln for ln in text.splitlines() if ln.startswith("Counted figures:")), "")
         nums = summary.replace("Counted figures: ", "").split(" (")[0] if summary else "no figures"
         rows.append(f"| {page.stem} | {nums} | [{page.name}]({page.name}) |")
-    _write_text(index, "\n".join(rows) + "\n")
+    index = out / "index.md"
+    atomic_write_text(index, "\n".join(rows) + "\n")
     written.append(index)
+    folder.finish({"pages": [c.sensor for c in cards]})
     return written

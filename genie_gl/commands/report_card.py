@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from pathlib import Path
 
@@ -46,12 +45,6 @@ def _sensors(names: list[str]) -> list[str]:
     return shipped + [n for n in names if n != "all" and n not in shipped]
 
 
-def _write(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-
-
 def run(args: argparse.Namespace) -> int:
     from .. import __version__
     from ..card import CardSettings, report_card
@@ -76,6 +69,18 @@ def run(args: argparse.Namespace) -> int:
         settings = CardSettings(distances_m=(0.5, 1.0, 2.0), angles_deg=(30.0,), angle_distances_m=(1.0,),
                                 step_distances_m=(1.0,), bars_distances_m=(1.0,), panels_distances_m=(1.0,),
                                 frames=args.frames, seed=args.seed)
+    from ..outputs import atomic_write_text, claim_folder
+    from ..card.pages import page_names
+
+    if args.out and args.pages and Path(args.out).resolve() == Path(args.pages).resolve():
+        raise ConfigError("--out and --pages: give two different folders (the card files and the pages)")
+    stems = [Path(n).stem if n.endswith((".yaml", ".yml")) else n for n in names]
+    out = pages = None
+    if args.out:   # claimed before any work: a name of the user's is refused, not overwritten
+        out = claim_folder(args.out, "report-card", [f"{s}.card{e}" for s in stems for e in (".json", ".md")])
+    if args.pages:
+        pages = claim_folder(args.pages, "report-card", [n for s in stems for n in page_names(s)] + ["index.md"],
+                             option="--pages")
     cards, refs = [], {}
     for name in names:
         sensor = load_sensor(name)
@@ -94,17 +99,14 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(f"# {card.sensor}\n")
             print(card_markdown(card))
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
         for card in cards:
-            _write(out / f"{card.sensor}.card.json", json.dumps(card.to_dict(), indent=1) + "\n")
-            _write(out / f"{card.sensor}.card.md", f"# {card.sensor}\n\n" + card_markdown(card))
-        manifest = {"command": "report-card", "version": __version__, "sensors": [c.sensor for c in cards],
-                    "seed": args.seed, "frames": args.frames, "quick": bool(args.quick),
-                    "captures": args.captures, "references": {c.sensor: c.references for c in cards}}
-        _write(out / "manifest.json", json.dumps(manifest, indent=1) + "\n")
-    if args.pages:
-        for page in write_pages(cards, args.pages, refs):
+            atomic_write_text(out.path / f"{card.sensor}.card.json", json.dumps(card.to_dict(), indent=1) + "\n")
+            atomic_write_text(out.path / f"{card.sensor}.card.md", f"# {card.sensor}\n\n" + card_markdown(card))
+        out.finish({"version": __version__, "sensors": [c.sensor for c in cards], "seed": args.seed,
+                    "frames": args.frames, "quick": bool(args.quick), "captures": args.captures,
+                    "references": {c.sensor: c.references for c in cards}})
+    if pages is not None:
+        for page in write_pages(cards, pages, refs):
             print(f"genie report-card: wrote {page}", file=sys.stderr)
     return 0

@@ -82,6 +82,20 @@ def test_report_card_command_refuses_bad_arguments_in_one_line(tmp_path, capsys)
     assert "did you mean 'kinect_v2'" in capsys.readouterr().err
 
 
+def test_report_card_command_leaves_the_users_files_alone(tmp_path, capsys):
+    """A page name taken by a file genie-gl did not write is refused before anything renders."""
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "index.md").write_text("my notes")
+    assert cli.main(["report-card", "--sensor", "ideal_pinhole", "--pages", str(tmp_path / "docs")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "already holds 'index.md', which genie-gl did not write" in err and "\n" not in err
+    assert (tmp_path / "docs" / "index.md").read_text() == "my notes"
+    assert sorted(p.name for p in (tmp_path / "docs").iterdir()) == ["index.md"]
+    assert cli.main(["report-card", "--sensor", "ideal_pinhole", "--out", str(tmp_path / "a"),
+                     "--pages", str(tmp_path / "a")]) == 2
+    assert "two different folders" in capsys.readouterr().err
+
+
 def load_script():
     spec = importlib.util.spec_from_file_location("record_captures", ROOT / "tools" / "record_captures.py")
     mod = importlib.util.module_from_spec(spec)

@@ -7,7 +7,7 @@ from scipy import stats
 
 import genie_gl as gg
 from genie_gl.card import CardSettings
-from genie_gl.card.report import measure
+from genie_gl.card.measurements import measure
 
 pytestmark = pytest.mark.gl
 
@@ -117,5 +117,7 @@ figures:
     assert json.loads((tmp_path / "out" / "manifest.json").read_text())["sensors"] == ["ideal_pinhole"]
     pages = sorted(p.name for p in (tmp_path / "pages").iterdir())
     assert pages == ["ideal_pinhole.md", "ideal_pinhole_bias.png", "ideal_pinhole_edges.png", "ideal_pinhole_fill.png",
-                     "ideal_pinhole_sigma.png", "index.md"]
+                     "ideal_pinhole_sigma.png", "index.md", "manifest.json"]
+    manifest = json.loads((tmp_path / "pages" / "manifest.json").read_text())
+    assert manifest["command"] == "report-card" and "index.md" in manifest["outputs"]
     assert "[ideal_pinhole.md](ideal_pinhole.md)" in (tmp_path / "pages" / "index.md").read_text()

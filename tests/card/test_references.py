@@ -7,7 +7,8 @@ import yaml
 
 import genie_gl as gg
 from genie_gl.card.references import METRICS, load_references, parse_references, reference_path
-from genie_gl.card.report import Measurement, judge
+from genie_gl.card.measurements import Measurement
+from genie_gl.card.report import judge
 from genie_gl.errors import ConfigError
 from genie_gl.resources import data_dir
 
