@@ -11,9 +11,11 @@ import math
 from dataclasses import asdict, dataclass, replace
 from typing import Any, Iterable
 
+from ..errors import ConfigError, RenderError
 from ..sensors.camera import Sensor
 from .measurements import CardSettings, Measurement, measure
 from .references import Figure, References
+
 
 @dataclass(frozen=True)
 class Judgement:
@@ -138,12 +140,11 @@ def report_card(sensor: Sensor | str, *, settings: CardSettings | None = None, s
     else:
         refs = load_references(references)
     if refs is not None and refs.sensor != sensor.name:
-        from ..errors import ConfigError
-
         raise ConfigError(f"{refs.path}: $.sensor is {refs.sensor!r}, but the profile is {sensor.name!r}")
     sim = measure(sensor, settings, references=refs, context=context)
     if not sim:
-        raise ValueError(f"report card: nothing of {sensor.name} could be measured")
+        raise RenderError(f"report card: nothing of {sensor.name} could be measured (every test scene came "
+                          "back without a return)")
     yours: list[Measurement] = []
     if captures is not None:
         from .captures import measure_captures
