@@ -59,7 +59,14 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
         v = getattr(cfg, k)
         if v is None:  # an option not asked for (--class-balance, ...): the fingerprint of a run without it
             continue
+        if k in DatasetConfig.MOVING and cfg.capture == "static":   # standing cameras: as before these options
+            continue
         parts[k] = list(v) if isinstance(v, tuple) else v
+    if cfg.capture != "static":   # the rig's file and its sensors' files, the waypoints file
+        from .recording import recording_files
+
+        for role, path in recording_files(cfg).items():
+            parts[role] = _file_hash(path)
     blob = json.dumps(parts, sort_keys=True).encode()
     return {"sha256": hashlib.sha256(blob).hexdigest(), "parts": parts}
 
