@@ -30,7 +30,7 @@ BALANCE_SEED = 0x62616C616E6365  # "balance": the dataset's generator for the ch
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--class-balance", default=None, metavar="paper|FILE",
                    help="sub-sample chunks and points towards a class distribution: 'paper' (Table 3's "
-                        "synthetic column) or a JSON file {class: share}")
+                        "synthetic column), 'paper-real' (its real column) or a JSON file {class: share}")
     p.add_argument("--points-budget", type=int, default=None, metavar="N", help="at most N points in the dataset")
 
 

@@ -172,7 +172,10 @@ def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: li
         raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
     if fmt.finish is not None:
         fmt.finish(out, cfg, stats)
-    hist = histogram(out, stats, curation.target(cfg), curation.short(stats))
+    from ..cloud.balance import PAPER_REAL
+
+    hist = histogram(out, stats, curation.target(cfg), curation.short(stats),
+                     reference=PAPER_REAL if cfg.capture == "mobile-map" else None)
     made = [r for r in results if not r.get("skipped")]
     n_made = len(made) if balanced is None else len(balanced)  # balanced: the scenes written by this run
     stage_t: dict[str, float] = {}
