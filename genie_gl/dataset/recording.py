@@ -15,14 +15,16 @@ Every scene folder also gets ``trajectory.txt``: the body's poses in TUM's
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError
 from .config import DatasetConfig
+
+log = logging.getLogger(__name__)
 
 SINGLE_RATE_HZ = 10.0         # --sensor alone: its frame rate on the body ...
 SINGLE_PITCH_RAD = np.radians(10.0)   # ... tilted this far down
@@ -153,9 +155,9 @@ def capture_moving(cfg: DatasetConfig, layout, scene, rng: dict[str, np.random.G
         if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
             kept.append((key, tile))
             np.add.at(tally.counts, tile.semantic, 1)
-    if not kept:
-        raise ConfigError(f"scene map of {len(cloud):,} points gave no chunk of {cfg.min_points}+ points with a "
-                          f"{cfg.min_labelled_share} labelled share; use a longer --duration-s")
+    if not kept:   # as for standing cameras: the scene is written without chunks, and said so
+        log.warning("a mobile-scan map of %d points gave no chunk of %d+ points with a %g labelled share "
+                    "(a longer --duration-s sees more)", len(cloud), cfg.min_points, cfg.min_labelled_share)
     tally.points = len(cloud)
     t["cloud"] = time.perf_counter()
     return Moving(rig, trajectory, tally, kept=kept, map_cloud=cloud,
