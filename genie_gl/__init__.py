@@ -12,6 +12,10 @@ The public API, one name per pipeline stage (DESIGN.md)::
     cloud  = gg.to_cloud(frames)
     gg.export(cloud, "out/", format="semantickitti")
 
+    rig   = gg.load_rig("d435_quad")                # sensors with fixed extrinsics on a body
+    path  = gg.make_trajectory(layout, scene, "aisles", seed=0)   # on the free floor
+    shots = gg.record(scene, rig, path, seed=0)    # (Shot, Frame) in time order
+
 Names are imported lazily, so ``import genie_gl`` stays cheap and starts no GL.
 """
 from __future__ import annotations
@@ -46,6 +50,14 @@ _EXPORTS: dict[str, str] = {
     "Sensor": "genie_gl.sensors.camera",
     "load_sensor": "genie_gl.sensors",
     "place_sensors": "genie_gl.sensors",
+    # cameras that move: rigs, trajectories, recordings, mobile-scan maps
+    "Rig": "genie_gl.sensors.rig",
+    "load_rig": "genie_gl.sensors.rig",
+    "Trajectory": "genie_gl.sensors.trajectory",
+    "make_trajectory": "genie_gl.sensors.paths",
+    "RegistrationError": "genie_gl.sensors.registration",
+    "record": "genie_gl.capture.trajectory",
+    "fuse": "genie_gl.cloud.fusion",
     # render
     "Frame": "genie_gl.frame",
     "Renderer": "genie_gl.render",

@@ -99,3 +99,56 @@ def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bo
             yield sh, frames.pop(sh.index)
         start = stop
         window += 1
+
+
+@dataclass(frozen=True, eq=False)
+class RecordingPlan:
+    """The plan of a recording: per rig sensor, the per-frame :class:`~genie_gl.Plan` of its
+    shots (what each effect does, what is culled, the predicted cost) and, for a mobile-scan
+    map, the registration error predicted at each shot (m at mid range; None: no model)."""
+
+    shots: list
+    plans: dict
+    registration_sigma_m: np.ndarray | None = None
+
+    @property
+    def predicted_s(self) -> float:
+        return sum(p.predicted_s for p in self.plans.values())
+
+    def summary(self) -> str:
+        lines = [f"recording: {len(self.shots)} shots of {len(self.plans)} sensors; predicted {self.predicted_s:.2f} s"]
+        for name, p in self.plans.items():
+            lines += ["  " + line for line in f"[{name}] {p.summary()}".splitlines()]
+        if self.registration_sigma_m is not None and len(self.registration_sigma_m):
+            s = self.registration_sigma_m
+            lines.append(f"  registration error (predicted, at 3 m range): {1e3 * s[0]:.1f} mm at the start, "
+                         f"{1e3 * s[-1]:.1f} mm after {self.shots[-1].distance_m:.0f} m")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        out = {"shots": len(self.shots), "predicted_s": round(self.predicted_s, 3),
+               "sensors": {k: p.to_dict() for k, p in self.plans.items()},
+               "times_s": [round(s.time_s, 6) for s in self.shots]}
+        if self.registration_sigma_m is not None:
+            out["registration_sigma_m"] = [round(float(v), 6) for v in self.registration_sigma_m]
+        return out
+
+
+def plan_recording(scene, rig: Rig, trajectory: Trajectory, *, registration=None) -> RecordingPlan:
+    """What recording ``rig`` along ``trajectory`` will do, frame by frame, before rendering:
+    ``gg.plan`` of each sensor's shots, and ``registration`` (a
+    :class:`~genie_gl.sensors.registration.RegistrationError`) predicted at each shot."""
+    import genie_gl as gg
+
+    from .mobile_map import MID_RANGE_M
+
+    shots = schedule(rig, trajectory)
+    plans = {}
+    for k, s in enumerate(rig.sensors):
+        poses = [sh.world_from_camera for sh in shots if sh.sensor == k]
+        if poses:
+            plans[s.name] = gg.plan(scene, s.sensor, poses)
+    sigma = None
+    if registration is not None:
+        sigma = registration.sigma_m(np.array([sh.distance_m for sh in shots]), MID_RANGE_M)
+    return RecordingPlan(shots, plans, sigma)

@@ -140,3 +140,27 @@ def test_the_same_seed_records_the_same_bytes(recorded):
     assert len(again) == 4 * 7
     for (_, a), (_, b) in zip(again, twice):
         assert a.depth.tobytes() == b.depth.tobytes() and a.semantic.tobytes() == b.semantic.tobytes()
+
+
+def test_the_plan_of_a_recording_is_each_sensors_plan_of_its_shots_and_the_registration_predicted(recorded):
+    from genie_gl.capture.trajectory import plan_recording
+
+    scene, rig, tr, pairs = recorded
+    p = plan_recording(scene, rig, tr, registration=RegistrationError())
+    assert list(p.plans) == ["front", "left", "back", "right"]
+    assert all(len(sp.frames) == 6 for sp in p.plans.values())
+    assert np.all(np.diff(p.registration_sigma_m) >= 0) and p.registration_sigma_m[0] > 0
+    assert "registration error (predicted, at 3 m range)" in p.summary()
+    assert p.to_dict()["shots"] == 24
+
+
+def test_the_accuracy_bench_can_take_its_frames_along_a_path():
+    from genie_gl.bench.accuracy_case import path_poses
+
+    layout = gg.generate_layout("storage_area", seed=0)
+    scene = gg.build_scene(layout, seed=0)
+    poses = path_poses(layout, scene, gg.load_sensor("ideal_pinhole"), "random", 5, seed=1)
+    assert len(poses) == 5
+    heights = [p[2, 3] for p in poses]
+    np.testing.assert_allclose(heights, 1.7)
+    np.testing.assert_allclose([np.degrees(np.arcsin(-p[2, 2])) for p in poses], 10.0)   # optical axis 10 deg down
