@@ -70,8 +70,9 @@ def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bo
     ``depth_only``, ``accuracy`` and ``context`` are ``gg.capture``'s; ``shots`` a subset of
     :func:`schedule` (default: all).
     """
-    from ..render import capture
+    import genie_gl as gg   # the public capture (lens, plan, accuracy settings, effects)
 
+    capture = gg.capture
     shots = schedule(rig, trajectory) if shots is None else shots
     per = max(1, WINDOW)
     start = 0
