@@ -70,9 +70,8 @@ def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bo
     ``depth_only``, ``accuracy`` and ``context`` are ``gg.capture``'s; ``shots`` a subset of
     :func:`schedule` (default: all).
     """
-    import genie_gl as gg   # the public capture (lens, plan, accuracy settings, effects)
+    from . import capture   # gg.capture: lens, plan, accuracy settings, effects
 
-    capture = gg.capture
     shots = schedule(rig, trajectory) if shots is None else shots
     per = max(1, WINDOW)
     start = 0
