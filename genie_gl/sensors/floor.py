@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from scipy import ndimage, sparse
-from scipy.sparse import csgraph
 
 from ..errors import ConfigError
 from ..layout.model import Layout
