@@ -1,25 +1,21 @@
-"""The capture stage: rigs along trajectories (:mod:`.trajectory`) and the frames of a
-mobile-scan map with its registration error (:mod:`.mobile_map`), composed around
-``gg.capture`` (renderer, lens, plan, accuracy settings, effects).
+"""Capture: the composer of the stages below it.
 
-``genie_gl.capture`` is both this package and the public function ``gg.capture(scene, sensor,
-poses, seed=...)`` (DESIGN.md): importing a submodule binds the package as an attribute of
-``genie_gl``, so the package forwards calls to the function, as ``genie_gl.render`` does.
+The renderer (:mod:`genie_gl.render`) draws pinhole views; here they meet the sensor's lens
+(:mod:`.lens`), the plan of what to draw and which effects to run (:mod:`.planner`), the
+accuracy settings (:mod:`.settings`, :mod:`.supersample`) and the sensor's effects
+(:func:`~genie_gl.sensors.simulate.simulate`): :func:`render` makes one frame through the
+lens, :func:`capture` many, with their effects, on all cores. Cameras that move:
+:mod:`.trajectory` records a rig along a trajectory (its shots in time order, planned per
+sensor), :mod:`.mobile_map` gives those frames a mobile scanner's registration error.
 """
-import sys as _sys
-import types as _types
+from .costs import add_totals, effect_totals, frame_cost, frame_costs
+from .frames import capture, render
+from .lens import silhouettes, through_lens
+from .planner import EffectPlan, FramePlan, Plan, far_plane, plan
+from .serial import pose_rng
+from .settings import apply_to_sensor, renderer_options, segments_option, settings_for, simulate_options
+from .supersample import supersampled
 
-
-def capture(*args, **kwargs):
-    """``gg.capture``: see :func:`genie_gl.render.batch.capture`."""
-    from ..render.batch import capture as _capture
-
-    return _capture(*args, **kwargs)
-
-
-class _CallableModule(_types.ModuleType):
-    def __call__(self, *args, **kwargs):
-        return capture(*args, **kwargs)
-
-
-_sys.modules[__name__].__class__ = _CallableModule
+__all__ = ["EffectPlan", "FramePlan", "Plan", "add_totals", "apply_to_sensor", "capture", "effect_totals",
+           "far_plane", "frame_cost", "frame_costs", "plan", "pose_rng", "render", "renderer_options",
+           "segments_option", "settings_for", "silhouettes", "simulate_options", "supersampled", "through_lens"]
