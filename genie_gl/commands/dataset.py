@@ -33,7 +33,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-disk-gb", type=float, default=None, help="disk limit (default: the free space of --out)")
     p.add_argument("--class-balance", default=None, metavar="paper|FILE",
                    help="sub-sample chunks and points towards a class distribution: 'paper' (Table 3's "
-                        "synthetic column) or a JSON file {class: share}")
+                        "synthetic column), 'paper-real' (its real column) or a JSON file {class: share}")
     p.add_argument("--points-budget", type=int, default=None, metavar="N", help="at most N points in the dataset")
     p.add_argument("--verify", action="store_true", help="check finished scenes' file hashes, not only sizes")
     p.add_argument("--no-progress", action="store_true")
