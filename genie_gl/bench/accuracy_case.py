@@ -21,6 +21,8 @@ from ..resources import resolve
 from ..scene import build_scene, usd
 from ..sensors import load_sensor, place_sensors
 from ..sensors.pose import look_at
+from ..sensors.paths import PATHS, make_trajectory
+from ..sensors.rig import body_from_sensor
 from . import analytic
 from .knobs import Case
 
@@ -102,9 +104,6 @@ def make_case(args: argparse.Namespace) -> Case:
 def path_poses(layout, scene, sensor, path: str, n: int, *, seed: int) -> list[np.ndarray]:
     """``n`` poses of ``sensor`` carried (level, tilted 10° down) along a trajectory of kind
     ``path`` (aisles, random or a waypoints file) on the scene's free floor, evenly in time."""
-    from ..sensors.paths import PATHS, make_trajectory
-    from ..sensors.rig import body_from_sensor
-
     kind = path if path in PATHS[:2] else "waypoints"
     tr = make_trajectory(layout, scene, kind, seed=seed, waypoints=path if kind == "waypoints" else None)
     body = tr.at(np.linspace(tr.start_s, tr.end_s, max(1, n)))

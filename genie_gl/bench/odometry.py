@@ -14,6 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..capture.trajectory import record
+from ..export.semantickitti_sequence import write_recording
+from ..layout import generate_layout
+from ..render import shared_context
+from ..scene import build_scene
+from ..sensors.paths import make_trajectory
+from ..sensors.rig import load_rig
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="storage_area")
@@ -37,20 +45,13 @@ def read_sequence(seq: Path) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
 
 
 def run(args: argparse.Namespace) -> int:
-    import genie_gl as gg
-    from evo.core import metrics
+    from evo.core import metrics     # the bench extra: evo and kiss-icp
     from evo.core.trajectory import PoseTrajectory3D
     from kiss_icp.config import KISSConfig
     from kiss_icp.kiss_icp import KissICP
 
-    from ..capture.trajectory import record
-    from ..export.semantickitti_sequence import write_recording
-    from ..render import shared_context
-    from ..sensors.paths import make_trajectory
-    from ..sensors.rig import load_rig
-
-    layout = gg.generate_layout(args.strategy, seed=args.seed)
-    scene = gg.build_scene(layout, seed=args.seed)
+    layout = generate_layout(args.strategy, seed=args.seed)
+    scene = build_scene(layout, seed=args.seed)
     rig = load_rig(args.rig)
     tr = make_trajectory(layout, scene, args.path, seed=args.seed, duration_s=args.duration_s)
     out = Path(args.out) / "odometry"

@@ -12,6 +12,15 @@ import json
 import time
 from pathlib import Path
 
+from ..capture import capture
+from ..capture.trajectory import record, schedule
+from ..layout import generate_layout
+from ..render import shared_context
+from ..scene import build_scene
+from ..sensors import place_sensors
+from ..sensors.paths import make_trajectory
+from ..sensors.rig import load_rig
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="storage_area")
@@ -22,19 +31,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import genie_gl as gg
-    from ..capture.trajectory import record, schedule
-    from ..render import shared_context
-    from ..sensors.paths import make_trajectory
-    from ..sensors.rig import load_rig
-
-    layout = gg.generate_layout(args.strategy, seed=args.seed)
-    scene = gg.build_scene(layout, seed=args.seed)
+    layout = generate_layout(args.strategy, seed=args.seed)
+    scene = build_scene(layout, seed=args.seed)
     rig = load_rig(args.rig)
     tr = make_trajectory(layout, scene, "aisles", seed=args.seed, duration_s=args.duration_s)
     shots = schedule(rig, tr)
     per = [sum(s.sensor == k for s in shots) for k in range(len(rig))]
-    standing = [gg.place_sensors(layout, s.sensor, n=n, seed=args.seed, method="greedy") for s, n in zip(rig.sensors, per)]
+    standing = [place_sensors(layout, s.sensor, n=n, seed=args.seed, method="greedy") for s, n in zip(rig.sensors, per)]
     ctx = shared_context()
     best = {"trajectory": float("inf"), "standing": float("inf")}
     for _ in range(max(1, args.repeat)):
@@ -43,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         best["trajectory"] = min(best["trajectory"], time.perf_counter() - t)
         t = time.perf_counter()
         for s, poses in zip(rig.sensors, standing):
-            gg.capture(scene, s.sensor, poses, seed=args.seed, workers=1, depth_only=True, context=ctx)
+            capture(scene, s.sensor, poses, seed=args.seed, workers=1, depth_only=True, context=ctx)
         best["standing"] = min(best["standing"], time.perf_counter() - t)
     result = {"strategy": args.strategy, "rig": rig.name, "frames": n, "duration_s": tr.duration_s,
               "trajectory_s": best["trajectory"], "standing_s": best["standing"],

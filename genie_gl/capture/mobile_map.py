@@ -15,11 +15,9 @@ from collections.abc import Iterable, Iterator
 import numpy as np
 
 from ..frame import Frame
-from ..sensors.registration import RegistrationError
+from ..sensors.registration import MID_RANGE_M, RegistrationError
 from ..sensors.trajectory import Trajectory
 from .trajectory import Shot
-
-MID_RANGE_M = 3.0   # the range at which a frame's predicted misplacement is reported
 
 
 def registration_rng(seed: int) -> np.random.Generator:

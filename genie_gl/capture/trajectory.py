@@ -16,8 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..frame import Frame
+from ..sensors.registration import MID_RANGE_M
 from ..sensors.rig import Rig
 from ..sensors.trajectory import Trajectory
+from .frames import capture
+from .planner import plan
 
 WINDOW = 48   # shots of one sensor rendered per capture call (a window of the recording)
 
@@ -70,8 +73,6 @@ def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bo
     ``depth_only``, ``accuracy`` and ``context`` are ``gg.capture``'s; ``shots`` a subset of
     :func:`schedule` (default: all).
     """
-    from . import capture   # gg.capture: lens, plan, accuracy settings, effects
-
     shots = schedule(rig, trajectory) if shots is None else shots
     per = max(1, WINDOW)
     start = 0
@@ -138,16 +139,12 @@ def plan_recording(scene, rig: Rig, trajectory: Trajectory, *, registration=None
     """What recording ``rig`` along ``trajectory`` will do, frame by frame, before rendering:
     ``gg.plan`` of each sensor's shots, and ``registration`` (a
     :class:`~genie_gl.sensors.registration.RegistrationError`) predicted at each shot."""
-    import genie_gl as gg
-
-    from .mobile_map import MID_RANGE_M
-
     shots = schedule(rig, trajectory)
     plans = {}
     for k, s in enumerate(rig.sensors):
         poses = [sh.world_from_camera for sh in shots if sh.sensor == k]
         if poses:
-            plans[s.name] = gg.plan(scene, s.sensor, poses)
+            plans[s.name] = plan(scene, s.sensor, poses)
     sigma = None
     if registration is not None:
         sigma = registration.sigma_m(np.array([sh.distance_m for sh in shots]), MID_RANGE_M)

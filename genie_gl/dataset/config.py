@@ -18,6 +18,7 @@ from ..cloud.balance import load_target
 from ..errors import ConfigError, did_you_mean
 from ..export.registry import DATASET_FORMATS
 from ..labels import CLASSES
+from ..sensors.paths import PATHS
 from ..sensors import load_sensor
 from ..sensors.accuracy import AccuracySettings, load_accuracy
 
@@ -103,8 +104,6 @@ class DatasetConfig(BaseModel):
                               f"{self.format} with --capture {self.capture} writes images or recordings: use a "
                               "point-cloud format with --capture static or mobile-map")
         if self.capture != "static":
-            from ..sensors.paths import PATHS
-
             if self.path not in PATHS[:2] and not os.path.isfile(self.path):
                 raise ConfigError(f"--path {self.path!r}: expected aisles, random or a waypoints file (no such file)")
         return self

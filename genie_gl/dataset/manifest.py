@@ -23,6 +23,7 @@ from typing import Any
 from .. import __version__
 from ..errors import ConfigError
 from .config import DatasetConfig
+from .recording import recording_files
 
 LOCK = ".genie-lock"
 RECORD = "stats.json"
@@ -63,8 +64,6 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
             continue
         parts[k] = list(v) if isinstance(v, tuple) else v
     if cfg.capture != "static":   # the rig's file and its sensors' files, the waypoints file
-        from .recording import recording_files
-
         for role, path in recording_files(cfg).items():
             parts[role] = _file_hash(path)
     blob = json.dumps(parts, sort_keys=True).encode()

@@ -159,8 +159,6 @@ def write_recording_previews(folder: Path, index: int, layout, frames, trajector
     """The pictures of a scene captured along a trajectory: the path on the layout, a frame or
     two, the scene from above, and the fused map from above (a mobile-scan map) or the frames'
     points (a recording)."""
-    from ..cloud import to_cloud
-
     folder.mkdir(parents=True, exist_ok=True)
     layout_picture(layout, f"scene {index}: trajectory, {trajectory.length_m:.0f} m in {trajectory.duration_s:.0f} s",
                    folder / f"scene_{index:04d}_path.png", path_xy=trajectory.positions[:, :2])

@@ -16,12 +16,25 @@ Every scene folder also gets ``trajectory.txt``: the body's poses in TUM's
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..capture.mobile_map import registration_rng, with_registration
+from ..capture.trajectory import record
+from ..cloud import chunks, keep_cloud
+from ..cloud.fusion import fuse
+from ..outputs import atomic_write_text
+from ..render import shared_context
+from ..resources import resolve
+from ..sensors import load_sensor
+from ..sensors.paths import PATHS, make_trajectory
+from ..sensors.registration import registration_of
+from ..sensors.rig import Rig, load_rig
+from ..sensors.trajectory import quaternion_xyzw
 from .config import DatasetConfig
 
 log = logging.getLogger(__name__)
@@ -33,9 +46,6 @@ PREVIEW_FRAMES = 2
 
 def rig_of(cfg: DatasetConfig):
     """The rig of a run: ``--rig``, or ``--sensor`` alone on the body."""
-    from ..sensors import load_sensor
-    from ..sensors.rig import Rig, load_rig
-
     if cfg.rig:
         return load_rig(cfg.rig)
     return Rig.single(load_sensor(cfg.sensor), rate_hz=SINGLE_RATE_HZ, pitch_rad=float(SINGLE_PITCH_RAD))
@@ -43,8 +53,6 @@ def rig_of(cfg: DatasetConfig):
 
 def recording_files(cfg: DatasetConfig) -> dict[str, str]:
     """Role -> path of the files a moving capture reads (rig, its sensors' files, waypoints)."""
-    from ..resources import resolve
-
     files: dict[str, str] = {}
     if cfg.rig:
         files["rig"] = str(resolve(cfg.rig, "rigs", (".yaml", ".yml")))
@@ -58,17 +66,12 @@ def recording_files(cfg: DatasetConfig) -> dict[str, str]:
 
 
 def trajectory_of(cfg: DatasetConfig, layout, scene, rng: np.random.Generator):
-    from ..sensors.paths import PATHS, make_trajectory
-
     kind = cfg.path if cfg.path in PATHS[:2] else "waypoints"
     return make_trajectory(layout, scene, kind, seed=int(rng.integers(2**31)), motion=cfg.motion,
                            waypoints=cfg.path if kind == "waypoints" else None, duration_s=cfg.duration_s)
 
 
 def write_trajectory(trajectory, path: Path) -> None:
-    from ..export.rosbag import quaternion_xyzw
-    from ..outputs import atomic_write_text
-
     rows = []
     for t, T in zip(trajectory.times_s, trajectory.world_from_body):
         q = quaternion_xyzw(T[:3, :3])
@@ -113,13 +116,6 @@ class Moving:
 def capture_moving(cfg: DatasetConfig, layout, scene, rng: dict[str, np.random.Generator], fmt, accuracy,
                    stage, t: dict[str, float]) -> Moving:
     """The trajectory and the recording (trajectory) or the fused map's chunks (mobile-map)."""
-    import time
-
-    from ..capture.mobile_map import registration_rng, with_registration
-    from ..capture.trajectory import record
-    from ..render import shared_context
-    from ..sensors.registration import registration_of
-
     stage("placement")
     rig = rig_of(cfg)
     trajectory = trajectory_of(cfg, layout, scene, rng["trajectory"])
@@ -132,9 +128,6 @@ def capture_moving(cfg: DatasetConfig, layout, scene, rng: dict[str, np.random.G
     if cfg.capture == "trajectory":
         t["capture"] = t["cloud"] = time.perf_counter()   # rendered as the writer reads it (export)
         return Moving(rig, trajectory, tally, recording=stream)
-    from ..cloud import chunks, keep_cloud
-    from ..cloud.fusion import fuse
-
     b = scene.bounds()
     b[0] -= 0.5
     b[1] += 0.5

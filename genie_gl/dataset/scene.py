@@ -21,7 +21,8 @@ from ..sensors import load_sensor, place_sensors
 from . import curation
 from .config import DatasetConfig, settings_of
 from .manifest import record_files, scene_complete
-from .previews import write_previews
+from .previews import write_previews, write_recording_previews
+from .recording import capture_moving, stats_of, write_trajectory
 
 STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
 
@@ -124,10 +125,6 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
 
 def _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, out: Path, final: Path) -> dict[str, Any]:
     """Scene ``index`` captured along a trajectory: a recording or a mobile-scan map."""
-    from ..export import SceneData
-    from .previews import write_recording_previews
-    from .recording import capture_moving, stats_of, write_trajectory
-
     moving = capture_moving(cfg, layout, scene, rng, fmt, accuracy, stage, t)
     info = {"instances": len(scene.instances), **stats_of(moving)}
     if curation.active(cfg):   # a mobile-scan map's chunks, balanced once every scene is made

@@ -10,7 +10,7 @@ from pathlib import Path
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError
 from ..outputs import claim_folder
-from . import semantickitti, ply, pcd, npz, bop, e57, las, tum, rosbag  # noqa: F401, I001  (each registers its format, in this order)
+from . import semantickitti, semantickitti_sequence, ply, pcd, npz, bop, e57, las, tum, rosbag  # noqa: F401, I001  (each registers its format, in this order)
 from .registry import DATASET_FORMATS, DatasetFormat, SceneData, cloud_formats, get_format, register_format
 
 FORMATS = cloud_formats()  # formats of one cloud: semantickitti, ply, pcd, npz, e57, las

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError
+from ..sensors.trajectory import quaternion_xyzw
 from .semantickitti_sequence import camera_points
 
 
@@ -32,8 +33,6 @@ def _pye57():
 
 
 def _quat_wxyz(R: np.ndarray) -> np.ndarray:
-    from .rosbag import quaternion_xyzw
-
     x, y, z, w = quaternion_xyzw(R)
     return np.array([w, x, y, z])
 

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from ..sensors.trajectory import quaternion_xyzw
 from .semantickitti_sequence import camera_points
 
 DISTORTION = {"fisheye": "equidistant"}   # pinhole: plumb_bob (<= 5 coefficients) or rational_polynomial
@@ -40,14 +41,6 @@ def _modules():
         raise ConfigError(f"--format rosbag needs the rosbags package: pip install 'genie-gl[sequences]' ({exc})") from None
     return Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, StoragePlugin, Writer, \
         get_typestore(Stores.ROS2_HUMBLE)
-
-
-def quaternion_xyzw(R: np.ndarray) -> np.ndarray:
-    """(4,) float64 unit quaternion (x, y, z, w) of a rotation matrix, w >= 0."""
-    from scipy.spatial.transform import Rotation
-
-    q = Rotation.from_matrix(R).as_quat()
-    return q if q[3] >= 0 else -q
 
 
 class _Messages:

@@ -256,14 +256,6 @@ def _finish(out: Path, cfg, stats: list[dict]) -> None:
     for s in stats:
         for k, v in s["class_points"].items():
             counts[int(k)] = counts.get(int(k), 0) + int(v)
-    if cfg is not None and cfg.capture == "trajectory":   # each scene's recording: its own sequences
-        from .semantickitti_sequence import assemble
-
-        groups = assemble(out, [DATASET.scene_dir(out, i) for i in range(len(stats))], counts=counts,
-                          split=tuple(cfg.split))
-        for s in stats:
-            s["sequence"] = min(q for q, members in groups.items() if s["scene"] in members)
-        return
     groups = assemble_sequences(out, [DATASET.scene_dir(out, i) for i in range(len(stats))], counts=counts,
                                 split=tuple(cfg.split) if cfg is not None else (0.8, 0.1, 0.1))
     for s in stats:
@@ -279,14 +271,8 @@ import shutil
 
 from .registry import DatasetFormat, register_format  # noqa: E402
 
-def _write_sequence(data, folder: Path) -> None:
-    from .semantickitti_sequence import write_scene
-
-    write_scene(data, folder)
-
-
 DATASET = register_format(DatasetFormat(
     "semantickitti", "scenes", colour=False, write_scene=_write_scene, finish=_finish, write_cloud=_write_cloud,
-    write_sequence=_write_sequence, captures=("static", "mobile-map", "trajectory"),
+
     stale=("sequences",), cloud_outputs=lambda name: ("sequences", "genie-gl.yaml"),
     dataset_outputs=("sequences", "genie-gl.yaml"), description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))

@@ -17,7 +17,9 @@ x forward, y left, z up, like KITTI's Velodyne), so the body plays the "velodyne
 """
 from __future__ import annotations
 
+import dataclasses
 import os
+import shutil
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -26,6 +28,8 @@ import numpy as np
 from ..cloud.unproject import unproject
 from ..errors import ExportError
 from ..outputs import atomic_write_bytes, atomic_write_text
+from . import semantickitti
+from .registry import register_format
 from .semantickitti import MAX_SEQUENCES, _fmt, _link, encode_instances, label_map_yaml, pack_labels, split_sequences
 
 
@@ -118,8 +122,6 @@ def write_scene(data, folder: Path) -> None:
 def assemble(out: str | os.PathLike, scene_dirs: list[Path], *, counts=None, split=(0.8, 0.1, 0.1)) -> dict[int, list[int]]:
     """``sequences/NN`` from every scene's group folders in order (hard links), and the label
     map; returns {sequence: [scene]}. More than 100 sequences is refused (two digits)."""
-    import shutil
-
     src = [(i, d) for i, scene in enumerate(scene_dirs) for d in sorted(Path(scene).iterdir())
            if d.is_dir() and d.name.isdigit() and len(d.name) == 2]
     if len(src) > MAX_SEQUENCES:
@@ -145,3 +147,22 @@ def assemble(out: str | os.PathLike, scene_dirs: list[Path], *, counts=None, spl
             shutil.rmtree(old)
     atomic_write_text(Path(out) / "genie-gl.yaml", label_map_yaml(counts, split_sequences(len(made), split)))
     return made
+
+
+def _finish(out: Path, cfg, stats: list[dict]) -> None:
+    """The dataset's sequences: each scene's recording its own (trajectory), else the chunks'."""
+    if cfg is None or cfg.capture != "trajectory":
+        return STATIC_FINISH(out, cfg, stats)
+    counts: dict[int, int] = {}
+    for s in stats:
+        for k, v in s["class_points"].items():
+            counts[int(k)] = counts.get(int(k), 0) + int(v)
+    made = assemble(out, [DATASET.scene_dir(out, i) for i in range(len(stats))], counts=counts, split=tuple(cfg.split))
+    for s in stats:
+        s["sequence"] = min(q for q, members in made.items() if s["scene"] in members)
+
+
+# the SemanticKITTI format takes recordings too: its registration, with the sequence writer
+STATIC_FINISH = semantickitti.DATASET.finish
+DATASET = register_format(dataclasses.replace(semantickitti.DATASET, write_sequence=write_scene, finish=_finish,
+                                              captures=("static", "mobile-map", "trajectory")))

@@ -32,6 +32,7 @@ import numpy as np
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region, RegionType
 from . import coverage
+from .floor import furnished_rects, outside_rects
 from .camera import Sensor
 from .placement_bits import DiscBits
 from .pose import look_at
@@ -138,8 +139,6 @@ class CoverageProblem:
         cy = np.arange(by + step_m / 2, by + bh, step_m)
         self.candidates = np.stack(np.meshgrid(cx, cy), -1).reshape(-1, 2)
         if free_floor:  # a low mount stands where nothing is furnished (not inside a rack or a stack)
-            from .floor import furnished_rects, outside_rects
-
             free = outside_rects(self.candidates, furnished_rects(layout), FREE_MARGIN_M)
             if free.any():
                 self.candidates = self.candidates[free]

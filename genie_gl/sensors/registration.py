@@ -28,6 +28,8 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import ConfigError, did_you_mean
 
+MID_RANGE_M = 3.0   # the range at which a frame's predicted misplacement is reported (plans, frame meta)
+
 
 @dataclass(frozen=True)
 class RegistrationError:

@@ -35,6 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from ..errors import ConfigError, did_you_mean
 from ..resources import read_text, resolve
 from .camera import Sensor
+from .profile import load_sensor
 
 # the OpenCV optical frame's axes in a REP 103 link frame (columns: optical x, y, z)
 LINK_FROM_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -155,8 +156,6 @@ def load_rig(name_or_path: str | os.PathLike) -> Rig:
             raise ConfigError(f"{path}: {where}: unknown field{did_you_mean(str(e['loc'][-1]), known)}; "
                               f"expected {', '.join(known)}") from None
         raise ConfigError(f"{path}: {where} {e.get('input')!r:.60}: {e['msg']}") from None
-    from .profile import load_sensor
-
     sensors = []
     for k, s in enumerate(spec.sensors):
         beside = path.parent / s.profile

@@ -116,6 +116,12 @@ class Trajectory:
         return Trajectory(times, poses, {**self.meta, "cropped_s": float(duration_s)})
 
 
+def quaternion_xyzw(R: np.ndarray) -> np.ndarray:
+    """(4,) float64 unit quaternion (x, y, z, w) of a rotation matrix, w >= 0."""
+    q = Rotation.from_matrix(R).as_quat()
+    return q if q[3] >= 0 else -q
+
+
 def planar_poses(xy: np.ndarray, yaw: np.ndarray, height_m: float) -> np.ndarray:
     """(n, 4, 4) world_from_body of a level body at ``xy`` (n, 2) facing ``yaw`` (n,) rad
     (0: +x, pi/2: +y), its origin ``height_m`` above the floor."""
