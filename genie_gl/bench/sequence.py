@@ -1,9 +1,11 @@
 """``genie bench sequence``: what cameras that move cost, as frames per second along a
 trajectory against the same number of standing frames of the same sensors, in one process.
 
-Along the trajectory every rig sensor's shots are rendered through ``gg.capture`` a window at
-a time (:mod:`genie_gl.capture.trajectory`); the standing frames are the same sensors at as
-many poses placed for coverage, captured in one call per sensor, as a static dataset does.
+Along the trajectory every rig sensor's shots are rendered as ``gg.capture`` renders them, a
+window at a time, with one renderer and one plan for the whole recording
+(:mod:`genie_gl.capture.trajectory`); the standing frames are the same sensors at as many
+poses placed for coverage, captured in one ``gg.capture`` call per sensor, as a static
+dataset does.
 """
 from __future__ import annotations
 
