@@ -62,7 +62,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="storage_area")
     p.add_argument("--rig", default="panorama_cube")
     p.add_argument("--path", default="aisles", choices=("aisles", "random"))
-    p.add_argument("--duration-s", type=float, default=30.0)
+    p.add_argument("--duration-s", type=float, default=10.0)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--rate-hz", type=float, default=RATE_HZ,
                    help="every rig sensor's frame rate (0: the rig's own)")
