@@ -160,11 +160,14 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     train_sets = [_as_set(x, label_map) for x in train]
     test_sets = [_as_set(x, label_map) for x in test]
     everything = train_sets + test_sets
-    for other in everything[1:]:
-        check_same_classes(everything[0].names, everything[0].spec, other.names, other.spec)
     names = dict(label_names.CLASSES)
-    for s in everything:
-        names.update(s.names)
+    named_by: dict[int, str] = {}
+    for s in everything:   # every set against the names the sets before it gave
+        for k in set(names) & set(s.names):
+            check_same_classes({k: names[k]}, named_by.get(k, "genie-gl's classes"), {k: s.names[k]}, s.spec)
+        for k, v in s.names.items():
+            named_by.setdefault(k, s.spec)
+            names[k] = v
     lut = None
     n_classes = max(10, max(s.max_class() for s in everything) + 1)
     if class_map is not None:
