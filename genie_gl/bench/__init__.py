@@ -32,7 +32,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         mod.add_arguments(p)
 
 
+# the files each benchmark writes under --out (claimed before it runs: a user's file of the same
+# name is never replaced; anything else a benchmark makes there is recorded as it appears)
+OUTPUTS: dict[str, tuple[str, ...]] = {
+    "render": ("render.json",), "layout": ("layout.json", "layout.png"),
+    "accuracy": ("accuracy.json", "accuracy.md", "accuracy.png", "accuracy.yaml", "cache"),
+    "pipeline": ("pipeline.json",), "stability": ("stability.json",), "planning": ("planning.json",),
+}
+
+
 def run(args: argparse.Namespace) -> int:
+    from ..outputs import claim_folder
+
     try:
         mod = importlib.import_module(f"genie_gl.bench.{args.bench}")
     except ModuleNotFoundError as exc:
@@ -40,4 +51,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"genie bench {args.bench}: not available in this build")
             return 2
         raise
-    return int(mod.run(args) or 0)
+    folder = claim_folder(args.out, "bench", OUTPUTS.get(args.bench, ()), reserve=True)
+    code = int(mod.run(args) or 0)
+    folder.finish({"last": args.bench})
+    return code
