@@ -22,12 +22,20 @@ def _plt():
 
 
 def _save(fig, path: str | os.PathLike) -> Path:
-    path = Path(path)
+    """Save a figure as a PNG stamped as genie-gl's, atomically; a PNG genie-gl did not write
+    is never replaced."""
+    from ..outputs import PNG_SOFTWARE, check_replaceable, png_is_ours
+
+    path = check_replaceable(path, png_is_ours, what="PNG picture")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight", metadata={"Software": None})
-    _plt().close(fig)
-    tmp.replace(path)
+    try:
+        fig.savefig(tmp, dpi=110, bbox_inches="tight", metadata={"Software": PNG_SOFTWARE})
+        tmp.replace(path)
+    finally:
+        _plt().close(fig)
+        if tmp.exists():
+            tmp.unlink()
     return path
 
 

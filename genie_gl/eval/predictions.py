@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..export._atomic import atomic_write_bytes
+from ..outputs import atomic_write_bytes
 from .data import EvalSet
 
 

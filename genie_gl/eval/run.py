@@ -116,10 +116,21 @@ def _as_set(x: str | os.PathLike | EvalSet, label_map: str | os.PathLike | None)
 
 
 def _write_json(path: Path, data: Any) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(data, indent=1, sort_keys=False) + "\n")
-    tmp.replace(path)
+    from ..outputs import atomic_write_text
+
+    atomic_write_text(path, json.dumps(data, indent=1, sort_keys=False) + "\n")
+
+
+def _versions() -> dict[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for pkg in ("genie-gl", "numpy", "pgeof", "lightgbm", "torch"):
+        try:
+            out[pkg] = version(pkg)
+        except PackageNotFoundError:
+            pass
+    return out
 
 
 def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | os.PathLike | EvalSet], *,
@@ -157,6 +168,12 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     if not test:
         raise ConfigError("--test: at least one dataset")
     t0 = time.perf_counter()
+    folder = None
+    if out is not None:   # claimed before any work: only what genie eval writes is ever replaced
+        from ..outputs import claim_folder
+
+        folder = claim_folder(out, "eval", ("metrics.json", "timings.json", "report.md", "predictions"),
+                              reserve=True)
     train_sets = [_as_set(x, label_map) for x in train]
     test_sets = [_as_set(x, label_map) for x in test]
     everything = train_sets + test_sets
@@ -221,12 +238,13 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
                         timings={"read_s": t_read, "features_s": t_features, "train_s": t_train,
                                  "predict_s": t_pred, "total_s": time.perf_counter() - t0},
                         out=out_p)
-    if out_p is not None:
-        _write_json(out_p / "metrics.json", result.as_dict())
-        _write_json(out_p / "timings.json", result.timings)
+    if out_p is not None and folder is not None:
+        from ..outputs import atomic_write_text
         from .report import result_markdown
 
-        (out_p / "report.md").write_text(result_markdown(result))
+        _write_json(out_p / "metrics.json", result.as_dict())
+        _write_json(out_p / "timings.json", result.timings)
+        atomic_write_text(out_p / "report.md", result_markdown(result))
         if pictures:
             from .plots import confusion_png, iou_bars_png
 
@@ -234,4 +252,8 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
                 confusion_png(t.summary["confusion"], names, out_p / f"{t.name}.confusion.png",
                               title=f"{model} on {t.name} (summed over {len(seeds)} seeds)")
                 iou_bars_png({model: t.summary}, names, out_p / f"{t.name}.iou.png", title=f"IoU per class, {t.name}")
+        folder.finish({"inputs": {"train": list(result.train), "test": [t.spec for t in result.tests],
+                                  "model": model, "seeds": list(seeds), "label_map": str(label_map) if label_map else None,
+                                  "params": repr(params) if params is not None else "defaults"},
+                       "versions": _versions()})
     return result

@@ -198,6 +198,8 @@ def spread_of(result: Any, metric: str) -> Spread:
 
 
 def preset_markdown(preset: str, res: Any, out: Path) -> str:
+    from ..outputs import atomic_write_text
+
     text = f"## {preset}\n\n" + preset_table(preset, res, out)
-    (out / f"{preset}.md").write_text(text)
+    atomic_write_text(out / f"{preset}.md", text)
     return text

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import logging
-import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -171,7 +170,12 @@ def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 
     print(f"study {study}: {text}", flush=True)
     if not confirm:
         return f"study {study}: {text}\n(run again with --yes to start)"
-    c.out.mkdir(parents=True, exist_ok=True)
+    from ..outputs import atomic_write_text, claim_folder
+
+    folder = claim_folder(c.out, "eval-study", reserve=True)
+    for n in names:
+        if (c.out / f"{n}.md").exists() and not folder.owns(f"{n}.md"):
+            raise ConfigError(f"--out {c.out}: already holds {n}.md, which genie-gl did not write; choose another folder")
     parts = []
     for n in names:
         if n == "mix":
@@ -179,14 +183,24 @@ def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 
         else:
             results = {t.name: (t, run_training(t, c)) for t in _plan(n, c)}
             parts.append(getattr(report, f"{n}_study")(c, results))
-        text_n = parts[-1]
-        tmp = c.out / f".{n}.md.{os.getpid()}.tmp"
-        tmp.write_text(text_n)
-        tmp.replace(c.out / f"{n}.md")
+        atomic_write_text(c.out / f"{n}.md", parts[-1])
+        folder.finish({"study": n, "seeds": list(c.seeds), "scenes": c.scenes, "test_scenes": c.test_scenes,
+                       "cameras": c.cameras, "cache": str(c.cache)})
     return "\n".join(parts)
 
 
 def data_cost(spec: DataSpec, cache: Path) -> dict[str, Any]:
-    """The dataset's manifest ``cost`` block (per stage and per effect, ms per frame)."""
+    """Per stage and per effect, ms per frame over every run that made scenes of the dataset
+    (the manifest's ``runs``; its top-level ``cost`` is the last run's, which a resume that
+    made nothing leaves empty)."""
     m = json.loads((spec.folder(cache) / "manifest.json").read_text())
-    return m.get("cost", {})
+    frames, parts = 0, {"stages": {}, "capture": {}}
+    for r in m.get("runs", []):
+        cost = r.get("cost") or {}
+        frames += int(cost.get("frames", 0))
+        for block in ("stages", "capture"):
+            for k, v in (cost.get(block) or {}).items():
+                parts[block][k] = parts[block].get(k, 0.0) + float(v.get("total_ms", 0.0))
+    per = max(frames, 1)
+    return {"frames": frames, **{b: {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in d.items()}
+                                 for b, d in parts.items()}}
