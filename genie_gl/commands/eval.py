@@ -96,7 +96,10 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"--preset {args.preset}: needs --target-train DIR, --target-test DIR and "
                               "--train SYNTHETIC [...] (the synthetic data)")
         from ..eval import protocols
+        from ..outputs import claim_folder
         from ..studies.report import preset_markdown
+
+        claim_folder(args.out, "eval-preset", reserve=True)
 
         if args.preset == "finetune":
             res = protocols.finetune(args.target_train, args.target_test, args.train, out=args.out, model=args.model,

@@ -82,12 +82,11 @@ def _plan(study: str, c: Context) -> list[Training]:
         return [Training(f"sensor-{s}", (c.train("assembly_line", s),), tests) for s in SENSORS]
     if study == "accuracy":
         test = (c.test("assembly_line", d435),)
-        runs = [Training(f"sensor-{d435}", (c.train("assembly_line", d435),),
-                         tuple(c.test("assembly_line", s) for s in SENSORS))]
-        runs += [Training(f"accuracy-no-{e}", (c.train("assembly_line", f"{d435}-no-{e}"),), test)
-                 for e in ds.profile_effects(d435)]
-        runs.append(Training("sensor-ideal_pinhole", (c.train("assembly_line", "ideal_pinhole"),),
-                             tuple(c.test("assembly_line", s) for s in SENSORS)))
+        runs = [Training(f"accuracy-no-{e}", (c.train("assembly_line", f"{d435}-no-{e}"),), test)
+                for e in ds.profile_effects(d435)]
+        # the full profile and the ideal sensor: the sensor study's trainings (shared)
+        runs += [Training(f"sensor-{s}", (c.train("assembly_line", s),),
+                          tuple(c.test("assembly_line", x) for x in SENSORS)) for s in (d435, "ideal_pinhole")]
         return runs
     if study == "balance":
         test = (c.test("assembly_line", d435),)
