@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         print(preset_markdown(args.preset, res, Path(args.out)))
         return 0
     if not args.train or not args.test:
-        raise ConfigError("genie eval: give --train DIR ... and --test DIR ... (or --preset, --study, --bench)")
+        raise ConfigError("give --train DIR ... and --test DIR ... (or --preset, --study, --bench)")
     from ..eval import evaluate
 
     result = evaluate(args.train, args.test, model=args.model, seeds=seeds, out=args.out, workers=args.workers,

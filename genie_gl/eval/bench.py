@@ -33,7 +33,7 @@ def bench_training(train: Sequence[str] | None, *, out: str | os.PathLike | None
                    params: BoostParams | None = None) -> str:
     """Time features, training and prediction on ~``points`` points; returns a markdown table."""
     if not train:
-        raise ConfigError("genie eval --bench: give --train DIR (a dataset of ~1 M points or more, e.g. "
+        raise ConfigError("--bench: give --train DIR (a dataset of ~1 M points or more, e.g. "
                           "genie dataset assembly_line --scenes 10 --cameras 16)")
     sets = [read_set(t) for t in train]
     scans, n = [], 0
