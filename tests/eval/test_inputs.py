@@ -142,3 +142,23 @@ def test_cli_bad_input_is_one_line(tmp_path, capsys):
     assert main(["eval", "--train", str(root), "--test", str(root), "--model", "neual", "--seeds", "0",
                  "--out", str(tmp_path / "o")]) == 2
     assert "did you mean 'neural'" in capsys.readouterr().err
+
+
+def test_eval_writes_only_what_it_creates(tmp_path, capsys):
+    root = make_set(tmp_path / "s", scenes=2, seed=0)
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    args = ["eval", "--train", str(root), "--test", str(root), "--seeds", "0", "--out", str(out), "--workers", "1",
+            "--no-progress"]
+    assert main(args) == 0
+    assert (out / "notes.txt").read_text() == "mine"
+    manifest = (out / "manifest.json").read_text()
+    assert '"command": "eval"' in manifest and "metrics.json" in manifest and "notes.txt" not in manifest
+    assert main(args) == 0   # its own outputs are replaced on a re-run
+    mine = tmp_path / "p"
+    mine.mkdir()
+    (mine / "metrics.json").write_text("{}")
+    assert main(args[:-5] + ["--out", str(mine), "--workers", "1", "--no-progress"]) == 2
+    assert "already holds 'metrics.json', which genie-gl did not write" in capsys.readouterr().err
+    assert (mine / "metrics.json").read_text() == "{}"
