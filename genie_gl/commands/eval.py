@@ -14,7 +14,6 @@ A dataset is ``DIR`` or ``DIR:train|valid|test|00,03`` (sequences or scenes of i
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
 import sys

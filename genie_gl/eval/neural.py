@@ -128,9 +128,8 @@ def _make_tiles(data: PointTable, which: np.ndarray | None, p: NeuralParams, *, 
         for idx in tiles(scan.xyz[:, :2], p.tile_m, p.max_points, rng=rng):
             if which is not None:
                 idx = idx[which[sl][idx]]
-            if len(idx) < 2:
-                if len(idx) == 0:
-                    continue
+            if len(idx) == 0:
+                continue
             xy = scan.xyz[idx, :2]
             c = (xy.min(0) + xy.max(0)) / 2
             x = np.column_stack([xy - c, h[idx]]).astype(np.float32)

@@ -56,7 +56,7 @@ def strategy_study(c: Any, results: dict) -> str:
     md = _header("Strategy transfer: train on two strategies, test on the third", c,
                  "genie eval --study strategy --out out/studies --yes")
     md += table(["test strategy (held out)", "trained on", "classical mIoU", "height only", "majority",
-                 "classical − height", f"trained on the test strategy itself", "transfer − own", "never seen"], rows)
+                 "classical − height", "trained on the test strategy itself", "transfer − own", "never seen"], rows)
     pics = []
     for held in STRATEGIES:
         cross = _test(results[f"strategy-classical-to-{held}"][1])

@@ -1,6 +1,5 @@
 """The harness end to end on tiny toy sets (seconds): scores equal semantic-kitti-api's
 ``iouEval`` on the written ``.label`` files, and planted bugs move the scores as they must."""
-import json
 from pathlib import Path
 
 import numpy as np

@@ -77,8 +77,9 @@ def test_spread_is_mean_and_sample_std():
 
 def test_a_difference_within_its_spread_is_not_a_gain():
     a, b = Spread.of([0.50, 0.52, 0.54]), Spread.of([0.49, 0.50, 0.51])
-    d, s, verdict = compare(a, b)
-    assert_allclose(d, 0.02) and verdict == "within spread"
+    d, spread, verdict = compare(a, b)
+    assert_allclose([d, spread], [0.02, 0.02 + 0.01])
+    assert verdict == "within spread"
     assert "within spread" in delta_text(a, b)
     c = Spread.of([0.60, 0.61, 0.62])
     assert compare(c, b)[2] == "gain" and compare(b, c)[2] == "loss"
