@@ -36,7 +36,7 @@ class NeuralParams:
     max_points: int = 2048
     k: int = 12
     width: int = 32
-    steps: int = 800
+    steps: int = 500
     batch_tiles: int = 4
     learning_rate: float = 2e-3
     balance: float = 0.5
