@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -126,13 +127,31 @@ def _done(t: Training, c: Context) -> bool:
     return data.get("seeds") == list(c.seeds) and data.get("model") == t.model
 
 
+def _wait_for_other(path: Path) -> None:
+    """Two studies that share a training (another process of this machine running it now):
+    wait for it rather than train it twice."""
+    pid_file = path / ".training-pid"
+    while pid_file.exists() and not (path / "metrics.json").exists():
+        try:
+            pid = int(pid_file.read_text())
+            if pid == os.getpid():
+                return
+            os.kill(pid, 0)
+        except (ValueError, ProcessLookupError, PermissionError, OSError):
+            return
+        time.sleep(10)
+
+
 def run_training(t: Training, c: Context) -> dict:
     """The training's metrics (``metrics.json``'s content), run now unless already there."""
     from ..eval import evaluate
 
     path = c.out / "runs" / t.name
+    _wait_for_other(path)
     if _done(t, c):
         return json.loads((path / "metrics.json").read_text())
+    path.mkdir(parents=True, exist_ok=True)
+    (path / ".training-pid").write_text(str(os.getpid()))
     folders = [str(ds.ensure(d, c.cache, workers=c.workers, progress=c.progress)) for d in t.train + t.test]
     log.info("training %s (%s) on %s", t.name, t.model, ", ".join(folders[:len(t.train)]))
     t0 = time.perf_counter()
