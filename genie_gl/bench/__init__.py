@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 import importlib
 
+from ..outputs import claim_folder
+
 BENCHMARKS: dict[str, str] = {
     "render": "renderer against pyrender and Open3D (ms/frame, frames/s, ratios)",
     "layout": "layout engine throughput, the paper's Table 7 (nodes/s)",
@@ -42,8 +44,6 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..outputs import claim_folder
-
     try:
         mod = importlib.import_module(f"genie_gl.bench.{args.bench}")
     except ModuleNotFoundError as exc:

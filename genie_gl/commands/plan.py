@@ -11,7 +11,6 @@ import argparse
 import json
 import sys
 
-from ..checks import read_poses  # noqa: F401  (capture imports it from here)
 from ..errors import ConfigError
 
 
@@ -29,14 +28,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def scene_sensor_poses(args: argparse.Namespace):
-    from ..scene.model import Scene
+    from ..checks import read_poses
+    from ..scene.usd import read_usd
     from ..sensors import load_sensor
     from ..sensors.placement import scene_poses
 
     if getattr(args, "cameras", 1) is not None and args.cameras < 1:
         raise ConfigError("--cameras must be >= 1")
     sensor = load_sensor(args.sensor)
-    scene = Scene.from_usd(args.scene)
+    scene = read_usd(args.scene)
     if getattr(args, "poses", None):
         poses = read_poses(args.poses)
     else:
@@ -51,7 +51,7 @@ def warn_empty(plan, command: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..plan import plan as make_plan
+    from ..capture import plan as make_plan
 
     scene, sensor, poses = scene_sensor_poses(args)
     p = make_plan(scene, sensor, poses)

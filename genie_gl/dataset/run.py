@@ -30,21 +30,26 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from . import curation
+from ..capture import add_totals
 from ..errors import ConfigError
 from ..outputs import OutputFolder, atomic_write_text, claim_folder
+from ..export import get_format
+from ..layout import load_strategy
+from ..scene import ASSETS
+from ..sensors import load_sensor
+from . import curation
 from .config import DatasetConfig
+from .config import accuracy_used as used
+from .executors import map_scenes
+from .limits import check_limits
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete
+from .report import dataset_cost, histogram
 from .scene import STAGES, run_scene, scene_dir, scene_rngs  # noqa: F401  (the run's public names)
-
-
 
 SCENE_RECORDS = 1000  # a run's manifest record lists the timings of at most this many scenes
 
 
 def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
-    from ..scene import ASSETS
-
     get = cfg.get if isinstance(cfg, dict) else lambda k, d=None: getattr(cfg, k, d)
     if ASSETS.registered() and (get("executor", "process") == "ray" or get("workers", 1) > 1):
         raise ConfigError(f"assets registered with register_asset ({ASSETS.registered()}) stay in this "
@@ -64,12 +69,7 @@ def claim_output(cfg: DatasetConfig, fmt) -> OutputFolder:
 
 def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
     """Check what a run needs before any work: the strategy and sensor load, the output folder
-    may be written, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
-    from ..export import get_format
-    from ..layout import load_strategy
-    from ..sensors import load_sensor
-    from .limits import check_limits
-
+    is writable, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
     strategy = load_strategy(cfg.strategy)
     sensor = load_sensor(cfg.sensor)
     claim_output(cfg, get_format(cfg.format))
@@ -104,8 +104,6 @@ def _clear_leftovers(folder: OutputFolder, fmt) -> None:
 
 def _effects_total(results: list[dict]) -> dict:
     """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
-    from ..plan import add_totals
-
     total: dict = {}
     for r in results:
         add_totals(total, r.get("effects", {}))
@@ -119,8 +117,6 @@ def _write_manifest(folder: OutputFolder, manifest: dict) -> None:
 
 def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False) -> dict[str, Any]:
     """Make every missing (or damaged) scene of the dataset described by ``cfg``."""
-    from ..export import get_format
-
     _check_registered_assets(cfg)
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
@@ -157,10 +153,6 @@ def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: li
          verify: bool) -> None:
     """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
     out = folder.path
-    from .executors import map_scenes
-    from ..accuracy import dataset_cost, used
-    from .report import histogram
-
     started = time.time()
     t0 = time.perf_counter()
     results = map_scenes(cfg, progress=progress, verify=verify)
