@@ -110,10 +110,15 @@ def is_complete(spec: DataSpec, cache: str | os.PathLike) -> bool:
 
 
 def ensure(spec: DataSpec, cache: str | os.PathLike, *, workers: int = 1, progress: bool = True) -> Path:
-    """Make the dataset if it is not complete in the cache; returns its folder."""
+    """Make the dataset if it is not complete in the cache (a complete one is used as it is);
+    returns its folder."""
     from ..dataset import run_dataset
 
     folder = spec.folder(cache)
+    if is_complete(spec, cache):
+        # made once, used as made: a profile or strategy edited since then (their fingerprint in
+        # the manifest) does not remake it; remove the folder to remake it with today's inputs
+        return folder
     cfg = {"strategy": spec.strategy, "scenes": spec.scenes, "cameras": spec.cameras,
            "sensor": sensor_file(spec.sensor, cache), "format": "semantickitti", "out": str(folder),
            "workers": workers, "seed": spec.seed, "previews": 0}
