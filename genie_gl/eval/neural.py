@@ -33,10 +33,10 @@ class NeuralParams:
     """Settings of the neural model."""
 
     tile_m: float = 4.0
-    max_points: int = 2048
-    k: int = 12
-    width: int = 32
-    steps: int = 500
+    max_points: int = 1536
+    k: int = 10
+    width: int = 16
+    steps: int = 300
     batch_tiles: int = 4
     learning_rate: float = 2e-3
     balance: float = 0.5
