@@ -20,8 +20,11 @@ from typing import Any
 
 import numpy as np
 
+import lightgbm as lgb
+from tqdm import tqdm
+
 from ..errors import ConfigError
-from .features import PointTable
+from .features import HEIGHT_COLUMN, PointTable
 
 log = logging.getLogger(__name__)
 
@@ -113,8 +116,6 @@ class ClassicalModel:
             init: "ClassicalModel | None" = None, progress: bool = False) -> "ClassicalModel":
         """Train on ``data`` (its features, classes and scene groups); ``init``: a trained model
         to go on boosting from (fine-tuning)."""
-        import lightgbm as lgb
-
         x, y, groups = data.features, data.labels.astype(np.int64), data.groups
         seed = int(rng.integers(2**31 - 1))
         held = split_groups(groups, self.params.validation, rng=rng)
@@ -138,8 +139,6 @@ class ClassicalModel:
             callbacks.append(lgb.early_stopping(self.params.early_stop, verbose=False))
         bar = None
         if progress:
-            from tqdm import tqdm
-
             bar = tqdm(total=self.params.rounds, desc="boosting", unit="round", leave=False)
 
             def tick(env: Any) -> None:
@@ -176,8 +175,6 @@ class HeightModel(ClassicalModel):
     name = "height"
 
     def __post_init__(self) -> None:
-        from .features import HEIGHT_COLUMN
-
         self.columns = (HEIGHT_COLUMN,)
 
 

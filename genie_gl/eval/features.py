@@ -26,7 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .data import Scan
+import pgeof
+from tqdm import tqdm
+
+from .data import Scan, group_of
 
 log = logging.getLogger(__name__)
 
@@ -77,8 +80,6 @@ def scan_features(xyz: np.ndarray, height: np.ndarray, scales: Sequence[int] = S
     -------
     (N, len(names(scales, cells))) float32
     """
-    import pgeof
-
     xyz = np.ascontiguousarray(xyz, np.float32)
     n = len(xyz)
     k_max = int(max(scales))
@@ -135,8 +136,6 @@ def scans_features(scans: Sequence[Scan], *, workers: int = 1, cache: str | os.P
         todo.append(i)
     bar = None
     if progress and todo:
-        from tqdm import tqdm
-
         bar = tqdm(total=len(todo), desc="features", unit="scan", leave=False)
     jobs = [(scans[i].xyz, scans[i].height, tuple(scales), tuple(cells)) for i in todo]
     results = (ProcessPoolExecutor(workers).map(_one, jobs, chunksize=max(1, len(jobs) // (8 * workers)))
@@ -174,8 +173,6 @@ class PointTable:
 
     def __init__(self, scans: Sequence[Scan], *, class_map: np.ndarray | None = None, workers: int = 1,
                  cache: str | os.PathLike | None = None, progress: bool = False) -> None:
-        from .data import group_of
-
         self.scans = list(scans)
         lab = np.concatenate([s.label for s in self.scans]) if self.scans else np.zeros(0, np.int16)
         if class_map is not None:

@@ -21,6 +21,9 @@ from typing import Any
 
 import numpy as np
 
+import pgeof
+from tqdm import tqdm
+
 from ..errors import ConfigError
 from .classical import split_groups
 from .features import PointTable
@@ -115,8 +118,6 @@ class _Tile:
 
 
 def _make_tiles(data: PointTable, which: np.ndarray | None, p: NeuralParams, *, rng: np.random.Generator) -> list[_Tile]:
-    import pgeof
-
     out, start = [], 0
     for scan in data.scans:
         n = len(scan)
@@ -197,8 +198,6 @@ class NeuralModel:
         sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, p.steps)
         best, best_state, bar = np.inf, None, None
         if progress:
-            from tqdm import tqdm
-
             bar = tqdm(total=p.steps, desc="neural", unit="step", leave=False)
         for step in range(p.steps):
             net.train()

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import PNG_SOFTWARE, check_replaceable, png_is_ours
 from .metrics import Spread
 
 
@@ -24,8 +25,6 @@ def _plt():
 def _save(fig, path: str | os.PathLike) -> Path:
     """Save a figure as a PNG stamped as genie-gl's, atomically; a PNG genie-gl did not write
     is never replaced."""
-    from ..outputs import PNG_SOFTWARE, check_replaceable, png_is_ours
-
     path = check_replaceable(path, png_is_ours, what="PNG picture")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")

@@ -29,7 +29,8 @@ import numpy as np
 
 from .data import EvalSet, read_set
 from .metrics import Spread
-from .run import EvalResult, evaluate
+from .features import PointTable
+from .run import EvalResult, evaluate, make_model
 
 log = logging.getLogger(__name__)
 
@@ -102,9 +103,6 @@ def finetune(target_train: str | EvalSet, target_test: str | EvalSet, synthetic:
              label_map: str | os.PathLike | None = None, cache: str | os.PathLike | None = None,
              progress: bool = False, params: Any = None, scarce: bool = False) -> dict[str, EvalResult]:
     """Experiment 2: {"target only", "synthetic only", "synthetic then target"} results."""
-    from .features import PointTable
-    from .run import make_model
-
     real = target_train if isinstance(target_train, EvalSet) else read_set(target_train, label_map=label_map)
     test = target_test if isinstance(target_test, EvalSet) else read_set(target_test, label_map=label_map)
     syn = [s if isinstance(s, EvalSet) else read_set(s) for s in synthetic]

@@ -20,6 +20,7 @@ import logging
 import os
 import re
 import time
+from importlib.metadata import PackageNotFoundError, version
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,11 +29,16 @@ from typing import Any
 import numpy as np
 
 from .. import labels as label_names
+from ..outputs import atomic_write_text, claim_folder
 from ..errors import ConfigError, did_you_mean
 from . import metrics, predictions
+from .classical import BoostParams, ClassicalModel, HeightModel, MajorityModel
 from .data import EvalSet, read_set
 from .features import PointTable
 from .labelmap import check_same_classes
+from .neural import NeuralModel, NeuralParams
+from .plots import confusion_png, iou_bars_png
+from .report import result_markdown
 
 log = logging.getLogger(__name__)
 MODELS = ("classical", "height", "majority", "neural")
@@ -40,8 +46,6 @@ MODELS = ("classical", "height", "majority", "neural")
 
 def make_model(name: str, n_classes: int, params: Any = None) -> Any:
     """A fresh, untrained model by name."""
-    from .classical import BoostParams, ClassicalModel, HeightModel, MajorityModel
-
     if name == "classical":
         return ClassicalModel(n_classes, params or BoostParams())
     if name == "height":
@@ -49,8 +53,6 @@ def make_model(name: str, n_classes: int, params: Any = None) -> Any:
     if name == "majority":
         return MajorityModel(n_classes)
     if name == "neural":
-        from .neural import NeuralModel, NeuralParams
-
         return NeuralModel(n_classes, params or NeuralParams())
     raise ConfigError(f"--model {name!r}: unknown{did_you_mean(name, MODELS)}; expected one of {', '.join(MODELS)}")
 
@@ -116,14 +118,10 @@ def _as_set(x: str | os.PathLike | EvalSet, label_map: str | os.PathLike | None)
 
 
 def _write_json(path: Path, data: Any) -> None:
-    from ..outputs import atomic_write_text
-
     atomic_write_text(path, json.dumps(data, indent=1, sort_keys=False) + "\n")
 
 
 def _versions() -> dict[str, str]:
-    from importlib.metadata import PackageNotFoundError, version
-
     out = {}
     for pkg in ("genie-gl", "numpy", "pgeof", "lightgbm", "torch"):
         try:
@@ -170,8 +168,6 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     t0 = time.perf_counter()
     folder = None
     if out is not None:   # claimed before any work: only what genie eval writes is ever replaced
-        from ..outputs import claim_folder
-
         folder = claim_folder(out, "eval", ("metrics.json", "timings.json", "report.md", "predictions"),
                               reserve=True)
     train_sets = [_as_set(x, label_map) for x in train]
@@ -239,15 +235,10 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
                                  "predict_s": t_pred, "total_s": time.perf_counter() - t0},
                         out=out_p)
     if out_p is not None and folder is not None:
-        from ..outputs import atomic_write_text
-        from .report import result_markdown
-
         _write_json(out_p / "metrics.json", result.as_dict())
         _write_json(out_p / "timings.json", result.timings)
         atomic_write_text(out_p / "report.md", result_markdown(result))
         if pictures:
-            from .plots import confusion_png, iou_bars_png
-
             for t in result.tests:
                 confusion_png(t.summary["confusion"], names, out_p / f"{t.name}.confusion.png",
                               title=f"{model} on {t.name} (summed over {len(seeds)} seeds)")

@@ -10,13 +10,16 @@ training sets 2000): no test scene is ever a training scene.
 """
 from __future__ import annotations
 
+import json
 import logging
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import yaml
 
+from ..dataset import run_dataset
 from ..errors import ConfigError
 from ..resources import data_dir
 
@@ -25,6 +28,10 @@ log = logging.getLogger(__name__)
 TRAIN_SEED = 0
 TEST_SEED = 1000
 TARGET_SEED = 2000
+STRATEGIES = ("assembly_line", "storage_area", "logistics_lane")
+SENSORS = ("ideal_pinhole", "realsense_d435", "azure_kinect_nfov")
+PROFILE = "realsense_d435"
+TARGET = ("storage_area", "azure_kinect_nfov")   # the stand-in target of the presets
 SECONDS_PER_CAMERA = 0.35   # a 16-camera scene ~5.5 s on 2 loaded cores (measured, docs/eval.md)
 
 
@@ -96,8 +103,6 @@ def sensor_file(sensor: str, cache: str | os.PathLike) -> str:
 
 def is_complete(spec: DataSpec, cache: str | os.PathLike) -> bool:
     """Whether the dataset's folder holds every scene (by its manifest)."""
-    import json
-
     m = spec.folder(cache) / "manifest.json"
     if not m.exists():
         return False
@@ -112,8 +117,6 @@ def is_complete(spec: DataSpec, cache: str | os.PathLike) -> bool:
 def ensure(spec: DataSpec, cache: str | os.PathLike, *, workers: int = 1, progress: bool = True) -> Path:
     """Make the dataset if it is not complete in the cache (a complete one is used as it is);
     returns its folder."""
-    from ..dataset import run_dataset
-
     folder = spec.folder(cache)
     if is_complete(spec, cache):
         # made once, used as made: a profile or strategy edited since then (their fingerprint in
@@ -135,3 +138,20 @@ def test_spec(strategy: str, sensor: str, scenes: int, cameras: int = 16) -> Dat
 
 def train_spec(strategy: str, sensor: str, scenes: int, cameras: int = 16, balance: str | None = None) -> DataSpec:
     return DataSpec(strategy, sensor, TRAIN_SEED, scenes, cameras, balance)
+
+
+def data_cost(spec: DataSpec, cache: str | os.PathLike) -> dict[str, Any]:
+    """Per stage and per effect, ms per frame over every run that made scenes of the dataset
+    (the manifest's ``runs``; its top-level ``cost`` is the last run's, which a resume that
+    made nothing leaves empty)."""
+    m = json.loads((spec.folder(cache) / "manifest.json").read_text())
+    frames, parts = 0, {"stages": {}, "capture": {}}
+    for r in m.get("runs", []):
+        cost = r.get("cost") or {}
+        frames += int(cost.get("frames", 0))
+        for block in ("stages", "capture"):
+            for k, v in (cost.get(block) or {}).items():
+                parts[block][k] = parts[block].get(k, 0.0) + float(v.get("total_ms", 0.0))
+    per = max(frames, 1)
+    return {"frames": frames, **{b: {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in d.items()}
+                                 for b, d in parts.items()}}

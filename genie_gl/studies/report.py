@@ -3,14 +3,19 @@ it). Every cell is mean ± std over the seeds; a difference is given with its sp
 gain or a loss only when it exceeds it (:func:`genie_gl.eval.metrics.compare`)."""
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from typing import Any
 
+from ..eval import protocols
 from ..eval.metrics import Spread, delta_text
 from ..eval.plots import curve_png, delta_bars_png, iou_bars_png, matrix_png
 from ..eval.report import table
 from ..labels import CLASSES
+from ..outputs import atomic_write_text
+from . import datasets as ds
+from .datasets import PROFILE, SENSORS, STRATEGIES, data_cost
 
 
 def spread(d: dict) -> Spread:
@@ -31,8 +36,6 @@ def _summary_spreads(t: dict) -> dict:
 
 
 def _header(title: str, c: Any, command: str) -> str:
-    import os
-
     load = os.getloadavg()
     return (f"## {title}\n\nMeasured {time.strftime('%Y-%m-%d')}, load average {load[0]:.1f} (2 cores), "
             f"seeds {', '.join(map(str, c.seeds))}; {c.scenes} training scenes and {c.test_scenes} held-out "
@@ -40,8 +43,6 @@ def _header(title: str, c: Any, command: str) -> str:
 
 
 def strategy_study(c: Any, results: dict) -> str:
-    from .runner import STRATEGIES
-
     rows, bars = [], {}
     for held in STRATEGIES:
         cross = _test(results[f"strategy-classical-to-{held}"][1])
@@ -80,8 +81,6 @@ def strategy_study(c: Any, results: dict) -> str:
 
 
 def sensor_study(c: Any, results: dict) -> str:
-    from .runner import SENSORS
-
     cells = [[spread(_test(results[f"sensor-{tr}"][1], j)["summary"]["miou"]) for j in range(len(SENSORS))]
              for tr in SENSORS]
     md = _header("Sensor transfer: train on one sensor's data, test on each (assembly line)", c,
@@ -94,9 +93,6 @@ def sensor_study(c: Any, results: dict) -> str:
 
 
 def accuracy_study(c: Any, results: dict) -> str:
-    from . import datasets as ds
-    from .runner import PROFILE, data_cost
-
     on = spread(_test(results[f"sensor-{PROFILE}"][1], 1)["summary"]["miou"])
     cost = data_cost(c.train("assembly_line", PROFILE), c.cache).get("capture", {})
     rows, labels, deltas, costs = [], [], [], []
@@ -123,8 +119,6 @@ def accuracy_study(c: Any, results: dict) -> str:
 
 
 def balance_study(c: Any, results: dict) -> str:
-    from .runner import PROFILE
-
     nat = _test(results[f"sensor-{PROFILE}"][1], 1)
     bal = _test(results["balance-paper"][1])
     a, b = spread(nat["summary"]["miou"]), spread(bal["summary"]["miou"])
@@ -142,8 +136,6 @@ def balance_study(c: Any, results: dict) -> str:
 
 
 def models_study(c: Any, results: dict) -> str:
-    from .runner import PROFILE
-
     cl = _test(results[f"sensor-{PROFILE}"][1], 1)
     ne = _test(results["models-neural"][1])
     a, b = spread(cl["summary"]["miou"]), spread(ne["summary"]["miou"])
@@ -161,9 +153,6 @@ def models_study(c: Any, results: dict) -> str:
 
 
 def mix_study(c: Any, target_train: Any, target_test: Any, synthetic: list) -> str:
-    from ..eval import protocols
-    from . import datasets as ds
-
     folders = [ds.ensure(d, c.cache, workers=c.workers, progress=c.progress) for d in [target_train, target_test, *synthetic]]
     res = protocols.mix(str(folders[0]), str(folders[1]), [str(f) for f in folders[2:]], out=c.out / "runs" / "mix",
                         seeds=c.seeds, workers=c.workers, cache=c.cache / "features", progress=c.progress)
@@ -198,8 +187,6 @@ def spread_of(result: Any, metric: str) -> Spread:
 
 
 def preset_markdown(preset: str, res: Any, out: Path) -> str:
-    from ..outputs import atomic_write_text
-
     text = f"## {preset}\n\n" + preset_table(preset, res, out)
     atomic_write_text(out / f"{preset}.md", text)
     return text

@@ -21,18 +21,16 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from ..errors import ConfigError
+from ..eval import evaluate
+from ..outputs import atomic_write_text, claim_folder
 from . import datasets as ds
-from .datasets import DataSpec
+from . import report
+from .datasets import PROFILE, SENSORS, STRATEGIES, TARGET, DataSpec
 
 log = logging.getLogger(__name__)
 
-STRATEGIES = ("assembly_line", "storage_area", "logistics_lane")
-SENSORS = ("ideal_pinhole", "realsense_d435", "azure_kinect_nfov")
-PROFILE = "realsense_d435"
-TARGET = ("storage_area", "azure_kinect_nfov")   # the stand-in target of the presets
 SECONDS_PER_TRAINING = {"classical": 120.0, "height": 30.0, "majority": 5.0, "neural": 400.0}
 
 
@@ -144,8 +142,6 @@ def _wait_for_other(path: Path) -> None:
 
 def run_training(t: Training, c: Context) -> dict:
     """The training's metrics (``metrics.json``'s content), run now unless already there."""
-    from ..eval import evaluate
-
     path = c.out / "runs" / t.name
     _wait_for_other(path)
     if _done(t, c):
@@ -165,8 +161,6 @@ def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 
               test_scenes: int = 4, cameras: int = 16, workers: int = 1, progress: bool = True,
               confirm: bool = True) -> str:
     """Run ``study`` (or ``all``); returns the markdown it wrote to ``out/<study>.md``."""
-    from . import report
-
     if scenes < 1 or test_scenes < 1 or cameras < 1:
         raise ConfigError("--scenes, --test-scenes and --cameras must be >= 1")
     c = Context(Path(out), Path(cache), tuple(seeds), scenes, test_scenes, cameras, workers, progress)
@@ -188,8 +182,6 @@ def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 
     print(f"study {study}: {text}", flush=True)
     if not confirm:
         return f"study {study}: {text}\n(run again with --yes to start)"
-    from ..outputs import atomic_write_text, claim_folder
-
     folder = claim_folder(c.out, "eval-study", reserve=True)
     for n in names:
         if (c.out / f"{n}.md").exists() and not folder.owns(f"{n}.md"):
@@ -205,20 +197,3 @@ def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 
         folder.finish({"study": n, "seeds": list(c.seeds), "scenes": c.scenes, "test_scenes": c.test_scenes,
                        "cameras": c.cameras, "cache": str(c.cache)})
     return "\n".join(parts)
-
-
-def data_cost(spec: DataSpec, cache: Path) -> dict[str, Any]:
-    """Per stage and per effect, ms per frame over every run that made scenes of the dataset
-    (the manifest's ``runs``; its top-level ``cost`` is the last run's, which a resume that
-    made nothing leaves empty)."""
-    m = json.loads((spec.folder(cache) / "manifest.json").read_text())
-    frames, parts = 0, {"stages": {}, "capture": {}}
-    for r in m.get("runs", []):
-        cost = r.get("cost") or {}
-        frames += int(cost.get("frames", 0))
-        for block in ("stages", "capture"):
-            for k, v in (cost.get(block) or {}).items():
-                parts[block][k] = parts[block].get(k, 0.0) + float(v.get("total_ms", 0.0))
-    per = max(frames, 1)
-    return {"frames": frames, **{b: {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in d.items()}
-                                 for b, d in parts.items()}}
