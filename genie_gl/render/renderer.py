@@ -195,7 +195,8 @@ class Renderer:
             vertices, all_faces, vbase, fbase, nfaces, cbase, joined("centre", np.zeros((1, 3))),
             joined("radius", np.zeros(1)), joined("vrange", np.zeros((1, 2), np.int64)),
             joined("axis", np.zeros((1, 3))), joined("cos_a", np.zeros(1)), joined("sin_a", np.zeros(1)),
-            joined("thickness", np.zeros(1)), joined("perimeter", np.ones(1)))
+            joined("thickness", np.zeros(1)), joined("perimeter", np.ones(1)),
+            snap_px=2.0 ** -self.gl.subpixel_bits())  # twice the farthest a vertex is snapped
         self._vbo = ctx.buffer(vertices.tobytes())
         self._ibo = ctx.buffer(all_faces.tobytes())
         self._streams: dict[int, tuple] = {}  # per-frame buffers, one set per frame in flight
@@ -524,8 +525,9 @@ class Renderer:
         culled = self.cull and int(self._nfaces[m].sum()) >= self.cull_min_faces
         self._culled = culled
         if culled:
+            occlusion = self.depth_precision != "depth24"   # 24 bits: ties between depths apart
             indices, first, count = self._culler.select(slots, m, backcull, cfm, eye, self._det[slots], K, W, H,
-                                                        near, planes)
+                                                        near, planes, occlusion)
             if indices.nbytes > dyn_ibo.size:  # same buffer name: the vertex arrays stay valid
                 dyn_ibo.orphan(max(indices.nbytes, dyn_ibo.size * 3 // 2))
             dyn_ibo.write(indices)
