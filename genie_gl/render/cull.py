@@ -169,7 +169,7 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
                           c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near_keep, snap, width,
                           height):
         return 0
-    if occ and ez - rad > near_keep:
+    if occ and (tally[7] & 4) == 0 and ez - rad > near_keep:
         # the whole cluster behind what is already certainly drawn: nothing of it is seen
         zmin = ez - rad
         dx, dy, dz = c0 - eye[q, 0], c1 - eye[q, 1], c2 - eye[q, 2]
@@ -206,6 +206,10 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
     # the full test). Branch-free, so that the loop runs in vector registers.
     v_lo = c_vrange[cl, 0]
     nv = c_vrange[cl, 1] - v_lo
+    if not occ:
+        tally[0] += 1
+        tally[1] += nf
+        tally[5] += nv
     for w in range(nv):
         px = np.float64(vertices[vb + v_lo + w, 0])
         py = np.float64(vertices[vb + v_lo + w, 1])
@@ -237,6 +241,8 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
         if ((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc)):   # one branch, mostly taken
             continue
         keep = True
+        if not occ:
+            tally[2] += 1
         if wz[a] > near_keep and wz[b] > near_keep and wz[c] > near_keep:
             ea, eb, ec = we[a], we[b], we[c]
             ua, va, ub = wu[a], wv[a], wu[b]
@@ -247,6 +253,8 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
             vhi = min(math.floor(max(va + ea, max(vb_ + eb, vc + ec))), height - 1.0)
             keep = ulo <= uhi and vlo <= vhi
             if keep:
+                if not occ:
+                    tally[3] += 1
                 area2 = (ub - ua) * (vc - va) - (vb_ - va) * (uc - ua)
                 e = max(ea, max(eb, ec))
                 # back-facing (front faces are clockwise on screen: negative area in
@@ -258,18 +266,16 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
                 if keep and abs(area2) > 1e-12:
                     keep = _centre_near(ua, va, ub, vb_, uc, vc, e, 1.0 if area2 > 0 else -1.0,
                                         ulo, uhi, vlo, vhi)
-                if keep and occ:
+                if keep and occ and (tally[7] & 1) == 0:
                     q_lo, q_hi = triangle_depths(ua, va, wz[a], ub, vb_, wz[b], uc, vc, wz[c],
                                                  max(wr[a], max(wr[b], wr[c])), e - snap, snap, width, height)
                     tally[3] += 1
                     if q_hi < UNBOUNDED:
                         tally[4] += 1
-                    else:
-                        tally[7] += 1
                     if hidden(zb, tiles, dirty, ulo, uhi, vlo, vhi, q_hi):
                         keep = False
                         tally[5] += 1
-                    elif q_lo > 0.0 and (not bc or area2 < -flip):   # certainly drawn: an occluder
+                    elif q_lo > 0.0 and (not bc or area2 < -flip) and (tally[7] & 2) == 0:   # certainly drawn: an occluder
                         tally[6] += 1
                         write(zb, dirty, ua, va, ub, vb_, uc, vc, e, 1.0 / q_lo)
         if keep:
@@ -281,7 +287,7 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy", fastmath=True)
 def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
             slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, usc, proj, planes, near, snap, width,
-            height, chunks, counts, masks, jobface):
+            height, chunks, counts, masks, jobface, tally):
     """Per job (a cluster of a visible instance; the jobs of instance q are job0[q]..job0[q+1]):
     the faces that may cover a pixel centre, as a bit mask, and their number."""
     near_keep = near * (1.0 + 1e-6) + 1e-9
@@ -302,7 +308,7 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
             counts[j] = _cluster(j, q, j - job0[q], vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos,
                                  c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det,
                                  usc, proj, planes, near_keep, snap, width, height, masks, jobface, wu, wv, wz, we, wr,
-                                 keys_u, keys_v, False, none, none, no_dirty, np.zeros(8, np.int64))
+                                 keys_u, keys_v, False, none, none, no_dirty, tally)
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
@@ -372,6 +378,7 @@ class TriangleCuller:
                  perimeter: np.ndarray, snap_px: float = 2.0 ** -4) -> None:
         self.vertices, self.faces = vertices, faces
         self.snap_px = float(snap_px)
+        self.mode = 0
         self.mesh_vbase, self.mesh_fbase = mesh_vbase, mesh_fbase
         self.mesh_nfaces, self.mesh_cbase = mesh_nfaces, mesh_cbase
         self.clusters = (centre, radius, vrange, axis, cos_a, sin_a, thickness, perimeter)
@@ -415,9 +422,11 @@ class TriangleCuller:
                     depth = self._depth = DepthBound(width, height)
                 depth.clear()
                 self.tally = np.zeros(8, np.int64)
+                self.tally[7] = self.mode
                 _select_nearest_first(*args, counts, masks, jobface, depth.z, depth.tiles, depth.dirty, self.tally)
             else:
-                _select(*args, chunks, counts, masks, jobface)
+                self.tally = np.zeros(8, np.int64)
+                _select(*args, chunks, counts, masks, jobface, self.tally)
             starts = np.zeros(njobs + 1, np.int64)
             np.cumsum(3 * counts, out=starts[1:])
             total = int(starts[-1])
