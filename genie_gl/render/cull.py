@@ -169,7 +169,7 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
                           c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near_keep, snap, width,
                           height):
         return 0
-    if occ and (tally[7] & 4) == 0 and ez - rad > near_keep:
+    if occ and ez - rad > near_keep:
         # the whole cluster behind what is already certainly drawn: nothing of it is seen
         zmin = ez - rad
         dx, dy, dz = c0 - eye[q, 0], c1 - eye[q, 1], c2 - eye[q, 2]
@@ -206,10 +206,6 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
     # the full test). Branch-free, so that the loop runs in vector registers.
     v_lo = c_vrange[cl, 0]
     nv = c_vrange[cl, 1] - v_lo
-    if not occ:
-        tally[0] += 1
-        tally[1] += nf
-        tally[5] += nv
     for w in range(nv):
         px = np.float64(vertices[vb + v_lo + w, 0])
         py = np.float64(vertices[vb + v_lo + w, 1])
@@ -241,8 +237,6 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
         if ((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc)):   # one branch, mostly taken
             continue
         keep = True
-        if not occ:
-            tally[2] += 1
         if wz[a] > near_keep and wz[b] > near_keep and wz[c] > near_keep:
             ea, eb, ec = we[a], we[b], we[c]
             ua, va, ub = wu[a], wv[a], wu[b]
@@ -253,8 +247,6 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
             vhi = min(math.floor(max(va + ea, max(vb_ + eb, vc + ec))), height - 1.0)
             keep = ulo <= uhi and vlo <= vhi
             if keep:
-                if not occ:
-                    tally[3] += 1
                 area2 = (ub - ua) * (vc - va) - (vb_ - va) * (uc - ua)
                 e = max(ea, max(eb, ec))
                 # back-facing (front faces are clockwise on screen: negative area in
@@ -266,18 +258,29 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
                 if keep and abs(area2) > 1e-12:
                     keep = _centre_near(ua, va, ub, vb_, uc, vc, e, 1.0 if area2 > 0 else -1.0,
                                         ulo, uhi, vlo, vhi)
-                if keep and occ and (tally[7] & 1) == 0:
-                    q_lo, q_hi = triangle_depths(ua, va, wz[a], ub, vb_, wz[b], uc, vc, wz[c],
-                                                 max(wr[a], max(wr[b], wr[c])), e - snap, snap, width, height)
+                if keep and occ:
+                    # the bounds only where they can matter: a triangle may be hidden only
+                    # if it is behind the buffer even at its vertices' nearest depth (q_hi
+                    # is no less), and it is written only if it certainly covers a pixel
+                    # centre (one lying more than e inside it) and is not culled by the GPU
+                    q_top = max(1.0 / wz[a], max(1.0 / wz[b], 1.0 / wz[c]))
+                    may_hide = hidden(zb, tiles, dirty, ulo, uhi, vlo, vhi, q_top)
+                    ew = e * 1.001
+                    may_write = ((not bc or area2 < -flip)
+                                 and math.ceil(min(ua, min(ub, uc)) + ew) <= math.floor(max(ua, max(ub, uc)) - ew)
+                                 and math.ceil(min(va, min(vb_, vc)) + ew) <= math.floor(max(va, max(vb_, vc)) - ew))
                     tally[3] += 1
-                    if q_hi < UNBOUNDED:
-                        tally[4] += 1
-                    if hidden(zb, tiles, dirty, ulo, uhi, vlo, vhi, q_hi):
-                        keep = False
-                        tally[5] += 1
-                    elif q_lo > 0.0 and (not bc or area2 < -flip) and (tally[7] & 2) == 0:   # certainly drawn: an occluder
-                        tally[6] += 1
-                        write(zb, dirty, ua, va, ub, vb_, uc, vc, e, 1.0 / q_lo)
+                    if may_hide or may_write:
+                        q_lo, q_hi = triangle_depths(ua, va, wz[a], ub, vb_, wz[b], uc, vc, wz[c],
+                                                     max(wr[a], max(wr[b], wr[c])), e - snap, snap, width, height)
+                        if q_hi < UNBOUNDED:
+                            tally[4] += 1
+                        if may_hide and hidden(zb, tiles, dirty, ulo, uhi, vlo, vhi, q_hi):
+                            keep = False
+                            tally[5] += 1
+                        elif may_write and q_lo > 0.0:   # certainly drawn: an occluder
+                            tally[6] += 1
+                            write(zb, dirty, ua, va, ub, vb_, uc, vc, e, 1.0 / q_lo)
         if keep:
             masks[j, i >> 6] |= np.uint64(1) << np.uint64(i & 63)
             n += 1
@@ -287,7 +290,7 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy", fastmath=True)
 def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
             slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, usc, proj, planes, near, snap, width,
-            height, chunks, counts, masks, jobface, tally):
+            height, chunks, counts, masks, jobface):
     """Per job (a cluster of a visible instance; the jobs of instance q are job0[q]..job0[q+1]):
     the faces that may cover a pixel centre, as a bit mask, and their number."""
     near_keep = near * (1.0 + 1e-6) + 1e-9
@@ -295,6 +298,7 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
     per_chunk = (njobs + chunks - 1) // chunks
     none = np.zeros((1, 1), np.float32)
     no_dirty = np.zeros((1, 1), np.uint8)
+    no_tally = np.zeros(8, np.int64)
     for ch in prange(chunks):
         j_lo, j_hi = ch * per_chunk, min(njobs, (ch + 1) * per_chunk)
         if j_lo >= j_hi:
@@ -308,7 +312,7 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
             counts[j] = _cluster(j, q, j - job0[q], vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos,
                                  c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det,
                                  usc, proj, planes, near_keep, snap, width, height, masks, jobface, wu, wv, wz, we, wr,
-                                 keys_u, keys_v, False, none, none, no_dirty, tally)
+                                 keys_u, keys_v, False, none, none, no_dirty, no_tally)
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
@@ -378,12 +382,14 @@ class TriangleCuller:
                  perimeter: np.ndarray, snap_px: float = 2.0 ** -4) -> None:
         self.vertices, self.faces = vertices, faces
         self.snap_px = float(snap_px)
-        self.mode = 0
         self.mesh_vbase, self.mesh_fbase = mesh_vbase, mesh_fbase
         self.mesh_nfaces, self.mesh_cbase = mesh_nfaces, mesh_cbase
         self.clusters = (centre, radius, vrange, axis, cos_a, sin_a, thickness, perimeter)
         self._out = np.empty(0, np.uint32)
         self._depth: DepthBound | None = None
+        # the last occlusion pass: clusters tested against the depth bound, those with a
+        # bounded depth, those dropped; triangles tested, bounded, dropped, written as occluders
+        self.tally = np.zeros(8, np.int64)
 
     def select(self, slots: np.ndarray, mesh: np.ndarray, backcull: np.ndarray, cfm: np.ndarray, eye: np.ndarray,
                det: np.ndarray, K: np.ndarray, width: int, height: int, near: float,
@@ -421,12 +427,11 @@ class TriangleCuller:
                 if depth is None or (depth.width, depth.height) != (width, height):
                     depth = self._depth = DepthBound(width, height)
                 depth.clear()
-                self.tally = np.zeros(8, np.int64)
-                self.tally[7] = self.mode
+                self.tally[:] = 0
                 _select_nearest_first(*args, counts, masks, jobface, depth.z, depth.tiles, depth.dirty, self.tally)
             else:
-                self.tally = np.zeros(8, np.int64)
-                _select(*args, chunks, counts, masks, jobface, self.tally)
+                self.tally[:] = 0
+                _select(*args, chunks, counts, masks, jobface)
             starts = np.zeros(njobs + 1, np.int64)
             np.cumsum(3 * counts, out=starts[1:])
             total = int(starts[-1])

@@ -93,6 +93,9 @@ class Renderer:
     """
 
     cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
+    # fewer faces in view: occlusion culling (one thread, nearest first) costs more than the
+    # raster it saves (docs/real-size-scenes.md)
+    occlusion_min_faces = 200_000
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
@@ -522,10 +525,12 @@ class Renderer:
         cmd["instances"] = 1
         cmd["base_vertex"] = self._vbase[m]
         cmd["base_instance"] = slots
-        culled = self.cull and int(self._nfaces[m].sum()) >= self.cull_min_faces
+        in_view = int(self._nfaces[m].sum())
+        culled = self.cull and in_view >= self.cull_min_faces
         self._culled = culled
         if culled:
-            occlusion = self.depth_precision != "depth24"   # 24 bits: ties between depths apart
+            # not with a 24-bit depth buffer: it ties depths that are apart
+            occlusion = self.depth_precision != "depth24" and in_view >= self.occlusion_min_faces
             indices, first, count = self._culler.select(slots, m, backcull, cfm, eye, self._det[slots], K, W, H,
                                                         near, planes, occlusion)
             if indices.nbytes > dyn_ibo.size:  # same buffer name: the vertex arrays stay valid
