@@ -89,10 +89,10 @@ def _cone_drops(m, det, eye, cc, cr, ax, cos_a, sin_a, thick, perim, ez, ex, ey,
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True, inline="always")
-def _span(pu, pv, qu, qv, e, sg, at, lo, hi, rows):
+def _span(pu, pv, qu, qv, length, sg, at, lo, hi, rows):
     """Narrow [lo, hi] to where, on the line ``at`` (a row v = at when ``rows``, else a column
-    u = at), points lie within e of the inner side of edge p->q (sg: the triangle's winding)."""
-    length = math.sqrt((qu - pu) ** 2 + (qv - pv) ** 2) * e
+    u = at), points lie within e of the inner side of edge p->q (sg: the triangle's winding;
+    ``length``: the edge's length times e)."""
     if rows:   # sg E(u, at) = c - d u >= -length
         d = sg * (qv - pv)
         c = sg * ((qu - pu) * (at - pv) + (qv - pv) * pu)
@@ -119,12 +119,15 @@ def _centre_near(ua, va, ub, vb, uc, vc, e, sg, ulo, uhi, vlo, vhi):
         return True
     first, last = (vlo, vhi) if rows else (ulo, uhi)
     lo0, hi0 = (ulo, uhi) if rows else (vlo, vhi)
+    lab = math.sqrt((ub - ua) ** 2 + (vb - va) ** 2) * e
+    lbc = math.sqrt((uc - ub) ** 2 + (vc - vb) ** 2) * e
+    lca = math.sqrt((ua - uc) ** 2 + (va - vc) ** 2) * e
     at = first
     while at <= last:
         lo, hi = lo0, hi0
-        lo, hi = _span(ua, va, ub, vb, e, sg, at, lo, hi, rows)
-        lo, hi = _span(ub, vb, uc, vc, e, sg, at, lo, hi, rows)
-        lo, hi = _span(uc, vc, ua, va, e, sg, at, lo, hi, rows)
+        lo, hi = _span(ua, va, ub, vb, lab, sg, at, lo, hi, rows)
+        lo, hi = _span(ub, vb, uc, vc, lbc, sg, at, lo, hi, rows)
+        lo, hi = _span(uc, vc, ua, va, lca, sg, at, lo, hi, rows)
         if math.ceil(lo) <= math.floor(hi):
             return True
         at += 1.0

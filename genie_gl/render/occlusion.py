@@ -190,9 +190,9 @@ def hidden(z, tiles, dirty, ulo, uhi, vlo, vhi, q_hi):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _inner(pu, pv, qu, qv, e, sg, at, lo, hi):
-    """Narrow [lo, hi] to the u of row v = ``at`` lying more than e inside edge p->q."""
-    length = math.sqrt((qu - pu) ** 2 + (qv - pv) ** 2) * e
+def _inner(pu, pv, qu, qv, length, sg, at, lo, hi):
+    """Narrow [lo, hi] to the u of row v = ``at`` lying more than e inside edge p->q
+    (``length``: the edge's length times e)."""
     d = sg * (qv - pv)
     c = sg * ((qu - pu) * (at - pv) + (qv - pv) * pu)
     if d > 0:
@@ -218,12 +218,15 @@ def write(z, dirty, ua, va, ub, vb, uc, vc, e, z_far):
     ulo0 = max(math.ceil(min(ua, min(ub, uc)) + e), 0.0)
     uhi0 = min(math.floor(max(ua, max(ub, uc)) - e), width - 1.0)
     zf = np.float32(z_far) * _GROW
+    lab = math.sqrt((ub - ua) ** 2 + (vb - va) ** 2) * e
+    lbc = math.sqrt((uc - ub) ** 2 + (vc - vb) ** 2) * e
+    lca = math.sqrt((ua - uc) ** 2 + (va - vc) ** 2) * e
     at = vlo
     while at <= vhi:
         lo, hi = ulo0, uhi0
-        lo, hi = _inner(ua, va, ub, vb, e, sg, at, lo, hi)
-        lo, hi = _inner(ub, vb, uc, vc, e, sg, at, lo, hi)
-        lo, hi = _inner(uc, vc, ua, va, e, sg, at, lo, hi)
+        lo, hi = _inner(ua, va, ub, vb, lab, sg, at, lo, hi)
+        lo, hi = _inner(ub, vb, uc, vc, lbc, sg, at, lo, hi)
+        lo, hi = _inner(uc, vc, ua, va, lca, sg, at, lo, hi)
         v = int(at)
         for u in range(int(math.ceil(lo)), int(math.floor(hi)) + 1):
             if zf < z[v, u]:
