@@ -93,9 +93,9 @@ class Renderer:
     """
 
     cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
-    # fewer faces in view: occlusion culling (one thread, nearest first) costs more than the
-    # raster it saves (docs/real-size-scenes.md)
-    occlusion_min_faces = 200_000
+    # fewer faces in view: no occlusion culling (a frame this small is cheap either way); with
+    # more, it runs while it pays (:meth:`TriangleCuller.select`)
+    occlusion_min_faces = 50_000
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
@@ -366,7 +366,7 @@ class Renderer:
         ctx.disable(moderngl.CULL_FACE)
         return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
                 "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
-                "simplified": self._lod_drawn,
+                "simplified": self._lod_drawn, "occluded": self._culled and self._culler.occluded,
                 "t0": t0, "t1": t1}
 
     def _flush(self) -> None:
@@ -465,7 +465,8 @@ class Renderer:
                     normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
         self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
-                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"]}
+                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"],
+                      "occlusion_culled": job["occluded"]}
         return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)})
 

@@ -7,6 +7,7 @@ import trimesh
 
 import genie_gl as gg
 from genie_gl.render import Renderer
+from genie_gl.render.cull import BREAK_EVEN, PROBE_FRAMES
 from genie_gl.render.occlusion import EMPTY, DepthBound, hidden, triangle_depths, write
 from genie_gl.render.projection import look_at
 
@@ -29,16 +30,19 @@ def at(x, y, z):
     return T
 
 
-def wall_scene(hidden_balls: bool) -> gg.Scene:
+def wall_scene(hidden_balls: bool, grid: bool = False) -> gg.Scene:
     """A 2 m x 2 m wall 3 m ahead of the camera (66 px of the 160 x 120 image across); balls
-    6 m ahead beside it (seen) and, with ``hidden_balls``, behind it (wholly hidden)."""
+    6 m ahead beside it (seen) and, with ``hidden_balls``, behind it (wholly hidden): 4, or
+    12 on a grid with ``grid``."""
     scene = gg.Scene()
     scene.add(trimesh.creation.box(extents=[2.0, 2.0, 0.1]), at(0, 0, 3), semantic=1)
     ball = trimesh.creation.icosphere(2, radius=0.3)
     for x in (-2.6, 2.6):
         scene.add(ball, at(x, 0.0, 6.0), semantic=2)
     if hidden_balls:
-        for x, y in ((-0.6, -0.5), (0.0, 0.3), (0.6, -0.2), (0.2, 0.6)):
+        spots = [(x, y) for x in (-0.6, -0.2, 0.2, 0.6) for y in (-0.4, 0.0, 0.4)] if grid else [
+            (-0.6, -0.5), (0.0, 0.3), (0.6, -0.2), (0.2, 0.6)]
+        for x, y in spots:
             scene.add(ball, at(x, y, 6.0 + x), semantic=3)
     return scene
 
@@ -58,6 +62,25 @@ def test_what_lies_behind_the_wall_is_not_drawn_and_no_pixel_changes(glctx):
     # edge-on for their depth to be bounded): drawn about as many as without them
     behind = n_plain - n_without   # drawn without occlusion culling: they cover pixel centres
     assert behind > 200 and n_occl - n_without <= 0.05 * behind and n_without < n_all
+
+
+@pytest.mark.parametrize("pays", [True, False])
+def test_occlusion_culling_runs_while_it_pays(glctx, pays):
+    """With most of what it tests hidden (12 balls behind the wall) every frame is occlusion-
+    culled; with nothing hidden, the first frame tries and the next PROBE_FRAMES do not."""
+    scene = wall_scene(pays, grid=True)
+    with Renderer(scene, context=glctx) as r:
+        r.cull_min_faces = r.occlusion_min_faces = 0
+        ran, shares = [], []
+        for _ in range(PROBE_FRAMES + 3):
+            r.render(SENSOR, np.eye(4), depth_only=True)
+            ran.append(r.stats["occlusion_culled"])
+            if ran[-1]:
+                shares.append(r._culler.tally[5] / r._culler.tally[3])
+    if pays:
+        assert all(ran) and min(shares) >= BREAK_EVEN
+    else:
+        assert ran == [True] + [False] * PROBE_FRAMES + [True, False] and max(shares) < BREAK_EVEN
 
 
 def tie_scene() -> gg.Scene:
