@@ -413,8 +413,8 @@ class TriangleCuller:
         drops what lies behind what is certainly drawn (:mod:`genie_gl.render.occlusion`; one
         thread, clusters nearest first) when it paid on the last frame that tried it (it
         dropped at least ``break_even``, by default :data:`BREAK_EVEN`, of the triangles it
-        tested), or that frame was
-        :data:`PROBE_FRAMES` ago; the frame is the same either way. Returns (indices uint32, first index per slot, index
+        tested), or that frame was :data:`PROBE_FRAMES` ago; the frame is the same either way.
+        Returns (indices uint32, first index per slot, index
         count per slot), instance after instance."""
         nf = self.mesh_nfaces[mesh]
         nclus = -(-nf // CLUSTER)
