@@ -48,8 +48,8 @@ numba.config.THREADING_LAYER_PRIORITY = ["workqueue", "omp", "tbb"]
 
 REL_EPS = 1e-6          # relative error bound of the float32 eye coordinates (~16 ulp)
 PARALLEL_FACES = 200_000  # below this many faces in view, one thread culls a frame
-# occlusion culling costs about 0.2 us of CPU per triangle it tests (one thread) and saves
-# about 0.27 us of llvmpipe's per dropped triangle (docs/real-size-scenes.md): it pays when it
+# occlusion culling costs 0.2-0.3 us of CPU per triangle it tests (one thread) and saves
+# 0.2-0.45 us of llvmpipe's per triangle it drops (docs/real-size-scenes.md): it pays when it
 # drops at least this share of what it tests; when it did not, it is tried again after this
 # many frames without
 BREAK_EVEN = 0.8
