@@ -21,8 +21,9 @@ the GPU cannot draw it into a pixel:
   error bound could change (the GPU would cull it too).
 
 The error bound covers what separates this float64 test from the GPU's float32 vertex
-transform and its sub-pixel snapping: ``1/64`` pixel plus a relative term scaled by the size of the numbers involved. A
-triangle the GPU would rasterise is therefore never dropped, and the culled render is the
+transform and its sub-pixel snapping: ``snap_px`` (twice the rasteriser's snapping step,
+2^-GL_SUBPIXEL_BITS pixel: 1/256 on llvmpipe; 1/16, GL's least, when not given) plus a
+relative term scaled by the size of the numbers involved. A triangle the GPU would rasterise is therefore never dropped, and the culled render is the
 unculled render bit for bit (tests compare both on generated and benchmark scenes, and on
 triangles whose edges pass within 1/500 pixel of pixel centres, which a bound of 1/4096 pixel
 fails on llvmpipe: the bound is a wide margin over what the GPU's rounding moves).
