@@ -22,7 +22,7 @@ from ..errors import ConfigError, RenderError
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
-from ..triangles import PixelTriangles
+from ..triangles import PixelTriangles, SceneTriangles
 from .clusters import Clusters, prepare
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
 from .cull import TriangleCuller
@@ -192,6 +192,7 @@ class Renderer:
 
         vertices = joined("vertices", np.zeros((1, 3), "<f4"))
         all_faces = joined("faces", np.zeros((1, 3), "<u4"))
+        self._scene_triangles: SceneTriangles | None = None   # made when a frame first asks for triangles
         self._culler = TriangleCuller(
             vertices, all_faces, vbase, fbase, nfaces, cbase, joined("centre", np.zeros((1, 3))),
             joined("radius", np.zeros(1)), joined("vrange", np.zeros((1, 2), np.int64)),
@@ -482,9 +483,18 @@ class Renderer:
         t0, t1 = job["t0"], job["t1"]
         self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
                       "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"]}
-        tri = PixelTriangles(out["primitive"], *job["pixel_triangles"]) if want_triangles else None
+        tri = PixelTriangles(out["primitive"], *job["pixel_triangles"], self._triangle_scene()) if want_triangles else None
         return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)}, tri)
+
+    def _triangle_scene(self) -> SceneTriangles:
+        """The scene's meshes for :class:`PixelTriangles` (and which faces meet at each
+        point), made the first time a frame asks for triangles."""
+        if self._scene_triangles is None:
+            c = self._culler
+            self._scene_triangles = SceneTriangles.build(c.vertices, c.faces, c.mesh_vbase, c.mesh_fbase,
+                                                         c.mesh_nfaces)
+        return self._scene_triangles
 
     def _clip_near(self, sensor: Sensor) -> float:
         """The GL near plane: 1/1024 of the sensor's minimum range (``Camera.clip_near_m``),
@@ -515,8 +525,8 @@ class Renderer:
         self._lod_drawn = 0
         if triangles:
             self._frame_triangles = (np.full(n, -1, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64),
-                                     np.zeros((n, 3, 4)), np.zeros(0, np.uint32), self._ids,
-                                     self._rows["semantic"].astype(np.uint16), self._culler.vertices)
+                                     np.zeros(n, bool), np.zeros((n, 3, 4)), np.zeros(0, np.uint32), self._ids,
+                                     self._rows["semantic"].astype(np.uint16))
         if n == 0:
             return []
         camera_from_world = rigid_inverse(pose)
@@ -562,13 +572,14 @@ class Renderer:
         else:
             cmd["first"], cmd["count"] = 3 * self._fbase[m], 3 * self._nfaces[m]
         if triangles:
-            first, count, base = self._frame_triangles[:3]
+            first, count, base, cull = self._frame_triangles[:4]
             first[cmd["base_instance"]] = cmd["first"] // 3
             count[cmd["base_instance"]] = cmd["count"] // 3
             base[cmd["base_instance"]] = cmd["base_vertex"]
+            cull[cmd["base_instance"]] = backcull
             # the culled indices are rewritten by the next frame's culling: this frame keeps a copy
             drawn_indices = indices.copy() if culled else self._culler.faces.reshape(-1)
-            self._frame_triangles = (first, count, base, cfm, drawn_indices, *self._frame_triangles[5:])
+            self._frame_triangles = (first, count, base, cull, cfm, drawn_indices, *self._frame_triangles[6:])
         return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
 
     def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0) -> int:

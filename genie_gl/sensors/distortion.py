@@ -302,7 +302,8 @@ def resample_views(frames: list[Frame], sensor: Camera, views: tuple[DistortionM
             resample_rays(plan["sel"], plan["mx"], plan["my"], *plan["d"],
                           NO_F64 if plan["zs"] is None else plan["zs"], f.sensor.K, f.sensor.width, f.sensor.height,
                           sensor.near_m, sensor.far_m, R, t.pixel.reshape(-1), t.first, t.count, t.base_vertex,
-                          t.camera_from_model, t.indices, t.vertices, t.instance, t.semantic,
+                          t.backcull, t.camera_from_model, t.indices, t.scene.vertices, t.scene.faces, t.scene.point,
+                          t.scene.ring_start, t.scene.ring_faces, t.instance, t.semantic,
                           _pixels(f.rgb) if colour else NO_RGB, depth, inst, sem, rgb, normal, stats)
             continue
         mode = MODES[resample]

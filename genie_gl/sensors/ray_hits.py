@@ -35,6 +35,7 @@ from numba import njit
 
 STATS = ("rays", "shown", "tested", "subpixel", "missed")   # what resample_rays counts, in this order
 TILE = 4   # view pixels per side of a tile of the triangles' index
+RING_MAX = 32   # a point where more faces meet (the apex of a fan of slivers) is not searched
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
@@ -76,10 +77,21 @@ def _plane(verts, r, dx, dy):  # pragma: no cover - compiled
     return t if t > 0.0 else np.inf
 
 
+@njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _faces_camera(v):  # pragma: no cover - compiled
+    """True when triangle ``v`` (9,: camera frame, outward faces counter-clockwise) faces the
+    camera at the origin, as the GPU's back-face culling decides it."""
+    nx = (v[4] - v[1]) * (v[8] - v[2]) - (v[5] - v[2]) * (v[7] - v[1])
+    ny = (v[5] - v[2]) * (v[6] - v[0]) - (v[3] - v[0]) * (v[8] - v[2])
+    nz = (v[3] - v[0]) * (v[7] - v[1]) - (v[4] - v[1]) * (v[6] - v[0])
+    return nx * v[0] + ny * v[1] + nz * v[2] < 0.0
+
+
 @njit(cache=True, nogil=True, boundscheck=False)
 def _shown(pixel, first, count, base, cfm, indices, vertices):  # pragma: no cover - compiled
     """The triangles the view shows: (per pixel its triangle's row, -1 for none; per
-    triangle its slot and camera-frame corners (T, 9))."""
+    triangle its slot, its triangle within the slot's draw and its camera-frame corners
+    (T, 9))."""
     S = first.shape[0]
     at = np.zeros(S + 1, np.int64)
     for s in range(S):
@@ -113,32 +125,42 @@ def _shown(pixel, first, count, base, cfm, indices, vertices):  # pragma: no cov
             x, y, z = np.float64(vertices[g, 0]), np.float64(vertices[g, 1]), np.float64(vertices[g, 2])
             for q in range(3):
                 verts[r, 3 * c + q] = m[q, 0] * x + m[q, 1] * y + m[q, 2] * z + m[q, 3]
-    return pix, slot[:rows].copy(), verts
+    return pix, slot[:rows].copy(), prim[:rows].copy(), verts
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
 def _tiles(verts, K, vw, vh):  # pragma: no cover - compiled
-    """Each triangle's projected box and nearest corner (T, 5: u0, u1, v0, v1 in view pixels,
-    the whole plane when a corner is not in front of the camera; z0) and the tiles' lists of
-    the triangles whose box overlaps them (start (tiles + 1,), rows)."""
+    """Each triangle's projected box, nearest corner and width (T, 6: u0, u1, v0, v1 in view
+    pixels, the whole plane when a corner is not in front of the camera; z0; its least
+    height, twice its area over its longest edge, in view pixels, inf when not in front) and
+    the tiles' lists of the triangles whose box overlaps them (start (tiles + 1,), rows)."""
     fx, sk, cx, fy, cy = K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]
     T = verts.shape[0]
     ntx, nty = (vw + TILE - 1) // TILE + 1, (vh + TILE - 1) // TILE + 1
-    box = np.empty((T, 5), np.float64)
+    box = np.empty((T, 6), np.float64)
+    uv = np.empty(6, np.float64)
     span = np.empty((T, 4), np.int64)
     start = np.zeros(ntx * nty + 1, np.int64)
     for r in range(T):
         u0, u1, v0, v1 = np.inf, -np.inf, np.inf, -np.inf
+        width = np.inf
         for c in range(3):
             x, y, z = verts[r, 3 * c], verts[r, 3 * c + 1], verts[r, 3 * c + 2]
             if not z > 1e-12:
                 u0, u1, v0, v1 = -np.inf, np.inf, -np.inf, np.inf
                 break
             u, v = fx * x / z + sk * y / z + cx, fy * y / z + cy
+            uv[2 * c], uv[2 * c + 1] = u, v
             u0, u1, v0, v1 = min(u0, u), max(u1, u), min(v0, v), max(v1, v)
+        else:
+            area2 = abs((uv[2] - uv[0]) * (uv[5] - uv[1]) - (uv[3] - uv[1]) * (uv[4] - uv[0]))
+            edge = max(math.hypot(uv[2] - uv[0], uv[3] - uv[1]), math.hypot(uv[4] - uv[2], uv[5] - uv[3]),
+                       math.hypot(uv[0] - uv[4], uv[1] - uv[5]))
+            width = area2 / edge if edge > 0.0 else 0.0
         pad = 1e-6 + 1e-9 * (abs(u0) + abs(u1) + abs(v0) + abs(v1))   # beyond float64 rounding
         box[r, 0], box[r, 1], box[r, 2], box[r, 3] = u0 - pad, u1 + pad, v0 - pad, v1 + pad
         box[r, 4] = min(verts[r, 2], min(verts[r, 5], verts[r, 8]))
+        box[r, 5] = width
         tx0 = int(min(max(math.floor(max(box[r, 0], -1.0) / TILE), 0), ntx - 1))
         tx1 = int(min(max(math.floor(min(box[r, 1], vw + 1.0) / TILE), 0), ntx - 1))
         ty0 = int(min(max(math.floor(max(box[r, 2], -1.0) / TILE), 0), nty - 1))
@@ -162,45 +184,53 @@ def _tiles(verts, K, vw, vh):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, boundscheck=False)
 def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
-                  pixel, first, count, base, cfm, indices, vertices, inst_of, sem_of,
-                  rgb, out_depth, out_inst, out_sem, out_rgb, out_normal, stats):  # pragma: no cover
+                  pixel, first, count, base, backcull, cfm, indices, vertices, faces, point, ring_start, ring_faces,
+                  inst_of, sem_of, rgb, out_depth, out_inst, out_sem, out_rgb, out_normal, stats):  # pragma: no cover
     """Write the samples of one view into the lens image, each from its own ray.
 
     sel (N,) int64: output pixel of each sample; mx, my (N,) float64: where its ray crosses
     the view (view pixels, by ``K``); dx, dy (N,) float64: its ray (view frame, z = 1); zs
     (N,) or (0,): camera-frame z per view-frame z along the ray; K (3, 3): the view's; vw, vh:
     its size; near, far: the sensor's range; R (3, 3): camera_from_view. pixel (vh·vw·2,)
-    uint32 and first, count, base, cfm, indices, vertices, inst_of, sem_of: the view's
-    :class:`~genie_gl.triangles.PixelTriangles`. rgb (vh·vw, 3) uint8 or (0, 3): the view's
-    colour. out_*: the lens image's buffers (zero-filled), written where a sample has a
-    return (out_rgb, out_normal may be (0, 3): not written). stats (5,) int64:
+    uint32, first, count, base, backcull, cfm, indices, inst_of, sem_of: the view's
+    :class:`~genie_gl.triangles.PixelTriangles`; vertices, faces, point, ring_start,
+    ring_faces: its :class:`~genie_gl.triangles.SceneTriangles`. rgb (vh·vw, 3) uint8 or
+    (0, 3): the view's colour. out_*: the lens image's buffers (zero-filled), written where a
+    sample has a return (out_rgb, out_normal may be (0, 3): not written). stats (5,) int64:
     :data:`STATS`, added to.
     """
     colour = rgb.shape[0] > 0 and out_rgb.shape[0] > 0
     normals = out_normal.shape[0] > 0
     scale = zs.shape[0] > 0
-    pix, slot, verts = _shown(pixel, first, count, base, cfm, indices, vertices)
+    pix, slot, prim, verts = _shown(pixel, first, count, base, cfm, indices, vertices)
     box, start, rows, ntx, nty = _tiles(verts, K, vw, vh)
     around = np.empty(4, np.int64)   # the triangle each of the 4 nearest view pixels shows (-1: none)
-    tested = 0
+    window = np.empty(16, np.int64)  # the triangles the 4 x 4 view pixels around show
+    points = np.empty(48, np.int64)  # the points whose faces a ray tried
+    tri = np.empty(9, np.float64)
+    best_v = np.empty(9, np.float64)
+    tested = subpixel = missed = 0
     for i in range(sel.shape[0]):
         px, py = mx[i], my[i]
         ray_x, ray_y = dx[i], dy[i]
         x0, y0 = int(math.floor(px)), int(math.floor(py))
-        covered = True
+        covered, mixed = True, False
         for c in range(4):
             xx, yy = x0 + (c & 1), y0 + (c >> 1)
             around[c] = pix[yy * vw + xx] if 0 <= xx < vw and 0 <= yy < vh else -1
             covered &= around[c] >= 0
+            if around[c] >= 0 and around[0] >= 0 and inst_of[slot[around[c]]] != inst_of[slot[around[0]]]:
+                mixed = True
         # the nearest view pixel's triangle first: most rays hit it, and then only what is
         # nearer than that hit is tried
-        best, hit = np.inf, -1
+        best, bslot = np.inf, -1
         near_r = around[2 * int(py - y0 >= 0.5) + int(px - x0 >= 0.5)]
         if near_r >= 0:
             tested += 1
             best = _hit(verts, near_r, ray_x, ray_y)
             if best < np.inf:
-                hit = near_r
+                bslot = slot[near_r]
+                best_v[:] = verts[near_r]
         tile = (min(max(int(math.floor(py / TILE)), 0), nty - 1) * ntx
                 + min(max(int(math.floor(px / TILE)), 0), ntx - 1))
         for e in range(start[tile], start[tile + 1]):
@@ -211,43 +241,92 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
             tested += 1
             t = _hit(verts, r, ray_x, ray_y)
             if t < best:
-                best, hit = t, r
-        if hit >= 0 and covered:
-            # an instance none of the 4 nearest view pixels shows, behind all their planes:
-            # seen through a gap finer than the view
+                best, bslot = t, slot[r]
+                best_v[:] = verts[r]
+        if not covered or mixed or bslot < 0:
+            # at a silhouette, or between triangles: also the faces that meet at the corners
+            # of the triangles shown around (slivers too thin to cover a pixel centre)
+            nw = 0
+            for yy in range(max(y0 - 1, 0), min(y0 + 3, vh)):
+                for xx in range(max(x0 - 1, 0), min(x0 + 3, vw)):
+                    r = pix[yy * vw + xx]
+                    if r < 0:
+                        continue
+                    k = 0
+                    while k < nw and window[k] != r:
+                        k += 1
+                    if k == nw:
+                        window[nw] = r
+                        nw += 1
+            npts = 0
+            for k in range(nw):
+                r = window[k]
+                s = slot[r]
+                m = cfm[s]
+                t0 = 3 * (first[s] + prim[r])
+                for c in range(3):
+                    g = point[base[s] + np.int64(indices[t0 + c])]
+                    if g < 0 or ring_start[g + 1] - ring_start[g] > RING_MAX:
+                        continue   # the apex of a fan of slivers: left to the rules below
+                    q = 0
+                    while q < npts and points[q] != g:
+                        q += 1
+                    if q < npts:
+                        continue
+                    points[npts] = g
+                    npts += 1
+                    for e in range(ring_start[g], ring_start[g + 1]):
+                        f = ring_faces[e]
+                        for a in range(3):
+                            gv = base[s] + np.int64(faces[f, a])
+                            x, y, z = np.float64(vertices[gv, 0]), np.float64(vertices[gv, 1]), np.float64(vertices[gv, 2])
+                            for q in range(3):
+                                tri[3 * a + q] = m[q, 0] * x + m[q, 1] * y + m[q, 2] * z + m[q, 3]
+                        if backcull[s] and not _faces_camera(tri):
+                            continue
+                        tested += 1
+                        t = _hit(tri.reshape(1, 9), 0, ray_x, ray_y)
+                        if t < best:
+                            best, bslot = t, s
+                            best_v[:] = tri
+        if bslot >= 0 and covered:
+            # an instance none of the 4 nearest view pixels shows, behind all their planes,
+            # which are triangles narrower than a view pixel: seen through a gap between
+            # triangles finer than the view
             through = True
             for c in range(4):
                 r = around[c]
-                if inst_of[slot[r]] == inst_of[slot[hit]] or not best > _plane(verts, r, ray_x, ray_y) * (1.0 + 1e-9):
+                if (inst_of[slot[r]] == inst_of[bslot] or not box[r, 5] < 1.0
+                        or not best > _plane(verts, r, ray_x, ray_y) * (1.0 + 1e-9)):
                     through = False
                     break
             if through:
-                hit = -1
-        if hit < 0:
+                bslot = -1
+        if bslot < 0:
             if not covered:
-                stats[4] += 1
+                missed += 1
                 continue
             # between triangles finer than the view, inside a surface it covers: the plane of
             # the nearest view pixel's triangle along this ray
-            hit = near_r
-            best = _plane(verts, hit, ray_x, ray_y)
+            best = _plane(verts, near_r, ray_x, ray_y)
             if best == np.inf:
                 continue
-            stats[3] += 1
+            bslot = slot[near_r]
+            best_v[:] = verts[near_r]
+            subpixel += 1
         z = best * zs[i] if scale else best
         if z < near or z > far:
             continue
         o = sel[i]
-        s = slot[hit]
         out_depth[o] = z
-        out_inst[o] = inst_of[s]
-        out_sem[o] = sem_of[s]
+        out_inst[o] = inst_of[bslot]
+        out_sem[o] = sem_of[bslot]
         if colour:   # the colour of the nearest of the 4 view pixels that shows this instance
             j, dj = -1, np.inf
             for c in range(4):
                 xx, yy = x0 + (c & 1), y0 + (c >> 1)
                 d2 = (xx - px) ** 2 + (yy - py) ** 2
-                if around[c] >= 0 and inst_of[slot[around[c]]] == inst_of[s] and d2 < dj:
+                if around[c] >= 0 and inst_of[slot[around[c]]] == inst_of[bslot] and d2 < dj:
                     j, dj = yy * vw + xx, d2
             if j < 0:
                 j = (min(max(int(math.floor(py + 0.5)), 0), vh - 1) * vw
@@ -256,7 +335,7 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
             out_rgb[o, 1] = rgb[j, 1]
             out_rgb[o, 2] = rgb[j, 2]
         if normals:
-            v = verts[hit]
+            v = best_v
             e1x, e1y, e1z = v[3] - v[0], v[4] - v[1], v[5] - v[2]
             e2x, e2y, e2z = v[6] - v[0], v[7] - v[1], v[8] - v[2]
             nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
@@ -270,3 +349,5 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
     stats[0] += sel.shape[0]
     stats[1] += verts.shape[0]
     stats[2] += tested
+    stats[3] += subpixel
+    stats[4] += missed
