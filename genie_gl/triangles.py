@@ -86,6 +86,7 @@ class PixelTriangles:
     indices : (3 T,) uint32, the frame's index buffer (vertex ids within each mesh).
     instance : (S,) uint32 and semantic : (S,) uint16, per slot, its ids.
     scene : SceneTriangles, the meshes.
+    clip_near_m : float, the z of the GPU's near plane: nothing nearer was drawn.
     """
 
     pixel: np.ndarray
@@ -98,6 +99,7 @@ class PixelTriangles:
     instance: np.ndarray
     semantic: np.ndarray
     scene: SceneTriangles
+    clip_near_m: float
 
     def __post_init__(self) -> None:
         S = len(self.first)

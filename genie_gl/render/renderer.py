@@ -483,7 +483,8 @@ class Renderer:
         t0, t1 = job["t0"], job["t1"]
         self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
                       "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"]}
-        tri = PixelTriangles(out["primitive"], *job["pixel_triangles"], self._triangle_scene()) if want_triangles else None
+        tri = (PixelTriangles(out["primitive"], *job["pixel_triangles"], self._triangle_scene(),
+                              self._clip_near(sensor)) if want_triangles else None)
         return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)}, tri)
 

@@ -34,14 +34,17 @@ import numpy as np
 from numba import njit
 
 STATS = ("rays", "shown", "tested", "subpixel", "missed")   # what resample_rays counts, in this order
+# how each lens pixel's sample was decided (resample_rays' ``decided``)
+HIT, MISS, COVERED, GAP = 1, 2, 3, 4
 TILE = 4   # view pixels per side of a tile of the triangles' index
 RING_MAX = 32   # a point where more faces meet (the apex of a fan of slivers) is not searched
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
-def _hit(verts, r, dx, dy):  # pragma: no cover - compiled
+def _hit(verts, r, dx, dy, zmin):  # pragma: no cover - compiled
     """z (view frame) where the ray (dx, dy, 1) from the camera centre meets triangle ``r``
-    of ``verts`` (T, 9: corners a, b, c), inf on a miss. The triangle is sheared along the ray (x - dx
+    of ``verts`` (T, 9: corners a, b, c), inf on a miss or nearer than ``zmin`` (the GPU's
+    near plane: what it clips away). The triangle is sheared along the ray (x - dx
     z, y - dy z) and tested with 2D edge functions (Woop, Benthin & Wald's watertight test,
     the ray's z as its major axis: the views' rays have z = 1 and |x|, |y| < 4): the edge
     functions of an edge two triangles share are the same numbers negated, so no ray slips
@@ -59,7 +62,7 @@ def _hit(verts, r, dx, dy):  # pragma: no cover - compiled
     if det == 0.0:
         return np.inf
     t = (u * az + w1 * bz + w2 * cz) / det
-    return t if t > 0.0 else np.inf
+    return t if t >= zmin else np.inf
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
@@ -129,38 +132,61 @@ def _shown(pixel, first, count, base, cfm, indices, vertices):  # pragma: no cov
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _tiles(verts, K, vw, vh):  # pragma: no cover - compiled
+def _tiles(verts, K, vw, vh, zmin):  # pragma: no cover - compiled
     """Each triangle's projected box, nearest corner and width (T, 6: u0, u1, v0, v1 in view
-    pixels, the whole plane when a corner is not in front of the camera; z0; its least
-    height, twice its area over its longest edge, in view pixels, inf when not in front) and
-    the tiles' lists of the triangles whose box overlaps them (start (tiles + 1,), rows)."""
+    pixels of its part beyond ``zmin``; z0; its least height, twice its area over its longest
+    edge, in view pixels, inf when a corner is nearer than ``zmin``) and the tiles' lists of
+    the triangles whose box overlaps them, nearest corner first (start (tiles + 1,), rows)."""
     fx, sk, cx, fy, cy = K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]
     T = verts.shape[0]
     ntx, nty = (vw + TILE - 1) // TILE + 1, (vh + TILE - 1) // TILE + 1
     box = np.empty((T, 6), np.float64)
+    edges = np.zeros((T, 9), np.float64)   # 2D edge functions (view pixels), all >= 0 inside
     uv = np.empty(6, np.float64)
     span = np.empty((T, 4), np.int64)
     start = np.zeros(ntx * nty + 1, np.int64)
     for r in range(T):
         u0, u1, v0, v1 = np.inf, -np.inf, np.inf, -np.inf
         width = np.inf
+        inside = 0
         for c in range(3):
             x, y, z = verts[r, 3 * c], verts[r, 3 * c + 1], verts[r, 3 * c + 2]
-            if not z > 1e-12:
-                u0, u1, v0, v1 = -np.inf, np.inf, -np.inf, np.inf
-                break
-            u, v = fx * x / z + sk * y / z + cx, fy * y / z + cy
-            uv[2 * c], uv[2 * c + 1] = u, v
-            u0, u1, v0, v1 = min(u0, u), max(u1, u), min(v0, v), max(v1, v)
-        else:
+            if z >= zmin:
+                inside += 1
+                u, v = fx * x / z + sk * y / z + cx, fy * y / z + cy
+                uv[2 * c], uv[2 * c + 1] = u, v
+                u0, u1, v0, v1 = min(u0, u), max(u1, u), min(v0, v), max(v1, v)
+            n = (c + 1) % 3   # where the edge to the next corner crosses z = zmin
+            xn, yn, zn = verts[r, 3 * n], verts[r, 3 * n + 1], verts[r, 3 * n + 2]
+            if (z - zmin) * (zn - zmin) < 0.0:
+                a = (zmin - z) / (zn - z)
+                xc, yc = x + a * (xn - x), y + a * (yn - y)
+                u, v = fx * xc / zmin + sk * yc / zmin + cx, fy * yc / zmin + cy
+                u0, u1, v0, v1 = min(u0, u), max(u1, u), min(v0, v), max(v1, v)
+        if inside == 3:
             area2 = abs((uv[2] - uv[0]) * (uv[5] - uv[1]) - (uv[3] - uv[1]) * (uv[4] - uv[0]))
             edge = max(math.hypot(uv[2] - uv[0], uv[3] - uv[1]), math.hypot(uv[4] - uv[2], uv[5] - uv[3]),
                        math.hypot(uv[0] - uv[4], uv[1] - uv[5]))
             width = area2 / edge if edge > 0.0 else 0.0
+            # the projected triangle's edge functions a u + b v + c, inside >= 0 (scaled to
+            # pixels of distance, widened by 1e-6 px beyond rounding): a pre-test only
+            sign = 1.0 if (uv[2] - uv[0]) * (uv[5] - uv[1]) - (uv[3] - uv[1]) * (uv[4] - uv[0]) > 0.0 else -1.0
+            for c in range(3):
+                n = (c + 1) % 3
+                ea, eb = -(uv[2 * n + 1] - uv[2 * c + 1]) * sign, (uv[2 * n] - uv[2 * c]) * sign
+                length = math.hypot(ea, eb)
+                if length > 0.0:
+                    ea, eb = ea / length, eb / length
+                edges[r, 3 * c] = ea
+                edges[r, 3 * c + 1] = eb
+                edges[r, 3 * c + 2] = -(ea * uv[2 * c] + eb * uv[2 * c + 1]) + 1e-6 + 1e-9 * (abs(uv[2 * c]) + abs(uv[2 * c + 1]))
         pad = 1e-6 + 1e-9 * (abs(u0) + abs(u1) + abs(v0) + abs(v1))   # beyond float64 rounding
         box[r, 0], box[r, 1], box[r, 2], box[r, 3] = u0 - pad, u1 + pad, v0 - pad, v1 + pad
         box[r, 4] = min(verts[r, 2], min(verts[r, 5], verts[r, 8]))
         box[r, 5] = width
+        if inside == 0:   # wholly nearer than the near plane: in no tile
+            span[r, 0], span[r, 1], span[r, 2], span[r, 3] = 1, 0, 1, 0
+            continue
         tx0 = int(min(max(math.floor(max(box[r, 0], -1.0) / TILE), 0), ntx - 1))
         tx1 = int(min(max(math.floor(min(box[r, 1], vw + 1.0) / TILE), 0), ntx - 1))
         ty0 = int(min(max(math.floor(max(box[r, 2], -1.0) / TILE), 0), nty - 1))
@@ -173,40 +199,47 @@ def _tiles(verts, K, vw, vh):  # pragma: no cover - compiled
         start[t + 1] += start[t]
     fill = start[:-1].copy()
     rows = np.empty(start[-1], np.int32)
-    for r in range(T):
+    for r in np.argsort(box[:, 4]):   # each tile's list nearest first
+        if span[r, 0] > span[r, 1]:
+            continue
         for ty in range(span[r, 2], span[r, 3] + 1):
             for tx in range(span[r, 0], span[r, 1] + 1):
                 t = ty * ntx + tx
                 rows[fill[t]] = r
                 fill[t] += 1
-    return box, start, rows, ntx, nty
+    return box, edges, start, rows, ntx, nty
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
+def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
                   pixel, first, count, base, backcull, cfm, indices, vertices, faces, point, ring_start, ring_faces,
-                  inst_of, sem_of, rgb, out_depth, out_inst, out_sem, out_rgb, out_normal, stats):  # pragma: no cover
+                  inst_of, sem_of, rgb, out_depth, out_inst, out_sem, out_rgb, out_normal, stats,
+                  decided):  # pragma: no cover
     """Write the samples of one view into the lens image, each from its own ray.
 
     sel (N,) int64: output pixel of each sample; mx, my (N,) float64: where its ray crosses
     the view (view pixels, by ``K``); dx, dy (N,) float64: its ray (view frame, z = 1); zs
     (N,) or (0,): camera-frame z per view-frame z along the ray; K (3, 3): the view's; vw, vh:
-    its size; near, far: the sensor's range; R (3, 3): camera_from_view. pixel (vh·vw·2,)
+    its size; zmin: the view's GPU near plane (z, what it clipped away); near, far: the
+    sensor's range (camera z); R (3, 3): camera_from_view. pixel (vh·vw·2,)
     uint32, first, count, base, backcull, cfm, indices, inst_of, sem_of: the view's
     :class:`~genie_gl.triangles.PixelTriangles`; vertices, faces, point, ring_start,
     ring_faces: its :class:`~genie_gl.triangles.SceneTriangles`. rgb (vh·vw, 3) uint8 or
     (0, 3): the view's colour. out_*: the lens image's buffers (zero-filled), written where a
     sample has a return (out_rgb, out_normal may be (0, 3): not written). stats (5,) int64:
-    :data:`STATS`, added to.
+    :data:`STATS`, added to. decided (M,) uint8 or (0,): per output pixel, how its sample was
+    decided (:data:`HIT`: the nearest triangle its ray hits; :data:`MISS`: it hits none and a
+    view pixel around is empty; :data:`COVERED`, :data:`GAP`: the rules for what the view
+    cannot resolve, see the module).
     """
+    record = decided.shape[0] > 0
     colour = rgb.shape[0] > 0 and out_rgb.shape[0] > 0
     normals = out_normal.shape[0] > 0
     scale = zs.shape[0] > 0
     pix, slot, prim, verts = _shown(pixel, first, count, base, cfm, indices, vertices)
-    box, start, rows, ntx, nty = _tiles(verts, K, vw, vh)
+    box, edges, start, rows, ntx, nty = _tiles(verts, K, vw, vh, zmin)
     around = np.empty(4, np.int64)   # the triangle each of the 4 nearest view pixels shows (-1: none)
-    window = np.empty(16, np.int64)  # the triangles the 4 x 4 view pixels around show
-    points = np.empty(48, np.int64)  # the points whose faces a ray tried
+    points = np.empty(12, np.int64)  # the points whose faces a ray tried
     tri = np.empty(9, np.float64)
     best_v = np.empty(9, np.float64)
     tested = subpixel = missed = 0
@@ -227,7 +260,7 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
         near_r = around[2 * int(py - y0 >= 0.5) + int(px - x0 >= 0.5)]
         if near_r >= 0:
             tested += 1
-            best = _hit(verts, near_r, ray_x, ray_y)
+            best = _hit(verts, near_r, ray_x, ray_y, zmin)
             if best < np.inf:
                 bslot = slot[near_r]
                 best_v[:] = verts[near_r]
@@ -235,32 +268,28 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
                 + min(max(int(math.floor(px / TILE)), 0), ntx - 1))
         for e in range(start[tile], start[tile + 1]):
             r = rows[e]
-            if (box[r, 4] >= best or px < box[r, 0] or px > box[r, 1] or py < box[r, 2] or py > box[r, 3]
-                    or r == near_r):
+            if box[r, 4] >= best:   # this one and all after it lie beyond the hit
+                break
+            if px < box[r, 0] or px > box[r, 1] or py < box[r, 2] or py > box[r, 3] or r == near_r:
                 continue
+            if (edges[r, 0] * px + edges[r, 1] * py + edges[r, 2] < 0.0
+                    or edges[r, 3] * px + edges[r, 4] * py + edges[r, 5] < 0.0
+                    or edges[r, 6] * px + edges[r, 7] * py + edges[r, 8] < 0.0):
+                continue   # outside the projected triangle (zeros, always passed, where it is clipped)
             tested += 1
-            t = _hit(verts, r, ray_x, ray_y)
+            t = _hit(verts, r, ray_x, ray_y, zmin)
             if t < best:
                 best, bslot = t, slot[r]
                 best_v[:] = verts[r]
         if not covered or mixed or bslot < 0:
             # at a silhouette, or between triangles: also the faces that meet at the corners
-            # of the triangles shown around (slivers too thin to cover a pixel centre)
-            nw = 0
-            for yy in range(max(y0 - 1, 0), min(y0 + 3, vh)):
-                for xx in range(max(x0 - 1, 0), min(x0 + 3, vw)):
-                    r = pix[yy * vw + xx]
-                    if r < 0:
-                        continue
-                    k = 0
-                    while k < nw and window[k] != r:
-                        k += 1
-                    if k == nw:
-                        window[nw] = r
-                        nw += 1
+            # of the triangles the 4 nearest view pixels show (slivers too thin to cover a
+            # pixel centre, which the view shows nowhere)
             npts = 0
-            for k in range(nw):
-                r = window[k]
+            for k in range(4):
+                r = around[k]
+                if r < 0 or (k > 0 and r == around[0]) or (k > 1 and r == around[1]) or (k > 2 and r == around[2]):
+                    continue
                 s = slot[r]
                 m = cfm[s]
                 t0 = 3 * (first[s] + prim[r])
@@ -285,7 +314,7 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
                         if backcull[s] and not _faces_camera(tri):
                             continue
                         tested += 1
-                        t = _hit(tri.reshape(1, 9), 0, ray_x, ray_y)
+                        t = _hit(tri.reshape(1, 9), 0, ray_x, ray_y, zmin)
                         if t < best:
                             best, bslot = t, s
                             best_v[:] = tri
@@ -302,6 +331,10 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
                     break
             if through:
                 bslot = -1
+                if record:
+                    decided[sel[i]] = GAP
+        elif record:
+            decided[sel[i]] = HIT if bslot >= 0 else MISS
         if bslot < 0:
             if not covered:
                 missed += 1
@@ -314,6 +347,8 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, near, far, R,
             bslot = slot[near_r]
             best_v[:] = verts[near_r]
             subpixel += 1
+            if record and decided[sel[i]] != GAP:
+                decided[sel[i]] = COVERED
         z = best * zs[i] if scale else best
         if z < near or z > far:
             continue
