@@ -24,8 +24,8 @@ The error bound covers what separates this float64 test from the GPU's float32 v
 transform and its sub-pixel snapping: ``1/64`` pixel plus a relative term scaled by the size of the numbers involved. A
 triangle the GPU would rasterise is therefore never dropped, and the culled render is the
 unculled render bit for bit (tests compare both on generated and benchmark scenes, and on
-triangles whose edges pass within 1/500 pixel of pixel centres; a bound of 1/4096 pixel fails
-them on llvmpipe, so the bound is a wide margin over what the GPU's rounding moves).
+triangles whose edges pass within 1/500 pixel of pixel centres, which a bound of 1/4096 pixel
+fails on llvmpipe: the bound is a wide margin over what the GPU's rounding moves).
 
 Memory grows with what is drawn, not with the scene's instances: per cluster in view a count
 and a 128-bit mask, per thread the window coordinates of one cluster's vertices, and the
