@@ -5,10 +5,8 @@ for labels exact per pixel ray, each lens pixel's own ray is intersected with th
 its view shows (:mod:`genie_gl.sensors.ray_hits`). The renderer fills this record when asked
 (``Renderer.render(..., triangles=True)``): per pixel, the draw slot and the triangle within
 that draw (one more RG32UI target); per frame, what turns that pair into the triangle's three
-vertices in the camera frame, in float64; per scene, the meshes' faces and which of them meet
-at each point (so that a ray near a triangle the view shows can also try the faces around
-it: slivers too thin to cover any pixel centre). Nothing here is made for a frame that does
-not ask.
+vertices in the camera frame, in float64 (the frame's index buffer and the scene's
+vertices). Nothing here is made for a frame that does not ask.
 """
 from __future__ import annotations
 
@@ -24,49 +22,16 @@ class SceneTriangles:
     Attributes
     ----------
     vertices : (V, 3) float32, each mesh's vertices in its model frame, mesh after mesh.
-    faces : (F, 3) uint32, each mesh's faces, vertex ids within their own mesh.
-    point : (V,) int32, the point of each vertex: the vertices of one mesh at one position are
-        one point (a mesh may store a vertex more than once: split along seams, or by the
-        renderer's clusters); -1 for a vertex no face uses.
-    ring_start : (P + 1,) int64 and ring_faces : (3 F,) int32: the faces (rows of ``faces``)
-        that meet at point p are ``ring_faces[ring_start[p]:ring_start[p + 1]]``.
+    faces : (F, 3) uint32, each mesh's faces (vertex ids within their own mesh), mesh after mesh.
     """
 
     vertices: np.ndarray
     faces: np.ndarray
-    point: np.ndarray
-    ring_start: np.ndarray
-    ring_faces: np.ndarray
 
     @classmethod
-    def build(cls, vertices: np.ndarray, faces: np.ndarray, vbase: np.ndarray, fbase: np.ndarray,
-              nfaces: np.ndarray) -> "SceneTriangles":
-        """The record of meshes concatenated as ``vertices`` and ``faces`` (mesh i's faces are
-        rows ``fbase[i]:fbase[i] + nfaces[i]``, its vertices start at row ``vbase[i]``)."""
-        vertices = np.ascontiguousarray(vertices, np.float32)
-        faces = np.ascontiguousarray(faces, np.uint32)
-        F, V = len(faces), len(vertices)
-        nfaces = np.asarray(nfaces, np.int64)
-        by_row = np.argsort(np.asarray(fbase, np.int64), kind="stable")
-        mesh = np.repeat(by_row, nfaces[by_row])                   # each face's mesh
-        if len(mesh) != F:
-            raise ValueError(f"SceneTriangles.build: nfaces add up to {len(mesh)}, faces has {F} rows")
-        used = (faces.astype(np.int64) + np.asarray(vbase, np.int64)[mesh][:, None]).ravel()
-        # one point per (mesh, position): the position's float32 bits (+0.0 turns -0.0 into 0.0)
-        rows = np.zeros((V, 4), np.uint32)
-        rows[:, :3] = (vertices + np.float32(0.0)).view(np.uint32)
-        rows[used, 3] = np.repeat(mesh, 3)
-        seen = np.zeros(V, bool)
-        seen[used] = True
-        point = np.full(V, -1, np.int32)
-        key = np.ascontiguousarray(rows[seen]).view(np.dtype((np.void, 16))).ravel()
-        _, inverse = np.unique(key, return_inverse=True)
-        point[seen] = inverse.ravel()
-        P = int(inverse.max()) + 1 if len(inverse) else 0
-        at = point[used]
-        start = np.zeros(P + 1, np.int64)
-        np.cumsum(np.bincount(at, minlength=P), out=start[1:])
-        return cls(vertices, faces, point, start, (np.argsort(at, kind="stable") // 3).astype(np.int32))
+    def build(cls, vertices: np.ndarray, faces: np.ndarray) -> "SceneTriangles":
+        """The record of the meshes' concatenated ``vertices`` and ``faces``."""
+        return cls(np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.uint32))
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +50,9 @@ class PixelTriangles:
     camera_from_model : (S, 3, 4) float64, per slot.
     indices : (3 T,) uint32, the frame's index buffer (vertex ids within each mesh).
     instance : (S,) uint32 and semantic : (S,) uint16, per slot, its ids.
+    mesh_first : (S,) int64 and mesh_count : (S,) int64, per slot, its mesh's rows of
+        ``scene.faces`` (every face of the mesh drawn, also those the frame's culling dropped
+        because they cover no pixel centre).
     scene : SceneTriangles, the meshes.
     clip_near_m : float, the z of the GPU's near plane: nothing nearer was drawn.
     """
@@ -98,6 +66,8 @@ class PixelTriangles:
     indices: np.ndarray
     instance: np.ndarray
     semantic: np.ndarray
+    mesh_first: np.ndarray
+    mesh_count: np.ndarray
     scene: SceneTriangles
     clip_near_m: float
 
@@ -108,7 +78,8 @@ class PixelTriangles:
                   ("backcull", self.backcull, (S,), np.bool_),
                   ("camera_from_model", self.camera_from_model, (S, 3, 4), np.float64),
                   ("indices", self.indices, None, np.uint32), ("instance", self.instance, (S,), np.uint32),
-                  ("semantic", self.semantic, (S,), np.uint16)]
+                  ("semantic", self.semantic, (S,), np.uint16), ("mesh_first", self.mesh_first, (S,), np.int64),
+                  ("mesh_count", self.mesh_count, (S,), np.int64)]
         for name, arr, shape, dtype in checks:
             if arr.dtype != dtype or (shape is not None and arr.shape != shape):
                 raise ValueError(f"PixelTriangles.{name}: expected {shape or ''} {np.dtype(dtype).name}, "

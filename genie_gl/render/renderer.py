@@ -489,12 +489,10 @@ class Renderer:
                      {"render_ms": 1e3 * (time.perf_counter() - t0)}, tri)
 
     def _triangle_scene(self) -> SceneTriangles:
-        """The scene's meshes for :class:`PixelTriangles` (and which faces meet at each
-        point), made the first time a frame asks for triangles."""
+        """The scene's meshes for :class:`PixelTriangles`, made the first time a frame asks
+        for triangles."""
         if self._scene_triangles is None:
-            c = self._culler
-            self._scene_triangles = SceneTriangles.build(c.vertices, c.faces, c.mesh_vbase, c.mesh_fbase,
-                                                         c.mesh_nfaces)
+            self._scene_triangles = SceneTriangles.build(self._culler.vertices, self._culler.faces)
         return self._scene_triangles
 
     def _clip_near(self, sensor: Sensor) -> float:
@@ -527,7 +525,8 @@ class Renderer:
         if triangles:
             self._frame_triangles = (np.full(n, -1, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64),
                                      np.zeros(n, bool), np.zeros((n, 3, 4)), np.zeros(0, np.uint32), self._ids,
-                                     self._rows["semantic"].astype(np.uint16))
+                                     self._rows["semantic"].astype(np.uint16), np.zeros(n, np.int64),
+                                     np.zeros(n, np.int64))
         if n == 0:
             return []
         camera_from_world = rigid_inverse(pose)
@@ -580,7 +579,9 @@ class Renderer:
             cull[cmd["base_instance"]] = backcull
             # the culled indices are rewritten by the next frame's culling: this frame keeps a copy
             drawn_indices = indices.copy() if culled else self._culler.faces.reshape(-1)
-            self._frame_triangles = (first, count, base, cull, cfm, drawn_indices, *self._frame_triangles[6:])
+            ids, sem, mesh_first, mesh_count = self._frame_triangles[6:]
+            mesh_first[slots], mesh_count[slots] = self._fbase[m], self._nfaces[m]   # every face, culled or not
+            self._frame_triangles = (first, count, base, cull, cfm, drawn_indices, ids, sem, mesh_first, mesh_count)
         return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
 
     def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0) -> int:

@@ -267,21 +267,17 @@ def _pixels(rgb: np.ndarray) -> np.ndarray:
 
 
 NO_F64 = np.zeros(0)
-NO_U8 = np.zeros(0, np.uint8)
 NO_RGB = np.zeros((0, 3), np.uint8)
 NO_NORMAL = np.zeros((0, 3), np.float32)
 
 
 def resample_views(frames: list[Frame], sensor: Camera, views: tuple[DistortionMaps, ...], pose: np.ndarray,
-                   *, resample: str = DEFAULT_RESAMPLE, normals: bool | None = None,
-                   decided: np.ndarray | None = None) -> Frame:
+                   *, resample: str = DEFAULT_RESAMPLE, normals: bool | None = None) -> Frame:
     """Resample the rendered ``frames`` of ``views`` into ``sensor``'s image at ``pose``
     (one compiled pass per view, :mod:`.resample`, or :mod:`.ray_hits` for the exact mode,
     whose frames must carry their triangles); surfaces nearer than ``sensor.near_m`` or
     farther than ``far_m`` give no return. ``normals``: give the image normals (None: when
-    every view has them; the exact mode computes them from the triangles hit). ``decided``:
-    an (H, W) uint8 array the exact mode fills with how each pixel was decided
-    (:data:`.ray_hits.HIT` ... :data:`.ray_hits.GAP`; 0 where no view serves it)."""
+    every view has them; the exact mode computes them from the triangles hit)."""
     H, W = sensor.height, sensor.width
     colour = all(f.rgb is not None for f in frames)
     exact = resample == "exact"
@@ -306,10 +302,9 @@ def resample_views(frames: list[Frame], sensor: Camera, views: tuple[DistortionM
             resample_rays(plan["sel"], plan["mx"], plan["my"], *plan["d"],
                           NO_F64 if plan["zs"] is None else plan["zs"], f.sensor.K, f.sensor.width, f.sensor.height,
                           t.clip_near_m, sensor.near_m, sensor.far_m, R, t.pixel.reshape(-1), t.first, t.count, t.base_vertex,
-                          t.backcull, t.camera_from_model, t.indices, t.scene.vertices, t.scene.faces, t.scene.point,
-                          t.scene.ring_start, t.scene.ring_faces, t.instance, t.semantic,
-                          _pixels(f.rgb) if colour else NO_RGB, depth, inst, sem, rgb, normal, stats,
-                          NO_U8 if decided is None else decided.reshape(-1))
+                          t.backcull, t.camera_from_model, t.indices, t.mesh_first, t.mesh_count, t.scene.faces,
+                          t.scene.vertices, t.instance, t.semantic,
+                          _pixels(f.rgb) if colour else NO_RGB, depth, inst, sem, rgb, normal, stats)
             continue
         mode = MODES[resample]
         p, d = plan.get("p", (NO_F64, NO_F64)), plan.get("d", (NO_F64, NO_F64))

@@ -1,30 +1,25 @@
 """Exact lens resampling: each lens pixel's own ray intersected with the triangles of its view.
 
 A pinhole view rendered for a lens records the triangle each of its pixels shows
-(:class:`genie_gl.triangles.PixelTriangles`). Per view, every triangle it shows at one pixel
-or more is put, with its corners in the camera frame (float64), in the tiles of
-:data:`TILE` x :data:`TILE` view pixels its projected box overlaps. A lens pixel's ray
-crosses the view at a sub-pixel position; it is intersected with every triangle of that
-position's tile whose box holds the position, exactly (a watertight ray-triangle test in
-float64: a ray through an edge or a vertex that triangles share hits at least one of them;
-Woop, Benthin & Wald, JCGT 2013), and the nearest hit gives the pixel's instance, semantic
-id, depth and normal. A triangle shown anywhere in the view is found wherever the ray meets
-it: a thin bar seen at other pixels, the corner of a small square that holds no pixel
-centre near the ray.
+(:class:`genie_gl.triangles.PixelTriangles`). The candidates of a view are every triangle
+the view drew of every instance it shows at one pixel or more (so also the slivers of those
+instances too thin to cover any pixel centre: a board seen edge-on, the side of a thin
+slat), with their corners in the camera frame (float64), clipped at the view's near plane
+and, for meshes drawn with back-face culling, only their faces toward the camera (what the
+GPU drew). Each is put in the tiles of :data:`TILE` x :data:`TILE` view pixels its
+projected box overlaps, nearest corner first. A lens pixel's ray crosses the view at a
+sub-pixel position; it is intersected with the triangle the nearest view pixel shows, then
+with every candidate of that position's tile nearer than the hit so far whose projection
+holds the position, exactly (a watertight ray-triangle test in float64: a ray through an
+edge or a vertex that triangles share hits at least one of them; Woop, Benthin & Wald,
+JCGT 2013). The nearest hit gives the pixel's instance, semantic id, depth and normal; a
+ray that hits no candidate has no return (it passes the silhouette, or through a gap the
+view cannot resolve: what a ray caster says too).
 
-What the view shows at no pixel (a triangle finer than its pixels, or hidden at every pixel
-centre) is not tried: these are the sub-pixel triangles, and two rules decide for them:
-
-* a ray that hits none of the view's triangles passes between them: it meets nothing when
-  one of the four view pixels around it is empty (a silhouette against the background), and
-  else the surface those four show (the plane of the nearest one's triangle: a finely
-  tessellated surface whose triangles are narrower than a view pixel);
-* a ray that hits an instance none of the four view pixels around it shows, behind the
-  planes of all four pixels' triangles, is seen through a gap finer than the view: it takes
-  that surface too (the sub-pixel triangles of the surface in front close the gap).
-
-Both count as ``subpixel`` in the stats; ``oversample`` (finer views) shrinks what they
-decide. Everywhere else the result is the ray caster's (tests/sensors/test_ray_hits.py).
+Only an instance the view shows at no pixel at all (wholly finer than a view pixel, or
+hidden at every pixel centre) is not tried: these are the sub-pixel triangles;
+``oversample`` (finer views) shrinks them. Everywhere else the result is the ray caster's
+(tests/sensors/test_ray_hits.py compares with Open3D's).
 """
 from __future__ import annotations
 
@@ -33,11 +28,8 @@ import math
 import numpy as np
 from numba import njit
 
-STATS = ("rays", "shown", "tested", "subpixel", "missed")   # what resample_rays counts, in this order
-# how each lens pixel's sample was decided (resample_rays' ``decided``)
-HIT, MISS, COVERED, GAP = 1, 2, 3, 4
+STATS = ("rays", "candidates", "tested", "missed")   # what resample_rays counts, in this order
 TILE = 4   # view pixels per side of a tile of the triangles' index
-RING_MAX = 32   # a point where more faces meet (the apex of a fan of slivers) is not searched
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
@@ -66,21 +58,6 @@ def _hit(verts, r, dx, dy, zmin):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
-def _plane(verts, r, dx, dy):  # pragma: no cover - compiled
-    """z where the ray (dx, dy, 1) meets the plane of triangle ``r`` of ``verts``; inf when it
-    does not, in front of the camera."""
-    v = verts[r]
-    e1x, e1y, e1z = v[3] - v[0], v[4] - v[1], v[5] - v[2]
-    e2x, e2y, e2z = v[6] - v[0], v[7] - v[1], v[8] - v[2]
-    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
-    nd = nx * dx + ny * dy + nz
-    if nd == 0.0:
-        return np.inf
-    t = (nx * v[0] + ny * v[1] + nz * v[2]) / nd
-    return t if t > 0.0 else np.inf
-
-
-@njit(cache=True, nogil=True, boundscheck=False, inline="always")
 def _faces_camera(v):  # pragma: no cover - compiled
     """True when triangle ``v`` (9,: camera frame, outward faces counter-clockwise) faces the
     camera at the origin, as the GPU's back-face culling decides it."""
@@ -90,18 +67,27 @@ def _faces_camera(v):  # pragma: no cover - compiled
     return nx * v[0] + ny * v[1] + nz * v[2] < 0.0
 
 
+@njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _corners(out, r, m, vertices, g0, g1, g2):  # pragma: no cover - compiled
+    """Row ``r`` of ``out`` (T, 9): vertices g0, g1, g2 by ``m`` (3, 4) in float64."""
+    for c in range(3):
+        g = g0 if c == 0 else (g1 if c == 1 else g2)
+        x, y, z = np.float64(vertices[g, 0]), np.float64(vertices[g, 1]), np.float64(vertices[g, 2])
+        for q in range(3):
+            out[r, 3 * c + q] = m[q, 0] * x + m[q, 1] * y + m[q, 2] * z + m[q, 3]
+
+
 @njit(cache=True, nogil=True, boundscheck=False)
 def _shown(pixel, first, count, base, cfm, indices, vertices):  # pragma: no cover - compiled
-    """The triangles the view shows: (per pixel its triangle's row, -1 for none; per
-    triangle its slot, its triangle within the slot's draw and its camera-frame corners
-    (T, 9))."""
+    """The triangles the view's pixels show (each once): per view pixel its row (-1: none),
+    per row its slot and its camera-frame corners (T, 9)."""
     S = first.shape[0]
     at = np.zeros(S + 1, np.int64)
     for s in range(S):
         at[s + 1] = at[s] + count[s]
-    row_of = np.full(at[S], -1, np.int32)
+    row_of = np.full(at[S], -1, np.int64)
     n = pixel.shape[0] // 2
-    pix = np.full(n, -1, np.int32)
+    pix = np.full(n, -1, np.int64)
     slot = np.empty(n, np.int64)
     prim = np.empty(n, np.int64)
     rows = 0
@@ -121,33 +107,58 @@ def _shown(pixel, first, count, base, cfm, indices, vertices):  # pragma: no cov
     verts = np.empty((rows, 9), np.float64)
     for r in range(rows):
         s = slot[r]
-        m = cfm[s]
         t0 = 3 * (first[s] + prim[r])
-        for c in range(3):
-            g = base[s] + np.int64(indices[t0 + c])
-            x, y, z = np.float64(vertices[g, 0]), np.float64(vertices[g, 1]), np.float64(vertices[g, 2])
-            for q in range(3):
-                verts[r, 3 * c + q] = m[q, 0] * x + m[q, 1] * y + m[q, 2] * z + m[q, 3]
-    return pix, slot[:rows].copy(), prim[:rows].copy(), verts
+        _corners(verts, r, cfm[s], vertices, base[s] + np.int64(indices[t0]), base[s] + np.int64(indices[t0 + 1]),
+                 base[s] + np.int64(indices[t0 + 2]))
+    return pix, slot[:rows].copy(), verts
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _tiles(verts, K, vw, vh, zmin):  # pragma: no cover - compiled
-    """Each triangle's projected box, nearest corner and width (T, 6: u0, u1, v0, v1 in view
-    pixels of its part beyond ``zmin``; z0; its least height, twice its area over its longest
-    edge, in view pixels, inf when a corner is nearer than ``zmin``) and the tiles' lists of
-    the triangles whose box overlaps them, nearest corner first (start (tiles + 1,), rows)."""
+def _candidates(shown_slot, mesh_first, mesh_count, base, backcull, cfm, faces, vertices):  # pragma: no cover
+    """The view's candidate triangles: every face of the mesh of every slot in
+    ``shown_slot``. Returns per row its slot, whether it may be hit (False: a back face of a
+    mesh drawn with back-face culling) and its camera-frame corners (T, 9)."""
+    S = base.shape[0]
+    shown = np.zeros(S, np.bool_)
+    for s in shown_slot:
+        shown[s] = True
+    at = np.zeros(S + 1, np.int64)
+    for s in range(S):
+        at[s + 1] = at[s] + (mesh_count[s] if shown[s] else 0)
+    T = at[S]
+    verts = np.empty((T, 9), np.float64)
+    slot = np.empty(T, np.int64)
+    front = np.ones(T, np.bool_)
+    for s in range(S):
+        if not shown[s]:
+            continue
+        for p in range(mesh_count[s]):
+            r = at[s] + p
+            f = mesh_first[s] + p
+            _corners(verts, r, cfm[s], vertices, base[s] + np.int64(faces[f, 0]), base[s] + np.int64(faces[f, 1]),
+                     base[s] + np.int64(faces[f, 2]))
+            slot[r] = s
+            if backcull[s]:
+                front[r] = _faces_camera(verts[r])
+    return slot, front, verts
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _tiles(verts, front, K, vw, vh, zmin):  # pragma: no cover - compiled
+    """Each triangle's projected box and nearest corner (T, 5: u0, u1, v0, v1 in view pixels
+    of its part beyond ``zmin``; z0), its projected edge functions (T, 9; zeros, passing
+    every point, when it is clipped) and the tiles' lists of the triangles (``front`` only)
+    whose box overlaps them, nearest corner first (start (tiles + 1,), rows)."""
     fx, sk, cx, fy, cy = K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]
     T = verts.shape[0]
     ntx, nty = (vw + TILE - 1) // TILE + 1, (vh + TILE - 1) // TILE + 1
-    box = np.empty((T, 6), np.float64)
+    box = np.empty((T, 5), np.float64)
     edges = np.zeros((T, 9), np.float64)   # 2D edge functions (view pixels), all >= 0 inside
     uv = np.empty(6, np.float64)
     span = np.empty((T, 4), np.int64)
     start = np.zeros(ntx * nty + 1, np.int64)
     for r in range(T):
         u0, u1, v0, v1 = np.inf, -np.inf, np.inf, -np.inf
-        width = np.inf
         inside = 0
         for c in range(3):
             x, y, z = verts[r, 3 * c], verts[r, 3 * c + 1], verts[r, 3 * c + 2]
@@ -164,10 +175,6 @@ def _tiles(verts, K, vw, vh, zmin):  # pragma: no cover - compiled
                 u, v = fx * xc / zmin + sk * yc / zmin + cx, fy * yc / zmin + cy
                 u0, u1, v0, v1 = min(u0, u), max(u1, u), min(v0, v), max(v1, v)
         if inside == 3:
-            area2 = abs((uv[2] - uv[0]) * (uv[5] - uv[1]) - (uv[3] - uv[1]) * (uv[4] - uv[0]))
-            edge = max(math.hypot(uv[2] - uv[0], uv[3] - uv[1]), math.hypot(uv[4] - uv[2], uv[5] - uv[3]),
-                       math.hypot(uv[0] - uv[4], uv[1] - uv[5]))
-            width = area2 / edge if edge > 0.0 else 0.0
             # the projected triangle's edge functions a u + b v + c, inside >= 0 (scaled to
             # pixels of distance, widened by 1e-6 px beyond rounding): a pre-test only
             sign = 1.0 if (uv[2] - uv[0]) * (uv[5] - uv[1]) - (uv[3] - uv[1]) * (uv[4] - uv[0]) > 0.0 else -1.0
@@ -183,8 +190,8 @@ def _tiles(verts, K, vw, vh, zmin):  # pragma: no cover - compiled
         pad = 1e-6 + 1e-9 * (abs(u0) + abs(u1) + abs(v0) + abs(v1))   # beyond float64 rounding
         box[r, 0], box[r, 1], box[r, 2], box[r, 3] = u0 - pad, u1 + pad, v0 - pad, v1 + pad
         box[r, 4] = min(verts[r, 2], min(verts[r, 5], verts[r, 8]))
-        box[r, 5] = width
-        if inside == 0:   # wholly nearer than the near plane: in no tile
+        if (inside == 0 or not front[r] or box[r, 1] < -1.0 or box[r, 0] > vw + 1.0 or box[r, 3] < -1.0
+                or box[r, 2] > vh + 1.0):   # nearer than the near plane, a culled back face, or off the view
             span[r, 0], span[r, 1], span[r, 2], span[r, 3] = 1, 0, 1, 0
             continue
         tx0 = int(min(max(math.floor(max(box[r, 0], -1.0) / TILE), 0), ntx - 1))
@@ -212,65 +219,54 @@ def _tiles(verts, K, vw, vh, zmin):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, boundscheck=False)
 def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
-                  pixel, first, count, base, backcull, cfm, indices, vertices, faces, point, ring_start, ring_faces,
-                  inst_of, sem_of, rgb, out_depth, out_inst, out_sem, out_rgb, out_normal, stats,
-                  decided):  # pragma: no cover
+                  pixel, first, count, base, backcull, cfm, indices, mesh_first, mesh_count, faces, vertices,
+                  inst_of, sem_of, rgb, out_depth, out_inst, out_sem, out_rgb, out_normal, stats):  # pragma: no cover
     """Write the samples of one view into the lens image, each from its own ray.
 
     sel (N,) int64: output pixel of each sample; mx, my (N,) float64: where its ray crosses
     the view (view pixels, by ``K``); dx, dy (N,) float64: its ray (view frame, z = 1); zs
     (N,) or (0,): camera-frame z per view-frame z along the ray; K (3, 3): the view's; vw, vh:
     its size; zmin: the view's GPU near plane (z, what it clipped away); near, far: the
-    sensor's range (camera z); R (3, 3): camera_from_view. pixel (vh·vw·2,)
-    uint32, first, count, base, backcull, cfm, indices, inst_of, sem_of: the view's
-    :class:`~genie_gl.triangles.PixelTriangles`; vertices, faces, point, ring_start,
-    ring_faces: its :class:`~genie_gl.triangles.SceneTriangles`. rgb (vh·vw, 3) uint8 or
-    (0, 3): the view's colour. out_*: the lens image's buffers (zero-filled), written where a
-    sample has a return (out_rgb, out_normal may be (0, 3): not written). stats (5,) int64:
-    :data:`STATS`, added to. decided (M,) uint8 or (0,): per output pixel, how its sample was
-    decided (:data:`HIT`: the nearest triangle its ray hits; :data:`MISS`: it hits none and a
-    view pixel around is empty; :data:`COVERED`, :data:`GAP`: the rules for what the view
-    cannot resolve, see the module).
+    sensor's range (camera z); R (3, 3): camera_from_view. pixel (vh·vw·2,) uint32, first,
+    count, base, backcull, cfm, indices, mesh_first, mesh_count, inst_of, sem_of: the view's
+    :class:`~genie_gl.triangles.PixelTriangles`; faces, vertices: its scene's. rgb
+    (vh·vw, 3) uint8 or (0, 3): the view's colour. out_*: the lens image's buffers
+    (zero-filled), written where a sample has a return (out_rgb, out_normal may be (0, 3):
+    not written). stats (4,) int64: :data:`STATS`, added to.
     """
-    record = decided.shape[0] > 0
     colour = rgb.shape[0] > 0 and out_rgb.shape[0] > 0
     normals = out_normal.shape[0] > 0
     scale = zs.shape[0] > 0
-    pix, slot, prim, verts = _shown(pixel, first, count, base, cfm, indices, vertices)
-    box, edges, start, rows, ntx, nty = _tiles(verts, K, vw, vh, zmin)
+    pix, pslot, pverts = _shown(pixel, first, count, base, cfm, indices, vertices)
+    slot, front, verts = _candidates(np.unique(pslot), mesh_first, mesh_count, base, backcull, cfm, faces, vertices)
+    box, edges, start, rows, ntx, nty = _tiles(verts, front, K, vw, vh, zmin)
     around = np.empty(4, np.int64)   # the triangle each of the 4 nearest view pixels shows (-1: none)
-    points = np.empty(12, np.int64)  # the points whose faces a ray tried
-    tri = np.empty(9, np.float64)
     best_v = np.empty(9, np.float64)
-    tested = subpixel = missed = 0
+    tested = missed = 0
     for i in range(sel.shape[0]):
         px, py = mx[i], my[i]
         ray_x, ray_y = dx[i], dy[i]
         x0, y0 = int(math.floor(px)), int(math.floor(py))
-        covered, mixed = True, False
         for c in range(4):
             xx, yy = x0 + (c & 1), y0 + (c >> 1)
-            around[c] = pix[yy * vw + xx] if 0 <= xx < vw and 0 <= yy < vh else -1
-            covered &= around[c] >= 0
-            if around[c] >= 0 and around[0] >= 0 and inst_of[slot[around[c]]] != inst_of[slot[around[0]]]:
-                mixed = True
+            around[c] = pix[yy * vw + xx] if 0 <= xx < vw and 0 <= yy < vh else -1   # a row of pverts
         # the nearest view pixel's triangle first: most rays hit it, and then only what is
         # nearer than that hit is tried
         best, bslot = np.inf, -1
         near_r = around[2 * int(py - y0 >= 0.5) + int(px - x0 >= 0.5)]
         if near_r >= 0:
             tested += 1
-            best = _hit(verts, near_r, ray_x, ray_y, zmin)
+            best = _hit(pverts, near_r, ray_x, ray_y, zmin)
             if best < np.inf:
-                bslot = slot[near_r]
-                best_v[:] = verts[near_r]
+                bslot = pslot[near_r]
+                best_v[:] = pverts[near_r]
         tile = (min(max(int(math.floor(py / TILE)), 0), nty - 1) * ntx
                 + min(max(int(math.floor(px / TILE)), 0), ntx - 1))
         for e in range(start[tile], start[tile + 1]):
             r = rows[e]
             if box[r, 4] >= best:   # this one and all after it lie beyond the hit
                 break
-            if px < box[r, 0] or px > box[r, 1] or py < box[r, 2] or py > box[r, 3] or r == near_r:
+            if px < box[r, 0] or px > box[r, 1] or py < box[r, 2] or py > box[r, 3]:
                 continue
             if (edges[r, 0] * px + edges[r, 1] * py + edges[r, 2] < 0.0
                     or edges[r, 3] * px + edges[r, 4] * py + edges[r, 5] < 0.0
@@ -281,74 +277,9 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
             if t < best:
                 best, bslot = t, slot[r]
                 best_v[:] = verts[r]
-        if not covered or mixed or bslot < 0:
-            # at a silhouette, or between triangles: also the faces that meet at the corners
-            # of the triangles the 4 nearest view pixels show (slivers too thin to cover a
-            # pixel centre, which the view shows nowhere)
-            npts = 0
-            for k in range(4):
-                r = around[k]
-                if r < 0 or (k > 0 and r == around[0]) or (k > 1 and r == around[1]) or (k > 2 and r == around[2]):
-                    continue
-                s = slot[r]
-                m = cfm[s]
-                t0 = 3 * (first[s] + prim[r])
-                for c in range(3):
-                    g = point[base[s] + np.int64(indices[t0 + c])]
-                    if g < 0 or ring_start[g + 1] - ring_start[g] > RING_MAX:
-                        continue   # the apex of a fan of slivers: left to the rules below
-                    q = 0
-                    while q < npts and points[q] != g:
-                        q += 1
-                    if q < npts:
-                        continue
-                    points[npts] = g
-                    npts += 1
-                    for e in range(ring_start[g], ring_start[g + 1]):
-                        f = ring_faces[e]
-                        for a in range(3):
-                            gv = base[s] + np.int64(faces[f, a])
-                            x, y, z = np.float64(vertices[gv, 0]), np.float64(vertices[gv, 1]), np.float64(vertices[gv, 2])
-                            for q in range(3):
-                                tri[3 * a + q] = m[q, 0] * x + m[q, 1] * y + m[q, 2] * z + m[q, 3]
-                        if backcull[s] and not _faces_camera(tri):
-                            continue
-                        tested += 1
-                        t = _hit(tri.reshape(1, 9), 0, ray_x, ray_y, zmin)
-                        if t < best:
-                            best, bslot = t, s
-                            best_v[:] = tri
-        if bslot >= 0 and covered:
-            # an instance none of the 4 nearest view pixels shows, behind all their planes,
-            # which are triangles narrower than a view pixel: seen through a gap between
-            # triangles finer than the view
-            through = True
-            for c in range(4):
-                r = around[c]
-                if (inst_of[slot[r]] == inst_of[bslot] or not box[r, 5] < 1.0
-                        or not best > _plane(verts, r, ray_x, ray_y) * (1.0 + 1e-9)):
-                    through = False
-                    break
-            if through:
-                bslot = -1
-                if record:
-                    decided[sel[i]] = GAP
-        elif record:
-            decided[sel[i]] = HIT if bslot >= 0 else MISS
         if bslot < 0:
-            if not covered:
-                missed += 1
-                continue
-            # between triangles finer than the view, inside a surface it covers: the plane of
-            # the nearest view pixel's triangle along this ray
-            best = _plane(verts, near_r, ray_x, ray_y)
-            if best == np.inf:
-                continue
-            bslot = slot[near_r]
-            best_v[:] = verts[near_r]
-            subpixel += 1
-            if record and decided[sel[i]] != GAP:
-                decided[sel[i]] = COVERED
+            missed += 1
+            continue
         z = best * zs[i] if scale else best
         if z < near or z > far:
             continue
@@ -361,7 +292,7 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
             for c in range(4):
                 xx, yy = x0 + (c & 1), y0 + (c >> 1)
                 d2 = (xx - px) ** 2 + (yy - py) ** 2
-                if around[c] >= 0 and inst_of[slot[around[c]]] == inst_of[bslot] and d2 < dj:
+                if around[c] >= 0 and inst_of[pslot[around[c]]] == inst_of[bslot] and d2 < dj:
                     j, dj = yy * vw + xx, d2
             if j < 0:
                 j = (min(max(int(math.floor(py + 0.5)), 0), vh - 1) * vw
@@ -384,5 +315,4 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
     stats[0] += sel.shape[0]
     stats[1] += verts.shape[0]
     stats[2] += tested
-    stats[3] += subpixel
-    stats[4] += missed
+    stats[3] += missed
