@@ -19,7 +19,7 @@ view cannot resolve: what a ray caster says too).
 Only an instance the view shows at no pixel at all (wholly finer than a view pixel, or
 hidden at every pixel centre) is not tried: these are the sub-pixel triangles;
 ``oversample`` (finer views) shrinks them. Everywhere else the result is the ray caster's
-(tests/sensors/test_ray_hits.py compares with Open3D's).
+(tests/render/test_ray_hits.py compares with Open3D's).
 """
 from __future__ import annotations
 
