@@ -341,11 +341,15 @@ def render_through_lens(render: RenderFn, sensor: Camera, pose: np.ndarray, *, r
     """``sensor``'s image at ``pose`` (world_from_camera) through its lens: its pinhole views
     rendered with ``render(view, view_pose, triangles=True, **kw)`` (the exact mode; the plane
     mode ``normals=True``) and resampled (see the module). An ideal pinhole sensor is rendered
-    as it is."""
+    as it is; a ``render`` with a ``lens`` attribute (a supersampled one,
+    :func:`genie_gl.capture.supersample.supersampled`) renders the exact mode itself."""
     os_ = check_resample(resample, oversample)
     pose = np.asarray(pose, np.float64)
     if sensor.is_pinhole:
         return render(sensor, pose, normals=normals, **kw)
+    lens = getattr(render, "lens", None)
+    if lens is not None and resample == "exact":   # a render supersampled through the lens
+        return lens(sensor, pose, resample=resample, oversample=oversample, normals=normals, **kw)
     views = _lens_views(sensor.lens_key, sensor.near_m, sensor.far_m, getattr(sensor, "name", ""), os_)
     frames = []
     exact = resample == "exact"
