@@ -301,8 +301,8 @@ def resample_views(frames: list[Frame], sensor: Camera, views: tuple[DistortionM
             t = f.triangles
             resample_rays(plan["sel"], plan["mx"], plan["my"], *plan["d"],
                           NO_F64 if plan["zs"] is None else plan["zs"], f.sensor.K, f.sensor.width, f.sensor.height,
-                          t.clip_near_m, sensor.near_m, sensor.far_m, R, t.pixel.reshape(-1), t.first, t.count, t.base_vertex,
-                          t.backcull, t.camera_from_model, t.indices, t.mesh_first, t.mesh_count, t.scene.faces,
+                          t.clip_near_m, sensor.near_m, sensor.far_m, R, t.pixel.reshape(-1), t.first, t.count,
+                          t.base_vertex, t.backcull, t.camera_from_model, t.indices, t.mesh_first, t.mesh_count, t.scene.faces,
                           t.scene.vertices, t.instance, t.semantic,
                           _pixels(f.rgb) if colour else NO_RGB, depth, inst, sem, rgb, normal, stats)
             continue

@@ -186,7 +186,8 @@ def _tiles(verts, front, K, vw, vh, zmin):  # pragma: no cover - compiled
                     ea, eb = ea / length, eb / length
                 edges[r, 3 * c] = ea
                 edges[r, 3 * c + 1] = eb
-                edges[r, 3 * c + 2] = -(ea * uv[2 * c] + eb * uv[2 * c + 1]) + 1e-6 + 1e-9 * (abs(uv[2 * c]) + abs(uv[2 * c + 1]))
+                u, v = uv[2 * c], uv[2 * c + 1]
+                edges[r, 3 * c + 2] = -(ea * u + eb * v) + 1e-6 + 1e-9 * (abs(u) + abs(v))
         pad = 1e-6 + 1e-9 * (abs(u0) + abs(u1) + abs(v0) + abs(v1))   # beyond float64 rounding
         box[r, 0], box[r, 1], box[r, 2], box[r, 3] = u0 - pad, u1 + pad, v0 - pad, v1 + pad
         box[r, 4] = min(verts[r, 2], min(verts[r, 5], verts[r, 8]))
