@@ -8,11 +8,12 @@ sides, each cropped to the rays that fall on it). Each pixel of the lens's image
 its ray's sample from its view:
 
 ``resample="exact"`` (default)
-    the pixel's own ray intersected (float64) with the triangles the view shows around where
-    it crosses the view (the view records which triangle each of its pixels shows): instance,
-    semantic id, depth and normal of the triangle the ray hits, whatever the distortion
-    (:mod:`.ray_hits`, which also says what happens at triangles finer than the view); colour
-    from a view pixel of that triangle.
+    the pixel's own ray intersected (float64) with the faces, around where it crosses the
+    view, of every instance the view shows (the view records which triangle each of its
+    pixels shows): instance, semantic id, depth and normal of the nearest face the ray hits,
+    whatever the distortion, as a ray caster finds them (:mod:`.ray_hits`, which also says
+    what an instance finer than the view's pixels does); colour from a view pixel of that
+    instance.
 ``"plane"``
     ids and colour from the nearest view pixel; depth recomputed along the pixel's own ray
     from the plane of the triangle the nearest view pixel hit (its rendered normal and
