@@ -187,13 +187,14 @@ def test_supersampling_through_the_lens_takes_each_pixels_own_sub_rays(glctx):
     scene.add(quad([[-30, -30, 4], [30, -30, 4], [30, 30, 4], [-30, 30, 4]]), instance=1)
     scene.add(trimesh.creation.icosphere(subdivisions=3, radius=0.7), [0.4, -0.3, 2.5], instance=2)
     scene.add(trimesh.creation.box((0.3, 2.0, 0.3)), [-0.8, 0.2, 3.0], instance=3)
-    sensor, pose = LENSES["plumb_bob"], np.eye(4)
+    sensor = gg.Sensor(320, 240, np.array([[268.0, 0, 171.1], [0, 268.0, 117.8], [0, 0, 1]]), TUTORIAL.dist)
+    pose = np.eye(4)
     with Renderer(scene, context=glctx) as r:
         f = render_through_lens(supersampled(through_lens(r.render), 2), sensor, pose, resample="exact")
         hi = render_through_lens(r.render, supersample_sensor(sensor, 2), pose, resample="exact")
-    assert f.meta["supersample"] == 2 and f.instance.shape == (480, 640)
-    blocks = hi.instance.reshape(480, 2, 640, 2).swapaxes(1, 2).reshape(480, 640, 4)
+    assert f.meta["supersample"] == 2 and f.instance.shape == (240, 320)
+    blocks = hi.instance.reshape(240, 2, 320, 2).swapaxes(1, 2).reshape(240, 320, 4)
     own = (blocks == f.instance[..., None]).any(-1)
     assert own.all()
     agree = (blocks == blocks[..., :1]).all(-1)
-    assert (f.instance[agree] == blocks[..., 0][agree]).all() and (~agree).sum() > 100
+    assert (f.instance[agree] == blocks[..., 0][agree]).all() and (~agree).sum() > 50
