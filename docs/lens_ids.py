@@ -4,9 +4,11 @@ For four lens models (the OpenCV tutorial's k1 = -0.42 plumb-bob, a rational len
 Kannala-Brandt fisheye, an omnidirectional lens), on the ``storage_area`` layout (seed 0) seen
 from its first two content poses: the share of pixels whose instance equals the one Open3D's
 ``RaycastingScene.cast_rays`` hits along the same ray (``Camera.directions``), in every mode;
-then the ms per frame of each mode, the modes taking turns in one process (median of 10).
+then the ms per frame of each mode, the modes taking turns in one process (median of 10);
+``resampling``: the CPU ms of the resampling alone (the views rendered once, first pose;
+median of 6 after a warm-up).
 
-    python docs/lens_ids.py [agreement|cost|both]
+    python docs/lens_ids.py [agreement|cost|both|resampling]
 """
 import sys
 import time
@@ -17,7 +19,7 @@ import open3d as o3d
 import genie_gl as gg
 from genie_gl.bench.accuracy_case import content_poses
 from genie_gl.render import Renderer
-from genie_gl.sensors.distortion import render_through_lens
+from genie_gl.sensors.distortion import lens_views, render_through_lens, resample_views
 
 K = np.array([[535.9, 0, 342.3], [0, 535.9, 235.6], [0, 0, 1.0]])
 LENSES = {
@@ -53,9 +55,34 @@ def cast(rc, ids, sensor, pose):
     return np.where(seen, inst, 0).reshape(sensor.height, sensor.width)
 
 
+def resampling(r, sensor, pose) -> str:
+    """CPU ms of resample_views per mode, on views rendered once."""
+    views = lens_views(sensor)
+    posed = []
+    for m in views:
+        p = pose.copy()
+        p[:3, :3] = pose[:3, :3] @ m.rotation
+        posed.append((m.render_sensor, p))
+    with_triangles = [r.render(v, p, triangles=True) for v, p in posed]
+    with_normals = [r.render(v, p, normals=True) for v, p in posed]
+    cpu = {m: [] for m in MODES}
+    for k in range(7):
+        for m in MODES:
+            frames = with_triangles if m == "exact" else with_normals
+            t0 = time.process_time()
+            resample_views(frames, sensor, views, pose, resample=m)
+            cpu[m].append(1e3 * (time.process_time() - t0))
+    return " | ".join(f"{np.median(cpu[m][1:]):.1f}" for m in MODES)
+
+
 def main(what: str) -> None:
     scene = gg.build_scene(gg.generate_layout("storage_area", seed=0), seed=0)
     poses = content_poses(scene, 2)
+    if what == "resampling":
+        with Renderer(scene) as r:
+            for name, s in LENSES.items():
+                print(f"| {name} | {resampling(r, s, poses[0])} |", flush=True)
+        return
     rc, ids = caster(scene) if what in ("agreement", "both") else (None, None)
     with Renderer(scene) as r:
         for name, s in LENSES.items():
