@@ -13,7 +13,12 @@ index, in the scan's point order.
 """
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import itertools
 import os
+import types
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -37,14 +42,41 @@ def _quat_wxyz(R: np.ndarray) -> np.ndarray:
     return np.array([w, x, y, z])
 
 
-class E57Writer:
-    """Scans added one at a time; the file (and its labels) appear whole on :meth:`close`."""
+@contextlib.contextmanager
+def _guids(root: uuid.UUID, part: str):
+    """pye57 gives the file and each scan a random ``uuid4``; within this block the k-th is
+    ``uuid5(root, f"{part}.{k}")`` instead, so the same content gives the same bytes and
+    other content other GUIDs."""
+    module = _pye57().e57
+    counter = itertools.count()
+    saved = module.uuid
+    module.uuid = types.SimpleNamespace(uuid4=lambda: uuid.uuid5(root, f"{part}.{next(counter)}"))
+    try:
+        yield
+    finally:
+        module.uuid = saved
 
-    def __init__(self, path: str | os.PathLike) -> None:
+
+def content_guid(*arrays: np.ndarray) -> uuid.UUID:
+    """A GUID made from the bytes of ``arrays`` (the file's GUIDs derive from it)."""
+    h = hashlib.sha256()
+    for a in arrays:
+        h.update(np.ascontiguousarray(a).view(np.uint8).reshape(-1))
+    return uuid.UUID(bytes=h.digest()[:16], version=4)
+
+
+class E57Writer:
+    """Scans added one at a time; the file (and its labels) appear whole on :meth:`close`.
+    ``key`` (a GUID made from the file's content, :func:`content_guid`) seeds the GUIDs the
+    format asks for, so the same points give the same file."""
+
+    def __init__(self, path: str | os.PathLike, key: uuid.UUID) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        self.e57 = _pye57().E57(str(self.tmp), mode="w")
+        self.key = key
+        with _guids(key, "file"):
+            self.e57 = _pye57().E57(str(self.tmp), mode="w")
         self.labels: dict[str, np.ndarray] = {}
         self.n = 0
 
@@ -57,8 +89,9 @@ class E57Writer:
         if rgb is not None:
             data.update(colorRed=np.ascontiguousarray(rgb[:, 0]), colorGreen=np.ascontiguousarray(rgb[:, 1]),
                         colorBlue=np.ascontiguousarray(rgb[:, 2]))
-        self.e57.write_scan_raw(data, name=name or f"scan {self.n}", rotation=_quat_wxyz(world_from_scan[:3, :3]),
-                                translation=np.asarray(world_from_scan[:3, 3], np.float64))
+        with _guids(self.key, f"scan {self.n}"):
+            self.e57.write_scan_raw(data, name=name or f"scan {self.n}", rotation=_quat_wxyz(world_from_scan[:3, :3]),
+                                    translation=np.asarray(world_from_scan[:3, 3], np.float64))
         self.labels[f"semantic_{self.n}"] = semantic.astype(np.uint16)
         self.labels[f"instance_{self.n}"] = instance.astype(np.uint32)
         self.n += 1
@@ -81,7 +114,7 @@ def cloud_pose(cloud: PointCloud) -> np.ndarray:
 
 def write(clouds: list[PointCloud], path: str | os.PathLike) -> Path:
     """``clouds`` as the scans of one E57 file (each posed at its origin)."""
-    w = E57Writer(path)
+    w = E57Writer(path, content_guid(*(a for c in clouds for a in (c.xyz, c.semantic, c.instance))))
     for k, c in enumerate(clouds):
         w.add(c.xyz, c.semantic, c.instance, cloud_pose(c), rgb=c.rgb, name=f"chunk {k}")
     return w.close()
@@ -105,7 +138,9 @@ def read(path: str | os.PathLike) -> list[PointCloud]:
 
 def write_recording(rig, trajectory, recording, path: str | os.PathLike) -> Path:
     """A recording ((Shot, Frame) pairs) as one E57 file, a scan per shot in its optical frame."""
-    w = E57Writer(path)
+    key = content_guid(*(a for shot, frame in recording
+                         for a in (shot.world_from_camera, frame.depth, frame.instance)))
+    w = E57Writer(path, key)
     for shot, frame in recording:
         c = camera_points(frame)
         w.add(c.xyz, c.semantic, c.instance, shot.world_from_camera, rgb=c.rgb,
