@@ -5,8 +5,10 @@ install) they are the top-level folders of the repository. :func:`data_dir` find
 """
 from __future__ import annotations
 
+import json
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from .errors import ConfigError, did_you_mean
 
@@ -65,3 +67,15 @@ def read_text(path: str | Path, what: str) -> str:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text at byte {exc.start}, expected a {what}") from None
+
+
+def read_json(path: str | Path, what: str) -> Any:
+    """The parsed JSON of an input file: a bad file (binary, not UTF-8, invalid, nested too
+    deeply for the parser) is a one-line ConfigError naming it."""
+    text = read_text(path, what)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: JSON nested too deeply to be a {what}") from None

@@ -121,7 +121,7 @@ def _ends_well(call):
 @given(level=st.integers(0, 2), key=st.sampled_from(["args", "children", "orientation", "generator", "bogus"]),
        sub=st.sampled_from(["cell", "count", "paths", "line_width", "steps", "block", "spacing", "x"]), value=values)
 def test_fuzz_strategies(level, key, sub, value):
-    from genie_gl.dataset.limits import layout_estimate
+    from genie_gl.layout.estimate import layout_estimate
     from genie_gl.layout import generate_layout
     from genie_gl.layout.strategy import parse_strategy
 
@@ -313,7 +313,7 @@ def test_seeds_and_sizes_of_every_command_are_checked(tmp_path, capsys):
 
 @pytest.mark.parametrize("name", ["assembly_line", "storage_area", "logistics_lane"])
 def test_the_layout_estimate_bounds_the_regions_made(name):
-    from genie_gl.dataset.limits import layout_estimate
+    from genie_gl.layout.estimate import layout_estimate
     from genie_gl.layout import generate_layout
 
     strategy = load_strategy(name)

@@ -4,44 +4,42 @@ stage, so a command may use any of them; the stages never import a command."""
 from __future__ import annotations
 
 import argparse
-import math
 from contextlib import contextmanager
 
+from ..checks import MAX_SEED, number_problem, whole_problem
 
-def seed(text: str) -> int:
-    """argparse type of a seed: a whole number >= 0 (numpy's SeedSequence takes no negatives)."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if v < 0 or v >= 2**63:
-        raise argparse.ArgumentTypeError(f"expected a whole number in 0..2**63-1, got {text}")
-    return v
+
+def _number(text: str) -> int | float | str:
+    """``text`` as an int, else a float, else itself (the checks then say what was expected)."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
 
 
 def count(lo: int = 1, hi: int = 10**6):
-    """argparse type of a whole number in [lo, hi]."""
+    """argparse type of a whole number in [lo, hi] (the words of :func:`genie_gl.checks.whole_number`)."""
     def parse(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-        if not lo <= v <= hi:
-            raise argparse.ArgumentTypeError(f"expected a whole number in {lo}..{hi}, got {v}")
-        return v
+        why = whole_problem(_number(text), lo, hi)
+        if why:
+            raise argparse.ArgumentTypeError(why)
+        return int(text)
     return parse
 
 
+#: argparse type of a seed: a whole number in 0..2**63-1, as :func:`genie_gl.checks.check_seed`
+seed = count(0, MAX_SEED)
+
+
 def positive(hi: float = 1e6):
-    """argparse type of a finite number in (0, hi]."""
+    """argparse type of a finite number in (0, hi] (the words of :func:`genie_gl.checks.finite_number`)."""
     def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-        if not (math.isfinite(v) and 0 < v <= hi):
-            raise argparse.ArgumentTypeError(f"expected a finite number in (0, {hi:g}], got {text}")
-        return v
+        why = number_problem(_number(text), 0.0, hi, lo_open=True)
+        if why:
+            raise argparse.ArgumentTypeError(why)
+        return float(text)
     return parse
 
 

@@ -10,18 +10,19 @@ from __future__ import annotations
 
 import argparse
 
+from ..limits import MAX_CAMERAS
 from . import count, positive, seed, stages
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", help="USD scene (.usda/.usdc/.usd)")
     p.add_argument("--sensor", default="ideal_pinhole", help="sensor profile name or path")
-    p.add_argument("--cameras", type=count(1, 10_000), default=8)
+    p.add_argument("--cameras", type=count(1, MAX_CAMERAS), default=8)
     p.add_argument("--out", required=True)
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--format", default="ply")
     p.add_argument("--seed", type=seed, default=0)
-    p.add_argument("--height", type=positive(1e4), default=None,
+    p.add_argument("--mount", "--height", dest="height", type=positive(1e4), default=None, metavar="M",
                    help="camera height above the scene's floor (m); default: chosen for the sensor's range")
     p.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] (instead of --cameras)")
 
@@ -38,12 +39,16 @@ def run(args: argparse.Namespace) -> int:
     if args.format not in FORMATS:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
                           f"{did_you_mean(args.format, FORMATS)}")
+    from ..limits import check_frames
     from ..plan import effect_totals
     from ..plan import plan as make_plan
     from .plan import read_poses, warn_empty
     from ..sensors.placement import scene_poses
 
     sensor = load_sensor(args.sensor)
+    given = read_poses(args.poses) if args.poses else None
+    n = len(given) if given is not None else args.cameras
+    check_frames(n, sensor.width, sensor.height, f"--sensor {args.sensor}, {n} cameras")   # before any work
     fmt = get_format(args.format)
     folder = claim_folder(args.out, "capture", fmt.cloud_outputs("cloud"))   # before any work
     with stages(["read scene", "plan", "render", "cloud", "export"], title="genie capture",
@@ -51,8 +56,8 @@ def run(args: argparse.Namespace) -> int:
         step("read scene")
         scene = Scene.from_usd(args.scene)
         step("place cameras and plan")
-        poses = (read_poses(args.poses) if args.poses
-                 else scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.height))
+        poses = given if given is not None else scene_poses(scene, sensor, args.cameras, args.seed,
+                                                            mount_height_m=args.height)
         plan = make_plan(scene, sensor, poses)
         warn_empty(plan, "capture")
         step(f"render {len(poses)} cameras")

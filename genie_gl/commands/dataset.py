@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 from ..dataset.config import DatasetConfig, parse_split
+from ..limits import MAX_REGIONS
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -24,11 +25,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--min-points", type=int, default=2000)
     p.add_argument("--min-labelled-share", type=float, default=0.05)
     p.add_argument("--previews", type=int, default=3, help="scenes that get preview pictures")
+    p.add_argument("--mount", type=float, default=None, metavar="M",
+                   help="camera height above the floor (m); default: chosen for the sensor's range")
     p.add_argument("--split", default="0.8,0.1,0.1",
                    help="SemanticKITTI train,valid,test shares of the sequences (deterministic, in order)")
     p.add_argument("--executor", choices=("process", "ray"), default="process")
     p.add_argument("--address", default=None, help="Ray cluster address (with --executor ray)")
-    p.add_argument("--max-nodes", type=int, default=2_000_000, help="limit on a layout's regions (see README: limits)")
+    p.add_argument("--max-nodes", type=int, default=MAX_REGIONS, help="limit on a layout's regions (see README: limits)")
     p.add_argument("--max-memory-gb", type=float, default=None, help="memory limit (default: 80%% of what is free)")
     p.add_argument("--max-disk-gb", type=float, default=None, help="disk limit (default: the free space of --out)")
     from ..dataset.curation import add_arguments as curation_arguments
@@ -45,6 +48,7 @@ def config_from_args(args: argparse.Namespace) -> DatasetConfig:
                                              "seed", "points", "chunk_m", "min_points", "min_labelled_share",
                                              "previews", "executor", "address", "max_nodes", "max_memory_gb",
                                              "max_disk_gb")}
+    fields["mount_m"] = args.mount
     fields["split"] = parse_split(args.split)
     from ..accuracy import option
     from ..dataset.curation import config as curation_config

@@ -8,12 +8,12 @@ what was expected, raised as :class:`~genie_gl.errors.ConfigError`.
 from __future__ import annotations
 
 import math
-import os
 from typing import Any, ClassVar, Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ..errors import ConfigError, did_you_mean
+from ..limits import MAX_CAMERAS, MAX_REGIONS, available_memory_bytes  # noqa: F401  (kept importable from here)
 
 # the CLI spelling of each field, for messages
 OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
@@ -21,7 +21,8 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "chunk_m": "--chunk-m", "min_points": "--min-points", "min_labelled_share": "--min-labelled-share",
           "previews": "--previews", "executor": "--executor", "address": "--address", "split": "--split",
           "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
-          "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget"}
+          "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget",
+          "mount_m": "--mount"}
 
 
 class DatasetConfig(BaseModel):
@@ -32,7 +33,7 @@ class DatasetConfig(BaseModel):
     strategy: str = Field(min_length=1)
     out: str = Field(min_length=1)
     scenes: int = Field(3, ge=1, le=1_000_000)
-    cameras: int = Field(8, ge=1, le=10_000)
+    cameras: int = Field(8, ge=1, le=MAX_CAMERAS)
     sensor: str = Field("realsense_d435", min_length=1)
     format: str = "semantickitti"
     workers: int = Field(1, ge=1, le=4096)
@@ -45,7 +46,7 @@ class DatasetConfig(BaseModel):
     executor: Literal["process", "ray"] = "process"
     address: Optional[str] = None
     split: tuple[float, float, float] = (0.8, 0.1, 0.1)
-    max_nodes: int = Field(2_000_000, ge=1)
+    max_nodes: int = Field(MAX_REGIONS, ge=1)
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
     accuracy: Optional[dict[str, Any]] = None   # genie_gl.accuracy.option(): {"file", "settings"}
@@ -53,6 +54,7 @@ class DatasetConfig(BaseModel):
     # given as the name, the target is read here, so the fingerprint holds the shares
     class_balance: Optional[dict[str, Any]] = None
     points_budget: Optional[int] = Field(None, ge=1)
+    mount_m: Optional[float] = Field(None, gt=0, le=1e4)   # camera height above the floor; None: from the range
 
     @field_validator("format")
     @classmethod
@@ -89,7 +91,7 @@ class DatasetConfig(BaseModel):
     # the fields that decide the bytes written: resuming with any other value is refused
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
                                                 "min_labelled_share", "split", "accuracy", "class_balance",
-                                                "points_budget")
+                                                "points_budget", "mount_m")
 
     @classmethod
     def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":
@@ -119,14 +121,3 @@ def parse_split(text: str) -> tuple[float, float, float]:
     if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
         raise ConfigError(f"--split {text!r}: expected three shares TRAIN,VALID,TEST such as 0.8,0.1,0.1")
     return parts  # type: ignore[return-value]
-
-
-def available_memory_bytes() -> int:
-    """Memory this process may still use: MemAvailable from /proc/meminfo (or total RAM)."""
-    try:
-        for line in open("/proc/meminfo"):
-            if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")

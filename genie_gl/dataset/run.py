@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import errno
 import json
+import logging
 import platform
 import shutil
 import time
@@ -38,6 +39,8 @@ from .manifest import OutputLock, check_resume, fingerprint, scene_complete
 from .scene import STAGES, run_scene, scene_dir, scene_rngs  # noqa: F401  (the run's public names)
 
 
+
+log = logging.getLogger(__name__)
 
 SCENE_RECORDS = 1000  # a run's manifest record lists the timings of at most this many scenes
 
@@ -72,8 +75,11 @@ def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
 
     strategy = load_strategy(cfg.strategy)
     sensor = load_sensor(cfg.sensor)
-    claim_output(cfg, get_format(cfg.format))
+    fmt = get_format(cfg.format)
+    claim_output(cfg, fmt)
     check_limits(cfg, strategy, sensor, Path(cfg.out))
+    for note in fmt.notes(cfg) if fmt.notes else []:
+        log.warning(note)
     if cfg.executor == "ray":
         try:
             import ray  # noqa: F401
@@ -196,4 +202,5 @@ def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: li
         for s in stats:
             manifest["sequences"][f"{s['sequence']:02d}"].append(s["scene"])
     manifest.update(curation.manifest(cfg, stats))
+    manifest["notes"] = fmt.notes(cfg) if fmt.notes else []
     _write_manifest(folder, manifest)

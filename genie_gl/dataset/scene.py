@@ -59,7 +59,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     t = {"start": time.perf_counter()}
     cpu = time.process_time()  # the process's CPU time, its rasteriser and kernel threads included
     stage("layout")
-    layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"])
+    layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"], max_regions=cfg.max_nodes)
     t["layout"] = time.perf_counter()
     stage("scene")
     accuracy = settings_of(cfg.accuracy)
@@ -67,7 +67,8 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     t["scene"] = time.perf_counter()
     stage("placement")
     sensor = load_sensor(cfg.sensor)
-    poses = place_sensors(layout, sensor, n=cfg.cameras, seed=int(rng["placement"].integers(2**31)))
+    poses = place_sensors(layout, sensor, n=cfg.cameras, seed=int(rng["placement"].integers(2**31)),
+                          mount_height_m=cfg.mount_m)
     t["placement"] = time.perf_counter()
     stage("capture")
     # a format that stores no colour renders none (an output not asked for costs nothing)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..checks import expect
 from ..cloud.pointcloud import PointCloud
 from ..outputs import claim_folder
 from . import semantickitti, ply, pcd, npz, bop  # noqa: F401, I001  (each registers its format, in this order)
@@ -21,6 +22,7 @@ def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semanti
     ``out_dir`` may hold the user's own files: they are kept, and a name the format must write
     that is taken by one of them is refused (:mod:`genie_gl.outputs`); ``out_dir/manifest.json``
     records what genie-gl wrote there."""
+    expect(cloud, PointCloud, "export: cloud")
     fmt = get_format(format, "export format")
     if fmt.write_cloud is None:
         from ..errors import ConfigError

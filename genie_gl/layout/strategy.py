@@ -21,7 +21,6 @@ generator, its ``args``, a type provider per slot, an orientation provider) or i
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Union
@@ -29,7 +28,7 @@ from typing import Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..errors import ConfigError, did_you_mean
-from ..resources import read_text, resolve
+from ..resources import read_json, resolve
 from .generators import GENERATORS, Generator, get_generator
 from .model import ORIENTATIONS, RegionType
 from .providers import OrientationProvider, TypeProvider
@@ -287,10 +286,7 @@ def _culprit(cls, args: dict[str, Any], where: str) -> str:
 def load_strategy(path_or_name: str | Path) -> Strategy:
     """Load and validate a strategy file, or a shipped one by name (``"assembly_line"``)."""
     path = resolve(path_or_name, "layouts", (".json",))
-    try:
-        data = json.loads(read_text(path, "strategy JSON"))
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    data = read_json(path, "strategy JSON")
     return parse_strategy(_anchor_assets(data, Path(path).resolve().parent), str(path))
 
 

@@ -11,7 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import capture_arguments, check_pose, expect
 from ..frame import Frame
+from ..limits import check_frames
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
 from .renderer import Renderer
@@ -27,6 +29,9 @@ def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | Non
     Creates and frees a GL context: to render many poses use :class:`Renderer` or
     :func:`capture`.
     """
+    expect(scene, Scene, "render: scene")
+    expect(sensor, Sensor, "render: sensor")
+    pose = check_pose(pose, "render: pose")
     with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
         return r.render(sensor, pose, depth_only=depth_only, normals=normals)
 
@@ -177,6 +182,8 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     from ..accuracy import apply_to_sensor
     from .supersample import settings_for
 
+    scene, sensor, poses, seed = capture_arguments(scene, sensor, poses, seed, Scene, Sensor)
+    check_frames(len(poses), sensor.width, sensor.height, "capture")   # every frame is returned: all in memory
     accuracy = settings_for(sensor, accuracy)
     sensor = apply_to_sensor(sensor, accuracy)
     if depth_precision == "float32":

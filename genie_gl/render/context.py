@@ -67,6 +67,15 @@ class GLContext:
             raise BackendUnavailableError(f"{self.backend}: GL function {name} is not available")
         return ctypes.CFUNCTYPE(restype, *argtypes)(address)
 
+    @property
+    def max_side(self) -> int:
+        """The largest frame side (px) this context can render: the least of its texture,
+        renderbuffer and viewport limits."""
+        info = self.ctx.info
+        dims = info.get("GL_MAX_VIEWPORT_DIMS") or (0, 0)
+        sides = [info.get("GL_MAX_TEXTURE_SIZE"), info.get("GL_MAX_RENDERBUFFER_SIZE"), *dims]
+        return int(min(s for s in sides if s)) if any(sides) else 16384
+
     def release(self) -> None:
         """Free the context and everything created in it."""
         self.programs.clear()

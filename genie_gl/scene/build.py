@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import check_seed, expect
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
 from ..scene_options import check_scene_options
@@ -318,6 +319,8 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
     built-in assets (the tessellation accuracy knob); None keeps each part's own count.
     Same layout, options, assets, seed and segments: the same scene (and the same USD bytes).
     """
+    expect(layout, Layout, "build_scene: layout")
+    seed = check_seed(seed, "build_scene: seed")
     segments = lib.check_segments(segments, "build_scene")
     opts = check_scene_options(layout.meta.get("scene", {}) if options is None else options,
                                "build_scene options" if options is not None else "layout scene options")

@@ -8,11 +8,16 @@ import cv2
 import numpy as np
 import yaml
 
-from ..errors import ConfigError
+from ..errors import ConfigError, did_you_mean
 from ..resources import read_text, resolve
 from .calibration import Calibration, read_calibration
 from .camera import Sensor
 from .effects import build_effects
+
+
+#: the fields of a sensor profile (anything else is refused, with the nearest of these)
+PROFILE_KEYS = ("name", "calibration", "effects", "near_m", "far_m", "accuracy", "baseline_m", "description",
+                "source")
 
 
 def calibration_meta(calib: Calibration) -> dict:
@@ -58,6 +63,10 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
                       meta=calibration_meta(calib), model=calib.model)
     if not isinstance(data, dict) or "calibration" not in data:
         raise ConfigError(f"{path}: a sensor profile needs a 'calibration' field (an OpenCV calibration file)")
+    for key in data:
+        if key not in PROFILE_KEYS:
+            raise ConfigError(f"{path}: {key}: not a field of a sensor profile{did_you_mean(key, PROFILE_KEYS)} "
+                              f"(its fields: {', '.join(PROFILE_KEYS)})")
     calib = read_calibration(Path(path).parent / data["calibration"])
     effects = build_effects(data.get("effects") or [], str(path))
     # the sensor's range (minimum range: nearer surfaces give no return) may be the profile's
