@@ -13,8 +13,7 @@ layout regions / work   :data:`MAX_REGIONS` (2 000 000)      ``--max-nodes``, ``
 cameras                 :data:`MAX_CAMERAS` (10 000)         (fixed)
 instances of a scene    :data:`MAX_INSTANCES` (1 000 000)    ``max_instances=``
 memory                  80 % of what is available now        ``--max-memory-gb``, ``max_memory_gb=``
-disk                    the free space of ``--out`` (and     ``--max-disk-gb``
-                        the process's file-size limit)
+disk                    the free space of ``--out``          ``--max-disk-gb``
 frame side              what the GL context can allocate     (the GL driver)
 label raster cells      :data:`MAX_RASTER_CELLS` (1e8)       a coarser ``--resolution``
 ======================  ===================================  ===============================
@@ -58,21 +57,10 @@ def memory_limit_bytes(max_memory_gb: float | None = None) -> float:
 
 
 def free_disk_bytes(path: str | os.PathLike) -> float:
-    """Bytes that may still be written under ``path`` (its nearest existing folder): the free
-    space of its file system, and no more than this process's file-size limit
-    (``RLIMIT_FSIZE``) when one is set."""
+    """Bytes free on the file system of ``path`` (its nearest existing folder)."""
     p = Path(path)
     probe = p if p.exists() else next((q for q in p.parents if q.exists()), Path("."))
-    free = float(shutil.disk_usage(probe).free)
-    try:
-        import resource
-
-        soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
-        if soft != resource.RLIM_INFINITY:
-            free = min(free, float(soft))
-    except (ImportError, OSError, ValueError):
-        pass
-    return free
+    return float(shutil.disk_usage(probe).free)
 
 
 def gb(b: float) -> str:
