@@ -14,7 +14,7 @@ import os
 import sys
 
 from . import __version__
-from .errors import GenieError
+from .errors import GenieError, os_error_message
 
 # subcommand -> (module with add_arguments/run, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -79,6 +79,13 @@ def main(argv: list[str] | None = None) -> int:
         return int(importlib.import_module(args._module).run(args) or 0)
     except GenieError as exc:
         print(f"genie {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:   # the file system said no (full, read-only, name too long, ...): one line
+        print(f"genie {args.command}: error: {os_error_message(exc)}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print(f"genie {args.command}: error: out of memory; use smaller inputs (fewer cameras, scenes or workers, "
+              "a smaller sensor) or lower the limits (--max-memory-gb where the command has it)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"genie {args.command}: interrupted", file=sys.stderr)

@@ -82,12 +82,16 @@ def check_instances(count: int, limit: int, where: str, *, option: str = "max_in
                          f"{gb(count * BYTES_PER_INSTANCE)} of memory); raise it with {option}")
 
 
-def check_memory(need: float, limit: float, what: str, fix: str, *, option: str = "--max-memory-gb") -> None:
+def _raise(option: str | None) -> str:
+    return f", or raise the limit with {option}" if option else ""
+
+
+def check_memory(need: float, limit: float, what: str, fix: str, *, option: str | None = "--max-memory-gb") -> None:
     """Refuse work whose estimated memory ``need`` (bytes) exceeds ``limit`` (bytes); ``what``
-    says how it was estimated, ``fix`` what to lower."""
+    says how it was estimated, ``fix`` what to lower, ``option`` what raises the limit."""
     if need > limit:
-        raise LimitError(f"estimated memory {gb(need)} ({what}) exceeds {gb(limit)}; {fix}, or raise the limit "
-                         f"with {option}")
+        raise LimitError(f"estimated memory {gb(need)} ({what}) exceeds {gb(limit)}{' allowed' if option else ''}; "
+                         f"{fix}{_raise(option)}")
 
 
 def frames_bytes(cameras: int, width: int, height: int) -> int:
@@ -96,7 +100,7 @@ def frames_bytes(cameras: int, width: int, height: int) -> int:
 
 
 def check_frames(cameras: int, width: int, height: int, where: str, *, max_memory_gb: float | None = None,
-                 extra_bytes: float = 0.0, option: str = "--max-memory-gb") -> None:
+                 extra_bytes: float = 0.0, option: str | None = None) -> None:
     """Refuse ``cameras`` frames of a ``width`` x ``height`` sensor kept in memory together
     (a capture returns them all) when they exceed the memory limit."""
     check_frame_side(width, height, where)
@@ -114,10 +118,10 @@ def check_frame_side(width: int, height: int, where: str, max_side: int = MAX_SI
 
 
 def check_disk(need: float, out: str | os.PathLike, where: str, *, max_disk_gb: float | None = None,
-               fix: str = "write less", option: str = "--max-disk-gb") -> None:
+               fix: str = "write less", option: str | None = "--max-disk-gb") -> None:
     """Refuse a run that would write ``need`` bytes under ``out`` when that is more than the
-    limit (``max_disk_gb``, else what the file system and the process's file-size limit allow)."""
+    limit (``max_disk_gb``, else the free space of its file system)."""
     limit = max_disk_gb * 1e9 if max_disk_gb else free_disk_bytes(out)
     if need > limit:
         raise LimitError(f"{where}: the run would write about {gb(need)}, more than {gb(limit)} "
-                         f"{'allowed' if max_disk_gb else 'free'}; {fix} or raise the limit with {option}")
+                         f"{'allowed' if max_disk_gb else 'free'}; {fix}{_raise(option)}")

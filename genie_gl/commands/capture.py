@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     if args.format not in FORMATS:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
                           f"{did_you_mean(args.format, FORMATS)}")
-    from ..limits import check_frames
+    from ..limits import check_disk, check_frames
     from ..plan import effect_totals
     from ..plan import plan as make_plan
     from .plan import read_poses, warn_empty
@@ -51,6 +51,8 @@ def run(args: argparse.Namespace) -> int:
     check_frames(n, sensor.width, sensor.height, f"--sensor {args.sensor}, {n} cameras")   # before any work
     fmt = get_format(args.format)
     folder = claim_folder(args.out, "capture", fmt.cloud_outputs("cloud"))   # before any work
+    check_disk(n * sensor.width * sensor.height * fmt.bytes_per_point, args.out, f"--out {args.out}",
+               fix="use fewer --cameras or a smaller sensor, or free space", option=None)
     with stages(["read scene", "plan", "render", "cloud", "export"], title="genie capture",
                 enabled=not args.no_progress) as step:
         step("read scene")

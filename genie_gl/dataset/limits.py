@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..layout.estimate import layout_estimate
-from ..limits import (BYTES_PER_NODE, BYTES_PER_PIXEL, BYTES_PER_POINT, MAX_SIDE, check_disk, check_frame_side,
+from ..limits import (BYTES_PER_NODE, BYTES_PER_PIXEL, MAX_SIDE, check_disk, check_frame_side,
                       check_memory, check_regions, memory_limit_bytes)
 from .config import DatasetConfig
 
@@ -36,6 +36,8 @@ class Estimate:
 
 
 def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
+    from ..export import get_format
+
     nodes, work = layout_estimate(strategy)
     pixels = int(sensor.width) * int(sensor.height)
     per_worker = cfg.cameras * pixels * BYTES_PER_PIXEL + nodes * BYTES_PER_NODE
@@ -44,7 +46,7 @@ def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
         disk = cfg.scenes * cfg.cameras * pixels * BOP_BYTES_PER_PIXEL
     else:
         chunks = max(1.0, strategy.root.width / cfg.chunk_m + 1) * max(1.0, strategy.root.height / cfg.chunk_m + 1)
-        disk = int(cfg.scenes * min(chunks * cfg.points, cfg.cameras * pixels) * BYTES_PER_POINT)
+        disk = int(cfg.scenes * min(chunks * cfg.points, cfg.cameras * pixels) * get_format(cfg.format).bytes_per_point)
     return Estimate(nodes, work, pixels, int(per_worker * workers), int(disk))
 
 
