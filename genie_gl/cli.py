@@ -11,7 +11,9 @@ import argparse
 import importlib
 import logging
 import os
+import signal
 import sys
+import threading
 
 from . import __version__
 from .errors import GenieError, os_error_message
@@ -70,6 +72,13 @@ def main(argv: list[str] | None = None) -> int:
     if args._module is None:
         print(f"genie {args.command}: not available in this build ({args._missing})", file=sys.stderr)
         return 2
+    stopped: list[int] = []
+
+    def stop(signum: int, frame: object) -> None:   # SIGTERM as SIGINT: unwind, so pools stop their workers
+        stopped.append(signum)
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, stop) if threading.current_thread() is threading.main_thread() else None
     try:
         backend = os.environ.get("GENIE_GL_BACKEND")
         if backend:
@@ -88,8 +97,13 @@ def main(argv: list[str] | None = None) -> int:
               "a smaller sensor) or lower the limits (--max-memory-gb where the command has it)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"genie {args.command}: interrupted", file=sys.stderr)
-        return 130
+        how = "stopped by SIGTERM" if stopped else "interrupted"
+        print(f"genie {args.command}: {how}; its workers are stopped and what was written whole is kept (a dataset "
+              "resumes when the same command runs again)", file=sys.stderr)
+        return 128 + (stopped[0] if stopped else signal.SIGINT)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

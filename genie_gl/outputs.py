@@ -21,7 +21,8 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,14 +42,27 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")  # one per writer: workers may write the same file
-    try:
+    with written(path, tmp):
         with open(tmp, "wb") as fh:
             fh.write(data)
         tmp.replace(path)
+    return path
+
+
+@contextmanager
+def written(path: Path, tmp: Path) -> Iterator[None]:
+    """Around the writing of ``tmp`` and its rename to ``path``: the temporary file is removed
+    whatever happens, and a file-system error names ``path`` (a full disk raises OSError
+    without a file name)."""
+    try:
+        yield
+    except OSError as exc:
+        if not exc.filename:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+        raise
     finally:
         if tmp.exists():
             tmp.unlink()
-    return path
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
@@ -120,12 +134,9 @@ def save_png(image: Any, path: str | os.PathLike, *, option: str | None = None) 
     """Save a Pillow image as a stamped PNG, atomically, replacing only a PNG genie-gl wrote."""
     path = check_replaceable(path, png_is_ours, what="PNG picture", option=option)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
-    try:
+    with written(path, tmp):
         image.save(tmp, format="PNG", pnginfo=png_info())
         tmp.replace(path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
 
 

@@ -10,6 +10,7 @@ import os
 from contextlib import nullcontext
 from typing import Any
 
+from ..workers import die_with_parent
 from .config import DatasetConfig
 
 _PROCESS: dict[str, Any] = {}  # this process: warmed up?, scenes made, warm-up seconds to report
@@ -111,7 +112,8 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
             ctx = mp.get_context("spawn")
             # the stages under way are shown through a manager's dict: a server process of its
             # own, started only when there is a bar to show them on
-            with ctx.Manager() if progress else nullcontext() as manager, ctx.Pool(n) as pool:
+            with ctx.Manager() if progress else nullcontext() as manager, \
+                    ctx.Pool(n, initializer=die_with_parent) as pool:
                 status = manager.dict() if manager is not None else None  # scene -> its worker's stage
                 it = pool.imap_unordered(_worker, [(cfg, i, verify, status) for i in range(cfg.scenes)])
                 left = cfg.scenes

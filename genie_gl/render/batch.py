@@ -14,6 +14,7 @@ import numpy as np
 from ..checks import capture_arguments, check_pose, expect
 from ..frame import Frame
 from ..limits import check_frames
+from ..workers import die_with_parent
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
 from .renderer import Renderer
@@ -138,6 +139,7 @@ _WORKER: dict[str, Any] = {}
 
 
 def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32") -> None:
+    die_with_parent()
     if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
         from .context import set_default_backend
 

@@ -20,6 +20,7 @@ prims had none is ``scene.metadata["prims_without_material"]``).
 """
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import re
@@ -30,7 +31,7 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt
 
 from .. import __version__, labels
 from ..errors import ConfigError
-from ..outputs import check_replaceable
+from ..outputs import check_replaceable, written
 from .gprims import tessellate
 from .model import Material, Mesh, Scene
 
@@ -57,7 +58,28 @@ def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
         raise ConfigError(f"{path}: USD files end in .usda, .usdc or .usd")
     check_replaceable(path, written_by_genie, what="USD scene")
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    stage = Usd.Stage.CreateNew(str(tmp))
+    with written(path, tmp):
+        _write_stage(scene, tmp, path)
+        tmp.replace(path)
+    return path
+
+
+def _write_stage(scene: Scene, tmp: Path, path: Path) -> None:
+    try:
+        stage = Usd.Stage.CreateNew(str(tmp))
+        _fill_stage(scene, stage)
+        ok = stage.GetRootLayer().Save()
+    except Tf.ErrorException as exc:  # USD reports a failed write (a full disk ...) as its own error
+        why = re.search(r"Error occurred writing file: ([^'\n]*)", str(exc)) or re.search(r" : '([^\n]*)'", str(exc))
+        text = why.group(1) if why else "USD could not write the file"
+        code = next((e for e in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES)
+                     if os.strerror(e) in text), errno.EIO)
+        raise OSError(code, text, str(path)) from None
+    if not ok:
+        raise OSError(errno.EIO, "USD could not save the stage", str(path))
+
+
+def _fill_stage(scene: Scene, stage: Usd.Stage) -> None:
     stage.GetRootLayer().customLayerData = {"genie_gl": __version__}   # how a later write knows it is ours
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
@@ -109,10 +131,6 @@ def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
                 mat = materials[inst.material] = _define_material(
                     stage, looks.GetPath().AppendChild(f"Material_{len(materials):04d}"), inst.material)
             UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat)
-    stage.GetRootLayer().Save()
-    del stage
-    tmp.replace(path)
-    return path
 
 
 GPRIMS = {"Sphere": UsdGeom.Sphere, "Cube": UsdGeom.Cube, "Cylinder": UsdGeom.Cylinder,
