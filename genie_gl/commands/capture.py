@@ -66,6 +66,10 @@ def run(args: argparse.Namespace) -> int:
         frames = capture(scene, sensor, poses, seed=args.seed, workers=None, plan=plan)
         step("cloud")
         cloud = to_cloud(frames)
+        if not len(cloud):
+            raise ConfigError(f"{args.scene}: no point captured: none of the {len(frames)} cameras of sensor "
+                              f"{args.sensor} ({sensor.width}x{sensor.height} px, range {sensor.near_m:g}-"
+                              f"{sensor.far_m:g} m) saw a surface; check --mount, --poses and the sensor")
         step("export")
         folder.reserve()
         path = fmt.write_cloud(cloud, folder.path, name="cloud")

@@ -204,3 +204,20 @@ def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: li
     manifest.update(curation.manifest(cfg, stats))
     manifest["notes"] = fmt.notes(cfg) if fmt.notes else []
     _write_manifest(folder, manifest)
+    _check_not_empty(cfg, stats)
+
+
+def _check_not_empty(cfg: DatasetConfig, stats: list[dict]) -> None:
+    """A dataset without a point, or without a labelled one, is an error (its files are kept,
+    recorded in the manifest, so a run with other options replaces them)."""
+    from .report import class_totals
+
+    totals = class_totals(stats)
+    where = f"--out {cfg.out}: the {cfg.scenes} scene(s) of {cfg.strategy}"
+    if not sum(totals.values()):
+        raise ConfigError(f"{where} hold no point: every chunk has fewer than --min-points {cfg.min_points} points or "
+                          f"a labelled share under --min-labelled-share {cfg.min_labelled_share:g} (or no camera saw "
+                          "anything); lower them, or check the sensor and --mount")
+    if not sum(v for k, v in totals.items() if k != 0):
+        raise ConfigError(f"{where} hold nothing labelled: every point is background (class 0); the strategy's "
+                          "regions may be too small for its assets (see the warnings above)")

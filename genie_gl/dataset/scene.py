@@ -3,6 +3,7 @@ written into a temporary folder with its file record and renamed into place when
 from __future__ import annotations
 
 import json
+import logging
 import os
 import shutil
 import time
@@ -14,6 +15,8 @@ import numpy as np
 from . import curation
 from .config import DatasetConfig
 from .manifest import record_files, scene_complete
+
+log = logging.getLogger(__name__)
 
 STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
 
@@ -91,6 +94,12 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
             points_total += int(ok.sum())
             np.add.at(counts, f.semantic[ok], 1)
     t["cloud"] = time.perf_counter()
+    if fmt.chunks and not kept:
+        log.warning("scene %d: no chunk kept: every chunk of its %d points has fewer than --min-points %d points or "
+                    "a labelled share under --min-labelled-share %g", index, points_total, cfg.min_points,
+                    cfg.min_labelled_share)
+    elif not counts[1:].any():
+        log.warning("scene %d: nothing labelled: its %d points are all background (class 0)", index, points_total)
     if curation.active(cfg):  # balanced once every scene is made (genie_gl/dataset/curation.py)
         if index < cfg.previews:
             from .previews import write_previews

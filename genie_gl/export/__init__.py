@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 
 from ..checks import expect
+from ..errors import ExportError
 from ..cloud.pointcloud import PointCloud
 from ..outputs import claim_folder
 from . import semantickitti, ply, pcd, npz, bop  # noqa: F401, I001  (each registers its format, in this order)
@@ -23,6 +24,9 @@ def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semanti
     that is taken by one of them is refused (:mod:`genie_gl.outputs`); ``out_dir/manifest.json``
     records what genie-gl wrote there."""
     expect(cloud, PointCloud, "export: cloud")
+    if not len(cloud):
+        raise ExportError(f"export to {out_dir}: the cloud holds no point; nothing was written (did any camera see "
+                          "a surface?)")
     fmt = get_format(format, "export format")
     if fmt.write_cloud is None:
         from ..errors import ConfigError

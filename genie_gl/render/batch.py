@@ -210,7 +210,8 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     workers = min(workers, n)
     if workers <= 1:
         with Renderer(scene, backend=backend, depth_precision=depth_precision, context=context) as r:
-            return _capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials, accuracy)
+            return _said_if_empty(_capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials,
+                                                  accuracy), sensor)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
@@ -222,4 +223,12 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     for c, part in zip(chunks, parts):
         for i, f in zip(c, part):
             frames[i] = f
-    return frames  # type: ignore[return-value]
+    return _said_if_empty(frames, sensor)  # type: ignore[arg-type]
+
+
+def _said_if_empty(frames: list[Frame], sensor: Sensor) -> list[Frame]:
+    """``frames``, with a warning when not one of them has a return."""
+    if frames and not any(bool((f.depth > 0).any()) for f in frames):
+        log.warning("capture: no point captured: none of the %d frames of sensor %s (%dx%d px, range %g-%g m) has a "
+                    "return", len(frames), sensor.name, sensor.width, sensor.height, sensor.near_m, sensor.far_m)
+    return frames

@@ -34,6 +34,7 @@ from ..errors import ConfigError, did_you_mean
 from ..limits import MAX_CAMERAS
 from ..layout.model import Layout
 from . import coverage
+from .camera import Sensor
 
 
 log = logging.getLogger(__name__)
@@ -350,6 +351,8 @@ def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, rad
             poses = gg.place_sensors(layout, sensor, n=8, fitness="visibility", render=r.render)
     """
     expect(layout, Layout, "place_sensors: layout")
+    if sensor is not None:
+        expect(sensor, Sensor, "place_sensors: sensor")
     n = whole_number(n, "place_sensors: n", 1, MAX_CAMERAS)
     seed = check_seed(seed, "place_sensors: seed")
     mount = mount_for(sensor, ceiling_m=layout_ceiling(layout) if ceiling_m is None else float(ceiling_m),
