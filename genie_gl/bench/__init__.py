@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 import importlib
 
+from ..commands import announce_compilation
+
 BENCHMARKS: dict[str, str] = {
     "render": "renderer against pyrender and Open3D (ms/frame, frames/s, ratios)",
     "layout": "layout engine throughput, the paper's Table 7 (nodes/s)",
@@ -52,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
         raise
     folder = claim_folder(args.out, "bench", OUTPUTS.get(args.bench, ()), reserve=True)
+    announce_compilation(f"bench {args.bench}")
     code = int(mod.run(args) or 0)
     folder.finish({"last": args.bench})
     return code

@@ -242,10 +242,13 @@ def run(args: argparse.Namespace) -> int:
             tools.remove(name)
             results["skipped"][name] = f"not installed: {PEERS[name][1]}"
     for size in [s.strip() for s in args.sizes.split(",") if s.strip()]:
+        print(f"scene {size}: building it, then each tool frame by frame ({', '.join(tools)}) ...", flush=True)
         scene, poses = bench_scene(size)
         row = per_frame(scene, poses, tools, args.repeats)
         for name in tools:
+            print(f"scene {size}: {name} on the whole machine ({args.frames} frames per process) ...", flush=True)
             row[name].update(whole_machine(name, size, args.frames))
+        print(f"scene {size}: capture() with the scene upload ...", flush=True)
         row["genie-gl"]["capture_ms_per_frame"] = capture_per_frame(scene, poses, args.repeats)
         results["sizes"][size] = row
         g = row["genie-gl"]

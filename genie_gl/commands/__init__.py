@@ -43,13 +43,22 @@ def positive(hi: float = 1e6):
     return parse
 
 
+def announce_compilation(command: str) -> None:
+    """Say, if this run compiles genie-gl's kernels (numba's cache is cold: the first run), that
+    it is a one-time cost (:func:`genie_gl.processes.say_when_compiling`)."""
+    from ..processes import say_when_compiling
+
+    say_when_compiling(f"genie {command}")
+
+
 @contextmanager
 def stages(names: list[str], *, title: str = "genie", enabled: bool = True):
     """A progress bar over a command's stages, naming the one under way: ``with stages([...]) as
     step: step("render"); ...``."""
     from tqdm import tqdm
 
-    bar = tqdm(total=len(names), unit="stage", disable=not enabled, bar_format="{desc} [{elapsed}]")
+    # shown on a terminal only (tqdm: disable=None), so a log or a pipe gets the one-line error alone
+    bar = tqdm(total=len(names), unit="stage", disable=True if not enabled else None, bar_format="{desc} [{elapsed}]")
     bar.set_description(title)
     seen: list[str] = []
 

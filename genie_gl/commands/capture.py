@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from ..limits import MAX_CAMERAS
-from . import count, positive, seed, stages
+from . import announce_compilation, count, positive, seed, stages
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -62,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
                                                             mount_height_m=args.height)
         plan = make_plan(scene, sensor, poses)
         warn_empty(plan, "capture")
+        announce_compilation("capture")
         step(f"render {len(poses)} cameras")
         frames = capture(scene, sensor, poses, seed=args.seed, workers=None, plan=plan)
         step("cloud")

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..dataset.config import DatasetConfig, parse_split
 from ..limits import MAX_REGIONS
+from . import announce_compilation
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -62,7 +63,8 @@ def run(args: argparse.Namespace) -> int:
     from ..dataset import run_dataset
 
     cfg = config_from_args(args)
-    m = run_dataset(cfg, progress=not args.no_progress, verify=args.verify)
+    m = run_dataset(cfg, progress=not args.no_progress, verify=args.verify,
+                    on_start=lambda: announce_compilation("dataset"))
     warm = m["runs"][-1].get("warmup_s", []) if m.get("runs") else []
     warm_text = f" (warm-up per worker before its first scene: {', '.join(f'{w:.1f}' for w in warm)} s)" if warm else ""
     print(f"dataset: {m['scenes_made']} scenes made, {m['scenes_skipped']} already there, "

@@ -13,7 +13,7 @@ import sys
 
 from ..checks import read_poses  # noqa: F401  (capture imports it from here)
 from ..limits import MAX_CAMERAS
-from . import count, positive, seed
+from . import announce_compilation, count, positive, seed, stages
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -27,19 +27,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--scenes", type=count(1, 1_000_000), default=1, help="scenes of a dataset run, for the predicted time")
     p.add_argument("--json", action="store_true", help="print the whole plan as JSON")
+    p.add_argument("--no-progress", action="store_true")
 
 
-def scene_sensor_poses(args: argparse.Namespace):
+def scene_sensor_poses(args: argparse.Namespace, step=lambda name: None):
     from ..scene.model import Scene
     from ..sensors import load_sensor
     from ..sensors.placement import scene_poses
 
     sensor = load_sensor(args.sensor)
+    given = read_poses(args.poses) if getattr(args, "poses", None) else None
+    step("read scene")
     scene = Scene.from_usd(args.scene)
-    if getattr(args, "poses", None):
-        poses = read_poses(args.poses)
-    else:
-        poses = scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.mount)
+    step(f"place {args.cameras} cameras" if given is None else "read poses")
+    poses = given if given is not None else scene_poses(scene, sensor, args.cameras, args.seed,
+                                                        mount_height_m=args.mount)
     return scene, sensor, poses
 
 
@@ -52,8 +54,12 @@ def warn_empty(plan, command: str) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..plan import plan as make_plan
 
-    scene, sensor, poses = scene_sensor_poses(args)
-    p = make_plan(scene, sensor, poses)
+    announce_compilation("plan")
+    with stages(["read scene", "place cameras", "plan"], title="genie plan",
+                enabled=not getattr(args, "no_progress", False)) as step:
+        scene, sensor, poses = scene_sensor_poses(args, step)
+        step(f"plan {len(poses)} frames over {len(scene.instances):,} instances")
+        p = make_plan(scene, sensor, poses)
     if args.json:
         out = p.to_dict()
         out["predicted_dataset_s"] = round(p.predicted_s * max(1, args.scenes), 3)

@@ -10,7 +10,7 @@ import os
 from contextlib import nullcontext
 from typing import Any
 
-from ..workers import die_with_parent
+from ..processes import die_with_parent, say_when_compiling
 from .config import DatasetConfig
 
 _PROCESS: dict[str, Any] = {}  # this process: warmed up?, scenes made, warm-up seconds to report
@@ -56,6 +56,7 @@ def _worker(job: tuple) -> dict:
     from ..render import limit_threads  # workers share the cores: llvmpipe and numba threads
 
     cfg, index, verify, status = job if len(job) == 4 else (*job, None)
+    say_when_compiling(f"genie dataset (worker {os.getpid()})")
     limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
 
     def stage(name: str) -> None:

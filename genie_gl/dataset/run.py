@@ -28,6 +28,7 @@ import platform
 import shutil
 import time
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 from .. import __version__
@@ -123,8 +124,10 @@ def _write_manifest(folder: OutputFolder, manifest: dict) -> None:
     atomic_write_text(folder.path / "manifest.json", json.dumps(manifest, indent=1))
 
 
-def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False) -> dict[str, Any]:
-    """Make every missing (or damaged) scene of the dataset described by ``cfg``."""
+def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False,
+                on_start: Callable[[], None] | None = None) -> dict[str, Any]:
+    """Make every missing (or damaged) scene of the dataset described by ``cfg``; ``on_start()``
+    is called once every check has passed, before the first scene."""
     from ..export import get_format
 
     _check_registered_assets(cfg)
@@ -148,6 +151,8 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
         manifest["outputs"] = sorted(set(folder.owned) | set(folder.declared))
         atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1))  # before any scene: a later
         _clear_leftovers(folder, fmt)                  # resume knows the inputs, and what is its own
+        if on_start is not None:
+            on_start()
         try:
             _run(cfg, folder, fmt, manifest, runs, progress=progress, verify=verify)
         except OSError as exc:

@@ -14,7 +14,7 @@ import numpy as np
 from ..checks import capture_arguments, check_pose, expect
 from ..frame import Frame
 from ..limits import check_frames
-from ..workers import die_with_parent
+from ..processes import die_with_parent
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
 from .renderer import Renderer
