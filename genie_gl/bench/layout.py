@@ -10,9 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..commands import count
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--repeats", type=count(1, 1000), default=3)
 
 
 def _strategy(R: int, L: int, generator: str = "strips") -> dict:

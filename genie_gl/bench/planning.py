@@ -35,10 +35,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..commands import count
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--cameras", type=int, default=4)
-    p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--cameras", type=count(1, 1000), default=4)
+    p.add_argument("--rounds", type=count(1, 1000), default=3)
 
 
 def _before(sensor, pose, render, rng, materials):

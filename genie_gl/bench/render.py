@@ -28,13 +28,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..commands import count, names
+
 SIZES = {"100k": (4, 1024), "1M": (6, 4096)}   # icosphere subdivisions, cylinder sections
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--repeats", type=int, default=5, help="timed passes over the 4 poses")
-    parser.add_argument("--frames", type=int, default=24, help="frames per process in the whole-machine run")
-    parser.add_argument("--sizes", default="100k,1M", help="scene sizes to run (100k, 1M)")
+    parser.add_argument("--repeats", type=count(1, 1000), default=5, help="timed passes over the 4 poses")
+    parser.add_argument("--frames", type=count(1, 100_000), default=24, help="frames per process in the whole-machine run")
+    parser.add_argument("--sizes", type=names(SIZES), default="100k,1M", help="scene sizes to run (100k, 1M)")
     parser.add_argument("--no-peers", action="store_true", help="time genie-gl only")
 
 
@@ -241,7 +243,7 @@ def run(args: argparse.Namespace) -> int:
         if not available(name):
             tools.remove(name)
             results["skipped"][name] = f"not installed: {PEERS[name][1]}"
-    for size in [s.strip() for s in args.sizes.split(",") if s.strip()]:
+    for size in args.sizes:
         print(f"scene {size}: building it, then each tool frame by frame ({', '.join(tools)}) ...", flush=True)
         scene, poses = bench_scene(size)
         row = per_frame(scene, poses, tools, args.repeats)

@@ -29,6 +29,32 @@ def count(lo: int = 1, hi: int = 10**6):
     return parse
 
 
+def counts(lo: int = 1, hi: int = 10**6):
+    """argparse type of comma-separated whole numbers in [lo, hi] (``1,2,4``) -> list of int."""
+    one = count(lo, hi)
+
+    def parse(text: str) -> list[int]:
+        parts = [p.strip() for p in str(text).split(",") if p.strip()]
+        if not parts:
+            raise argparse.ArgumentTypeError(f"expected whole numbers separated by commas, got {text!r}")
+        return [one(p) for p in parts]
+    return parse
+
+
+def names(known):
+    """argparse type of comma-separated names out of ``known`` -> list of str (did-you-mean)."""
+    from ..errors import did_you_mean
+
+    def parse(text: str) -> list[str]:
+        parts = [p.strip() for p in str(text).split(",") if p.strip()]
+        for p in parts or [""]:
+            if p not in known:
+                raise argparse.ArgumentTypeError(f"{p!r} is unknown{did_you_mean(p, known)}; expected some of "
+                                                 f"{', '.join(known)}")
+        return parts
+    return parse
+
+
 #: argparse type of a seed: a whole number in 0..2**63-1, as :func:`genie_gl.checks.check_seed`
 seed = count(0, MAX_SEED)
 
