@@ -72,10 +72,12 @@ def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
     from ..export import get_format
     from ..layout import load_strategy
     from ..sensors import load_sensor
+    from ..sensors.placement import ceiling_of, mount_for
     from .limits import check_limits
 
     strategy = load_strategy(cfg.strategy)
     sensor = load_sensor(cfg.sensor)
+    mount_for(sensor, ceiling_m=ceiling_of(strategy.scene), mount_height_m=cfg.mount_m)   # placement can work
     fmt = get_format(cfg.format)
     claim_output(cfg, fmt)
     check_limits(cfg, strategy, sensor, Path(cfg.out))

@@ -69,8 +69,13 @@ def sensor_range(sensor) -> tuple[float, float] | None:
 
 def layout_ceiling(layout: Layout) -> float:
     """The hall's height: the strategy's wall height when it builds walls, else the default."""
-    scene = layout.meta.get("scene", {}) if isinstance(layout.meta, dict) else {}
-    return float(scene.get("wall_height_m", DEFAULT_CEILING_M)) if scene.get("walls") else DEFAULT_CEILING_M
+    return ceiling_of(layout.meta.get("scene", {}) if isinstance(layout.meta, dict) else {})
+
+
+def ceiling_of(scene_options: dict) -> float:
+    """The hall's height from a strategy's scene options (``walls``, ``wall_height_m``)."""
+    s = scene_options or {}
+    return float(s.get("wall_height_m", DEFAULT_CEILING_M)) if s.get("walls") else DEFAULT_CEILING_M
 
 
 def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: float = MIN_MOUNT_M,
