@@ -41,14 +41,26 @@ MEMORY_SHARE = 0.8       # of the memory available now, when no limit is given
 
 
 def available_memory_bytes() -> int:
-    """Memory this process may still use: MemAvailable from /proc/meminfo (or total RAM)."""
+    """Memory this process may still use: MemAvailable from /proc/meminfo (or total RAM), and
+    no more than its address-space limit (``RLIMIT_AS``) leaves, when one is set."""
+    free = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     try:
         for line in open("/proc/meminfo"):
             if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024
+                free = int(line.split()[1]) * 1024
     except OSError:
         pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        if soft != resource.RLIM_INFINITY:
+            used = next((int(line.split()[1]) * 1024 for line in open("/proc/self/status")
+                         if line.startswith("VmSize:")), 0)
+            free = min(free, max(0, soft - used))
+    except (ImportError, OSError, ValueError):
+        pass
+    return free
 
 
 def memory_limit_bytes(max_memory_gb: float | None = None) -> float:
