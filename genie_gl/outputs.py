@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from . import __version__
-from .errors import ConfigError
+from .errors import ConfigError, os_error_message
 
 MANIFEST = "manifest.json"
 #: names a claimed folder always owns: its manifest and a dataset run's lock
@@ -79,8 +79,17 @@ def check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool], 
     wrote, as told by ``is_ours(path)`` (a stamp the writer puts in every file it writes).
 
     ``what`` names the file's kind for the message ("USD scene"); ``option`` the CLI option
-    that named it, if any.
+    that named it, if any. A path the file system refuses outright (a name too long, a
+    folder that cannot be read) is refused in one line too.
     """
+    try:
+        return _check_replaceable(path, is_ours, what=what, option=option)
+    except OSError as exc:
+        raise ConfigError(f"{option + ' ' if option else ''}{os_error_message(exc)}") from None
+
+
+def _check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool], *, what: str,
+                       option: str | None = None) -> Path:
     path = Path(path)
     where = f"{option} {path}" if option else str(path)
     if path.is_dir():
@@ -233,8 +242,18 @@ def claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] = 
     ------
     ConfigError
         ``path`` is a file or unwritable; it holds a ``manifest.json`` genie-gl did not write or
-        one of another command; a name this run must write is taken by the user's entry.
+        one of another command; a name this run must write is taken by the user's entry; the
+        file system refuses the path outright (a name too long, ...).
     """
+    try:
+        return _claim_folder(path, command, writes, option=option, reserve=reserve)
+    except OSError as exc:
+        raise ConfigError(f"{option} {os_error_message(exc)}") from None
+
+
+def _claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] = (), *,
+                  option: str = "--out", reserve: bool = False) -> OutputFolder:
+    """The claim itself (:func:`claim_folder`)."""
     folder = Path(path)
     where = f"{option} {folder}"
     if folder.exists() and not folder.is_dir():
