@@ -13,10 +13,18 @@ The public API, one name per pipeline stage (DESIGN.md)::
     gg.export(cloud, "out/", format="semantickitti")
 
 Names are imported lazily, so ``import genie_gl`` stays cheap and starts no GL.
+
+``gg.render``, ``gg.capture`` and ``gg.export`` are plain functions although stage packages
+of the same names exist (:mod:`genie_gl.render`, :mod:`genie_gl.capture`,
+:mod:`genie_gl.export`): Python binds a package's submodules as attributes of the package
+when they are imported, so this package keeps its functions in front of them. Import from a
+stage with ``from genie_gl.render import Renderer``.
 """
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 from typing import Any
 
 __version__ = "0.1.0"
@@ -41,22 +49,23 @@ _EXPORTS: dict[str, str] = {
     "Material": "genie_gl.scene.model",
     "build_scene": "genie_gl.scene",
     "register_asset": "genie_gl.scene",
+    "read_usd": "genie_gl.scene.usd",
+    "write_usd": "genie_gl.scene.usd",
     # sensors
     "Camera": "genie_gl.camera",
     "Sensor": "genie_gl.sensors.camera",
     "load_sensor": "genie_gl.sensors",
     "place_sensors": "genie_gl.sensors",
-    # render
+    # accuracy settings (a profile's accuracy: block, genie dataset --accuracy)
+    "AccuracySettings": "genie_gl.sensors.accuracy",
+    "load_accuracy": "genie_gl.sensors.accuracy",
+    # render and capture
     "Frame": "genie_gl.frame",
     "Renderer": "genie_gl.render",
-    "render": "genie_gl.render",
-    "capture": "genie_gl.render",
-    # accuracy settings (the accuracy: block)
-    "AccuracySettings": "genie_gl.accuracy",
-    "load_accuracy": "genie_gl.accuracy",
-    # planning
-    "plan": "genie_gl.plan",
-    "Plan": "genie_gl.plan",
+    "render": "genie_gl.capture",
+    "capture": "genie_gl.capture",
+    "plan": "genie_gl.capture",
+    "Plan": "genie_gl.capture",
     # clouds and exports
     "PointCloud": "genie_gl.cloud",
     "to_cloud": "genie_gl.cloud",
@@ -64,6 +73,22 @@ _EXPORTS: dict[str, str] = {
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]
+
+
+# public functions named as a stage package is (the package stays in sys.modules)
+_FUNCTIONS = ("render", "capture", "export")
+
+
+class _Package(types.ModuleType):
+    """``genie_gl`` itself: importing a stage package never hides the function of its name."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in _FUNCTIONS and isinstance(value, types.ModuleType):
+            return   # the import system binding the package genie_gl.<name>: keep the function
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name: str) -> Any:

@@ -6,6 +6,8 @@ more classes: ids above 9 are its own and are named ``class_<id>``.
 """
 from __future__ import annotations
 
+import numpy as np
+
 # id -> name as the paper's Table 3 names the class (lower case)
 CLASSES: dict[int, str] = {0: "background", 1: "pallet", 2: "rack", 3: "car", 4: "jack", 5: "stillage",
                            6: "storage cabinet", 7: "dolly", 8: "forklift", 9: "small load carrier"}
@@ -43,8 +45,6 @@ def class_id(label: str) -> int | None:
 
 def palette(size: int = 65536, *, other: tuple[int, int, int] = (255, 255, 255)):
     """(size, 3) uint8 colour table indexed by class id."""
-    import numpy as np
-
     table = np.empty((size, 3), np.uint8)
     table[:] = other
     for k, c in COLORS_RGB.items():

@@ -10,7 +10,7 @@ Every command and API function that writes files goes through this module:
   same command. An output name already taken by an entry genie-gl did not write, a
   ``manifest.json`` genie-gl did not write, or a folder written by another command, is refused
   in one line before anything is written.
-- **A single file** (``genie scene --out S.usda``, ``Scene.to_usd``, ``Layout.to_json``, a
+- **A single file** (``genie scene --out S.usda``, ``write_usd``, ``Layout.to_json``, a
   calibration or accuracy file) is replaced only when it is one genie-gl wrote, recognised by
   its own stamp (:func:`check_replaceable`); otherwise the write is refused.
 - Every file is written to a temporary name in its folder and renamed into place
@@ -20,12 +20,16 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from PIL import Image
+from PIL.PngImagePlugin import PngInfo
 
 from . import __version__
 from .errors import ConfigError, os_error_message
@@ -124,16 +128,12 @@ def _check_parent_writable(folder: Path, where: str) -> None:
 
 def png_is_ours(path: Path) -> bool:
     """True when ``path`` is a PNG that genie-gl wrote (its ``Software`` text chunk)."""
-    from PIL import Image
-
     with Image.open(path) as img:
         return getattr(img, "text", {}).get("Software") == PNG_SOFTWARE
 
 
 def png_info() -> Any:
     """The PNG text chunks genie-gl writes into its pictures (Pillow ``pnginfo=``)."""
-    from PIL.PngImagePlugin import PngInfo
-
     info = PngInfo()
     info.add_text("Software", PNG_SOFTWARE)
     return info
@@ -214,8 +214,6 @@ class OutputFolder:
 
     def remove(self, name: str) -> None:
         """Remove the entry ``name`` (a file or a folder) if genie-gl wrote it; refuse otherwise."""
-        import shutil
-
         if not self.owns(name):
             raise ConfigError(f"{self.option} {self.path}: will not remove {name!r}: genie-gl did not write it")
         p = self.path / name

@@ -57,7 +57,7 @@ def scene_usd(tmp_path_factory) -> Path:
     t[:3, 3] = (0.0, 0.0, 0.5)
     s.add(trimesh.creation.box((4, 4, 1)), t, semantic=2)
     s.add(trimesh.creation.box((20, 20, 0.02)), np.eye(4), semantic=0)
-    return s.to_usd(tmp_path_factory.mktemp("scene") / "s.usda")
+    return gg.write_usd(s, tmp_path_factory.mktemp("scene") / "s.usda")
 
 
 # --- commands ------------------------------------------------------------------------------
@@ -186,7 +186,7 @@ def test_export_writes_beside_the_users_files_and_refuses_their_names(tmp_path, 
 
 
 def test_single_file_writers_replace_only_their_own(tmp_path):
-    from genie_gl.accuracy import AccuracySettings, write_accuracy
+    from genie_gl.sensors.accuracy import AccuracySettings, write_accuracy
     from genie_gl.layout import save_layout_png
     from genie_gl.sensors import Calibration, write_calibration
 
@@ -197,7 +197,7 @@ def test_single_file_writers_replace_only_their_own(tmp_path):
     writers = {
         "l.json": lambda p: layout.to_json(p),
         "l.png": lambda p: save_layout_png(layout, p),
-        "s.usda": lambda p: s.to_usd(p),
+        "s.usda": lambda p: gg.write_usd(s, p),
         "c.yml": lambda p: write_calibration(calib, p),
         "a.yaml": lambda p: write_accuracy(p, AccuracySettings()),
     }

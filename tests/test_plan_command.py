@@ -24,7 +24,7 @@ def room(tmp_path_factory):
     s.add(trimesh.creation.box((0.6, 0.6, 0.8)), [2, 2, 0.4], semantic=1, material=Material(metallic=1, roughness=0.2))
     s.add(trimesh.creation.box((0.6, 0.6, 0.8)), [4, 1.5, 0.4], semantic=1)
     path = tmp_path_factory.mktemp("room") / "room.usda"
-    s.to_usd(path)
+    gg.write_usd(s, path)
     return path, s
 
 

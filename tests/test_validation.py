@@ -172,7 +172,7 @@ def Xform "World" {{
     }}
 }}
 ''')
-    _ends_well(lambda: gg.Scene.from_usd(p))
+    _ends_well(lambda: gg.read_usd(p))
 
 
 @FUZZ
@@ -266,15 +266,15 @@ def test_bad_geometry_is_refused_by_name(tmp_path):
     usd.write_text('#usda 1.0\n(\n    metersPerUnit = -1\n)\ndef Mesh "m" {\n    point3f[] points = [(0,0,0),(1,0,0),(0,1,0)]\n'
                    '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0,1,2]\n}\n')
     with pytest.raises(gg.ConfigError, match=r"s\.usda: metersPerUnit -1\.0: expected a number > 0"):
-        gg.Scene.from_usd(usd)
+        gg.read_usd(usd)
     usd.write_text(usd.read_text().replace("metersPerUnit = -1", "metersPerUnit = 1").replace("[3]", "[4]"))
     with pytest.raises(gg.ConfigError, match=r"faceVertexCounts \(sum 4\) and faceVertexIndices \(3 indices"):
-        gg.Scene.from_usd(usd)
+        gg.read_usd(usd)
     mesh = 'def Mesh "NAME" {\n    custom int genie:instanceId = 5\n    point3f[] points = [(0,0,0),(1,0,0),(0,1,0)]\n' \
            '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0,1,2]\n}\n'
     usd.write_text('#usda 1.0\n' + mesh.replace("NAME", "a") + mesh.replace("NAME", "b"))
     with pytest.raises(gg.ConfigError, match="genie:instanceId 5 is authored on both /a and /b"):
-        gg.Scene.from_usd(usd)
+        gg.read_usd(usd)
 
 
 @pytest.mark.gl

@@ -88,7 +88,7 @@ class Bug:
 
 
 RENDER = ("tests/render/test_analytic.py", "tests/render/test_hard_cases.py", "tests/render/test_reference.py",
-          "tests/render/test_readback.py", "tests/render/test_supersample.py")
+          "tests/render/test_readback.py", "tests/capture/test_supersample.py")
 CLOUD = ("tests/cloud/test_unproject_kernel.py", "tests/cloud/test_cloud_export.py", "tests/cloud/test_frame_chunks.py")
 LENS = ("tests/sensors/test_sensors.py", "tests/sensors/test_lens_truths.py", "tests/render/test_stability.py",
         "tests/render/test_analytic.py::test_distorted_render_puts_points_where_cv2_projects_them")

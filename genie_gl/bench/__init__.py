@@ -9,6 +9,7 @@ import argparse
 import importlib
 
 from ..commands import announce_compilation
+from ..outputs import claim_folder
 
 BENCHMARKS: dict[str, str] = {
     "render": "renderer against pyrender and Open3D (ms/frame, frames/s, ratios)",
@@ -44,8 +45,6 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..outputs import claim_folder
-
     try:
         mod = importlib.import_module(f"genie_gl.bench.{args.bench}")
     except ModuleNotFoundError as exc:

@@ -33,8 +33,13 @@ import numpy as np
 
 from ..commands import count, positive, seed
 from ..errors import ConfigError
+from ..sensors.accuracy import AccuracySettings, write_accuracy
+from ..sensors.placement import CoverageProblem, genetic_placement, greedy_placement
+from .accuracy_budget import pick
 from .accuracy_case import content_poses, make_case  # noqa: F401  (content_poses: public)
-from .accuracy_runner import Runner, spread, references
+from .accuracy_errors import compare, noise_check, pool
+from .accuracy_plot import pareto, plot
+from .accuracy_runner import Runner, references, spread
 from .knobs import KNOBS, PLACEMENT_DEFAULT, PLACEMENT_LEVELS, Case, Knob, Setting, exact_setting, levels
 
 PLACEMENT_CAMERAS = 12
@@ -60,8 +65,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 # -- the case -----------------------------------------------------------------------------------
 # -- the bench --------------------------------------------------------------------------------
 def row_for(runner: Runner, knob: Knob | None, value: Any, setting: Setting, mode: str, refs: dict) -> dict:
-    from .accuracy_errors import compare, pool
-
     runner.run(setting, (mode,))
     parts = [compare(f, ref, runner.case.sensor) for f, ref in zip(runner.frames[(setting.key(), mode)], refs[mode])]
     return {"knob": knob.name if knob else "budget", "title": knob.title if knob else "budget pick",
@@ -74,8 +77,6 @@ def row_for(runner: Runner, knob: Knob | None, value: Any, setting: Setting, mod
 
 def noise_rows(runner: Runner) -> list[dict]:
     """σ measured against the model's, per depth-noise effect of the sensor."""
-    from .accuracy_errors import noise_check
-
     exact = exact_setting(runner.case)
     ideal = [i for _, i in runner.frames[(exact.key(), "reference")]]
     out = []
@@ -89,8 +90,6 @@ def noise_rows(runner: Runner) -> list[dict]:
 def placement_rows(case: Case, repeats: int, seed: int) -> list[dict]:
     """Coverage against seconds for the genetic placement's effort (strategy scenes only), for
     at least ``PLACEMENT_CAMERAS`` cameras (discs of 6 m, the placement's default)."""
-    from ..sensors.placement import CoverageProblem, genetic_placement, greedy_placement
-
     problem = CoverageProblem(case.layout, 6.0)
     n = max(len(case.poses), PLACEMENT_CAMERAS)   # a few cameras leave a search nothing to find
     rows = []
@@ -126,9 +125,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner: Runner) -> int:
-    from .accuracy_budget import pick
-    from .accuracy_plot import pareto, plot
-
     t0 = time.perf_counter()
     refs = references(runner, None if args.no_cache else Path(args.out) / "cache")
     plan = [(k, k.requires(case)) for k in chosen]
@@ -166,8 +162,6 @@ def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner:
     tmp.write_text(markdown(result))
     tmp.replace(out / "accuracy.md")
     if "budget" in result:
-        from ..accuracy import AccuracySettings, write_accuracy
-
         b = result["budget"]
         write_accuracy(out / "accuracy.yaml", AccuracySettings(**b["settings"]), comment=b["comment"])
         print(f"budget: {b['comment'].splitlines()[0]} -> {out / 'accuracy.yaml'}")

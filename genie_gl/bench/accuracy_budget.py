@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any, Callable
 
-from ..accuracy import AccuracySettings
+from ..sensors.accuracy import AccuracySettings
 from .knobs import KNOB, Setting
 
 METRICS = (("depth_p99_mm", "mm"), ("edge_px", "px"))

@@ -16,6 +16,12 @@ import numpy as np
 
 from ..checks import read_poses
 from ..errors import ConfigError
+from ..layout import Layout, generate_layout
+from ..resources import resolve
+from ..scene import build_scene, usd
+from ..sensors import load_sensor, place_sensors
+from ..sensors.pose import look_at
+from . import analytic
 from .knobs import Case
 
 
@@ -23,8 +29,6 @@ def content_poses(scene, n: int, *, distance_m: float = 4.0, height_m: float = 3
     """``n`` views of a scene with no layout, aimed at its objects: the centres of labelled
     instances (semantic > 0; all when none is) spread by farthest-point sampling from the one
     nearest the middle, each seen from ``distance_m`` further out and ``height_m`` above it."""
-    from ..sensors.pose import look_at
-
     inst = [i for i in scene.instances if i.semantic > 0] or list(scene.instances)
     if not inst:
         raise ConfigError("--scene: the stage has no geometry to look at")
@@ -54,15 +58,11 @@ def content_poses(scene, n: int, *, distance_m: float = 4.0, height_m: float = 3
 
 def make_case(args: argparse.Namespace) -> Case:
     """The scene, sensor and poses the rows run on."""
-    from ..sensors import load_sensor
-
     if args.cameras is not None and args.cameras < 1:
         raise ConfigError(f"--cameras: expected >= 1, got {args.cameras}")
     if args.repeats < 1:
         raise ConfigError(f"--repeats: expected >= 1, got {args.repeats}")
     if args.scene is None:
-        from . import analytic
-
         sensor = analytic.sensor() if args.sensor is None else load_sensor(args.sensor)
         poses = read_poses(args.poses) if args.poses else [np.eye(4)]
         return Case("builtin", "built-in analytic scene (wall, floor, box, sphere)", sensor, poses,
@@ -70,12 +70,8 @@ def make_case(args: argparse.Namespace) -> Case:
     sensor = load_sensor(args.sensor or "ideal_pinhole")
     path = Path(args.scene)
     if not path.exists():
-        from ..resources import resolve
-
         path = Path(resolve(args.scene, "layouts", (".json",)))
     if path.suffix.lower() in (".usd", ".usda", ".usdc", ".usdz"):
-        from ..scene import usd
-
         supported = True   # read_usd tessellates implicit gprims with segments=
 
         def usd_scene(t: int | None):
@@ -86,10 +82,6 @@ def make_case(args: argparse.Namespace) -> Case:
         return Case("usd", str(path), sensor, poses, _cached(usd_scene, scene0), tessellation_supported=supported)
     if path.suffix.lower() != ".json":
         raise ConfigError(f"--scene {path}: expected a USD stage (.usd/.usda/.usdc) or a layout / strategy JSON")
-    from ..layout import Layout, generate_layout
-    from ..scene import build_scene
-    from ..sensors import place_sensors
-
     data = json.loads(path.read_text())
     layout = Layout.from_json(path) if isinstance(data, dict) and "nodes" in data else generate_layout(path, seed=args.seed)
     supported = True   # build_scene tessellates curved assets with segments=

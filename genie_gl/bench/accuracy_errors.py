@@ -27,12 +27,13 @@ a plane, so a plane's depth is recovered exactly), else taken at the nearest pix
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
+from ..capture.supersample import STEP
 from ..frame import Frame
 from ..sensors.camera import Sensor
-from ..render.supersample import STEP
-from ..sensors.geometry import pixel_rays
-
+from ..sensors.distortion import project as lens_project
+from ..sensors.geometry import incidence_angle, pixel_rays
 
 SAMPLING_PROBES = 20000
 
@@ -45,8 +46,6 @@ def project(sensor: Sensor, xy: np.ndarray) -> np.ndarray:
     if sensor.is_pinhole:
         K = sensor.K
         return np.stack([K[0, 0] * xy[:, 0] + K[0, 1] * xy[:, 1] + K[0, 2], K[1, 1] * xy[:, 1] + K[1, 2]], 1)
-    from ..sensors.distortion import project as lens_project
-
     return lens_project(xy, sensor.K, sensor.dist)
 
 
@@ -168,8 +167,6 @@ def compare(frame: Frame, ref: dict, ref_sensor: Sensor) -> dict:
 
     # how finely the cloud samples the surfaces: from points of the reference surface at
     # random places inside its pixels (never on any one pixel grid) to the nearest point
-    from scipy.spatial import cKDTree
-
     gap = np.zeros(0)
     if len(z):
         probe = surface_probes(ref, ref_sensor)
@@ -207,8 +204,6 @@ def noise_check(effect, frames: list[Frame], *, rng: np.random.Generator, bins: 
     Returns per bin: ``z_m`` (median depth), ``measured_mm`` (std of the residual),
     ``model_mm`` (RMS of the model's σ over the bin's pixels), ``pixels``. A distribution
     check, never a per-pixel one."""
-    from ..sensors.geometry import incidence_angle
-
     res, zs, model = [], [], []
     for f in frames:
         noisy = effect.apply(f, rng=rng)

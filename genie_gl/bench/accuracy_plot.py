@@ -10,6 +10,7 @@ has a layout.
 """
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -102,8 +103,6 @@ def plot(result: dict, path: Path) -> None:
         ax.set_title("placement effort: coverage vs seconds", fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
-    import textwrap
-
     title = (f"What accuracy costs: {Path(c['source']).name if c['kind'] != 'builtin' else c['source']}, "
              f"sensor {c['sensor']} ({c['size'][0]}x{c['size'][1]}), {c['cameras']} camera(s), "
              f"{c['repeats']} repeats; reference: {c['reference']}")

@@ -2,15 +2,28 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import logging
 import time
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
-from ..accuracy import simulate_options
+from .. import __version__
+from ..capture.lens import through_lens
+from ..capture.serial import pose_rng
+from ..capture.settings import apply_to_sensor, renderer_options, simulate_options
+from ..capture.supersample import supersampled
+from ..cloud.unproject import unproject
 from ..errors import ConfigError
+from ..frame import Frame
+from ..render import Renderer, create_context
+from ..scene.materials import MaterialTable
+from ..sensors.geometry import pixel_rays, surface_normals
+from ..sensors.simulate import simulate
+from . import analytic
 from .knobs import Case, Setting, exact_setting
 
 log = logging.getLogger(__name__)
@@ -52,9 +65,6 @@ class Runner:
         self._materials: dict = {}
 
     def _renderer(self, setting: Setting):
-        from ..render import Renderer, create_context
-        from ..render.supersample import renderer_options
-
         opts = renderer_options(setting.accuracy)
         key = (setting.accuracy.tessellation, tuple(sorted(opts.items())))
         if key not in self._renderers:
@@ -76,10 +86,8 @@ class Runner:
     def _render_fn(self, setting: Setting):
         """The setting's render function, carrying its scene's material table (effects that
         read materials get the scene's, as in a capture)."""
-        from ..render.supersample import supersampled
-
         r = self._renderer(setting)
-        fn = supersampled(r.render, setting.accuracy.supersample)
+        fn = supersampled(through_lens(r.render), setting.accuracy.supersample)
         key = next(k for k, v in self._renderers.items() if v is r)
         return _WithMaterials(fn, self._materials[key])
 
@@ -91,8 +99,6 @@ class Runner:
 
     def side_by_side(self, todo: list[Setting]) -> list[dict]:
         """Per setting, the median and IQR of each part's ms per frame, timed in turns."""
-        from tqdm import tqdm
-
         jobs = [(s, self._render_fn(s), self._sensor(s, None)) for s in todo]
         bar = tqdm(total=len(jobs) * (self.repeats + 1), desc="timing settings in turns", unit="pass",
                    disable=None, leave=False)
@@ -113,8 +119,6 @@ class Runner:
         return out
 
     def _sensor(self, setting: Setting, mode: str | None):
-        from ..accuracy import apply_to_sensor
-
         s = apply_to_sensor(scaled(self.case.sensor, setting.resolution), setting.accuracy)
         if mode == "analytic":
             return without(s, lambda e: True)
@@ -126,10 +130,6 @@ class Runner:
         """Every pose once: the frames, and the mean ms per frame of the render (all but the
         effects), of each effect (timed here, whatever simulate records), of the lens remap
         where simulate reports it apart, and of the unprojection."""
-        from ..cloud.unproject import unproject
-        from ..render.batch import pose_rng
-        from ..sensors.simulate import simulate
-
         materials = getattr(render, "materials", None)
         if normals:
             base = render
@@ -180,11 +180,7 @@ class Runner:
 
 
 def _materials(scene):
-    """The scene's material table, where this build has one (None otherwise)."""
-    try:
-        from ..scene.materials import MaterialTable
-    except ImportError:
-        return None
+    """The scene's material table."""
     return MaterialTable.from_scene(scene)
 
 
@@ -226,14 +222,8 @@ def cache_key(case: Case, setting: Setting, seed: int) -> str:
     """What the exact reference depends on: the scene file's bytes (or the built-in scene's
     code), the sensor (size, K, lens, effects and their parameters), the poses, the seed, the
     exact setting and the package version."""
-    import hashlib
-
-    from .. import __version__
-
     h = hashlib.sha256()
     if case.kind == "builtin":
-        from . import analytic
-
         h.update(Path(analytic.__file__).read_bytes())
     else:
         h.update(Path(case.source).read_bytes())
@@ -249,9 +239,6 @@ def references(runner: Runner, cache: Path | None = None) -> dict[str, list[dict
     """The reference of each mode: "exact" (the most exact setting, rendered once and kept in
     ``cache``, a folder, for the next run with the same inputs) and, for the built-in case,
     "analytic"."""
-    from ..frame import Frame
-    from ..sensors.geometry import pixel_rays, surface_normals
-
     case = runner.case
     exact = exact_setting(case)
     path = None if cache is None else cache / f"reference-{cache_key(case, exact, runner.seed)}.npz"
@@ -283,8 +270,6 @@ def references(runner: Runner, cache: Path | None = None) -> dict[str, list[dict
                        "normal": surface_normals(ideal).astype(np.float32)}   # as cached
                       for f, ideal in runner.frames[(exact.key(), "reference")]]}
     if case.kind == "builtin":
-        from . import analytic
-
         rays = pixel_rays(case.sensor)
         refs["analytic"] = []
         for pose in case.poses:

@@ -13,6 +13,13 @@ of the nearest primitive: the reference of the rows whose knobs change geometry.
 from __future__ import annotations
 
 import numpy as np
+import trimesh
+
+from ..scene.model import Mesh, Scene
+from ..sensors.camera import Sensor
+from ..sensors.effects import DepthNoise
+from ..sensors.shadow import StereoShadow
+from ..sensors.surface import Multipath
 
 WALL_ANGLE, WALL_Z = 0.3, 3.0
 FLOOR_Y = 0.8
@@ -33,11 +40,6 @@ def _wall():
 def sensor():
     """The built-in camera: 640 x 480, f = 525 px, rational lens, stereo shadow (75 mm),
     multipath (1 cm) and Nguyen et al.'s depth noise."""
-    from ..sensors.camera import Sensor
-    from ..sensors.effects import DepthNoise
-    from ..sensors.shadow import StereoShadow
-    from ..sensors.surface import Multipath
-
     base = Sensor.pinhole(640, 480, 525.0)
     return Sensor(width=640, height=480, K=base.K, dist=np.array(RATIONAL), near_m=0.1, far_m=20.0,
                   name="builtin-rational",
@@ -46,10 +48,6 @@ def sensor():
 
 def scene(segments: int = DEFAULT_SEGMENTS):
     """The scene; the sphere is a UV sphere with ``segments`` segments per circle."""
-    import trimesh
-
-    from ..scene.model import Mesh, Scene
-
     s = Scene()
     n, p0 = _wall()
     a = np.cross(n, [0.0, 1.0, 0.0])

@@ -1,6 +1,6 @@
 """The knobs ``genie bench accuracy`` turns, one small registry entry each.
 
-A knob names a field of :class:`~genie_gl.accuracy.AccuracySettings` (or the resolution,
+A knob names a field of :class:`~genie_gl.sensors.accuracy.AccuracySettings` (or the resolution,
 which changes the sensor rather than a setting), its levels, the value the reference uses
 (the most exact), whether the built-in case measures it against analytic truth (knobs that
 change geometry) or against the exact setting (knobs that change how faithfully an effect
@@ -15,7 +15,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from ..accuracy import AccuracySettings
+from ..render import Renderer
+from ..sensors import distortion
+from ..sensors.accuracy import AccuracySettings
+from ..sensors.simulate import simulate
+from .analytic import DEFAULT_SEGMENTS
 
 
 @dataclass(frozen=True)
@@ -56,12 +60,8 @@ def _effect(sensor, name: str):
 
 def _lens(keyword: str) -> Callable[[Case], str | None]:
     def need(case: Case) -> str | None:
-        from ..sensors import distortion
-
         if case.sensor.is_pinhole:
             return f"{case.sensor.name} has no lens distortion: nothing to resample"
-        from ..sensors.simulate import simulate
-
         if not (_takes(distortion.distort, keyword) or _takes(distortion.distortion_maps, keyword)):
             return f"this build's lens module takes no {keyword}= (not landed)"
         if not _takes(simulate, keyword):
@@ -71,8 +71,6 @@ def _lens(keyword: str) -> Callable[[Case], str | None]:
 
 
 def _depth_precision(case: Case) -> str | None:
-    from ..render import Renderer
-
     return None if _takes(Renderer.__init__, "depth_precision") else "this build's Renderer takes no depth_precision= (not landed)"
 
 
@@ -165,8 +163,6 @@ def own_value(knob: Knob, case: Case) -> Any:
     if knob.name == "multipath_samples":
         return next((e.samples for e in _multipaths(case.sensor) if hasattr(e, "samples")), None)
     if knob.name == "tessellation" and case.kind == "builtin":
-        from .analytic import DEFAULT_SEGMENTS
-
         return DEFAULT_SEGMENTS
     return None
 

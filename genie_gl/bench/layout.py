@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from ..commands import count
+from ..layout import Child, Generator, generate_layout, parse_strategy, register
+from ..layout.generators import Children
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -25,9 +27,6 @@ def _strategy(R: int, L: int, generator: str = "strips") -> dict:
 
 
 def _register() -> None:
-    from ..layout import Child, Generator, register
-    from ..layout.generators import Children
-
     @register("strips")
     class Strips(Generator):
         """Dummy generator of branching factor n: n equal strips across the parent."""
@@ -60,8 +59,6 @@ def _merge_cost(repeats: int) -> dict:
     """The merge layer's cost beside the expansion it follows, measured side by side: R=10,
     L=5 (100 000 leaves) typed leaf, leaf, leaf2, ... so that neighbours merge, within a
     parent and across parents."""
-    from ..layout import generate_layout, parse_strategy
-
     s = _strategy(10, 5)
     s["region_types"]["leaf2"] = {"final": True}
     s["levels"][-1]["n"]["children"]["strip"] = {"sequential": ["leaf", "leaf", "leaf2"]}
@@ -82,8 +79,6 @@ def _merge_cost(repeats: int) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..layout import generate_layout, parse_strategy
-
     _register()
     rows = []
     cases = [(R, 4) for R in range(10, 21, 2)] + [(5, L) for L in range(3, 8)]

@@ -31,7 +31,17 @@ from pathlib import Path
 
 import numpy as np
 
+import genie_gl as gg
+
+from ..cloud import to_cloud
+from ..cloud.kernels import count_valid
 from ..commands import count, counts
+from ..cloud.unproject import ray_table, unproject_into
+from ..dataset.scene import scene_rngs
+from ..frame import Frame
+from ..layout import generate_layout, load_strategy
+from ..render import Renderer, create_context
+from ..resources import resolve
 
 TARGET_S = 0.5  # issue 16: stage seconds per scene on 2 cores
 
@@ -130,11 +140,6 @@ def readback(repeats: int = 8) -> list[dict]:
     ``Renderer.frames`` over 40 cameras of three generated scenes, depth only, for the three
     read-backs: three separate targets, the packed target (the default), the packed target
     through pixel buffer objects. Modes take turns, scene by scene; medians."""
-    import genie_gl as gg
-    from ..dataset.scene import scene_rngs
-    from ..layout import generate_layout, load_strategy
-    from ..render import Renderer, create_context
-
     sensor = gg.load_sensor("ideal_pinhole")
     data = []
     for i in range(3):
@@ -179,10 +184,6 @@ def _frames() -> list[tuple[str, list]]:
     at random, so no run is long) and rendered frames of the assembly line through three
     sensors (a pinhole seeing everything; a D435 with range limits and dropout; an Azure
     Kinect NFOV, whose octagonal field of view leaves the corners empty)."""
-    import genie_gl as gg
-    from ..frame import Frame
-    from ..resources import resolve
-
     rng = np.random.default_rng(0)
     s = gg.Sensor.pinhole(640, 480, 525.0)
     depth = rng.uniform(1, 10, (480, 640)).astype(np.float32)
@@ -219,10 +220,6 @@ def unprojection(repeats: int = 12, block: int = 5) -> list[dict]:
     alike and each is timed with warm caches; the median is quoted. The last column, "in
     to_cloud", is the whole merge of the sensor's frames per frame, fresh output arrays (and
     their page faults) included."""
-    from ..cloud import to_cloud
-    from ..cloud.kernels import count_valid
-    from ..cloud.unproject import ray_table, unproject_into
-
     rows = []
     for name, frames in _frames():
         f = frames[0]

@@ -34,6 +34,23 @@ import time
 from pathlib import Path
 
 import numpy as np
+import trimesh
+
+import genie_gl as gg
+
+from ..capture import plan as make_plan
+from ..capture import through_lens
+from ..render import Renderer
+from ..render.projection import look_at
+from ..resources import resolve
+from ..scene.model import Material
+from ..sensors import kernels
+from ..sensors.distortion import render_through_lens
+from ..sensors.effect import drop, record
+from ..sensors.effects import DepthNoise
+from ..sensors.geometry import pixel_rays
+from ..sensors.shadow import StereoShadow
+from ..sensors.simulate import simulate
 
 from ..commands import count
 
@@ -46,8 +63,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def _before(sensor, pose, render, rng, materials):
     """Every effect, every frame: the unplanned pipeline."""
     normals = any(e.needs_normals for e in sensor.effects)
-    from ..sensors.distortion import render_through_lens
-
     frame = render_through_lens(render, sensor, pose, normals=normals)   # as simulate renders it
 
     def render_depth(view, view_pose):
@@ -71,8 +86,6 @@ def _before(sensor, pose, render, rng, materials):
 
 
 def _always():
-    from ..sensors.shadow import StereoShadow
-
     class AlwaysSecondView(StereoShadow):
         def casts_shadow(self, frame):
             return True
@@ -85,12 +98,6 @@ _AlwaysSecondView = None
 
 def _reference(sensor):
     """``sensor`` with its fused effects replaced by their reference computations."""
-    from ..sensors import kernels
-    from ..sensors.effect import drop, record
-    from ..sensors.effects import DepthNoise
-    from ..sensors.geometry import pixel_rays
-    from ..sensors.shadow import StereoShadow
-
     class NumpyDraws(DepthNoise):
         def apply(self, frame, *, rng):
             if self.model not in ("stereo", "tof_linear"):
@@ -136,8 +143,6 @@ def _reference(sensor):
 def _rendered_shadow(sensor):
     """``sensor`` with its stereo shadow's second view rendered (method "render": the default
     before the scanline method)."""
-    from ..sensors.shadow import StereoShadow
-
     effects = tuple(dataclasses.replace(e, method="render") if isinstance(e, StereoShadow) else e
                     for e in sensor.effects)
     return dataclasses.replace(sensor, effects=effects)
@@ -147,19 +152,19 @@ def _shadow_agreement(sensor, poses, r) -> dict | None:
     """Where the sensor's stereo shadow is drawn by scanline: the share of returns on which it
     agrees with a full-resolution render of the second view, and on which the render method's
     default half-resolution second view does (lowest and highest over the views, %)."""
-    from ..sensors.shadow import StereoShadow
-
     eff = next((e for e in sensor.effects if isinstance(e, StereoShadow)), None)
     if eff is None or eff.resolved_method(sensor) != "scanline":
         return None
     ideal = dataclasses.replace(sensor, effects=())
 
+    lens_render = through_lens(r.render)
+
     def depth2(view, view_pose):
-        return r.render(view, view_pose, depth_only=True).depth
+        return lens_render(view, view_pose, depth_only=True).depth
 
     scan, half = [], []
     for pose in poses:
-        f = r.render(ideal, pose).replace(sensor=sensor)
+        f = lens_render(ideal, pose).replace(sensor=sensor)
         valid = f.depth > 0
         gone = {m: valid & (dataclasses.replace(eff, method=m, scale=sc).apply(
             f, rng=None, render_depth=depth2).depth == 0) for m, sc in (("scanline", 1.0), ("render", 1.0))}
@@ -180,12 +185,6 @@ def _time(fn) -> tuple[float, float, object]:
 
 
 def _rows(label, scene, sensor, poses, rounds):
-    import dataclasses
-
-    from ..plan import plan as make_plan
-    from ..render import Renderer
-    from ..sensors.simulate import simulate
-
     p = make_plan(scene, sensor, poses)
     ideal_sensor = dataclasses.replace(sensor, effects=())
     reference = _reference(sensor)
@@ -194,29 +193,30 @@ def _rows(label, scene, sensor, poses, rounds):
     cpu = {key: [] for key in ms}
     effect_ms: dict = {}
     with Renderer(scene) as r:
+        lens_render = through_lens(r.render)
         for k, pose in enumerate(poses):   # warm: compiled kernels, caches, GL objects
-            a, b = (simulate(s, pose, render=r.render, rng=np.random.default_rng(k), materials=p.materials,
+            a, b = (simulate(s, pose, render=lens_render, rng=np.random.default_rng(k), materials=p.materials,
                              plan=p.frames[k]) for s in (sensor, reference))
             if any(getattr(a, n).tobytes() != getattr(b, n).tobytes() for n in ("depth", "instance", "semantic")):
                 raise AssertionError(f"{label}: the fused effects differ from their reference on view {k}")
-            _before(sensor, pose, r.render, np.random.default_rng(k), p.materials)
+            _before(sensor, pose, lens_render, np.random.default_rng(k), p.materials)
         for _ in range(rounds):
             for k, pose in enumerate(poses):
-                _add(ms, cpu, "ideal", _time(lambda: simulate(ideal_sensor, pose, render=r.render,
+                _add(ms, cpu, "ideal", _time(lambda: simulate(ideal_sensor, pose, render=lens_render,
                                                           rng=np.random.default_rng(k))))
-                _add(ms, cpu, "before", _time(lambda: _before(sensor, pose, r.render, np.random.default_rng(k),
+                _add(ms, cpu, "before", _time(lambda: _before(sensor, pose, lens_render, np.random.default_rng(k),
                                                           p.materials)))
-                _add(ms, cpu, "reference", _time(lambda: simulate(reference, pose, render=r.render,
+                _add(ms, cpu, "reference", _time(lambda: simulate(reference, pose, render=lens_render,
                                                               rng=np.random.default_rng(k),
                                                               materials=p.materials, plan=p.frames[k])))
-                _add(ms, cpu, "rendered", _time(lambda: simulate(rendered, pose, render=r.render,
+                _add(ms, cpu, "rendered", _time(lambda: simulate(rendered, pose, render=lens_render,
                                                              rng=np.random.default_rng(k),
                                                              materials=p.materials, plan=p.frames[k])), effect_ms)
-                _add(ms, cpu, "planned", _time(lambda: simulate(sensor, pose, render=r.render,
+                _add(ms, cpu, "planned", _time(lambda: simulate(sensor, pose, render=lens_render,
                                                             rng=np.random.default_rng(k),
                                                             materials=p.materials, plan=p.frames[k])), effect_ms)
         agreement = _shadow_agreement(sensor, poses, r)
-        last = simulate(sensor, poses[0], render=r.render, rng=np.random.default_rng(0), materials=p.materials,
+        last = simulate(sensor, poses[0], render=lens_render, rng=np.random.default_rng(0), materials=p.materials,
                         plan=p.frames[0])
     ideal, ideal_cpu = np.array(ms["ideal"]), np.array(cpu["ideal"])
     row = {"case": label, "ideal_ms": round(float(np.median(ideal)), 1),
@@ -245,13 +245,6 @@ def _add(ms, cpu, key, timed, effects=None) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import trimesh
-
-    import genie_gl as gg
-    from ..render.projection import look_at
-    from ..resources import resolve
-    from ..scene.model import Material
-
     global _AlwaysSecondView
     _AlwaysSecondView = _always()
     layout = gg.generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=0)

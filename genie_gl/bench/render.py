@@ -20,6 +20,7 @@ its install command. Writes ``render.json`` under ``--out``.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import multiprocessing as mp
 import os
@@ -27,6 +28,15 @@ import time
 from pathlib import Path
 
 import numpy as np
+import trimesh
+
+from ..capture import capture
+from ..render import Renderer
+from ..render.projection import look_at
+from ..render.reference import ReferenceRenderer
+from ..render.threads import limit_threads
+from ..scene.model import Scene
+from ..sensors.camera import Sensor
 
 from ..commands import count, names
 
@@ -42,11 +52,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def bench_scene(size: str, seed: int = 0):
     """The benchmark scene (a genie_gl.Scene) and its four camera poses."""
-    import trimesh
-
-    from ..render.projection import look_at
-    from ..scene.model import Scene
-
     subdiv, sections = SIZES[size]
     rng = np.random.default_rng(seed)
     scene = Scene()
@@ -66,8 +71,6 @@ def bench_scene(size: str, seed: int = 0):
 
 
 def sensor_640():
-    from ..sensors.camera import Sensor
-
     return Sensor(640, 480, np.array([[525.0, 0, 319.5], [0, 525.0, 239.5], [0, 0, 1]]), near_m=0.1, far_m=100.0)
 
 
@@ -95,8 +98,6 @@ class _Ours:
     name = "genie-gl"
 
     def __init__(self, scene) -> None:
-        from ..render import Renderer
-
         self.r = Renderer(scene)
         self.triangles = self.r.triangles
 
@@ -111,8 +112,6 @@ class _Pyrender:
     name = "pyrender SEG"
 
     def __init__(self, scene) -> None:
-        from ..render.reference import ReferenceRenderer
-
         self.r = ReferenceRenderer(scene)
 
     def frame(self, sensor, pose) -> None:
@@ -154,8 +153,6 @@ TOOLS = {"genie-gl": _Ours, "pyrender SEG": _Pyrender, "Open3D cast_rays": _Open
 
 
 def available(name: str) -> bool:
-    import importlib.util
-
     return name not in PEERS or importlib.util.find_spec(PEERS[name][0]) is not None
 
 
@@ -185,8 +182,6 @@ def per_frame(scene, poses, tools: list[str], repeats: int) -> dict:
 
 def capture_per_frame(scene, poses, repeats: int) -> float:
     """ms per frame of ``capture`` over all poses, one call (scene upload included)."""
-    from ..render import capture
-
     sensor = sensor_640()
     t = time.perf_counter()
     capture(scene, sensor, list(poses) * repeats, seed=0, depth_only=True)
@@ -196,8 +191,6 @@ def capture_per_frame(scene, poses, repeats: int) -> float:
 def _worker(args) -> tuple[int, float, float]:
     name, size, barrier, frames, lp_threads = args
     os.environ["LP_NUM_THREADS"] = str(lp_threads)
-    from ..render.batch import limit_threads
-
     limit_threads(lp_threads)
     scene, poses = bench_scene(size)
     sensor = sensor_640()

@@ -16,14 +16,33 @@ from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
+from ..capture import through_lens
+from ..cloud import to_cloud
 from ..errors import ConfigError
+from ..layout import generate_layout
+from ..scene import build_scene
 from ..scene.model import Mesh, Scene
 from ..sensors.camera import Sensor
 from ..sensors.pose import look_at
-from .truth import (LENSES, Row, facing_quad, interior, lens_map_error, lens_rows, lens_sensor, marker_raycast,  # noqa: F401,E501
-                    marker_scene, marker_truth, opencv_project, plane_depth, quad, rel_error, renderer)
-
+from .truth import (  # noqa: F401,E501
+    LENSES,
+    Row,
+    facing_quad,
+    interior,
+    lens_map_error,
+    lens_rows,
+    lens_sensor,
+    marker_raycast,
+    marker_scene,
+    marker_truth,
+    opencv_project,
+    plane_depth,
+    quad,
+    rel_error,
+    renderer,
+)
 
 CASES: dict[str, Callable[..., list[Row]]] = {}
 
@@ -60,9 +79,6 @@ def _translated(scene: Scene, shift: np.ndarray) -> Scene:
 
 def generated_scene(seed: int = 0) -> tuple[Scene, np.ndarray]:
     """A generated assembly-line scene and a pose looking into it."""
-    from ..layout import generate_layout
-    from ..scene import build_scene
-
     scene = build_scene(generate_layout("assembly_line", seed=seed), seed=seed)
     lo, hi = scene.bounds()
     c = (lo + hi) / 2
@@ -80,8 +96,6 @@ def translation_rows(offsets=(1e3, 1e5, 1e7), size=(640, 480), context=None) -> 
     (a surface moved by δ along its normal moves its depth by δ / cos: float32 rendering
     rounds each instance's camera-relative position to 1 ulp, and the float64 input of a scene
     1e7 m out is itself only good to 2e-9 m)."""
-    from ..cloud import to_cloud
-
     scene, pose = generated_scene()
     s = Sensor.pinhole(size[0], size[1], 0.9 * size[0], far_m=1e4)
     rows = []
@@ -167,7 +181,7 @@ def near_range(context=None) -> list[Row]:
         scene.add(facing_quad(2.0, -5, 5, -5, 5), instance=1)
         scene.add(facing_quad(0.02, -0.1, 0.0, -0.1, 0.1), instance=2)   # the left half, 2 cm away
         with renderer(scene, context) as r:
-            f = r.render(s, np.eye(4))
+            f = through_lens(r.render)(s, np.eye(4))
         x = np.nan_to_num(s.rays()[..., 0], nan=np.inf)
         plate = x < 0
         has = np.isfinite(s.directions()).all(-1)
@@ -183,8 +197,6 @@ def near_range(context=None) -> list[Row]:
 @case
 def inside_and_on(context=None) -> list[Row]:
     """The camera inside a closed box, and 0.1 mm above a floor (on a surface)."""
-    import trimesh
-
     rows = []
     s = Sensor.pinhole(128, 96, 70.0, near_m=0.05)
     scene = Scene()
@@ -275,8 +287,6 @@ def empty_and_broken(context=None) -> list[Row]:
 @case
 def many_instances(context=None) -> list[Row]:
     """2^16 + 1 instances, each on its own 2x2 pixel block: every id where it belongs."""
-    from ..cloud import to_cloud
-
     n = 2 ** 16 + 1
     cols = 257
     rows_ = -(-n // cols)
@@ -308,8 +318,6 @@ def many_instances(context=None) -> list[Row]:
 @case
 def wide_site(context=None) -> list[Row]:
     """A site 20 km wide: walls seen by cameras at both ends; the merged cloud, made absolute."""
-    from ..cloud import to_cloud
-
     s = Sensor.pinhole(96, 72, 80.0, far_m=100.0)
     scene = Scene()
     frames_pose, walls = [], []

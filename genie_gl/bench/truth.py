@@ -8,8 +8,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..cloud import to_cloud
+from ..render import Renderer
 from ..scene.model import Mesh, Scene
 from ..sensors.camera import Sensor
+from ..sensors.distortion import lens_views, render_through_lens
 
 
 @dataclass
@@ -55,8 +58,6 @@ def interior(mask: np.ndarray, k: int = 1) -> np.ndarray:
 
 
 def renderer(scene: Scene, context):
-    from ..render import Renderer
-
     return Renderer(scene, context=context)
 
 
@@ -173,9 +174,6 @@ def marker_truth(cam: Sensor, c, e1, e2, rad, n: int = 161) -> np.ndarray:
 
 
 def lens_rows(name: str, context=None, resample: str = "exact", oversample: float | None = None) -> list[Row]:
-    from ..cloud import to_cloud
-    from ..sensors.distortion import render_through_lens
-
     cam = lens_sensor(name)
     rows = []
     err, n = lens_map_error(cam)
@@ -195,8 +193,6 @@ def lens_rows(name: str, context=None, resample: str = "exact", oversample: floa
         vv, uu = np.nonzero(mask)
         worst = max(worst, float(np.hypot(u.mean() - uu.mean(), v.mean() - vv.mean())))
         quant = max(quant, float(np.hypot(*(np.array([uu.mean(), vv.mean()]) - marker_truth(cam, c, e1, e2, rad)))))
-    from ..sensors.distortion import lens_views
-
     # an id is its nearest view pixel's: within half a view pixel, 0.5 / scale lens pixels
     scale = min(m.scale_min for m in lens_views(cam, oversample=oversample))
     rows.append(Row(f"{name}: marker centroids vs a ray caster through the lens", 0.5 / scale, worst, "px",

@@ -2,7 +2,7 @@
 
 Renders a USD scene (any stage) from K cameras placed inside it (mounted for the sensor's
 range, :func:`genie_gl.sensors.placement.scene_poses`) or from ``--poses FILE``, following the
-plan (:mod:`genie_gl.plan`); warns about frames with nothing in range; merges the frames into
+plan (:mod:`genie_gl.capture.planner`); warns about frames with nothing in range; merges the frames into
 one labelled cloud and exports it. The manifest sums, per effect, the frames it ran on, its
 milliseconds and the pixels it changed.
 """
@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import argparse
 
-from ..limits import MAX_CAMERAS
+from ..errors import ConfigError, did_you_mean
+from ..limits import MAX_CAMERAS, check_disk, check_frames
 from . import announce_compilation, count, positive, seed, stages
+from .plan import warn_empty
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -28,23 +30,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..capture import capture, effect_totals
+    from ..capture import plan as make_plan
+    from ..checks import read_poses
     from ..cloud import to_cloud
     from ..export import FORMATS, get_format
     from ..outputs import claim_folder
-    from ..errors import ConfigError, did_you_mean
-    from ..scene.model import Scene
+    from ..scene.usd import read_usd
     from ..sensors import load_sensor
-    from ..render.batch import capture
+    from ..sensors.placement import scene_poses
 
     if args.format not in FORMATS:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
                           f"{did_you_mean(args.format, FORMATS)}")
-    from ..limits import check_disk, check_frames
-    from ..plan import effect_totals
-    from ..plan import plan as make_plan
-    from .plan import read_poses, warn_empty
-    from ..sensors.placement import scene_poses
-
     sensor = load_sensor(args.sensor)
     given = read_poses(args.poses) if args.poses else None
     n = len(given) if given is not None else args.cameras
@@ -56,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     with stages(["read scene", "plan", "render", "cloud", "export"], title="genie capture",
                 enabled=not args.no_progress) as step:
         step("read scene")
-        scene = Scene.from_usd(args.scene)
+        scene = read_usd(args.scene)
         step("place cameras and plan")
         poses = given if given is not None else scene_poses(scene, sensor, args.cameras, args.seed,
                                                             mount_height_m=args.height)

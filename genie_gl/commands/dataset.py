@@ -35,9 +35,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-nodes", type=int, default=MAX_REGIONS, help="limit on a layout's regions (see README: limits)")
     p.add_argument("--max-memory-gb", type=float, default=None, help="memory limit (default: 80%% of what is free)")
     p.add_argument("--max-disk-gb", type=float, default=None, help="disk limit (default: the free space of --out)")
-    from ..dataset.curation import add_arguments as curation_arguments
-
-    curation_arguments(p)
+    p.add_argument("--class-balance", default=None, metavar="paper|FILE",
+                   help="sub-sample chunks and points towards a class distribution: 'paper' (Table 3's "
+                        "synthetic column) or a JSON file {class: share}")
+    p.add_argument("--points-budget", type=int, default=None, metavar="N", help="at most N points in the dataset")
     p.add_argument("--verify", action="store_true", help="check finished scenes' file hashes, not only sizes")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--accuracy", default=None, metavar="FILE",
@@ -51,11 +52,11 @@ def config_from_args(args: argparse.Namespace) -> DatasetConfig:
                                              "max_disk_gb")}
     fields["mount_m"] = args.mount
     fields["split"] = parse_split(args.split)
-    from ..accuracy import option
-    from ..dataset.curation import config as curation_config
+    from ..dataset.config import accuracy_option as option
 
     fields["accuracy"] = option(getattr(args, "accuracy", None))   # read and checked before any work
-    fields.update(curation_config(args))
+    fields["class_balance"] = args.class_balance or None   # curation: genie_gl/dataset/curation.py
+    fields["points_budget"] = args.points_budget
     return DatasetConfig.parse(fields, "")
 
 

@@ -11,7 +11,6 @@ import argparse
 import json
 import sys
 
-from ..checks import read_poses  # noqa: F401  (capture imports it from here)
 from ..limits import MAX_CAMERAS
 from . import announce_compilation, count, positive, seed, stages
 
@@ -31,14 +30,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def scene_sensor_poses(args: argparse.Namespace, step=lambda name: None):
-    from ..scene.model import Scene
+    from ..checks import read_poses
+    from ..scene.usd import read_usd
     from ..sensors import load_sensor
     from ..sensors.placement import scene_poses
 
     sensor = load_sensor(args.sensor)
     given = read_poses(args.poses) if getattr(args, "poses", None) else None
     step("read scene")
-    scene = Scene.from_usd(args.scene)
+    scene = read_usd(args.scene)
     step(f"place {args.cameras} cameras" if given is None else "read poses")
     poses = given if given is not None else scene_poses(scene, sensor, args.cameras, args.seed,
                                                         mount_height_m=args.mount)
@@ -52,7 +52,7 @@ def warn_empty(plan, command: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..plan import plan as make_plan
+    from ..capture import plan as make_plan
 
     announce_compilation("plan")
     with stages(["read scene", "place cameras", "plan"], title="genie plan",

@@ -5,7 +5,6 @@ import argparse
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..dataset.previews import overview_pose  # noqa: F401  (kept importable from here)
 from . import announce_compilation, seed, stages
 
 
@@ -20,12 +19,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..layout import Layout
     from ..scene import build_scene
+    from ..outputs import check_replaceable, png_is_ours
+    from ..scene.usd import write_usd, written_by_genie
 
     out = Path(args.out)
     if out.suffix not in (".usda", ".usdc", ".usd"):
         raise ConfigError(f"--out {out}: expected a .usda, .usdc or .usd file name")
-    from ..outputs import check_replaceable, png_is_ours
-    from ..scene.usd import written_by_genie
 
     check_replaceable(out, written_by_genie, what="USD scene", option="--out")   # before any work
     if not args.no_picture:
@@ -38,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
         scene = build_scene(layout, seed=args.seed)
         step("write USD")
         out.parent.mkdir(parents=True, exist_ok=True)
-        scene.to_usd(out)
+        write_usd(scene, out)
         if not args.no_picture:
             step("render overview")
             png = _overview(scene, layout, out)
@@ -53,8 +52,9 @@ def _overview(scene, layout, out: Path) -> Path:
     """The overview picture beside the scene file (``SCENE.png``)."""
     from PIL import Image
 
+    from ..capture import render
+    from ..dataset.previews import overview_pose
     from ..outputs import save_png
-    from ..render import render
     from ..sensors.camera import Sensor
 
     frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds))

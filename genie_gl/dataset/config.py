@@ -10,10 +10,16 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar, Literal, Optional
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from ..cloud.balance import load_target
 from ..errors import ConfigError, did_you_mean
+from ..export.registry import DATASET_FORMATS
+from ..labels import CLASSES
 from ..limits import MAX_CAMERAS, MAX_REGIONS, available_memory_bytes  # noqa: F401  (kept importable from here)
+from ..sensors import load_sensor
+from ..sensors.accuracy import AccuracySettings, load_accuracy
 
 # the CLI spelling of each field, for messages
 OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
@@ -49,7 +55,7 @@ class DatasetConfig(BaseModel):
     max_nodes: int = Field(MAX_REGIONS, ge=1)
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
-    accuracy: Optional[dict[str, Any]] = None   # genie_gl.accuracy.option(): {"file", "settings"}
+    accuracy: Optional[dict[str, Any]] = None   # accuracy_option(): {"file", "settings"}
     # curation (genie_gl.dataset.curation): {"name": "paper" or a file, "target": {class id: share}};
     # given as the name, the target is read here, so the fingerprint holds the shares
     class_balance: Optional[dict[str, Any]] = None
@@ -59,8 +65,6 @@ class DatasetConfig(BaseModel):
     @field_validator("format")
     @classmethod
     def _known_format(cls, v: str) -> str:
-        from ..export.registry import DATASET_FORMATS
-
         if v not in DATASET_FORMATS:
             raise ValueError(f"unknown; expected one of {', '.join(DATASET_FORMATS)}{did_you_mean(v, DATASET_FORMATS)}")
         return v
@@ -75,14 +79,10 @@ class DatasetConfig(BaseModel):
     @field_validator("class_balance", mode="before")
     @classmethod
     def _class_balance(cls, v: Any) -> Any:
-        from .curation import resolve_target
-
         return resolve_target(v)
 
     @model_validator(mode="after")
     def _curated_clouds(self) -> "DatasetConfig":
-        from ..export.registry import DATASET_FORMATS
-
         if (self.class_balance or self.points_budget) and not DATASET_FORMATS[self.format].chunks:
             raise ConfigError(f"--class-balance and --points-budget sub-sample point clouds; --format "
                               f"{self.format} writes images: use a point-cloud format")
@@ -112,6 +112,25 @@ class DatasetConfig(BaseModel):
             raise ConfigError(f"{source}: {exc}") from None
 
 
+def resolve_target(spec: Any) -> dict[str, Any] | None:
+    """``class_balance`` as the config holds it: ``"paper"`` or a file name read into
+    {"name": spec, "target": {class id (str): share}}; that dict itself is taken as it is
+    (a manifest's inputs)."""
+    if spec is None or spec == "":
+        return None
+    if isinstance(spec, dict) and set(spec) == {"name", "target"} and isinstance(spec["target"], dict):
+        try:
+            target = {str(int(k)): float(v) for k, v in spec["target"].items()}
+        except (TypeError, ValueError):
+            raise ConfigError(f"--class-balance target {spec['target']!r:.60}: expected {{class id: share}}") from None
+        if not target or min(target.values()) < 0 or not np.isclose(sum(target.values()), 1.0):
+            raise ConfigError(f"--class-balance target {spec['target']!r:.60}: expected shares >= 0 summing to 1")
+        return {"name": str(spec["name"]), "target": target}
+    if not isinstance(spec, (str, os.PathLike)):
+        raise ConfigError(f"--class-balance {spec!r:.60}: expected 'paper' or a JSON file {{class: share}}")
+    return {"name": str(spec), "target": {str(k): v for k, v in load_target(str(spec), CLASSES).items()}}
+
+
 def parse_split(text: str) -> tuple[float, float, float]:
     """``"0.8,0.1,0.1"`` -> (0.8, 0.1, 0.1); a bad value is a one-line ConfigError."""
     try:
@@ -121,3 +140,26 @@ def parse_split(text: str) -> tuple[float, float, float]:
     if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
         raise ConfigError(f"--split {text!r}: expected three shares TRAIN,VALID,TEST such as 0.8,0.1,0.1")
     return parts  # type: ignore[return-value]
+
+
+# -- the --accuracy option: what was asked for, what the captures used ---------------------------
+def accuracy_option(path: str | os.PathLike | None) -> dict[str, Any] | None:
+    """``--accuracy FILE``: ``{"file", "settings"}`` (a plain dict, for configs and manifests),
+    read and checked now so a bad file fails before any work; None without the option."""
+    if path is None:
+        return None
+    return {"file": str(path), "settings": load_accuracy(path).to_dict()}
+
+
+def settings_of(block: dict[str, Any] | None) -> AccuracySettings | None:
+    """The settings of an :func:`accuracy_option` block (None: none given)."""
+    return AccuracySettings(**block["settings"]) if block else None
+
+
+def accuracy_used(block: dict[str, Any] | None, sensor: str) -> dict[str, Any]:
+    """What a manifest records: the settings the captures used and where they came from
+    (the --accuracy file, the sensor profile's accuracy: block, or the defaults)."""
+    if block:
+        return {"source": block["file"], "settings": block["settings"]}
+    prof = load_sensor(sensor).meta.get("accuracy")
+    return {"source": "sensor profile" if prof else "defaults", "settings": (prof or AccuracySettings()).to_dict()}

@@ -8,12 +8,12 @@ all of them (:mod:`.cloud.balance`) says what each chunk keeps, and each scene i
 with its own generator and written whole (its file record and ``stats.json`` first, then
 renamed into place, as every dataset scene is). Scene order, never worker count, decides:
 the same seed gives the same bytes whatever ``--workers``. The options are fields of
-:class:`~genie_gl.dataset.DatasetConfig` (``class_balance``, ``points_budget``), both
-fingerprinted, so a resume with other ones is refused.
+:class:`~genie_gl.dataset.DatasetConfig` (``class_balance``, ``points_budget``, the target
+read where the configuration is checked), both fingerprinted, so a resume with other ones is
+refused.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -22,45 +22,13 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..cloud.balance import apply_plan, load_chunks, plan_dataset, save_chunks, summary
+from ..export import SceneData, get_format
+from ..labels import CLASSES
+from ..layout import Layout
+from .manifest import RECORD, record_files, scene_complete
 
 BALANCE_SEED = 0x62616C616E6365  # "balance": the dataset's generator for the chunks a budget keeps
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--class-balance", default=None, metavar="paper|FILE",
-                   help="sub-sample chunks and points towards a class distribution: 'paper' (Table 3's "
-                        "synthetic column) or a JSON file {class: share}")
-    p.add_argument("--points-budget", type=int, default=None, metavar="N", help="at most N points in the dataset")
-
-
-def config(args: argparse.Namespace) -> dict[str, Any]:
-    """The curation fields of the dataset's config, from the CLI's options (checked by
-    :class:`~genie_gl.dataset.DatasetConfig`)."""
-    return {"class_balance": getattr(args, "class_balance", None) or None,
-            "points_budget": getattr(args, "points_budget", None)}
-
-
-def resolve_target(spec: Any) -> dict[str, Any] | None:
-    """``class_balance`` as the config holds it: ``"paper"`` or a file name read into
-    {"name": spec, "target": {class id (str): share}}; that dict itself is taken as it is
-    (a manifest's inputs)."""
-    from ..cloud.balance import load_target
-    from ..labels import CLASSES
-
-    if spec is None or spec == "":
-        return None
-    if isinstance(spec, dict) and set(spec) == {"name", "target"} and isinstance(spec["target"], dict):
-        try:
-            target = {str(int(k)): float(v) for k, v in spec["target"].items()}
-        except (TypeError, ValueError):
-            raise ConfigError(f"--class-balance target {spec['target']!r:.60}: expected {{class id: share}}") from None
-        if not target or min(target.values()) < 0 or not np.isclose(sum(target.values()), 1.0):
-            raise ConfigError(f"--class-balance target {spec['target']!r:.60}: expected shares >= 0 summing to 1")
-        return {"name": str(spec["name"]), "target": target}
-    if not isinstance(spec, (str, os.PathLike)):
-        raise ConfigError(f"--class-balance {spec!r:.60}: expected 'paper' or a JSON file {{class: share}}")
-    return {"name": str(spec), "target": {str(k): v for k, v in load_target(str(spec), CLASSES).items()}}
 
 
 def active(cfg) -> bool:
@@ -79,8 +47,6 @@ def cache_path(cfg, index: int) -> Path:
 def cache_scene(cfg, index: int, kept: list, layout, info: dict) -> dict[str, Any]:
     """Keep scene ``index``'s unbalanced chunks, its layout and ``info`` (instances, cameras,
     points_total) until every scene is made; the scene's result, pending."""
-    from ..cloud.balance import save_chunks
-
     save_chunks(cache_path(cfg, index), kept, {"layout": layout.to_dict(), **info})
     return {"scene": index, "pending": True}
 
@@ -89,11 +55,6 @@ def finish(cfg, *, verify: bool = False) -> list[int]:
     """One plan over every scene's chunks, then each scene not complete yet sub-sampled with
     its sixth generator (``SeedSequence([seed, index]).spawn(6)[5]``), written into a
     temporary folder with its file record and renamed into place; returns the scenes written."""
-    from ..cloud.balance import apply_plan, load_chunks, plan_dataset
-    from .manifest import RECORD, record_files, scene_complete
-    from ..export import SceneData, get_format
-    from ..layout import Layout
-
     out, fmt = Path(cfg.out), get_format(cfg.format)
     for stale in (out / ".balance").glob("*.tmp.npz"):  # a cache a killed run left half-written
         stale.unlink()
@@ -142,9 +103,6 @@ def short(stats: list[dict]) -> dict[str, str] | None:
 
 def manifest(cfg, stats: list[dict]) -> dict[str, Any]:
     """The manifest's ``class_balance`` entry: reached next to target, short classes."""
-    from ..cloud.balance import summary
-    from ..labels import CLASSES
-
     if not active(cfg):
         return {}
     points: dict[int, int] = {}

@@ -6,12 +6,19 @@ says which process made it (``worker``), its place among that process's scenes (
 the first) and, on the first, the warm-up's seconds (``warmup_s``)."""
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
 from contextlib import nullcontext
 from typing import Any
 
+from tqdm import tqdm
+
 from ..processes import die_with_parent, say_when_compiling
+from ..render.context import set_default_backend
+from ..render.threads import limit_threads
 from .config import DatasetConfig
+from .scene import run_scene
+from .warmup import warm_up
 
 _PROCESS: dict[str, Any] = {}  # this process: warmed up?, scenes made, warm-up seconds to report
 
@@ -19,8 +26,6 @@ _PROCESS: dict[str, Any] = {}  # this process: warmed up?, scenes made, warm-up 
 def _prepare(cfg: DatasetConfig) -> None:
     """The process's warm-up, the first time one of its scenes needs making."""
     if not _PROCESS.get("warm"):
-        from .warmup import warm_up
-
         _PROCESS["warmup_s"] = warm_up(cfg)
         _PROCESS["warm"] = True
 
@@ -38,8 +43,6 @@ def _made(r: dict) -> dict:
 
 def make_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None) -> dict[str, Any]:
     """:func:`~genie_gl.dataset.scene.run_scene` with this process's warm-up and bookkeeping."""
-    from .scene import run_scene
-
     def prepare() -> None:
         if stage is not None and not _PROCESS.get("warm"):
             stage("warm-up")  # the bar shows the worker's warm-up as a stage of its first scene
@@ -50,11 +53,7 @@ def make_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=No
 
 def _worker(job: tuple) -> dict:
     if os.environ.get("GENIE_GL_BACKEND"):  # a spawned worker: the CLI's choice, inherited
-        from ..render.context import set_default_backend
-
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
-    from ..render import limit_threads  # workers share the cores: llvmpipe and numba threads
-
     cfg, index, verify, status = job if len(job) == 4 else (*job, None)
     say_when_compiling(f"genie dataset (worker {os.getpid()})")
     limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
@@ -82,8 +81,6 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
     """Run every scene of ``cfg`` (finished ones are checked and skipped); returns their stats.
     The progress bar names the scene and stage being worked on (this process) or the scenes
     under way (workers)."""
-    from tqdm import tqdm
-
     bar = tqdm(total=cfg.scenes, unit="scene", disable=not progress, desc="scenes", mininterval=0.5)
     results: list[dict] = []
 
@@ -107,8 +104,6 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
                 done(make_scene(cfg, i, verify=verify,
                                 stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}", refresh=True)))
         else:
-            import multiprocessing as mp
-
             n = min(cfg.workers, cfg.scenes)
             ctx = mp.get_context("spawn")
             # the stages under way are shown through a manager's dict: a server process of its

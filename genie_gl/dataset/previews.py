@@ -7,6 +7,11 @@ from pathlib import Path
 import numpy as np
 
 from .. import labels
+from ..capture import render
+from ..cloud import to_cloud
+from ..layout.picture import layout_image
+from ..render.projection import look_at
+from ..sensors.camera import Sensor
 
 
 def _legend(ax, ids) -> None:
@@ -92,8 +97,6 @@ def layout_picture(layout, title: str, path: Path) -> None:
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 
-    from ..layout.picture import layout_image
-
     x0, y0, w, h = layout.bounds
     s = max(4.0, min(20.0, 900.0 / max(w, h)))
     img = np.asarray(layout_image(layout, px_per_m=s, legend=False))
@@ -112,8 +115,6 @@ def layout_picture(layout, title: str, path: Path) -> None:
 
 def overview_pose(bounds):
     """A camera above one corner of the hall looking at its centre (world_from_camera)."""
-    from ..render.projection import look_at
-
     x0, y0, w, h = bounds
     return look_at([x0 - 0.15 * w, y0 - 0.35 * h, 0.45 * max(w, h)], [x0 + w / 2, y0 + h / 2, 0.0])
 
@@ -125,9 +126,6 @@ def overview_picture(scene, layout, title: str, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..render import render
-    from ..sensors.camera import Sensor
-
     frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds))
     fig, ax = plt.subplots(figsize=(10.24, 6.9))
     ax.imshow(frame.rgb)
@@ -138,8 +136,6 @@ def overview_picture(scene, layout, title: str, path: Path) -> None:
 
 
 def write_previews(folder: Path, index: int, layout, frames, scene=None) -> None:
-    from ..cloud import to_cloud
-
     folder.mkdir(parents=True, exist_ok=True)
     layout_picture(layout, f"scene {index}: layout ({len(layout.leaves())} regions)",
                    folder / f"scene_{index:04d}_layout.png")

@@ -1,8 +1,10 @@
-"""The dataset's report: points per class as text, JSON and a bar chart (the paper's Table 3)."""
+"""The dataset's report: points per class as text, JSON and a bar chart (the paper's Table 3),
+and what the run cost per stage and per effect."""
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -49,3 +51,20 @@ def histogram(out: Path, stats: list[dict], target: dict[int, float] | None = No
     fig.savefig(out / "histogram.png", dpi=100, metadata={"Software": None})
     plt.close(fig)
     return {labels.name(k): v for k, v in total.items()}
+
+
+def dataset_cost(stats: list[dict[str, Any]]) -> dict[str, Any]:
+    """The manifest's ``cost`` block from the scenes' stats (``timings_s``, ``frame_cost_ms``,
+    ``cameras``): per stage and per effect, the total and the per-frame milliseconds."""
+    frames = sum(int(s.get("cameras", 0)) for s in stats)
+    stages: dict[str, float] = {}
+    parts: dict[str, float] = {}
+    for s in stats:
+        for k, v in (s.get("timings_s") or {}).items():
+            stages[k] = stages.get(k, 0.0) + 1e3 * float(v)
+        for k, v in (s.get("frame_cost_ms") or {}).items():
+            parts[k] = parts.get(k, 0.0) + float(v)
+    per = max(frames, 1)
+    return {"frames": frames,
+            "stages": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in stages.items()},
+            "capture": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in sorted(parts.items())}}

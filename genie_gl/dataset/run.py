@@ -27,19 +27,27 @@ import logging
 import platform
 import shutil
 import time
-from pathlib import Path
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from .. import __version__
-from . import curation
+from ..capture import add_totals
 from ..errors import ConfigError
 from ..outputs import OutputFolder, atomic_write_text, claim_folder
+from ..export import get_format
+from ..layout import load_strategy
+from ..scene import ASSETS
+from ..sensors import load_sensor
+from ..sensors.placement import ceiling_of, mount_for
+from . import curation
 from .config import DatasetConfig
+from .config import accuracy_used as used
+from .executors import map_scenes
+from .limits import check_limits
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete
+from .report import class_totals, dataset_cost, histogram
 from .scene import STAGES, run_scene, scene_dir, scene_rngs  # noqa: F401  (the run's public names)
-
-
 
 log = logging.getLogger(__name__)
 
@@ -47,8 +55,6 @@ SCENE_RECORDS = 1000  # a run's manifest record lists the timings of at most thi
 
 
 def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
-    from ..scene import ASSETS
-
     get = cfg.get if isinstance(cfg, dict) else lambda k, d=None: getattr(cfg, k, d)
     if ASSETS.registered() and (get("executor", "process") == "ray" or get("workers", 1) > 1):
         raise ConfigError(f"assets registered with register_asset ({ASSETS.registered()}) stay in this "
@@ -68,13 +74,7 @@ def claim_output(cfg: DatasetConfig, fmt) -> OutputFolder:
 
 def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
     """Check what a run needs before any work: the strategy and sensor load, the output folder
-    may be written, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
-    from ..export import get_format
-    from ..layout import load_strategy
-    from ..sensors import load_sensor
-    from ..sensors.placement import ceiling_of, mount_for
-    from .limits import check_limits
-
+    is writable, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
     strategy = load_strategy(cfg.strategy)
     sensor = load_sensor(cfg.sensor)
     mount_for(sensor, ceiling_m=ceiling_of(strategy.scene), mount_height_m=cfg.mount_m)   # placement can work
@@ -113,8 +113,6 @@ def _clear_leftovers(folder: OutputFolder, fmt) -> None:
 
 def _effects_total(results: list[dict]) -> dict:
     """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
-    from ..plan import add_totals
-
     total: dict = {}
     for r in results:
         add_totals(total, r.get("effects", {}))
@@ -130,8 +128,6 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
                 on_start: Callable[[], None] | None = None) -> dict[str, Any]:
     """Make every missing (or damaged) scene of the dataset described by ``cfg``; ``on_start()``
     is called once every check has passed, before the first scene."""
-    from ..export import get_format
-
     _check_registered_assets(cfg)
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
@@ -170,10 +166,6 @@ def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: li
          verify: bool) -> None:
     """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
     out = folder.path
-    from .executors import map_scenes
-    from ..accuracy import dataset_cost, used
-    from .report import histogram
-
     started = time.time()
     t0 = time.perf_counter()
     results = map_scenes(cfg, progress=progress, verify=verify)
@@ -217,8 +209,6 @@ def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: li
 def _check_not_empty(cfg: DatasetConfig, stats: list[dict]) -> None:
     """A dataset without a point, or without a labelled one, is an error (its files are kept,
     recorded in the manifest, so a run with other options replaces them)."""
-    from .report import class_totals
-
     totals = class_totals(stats)
     where = f"--out {cfg.out}: the {cfg.scenes} scene(s) of {cfg.strategy}"
     if not sum(totals.values()):

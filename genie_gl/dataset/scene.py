@@ -12,9 +12,17 @@ from typing import Any
 
 import numpy as np
 
+from ..capture import capture, effect_totals, frame_costs, segments_option
+from ..cloud import frame_chunks, keep_cloud
+from ..export import SceneData, get_format
+from ..layout import generate_layout, load_strategy
+from ..render import shared_context
+from ..scene import build_scene
+from ..sensors import load_sensor, place_sensors
 from . import curation
-from .config import DatasetConfig
+from .config import DatasetConfig, settings_of
 from .manifest import record_files, scene_complete
+from .previews import write_previews
 
 log = logging.getLogger(__name__)
 
@@ -30,8 +38,6 @@ def scene_rngs(seed: int, index: int) -> dict[str, np.random.Generator]:
 
 def scene_dir(out: Path, index: int, fmt: str, n_scenes: int = 0) -> Path:
     """Where scene ``index`` of a dataset in format ``fmt`` lives."""
-    from ..export import get_format
-
     return get_format(fmt).scene_dir(out, index)
 
 
@@ -39,14 +45,6 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     """Make scene ``index`` and write it; returns its stats (also in stats.json).
     ``stage(name)`` is called as each stage starts (progress display); ``prepare()`` once the
     scene is known to need making, before its clock starts (a worker's warm-up)."""
-    from ..cloud import frame_chunks, keep_cloud
-    from ..export import SceneData, get_format
-    from ..layout import generate_layout, load_strategy
-    from ..render import capture, shared_context
-    from ..scene import build_scene
-    from ..accuracy import segments_option, settings_of
-    from ..sensors import load_sensor, place_sensors
-
     stage = stage or (lambda name: None)
     out = Path(cfg.out)
     fmt = get_format(cfg.format)
@@ -102,8 +100,6 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         log.warning("scene %d: nothing labelled: its %d points are all background (class 0)", index, points_total)
     if curation.active(cfg):  # balanced once every scene is made (genie_gl/dataset/curation.py)
         if index < cfg.previews:
-            from .previews import write_previews
-
             write_previews(out / "previews", index, layout, frames, scene)
         stats = curation.cache_scene(cfg, index, kept, layout, {"instances": len(scene.instances),
                                                                 "cameras": len(frames), "points_total": int(points_total)})
@@ -123,8 +119,6 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
-        from .previews import write_previews
-
         write_previews(out / "previews", index, layout, frames, scene)
     if fmt.before_rename is not None:
         fmt.before_rename(data, out)
@@ -138,9 +132,6 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
 def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:
     """Seconds per stage, CPU seconds of the scene (all threads), the frames' cost (the
     manifest's "cost" block) and what each sensor effect did (issue 12): not in stats.json."""
-    from ..accuracy import frame_costs
-    from ..plan import effect_totals
-
     keys = ("start",) + STAGES
     return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "cpu_s": time.process_time() - cpu,
             "frame_cost_ms": frame_costs(frames),

@@ -18,7 +18,15 @@ import time
 
 import numpy as np
 
-from .config import DatasetConfig
+from ..capture import capture, segments_option
+from ..cloud import frame_chunks, keep_cloud
+from ..export import get_format
+from ..layout import generate_layout, load_strategy
+from ..render import shared_context
+from ..render.memory import prefault
+from ..scene import build_scene
+from ..sensors import load_sensor, place_sensors
+from .config import DatasetConfig, settings_of
 
 WARM_SEED = 20_26_11_23  # the throw-away scene's seed (any fixed value)
 WARM_CAMERAS = 2
@@ -27,15 +35,6 @@ WARM_CAMERAS = 2
 def warm_up(cfg: DatasetConfig) -> float:
     """Run every stage of ``cfg`` once on a throw-away scene in this process; returns seconds."""
     t0 = time.perf_counter()
-    from ..accuracy import segments_option, settings_of
-    from ..cloud import frame_chunks, keep_cloud
-    from ..export import get_format
-    from ..layout import generate_layout, load_strategy
-    from ..render import capture, shared_context
-    from ..render.memory import prefault
-    from ..scene import build_scene
-    from ..sensors import load_sensor, place_sensors
-
     rng = {n: np.random.default_rng(np.random.SeedSequence([WARM_SEED, k]))
            for k, n in enumerate(("layout", "scene", "cloud"))}
     fmt = get_format(cfg.format)

@@ -9,6 +9,7 @@ from pathlib import Path
 from ..checks import expect
 from ..errors import ExportError
 from ..cloud.pointcloud import PointCloud
+from ..errors import ConfigError
 from ..outputs import claim_folder
 from . import semantickitti, ply, pcd, npz, bop  # noqa: F401, I001  (each registers its format, in this order)
 from .registry import DATASET_FORMATS, DatasetFormat, SceneData, cloud_formats, get_format, register_format
@@ -29,8 +30,6 @@ def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semanti
                           "a surface?)")
     fmt = get_format(format, "export format")
     if fmt.write_cloud is None:
-        from ..errors import ConfigError
-
         raise ConfigError(f"export format {format!r} writes datasets of frames, not clouds (clouds: {', '.join(FORMATS)})")
     folder = claim_folder(out_dir, "export", fmt.cloud_outputs(name), option="out_dir", reserve=True)
     path = fmt.write_cloud(cloud, folder.path, name=name, sequence=sequence, frame=frame)
@@ -39,17 +38,3 @@ def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semanti
 
 
 __all__ = ["DATASET_FORMATS", "DatasetFormat", "FORMATS", "SceneData", "export", "get_format", "register_format"]
-
-
-# ``genie_gl.export`` is both this package and the public function ``gg.export(cloud, ...)``
-# (DESIGN.md): the package forwards calls to :func:`export`, as ``genie_gl.render`` does.
-import sys as _sys  # noqa: E402
-import types as _types  # noqa: E402
-
-
-class _CallableModule(_types.ModuleType):
-    def __call__(self, *args, **kwargs):
-        return export(*args, **kwargs)
-
-
-_sys.modules[__name__].__class__ = _CallableModule

@@ -12,7 +12,7 @@ Ground-truth objects are the instances of non-background classes (semantic id !=
 an image. ``obj_id`` is stable across scenes and runs: the built-in asset variants are numbered
 in catalogue order (1, 2, …); any other mesh gets 1000 + a hash of its name. Full silhouettes
 (``mask``, ``px_count_all``, ``bbox_obj``) come from renders of each object alone
-(:func:`genie_gl.render.silhouettes`); without them only the visible parts are written.
+(:func:`genie_gl.capture.silhouettes`); without them only the visible parts are written.
 The scene folder is written under a temporary name and renamed when complete.
 """
 from __future__ import annotations
@@ -38,8 +38,6 @@ MAX_U16 = 65535
 
 def object_ids() -> dict[str, int]:
     """obj_id of every built-in foreground asset variant (mesh name ``class_variant``)."""
-    from ..scene.assets.library import SEMANTIC, VARIANTS
-
     names = [f"{c}_{v}" for c in VARIANTS for v in VARIANTS[c] if SEMANTIC.get(c, 0) != 0]
     return {n: i + 1 for i, n in enumerate(names)}
 
@@ -124,8 +122,6 @@ def _rot(axis: int, degrees: int) -> np.ndarray:
 def discrete_symmetries(vertices_mm: np.ndarray, tol_mm: float = 1.0) -> list[list[float]]:
     """Turns about the model's axes (90/180/270 degrees about z, 180 about x and y) that map its
     vertex set onto itself within ``tol_mm``: BOP's ``symmetries_discrete`` (4x4 row-major, mm)."""
-    from scipy.spatial import cKDTree
-
     v = np.asarray(vertices_mm, np.float64)
     if len(v) < 2:
         return []
@@ -144,8 +140,6 @@ def write_models(scene: Scene, out_dir: str | os.PathLike, names: Sequence[str])
     the named meshes and merge their entries into ``models_info.json`` (diameter, box,
     ``symmetries_discrete`` where the model has them) and ``models/names.json``; returns the
     entries written."""
-    import trimesh
-
     out = Path(out_dir) / "models"
     info: dict[int, dict] = {}
     names_of: dict[int, str] = {}
@@ -267,8 +261,6 @@ def write_scene_files(scene: Scene, frames: Sequence[Frame], folder: str | os.Pa
 # --- the dataset format: DIR/train_pbr/NNNNNN per scene, models and camera at the root
 
 def _write_dataset_scene(data, folder: Path) -> None:
-    from ..render import Renderer, silhouettes
-
     with Renderer(data.scene) as r:
         full = [silhouettes(r, f.sensor, f.world_from_camera,
                             np.unique(f.instance[(f.semantic != 0) & (f.depth > 0)]).tolist()) for f in data.frames]
@@ -279,6 +271,12 @@ def _before_rename(data, out: Path) -> None:
     write_dataset_files(data.scene, data.frames[0], out, data.extra.get("bop_meshes", []))
 
 
+import trimesh
+from scipy.spatial import cKDTree
+
+from ..capture.lens import silhouettes
+from ..render.renderer import Renderer
+from ..scene.assets.library import SEMANTIC, VARIANTS
 from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(

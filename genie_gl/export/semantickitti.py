@@ -211,8 +211,6 @@ def _link(src: Path, dst: Path) -> None:
     try:
         os.link(src, dst)
     except OSError:
-        import shutil
-
         shutil.copyfile(src, dst)
 
 
@@ -225,8 +223,6 @@ def assemble_sequences(out: str | os.PathLike, scene_dirs: Sequence[Path], *,
                        split: Sequence[float] = (0.8, 0.1, 0.1)) -> dict[int, list[int]]:
     """Build ``sequences/NN`` from the scenes' scan folders (in order, several to a sequence
     past 100) and ``genie-gl.yaml``; returns {sequence: [scene indices]}."""
-    import shutil
-
     root = Path(out) / "sequences"
     root.mkdir(parents=True, exist_ok=True)
     per = scenes_per_sequence(len(scene_dirs))
@@ -291,6 +287,8 @@ def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, sequence: int
                  **_: object) -> Path:
     return write(cloud, out_dir, sequence=sequence, frame=frame)
 
+
+import shutil
 
 from .registry import DatasetFormat, register_format  # noqa: E402
 

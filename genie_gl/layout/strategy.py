@@ -29,6 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ..errors import ConfigError, did_you_mean
 from ..resources import read_json, resolve
+from ..scene_options import check_scene_options
 from .generators import GENERATORS, Generator, get_generator
 from .model import ORIENTATIONS, RegionType
 from .providers import OrientationProvider, TypeProvider
@@ -276,8 +277,6 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
                 _check_fits(rule, spec.root, f"{source}: {where}")
             rules[tname] = Rule(gen, rule.generator, providers, orient)
         levels.append(rules)
-    from ..scene_options import check_scene_options  # the scene stage's options, typed at the bottom
-
     check_scene_options(spec.scene, f"{source}: $.scene")
     return Strategy(spec.name, spec.root, types, levels, spec.scene, source, spec.merge.l_shape)
 

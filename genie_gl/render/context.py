@@ -26,6 +26,7 @@ import os
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+import glcontext
 import moderngl
 
 from ..errors import BackendUnavailableError, ConfigError
@@ -208,8 +209,6 @@ def _osmesa() -> GLContext:
         lib.OSMesaDestroyContext(handle)
         raise BackendUnavailableError(f"{path}: OSMesaMakeCurrent failed")
     loader = _OSMesaLoader(lib, handle)
-    import glcontext  # noqa: PLC0415
-
     # moderngl adopts the current context through glcontext's default backend: point it at
     # OSMesa for the duration of this call only.
     saved = glcontext.default_backend

@@ -12,6 +12,7 @@ import os
 from typing import Any
 
 import numpy as np
+import trimesh
 
 from ..errors import ConfigError
 from ..frame import Frame
@@ -35,8 +36,6 @@ class ReferenceRenderer:
         # pyrender chooses its platform from this variable at import: the only way to ask.
         os.environ.setdefault("PYOPENGL_PLATFORM", platform)
         import pyrender  # noqa: PLC0415
-        import trimesh  # noqa: PLC0415
-
         self._pyrender = pyrender
         self.scene = pyrender.Scene(bg_color=[0, 0, 0, 0], ambient_light=[1.0, 1.0, 1.0])
         self.seg_map: dict[Any, tuple[int, int, int]] = {}

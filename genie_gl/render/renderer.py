@@ -24,8 +24,8 @@ from ..limits import check_frame_side
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
-from .cull import TriangleCuller, cluster_order, clusters, sanitize
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
+from .cull import TriangleCuller, cluster_order, clusters, sanitize
 from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
 from .projection import clip_coefficients, frustum_planes, rigid_inverse
 from .readback import semantic_table, unpack
@@ -266,24 +266,25 @@ class Renderer:
     # -- rendering -----------------------------------------------------------------------------
     def render(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool = False,
                normals: bool = False, only: Collection[int] | None = None) -> Frame:
-        """Render the frame of ``sensor`` at ``pose``, without its effects.
+        """Render the pinhole frame of ``sensor`` at ``pose``, without its effects.
 
-        A distorted sensor is rendered through its lens (pinhole views resampled by
-        :func:`genie_gl.sensors.distortion.render_through_lens`, exact by default). Surfaces
-        nearer than the sensor's minimum range ``near_m`` give no return (depth 0, ids 0).
+        The renderer draws pinhole views only: a distorted sensor is rendered through its lens
+        by the capture stage (:func:`genie_gl.capture.through_lens` wraps this method;
+        ``gg.render`` and ``gg.capture`` do it). Surfaces nearer than the sensor's minimum
+        range ``near_m`` give no return (depth 0, ids 0).
 
         Parameters
         ----------
-        sensor : Sensor (or Camera), image size, K, lens and range.
+        sensor : Sensor (or Camera) of a pinhole lens: image size, K and range.
         pose : (4, 4) float64 world_from_camera (OpenCV camera frame).
         depth_only : skip the colour buffer (``Frame.rgb`` is None).
         normals : also render camera-frame unit normals (``Frame.normal``).
         only : draw just the instances with these ids (e.g. an object's full silhouette).
         """
         if not sensor.is_pinhole:
-            from ..sensors.distortion import render_through_lens
-
-            return render_through_lens(self.render, sensor, pose, depth_only=depth_only, normals=normals, only=only)
+            raise ConfigError(f"Renderer.render: sensor {getattr(sensor, 'name', '')!r} has lens distortion and the "
+                              "renderer draws pinhole views; render it through its lens with "
+                              "genie_gl.capture.through_lens(renderer.render), gg.render or gg.capture")
         with self._current():
             return self._render(sensor, pose, depth_only, normals, only)
 
@@ -293,6 +294,9 @@ class Renderer:
         with CPU and GL overlapped: frame i+1 is culled and submitted (into a second set of
         targets) before frame i is read back, and renders while the caller works on frame i.
         ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``."""
+        if not sensor.is_pinhole:
+            raise ConfigError(f"Renderer.frames: sensor {getattr(sensor, 'name', '')!r} has lens distortion and the "
+                              "renderer draws pinhole views (gg.capture renders it through its lens)")
         pending = None
         for k, pose in enumerate(poses):
             with self._current():

@@ -389,21 +389,6 @@ class Scene:
     def __len__(self) -> int:
         return len(self.instances)
 
-    def to_usd(self, path: Any) -> Any:
-        """Write the scene as USD (.usda or .usdc); see :mod:`genie_gl.scene.usd`."""
-        from .usd import write_usd
-
-        return write_usd(self, path)
-
-    @classmethod
-    def from_usd(cls, path: Any, **kw: Any) -> "Scene":
-        """Read any USD stage (meshes, implicit gprims, references, instancing, point
-        instancers, UsdPreviewSurface materials) into a Scene; ``kw`` as in
-        :func:`genie_gl.scene.usd.read_usd` (``segments=``, ...)."""
-        from .usd import read_usd
-
-        return read_usd(path, **kw)
-
 
 def _as_mesh(mesh: Any) -> Mesh:
     if isinstance(mesh, Mesh):

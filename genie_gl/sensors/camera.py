@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from ..camera import PINHOLE_LENGTHS, Camera
+from .calibration import read_calibration
 
 DIST_LENGTHS = PINHOLE_LENGTHS  # kept for older imports: the pinhole model's coefficient counts
 
@@ -56,7 +57,5 @@ class Sensor(Camera):
     def from_opencv(cls, path: str | Path) -> "Sensor":
         """An ideal sensor (no noise) with the lens model of a calibration file (OpenCV,
         ROS camera_info or Kalibr camchain; see :mod:`.calibration`)."""
-        from .calibration import read_calibration  # the calibration module owns the formats
-
         calib = read_calibration(path)
         return cls(calib.width, calib.height, calib.K, calib.dist, name=Path(path).stem, model=calib.model)

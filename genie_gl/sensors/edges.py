@@ -10,15 +10,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import cv2
 import numpy as np
 
 from ..errors import ConfigError
 from ..frame import Frame
-from typing import Any
-
 from . import kernels
 from .effect import Effect, drop, record
 

@@ -24,6 +24,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..frame import Frame
+from . import kernels
 
 
 @dataclass(frozen=True)
@@ -137,8 +138,6 @@ def drop(frame: Frame, mask: np.ndarray, depth: np.ndarray | None = None) -> Fra
 def drop_compiled(frame: Frame, mask: np.ndarray) -> Frame:
     """:func:`drop` in one compiled pass over the frame (the same bytes), for effects that
     drop on most frames (stereo shadow, specular loss)."""
-    from . import kernels
-
     depth, inst, sem = kernels.drop_where(frame.depth, frame.instance, frame.semantic, mask)
     normal = frame.normal
     if normal is not None:

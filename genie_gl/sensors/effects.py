@@ -21,6 +21,8 @@ active stereo and structured light on shiny and clear surfaces).
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 from typing import Any
 
 from ..errors import ConfigError, did_you_mean
@@ -62,8 +64,6 @@ def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
         if cls is None:
             raise ConfigError(f"{where}: effects[{i}].type: unknown effect {spec['type']!r}"
                               f"{did_you_mean(spec['type'], EFFECTS)} (known: {', '.join(sorted(EFFECTS))})")
-        import dataclasses
-
         for f in dataclasses.fields(cls):  # a number where the effect expects one, before it looks
             d, v = f.default, params.get(f.name)
             if f.name in params and isinstance(d, (int, float)) and not isinstance(d, bool) and \
@@ -90,9 +90,6 @@ def _check_numbers(e: Effect, where: str) -> None:
     """The checks every effect's numbers share: real numbers, not NaN; sizes, spreads, shares
     and angles (by name, :func:`_magnitude`) not negative; probabilities in [0, 1], angles in
     [0, 90] degrees, min <= max."""
-    import dataclasses
-    import math
-
     for f in dataclasses.fields(e):
         v = getattr(e, f.name)
         values = v if isinstance(v, (tuple, list)) else [v]

@@ -19,10 +19,8 @@ of a pixel changes the depth image; ids are never blended.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
-
-from dataclasses import replace
 
 import numpy as np
 

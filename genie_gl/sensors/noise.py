@@ -23,10 +23,10 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..frame import Frame
-from .camera import Sensor
 from . import kernels
+from .camera import Sensor
 from .effect import Decision, Effect, View, drop, record
-from .geometry import incidence_angle
+from .geometry import incidence_angle, view_directions
 
 
 @dataclass
@@ -154,8 +154,6 @@ class DepthNoise(Effect):
         exceed 60° (the Nguyen term's threshold); 0 elsewhere, which gives the same σ."""
         if frame.normal is None:
             return incidence_angle(frame)[valid]
-        from .geometry import view_directions
-
         n = frame.normal[valid].astype(np.float64)
         d = view_directions(frame.sensor)[valid]
         cos = -(n[:, 0] * d[:, 0] + n[:, 1] * d[:, 1] + n[:, 2] * d[:, 2])

@@ -31,11 +31,12 @@ import numpy as np
 
 from ..checks import check_seed, expect, finite_number, whole_number
 from ..errors import ConfigError, did_you_mean
+from ..layout.model import Layout, Region, RegionType
 from ..limits import MAX_CAMERAS
-from ..layout.model import Layout
 from . import coverage
 from .camera import Sensor
-
+from .placement_bits import DiscBits
+from .pose import look_at
 
 log = logging.getLogger(__name__)
 
@@ -183,8 +184,6 @@ class CoverageProblem:
         """The discs as bit sets (:mod:`.placement_bits`: the same sums, word by word), or None
         when the weights are not whole numbers."""
         if self._bits is None or self._bits[0] is not self.indices:
-            from .placement_bits import DiscBits
-
             self._bits = (self.indices, DiscBits.of(self.indptr, self.indices, self.weight))
         return self._bits[1]
 
@@ -245,8 +244,6 @@ class VisibilityProblem(CoverageProblem):
 
 def low_resolution(sensor, size: tuple[int, int]):
     """The pinhole camera of ``sensor`` scaled to fit in ``size`` (width, height)."""
-    from .camera import Sensor
-
     w_max, h_max = int(size[0]), int(size[1])
     if w_max < 2 or h_max < 2:
         raise ConfigError(f"placement: visibility size must be at least 2x2, got {size}")
@@ -315,8 +312,6 @@ def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: 
                        mount_height_m: float, pitch_rad: float | None = None) -> list[np.ndarray]:
     """world_from_camera poses: above each centre, turned towards the weighted centroid it
     covers; tilted down to it, or by ``pitch_rad`` below the horizon when given."""
-    from .pose import look_at
-
     poses = []
     for c in centres:
         inside = ((problem.px - c) ** 2).sum(1) <= radius_m ** 2
@@ -391,8 +386,6 @@ def scene_poses(scene, sensor, n: int, seed: int = 0, *, mount_height_m: float |
     """Poses for a scene without its layout (e.g. a USD stage): placement over its floor (the
     bounding box's footprint, ``margin_m`` inside the walls), under its height as the ceiling,
     mounted for the sensor's range (:func:`mount_for`) — never outside the hall."""
-    from ..layout.model import Layout, Region, RegionType
-
     lo, hi = scene.bounds()
     if not np.all(np.isfinite(lo)):
         raise ConfigError("placement: the scene is empty")

@@ -10,14 +10,10 @@ import yaml
 
 from ..errors import ConfigError, did_you_mean
 from ..resources import read_text, resolve
+from .accuracy import PROFILE_KEYS, from_dict
 from .calibration import Calibration, read_calibration
 from .camera import Sensor
 from .effects import build_effects
-
-
-#: the fields of a sensor profile (anything else is refused, with the nearest of these)
-PROFILE_KEYS = ("name", "calibration", "effects", "near_m", "far_m", "accuracy", "baseline_m", "description",
-                "source")
 
 
 def calibration_meta(calib: Calibration) -> dict:
@@ -77,9 +73,7 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
                           f"{data.get('far_m')!r}") from None
     meta = calibration_meta(calib)
     meta["profile"] = str(path)
-    if data.get("accuracy") is not None:   # the profile's accuracy: block (genie_gl.accuracy)
-        from ..accuracy import from_dict
-
+    if data.get("accuracy") is not None:   # the profile's accuracy: block (genie_gl.sensors.accuracy)
         meta["accuracy"] = from_dict(data["accuracy"], str(path))
     if calib.T is None and data.get("baseline_m") is not None:
         meta["baseline_m"] = float(data["baseline_m"])

@@ -45,11 +45,11 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..frame import Frame
-from .camera import Sensor
 from . import kernels
+from .camera import Sensor
+from .distortion import distortion_maps
 from .effect import Effect, drop_compiled, record
 from .geometry import pixel_rays
-
 
 METHODS = ("auto", "scanline", "render")
 SCANLINE_MS_PER_MPX = 5.0   # the planner's estimate of the scanline method (cost_per_mpx)
@@ -146,8 +146,6 @@ class StereoShadow(Effect):
         """The pinhole camera of the second view's low-resolution render."""
         base = sensor
         if not sensor.is_pinhole:
-            from .distortion import distortion_maps
-
             base = distortion_maps(sensor).render_sensor
         w = max(2, int(round(base.width * self.scale)))
         h = max(2, int(round(base.height * self.scale)))

@@ -13,7 +13,7 @@ effects that declare ``needs_materials`` get ``materials=`` (a
 :class:`~genie_gl.scene.materials.MaterialTable`). With no effects and no distortion the
 result is ``render(sensor, pose)`` itself, bit for bit, and no RNG draw is made.
 
-With a frame plan (:mod:`genie_gl.plan`) the frame follows it: only the instances it draws
+With a frame plan (:mod:`genie_gl.capture.planner`) the frame follows it: only the instances it draws
 are drawn, the far plane is its ``far_m``, an effect it skips is skipped. Every effect not
 skipped by the plan is asked again on the frame (:meth:`Effect.check`); a skip never changes
 the output or the RNG stream (:meth:`Effect.skip` draws what a run would have). Each frame's
@@ -31,7 +31,10 @@ from typing import Any
 import numpy as np
 
 from ..frame import Frame
+from ..scene.materials import MaterialTable
 from .camera import Sensor
+from .distortion import render_through_lens
+from .kernels import changed
 
 RenderFn = Callable[..., Frame]
 DepthRenderFn = Callable[[Sensor, np.ndarray], np.ndarray]
@@ -42,8 +45,6 @@ def _changed(a: Frame, b: Frame) -> int:
         return 0
     if a.depth.shape != b.depth.shape:
         return int(b.depth.size)
-    from .kernels import changed
-
     return int(changed(a.depth, b.depth, a.instance, b.instance))
 
 
@@ -55,7 +56,7 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
     ``resample`` and ``oversample``: how a distorted sensor's image is made from its pinhole
     views (see :mod:`.distortion`; ignored for a pinhole sensor). ``materials``: the scene's
     MaterialTable (effects that need it get it); ``plan``: this frame's
-    :class:`~genie_gl.plan.FramePlan` (None: every effect is decided on the frame).
+    :class:`~genie_gl.capture.FramePlan` (None: every effect is decided on the frame).
     """
     only = None if plan is None else plan.drawn
     far = None if plan is None else plan.far_m
@@ -75,8 +76,6 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
     if sensor.is_pinhole:
         frame = draw(sensor, pose, **kw)
     else:
-        from .distortion import render_through_lens
-
         frame = render_through_lens(draw, sensor, pose, resample=resample, oversample=oversample, **kw)
     if not sensor.effects:
         return frame
@@ -96,8 +95,6 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
             needs.update(render_depth=render_depth, render_frame=render_frame)
         if eff.needs_materials:
             if materials is None:   # no scene table: every surface is the default material
-                from ..scene.materials import MaterialTable
-
                 materials = MaterialTable.empty()
             needs["materials"] = materials
         reason = decided.reason if decided is not None else None

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..frame import Frame
 from .effect import Decision, Effect, View, drop, record
-from .geometry import camera_points, incidence_angle, surface_normals
+from .geometry import camera_points, incidence_angle, surface_normals, view_directions
 
 
 def nguyen_lateral_px(theta: np.ndarray) -> np.ndarray:
@@ -136,8 +136,6 @@ class IncidenceDropout(Effect):
             return "no return in the frame"
         if frame.normal is not None:
             # cos θ = −n·d: steeper than the threshold only where |n·d| < cos(max)
-            from .geometry import view_directions
-
             d = view_directions(frame.sensor)
             n = frame.normal
             cos = -(n[..., 0] * d[..., 0] + n[..., 1] * d[..., 1] + n[..., 2] * d[..., 2])

@@ -44,7 +44,7 @@ from ..errors import ConfigError
 from ..frame import Frame
 from . import kernels
 from .effect import Decision, Effect, View, drop, record
-from .geometry import camera_points, pixel_rays, surface_normals
+from .geometry import pixel_rays, surface_normals
 
 C_M_PER_S = 299_792_458.0
 

@@ -4,6 +4,7 @@ import json
 import numpy as np
 import pytest
 
+import genie_gl as gg
 from genie_gl.cli import main
 
 pytestmark = pytest.mark.gl
@@ -98,7 +99,7 @@ def test_the_plot_and_the_pareto_front(run):
 
 
 def test_the_budget_writes_a_setting_that_genie_dataset_uses(run, tmp_path):
-    from genie_gl.accuracy import load_accuracy
+    from genie_gl.sensors.accuracy import load_accuracy
 
     out, result = run
     b = result["budget"]
@@ -205,15 +206,14 @@ def small_usd(tmp_path_factory):
     for k, (x, y) in enumerate([(0, 0), (2, 1), (-2, 1.5)]):
         scene.add(trimesh.creation.box((1.0, 0.8, 1.2)), [x, y, 0.6], semantic=k + 1)
     path = tmp_path_factory.mktemp("usd") / "small.usda"
-    scene.to_usd(path)
+    gg.write_usd(scene, path)
     return path
 
 
 def test_a_usd_stage_with_views_from_a_poses_file(small_usd, small_profile, tmp_path):
     from genie_gl.bench.accuracy import content_poses
-    from genie_gl.scene.model import Scene
 
-    poses = content_poses(Scene.from_usd(small_usd), 2)
+    poses = content_poses(gg.read_usd(small_usd), 2)
     (tmp_path / "poses.json").write_text(json.dumps([p.tolist() for p in poses]))
     assert main(["bench", "accuracy", "--scene", str(small_usd), "--sensor", str(small_profile),
                  "--poses", str(tmp_path / "poses.json"), "--knobs", "supersample,shadow_scale,tessellation",
@@ -251,7 +251,7 @@ def test_a_layout_json_built_with_the_seed_and_placement_effort(small_profile, t
 def test_the_budget_combines_each_knobs_fastest_level_within_it_and_keeps_it_only_if_it_holds():
     """The selection logic alone, on rows of known figures: a row-measuring function that
     answers from a table stands in for the renderer (the bench tests above render)."""
-    from genie_gl.accuracy import AccuracySettings
+    from genie_gl.sensors.accuracy import AccuracySettings
     from genie_gl.bench.accuracy_budget import pick
     from genie_gl.bench.knobs import Setting
 

@@ -9,7 +9,8 @@ from plyfile import PlyData
 
 import genie_gl as gg
 from genie_gl.export import bop
-from genie_gl.render import Renderer, silhouettes
+from genie_gl.capture import silhouettes
+from genie_gl.render import Renderer
 from genie_gl.render.projection import look_at
 
 

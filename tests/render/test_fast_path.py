@@ -9,7 +9,8 @@ import trimesh
 import genie_gl as gg
 from genie_gl.bench.render import bench_frames, bench_scene, sensor_640
 from genie_gl.errors import ConfigError
-from genie_gl.render import Renderer, capture
+from genie_gl.capture import capture
+from genie_gl.render import Renderer, create_context
 from genie_gl.render.projection import look_at
 from genie_gl.resources import resolve
 
@@ -92,7 +93,7 @@ def test_culling_changes_no_pixel_with_sub_pixel_triangles_near_pixel_centres():
         eye = rng.uniform(-0.5, 0.5, 3)
         poses.append(look_at(eye, eye + rng.normal(size=3)))
     # snap the view so that many triangle corners fall almost on pixel centres
-    gl = gg.render.create_context("egl")
+    gl = create_context("egl")
     try:
         pairs = culled_and_unculled(gl, scene, sensor, poses)
         far_pairs = culled_and_unculled(gl, far, sensor, [shift @ p for p in poses])

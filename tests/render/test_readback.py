@@ -105,7 +105,8 @@ def test_prefault_puts_mapped_blocks_in_the_pool_and_never_more_than_it_keeps(mo
 
 
 def test_a_shared_context_serves_scene_after_scene_with_the_same_frames(generated):
-    from genie_gl.render import capture, release_shared_contexts, shared_context
+    from genie_gl.capture import capture
+    from genie_gl.render import release_shared_contexts, shared_context
 
     scene, sensor, poses = generated
     gl = shared_context()

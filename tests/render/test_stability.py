@@ -11,6 +11,7 @@ import trimesh
 
 import genie_gl as gg
 from genie_gl.bench import stability as st
+from genie_gl.capture import through_lens
 from genie_gl.render import Renderer
 from genie_gl.sensors.distortion import lens_views, render_through_lens
 
@@ -218,7 +219,9 @@ def test_every_entry_point_renders_through_the_lens_and_clouds_land_on_the_plane
     scene.instances[0] = replace(scene.instances[0], world_from_model=pose @ scene.instances[0].world_from_model)
     want = st.plane_depth(cam, n, p0)
     with Renderer(scene, context=glctx) as r:
-        a = r.render(cam, pose)                      # Renderer.render
+        with pytest.raises(gg.ConfigError, match="renderer draws pinhole views"):
+            r.render(cam, pose)                      # the renderer knows no lens
+        a = through_lens(r.render)(cam, pose)        # the capture stage's lens around it
     b = gg.capture(scene, cam, [pose], seed=0)[0]    # capture (no effects: the same frame)
     c = gg.render(scene, cam, pose)                  # gg.render
     for f in (a, b, c):
@@ -328,7 +331,7 @@ def test_usd_prim_with_zero_scale_is_dropped_and_counted_by_path(tmp_path):
         m = UsdGeom.Mesh.Define(stage, path)
         m.CreatePointsAttr(pts), m.CreateFaceVertexCountsAttr([3]), m.CreateFaceVertexIndicesAttr([0, 1, 2])
     stage.Save()
-    rep = gg.Scene.from_usd(tmp_path / "hidden.usda").report()
+    rep = gg.read_usd(tmp_path / "hidden.usda").report()
     assert rep["instances"] == 1 and rep["dropped_instances"] == 1
     assert rep["dropped"][0].startswith("/World/Hidden/Part: its transform has a zero scale")
 

@@ -103,8 +103,8 @@ def test_materials_are_seeded():
 
 
 def test_round_trip_keeps_every_input(built, tmp_path):
-    path = built.to_usd(tmp_path / "s.usda")
-    back = gg.Scene.from_usd(path)
+    path = gg.write_usd(built, tmp_path / "s.usda")
+    back = gg.read_usd(path)
     want = {i.instance: i.material for i in built.instances}
     got = {i.instance: i.material for i in back.instances}
     assert got == want

@@ -42,8 +42,8 @@ def test_segments_none_builds_the_default_scene_byte_for_byte(tmp_path):
     for k in a.meshes:
         np.testing.assert_array_equal(a.meshes[k].vertices, b.meshes[k].vertices)
         np.testing.assert_array_equal(a.meshes[k].faces, b.meshes[k].faces)
-    a.to_usd(tmp_path / "a.usda")
-    b.to_usd(tmp_path / "b.usda")
+    gg.write_usd(a, tmp_path / "a.usda")
+    gg.write_usd(b, tmp_path / "b.usda")
     assert (tmp_path / "a.usda").read_bytes() == (tmp_path / "b.usda").read_bytes()
     # the default is each part's own count: the scene's sedan is the 20-ring, 18-wheel one
     assert len(a.meshes["car_sedan"].vertices) == car_vertices(20, 18)
@@ -53,8 +53,8 @@ def test_a_tessellated_scene_keeps_names_ids_and_draws_and_is_deterministic(tmp_
     layout = gg.generate_layout("assembly_line", seed=4)
     base = gg.build_scene(layout, seed=1)
     a, b = gg.build_scene(layout, seed=1, segments=12), gg.build_scene(layout, seed=1, segments=np.int64(12))
-    a.to_usd(tmp_path / "a.usda")
-    b.to_usd(tmp_path / "b.usda")
+    gg.write_usd(a, tmp_path / "a.usda")
+    gg.write_usd(b, tmp_path / "b.usda")
     assert (tmp_path / "a.usda").read_bytes() == (tmp_path / "b.usda").read_bytes()
     assert list(a.meshes) == list(base.meshes)
     assert [(i.name, i.mesh, i.semantic) for i in a.instances] == [(i.name, i.mesh, i.semantic) for i in base.instances]

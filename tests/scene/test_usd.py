@@ -125,7 +125,7 @@ def _world_bounds(scene: gg.Scene) -> dict[str, np.ndarray]:
 def test_payload_to_another_file_with_a_variant_chosen_by_the_stage(tmp_path):
     (tmp_path / "part.usda").write_text(PART)
     (tmp_path / "main.usda").write_text(MAIN)
-    scene = gg.Scene.from_usd(tmp_path / "main.usda")
+    scene = gg.read_usd(tmp_path / "main.usda")
     b = _world_bounds(scene)
     assert sorted(b) == ["CopyA", "CopyB", "LargeGeom", "WedgeGeom"]   # only the selected variants
     # wedge (0..2, 0, 0..3) + the part's own (0, 0, 1) + the site's (5, 0, 0)
@@ -145,7 +145,7 @@ def test_payload_default_variant_and_a_usdc_payload(tmp_path):
 
     Sdf.Layer.FindOrOpen(str(_write(tmp_path / "part.usda", PART))).Export(str(tmp_path / "part.usdc"))
     main = MAIN.replace("@./part.usda@", "@./part.usdc@").replace('string shape = "wedge"', "")
-    b = _world_bounds(gg.Scene.from_usd(_write(tmp_path / "main.usda", main)))
+    b = _world_bounds(gg.read_usd(_write(tmp_path / "main.usda", main)))
     assert sorted(b) == ["BoxGeom", "CopyA", "CopyB", "LargeGeom"]
     np.testing.assert_allclose(b["BoxGeom"], [[5, 0, 1], [6, 1, 1]], atol=EXACT)
 

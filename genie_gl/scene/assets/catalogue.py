@@ -20,6 +20,7 @@ import numpy as np
 import trimesh
 
 from ...errors import ConfigError, did_you_mean
+from ..usd import read_usd
 from . import library as lib
 
 log = logging.getLogger(__name__)
@@ -58,8 +59,6 @@ def _read_trimesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _read_usd(path: Path, mpu: float | None, up: str | None) -> tuple[np.ndarray, np.ndarray]:
-    from ..usd import read_usd  # pxr is imported only when a USD asset is loaded
-
     scene = read_usd(path, meters_per_unit=mpu, up_axis=up)
     vs, fs, n = [], [], 0
     for inst in scene.instances:  # merge every placed mesh into one, in stage (world) coordinates

@@ -17,8 +17,10 @@ coordinates, DESIGN.md).
 """
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
+import cv2
 import numpy as np
 
 from ..frame import Frame
@@ -31,8 +33,6 @@ STEP = 0.01               # a relative jump between sorted depths that separates
 def supersample_sensor(sensor: Sensor, s: int) -> Sensor:
     """The camera whose ``s x s`` pixel blocks tile ``sensor``'s pixels (same lens model: a
     distorted sensor's normalised coordinates do not change with the pixel size)."""
-    import dataclasses
-
     K = sensor.K.copy()
     K[0, 0] *= s
     K[0, 1] *= s
@@ -112,8 +112,6 @@ def reduce(hi: Frame, sensor: Sensor, s: int, centre: Frame | None = None) -> Fr
     ``centre``, the frame rendered at the sensor's own resolution (its pixel-centre rays),
     gives the depth and normal wherever its instance is the one the block keeps: the exact
     depth on the centre ray, where an average over a block would round a crease."""
-    import cv2
-
     H, W = sensor.height, sensor.width
     instance = np.ascontiguousarray(hi.instance[::s, ::s])     # each block's first sample
     semantic = np.ascontiguousarray(hi.semantic[::s, ::s])
@@ -171,21 +169,3 @@ def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:
         return reduce(render(supersample_sensor(sensor, s), pose, **kw), sensor, s, centre)
 
     return wrapped
-
-
-def renderer_options(accuracy) -> dict:
-    """The :class:`Renderer` keywords an :class:`~genie_gl.accuracy.AccuracySettings` asks
-    for (``depth_precision``; float32 is the renderer's default and asks for nothing)."""
-    if accuracy is None or accuracy.depth_precision == "float32":
-        return {}
-    return {"depth_precision": accuracy.depth_precision}
-
-
-def settings_for(sensor: Sensor, accuracy=None):
-    """The settings a capture uses: ``accuracy``, else the profile's ``accuracy:`` block
-    (``sensor.meta["accuracy"]``), else the defaults."""
-    from ..accuracy import AccuracySettings
-
-    if accuracy is not None:
-        return accuracy
-    return sensor.meta.get("accuracy") or AccuracySettings()

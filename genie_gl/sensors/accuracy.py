@@ -13,26 +13,31 @@ stays within the budget. Every key is optional; a missing key keeps the default.
 ``multipath_samples`` keeps the owner's own default (the lens module's margin, the profile's
 second-view scale, each asset's segment count, the multipath model's neighbourhood).
 
-This module sits at the bottom of the package (it imports nothing of it but the errors), so
-any stage may read the settings; :func:`apply_to_sensor` imports the sensors stage lazily.
+The settings are part of a sensor profile (``Sensor.accuracy``), so they live in the sensors
+stage; the capture stage applies them (:mod:`genie_gl.capture.settings`).
 """
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
-from .errors import ConfigError, did_you_mean
-from .outputs import atomic_write_text, check_replaceable
+import yaml
+
+from ..errors import ConfigError, did_you_mean
+from ..outputs import atomic_write_text, check_replaceable
 
 RESAMPLE = ("nearest", "bilinear", "exact")
 SHADOW = ("scanline", "render")
 DEPTH_PRECISION = ("float32", "depth24", "reversed_z")
 SUPERSAMPLE = (1, 2, 4)
 
+
+#: the fields of a sensor profile (``profile.py`` reads them; an accuracy file may be a profile)
+PROFILE_KEYS = ("name", "calibration", "effects", "near_m", "far_m", "accuracy", "baseline_m", "description",
+                "source")
 
 @dataclass(frozen=True)
 class AccuracySettings:
@@ -135,8 +140,6 @@ def from_dict(data: Any, where: str) -> AccuracySettings:
 def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
     """Settings from a YAML or JSON file holding an ``accuracy:`` block (a profile, or what
     ``genie bench accuracy --budget-mm`` wrote), or the bare mapping."""
-    import yaml
-
     p = Path(path)
     try:
         data = yaml.safe_load(p.read_text())   # JSON is YAML
@@ -145,9 +148,7 @@ def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
     except yaml.YAMLError as exc:
         raise ConfigError(f"{p}: not valid YAML or JSON ({str(exc).splitlines()[0]})") from None
     if isinstance(data, dict) and "accuracy" in data:
-        from .sensors.profile import PROFILE_KEYS   # a profile's other fields may stand beside the block
-
-        for key in data:
+        for key in data:   # a profile's other fields may stand beside the block
             if key not in PROFILE_KEYS:
                 raise ConfigError(f"{p}: {key}: not a field of an accuracy file or sensor profile"
                                   f"{did_you_mean(str(key), PROFILE_KEYS)} (expected an accuracy: block)")
@@ -163,8 +164,6 @@ def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
 
 def write_accuracy(path: str | os.PathLike, settings: AccuracySettings, *, comment: str = "") -> Path:
     """Write ``settings`` as a YAML file with an ``accuracy:`` block (write, then rename)."""
-    import yaml
-
     p = check_replaceable(path, _written_by_genie, what="accuracy settings")
     head = "".join(f"# {line}\n" for line in [*comment.splitlines(), STAMP])
     return atomic_write_text(p, head + yaml.safe_dump({"accuracy": settings.to_dict()}, sort_keys=False))
@@ -176,114 +175,3 @@ STAMP = "written by genie-gl"
 def _written_by_genie(path: Path) -> bool:
     head = path.read_text().split("accuracy:", 1)[0]
     return f"# {STAMP}" in head
-
-
-def apply_to_sensor(sensor: Any, settings: AccuracySettings) -> Any:
-    """``sensor`` with the effect-level knobs set: the stereo shadow's method and second-view
-    scale and the samples of every multipath model that takes ``samples`` (``multipath``,
-    ``tof_multipath``)."""
-    effects = []
-    for eff in sensor.effects:
-        names = {f.name for f in fields(eff)} if dataclasses.is_dataclass(eff) else set()
-        if getattr(eff, "name", "") == "stereo_shadow" and "scale" in names and settings.shadow_scale is not None:
-            eff = dataclasses.replace(eff, scale=float(settings.shadow_scale))
-        if getattr(eff, "name", "") == "stereo_shadow" and "method" in names and settings.shadow is not None:
-            eff = dataclasses.replace(eff, method=settings.shadow)
-        if ("multipath" in getattr(eff, "name", "") and "samples" in names
-                and settings.multipath_samples is not None):
-            eff = dataclasses.replace(eff, samples=int(settings.multipath_samples))
-        effects.append(eff)
-    return dataclasses.replace(sensor, effects=tuple(effects))
-
-
-def simulate_options(settings: AccuracySettings | None) -> dict[str, Any]:
-    """The keywords of :func:`~genie_gl.sensors.simulate.simulate` that carry ``settings``: the
-    lens resampling and the wide render's oversampling (those set)."""
-    if settings is None:
-        return {}
-    wanted = {"resample": settings.resample, "oversample": settings.oversample}
-    return {k: v for k, v in wanted.items() if v is not None}
-
-
-def manifest_entry(settings: AccuracySettings) -> dict[str, Any]:
-    """What a manifest records: every field and the short label."""
-    return {"settings": settings.to_dict(), "label": settings.label()}
-
-
-def dumps(settings: AccuracySettings) -> str:
-    return json.dumps(settings.to_dict(), sort_keys=True)
-
-
-# -- datasets: the --accuracy option, what was used, what it cost (manifests) ---------------------
-def option(path: str | os.PathLike | None) -> dict[str, Any] | None:
-    """``--accuracy FILE``: ``{"file", "settings"}`` (a plain dict, for configs and manifests),
-    read and checked now so a bad file fails before any work; None without the option."""
-    if path is None:
-        return None
-    return {"file": str(path), "settings": load_accuracy(path).to_dict()}
-
-
-def settings_of(block: dict[str, Any] | None) -> AccuracySettings | None:
-    """The settings of an :func:`option` block (None: none given)."""
-    return AccuracySettings(**block["settings"]) if block else None
-
-
-def used(block: dict[str, Any] | None, sensor: str) -> dict[str, Any]:
-    """What a manifest records: the settings the captures used and where they came from
-    (the --accuracy file, the sensor profile's accuracy: block, or the defaults)."""
-    if block:
-        return {"source": block["file"], "settings": block["settings"]}
-    from .sensors import load_sensor
-
-    prof = load_sensor(sensor).meta.get("accuracy")
-    return {"source": "sensor profile" if prof else "defaults", "settings": (prof or AccuracySettings()).to_dict()}
-
-
-def frame_costs(frames: Any) -> dict[str, float]:
-    """Milliseconds summed over ``frames`` per part of making them: ``render``, ``distortion``
-    and ``effect:<name>`` (from each frame's ``meta["cost_ms"]``; a frame without it, an
-    ideal pinhole frame, counts its ``render_ms``)."""
-    out: dict[str, float] = {}
-    for f in frames:
-        for k, v in frame_cost(f.meta or {}).items():
-            out[k] = out.get(k, 0.0) + float(v)
-    return out
-
-
-def frame_cost(meta: dict[str, Any]) -> dict[str, float]:
-    """One frame's milliseconds per part, from its ``meta``: ``cost_ms`` when it has it, the
-    per-effect log ``effects`` (``[{"name", "run", "ms"}, ...]``) for the effects, and the
-    renderer's ``render_ms`` otherwise."""
-    cost = dict(meta.get("cost_ms") or {})
-    for e in meta.get("effects") or []:
-        if isinstance(e, dict) and "ms" in e and f"effect:{e.get('name')}" not in (meta.get("cost_ms") or {}):
-            key = f"effect:{e.get('name')}"
-            cost[key] = cost.get(key, 0.0) + float(e["ms"])
-    if "render" not in cost:
-        cost["render"] = float(meta.get("render_ms", 0.0))
-    return cost
-
-
-def dataset_cost(stats: list[dict[str, Any]]) -> dict[str, Any]:
-    """The manifest's ``cost`` block from the scenes' stats (``timings_s``, ``frame_cost_ms``,
-    ``cameras``): per stage and per effect, the total and the per-frame milliseconds."""
-    frames = sum(int(s.get("cameras", 0)) for s in stats)
-    stages: dict[str, float] = {}
-    parts: dict[str, float] = {}
-    for s in stats:
-        for k, v in (s.get("timings_s") or {}).items():
-            stages[k] = stages.get(k, 0.0) + 1e3 * float(v)
-        for k, v in (s.get("frame_cost_ms") or {}).items():
-            parts[k] = parts.get(k, 0.0) + float(v)
-    per = max(frames, 1)
-    return {"frames": frames,
-            "stages": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in stages.items()},
-            "capture": {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in sorted(parts.items())}}
-
-
-def segments_option(settings: AccuracySettings | None) -> dict[str, Any]:
-    """``{"segments": n}`` for the scene builder or USD reader when ``settings`` sets a
-    tessellation (segments per circle of curved parts), else nothing."""
-    if settings is None or settings.tessellation is None:
-        return {}
-    return {"segments": int(settings.tessellation)}

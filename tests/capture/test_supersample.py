@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from genie_gl.frame import Frame
-from genie_gl.render.supersample import majority, reduce, supersample_sensor, supersampled
+from genie_gl.capture.supersample import majority, reduce, supersample_sensor, supersampled
 from genie_gl.sensors.camera import Sensor
 
 
@@ -164,8 +164,9 @@ def test_capture_applies_the_settings_given_or_the_profiles(glctx):
     profile's accuracy: block applies when none is given."""
     import dataclasses
 
-    from genie_gl.accuracy import AccuracySettings
-    from genie_gl.render import Renderer, capture
+    from genie_gl.capture import capture
+    from genie_gl.render import Renderer
+    from genie_gl.sensors.accuracy import AccuracySettings
     from genie_gl.sensors.shadow import StereoShadow
 
     scene = _random_boxes(7)

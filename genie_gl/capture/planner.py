@@ -19,18 +19,19 @@ size, each effect from its ``cost_ms_per_mpx``; a dataset run's predicted time s
 """
 from __future__ import annotations
 
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import trimesh
 
-from .checks import capture_arguments
-from .scene.materials import MaterialTable
-from .scene.model import Scene
-from .sensors.camera import Sensor
-from .sensors.effect import Decision, View
+from ..checks import capture_arguments
+from ..scene.materials import MaterialTable
+from ..scene.model import Mesh, Scene
+from ..sensors.camera import Sensor
+from ..sensors.distortion import lens_views
+from ..sensors.effect import Decision, View
 
 # render cost model (llvmpipe, this class of host): fixed + per megapixel + per million triangles
 RENDER_MS_FIXED, RENDER_MS_PER_MPX, RENDER_MS_PER_MTRI = 2.0, 25.0, 60.0
@@ -119,27 +120,6 @@ class Plan:
         return "\n".join(lines)
 
 
-def effect_totals(frames: Sequence[Any]) -> dict[str, dict[str, Any]]:
-    """Per effect over captured frames (their ``meta["effects"]``): frames it ran on, frames
-    it skipped, its total milliseconds and the pixels it changed."""
-    out: dict[str, dict[str, Any]] = {}
-    for f in frames:
-        for e in (f.meta or {}).get("effects", []):
-            add_totals(out, {e["name"]: {"run": int(e["run"]), "skipped": int(not e["run"]), "ms": e["ms"],
-                                         "changed": e["changed"]}})
-    return out
-
-
-def add_totals(into: dict[str, dict[str, Any]], more: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Sum ``more`` (as :func:`effect_totals` gives) into ``into``; returns ``into``."""
-    for name, t in more.items():
-        acc = into.setdefault(name, {"run": 0, "skipped": 0, "ms": 0.0, "changed": 0})
-        for k in ("run", "skipped", "changed"):
-            acc[k] += int(t.get(k, 0))
-        acc["ms"] = round(acc["ms"] + float(t.get("ms", 0.0)), 3)
-    return into
-
-
 def _spheres(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World bounding spheres of the instances: ids (N,), centres (N, 3), radii (N,)."""
     cache: dict[str, tuple[np.ndarray, float]] = {}
@@ -160,10 +140,8 @@ def _spheres(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return (np.array(ids, np.uint32), np.array(centres).reshape(-1, 3), np.array(radii))
 
 
-def _is_convex(mesh: Any) -> bool:
+def _is_convex(mesh: Mesh) -> bool:
     """True for a closed convex mesh, or a single triangle (no surface of it faces another)."""
-    import trimesh
-
     if len(mesh.faces) < 4:
         return len(mesh.faces) <= 1
     t = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
@@ -198,8 +176,6 @@ def _frustum(sensor: Sensor) -> list[tuple[np.ndarray, np.ndarray]]:
     faces for a fisheye): per view, (camera_from_view rotation, side planes in the view)."""
     if sensor.is_pinhole:
         return [(np.eye(3), _side_planes(sensor))]
-    from .sensors.distortion import lens_views
-
     return [(m.rotation, _side_planes(m.render_sensor)) for m in lens_views(sensor)]
 
 
@@ -262,14 +238,3 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
         frames.append(FramePlan(k, effects, ids[ok & ~beyond], ids[beyond], ids[ok & ~beyond & ~(in_front & sides)],
                                 far, render_ms, reason))
     return Plan(sensor.name, frames, table)
-
-
-# ``gg.plan(scene, sensor, poses)`` is both this module and its function (as ``gg.render``):
-# once the module is imported, Python binds it as the package's attribute ``plan``, so the
-# module itself forwards calls to :func:`plan`.
-class _CallableModule(sys.modules[__name__].__class__):
-    def __call__(self, *args: Any, **kwargs: Any) -> Plan:
-        return plan(*args, **kwargs)
-
-
-sys.modules[__name__].__class__ = _CallableModule

@@ -4,8 +4,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from genie_gl.accuracy import (AccuracySettings, apply_to_sensor, dataset_cost, frame_costs, from_dict,
-                               load_accuracy, write_accuracy)
+from genie_gl.capture import apply_to_sensor, frame_costs
+from genie_gl.dataset.report import dataset_cost
+from genie_gl.sensors.accuracy import AccuracySettings, from_dict, load_accuracy, write_accuracy
 from genie_gl.errors import ConfigError
 
 

@@ -1,0 +1,19 @@
+"""Capture: the composer of the stages below it.
+
+The renderer (:mod:`genie_gl.render`) draws pinhole views; here they meet the sensor's lens
+(:mod:`.lens`), the plan of what to draw and which effects to run (:mod:`.planner`), the
+accuracy settings (:mod:`.settings`, :mod:`.supersample`) and the sensor's effects
+(:func:`~genie_gl.sensors.simulate.simulate`): :func:`render` makes one frame through the
+lens, :func:`capture` many, with their effects, on all cores.
+"""
+from .costs import add_totals, effect_totals, frame_cost, frame_costs
+from .frames import capture, render
+from .lens import silhouettes, through_lens
+from .planner import EffectPlan, FramePlan, Plan, far_plane, plan
+from .serial import pose_rng
+from .settings import apply_to_sensor, renderer_options, segments_option, settings_for, simulate_options
+from .supersample import supersampled
+
+__all__ = ["EffectPlan", "FramePlan", "Plan", "add_totals", "apply_to_sensor", "capture", "effect_totals",
+           "far_plane", "frame_cost", "frame_costs", "plan", "pose_rng", "render", "renderer_options",
+           "segments_option", "settings_for", "silhouettes", "simulate_options", "supersampled", "through_lens"]

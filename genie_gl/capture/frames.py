@@ -1,0 +1,111 @@
+"""``render`` (one frame through the lens, no effects) and ``capture`` (many poses, the
+sensor's effects, the plan, the accuracy settings; all cores).
+
+This is where the stages below meet: the renderer draws pinhole views, the lens resamples
+them into the sensor's image, the supersampler renders edges finer, the plan culls what
+cannot be seen and skips effects the view cannot call for, and ``simulate`` runs the
+sensor's effects, each frame with its own generator.
+"""
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..checks import capture_arguments, check_pose, expect
+from ..frame import Frame
+from ..limits import check_frames
+from ..render.context import GLContext
+from ..render.renderer import Renderer
+from ..scene.materials import MaterialTable
+from ..scene.model import Scene
+from ..sensors.accuracy import AccuracySettings
+from ..sensors.camera import Sensor
+from .lens import through_lens
+from .planner import Plan
+from .planner import plan as make_plan
+from .pool import capture_in_workers
+from .serial import capture_serial
+from .settings import apply_to_sensor, settings_for
+
+log = logging.getLogger(__name__)
+
+
+def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | None = None,
+           depth_only: bool = False, normals: bool = False, depth_precision: str = "float32") -> Frame:
+    """One frame of ``scene`` seen by ``sensor`` at ``pose`` (world_from_camera), through the
+    sensor's lens, without its effects (:func:`capture` applies them).
+
+    Creates and frees a GL context: to render many poses use :func:`capture`, or a
+    :class:`~genie_gl.render.Renderer` with :func:`~genie_gl.capture.through_lens`.
+    """
+    expect(scene, Scene, "render: scene")
+    expect(sensor, Sensor, "render: sensor")
+    pose = check_pose(pose, "render: pose")
+    with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
+        return through_lens(r.render)(sensor, pose, depth_only=depth_only, normals=normals)
+
+
+def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
+            workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
+            depth_precision: str = "float32", plan: Plan | bool | None = True,
+            accuracy: AccuracySettings | None = None, context: GLContext | None = None) -> list[Frame]:
+    """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
+
+    Parameters
+    ----------
+    scene, sensor : what to render and with which camera.
+    poses : sequence of (4, 4) float64 world_from_camera.
+    seed : int, seeds each pose's generator as ``SeedSequence([seed, i])``.
+    workers : processes to render with (one GL context each); None = all cores. 1 renders in
+        this process. The frames do not depend on it.
+    backend : GL backend ("egl", "osmesa" or None).
+    depth_only : skip the colour target (frames get ``rgb=None``).
+    depth_precision : "float32", "depth24" or "reversed_z" (see :class:`Renderer`).
+    plan : True (default): follow :func:`~genie_gl.capture.plan` of these poses (culling, far
+        plane, effects skipped where the view cannot call for them; same output as running
+        them); a :class:`~genie_gl.capture.Plan` of these poses; None: no plan (every effect
+        decided on its frame, no culling). Each frame's ``meta["effects"]`` records what ran.
+    accuracy : :class:`~genie_gl.sensors.accuracy.AccuracySettings`; None takes the profile's
+        ``accuracy:`` block, else the defaults (supersampling, lens resampling, depth
+        precision unless ``depth_precision`` is given, second-view scale, multipath samples;
+        tessellation is the scene's).
+    context : a :class:`~genie_gl.render.GLContext` to render in (``workers=1`` only; e.g.
+        :func:`~genie_gl.render.shared_context`, kept from scene to scene); None makes one.
+    """
+    scene, sensor, poses, seed = capture_arguments(scene, sensor, poses, seed, Scene, Sensor)
+    check_frames(len(poses), sensor.width, sensor.height, "capture")   # every frame is returned: all in memory
+    accuracy = settings_for(sensor, accuracy)
+    sensor = apply_to_sensor(sensor, accuracy)
+    if depth_precision == "float32":
+        depth_precision = accuracy.depth_precision
+    poses = [np.asarray(p, dtype=np.float64) for p in poses]
+    n = len(poses)
+    if plan is True:
+        plan = make_plan(scene, sensor, poses)
+    materials = None
+    if plan is not None:
+        materials = plan.materials
+        for f in plan.frames:
+            if f.empty:
+                log.warning("capture: frame %d: %s (its cloud will be empty)", f.index, f.reason)
+    elif any(e.needs_materials for e in sensor.effects):
+        materials = MaterialTable.from_scene(scene)
+    workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
+    workers = min(workers, n)
+    if workers <= 1:
+        with Renderer(scene, backend=backend, depth_precision=depth_precision, context=context) as r:
+            return _said_if_empty(capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials,
+                                                 accuracy), sensor)
+    return _said_if_empty(capture_in_workers(scene, sensor, poses, seed, workers, backend, depth_only,
+                                             depth_precision, plan, materials, accuracy), sensor)
+
+
+def _said_if_empty(frames: list[Frame], sensor: Sensor) -> list[Frame]:
+    """``frames``, with a warning when not one of them has a return."""
+    if frames and not any(bool((f.depth > 0).any()) for f in frames):
+        log.warning("capture: no point captured: none of the %d frames of sensor %s (%dx%d px, range %g-%g m) has a "
+                    "return", len(frames), sensor.name, sensor.width, sensor.height, sensor.near_m, sensor.far_m)
+    return frames

@@ -1,0 +1,57 @@
+"""A capture spread over worker processes, one GL context each (spawned, never forked: a
+forked child cannot render through its parent's EGL driver threads)."""
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..frame import Frame
+from ..processes import die_with_parent
+from ..render.context import set_default_backend
+from ..render.renderer import Renderer
+from ..render.threads import limit_threads
+from ..scene.materials import MaterialTable
+from ..scene.model import Scene
+from ..sensors.accuracy import AccuracySettings
+from ..sensors.camera import Sensor
+from .planner import Plan
+from .serial import capture_serial
+
+_WORKER: dict[str, Any] = {}
+
+
+def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32") -> None:
+    die_with_parent()
+    if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
+        set_default_backend(os.environ["GENIE_GL_BACKEND"])
+    # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
+    limit_threads(lp_threads)
+    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision)
+
+
+def _worker_render(job: tuple) -> list[Frame]:
+    sensor, poses, seed, indices, depth_only, plan, materials, accuracy = job
+    return capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, plan, materials, accuracy)
+
+
+def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], seed: int, workers: int,
+                       backend: str | None, depth_only: bool, depth_precision: str, plan: Plan | None,
+                       materials: MaterialTable | None, accuracy: AccuracySettings | None) -> list[Frame]:
+    """The frames of ``poses`` made by ``workers`` processes, pose i by worker i mod workers
+    (the frames do not depend on the split: each has its own generator)."""
+    n = len(poses)
+    chunks = [list(range(w, n, workers)) for w in range(workers)]
+    lp_threads = max(1, (os.cpu_count() or 1) // workers)
+    ctx = mp.get_context("spawn")
+    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
+        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan, materials,
+                                           accuracy) for c in chunks])
+    frames: list[Frame | None] = [None] * n
+    for c, part in zip(chunks, parts):
+        for i, f in zip(c, part):
+            frames[i] = f
+    return frames  # type: ignore[return-value]
