@@ -6,6 +6,7 @@ the fix. Catch :class:`GenieError` to catch them all.
 from __future__ import annotations
 
 import difflib
+import errno
 from collections.abc import Iterable
 
 
@@ -51,8 +52,6 @@ class LimitError(ConfigError):
 
 def os_error_message(exc: OSError) -> str:
     """One line for a file-system error: the file, what happened, what to do."""
-    import errno
-
     where = exc.filename or "a file"
     if exc.filename2:
         where = f"{exc.filename} -> {exc.filename2}"

@@ -21,6 +21,7 @@ label raster cells      :data:`MAX_RASTER_CELLS` (1e8)       a coarser ``--resol
 from __future__ import annotations
 
 import os
+import resource
 import shutil
 from pathlib import Path
 
@@ -51,14 +52,12 @@ def available_memory_bytes() -> int:
     except OSError:
         pass
     try:
-        import resource
-
         soft, _ = resource.getrlimit(resource.RLIMIT_AS)
         if soft != resource.RLIM_INFINITY:
             used = next((int(line.split()[1]) * 1024 for line in open("/proc/self/status")
                          if line.startswith("VmSize:")), 0)
             free = min(free, max(0, soft - used))
-    except (ImportError, OSError, ValueError):
+    except (OSError, ValueError):
         pass
     return free
 

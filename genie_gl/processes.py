@@ -15,6 +15,8 @@ import os
 import signal
 import sys
 
+from numba.core import event
+
 PR_SET_PDEATHSIG = 1
 
 
@@ -42,10 +44,6 @@ def say_when_compiling(who: str) -> None:
     if _SAID:
         return
     _SAID.append(who)
-    try:
-        from numba.core import event
-    except ImportError:   # no numba: nothing is compiled
-        return
 
     class Note(event.Listener):
         said = False

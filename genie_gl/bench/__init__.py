@@ -8,8 +8,8 @@ from __future__ import annotations
 import argparse
 import importlib
 
-from ..commands import announce_compilation
 from ..outputs import claim_folder
+from ..processes import say_when_compiling
 
 BENCHMARKS: dict[str, str] = {
     "render": "renderer against pyrender and Open3D (ms/frame, frames/s, ratios)",
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
         raise
     folder = claim_folder(args.out, "bench", OUTPUTS.get(args.bench, ()), reserve=True)
-    announce_compilation(f"bench {args.bench}")
+    say_when_compiling(f"genie bench {args.bench}")
     code = int(mod.run(args) or 0)
     folder.finish({"last": args.bench})
     return code

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ..commands import count, positive, seed
+from ..options import count, positive, seed
 from ..errors import ConfigError
 from ..sensors.accuracy import AccuracySettings, write_accuracy
 from ..sensors.placement import CoverageProblem, genetic_placement, greedy_placement

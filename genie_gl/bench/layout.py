@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..commands import count
+from ..options import count
 from ..layout import Child, Generator, generate_layout, parse_strategy, register
 from ..layout.generators import Children
 

@@ -35,7 +35,7 @@ import genie_gl as gg
 
 from ..cloud import to_cloud
 from ..cloud.kernels import count_valid
-from ..commands import count, counts
+from ..options import count, counts
 from ..cloud.unproject import ray_table, unproject_into
 from ..dataset.scene import scene_rngs
 from ..frame import Frame

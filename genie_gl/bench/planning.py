@@ -52,7 +52,7 @@ from ..sensors.geometry import pixel_rays
 from ..sensors.shadow import StereoShadow
 from ..sensors.simulate import simulate
 
-from ..commands import count
+from ..options import count
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

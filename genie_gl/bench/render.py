@@ -38,7 +38,7 @@ from ..render.threads import limit_threads
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
 
-from ..commands import count, names
+from ..options import count, names
 
 SIZES = {"100k": (4, 1024), "1M": (6, 4096)}   # icosphere subdivisions, cylinder sections
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..export import get_format
 from ..layout.estimate import layout_estimate
 from ..limits import (BYTES_PER_NODE, BYTES_PER_PIXEL, MAX_SIDE, check_disk, check_frame_side,
                       check_memory, check_regions, memory_limit_bytes)
@@ -36,8 +37,6 @@ class Estimate:
 
 
 def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
-    from ..export import get_format
-
     nodes, work = layout_estimate(strategy)
     pixels = int(sensor.width) * int(sensor.height)
     per_worker = cfg.cameras * pixels * BYTES_PER_PIXEL + nodes * BYTES_PER_NODE
