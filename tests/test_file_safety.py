@@ -163,6 +163,16 @@ def test_bench_keeps_the_users_files(tmp_path, capsys):
     assert_intact(tmp_path, planted)
 
 
+@pytest.mark.gl
+def test_a_benchmark_writes_beside_the_users_files(tmp_path, capsys):
+    """genie bench stability (one case) runs to the end in a folder of the user's files."""
+    planted = plant(tmp_path)
+    assert main(["bench", "stability", "--case", "far_near", "--out", str(tmp_path)]) in (0, 1)
+    assert_intact(tmp_path, planted)
+    m = json.loads((tmp_path / "manifest.json").read_text())
+    assert m["command"] == "bench" and m["outputs"] == ["stability.json"]
+
+
 # --- the API ---------------------------------------------------------------------------------
 
 def _cloud() -> "gg.PointCloud":
@@ -188,6 +198,7 @@ def test_export_writes_beside_the_users_files_and_refuses_their_names(tmp_path, 
 def test_single_file_writers_replace_only_their_own(tmp_path):
     from genie_gl.sensors.accuracy import AccuracySettings, write_accuracy
     from genie_gl.layout import save_layout_png
+    from genie_gl.export import npz, pcd, ply
     from genie_gl.sensors import Calibration, write_calibration
 
     layout = gg.generate_layout("assembly_line", seed=0)
@@ -200,6 +211,9 @@ def test_single_file_writers_replace_only_their_own(tmp_path):
         "s.usda": lambda p: gg.write_usd(s, p),
         "c.yml": lambda p: write_calibration(calib, p),
         "a.yaml": lambda p: write_accuracy(p, AccuracySettings()),
+        "c.ply": lambda p: ply.write(_cloud(), p),
+        "c.pcd": lambda p: pcd.write(_cloud(), p),
+        "c.npz": lambda p: npz.write(_cloud(), p),
     }
     for name, write in writers.items():
         write(tmp_path / name)

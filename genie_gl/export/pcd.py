@@ -9,10 +9,18 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
-from ..outputs import atomic_write_bytes
+from ..outputs import atomic_write_bytes, check_replaceable
+
+
+def written_by_genie(path: Path) -> bool:
+    """True when ``path`` is a PCD file genie-gl wrote (its header's comment)."""
+    with open(path, "rb") as fh:
+        return b"genie-gl point cloud" in fh.read(256)
 
 
 def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
+    """Write ``cloud`` as binary PCD; an existing file is replaced only when genie-gl wrote it."""
+    path = check_replaceable(path, written_by_genie, what="PCD point cloud")
     n = len(cloud)
     names, types = ["x", "y", "z"], ["F", "F", "F"]
     dtype = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
