@@ -38,6 +38,7 @@ BYTES_PER_PIXEL = 40     # depth f4 + ids u4 + semantic u2 + rgb 3 + normals/ren
 BYTES_PER_NODE = 2048    # layout arrays, scene instances, placement cover
 BYTES_PER_INSTANCE = 4096  # an instance in a Scene (transform, ids, material) and its draw data
 BYTES_PER_POINT = 16     # xyz f4 + label u4 (SemanticKITTI); ply/pcd/npz a little more
+BYTES_PER_CLOUD_POINT = 48  # a merged cloud in memory: xyz f4 x 3, ids, colour, normal, camera, and the merge
 MEMORY_SHARE = 0.8       # of the memory available now, when no limit is given
 
 

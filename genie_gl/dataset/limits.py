@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ..export import get_format
 from ..layout.estimate import layout_estimate
-from ..limits import (BYTES_PER_NODE, BYTES_PER_PIXEL, MAX_SIDE, check_disk, check_frame_side,
+from ..limits import (BYTES_PER_CLOUD_POINT, BYTES_PER_NODE, BYTES_PER_PIXEL, MAX_SIDE, check_disk, check_frame_side,
                       check_memory, check_regions, memory_limit_bytes)
 from .config import DatasetConfig
 
@@ -40,6 +40,8 @@ def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
     nodes, work = layout_estimate(strategy)
     pixels = int(sensor.width) * int(sensor.height)
     per_worker = cfg.cameras * pixels * BYTES_PER_PIXEL + nodes * BYTES_PER_NODE
+    if cfg.previews:   # a preview scene's frames are merged into one cloud as well
+        per_worker += cfg.cameras * pixels * BYTES_PER_CLOUD_POINT
     workers = min(cfg.workers, cfg.scenes)
     if cfg.format == "bop":
         disk = cfg.scenes * cfg.cameras * pixels * BOP_BYTES_PER_PIXEL
