@@ -35,8 +35,10 @@ def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m:
     path = resolve(name_or_path, "sensors", (".yaml",))
     try:
         return _load_sensor(path, near_m, far_m)
-    except ConfigError:
-        raise
+    except ConfigError as exc:   # the file is named in every message (a camera's own check names the camera)
+        if str(path) in str(exc) or Path(path).name in str(exc):
+            raise
+        raise ConfigError(f"{path}: {exc}") from None
     except (cv2.error, TypeError, ValueError, KeyError, IndexError, AttributeError, OverflowError) as exc:
         # a field of the wrong kind that no check above named: still one line naming the file
         why = str(exc).strip().splitlines()[-1][:160] if str(exc).strip() else type(exc).__name__
