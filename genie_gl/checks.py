@@ -121,7 +121,8 @@ def expect(value: Any, cls: type, where: str) -> Any:
 def expect_sequence(values: Any, cls: type, where: str) -> list:
     """``values`` as a non-empty list of ``cls``; one ``cls`` or anything else is refused."""
     if isinstance(values, cls):
-        raise ConfigError(f"{where}: expected a list of {cls.__name__}s, got one {cls.__name__}: pass [{where[:-1] or 'x'}]")
+        raise ConfigError(f"{where}: expected a list of {cls.__name__}s, got one {cls.__name__}: pass a list "
+                          f"of it")
     if isinstance(values, (str, bytes, dict)) or not hasattr(values, "__iter__"):
         raise ConfigError(f"{where}: expected a list of {cls.__name__}s, got {describe(values)}")
     out = list(values)

@@ -1,12 +1,13 @@
 """What a genie-gl process does once: a worker dies with its parent; any process says when it
 compiles its kernels (the first run's one-time cost).
 
-Workers never outlive the run that started them. A run's leader holds the output folder's lock; its workers write into that folder. When the
-leader is stopped (SIGTERM, SIGINT: the CLI turns both into ``KeyboardInterrupt``, so the
-pools' ``with`` blocks terminate and join their workers before the lock is released) or
-killed outright (SIGKILL: nothing of the leader runs), the workers must stop too:
-:func:`die_with_parent`, called first in every worker, asks the kernel to send the worker
-SIGKILL the moment its parent dies (Linux ``PR_SET_PDEATHSIG``; elsewhere nothing).
+Workers never outlive the run that started them. A run's leader holds the output folder's
+lock; its workers write into that folder. When the leader is stopped (SIGTERM, SIGINT: the CLI
+turns both into ``KeyboardInterrupt``, so the pools' ``with`` blocks terminate and join their
+workers before the lock is released) or killed outright (SIGKILL: nothing of the leader runs),
+the workers must stop too: :func:`die_with_parent`, called first in every worker, asks the
+kernel to send the worker SIGKILL the moment its parent dies (Linux ``PR_SET_PDEATHSIG``;
+elsewhere nothing).
 """
 from __future__ import annotations
 

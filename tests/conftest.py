@@ -66,7 +66,8 @@ def pytest_terminal_summary(terminalreporter):
     kinds = {}
     for kind, _, _ in ran:
         kinds[kind] = kinds.get(kind, 0) + 1
-    failed = {g: sum(1 for _, guard, o in ran if guard == g and o == "failed") for g in ("loss", "traceback", "hang", "wrong")}
+    failed = {g: sum(1 for _, guard, o in ran if guard == g and o == "failed")
+              for g in ("loss", "traceback", "hang", "wrong")}
     cases = {g: sum(1 for _, guard, _ in ran if guard == g) for g in failed}
     skipped = len(_FAULTS) - len(ran)
     terminalreporter.write_sep("-", "fault injection")

@@ -19,12 +19,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", required=True, help="USD scene (.usda/.usdc/.usd)")
     p.add_argument("--sensor", default="ideal_pinhole", help="sensor profile name or path")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--cameras", type=count(1, MAX_CAMERAS), default=8, help="cameras placed inside the scene (default 8)")
+    g.add_argument("--cameras", type=count(1, MAX_CAMERAS), default=8,
+                   help="cameras placed inside the scene (default 8)")
     g.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] world_from_camera")
     p.add_argument("--mount", type=positive(1e4), default=None, metavar="M",
                    help="camera height above the floor (m); default: chosen for the sensor's range")
     p.add_argument("--seed", type=seed, default=0)
-    p.add_argument("--scenes", type=count(1, 1_000_000), default=1, help="scenes of a dataset run, for the predicted time")
+    p.add_argument("--scenes", type=count(1, 1_000_000), default=1,
+                   help="scenes of a dataset run, for the predicted time")
     p.add_argument("--json", action="store_true", help="print the whole plan as JSON")
     p.add_argument("--no-progress", action="store_true")
 

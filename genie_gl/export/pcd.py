@@ -49,4 +49,5 @@ def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "
 from .registry import DatasetFormat, file_output, register_format, write_chunks  # noqa: E402
 
 DATASET = register_format(DatasetFormat("pcd", "scenes", write_scene=write_chunks("pcd", write),
-                                        write_cloud=_write_cloud, cloud_outputs=file_output('pcd'), bytes_per_point=24, description=__doc__.splitlines()[0]))
+                                        write_cloud=_write_cloud, cloud_outputs=file_output('pcd'),
+                                        bytes_per_point=24, description=__doc__.splitlines()[0]))

@@ -61,4 +61,5 @@ def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "
 from .registry import DatasetFormat, file_output, register_format, write_chunks  # noqa: E402
 
 DATASET = register_format(DatasetFormat("ply", "scenes", write_scene=write_chunks("ply", write),
-                                        write_cloud=_write_cloud, cloud_outputs=file_output('ply'), bytes_per_point=35, description=__doc__.splitlines()[0]))
+                                        write_cloud=_write_cloud, cloud_outputs=file_output('ply'),
+                                        bytes_per_point=35, description=__doc__.splitlines()[0]))

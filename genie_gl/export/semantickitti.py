@@ -88,13 +88,13 @@ def split_note(n: int, ratios: Sequence[float] = (0.8, 0.1, 0.1)) -> str | None:
     empty = [SPLITS[i] for i in range(3) if ratios[i] > 0 and sizes[i] == 0]
     if not empty:
         return None
-    need = next((m for m in range(n + 1, 100_000) if all(s > 0 or r == 0 for s, r in zip(split_sizes(m, ratios), ratios))),
-                None)
+    need = next((m for m in range(n + 1, 100_000)
+                 if all(s > 0 or r == 0 for s, r in zip(split_sizes(m, ratios), ratios))), None)
     shares = ",".join(f"{r:g}" for r in ratios)
     got = ", ".join(f"{name} {size}" for name, size in zip(SPLITS, sizes))
     more = f"; {need} sequences would give every split one" if need else ""
-    return (f"--split {shares}: {n} sequence{'s are' if n != 1 else ' is'} too few for these shares: {' and '.join(empty)} "
-            f"get{'s' * (len(empty) == 1)} none, the rest is in train ({got}){more}")
+    return (f"--split {shares}: {n} sequence{'s are' if n != 1 else ' is'} too few for these shares: "
+            f"{' and '.join(empty)} get{'s' * (len(empty) == 1)} none, the rest is in train ({got}){more}")
 
 
 def encode_instances(instance: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
@@ -295,4 +295,5 @@ from .registry import DatasetFormat, register_format  # noqa: E402
 DATASET = register_format(DatasetFormat(
     "semantickitti", "scenes", colour=False, write_scene=_write_scene, finish=_finish, write_cloud=_write_cloud,
     stale=("sequences",), cloud_outputs=lambda name: ("sequences", "genie-gl.yaml"),
-    dataset_outputs=("sequences", "genie-gl.yaml"), notes=_notes, bytes_per_point=16, description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))
+    dataset_outputs=("sequences", "genie-gl.yaml"), notes=_notes, bytes_per_point=16,
+    description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))

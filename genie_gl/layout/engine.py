@@ -36,7 +36,8 @@ def generate_layout(strategy: Strategy | str | Path | dict, seed: int = 0, *,
     strat = as_strategy(strategy)
     seed = check_seed(seed)
     max_regions = whole_number(max_regions, "generate_layout: max_regions", 1)
-    check_regions(layout_estimate(strat)[1], max_regions, str(strat.source), option="--max-nodes (max_regions= in the API)")
+    check_regions(layout_estimate(strat)[1], max_regions, str(strat.source),
+                  option="--max-nodes (max_regions= in the API)")
     rng = np.random.default_rng(seed) if rng is None else rng
     names = tuple(strat.region_types)
     r = strat.root

@@ -167,7 +167,8 @@ def _number(args: dict, key: str, default: float, where: str, *, lo: float = 0.0
             whole: bool = False) -> float:
     """A generator argument that is one finite number (>= lo, or > lo), whole where it counts."""
     v = args.get(key, default)
-    ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and (v > lo if lo_open else v >= lo)
+    ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and \
+        (v > lo if lo_open else v >= lo)
     if not ok or (whole and float(v) != int(v)):
         kind = "a whole number" if whole else "a finite number"
         raise ConfigError(f"{where}.args.{key}: expected {kind} {'>' if lo_open else '>='} {lo:g}, got {v!r:.40}")
@@ -197,7 +198,8 @@ class Grid(Generator):
         if not isinstance(cell, (list, tuple)) or len(cell) != 2 or \
                 not all(not isinstance(c, bool) and isinstance(c, (int, float)) and math.isfinite(c) and c > 0
                         for c in cell):
-            raise ConfigError(f"{where}.args.cell: expected [width, height], finite numbers > 0 in metres, got {cell!r}")
+            raise ConfigError(f"{where}.args.cell: expected [width, height], finite numbers > 0 in metres, "
+                              f"got {cell!r}")
         for k in ("spacing", "aisle"):
             _number(self.args, k, 0.0, where)
         _number(self.args, "aisle_every", 0, where, whole=True)

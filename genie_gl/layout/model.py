@@ -302,7 +302,8 @@ def _parse_layout(data: Any, source: str) -> tuple[dict[str, RegionType], list[N
         where = f"{source}: $.region_types.{name}"
         v = _known(v, _TYPE_KEYS, where, "a region type")
         color = v.get("color", (200, 200, 200))
-        if not (isinstance(color, list) and len(color) == 3 and all(isinstance(c, int) and 0 <= c <= 255 for c in color)):
+        if not (isinstance(color, list) and len(color) == 3
+                and all(isinstance(c, int) and 0 <= c <= 255 for c in color)):
             raise ConfigError(f"{where}.color: expected [r, g, b] (0-255), got {color!r:.40}")
         try:
             types[name] = RegionType(**{**v, "name": name, "color": tuple(color)})
