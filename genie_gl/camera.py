@@ -44,7 +44,7 @@ PINHOLE_LENGTHS = (0, 4, 5, 8, 12, 14)
 MODELS: dict[str, tuple[int, ...]] = {"pinhole": PINHOLE_LENGTHS, "fisheye": (0, 4), "omni": (1, 5)}
 NEAR_CLIP_RATIO = 1.0 / 1024   # the GL near plane, as a share of the sensor's minimum range
 MAX_OFF_AXIS = np.radians(89.9)  # rays beyond this are not represented (depth is z)
-MAX_SIDE_OVER_F = 1e3  # a side over 1000 focal lengths spans 179.9 degrees through a pinhole
+MAX_SIDE_OVER_F = 1e5  # a side over 1e5 focal lengths spans 179.999 degrees through a pinhole
 
 
 def tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:

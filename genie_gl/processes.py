@@ -21,8 +21,9 @@ from numba.core import event
 PR_SET_PDEATHSIG = 1
 
 
-def die_with_parent() -> bool:
-    """Have the kernel kill this process when its parent dies; True when it could."""
+def die_with_parent(parent: int | None = None) -> bool:
+    """Have the kernel kill this process when its parent dies; True when it could. ``parent``:
+    the pid that started this worker; when it is already gone, the worker exits now."""
     if not sys.platform.startswith("linux"):
         return False
     try:
@@ -31,7 +32,7 @@ def die_with_parent() -> bool:
             return False
     except (OSError, AttributeError):
         return False
-    if os.getppid() == 1:   # the parent died before the request: go now
+    if os.getppid() == 1 or (parent is not None and os.getppid() != parent):   # it died before the request
         os._exit(1)
     return True
 

@@ -8,6 +8,7 @@ what was expected, raised as :class:`~genie_gl.errors.ConfigError`.
 from __future__ import annotations
 
 import math
+import os
 from typing import Any, ClassVar, Literal, Optional
 
 import numpy as np

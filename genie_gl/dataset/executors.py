@@ -109,7 +109,7 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
             # the stages under way are shown through a manager's dict: a server process of its
             # own, started only when there is a bar to show them on
             with ctx.Manager() if progress else nullcontext() as manager, \
-                    ctx.Pool(n, initializer=die_with_parent) as pool:
+                    ctx.Pool(n, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
                 status = manager.dict() if manager is not None else None  # scene -> its worker's stage
                 it = pool.imap_unordered(_worker, [(cfg, i, verify, status) for i in range(cfg.scenes)])
                 left = cfg.scenes

@@ -29,7 +29,7 @@ def inputs(tmp_path_factory) -> dict[str, Path]:
     s.add(trimesh.creation.box((4, 4, 1)), [0, 0, 0.5], semantic=2)
     s.add(trimesh.creation.box((20, 20, 0.02)), np.eye(4), semantic=0)
     gg.generate_layout("assembly_line", seed=0).to_json(d / "layout.json")
-    return {"usd": s.to_usd(d / "s.usda"), "layout": d / "layout.json"}
+    return {"usd": gg.write_usd(s, d / "s.usda"), "layout": d / "layout.json"}
 
 
 def on_disk(tmp_path: Path, opts: str, *, argv=None, python=None, out: str = "out", timeout: float = 300) -> dict:

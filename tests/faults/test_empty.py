@@ -55,7 +55,7 @@ def test_a_capture_that_sees_nothing_is_an_error(tmp_path):
     was captured, naming the scene and the sensor; nothing is exported."""
     s = gg.Scene()
     s.add(trimesh.creation.box((4, 4, 1)), [0, 0, 0.5], semantic=2)
-    usd = gg.write_usd(s, tmp_path / "s.usda") if hasattr(gg, "write_usd") else s.to_usd(tmp_path / "s.usda")
+    usd = gg.write_usd(s, tmp_path / "s.usda")
     up = np.eye(4)
     up[2, 3] = 3.0                                  # OpenCV camera: +z forward; at z = 3 m looking up
     (tmp_path / "poses.json").write_text(json.dumps([up.tolist()]))

@@ -254,5 +254,5 @@ def test_bad_poses_are_one_line(tmp_path, content, needle):
     s = gg.Scene()
     import trimesh
     s.add(trimesh.creation.box((1, 1, 1)), np.eye(4), semantic=1)
-    usd_path = s.to_usd(tmp_path / "s.usda")
+    usd_path = gg.write_usd(s, tmp_path / "s.usda")
     refused(cli("plan", "--scene", usd_path, "--poses", p, "--no-progress"), needle)

@@ -22,7 +22,7 @@ def files(tmp_path_factory) -> dict[str, Path]:
     s.add(trimesh.creation.box((20, 20, 0.02)), np.eye(4), semantic=0)
     gg.generate_layout("assembly_line", seed=0).to_json(d / "layout.json")
     (d / "a_file").write_text("x")
-    return {"usd": s.to_usd(d / "s.usda"), "layout": d / "layout.json", "file": d / "a_file", "dir": d}
+    return {"usd": gg.write_usd(s, d / "s.usda"), "layout": d / "layout.json", "file": d / "a_file", "dir": d}
 
 
 SEED = "expected a whole number in 0..2**63-1"

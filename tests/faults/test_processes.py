@@ -101,12 +101,11 @@ def test_a_signal_to_the_leader_stops_its_workers_before_the_lock_is_released(si
 @fault("kill", "loss")
 def test_a_killed_leader_takes_its_workers_with_it(tmp_path):
     out = tmp_path / "d"
-    p, workers = start(out, writing=False)
-    time.sleep(1.0)
+    p, workers = start(out)
     p.send_signal(signal.SIGKILL)
     p.wait(30)
     t = time.time()
-    while alive(workers) and time.time() - t < 1.0:   # the kernel kills them with it (else: their scene first)
+    while alive(workers) and time.time() - t < 1.0:   # the kernel kills them with it (else: their scenes first)
         time.sleep(0.02)
     assert not alive(workers), f"workers {alive(workers)} outlived their killed leader"
     assert lock_is_free(out)
