@@ -33,7 +33,7 @@ MAX_SEED = 2**63 - 1
 #: how to make each stage's object, for the message when something else came
 MAKERS = {
     "Layout": "gg.generate_layout(strategy, seed=...) or gg.Layout.from_json(path)",
-    "Scene": "gg.Scene.from_usd(path) or gg.build_scene(layout, seed=...)",
+    "Scene": "gg.read_usd(path) or gg.build_scene(layout, seed=...)",
     "Sensor": "gg.load_sensor(name or path)",
     "Strategy": "gg.load_strategy(name or path)",
     "PointCloud": "gg.to_cloud(frames)",

@@ -225,7 +225,7 @@ def test_a_bad_usd_stage_is_one_line(tmp_path, text, needle):
     p.write_text(text)
     refused(cli("plan", "--scene", p, "--cameras", "1", "--no-progress"), "s.usda", needle)
     with pytest.raises(gg.ConfigError, match=needle.replace("(", r"\(").replace(")", r"\)").replace(".", r"\.")):
-        gg.Scene.from_usd(p)
+        gg.read_usd(p)
 
 
 @WRONG
@@ -233,7 +233,7 @@ def test_a_y_up_stage_is_turned_z_up_exactly(tmp_path):
     """Y up: +90 degrees about x, (x, y, z) -> (x, -z, y), exactly (the points are whole numbers)."""
     p = tmp_path / "s.usda"
     p.write_text(usd(up="Y", point="(2, 3, 5)").replace("(1, 0, 0), (0, 1, 0)", "(7, 0, -11), (0, 13, 0)"))
-    s = gg.Scene.from_usd(p)
+    s = gg.read_usd(p)
     inst = s.instances[0]
     m = s.meshes[inst.mesh]
     world = (inst.world_from_model[:3, :3] @ m.vertices.T.astype(np.float64)).T + inst.world_from_model[:3, 3] \

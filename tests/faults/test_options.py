@@ -113,8 +113,10 @@ def test_plan_mount_places_cameras_at_that_height(files):
 
     plan = json.loads(run.out)
     assert len(plan["frames"]) == 3
-    scene = gg.Scene.from_usd(files["usd"])
-    poses = gg.sensors.placement.scene_poses(scene, gg.load_sensor("ideal_pinhole"), 3, 0, mount_height_m=1.7)
+    scene = gg.read_usd(files["usd"])
+    from genie_gl.sensors.placement import scene_poses
+
+    poses = scene_poses(scene, gg.load_sensor("ideal_pinhole"), 3, 0, mount_height_m=1.7)
     floor = scene.bounds()[0][2]
     np.testing.assert_allclose([p[2, 3] - floor for p in poses], 1.7, atol=1e-9)
 
