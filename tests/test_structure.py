@@ -19,7 +19,7 @@ PACKAGE = "genie_gl"
 
 # the stages in pipeline order (DESIGN.md): a module may import its own stage and those before it
 STAGES = ("base", "layout", "scene", "sensors", "render", "capture", "cloud", "export", "eval", "dataset",
-          "bench", "commands", "cli")
+          "card", "bench", "commands", "cli")
 # the bottom of the package: the contracts every stage shares (top-level modules of genie_gl)
 BASE = ("errors", "outputs", "resources", "checks", "options", "limits", "processes", "labels", "camera", "frame", "scene_options")
 # optional dependencies (extras, or used only for pictures) that a function may import when it needs them
