@@ -84,6 +84,14 @@ CASES = [
     (OPTION, ["bench", "accuracy", "--budget-mm", "-1"], ["--budget-mm", "got -1"]),
     (OPTION, ["bench", "accuracy", "--seed", "-1"], [SEED]),
     (OPTION, ["bench", "layout", "--out", "{file}"], ["is a file; expected a folder"]),
+    # genie report-card
+    (OPTION, ["report-card", "--sensor", "kinect_v2", "--seed", "-1"], [SEED]),
+    (OPTION, ["report-card", "--sensor", "kinect_v2", "--frames", "1"], ["--frames", "got 1"]),
+    (OPTION, ["report-card", "--sensor", "kinect_v2", "--captures", "{dir}", "--calibration", "{file}",
+              "--wall-distance", "nan"], ["--wall-distance", "got nan"]),
+    (OPTION, ["report-card", "--sensor", "kinect_v2", "--depth-scale", "0"], ["--depth-scale", "got 0"]),
+    (OPTION, ["report-card", "--sensor", "kinect_v3"], ["kinect_v3", "did you mean 'kinect_v2'"]),
+    (OPTION, ["report-card", "--sensor", "kinect_v2", "--out", "{file}"], ["is a file; expected a folder"]),
     # the top level
     (OPTION, ["laoyut"], ["invalid choice: 'laoyut'"]),
 ]
@@ -91,7 +99,7 @@ CASES = [
 
 def _fill(argv: list[str], files: dict[str, Path], tmp_path: Path) -> list[str]:
     out = [a.format(**{k: str(v) for k, v in files.items()}) for a in argv]
-    if "--out" not in out and out[0] not in ("plan",) and not (out[0] == "layout" and len(out) == 2):
+    if "--out" not in out and out[0] not in ("plan", "report-card") and not (out[0] == "layout" and len(out) == 2):
         out += ["--out", str(tmp_path / ("o.usda" if out[0] == "scene" else "o"))]
     return out
 
