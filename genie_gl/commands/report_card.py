@@ -26,7 +26,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="profile name or path (repeat for several; 'all' = every shipped profile with a reference file)")
     p.add_argument("--references", help="a reference file to judge against (default: the shipped one of the profile)")
     p.add_argument("--seed", type=seed, default=0)
-    p.add_argument("--frames", type=count(2, 10_000), default=8, help="frames per test scene (>= 2; default 8)")
+    p.add_argument("--frames", type=count(1, 10_000), default=8, help="frames per test scene (>= 2; default 8)")
     p.add_argument("--quick", action="store_true", help="fewer distances and angles (a smoke test, not a card)")
     p.add_argument("--out", help="folder for <name>.card.json, <name>.card.md and manifest.json")
     p.add_argument("--pages", help="folder for the Markdown pages and PNG curves (e.g. docs/sensors)")

@@ -86,7 +86,8 @@ CASES = [
     (OPTION, ["bench", "layout", "--out", "{file}"], ["is a file; expected a folder"]),
     # genie report-card
     (OPTION, ["report-card", "--sensor", "kinect_v2", "--seed", "-1"], [SEED]),
-    (OPTION, ["report-card", "--sensor", "kinect_v2", "--frames", "1"], ["--frames", "got 1"]),
+    (OPTION, ["report-card", "--sensor", "kinect_v2", "--frames", "1"], ["--frames", "at least 2 frames"]),
+    (OPTION, ["report-card", "--sensor", "kinect_v2", "--frames", "2.5"], ["--frames", "got 2.5"]),
     (OPTION, ["report-card", "--sensor", "kinect_v2", "--captures", "{dir}", "--calibration", "{file}",
               "--wall-distance", "nan"], ["--wall-distance", "got nan"]),
     (OPTION, ["report-card", "--sensor", "kinect_v2", "--depth-scale", "0"], ["--depth-scale", "got 0"]),
