@@ -18,6 +18,8 @@ BENCHMARKS: dict[str, str] = {
     "pipeline": "seconds per scene end to end, share of each stage, scaling with workers",
     "stability": "hard cases against analytic truth: tolerance and worst error per case (exit 1 on a failure)",
     "planning": "a full D435 and Azure frame before and after planning, as multiples of the ideal render",
+    "sequence": "frames/s along a trajectory against the same number of standing frames",
+    "odometry": "KISS-ICP on a SemanticKITTI sequence of a rig's recording; evo's ATE against its ground truth",
 }
 
 
@@ -41,6 +43,7 @@ OUTPUTS: dict[str, tuple[str, ...]] = {
     "render": ("render.json",), "layout": ("layout.json", "layout.png"),
     "accuracy": ("accuracy.json", "accuracy.md", "accuracy.png", "accuracy.yaml", "cache"),
     "pipeline": ("pipeline.json",), "stability": ("stability.json",), "planning": ("planning.json",),
+    "sequence": ("sequence.json",), "odometry": ("odometry.json", "odometry"),
 }
 
 

@@ -54,6 +54,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     views = p.add_mutually_exclusive_group()
     views.add_argument("--cameras", type=count(1, 1000), default=3, help="cameras placed over the scene (default 3)")
     views.add_argument("--poses", default=None, help="JSON list of 4x4 world_from_camera, or .npy (N, 4, 4)")
+    p.add_argument("--path", default=None, help="with a strategy --scene: the --cameras frames along a trajectory "
+                                                "(aisles, random or a waypoints file) instead of standing cameras")
     p.add_argument("--repeats", type=count(1, 1000), default=5, help="timed passes per row after one warm-up (default 5)")
     p.add_argument("--budget-mm", type=positive(1e6), default=None, help="depth error budget (p99, mm)")
     p.add_argument("--budget-px", type=positive(1e6), default=None, help="silhouette budget (mean edge error, px)")

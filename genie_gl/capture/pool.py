@@ -12,6 +12,7 @@ import numpy as np
 from ..frame import Frame
 from ..processes import die_with_parent
 from ..render.context import set_default_backend
+from ..render.lod import LevelOfDetail
 from ..render.renderer import Renderer
 from ..render.threads import limit_threads
 from ..scene.materials import MaterialTable
@@ -20,17 +21,19 @@ from ..sensors.accuracy import AccuracySettings
 from ..sensors.camera import Sensor
 from .planner import Plan
 from .serial import capture_serial
+from .settings import renderer_options
 
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32") -> None:
+def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32",
+                 lod: LevelOfDetail | None = None) -> None:
     die_with_parent()
     if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
     limit_threads(lp_threads)
-    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision)
+    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision, lod=lod)
 
 
 def _worker_render(job: tuple) -> list[Frame]:
@@ -47,7 +50,9 @@ def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray]
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
-    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
+    lod = renderer_options(accuracy).get("lod")
+    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision,
+                                                              lod)) as pool:
         parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan, materials,
                                            accuracy) for c in chunks])
     frames: list[Frame | None] = [None] * n

@@ -2,7 +2,7 @@
 
 :class:`~genie_gl.sensors.accuracy.AccuracySettings` is one typed record from the edge (a
 profile's ``accuracy:`` block, ``--accuracy FILE``, a caller's argument) to here; this module
-says which part takes which field: the renderer its depth precision, the lens its resampling
+says which part takes which field: the renderer its depth precision and level of detail, the lens its resampling
 and oversampling, the supersampler its factor, the scene builder its tessellation, and each
 effect the knobs it declares (:attr:`~genie_gl.sensors.effect.Effect.accuracy_knobs`).
 """
@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+from ..render.lod import LevelOfDetail
 from ..sensors.accuracy import AccuracySettings
 from ..sensors.camera import Sensor
 
@@ -51,11 +52,17 @@ def simulate_options(settings: AccuracySettings | None) -> dict[str, Any]:
 
 
 def renderer_options(settings: AccuracySettings | None) -> dict[str, Any]:
-    """The :class:`~genie_gl.render.Renderer` keywords ``settings`` ask for
-    (``depth_precision``; float32 is the renderer's default and asks for nothing)."""
-    if settings is None or settings.depth_precision == "float32":
+    """The :class:`~genie_gl.render.Renderer` keywords ``settings`` ask for: ``depth_precision``
+    (float32 is the renderer's default and asks for nothing) and ``lod`` (level of detail,
+    when ``lod_px`` is set)."""
+    if settings is None:
         return {}
-    return {"depth_precision": settings.depth_precision}
+    out: dict[str, Any] = {}
+    if settings.depth_precision != "float32":
+        out["depth_precision"] = settings.depth_precision
+    if settings.lod_px is not None:
+        out["lod"] = LevelOfDetail(below_px=float(settings.lod_px))
+    return out
 
 
 def segments_option(settings: AccuracySettings | None) -> dict[str, Any]:

@@ -22,7 +22,8 @@ from ..sensors import load_sensor, place_sensors
 from . import curation
 from .config import DatasetConfig, settings_of
 from .manifest import record_files, scene_complete
-from .previews import write_previews
+from .previews import write_previews, write_recording_previews
+from .recording import capture_moving, stats_of, write_trajectory
 
 log = logging.getLogger(__name__)
 
@@ -30,8 +31,9 @@ STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
 
 
 def scene_rngs(seed: int, index: int) -> dict[str, np.random.Generator]:
-    """Independent generators of scene ``index`` (layout, scene, placement, capture, cloud)."""
-    names = ("layout", "scene", "placement", "capture", "cloud")
+    """Independent generators of scene ``index`` (layout, scene, placement, capture, cloud,
+    trajectory)."""
+    names = ("layout", "scene", "placement", "capture", "cloud", "trajectory")   # appended: earlier ones unchanged
     kids = np.random.SeedSequence([int(seed), int(index)]).spawn(len(names))
     return {n: np.random.default_rng(k) for n, k in zip(names, kids)}
 
@@ -66,6 +68,8 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     accuracy = settings_of(cfg.accuracy)
     scene = build_scene(layout, rng=rng["scene"], **segments_option(accuracy))
     t["scene"] = time.perf_counter()
+    if cfg.capture != "static":   # a rig along a trajectory (genie_gl/dataset/recording.py)
+        return _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, out, final)
     stage("placement")
     sensor = load_sensor(cfg.sensor)
     poses = place_sensors(layout, sensor, n=cfg.cameras, seed=int(rng["placement"].integers(2**31)),
@@ -127,6 +131,49 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
     return stats | _timings(t, frames, cpu)
+
+
+def _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, out: Path, final: Path) -> dict[str, Any]:
+    """Scene ``index`` captured along a trajectory: a recording or a mobile-scan map."""
+    moving = capture_moving(cfg, layout, scene, rng, fmt, accuracy, stage, t)
+    info = {"instances": len(scene.instances), **stats_of(moving)}
+    if curation.active(cfg):   # a mobile-scan map's chunks, balanced once every scene is made
+        if index < cfg.previews:
+            write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
+                                     moving.map_cloud, scene)
+        stats = curation.cache_scene(cfg, index, moving.kept, layout, {
+            **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points)})
+        t["export"] = time.perf_counter()
+        return stats | _timings(t, moving.tally.preview, cpu)
+    stage("export")
+    for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
+        shutil.rmtree(stale, ignore_errors=True)
+    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
+    tmp.mkdir(parents=True)
+    data = SceneData(index, scene, layout, [], moving.kept, cfg, dict(moving.extra), rig=moving.rig,
+                     trajectory=moving.trajectory, recording=moving.recording)
+    if cfg.capture == "trajectory":
+        fmt.write_sequence(data, tmp)     # renders the recording as it writes it
+        t["capture"] = t["cloud"] = time.perf_counter()
+    else:
+        fmt.write_scene(data, tmp)
+    write_trajectory(moving.trajectory, tmp / "trajectory.txt")
+    layout.to_json(tmp / "layout.json")
+    counts = moving.tally.counts
+    stats = {"scene": index, **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points),
+             "chunks": len(moving.kept), "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+    stats["files"] = record_files(tmp)
+    (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
+    if index < cfg.previews:
+        write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
+                                 moving.map_cloud, scene)
+    if fmt.before_rename is not None:
+        fmt.before_rename(data, out)
+    t["export"] = time.perf_counter()
+    if final.exists():  # an incomplete scene of an earlier run
+        shutil.rmtree(final)
+    tmp.replace(final)  # the scene appears whole, or not at all
+    return stats | _timings(t, moving.tally.preview, cpu)
 
 
 def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:

@@ -280,5 +280,5 @@ from ..scene.assets.library import SEMANTIC, VARIANTS
 from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
-    "bop", "train_pbr", digits=6, chunks=False, dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
+    "bop", "train_pbr", digits=6, chunks=False, captures=("static",), dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
     description="BOP scene-wise RGB-D frames, masks, poses and object models"))

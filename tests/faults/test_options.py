@@ -79,7 +79,9 @@ CASES = [
     # genie bench
     (OPTION, ["bench", "rendr"], ["invalid choice: 'rendr'"]),
     (OPTION, ["bench", "layout", "--repeats", "0"], ["--repeats", "got 0"]),
-    (OPTION, ["bench", "render", "--sizes", "10k"], ["--sizes", "did you mean '100k'"]),
+    (OPTION, ["bench", "render", "--scenes", "10k"], ["--scenes", "did you mean '100k'"]),
+    (OPTION, ["bench", "render", "--tools", "open3d"], ["--tools", "did you mean 'Open3D'"]),
+    (OPTION, ["bench", "render", "--repeats", "0"], ["--repeats", "got 0"]),
     (OPTION, ["bench", "pipeline", "--workers", "1,x"], ["--workers", "got 'x'"]),
     (OPTION, ["bench", "accuracy", "--budget-mm", "-1"], ["--budget-mm", "got -1"]),
     (OPTION, ["bench", "accuracy", "--seed", "-1"], [SEED]),
