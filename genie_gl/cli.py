@@ -58,6 +58,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# the optional packages a command may need, by import name: (PyPI name, genie-gl extra)
+OPTIONAL = {"kiss_icp": ("kiss-icp", "bench"), "evo": ("evo", "bench"), "open3d": ("open3d", "bench"),
+            "pye57": ("pye57", "sequences"), "laspy": ("laspy", "sequences"), "rosbags": ("rosbags", "sequences"),
+            "fast_simplification": ("fast-simplification", "lod"), "ray": ("ray", "ray"), "torch": ("torch", "neural")}
+
+
+def missing_package(name: str) -> str:
+    """One line: which optional package is not installed, and how to install it."""
+    top = name.split(".")[0]
+    pypi, extra = OPTIONAL.get(top, (top, None))
+    how = f"pip install 'genie-gl[{extra}]' (or pip install {pypi})" if extra else f"pip install {pypi}"
+    return f"needs the Python package {top!r}, which is not installed here; {how}"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
@@ -89,6 +103,11 @@ def main(argv: list[str] | None = None) -> int:
         return int(importlib.import_module(args._module).run(args) or 0)
     except GenieError as exc:
         print(f"genie {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as exc:
+        if not exc.name or exc.name.split(".")[0] == "genie_gl":
+            raise   # a module of ours missing is a bug, not an input
+        print(f"genie {args.command}: error: {missing_package(exc.name)}", file=sys.stderr)
         return 2
     except OSError as exc:   # the file system said no (full, read-only, name too long, ...): one line
         print(f"genie {args.command}: error: {os_error_message(exc)}", file=sys.stderr)

@@ -21,7 +21,7 @@ from ..resources import resolve
 from ..scene import build_scene, usd
 from ..sensors import load_sensor, place_sensors
 from ..sensors.pose import look_at
-from ..sensors.paths import PATHS, make_trajectory
+from ..sensors.paths import make_trajectory, path_kind
 from ..sensors.rig import body_from_sensor
 from . import analytic
 from .knobs import Case
@@ -64,6 +64,13 @@ def make_case(args: argparse.Namespace) -> Case:
         raise ConfigError(f"--cameras: expected >= 1, got {args.cameras}")
     if args.repeats < 1:
         raise ConfigError(f"--repeats: expected >= 1, got {args.repeats}")
+    if getattr(args, "path", None):   # checked before any scene is read or built
+        if args.scene is None or str(args.scene).lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
+            raise ConfigError(f"--path {args.path}: frames along a trajectory need a strategy or layout --scene (its "
+                              "free floor); give one, or drop --path")
+        if args.poses:
+            raise ConfigError(f"--path {args.path}: the trajectory gives the poses; drop --poses {args.poses}")
+        path_kind(args.path)
     if args.scene is None:
         sensor = analytic.sensor() if args.sensor is None else load_sensor(args.sensor)
         poses = read_poses(args.poses) if args.poses else [np.eye(4)]
@@ -104,7 +111,7 @@ def make_case(args: argparse.Namespace) -> Case:
 def path_poses(layout, scene, sensor, path: str, n: int, *, seed: int) -> list[np.ndarray]:
     """``n`` poses of ``sensor`` carried (level, tilted 10° down) along a trajectory of kind
     ``path`` (aisles, random or a waypoints file) on the scene's free floor, evenly in time."""
-    kind = path if path in PATHS[:2] else "waypoints"
+    kind = path_kind(path)
     tr = make_trajectory(layout, scene, kind, seed=seed, waypoints=path if kind == "waypoints" else None)
     body = tr.at(np.linspace(tr.start_s, tr.end_s, max(1, n)))
     return list(body @ body_from_sensor(pitch_rad=float(np.radians(10.0))))

@@ -13,8 +13,9 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, LimitError
 from ..frame import Frame
+from ..limits import check_memory, memory_limit_bytes
 from .pointcloud import PointCloud
 from .unproject import unproject
 
@@ -35,10 +36,14 @@ class VoxelMap:
         if not voxel_m > 0:
             raise ConfigError(f"map voxel: expected > 0 m, got {voxel_m}")
         self.lo = np.asarray(bounds[0], np.float64)
-        self.dims = np.maximum(1, np.ceil((np.asarray(bounds[1]) - self.lo) / voxel_m).astype(np.int64))
-        if int(np.prod(self.dims)) > MAX_VOXELS:
-            raise ConfigError(f"map voxel {voxel_m} m: the {np.ptp(bounds, axis=0).round(1).tolist()} m scene would "
-                              f"need {int(np.prod(self.dims)):,} voxels; use a larger voxel")
+        extent = np.asarray(bounds[1], np.float64) - self.lo
+        cells = [max(1.0, float(np.ceil(x / voxel_m))) for x in extent]   # floats: no int64 overflow
+        voxels = float(np.prod(cells))
+        where = f"map voxel {voxel_m:g} m over the {np.round(extent, 1).tolist()} m scene ({voxels:.3g} voxels)"
+        if voxels > MAX_VOXELS:
+            raise LimitError(f"{where}: above the limit of {MAX_VOXELS:.3g} voxels; use a larger voxel")
+        check_memory(voxels / 8, memory_limit_bytes(), f"{where}, one bit each", "use a larger voxel", option=None)
+        self.dims = np.array(cells, np.int64)
         self.voxel_m, self.origin = float(voxel_m), np.asarray(origin, np.float64)
         self.bits = np.zeros((int(np.prod(self.dims)) + 7) // 8, np.uint8)
         self.parts: list[PointCloud] = []

@@ -15,7 +15,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("strategy", help="strategy JSON file, or a shipped name (assembly_line, ...)")
     p.add_argument("--scenes", type=int, default=3)
-    p.add_argument("--cameras", type=int, default=8)
+    p.add_argument("--cameras", type=int, default=None, help="standing cameras per scene (default 8)")
     p.add_argument("--sensor", default="realsense_d435", help="sensor profile: a file, or a shipped name")
     p.add_argument("--format", default="semantickitti", help=f"one of {', '.join(DATASET_FORMATS)}")
     p.add_argument("--out", required=True)
@@ -46,12 +46,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "mobile-scan map fused from it")
     p.add_argument("--rig", default=None, help="trajectory/mobile-map: a rig file or shipped name (d435_quad, "
                                                "panorama_cube); default: --sensor alone at 10 Hz")
-    p.add_argument("--path", default="aisles", help="trajectory: aisles, random, or a waypoints file ('x y' per line)")
-    p.add_argument("--motion", choices=("person", "robot"), default="person",
+    p.add_argument("--path", default=None, help="trajectory: aisles, random, or a waypoints file ('x y' per line)")
+    p.add_argument("--motion", choices=("person", "robot"), default=None,
                    help="trajectory: speed, height, turning rate and clearance of the body")
-    p.add_argument("--duration-s", type=float, default=20.0, help="trajectory: seconds of it to capture")
-    p.add_argument("--voxel-m", type=float, default=0.02, help="mobile-map: the map's voxel (its density)")
-    p.add_argument("--registration", choices=("mobile", "none"), default="mobile",
+    p.add_argument("--duration-s", type=float, default=None, help="trajectory: seconds of it to capture (default 20)")
+    p.add_argument("--voxel-m", type=float, default=None, help="mobile-map: the map's voxel (its density; default 0.02)")
+    p.add_argument("--registration", choices=("mobile", "none"), default=None,
                    help="mobile-map: a mobile scanner's registration error (drift, pass misalignment) or none")
     p.add_argument("--accuracy", default=None, metavar="FILE",
                    help="accuracy settings: a file with an accuracy: block (genie bench accuracy --budget-mm writes one)")
@@ -64,6 +64,9 @@ def config_from_args(args: argparse.Namespace) -> DatasetConfig:
                                              "max_disk_gb", "capture", "rig", "path", "motion", "duration_s",
                                              "voxel_m", "registration")}
     fields["mount_m"] = args.mount
+    for k in ("cameras", "rig", "path", "motion", "duration_s", "voxel_m", "registration"):
+        if fields[k] is None:   # not given: the configuration's default (an option given is checked against --capture)
+            del fields[k]
     fields["split"] = parse_split(args.split)
     from ..dataset.config import accuracy_option as option
 

@@ -19,7 +19,7 @@ from ..errors import ConfigError, did_you_mean
 from ..export.registry import DATASET_FORMATS
 from ..labels import CLASSES
 from ..limits import MAX_CAMERAS, MAX_REGIONS, available_memory_bytes  # noqa: F401  (kept importable from here)
-from ..sensors.paths import PATHS
+from ..sensors.paths import PATHS, path_kind  # noqa: F401  (PATHS kept importable from here)
 from ..sensors import load_sensor
 from ..sensors.accuracy import AccuracySettings, load_accuracy
 
@@ -33,6 +33,10 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "mount_m": "--mount", "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion",
           "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration"}
 CAPTURES = ("static", "trajectory", "mobile-map")
+# the options one kind of capture uses and another does not (given to one that does not: refused)
+USED_BY = {"cameras": ("static",), "mount_m": ("static",), "rig": ("trajectory", "mobile-map"),
+           "path": ("trajectory", "mobile-map"), "motion": ("trajectory", "mobile-map"),
+           "duration_s": ("trajectory", "mobile-map"), "voxel_m": ("mobile-map",), "registration": ("mobile-map",)}
 
 
 class DatasetConfig(BaseModel):
@@ -105,10 +109,19 @@ class DatasetConfig(BaseModel):
             raise ConfigError(f"--class-balance and --points-budget sub-sample point clouds; --format "
                               f"{self.format} with --capture {self.capture} writes images or recordings: use a "
                               "point-cloud format with --capture static or mobile-map")
+        self._used_options()
         if self.capture != "static":
-            if self.path not in PATHS[:2] and not os.path.isfile(self.path):
-                raise ConfigError(f"--path {self.path!r}: expected aisles, random or a waypoints file (no such file)")
+            path_kind(self.path)
         return self
+
+    def _used_options(self) -> None:
+        """Refuse an option the capture does not use (given, and not its default), never ignore it."""
+        given = [k for k in self.model_fields_set
+                 if k in USED_BY and getattr(self, k) is not None and getattr(self, k) != type(self).model_fields[k].default]
+        for k in sorted(given, key=list(USED_BY).index):
+            if self.capture not in USED_BY[k]:
+                raise ConfigError(f"{OPTION[k]} {getattr(self, k)!r:.40}: --capture {self.capture} does not use it; it "
+                                  f"is for --capture {' or '.join(USED_BY[k])}")
 
     # the fields that decide the bytes written: resuming with any other value is refused
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",

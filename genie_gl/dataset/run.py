@@ -40,6 +40,7 @@ from ..export import get_format
 from ..layout import load_strategy
 from ..scene import ASSETS
 from ..sensors import load_sensor
+from ..sensors.paths import path_kind, read_waypoints
 from ..sensors.placement import ceiling_of, mount_for
 from . import curation
 from .config import DatasetConfig
@@ -78,7 +79,10 @@ def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
     is writable, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
     strategy = load_strategy(cfg.strategy)
     sensor = load_sensor(cfg.sensor)
-    mount_for(sensor, ceiling_m=ceiling_of(strategy.scene), mount_height_m=cfg.mount_m)   # placement can work
+    if cfg.capture == "static":
+        mount_for(sensor, ceiling_m=ceiling_of(strategy.scene), mount_height_m=cfg.mount_m)   # placement can work
+    elif path_kind(cfg.path) == "waypoints":
+        read_waypoints(cfg.path)   # a bad waypoints file is refused before any work
     fmt = get_format(cfg.format)
     claim_output(cfg, fmt)
     check_limits(cfg, strategy, sensor, Path(cfg.out))

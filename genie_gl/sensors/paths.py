@@ -175,6 +175,17 @@ def waypoint_route(floor: FreeFloor, waypoints: np.ndarray, *, source: str = "wa
     return legs
 
 
+def path_kind(path: str | os.PathLike, option: str = "--path") -> str:
+    """The kind of a path option's value: ``aisles``, ``random``, or ``waypoints`` (an existing
+    file); anything else is a one-line :class:`ConfigError` naming the option (did-you-mean)."""
+    if str(path) in PATHS[:2]:
+        return str(path)
+    if os.path.isfile(path):
+        return "waypoints"
+    raise ConfigError(f"{option} {str(path)!r}: expected aisles, random or a waypoints file (no such file)"
+                      f"{did_you_mean(str(path), PATHS[:2])}")
+
+
 def route(floor: FreeFloor, path: str = "aisles", *, rng: np.random.Generator, waypoints=None,
           length_m: float | None = None, spacing_m: float = 3.0) -> list[np.ndarray]:
     """The legs ((k, 2) each, shortest paths over free cells) of a route of kind ``path`` (one
