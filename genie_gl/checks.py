@@ -38,6 +38,8 @@ MAKERS = {
     "Strategy": "gg.load_strategy(name or path)",
     "PointCloud": "gg.to_cloud(frames)",
     "Frame": "gg.render(...) or gg.capture(...)",
+    "Rig": "gg.load_rig(name or path) or Rig.single(sensor)",
+    "Trajectory": "gg.make_trajectory(layout, scene)",
     "Plan": "gg.plan(scene, sensor, poses)",
 }
 

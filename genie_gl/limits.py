@@ -30,6 +30,7 @@ from .errors import LimitError
 MAX_REGIONS = 2_000_000
 MAX_CAMERAS = 10_000
 MAX_INSTANCES = 1_000_000
+MAX_DURATION_S = 3600.0   # a trajectory's seconds (frames = seconds x the rig's summed rates)
 MAX_RASTER_CELLS = 100_000_000   # a layout's label raster: 100 M cells (~400 MB as int32)
 #: a frame side no GL driver we know allocates beyond (Mesa llvmpipe's texture limit); the
 #: renderer checks the real one of its context (``GLContext.max_side``)

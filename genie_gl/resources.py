@@ -6,6 +6,7 @@ install) they are the top-level folders of the repository. :func:`data_dir` find
 from __future__ import annotations
 
 import json
+import os
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,9 @@ def resolve(name_or_path: str | Path, kind: str, suffixes: tuple[str, ...]) -> P
     A path with a folder in it that does not exist is an error: it never falls back to a
     shipped file of the same name.
     """
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise ConfigError(f"{kind[:-1]}: expected a file name or the name of a shipped {kind[:-1]} (str or path), got "
+                          f"{type(name_or_path).__name__} {name_or_path!r:.60}")
     path = Path(name_or_path)
     if path.is_file():
         return path

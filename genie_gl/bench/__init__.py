@@ -55,6 +55,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"genie bench {args.bench}: not available in this build")
             return 2
         raise
+    check = getattr(mod, "check_arguments", None)
+    if check is not None:   # a benchmark's own option checks, before its folder is claimed
+        check(args)
     folder = claim_folder(args.out, "bench", OUTPUTS.get(args.bench, ()), reserve=True)
     say_when_compiling(f"genie bench {args.bench}")
     code = int(mod.run(args) or 0)

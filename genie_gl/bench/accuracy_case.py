@@ -58,19 +58,26 @@ def content_poses(scene, n: int, *, distance_m: float = 4.0, height_m: float = 3
     return poses
 
 
+def check_path(args: argparse.Namespace) -> None:
+    """``--path``: with a strategy or layout ``--scene`` only, and no ``--poses`` (checked
+    before the output folder is claimed or any scene is read)."""
+    if not getattr(args, "path", None):
+        return
+    if args.scene is None or str(args.scene).lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
+        raise ConfigError(f"--path {args.path}: frames along a trajectory need a strategy or layout --scene (its "
+                          "free floor); give one, or drop --path")
+    if args.poses:
+        raise ConfigError(f"--path {args.path}: the trajectory gives the poses; drop --poses {args.poses}")
+    path_kind(args.path)
+
+
 def make_case(args: argparse.Namespace) -> Case:
     """The scene, sensor and poses the rows run on."""
     if args.cameras is not None and args.cameras < 1:
         raise ConfigError(f"--cameras: expected >= 1, got {args.cameras}")
     if args.repeats < 1:
         raise ConfigError(f"--repeats: expected >= 1, got {args.repeats}")
-    if getattr(args, "path", None):   # checked before any scene is read or built
-        if args.scene is None or str(args.scene).lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
-            raise ConfigError(f"--path {args.path}: frames along a trajectory need a strategy or layout --scene (its "
-                              "free floor); give one, or drop --path")
-        if args.poses:
-            raise ConfigError(f"--path {args.path}: the trajectory gives the poses; drop --poses {args.poses}")
-        path_kind(args.path)
+    check_path(args)
     if args.scene is None:
         sensor = analytic.sensor() if args.sensor is None else load_sensor(args.sensor)
         poses = read_poses(args.poses) if args.poses else [np.eye(4)]

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..capture.trajectory import record
 from ..export.semantickitti_sequence import write_recording
-from ..layout import generate_layout
+from ..layout import generate_layout, load_strategy
 from ..options import positive, seed
 from ..outputs import atomic_write_text
 from ..render import shared_context
@@ -44,6 +44,12 @@ def read_sequence(seq: Path) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     poses = [np.linalg.inv(Tr) @ np.r_[p.reshape(3, 4), [[0, 0, 0, 1]]] @ Tr for p in np.loadtxt(seq / "poses.txt")]
     scans = [np.fromfile(seq / "velodyne" / f"{j:06d}.bin", "<f4").reshape(-1, 4)[:, :3] for j in range(len(poses))]
     return scans, np.array(poses), np.loadtxt(seq / "times.txt")
+
+
+def check_arguments(args: argparse.Namespace) -> None:
+    """The rig and the strategy read before the output folder is claimed (``genie bench`` calls it)."""
+    load_rig(args.rig)
+    load_strategy(args.strategy)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -13,6 +13,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from ..checks import expect
 from ..errors import ConfigError, LimitError
 from ..frame import Frame
 from ..limits import check_memory, memory_limit_bytes
@@ -53,6 +54,7 @@ class VoxelMap:
 
     def add(self, frame: Frame) -> int:
         """Fuse ``frame`` (at its ``world_from_camera``); returns how many points it added."""
+        expect(frame, Frame, f"fuse: frames[{self.frames}]")
         if self.frames >= MAX_FRAMES:
             raise ConfigError(f"a mobile-scan map holds at most {MAX_FRAMES} frames; use a shorter trajectory or "
                               "lower frame rates")
@@ -86,7 +88,14 @@ def fuse(frames: Iterable[Frame], *, bounds: np.ndarray, voxel_m: float = 0.02,
          origin: np.ndarray | None = None) -> PointCloud:
     """The frames' points fused in the world frame, one per ``voxel_m`` voxel (the first seen),
     within ``bounds`` (2, 3); ``camera`` is each point's frame index."""
-    bounds = np.asarray(bounds, np.float64)
+    given = bounds
+    try:
+        bounds = np.asarray(bounds, np.float64)
+    except (TypeError, ValueError):
+        bounds = np.zeros(0)
+    if bounds.shape != (2, 3) or not np.isfinite(bounds).all() or not (bounds[1] > bounds[0]).all():
+        raise ConfigError(f"fuse: bounds: expected a (2, 3) box [[xmin, ymin, zmin], [xmax, ymax, zmax]] of finite "
+                          f"numbers, max above min, got {given!r:.80}")
     origin = np.round(bounds.mean(0) / 100.0) * 100.0 + 0.0 if origin is None else origin
     m = VoxelMap(bounds, voxel_m, origin)
     for f in frames:

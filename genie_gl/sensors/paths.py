@@ -25,8 +25,12 @@ import os
 import numpy as np
 from scipy.sparse import csgraph
 
+from ..checks import check_seed, expect, finite_number
 from ..errors import ConfigError, did_you_mean
+from ..layout.model import Layout
+from ..limits import MAX_DURATION_S
 from ..resources import read_text
+from ..scene.model import Scene
 from .floor import SEE_M, FreeFloor, free_floor
 from .motion import Motion, follow, motion_of
 from .trajectory import Trajectory
@@ -221,6 +225,14 @@ def make_trajectory(layout, scene=None, path: str = "aisles", *, seed: int = 0, 
     duration_s : keep the first this many seconds.
     floor : a :class:`FreeFloor` already made for this layout/scene and motion's radius.
     """
+    expect(layout, Layout, "make_trajectory: layout")
+    if scene is not None:
+        expect(scene, Scene, "make_trajectory: scene")
+    seed = check_seed(seed, "make_trajectory: seed")
+    if duration_s is not None:
+        duration_s = finite_number(duration_s, "make_trajectory: duration_s", 0.0, MAX_DURATION_S, lo_open=True)
+    if length_m is not None:
+        length_m = finite_number(length_m, "make_trajectory: length_m", 0.0, 1e6, lo_open=True)
     m = motion_of(motion)
     if floor is None:
         floor = free_floor(layout, scene, body_radius_m=m.body_radius_m)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import genie_gl as gg
+from genie_gl.errors import LimitError
 from genie_gl.layout.estimate import layout_estimate
 from genie_gl.resources import data_dir
 
@@ -179,3 +180,25 @@ def test_a_dataset_larger_than_the_disk_is_refused(tmp_path):
     run = cli("dataset", "assembly_line", "--scenes", "1000000", "--max-disk-gb", "1", "--out", tmp_path / "o",
               timeout=60)
     refused(run, "the run would write about", "--max-disk-gb")
+
+
+@HUGE
+def test_a_mobile_map_voxel_too_small_is_refused_by_its_memory(tmp_path):
+    """A 0.1 µm voxel over a hall would be ~1e26 voxels: the bit set's size overflowed int64 and
+    numpy raised; now the dataset's estimate refuses it before any work, and fuse() the same."""
+    run = cli("dataset", "assembly_line", "--capture", "mobile-map", "--voxel-m", "1e-7", "--out", tmp_path / "o",
+              timeout=60)
+    refused(run, "estimated memory", "the map's bit set at --voxel-m 1e-07", "a larger --voxel-m", "--max-memory-gb")
+    assert run.seconds < 30
+    assert not list((tmp_path / "o").glob("scenes/*"))
+    with pytest.raises(LimitError, match="voxels"):
+        gg.fuse([], bounds=[[0, 0, 0], [100, 100, 10]], voxel_m=1e-7)
+
+
+@HUGE
+def test_an_hour_long_trajectory_is_refused_by_its_disk(tmp_path):
+    """--duration-s 3600 of a 4 x 15 Hz rig writes every frame's points: about 216 000 frames;
+    refused by the disk limit up front."""
+    run = cli("dataset", "assembly_line", "--capture", "trajectory", "--rig", "d435_quad", "--duration-s", "3600",
+              "--scenes", "10", "--max-disk-gb", "1", "--out", tmp_path / "o", timeout=60)
+    refused(run, "the run would write about", "--max-disk-gb", "a shorter --duration-s")

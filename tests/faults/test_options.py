@@ -76,8 +76,41 @@ CASES = [
     (OPTION, ["dataset", "assembly_line", "--max-nodes", "0"], ["--max-nodes 0"]),
     (OPTION, ["dataset", "assembly_line", "--format", "kitti"], ["--format", "unknown"]),
     (OPTION, ["dataset", "assembly_line", "--out", "{file}"], ["is a file; expected a folder"]),
+    # genie dataset: cameras that move (an option the capture does not use is refused, never ignored)
+    (WRONG, ["dataset", "assembly_line", "--rig", "d435_quad"], ["--rig 'd435_quad'", "--capture static does not use it"]),
+    (WRONG, ["dataset", "assembly_line", "--voxel-m", "0.05"], ["--voxel-m", "is for --capture mobile-map"]),
+    (WRONG, ["dataset", "assembly_line", "--capture", "trajectory", "--cameras", "2"],
+     ["--cameras 2", "--capture trajectory does not use it"]),
+    (WRONG, ["dataset", "assembly_line", "--capture", "trajectory", "--mount", "1.2"], ["--mount 1.2", "does not use it"]),
+    (WRONG, ["dataset", "assembly_line", "--capture", "trajectory", "--registration", "none"],
+     ["--registration", "is for --capture mobile-map"]),
+    (OPTION, ["dataset", "assembly_line", "--capture", "trajectory", "--path", "aisle"],
+     ["--path 'aisle'", "did you mean 'aisles'"]),
+    (OPTION, ["dataset", "assembly_line", "--capture", "trajectory", "--rig", "d435_qud"], ["did you mean 'd435_quad'"]),
+    (OPTION, ["dataset", "assembly_line", "--capture", "mobile-map", "--duration-s", "nan"], ["--duration-s nan"]),
+    (OPTION, ["dataset", "assembly_line", "--capture", "mobile-map", "--voxel-m", "0"], ["--voxel-m 0.0"]),
+    (OPTION, ["dataset", "assembly_line", "--capture", "trajectory", "--format", "bop"],
+     ["--format bop takes --capture static, not trajectory"]),
+    (OPTION, ["dataset", "assembly_line", "--capture", "mobil-map"], ["invalid choice: 'mobil-map'"]),
+    # genie plan --rig: a recording's plan and a standing plan do not share options
+    (WRONG, ["plan", "--scene", "{usd}", "--path", "aisles"], ["--path aisles", "give --rig RIG too"]),
+    (WRONG, ["plan", "--scene", "{usd}", "--duration-s", "5"], ["--duration-s 5.0", "give --rig RIG too"]),
+    (WRONG, ["plan", "--scene", "{usd}", "--rig", "d435_quad", "--poses", "p.npy"], ["--poses p.npy", "drop it"]),
+    (WRONG, ["plan", "--scene", "{usd}", "--rig", "d435_quad", "--cameras", "3"], ["--cameras 3", "drop it"]),
+    (WRONG, ["plan", "--scene", "{usd}", "--rig", "d435_quad", "--mount", "1"], ["--mount 1.0", "drop it"]),
+    (OPTION, ["plan", "--scene", "{usd}", "--rig", "d435_quad", "--path", "aisle"], ["did you mean 'aisles'"]),
+    (OPTION, ["plan", "--scene", "{usd}", "--rig", "d435_qud"], ["did you mean 'd435_quad'"]),
+    (OPTION, ["plan", "--scene", "{usd}", "--rig", "d435_quad", "--duration-s", "0"], ["--duration-s", "got 0"]),
     # genie bench
     (OPTION, ["bench", "rendr"], ["invalid choice: 'rendr'"]),
+    (OPTION, ["bench", "sequence", "--repeat", "0"], ["--repeat", "got 0"]),
+    (OPTION, ["bench", "sequence", "--duration-s", "nan"], ["--duration-s", "got nan"]),
+    (OPTION, ["bench", "sequence", "--seed", "-1"], [SEED]),
+    (OPTION, ["bench", "odometry", "--duration-s", "0"], ["--duration-s", "got 0"]),
+    (OPTION, ["bench", "odometry", "--seed", "x"], [SEED, "got 'x'"]),
+    (OPTION, ["bench", "odometry", "--path", "aisle"], ["invalid choice: 'aisle'"]),
+    (WRONG, ["bench", "accuracy", "--path", "aisles"], ["--path aisles", "need a strategy or layout --scene"]),
+    (WRONG, ["bench", "accuracy", "--path", "aisles", "--scene", "{usd}"], ["need a strategy or layout --scene"]),
     (OPTION, ["bench", "layout", "--repeats", "0"], ["--repeats", "got 0"]),
     (OPTION, ["bench", "render", "--scenes", "10k"], ["--scenes", "did you mean '100k'"]),
     (OPTION, ["bench", "render", "--tools", "open3d"], ["--tools", "did you mean 'Open3D'"]),
@@ -147,3 +180,23 @@ def test_the_placement_hint_names_an_option_every_placing_command_has(files, tmp
     run = cli("plan", "--scene", files["usd"], "--sensor", "zivid2_m70", "--cameras", "2", "--mount", "0.6",
               "--no-progress")
     assert run.rc == 0, run.err
+
+
+@pytest.mark.parametrize("bench", ["sequence", "odometry"])
+@fault("bad option", "traceback")
+def test_a_benchmark_refuses_a_bad_rig_or_strategy_before_its_folder(bench, tmp_path):
+    """The rig and strategy are read before ``--out`` is claimed: nothing is made for a typo."""
+    refused(cli("bench", bench, "--rig", "d435_qud", "--out", tmp_path / "o"), "did you mean 'd435_quad'")
+    refused(cli("bench", bench, "--strategy", "storage_are", "--out", tmp_path / "o"), "did you mean 'storage_area'")
+    assert not (tmp_path / "o").exists()
+
+
+@fault("bad option", "traceback")
+def test_a_missing_optional_package_is_one_line_naming_its_install(tmp_path, monkeypatch):
+    """genie bench odometry without KISS-ICP installed: one line naming the package and its
+    extra, never an ImportError's traceback."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "kiss_icp", None)   # import kiss_icp now fails as if not installed
+    run = cli("bench", "odometry", "--duration-s", "1", "--out", tmp_path / "o")
+    refused(run, "needs the Python package 'kiss_icp'", "pip install 'genie-gl[bench]'")
