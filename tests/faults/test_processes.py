@@ -56,10 +56,15 @@ def lock_is_free(out: Path) -> bool:
         return False
 
 
-def start(out: Path, writing: bool = True) -> tuple[subprocess.Popen, list[int]]:
+# a recording along a trajectory written as ROS 2 bags (a folder written whole, then moved in)
+MOVING = ["dataset", "assembly_line", "--scenes", "2", "--capture", "trajectory", "--duration-s", "3", "--sensor",
+          "ideal_pinhole", "--format", "rosbag", "--previews", "0", "--workers", "2", "--split", "1,0,0", "--no-progress"]
+
+
+def start(out: Path, writing: bool = True, args: list[str] = ARGS) -> tuple[subprocess.Popen, list[int]]:
     """A --workers 2 run, once both workers are at work: writing a scene (``writing``), or
     started (warming up or rendering, for seconds yet)."""
-    p = subprocess.Popen([sys.executable, "-m", "genie_gl.cli", *ARGS, "--out", str(out)], env=_env(), cwd=ROOT,
+    p = subprocess.Popen([sys.executable, "-m", "genie_gl.cli", *args, "--out", str(out)], env=_env(), cwd=ROOT,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     t = time.time()
     while time.time() - t < 240:
@@ -74,8 +79,8 @@ def start(out: Path, writing: bool = True) -> tuple[subprocess.Popen, list[int]]
     raise AssertionError("the workers never started")
 
 
-def finish(out: Path) -> None:
-    r = subprocess.run([sys.executable, "-m", "genie_gl.cli", *ARGS, "--out", str(out)], env=_env(), cwd=ROOT,
+def finish(out: Path, args: list[str] = ARGS) -> None:
+    r = subprocess.run([sys.executable, "-m", "genie_gl.cli", *args, "--out", str(out)], env=_env(), cwd=ROOT,
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
     assert len(list((out / "scenes").glob("[0-9]*"))) == 2
@@ -110,3 +115,23 @@ def test_a_killed_leader_takes_its_workers_with_it(tmp_path):
     assert not alive(workers), f"workers {alive(workers)} outlived their killed leader"
     assert lock_is_free(out)
     finish(out)
+
+
+@fault("signal", "loss")
+def test_a_signal_to_a_recording_run_leaves_no_half_bag_and_it_resumes(tmp_path):
+    """SIGTERM to a --capture trajectory --format rosbag run while its workers record: the
+    workers stop with the leader, and the same command then finishes with two whole bags and no
+    temporary folder left anywhere."""
+    out = tmp_path / "d"
+    p, workers = start(out, writing=False, args=MOVING)
+    time.sleep(1.0)
+    p.send_signal(signal.SIGTERM)
+    p.wait(60)
+    assert not alive(workers), f"workers {alive(workers)} outlived their leader"
+    assert p.returncode == 128 + signal.SIGTERM, p.stderr.read()[-2000:]
+    finish(out, MOVING)
+    bags = sorted(out.glob("scenes/*/bag"))
+    assert len(bags) == 2
+    for bag in bags:
+        assert sorted(x.name for x in bag.iterdir()) == ["bag.mcap", "metadata.yaml"]
+    assert not [str(x) for x in out.rglob("*.tmp*")], "a temporary file or folder was left"
