@@ -3,7 +3,6 @@
 stage, so a command may use any of them; the stages never import a command."""
 from __future__ import annotations
 
-import argparse
 from contextlib import contextmanager
 
 from ..options import count, counts, names, positive, seed  # noqa: F401  (the commands' option types)
