@@ -95,6 +95,9 @@ class Renderer:
     """
 
     cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
+    # fewer faces in view: no occlusion culling (a frame this small is cheap either way); with
+    # more, it runs while it pays (:meth:`TriangleCuller.select`)
+    occlusion_min_faces = 50_000
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
@@ -203,7 +206,8 @@ class Renderer:
             vertices, all_faces, vbase, fbase, nfaces, cbase, joined("centre", np.zeros((1, 3))),
             joined("radius", np.zeros(1)), joined("vrange", np.zeros((1, 2), np.int64)),
             joined("axis", np.zeros((1, 3))), joined("cos_a", np.zeros(1)), joined("sin_a", np.zeros(1)),
-            joined("thickness", np.zeros(1)), joined("perimeter", np.ones(1)))
+            joined("thickness", np.zeros(1)), joined("perimeter", np.ones(1)),
+            snap_px=2.0 ** -self.gl.subpixel_bits())  # twice the farthest a vertex is snapped
         self._vbo = ctx.buffer(vertices.tobytes())
         self._ibo = ctx.buffer(all_faces.tobytes())
         self._streams: dict[int, tuple] = {}  # per-frame buffers, one set per frame in flight
@@ -378,7 +382,7 @@ class Renderer:
         ctx.disable(moderngl.CULL_FACE)
         return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
                 "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
-                "simplified": self._lod_drawn,
+                "simplified": self._lod_drawn, "occluded": self._culled and self._culler.occluded,
                 "t0": t0, "t1": t1}
 
     def _flush(self) -> None:
@@ -477,7 +481,8 @@ class Renderer:
                     normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
         self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
-                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"]}
+                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"],
+                      "occlusion_culled": job["occluded"]}
         return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)})
 
@@ -537,11 +542,14 @@ class Renderer:
         cmd["instances"] = 1
         cmd["base_vertex"] = self._vbase[m]
         cmd["base_instance"] = slots
-        culled = self.cull and int(self._nfaces[m].sum()) >= self.cull_min_faces
+        in_view = int(self._nfaces[m].sum())
+        culled = self.cull and in_view >= self.cull_min_faces
         self._culled = culled
         if culled:
+            # not with a 24-bit depth buffer: it ties depths that are apart
+            occlusion = self.depth_precision != "depth24" and in_view >= self.occlusion_min_faces
             indices, first, count = self._culler.select(slots, m, backcull, cfm, eye, self._det[slots], K, W, H,
-                                                        near, planes)
+                                                        near, planes, occlusion)
             if indices.nbytes > dyn_ibo.size:  # same buffer name: the vertex arrays stay valid
                 dyn_ibo.orphan(max(indices.nbytes, dyn_ibo.size * 3 // 2))
             dyn_ibo.write(indices)
