@@ -255,13 +255,13 @@ class Renderer:
             return self._fbos[key]
         check_frame_side(width, height, "Renderer", self.gl.max_side)
         try:
-            self._fbos[key] = self._make_framebuffer(width, height, color, normals)
+            self._fbos[key] = self._make_framebuffer(width, height, color, normals, triangles)
         except moderngl.Error as exc:   # the driver could not allocate the targets
             raise LimitError(f"Renderer: the GL driver ({self.gl.renderer}) could not allocate {width}x{height} px "
                              f"render targets ({str(exc).strip()}); use a smaller sensor") from None
         return self._fbos[key]
 
-    def _make_framebuffer(self, width: int, height: int, color: bool, normals: bool) -> tuple:
+    def _make_framebuffer(self, width: int, height: int, color: bool, normals: bool, triangles: bool = False) -> tuple:
         ctx, size = self.ctx, (width, height)
         if self._packed:  # (depth bits, instance): see render/readback.py
             targets = [ctx.texture(size, 2, dtype="u4")]
