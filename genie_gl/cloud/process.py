@@ -219,12 +219,14 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     for k, (f, (depth, tx, ty, M, (_, pick, _))) in enumerate(zip(frames, inputs)):
         m = pick(depth, tx, ty, M, size, I0, J0, grid, seen, start_a, picked, taken, src, dst, out_xyz)
         s, d = src[:m], dst[:m]
-        v, u = np.divmod(s, depth.shape[1])
-        out_sem[d], out_inst[d], out_camera[d] = f.semantic[v, u], f.instance[v, u], k
-        if with_rgb:
-            out_rgb[d] = f.rgb[v, u]
-        if with_normal:
-            out_normal[d] = rotate(f.normal[v, u], f.world_from_camera)
+        # labels gathered by flat pixel index (C order, as the kernel numbers pixels)
+        out_sem[d], out_inst[d], out_camera[d] = np.take(f.semantic, s), np.take(f.instance, s), k
+        if with_rgb or with_normal:
+            v, u = np.divmod(s, depth.shape[1])
+            if with_rgb:
+                out_rgb[d] = f.rgb[v, u]
+            if with_normal:
+                out_normal[d] = rotate(f.normal[v, u], f.world_from_camera)
     merged = PointCloud(out_xyz, out_sem, out_inst, origin, out_rgb, out_normal, out_camera)
     tiles = [(key, merged.select(slice(a, b))) for key, a, b in zip(kept, ends - sizes, ends)]
     return tiles, total

@@ -89,12 +89,12 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         for key, tile in tiles:
             if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
                 kept.append((key, tile))
-                np.add.at(counts, tile.semantic, 1)
+                counts += np.bincount(tile.semantic, minlength=len(counts))
     else:
         for f in frames:
             ok = f.depth > 0
             points_total += int(ok.sum())
-            np.add.at(counts, f.semantic[ok], 1)
+            counts += np.bincount(f.semantic[ok], minlength=len(counts))
     t["cloud"] = time.perf_counter()
     if fmt.chunks and not kept:
         log.warning("scene %d: no chunk kept: every chunk of its %d points has fewer than --min-points %d points or "
@@ -119,7 +119,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     layout.to_json(tmp / "layout.json")
     stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
              "points_total": int(points_total), "chunks": len(kept),
-             "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+             "class_points": _class_points(counts)}
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
@@ -161,7 +161,7 @@ def _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, ou
     layout.to_json(tmp / "layout.json")
     counts = moving.tally.counts
     stats = {"scene": index, **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points),
-             "chunks": len(moving.kept), "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+             "chunks": len(moving.kept), "class_points": _class_points(counts)}
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
@@ -174,6 +174,11 @@ def _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, ou
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
     return stats | _timings(t, moving.tally.preview, cpu)
+
+
+def _class_points(counts: np.ndarray) -> dict[str, int]:
+    """{class id as text: points} for the classes with points, in id order (``counts``: (65536,) int64)."""
+    return {str(k): int(counts[k]) for k in np.flatnonzero(counts).tolist()}
 
 
 def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:
