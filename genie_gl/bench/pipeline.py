@@ -35,6 +35,7 @@ import genie_gl as gg
 
 from ..cloud import to_cloud
 from ..cloud.kernels import count_valid
+from ..options import count, counts
 from ..cloud.unproject import ray_table, unproject_into
 from ..dataset.scene import scene_rngs
 from ..frame import Frame
@@ -47,11 +48,11 @@ TARGET_MACHINE_S = 0.25  # stage seconds per scene for the whole machine (steady
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenes", type=int, default=6, help="scenes per run (enough that each worker makes several)")
-    p.add_argument("--cameras", type=int, default=40)
+    p.add_argument("--scenes", type=count(1, 10_000), default=6, help="scenes per run (enough that each worker makes several)")
+    p.add_argument("--cameras", type=count(1, 10_000), default=40)
     p.add_argument("--sensor", default="ideal_pinhole")
-    p.add_argument("--workers", default="1,2")
-    p.add_argument("--repeats", type=int, default=2, help="runs per worker count")
+    p.add_argument("--workers", type=counts(1, 4096), default="1,2", help="worker counts to compare, e.g. 1,2")
+    p.add_argument("--repeats", type=count(1, 1000), default=2, help="runs per worker count")
     p.add_argument("--unprojection-only", action="store_true", help="only the unprojection figures")
     p.add_argument("--dataset-only", action="store_true", help="only the dataset runs")
 
@@ -90,7 +91,7 @@ def _spread(v: list[float]) -> str:
 
 def dataset_runs(args: argparse.Namespace) -> list[dict]:
     """The runs of every worker count, worker counts taking turns (a drifting load hits all)."""
-    counts = [int(x) for x in args.workers.split(",")]
+    counts = list(args.workers)
     runs = [_dataset_run(args, w) for _ in range(args.repeats) for w in counts]
     print(f"genie dataset assembly_line: {args.scenes} scenes x {args.cameras} cameras ({args.sensor}), "
           f"{args.repeats} runs per worker count, {os.cpu_count()} cores; load average (1 min) at the starts: "

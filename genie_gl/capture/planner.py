@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import capture_arguments
 from ..scene.convexity import is_convex
 from ..scene.materials import MaterialTable
 from ..scene.model import Mesh, Scene
@@ -186,6 +187,7 @@ def _frustum(sensor: Sensor) -> list[tuple[np.ndarray, np.ndarray]]:
 def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
          materials: MaterialTable | None = None) -> Plan:
     """Decide, per pose (world_from_camera), what is drawn and which effects run, and why."""
+    scene, sensor, poses, _ = capture_arguments(scene, sensor, poses, 0, Scene, Sensor, "plan")
     ids, centres, radii = _spheres(scene)
     table = MaterialTable.from_scene(scene) if materials is None else materials
     mesh_of = np.array([i.mesh for i in scene.instances])

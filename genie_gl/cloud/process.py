@@ -5,6 +5,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..checks import expect_sequence
+from ..errors import ConfigError
 from ..frame import Frame
 from .pointcloud import PointCloud
 from . import kernels
@@ -62,11 +64,10 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
     own camera first, so a site of any size (20 km and more) keeps 0.1 mm.
     """
     if precision not in ("float32", "float64"):
-        raise ValueError(f"to_cloud: precision must be 'float32' or 'float64', got {precision!r}")
-    if not frames:
-        raise ValueError("to_cloud: no frames")
+        raise ConfigError(f"to_cloud: precision must be 'float32' or 'float64', got {precision!r}")
+    frames = expect_sequence(frames, Frame, "to_cloud: frames")
     if max_points is not None and rng is None:
-        raise ValueError("to_cloud: max_points needs an rng (numpy.random.Generator)")
+        raise ConfigError("to_cloud: max_points needs an rng (numpy.random.Generator)")
     origin = choose_origin(frames) if origin is None else np.asarray(origin, np.float64)
     counts = np.array([kernels.count_valid(f.depth) for f in frames], np.int64)
     ends = np.cumsum(counts)

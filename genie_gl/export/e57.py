@@ -19,12 +19,14 @@ import itertools
 import os
 import types
 import uuid
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError
+from ..outputs import check_replaceable, written
 from ..sensors.trajectory import quaternion_xyzw
 from .semantickitti_sequence import camera_points
 
@@ -72,6 +74,9 @@ class E57Writer:
 
     def __init__(self, path: str | os.PathLike, key: uuid.UUID) -> None:
         self.path = Path(path)
+        labels = self.path.with_name(self.path.name + ".labels.npz")
+        check_replaceable(self.path, lambda p: labels_are_ours(labels), what="E57")   # a user's file stays as it is
+        check_replaceable(labels, labels_are_ours, what="E57 labels")
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
         self.key = key
@@ -97,13 +102,40 @@ class E57Writer:
         self.n += 1
 
     def close(self) -> Path:
-        self.e57.close()
-        labels = self.path.with_name(self.path.name + ".labels.npz")
-        tmp = labels.with_name(f".{labels.name}.{os.getpid()}.tmp.npz")
-        np.savez(tmp, **self.labels)
-        tmp.replace(labels)
-        self.tmp.replace(self.path)
+        with written(self.path, self.tmp):
+            self.e57.close()
+            labels = self.path.with_name(self.path.name + ".labels.npz")
+            tmp = labels.with_name(f".{labels.name}.{os.getpid()}.tmp.npz")
+            with written(labels, tmp):
+                np.savez(tmp, **self.labels)
+                tmp.replace(labels)
+            self.tmp.replace(self.path)
         return self.path
+
+    def abort(self) -> None:
+        """Drop what was written so far (nothing half-written is left)."""
+        try:
+            self.e57.close()
+        except Exception:   # pye57 may refuse to close a file it failed to write
+            pass
+        self.tmp.unlink(missing_ok=True)
+
+
+def labels_are_ours(path: Path) -> bool:
+    """True when ``path`` is the labels file an :class:`E57Writer` wrote (its arrays only)."""
+    with np.load(path) as z:
+        return bool(z.files) and all(k.startswith(("semantic_", "instance_")) for k in z.files)
+
+
+@contextlib.contextmanager
+def e57_writer(path: str | os.PathLike, key: uuid.UUID) -> Iterator[E57Writer]:
+    """An :class:`E57Writer` that leaves nothing behind when its scans fail half way."""
+    w = E57Writer(path, key)
+    try:
+        yield w
+    except BaseException:
+        w.abort()
+        raise
 
 
 def cloud_pose(cloud: PointCloud) -> np.ndarray:
@@ -114,10 +146,10 @@ def cloud_pose(cloud: PointCloud) -> np.ndarray:
 
 def write(clouds: list[PointCloud], path: str | os.PathLike) -> Path:
     """``clouds`` as the scans of one E57 file (each posed at its origin)."""
-    w = E57Writer(path, content_guid(*(a for c in clouds for a in (c.xyz, c.semantic, c.instance))))
-    for k, c in enumerate(clouds):
-        w.add(c.xyz, c.semantic, c.instance, cloud_pose(c), rgb=c.rgb, name=f"chunk {k}")
-    return w.close()
+    with e57_writer(path, content_guid(*(a for c in clouds for a in (c.xyz, c.semantic, c.instance)))) as w:
+        for k, c in enumerate(clouds):
+            w.add(c.xyz, c.semantic, c.instance, cloud_pose(c), rgb=c.rgb, name=f"chunk {k}")
+        return w.close()
 
 
 def read(path: str | os.PathLike) -> list[PointCloud]:
@@ -140,12 +172,12 @@ def write_recording(rig, trajectory, recording, path: str | os.PathLike) -> Path
     """A recording ((Shot, Frame) pairs) as one E57 file, a scan per shot in its optical frame."""
     key = content_guid(*(a for shot, frame in recording
                          for a in (shot.world_from_camera, frame.depth, frame.instance)))
-    w = E57Writer(path, key)
-    for shot, frame in recording:
-        c = camera_points(frame)
-        w.add(c.xyz, c.semantic, c.instance, shot.world_from_camera, rgb=c.rgb,
-              name=f"{rig.sensors[shot.sensor].name} {shot.time_s - trajectory.start_s:.6f}")
-    return w.close()
+    with e57_writer(path, key) as w:
+        for shot, frame in recording:
+            c = camera_points(frame)
+            w.add(c.xyz, c.semantic, c.instance, shot.world_from_camera, rgb=c.rgb,
+                  name=f"{rig.sensors[shot.sensor].name} {shot.time_s - trajectory.start_s:.6f}")
+        return w.close()
 
 
 def _write_scene(data, folder: Path) -> None:

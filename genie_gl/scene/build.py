@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import check_seed, expect
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
 from ..scene_options import check_scene_options
@@ -329,6 +330,8 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
     built-in assets (the tessellation accuracy knob); None keeps each part's own count.
     Same layout, options, assets, seed and segments: the same scene (and the same USD bytes).
     """
+    expect(layout, Layout, "build_scene: layout")
+    seed = check_seed(seed, "build_scene: seed")
     segments = lib.check_segments(segments, "build_scene")
     opts = check_scene_options(layout.meta.get("scene", {}) if options is None else options,
                                "build_scene options" if options is not None else "layout scene options")
@@ -337,6 +340,14 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
         cat = cat.copy(segments=segments)
     b = SceneBuilder(layout, opts, cat, rng=np.random.default_rng(seed) if rng is None else rng)
     b.background()
-    for i, reg in enumerate(layout.leaves()):
+    before = len(b.scene.instances)
+    leaves = layout.leaves()
+    for i, reg in enumerate(leaves):
         b.region(i, reg)
+    if len(b.scene.instances) == before:   # an empty hall is a result nobody asked for: say so
+        grouped = sum(1 for r in leaves if layout.region_types[r.type].asset_group)
+        why = (f"none of its {len(leaves)} regions has an asset_group" if not grouped else
+               f"its {grouped} regions with an asset group are all too small for their assets (or dropped out)")
+        log.warning("build_scene: no asset placed: the layout of %s holds floor and walls only (%s)",
+                    layout.meta.get("strategy", "its strategy"), why)
     return b.scene

@@ -64,6 +64,10 @@ class Mesh:
             finite = np.isfinite(v64).all(axis=1)
             if finite.any():
                 lo, hi = v64[finite].min(axis=0), v64[finite].max(axis=0)
+                far = float(max(np.abs(lo).max(), np.abs(hi).max()))
+                if far > MAX_COORD_M:
+                    raise ConfigError(f"mesh vertices: a coordinate of {far:.3g} m, beyond {MAX_COORD_M:g} m (absurd "
+                                      "coordinates; check the file's units)")
                 centre, radius = (lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2
                 if np.linalg.norm(centre) > max(RECENTRE_RATIO * radius, 1.0):
                     origin = np.round(centre, 3)
