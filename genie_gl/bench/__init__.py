@@ -9,6 +9,7 @@ import argparse
 import importlib
 
 from ..outputs import claim_folder
+from ..processes import say_when_compiling
 
 BENCHMARKS: dict[str, str] = {
     "render": "renderer against pyrender and Open3D (ms/frame, frames/s, ratios)",
@@ -54,7 +55,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"genie bench {args.bench}: not available in this build")
             return 2
         raise
+    check = getattr(mod, "check_arguments", None)
+    if check is not None:   # a benchmark's own option checks, before its folder is claimed
+        check(args)
     folder = claim_folder(args.out, "bench", OUTPUTS.get(args.bench, ()), reserve=True)
+    say_when_compiling(f"genie bench {args.bench}")
     code = int(mod.run(args) or 0)
     folder.finish({"last": args.bench})
     return code

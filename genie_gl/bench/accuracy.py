@@ -31,11 +31,12 @@ from typing import Any
 
 import numpy as np
 
+from ..options import count, positive, seed
 from ..errors import ConfigError
 from ..sensors.accuracy import AccuracySettings, write_accuracy
 from ..sensors.placement import CoverageProblem, genetic_placement, greedy_placement
 from .accuracy_budget import pick
-from .accuracy_case import content_poses, make_case  # noqa: F401  (content_poses: public)
+from .accuracy_case import check_path, content_poses, make_case  # noqa: F401  (content_poses: public)
 from .accuracy_errors import compare, noise_check, pool
 from .accuracy_plot import pareto, plot
 from .accuracy_runner import Runner, references, spread
@@ -49,15 +50,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="USD stage, or layout / strategy JSON (default: the built-in analytic case)")
     p.add_argument("--sensor", default=None, help="sensor profile or calibration file (default: the built-in "
                                                    "rational-lens stereo sensor without --scene, ideal_pinhole with one)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the layout, scene, placement and noise")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the layout, scene, placement and noise")
     views = p.add_mutually_exclusive_group()
-    views.add_argument("--cameras", type=int, default=3, help="cameras placed over the scene (default 3)")
+    views.add_argument("--cameras", type=count(1, 1000), default=3, help="cameras placed over the scene (default 3)")
     views.add_argument("--poses", default=None, help="JSON list of 4x4 world_from_camera, or .npy (N, 4, 4)")
     p.add_argument("--path", default=None, help="with a strategy --scene: the --cameras frames along a trajectory "
                                                 "(aisles, random or a waypoints file) instead of standing cameras")
-    p.add_argument("--repeats", type=int, default=5, help="timed passes per row after one warm-up (default 5)")
-    p.add_argument("--budget-mm", type=float, default=None, help="depth error budget (p99, mm)")
-    p.add_argument("--budget-px", type=float, default=None, help="silhouette budget (mean edge error, px)")
+    p.add_argument("--repeats", type=count(1, 1000), default=5, help="timed passes per row after one warm-up (default 5)")
+    p.add_argument("--budget-mm", type=positive(1e6), default=None, help="depth error budget (p99, mm)")
+    p.add_argument("--budget-px", type=positive(1e6), default=None, help="silhouette budget (mean edge error, px)")
     p.add_argument("--knobs", default=None, help="comma-separated subset of knobs to run (default: all)")
     p.add_argument("--no-cache", action="store_true",
                    help="render the exact reference again (default: reuse OUT/cache/reference-*.npz of the same inputs)")
@@ -106,6 +107,11 @@ def placement_rows(case: Case, repeats: int, seed: int) -> list[dict]:
                      "is_default": (gens, popn) == PLACEMENT_DEFAULT, "coverage_pct": 100.0 * cov,
                      "cameras": n, "seconds": spread(ts[1:])})
     return rows
+
+
+def check_arguments(args: argparse.Namespace) -> None:
+    """What can be checked before the output folder is claimed (``genie bench`` calls it)."""
+    check_path(args)
 
 
 def run(args: argparse.Namespace) -> int:

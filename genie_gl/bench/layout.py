@@ -10,12 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..options import count
 from ..layout import Child, Generator, generate_layout, parse_strategy, register
 from ..layout.generators import Children
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--repeats", type=count(1, 1000), default=3)
 
 
 def _strategy(R: int, L: int, generator: str = "strips") -> dict:
@@ -36,6 +37,9 @@ def _register() -> None:
             n = int(self.args["n"])
             w = parent.w / n
             return [Child(parent.x + i * w, parent.y, w, parent.h, "strip") for i in range(n)]
+
+        def max_children(self, w, h, parents, area):  # the limits' bound: n strips per parent
+            return parents * int(self.args["n"])
 
         def generate_batch(self, parents, *, rng):  # every parent at once
             n, m = int(self.args["n"]), len(parents)

@@ -26,8 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from ..capture.trajectory import record
+from ..errors import ConfigError
 from ..export.semantickitti_sequence import write_recording
-from ..layout import generate_layout
+from ..layout import generate_layout, load_strategy
+from ..options import count, positive, seed
+from ..outputs import atomic_write_text
 from ..render import shared_context
 from ..scene import build_scene
 from ..sensors.paths import make_trajectory
@@ -41,9 +44,7 @@ RATE_HZ = 20.0          # a spinning LiDAR's scan rate: 3 degrees a scan at a pe
 
 
 def at_rate(rig: Rig, rate_hz: float) -> Rig:
-    """``rig`` with every sensor firing at ``rate_hz`` (0: unchanged)."""
-    if rate_hz <= 0:
-        return rig
+    """``rig`` with every sensor firing at ``rate_hz``."""
     return Rig(rig.name, tuple(dataclasses.replace(s, rate_hz=float(rate_hz)) for s in rig.sensors))
 
 
@@ -62,15 +63,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="storage_area")
     p.add_argument("--rig", default="panorama_cube")
     p.add_argument("--path", default="aisles", choices=("aisles", "random"))
-    p.add_argument("--duration-s", type=float, default=10.0)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--rate-hz", type=float, default=RATE_HZ,
-                   help="every rig sensor's frame rate (0: the rig's own)")
+    p.add_argument("--duration-s", type=positive(3600), default=10.0, help="seconds of the trajectory")
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--rate-hz", type=positive(1000.0), default=RATE_HZ,
+                   help="every rig sensor's frame rate (panorama_cube's own: 5)")
     p.add_argument("--sequence", default=None, help="a SemanticKITTI sequence folder to run on instead of recording one")
-    p.add_argument("--scan-points", type=int, default=SCAN_POINTS,
+    p.add_argument("--scan-points", type=count(0, 10**8), default=SCAN_POINTS,
                    help="points drawn at random from each scan before KISS-ICP sees it (0: every point)")
-    p.add_argument("--max-range", type=float, default=MAX_RANGE_M, help="KISS-ICP's max_range (m)")
-    p.add_argument("--voxel-m", type=float, default=VOXEL_M, help="KISS-ICP's map voxel size (m)")
+    p.add_argument("--max-range", type=positive(1000.0), default=MAX_RANGE_M, help="KISS-ICP's max_range (m)")
+    p.add_argument("--voxel-m", type=positive(10.0), default=VOXEL_M, help="KISS-ICP's map voxel size (m)")
 
 
 def read_sequence(seq: Path) -> tuple[Iterator[np.ndarray], np.ndarray, np.ndarray]:
@@ -86,6 +87,17 @@ def read_sequence(seq: Path) -> tuple[Iterator[np.ndarray], np.ndarray, np.ndarr
     return scans, np.array(poses), np.loadtxt(seq / "times.txt")
 
 
+def check_arguments(args: argparse.Namespace) -> None:
+    """The rig and the strategy read before the output folder is claimed (``genie bench`` calls it)."""
+    load_rig(args.rig)
+    load_strategy(args.strategy)
+    if args.sequence:
+        missing = [n for n in ("calib.txt", "poses.txt", "times.txt", "velodyne") if not (Path(args.sequence) / n).exists()]
+        if missing:
+            raise ConfigError(f"--sequence {args.sequence}: expected a SemanticKITTI sequence folder; it lacks "
+                              f"{', '.join(missing)}")
+
+
 def run(args: argparse.Namespace) -> int:
     from evo.core import metrics     # the bench extra: evo and kiss-icp
     from evo.core.trajectory import PoseTrajectory3D
@@ -95,9 +107,9 @@ def run(args: argparse.Namespace) -> int:
     if args.sequence:      # a sequence written before (by this bench or a dataset run)
         seq, what = Path(args.sequence), f"the sequence {args.sequence}"
     else:
+        rig = at_rate(load_rig(args.rig), args.rate_hz)
         layout = generate_layout(args.strategy, seed=args.seed)
         scene = build_scene(layout, seed=args.seed)
-        rig = at_rate(load_rig(args.rig), args.rate_hz)
         tr = make_trajectory(layout, scene, args.path, seed=args.seed, duration_s=args.duration_s)
         seq, = write_recording(rig, tr, record(scene, rig, tr, seed=args.seed, depth_only=True,
                                                context=shared_context()), Path(args.out) / "odometry")
@@ -129,8 +141,7 @@ def run(args: argparse.Namespace) -> int:
               "ate_max_m": float(ape.get_statistic(metrics.StatisticsType.max)),
               "rpe_per_m_rmse_m": float(rpe.get_statistic(metrics.StatisticsType.rmse)),
               "end_error_m": float(np.linalg.norm(gt[-1][:3, 3] - est[-1][:3, 3]))}
-    Path(args.out).mkdir(parents=True, exist_ok=True)
-    (Path(args.out) / "odometry.json").write_text(json.dumps(result, indent=1))
+    atomic_write_text(Path(args.out) / "odometry.json", json.dumps(result, indent=1))
     print(f"KISS-ICP on {len(est)} scans ({args.scan_points or 'all'} points each) of {what} along {length:.1f} m: "
           f"evo ATE RMSE {100 * result['ate_rmse_m']:.2f} cm (max {100 * result['ate_max_m']:.2f} cm), "
           f"RPE per metre {100 * result['rpe_per_m_rmse_m']:.2f} cm, end point {100 * result['end_error_m']:.2f} cm")

@@ -52,10 +52,12 @@ from ..sensors.geometry import pixel_rays
 from ..sensors.shadow import StereoShadow
 from ..sensors.simulate import simulate
 
+from ..options import count
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--cameras", type=int, default=4)
-    p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--cameras", type=count(1, 1000), default=4)
+    p.add_argument("--rounds", type=count(1, 1000), default=3)
 
 
 def _before(sensor, pose, render, rng, materials):

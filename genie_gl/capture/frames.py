@@ -16,7 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import capture_arguments, check_pose, expect
 from ..frame import Frame
+from ..limits import check_frames
 from ..render.context import GLContext
 from ..render.renderer import Renderer
 from ..scene.materials import MaterialTable
@@ -41,6 +43,9 @@ def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | Non
     Creates and frees a GL context: to render many poses use :func:`capture`, or a
     :class:`~genie_gl.render.Renderer` with :func:`~genie_gl.capture.through_lens`.
     """
+    expect(scene, Scene, "render: scene")
+    expect(sensor, Sensor, "render: sensor")
+    pose = check_pose(pose, "render: pose")
     with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
         return through_lens(r.render)(sensor, pose, depth_only=depth_only, normals=normals)
 
@@ -72,15 +77,26 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     context : a :class:`~genie_gl.render.GLContext` to render in (``workers=1`` only; e.g.
         :func:`~genie_gl.render.shared_context`, kept from scene to scene); None makes one.
     """
+    scene, sensor, poses, seed = capture_arguments(scene, sensor, poses, seed, Scene, Sensor)
+    check_frames(len(poses), sensor.width, sensor.height, "capture")   # every frame is returned: all in memory
     prep = prepare(scene, sensor, poses, accuracy=accuracy, depth_precision=depth_precision, plan=plan)
     n = len(prep.poses)
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
         with prep.renderer(scene, backend=backend, context=context) as r:
-            return prep.frames(r, seed, depth_only)
-    return capture_in_workers(scene, prep.sensor, prep.poses, seed, workers, backend, depth_only,
-                              prep.depth_precision, prep.plan, prep.materials, prep.accuracy)
+            return _said_if_empty(prep.frames(r, seed, depth_only), prep.sensor)
+    return _said_if_empty(capture_in_workers(scene, prep.sensor, prep.poses, seed, workers, backend, depth_only,
+                                             prep.depth_precision, prep.plan, prep.materials, prep.accuracy),
+                          prep.sensor)
+
+
+def _said_if_empty(frames: list[Frame], sensor: Sensor) -> list[Frame]:
+    """``frames``, with a warning when not one of them has a return."""
+    if frames and not any(bool((f.depth > 0).any()) for f in frames):
+        log.warning("capture: no point captured: none of the %d frames of sensor %s (%dx%d px, range %g-%g m) has a "
+                    "return", len(frames), sensor.name, sensor.width, sensor.height, sensor.near_m, sensor.far_m)
+    return frames
 
 
 @dataclass(frozen=True, eq=False)

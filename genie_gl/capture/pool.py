@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..frame import Frame
+from ..processes import die_with_parent
 from ..render.context import set_default_backend
 from ..render.lod import LevelOfDetail
 from ..render.renderer import Renderer
@@ -27,6 +28,7 @@ _WORKER: dict[str, Any] = {}
 
 def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32",
                  lod: LevelOfDetail | None = None) -> None:
+    die_with_parent()
     if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.

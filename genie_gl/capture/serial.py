@@ -12,7 +12,7 @@ from ..render.renderer import Renderer
 from ..scene.materials import MaterialTable
 from ..sensors.accuracy import AccuracySettings
 from ..sensors.camera import Sensor
-from ..sensors.distortion import lens_views
+from ..sensors.distortion import DEFAULT_RESAMPLE, lens_views
 from ..sensors.simulate import simulate
 from .lens import through_lens
 from .planner import Plan
@@ -33,12 +33,15 @@ def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarra
     pose ``indices[k]`` of the capture (its generator and its frame plan)."""
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     normals = any(eff.needs_normals for eff in sensor.effects)
+    triangles = False
     if sensor.is_pinhole:
         view = sensor
-    else:  # the pinhole view the lens is resampled from (the default, exact, needs its normals)
+    else:  # the pinhole view the lens is resampled from, with what its resampling needs
         views = lens_views(sensor, oversample=None if accuracy is None else accuracy.oversample)
         view = views[0].render_sensor if len(views) == 1 else sensor   # cube faces: no prefetch
-        normals = True
+        resample = DEFAULT_RESAMPLE if accuracy is None else accuracy.resample
+        triangles = resample == "exact"
+        normals = (normals or resample == "plane") and not triangles
     frame_plans = None if plan is None else [plan.frames[i] for i in indices]
     only = None
     if frame_plans is not None:   # the plan's culling and far plane, as simulate asks for them
@@ -50,7 +53,7 @@ def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarra
         draw = supersampled(functools.partial(through_lens(renderer.render), depth_only=depth_only),
                             accuracy.supersample)
     else:
-        draw = Prefetched(renderer, view, poses, depth_only, normals, only)
+        draw = Prefetched(renderer, view, poses, depth_only, normals, only, triangles)
     opts = simulate_options(accuracy)
     return [simulate(sensor, poses[k], render=draw, rng=pose_rng(seed, i), materials=materials,
                      plan=None if frame_plans is None else frame_plans[k], **opts) for k, i in enumerate(indices)]

@@ -13,6 +13,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from ..processes import die_with_parent, say_when_compiling
 from ..render.context import set_default_backend
 from ..render.threads import limit_threads
 from .config import DatasetConfig
@@ -54,6 +55,7 @@ def _worker(job: tuple) -> dict:
     if os.environ.get("GENIE_GL_BACKEND"):  # a spawned worker: the CLI's choice, inherited
         set_default_backend(os.environ["GENIE_GL_BACKEND"])
     cfg, index, verify, status = job if len(job) == 4 else (*job, None)
+    say_when_compiling(f"genie dataset (worker {os.getpid()})")
     limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
 
     def stage(name: str) -> None:
@@ -106,7 +108,8 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
             ctx = mp.get_context("spawn")
             # the stages under way are shown through a manager's dict: a server process of its
             # own, started only when there is a bar to show them on
-            with ctx.Manager() if progress else nullcontext() as manager, ctx.Pool(n) as pool:
+            with ctx.Manager() if progress else nullcontext() as manager, \
+                    ctx.Pool(n, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
                 status = manager.dict() if manager is not None else None  # scene -> its worker's stage
                 it = pool.imap_unordered(_worker, [(cfg, i, verify, status) for i in range(cfg.scenes)])
                 left = cfg.scenes

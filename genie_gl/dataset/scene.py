@@ -3,6 +3,7 @@ written into a temporary folder with its file record and renamed into place when
 from __future__ import annotations
 
 import json
+import logging
 import os
 import shutil
 import time
@@ -23,6 +24,8 @@ from .config import DatasetConfig, settings_of
 from .manifest import record_files, scene_complete
 from .previews import write_previews, write_recording_previews
 from .recording import capture_moving, stats_of, write_trajectory
+
+log = logging.getLogger(__name__)
 
 STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
 
@@ -59,7 +62,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     t = {"start": time.perf_counter()}
     cpu = time.process_time()  # the process's CPU time, its rasteriser and kernel threads included
     stage("layout")
-    layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"])
+    layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"], max_regions=cfg.max_nodes)
     t["layout"] = time.perf_counter()
     stage("scene")
     accuracy = settings_of(cfg.accuracy)
@@ -69,7 +72,8 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         return _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, out, final)
     stage("placement")
     sensor = load_sensor(cfg.sensor)
-    poses = place_sensors(layout, sensor, n=cfg.cameras, seed=int(rng["placement"].integers(2**31)))
+    poses = place_sensors(layout, sensor, n=cfg.cameras, seed=int(rng["placement"].integers(2**31)),
+                          mount_height_m=cfg.mount_m)
     t["placement"] = time.perf_counter()
     stage("capture")
     # a format that stores no colour renders none (an output not asked for costs nothing)
@@ -85,13 +89,19 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         for key, tile in tiles:
             if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
                 kept.append((key, tile))
-                np.add.at(counts, tile.semantic, 1)
+                counts += np.bincount(tile.semantic, minlength=len(counts))
     else:
         for f in frames:
             ok = f.depth > 0
             points_total += int(ok.sum())
-            np.add.at(counts, f.semantic[ok], 1)
+            counts += np.bincount(f.semantic[ok], minlength=len(counts))
     t["cloud"] = time.perf_counter()
+    if fmt.chunks and not kept:
+        log.warning("scene %d: no chunk kept: every chunk of its %d points has fewer than --min-points %d points or "
+                    "a labelled share under --min-labelled-share %g", index, points_total, cfg.min_points,
+                    cfg.min_labelled_share)
+    elif not counts[1:].any():
+        log.warning("scene %d: nothing labelled: its %d points are all background (class 0)", index, points_total)
     if curation.active(cfg):  # balanced once every scene is made (genie_gl/dataset/curation.py)
         if index < cfg.previews:
             write_previews(out / "previews", index, layout, frames, scene)
@@ -109,7 +119,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     layout.to_json(tmp / "layout.json")
     stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
              "points_total": int(points_total), "chunks": len(kept),
-             "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+             "class_points": _class_points(counts)}
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
@@ -151,7 +161,7 @@ def _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, ou
     layout.to_json(tmp / "layout.json")
     counts = moving.tally.counts
     stats = {"scene": index, **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points),
-             "chunks": len(moving.kept), "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+             "chunks": len(moving.kept), "class_points": _class_points(counts)}
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
@@ -164,6 +174,11 @@ def _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, ou
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
     return stats | _timings(t, None, cpu, moving.tally)
+
+
+def _class_points(counts: np.ndarray) -> dict[str, int]:
+    """{class id as text: points} for the classes with points, in id order (``counts``: (65536,) int64)."""
+    return {str(k): int(counts[k]) for k in np.flatnonzero(counts).tolist()}
 
 
 def _timings(t: dict[str, float], frames: list | None, cpu: float, tally=None) -> dict[str, Any]:

@@ -38,11 +38,12 @@ def warm_up(cfg: DatasetConfig) -> float:
     rng = {n: np.random.default_rng(np.random.SeedSequence([WARM_SEED, k]))
            for k, n in enumerate(("layout", "scene", "cloud"))}
     fmt = get_format(cfg.format)
-    layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"])
+    layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"], max_regions=cfg.max_nodes)
     accuracy = settings_of(cfg.accuracy)
     scene = build_scene(layout, rng=rng["scene"], **segments_option(accuracy))
     sensor = load_sensor(cfg.sensor)
-    poses = place_sensors(layout, sensor, n=min(WARM_CAMERAS, cfg.cameras), seed=WARM_SEED)
+    poses = place_sensors(layout, sensor, n=min(WARM_CAMERAS, cfg.cameras), seed=WARM_SEED,
+                          mount_height_m=cfg.mount_m)
     # (the culling kernels load only if a view of this scene draws enough faces to cull: the
     # assembly line's views never do, so its scenes never load them)
     frames = capture(scene, sensor, poses, seed=WARM_SEED, workers=1, depth_only=not fmt.colour,

@@ -53,6 +53,8 @@ class DatasetFormat:
     write_sequence: Callable[[SceneData, Path], None] | None = None  # a recording into a folder
     cloud_outputs: Callable[[str], tuple[str, ...]] | None = None  # top-level names write_cloud(name=) makes
     dataset_outputs: tuple[str, ...] = ()                         # top-level names of a dataset, beside folder
+    notes: Callable[[Any], list[str]] | None = None               # (config) -> what the user must be told first
+    bytes_per_point: int = 40                                     # at most, on disk (the limits' disk estimate)
 
     def scene_dir(self, out: str | os.PathLike, index: int) -> Path:
         return Path(out) / self.folder / f"{index:0{self.digits}d}"

@@ -41,6 +41,7 @@ _egl_pid: int | None = None          # the process that started EGL (its driver 
 
 GL_LOWER_LEFT = 0x8CA1
 GL_ZERO_TO_ONE = 0x935F
+GL_SUBPIXEL_BITS = 0x0D50
 
 
 @dataclass(eq=False)
@@ -60,6 +61,7 @@ class GLContext:
     _get_proc: Callable[[bytes], int] = field(repr=False)
     _keepalive: list[Any] = field(default_factory=list, repr=False)
     programs: dict = field(default_factory=dict, repr=False)  # built shaders, shared by renderers
+    _subpixel_bits: int | None = field(default=None, repr=False)
 
     def gl_function(self, name: str, restype: Any, *argtypes: Any) -> Callable[..., Any]:
         """A ctypes binding of a GL entry point moderngl does not expose (e.g. glClipControl)."""
@@ -67,6 +69,25 @@ class GLContext:
         if not address:
             raise BackendUnavailableError(f"{self.backend}: GL function {name} is not available")
         return ctypes.CFUNCTYPE(restype, *argtypes)(address)
+
+    @property
+    def max_side(self) -> int:
+        """The largest frame side (px) this context can render: the least of its texture,
+        renderbuffer and viewport limits."""
+        info = self.ctx.info
+        dims = info.get("GL_MAX_VIEWPORT_DIMS") or (0, 0)
+        sides = [info.get("GL_MAX_TEXTURE_SIZE"), info.get("GL_MAX_RENDERBUFFER_SIZE"), *dims]
+        return int(min(s for s in sides if s)) if any(sides) else 16384
+
+    def subpixel_bits(self) -> int:
+        """GL_SUBPIXEL_BITS: the rasteriser snaps vertices to 1 / 2^bits of a pixel (call with
+        the context current; asked once). GL guarantees at least 4."""
+        if self._subpixel_bits is None:
+            value = ctypes.c_int(0)
+            self.gl_function("glGetIntegerv", None, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))(
+                GL_SUBPIXEL_BITS, ctypes.byref(value))
+            self._subpixel_bits = max(4, value.value)
+        return self._subpixel_bits
 
     def release(self) -> None:
         """Free the context and everything created in it."""
