@@ -14,10 +14,6 @@ from ..layout import Child, Generator, generate_layout, parse_strategy, register
 from ..layout.generators import Children
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--repeats", type=int, default=3)
-
-
 def _strategy(R: int, L: int, generator: str = "strips") -> dict:
     return {"name": f"dummy_R{R}_L{L}", "root": {"width": 1000.0, "height": 1000.0, "type": "n"},
             "region_types": {"n": {}, "leaf": {"final": True}},

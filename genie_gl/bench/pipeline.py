@@ -45,16 +45,6 @@ from ..resources import resolve
 TARGET_S = 0.5  # issue 16: stage seconds per scene on 2 cores
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenes", type=int, default=6, help="scenes per run (enough that each worker makes several)")
-    p.add_argument("--cameras", type=int, default=40)
-    p.add_argument("--sensor", default="ideal_pinhole")
-    p.add_argument("--workers", default="1,2")
-    p.add_argument("--repeats", type=int, default=2, help="runs per worker count")
-    p.add_argument("--unprojection-only", action="store_true", help="only the unprojection figures")
-    p.add_argument("--dataset-only", action="store_true", help="only the dataset runs")
-
-
 def _dataset_run(args: argparse.Namespace, workers: int) -> dict:
     """One ``genie dataset`` command in a fresh process; its timings from its manifest."""
     tmp = Path(tempfile.mkdtemp(prefix="genie-bench-"))

@@ -53,11 +53,6 @@ from ..sensors.shadow import StereoShadow
 from ..sensors.simulate import simulate
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--cameras", type=int, default=4)
-    p.add_argument("--rounds", type=int, default=3)
-
-
 def _before(sensor, pose, render, rng, materials):
     """Every effect, every frame: the unplanned pipeline."""
     normals = any(e.needs_normals for e in sensor.effects)

@@ -41,13 +41,6 @@ from ..sensors.camera import Sensor
 SIZES = {"100k": (4, 1024), "1M": (6, 4096)}   # icosphere subdivisions, cylinder sections
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--repeats", type=int, default=5, help="timed passes over the 4 poses")
-    parser.add_argument("--frames", type=int, default=24, help="frames per process in the whole-machine run")
-    parser.add_argument("--sizes", default="100k,1M", help="scene sizes to run (100k, 1M)")
-    parser.add_argument("--no-peers", action="store_true", help="time genie-gl only")
-
-
 def bench_scene(size: str, seed: int = 0):
     """The benchmark scene (a genie_gl.Scene) and its four camera poses."""
     subdiv, sections = SIZES[size]

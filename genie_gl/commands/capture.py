@@ -9,10 +9,7 @@ milliseconds and the pixels it changed.
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
-from .. import __version__
 from ..errors import ConfigError, did_you_mean
 from . import count, positive, seed, stages
 from .plan import warn_empty
@@ -36,7 +33,8 @@ def run(args: argparse.Namespace) -> int:
     from ..capture import plan as make_plan
     from ..checks import read_poses
     from ..cloud import to_cloud
-    from ..export import FORMATS, export
+    from ..export import FORMATS, get_format
+    from ..outputs import claim_folder
     from ..scene.usd import read_usd
     from ..sensors import load_sensor
     from ..sensors.placement import scene_poses
@@ -45,6 +43,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
                           f"{did_you_mean(args.format, FORMATS)}")
     sensor = load_sensor(args.sensor)
+    fmt = get_format(args.format)
+    folder = claim_folder(args.out, "capture", fmt.cloud_outputs("cloud"))   # before any work
     with stages(["read scene", "plan", "render", "cloud", "export"], title="genie capture",
                 enabled=not args.no_progress) as step:
         step("read scene")
@@ -59,12 +59,11 @@ def run(args: argparse.Namespace) -> int:
         step("cloud")
         cloud = to_cloud(frames)
         step("export")
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        path = export(cloud, out, format=args.format)
-    (out / "manifest.json").write_text(json.dumps({
-        "genie_gl": __version__, "command": "capture", "scene": args.scene, "sensor": args.sensor,
-        "cameras": len(poses), "seed": args.seed, "format": args.format, "points": len(cloud),
-        "effects": effect_totals(frames), "empty_frames": plan.empty_frames}, indent=1))
+        folder.reserve()
+        path = fmt.write_cloud(cloud, folder.path, name="cloud")
+    folder.finish({
+        "scene": args.scene, "sensor": args.sensor, "cameras": len(poses), "seed": args.seed,
+        "format": args.format, "points": len(cloud), "effects": effect_totals(frames),
+        "empty_frames": plan.empty_frames})
     print(f"capture: {len(frames)} frames, {len(cloud):,} points -> {path}")
     return 0

@@ -2,19 +2,15 @@
 from __future__ import annotations
 
 import argparse
+import io
 import json
-import shutil
 import sys
-import tempfile
-from pathlib import Path
 
-import numpy as np
-
-from .. import __version__
 from ..errors import ConfigError, LimitError
 from . import positive, seed
 
 MAX_RASTER_CELLS = 100_000_000  # the label raster: 100 M cells (~200 MB as uint16)
+OUTPUTS = ("layout.json", "layout.png", "labels.npy")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -26,7 +22,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ..layout import generate_layout, json_schema, load_strategy, save_layout_png
+    from ..outputs import atomic_write_bytes, claim_folder
 
     if args.schema:
         json.dump(json_schema(), sys.stdout, indent=2)
@@ -40,25 +39,19 @@ def run(args: argparse.Namespace) -> int:
     if cells > MAX_RASTER_CELLS:
         raise LimitError(f"--resolution {args.resolution}: a {w:g} x {h:g} m hall makes a label raster of {cells:.3g} "
                          f"cells, more than {MAX_RASTER_CELLS:,}; use a coarser --resolution")
+    folder = claim_folder(args.out, "layout", OUTPUTS)   # before any work: refuse the user's names
     layout = generate_layout(strategy, seed=args.seed)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".layout-", dir=out.parent))
-    tmp.chmod(0o755)  # mkdtemp makes 0700: the usual permissions for an output folder
-    try:
-        layout.to_json(tmp / "layout.json")
-        save_layout_png(layout, tmp / "layout.png")
-        raster = layout.label_raster(args.resolution)
-        np.save(tmp / "labels.npy", raster.labels)
-        (tmp / "manifest.json").write_text(json.dumps({
-            "genie_gl": __version__, "command": "layout", "strategy": str(strategy.source),
-            "seed": args.seed, "raster": {"resolution_m": args.resolution, "origin_xy": raster.origin_xy,
-                                           "type_names": raster.type_names},
-            "nodes": len(layout), "leaves": len(layout.leaves())}, indent=1))
-        if out.exists():
-            shutil.rmtree(out)
-        tmp.replace(out)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+    raster = layout.label_raster(args.resolution)
+    folder.reserve()
+    out = folder.path
+    layout.to_json(out / "layout.json")
+    save_layout_png(layout, out / "layout.png")
+    buf = io.BytesIO()
+    np.save(buf, raster.labels)
+    atomic_write_bytes(out / "labels.npy", buf.getvalue())
+    folder.finish({
+        "strategy": str(strategy.source), "seed": args.seed,
+        "raster": {"resolution_m": args.resolution, "origin_xy": raster.origin_xy, "type_names": raster.type_names},
+        "nodes": len(layout), "leaves": len(layout.leaves())})
     print(f"layout: {len(layout)} regions, {len(layout.leaves())} leaves -> {out}")
     return 0

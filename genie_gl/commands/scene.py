@@ -24,6 +24,12 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.suffix not in (".usda", ".usdc", ".usd"):
         raise ConfigError(f"--out {out}: expected a .usda, .usdc or .usd file name")
+    from ..outputs import check_replaceable, png_is_ours
+    from ..scene.usd import written_by_genie
+
+    check_replaceable(out, written_by_genie, what="USD scene", option="--out")   # before any work
+    if not args.no_picture:
+        check_replaceable(out.with_suffix(".png"), png_is_ours, what="PNG picture", option="--out")
     layout = Layout.from_json(args.layout)
     names = ["build scene", "write USD"] + ([] if args.no_picture else ["render overview"])
     with stages(names, title="genie scene", enabled=not args.no_progress) as step:
@@ -48,11 +54,8 @@ def _overview(scene, layout, out: Path) -> Path:
 
     from ..capture import render
     from ..dataset.previews import overview_pose
+    from ..outputs import save_png
     from ..sensors.camera import Sensor
 
     frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds))
-    png = out.with_suffix(".png")
-    tmp = png.with_name(png.stem + ".tmp.png")
-    Image.fromarray(frame.rgb).save(tmp)
-    tmp.replace(png)
-    return png
+    return save_png(Image.fromarray(frame.rgb), out.with_suffix(".png"))

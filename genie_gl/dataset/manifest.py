@@ -64,9 +64,10 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
     return {"sha256": hashlib.sha256(blob).hexdigest(), "parts": parts}
 
 
-def check_resume(out: Path, fp: dict[str, Any]) -> dict[str, Any] | None:
+def check_resume(out: Path, fp: dict[str, Any], scenes: int | None = None) -> dict[str, Any] | None:
     """The manifest of an earlier run in ``out`` when its inputs are ``fp``'s; None when there
-    is none. A folder made from other inputs is refused (one line, naming what differs)."""
+    is none. A folder made from other inputs is refused (one line, naming what differs), and so
+    is one made for more ``scenes`` than asked now (its extra scenes would stay, undescribed)."""
     path = out / "manifest.json"
     if not path.exists():
         return None
@@ -77,6 +78,10 @@ def check_resume(out: Path, fp: dict[str, Any]) -> dict[str, Any] | None:
         raise ConfigError(f"--out {out}: manifest.json is not a genie-gl dataset manifest (or predates "
                           "fingerprints); use another --out") from None
     if old_fp.get("sha256") == fp["sha256"]:
+        before = (old.get("inputs") or {}).get("scenes")
+        if scenes is not None and isinstance(before, int) and before > scenes:
+            raise ConfigError(f"--out {out}: holds a dataset of {before} scenes; --scenes {scenes} would leave scenes "
+                              f"{scenes}..{before - 1} in it: give --scenes {before} (or more), or another --out")
         return old
     a, b = old_fp.get("parts", {}), fp["parts"]
     changed = [k for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]

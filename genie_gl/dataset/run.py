@@ -34,6 +34,7 @@ from ..capture import add_totals
 from ..errors import ConfigError
 from ..export import get_format
 from ..layout import load_strategy
+from ..outputs import OutputFolder, atomic_write_text, claim_folder
 from ..scene import ASSETS
 from ..sensors import load_sensor
 from . import curation
@@ -56,29 +57,23 @@ def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
                           "scene.assets, or use one worker")
 
 
+#: what a dataset writes at the top of ``--out`` besides its format's own entries
+DATASET_ENTRIES = ("previews", "histogram.txt", "histogram.json", "histogram.png", ".balance")
+
+
+def claim_output(cfg: DatasetConfig, fmt) -> OutputFolder:
+    """``--out`` claimed for a dataset (:mod:`genie_gl.outputs`): new, or beside the user's own
+    files, or a previous run's dataset (its manifest); anything else is refused in one line."""
+    return claim_folder(cfg.out, "dataset", (fmt.folder, *fmt.dataset_outputs, *DATASET_ENTRIES))
+
+
 def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
     """Check what a run needs before any work: the strategy and sensor load, the output folder
-    is writable, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
+    may be written, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
     strategy = load_strategy(cfg.strategy)
     sensor = load_sensor(cfg.sensor)
-    out = Path(cfg.out)
-    made = [p for p in (out, *out.parents) if not p.exists()]
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as exc:
-        raise ConfigError(f"--out {out}: not writable ({exc.strerror})") from None
-    try:
-        check_limits(cfg, strategy, sensor, out)
-    except ConfigError:
-        for p in made:  # refused before any work: leave no trace
-            try:
-                p.rmdir()
-            except OSError:
-                break
-        raise
+    claim_output(cfg, get_format(cfg.format))
+    check_limits(cfg, strategy, sensor, Path(cfg.out))
     if cfg.executor == "ray":
         try:
             import ray  # noqa: F401
@@ -87,14 +82,24 @@ def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
     return strategy, sensor, fingerprint(cfg, strategy, sensor)
 
 
-def _clear_leftovers(out: Path, fmt) -> None:
-    """Remove what a killed run left half-made: scene folders and files being written."""
+def _clear_leftovers(folder: OutputFolder, fmt) -> None:
+    """Remove what a killed run left half-made: scene folders and files being written. Only
+    inside the entries this dataset's manifest lists as its own, never the user's."""
+    out = folder.path
     for parent in {out / fmt.folder, *(out / s for s in fmt.stale)}:
-        for stale in parent.glob(".tmp-*") if parent.is_dir() else []:
+        for stale in parent.glob(".tmp-*") if parent.is_dir() and folder.owns(parent.name) else []:
             shutil.rmtree(stale, ignore_errors=True)
-    for p in out.rglob("*.tmp*"):
-        if p.is_file() and (p.name.endswith(".tmp") or p.name.endswith(".tmp.png")):
-            p.unlink()
+    for entry in out.iterdir():
+        if entry.is_file() and entry.name.endswith(".tmp") and entry.name.startswith("."):
+            base = entry.name[1:].split(".", 1)[0]
+            if any(n.startswith(base) for n in (*folder.declared, "manifest")):
+                entry.unlink()   # .<name>.<pid>.tmp of an atomic write of one of our files
+            continue
+        if not folder.owns(entry.name) or entry.is_symlink() or not entry.is_dir():
+            continue
+        for p in entry.rglob("*.tmp*"):
+            if p.is_file() and (p.name.endswith(".tmp") or p.name.endswith(".tmp.png") or p.name.endswith(".tmp.npz")):
+                p.unlink()
 
 
 def _effects_total(results: list[dict]) -> dict:
@@ -105,10 +110,9 @@ def _effects_total(results: list[dict]) -> dict:
     return total
 
 
-def _write_manifest(out: Path, manifest: dict) -> None:
-    tmp = out / "manifest.json.tmp"
-    tmp.write_text(json.dumps(manifest, indent=1))
-    tmp.replace(out / "manifest.json")
+def _write_manifest(folder: OutputFolder, manifest: dict) -> None:
+    manifest["outputs"] = folder.outputs()
+    atomic_write_text(folder.path / "manifest.json", json.dumps(manifest, indent=1))
 
 
 def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False) -> dict[str, Any]:
@@ -117,10 +121,12 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
     strategy, sensor, fp = prepare(cfg)
-    out = Path(cfg.out)
     fmt = get_format(cfg.format)
+    folder = claim_output(cfg, fmt)
+    folder.path.mkdir(parents=True, exist_ok=True)
+    out = folder.path
     with OutputLock(out):
-        old = check_resume(out, fp)
+        old = check_resume(out, fp, cfg.scenes)
         runs = list(old.get("runs", [])) if old else []
         manifest = {
             "genie_gl": __version__, "python": platform.python_version(), "command": "dataset",
@@ -129,10 +135,11 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
             "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
             "runs": runs,
         }
-        _write_manifest(out, manifest)  # before any scene: a later resume knows the inputs
-        _clear_leftovers(out, fmt)
+        manifest["outputs"] = sorted(set(folder.owned) | set(folder.declared))
+        atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1))  # before any scene: a later
+        _clear_leftovers(folder, fmt)                  # resume knows the inputs, and what is its own
         try:
-            _run(cfg, out, fmt, manifest, runs, progress=progress, verify=verify)
+            _run(cfg, folder, fmt, manifest, runs, progress=progress, verify=verify)
         except OSError as exc:
             if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
                 raise ConfigError(f"--out {out}: disk full or file too large while writing "
@@ -142,8 +149,10 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
     return manifest
 
 
-def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, progress: bool, verify: bool) -> None:
+def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: list, *, progress: bool,
+         verify: bool) -> None:
     """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
+    out = folder.path
     started = time.time()
     t0 = time.perf_counter()
     results = map_scenes(cfg, progress=progress, verify=verify)
@@ -179,4 +188,4 @@ def _run(cfg: DatasetConfig, out: Path, fmt, manifest: dict, runs: list, *, prog
         for s in stats:
             manifest["sequences"][f"{s['sequence']:02d}"].append(s["scene"])
     manifest.update(curation.manifest(cfg, stats))
-    _write_manifest(out, manifest)
+    _write_manifest(folder, manifest)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError
+from ..outputs import claim_folder
 from . import semantickitti, ply, pcd, npz, bop  # noqa: F401, I001  (each registers its format, in this order)
 from .registry import DATASET_FORMATS, DatasetFormat, SceneData, cloud_formats, get_format, register_format
 
@@ -16,11 +17,18 @@ FORMATS = cloud_formats()  # formats of one cloud: semantickitti, ply, pcd, npz
 
 def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semantickitti", *,
            name: str = "cloud", sequence: int = 0, frame: int = 0) -> Path:
-    """Write ``cloud`` under ``out_dir`` in ``format``; returns the main file written."""
+    """Write ``cloud`` under ``out_dir`` in ``format``; returns the main file written.
+
+    ``out_dir`` may hold the user's own files: they are kept, and a name the format must write
+    that is taken by one of them is refused (:mod:`genie_gl.outputs`); ``out_dir/manifest.json``
+    records what genie-gl wrote there."""
     fmt = get_format(format, "export format")
     if fmt.write_cloud is None:
         raise ConfigError(f"export format {format!r} writes datasets of frames, not clouds (clouds: {', '.join(FORMATS)})")
-    return fmt.write_cloud(cloud, Path(out_dir), name=name, sequence=sequence, frame=frame)
+    folder = claim_folder(out_dir, "export", fmt.cloud_outputs(name), option="out_dir", reserve=True)
+    path = fmt.write_cloud(cloud, folder.path, name=name, sequence=sequence, frame=frame)
+    folder.finish({"format": format, "last": {"name": name, "points": len(cloud)}})
+    return path
 
 
 __all__ = ["DATASET_FORMATS", "DatasetFormat", "FORMATS", "SceneData", "export", "get_format", "register_format"]

@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import ConfigError, ExportError
 from ..frame import Frame
 from ..scene.model import Scene
-from ._atomic import atomic_write_bytes, atomic_write_text
+from ..outputs import atomic_write_bytes, atomic_write_text, claim_folder
 
 MAX_U16 = 65535
 
@@ -183,7 +183,8 @@ def write_scene(scene: Scene, frames: Sequence[Frame], out_dir: str | os.PathLik
         at which its farthest depth fits 16 bits (:func:`choose_depth_scale`).
     full_masks : per frame, {instance id: (H, W) bool full silhouette}.
     """
-    out = Path(out_dir)
+    folder = claim_folder(out_dir, "bop", (split, "camera.json", "models"), option="out_dir", reserve=True)
+    out = folder.path
     final = out / split / f"{scene_id:06d}"
     for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
         shutil.rmtree(stale, ignore_errors=True)
@@ -193,6 +194,7 @@ def write_scene(scene: Scene, frames: Sequence[Frame], out_dir: str | os.PathLik
     if final.exists():
         shutil.rmtree(final)
     tmp.replace(final)
+    folder.finish({"scenes": sorted(int(p.name) for p in (out / split).iterdir() if p.name.isdigit())})
     return final
 
 
@@ -278,5 +280,5 @@ from ..scene.assets.library import SEMANTIC, VARIANTS
 from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
-    "bop", "train_pbr", digits=6, chunks=False, write_scene=_write_dataset_scene, before_rename=_before_rename,
+    "bop", "train_pbr", digits=6, chunks=False, dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
     description="BOP scene-wise RGB-D frames, masks, poses and object models"))

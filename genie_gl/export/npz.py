@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
-from ._atomic import atomic_write_bytes
+from ..outputs import atomic_write_bytes
 
 
 def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
@@ -28,7 +28,7 @@ def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "
     return write(cloud, Path(out_dir) / f"{name}.npz")
 
 
-from .registry import DatasetFormat, register_format, write_chunks  # noqa: E402
+from .registry import DatasetFormat, file_output, register_format, write_chunks  # noqa: E402
 
 DATASET = register_format(DatasetFormat("npz", "scenes", write_scene=write_chunks("npz", write),
-                                        write_cloud=_write_cloud, description=__doc__.splitlines()[0]))
+                                        write_cloud=_write_cloud, cloud_outputs=file_output('npz'), description=__doc__.splitlines()[0]))

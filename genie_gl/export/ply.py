@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
-from ._atomic import atomic_write_bytes
+from ..outputs import atomic_write_bytes
 
 INT32_MAX = 2**31 - 1
 PLY_TYPE = {"<f4": "float", "u1": "uchar", "<i4": "int", "<u4": "uint"}
@@ -50,7 +50,7 @@ def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "
     return write(cloud, Path(out_dir) / f"{name}.ply")
 
 
-from .registry import DatasetFormat, register_format, write_chunks  # noqa: E402
+from .registry import DatasetFormat, file_output, register_format, write_chunks  # noqa: E402
 
 DATASET = register_format(DatasetFormat("ply", "scenes", write_scene=write_chunks("ply", write),
-                                        write_cloud=_write_cloud, description=__doc__.splitlines()[0]))
+                                        write_cloud=_write_cloud, cloud_outputs=file_output('ply'), description=__doc__.splitlines()[0]))

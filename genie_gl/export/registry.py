@@ -43,6 +43,8 @@ class DatasetFormat:
     write_cloud: Callable[..., Path] | None = None                # one cloud: (cloud, out_dir, name=, **kw)
     description: str = ""
     stale: tuple[str, ...] = field(default=())                    # extra folders whose .tmp-* a run clears
+    cloud_outputs: Callable[[str], tuple[str, ...]] | None = None  # top-level names write_cloud(name=) makes
+    dataset_outputs: tuple[str, ...] = ()                         # top-level names of a dataset, beside folder
 
     def scene_dir(self, out: str | os.PathLike, index: int) -> Path:
         return Path(out) / self.folder / f"{index:0{self.digits}d}"
@@ -66,6 +68,11 @@ def get_format(name: str, where: str = "--format") -> DatasetFormat:
 
 def cloud_formats() -> tuple[str, ...]:
     return tuple(n for n, f in DATASET_FORMATS.items() if f.write_cloud is not None)
+
+
+def file_output(ext: str) -> Callable[[str], tuple[str, ...]]:
+    """``cloud_outputs`` of a format that writes one file ``<name>.<ext>``."""
+    return lambda name: (f"{name}.{ext}",)
 
 
 def write_chunks(ext: str, write: Callable) -> Callable[[SceneData, Path], None]:

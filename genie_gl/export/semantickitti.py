@@ -24,7 +24,7 @@ import yaml
 from .. import labels as label_map
 from ..cloud.pointcloud import PointCloud
 from ..errors import ExportError
-from ._atomic import atomic_write_bytes, atomic_write_text
+from ..outputs import atomic_write_bytes, atomic_write_text
 
 CLASSES = label_map.CLASSES  # kept for callers of genie-gl <= 0.1
 COLORS_RGB = label_map.COLORS_RGB
@@ -273,4 +273,5 @@ from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
     "semantickitti", "scenes", colour=False, write_scene=_write_scene, finish=_finish, write_cloud=_write_cloud,
-    stale=("sequences",), description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))
+    stale=("sequences",), cloud_outputs=lambda name: ("sequences", "genie-gl.yaml"),
+    dataset_outputs=("sequences", "genie-gl.yaml"), description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))

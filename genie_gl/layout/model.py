@@ -10,6 +10,15 @@ from typing import Any
 import numpy as np
 
 from ..errors import ConfigError
+from ..outputs import atomic_write_text, check_replaceable
+
+LAYOUT_FORMAT = "genie-gl layout 1"
+
+
+def _is_layout_json(path: Path) -> bool:
+    """True when ``path`` is a layout JSON genie-gl wrote (its ``format`` field)."""
+    data = json.loads(path.read_text())
+    return isinstance(data, dict) and str(data.get("format", "")).startswith("genie-gl layout")
 
 ORIENTATIONS = ("up", "right", "down", "left")
 # unit vector each orientation points to (world x, y): up = +y, right = +x
@@ -232,7 +241,7 @@ class Layout:
     # -- JSON -----------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         return {
-            "format": "genie-gl layout 1",
+            "format": LAYOUT_FORMAT,
             "meta": self.meta,
             "region_types": {k: {**asdict(v), "color": list(v.color)} for k, v in sorted(self.region_types.items())},
             "nodes": [{"region": asdict(n.region), "depth": n.depth, "parent": n.parent,
@@ -240,11 +249,10 @@ class Layout:
         }
 
     def to_json(self, path: str | os.PathLike) -> None:
-        """Write the layout as JSON (temporary file, then rename)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(json.dumps(self.to_dict(), indent=1, sort_keys=True))
-        tmp.replace(path)
+        """Write the layout as JSON (temporary file, then rename). An existing file is replaced
+        only when it is a genie-gl layout; anything else is refused (:mod:`genie_gl.outputs`)."""
+        path = check_replaceable(path, _is_layout_json, what="layout JSON")
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=1, sort_keys=True))
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "Layout":

@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
+from ..outputs import save_png
 from .model import DIRECTION, Layout
 
 
@@ -41,9 +42,6 @@ def layout_image(layout: Layout, px_per_m: float | None = None, legend: bool = T
 
 
 def save_layout_png(layout: Layout, path: str | Path, **kw) -> Path:
-    """Write the picture of ``layout`` to ``path`` (temporary file, then rename)."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp.png")
-    layout_image(layout, **kw).save(tmp)
-    tmp.replace(path)
-    return path
+    """Write the picture of ``layout`` to ``path`` (temporary file, then rename); an existing
+    file is replaced only when it is a picture genie-gl wrote (:mod:`genie_gl.outputs`)."""
+    return save_png(layout_image(layout, **kw), path)

@@ -28,8 +28,9 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt
 
-from .. import labels
+from .. import __version__, labels
 from ..errors import ConfigError
+from ..outputs import check_replaceable
 from .gprims import tessellate
 from .model import Material, Mesh, Scene
 
@@ -43,13 +44,21 @@ def _ident(name: str, fallback: str) -> str:
     return s if s and not s[0].isdigit() else f"_{s}"
 
 
+def written_by_genie(path: str | os.PathLike) -> bool:
+    """True when the USD file ``path`` was written by genie-gl (its layer's custom data)."""
+    layer = Sdf.Layer.OpenAsAnonymous(str(path))
+    return layer is not None and "genie_gl" in dict(layer.customLayerData)
+
+
 def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
     """Write ``scene`` to ``path`` (.usda text or .usd/.usdc binary), via a temporary file."""
     path = Path(path)
     if path.suffix not in (".usda", ".usdc", ".usd"):
         raise ConfigError(f"{path}: USD files end in .usda, .usdc or .usd")
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    check_replaceable(path, written_by_genie, what="USD scene")
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     stage = Usd.Stage.CreateNew(str(tmp))
+    stage.GetRootLayer().customLayerData = {"genie_gl": __version__}   # how a later write knows it is ours
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     world = UsdGeom.Xform.Define(stage, "/World")

@@ -27,6 +27,7 @@ from typing import Any
 import yaml
 
 from ..errors import ConfigError, did_you_mean
+from ..outputs import atomic_write_text, check_replaceable
 
 RESAMPLE = ("nearest", "bilinear", "exact")
 SHADOW = ("scanline", "render")
@@ -149,11 +150,14 @@ def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
 
 def write_accuracy(path: str | os.PathLike, settings: AccuracySettings, *, comment: str = "") -> Path:
     """Write ``settings`` as a YAML file with an ``accuracy:`` block (write, then rename)."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    head = "".join(f"# {line}\n" for line in comment.splitlines())
-    text = head + yaml.safe_dump({"accuracy": settings.to_dict()}, sort_keys=False)
-    tmp = p.with_name(f".{p.name}.tmp")
-    tmp.write_text(text)
-    tmp.replace(p)
-    return p
+    p = check_replaceable(path, _written_by_genie, what="accuracy settings")
+    head = "".join(f"# {line}\n" for line in [*comment.splitlines(), STAMP])
+    return atomic_write_text(p, head + yaml.safe_dump({"accuracy": settings.to_dict()}, sort_keys=False))
+
+
+STAMP = "written by genie-gl"
+
+
+def _written_by_genie(path: Path) -> bool:
+    head = path.read_text().split("accuracy:", 1)[0]
+    return f"# {STAMP}" in head

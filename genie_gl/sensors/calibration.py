@@ -23,6 +23,7 @@ import numpy as np
 import yaml
 
 from ..errors import ConfigError
+from ..outputs import check_replaceable
 from ..camera import MODELS
 
 K_KEYS = ("camera_matrix", "Camera_Matrix", "cameraMatrix", "K", "K1", "M1", "intrinsics")
@@ -199,11 +200,21 @@ def read_calibration(path: str | os.PathLike) -> Calibration:
     return Calibration(int(W), int(H), K, dist, None if err is None else float(err), R, T, str(path), model)
 
 
+STAMP = "written by genie-gl"
+
+
+def _written_by_genie(path: Path) -> bool:
+    with open(path, "rb") as fh:
+        return STAMP.encode() in fh.read(512)
+
+
 def write_calibration(calib: Calibration, path: str | os.PathLike) -> Path:
-    """Write OpenCV FileStorage YAML (.yml/.yaml) or XML (.xml) with OpenCV's key names."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    """Write OpenCV FileStorage YAML (.yml/.yaml) or XML (.xml) with OpenCV's key names. An
+    existing file is replaced only when genie-gl wrote it (a comment says so)."""
+    path = check_replaceable(path, _written_by_genie, what="calibration")
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
+    fs.writeComment(STAMP)
     fs.write("image_width", int(calib.width))
     fs.write("image_height", int(calib.height))
     fs.write("camera_matrix", np.asarray(calib.K, np.float64))

@@ -14,7 +14,7 @@ def test_a_written_block_reads_back_equal_through_yaml_and_json(tmp_path):
     s = AccuracySettings(supersample=2, resample="bilinear", depth_precision="reversed_z", shadow_scale=0.25,
                          tessellation=48, multipath_samples=8, oversample=1.5, shadow="render")
     path = write_accuracy(tmp_path / "acc.yaml", s, comment="two\nlines")
-    assert path.read_text().startswith("# two\n# lines\naccuracy:\n")
+    assert path.read_text().startswith("# two\n# lines\n# written by genie-gl\naccuracy:\n")
     assert load_accuracy(path) == s
     import json
     (tmp_path / "acc.json").write_text(json.dumps({"accuracy": s.to_dict()}))

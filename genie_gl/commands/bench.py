@@ -1,0 +1,96 @@
+"""``genie bench NAME``: the benchmarks of :mod:`genie_gl.bench`, one module each with
+``run(args) -> int``, listed here with their options (so that ``genie bench NAME --help``
+answers without importing the benchmark)."""
+from __future__ import annotations
+
+import argparse
+import importlib
+from collections.abc import Callable
+
+
+def _render(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--repeats", type=int, default=5, help="timed passes over the 4 poses")
+    p.add_argument("--frames", type=int, default=24, help="frames per process in the whole-machine run")
+    p.add_argument("--sizes", default="100k,1M", help="scene sizes to run (100k, 1M)")
+    p.add_argument("--no-peers", action="store_true", help="time genie-gl only")
+
+
+def _layout(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--repeats", type=int, default=3)
+
+
+def _accuracy(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scene", default=None,
+                   help="USD stage, or layout / strategy JSON (default: the built-in analytic case)")
+    p.add_argument("--sensor", default=None, help="sensor profile or calibration file (default: the built-in "
+                                                   "rational-lens stereo sensor without --scene, ideal_pinhole with one)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the layout, scene, placement and noise")
+    views = p.add_mutually_exclusive_group()
+    views.add_argument("--cameras", type=int, default=3, help="cameras placed over the scene (default 3)")
+    views.add_argument("--poses", default=None, help="JSON list of 4x4 world_from_camera, or .npy (N, 4, 4)")
+    p.add_argument("--repeats", type=int, default=5, help="timed passes per row after one warm-up (default 5)")
+    p.add_argument("--budget-mm", type=float, default=None, help="depth error budget (p99, mm)")
+    p.add_argument("--budget-px", type=float, default=None, help="silhouette budget (mean edge error, px)")
+    p.add_argument("--knobs", default=None, help="comma-separated subset of knobs to run (default: all)")
+    p.add_argument("--no-cache", action="store_true",
+                   help="render the exact reference again (default: reuse OUT/cache/reference-*.npz of the same inputs)")
+
+
+def _pipeline(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenes", type=int, default=6, help="scenes per run (enough that each worker makes several)")
+    p.add_argument("--cameras", type=int, default=40)
+    p.add_argument("--sensor", default="ideal_pinhole")
+    p.add_argument("--workers", default="1,2")
+    p.add_argument("--repeats", type=int, default=2, help="runs per worker count")
+    p.add_argument("--unprojection-only", action="store_true", help="only the unprojection figures")
+    p.add_argument("--dataset-only", action="store_true", help="only the dataset runs")
+
+
+def _stability(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--case", action="append", help="run only this case (repeatable; an unknown name lists them)")
+
+
+def _planning(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--cameras", type=int, default=4)
+    p.add_argument("--rounds", type=int, default=3)
+
+
+def _cli(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--repeats", type=int, default=15, help="runs of each command line (default 15)")
+    p.add_argument("--against", default=None, metavar="DIR",
+                   help="also time the package of another checkout (DIR/genie_gl), in turns with this one")
+
+
+# name -> (one-line help, its options, the files it writes under --out: claimed before it runs,
+# so a user's file of the same name is never replaced; anything else it makes there is recorded)
+BENCHMARKS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], tuple[str, ...]]] = {
+    "render": ("renderer against pyrender and Open3D (ms/frame, frames/s, ratios)", _render, ("render.json",)),
+    "layout": ("layout engine throughput, the paper's Table 7 (nodes/s)", _layout, ("layout.json", "layout.png")),
+    "accuracy": ("what accuracy costs on your scene and sensor: every knob's error vs ms, Pareto plot, --budget-mm",
+                 _accuracy, ("accuracy.json", "accuracy.md", "accuracy.png", "accuracy.yaml", "cache")),
+    "pipeline": ("seconds per scene end to end, share of each stage, scaling with workers", _pipeline,
+                 ("pipeline.json",)),
+    "stability": ("hard cases against analytic truth: tolerance and worst error per case (exit 1 on a failure)",
+                  _stability, ("stability.json",)),
+    "planning": ("a full D435 and Azure frame before and after planning, as multiples of the ideal render",
+                 _planning, ("planning.json",)),
+    "cli": ("seconds `genie --help` and every subcommand's --help take (median of fresh processes)", _cli,
+            ("cli.json",)),
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="bench", metavar="NAME", required=True)
+    for name, (help_text, options, _) in BENCHMARKS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.add_argument("--out", default="out/bench", help="folder for the figures (default out/bench)")
+        options(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..outputs import claim_folder
+
+    folder = claim_folder(args.out, "bench", BENCHMARKS[args.bench][2], reserve=True)
+    code = int(importlib.import_module(f"genie_gl.bench.{args.bench}").run(args) or 0)
+    folder.finish({"last": args.bench})
+    return code

@@ -1,0 +1,254 @@
+"""The one rule for everything genie-gl writes: write only what you create.
+
+Every command and API function that writes files goes through this module:
+
+- **A folder** (``genie layout --out DIR``, ``genie capture``, ``genie dataset``, ``genie bench``,
+  ``gg.export(cloud, DIR)``) is claimed with :func:`claim_folder` before any work. A folder that
+  does not exist is made. A folder that exists may hold the user's own files: genie-gl writes
+  its outputs beside them and never touches them. Its ``manifest.json`` records which entries
+  genie-gl wrote (``"outputs"``); only those may be replaced or removed by a later run of the
+  same command. An output name already taken by an entry genie-gl did not write, a
+  ``manifest.json`` genie-gl did not write, or a folder written by another command, is refused
+  in one line before anything is written.
+- **A single file** (``genie scene --out S.usda``, ``Scene.to_usd``, ``Layout.to_json``, a
+  calibration or accuracy file) is replaced only when it is one genie-gl wrote, recognised by
+  its own stamp (:func:`check_replaceable`); otherwise the write is refused.
+- Every file is written to a temporary name in its folder and renamed into place
+  (:func:`atomic_write_bytes`), so nothing half-written is ever visible.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from PIL import Image
+from PIL.PngImagePlugin import PngInfo
+
+from . import __version__
+from .errors import ConfigError
+
+MANIFEST = "manifest.json"
+#: names a claimed folder always owns: its manifest and a dataset run's lock
+_ALWAYS_OURS = frozenset({MANIFEST, ".genie-lock"})
+#: the ``Software`` text of the PNG files genie-gl writes (how a later run knows them)
+PNG_SOFTWARE = "genie-gl"
+
+
+def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")  # one per writer: workers may write the same file
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+        tmp.replace(path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    return atomic_write_bytes(path, text.encode())
+
+
+def _describe(path: Path) -> str:
+    return "a folder" if path.is_dir() else "a file"
+
+
+def check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool], *, what: str,
+                      option: str | None = None) -> Path:
+    """Refuse (:class:`ConfigError`) to write ``path`` when it exists and is not a file genie-gl
+    wrote, as told by ``is_ours(path)`` (a stamp the writer puts in every file it writes).
+
+    ``what`` names the file's kind for the message ("USD scene"); ``option`` the CLI option
+    that named it, if any.
+    """
+    path = Path(path)
+    where = f"{option} {path}" if option else str(path)
+    if path.is_dir():
+        raise ConfigError(f"{where}: is a folder; expected the name of a {what} file to write")
+    if path.exists():
+        try:
+            ours = bool(is_ours(path))
+        except Exception:  # an unreadable or foreign file is not ours
+            ours = False
+        if not ours:
+            raise ConfigError(f"{where}: already exists and was not written by genie-gl; it is left as it is "
+                              f"(remove or rename it, or write the {what} elsewhere)")
+    _check_parent_writable(path.parent, where)
+    return path
+
+
+def _check_parent_writable(folder: Path, where: str) -> None:
+    """Refuse when nothing can be created in ``folder`` (or its nearest existing parent): a
+    real probe, since permission bits say nothing of read-only or virtual file systems."""
+    for p in (folder, *folder.parents):
+        if p.exists():
+            if not p.is_dir():
+                raise ConfigError(f"{where}: not writable ({p} is a file, not a folder)")
+            try:
+                fd, probe = tempfile.mkstemp(prefix=".genie-write-test-", dir=p)
+                os.close(fd)
+                os.unlink(probe)
+            except OSError as exc:
+                raise ConfigError(f"{where}: not writable ({p}: {exc.strerror})") from None
+            return
+
+
+def png_is_ours(path: Path) -> bool:
+    """True when ``path`` is a PNG that genie-gl wrote (its ``Software`` text chunk)."""
+    with Image.open(path) as img:
+        return getattr(img, "text", {}).get("Software") == PNG_SOFTWARE
+
+
+def png_info() -> Any:
+    """The PNG text chunks genie-gl writes into its pictures (Pillow ``pnginfo=``)."""
+    info = PngInfo()
+    info.add_text("Software", PNG_SOFTWARE)
+    return info
+
+
+def save_png(image: Any, path: str | os.PathLike, *, option: str | None = None) -> Path:
+    """Save a Pillow image as a stamped PNG, atomically, replacing only a PNG genie-gl wrote."""
+    path = check_replaceable(path, png_is_ours, what="PNG picture", option=option)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
+    try:
+        image.save(tmp, format="PNG", pnginfo=png_info())
+        tmp.replace(path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def read_manifest(folder: Path) -> dict[str, Any] | None:
+    """The genie-gl manifest of ``folder``; None when there is none. A ``manifest.json`` that
+    genie-gl did not write raises :class:`ConfigError`."""
+    path = folder / MANIFEST
+    if not path.exists():
+        return None
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        data = None
+    if not isinstance(data, dict) or "genie_gl" not in data or "command" not in data:
+        raise ConfigError(f"{folder}: holds a {MANIFEST} that genie-gl did not write; genie-gl needs that name "
+                          "for its own record and leaves yours as it is: choose another folder")
+    return data
+
+
+@dataclass
+class OutputFolder:
+    """A folder claimed by one run of ``command`` (see the module's text).
+
+    ``owned`` holds the top-level entries a previous run of the same command wrote (from its
+    manifest), ``declared`` the names this run announced, ``before`` what the folder held
+    when it was claimed (so that everything new this run makes is recorded as its own).
+    """
+
+    path: Path
+    command: str
+    option: str
+    owned: frozenset[str]
+    declared: frozenset[str]
+    before: frozenset[str]
+    previous: dict[str, Any] | None
+    made: bool                       # the folder did not exist before this run
+    _reserved: bool = field(default=False, repr=False)
+
+    def owns(self, name: str) -> bool:
+        """True when the top-level entry ``name`` is genie-gl's to replace or remove."""
+        top = Path(name).parts[0]
+        return top in _ALWAYS_OURS or top in self.owned or top in self.declared or top not in self.before
+
+    def outputs(self) -> list[str]:
+        """Every top-level entry this folder's runs of ``command`` wrote, as the manifest lists them."""
+        now = {p.name for p in self.path.iterdir()} if self.path.is_dir() else set()
+        new = now - self.before
+        mine = (set(self.owned) | set(self.declared) | new) & now
+        return sorted(mine - _ALWAYS_OURS)
+
+    def reserve(self, record: dict[str, Any] | None = None) -> None:
+        """Write a manifest naming this run's outputs before the first of them is written, so a
+        run killed half-way leaves nothing a later run would take for the user's."""
+        self.path.mkdir(parents=True, exist_ok=True)
+        data = dict(record or self.previous or {})
+        data.update({"genie_gl": __version__, "command": self.command,
+                     "outputs": sorted((set(self.owned) | set(self.declared)) - _ALWAYS_OURS)})
+        atomic_write_text(self.path / MANIFEST, json.dumps(data, indent=1))
+        self._reserved = True
+
+    def finish(self, manifest: dict[str, Any]) -> Path:
+        """Write ``manifest`` (plus ``genie_gl``, ``command`` and ``outputs``) atomically."""
+        data = {"genie_gl": __version__, "command": self.command, **manifest}
+        data["outputs"] = self.outputs()
+        return atomic_write_text(self.path / MANIFEST, json.dumps(data, indent=1))
+
+    def remove(self, name: str) -> None:
+        """Remove the entry ``name`` (a file or a folder) if genie-gl wrote it; refuse otherwise."""
+        if not self.owns(name):
+            raise ConfigError(f"{self.option} {self.path}: will not remove {name!r}: genie-gl did not write it")
+        p = self.path / name
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p)
+        elif p.exists() or p.is_symlink():
+            p.unlink()
+
+
+def claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] = (), *,
+                 option: str = "--out", reserve: bool = False) -> OutputFolder:
+    """Claim ``path`` as the output folder of one run of ``command``, before any work.
+
+    Parameters
+    ----------
+    path : the folder (made, with its parents, when missing).
+    command : the writer's name, recorded in the manifest ("layout", "capture", "dataset", ...).
+    writes : the top-level names this run will write (files or folders). A name held by an
+        entry genie-gl did not write is refused here.
+    option : the CLI option (or API argument) that named the folder, for messages.
+    reserve : write the manifest at once (see :meth:`OutputFolder.reserve`).
+
+    Raises
+    ------
+    ConfigError
+        ``path`` is a file or unwritable; it holds a ``manifest.json`` genie-gl did not write or
+        one of another command; a name this run must write is taken by the user's entry.
+    """
+    folder = Path(path)
+    where = f"{option} {folder}"
+    if folder.exists() and not folder.is_dir():
+        raise ConfigError(f"{where}: is a file; expected a folder")
+    made = not folder.exists()
+    try:
+        _check_parent_writable(folder, where)
+    except OSError as exc:
+        raise ConfigError(f"{where}: cannot be used ({exc.strerror})") from None
+    before = frozenset(p.name for p in folder.iterdir()) if not made else frozenset()
+    previous = None if made else read_manifest(folder)
+    if previous is not None and previous.get("command") != command:
+        raise ConfigError(f"{where}: holds the output of `genie {previous.get('command')}`; write the output of "
+                          f"`genie {command}` into another folder")
+    if previous is None:
+        owned: frozenset[str] = frozenset()
+    elif isinstance(previous.get("outputs"), list):
+        owned = frozenset(str(n) for n in previous["outputs"])
+    else:  # a manifest of ours from before outputs were recorded: it vouches for the names we write
+        owned = frozenset(n for n in writes if n in before)
+    declared = frozenset(Path(n).parts[0] for n in writes)
+    taken = sorted(n for n in declared if n in before and n not in owned and n not in _ALWAYS_OURS)
+    if taken:
+        shown = ", ".join(repr(n) for n in taken[:3]) + (f" and {len(taken) - 3} more" if len(taken) > 3 else "")
+        raise ConfigError(f"{where}: already holds {shown}, which genie-gl did not write; they are left as they "
+                          "are: choose another folder (or move them)")
+    out = OutputFolder(folder, command, option, owned, declared, before, previous, made)
+    if reserve:
+        out.reserve()
+    return out
