@@ -90,6 +90,6 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     workers = min(workers, n)
     if workers <= 1:
         with Renderer(scene, backend=backend, depth_precision=depth_precision, context=context) as r:
-            return capture_serial(r, sensor, poses, seed, range(n), depth_only, plan, materials, accuracy)
-    return capture_in_workers(scene, sensor, poses, seed, workers, backend, depth_only, depth_precision, plan,
-                              materials, accuracy)
+            return capture_serial(r, sensor, poses, seed, range(n), accuracy, depth_only, plan, materials)
+    return capture_in_workers(scene, sensor, poses, seed, workers, backend, accuracy, depth_only, depth_precision,
+                              plan, materials)

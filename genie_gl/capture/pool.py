@@ -32,13 +32,13 @@ def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_preci
 
 
 def _worker_render(job: tuple) -> list[Frame]:
-    sensor, poses, seed, indices, depth_only, plan, materials, accuracy = job
-    return capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, depth_only, plan, materials, accuracy)
+    sensor, poses, seed, indices, accuracy, depth_only, plan, materials = job
+    return capture_serial(_WORKER["renderer"], sensor, poses, seed, indices, accuracy, depth_only, plan, materials)
 
 
 def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], seed: int, workers: int,
-                       backend: str | None, depth_only: bool, depth_precision: str, plan: Plan | None,
-                       materials: MaterialTable | None, accuracy: AccuracySettings | None) -> list[Frame]:
+                       backend: str | None, accuracy: AccuracySettings, depth_only: bool, depth_precision: str,
+                       plan: Plan | None, materials: MaterialTable | None) -> list[Frame]:
     """The frames of ``poses`` made by ``workers`` processes, pose i by worker i mod workers
     (the frames do not depend on the split: each has its own generator)."""
     n = len(poses)
@@ -46,8 +46,8 @@ def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
-        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, depth_only, plan, materials,
-                                           accuracy) for c in chunks])
+        parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, accuracy, depth_only, plan,
+                                           materials) for c in chunks])
     frames: list[Frame | None] = [None] * n
     for c, part in zip(chunks, parts):
         for i, f in zip(c, part):

@@ -33,18 +33,17 @@ from .. import __version__
 from ..capture import add_totals
 from ..errors import ConfigError
 from ..export import get_format
-from ..layout import load_strategy
 from ..outputs import OutputFolder, atomic_write_text, claim_folder
 from ..scene import ASSETS
-from ..sensors import load_sensor
 from . import curation
-from .config import DatasetConfig
-from .config import accuracy_used as used
+from .config import DatasetConfig, accuracy_used
 from .executors import map_scenes
 from .limits import check_limits
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete
+from .recipe import RunInputs, load_inputs
 from .report import dataset_cost, histogram
-from .scene import STAGES, run_scene, scene_dir, scene_rngs  # noqa: F401  (the run's public names)
+from .scene import run_scene, scene_dir  # noqa: F401  (the run's public names)
+from .streams import SceneStreams
 
 SCENE_RECORDS = 1000  # a run's manifest record lists the timings of at most this many scenes
 
@@ -67,11 +66,12 @@ def claim_output(cfg: DatasetConfig, fmt) -> OutputFolder:
     return claim_folder(cfg.out, "dataset", (fmt.folder, *fmt.dataset_outputs, *DATASET_ENTRIES))
 
 
-def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
-    """Check what a run needs before any work: the strategy and sensor load, the output folder
-    may be written, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
-    strategy = load_strategy(cfg.strategy)
-    sensor = load_sensor(cfg.sensor)
+def prepare(cfg: DatasetConfig) -> tuple[RunInputs, dict]:
+    """Check what a run needs before any work: the strategy and sensor load (once: every
+    scene gets them from here), the output folder may be written, the estimate fits the
+    limits; returns (the run's inputs, the fingerprint)."""
+    inputs = load_inputs(cfg)
+    strategy, sensor = inputs.strategy, inputs.sensor
     claim_output(cfg, get_format(cfg.format))
     check_limits(cfg, strategy, sensor, Path(cfg.out))
     if cfg.executor == "ray":
@@ -79,7 +79,7 @@ def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
             import ray  # noqa: F401
         except ImportError:
             raise ConfigError("--executor ray needs Ray: pip install 'genie-gl[ray]'") from None
-    return strategy, sensor, fingerprint(cfg, strategy, sensor)
+    return inputs, fingerprint(cfg, strategy, sensor)
 
 
 def _clear_leftovers(folder: OutputFolder, fmt) -> None:
@@ -120,7 +120,7 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
     _check_registered_assets(cfg)
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
-    strategy, sensor, fp = prepare(cfg)
+    inputs, fp = prepare(cfg)
     fmt = get_format(cfg.format)
     folder = claim_output(cfg, fmt)
     folder.path.mkdir(parents=True, exist_ok=True)
@@ -132,14 +132,14 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
             "genie_gl": __version__, "python": platform.python_version(), "command": "dataset",
             "fingerprint": fp,
             "inputs": {k: v for k, v in cfg.model_dump().items() if k != "out"},
-            "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
+            "scene_seeds": SceneStreams.describe(),
             "runs": runs,
         }
         manifest["outputs"] = sorted(set(folder.owned) | set(folder.declared))
         atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1))  # before any scene: a later
         _clear_leftovers(folder, fmt)                  # resume knows the inputs, and what is its own
         try:
-            _run(cfg, folder, fmt, manifest, runs, progress=progress, verify=verify)
+            _run(cfg, inputs, folder, fmt, manifest, runs, progress=progress, verify=verify)
         except OSError as exc:
             if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
                 raise ConfigError(f"--out {out}: disk full or file too large while writing "
@@ -149,13 +149,13 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
     return manifest
 
 
-def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: list, *, progress: bool,
-         verify: bool) -> None:
+def _run(cfg: DatasetConfig, inputs: RunInputs, folder: OutputFolder, fmt, manifest: dict, runs: list, *,
+         progress: bool, verify: bool) -> None:
     """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
     out = folder.path
     started = time.time()
     t0 = time.perf_counter()
-    results = map_scenes(cfg, progress=progress, verify=verify)
+    results = map_scenes(cfg, inputs, progress=progress, verify=verify)
     balanced = curation.finish(cfg, verify=verify) if curation.active(cfg) else None  # one plan over every scene
     elapsed = time.perf_counter() - t0
     stats = [scene_complete(fmt.scene_dir(out, i)) for i in range(cfg.scenes)]
@@ -179,7 +179,7 @@ def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: li
         "scene_s": [{"scene": r.get("scene"), "worker": r.get("worker"), "nth": r.get("nth"),
                      "stages": r.get("timings_s", {}), "cpu_s": r.get("cpu_s")}
                     for r in sorted(made, key=lambda r: r.get("scene", -1))[:SCENE_RECORDS]]}]
-    manifest["cost"], manifest["accuracy"] = dataset_cost(made), used(cfg.accuracy, cfg.sensor)
+    manifest["cost"], manifest["accuracy"] = dataset_cost(made), accuracy_used(cfg, inputs.sensor)
     manifest["scenes_made"], manifest["scenes_skipped"] = n_made, cfg.scenes - n_made
     manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
     manifest["effects"] = manifest["runs"][-1]["effects"]

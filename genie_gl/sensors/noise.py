@@ -71,7 +71,7 @@ class DepthNoise(Effect):
     Parameters
     ----------
     model : "kinect_nguyen2012", "stereo" or "tof_linear".
-    baseline_m : stereo baseline b; None = the calibration's (``sensor.meta["baseline_m"]``,
+    baseline_m : stereo baseline b; None = the calibration's (``sensor.stereo.baseline_m``,
         from its stereo T), else 0.05.
     subpixel : σ_d in pixels (stereo); None = derived from the calibration, see
         :meth:`sigma_d_px`.
@@ -111,8 +111,8 @@ class DepthNoise(Effect):
         """b in metres: the profile's, else the calibration's, else 0.05."""
         if self.baseline_m is not None:
             return float(self.baseline_m)
-        meta = sensor.meta if sensor is not None else {}
-        return float(meta.get("baseline_m", DEFAULT_BASELINE_M))
+        stereo = getattr(sensor, "stereo", None)
+        return DEFAULT_BASELINE_M if stereo is None else float(stereo.baseline_m)
 
     def sigma_d_px(self, sensor: Sensor | None = None) -> float:
         """σ_d, the disparity noise in pixels: ``subpixel`` when the profile sets it; else from
@@ -126,7 +126,7 @@ class DepthNoise(Effect):
         """
         if self.subpixel is not None:
             return float(self.subpixel)
-        rms = (sensor.meta if sensor is not None else {}).get("reprojection_error_px")
+        rms = getattr(sensor, "reprojection_error_px", None)
         return DEFAULT_SIGMA_D_PX if rms is None else float(rms)
 
     def sigma(self, z: np.ndarray, f_px: float | None = None, theta: np.ndarray | None = None,

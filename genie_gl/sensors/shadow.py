@@ -38,6 +38,7 @@ analytic strip widths, a post narrower than its shadow, agreement on a cluttered
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -63,8 +64,8 @@ class StereoShadow(Effect):
     ----------
     baseline_m : offset of the second view along ``axis``, used when the calibration has no
         stereo T. The calibration's R, T (``X2 = R·X1 + T``, as ``stereoCalibrate`` writes
-        them; ``sensor.meta["stereo_R"]``, ``["stereo_T"]``) take precedence; without either,
-        a profile-level ``baseline_m`` (``sensor.meta["baseline_m"]``) is used.
+        them; ``sensor.stereo.R``, ``.T``) take precedence; without either, a profile-level
+        ``baseline_m`` (``sensor.stereo.baseline_m``) is used.
     axis : (3,) direction of the second view's centre in the camera frame (default +x: the
         right imager of a D400, the projector of a Zivid).
     scale : resolution of the second view's render relative to the sensor's (0.5: a quarter
@@ -79,6 +80,7 @@ class StereoShadow(Effect):
     name: ClassVar[str] = "stereo_shadow"
     needs_render: ClassVar[bool] = True
     cost_ms_per_mpx: ClassVar[float] = 120.0
+    accuracy_knobs: ClassVar[Mapping[str, str]] = {"shadow_scale": "scale", "shadow": "method"}
     baseline_m: float | None = None
     axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
     scale: float = 0.5
@@ -100,13 +102,13 @@ class StereoShadow(Effect):
     def second_from_first(self, sensor: Sensor) -> np.ndarray:
         """(4, 4) camera2_from_camera1: the calibration's [R | T], else a translation of the
         baseline along ``axis``."""
-        meta = sensor.meta
+        stereo = getattr(sensor, "stereo", None)
         out = np.eye(4)
-        if meta.get("stereo_T") is not None:
-            out[:3, :3] = np.asarray(meta.get("stereo_R", np.eye(3)), dtype=np.float64).reshape(3, 3)
-            out[:3, 3] = np.asarray(meta["stereo_T"], dtype=np.float64).ravel()
+        if stereo is not None and stereo.T is not None:
+            out[:3, :3] = stereo.R
+            out[:3, 3] = stereo.T
             return out
-        b = self.baseline_m if self.baseline_m is not None else meta.get("baseline_m")
+        b = self.baseline_m if self.baseline_m is not None else (None if stereo is None else stereo.baseline_m)
         if b is None:
             raise ConfigError(f"stereo_shadow on sensor {sensor.name!r}: no baseline; give the effect "
                               "baseline_m, or a calibration with a stereo T")
@@ -141,6 +143,11 @@ class StereoShadow(Effect):
         """The render method's estimate, or the scanline's (measured at 848 x 480 on the
         llvmpipe host: about 1.6 ms for the pass and 0.3 ms for the drop)."""
         return SCANLINE_MS_PER_MPX if self.resolved_method(sensor) == "scanline" else float(self.cost_ms_per_mpx)
+
+    def knob_unused(self, knob: str, sensor: Sensor) -> str | None:
+        if knob == "shadow_scale" and self.resolved_method(sensor) == "scanline":
+            return f"{sensor.name}'s stereo shadow is drawn by scanline: no second view to scale (shadow: render)"
+        return None
 
     def view_sensor(self, sensor: Sensor) -> Sensor:
         """The pinhole camera of the second view's low-resolution render."""

@@ -8,6 +8,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.render.projection import look_at
 from genie_gl.scene.materials import MaterialTable
+from genie_gl.sensors.camera import Stereo
 from genie_gl.scene.model import Material
 from genie_gl.sensors import simulate
 from genie_gl.sensors.edges import EdgeDropout, FlyingPixels
@@ -52,7 +53,7 @@ def table(*materials):
 
 def simulated(eff, f, materials=None, seed=0):
     """(simulate's frame and record, the forced run's frame, both generators after)."""
-    sensor = gg.Sensor(f.sensor.width, f.sensor.height, f.sensor.K, effects=(eff,), meta={"baseline_m": 0.05})
+    sensor = gg.Sensor(f.sensor.width, f.sensor.height, f.sensor.K, effects=(eff,), stereo=Stereo(0.05))
     rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
     out = simulate(sensor, np.eye(4), render=lambda s, p, **kw: f.replace(sensor=s), rng=rng_a,
                    materials=materials)

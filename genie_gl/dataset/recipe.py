@@ -1,0 +1,119 @@
+"""The one recipe of a dataset scene: layout → scene → placement → capture → cloud chunks.
+
+A run makes every scene with it (:func:`~genie_gl.dataset.scene.run_scene`) and each worker
+warms up with it on a throw-away scene (:func:`~genie_gl.dataset.warmup.warm_up`), so the
+warm-up fills exactly the caches the scenes use. What every scene of a run shares is loaded
+once, where the run starts (:func:`load_inputs`: the strategy, the sensor, the accuracy
+settings), and handed down frozen, to worker processes too.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..capture import capture
+from ..capture.settings import settings_for
+from ..cloud import PointCloud, frame_chunks, keep_cloud
+from ..frame import Frame
+from ..layout import Layout, Strategy, generate_layout, load_strategy
+from ..render import shared_context
+from ..scene import build_scene
+from ..scene.model import Scene
+from ..sensors import Sensor, load_sensor, place_sensors
+from ..sensors.accuracy import AccuracySettings
+from .config import DatasetConfig
+from .streams import SceneStreams
+
+# the stages of a scene, in order (the progress bar names them; stats time them)
+STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
+
+
+@dataclass(frozen=True, eq=False)
+class RunInputs:
+    """What every scene of a run shares, loaded once.
+
+    Attributes
+    ----------
+    strategy : the layout strategy.
+    sensor : the sensor, its accuracy knobs not yet applied (the capture applies them).
+    accuracy : the settings every scene uses: ``--accuracy``, else the profile's, else the
+        defaults (:func:`~genie_gl.capture.settings.settings_for`).
+    """
+
+    strategy: Strategy
+    sensor: Sensor
+    accuracy: AccuracySettings
+
+
+def load_inputs(cfg: DatasetConfig) -> RunInputs:
+    """The strategy, sensor and accuracy settings of ``cfg``, read and checked."""
+    sensor = load_sensor(cfg.sensor)
+    return RunInputs(load_strategy(cfg.strategy), sensor,
+                     settings_for(sensor, None if cfg.accuracy is None else cfg.accuracy.settings))
+
+
+@dataclass(frozen=True, eq=False)
+class MadeScene:
+    """A scene made by :func:`make`: its layout, scene, poses and frames, and the clock
+    (``perf_counter`` at the end of each stage, keyed by stage, ``"start"`` first)."""
+
+    layout: Layout
+    scene: Scene
+    poses: list[np.ndarray]
+    frames: list[Frame]
+    clock: dict[str, float] = field(default_factory=dict)
+
+
+def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: bool,
+         stage: Callable[[str], None] = lambda name: None) -> MadeScene:
+    """The scene of ``streams`` up to its frames; ``stage(name)`` as each stage starts.
+    ``depth_only``: render no colour (for formats that store none)."""
+    clock = {"start": time.perf_counter()}
+    stage("layout")
+    layout = generate_layout(inputs.strategy, rng=streams.rng("layout"))
+    clock["layout"] = time.perf_counter()
+    stage("scene")
+    scene = build_scene(layout, rng=streams.rng("scene"), segments=inputs.accuracy.tessellation)
+    clock["scene"] = time.perf_counter()
+    stage("placement")
+    poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed)
+    clock["placement"] = time.perf_counter()
+    stage("capture")
+    frames = capture(scene, inputs.sensor, poses, seed=streams.capture_seed, workers=1, depth_only=depth_only,
+                     accuracy=inputs.accuracy, context=shared_context())
+    clock["capture"] = time.perf_counter()
+    return MadeScene(layout, scene, poses, frames, clock)
+
+
+@dataclass(frozen=True, eq=False)
+class Chunks:
+    """The cloud stage's result: the chunks kept by the cleaning rules ([(tile key,
+    PointCloud)]), the points of every frame, and the points per class id (65536,) int64."""
+
+    kept: list[tuple[tuple[int, int], PointCloud]]
+    points_total: int
+    counts: np.ndarray
+
+
+def chunk(cfg: DatasetConfig, frames: list[Frame], streams: SceneStreams, *, chunks: bool) -> Chunks:
+    """The cloud stage: the frames' points cut into ``cfg.chunk_m`` tiles of at most
+    ``cfg.points`` points, those the cleaning rules keep (``chunks`` False: no tiles, for
+    formats of images; the counts only)."""
+    kept, points_total, counts = [], 0, np.zeros(65536, np.int64)
+    if chunks:
+        # the chunks straight from the frames: the merged cloud (~12 M points at 40 cameras)
+        # is built only for a preview that shows it
+        tiles, points_total = frame_chunks(frames, cfg.chunk_m, max_points=cfg.points, rng=streams.rng("cloud"))
+        for key, tile in tiles:
+            if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
+                kept.append((key, tile))
+                np.add.at(counts, tile.semantic, 1)
+    else:
+        for f in frames:
+            ok = f.depth > 0
+            points_total += int(ok.sum())
+            np.add.at(counts, f.semantic[ok], 1)
+    return Chunks(kept, int(points_total), counts)
