@@ -2,13 +2,15 @@
 estimate and the option that raises the limit, never after minutes of work or a MemoryError.
 
 - layout work: regions a scene's layout can make (each level's generators at their largest
-  arguments, bounded by the hall's area) plus ``random_rooms``' overlap tests / 10; limit
-  ``--max-nodes`` (default 2 000 000).
+  arguments, bounded by the hall's area: each generator says, ``Generator.bound``) plus the
+  work they do besides (``random_rooms``' overlap tests / 10); limit ``--max-nodes``
+  (default 2 000 000).
 - frame size: each side at most :data:`MAX_SIDE` px (the GL texture limit of Mesa llvmpipe).
 - memory: per worker, the frames of one scene (cameras x pixels x :data:`BYTES_PER_PIXEL`)
   plus the layout (:data:`BYTES_PER_NODE` per region), times the workers; limit
   ``--max-memory-gb`` (default: 80 % of the memory available now).
-- disk: the points (or images for BOP) the run writes; limit ``--max-disk-gb`` (default: the
+- disk: the points (or images) the run writes, as its format counts them
+  (``DatasetFormat.scene_bytes``); limit ``--max-disk-gb`` (default: the
   free space of the ``--out`` file system).
 """
 from __future__ import annotations
@@ -19,13 +21,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import LimitError
+from ..export import get_format
 from .config import DatasetConfig, available_memory_bytes
 
 MAX_SIDE = 16384
 BYTES_PER_PIXEL = 40   # depth f4 + ids u4 + semantic u2 + rgb 3 + normals/render targets
 BYTES_PER_NODE = 2048  # layout arrays, scene instances, placement cover
-BYTES_PER_POINT = 16   # xyz f4 + label u4 (SemanticKITTI); ply/pcd/npz a little more
-BOP_BYTES_PER_PIXEL = 4  # 16-bit depth + RGB + masks, PNG-compressed
 
 
 @dataclass(frozen=True)
@@ -37,48 +38,23 @@ class Estimate:
     disk_bytes: int
 
 
-def _hi(v, default: float) -> float:
-    if v is None:
-        return default
-    if isinstance(v, (list, tuple)):
-        return float(max(v)) if v else default
-    return float(v)
-
-
-def _lo(v, default: float) -> float:
-    if isinstance(v, (list, tuple)):
-        return float(min(v)) if v else default
-    return default if v is None else float(v)
-
-
 def layout_estimate(strategy) -> tuple[int, int]:
-    """(regions, work) a layout of ``strategy`` can make at most (see the module's text)."""
+    """(regions, work) a layout of ``strategy`` can make at most: each level's generators at
+    their largest arguments (:meth:`~genie_gl.layout.generators.Generator.bound`), bounded by
+    the hall's area, plus the work they do besides making regions."""
     W, H = strategy.root.width, strategy.root.height
-    area, big = W * H, max(W, H)
+    area = W * H
     nodes, work = 1, 1  # a level may split any region made so far: all of them are its parents
     for level in strategy.levels:
         if level == "merge" or not isinstance(level, dict):
             continue
         per_parent, area_cap = 1.0, math.inf
         for rule in level.values():
-            name, a = rule.generator_name, rule.generator.args
-            if name == "grid":
-                cw, ch = (float(c) for c in a.get("cell", (1.0, 1.0)))
-                sp = float(a.get("spacing", 0.0))
-                n = (big / (min(cw, ch) + sp) + 1) ** 2 + 1
-                area_cap = min(area_cap, 2 * area / (cw * ch) + 2 * nodes)
-            elif name == "random_rooms":
-                n = _hi(a.get("count"), 1.0)
-                work += int(n * n * _hi(a.get("attempts"), 50.0) / 2 / 10) * nodes
-            elif name == "drunkard_walk":
-                b = float(a.get("block", 1.0))
-                n = min(_hi(a.get("steps"), 50.0) + 1, (big / b) ** 2)
-                area_cap = min(area_cap, 2 * area / (b * b) + 2 * nodes)
-            elif name == "assembly_line":
-                n = 2 * _hi(a.get("paths"), 2.0) + 8
-            else:  # a generator of the user's: as a grid of 4 m cells would
-                n = (big / 4.0 + 1) ** 2
-            per_parent = max(per_parent, n)
+            bound = rule.generator.bound(W, H)
+            per_parent = max(per_parent, bound.per_parent)
+            if bound.min_area_m2 is not None:   # its regions tile at most twice the hall, plus the parents
+                area_cap = min(area_cap, 2 * area / bound.min_area_m2 + 2 * nodes)
+            work += int(bound.work) * nodes
         made = int(min(nodes * per_parent, area_cap, 1e18))
         nodes += made
         work += made
@@ -90,11 +66,9 @@ def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
     pixels = int(sensor.width) * int(sensor.height)
     per_worker = cfg.cameras * pixels * BYTES_PER_PIXEL + nodes * BYTES_PER_NODE
     workers = min(cfg.workers, cfg.scenes)
-    if cfg.format == "bop":
-        disk = cfg.scenes * cfg.cameras * pixels * BOP_BYTES_PER_PIXEL
-    else:
-        chunks = max(1.0, strategy.root.width / cfg.chunk_m + 1) * max(1.0, strategy.root.height / cfg.chunk_m + 1)
-        disk = int(cfg.scenes * min(chunks * cfg.points, cfg.cameras * pixels) * BYTES_PER_POINT)
+    chunks = max(1.0, strategy.root.width / cfg.chunk_m + 1) * max(1.0, strategy.root.height / cfg.chunk_m + 1)
+    points = min(chunks * cfg.points, cfg.cameras * pixels)   # a scene keeps at most its chunks' points
+    disk = int(cfg.scenes * get_format(cfg.format).scene_bytes(points, cfg.cameras * pixels))
     return Estimate(nodes, work, pixels, int(per_worker * workers), int(disk))
 
 

@@ -45,6 +45,15 @@ class DatasetFormat:
     stale: tuple[str, ...] = field(default=())                    # extra folders whose .tmp-* a run clears
     cloud_outputs: Callable[[str], tuple[str, ...]] | None = None  # top-level names write_cloud(name=) makes
     dataset_outputs: tuple[str, ...] = ()                         # top-level names of a dataset, beside folder
+    # the disk a scene takes, for the size check before a run (dataset/limits.py): bytes per
+    # point kept (xyz f4 + label u4 = 16 for the point formats) and per pixel of its frames
+    bytes_per_point: float = 16.0
+    bytes_per_pixel: float = 0.0
+
+    def scene_bytes(self, points: int, pixels: int) -> float:
+        """Bytes a scene of at most ``points`` points kept, from frames of ``pixels`` pixels
+        in all, takes on disk (an estimate from above)."""
+        return points * self.bytes_per_point + pixels * self.bytes_per_pixel
 
     def scene_dir(self, out: str | os.PathLike, index: int) -> Path:
         return Path(out) / self.folder / f"{index:0{self.digits}d}"

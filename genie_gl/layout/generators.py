@@ -75,6 +75,25 @@ class Children:
         return len(self.parent)
 
 
+@dataclass(frozen=True)
+class RegionBound:
+    """The most a generator makes of one parent region (the size check before a dataset run,
+    :mod:`genie_gl.dataset.limits`).
+
+    Attributes
+    ----------
+    per_parent : float, regions made of one parent, at most.
+    min_area_m2 : float or None, the smallest area of a region it makes (m²): its regions of a
+        level cover the hall at most twice, so a level makes at most 2·area/min_area_m2 of
+        them (plus the parents); None: no such bound.
+    work : float, work per parent besides making regions (e.g. overlap tests / 10).
+    """
+
+    per_parent: float
+    min_area_m2: float | None = None
+    work: float = 0.0
+
+
 class Generator:
     """Base class: ``slots`` lists the slot names the generator can produce.
 
@@ -113,6 +132,16 @@ class Generator:
     def check(self, where: str) -> None:
         """Validate arguments; raise ConfigError naming ``where`` (file and JSON path)."""
 
+    def check_fits(self, width: float, height: float, where: str) -> None:
+        """Raise ConfigError naming ``where`` when what the arguments ask for cannot fit a
+        parent of ``width`` x ``height`` metres (checked on the strategy's root)."""
+
+    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
+        """The most regions it makes of one parent in a hall of ``hall_w`` x ``hall_h`` m, its
+        arguments at their largest. A generator that does not say is taken to make at most
+        one region per 4 m x 4 m cell of the hall (override this to say more exactly)."""
+        return RegionBound((max(hall_w, hall_h) / 4.0 + 1) ** 2)
+
 
 GENERATORS: dict[str, type[Generator]] = {}
 
@@ -149,6 +178,15 @@ def _draw(r: tuple[float, float], *, rng: np.random.Generator) -> float:
     return r[0] if r[0] == r[1] else float(rng.uniform(r[0], r[1]))
 
 
+def _largest(value: Any, default: float) -> float:
+    """The largest value of a number or a [min, max] range argument (``default`` when unset)."""
+    if value is None:
+        return default
+    if isinstance(value, (list, tuple)):
+        return float(max(value)) if value else default
+    return float(value)
+
+
 def _along(parent: Region) -> bool:
     """True when the parent's orientation runs along x (left/right)."""
     return parent.orientation in ("left", "right")
@@ -172,6 +210,19 @@ class Grid(Generator):
                 raise ConfigError(f"{where}.args.{k}: expected >= 0, got {self.args[k]!r}")
         if self.args.get("leftover", "empty") not in ("empty", "spread"):
             raise ConfigError(f"{where}.args.leftover: expected 'empty' or 'spread', got {self.args['leftover']!r}")
+
+    def check_fits(self, width: float, height: float, where: str) -> None:
+        cell = self.args.get("cell")
+        if isinstance(cell, list) and len(cell) == 2:
+            cw, ch = sorted(float(c) for c in cell)
+            if ch > max(width, height) or cw > min(width, height):
+                raise ConfigError(f"{where}.args.cell: a {cell[0]} x {cell[1]} m cell is larger than its parent "
+                                  f"({width} x {height} m)")
+
+    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
+        cw, ch = (float(c) for c in self.args.get("cell", (1.0, 1.0)))
+        sp = float(self.args.get("spacing", 0.0))
+        return RegionBound((max(hall_w, hall_h) / (min(cw, ch) + sp) + 1) ** 2 + 1, min_area_m2=cw * ch)
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         cw, ch = map(float, self.args["cell"])
@@ -233,6 +284,15 @@ class AssemblyLine(Generator):
                 raise ConfigError(f"{where}.args.paths: expected whole numbers, got {a['paths']!r}")
         if a.get("direction", "random") not in ("horizontal", "vertical", "random"):
             raise ConfigError(f"{where}.args.direction: expected horizontal, vertical or random, got {a['direction']!r}")
+
+    def check_fits(self, width: float, height: float, where: str) -> None:
+        lw = self.args.get("line_width", 0)
+        lw = max(lw) if isinstance(lw, list) else float(lw)
+        if lw > max(width, height):
+            raise ConfigError(f"{where}.args.line_width: a {lw} m line does not fit its parent ({width} x {height} m)")
+
+    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
+        return RegionBound(2 * _largest(self.args.get("paths"), 2.0) + 8)
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
@@ -313,6 +373,10 @@ class RandomRooms(Generator):
         _range(a.get("width", 1.0), f"{where}.args", "width")
         _range(a.get("height", 1.0), f"{where}.args", "height")
 
+    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
+        n = _largest(self.args.get("count"), 1.0)
+        return RegionBound(n, work=n * n * _largest(self.args.get("attempts"), 50.0) / 2 / 10)
+
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
         lo, hi = _range(a.get("count", [1, 1]), "", "count")
@@ -344,6 +408,11 @@ class DrunkardWalk(Generator):
     def check(self, where: str) -> None:
         if float(self.args.get("block", 1.0)) <= 0 or int(self.args.get("steps", 1)) < 1:
             raise ConfigError(f"{where}.args: block must be > 0 and steps >= 1")
+
+    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
+        b = float(self.args.get("block", 1.0))
+        return RegionBound(min(_largest(self.args.get("steps"), 50.0) + 1, (max(hall_w, hall_h) / b) ** 2),
+                           min_area_m2=b * b)
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         b = float(self.args.get("block", 1.0))

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region, RegionType
+from ..scene_options import scene_options
 from . import coverage
 from .camera import Sensor
 from .placement_bits import DiscBits
@@ -68,8 +69,8 @@ def sensor_range(sensor) -> tuple[float, float] | None:
 
 def layout_ceiling(layout: Layout) -> float:
     """The hall's height: the strategy's wall height when it builds walls, else the default."""
-    scene = layout.meta.get("scene", {}) if isinstance(layout.meta, dict) else {}
-    return float(scene.get("wall_height_m", DEFAULT_CEILING_M)) if scene.get("walls") else DEFAULT_CEILING_M
+    opts = scene_options(layout.meta.get("scene") if isinstance(layout.meta, dict) else None, "layout scene options")
+    return float(opts.wall_height_m) if opts.walls else DEFAULT_CEILING_M
 
 
 def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: float = MIN_MOUNT_M,
