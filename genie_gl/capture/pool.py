@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..frame import Frame
-from ..render.context import set_default_backend
+from ..render.context import default_backend
 from ..render.renderer import Renderer
 from ..render.threads import limit_threads
 from ..scene.materials import MaterialTable
@@ -24,8 +24,6 @@ _WORKER: dict[str, Any] = {}
 
 
 def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32") -> None:
-    if backend is None and os.environ.get("GENIE_GL_BACKEND"):  # inherited from the CLI's process
-        set_default_backend(os.environ["GENIE_GL_BACKEND"])
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
     limit_threads(lp_threads)
     _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision)
@@ -44,6 +42,7 @@ def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray]
     n = len(poses)
     chunks = [list(range(w, n, workers)) for w in range(workers)]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
+    backend = backend or default_backend()   # the parent's choice, handed to each worker
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
         parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, accuracy, depth_only, plan,

@@ -13,7 +13,7 @@ from typing import Any
 
 from tqdm import tqdm
 
-from ..render.context import set_default_backend
+from ..render.context import default_backend, set_default_backend
 from ..render.threads import limit_threads
 from .config import DatasetConfig
 from .recipe import RunInputs
@@ -53,9 +53,8 @@ def make_scene(cfg: DatasetConfig, inputs: RunInputs, index: int, *, verify: boo
 
 
 def _worker(job: tuple) -> dict:
-    if os.environ.get("GENIE_GL_BACKEND"):  # a spawned worker: the CLI's choice, inherited
-        set_default_backend(os.environ["GENIE_GL_BACKEND"])
-    cfg, inputs, index, verify, status = job if len(job) == 5 else (*job, None)
+    cfg, inputs, index, verify, backend, status = job if len(job) == 6 else (*job, None)
+    set_default_backend(backend)   # the parent's choice (a spawned worker starts without it)
     limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
 
     def stage(name: str) -> None:
@@ -96,7 +95,7 @@ def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
 
             ray.init(address=cfg.address, ignore_reinit_error=True, log_to_driver=False)
             remote = ray.remote(_worker)  # stages are not reported back from the cluster
-            pending = [remote.remote((cfg, inputs, i, verify)) for i in range(cfg.scenes)]
+            pending = [remote.remote((cfg, inputs, i, verify, default_backend())) for i in range(cfg.scenes)]
             bar.set_postfix_str(f"{len(pending)} scenes on Ray")
             while pending:
                 ready, pending = ray.wait(pending, num_returns=1)
@@ -112,7 +111,8 @@ def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
             # own, started only when there is a bar to show them on
             with ctx.Manager() if progress else nullcontext() as manager, ctx.Pool(n) as pool:
                 status = manager.dict() if manager is not None else None  # scene -> its worker's stage
-                it = pool.imap_unordered(_worker, [(cfg, inputs, i, verify, status) for i in range(cfg.scenes)])
+                it = pool.imap_unordered(_worker, [(cfg, inputs, i, verify, default_backend(), status)
+                                                   for i in range(cfg.scenes)])
                 left = cfg.scenes
                 while left:
                     try:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import ctypes
 import time
 from collections.abc import Collection, Iterable, Iterator, Sequence
-from contextlib import nullcontext
 from typing import Any
 
 import moderngl
@@ -114,9 +113,9 @@ class Renderer:
         self.stats: dict[str, float] = {}
 
     def _current(self) -> Any:
-        # EGL contexts are made current around every call, so other GL users in the process
-        # (pyrender, a second Renderer) cannot leave theirs current under us.
-        return self.ctx if self.gl.backend == "egl" else nullcontext()
+        # made current around every call where the platform needs it (EGL), so other GL users
+        # in the process (pyrender, a second Renderer) cannot leave theirs current under us
+        return self.gl.current()
 
     # -- scene upload ------------------------------------------------------------------------
     def _upload(self, scene: Scene) -> None:
