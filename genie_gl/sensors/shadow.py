@@ -49,7 +49,7 @@ from ..frame import Frame
 from . import kernels
 from .camera import Sensor
 from .distortion import distortion_maps
-from .effect import Effect, drop_compiled, record
+from .effect import Effect, drop, drop_compiled, record
 from .geometry import pixel_rays
 
 METHODS = ("auto", "scanline", "render")
@@ -75,6 +75,11 @@ class StereoShadow(Effect):
         the second view by more than tolerance_m + tolerance_rel·z (the render is sampled at
         the nearest pixel: the relative term absorbs the depth change across half a pixel of a
         slanted surface, up to about 75° incidence at scale 0.5).
+    second_view : "needed" (default): the render method renders the second view only when
+        the frame has an edge that can hide something from it; "always": on every frame (the
+        same bytes; how it ran before that check, ``genie bench planning``'s "before").
+    fused : True (default): the returns dropped in one compiled pass; False: the reference
+        computation, the mask then :func:`~.effect.drop` (the same bytes, slower).
     """
 
     name: ClassVar[str] = "stereo_shadow"
@@ -87,10 +92,14 @@ class StereoShadow(Effect):
     tolerance_m: float = 0.005
     tolerance_rel: float = 0.02
     method: str = "auto"
+    second_view: str = "needed"
+    fused: bool = True
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ConfigError(f"stereo_shadow.method: expected {' | '.join(METHODS)}, got {self.method!r}")
+        if self.second_view not in ("needed", "always"):
+            raise ConfigError(f"stereo_shadow.second_view: expected needed | always, got {self.second_view!r}")
         a = np.asarray(self.axis, dtype=np.float64)
         if a.shape != (3,) or not np.isfinite(a).all() or np.linalg.norm(a) == 0:
             raise ConfigError(f"stereo_shadow.axis: expected a non-zero 3-vector, got {self.axis!r}")
@@ -165,7 +174,10 @@ class StereoShadow(Effect):
         return Sensor(w, h, K, near_m=base.near_m, far_m=base.far_m, name=f"{sensor.name}-second-view")
 
     def casts_shadow(self, frame: Frame) -> bool:
-        """True when some depth edge can hide a point from the second view (module docstring)."""
+        """True when some depth edge can hide a point from the second view (module docstring);
+        always True with ``second_view="always"``."""
+        if self.second_view == "always":
+            return True
         b = float(np.linalg.norm(self.second_from_first(frame.sensor)[:3, 3]))
         fb = max(frame.sensor.fx, frame.sensor.fy) * b
         return bool(kernels.casts_shadow(frame.depth, fb, float(self.tolerance_m), float(self.tolerance_rel)))
@@ -188,14 +200,17 @@ class StereoShadow(Effect):
             frame.depth, pixel_rays(frame.sensor), np.ascontiguousarray(second[:3, :3]),
             np.ascontiguousarray(second[:3, 3]), view.K, view.width, view.height, float(view.near_m), depth2,
             rendered, float(self.tolerance_m), float(self.tolerance_rel))
-        out = drop_compiled(frame, gone) if occluded + outside else frame
+        out = self._drop(frame, gone) if occluded + outside else frame
         return record(out, self.name, occluded=int(occluded), outside=int(outside),
                       second_view=rendered, method="render", changed=int(occluded + outside))
+
+    def _drop(self, frame: Frame, gone: np.ndarray) -> Frame:
+        return drop_compiled(frame, gone) if self.fused else drop(frame, gone)
 
     def apply_scanline(self, frame: Frame) -> Frame:
         """The scanline method: the second view from the depth image (no render)."""
         gone, occluded, outside = kernels.scanline_shadow(
             frame.depth, float(self.scanline_shift(frame.sensor)), float(self.tolerance_m), float(self.tolerance_rel))
-        out = drop_compiled(frame, gone) if occluded + outside else frame
+        out = self._drop(frame, gone) if occluded + outside else frame
         return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=False,
                       method="scanline", changed=int(occluded + outside))
