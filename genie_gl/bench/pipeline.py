@@ -1,5 +1,5 @@
 """``genie bench pipeline``: seconds per scene end to end at the paper's setup (40 cameras,
-640 x 480, the assembly line strategy) against the target of issue 16 (<= 0.5 s of stage time
+640 x 480, the assembly line strategy) against the target (<= 0.5 s of stage time
 per scene on 2 cores), and unprojection against a plain numpy version on synthetic and
 rendered frames. ``--unprojection-only`` skips the dataset runs, ``--dataset-only`` the rest.
 
@@ -42,7 +42,7 @@ from ..layout import generate_layout, load_strategy
 from ..render import Renderer, create_context
 from ..resources import resolve
 
-TARGET_S = 0.5  # issue 16: stage seconds per scene on 2 cores
+TARGET_S = 0.5  # the target: stage seconds per scene on 2 cores
 
 
 def _dataset_run(args: argparse.Namespace, workers: int) -> dict:
@@ -103,13 +103,13 @@ def dataset_runs(args: argparse.Namespace) -> list[dict]:
               f"{_spread(steady):>21s} {machine:15.2f} {command:15.2f} {_spread(cpu):>12s}")
     one = next((s for s in summary if s["workers"] == 1), None)
     if args.cameras != 40:
-        print("   (the issue 16 target is for 40 cameras a scene: run with --cameras 40 to check it)")
+        print("   (the target is for 40 cameras a scene: run with --cameras 40 to check it)")
     elif one is not None and one["steady_median_s"] is not None:
         best = min(s["machine_s_per_scene"] for s in summary)
         met = one["steady_median_s"] <= TARGET_S
         cpu = float(np.median(one["steady_cpu_s"])) if one["steady_cpu_s"] else float("nan")
         load = float(np.median([r["load_avg_1min"] for r in runs]))
-        print(f"   target (issue 16): <= {TARGET_S} s of stage time per scene on 2 cores: "
+        print(f"   target: <= {TARGET_S} s of stage time per scene on 2 cores: "
               f"{one['steady_median_s']:.2f} s per scene after the first (1 worker: llvmpipe and numba on both "
               f"cores) -> {'met' if met else 'NOT met'} "
               f"at load average {load:.1f} on {os.cpu_count()} cores; whole machine {best:.2f} s per scene at best; "

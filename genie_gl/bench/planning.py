@@ -24,7 +24,7 @@ One more row: the Azure profile on a matte convex sphere, where the planner skip
 noisy); the median of the per-frame ratios to the ideal is quoted, of wall time and of the
 process's CPU time (all renderer threads included: steadier where other work shares the
 cores, since a busy machine stretches a single-threaded effect's wall time more than a
-render spread over every core). Goals (issue 12): D435 at <= 2x the ideal render, Azure with
+render spread over every core). Goals: D435 at <= 2x the ideal render, Azure with
 multipath at <= 3x.
 """
 from __future__ import annotations

@@ -85,7 +85,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
 
 def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:
     """Seconds per stage, CPU seconds of the scene (all threads), the frames' cost (the
-    manifest's "cost" block) and what each sensor effect did (issue 12): not in stats.json."""
+    manifest's "cost" block) and what each sensor effect did: not in stats.json."""
     keys = ("start",) + STAGES
     return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "cpu_s": time.process_time() - cpu,
             "frame_cost_ms": frame_costs(frames),

@@ -40,6 +40,9 @@ APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosme
 
 _default_backend: str | None = None  # set once by the CLI from GENIE_GL_BACKEND
 
+_LIVE: dict[int, "GLContext"] = {}          # contexts created in this process, not yet released
+_CREATED = [0]                                # how many this process has created
+
 GL_LOWER_LEFT = 0x8CA1
 GL_ZERO_TO_ONE = 0x935F
 
@@ -77,8 +80,23 @@ class GLContext:
             raise BackendUnavailableError(f"{self.backend}: GL function {name} is not available")
         return ctypes.CFUNCTYPE(restype, *argtypes)(address)
 
+    def reset(self) -> None:
+        """Put the state a renderer sets back to GL's defaults (no depth test or face culling,
+        depth function "<", counter-clockwise front faces, the default framebuffer bound)."""
+        with self.current():
+            self.ctx.detect_framebuffer(0).use()
+            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+            self.ctx.depth_func = "<"
+            self.ctx.front_face = "ccw"
+
+    def error(self) -> str:
+        """GL's error flag ("GL_NO_ERROR" when none), read (and so cleared) in this context."""
+        with self.current():
+            return self.ctx.error
+
     def release(self) -> None:
         """Free the context and everything created in it."""
+        _LIVE.pop(id(self), None)
         self.programs.clear()
         self.ctx.release()
         self.platform.release()
@@ -124,6 +142,8 @@ def create_context(backend: str | None = None, *, device_index: int = 0) -> GLCo
             tried.append(f"{name}: {type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else ''}")
             continue
         gl = GLContext(ctx, platform, ctx.info["GL_RENDERER"])
+        _LIVE[id(gl)] = gl
+        _CREATED[0] += 1
         log.debug("GL context on %s: %s", name, gl.renderer)
         return gl
     raise BackendUnavailableError(
@@ -156,6 +176,22 @@ def shared_context(backend: str | None = None) -> GLContext:
     if gl is None:
         gl = _SHARED[backend] = create_context(backend)
     return gl
+
+
+def live_contexts() -> list[GLContext]:
+    """The contexts this process created and has not released (the test suite checks them)."""
+    return list(_LIVE.values())
+
+
+def contexts_created() -> int:
+    """How many contexts this process has created (the test suite checks that a test of a
+    stage that needs no GL starts none)."""
+    return _CREATED[0]
+
+
+def is_shared(gl: GLContext) -> bool:
+    """True for a context :func:`shared_context` holds (it outlives its renderers on purpose)."""
+    return any(gl is s for s in _SHARED.values())
 
 
 def release_shared_contexts() -> None:

@@ -123,6 +123,11 @@ class Effect:
         ``sensor`` (one sentence), or None when it acts."""
         return None
 
+    def range_m(self) -> tuple[float, float] | None:
+        """The (min, max) range in metres of the returns this effect lets through, when it
+        bounds them to a finite interval (the placement mounts cameras for it); else None."""
+        return None
+
     def reach_m(self, sensor: Any) -> float | None:
         """The farthest depth (m) whose surfaces can still change this effect's output, or
         None (no bound of its own). The planner's far plane is the largest reach."""

@@ -52,6 +52,9 @@ class RangeLimits(Effect):
             return f"every return lies inside [{self.min_m}, {self.max_m}] m"
         return None
 
+    def range_m(self) -> tuple[float, float] | None:
+        return (float(self.min_m), float(self.max_m)) if np.isfinite(self.max_m) else None
+
     def reach_m(self, sensor: Any) -> float | None:
         return float(self.max_m)
 

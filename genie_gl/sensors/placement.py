@@ -60,10 +60,12 @@ class Mount:
 
 
 def sensor_range(sensor) -> tuple[float, float] | None:
-    """(min, max) range of the sensor's ``range`` effect, or None when it has none."""
+    """(min, max) range of the returns the sensor's effects let through (the first effect that
+    bounds them, :meth:`Effect.range_m`: the ``range`` effect), or None when none does."""
     for eff in getattr(sensor, "effects", ()):
-        if eff.name == "range" and np.isfinite(eff.max_m):
-            return float(eff.min_m), float(eff.max_m)
+        bounds = eff.range_m()
+        if bounds is not None:
+            return bounds
     return None
 
 

@@ -142,6 +142,7 @@ def captured(scene, sensor, pose, seed=3):
     return planned, unplanned
 
 
+@pytest.mark.gl
 def test_multipath_skipped_on_a_matte_convex_object_and_the_frame_is_identical():
     sensor = tof(RangeLimits(min_m=0.5, max_m=4.0), TofMultipath(samples=64), DepthNoise(model="tof_linear"))
     scene = sphere_scene()
@@ -157,6 +158,7 @@ def test_multipath_skipped_on_a_matte_convex_object_and_the_frame_is_identical()
     assert {e["name"]: e["run"] for e in planned.meta["effects"]}["tof_multipath"] is False
 
 
+@pytest.mark.gl
 def test_multipath_in_a_metallic_inner_corner_pushes_depth_away_never_closer():
     eff = TofMultipath(samples=64)
     scene = corner_scene()
@@ -176,6 +178,7 @@ def test_multipath_in_a_metallic_inner_corner_pushes_depth_away_never_closer():
     assert delta[:, u_mid - 3:u_mid + 4].max() > delta[:, :5].max()
 
 
+@pytest.mark.gl
 def test_plan_level_skips_keep_output_and_rng_stream():
     """calibration_error with zero sigmas and a constant lateral noise of 0 px are skipped by
     the plan; they still draw what they would, so the noise after them is the same."""
@@ -190,6 +193,7 @@ def test_plan_level_skips_keep_output_and_rng_stream():
     assert all(e["changed"] == 0 for e in unplanned.meta["effects"][:-1])
 
 
+@pytest.mark.gl
 def test_low_albedo_and_specular_loss_run_where_the_scene_calls_for_them():
     dark = Material((0.02, 0.02, 0.02), 0.0, 0.9)
     eff = LowAlbedo(ref_albedo=0.15, ref_range_m=4.65)
@@ -209,6 +213,7 @@ def test_low_albedo_and_specular_loss_run_where_the_scene_calls_for_them():
     assert out.meta["effects"][0]["run"] and out.meta["effects"][0]["changed"] > 0
 
 
+@pytest.mark.gl
 def test_range_culling_and_empty_frames():
     sensor = tof(RangeLimits(min_m=0.5, max_m=4.0))
     scene = sphere_scene(far_one=True)
@@ -225,6 +230,7 @@ def test_range_culling_and_empty_frames():
     assert same(planned, unplanned)
 
 
+@pytest.mark.gl
 def test_stereo_shadow_renders_the_second_view_only_for_an_edge():
     flat = gg.Scene()
     flat.add(trimesh.creation.box((6.0, 6.0, 0.02)), [0.0, 0.0, 0.0], material=MATTE)
