@@ -54,6 +54,7 @@ _EXPORTS: dict[str, str] = {
     # sensors
     "Camera": "genie_gl.camera",
     "Sensor": "genie_gl.sensors.camera",
+    "Stereo": "genie_gl.sensors.camera",
     "load_sensor": "genie_gl.sensors",
     "place_sensors": "genie_gl.sensors",
     # accuracy settings (a profile's accuracy: block, genie dataset --accuracy)
