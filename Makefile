@@ -23,7 +23,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli \
+.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -59,6 +59,9 @@ test: setup ## run the test suite (real GL on EGL/llvmpipe); tests marked slow a
 
 docs-images: setup ## remake the README's pictures (one scene, seed 0) into docs/images
 	$(PY) docs/make_images.py $(OUT)/docs
+
+sensor-pages: setup ## each shipped profile's report card against published figures: pages and curves in docs/sensors
+	$(GENIE) report-card --sensor all --seed $(SEED) --pages docs/sensors --out $(OUT)/report-card
 
 test-slow: setup ## run only the slow tests (the cloud kernels again with numba's bounds checks on)
 	$(PY) -m pytest $(PYTEST_ARGS) -m slow

@@ -71,6 +71,8 @@ _EXPORTS: dict[str, str] = {
     "PointCloud": "genie_gl.cloud",
     "to_cloud": "genie_gl.cloud",
     "export": "genie_gl.export",
+    # the sensor's report card (published measurements of the real device beside ours)
+    "report_card": "genie_gl.card.report",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]

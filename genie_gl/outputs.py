@@ -10,7 +10,7 @@ Every command and API function that writes files goes through this module:
   same command. An output name already taken by an entry genie-gl did not write, a
   ``manifest.json`` genie-gl did not write, or a folder written by another command, is refused
   in one line before anything is written.
-- **A single file** (``genie scene --out S.usda``, ``Scene.to_usd``, ``Layout.to_json``, a
+- **A single file** (``genie scene --out S.usda``, ``write_usd``, ``Layout.to_json``, a
   calibration or accuracy file) is replaced only when it is one genie-gl wrote, recognised by
   its own stamp (:func:`check_replaceable`); otherwise the write is refused.
 - Every file is written to a temporary name in its folder and renamed into place

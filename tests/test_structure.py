@@ -20,9 +20,9 @@ PACKAGE = "genie_gl"
 # the stages in pipeline order (DESIGN.md): a module may import its own stage and those before it;
 # the benchmarks measure everything, the command line included
 STAGES = ("base", "layout", "scene", "sensors", "render", "capture", "cloud", "export", "eval", "dataset",
-          "commands", "cli", "bench")
+          "card", "commands", "cli", "bench")
 # the bottom of the package: the contracts every stage shares (top-level modules of genie_gl)
-BASE = ("errors", "resources", "checks", "labels", "camera", "frame", "scene_options", "outputs")
+BASE = ("errors", "outputs", "resources", "checks", "labels", "camera", "frame", "scene_options")
 # optional dependencies (extras, or used only for pictures) that a function may import when it needs them
 DEFERRABLE = ("matplotlib", "open3d", "ray", "pyrender", "OpenGL")
 

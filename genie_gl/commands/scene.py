@@ -19,13 +19,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..layout import Layout
     from ..scene import build_scene
-    from ..scene.usd import write_usd
+    from ..outputs import check_replaceable, png_is_ours
+    from ..scene.usd import write_usd, written_by_genie
 
     out = Path(args.out)
     if out.suffix not in (".usda", ".usdc", ".usd"):
         raise ConfigError(f"--out {out}: expected a .usda, .usdc or .usd file name")
-    from ..outputs import check_replaceable, png_is_ours
-    from ..scene.usd import written_by_genie
 
     check_replaceable(out, written_by_genie, what="USD scene", option="--out")   # before any work
     if not args.no_picture:
