@@ -23,7 +23,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli \
+.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -105,6 +105,10 @@ bench-planning: setup ## a full D435 / Azure frame before and after planning (x 
 	$(GENIE) bench planning --out $(OUT)/bench
 bench-cli: setup ## seconds genie --help and every subcommand's --help take
 	$(GENIE) bench cli --out $(OUT)/bench
+bench-sequence: setup ## frames/s along a trajectory against the same number of standing frames
+	$(GENIE) bench sequence --out $(OUT)/bench
+bench-odometry: setup ## KISS-ICP on a SemanticKITTI sequence of ours; evo's ATE against its ground truth
+	$(GENIE) bench odometry --out $(OUT)/bench
 
 dataset-assembly-line: setup ## the paper's setup: make dataset-assembly-line SCENES=499 CAMERAS=40
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \

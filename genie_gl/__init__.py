@@ -12,6 +12,10 @@ The public API, one name per pipeline stage (DESIGN.md)::
     cloud  = gg.to_cloud(frames)
     gg.export(cloud, "out/", format="semantickitti")
 
+    rig   = gg.load_rig("d435_quad")                # sensors with fixed extrinsics on a body
+    path  = gg.make_trajectory(layout, scene, "aisles", seed=0)   # on the free floor
+    shots = gg.record(scene, rig, path, seed=0)    # (Shot, Frame) in time order
+
 Names are imported lazily, so ``import genie_gl`` stays cheap and starts no GL.
 
 ``gg.render``, ``gg.capture`` and ``gg.export`` are plain functions although stage packages
@@ -57,6 +61,14 @@ _EXPORTS: dict[str, str] = {
     "Stereo": "genie_gl.sensors.camera",
     "load_sensor": "genie_gl.sensors",
     "place_sensors": "genie_gl.sensors",
+    # cameras that move: rigs, trajectories, recordings, mobile-scan maps
+    "Rig": "genie_gl.sensors.rig",
+    "load_rig": "genie_gl.sensors.rig",
+    "Trajectory": "genie_gl.sensors.trajectory",
+    "make_trajectory": "genie_gl.sensors.paths",
+    "RegistrationError": "genie_gl.sensors.registration",
+    "record": "genie_gl.capture.trajectory",
+    "fuse": "genie_gl.cloud.fusion",
     # accuracy settings (a profile's accuracy: block, genie dataset --accuracy)
     "AccuracySettings": "genie_gl.sensors.accuracy",
     "load_accuracy": "genie_gl.sensors.accuracy",

@@ -1,4 +1,4 @@
-"""Where the shipped data lives: ``shaders/``, ``layouts/`` and ``sensors/``.
+"""Where the shipped data lives: ``shaders/``, ``layouts/``, ``sensors/`` and ``rigs/``.
 
 In a wheel they are packaged as ``genie_gl/_data/<kind>``; in a source checkout (editable
 install) they are the top-level folders of the repository. :func:`data_dir` finds either.
@@ -10,7 +10,7 @@ from pathlib import Path
 
 from .errors import ConfigError, did_you_mean
 
-KINDS = ("shaders", "layouts", "sensors")
+KINDS = ("shaders", "layouts", "sensors", "rigs")
 
 
 def data_dir(kind: str) -> Path:

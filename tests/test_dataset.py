@@ -122,7 +122,7 @@ def test_a_killed_run_resumes_to_the_same_bytes(reference, tmp_path):
 
 @pytest.mark.parametrize("argv, message", [
     (["dataset", "layouts/missing.json", "--out", "OUT"], "missing.json: no such file"),
-    (["dataset", "assembly_line", "--format", "las", "--out", "OUT"], "--format 'las': unknown"),
+    (["dataset", "assembly_line", "--format", "lass", "--out", "OUT"], "--format 'lass': unknown; expected one of semantickitti, ply, pcd, npz, bop, e57, las"),
     (["dataset", "assembly_line", "--out", "/proc/genie-out"], "not writable"),
     (["dataset", "assembly_line", "--sensor", "nope", "--out", "OUT"], "no shipped sensor"),
 ])

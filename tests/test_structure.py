@@ -24,7 +24,8 @@ STAGES = ("base", "layout", "scene", "sensors", "render", "capture", "cloud", "e
 # the bottom of the package: the contracts every stage shares (top-level modules of genie_gl)
 BASE = ("errors", "outputs", "resources", "checks", "labels", "camera", "frame", "scene_options")
 # optional dependencies (extras, or used only for pictures) that a function may import when it needs them
-DEFERRABLE = ("matplotlib", "open3d", "ray", "pyrender", "OpenGL")
+DEFERRABLE = ("matplotlib", "open3d", "ray", "pyrender", "OpenGL", "fast_simplification", "rosbags", "pye57",
+              "laspy", "evo", "kiss_icp")
 
 
 @dataclass(frozen=True)

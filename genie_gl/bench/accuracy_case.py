@@ -21,6 +21,8 @@ from ..resources import resolve
 from ..scene import build_scene, usd
 from ..sensors import load_sensor, place_sensors
 from ..sensors.pose import look_at
+from ..sensors.paths import PATHS, make_trajectory
+from ..sensors.rig import body_from_sensor
 from . import analytic
 from .knobs import Case
 
@@ -91,9 +93,21 @@ def make_case(args: argparse.Namespace) -> Case:
             return build_scene(layout, seed=args.seed, segments=t)
         return build_scene(layout, seed=args.seed)
 
-    poses = read_poses(args.poses) if args.poses else place_sensors(layout, sensor, n=args.cameras, seed=args.seed)
+    if getattr(args, "path", None):   # the sensor carried along a trajectory: n frames evenly in time
+        poses = path_poses(layout, built(None), sensor, args.path, args.cameras, seed=args.seed)
+    else:
+        poses = read_poses(args.poses) if args.poses else place_sensors(layout, sensor, n=args.cameras, seed=args.seed)
     return Case("strategy", str(path), sensor, poses, _cached(built, built(None)), layout=layout,
                 tessellation_supported=supported)
+
+
+def path_poses(layout, scene, sensor, path: str, n: int, *, seed: int) -> list[np.ndarray]:
+    """``n`` poses of ``sensor`` carried (level, tilted 10° down) along a trajectory of kind
+    ``path`` (aisles, random or a waypoints file) on the scene's free floor, evenly in time."""
+    kind = path if path in PATHS[:2] else "waypoints"
+    tr = make_trajectory(layout, scene, kind, seed=seed, waypoints=path if kind == "waypoints" else None)
+    body = tr.at(np.linspace(tr.start_s, tr.end_s, max(1, n)))
+    return list(body @ body_from_sensor(pitch_rad=float(np.radians(10.0))))
 
 
 def _cached(fn, first):

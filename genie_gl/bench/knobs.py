@@ -103,7 +103,7 @@ class Knob:
 
     def label(self, value: Any) -> str:
         if value is None:
-            return "own"
+            return "off" if self.field == "lod_px" else "own"
         if self.name in ("resolution", "supersample"):
             return f"x{value:g}"
         return f"{value:g}{self.unit}" if isinstance(value, (int, float)) else str(value)
@@ -122,6 +122,7 @@ KNOBS: tuple[Knob, ...] = (
          _tessellation),
     Knob("multipath_samples", "multipath samples", "multipath_samples", (8, 16, 32, 64), 128, False,
          _effect_knob("multipath_samples")),
+    Knob("lod", "level of detail (below px across)", "lod_px", (16.0, 48.0, 128.0), None, True, unit=" px"),
 )
 KNOB = {k.name: k for k in KNOBS}
 

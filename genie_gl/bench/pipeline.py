@@ -36,7 +36,7 @@ import genie_gl as gg
 from ..cloud import to_cloud
 from ..cloud.kernels import count_valid
 from ..cloud.unproject import ray_table, unproject_into
-from ..dataset.scene import scene_rngs
+from ..dataset.streams import SceneStreams
 from ..frame import Frame
 from ..layout import generate_layout, load_strategy
 from ..render import Renderer, create_context
@@ -132,10 +132,10 @@ def readback(repeats: int = 8) -> list[dict]:
     sensor = gg.load_sensor("ideal_pinhole")
     data = []
     for i in range(3):
-        rng = scene_rngs(0, i)
-        layout = generate_layout(load_strategy("assembly_line"), rng=rng["layout"])
-        scene = gg.build_scene(layout, rng=rng["scene"])
-        data.append((scene, gg.place_sensors(layout, sensor, n=40, seed=int(rng["placement"].integers(2**31)))))
+        streams = SceneStreams(0, i)
+        layout = generate_layout(load_strategy("assembly_line"), rng=streams.rng("layout"))
+        scene = gg.build_scene(layout, rng=streams.rng("scene"))
+        data.append((scene, gg.place_sensors(layout, sensor, n=40, seed=streams.placement_seed)))
     modes = {"separate targets": {"targets": "separate"}, "packed (default)": {},
              "packed + PBO": {"readback": "pbo"}}
     gl = create_context()

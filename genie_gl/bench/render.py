@@ -1,25 +1,33 @@
-"""``genie bench render``: genie-gl against pyrender (SEG mode) and Open3D ray casting.
+"""``genie bench render``: genie-gl against Open3D ray casting and pyrender (SEG mode).
 
-Scenes: a floor plus 200 boxes, 10 icospheres and 10 cylinders at random poses in a 20 x 20 m
-area, in two sizes (~100 k and ~1 M triangles); camera 640 x 480, fx = fy = 525, cx = 319.5,
-cy = 239.5, four poses; every tool returns depth and per-pixel instance ids.
+Scenes (:mod:`genie_gl.bench.scenes`): ``100k``, ``1M`` and ``10M`` triangles of 221 meshes,
+``hall`` (~9.8 M triangles: one 81,920-triangle mesh placed 120 times) and ``generated`` (a
+shipped strategy built into a scene). Camera 640 x 480, fx = fy = 525; every tool returns
+depth and per-pixel instance ids.
 
-What is timed is what users call: genie-gl's :meth:`Renderer.render` (the call ``capture``
-makes per pose; a test checks both give the same frames), and, on a line of its own,
-``capture`` as a whole (scene upload included) per frame. For each tool:
+Each measurement runs in a fresh process of its own (tools never share a process, its
+memory or its thread pools), the tools taking turns, ``--repeats`` times. A process builds
+the tool's scene from the same arrays in memory and renders the scene's 40 poses in turn:
 
-* per frame: median and interquartile range (IQR) of single frames in one process, the tools
-  taking turns pose by pose so that a drifting machine hits all alike;
-* whole machine: frames/s of P processes (P = the number of cores, the same P for every
-  tool) rendering at once after a barrier (genie-gl with ``LP_NUM_THREADS`` = cores / P), and
-  each process's peak resident memory.
+* build: meshes in memory -> first frame (genie-gl: ``Scene`` + ``Renderer`` + the first
+  ``render``; Open3D: the instances' triangles into a ``RaycastingScene`` + the first
+  ``cast_rays``; pyrender: its scene from our ``Scene`` + the first render);
+* steady frame: the mean time of the 39 frames after the first (genie-gl through
+  :meth:`Renderer.frames`, which is what ``capture`` uses);
+* N cameras with the build: build + the next N - 1 frames, for N = 24 and 40;
+* peak memory: the process's peak resident set (VmHWM), and what it held before the build
+  (interpreter, imports and the scene's arrays) to read the build's own share;
+* whole machine (``--whole-machine``): P = cores processes of one tool at once, each with
+  1 / P of the cores, after a barrier; frames/s summed.
 
-Ratio columns say what they divide. A peer that is not installed is listed as skipped with
-its install command. Writes ``render.json`` under ``--out``.
+Reported per tool: the minimum and median over the repeats. Ratio columns say what they
+divide. A peer that is not installed is listed as skipped with its install command. Writes
+``render.json`` under ``--out``.
 """
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib.util
 import json
 import multiprocessing as mp
@@ -28,102 +36,78 @@ import time
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
-from ..capture import capture
+from ..errors import ConfigError
+from ..outputs import atomic_write_text
 from ..render import Renderer
-from ..render.projection import look_at
 from ..render.reference import ReferenceRenderer
 from ..render.threads import limit_threads
-from ..scene.model import Scene
 from ..sensors.camera import Sensor
+from .scenes import SIZES, bench_spec, to_scene
 
-SIZES = {"100k": (4, 1024), "1M": (6, 4096)}   # icosphere subdivisions, cylinder sections
-
-
-def bench_scene(size: str, seed: int = 0):
-    """The benchmark scene (a genie_gl.Scene) and its four camera poses."""
-    subdiv, sections = SIZES[size]
-    rng = np.random.default_rng(seed)
-    scene = Scene()
-    scene.add(trimesh.creation.box((20.0, 20.0, 0.05)), [0, 0, -0.025], semantic=0)
-    box = trimesh.creation.box((1, 1, 1))
-    sphere = trimesh.creation.icosphere(subdiv, radius=0.5)
-    cylinder = trimesh.creation.cylinder(0.4, 1.0, sections=sections)
-    for i in range(220):
-        T = trimesh.transformations.random_rotation_matrix(rng.random(3))
-        T[:3, :3] *= rng.uniform(0.3, 1.5)
-        T[:3, 3] = [*rng.uniform(-10, 10, 2), rng.uniform(0.3, 2.0)]
-        mesh = box if i < 200 else sphere if i < 210 else cylinder
-        scene.add(mesh, T, semantic=1 + i % 9)
-    poses = [look_at([12 * np.cos(a), 12 * np.sin(a), 6.0], [0, 0, 0.5])
-             for a in np.linspace(0, 2 * np.pi, 4, endpoint=False)]
-    return scene, poses
+CAMERAS = (24, 40)
 
 
 def sensor_640():
     return Sensor(640, 480, np.array([[525.0, 0, 319.5], [0, 525.0, 239.5], [0, 0, 1]]), near_m=0.1, far_m=100.0)
 
 
-PEERS = {"pyrender SEG": ("pyrender", "pip install pyrender"),
-         "Open3D cast_rays": ("open3d", "pip install open3d")}
+def bench_scene(size: str, seed: int = 0):
+    """The benchmark scene ``size`` as a genie_gl.Scene and its first four camera poses."""
+    spec = bench_spec(size, seed)
+    return to_scene(spec), list(spec.poses[:4])
 
 
-def _stats(ms: list[float]) -> dict:
-    q1, med, q3 = np.percentile(ms, [25, 50, 75])
-    return {"median_ms": float(med), "iqr_ms": float(q3 - q1), "q1_ms": float(q1), "q3_ms": float(q3), "n": len(ms)}
-
-
-def bench_frames(scene, sensor, poses) -> list:
-    """The frames ``genie bench render`` times, made by the object it times:
-    :meth:`Renderer.render` per pose, depth and ids (what ``capture`` calls for a sensor
-    without effects)."""
-    ours = _Ours(scene)
-    try:
-        return [ours.frame(sensor, p) for p in poses]
-    finally:
-        ours.release()
+PEERS = {"pyrender": ("pyrender", "pip install pyrender"), "Open3D": ("open3d", "pip install open3d")}
 
 
 class _Ours:
     name = "genie-gl"
 
-    def __init__(self, scene) -> None:
-        self.r = Renderer(scene)
+    def __init__(self, spec) -> None:
+        self.r = Renderer(to_scene(spec))
         self.triangles = self.r.triangles
 
     def frame(self, sensor, pose):
         return self.r.render(sensor, pose, depth_only=True)
+
+    def frames(self, sensor, poses):
+        for _ in self.r.frames(sensor, poses, depth_only=True):
+            pass
 
     def release(self) -> None:
         self.r.release()
 
 
 class _Pyrender:
-    name = "pyrender SEG"
+    name = "pyrender"
 
-    def __init__(self, scene) -> None:
-        self.r = ReferenceRenderer(scene)
+    def __init__(self, spec, scene=None) -> None:
+        self.r = ReferenceRenderer(scene if scene is not None else to_scene(spec))
 
     def frame(self, sensor, pose) -> None:
         self.r.render(sensor, pose)
+
+    def frames(self, sensor, poses) -> None:
+        for p in poses:
+            self.r.render(sensor, p)
 
     def release(self) -> None:
         self.r.release()
 
 
 class _Open3D:
-    name = "Open3D cast_rays"
+    name = "Open3D"
 
-    def __init__(self, scene) -> None:
+    def __init__(self, spec) -> None:
         import open3d as o3d
 
         self.o3d = o3d
         self.rc = o3d.t.geometry.RaycastingScene()
-        for inst in scene.instances:
-            m = scene.meshes[inst.mesh]
-            v = m.vertices.astype(np.float64) @ inst.world_from_model[:3, :3].T + inst.world_from_model[:3, 3]
-            self.rc.add_triangles(o3d.core.Tensor(v.astype(np.float32)), o3d.core.Tensor(m.faces.astype(np.uint32)))
+        for m, T in zip(spec.mesh_of, spec.world_from_model):
+            v, f, _ = spec.meshes[m]
+            w = v.astype(np.float64) @ T[:3, :3].T + T[:3, 3]
+            self.rc.add_triangles(o3d.core.Tensor(w.astype(np.float32)), o3d.core.Tensor(f))
 
     def frame(self, sensor, pose) -> None:
         o3d = self.o3d
@@ -136,121 +120,199 @@ class _Open3D:
         ans["t_hit"].numpy()
         ans["geometry_ids"].numpy()
 
+    def frames(self, sensor, poses) -> None:
+        for p in poses:
+            self.frame(sensor, p)
+
     def release(self) -> None:
         self.rc = None
 
 
-TOOLS = {"genie-gl": _Ours, "pyrender SEG": _Pyrender, "Open3D cast_rays": _Open3D}
+TOOLS = {"genie-gl": _Ours, "Open3D": _Open3D, "pyrender": _Pyrender}
 
 
 def available(name: str) -> bool:
     return name not in PEERS or importlib.util.find_spec(PEERS[name][0]) is not None
 
 
-def per_frame(scene, poses, tools: list[str], repeats: int) -> dict:
-    """ms per frame of each tool in this process, tools taking turns pose by pose."""
-    sensor = sensor_640()
-    made = {name: TOOLS[name](scene) for name in tools}
-    for t in made.values():
-        t.frame(sensor, poses[0])  # warm-up: programs, buffers, compiled kernels
-    ms: dict[str, list[float]] = {name: [] for name in tools}
-    for _ in range(repeats):
-        for p in poses:
-            for name, t in made.items():
-                t0 = time.perf_counter()
-                t.frame(sensor, p)
-                ms[name].append(1e3 * (time.perf_counter() - t0))
-    out = {name: _stats(v) for name, v in ms.items()}
-    if "genie-gl" in made:
-        out["genie-gl"]["triangles_in_scene"] = int(made["genie-gl"].triangles)
-        r = made["genie-gl"].r
-        r.render(sensor, poses[0], depth_only=True)
-        out["genie-gl"]["triangles_drawn"] = int(r.stats["triangles_drawn"])
-    for t in made.values():
-        t.release()
-    return out
+def bench_frames(scene, sensor, poses) -> list:
+    """The frames ``genie bench render`` times, made by the object it times (depth and ids,
+    what ``capture`` calls for a sensor without effects)."""
+    with Renderer(scene) as r:
+        first = [r.render(sensor, poses[0], depth_only=True)]
+        return first + list(r.frames(sensor, poses[1:], depth_only=True))
 
 
-def capture_per_frame(scene, poses, repeats: int) -> float:
-    """ms per frame of ``capture`` over all poses, one call (scene upload included)."""
-    sensor = sensor_640()
-    t = time.perf_counter()
-    capture(scene, sensor, list(poses) * repeats, seed=0, depth_only=True)
-    return 1e3 * (time.perf_counter() - t) / (len(poses) * repeats)
-
-
-def _worker(args) -> tuple[int, float, float]:
-    name, size, barrier, frames, lp_threads = args
-    os.environ["LP_NUM_THREADS"] = str(lp_threads)
-    limit_threads(lp_threads)
-    scene, poses = bench_scene(size)
-    sensor = sensor_640()
-    tool = TOOLS[name](scene)
-    tool.frame(sensor, poses[0])
-    barrier.wait()
-    t = time.perf_counter()
-    for i in range(frames):
-        tool.frame(sensor, poses[i % len(poses)])
-    dt = time.perf_counter() - t
-    tool.release()
-    return frames, dt, peak_rss_mib()
+def _rss(field: str) -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
 
 
 def peak_rss_mib() -> float:
     """This process's peak resident memory (VmHWM; unlike ru_maxrss it does not carry the
     parent's peak across the exec of a spawned worker)."""
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) / 1024.0
-    return float("nan")
+    return _rss("VmHWM")
 
 
-def whole_machine(name: str, size: str, frames: int) -> dict:
+def _measure(args) -> dict:
+    """One tool on one scene in this (fresh) process: build, 39 more frames, peak memory."""
+    name, scene_name = args
+    spec = bench_spec(scene_name)
+    scene = to_scene(spec) if name == "pyrender" else None   # pyrender's build starts from our Scene
+    sensor = sensor_640()
+    poses = list(spec.poses)
+    gc.collect()
+    before = _rss("VmRSS")
+    c0, t0 = time.process_time(), time.perf_counter()
+    tool = TOOLS[name](spec) if scene is None else _Pyrender(spec, scene)
+    tool.frame(sensor, poses[0])
+    build = time.perf_counter() - t0
+    build_cpu = time.process_time() - c0
+    marks = {}
+    t1, c1 = time.perf_counter(), time.process_time()
+    done = 1
+    for n in CAMERAS:   # frames 1 .. n - 1, going on from where the last count stopped
+        tool.frames(sensor, poses[done:n])
+        marks[n] = time.perf_counter() - t1
+        done = n
+    frames_cpu = time.process_time() - c1
+    out = {"tool": name, "scene": scene_name, "build_s": build, "build_cpu_s": build_cpu,
+           "steady_ms": 1e3 * marks[CAMERAS[-1]] / (CAMERAS[-1] - 1),
+           "steady_cpu_ms": 1e3 * frames_cpu / (CAMERAS[-1] - 1),
+           **{f"cameras_{n}_s": build + marks[n] for n in CAMERAS},
+           "peak_rss_mib": peak_rss_mib(), "rss_before_mib": before, "triangles": spec.triangles}
+    if name == "genie-gl":
+        r = tool.r
+        r.render(sensor, poses[0], depth_only=True)
+        out["triangles_drawn_pose0"] = int(r.stats["triangles_drawn"])
+    tool.release()
+    return out
+
+
+def _worker(args) -> tuple[int, float, float]:
+    name, scene_name, barrier, frames, lp_threads = args
+    os.environ["LP_NUM_THREADS"] = str(lp_threads)
+    limit_threads(lp_threads)
+    spec = bench_spec(scene_name)
+    sensor = sensor_640()
+    tool = TOOLS[name](spec) if name != "pyrender" else _Pyrender(spec)
+    poses = list(spec.poses)
+    tool.frame(sensor, poses[0])
+    barrier.wait()
+    t = time.perf_counter()
+    tool.frames(sensor, [poses[i % len(poses)] for i in range(frames)])
+    dt = time.perf_counter() - t
+    tool.release()
+    return frames, dt, peak_rss_mib()
+
+
+def whole_machine(name: str, scene_name: str, frames: int) -> dict:
     """Frames/s of P = cores processes of one tool at once, and their peak RSS (MiB)."""
     n = os.cpu_count() or 1
     ctx = mp.get_context("spawn")
     manager = ctx.Manager()
     barrier = manager.Barrier(n)
     with ctx.Pool(n) as pool:
-        parts = pool.map(_worker, [(name, size, barrier, frames, 1)] * n)
+        parts = pool.map(_worker, [(name, scene_name, barrier, frames, 1)] * n)
     manager.shutdown()
     return {"processes": n, "fps": float(sum(f / t for f, t, _ in parts)),
             "peak_rss_mib": float(max(m for _, _, m in parts))}
 
 
+def _fresh(name: str, scene_name: str) -> dict:
+    ctx = mp.get_context("spawn")
+    with ctx.Pool(1, maxtasksperchild=1) as pool:
+        return pool.apply(_measure, ((name, scene_name),))
+
+
+def _warm() -> None:
+    """Compile (or load) every cached kernel once in a throw-away process, so that no
+    measured process pays numba's first compilation."""
+    ctx = mp.get_context("spawn")
+    with ctx.Pool(1) as pool:
+        pool.apply(_measure, (("genie-gl", "100k"),))
+
+
+METRICS = (("build_s", "build s", 1.0), ("steady_ms", "steady ms/frame", 1.0),
+           ("cameras_24_s", "24 cams s", 1.0), ("cameras_40_s", "40 cams s", 1.0),
+           ("peak_rss_mib", "peak MiB", 1.0))
+
+
+def summarise(runs: list[dict]) -> dict:
+    """Per scene and tool: min and median of every metric over the repeats."""
+    out: dict = {}
+    for r in runs:
+        out.setdefault(r["scene"], {}).setdefault(r["tool"], []).append(r)
+    table: dict = {}
+    for scene, tools in out.items():
+        table[scene] = {}
+        for tool, rs in tools.items():
+            row = {"n": len(rs), "triangles": rs[0]["triangles"]}
+            for key in [k for k in rs[0] if isinstance(rs[0][k], float)]:
+                vals = [x[key] for x in rs]
+                row[key] = {"min": float(np.min(vals)), "median": float(np.median(vals))}
+            if "triangles_drawn_pose0" in rs[0]:
+                row["triangles_drawn_pose0"] = rs[0]["triangles_drawn_pose0"]
+            table[scene][tool] = row
+    return table
+
+
+def _print(table: dict, whole: dict) -> None:
+    for scene, tools in table.items():
+        ours = tools.get("genie-gl")
+        tri = next(iter(tools.values()))["triangles"]
+        drawn = f", {ours['triangles_drawn_pose0']:,} drawn at pose 0" if ours else ""
+        print(f"\nscene {scene}: {tri:,} triangles{drawn}; 640x480, depth + instance ids; min (median) of "
+              f"{next(iter(tools.values()))['n']} fresh processes per tool")
+        print(f"  {'tool':<10}" + "".join(f"{label:>22}" for _, label, _ in METRICS))
+        for tool, row in tools.items():
+            cells = "".join(f"{row[k]['min']:>12.3g} ({row[k]['median']:.3g})" for k, _, _ in METRICS)
+            print(f"  {tool:<10}{cells}")
+        if ours:
+            for tool, row in tools.items():
+                if tool == "genie-gl":
+                    continue
+                ratios = [row[k]["median"] / ours[k]["median"] for k, _, _ in METRICS]
+                print(f"  {tool + ' / ours':<10}" + "".join(f"{x:>22.2f}" for x in ratios) + "   (medians)")
+        for tool, w in whole.get(scene, {}).items():
+            print(f"  whole machine {tool}: {w['fps']:.1f} frames/s with {w['processes']} processes, "
+                  f"peak {w['peak_rss_mib']:.0f} MiB per process")
+
+
 def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
-    results: dict = {"machine": {"cpus": os.cpu_count()}, "sizes": {}, "skipped": {}}
-    tools = ["genie-gl"] + ([] if args.no_peers else list(PEERS))
-    for name in list(tools):
-        if not available(name):
-            tools.remove(name)
-            results["skipped"][name] = f"not installed: {PEERS[name][1]}"
-    for size in [s.strip() for s in args.sizes.split(",") if s.strip()]:
-        scene, poses = bench_scene(size)
-        row = per_frame(scene, poses, tools, args.repeats)
-        for name in tools:
-            row[name].update(whole_machine(name, size, args.frames))
-        row["genie-gl"]["capture_ms_per_frame"] = capture_per_frame(scene, poses, args.repeats)
-        results["sizes"][size] = row
-        g = row["genie-gl"]
-        P = g["processes"]
-        print(f"\nscene {size}: {g['triangles_in_scene']:,} triangles ({g['triangles_drawn']:,} drawn after exact "
-              f"culling), 640x480, depth + instance ids")
-        print(f"  {'tool':<18}{'ms/frame median (IQR)':>24}{'peer ms / ours':>16}"
-              f"{f'frames/s, {P} proc':>20}{'ours / peer fps':>17}{'peak RSS/proc':>15}")
-        for name in tools:
-            r = row[name]
-            print(f"  {name:<18}{r['median_ms']:>15.1f} ({r['iqr_ms']:4.1f})"
-                  f"{r['median_ms'] / g['median_ms']:>16.2f}{r['fps']:>20.1f}{g['fps'] / r['fps']:>17.2f}"
-                  f"{r['peak_rss_mib']:>11.0f} MiB")
-        print(f"  genie-gl through capture(), one call over {len(poses) * args.repeats} poses with the scene upload: "
-              f"{g['capture_ms_per_frame']:.1f} ms/frame")
-    for name, why in results["skipped"].items():
+    scenes = [s.strip() for s in args.scenes.split(",") if s.strip()]
+    tools = [t.strip() for t in args.tools.split(",") if t.strip()]
+    for name in scenes:
+        if name not in SIZES:
+            raise ConfigError(f"genie bench render --scenes: unknown scene {name!r}; expected some of {', '.join(SIZES)}")
+    for name in tools:
+        if name not in TOOLS:
+            raise ConfigError(f"genie bench render --tools: unknown tool {name!r}; expected some of {', '.join(TOOLS)}")
+    skipped = {t: f"not installed: {PEERS[t][1]}" for t in tools if not available(t)}
+    tools = [t for t in tools if t not in skipped]
+    load = os.getloadavg()
+    _warm()
+    runs = []
+    for scene in scenes:
+        for k in range(args.repeats):
+            turn = tools[k % len(tools):] + tools[:k % len(tools)]   # who goes first rotates
+            for tool in turn:
+                runs.append(_fresh(tool, scene))
+    whole: dict = {}
+    if args.whole_machine:
+        for scene in scenes:
+            whole[scene] = {t: whole_machine(t, scene, args.frames) for t in tools}
+    table = summarise(runs)
+    results = {"machine": {"cpus": os.cpu_count(), "load_before": load, "load_after": os.getloadavg()},
+               "runs": runs, "table": table, "whole_machine": whole, "skipped": skipped}
+    _print(table, whole)
+    print(f"\nload average before {load[0]:.1f}, after {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)")
+    for name, why in skipped.items():
         print(f"  skipped {name}: {why}")
-    tmp = out_dir / "render.json.tmp"
-    tmp.write_text(json.dumps(results, indent=2))
-    tmp.replace(out_dir / "render.json")
+    atomic_write_text(out_dir / "render.json", json.dumps(results, indent=2))
     print(f"\nwrote {out_dir / 'render.json'}")
     return 0

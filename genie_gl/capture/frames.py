@@ -26,7 +26,7 @@ from .planner import Plan
 from .planner import plan as make_plan
 from .pool import capture_in_workers
 from .serial import capture_serial
-from .settings import apply_to_sensor, settings_for
+from .settings import apply_to_sensor, level_of_detail, settings_for
 
 log = logging.getLogger(__name__)
 
@@ -65,8 +65,8 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         decided on its frame, no culling). Each frame's ``meta["effects"]`` records what ran.
     accuracy : :class:`~genie_gl.sensors.accuracy.AccuracySettings`; None takes the profile's
         ``accuracy:`` block, else the defaults (supersampling, lens resampling, depth
-        precision unless ``depth_precision`` is given, second-view scale, multipath samples;
-        tessellation is the scene's).
+        precision unless ``depth_precision`` is given, second-view scale, multipath samples,
+        level of detail; tessellation is the scene's).
     context : a :class:`~genie_gl.render.GLContext` to render in (``workers=1`` only; e.g.
         :func:`~genie_gl.render.shared_context`, kept from scene to scene); None makes one.
     """
@@ -89,7 +89,8 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
-        with Renderer(scene, backend=backend, depth_precision=depth_precision, context=context) as r:
+        with Renderer(scene, backend=backend, depth_precision=depth_precision, context=context,
+                      lod=level_of_detail(accuracy)) as r:
             return capture_serial(r, sensor, poses, seed, range(n), accuracy, depth_only, plan, materials)
     return capture_in_workers(scene, sensor, poses, seed, workers, backend, accuracy, depth_only, depth_precision,
                               plan, materials)

@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import trimesh
 
+from ..scene.convexity import is_convex
 from ..scene.materials import MaterialTable
 from ..scene.model import Mesh, Scene
 from ..sensors.camera import Sensor
@@ -140,11 +140,9 @@ def _spheres(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _is_convex(mesh: Mesh) -> bool:
-    """True for a closed convex mesh, or a single triangle (no surface of it faces another)."""
-    if len(mesh.faces) < 4:
-        return len(mesh.faces) <= 1
-    t = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
-    return bool(t.is_watertight and t.is_convex)
+    """True for a closed convex mesh, or a single triangle (no surface of it faces another);
+    decided once per mesh (:func:`genie_gl.scene.convexity.is_convex`)."""
+    return is_convex(mesh)
 
 
 def far_plane(sensor: Sensor) -> float:

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..frame import Frame
 from ..render.context import default_backend
+from ..render.lod import LevelOfDetail
 from ..render.renderer import Renderer
 from ..render.threads import limit_threads
 from ..scene.materials import MaterialTable
@@ -19,14 +20,16 @@ from ..sensors.accuracy import AccuracySettings
 from ..sensors.camera import Sensor
 from .planner import Plan
 from .serial import capture_serial
+from .settings import level_of_detail
 
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32") -> None:
+def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32",
+                 lod: LevelOfDetail | None = None) -> None:
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
     limit_threads(lp_threads)
-    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision)
+    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision, lod=lod)
 
 
 def _worker_render(job: tuple) -> list[Frame]:
@@ -44,7 +47,8 @@ def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     backend = backend or default_backend()   # the parent's choice, handed to each worker
     ctx = mp.get_context("spawn")
-    with ctx.Pool(workers, initializer=_worker_init, initargs=(scene, backend, lp_threads, depth_precision)) as pool:
+    with ctx.Pool(workers, initializer=_worker_init,
+                  initargs=(scene, backend, lp_threads, depth_precision, level_of_detail(accuracy))) as pool:
         parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, accuracy, depth_only, plan,
                                            materials) for c in chunks])
     frames: list[Frame | None] = [None] * n

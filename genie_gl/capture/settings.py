@@ -2,7 +2,8 @@
 
 :class:`~genie_gl.sensors.accuracy.AccuracySettings` is one typed record from the edge (a
 profile's ``accuracy:`` block, ``--accuracy FILE``, a caller's argument) to where each field
-is read: the renderer its ``depth_precision``, the lens its ``resample`` and ``oversample``,
+is read: the renderer its ``depth_precision`` and level of detail (``lod_px``, made into a
+:class:`~genie_gl.render.lod.LevelOfDetail` here), the lens its ``resample`` and ``oversample``,
 the supersampler its ``supersample``, the scene builder its ``tessellation``, and each effect
 the knobs it declares (:attr:`~genie_gl.sensors.effect.Effect.accuracy_knobs`), set here.
 """
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from ..render.lod import LevelOfDetail
 from ..sensors.accuracy import AccuracySettings
 from ..sensors.camera import Sensor
 
@@ -33,3 +35,12 @@ def apply_to_sensor(sensor: Sensor, settings: AccuracySettings) -> Sensor:
                    if (value := getattr(settings, knob)) is not None}
         effects.append(dataclasses.replace(eff, **changes) if changes else eff)
     return dataclasses.replace(sensor, effects=tuple(effects))
+
+
+def level_of_detail(settings: AccuracySettings | None) -> LevelOfDetail | None:
+    """The renderer's :class:`~genie_gl.render.lod.LevelOfDetail` that ``settings.lod_px``
+    asks for (instances that look fewer than ``lod_px`` pixels across drawn simplified), or
+    None (off, the default)."""
+    if settings is None or settings.lod_px is None:
+        return None
+    return LevelOfDetail(below_px=float(settings.lod_px))

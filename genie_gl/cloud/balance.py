@@ -33,6 +33,9 @@ from .pointcloud import PointCloud
 # Table 3, synthetic column: points per class id (DESIGN.md label map)
 PAPER: dict[int, int] = {0: 4_931_280, 1: 254_597, 2: 2_797_079, 3: 4_131_134, 4: 2_531, 5: 5_096_091,
                          6: 2_270_590, 7: 56_680, 8: 70_289, 9: 239_697}
+# Table 3, real column (the NavVis VLX 2 scans: a mobile scanner's chunks of 25 000 points)
+PAPER_REAL: dict[int, int] = {0: 998_260, 1: 14_303, 2: 8_574, 3: 8_933, 4: 14_090, 5: 70_972, 6: 87_646, 7: 1_400,
+                              8: 10_862, 9: 9_955}
 RARE = 0.02  # a class whose target share is at most this may fall short (it gives what it has)
 
 
@@ -48,12 +51,13 @@ class Plan:
 
 
 def load_target(spec: str, names: Mapping[int, str]) -> dict[int, float]:
-    """A target distribution {class id: share summing to 1}: ``"paper"`` (Table 3) or a JSON
+    """A target distribution {class id: share summing to 1}: ``"paper"`` (Table 3's synthetic
+    column), ``"paper-real"`` (its real column) or a JSON
     file ``{class name or id: share or points}`` (names as in ``names``; spaces and
     underscores alike)."""
-    if spec == "paper":
-        raw: dict = {str(k): v for k, v in PAPER.items()}
-        source = "paper"
+    if spec in ("paper", "paper-real"):
+        raw: dict = {str(k): v for k, v in (PAPER if spec == "paper" else PAPER_REAL).items()}
+        source = spec
     else:
         source = spec
         try:

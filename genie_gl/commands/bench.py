@@ -9,10 +9,12 @@ from collections.abc import Callable
 
 
 def _render(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--repeats", type=int, default=5, help="timed passes over the 4 poses")
-    p.add_argument("--frames", type=int, default=24, help="frames per process in the whole-machine run")
-    p.add_argument("--sizes", default="100k,1M", help="scene sizes to run (100k, 1M)")
-    p.add_argument("--no-peers", action="store_true", help="time genie-gl only")
+    p.add_argument("--scenes", default="100k,1M,hall", help="scenes to run, from 100k, 1M, 10M, hall, generated")
+    p.add_argument("--repeats", type=int, default=2, help="fresh processes per tool and scene (turns)")
+    p.add_argument("--tools", default="genie-gl,Open3D,pyrender", help="tools to time")
+    p.add_argument("--whole-machine", action="store_true",
+                   help="also frames/s of P = cores processes per tool at once")
+    p.add_argument("--frames", type=int, default=40, help="frames per process in the whole-machine run")
 
 
 def _layout(p: argparse.ArgumentParser) -> None:
@@ -28,6 +30,8 @@ def _accuracy(p: argparse.ArgumentParser) -> None:
     views = p.add_mutually_exclusive_group()
     views.add_argument("--cameras", type=int, default=3, help="cameras placed over the scene (default 3)")
     views.add_argument("--poses", default=None, help="JSON list of 4x4 world_from_camera, or .npy (N, 4, 4)")
+    p.add_argument("--path", default=None, help="with a strategy --scene: the --cameras frames along a trajectory "
+                                                "(aisles, random or a waypoints file) instead of standing cameras")
     p.add_argument("--repeats", type=int, default=5, help="timed passes per row after one warm-up (default 5)")
     p.add_argument("--budget-mm", type=float, default=None, help="depth error budget (p99, mm)")
     p.add_argument("--budget-px", type=float, default=None, help="silhouette budget (mean edge error, px)")
@@ -55,6 +59,22 @@ def _planning(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rounds", type=int, default=3)
 
 
+def _sequence(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--strategy", default="storage_area")
+    p.add_argument("--rig", default="d435_quad")
+    p.add_argument("--duration-s", type=float, default=4.0)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--repeat", type=int, default=2, help="alternate the two runs this many times; best of each")
+
+
+def _odometry(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--strategy", default="storage_area")
+    p.add_argument("--rig", default="panorama_cube")
+    p.add_argument("--path", default="aisles", choices=("aisles", "random"))
+    p.add_argument("--duration-s", type=float, default=30.0)
+    p.add_argument("--seed", type=int, default=0)
+
+
 def _cli(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repeats", type=int, default=15, help="runs of each command line (default 15)")
     p.add_argument("--against", default=None, metavar="DIR",
@@ -74,6 +94,10 @@ BENCHMARKS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], tupl
                   _stability, ("stability.json",)),
     "planning": ("a full D435 and Azure frame before and after planning, as multiples of the ideal render",
                  _planning, ("planning.json",)),
+    "sequence": ("frames/s along a trajectory against the same number of standing frames", _sequence,
+                 ("sequence.json",)),
+    "odometry": ("KISS-ICP on a SemanticKITTI sequence of a rig's recording; evo's ATE against its ground truth",
+                 _odometry, ("odometry.json", "odometry")),
     "cli": ("seconds `genie --help` and every subcommand's --help take (median of fresh processes)", _cli,
             ("cli.json",)),
 }

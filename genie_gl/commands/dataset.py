@@ -29,10 +29,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-disk-gb", type=float, default=None, help="disk limit (default: the free space of --out)")
     p.add_argument("--class-balance", default=None, metavar="paper|FILE",
                    help="sub-sample chunks and points towards a class distribution: 'paper' (Table 3's "
-                        "synthetic column) or a JSON file {class: share}")
+                        "synthetic column), 'paper-real' (its real column) or a JSON file {class: share}")
     p.add_argument("--points-budget", type=int, default=None, metavar="N", help="at most N points in the dataset")
     p.add_argument("--verify", action="store_true", help="check finished scenes' file hashes, not only sizes")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--capture", choices=("static", "trajectory", "mobile-map"), default="static",
+                   help="standing cameras (placed for coverage), a rig's recording along a trajectory, or a "
+                        "mobile-scan map fused from it")
+    p.add_argument("--rig", default=None, help="trajectory/mobile-map: a rig file or shipped name (d435_quad, "
+                                               "panorama_cube); default: --sensor alone at 10 Hz")
+    p.add_argument("--path", default="aisles", help="trajectory: aisles, random, or a waypoints file ('x y' per line)")
+    p.add_argument("--motion", choices=("person", "robot"), default="person",
+                   help="trajectory: speed, height, turning rate and clearance of the body")
+    p.add_argument("--duration-s", type=float, default=20.0, help="trajectory: seconds of it to capture")
+    p.add_argument("--voxel-m", type=float, default=0.02, help="mobile-map: the map's voxel (its density)")
+    p.add_argument("--registration", choices=("mobile", "none"), default="mobile",
+                   help="mobile-map: a mobile scanner's registration error (drift, pass misalignment) or none")
     p.add_argument("--accuracy", default=None, metavar="FILE",
                    help="accuracy settings: a file with an accuracy: block (genie bench accuracy --budget-mm writes one)")
 
@@ -44,7 +56,8 @@ def config_from_args(args: argparse.Namespace):
     fields = {k: getattr(args, k) for k in ("strategy", "scenes", "cameras", "sensor", "format", "out", "workers",
                                              "seed", "points", "chunk_m", "min_points", "min_labelled_share",
                                              "previews", "executor", "address", "max_nodes", "max_memory_gb",
-                                             "max_disk_gb")}
+                                             "max_disk_gb", "capture", "rig", "path", "motion", "duration_s",
+                                             "voxel_m", "registration")}
     fields["split"] = parse_split(args.split)
     fields["accuracy"] = accuracy_option(getattr(args, "accuracy", None))   # read and checked before any work
     fields["class_balance"] = args.class_balance or None   # curation: genie_gl/dataset/curation.py

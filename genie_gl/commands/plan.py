@@ -25,6 +25,41 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--scenes", type=int, default=1, help="scenes of a dataset run, for the predicted time")
     p.add_argument("--json", action="store_true", help="print the whole plan as JSON")
+    p.add_argument("--rig", default=None, help="plan a rig's recording along a trajectory (a rig file or shipped name)")
+    p.add_argument("--path", default=None, help="with --rig: aisles (default), random, or a waypoints file")
+    p.add_argument("--duration-s", type=float, default=20.0, help="with --rig: seconds of the trajectory")
+    p.add_argument("--registration", choices=("mobile", "none"), default="none",
+                   help="with --rig: predict a mobile-scan map's registration error per frame")
+
+
+def scene_layout(scene):
+    """A layout of one floor region over the scene's footprint (a scene without its layout)."""
+    from ..layout.model import Layout, Region, RegionType
+
+    lo, hi = scene.bounds()
+    w, h = float(hi[0] - lo[0]), float(hi[1] - lo[1])
+    floor = Region(float(lo[0]), float(lo[1]), w, h, type="floor")
+    return Layout.from_regions([floor], {"floor": RegionType("floor")}, (float(lo[0]), float(lo[1]), w, h))
+
+
+def run_recording(args: argparse.Namespace) -> int:
+    from ..capture.trajectory import plan_recording
+    from ..scene.model import Scene
+    from ..sensors.paths import PATHS, make_trajectory
+    from ..sensors.registration import registration_of
+    from ..sensors.rig import load_rig
+
+    rig = load_rig(args.rig)
+    scene = Scene.from_usd(args.scene)
+    path = args.path or "aisles"
+    kind = path if path in PATHS[:2] else "waypoints"
+    tr = make_trajectory(scene_layout(scene), scene, kind, seed=args.seed, duration_s=args.duration_s,
+                         waypoints=path if kind == "waypoints" else None)
+    p = plan_recording(scene, rig, tr, registration=registration_of(args.registration))
+    print(json.dumps(p.to_dict(), indent=1) if args.json else p.summary())
+    for name, sp in p.plans.items():
+        warn_empty(sp, f"plan [{name}]")
+    return 0
 
 
 def scene_sensor_poses(args: argparse.Namespace):
@@ -51,6 +86,8 @@ def warn_empty(plan, command: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if getattr(args, "rig", None):
+        return run_recording(args)
     from ..capture import plan as make_plan
 
     scene, sensor, poses = scene_sensor_poses(args)

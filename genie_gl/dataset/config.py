@@ -22,6 +22,7 @@ from ..export.registry import DATASET_FORMATS
 from ..labels import CLASSES
 from ..sensors import Sensor
 from ..sensors.accuracy import AccuracySettings, from_dict, load_accuracy
+from ..sensors.paths import PATHS
 
 # the CLI spelling of each field, for messages
 OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
@@ -29,7 +30,10 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "chunk_m": "--chunk-m", "min_points": "--min-points", "min_labelled_share": "--min-labelled-share",
           "previews": "--previews", "executor": "--executor", "address": "--address", "split": "--split",
           "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
-          "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget"}
+          "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget",
+          "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion", "duration_s": "--duration-s",
+          "voxel_m": "--voxel-m", "registration": "--registration"}
+CAPTURES = ("static", "trajectory", "mobile-map")
 
 
 @dataclass(frozen=True)
@@ -82,6 +86,15 @@ class DatasetConfig(BaseModel):
     # given as the name, the target is read here, so the fingerprint holds the shares
     class_balance: Optional[dict[str, Any]] = None
     points_budget: Optional[int] = Field(None, ge=1)
+    # cameras that move (genie_gl.dataset.recording): standing cameras (static), a rig's
+    # recording along a trajectory, or a mobile-scan map fused from it
+    capture: Literal["static", "trajectory", "mobile-map"] = "static"
+    rig: Optional[str] = None                 # a rig file or shipped name; None: --sensor alone
+    path: str = Field("aisles", min_length=1)  # aisles, random, or a waypoints file
+    motion: Literal["person", "robot"] = "person"
+    duration_s: float = Field(20.0, gt=0, le=3600)
+    voxel_m: float = Field(0.02, gt=0, le=1.0)
+    registration: Literal["mobile", "none"] = "mobile"
 
     @field_validator("format")
     @classmethod
@@ -113,15 +126,27 @@ class DatasetConfig(BaseModel):
 
     @model_validator(mode="after")
     def _curated_clouds(self) -> "DatasetConfig":
-        if (self.class_balance or self.points_budget) and not DATASET_FORMATS[self.format].chunks:
+        fmt = DATASET_FORMATS[self.format]
+        if self.capture not in fmt.captures:
+            takes = sorted(n for n, f in DATASET_FORMATS.items() if self.capture in f.captures)
+            raise ConfigError(f"--format {self.format} takes --capture {' or '.join(fmt.captures)}, not "
+                              f"{self.capture}; --capture {self.capture} writes {', '.join(takes)}")
+        if (self.class_balance or self.points_budget) and (not fmt.chunks or self.capture == "trajectory"):
             raise ConfigError(f"--class-balance and --points-budget sub-sample point clouds; --format "
-                              f"{self.format} writes images: use a point-cloud format")
+                              f"{self.format} with --capture {self.capture} writes images or recordings: use a "
+                              "point-cloud format with --capture static or mobile-map")
+        if self.capture != "static":
+            if self.path not in PATHS[:2] and not os.path.isfile(self.path):
+                raise ConfigError(f"--path {self.path!r}: expected aisles, random or a waypoints file (no such file)")
         return self
 
     # the fields that decide the bytes written: resuming with any other value is refused
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
                                                 "min_labelled_share", "split", "accuracy", "class_balance",
-                                                "points_budget")
+                                                "points_budget", "capture", "rig", "path", "motion", "duration_s",
+                                                "voxel_m", "registration")
+    # fingerprinted only when the capture is not static (a static run's fingerprint is as before)
+    MOVING: ClassVar[tuple[str, ...]] = ("capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration")
 
     @classmethod
     def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":

@@ -23,6 +23,7 @@ from typing import Any
 from .. import __version__
 from ..errors import ConfigError
 from .config import DatasetConfig
+from .recording import recording_files
 
 LOCK = ".genie-lock"
 RECORD = "stats.json"
@@ -59,7 +60,12 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
         v = values[k]
         if v is None:  # an option not asked for (--class-balance, ...): the fingerprint of a run without it
             continue
+        if k in DatasetConfig.MOVING and cfg.capture == "static":   # standing cameras: as before these options
+            continue
         parts[k] = list(v) if isinstance(v, tuple) else v
+    if cfg.capture != "static":   # the rig's file and its sensors' files, the waypoints file
+        for role, path in recording_files(cfg).items():
+            parts[role] = _file_hash(path)
     blob = json.dumps(parts, sort_keys=True).encode()
     return {"sha256": hashlib.sha256(blob).hexdigest(), "parts": parts}
 

@@ -89,8 +89,9 @@ def cloud_top_picture(cloud, bounds, title: str, path: Path) -> None:
     _save(fig, path)
 
 
-def layout_picture(layout, title: str, path: Path) -> None:
-    """The layout's leaves coloured by region type, with a legend of the types and axes in metres."""
+def layout_picture(layout, title: str, path: Path, *, path_xy: np.ndarray | None = None) -> None:
+    """The layout's leaves coloured by region type, with a legend of the types and axes in
+    metres; ``path_xy`` (n, 2): a trajectory drawn over it (its start marked)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -102,6 +103,11 @@ def layout_picture(layout, title: str, path: Path) -> None:
     img = np.asarray(layout_image(layout, px_per_m=s, legend=False))
     fig, ax = plt.subplots(figsize=(9, 9 * h / w * 0.9 + 1.2) if w >= h else (7, 7 * h / w))
     ax.imshow(img, extent=(x0, x0 + img.shape[1] / s, y0 + h - img.shape[0] / s, y0 + h))
+    if path_xy is not None:
+        ax.plot(path_xy[:, 0], path_xy[:, 1], color="black", lw=1.4, label="trajectory")
+        ax.plot(path_xy[:1, 0], path_xy[:1, 1], "o", color="black", ms=6)
+        ax.set_xlim(x0, x0 + w)
+        ax.set_ylim(y0, y0 + h)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(title)
@@ -147,3 +153,25 @@ def write_previews(folder: Path, index: int, layout, frames, scene=None) -> None
     cloud = to_cloud(frames)
     cloud_top_picture(cloud, layout.bounds, f"scene {index}: merged cloud from above ({len(cloud):,} points)",
                       folder / f"scene_{index:04d}_cloud_top.png")
+
+
+def write_recording_previews(folder: Path, index: int, layout, frames, trajectory, map_cloud=None, scene=None) -> None:
+    """The pictures of a scene captured along a trajectory: the path on the layout, a frame or
+    two, the scene from above, and the fused map from above (a mobile-scan map) or the frames'
+    points (a recording)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    layout_picture(layout, f"scene {index}: trajectory, {trajectory.length_m:.0f} m in {trajectory.duration_s:.0f} s",
+                   folder / f"scene_{index:04d}_path.png", path_xy=trajectory.positions[:, :2])
+    for c, f in enumerate(frames[:2]):
+        camera_picture(f, f"scene {index}, frame {c} ({(f.meta or {}).get('rig_sensor', '')})",
+                       folder / f"scene_{index:04d}_cam{c:02d}.png")
+    if scene is not None:
+        overview_picture(scene, layout, f"scene {index}: {len(scene.instances)} objects, rendered from above a corner",
+                         folder / f"scene_{index:04d}_overview.png")
+    if map_cloud is not None:
+        cloud_top_picture(map_cloud, layout.bounds, f"scene {index}: fused mobile-scan map from above "
+                          f"({len(map_cloud):,} points)", folder / f"scene_{index:04d}_map_top.png")
+    elif frames:
+        cloud = to_cloud(frames)
+        cloud_top_picture(cloud, layout.bounds, f"scene {index}: {len(frames)} frames' points from above",
+                          folder / f"scene_{index:04d}_cloud_top.png")

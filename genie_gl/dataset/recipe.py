@@ -1,4 +1,5 @@
-"""The one recipe of a dataset scene: layout → scene → placement → capture → cloud chunks.
+"""The one recipe of a dataset scene: layout → scene → placement → capture → cloud chunks
+(standing cameras; a moving capture shares the layout and scene, :func:`make_scene`).
 
 A run makes every scene with it (:func:`~genie_gl.dataset.scene.run_scene`) and each worker
 warms up with it on a throw-away scene (:func:`~genie_gl.dataset.warmup.warm_up`), so the
@@ -67,10 +68,10 @@ class MadeScene:
     clock: dict[str, float] = field(default_factory=dict)
 
 
-def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: bool,
-         stage: Callable[[str], None] = lambda name: None) -> MadeScene:
-    """The scene of ``streams`` up to its frames; ``stage(name)`` as each stage starts.
-    ``depth_only``: render no colour (for formats that store none)."""
+def make_scene(inputs: RunInputs, streams: SceneStreams, *,
+               stage: Callable[[str], None] = lambda name: None) -> tuple[Layout, Scene, dict[str, float]]:
+    """The layout and scene of ``streams`` and the clock (``"start"``, ``"layout"``,
+    ``"scene"``); ``stage(name)`` as each stage starts. Standing and moving captures alike."""
     clock = {"start": time.perf_counter()}
     stage("layout")
     layout = generate_layout(inputs.strategy, rng=streams.rng("layout"))
@@ -78,6 +79,15 @@ def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: 
     stage("scene")
     scene = build_scene(layout, rng=streams.rng("scene"), segments=inputs.accuracy.tessellation)
     clock["scene"] = time.perf_counter()
+    return layout, scene, clock
+
+
+def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: bool,
+         stage: Callable[[str], None] = lambda name: None) -> MadeScene:
+    """The scene of ``streams`` up to its frames, taken by ``cameras`` standing cameras;
+    ``stage(name)`` as each stage starts. ``depth_only``: render no colour (for formats that
+    store none)."""
+    layout, scene, clock = make_scene(inputs, streams, stage=stage)
     stage("placement")
     poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed)
     clock["placement"] = time.perf_counter()

@@ -20,16 +20,23 @@ def class_totals(stats: list[dict]) -> dict[int, int]:
 
 
 def histogram(out: Path, stats: list[dict], target: dict[int, float] | None = None,
-              short: dict[str, str] | None = None) -> dict[str, int]:
+              short: dict[str, str] | None = None, reference: dict[int, int] | None = None) -> dict[str, int]:
     """Write ``histogram.{txt,json,png}`` under ``out``; returns {class name: points}. With a
     ``target`` distribution (``--class-balance``) the text shows it next to the share reached,
-    and names the classes ``short`` of it, with why."""
+    and names the classes ``short`` of it, with why; with ``reference`` points per class (a
+    mobile-scan map: Table 3's real column) their shares too."""
     total = class_totals(stats)
     n = sum(total.values()) or 1
-    lines = [f"{'id':>3}  {'class':<20}{'points':>14}{'share':>9}" + (f"{'target':>9}" if target else "")]
+    ref_n = sum((reference or {}).values()) or 1
+    lines = [f"{'id':>3}  {'class':<20}{'points':>14}{'share':>9}" + (f"{'target':>9}" if target else "")
+             + (f"{'real':>9}" if reference else "")]
     for k in sorted(set(total) | set(target or {})):
         lines.append(f"{k:>3}  {labels.name(k):<20}{total.get(k, 0):>14,}{100 * total.get(k, 0) / n:>8.2f}%"
-                     + (f"{100 * target.get(k, 0.0):>8.2f}%" if target else ""))
+                     + (f"{100 * target.get(k, 0.0):>8.2f}%" if target else "")
+                     + (f"{100 * reference.get(k, 0) / ref_n:>8.2f}%" if reference else ""))
+    if reference:
+        lines.append("real: the share of the class in the paper's real data (Table 3, a mobile scanner's "
+                     "chunks of 25 000 points)")
     for k, why in sorted((short or {}).items(), key=lambda kv: int(kv[0])):
         lines.append(f"short of its target: {labels.name(int(k))}: {why}")
     (out / "histogram.txt").write_text("\n".join(lines) + "\n")

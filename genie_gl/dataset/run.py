@@ -31,6 +31,7 @@ from typing import Any
 
 from .. import __version__
 from ..capture import add_totals
+from ..cloud.balance import PAPER_REAL
 from ..errors import ConfigError
 from ..export import get_format
 from ..outputs import OutputFolder, atomic_write_text, claim_folder
@@ -164,7 +165,8 @@ def _run(cfg: DatasetConfig, inputs: RunInputs, folder: OutputFolder, fmt, manif
         raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
     if fmt.finish is not None:
         fmt.finish(out, cfg, stats)
-    hist = histogram(out, stats, curation.target(cfg), curation.short(stats))
+    hist = histogram(out, stats, curation.target(cfg), curation.short(stats),
+                     reference=PAPER_REAL if cfg.capture == "mobile-map" else None)
     made = [r for r in results if not r.get("skipped")]
     n_made = len(made) if balanced is None else len(balanced)  # balanced: the scenes written by this run
     stage_t: dict[str, float] = {}

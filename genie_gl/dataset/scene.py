@@ -14,8 +14,9 @@ from ..export import SceneData, get_format
 from . import curation
 from .config import DatasetConfig
 from .manifest import record_files, scene_complete
-from .previews import write_previews
-from .recipe import STAGES, RunInputs, chunk, load_inputs, make
+from .previews import write_previews, write_recording_previews
+from .recipe import STAGES, RunInputs, chunk, load_inputs, make, make_scene
+from .recording import capture_moving, stats_of, write_trajectory
 from .streams import SceneStreams
 
 
@@ -45,6 +46,9 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
         prepare()
     streams = SceneStreams(cfg.seed, index)
     cpu = time.process_time()  # the process's CPU time, its rasteriser and kernel threads included
+    if cfg.capture != "static":   # a rig along a trajectory (genie_gl/dataset/recording.py)
+        layout, scene, t = make_scene(inputs, streams, stage=stage)
+        return _run_moving(cfg, index, layout, scene, streams, fmt, stage, t, cpu, out, final)
     # a format that stores no colour renders none (an output not asked for costs nothing)
     made = make(inputs, streams, cameras=cfg.cameras, depth_only=not fmt.colour, stage=stage)
     layout, scene, frames, t = made.layout, made.scene, made.frames, dict(made.clock)
@@ -81,6 +85,51 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
     return stats | _timings(t, frames, cpu)
+
+
+def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t, cpu, out: Path,
+                final: Path) -> dict[str, Any]:
+    """Scene ``index`` captured along a trajectory: a recording or a mobile-scan map."""
+    accuracy = None if cfg.accuracy is None else cfg.accuracy.settings   # each rig sensor's own otherwise
+    moving = capture_moving(cfg, layout, scene, streams, fmt, accuracy, stage, t)
+    info = {"instances": len(scene.instances), **stats_of(moving)}
+    if curation.active(cfg):   # a mobile-scan map's chunks, balanced once every scene is made
+        if index < cfg.previews:
+            write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
+                                     moving.map_cloud, scene)
+        stats = curation.cache_scene(cfg, index, moving.kept, layout, {
+            **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points)})
+        t["export"] = time.perf_counter()
+        return stats | _timings(t, moving.tally.preview, cpu)
+    stage("export")
+    for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
+        shutil.rmtree(stale, ignore_errors=True)
+    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
+    tmp.mkdir(parents=True)
+    data = SceneData(index, scene, layout, [], moving.kept, cfg, dict(moving.extra), rig=moving.rig,
+                     trajectory=moving.trajectory, recording=moving.recording)
+    if cfg.capture == "trajectory":
+        fmt.write_sequence(data, tmp)     # renders the recording as it writes it
+        t["capture"] = t["cloud"] = time.perf_counter()
+    else:
+        fmt.write_scene(data, tmp)
+    write_trajectory(moving.trajectory, tmp / "trajectory.txt")
+    layout.to_json(tmp / "layout.json")
+    counts = moving.tally.counts
+    stats = {"scene": index, **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points),
+             "chunks": len(moving.kept), "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+    stats["files"] = record_files(tmp)
+    (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
+    if index < cfg.previews:
+        write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
+                                 moving.map_cloud, scene)
+    if fmt.before_rename is not None:
+        fmt.before_rename(data, out)
+    t["export"] = time.perf_counter()
+    if final.exists():  # an incomplete scene of an earlier run
+        shutil.rmtree(final)
+    tmp.replace(final)  # the scene appears whole, or not at all
+    return stats | _timings(t, moving.tally.preview, cpu)
 
 
 def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:

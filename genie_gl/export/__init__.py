@@ -1,6 +1,7 @@
 """Exports, one module per format, each registered in :mod:`genie_gl.export.registry`:
 ``gg.export(cloud, out_dir, format=...)`` for one cloud, ``genie dataset --format`` for
-datasets (BOP: image datasets only)."""
+datasets (BOP: image datasets only; TUM RGB-D and ROS 2 bags: a rig's recordings along a
+trajectory only)."""
 from __future__ import annotations
 
 import os
@@ -9,10 +10,10 @@ from pathlib import Path
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError
 from ..outputs import claim_folder
-from . import semantickitti, ply, pcd, npz, bop  # noqa: F401, I001  (each registers its format, in this order)
+from . import semantickitti, semantickitti_sequence, ply, pcd, npz, bop, e57, las, tum, rosbag  # noqa: F401, I001  (each registers its format, in this order)
 from .registry import DATASET_FORMATS, DatasetFormat, SceneData, cloud_formats, get_format, register_format
 
-FORMATS = cloud_formats()  # formats of one cloud: semantickitti, ply, pcd, npz
+FORMATS = cloud_formats()  # formats of one cloud: semantickitti, ply, pcd, npz, e57, las
 
 
 def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semantickitti", *,

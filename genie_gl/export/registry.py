@@ -2,8 +2,9 @@
 (as sensor effects register themselves); ``gg.export``, ``genie capture`` and ``genie dataset``
 all look formats up here, so a new format is one new module imported in ``export/__init__``.
 
-A format says where a dataset scene goes, what the scene needs (colour, chunks), how one
-scene is written into its (temporary) folder, what dataset-level files the scene needs before
+A format says where a dataset scene goes, what the scene needs (colour, chunks), which
+captures it takes (standing cameras, a rig's recording along a trajectory, a mobile-scan
+map), how one scene is written into its (temporary) folder, what dataset-level files the scene needs before
 its folder is renamed into place, and what is written once all scenes are there.
 """
 from __future__ import annotations
@@ -28,6 +29,9 @@ class SceneData:
     chunks: list                # [(tile key, PointCloud)] kept by the cleaning rules
     options: Any = None         # DatasetConfig
     extra: dict = field(default_factory=dict)  # what write_scene hands to before_rename
+    rig: Any = None             # trajectory capture: the genie_gl Rig ...
+    trajectory: Any = None      # ... its Trajectory ...
+    recording: Any = None       # ... and (Shot, Frame) pairs in time order, made as they are read
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,10 @@ class DatasetFormat:
     write_cloud: Callable[..., Path] | None = None                # one cloud: (cloud, out_dir, name=, **kw)
     description: str = ""
     stale: tuple[str, ...] = field(default=())                    # extra folders whose .tmp-* a run clears
+    # the captures it writes: "static" and "mobile-map" give chunks (or frames, for image
+    # formats), "trajectory" a recording through write_sequence
+    captures: tuple[str, ...] = ("static", "mobile-map")
+    write_sequence: Callable[[SceneData, Path], None] | None = None  # a recording into a folder
     cloud_outputs: Callable[[str], tuple[str, ...]] | None = None  # top-level names write_cloud(name=) makes
     dataset_outputs: tuple[str, ...] = ()                         # top-level names of a dataset, beside folder
     # the disk a scene takes, for the size check before a run (dataset/limits.py): bytes per

@@ -273,5 +273,6 @@ from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
     "semantickitti", "scenes", colour=False, write_scene=_write_scene, finish=_finish, write_cloud=_write_cloud,
+
     stale=("sequences",), cloud_outputs=lambda name: ("sequences", "genie-gl.yaml"),
     dataset_outputs=("sequences", "genie-gl.yaml"), description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))

@@ -1,256 +1,330 @@
 """Exact culling of what cannot change a pixel (numba, parallel, cached on disk).
 
-Per frame, for the instances that survive frustum culling, :meth:`TriangleCuller.select`
-keeps the triangles that may change a pixel and writes their indices, instance by instance,
-into one index array the renderer uploads and draws with one multi-draw call.
+Per frame, hierarchically: instances outside the frustum are dropped by the renderer before
+anything here runs (they cost nothing more); for the others, :meth:`TriangleCuller.select`
+tests each cluster (:mod:`genie_gl.render.clusters`), then each triangle of the clusters that
+pass, and writes the indices of the triangles that may change a pixel, instance after
+instance, into one index array the renderer draws with one multi-draw call.
 
-A triangle is dropped only when it cannot write a pixel:
+A cluster is dropped when its bounding sphere lies outside the frustum, or, for instances
+drawn with back-face culling, when every one of its faces is back-facing by more than the
+error bound below could change (a bound on the screen area of its faces from the cluster's
+normal cone, its thinnest face and its distance to the eye). A triangle is dropped only when
+the GPU cannot draw it into a pixel:
 
-* its cluster (a run of :data:`CLUSTER` faces of one mesh, close in space, with a bounding
-  sphere) lies wholly outside the frustum, or
-* all three vertices are in front of the near plane and the triangle's screen bounding box,
-  widened by an error bound, holds no pixel centre of the image (a sub-pixel triangle
-  between centres, or one outside the image), or
+* all three vertices are in front of the near plane and no pixel centre lies within the error
+  bound of the triangle (its screen box, widened by the bound, holds no pixel centre; or it
+  holds some, each lies farther than the bound outside one of its edges, checked line by line
+  along the box's shorter side: a triangle whose vertices each move by at most e stays within
+  distance e of the original), or
 * it is drawn with back-face culling and faces away by more than moving each vertex by its
   error bound could change (the GPU would cull it too).
 
 The error bound covers what separates this float64 test from the GPU's float32 vertex
-transform and its sub-pixel snapping (1/256 pixel on llvmpipe; the tests catch a bound of
-1/1024): ``1/64`` pixel plus a relative term scaled by the size of the numbers involved. A
+transform and its sub-pixel snapping: ``1/64`` pixel plus a relative term scaled by the size of the numbers involved. A
 triangle the GPU would rasterise is therefore never dropped, and the culled render is the
-unculled render bit for bit (tests compare both on generated and benchmark scenes).
+unculled render bit for bit (tests compare both on generated and benchmark scenes, and on
+triangles whose edges pass within 1/500 pixel of pixel centres, which a bound of 1/4096 pixel
+fails on llvmpipe: the bound is a wide margin over what the GPU's rounding moves).
+
+Memory grows with what is drawn, not with the scene's instances: per cluster in view a count
+and a 128-bit mask, per thread the window coordinates of one cluster's vertices, and the
+kept indices.
 """
 from __future__ import annotations
 
-import logging
 import math
 
 import numba
 import numpy as np
 from numba import njit, prange
 
-from ..scene.model import Mesh
-
-log = logging.getLogger(__name__)
+from .clusters import CLUSTER
 
 # numba's own work queue first: its threads sleep between kernels (OpenMP's spin, taking
 # cores from llvmpipe's rasteriser threads), and the TBB found here is refused with a warning
 numba.config.THREADING_LAYER_PRIORITY = ["workqueue", "omp", "tbb"]
 
-CLUSTER = 128          # faces per cluster (bounding sphere per cluster)
 BASE_EPS_PX = 1.0 / 64  # pixels: covers sub-pixel snapping and rounding of window coordinates
 REL_EPS = 1e-6          # relative error bound of the float32 eye coordinates (~16 ulp)
 PARALLEL_FACES = 200_000  # below this many faces in view, one thread culls a frame
+SCAN_LINES = 64         # a triangle whose box spans more lines both ways is kept without a scan
+_MASK_WORDS = CLUSTER // 64
 
 
-def sanitize(mesh: Mesh, name: str) -> np.ndarray:
-    """Faces of ``mesh`` safe to rasterise: drops faces with non-finite or coincident vertices.
-
-    Returns (F', 3) uint32. Dropped faces are reported once, as a warning naming the mesh.
-    """
-    faces = mesh.faces
-    if len(faces) == 0:
-        return faces
-    v = mesh.vertices.astype(np.float64)
-    tri = v[faces]
-    finite = np.isfinite(tri).all(axis=(1, 2))
-    area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    keep = finite & (area2 > 0)
-    if not keep.all():
-        log.warning("mesh %r: skipped %d of %d faces (%d with NaN/Inf vertices, %d degenerate)",
-                    name, int((~keep).sum()), len(faces), int((~finite).sum()),
-                    int((finite & ~(area2 > 0)).sum()))
-    return np.ascontiguousarray(faces[keep])
-
-
-def _morton(q: np.ndarray) -> np.ndarray:
-    """Morton code of (n, 3) integers in [0, 1024)."""
-    code = np.zeros(len(q), np.int64)
-    for bit in range(10):
-        for axis in range(3):
-            code |= ((q[:, axis] >> bit) & 1) << (3 * bit + axis)
-    return code
-
-
-def cluster_order(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Faces in Morton order of their centroids, cut in runs of :data:`CLUSTER` faces, each
-    run with its own vertices (a vertex shared by two runs is stored twice), so that a run is
-    small in space (a tight sphere) and uses a short, private range of vertices. Returns
-    (vertices (V', 3) float32, faces (F, 3) uint32); unused vertices go."""
-    if len(faces) > CLUSTER:
-        c = vertices.astype(np.float64)[faces].mean(axis=1)
-        lo, span = c.min(axis=0), np.ptp(c, axis=0)
-        q = np.clip((c - lo) / np.where(span > 0, span, 1) * 1023, 0, 1023).astype(np.int64)
-        faces = faces[np.argsort(_morton(q), kind="stable")]
-    run = (np.arange(len(faces)) // CLUSTER).repeat(3)
-    key = run * len(vertices) + faces.ravel().astype(np.int64)  # (run, vertex), sorted by run first
-    uniq, inverse = np.unique(key, return_inverse=True)
-    return (np.ascontiguousarray(vertices[uniq % len(vertices)], dtype="<f4"),
-            np.ascontiguousarray(inverse.reshape(-1, 3), dtype="<u4"))
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
+def _cone_drops(m, det, eye, cc, cr, ax, cos_a, sin_a, thick, perim, ez, ex, ey, rad, sc, rmag, tmag, proj, near):
+    """True when every face of the cluster is back-facing beyond the error bound: its screen
+    area (twice) fx fy det 2A d / (z0 z1 z2) exceeds what moving each vertex by the largest
+    error bound e can change (2 e · perimeter + 4 e²), for every face (see the module doc)."""
+    if cos_a <= 0.0 or det <= 0.0:
+        return False
+    zmin, zmax = ez - rad, ez + rad
+    if zmin <= near:
+        return False
+    dx, dy, dz = cc[0] - eye[0], cc[1] - eye[1], cc[2] - eye[2]
+    dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if dist <= cr:
+        return False
+    cos_b = (ax[0] * dx + ax[1] * dy + ax[2] * dz) / dist
+    sin_b = math.sqrt(max(0.0, 1.0 - cos_b * cos_b))
+    cos_ab = cos_a * cos_b - sin_a * sin_b       # cos(alpha + beta): the least-facing face's
+    dmin = dist * cos_ab - cr                     # the eye's least distance behind a face plane
+    if cos_b <= 0.0 or cos_ab <= 0.0 or dmin <= 0.0:
+        return False
+    fx, s, fy = proj[0], proj[1], proj[3]
+    rx, ry = (abs(ex) + rad) / zmin, (abs(ey) + rad) / zmin
+    frob = 0.0
+    for r in range(3):
+        for c in range(3):
+            frob += m[r, c] * m[r, c]
+    jac = math.sqrt(frob * (fx * fx + s * s + fy * fy + (fx * rx + abs(s) * ry) ** 2 + (fy * ry) ** 2)) / zmin
+    pmag = math.sqrt(3.0) * (math.sqrt(cc[0] ** 2 + cc[1] ** 2 + cc[2] ** 2) + cr)
+    err = REL_EPS * (tmag + 3 * rmag * pmag)
+    e = BASE_EPS_PX + (fx + abs(s) + fy) * err * (1 + rx + ry) / zmin
+    area = fx * fy * det * thick * dmin / (zmax * zmax * zmax)
+    return area > 2.0 * math.sqrt(2.0) * e * jac + (4 * e * e + 1e-9) / perim
 
 
-def clusters(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Runs of :data:`CLUSTER` faces: bounding-sphere centres (C, 3) and radii (C,), float64,
-    in the mesh's frame (the centre of the run's box, the radius to its farthest vertex), and
-    the range of vertex indices each run uses, (C, 2) int64 (first, last + 1)."""
-    n = len(faces)
-    c = -(-n // CLUSTER)
-    centres, radii, vrange = np.zeros((c, 3)), np.zeros(c), np.zeros((c, 2), np.int64)
-    v = vertices.astype(np.float64)
-    for k in range(c):
-        idx = faces[k * CLUSTER:(k + 1) * CLUSTER].ravel()
-        p = v[idx]
-        lo, hi = p.min(axis=0), p.max(axis=0)
-        centres[k] = (lo + hi) / 2
-        radii[k] = np.sqrt(((p - centres[k]) ** 2).sum(axis=1).max())
-        vrange[k] = idx.min(), idx.max() + 1
-    return centres, radii, vrange
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True, inline="always")
+def _span(pu, pv, qu, qv, e, sg, at, lo, hi, rows):
+    """Narrow [lo, hi] to where, on the line ``at`` (a row v = at when ``rows``, else a column
+    u = at), points lie within e of the inner side of edge p->q (sg: the triangle's winding)."""
+    length = math.sqrt((qu - pu) ** 2 + (qv - pv) ** 2) * e
+    if rows:   # sg E(u, at) = c - d u >= -length
+        d = sg * (qv - pv)
+        c = sg * ((qu - pu) * (at - pv) + (qv - pv) * pu)
+    else:      # sg E(at, v) = c - d v >= -length
+        d = -sg * (qu - pu)
+        c = sg * (-(qu - pu) * pv - (qv - pv) * (at - pu))
+    if d > 0:
+        hi = min(hi, (c + length) / d)
+    elif d < 0:
+        lo = max(lo, (c + length) / d)
+    elif c + length < 0:
+        lo, hi = 1.0, 0.0
+    return lo, hi
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
+def _centre_near(ua, va, ub, vb, uc, vc, e, sg, ulo, uhi, vlo, vhi):
+    """True when a pixel centre of the box [ulo, uhi] x [vlo, vhi] (whole numbers) lies within
+    ``e`` of each edge line on the triangle's inner side (a superset of the points within e of
+    the triangle); scans the box's shorter side, line by line. A box of more than
+    :data:`SCAN_LINES` lines both ways is kept without a scan."""
+    rows = (vhi - vlo) <= (uhi - ulo)
+    if min(vhi - vlo, uhi - ulo) + 1 > SCAN_LINES:
+        return True
+    first, last = (vlo, vhi) if rows else (ulo, uhi)
+    lo0, hi0 = (ulo, uhi) if rows else (vlo, vhi)
+    at = first
+    while at <= last:
+        lo, hi = lo0, hi0
+        lo, hi = _span(ua, va, ub, vb, e, sg, at, lo, hi, rows)
+        lo, hi = _span(ub, vb, uc, vc, e, sg, at, lo, hi, rows)
+        lo, hi = _span(uc, vc, ua, va, e, sg, at, lo, hi, rows)
+        if math.ceil(lo) <= math.floor(hi):
+            return True
+        at += 1.0
+    return False
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy", fastmath=True)
-def _select(vertices, faces, jobs, cfm, backcull, csph_c, csph_r, vrange, proj, planes, near, width, height,
-            window, out, counts):
-    """Faces of each job (slot, first face, face count, vertex base, cluster, out offset,
-    scratch base) that may cover a pixel centre, written to ``out[offset:]``; their number to
-    ``counts``. ``window`` is scratch for the window coordinates (u, v, z, eps) of vertices."""
+def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
+            slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
+            chunks, counts, masks, jobface):
+    """Per job (a cluster of a visible instance; the jobs of instance q are job0[q]..job0[q+1]):
+    the faces that may cover a pixel centre, as a bit mask, and their number."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     scale = fx + abs(s) + fy
     near_keep = near * (1.0 + 1e-6) + 1e-9
-    for q in prange(len(jobs)):
-        slot, f0, nf, vb = jobs[q, 0], jobs[q, 1], jobs[q, 2], jobs[q, 3]
-        cl, at, sb = jobs[q, 4], jobs[q, 5], jobs[q, 6]
-        m = cfm[slot]
-        bc = backcull[q]
-        counts[q] = 0
-        # cluster sphere against the frustum (camera frame)
-        c0, c1, c2 = csph_c[cl, 0], csph_c[cl, 1], csph_c[cl, 2]
-        ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
-        ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
-        ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
-        sc = 0.0
-        rmag = 0.0
-        for c in range(3):
-            sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
-            for r in range(3):
-                rmag = max(rmag, abs(m[r, c]))
-        rad = csph_r[cl] * sc * (1 + 1e-6) + 1e-9
-        outside = False
-        for p in range(planes.shape[0]):
-            if planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
-                outside = True
-        if outside:
+    njobs = job0[len(job0) - 1]
+    per_chunk = (njobs + chunks - 1) // chunks
+    for ch in prange(chunks):
+        j_lo, j_hi = ch * per_chunk, min(njobs, (ch + 1) * per_chunk)
+        if j_lo >= j_hi:
             continue
-        # window coordinates of the run's vertices (runs sharing a vertex write the same value)
-        tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
-        for j in range(vrange[cl, 0], vrange[cl, 1]):
-            px = np.float64(vertices[vb + j, 0])
-            py = np.float64(vertices[vb + j, 1])
-            pz = np.float64(vertices[vb + j, 2])
-            x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
-            y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
-            z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
-            k = sb + j
-            window[k, 2] = z
-            if z > 0:
-                iz = 1.0 / z
-                window[k, 0] = fx * x * iz + s * y * iz + cx
-                window[k, 1] = fy * y * iz + cy
+        wu, wv, wz, we = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+        keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+        q = np.searchsorted(job0, j_lo, side="right") - 1
+        for j in range(j_lo, j_hi):
+            while job0[q + 1] <= j:
+                q += 1
+            k = j - job0[q]
+            f0 = fbase[q] + k * CLUSTER
+            nf = min(CLUSTER, nfaces[q] - k * CLUSTER)
+            cl = cbase[q] + k
+            vb = vbase[q]
+            jobface[j] = f0
+            counts[j] = 0
+            for w in range(_MASK_WORDS):
+                masks[j, w] = 0
+            m = cfm[slot[q]]
+            bc = backcull[q]
+            # cluster sphere against the frustum (camera frame)
+            c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
+            ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
+            ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
+            ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
+            sc = 0.0
+            rmag = 0.0
+            for c in range(3):
+                sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
+                for r in range(3):
+                    rmag = max(rmag, abs(m[r, c]))
+            rad = c_radius[cl] * sc * (1 + 1e-6) + 1e-9
+            outside = False
+            for p in range(planes.shape[0]):
+                if planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
+                    outside = True
+            if outside:
+                continue
+            tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
+            if bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
+                                  c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near_keep):
+                continue
+            # window coordinates of the cluster's vertices, and per axis the cell of whole
+            # pixels (centres at integers) that holds the vertex widened by its bound e: a
+            # triangle whose three vertices share a cell on either axis holds no pixel centre.
+            # A cell is k when (k, k + 1) holds [u - e, u + e], -1 left of the image, W (H)
+            # right of (below) it; a vertex whose widened coordinate holds a pixel centre, or
+            # that lies behind the near plane, gets a key of its own (its triangles go on to
+            # the full test). Branch-free, so that the loop runs in vector registers.
+            v_lo = c_vrange[cl, 0]
+            nv = c_vrange[cl, 1] - v_lo
+            for w in range(nv):
+                px = np.float64(vertices[vb + v_lo + w, 0])
+                py = np.float64(vertices[vb + v_lo + w, 1])
+                pz = np.float64(vertices[vb + v_lo + w, 2])
+                x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
+                y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
+                z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+                iz = 1.0 / (z if z > 1e-300 else 1.0)
+                u = fx * x * iz + s * y * iz + cx
+                v = fy * y * iz + cy
                 err = REL_EPS * (tmag + 3 * rmag * (abs(px) + abs(py) + abs(pz)))
-                window[k, 3] = BASE_EPS_PX + scale * err * (1 + (abs(x) + abs(y)) * iz) * iz
-        n = 0
-        for f in range(f0, f0 + nf):
-            ia, ib, ic = faces[f, 0], faces[f, 1], faces[f, 2]
-            a, b, c = sb + ia, sb + ib, sb + ic
-            keep = True
-            if window[a, 2] > near_keep and window[b, 2] > near_keep and window[c, 2] > near_keep:
-                ea, eb, ec = window[a, 3], window[b, 3], window[c, 3]
-                ua, va, ub = window[a, 0], window[a, 1], window[b, 0]
-                vb_, uc, vc = window[b, 1], window[c, 0], window[c, 1]
-                ulo = max(math.ceil(min(ua - ea, min(ub - eb, uc - ec))), 0.0)
-                uhi = min(math.floor(max(ua + ea, max(ub + eb, uc + ec))), width - 1.0)
-                vlo = max(math.ceil(min(va - ea, min(vb_ - eb, vc - ec))), 0.0)
-                vhi = min(math.floor(max(va + ea, max(vb_ + eb, vc + ec))), height - 1.0)
-                keep = ulo <= uhi and vlo <= vhi
-                if keep and bc:
-                    # back-facing (front faces are clockwise on screen: negative area in (u, v)
-                    # with v down) beyond what moving each vertex by its error bound can flip
-                    area2 = (ub - ua) * (vc - va) - (vb_ - va) * (uc - ua)
-                    e = max(ea, max(eb, ec))
-                    per = abs(ub - ua) + abs(vb_ - va) + abs(uc - ua) + abs(vc - va)
-                    keep = area2 <= 2 * e * per + 4 * e * e + 1e-9
-            if keep:
-                out[at + 3 * n] = ia
-                out[at + 3 * n + 1] = ib
-                out[at + 3 * n + 2] = ic
-                n += 1
-        counts[q] = n
+                e = BASE_EPS_PX + scale * err * (1 + (abs(x) + abs(y)) * iz) * iz
+                wz[w], wu[w], wv[w], we[w] = z, u, v, e
+                own = -2.0 - w
+                hi_u, hi_v = math.floor(u + e), math.floor(v + e)
+                ku = hi_u if math.ceil(u - e) > hi_u else own
+                kv = hi_v if math.ceil(v - e) > hi_v else own
+                ku = -1.0 if u + e < 0.0 else (width if u - e > width - 1.0 else ku)
+                kv = -1.0 if v + e < 0.0 else (height if v - e > height - 1.0 else kv)
+                front = z > near_keep
+                keys_u[w] = ku if front else own
+                keys_v[w] = kv if front else own
+            n = 0
+            for i in range(nf):
+                f = f0 + i
+                a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
+                ka, kb, kc = keys_u[a], keys_u[b], keys_u[c]
+                la, lb, lc = keys_v[a], keys_v[b], keys_v[c]
+                if ((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc)):   # one branch, mostly taken
+                    continue
+                keep = True
+                if wz[a] > near_keep and wz[b] > near_keep and wz[c] > near_keep:
+                    ea, eb, ec = we[a], we[b], we[c]
+                    ua, va, ub = wu[a], wv[a], wu[b]
+                    vb_, uc, vc = wv[b], wu[c], wv[c]
+                    ulo = max(math.ceil(min(ua - ea, min(ub - eb, uc - ec))), 0.0)
+                    uhi = min(math.floor(max(ua + ea, max(ub + eb, uc + ec))), width - 1.0)
+                    vlo = max(math.ceil(min(va - ea, min(vb_ - eb, vc - ec))), 0.0)
+                    vhi = min(math.floor(max(va + ea, max(vb_ + eb, vc + ec))), height - 1.0)
+                    keep = ulo <= uhi and vlo <= vhi
+                    if keep:
+                        area2 = (ub - ua) * (vc - va) - (vb_ - va) * (uc - ua)
+                        e = max(ea, max(eb, ec))
+                        if bc:
+                            # back-facing (front faces are clockwise on screen: negative area in
+                            # (u, v) with v down) beyond what moving each vertex by e can flip
+                            spread = abs(ub - ua) + abs(vb_ - va) + abs(uc - ua) + abs(vc - va)
+                            keep = area2 <= 2 * e * spread + 4 * e * e + 1e-9
+                        if keep and abs(area2) > 1e-12:
+                            keep = _centre_near(ua, va, ub, vb_, uc, vc, e, 1.0 if area2 > 0 else -1.0,
+                                                ulo, uhi, vlo, vhi)
+                if keep:
+                    masks[j, i >> 6] |= np.uint64(1) << np.uint64(i & 63)
+                    n += 1
+            counts[j] = n
 
 
-@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
-def _compact(buf, jobs, counts, starts, out):
-    for q in prange(len(jobs)):
-        src, dst = jobs[q, 5], starts[q]
-        for k in range(3 * counts[q]):
-            out[dst + k] = buf[src + k]
+@njit(cache=True, nogil=True, boundscheck=False)
+def _emit(faces, masks, counts, jobface, starts, out):
+    """The kept faces' indices, job after job, at ``starts`` (one thread: it writes only what
+    is kept, and a second parallel region per frame costs a wake-up of every thread)."""
+    for j in range(len(counts)):
+        if counts[j] == 0:
+            continue
+        at = starts[j]
+        f0 = jobface[j]
+        for w in range(_MASK_WORDS):
+            bits = masks[j, w]
+            i = 0
+            while bits:
+                if bits & np.uint64(1):
+                    f = f0 + 64 * w + i
+                    out[at] = faces[f, 0]
+                    out[at + 1] = faces[f, 1]
+                    out[at + 2] = faces[f, 2]
+                    at += 3
+                bits >>= np.uint64(1)
+                i += 1
 
 
 class TriangleCuller:
-    """Per-scene state of the exact culler: vertices, faces and clusters of all meshes
-    concatenated, with scratch arrays reused from frame to frame."""
+    """Per-scene state of the exact culler: the meshes' clusters concatenated (each mesh's
+    faces, vertices and clusters at its ``*base`` offsets), and buffers reused from frame to
+    frame that grow with what is drawn."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, mesh_vbase: np.ndarray, mesh_nverts: np.ndarray,
-                 mesh_fbase: np.ndarray, mesh_nfaces: np.ndarray, mesh_cbase: np.ndarray,
-                 centres: np.ndarray, radii: np.ndarray, vrange: np.ndarray) -> None:
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, mesh_vbase: np.ndarray, mesh_fbase: np.ndarray,
+                 mesh_nfaces: np.ndarray, mesh_cbase: np.ndarray, centre: np.ndarray, radius: np.ndarray,
+                 vrange: np.ndarray, axis: np.ndarray, cos_a: np.ndarray, sin_a: np.ndarray, thickness: np.ndarray,
+                 perimeter: np.ndarray) -> None:
         self.vertices, self.faces = vertices, faces
-        self.mesh_vbase, self.mesh_nverts = mesh_vbase, mesh_nverts
-        self.mesh_fbase, self.mesh_nfaces, self.mesh_cbase = mesh_fbase, mesh_nfaces, mesh_cbase
-        self.centres, self.radii, self.vrange = centres, radii, vrange
-        self._window = np.empty((0, 4))
-        self._buf = np.empty(0, np.uint32)
+        self.mesh_vbase, self.mesh_fbase = mesh_vbase, mesh_fbase
+        self.mesh_nfaces, self.mesh_cbase = mesh_nfaces, mesh_cbase
+        self.clusters = (centre, radius, vrange, axis, cos_a, sin_a, thickness, perimeter)
         self._out = np.empty(0, np.uint32)
 
-    def select(self, slots: np.ndarray, mesh: np.ndarray, backcull: np.ndarray, cfm: np.ndarray, K: np.ndarray,
-               width: int, height: int, near: float, planes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Indices of the kept faces of instances ``slots`` (whose meshes are ``mesh``; those
-        flagged in ``backcull`` are drawn with back-face culling), instance after instance;
-        returns (indices uint32, first index per slot, index count per slot)."""
-        nv, nf = self.mesh_nverts[mesh], self.mesh_nfaces[mesh]
-        scratch_at = np.concatenate([[0], np.cumsum(nv)[:-1]]).astype(np.int64)
-        total_v = int(nv.sum())
-        if len(self._window) < total_v:
-            self._window = np.empty((total_v, 4))
-        proj = np.array([K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], dtype=np.float64)
-        # one job per cluster of each instance
+    def select(self, slots: np.ndarray, mesh: np.ndarray, backcull: np.ndarray, cfm: np.ndarray, eye: np.ndarray,
+               det: np.ndarray, K: np.ndarray, width: int, height: int, near: float,
+               planes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Indices of the kept faces of instances ``slots`` (rows of ``cfm``, (N, 3, 4)
+        camera_from_model), whose meshes are ``mesh``; those flagged in ``backcull`` are drawn
+        with back-face culling; ``eye`` (Q, 3) is the camera centre in each one's model frame
+        and ``det`` (Q,) the determinant of its camera_from_model. Returns (indices uint32,
+        first index per slot, index count per slot), instance after instance."""
+        nf = self.mesh_nfaces[mesh]
         nclus = -(-nf // CLUSTER)
-        job_inst = np.repeat(np.arange(len(slots)), nclus)
-        first_job = np.concatenate([[0], np.cumsum(nclus)[:-1]]).astype(np.int64)
-        k = np.arange(len(job_inst)) - first_job[job_inst]
-        jobs = np.empty((len(job_inst), 7), np.int64)
-        jobs[:, 0] = slots[job_inst]
-        jobs[:, 1] = self.mesh_fbase[mesh][job_inst] + k * CLUSTER
-        jobs[:, 2] = np.minimum(CLUSTER, nf[job_inst] - k * CLUSTER)
-        jobs[:, 3] = self.mesh_vbase[mesh][job_inst]
-        jobs[:, 4] = self.mesh_cbase[mesh][job_inst] + k
-        jobs[:, 5] = 3 * np.concatenate([[0], np.cumsum(jobs[:-1, 2])]) if len(jobs) else 0
-        jobs[:, 6] = scratch_at[job_inst]
-        total_i = 3 * int(nf.sum())
-        if len(self._buf) < total_i:
-            self._buf = np.empty(total_i, np.uint32)
-            self._out = np.empty(total_i, np.uint32)
-        counts = np.empty(len(jobs), np.int64)
+        job0 = np.zeros(len(slots) + 1, np.int64)
+        np.cumsum(nclus, out=job0[1:])
+        njobs = int(job0[-1])
+        proj = np.array([K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], dtype=np.float64)
+        counts = np.empty(njobs, np.int64)
+        masks = np.empty((njobs, _MASK_WORDS), np.uint64)
+        jobface = np.empty(njobs, np.int64)
         # threads only for big frames: a parallel launch costs a wake-up of every thread,
         # milliseconds when the machine is busy
         threads = numba.get_num_threads()
-        if threads > 1 and total_i < 3 * PARALLEL_FACES:
+        single = threads == 1 or int(nf.sum()) < PARALLEL_FACES
+        chunks = 1 if single else 8 * threads
+        if single and threads > 1:
             numba.set_num_threads(1)
-        starts = np.zeros(len(jobs) + 1, np.int64)
         try:
-            _select(self.vertices, self.faces, jobs, cfm, backcull[job_inst], self.centres, self.radii,
-                    self.vrange, proj, planes, float(near), float(width), float(height), self._window, self._buf,
-                    counts)
+            _select(self.vertices, self.faces, *self.clusters, slots.astype(np.int64),
+                    self.mesh_vbase[mesh], self.mesh_fbase[mesh], nf, self.mesh_cbase[mesh], job0,
+                    np.ascontiguousarray(backcull), cfm, np.ascontiguousarray(eye, np.float64),
+                    np.ascontiguousarray(det, np.float64), proj, planes, float(near), float(width), float(height),
+                    chunks, counts, masks, jobface)
+            starts = np.zeros(njobs + 1, np.int64)
             np.cumsum(3 * counts, out=starts[1:])
-            _compact(self._buf, jobs, counts, starts, self._out)
+            total = int(starts[-1])
+            if len(self._out) < total:   # grows with what is drawn, by half again at a time
+                self._out = np.empty(max(total, len(self._out) * 3 // 2), np.uint32)
+            _emit(self.faces, masks, counts, jobface, starts, self._out)
         finally:
-            numba.set_num_threads(threads)
-        per_slot = np.add.reduceat(3 * counts, first_job) if len(jobs) else np.zeros(0, np.int64)
-        return self._out[:starts[-1]], starts[first_job], per_slot
+            if single and threads > 1:
+                numba.set_num_threads(threads)
+        first = starts[job0[:-1]]
+        return self._out[:total], first, starts[job0[1:]] - first

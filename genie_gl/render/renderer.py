@@ -21,8 +21,10 @@ from ..errors import ConfigError, RenderError
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
+from .clusters import Clusters, prepare
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
-from .cull import TriangleCuller, cluster_order, clusters, sanitize
+from .cull import TriangleCuller
+from .lod import LevelOfDetail, choose, simplified
 from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
 from .projection import clip_coefficients, frustum_planes, rigid_inverse
 from .readback import semantic_table, unpack
@@ -81,6 +83,8 @@ class Renderer:
     targets : "packed" (default): depth and instance id in one RG32UI target, the semantic id
         looked up per instance on read-back (:mod:`genie_gl.render.readback`); "separate":
         three targets (depth, instance, semantic). The frames are the same bit for bit.
+    lod : a :class:`~genie_gl.render.lod.LevelOfDetail` to draw instances that look small
+        with simplified copies of their meshes (changes pixels; None, the default: exact).
     readback : "direct" (default): :meth:`frames` reads each frame's targets into the frame's
         arrays once the next frame is submitted; "pbo": each frame is read into pixel buffer
         objects as soon as it is submitted and copied out a frame later (on llvmpipe this
@@ -91,12 +95,14 @@ class Renderer:
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
-                 readback: str = "direct"):
+                 readback: str = "direct", lod: LevelOfDetail | None = None):
         for name, value, known in (("depth_precision", depth_precision, DEPTH_PRECISIONS),
                                    ("targets", targets, TARGETS), ("readback", readback, READBACKS)):
             if value not in known:
                 raise ConfigError(f"Renderer {name}={value!r} is unknown; expected one of {', '.join(known)}")
-        self.depth_precision, self.cull = depth_precision, bool(cull)
+        if lod is not None and not isinstance(lod, LevelOfDetail):
+            raise ConfigError(f"Renderer lod: expected a genie_gl.render.LevelOfDetail or None, got {type(lod).__name__}")
+        self.depth_precision, self.cull, self.lod = depth_precision, bool(cull), lod
         self.targets, self.readback = targets, readback
         self._own_context = context is None
         self.gl = context or create_context(backend)
@@ -108,6 +114,7 @@ class Renderer:
         self._clip_control = self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
         self._gl_flush = None
         self._culled = False
+        self._lod_drawn = 0
         with self._current():
             self._upload(scene)
         self.stats: dict[str, float] = {}
@@ -123,46 +130,45 @@ class Renderer:
         keys = list(scene.meshes)
         index = {k: i for i, k in enumerate(keys)}
         inst = scene.instances
-        mesh_of = np.array([index[i.mesh] for i in inst], dtype=np.int64)
-        has_inst = np.zeros(len(keys), bool)
-        has_inst[mesh_of] = True
-        # meshes: faces safe to draw, vertices and faces concatenated, cluster spheres
-        faces_of, verts, faces, cl_c, cl_r, cl_v = {}, [], [], [], [], []
+        mesh_of = np.fromiter((index[i.mesh] for i in inst), dtype=np.int64, count=len(inst))
         n = len(keys)
-        vbase, nverts, fbase, nfaces, cbase = (np.zeros(n, np.int64) for _ in range(5))
+        # each mesh placed by an instance is prepared once, however many instances place it;
+        # with level of detail, its simplified copy goes in a slot of its own after the meshes
+        prepared: dict[int, Clusters] = {}
+        copies: list[tuple[int, Clusters, bool]] = []
+        for i in np.unique(mesh_of):
+            c = prepare(scene.meshes[keys[i]], keys[i])
+            if len(c.faces):
+                prepared[int(i)] = c
+                small = simplified(scene.meshes[keys[i]], self.lod) if self.lod is not None else None
+                if small is not None:
+                    copies.append((int(i), prepare(small, keys[i] + " (simplified)"), small.closed))
+        self._copy_of = np.full(n, -1, np.int64)
+        for k, (i, c, _) in enumerate(copies):
+            self._copy_of[i] = n + k
+            prepared[n + k] = c
+        n += len(copies)
+        vbase, fbase, nfaces, cbase = (np.zeros(n, np.int64) for _ in range(4))
         closed, lo, hi = np.zeros(n, bool), np.zeros((n, 3)), np.zeros((n, 3))
         centre, radius = np.zeros((n, 3)), np.zeros(n)
         v_at = f_at = c_at = 0
-        for i, key in enumerate(keys):
-            if not has_inst[i]:
-                continue
-            mesh = scene.meshes[key]
-            f = sanitize(mesh, key)
-            if len(f) == 0:
-                continue
-            faces_of[i] = f
-            v, f = cluster_order(np.asarray(mesh.vertices), f)
-            used = v.astype(np.float64)
-            lo[i], hi[i] = used.min(axis=0), used.max(axis=0)
+        for i, c in prepared.items():
+            lo[i], hi[i] = c.lo, c.hi
             centre[i] = (lo[i] + hi[i]) / 2
-            radius[i] = float(np.linalg.norm(used - centre[i], axis=1).max())
-            closed[i] = bool(mesh.closed)
-            c, r, vr = clusters(v, f)
-            vbase[i], nverts[i], fbase[i], nfaces[i], cbase[i] = v_at, len(v), f_at, len(f), c_at
-            verts.append(v)
-            faces.append(np.ascontiguousarray(f, dtype="<u4"))
-            cl_c.append(c)
-            cl_r.append(r)
-            cl_v.append(vr)
-            v_at, f_at, c_at = v_at + len(v), f_at + len(f), c_at + len(c)
-        drawable = np.array([i in faces_of for i in range(n)], bool)
-        keep = [k for k in range(len(inst)) if drawable[mesh_of[k]]]
-        order = sorted(keep, key=lambda k: mesh_of[k])  # stable: same mesh, scene order
+            radius[i] = c.bound
+            closed[i] = bool(scene.meshes[keys[i]].closed) if i < len(keys) else copies[i - len(keys)][2]
+            vbase[i], fbase[i], nfaces[i], cbase[i] = v_at, f_at, len(c.faces), c_at
+            v_at, f_at, c_at = v_at + len(c.vertices), f_at + len(c.faces), c_at + c.count
+        drawable = np.zeros(len(keys), bool)
+        drawable[[i for i in prepared if i < len(keys)]] = True
+        keep = np.flatnonzero(drawable[mesh_of])
+        order = keep[np.argsort(mesh_of[keep], kind="stable")]  # same mesh, scene order
         self._mesh = mesh_of[order]
         N = len(order)
         self._world_from_model = (np.stack([inst[k].world_from_model for k in order]).astype(np.float64)
                                   if N else np.zeros((0, 4, 4)))
         self._model_from_world = np.linalg.inv(self._world_from_model) if N else np.zeros((0, 4, 4))
+        self._det = np.linalg.det(self._world_from_model[:, :3, :3]) if N else np.zeros(0)
         self._ids = np.array([inst[k].instance for k in order], dtype=np.uint32)
         self._scale = (np.linalg.norm(self._world_from_model[:, :3, :3], axis=1).max(axis=1)
                        if N else np.zeros(0))
@@ -174,15 +180,21 @@ class Renderer:
             self._rows["color"][:, :3] = np.array([inst[k].color for k in order], dtype=np.uint8)
         self._semantics = semantic_table(self._ids, self._rows["semantic"]) if self.targets == "packed" else None
         self._packed = self._semantics is not None  # an id used twice: three targets
-        self._vbase, self._nverts, self._fbase, self._nfaces = vbase, nverts, fbase, nfaces
+        self._vbase, self._fbase, self._nfaces = vbase, fbase, nfaces
         self._closed, self._lo, self._hi, self._centre, self._radius = closed, lo, hi, centre, radius
         self.triangles = int(nfaces[self._mesh].sum()) if N else 0
-        vertices = np.concatenate(verts) if verts else np.zeros((1, 3), "<f4")
-        all_faces = np.concatenate(faces) if faces else np.zeros((1, 3), "<u4")
-        self._culler = TriangleCuller(vertices, all_faces, vbase, nverts, fbase, nfaces, cbase,
-                                      np.concatenate(cl_c) if cl_c else np.zeros((1, 3)),
-                                      np.concatenate(cl_r) if cl_r else np.zeros(1),
-                                      np.concatenate(cl_v) if cl_v else np.zeros((1, 2), np.int64))
+        parts = list(prepared.values())
+
+        def joined(name: str, empty: np.ndarray) -> np.ndarray:
+            return np.concatenate([getattr(c, name) for c in parts]) if parts else empty
+
+        vertices = joined("vertices", np.zeros((1, 3), "<f4"))
+        all_faces = joined("faces", np.zeros((1, 3), "<u4"))
+        self._culler = TriangleCuller(
+            vertices, all_faces, vbase, fbase, nfaces, cbase, joined("centre", np.zeros((1, 3))),
+            joined("radius", np.zeros(1)), joined("vrange", np.zeros((1, 2), np.int64)),
+            joined("axis", np.zeros((1, 3))), joined("cos_a", np.zeros(1)), joined("sin_a", np.zeros(1)),
+            joined("thickness", np.zeros(1)), joined("perimeter", np.ones(1)))
         self._vbo = ctx.buffer(vertices.tobytes())
         self._ibo = ctx.buffer(all_faces.tobytes())
         self._streams: dict[int, tuple] = {}  # per-frame buffers, one set per frame in flight
@@ -191,8 +203,9 @@ class Renderer:
         """(instance rows, culled indices, draw commands): the buffers a frame writes."""
         if parity not in self._streams:
             ctx, n = self.ctx, max(1, len(self._mesh))
+            # the culled index buffer starts small and grows with what a frame draws
             self._streams[parity] = (ctx.buffer(reserve=n * INSTANCE_DTYPE.itemsize),
-                                     ctx.buffer(reserve=max(12, 12 * self.triangles)) if self.cull else None,
+                                     ctx.buffer(reserve=1 << 16) if self.cull else None,
                                      ctx.buffer(reserve=n * COMMAND_DTYPE.itemsize))
         return self._streams[parity]
 
@@ -348,6 +361,7 @@ class Renderer:
         ctx.disable(moderngl.CULL_FACE)
         return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
                 "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
+                "simplified": self._lod_drawn,
                 "t0": t0, "t1": t1}
 
     def _flush(self) -> None:
@@ -446,7 +460,7 @@ class Renderer:
                     normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
         self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
-                      "triangles_drawn": job["triangles"]}
+                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"]}
         return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
                      {"render_ms": 1e3 * (time.perf_counter() - t0)})
 
@@ -474,6 +488,7 @@ class Renderer:
         """Draw commands of a frame: [(commands, back-face culling)], nothing in Python per
         instance."""
         n = len(self._mesh)
+        self._lod_drawn = 0
         if n == 0:
             return []
         camera_from_world = rigid_inverse(pose)
@@ -490,6 +505,9 @@ class Renderer:
         if len(slots) == 0:
             return []
         m = mesh[slots]
+        small = choose(self.lod, self._copy_of[m] >= 0, centres[slots, 2], radii[slots], K)
+        m = np.where(small, self._copy_of[m], m)
+        self._lod_drawn = int(small.sum())
         # camera inside the (slightly grown) box of a closed mesh: draw both faces to see the inside
         eye = np.einsum("nij,j->ni", self._model_from_world[slots, :3], pose[:, 3])
         pad = 1e-6 * (1 + np.abs(self._hi[m] - self._lo[m]))
@@ -505,7 +523,10 @@ class Renderer:
         culled = self.cull and int(self._nfaces[m].sum()) >= self.cull_min_faces
         self._culled = culled
         if culled:
-            indices, first, count = self._culler.select(slots, m, backcull, cfm, K, W, H, near, planes)
+            indices, first, count = self._culler.select(slots, m, backcull, cfm, eye, self._det[slots], K, W, H,
+                                                        near, planes)
+            if indices.nbytes > dyn_ibo.size:  # same buffer name: the vertex arrays stay valid
+                dyn_ibo.orphan(max(indices.nbytes, dyn_ibo.size * 3 // 2))
             dyn_ibo.write(indices)
             cmd["first"], cmd["count"] = first, count
             keep = count > 0

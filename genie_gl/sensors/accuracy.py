@@ -60,6 +60,9 @@ class AccuracySettings:
     tessellation : int or None, segments per circle of curved assets and USD implicit gprims
         (None: each asset's own).
     multipath_samples : int or None, neighbours the multipath model samples (None: its own).
+    lod_px : float or None, level of detail: an instance whose bounding sphere looks fewer
+        than this many pixels across is drawn from a simplified copy of its mesh (10 % of its
+        faces; :class:`genie_gl.render.LevelOfDetail`). None (the default): off, exact.
     """
 
     supersample: int = 1
@@ -70,6 +73,7 @@ class AccuracySettings:
     tessellation: int | None = None
     multipath_samples: int | None = None
     shadow: str | None = None
+    lod_px: float | None = None
 
     def __post_init__(self) -> None:
         check(self, "accuracy")
@@ -106,6 +110,8 @@ def check(s: AccuracySettings, where: str) -> None:
         raise bad("shadow_scale", "a number in (0, 4] or null")
     if s.shadow is not None and s.shadow not in SHADOW:
         raise bad("shadow", " | ".join(SHADOW) + " or null" + did_you_mean(s.shadow, SHADOW))
+    if s.lod_px is not None and not (_number(s.lod_px) and 0 < s.lod_px < 1e6):
+        raise bad("lod_px", "a number of pixels > 0 or null")
     for name, lo in (("tessellation", 3), ("multipath_samples", 1)):
         v = getattr(s, name)
         if v is not None and (not isinstance(v, int) or isinstance(v, bool) or v < lo):

@@ -33,6 +33,7 @@ from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region, RegionType
 from ..scene_options import scene_options
 from . import coverage
+from .floor import furnished_rects, outside_rects
 from .camera import Sensor
 from .placement_bits import DiscBits
 from .pose import look_at
@@ -141,13 +142,9 @@ class CoverageProblem:
         cy = np.arange(by + step_m / 2, by + bh, step_m)
         self.candidates = np.stack(np.meshgrid(cx, cy), -1).reshape(-1, 2)
         if free_floor:  # a low mount stands where nothing is furnished (not inside a rack or a stack)
-            rects = np.array([(g.x, g.y, g.x + g.w, g.y + g.h) for g in layout.leaves()
-                              if layout.region_types[g.type].asset_group is not None]).reshape(-1, 4)
-            px, py, m = self.candidates[:, :1], self.candidates[:, 1:], FREE_MARGIN_M
-            inside = ((px > rects[:, 0] - m) & (px < rects[:, 2] + m) & (py > rects[:, 1] - m)
-                      & (py < rects[:, 3] + m)).any(1)
-            if not inside.all():
-                self.candidates = self.candidates[~inside]
+            free = outside_rects(self.candidates, furnished_rects(layout), FREE_MARGIN_M)
+            if free.any():
+                self.candidates = self.candidates[free]
         keep = self.weight > 0
         self.px, self.weight = self.px[keep], self.weight[keep]
         self.shape, self.origin_xy, self.resolution_m = (H, W), (x0, y0), float(resolution_m)

@@ -1,0 +1,60 @@
+"""``genie bench sequence``: what cameras that move cost, as frames per second along a
+trajectory against the same number of standing frames of the same sensors, in one process.
+
+Along the trajectory every rig sensor's shots are rendered through ``gg.capture`` a window at
+a time (:mod:`genie_gl.capture.trajectory`); the standing frames are the same sensors at as
+many poses placed for coverage, captured in one call per sensor, as a static dataset does.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from ..capture import capture
+from ..capture.trajectory import record, schedule
+from ..layout import generate_layout
+from ..render import shared_context
+from ..scene import build_scene
+from ..sensors import place_sensors
+from ..sensors.paths import make_trajectory
+from ..sensors.rig import load_rig
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--strategy", default="storage_area")
+    p.add_argument("--rig", default="d435_quad")
+    p.add_argument("--duration-s", type=float, default=4.0)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--repeat", type=int, default=2, help="alternate the two runs this many times; best of each")
+
+
+def run(args: argparse.Namespace) -> int:
+    layout = generate_layout(args.strategy, seed=args.seed)
+    scene = build_scene(layout, seed=args.seed)
+    rig = load_rig(args.rig)
+    tr = make_trajectory(layout, scene, "aisles", seed=args.seed, duration_s=args.duration_s)
+    shots = schedule(rig, tr)
+    per = [sum(s.sensor == k for s in shots) for k in range(len(rig))]
+    standing = [place_sensors(layout, s.sensor, n=n, seed=args.seed, method="greedy") for s, n in zip(rig.sensors, per)]
+    ctx = shared_context()
+    best = {"trajectory": float("inf"), "standing": float("inf")}
+    for _ in range(max(1, args.repeat)):
+        t = time.perf_counter()
+        n = sum(1 for _ in record(scene, rig, tr, seed=args.seed, depth_only=True, context=ctx))
+        best["trajectory"] = min(best["trajectory"], time.perf_counter() - t)
+        t = time.perf_counter()
+        for s, poses in zip(rig.sensors, standing):
+            capture(scene, s.sensor, poses, seed=args.seed, workers=1, depth_only=True, context=ctx)
+        best["standing"] = min(best["standing"], time.perf_counter() - t)
+    result = {"strategy": args.strategy, "rig": rig.name, "frames": n, "duration_s": tr.duration_s,
+              "trajectory_s": best["trajectory"], "standing_s": best["standing"],
+              "trajectory_fps": n / best["trajectory"], "standing_fps": n / best["standing"],
+              "ratio": best["trajectory"] / best["standing"]}
+    Path(args.out).mkdir(parents=True, exist_ok=True)
+    (Path(args.out) / "sequence.json").write_text(json.dumps(result, indent=1))
+    print(f"{n} frames of {rig.name} ({len(rig)} sensors) on {args.strategy}: along a {tr.duration_s:.1f} s "
+          f"trajectory {result['trajectory_fps']:.1f} frames/s, standing {result['standing_fps']:.1f} frames/s "
+          f"(trajectory / standing time = {result['ratio']:.2f})")
+    return 0

@@ -1,0 +1,89 @@
+"""A mobile-scan map: frames fused in the world frame, one point per voxel.
+
+A mobile scanner's registered map holds its points at a roughly even density, whatever how
+often an area was seen; here every frame is unprojected at its (estimated) pose and a point is
+kept only when its voxel (``voxel_m``, the map's density) holds none yet: the first point seen
+of each voxel, in frame order, then pixel order. Voxels are marked in a bit set over the
+scene's bounds, so a map of any number of frames costs one bit per voxel of the hall and its
+kept points. The map is then cut into chunks like any cloud (:func:`.process.chunks`).
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..frame import Frame
+from .pointcloud import PointCloud
+from .unproject import unproject
+
+MAX_VOXELS = 2**34   # a bit set larger than 2 GB: the voxel is too small for the hall
+MAX_FRAMES = 65535   # PointCloud.camera is uint16
+
+
+class VoxelMap:
+    """Fuses frames one at a time.
+
+    Parameters
+    ----------
+    bounds : (2, 3) float64 world box the map may hold (points outside are dropped, counted
+        in ``dropped``); origin : (3,) float64 of the map's float32 coordinates; voxel_m : float.
+    """
+
+    def __init__(self, bounds: np.ndarray, voxel_m: float, origin: np.ndarray) -> None:
+        if not voxel_m > 0:
+            raise ConfigError(f"map voxel: expected > 0 m, got {voxel_m}")
+        self.lo = np.asarray(bounds[0], np.float64)
+        self.dims = np.maximum(1, np.ceil((np.asarray(bounds[1]) - self.lo) / voxel_m).astype(np.int64))
+        if int(np.prod(self.dims)) > MAX_VOXELS:
+            raise ConfigError(f"map voxel {voxel_m} m: the {np.ptp(bounds, axis=0).round(1).tolist()} m scene would "
+                              f"need {int(np.prod(self.dims)):,} voxels; use a larger voxel")
+        self.voxel_m, self.origin = float(voxel_m), np.asarray(origin, np.float64)
+        self.bits = np.zeros((int(np.prod(self.dims)) + 7) // 8, np.uint8)
+        self.parts: list[PointCloud] = []
+        self.frames = 0
+        self.seen = 0
+        self.dropped = 0
+
+    def add(self, frame: Frame) -> int:
+        """Fuse ``frame`` (at its ``world_from_camera``); returns how many points it added."""
+        if self.frames >= MAX_FRAMES:
+            raise ConfigError(f"a mobile-scan map holds at most {MAX_FRAMES} frames; use a shorter trajectory or "
+                              "lower frame rates")
+        c = unproject(frame, origin=self.origin, camera_index=self.frames)
+        self.frames += 1
+        self.seen += len(c)
+        ijk = np.floor((c.xyz.astype(np.float64) + (self.origin - self.lo)) / self.voxel_m).astype(np.int64)
+        inside = np.all((ijk >= 0) & (ijk < self.dims), axis=1)
+        self.dropped += int((~inside).sum())
+        idx = np.flatnonzero(inside)
+        key = (ijk[idx, 0] * self.dims[1] + ijk[idx, 1]) * self.dims[2] + ijk[idx, 2]
+        key, first = np.unique(key, return_index=True)
+        new = (self.bits[key >> 3] & (1 << (key & 7)).astype(np.uint8)) == 0
+        key, first = key[new], first[new]
+        np.bitwise_or.at(self.bits, key >> 3, (1 << (key & 7)).astype(np.uint8))
+        take = idx[np.sort(first)]
+        if len(take):
+            self.parts.append(c.select(take))
+        return len(take)
+
+    def cloud(self) -> PointCloud:
+        """The map so far (empty: a ConfigError, as an empty result is)."""
+        if not self.parts:
+            raise ConfigError("the mobile-scan map is empty: no frame saw anything inside the scene")
+        keep = ("xyz", "semantic", "instance", "rgb", "camera")
+        parts = [PointCloud(**{k: getattr(p, k) for k in keep}, origin=p.origin) for p in self.parts]
+        return PointCloud.concatenate(parts)
+
+
+def fuse(frames: Iterable[Frame], *, bounds: np.ndarray, voxel_m: float = 0.02,
+         origin: np.ndarray | None = None) -> PointCloud:
+    """The frames' points fused in the world frame, one per ``voxel_m`` voxel (the first seen),
+    within ``bounds`` (2, 3); ``camera`` is each point's frame index."""
+    bounds = np.asarray(bounds, np.float64)
+    origin = np.round(bounds.mean(0) / 100.0) * 100.0 + 0.0 if origin is None else origin
+    m = VoxelMap(bounds, voxel_m, origin)
+    for f in frames:
+        m.add(f)
+    return m.cloud()

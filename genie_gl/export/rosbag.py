@@ -1,0 +1,163 @@
+"""A rig's recording as a ROS 2 bag in MCAP storage (FORMATS.md §8), written with ``rosbags``
+(pure Python: no ROS install to write it or to read it back, with ``rosbags`` or ``mcap``).
+
+Per rig sensor ``NAME``, at each of its shots (stamped with the trajectory's clock):
+
+- ``/NAME/depth/image_raw``: ``sensor_msgs/msg/Image``, ``32FC1``, z in metres (0: no return);
+- ``/NAME/depth/camera_info``: ``sensor_msgs/msg/CameraInfo`` (K, the lens's ``plumb_bob``,
+  ``rational_polynomial`` or ``equidistant`` coefficients, R = I, P = [K|0]);
+- ``/NAME/color/image_raw``: ``rgb8``, when the frames carry colour;
+- ``/NAME/points``: ``sensor_msgs/msg/PointCloud2``, fields x, y, z (FLOAT32), ``label``
+  (UINT16, the semantic id) and ``instance`` (UINT32), in the optical frame;
+
+all with ``frame_id`` ``NAME_optical_frame`` (REP 103: z forward, x right, y down), and
+
+- ``/tf``: ``map`` → ``base_link`` (the body: x forward, y left, z up) at every shot time;
+- ``/tf_static`` (transient local, as ROS latches it): ``base_link`` →
+  ``NAME_optical_frame``, the rig's extrinsics, once.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..sensors.trajectory import quaternion_xyzw
+from .semantickitti_sequence import camera_points
+
+DISTORTION = {"fisheye": "equidistant"}   # pinhole: plumb_bob (<= 5 coefficients) or rational_polynomial
+MAP, BODY = "map", "base_link"
+
+
+def _modules():
+    try:
+        from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError as exc:
+        raise ConfigError(f"--format rosbag needs the rosbags package: pip install 'genie-gl[sequences]' ({exc})") from None
+    return Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, StoragePlugin, Writer, \
+        get_typestore(Stores.ROS2_HUMBLE)
+
+
+class _Messages:
+    """Builders of the messages, from the typestore's classes."""
+
+    def __init__(self, ts) -> None:
+        self.ts, self.T = ts, ts.types
+
+    def header(self, t_ns: int, frame: str):
+        return self.T["std_msgs/msg/Header"](stamp=self.T["builtin_interfaces/msg/Time"](
+            sec=int(t_ns // 1_000_000_000), nanosec=int(t_ns % 1_000_000_000)), frame_id=frame)
+
+    def transform(self, t_ns: int, parent: str, child: str, pose: np.ndarray):
+        q = quaternion_xyzw(pose[:3, :3])
+        return self.T["geometry_msgs/msg/TransformStamped"](
+            header=self.header(t_ns, parent), child_frame_id=child,
+            transform=self.T["geometry_msgs/msg/Transform"](
+                translation=self.T["geometry_msgs/msg/Vector3"](x=float(pose[0, 3]), y=float(pose[1, 3]),
+                                                                z=float(pose[2, 3])),
+                rotation=self.T["geometry_msgs/msg/Quaternion"](x=float(q[0]), y=float(q[1]), z=float(q[2]),
+                                                                w=float(q[3]))))
+
+    def image(self, t_ns: int, frame: str, data: np.ndarray, encoding: str):
+        h, w = data.shape[:2]
+        raw = np.ascontiguousarray(data).view(np.uint8).reshape(-1)
+        return self.T["sensor_msgs/msg/Image"](header=self.header(t_ns, frame), height=h, width=w, encoding=encoding,
+                                               is_bigendian=0, step=raw.size // h, data=raw)
+
+    def camera_info(self, t_ns: int, frame: str, sensor):
+        model = DISTORTION.get(sensor.model, "plumb_bob" if len(sensor.dist) <= 5 else "rational_polynomial")
+        if sensor.model == "omni":
+            raise ConfigError(f"sensor {sensor.name!r}: ROS camera_info has no omnidirectional model")
+        d = np.zeros(5) if model == "plumb_bob" and not len(sensor.dist) else np.asarray(sensor.dist, np.float64)
+        P = np.zeros((3, 4))
+        P[:, :3] = sensor.K
+        roi = self.T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+        return self.T["sensor_msgs/msg/CameraInfo"](
+            header=self.header(t_ns, frame), height=sensor.height, width=sensor.width, distortion_model=model,
+            d=d, k=np.asarray(sensor.K, np.float64).ravel(), r=np.eye(3).ravel(), p=P.ravel(), binning_x=0,
+            binning_y=0, roi=roi)
+
+    def points(self, t_ns: int, frame: str, xyz: np.ndarray, sem: np.ndarray, inst: np.ndarray):
+        F = self.T["sensor_msgs/msg/PointField"]
+        rec = np.zeros(len(xyz), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("label", "<u2"), ("pad", "<u2"),
+                                        ("instance", "<u4")])
+        rec["x"], rec["y"], rec["z"] = xyz.T
+        rec["label"], rec["instance"] = sem, inst
+        fields = [F(name="x", offset=0, datatype=F.FLOAT32, count=1), F(name="y", offset=4, datatype=F.FLOAT32, count=1),
+                  F(name="z", offset=8, datatype=F.FLOAT32, count=1),
+                  F(name="label", offset=12, datatype=F.UINT16, count=1),
+                  F(name="instance", offset=16, datatype=F.UINT32, count=1)]
+        return self.T["sensor_msgs/msg/PointCloud2"](
+            header=self.header(t_ns, frame), height=1, width=len(xyz), fields=fields, is_bigendian=False,
+            point_step=rec.itemsize, row_step=rec.itemsize * len(xyz), data=rec.view(np.uint8).reshape(-1),
+            is_dense=True)
+
+
+def write_recording(rig, trajectory, recording, bag_dir: str | os.PathLike) -> Path:
+    """Write the recording ((Shot, Frame) pairs in time order) as an MCAP bag in ``bag_dir``
+    (a folder the writer makes: ``metadata.yaml`` and ``<name>.mcap``); returns it."""
+    Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, StoragePlugin, Writer, ts = _modules()
+    bag_dir = Path(bag_dir)
+    if bag_dir.exists():
+        shutil.rmtree(bag_dir)
+    m = _Messages(ts)
+    never = QosTime(sec=0, nsec=0)
+    latched = Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, never, never,
+                  QosLiveliness.AUTOMATIC, never, False)
+
+    def ns(t: float) -> int:
+        return int(round((t - trajectory.start_s) * 1e9)) + 1   # the bag's clock: ns from the start, never 0
+
+    with Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        def conn(topic: str, msgtype: str, qos=()):
+            return w.add_connection(topic, msgtype, typestore=ts, offered_qos_profiles=qos)
+
+        tf_static = conn("/tf_static", "tf2_msgs/msg/TFMessage", [latched])
+        tf = conn("/tf", "tf2_msgs/msg/TFMessage")
+        topics = {}
+        for s in rig.sensors:
+            topics[s.name] = {"depth": conn(f"/{s.name}/depth/image_raw", "sensor_msgs/msg/Image"),
+                              "info": conn(f"/{s.name}/depth/camera_info", "sensor_msgs/msg/CameraInfo"),
+                              "points": conn(f"/{s.name}/points", "sensor_msgs/msg/PointCloud2")}
+        t0 = ns(trajectory.start_s)
+        statics = [m.transform(t0, BODY, f"{s.name}_optical_frame", s.body_from_sensor) for s in rig.sensors]
+        msg = ts.types["tf2_msgs/msg/TFMessage"](transforms=statics)
+        w.write(tf_static, t0, ts.serialize_cdr(msg, "tf2_msgs/msg/TFMessage"))
+        last_tf = None
+        for shot, frame in recording:
+            t = ns(shot.time_s)
+            s = rig.sensors[shot.sensor]
+            if last_tf != t:
+                msg = ts.types["tf2_msgs/msg/TFMessage"](transforms=[m.transform(t, MAP, BODY, shot.world_from_body)])
+                w.write(tf, t, ts.serialize_cdr(msg, "tf2_msgs/msg/TFMessage"))
+                last_tf = t
+            optical = f"{s.name}_optical_frame"
+            c = topics[s.name]
+            w.write(c["info"], t, ts.serialize_cdr(m.camera_info(t, optical, s.sensor), "sensor_msgs/msg/CameraInfo"))
+            w.write(c["depth"], t, ts.serialize_cdr(m.image(t, optical, frame.depth.astype("<f4"), "32FC1"),
+                                                    "sensor_msgs/msg/Image"))
+            if frame.rgb is not None:
+                if "color" not in c:
+                    c["color"] = conn(f"/{s.name}/color/image_raw", "sensor_msgs/msg/Image")
+                w.write(c["color"], t, ts.serialize_cdr(m.image(t, optical, frame.rgb, "rgb8"), "sensor_msgs/msg/Image"))
+            cloud = camera_points(frame)
+            w.write(c["points"], t, ts.serialize_cdr(m.points(t, optical, cloud.xyz, cloud.semantic, cloud.instance),
+                                                     "sensor_msgs/msg/PointCloud2"))
+    return bag_dir
+
+
+def _write_scene(data, folder: Path) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    write_recording(data.rig, data.trajectory, data.recording, folder / "bag")
+
+
+from .registry import DatasetFormat, register_format  # noqa: E402
+
+DATASET = register_format(DatasetFormat(
+    "rosbag", "scenes", colour=False, chunks=False, captures=("trajectory",), write_sequence=_write_scene,
+    description="ROS 2 bag (MCAP): depth, camera_info, labelled PointCloud2, tf and tf_static per rig sensor"))

@@ -1,0 +1,75 @@
+"""Level of detail: off, the frames are the exact ones; on, small-looking instances are drawn
+from a simplified copy (fewer triangles) and depth moves by about the decimation's error."""
+import numpy as np
+import pytest
+import trimesh
+
+import genie_gl as gg
+from genie_gl.errors import ConfigError
+from genie_gl.render import LevelOfDetail, Renderer
+from genie_gl.render.projection import look_at
+
+pytestmark = pytest.mark.gl
+
+
+def balls():
+    """A row of 20,480-face spheres of radius 0.5 m, 3 to 30 m from the camera."""
+    scene = gg.Scene()
+    ball = trimesh.creation.icosphere(5, radius=0.5)
+    for k, x in enumerate(np.linspace(3.0, 30.0, 10)):
+        scene.add(ball, [x, 1.5 * (k % 3 - 1), 0.0], semantic=1)
+    return scene, look_at([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+
+
+def test_lod_off_is_the_exact_render(glctx):
+    scene, pose = balls()
+    sensor = gg.Sensor.pinhole(320, 240, 260.0)
+    with Renderer(scene, context=glctx) as a, Renderer(scene, context=glctx, lod=None) as b:
+        fa, fb = a.render(sensor, pose), b.render(sensor, pose)
+    assert fa.depth.tobytes() == fb.depth.tobytes() and np.array_equal(fa.instance, fb.instance)
+    assert b.stats["instances_simplified"] == 0
+
+
+def test_lod_draws_far_instances_simplified_with_a_small_depth_error(glctx):
+    scene, pose = balls()
+    sensor = gg.Sensor.pinhole(320, 240, 260.0)
+    lod = LevelOfDetail(below_px=60.0, keep=0.1)
+    with Renderer(scene, context=glctx) as exact, Renderer(scene, context=glctx, lod=lod) as r:
+        fe, fl = exact.render(sensor, pose, depth_only=True), r.render(sensor, pose, depth_only=True)
+        n_exact, n_lod = exact.stats["triangles_drawn"], r.stats["triangles_drawn"]
+        simplified = r.stats["instances_simplified"]
+    # spheres 2 f r / z < 60 px across: z > 260 * 1 / 60 = 4.3 m, all but the nearest
+    assert simplified == 9
+    assert n_lod < n_exact
+    both = (fe.instance > 0) & (fl.instance == fe.instance)
+    assert both.sum() > 0.97 * (fe.instance > 0).sum()
+    dz = np.abs(fl.depth[both] - fe.depth[both])
+    # a sphere of radius 0.5 m kept at 10 % of its faces (2,048): chord sag ~ 0.5 (1 - cos a),
+    # with a the angle of a face, ~4 degrees: a few millimetres
+    assert np.median(dz) < 0.005 and dz.max() < 0.05
+    near = fe.instance == fe.instance[fe.instance > 0].min()   # the nearest sphere: not simplified
+    assert fl.depth[near].tobytes() == fe.depth[near].tobytes()
+
+
+def test_lod_settings_are_checked():
+    with pytest.raises(ConfigError, match="keep"):
+        LevelOfDetail(keep=1.5)
+    with pytest.raises(ConfigError, match="below_px"):
+        LevelOfDetail(below_px=0)
+    with pytest.raises(ConfigError, match="lod"):
+        Renderer(gg.Scene(), lod=0.5)
+
+
+def test_lod_is_an_accuracy_setting_that_capture_follows():
+    from genie_gl.capture import capture
+    from genie_gl.sensors.accuracy import AccuracySettings, from_dict
+
+    scene, pose = balls()
+    sensor = gg.Sensor.pinhole(320, 240, 260.0)
+    exact, = capture(scene, sensor, [pose], seed=0, depth_only=True)
+    lod, = capture(scene, sensor, [pose], seed=0, depth_only=True, accuracy=AccuracySettings(lod_px=60.0))
+    with Renderer(scene, lod=LevelOfDetail(below_px=60.0)) as r:
+        direct = r.render(sensor, pose, depth_only=True)
+    assert lod.depth.tobytes() == direct.depth.tobytes() and lod.depth.tobytes() != exact.depth.tobytes()
+    with pytest.raises(ConfigError, match="lod_px"):
+        from_dict({"lod_px": -3}, "profile.yaml")
