@@ -25,7 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "capture": ("genie_gl.commands.capture", "render a scene from K placed cameras and export clouds"),
     "plan": ("genie_gl.commands.plan", "print which effects run where, and why, before rendering"),
     "dataset": ("genie_gl.commands.dataset", "run the whole pipeline for N scenes"),
-    "bench": ("genie_gl.commands.bench", "benchmarks: render | layout | accuracy | pipeline | stability | planning | cli"),
+    "bench": ("genie_gl.commands.bench", "benchmarks: render | layout | accuracy | pipeline | stability | planning | sequence | odometry | cli"),
     "report-card": ("genie_gl.commands.report_card", "a sensor profile against published measurements of the real device"),
 }
 
