@@ -23,7 +23,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry \
+.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -43,7 +43,7 @@ $(STAMP): pyproject.toml
 	$(MAKE) system-deps
 	[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e ".[test]"
+	$(PY) -m pip install -q -e ".[test,neural]"
 	# pyrender (the reference renderer) pins PyOpenGL==3.1.0, whose OSMesa import is broken:
 	# install it without its pins; its real dependencies come with the test extra.
 	$(PY) -m pip install -q --no-deps "pyrender==0.1.45"
@@ -101,6 +101,11 @@ bench-pipeline: setup ## seconds per scene end to end
 	$(GENIE) bench pipeline --out $(OUT)/bench
 bench-stability: setup ## hard cases against analytic truth (exit 1 if one fails its tolerance)
 	$(GENIE) bench stability --out $(OUT)/bench
+bench-eval: setup ## the classical model's training time on ~1 M points (makes a 10-scene dataset once)
+	$(GENIE) dataset assembly_line --scenes 10 --cameras 16 --sensor realsense_d435 --out $(OUT)/eval-cache/datasets/assembly_line.realsense_d435.s0.n10.c16 --seed 0 --previews 0 --workers $(WORKERS)
+	$(GENIE) eval --bench --train $(OUT)/eval-cache/datasets/assembly_line.realsense_d435.s0.n10.c16 --out $(OUT)/bench --workers $(WORKERS)
+studies: setup ## every genie eval study (datasets made once under out/eval-cache; hours on 2 cores)
+	$(GENIE) eval --study all --out $(OUT)/studies --workers $(WORKERS) --yes
 bench-planning: setup ## a full D435 / Azure frame before and after planning (x the ideal render)
 	$(GENIE) bench planning --out $(OUT)/bench
 bench-cli: setup ## seconds genie --help and every subcommand's --help take

@@ -27,6 +27,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "dataset": ("genie_gl.commands.dataset", "run the whole pipeline for N scenes"),
     "bench": ("genie_gl.commands.bench", "benchmarks: render | layout | accuracy | pipeline | stability | planning | sequence | odometry | cli"),
     "report-card": ("genie_gl.commands.report_card", "a sensor profile against published measurements of the real device"),
+    "eval": ("genie_gl.commands.eval", "train and test segmentation models on datasets; protocols and studies"),
 }
 
 

@@ -84,7 +84,8 @@ def card_markdown(card: ReportCard, heading: str = "##") -> str:
             lines.append(row)
         n = card.counts()
         lines += ["", f"Counted figures: {n['pass']} pass, {n['differs']} differ, {n['not measured']} not measured "
-                      "(figures from unverified sources are shown, not counted)."]
+                      "(only figures read in their source count; secondary and unverified ones are shown, "
+                      "not counted)."]
     else:
         lines.append("No reference file: nothing to compare against.")
     lines += ["", f"{heading} Measured", ""]
@@ -309,7 +310,7 @@ def page_markdown(card: ReportCard, images: list[str], references: dict | None =
     lines += [f"![{name}]({name})" for name in images]
     lines += ["", "Published figures are drawn in black: dashed lines are bounds over a distance range, "
                   "triangles bounds at one distance, squares values with their tolerance (hollow and dotted: "
-                  "from a source not read, not counted).", ""]
+                  "not read in their source, not counted).", ""]
     if references:
         lines += ["## Sources", ""]
         for key, src in references.items():

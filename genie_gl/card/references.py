@@ -26,7 +26,8 @@ the figure grow with distance (value + per_m * distance_m: "11 mm + 0.1 % of dis
 value 11, per_m 1). A figure holds at one ``distance_m`` or over every card distance inside
 ``distance_range_m``. ``verification`` says how the figure was obtained: ``read`` in the
 source itself, ``secondary`` (quoted by someone else; the source itself not read), or
-``unverified`` (a figure to confirm; the card shows it but does not count it).
+``unverified`` (a figure to confirm). The card shows every figure and counts only the ones
+read in their source.
 
 Unknown keys, metrics, sources or bounds are refused with the file and the key named.
 """
@@ -169,8 +170,8 @@ class Figure:
 
     @property
     def counted(self) -> bool:
-        """Unverified figures are shown, not counted."""
-        return self.source.verification != "unverified"
+        """Only figures read in their source count; secondary and unverified ones are shown."""
+        return self.source.verification == "read"
 
 
 @dataclass(frozen=True)

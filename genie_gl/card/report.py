@@ -57,7 +57,7 @@ class ReportCard:
     capture_source: str | None = None
 
     def counts(self) -> dict[str, int]:
-        """Verdicts of the counted (not unverified) figures: pass, differs, not measured."""
+        """Verdicts of the counted figures (read in their source): pass, differs, not measured."""
         out = {"pass": 0, "differs": 0, "not measured": 0}
         for c in self.comparisons:
             if c.figure.counted:

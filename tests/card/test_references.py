@@ -29,8 +29,8 @@ def test_shipped_reference_files_load_and_name_their_profile(name):
         assert f.quote.strip() and f.source.citation.strip()
         if f.bound == "value":
             assert f.tolerance is not None and f.tolerance_from
-    # a figure read in its source is counted; one not read is not
-    assert all(f.counted == (f.source.verification != "unverified") for f in refs.figures)
+    # a figure read in its source is counted; one quoted by others or not read is not
+    assert all(f.counted == (f.source.verification == "read") for f in refs.figures)
 
 
 def _good():
@@ -120,3 +120,18 @@ def test_a_reference_file_of_another_sensor_is_refused(tmp_path):
     p.write_text(yaml.safe_dump(_good()))          # sensor: x
     with pytest.raises(ConfigError, match=r"r.yml: \$\.sensor is 'x', but the profile is 'ideal_pinhole'"):
         report_card("ideal_pinhole", references=str(p))
+
+
+def test_only_figures_read_in_their_source_are_counted():
+    from genie_gl.card.report import Comparison, ReportCard
+    from genie_gl.card.measurements import CardSettings
+
+    figs = []
+    for how in ("read", "secondary", "unverified"):
+        d = _good()
+        d["sources"]["s"]["verification"] = how
+        figs.append(parse_references(d).figures[0])
+    assert [f.counted for f in figs] == [True, False, False]
+    comps = tuple(Comparison(f, judge(f, [_m(1.0)])) for f in figs)          # all three pass
+    card = ReportCard("x", "x.yaml", CardSettings(), (), "ref.yaml", comps)
+    assert card.counts() == {"pass": 1, "differs": 0, "not measured": 0}

@@ -133,9 +133,9 @@ def test_structured_light_profile_end_to_end():
         ideal = simulate(ideal_sensor, np.eye(4), render=r.render, rng=np.random.default_rng(0))
     wall = (ideal.depth > 0.85) & (out.depth > 0)
     assert wall.sum() > 10_000 and np.isfinite(out.depth).all()
-    expected = 0.9 ** 2 * 0.023 / (s.fx * 0.135)                       # 0.1 mm
+    expected = 0.9 ** 2 * 0.0122 / (s.fx * s.stereo.baseline_m)      # 0.1 mm
     assert np.std(out.depth[wall].astype(np.float64) - ideal.depth[wall]) == pytest.approx(expected, rel=0.05)
-    # the projector, 135 mm to the right, cannot light a strip left of the cube
+    # the projector, 112 mm to the right, cannot light a strip left of the cube
     assert out.meta["stereo_shadow"]["occluded"] > 0 and out.meta["stereo_shadow"]["outside"] > 0
 
 

@@ -199,8 +199,9 @@ def test_shipped_profiles_load():
         assert s.width > 0 and s.fx > 0
     assert gg.load_sensor("realsense_d435").stereo.baseline_m == pytest.approx(0.05)
     zivid = gg.load_sensor("zivid2_m70")
-    assert zivid.size == (972, 600) and zivid.stereo.baseline_m == pytest.approx(0.135)
-    assert np.degrees(2 * np.arctan(486 / zivid.fx)) == pytest.approx(38.8, abs=0.1)
+    # Zivid's nominal Zivid 2 M70: 1785 px at 1944x1200, projector (111.2, 0, 9.7) mm from the camera
+    assert zivid.size == (972, 600) and zivid.stereo.baseline_m == pytest.approx(np.hypot(0.1112, 0.0097))
+    assert np.degrees(2 * np.arctan(486 / zivid.fx)) == pytest.approx(57.1, abs=0.1)
     assert [e.name for e in zivid.effects] == ["range", "stereo_shadow", "specular_loss", "incidence_dropout",
                                                "depth_noise"]
     # 60 um point precision at 0.7 m, the figure the profile's sigma_d was derived from

@@ -1,0 +1,130 @@
+"""``genie eval``: train a segmentation model on datasets and test it on others; the paper's
+protocols; the project's studies.
+
+::
+
+    genie eval --train DIR [DIR ...] --test DIR [DIR ...] [--model classical|height|majority|neural]
+               [--seeds 0,1,2] [--label-map FILE] --out OUT
+    genie eval --preset mix|finetune|scarce --target-train DIR --target-test DIR --train SYNTHETIC ... --out OUT
+    genie eval --study strategy|sensor|accuracy|balance|models|mix|all --out OUT [--scenes 10 --test-scenes 4]
+    genie eval --bench [--train DIR]      # training time of the classical model on ~1 M points
+
+A dataset is ``DIR`` or ``DIR:train|valid|test|00,03`` (sequences or scenes of it).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+from pathlib import Path
+
+from ..errors import ConfigError
+
+log = logging.getLogger(__name__)
+STUDY_NAMES = ("strategy", "sensor", "accuracy", "balance", "models", "mix", "all")
+# the names of genie_gl.eval.run.MODELS and genie_gl.eval.protocols.PRESETS, spelt here so that
+# `genie eval --help` imports no model (tests/eval/test_inputs.py checks they agree)
+MODELS = ("classical", "height", "majority", "neural")
+PRESETS = ("mix", "finetune", "scarce")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--train", nargs="+", metavar="DIR", help="training datasets (DIR or DIR:PART)")
+    p.add_argument("--test", nargs="+", metavar="DIR", help="test datasets (DIR or DIR:PART)")
+    p.add_argument("--model", default="classical", help=f"one of {', '.join(MODELS)}")
+    p.add_argument("--seeds", default="0,1,2", help="comma-separated seeds, one training each (>= 3 for a spread)")
+    p.add_argument("--label-map", default=None, metavar="FILE",
+                   help="YAML/JSON {map: {their class: our class}} for a foreign SemanticKITTI set")
+    p.add_argument("--out", required=False, help="output folder")
+    p.add_argument("--workers", type=int, default=2, help="processes/threads (results do not depend on it)")
+    p.add_argument("--cache", default=None, help="feature and dataset cache (default: OUT/../eval-cache)")
+    p.add_argument("--preset", choices=PRESETS, default=None, help="a paper protocol (with --target-train/--target-test)")
+    p.add_argument("--target-train", default=None, metavar="DIR", help="the target's training set (your real scans)")
+    p.add_argument("--target-test", default=None, metavar="DIR", help="the target's test set")
+    p.add_argument("--study", choices=STUDY_NAMES, default=None, help="run a study (makes its datasets once, cached)")
+    p.add_argument("--scenes", type=int, default=10, help="study: training scenes per condition")
+    p.add_argument("--test-scenes", type=int, default=4, help="study: held-out test scenes per condition")
+    p.add_argument("--cameras", type=int, default=16, help="study: cameras per scene")
+    p.add_argument("--yes", action="store_true", help="study: do not stop after printing the time estimate")
+    p.add_argument("--bench", action="store_true", help="time the classical model's training on ~1 M points")
+    p.add_argument("--no-progress", action="store_true")
+
+
+def _seeds(text: str) -> list[int]:
+    try:
+        seeds = [int(s) for s in str(text).split(",") if s.strip()]
+    except ValueError:
+        seeds = []
+    if not seeds or min(seeds) < 0:
+        raise ConfigError(f"--seeds {text!r}: expected comma-separated integers >= 0, such as 0,1,2")
+    return seeds
+
+
+def _cache(args: argparse.Namespace) -> Path:
+    if args.cache:
+        return Path(args.cache)
+    return Path(args.out).parent / "eval-cache"
+
+
+def run(args: argparse.Namespace) -> int:
+    # LightGBM's OpenMP threads spin while they wait; on a shared machine that burns the other
+    # thread's core (measured: 8x the CPU per boosting round at load 10). Passive waiting,
+    # set before the OpenMP runtime loads, unless the user chose otherwise.
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    if args.workers < 1:
+        raise ConfigError("--workers must be >= 1")
+    progress = not args.no_progress
+    if args.bench:
+        from ..eval.bench import bench_training
+
+        print(bench_training(args.train, out=args.out, workers=args.workers, cache=args.cache))
+        return 0
+    if not args.out:
+        raise ConfigError("--out: required (the folder for metrics, predictions and pictures)")
+    seeds = _seeds(args.seeds)
+    if args.study:
+        from ..studies.runner import run_study
+
+        text = run_study(args.study, out=Path(args.out), cache=_cache(args), seeds=seeds, scenes=args.scenes,
+                         test_scenes=args.test_scenes, cameras=args.cameras, workers=args.workers,
+                         progress=progress, confirm=args.yes)
+        print(text)
+        return 0
+    if args.preset:
+        if not (args.target_train and args.target_test and args.train):
+            raise ConfigError(f"--preset {args.preset}: needs --target-train DIR, --target-test DIR and "
+                              "--train SYNTHETIC [...] (the synthetic data)")
+        from ..eval import protocols
+        from ..outputs import claim_folder
+        from ..studies.report import preset_markdown
+
+        claim_folder(args.out, "eval-preset", reserve=True)
+
+        if args.preset == "finetune":
+            res = protocols.finetune(args.target_train, args.target_test, args.train, out=args.out, model=args.model,
+                                     seeds=seeds, workers=args.workers, label_map=args.label_map,
+                                     cache=_cache(args) / "features", progress=progress)
+        else:
+            res = protocols.mix(args.target_train, args.target_test, args.train, out=args.out, model=args.model,
+                                seeds=seeds, scarce=args.preset == "scarce", workers=args.workers,
+                                label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
+        print(preset_markdown(args.preset, res, Path(args.out)))
+        return 0
+    if not args.train or not args.test:
+        raise ConfigError("give --train DIR ... and --test DIR ... (or --preset, --study, --bench)")
+    from ..eval import evaluate
+
+    result = evaluate(args.train, args.test, model=args.model, seeds=seeds, out=args.out, workers=args.workers,
+                      label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
+    for t in result.tests:
+        s = t.summary
+        extra = f"; never seen in training: {', '.join(result.names[c] for c in t.unseen)}" if t.unseen else ""
+        print(f"{t.name}: mIoU {s['miou'].text()}  mAcc {s['macc'].text()}  OA {s['oa'].text()} "
+              f"({len(seeds)} seeds){extra}")
+    print(f"-> {args.out}/report.md, metrics.json, predictions/")
+    return 0
+
+
+if __name__ == "__main__":   # pragma: no cover
+    sys.exit(0)

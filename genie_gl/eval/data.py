@@ -1,0 +1,379 @@
+"""Reading labelled point-cloud datasets for training and testing: genie-gl's own outputs
+(SemanticKITTI with its yaml, PLY, NPZ) and any SemanticKITTI-layout set with its yaml.
+
+A dataset is named by its folder, optionally with a part of it: ``DIR`` (every sequence or
+scene), ``DIR:train`` / ``DIR:valid`` / ``DIR:test`` (the yaml's ``split``), ``DIR:00,03``
+(those sequences or scenes). Each scan is read into a :class:`Scan` in the world frame
+(SemanticKITTI: ``inv(Tr) · pose · Tr`` applied to the scan, as the API's
+``generate_sequential`` does), its labels mapped to our classes (:mod:`.labelmap`), and its
+floor height known (genie-gl data: z = 0, DESIGN.md) or estimated (a foreign set: the 1st
+percentile of the scan's z).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from ..errors import ConfigError
+from . import labelmap
+from .labelmap import LabelMap
+
+log = logging.getLogger(__name__)
+FLOOR_PERCENTILE = 1.0   # a foreign scan's floor: this percentile of its z
+OUR_YAML = "genie-gl.yaml"
+
+
+@dataclass(frozen=True, eq=False)
+class Scan:
+    """One labelled scan (a SemanticKITTI scan, or a PLY/NPZ chunk).
+
+    Attributes
+    ----------
+    xyz : (N, 3) float32
+        World frame relative to ``origin``, metres, z up.
+    origin : (3,) float64
+        World position of xyz = 0.
+    label : (N,) int16
+        Our class ids (``genie_gl.labels``); -1 = unlabelled (left out).
+    floor_z : float
+        World z of the floor under the scan, metres.
+    key : str
+        Where in its dataset: ``sequences/03/000012`` or ``scenes/0002/cloud_004``.
+    path : str
+        The file holding the points.
+    """
+
+    xyz: np.ndarray
+    origin: np.ndarray
+    label: np.ndarray
+    floor_z: float
+    key: str
+    path: str
+
+    def __post_init__(self) -> None:
+        n = len(self.xyz)
+        if self.xyz.shape != (n, 3) or self.xyz.dtype != np.float32:
+            raise ConfigError(f"{self.path}: points must be (N, 3) float32, got {self.xyz.shape} {self.xyz.dtype}")
+        if self.label.shape != (n,):
+            raise ConfigError(f"{self.path}: {len(self.label)} labels for {n} points")
+
+    @property
+    def height(self) -> np.ndarray:
+        """(N,) float32: height above the floor, metres."""
+        return (self.xyz[:, 2] + np.float32(self.origin[2] - self.floor_z)).astype(np.float32)
+
+    def __len__(self) -> int:
+        return len(self.xyz)
+
+
+@dataclass(frozen=True, eq=False)
+class EvalSet:
+    """A dataset read for evaluation.
+
+    Attributes
+    ----------
+    root : Path
+    spec : str
+        As given (``DIR``, ``DIR:test``, ...).
+    format : str
+        ``semantickitti``, ``ply`` or ``npz``.
+    scans : tuple[Scan, ...]
+    label_map : LabelMap
+        How its raw labels became our classes (predictions are written back through it).
+    names : dict[int, str]
+        Class names by id, as the set's yaml has them (genie-gl's for PLY/NPZ).
+    """
+
+    root: Path
+    spec: str
+    format: str
+    scans: tuple[Scan, ...]
+    label_map: LabelMap
+    names: dict[int, str]
+
+    @property
+    def n_points(self) -> int:
+        return sum(len(s) for s in self.scans)
+
+    def counts(self, n_classes: int) -> np.ndarray:
+        """(n_classes,) int64 labelled points per class."""
+        out = np.zeros(n_classes, np.int64)
+        for s in self.scans:
+            lab = s.label[s.label >= 0].astype(np.int64)
+            out += np.bincount(lab, minlength=n_classes)[:n_classes]
+        return out
+
+    def max_class(self) -> int:
+        return max((int(s.label.max()) for s in self.scans if len(s)), default=-1)
+
+
+def parse_spec(spec: str | os.PathLike) -> tuple[Path, str | None]:
+    """``DIR[:PART]`` -> (DIR, PART or None); a colon inside an existing path is part of it."""
+    text = str(spec)
+    if Path(text).exists() or ":" not in text:
+        return Path(text), None
+    root, part = text.rsplit(":", 1)
+    return Path(root), part.strip() or None
+
+
+def detect_format(root: Path) -> str:
+    """The format of a dataset folder, or a one-line error naming what it is instead."""
+    if not root.exists():
+        raise ConfigError(f"{root}: no such dataset folder")
+    if not root.is_dir():
+        raise ConfigError(f"{root}: expected a dataset folder (sequences/ or scenes/), got a file")
+    if (root / "sequences").is_dir():
+        return "semantickitti"
+    if (root / "train_pbr").is_dir() or (root / "scene_camera.json").exists():
+        raise ConfigError(f"{root}: a BOP image dataset (RGB-D frames), not labelled point clouds; "
+                          "make the dataset with --format semantickitti, ply or npz")
+    scenes = root / "scenes"
+    for ext in ("ply", "npz"):
+        if scenes.is_dir() and next(scenes.glob(f"*/cloud_*.{ext}"), None) is not None:
+            return ext
+    if scenes.is_dir() and next(scenes.glob("*/cloud_*.pcd"), None) is not None:
+        raise ConfigError(f"{root}: PCD clouds are not read for evaluation; make the dataset with "
+                          "--format semantickitti, ply or npz")
+    if (root / "velodyne").is_dir():
+        raise ConfigError(f"{root}: a single sequence folder; give the dataset root (the folder holding "
+                          f"sequences/), with :{root.name} to choose this sequence")
+    raise ConfigError(f"{root}: not a dataset genie eval reads (expected sequences/ with a label-map yaml, "
+                      "or scenes/NNNN/cloud_*.ply|npz)")
+
+
+def _find_yaml(root: Path) -> Path:
+    if (root / OUR_YAML).exists():
+        return root / OUR_YAML
+    found = sorted(root.glob("*.yaml")) + sorted((root / "config").glob("*.yaml"))
+    if not found:
+        raise ConfigError(f"{root}: a SemanticKITTI layout needs its label-map yaml (labels, learning_map) "
+                          f"beside sequences/; none found")
+    return found[0]
+
+
+def _read_yaml(path: Path) -> dict:
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"{path}: cannot read the label-map yaml ({str(exc).splitlines()[0]})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("labels"), dict):
+        raise ConfigError(f"{path}: a SemanticKITTI label-map yaml needs 'labels: {{raw id: name}}'")
+    return data
+
+
+def _matrices(path: Path, n: int | None = None) -> list[np.ndarray]:
+    rows = []
+    for line in path.read_text().splitlines():
+        line = line.split(":", 1)[1] if ":" in line else line
+        if line.strip():
+            v = np.array([float(x) for x in line.split()], np.float64)
+            if v.size != 12:
+                raise ConfigError(f"{path}: expected 12 numbers (a 3x4 matrix) per line, got {v.size}")
+            m = np.eye(4)
+            m[:3] = v.reshape(3, 4)
+            rows.append(m)
+    return rows
+
+
+def _calib_tr(seq: Path) -> np.ndarray:
+    calib = seq / "calib.txt"
+    if not calib.exists():
+        return np.eye(4)
+    for line in calib.read_text().splitlines():
+        if line.startswith("Tr:"):
+            return _matrices_from_text(line, calib)
+    return np.eye(4)
+
+
+def _matrices_from_text(line: str, where: Path) -> np.ndarray:
+    v = np.array([float(x) for x in line.split(":", 1)[1].split()], np.float64)
+    if v.size != 12:
+        raise ConfigError(f"{where}: Tr needs 12 numbers, got {v.size}")
+    m = np.eye(4)
+    m[:3] = v.reshape(3, 4)
+    return m
+
+
+def _select(names: list[str], part: str | None, split: dict | None, where: Path) -> list[str]:
+    if part is None:
+        return names
+    if part in ("train", "valid", "test"):
+        if not split or part not in split:
+            raise ConfigError(f"{where}:{part}: the yaml has no split {part!r}")
+        chosen = [f"{int(s):02d}" for s in split[part]]
+        return [n for n in names if n in chosen]
+    wanted = [p.strip() for p in part.split(",") if p.strip()]
+    if not wanted or not all(w.isdigit() for w in wanted):
+        raise ConfigError(f"{where}:{part}: expected train, valid, test or a list of numbers such as 00,03")
+    width = len(names[0]) if names else 2
+    chosen = [f"{int(w):0{width}d}" for w in wanted]
+    missing = [c for c in chosen if c not in names]
+    if missing:
+        raise ConfigError(f"{where}:{part}: no {missing[0]} here (there are {', '.join(names[:8])}"
+                          f"{' ...' if len(names) > 8 else ''})")
+    return chosen
+
+
+def _floor(world_z: np.ndarray, ours: bool) -> float:
+    if ours or not world_z.size:
+        return 0.0
+    return float(np.percentile(world_z, FLOOR_PERCENTILE))
+
+
+def _read_semantickitti(root: Path, part: str | None, mapping: str | os.PathLike | None) -> tuple:
+    ypath = _find_yaml(root)
+    data = _read_yaml(ypath)
+    their = {int(k): str(v) for k, v in data["labels"].items()}
+    ours = str(data.get("name", "")) == "genie-gl" or ypath.name == OUR_YAML
+    if ours:   # genie-gl's own classes; a --label-map is for foreign sets
+        lmap = labelmap.identity({k: v for k, v in their.items() if k > 9})
+        labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
+    elif mapping is not None:
+        lmap = labelmap.load(mapping, their)
+    else:
+        try:
+            labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
+        except ConfigError:
+            raise ConfigError(f"{ypath}: this set's classes are not genie-gl's (e.g. {next(iter(their.items()))}); "
+                              "give --label-map FILE mapping their classes to ours") from None
+        lmap = labelmap.identity(their)
+    seq_root = root / "sequences"
+    names = sorted(p.name for p in seq_root.iterdir() if p.is_dir() and p.name.isdigit())
+    scans = []
+    for name in _select(names, part, data.get("split"), root):
+        seq = seq_root / name
+        bins = sorted((seq / "velodyne").glob("*.bin"))
+        if bins and not (seq / "labels").is_dir():
+            raise ConfigError(f"{seq}: unlabelled sequence (velodyne/ but no labels/): cannot train or test on it")
+        poses = _matrices(seq / "poses.txt") if (seq / "poses.txt").exists() else []
+        tr = _calib_tr(seq)
+        tr_inv = np.linalg.inv(tr)
+        for b in bins:
+            lab_path = seq / "labels" / (b.stem + ".label")
+            if not lab_path.exists():
+                raise ConfigError(f"{lab_path}: missing (every scan needs its labels)")
+            pts = np.fromfile(b, dtype="<f4")
+            if pts.size % 4:
+                raise ConfigError(f"{b}: size {pts.size * 4} bytes is not a whole number of (x, y, z, remission) records")
+            pts = pts.reshape(-1, 4)[:, :3]
+            raw = np.fromfile(lab_path, dtype="<u4")
+            if len(raw) != len(pts):
+                raise ConfigError(f"{lab_path}: {len(raw)} labels for {len(pts)} points in {b.name}")
+            k = int(b.stem)
+            pose = tr_inv @ poses[k] @ tr if k < len(poses) else np.eye(4)
+            # world = R xyz + t; keep float32 relative to the translation
+            rot, origin = pose[:3, :3], pose[:3, 3].copy()
+            xyz = pts if np.allclose(rot, np.eye(3)) else (pts.astype(np.float64) @ rot.T).astype(np.float32)
+            label = lmap.apply(raw & 0xFFFF, str(lab_path))
+            world_z = xyz[:, 2].astype(np.float64) + origin[2]
+            scans.append(Scan(xyz=np.ascontiguousarray(xyz, np.float32), origin=origin, label=label,
+                              floor_z=_floor(world_z, ours), key=f"sequences/{name}/{b.stem}", path=str(b)))
+    names_out = dict(lmap.names)
+    return scans, lmap, names_out
+
+
+_PLY_TYPES = {"float": "<f4", "float32": "<f4", "double": "<f8", "uchar": "u1", "uint8": "u1", "char": "i1",
+              "short": "<i2", "ushort": "<u2", "int": "<i4", "int32": "<i4", "uint": "<u4", "uint32": "<u4"}
+
+
+def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(xyz float32 (N, 3), semantic (N,), origin (3,)) of a binary little-endian PLY with
+    ``x y z`` and ``semantic`` vertex properties, as ``genie_gl.export.ply`` writes them."""
+    raw = path.read_bytes()
+    end = raw.find(b"end_header\n")
+    if not raw.startswith(b"ply") or end < 0:
+        raise ConfigError(f"{path}: not a PLY file")
+    header = raw[:end].decode("ascii", "replace").splitlines()
+    if "format binary_little_endian 1.0" not in header:
+        raise ConfigError(f"{path}: only binary little-endian PLY is read (genie-gl writes it)")
+    fields, n, origin, in_vertex = [], 0, np.zeros(3), False
+    for line in header:
+        parts = line.split()
+        if parts[:2] == ["comment", "origin"]:
+            origin = np.array([float(x) for x in parts[2:5]])
+        elif parts[:1] == ["element"]:
+            in_vertex = parts[1] == "vertex"
+            if in_vertex:
+                n = int(parts[2])
+        elif parts[:1] == ["property"] and in_vertex:
+            if parts[1] not in _PLY_TYPES:
+                raise ConfigError(f"{path}: vertex property type {parts[1]!r} not read")
+            fields.append((parts[2], _PLY_TYPES[parts[1]]))
+    names = [f for f, _ in fields]
+    if "semantic" not in names or not {"x", "y", "z"} <= set(names):
+        raise ConfigError(f"{path}: unlabelled cloud (expected vertex properties x, y, z and semantic; "
+                          f"got {', '.join(names)})")
+    rec = np.frombuffer(raw, dtype=np.dtype(fields), count=n, offset=end + len(b"end_header\n"))
+    xyz = np.stack([rec["x"], rec["y"], rec["z"]], 1).astype(np.float32)
+    return xyz, rec["semantic"].astype(np.int64), origin
+
+
+def _read_chunks(root: Path, fmt: str, part: str | None) -> tuple:
+    scene_dirs = sorted(p.name for p in (root / "scenes").iterdir() if p.is_dir() and p.name.isdigit())
+    lmap = labelmap.identity()
+    scans = []
+    for name in _select(scene_dirs, part, None, root):
+        for f in sorted((root / "scenes" / name).glob(f"cloud_*.{fmt}")):
+            if fmt == "ply":
+                xyz, sem, origin = read_ply(f)
+            else:
+                with np.load(f) as z:
+                    if "semantic" not in z.files or "xyz" not in z.files:
+                        raise ConfigError(f"{f}: unlabelled cloud (expected arrays xyz and semantic; got "
+                                          f"{', '.join(z.files)})")
+                    xyz, sem = z["xyz"].astype(np.float32), z["semantic"].astype(np.int64)
+                    origin = z["origin"].astype(np.float64) if "origin" in z.files else np.zeros(3)
+            if sem.size and (sem.min() < 0 or sem.max() >= labelmap.RAW_IDS):
+                raise ConfigError(f"{f}: label {int(sem.min() if sem.min() < 0 else sem.max())} is outside "
+                                  f"0..{labelmap.RAW_IDS - 1}")
+            scans.append(Scan(xyz=np.ascontiguousarray(xyz), origin=origin, label=lmap.apply(sem, str(f)),
+                              floor_z=0.0, key=f"scenes/{name}/{f.stem}", path=str(f)))
+    return scans, lmap, dict(lmap.names)
+
+
+def read_set(spec: str | os.PathLike, *, label_map: str | os.PathLike | None = None) -> EvalSet:
+    """Read a dataset (``DIR`` or ``DIR:PART``) for training or testing.
+
+    Parameters
+    ----------
+    spec : str or path
+        The dataset folder, optionally ``:train``, ``:valid``, ``:test`` or ``:00,03``.
+    label_map : path, optional
+        A label-map file from the set's raw classes to ours (required for a foreign
+        SemanticKITTI set whose classes are not genie-gl's).
+
+    Raises
+    ------
+    ConfigError
+        A folder of another format, an unlabelled or empty set, a label outside the map.
+    """
+    root, part = parse_spec(spec)
+    fmt = detect_format(root)
+    if fmt == "semantickitti":
+        scans, lmap, names = _read_semantickitti(root, part, label_map)
+    else:
+        if label_map is not None:
+            log.info("%s: --label-map applies to SemanticKITTI sets; %s holds genie-gl's classes", spec, fmt)
+        scans, lmap, names = _read_chunks(root, fmt, part)
+    scans = [s for s in scans if len(s)]
+    if not scans:
+        raise ConfigError(f"{spec}: empty set (no scan with points{' in ' + part if part else ''})")
+    if not any((s.label >= 0).any() for s in scans):
+        raise ConfigError(f"{spec}: unlabelled set (every point maps to ignore): nothing to train or test on")
+    log.info("%s: %d scans, %d points (%s)", spec, len(scans), sum(len(s) for s in scans), fmt)
+    return EvalSet(root=root, spec=str(spec), format=fmt, scans=tuple(scans), label_map=lmap, names=names)
+
+
+_SCENE_RE = re.compile(r"^(sequences|scenes)/(\d+)/")
+
+
+def group_of(scan: Scan) -> str:
+    """The sequence or scene a scan belongs to (``sequences/03``), for splits by scene."""
+    m = _SCENE_RE.match(scan.key)
+    return m.group(0).rstrip("/") if m else scan.key

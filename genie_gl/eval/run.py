@@ -1,0 +1,250 @@
+"""``evaluate``: train a segmentation model on some datasets, test it on others, once per seed.
+
+Each seed trains the model afresh (its sub-sample, validation scenes, bagging and, for the neural
+model, initial weights and batches all come from ``numpy.random.default_rng(seed)``), predicts
+every test point, writes the predictions as ``.label`` files (:mod:`.predictions`) and scores
+them (:mod:`.metrics`). The figures over the seeds are reported with their spread. Output
+folder::
+
+    OUT/metrics.json        per seed and summarised (mean, std, min, max): mIoU, mAcc, OA, per
+                            class IoU and Acc, confusion matrices; the same bytes for the same inputs
+    OUT/timings.json        seconds of each step (not in metrics.json: they vary run to run)
+    OUT/report.md           the tables
+    OUT/predictions/seed<S>/<test>/...   the .label files
+    OUT/<test>.confusion.png, OUT/<test>.iou.png
+"""
+from __future__ import annotations
+
+import json
+import logging
+import os
+import re
+import time
+from importlib.metadata import PackageNotFoundError, version
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import labels as label_names
+from ..outputs import atomic_write_text, claim_folder
+from ..errors import ConfigError, did_you_mean
+from . import metrics, predictions
+from .classical import BoostParams, ClassicalModel, HeightModel, MajorityModel
+from .data import EvalSet, read_set
+from .features import PointTable
+from .labelmap import check_same_classes
+from .neural import NeuralModel, NeuralParams
+from .plots import confusion_png, iou_bars_png
+from .report import result_markdown
+
+log = logging.getLogger(__name__)
+MODELS = ("classical", "height", "majority", "neural")
+
+
+def make_model(name: str, n_classes: int, params: Any = None) -> Any:
+    """A fresh, untrained model by name."""
+    if name == "classical":
+        return ClassicalModel(n_classes, params or BoostParams())
+    if name == "height":
+        return HeightModel(n_classes, params or BoostParams())
+    if name == "majority":
+        return MajorityModel(n_classes)
+    if name == "neural":
+        return NeuralModel(n_classes, params or NeuralParams())
+    raise ConfigError(f"--model {name!r}: unknown{did_you_mean(name, MODELS)}; expected one of {', '.join(MODELS)}")
+
+
+@dataclass(frozen=True)
+class TestResult:
+    """One test set's scores: one :class:`~.metrics.Scores` per seed and their summary."""
+
+    spec: str
+    name: str
+    runs: tuple[metrics.Scores, ...]
+    summary: dict
+    unseen: tuple[int, ...]          # test classes no training point had
+    n_points: int
+
+
+@dataclass(frozen=True)
+class EvalResult:
+    """What :func:`evaluate` measured."""
+
+    model: str
+    seeds: tuple[int, ...]
+    train: tuple[str, ...]
+    tests: tuple[TestResult, ...]
+    names: dict[int, str]
+    n_train_points: int
+    rounds: tuple[int, ...] = ()
+    timings: dict = field(default_factory=dict)
+    out: Path | None = None
+
+    def test(self, name_or_spec: str) -> TestResult:
+        for t in self.tests:
+            if name_or_spec in (t.name, t.spec):
+                return t
+        raise KeyError(name_or_spec)
+
+    def as_dict(self) -> dict:
+        def spread_dict(summary: dict) -> dict:
+            return {"miou": summary["miou"].as_dict(), "macc": summary["macc"].as_dict(),
+                    "oa": summary["oa"].as_dict(),
+                    "iou": {self.names.get(c, f"class_{c}"): s.as_dict() for c, s in summary["iou"].items()},
+                    "acc": {self.names.get(c, f"class_{c}"): s.as_dict() for c, s in summary["acc"].items()},
+                    "confusion_summed": summary["confusion"].tolist()}
+        return {"model": self.model, "seeds": list(self.seeds), "train": list(self.train),
+                "n_train_points": self.n_train_points, "rounds": list(self.rounds),
+                "classes": {str(k): v for k, v in sorted(self.names.items())},
+                "tests": [{"spec": t.spec, "name": t.name, "points": t.n_points,
+                           "unseen_classes": [self.names.get(c, f"class_{c}") for c in t.unseen],
+                           "summary": spread_dict(t.summary),
+                           "runs": [dict(seed=s, **r.as_dict(self.names)) for s, r in zip(self.seeds, t.runs)]}
+                          for t in self.tests]}
+
+
+def set_name(spec: str) -> str:
+    """A file-name-safe short name of a dataset spec (``out/x/storage:test`` -> ``storage-test``)."""
+    root, _, part = str(spec).rstrip("/").partition(":") if not Path(str(spec)).exists() else (str(spec), "", "")
+    name = Path(root).name + (f"-{part}" if part else "")
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", name) or "set"
+
+
+def _as_set(x: str | os.PathLike | EvalSet, label_map: str | os.PathLike | None) -> EvalSet:
+    return x if isinstance(x, EvalSet) else read_set(x, label_map=label_map)
+
+
+def _write_json(path: Path, data: Any) -> None:
+    atomic_write_text(path, json.dumps(data, indent=1, sort_keys=False) + "\n")
+
+
+def _versions() -> dict[str, str]:
+    out = {}
+    for pkg in ("genie-gl", "numpy", "pgeof", "lightgbm", "torch"):
+        try:
+            out[pkg] = version(pkg)
+        except PackageNotFoundError:
+            pass
+    return out
+
+
+def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | os.PathLike | EvalSet], *,
+             model: str = "classical", seeds: Sequence[int] = (0, 1, 2), out: str | os.PathLike | None = None,
+             workers: int = 1, label_map: str | os.PathLike | None = None, cache: str | os.PathLike | None = None,
+             progress: bool = False, class_map: dict[int, int] | None = None,
+             eval_classes: Sequence[int] | None = None, params: Any = None, init: Any = None,
+             write_predictions: bool = True, pictures: bool = True) -> EvalResult:
+    """Train ``model`` on ``train`` and test it on each of ``test``, once per seed.
+
+    Parameters
+    ----------
+    train, test : sequences of dataset specs (``DIR``, ``DIR:test``, ...) or read sets
+    model : ``classical`` | ``height`` | ``majority`` | ``neural``
+    seeds : at least one; three or more give a spread
+    out : folder for metrics, predictions and pictures (None: nothing written)
+    workers : processes for features, threads for the classifier; the results do not depend on it
+    label_map : a label-map file for foreign SemanticKITTI sets (their classes -> ours)
+    cache : folder for per-scan features (reused across runs)
+    class_map : {our class: class the protocol trains on} (e.g. the ``scarce`` preset's 3 classes
+        plus "other"); classes not listed keep their id
+    eval_classes : classes to average over (default: those present in each test set)
+    params : model parameters (``BoostParams`` or ``NeuralParams``)
+    init : a function ``seed -> trained model`` to go on training from (fine-tuning)
+
+    Returns
+    -------
+    EvalResult
+    """
+    seeds = tuple(int(s) for s in seeds)
+    if not seeds:
+        raise ConfigError("--seeds: at least one seed")
+    if not train:
+        raise ConfigError("--train: at least one dataset")
+    if not test:
+        raise ConfigError("--test: at least one dataset")
+    t0 = time.perf_counter()
+    folder = None
+    if out is not None:   # claimed before any work: only what genie eval writes is ever replaced
+        folder = claim_folder(out, "eval", ("metrics.json", "timings.json", "report.md", "predictions"),
+                              reserve=True)
+    train_sets = [_as_set(x, label_map) for x in train]
+    test_sets = [_as_set(x, label_map) for x in test]
+    everything = train_sets + test_sets
+    names = dict(label_names.CLASSES)
+    named_by: dict[int, str] = {}
+    for s in everything:   # every set against the names the sets before it gave
+        for k in set(names) & set(s.names):
+            check_same_classes({k: names[k]}, named_by.get(k, "genie-gl's classes"), {k: s.names[k]}, s.spec)
+        for k, v in s.names.items():
+            named_by.setdefault(k, s.spec)
+            names[k] = v
+    lut = None
+    n_classes = max(10, max(s.max_class() for s in everything) + 1)
+    if class_map is not None:
+        lut = np.arange(n_classes, dtype=np.int16)
+        for a, b in class_map.items():
+            lut[int(a)] = int(b)
+        n_classes = int(lut.max()) + 1
+    opts = {"workers": workers, "cache": cache, "progress": progress}
+    train_pts = PointTable([s for ts in train_sets for s in ts.scans], class_map=lut, **opts)
+    if not (train_pts.labels >= 0).any():
+        raise ConfigError(f"--train {', '.join(s.spec for s in train_sets)}: no labelled point")
+    seen = set(np.unique(train_pts.labels[train_pts.labels >= 0]).tolist())
+    test_pts = [PointTable(list(s.scans), class_map=lut, **opts) for s in test_sets]
+    t_read = time.perf_counter() - t0
+    needs_features = model != "majority" and model != "neural"
+    t1 = time.perf_counter()
+    if needs_features:
+        _ = train_pts.features
+        for tp in test_pts:
+            _ = tp.features
+    t_features = time.perf_counter() - t1
+    out_p = Path(out) if out is not None else None
+    runs: list[list[metrics.Scores]] = [[] for _ in test_sets]
+    rounds, t_train, t_pred = [], [], []
+    for seed in seeds:
+        m = make_model(model, n_classes, params)
+        t2 = time.perf_counter()
+        m.fit(train_pts, rng=np.random.default_rng(seed), threads=workers,
+              init=init(seed) if init is not None else None, progress=progress)
+        t_train.append(time.perf_counter() - t2)
+        rounds.append(int(getattr(m, "rounds_used", 0)))
+        for j, (ts, tp) in enumerate(zip(test_sets, test_pts)):
+            t3 = time.perf_counter()
+            pred = m.predict(tp, threads=workers)
+            t_pred.append(time.perf_counter() - t3)
+            if out_p is not None and write_predictions:
+                predictions.write(ts, pred, out_p / "predictions" / f"seed{seed}" / set_name(ts.spec))
+            conf = metrics.confusion(tp.labels, pred, n_classes)
+            runs[j].append(metrics.scores(conf, eval_classes))
+    tests = []
+    for ts, tp, r in zip(test_sets, test_pts, runs):
+        present = set(np.unique(tp.labels[tp.labels >= 0]).tolist())
+        unseen = tuple(sorted(present - seen))
+        if unseen:
+            log.warning("%s: test classes never seen in training: %s (scored, IoU 0 unless predicted)", ts.spec,
+                        ", ".join(names.get(c, str(c)) for c in unseen))
+        tests.append(TestResult(spec=ts.spec, name=set_name(ts.spec), runs=tuple(r),
+                                summary=metrics.summarise(r), unseen=unseen, n_points=len(tp)))
+    result = EvalResult(model=model, seeds=seeds, train=tuple(s.spec for s in train_sets), tests=tuple(tests),
+                        names=names, n_train_points=len(train_pts), rounds=tuple(rounds),
+                        timings={"read_s": t_read, "features_s": t_features, "train_s": t_train,
+                                 "predict_s": t_pred, "total_s": time.perf_counter() - t0},
+                        out=out_p)
+    if out_p is not None and folder is not None:
+        _write_json(out_p / "metrics.json", result.as_dict())
+        _write_json(out_p / "timings.json", result.timings)
+        atomic_write_text(out_p / "report.md", result_markdown(result))
+        if pictures:
+            for t in result.tests:
+                confusion_png(t.summary["confusion"], names, out_p / f"{t.name}.confusion.png",
+                              title=f"{model} on {t.name} (summed over {len(seeds)} seeds)")
+                iou_bars_png({model: t.summary}, names, out_p / f"{t.name}.iou.png", title=f"IoU per class, {t.name}")
+        folder.finish({"inputs": {"train": list(result.train), "test": [t.spec for t in result.tests],
+                                  "model": model, "seeds": list(seeds), "label_map": str(label_map) if label_map else None,
+                                  "params": repr(params) if params is not None else "defaults"},
+                       "versions": _versions()})
+    return result
