@@ -59,8 +59,8 @@ def recording_files(cfg: DatasetConfig) -> dict[str, str]:
         files["rig"] = str(resolve(cfg.rig, "rigs", (".yaml", ".yml")))
         for s in rig_of(cfg).sensors:
             for key in ("profile", "calibration"):
-                if s.sensor.meta.get(key):
-                    files[f"rig {s.name} {key}"] = str(s.sensor.meta[key])
+                if getattr(s.sensor, key):
+                    files[f"rig {s.name} {key}"] = str(getattr(s.sensor, key))
     if Path(cfg.path).is_file():
         files["waypoints"] = cfg.path
     return files
