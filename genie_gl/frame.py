@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from .camera import Camera
+from .triangles import PixelTriangles
 
 
 @dataclass(frozen=True, eq=False)
@@ -23,6 +24,8 @@ class Frame:
     world_from_camera : (4, 4) float64, the pose (OpenCV camera frame).
     normal : (H, W, 3) float32 or None, unit normals in the camera frame (0 where no hit).
     meta : dict, free-form (timings, effect records).
+    triangles : PixelTriangles or None, the triangle each pixel shows (a pinhole view rendered
+        for a lens that intersects each of its pixels' own rays: :mod:`genie_gl.triangles`).
     Row 0 of every buffer is the top of the image (v = 0), column 0 its left (u = 0).
     """
 
@@ -34,6 +37,7 @@ class Frame:
     world_from_camera: np.ndarray
     normal: np.ndarray | None = None
     meta: dict[str, Any] | None = None
+    triangles: PixelTriangles | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.sensor, Camera):
@@ -46,6 +50,8 @@ class Frame:
             checks.append(("rgb", self.rgb, (H, W, 3), np.uint8))
         if self.normal is not None:
             checks.append(("normal", self.normal, (H, W, 3), np.float32))
+        if self.triangles is not None:
+            checks.append(("triangles.pixel", self.triangles.pixel, (H, W, 2), np.uint32))
         for name, arr, shape, dtype in checks:
             if arr.shape != shape or arr.dtype != dtype:
                 raise ValueError(

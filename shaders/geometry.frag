@@ -11,11 +11,16 @@
 //      target (looked up from the instance id on read-back), colour at 1, normal at 2.
 // NO_LINEAR_DEPTH leaves target 0 alone (depth then comes from the depth buffer);
 // DEPTH_ONLY writes no target (the 24-bit depth pass).
+// WITH_PRIMITIVE (asked for by the lens, genie_gl/triangles.py): one more RG32UI target after
+//      the others, the draw slot + 1 and gl_PrimitiveID (the triangle within its draw).
 
 in vec3 v_eye;
 flat in uint v_instance;
 flat in uint v_semantic;
 flat in vec3 v_color;
+#ifdef WITH_PRIMITIVE
+flat in uint v_slot;
+#endif
 
 #ifdef PACKED_IDS
 #define LOC_COLOR 1
@@ -39,6 +44,25 @@ layout(location = LOC_COLOR) out vec4 o_color;
 #endif
 #ifdef WITH_NORMAL
 layout(location = LOC_NORMAL) out vec4 o_normal;
+#endif
+#ifdef WITH_PRIMITIVE
+// after the colour and normal targets the framebuffer holds (a normal target comes with a
+// colour target, used or not)
+// (locations are literals: GLSL 3.30 takes no expressions there)
+#if defined(PACKED_IDS) && defined(WITH_NORMAL)
+#define LOC_PRIMITIVE 3
+#elif defined(PACKED_IDS) && defined(WITH_COLOR)
+#define LOC_PRIMITIVE 2
+#elif defined(PACKED_IDS)
+#define LOC_PRIMITIVE 1
+#elif defined(WITH_NORMAL)
+#define LOC_PRIMITIVE 5
+#elif defined(WITH_COLOR)
+#define LOC_PRIMITIVE 4
+#else
+#define LOC_PRIMITIVE 3
+#endif
+layout(location = LOC_PRIMITIVE) out uvec2 o_primitive;
 #endif
 
 void main() {
@@ -74,5 +98,8 @@ void main() {
 #endif
 #ifdef WITH_NORMAL
     o_normal = vec4(n, 0.0);
+#endif
+#ifdef WITH_PRIMITIVE
+    o_primitive = uvec2(v_slot + 1u, uint(gl_PrimitiveID));
 #endif
 }

@@ -10,6 +10,9 @@ in vec4 in_row2;        // row 2
 in uint in_instance;
 in uint in_semantic;
 in vec4 in_color;       // normalised RGBA8
+#ifdef WITH_PRIMITIVE
+in uint in_slot;        // the instance's row (a static buffer 0, 1, 2, ... read per instance)
+#endif
 
 // OpenCV pinhole to clip space: u = fx x/z + s y/z + cx, v = fy y/z + cy, pixel centres at
 // integer (u, v). Window x = u + 0.5, window y = v + 0.5 (row 0 of the read-back is v = 0).
@@ -22,6 +25,9 @@ out vec3 v_eye;
 flat out uint v_instance;
 flat out uint v_semantic;
 flat out vec3 v_color;
+#ifdef WITH_PRIMITIVE
+flat out uint v_slot;
+#endif
 
 void main() {
     vec4 p = vec4(in_position, 1.0);
@@ -30,6 +36,9 @@ void main() {
     v_instance = in_instance;
     v_semantic = in_semantic;
     v_color = in_color.rgb;
+#ifdef WITH_PRIMITIVE
+    v_slot = in_slot;
+#endif
     gl_Position = vec4(u_proj_x.x * e.x + u_proj_x.y * e.y + u_proj_x.z * e.z,
                        u_proj_y.x * e.y + u_proj_y.y * e.z,
                        u_depth.x * e.z + u_depth.y,

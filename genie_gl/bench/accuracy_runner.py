@@ -135,6 +135,8 @@ class Runner:
 
             def render(s, p, **kw):  # noqa: E306 - the reference's normals, for point-to-surface
                 return base(s, p, **{**kw, "normals": True})
+            if hasattr(base, "lens"):
+                render.lens = lambda s, p, **kw: base.lens(s, p, **{**kw, "normals": True})
         clock: dict[str, float] = defaultdict(float)
         timed = dataclasses.replace(sensor, effects=tuple(Timed(e, clock) for e in sensor.effects))
         options = {"resample": acc.resample, "oversample": acc.oversample}
@@ -188,6 +190,8 @@ class _WithMaterials:
 
     def __init__(self, fn, materials) -> None:
         self.fn, self.materials = fn, materials
+        if hasattr(fn, "lens"):   # a supersampled render: the exact lens mode supersamples through the lens
+            self.lens = fn.lens
 
     def __call__(self, *a, **kw):
         return self.fn(*a, **kw)

@@ -112,7 +112,7 @@ class Knob:
 KNOBS: tuple[Knob, ...] = (
     Knob("resolution", "resolution (x sensor)", None, (0.5, 1.0, 2.0), 1.0, True),
     Knob("supersample", "edge supersampling", "supersample", (1, 2, 4), 4, True),
-    Knob("resample", "lens resampling", "resample", ("nearest", "bilinear", "exact"), "exact", True,
+    Knob("resample", "lens resampling", "resample", ("nearest", "bilinear", "plane", "exact"), "exact", True,
          _lens),
     Knob("oversample", "wide-render oversampling", "oversample", (1.0, 1.5, 2.0), 2.0, True, _lens),
     Knob("depth_precision", "depth precision", "depth_precision", ("depth24", "reversed_z", "float32"),

@@ -24,21 +24,24 @@ class Prefetched:
     renderer : the scene's renderer.
     sensor : the pinhole view of every main render.
     poses : (4, 4) float64 world_from_camera, in the order simulate asks for them.
-    depth_only, normals : what the main renders draw.
+    depth_only, normals, triangles : what the main renders draw.
     only : per pose, the plan's drawn ids (None: all).
     """
 
     def __init__(self, renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], depth_only: bool,
-                 normals: bool, only: Sequence[Any] | None = None) -> None:
+                 normals: bool, only: Sequence[Any] | None = None, triangles: bool = False) -> None:
         self.renderer, self.sensor, self.poses = renderer, sensor, poses
-        self.depth_only, self.normals = depth_only, normals
+        self.depth_only, self.normals, self.triangles = depth_only, normals, triangles
         self.only = [None] * len(poses) if only is None else list(only)
-        self.frames = renderer.frames(sensor, poses, depth_only=depth_only, normals=normals, only=self.only)
+        self.frames = renderer.frames(sensor, poses, depth_only=depth_only, normals=normals, only=self.only,
+                                      triangles=triangles)
         self.next = 0
         self.render = through_lens(renderer.render)
 
-    def _is_main(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool, only: Any) -> bool:
-        if depth_only != self.depth_only or normals != self.normals or self.next >= len(self.poses):
+    def _is_main(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool, only: Any,
+                 triangles: bool) -> bool:
+        if (depth_only != self.depth_only or normals != self.normals or triangles != self.triangles
+                or self.next >= len(self.poses)):
             return False
         want_only = self.only[self.next]
         if (only is None) != (want_only is None) or (
@@ -51,9 +54,10 @@ class Prefetched:
         return same_sensor and (pose is want or np.array_equal(pose, want))
 
     def __call__(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool | None = None, normals: bool = False,
-                 only: Any = None) -> Frame:
+                 only: Any = None, triangles: bool = False) -> Frame:
         depth_only = self.depth_only if depth_only is None else depth_only
-        if self._is_main(sensor, pose, depth_only, normals, only):
+        if self._is_main(sensor, pose, depth_only, normals, only, triangles):
             self.next += 1
             return next(self.frames)
-        return self.render(sensor, pose, depth_only=depth_only, normals=normals, only=only)
+        extra = {"triangles": True} if triangles else {}
+        return self.render(sensor, pose, depth_only=depth_only, normals=normals, only=only, **extra)

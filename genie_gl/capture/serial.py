@@ -34,12 +34,15 @@ def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarra
     precision, the sensor's effects their own knobs)."""
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     normals = any(eff.needs_normals for eff in sensor.effects)
+    triangles = False
     if sensor.is_pinhole:
         view = sensor
-    else:  # the pinhole view the lens is resampled from (the default, exact, needs its normals)
+    else:  # the pinhole view the lens is resampled from, with what its resampling needs
         views = lens_views(sensor, oversample=accuracy.oversample)
         view = views[0].render_sensor if len(views) == 1 else sensor   # cube faces: no prefetch
-        normals = True
+        resample = accuracy.resample
+        triangles = resample == "exact"
+        normals = (normals or resample == "plane") and not triangles
     frame_plans = None if plan is None else [plan.frames[i] for i in indices]
     only = None
     if frame_plans is not None:   # the plan's culling and far plane, as simulate asks for them
@@ -51,7 +54,7 @@ def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarra
         draw = supersampled(functools.partial(through_lens(renderer.render), depth_only=depth_only),
                             accuracy.supersample)
     else:
-        draw = Prefetched(renderer, view, poses, depth_only, normals, only)
+        draw = Prefetched(renderer, view, poses, depth_only, normals, only, triangles)
     return [simulate(sensor, poses[k], render=draw, rng=pose_rng(seed, i), materials=materials,
                      plan=None if frame_plans is None else frame_plans[k], resample=accuracy.resample,
                      oversample=accuracy.oversample) for k, i in enumerate(indices)]

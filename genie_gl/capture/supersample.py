@@ -25,6 +25,7 @@ import numpy as np
 
 from ..frame import Frame
 from ..sensors.camera import Sensor
+from ..sensors.distortion import render_through_lens
 
 NO_RETURN_DEPTH = 1.0e9   # how far "no return" counts when a tie is broken by depth
 STEP = 0.01               # a relative jump between sorted depths that separates two surfaces
@@ -160,7 +161,13 @@ def reduce(hi: Frame, sensor: Sensor, s: int, centre: Frame | None = None) -> Fr
 def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:
     """``render`` (``(sensor, pose, **kw) -> Frame``, e.g. ``Renderer.render``) made to render
     every frame at ``s`` times the resolution and reduce it (with a render at the sensor's own
-    resolution for the centre rays' depth, ``1/s²`` more pixels); ``s = 1`` returns ``render``."""
+    resolution for the centre rays' depth, ``1/s²`` more pixels); ``s = 1`` returns ``render``.
+
+    A distorted sensor resampled exactly (each pixel from its own ray's hit) is supersampled
+    through its lens: :func:`~genie_gl.sensors.distortion.render_through_lens` finds the
+    returned function's ``lens`` attribute and renders the lens's image at ``s`` times its
+    resolution (``s x s`` exact rays per pixel, symmetric about its centre ray), reduced as
+    above (a reduced pinhole view would have no triangle per pixel to intersect)."""
     if s == 1:
         return render
 
@@ -168,4 +175,9 @@ def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:
         centre = render(sensor, pose, **{**kw, "depth_only": True})
         return reduce(render(supersample_sensor(sensor, s), pose, **kw), sensor, s, centre)
 
+    def lens(sensor: Sensor, pose: np.ndarray, **kw) -> Frame:
+        centre = render_through_lens(render, sensor, pose, **{**kw, "depth_only": True})
+        return reduce(render_through_lens(render, supersample_sensor(sensor, s), pose, **kw), sensor, s, centre)
+
+    wrapped.lens = lens
     return wrapped

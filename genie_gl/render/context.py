@@ -45,6 +45,7 @@ _CREATED = [0]                                # how many this process has create
 
 GL_LOWER_LEFT = 0x8CA1
 GL_ZERO_TO_ONE = 0x935F
+GL_SUBPIXEL_BITS = 0x0D50
 
 
 @dataclass(eq=False)
@@ -62,6 +63,7 @@ class GLContext:
     platform: Platform
     renderer: str
     programs: dict = field(default_factory=dict, repr=False)  # built shaders, shared by renderers
+    _subpixel_bits: int | None = field(default=None, repr=False)
 
     @property
     def backend(self) -> str:
@@ -93,6 +95,16 @@ class GLContext:
         """GL's error flag ("GL_NO_ERROR" when none), read (and so cleared) in this context."""
         with self.current():
             return self.ctx.error
+
+    def subpixel_bits(self) -> int:
+        """GL_SUBPIXEL_BITS: the rasteriser snaps vertices to 1 / 2^bits of a pixel (call with
+        the context current; asked once). GL guarantees at least 4."""
+        if self._subpixel_bits is None:
+            value = ctypes.c_int(0)
+            self.gl_function("glGetIntegerv", None, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))(
+                GL_SUBPIXEL_BITS, ctypes.byref(value))
+            self._subpixel_bits = max(4, value.value)
+        return self._subpixel_bits
 
     def release(self) -> None:
         """Free the context and everything created in it."""

@@ -53,9 +53,11 @@ _POOL = _Pool()
 
 
 @functools.lru_cache(maxsize=64)
-def _parts(H: int, W: int, color: bool, normals: bool) -> tuple[tuple, tuple[int, ...]]:
+def _parts(H: int, W: int, color: bool, normals: bool, triangles: bool = False) -> tuple[tuple, tuple[int, ...]]:
     """A frame's arrays (name, dtype, shape, bytes) and their sizes in its block, 64-byte aligned."""
     parts = [("depth", np.float32, (H, W)), ("instance", np.uint32, (H, W))]
+    if triangles:
+        parts.append(("primitive", np.uint32, (H, W, 2)))
     if normals:
         parts.append(("normal", np.float32, (H, W, 3)))
     if color:
@@ -65,9 +67,9 @@ def _parts(H: int, W: int, color: bool, normals: bool) -> tuple[tuple, tuple[int
     return tuple(parts), tuple(-(-n // 64) * 64 for *_, n in parts)
 
 
-def frame_buffers(H: int, W: int, color: bool, normals: bool) -> dict[str, np.ndarray]:
+def frame_buffers(H: int, W: int, color: bool, normals: bool, triangles: bool = False) -> dict[str, np.ndarray]:
     """A frame's output arrays as views into one block of recycled memory (see :class:`_Pool`)."""
-    parts, sizes = _parts(H, W, color, normals)
+    parts, sizes = _parts(H, W, color, normals, triangles)
     block = _POOL.lend(sum(sizes))
     out, at = {}, 0
     for (name, dt, shape, n), b in zip(parts, sizes):

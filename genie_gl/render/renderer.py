@@ -21,6 +21,7 @@ from ..errors import ConfigError, RenderError
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
+from ..triangles import PixelTriangles, SceneTriangles
 from .clusters import Clusters, prepare
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
 from .cull import TriangleCuller
@@ -92,6 +93,9 @@ class Renderer:
     """
 
     cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
+    # fewer faces in view: no occlusion culling (a frame this small is cheap either way); with
+    # more, it runs while it pays (:meth:`TriangleCuller.select`)
+    occlusion_min_faces = 50_000
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
@@ -190,13 +194,16 @@ class Renderer:
 
         vertices = joined("vertices", np.zeros((1, 3), "<f4"))
         all_faces = joined("faces", np.zeros((1, 3), "<u4"))
+        self._scene_triangles: SceneTriangles | None = None   # made when a frame first asks for triangles
         self._culler = TriangleCuller(
             vertices, all_faces, vbase, fbase, nfaces, cbase, joined("centre", np.zeros((1, 3))),
             joined("radius", np.zeros(1)), joined("vrange", np.zeros((1, 2), np.int64)),
             joined("axis", np.zeros((1, 3))), joined("cos_a", np.zeros(1)), joined("sin_a", np.zeros(1)),
-            joined("thickness", np.zeros(1)), joined("perimeter", np.ones(1)))
+            joined("thickness", np.zeros(1)), joined("perimeter", np.ones(1)),
+            snap_px=2.0 ** -self.gl.subpixel_bits())  # twice the farthest a vertex is snapped
         self._vbo = ctx.buffer(vertices.tobytes())
         self._ibo = ctx.buffer(all_faces.tobytes())
+        self._slot_buf = None   # 0, 1, 2, ... read per instance by the triangle target's program
         self._streams: dict[int, tuple] = {}  # per-frame buffers, one set per frame in flight
 
     def _stream(self, parity: int) -> tuple:
@@ -220,16 +227,21 @@ class Renderer:
             # attributes a program does not use (colour in depth-only mode) become padding
             fmt = " ".join(f if a in program else f"{n}x" for f, n, a in INSTANCE_FIELDS) + "/i"
             attrs = [a for _, _, a in INSTANCE_FIELDS if a in program]
+            content = [(self._vbo, "3f", "in_position"), (self._stream(parity)[0], fmt, *attrs)]
+            if "in_slot" in program:
+                if self._slot_buf is None:
+                    self._slot_buf = self.ctx.buffer(np.arange(max(1, len(self._mesh)), dtype="<u4").tobytes())
+                content.append((self._slot_buf, "u4/i", "in_slot"))
             vao = self.ctx.vertex_array(
-                program,
-                [(self._vbo, "3f", "in_position"), (self._stream(parity)[0], fmt, *attrs)],
+                program, content,
                 index_buffer=self._stream(parity)[1] if culled else self._ibo, index_element_size=4,
             )
             self._vaos[key] = vao
         return vao
 
-    def _framebuffer(self, width: int, height: int, color: bool, normals: bool, slot: int = 0) -> tuple:
-        key = (width, height, color, normals, slot)
+    def _framebuffer(self, width: int, height: int, color: bool, normals: bool, slot: int = 0,
+                     triangles: bool = False) -> tuple:
+        key = (width, height, color, normals, slot, triangles)
         if key in self._fbos:
             return self._fbos[key]
         ctx, size = self.ctx, (width, height)
@@ -242,6 +254,8 @@ class Renderer:
             targets.append(ctx.texture(size, 4, dtype="f1"))  # location 3 or 1 (unused without colour)
         if normals:
             targets.append(ctx.texture(size, 4, dtype="f4"))
+        if triangles:   # (slot + 1, triangle within its draw): see genie_gl/triangles.py
+            targets.append(ctx.texture(size, 2, dtype="u4"))
         depth = ctx.depth_texture(size)
         # moderngl allocates 24-bit fixed-point depth; reversed Z needs a float depth buffer.
         bind = self.gl.gl_function("glBindTexture", None, ctypes.c_uint, ctypes.c_uint)
@@ -261,7 +275,7 @@ class Renderer:
 
     # -- rendering -----------------------------------------------------------------------------
     def render(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool = False,
-               normals: bool = False, only: Collection[int] | None = None) -> Frame:
+               normals: bool = False, only: Collection[int] | None = None, triangles: bool = False) -> Frame:
         """Render the pinhole frame of ``sensor`` at ``pose``, without its effects.
 
         The renderer draws pinhole views only: a distorted sensor is rendered through its lens
@@ -276,20 +290,25 @@ class Renderer:
         depth_only : skip the colour buffer (``Frame.rgb`` is None).
         normals : also render camera-frame unit normals (``Frame.normal``).
         only : draw just the instances with these ids (e.g. an object's full silhouette).
+        triangles : also record the triangle each pixel shows (``Frame.triangles``, a
+            :class:`~genie_gl.triangles.PixelTriangles`: one more target), for a lens that
+            intersects its own pixels' rays with them.
         """
         if not sensor.is_pinhole:
             raise ConfigError(f"Renderer.render: sensor {getattr(sensor, 'name', '')!r} has lens distortion and the "
                               "renderer draws pinhole views; render it through its lens with "
                               "genie_gl.capture.through_lens(renderer.render), gg.render or gg.capture")
         with self._current():
-            return self._render(sensor, pose, depth_only, normals, only)
+            return self._render(sensor, pose, depth_only, normals, only, triangles)
 
     def frames(self, sensor: Sensor, poses: Iterable[np.ndarray], *, depth_only: bool = False,
-               normals: bool = False, only: Sequence[Collection[int] | None] | None = None) -> Iterator[Frame]:
+               normals: bool = False, only: Sequence[Collection[int] | None] | None = None,
+               triangles: bool = False) -> Iterator[Frame]:
         """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose,
         with CPU and GL overlapped: frame i+1 is culled and submitted (into a second set of
         targets) before frame i is read back, and renders while the caller works on frame i.
-        ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``."""
+        ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``; ``triangles``
+        as ``render(..., triangles=)``."""
         if not sensor.is_pinhole:
             raise ConfigError(f"Renderer.frames: sensor {getattr(sensor, 'name', '')!r} has lens distortion and the "
                               "renderer draws pinhole views (gg.capture renders it through its lens)")
@@ -297,7 +316,7 @@ class Renderer:
         for k, pose in enumerate(poses):
             with self._current():
                 job = self._draw(sensor, pose, not depth_only, normals, None if only is None else only[k],
-                                 slot=1 + k % 2)
+                                 slot=1 + k % 2, triangles=triangles)
                 self._flush()  # llvmpipe rasterises a frame's bins once they are flushed
                 if self.readback == "pbo":
                     self._start_read(job)
@@ -311,20 +330,22 @@ class Renderer:
             yield frame
 
     def _render(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool,
-                only: Collection[int] | None = None) -> Frame:
-        return self._read(self._draw(sensor, pose, not depth_only, normals, only, slot=0), finish=True)
+                only: Collection[int] | None = None, triangles: bool = False) -> Frame:
+        return self._read(self._draw(sensor, pose, not depth_only, normals, only, slot=0, triangles=triangles),
+                          finish=True)
 
     def _draw(self, sensor: Sensor, pose: np.ndarray, color: bool, normals: bool,
-              only: Collection[int] | None, slot: int) -> dict:
+              only: Collection[int] | None, slot: int, triangles: bool = False) -> dict:
         """Cull and issue the draws of one frame into the targets of ``slot``."""
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = check_pose(pose, "render pose")  # a rigid world_from_camera: no scale, shear or mirror
         ctx = self.ctx
-        fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals, slot)
+        fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals, slot, triangles)
         linear = self.depth_precision == "float32"
         defines = (("WITH_COLOR",) if color else ()) + (("WITH_NORMAL",) if normals else ()) + \
-            (() if linear else ("NO_LINEAR_DEPTH",)) + (("PACKED_IDS",) if self._packed else ())
+            (() if linear else ("NO_LINEAR_DEPTH",)) + (("PACKED_IDS",) if self._packed else ()) + \
+            (("WITH_PRIMITIVE",) if triangles else ())
         program = self._program(defines)
         proj_x, proj_y = clip_coefficients(K, W, H)
         program["u_proj_x"].value = tuple(proj_x.astype(np.float32))
@@ -335,7 +356,7 @@ class Renderer:
         program["u_depth"].value = (0.0, clip_near)  # reversed, infinite far: near / z
 
         parity = slot % 2
-        lists = self._commands(pose, K, W, H, clip_near, only, parity)
+        lists = self._commands(pose, K, W, H, clip_near, only, parity, triangles)
         t1 = time.perf_counter()
         fbo.use()
         ctx.viewport = (0, 0, W, H)
@@ -360,8 +381,9 @@ class Renderer:
             self._submit(p24, lists, parity)
         ctx.disable(moderngl.CULL_FACE)
         return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
-                "drawn": drawn, "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
-                "simplified": self._lod_drawn,
+                "pixel_triangles": self._frame_triangles if triangles else None, "drawn": drawn,
+                "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
+                "simplified": self._lod_drawn, "occluded": self._culled and self._culler.occluded,
                 "t0": t0, "t1": t1}
 
     def _flush(self) -> None:
@@ -385,6 +407,8 @@ class Renderer:
             reads.append((at, 4, "f1", "rgba"))
         if normals:
             reads.append((at + 1, 3, "f4", "normal"))  # the colour target is there, used or not
+        if job["pixel_triangles"] is not None:
+            reads.append((at + (2 if normals else 1 if color else 0), 2, "u4", "primitive"))
         return reads
 
     def _start_read(self, job: dict) -> None:
@@ -414,7 +438,8 @@ class Renderer:
             ctx.finish()  # so that the read-back time below is the copy alone
         t2 = time.perf_counter()
         linear = self.depth_precision == "float32"
-        out = frame_buffers(H, W, color, normals)
+        want_triangles = job["pixel_triangles"] is not None
+        out = frame_buffers(H, W, color, normals, want_triangles)
         depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
         if self._packed:
             out["packed"] = self._scratch(H, W)
@@ -460,9 +485,19 @@ class Renderer:
                     normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
         self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
-                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"]}
+                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"],
+                      "occlusion_culled": job["occluded"]}
+        tri = (PixelTriangles(out["primitive"], *job["pixel_triangles"], self._triangle_scene(),
+                              self._clip_near(sensor)) if want_triangles else None)
         return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
-                     {"render_ms": 1e3 * (time.perf_counter() - t0)})
+                     {"render_ms": 1e3 * (time.perf_counter() - t0)}, tri)
+
+    def _triangle_scene(self) -> SceneTriangles:
+        """The scene's meshes for :class:`PixelTriangles`, made the first time a frame asks
+        for triangles."""
+        if self._scene_triangles is None:
+            self._scene_triangles = SceneTriangles.build(self._culler.vertices, self._culler.faces)
+        return self._scene_triangles
 
     def _clip_near(self, sensor: Sensor) -> float:
         """The GL near plane: 1/1024 of the sensor's minimum range (``Camera.clip_near_m``),
@@ -484,11 +519,18 @@ class Renderer:
         depth[...] = z
 
     def _commands(self, pose: np.ndarray, K: np.ndarray, W: int, H: int, near: float,
-                  only: Collection[int] | None, parity: int = 0) -> list[tuple[np.ndarray, bool]]:
+                  only: Collection[int] | None, parity: int = 0,
+                  triangles: bool = False) -> list[tuple[np.ndarray, bool]]:
         """Draw commands of a frame: [(commands, back-face culling)], nothing in Python per
-        instance."""
+        instance. With ``triangles``, ``self._frame_triangles`` is set to what turns a pixel's
+        (slot, triangle) into vertices (the fields of :class:`PixelTriangles` after ``pixel``)."""
         n = len(self._mesh)
         self._lod_drawn = 0
+        if triangles:
+            self._frame_triangles = (np.full(n, -1, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64),
+                                     np.zeros(n, bool), np.zeros((n, 3, 4)), np.zeros(0, np.uint32), self._ids,
+                                     self._rows["semantic"].astype(np.uint16), np.zeros(n, np.int64),
+                                     np.zeros(n, np.int64))
         if n == 0:
             return []
         camera_from_world = rigid_inverse(pose)
@@ -520,11 +562,14 @@ class Renderer:
         cmd["instances"] = 1
         cmd["base_vertex"] = self._vbase[m]
         cmd["base_instance"] = slots
-        culled = self.cull and int(self._nfaces[m].sum()) >= self.cull_min_faces
+        in_view = int(self._nfaces[m].sum())
+        culled = self.cull and in_view >= self.cull_min_faces
         self._culled = culled
         if culled:
+            # not with a 24-bit depth buffer: it ties depths that are apart
+            occlusion = self.depth_precision != "depth24" and in_view >= self.occlusion_min_faces
             indices, first, count = self._culler.select(slots, m, backcull, cfm, eye, self._det[slots], K, W, H,
-                                                        near, planes)
+                                                        near, planes, occlusion)
             if indices.nbytes > dyn_ibo.size:  # same buffer name: the vertex arrays stay valid
                 dyn_ibo.orphan(max(indices.nbytes, dyn_ibo.size * 3 // 2))
             dyn_ibo.write(indices)
@@ -533,6 +578,17 @@ class Renderer:
             cmd, backcull = cmd[keep], backcull[keep]
         else:
             cmd["first"], cmd["count"] = 3 * self._fbase[m], 3 * self._nfaces[m]
+        if triangles:
+            first, count, base, cull = self._frame_triangles[:4]
+            first[cmd["base_instance"]] = cmd["first"] // 3
+            count[cmd["base_instance"]] = cmd["count"] // 3
+            base[cmd["base_instance"]] = cmd["base_vertex"]
+            cull[cmd["base_instance"]] = backcull
+            # the culled indices are rewritten by the next frame's culling: this frame keeps a copy
+            drawn_indices = indices.copy() if culled else self._culler.faces.reshape(-1)
+            ids, sem, mesh_first, mesh_count = self._frame_triangles[6:]
+            mesh_first[slots], mesh_count[slots] = self._fbase[m], self._nfaces[m]   # every face, culled or not
+            self._frame_triangles = (first, count, base, cull, cfm, drawn_indices, ids, sem, mesh_first, mesh_count)
         return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
 
     def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0) -> int:
@@ -567,7 +623,8 @@ class Renderer:
         self.ctx.detect_framebuffer(0).use()
         for vao in self._vaos.values():
             vao.release()
-        for buf in (self._vbo, self._ibo, *(b for bufs in self._streams.values() for b in bufs), *self._pbos.values()):
+        for buf in (self._vbo, self._ibo, self._slot_buf, *(b for bufs in self._streams.values() for b in bufs),
+                    *self._pbos.values()):
             if buf is not None:
                 buf.release()
         for fbo, targets, depth, extra in self._fbos.values():
@@ -575,7 +632,7 @@ class Renderer:
             for t in (*targets, depth, *extra):
                 t.release()
         self._vaos, self._fbos, self._pbos = {}, {}, {}
-        self._vbo = self._ibo = None
+        self._vbo = self._ibo = self._slot_buf = None
         self._streams = {}
 
     def __enter__(self) -> "Renderer":

@@ -4,7 +4,7 @@ A sensor profile (``sensors/*.yaml``) and ``genie dataset --accuracy FILE`` acce
 
     accuracy:
       supersample: 2          # render at 2x and reduce; ids never blended
-      resample: exact         # nearest | bilinear | exact (distorted lenses)
+      resample: exact         # nearest | bilinear | plane | exact (distorted lenses)
       depth_precision: float32
 
 ``genie bench accuracy --budget-mm X`` writes such a file: the fastest setting whose error
@@ -29,7 +29,7 @@ import yaml
 from ..errors import ConfigError, did_you_mean
 from ..outputs import atomic_write_text, check_replaceable
 
-RESAMPLE = ("nearest", "bilinear", "exact")
+RESAMPLE = ("nearest", "bilinear", "plane", "exact")
 SHADOW = ("scanline", "render")
 DEPTH_PRECISION = ("float32", "depth24", "reversed_z")
 SUPERSAMPLE = (1, 2, 4)
@@ -44,8 +44,10 @@ class AccuracySettings:
     supersample : 1, 2 or 4; render at ``s`` times the resolution and reduce each ``s x s``
         block to one pixel (the majority instance, its samples' mean depth; ids never blended).
     resample : how a distorted image is sampled from its wide pinhole render: "nearest",
-        "bilinear" (depth-aware: never across a silhouette) or "exact" (depth along each
-        distorted ray recomputed from the plane of the triangle it hit).
+        "bilinear" (depth-aware: never across a silhouette), "plane" (ids from the nearest
+        view pixel, depth along each distorted ray from the plane of the triangle it hit) or
+        "exact" (each pixel's own ray intersected with the triangles around it: ids and depth
+        a ray caster's).
     oversample : float or None, resolution of that wide pinhole render relative to the
         sensor's (None: the lens module's default).
     depth_precision : "float32" (linear view-z target), "depth24" (24-bit window depth read

@@ -8,18 +8,26 @@ sides, each cropped to the rays that fall on it). Each pixel of the lens's image
 its ray's sample from its view:
 
 ``resample="exact"`` (default)
+    the pixel's own ray intersected (float64) with the faces, around where it crosses the
+    view, of every instance the view shows (the view records which triangle each of its
+    pixels shows): instance, semantic id, depth and normal of the nearest face the ray hits,
+    whatever the distortion, as a ray caster finds them (:mod:`.ray_hits`, which also says
+    what an instance finer than the view's pixels does); colour from a view pixel of that
+    instance.
+``"plane"``
     ids and colour from the nearest view pixel; depth recomputed along the pixel's own ray
     from the plane of the triangle the nearest view pixel hit (its rendered normal and
-    depth): exact on planar surfaces (to float32), whatever the distortion.
+    depth): exact on planar surfaces (to float32), ids within half a view pixel.
 ``"bilinear"``
     depth interpolated between the four view pixels around the ray when all four hit the
     same instance (never across a silhouette), else the nearest; ids never blended.
 ``"nearest"``
     everything from the nearest view pixel (the depth of that pixel's ray).
 
-``oversample`` scales the views' focal lengths (more pixels per ray of the lens, so ids and
-edges land closer to where the lens puts them: an id is its nearest view pixel's, within
-half a view pixel of where the lens puts the ray). The default, 0, is automatic: the smallest
+``oversample`` scales the views' focal lengths (more pixels per ray of the lens: in the modes
+that take a view pixel's id, ids and edges land closer to where the lens puts them, within
+half a view pixel of where the lens puts the ray; in the exact mode, finer triangles are
+resolved). The default, 0, is automatic: the smallest
 whole factor that gives every lens pixel at least 0.8 view pixels (1 for barrel distortion
 and the shipped profiles, 2 for k1 = +0.5 pincushion and a 180° fisheye's rim), so ids land
 within 0.625 lens pixels. Pixels whose ray the lens does not have
@@ -39,9 +47,10 @@ from ..camera import Camera, distort_normalized
 from ..errors import ConfigError
 from ..frame import Frame
 from .camera import Sensor
+from .ray_hits import STATS, resample_rays
 from .resample import MODES, resample_view
 
-RESAMPLE_MODES = ("nearest", "bilinear", "exact")
+RESAMPLE_MODES = ("nearest", "bilinear", "plane", "exact")
 DEFAULT_RESAMPLE = "exact"
 DEFAULT_OVERSAMPLE = 0.0   # automatic (see the module docstring)
 MAX_AUTO_OVERSAMPLE = 4
@@ -214,8 +223,9 @@ def undistorted_rays(sensor: Camera) -> np.ndarray:
 # -- resampling -------------------------------------------------------------------------------
 def _plan(maps: DistortionMaps, src: Camera) -> dict:
     """What resampling from ``src`` through ``maps`` needs every time, computed once per maps:
-    the served pixels, their nearest view pixels, bilinear corners and weights, and for the
-    exact mode each pixel's own ray and its nearest view pixel's ray."""
+    the served pixels, where their rays cross the view, their nearest view pixels, bilinear
+    corners and weights, and for the exact and plane modes each pixel's own ray and its
+    nearest view pixel's ray."""
     key = src.lens_key
     plan = maps.cache.get(key)
     if plan is not None:
@@ -235,7 +245,7 @@ def _plan(maps: DistortionMaps, src: Camera) -> dict:
     sel, mx, my, iu, iv = sel[inside], mx[inside], my[inside], iu[inside], iv[inside]
     x0 = np.clip(np.floor(mx).astype(np.int64), 0, w - 2)
     y0 = np.clip(np.floor(my).astype(np.int64), 0, h - 2)
-    plan = {"sel": sel, "flat": iv * w + iu, "f00": y0 * w + x0,
+    plan = {"sel": sel, "flat": iv * w + iu, "f00": y0 * w + x0, "mx": mx, "my": my,
             "ax": np.clip(mx - x0, 0, 1), "ay": np.clip(my - y0, 0, 1),
             "zs": maps.z_scale.ravel()[sel] if maps.z_scale is not None else None}
     if maps.ray_x is not None:
@@ -263,27 +273,46 @@ NO_NORMAL = np.zeros((0, 3), np.float32)
 
 
 def resample_views(frames: list[Frame], sensor: Camera, views: tuple[DistortionMaps, ...], pose: np.ndarray,
-                   *, resample: str = DEFAULT_RESAMPLE) -> Frame:
+                   *, resample: str = DEFAULT_RESAMPLE, normals: bool | None = None) -> Frame:
     """Resample the rendered ``frames`` of ``views`` into ``sensor``'s image at ``pose``
-    (one compiled pass per view, :mod:`.resample`); surfaces nearer than ``sensor.near_m`` or
-    farther than ``far_m`` give no return."""
+    (one compiled pass per view, :mod:`.resample`, or :mod:`.ray_hits` for the exact mode,
+    whose frames must carry their triangles); surfaces nearer than ``sensor.near_m`` or
+    farther than ``far_m`` give no return. ``normals``: give the image normals (None: when
+    every view has them; the exact mode computes them from the triangles hit)."""
     H, W = sensor.height, sensor.width
     colour = all(f.rgb is not None for f in frames)
-    normals = all(f.normal is not None for f in frames)
+    exact = resample == "exact"
+    if exact:
+        missing = [f.sensor.name if hasattr(f.sensor, "name") else "view" for f in frames if f.triangles is None]
+        if missing:
+            raise ConfigError(f"resample='exact' needs the triangles of each pinhole view ({', '.join(missing)} has "
+                              "none): render them with triangles=True (genie_gl.render.Renderer.render does)")
+    if normals is None:
+        normals = all(f.normal is not None for f in frames)
     depth = np.zeros(H * W, np.float32)
     inst = np.zeros(H * W, np.uint32)
     sem = np.zeros(H * W, np.uint16)
     rgb = np.zeros((H * W, 3), np.uint8) if colour else NO_RGB
     normal = np.zeros((H * W, 3), np.float32) if normals else NO_NORMAL
-    mode = MODES[resample]
+    stats = np.zeros(len(STATS), np.int64)
     for f, m in zip(frames, views):
         plan = _plan(m, f.sensor)
+        R = np.eye(3) if m.rotation is None else np.ascontiguousarray(m.rotation, np.float64)
+        if exact:
+            t = f.triangles
+            resample_rays(plan["sel"], plan["mx"], plan["my"], *plan["d"],
+                          NO_F64 if plan["zs"] is None else plan["zs"], f.sensor.K, f.sensor.width, f.sensor.height,
+                          t.clip_near_m, sensor.near_m, sensor.far_m, R, t.pixel.reshape(-1), t.first, t.count,
+                          t.base_vertex, t.backcull, t.camera_from_model, t.indices, t.mesh_first, t.mesh_count, t.scene.faces,
+                          t.scene.vertices, t.instance, t.semantic,
+                          _pixels(f.rgb) if colour else NO_RGB, depth, inst, sem, rgb, normal, stats)
+            continue
+        mode = MODES[resample]
         p, d = plan.get("p", (NO_F64, NO_F64)), plan.get("d", (NO_F64, NO_F64))
-        if mode == MODES["exact"] and (f.normal is None or not len(p[0])):
+        if mode == MODES["plane"] and (f.normal is None or not len(p[0])):
             mode_v = MODES["nearest"]
         else:
             mode_v = mode
-        R = np.eye(3) if m.rotation is None else np.ascontiguousarray(m.rotation, np.float64)
         resample_view(mode_v, plan["sel"], plan["flat"], plan["f00"], plan["ax"], plan["ay"], p[0], p[1], d[0], d[1],
                       NO_F64 if plan["zs"] is None else plan["zs"], f.sensor.width, sensor.near_m, sensor.far_m, R,
                       np.ascontiguousarray(f.depth).reshape(-1), np.ascontiguousarray(f.instance).reshape(-1),
@@ -292,6 +321,8 @@ def resample_views(frames: list[Frame], sensor: Camera, views: tuple[DistortionM
                       depth, inst, sem, rgb, normal)
     meta = {"render_ms": sum(float((f.meta or {}).get("render_ms", 0.0)) for f in frames),
             "lens_views": len(views), "resample": resample}
+    if exact:
+        meta["rays"] = dict(zip(STATS, stats.tolist()))
     return Frame(depth.reshape(H, W), inst.reshape(H, W), sem.reshape(H, W),
                  rgb.reshape(H, W, 3) if colour else None, sensor, pose,
                  normal.reshape(H, W, 3) if normals else None, meta)
@@ -309,17 +340,26 @@ RenderFn = Callable[..., Frame]
 def render_through_lens(render: RenderFn, sensor: Camera, pose: np.ndarray, *, resample: str = DEFAULT_RESAMPLE,
                         oversample: float | None = None, normals: bool = False, **kw) -> Frame:
     """``sensor``'s image at ``pose`` (world_from_camera) through its lens: its pinhole views
-    rendered with ``render(view, view_pose, normals=..., **kw)`` and resampled (see the module).
-    An ideal pinhole sensor is rendered as it is."""
+    rendered with ``render(view, view_pose, triangles=True, **kw)`` (the exact mode; the plane
+    mode ``normals=True``) and resampled (see the module). An ideal pinhole sensor is rendered
+    as it is; a ``render`` with a ``lens`` attribute (a supersampled one,
+    :func:`genie_gl.capture.supersample.supersampled`) renders the exact mode itself."""
     os_ = check_resample(resample, oversample)
     pose = np.asarray(pose, np.float64)
     if sensor.is_pinhole:
         return render(sensor, pose, normals=normals, **kw)
+    lens = getattr(render, "lens", None)
+    if lens is not None and resample == "exact":   # a render supersampled through the lens
+        return lens(sensor, pose, resample=resample, oversample=oversample, normals=normals, **kw)
     views = _lens_views(sensor.lens_key, sensor.near_m, sensor.far_m, getattr(sensor, "name", ""), os_)
     frames = []
+    exact = resample == "exact"
+    # the exact mode asks the views for their triangles (normals come from the triangles hit);
+    # the plane mode for their normals
+    view_kw = {**kw, "triangles": True} if exact else {**kw, "normals": normals or resample == "plane"}
     for m in views:
         view_pose = pose.copy()
         view_pose[:3, :3] = pose[:3, :3] @ m.rotation
-        frames.append(render(m.render_sensor, view_pose, normals=normals or resample == "exact", **kw))
-    out = resample_views(frames, sensor, views, pose, resample=resample)
+        frames.append(render(m.render_sensor, view_pose, **view_kw))
+    out = resample_views(frames, sensor, views, pose, resample=resample, normals=normals if exact else None)
     return out if normals else out.replace(normal=None)

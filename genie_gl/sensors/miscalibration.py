@@ -91,6 +91,6 @@ class CalibrationError(Effect):
 
     def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         K_true = self.true_K(frame.sensor, rng)
-        mode = "exact" if frame.normal is not None else "bilinear"
+        mode = "plane" if frame.normal is not None else "bilinear"
         out = distort(frame, frame.sensor, self.maps(frame.sensor, K_true), resample=mode)
         return record(out, self.name, K_true=K_true.tolist())

@@ -1,18 +1,19 @@
-"""The compiled inner loop of lens resampling (numba, cached on disk after the first run).
+"""The compiled inner loop of lens resampling from view pixels (numba, cached on disk).
 
 One pass over the lens pixels a pinhole view serves: gather the nearest view pixel's ids,
 colour and normal, compute the depth along the pixel's own ray (nearest, perspective-correct
-bilinear within one instance, or exact from the nearest pixel's plane), apply the sensor's
-range, and write the output buffers. :mod:`.distortion` prepares the per-pixel plan once per
-camera model; this kernel runs per frame.
+bilinear within one instance, or from the plane of the nearest pixel's triangle), apply the
+sensor's range, and write the output buffers. :mod:`.distortion` prepares the per-pixel plan
+once per camera model; this kernel runs per frame. (The exact mode, each pixel's own ray
+intersected with the view's triangles, is :mod:`.ray_hits`.)
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-NEAREST, BILINEAR, EXACT = 0, 1, 2
-MODES = {"nearest": NEAREST, "bilinear": BILINEAR, "exact": EXACT}
+NEAREST, BILINEAR, PLANE = 0, 1, 2
+MODES = {"nearest": NEAREST, "bilinear": BILINEAR, "plane": PLANE}
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -20,7 +21,7 @@ def resample_view(mode, sel, flat, f00, ax, ay, px, py, dx, dy, zs, width, near,
                   depth, inst, sem, rgb, normal, out_depth, out_inst, out_sem, out_rgb, out_normal):  # pragma: no cover
     """Write the samples of one view into the lens image.
 
-    mode : NEAREST, BILINEAR or EXACT. sel (N,) int64: output pixel of each sample; flat (N,)
+    mode : NEAREST, BILINEAR or PLANE. sel (N,) int64: output pixel of each sample; flat (N,)
     int64: its nearest view pixel; f00 (N,) int64 and ax, ay (N,) float64: the top-left view
     pixel of its 2x2 neighbourhood and the weights; px, py (N,): the nearest view pixel's ray
     (view frame, z = 1); dx, dy (N,): the sample's own ray (view frame, z = 1); zs (N,) or (0,):
@@ -50,7 +51,7 @@ def resample_view(mode, sel, flat, f00, ax, ay, px, py, dx, dy, zs, width, near,
                 # 1/z is affine in a pinhole image across a plane: interpolate it, not z
                 w = ((1 - a) * (1 - b) / z0 + a * (1 - b) / z1 + (1 - a) * b / z2 + a * b / z3)
                 z = 1.0 / w
-        elif mode == EXACT and normals:
+        elif mode == PLANE and normals:
             n0, n1, n2 = np.float64(normal[j, 0]), np.float64(normal[j, 1]), np.float64(normal[j, 2])
             nd = n0 * dx[i] + n1 * dy[i] + n2
             if abs(nd) > 1e-6:

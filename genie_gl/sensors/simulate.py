@@ -63,15 +63,22 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
     only = None if plan is None else plan.drawn
     far = None if plan is None else plan.far_m
 
-    def draw(view: Sensor, view_pose: np.ndarray, exclude: Sequence[int] = (), **kw: Any) -> Frame:
-        ids = only
-        if len(exclude):
-            ids = np.setdiff1d(materials.ids if ids is None else ids, np.asarray(exclude, np.uint32))
-        if ids is not None:
-            kw["only"] = ids
-        if far is not None and far < view.far_m:
-            return render(dataclasses.replace(view, far_m=far), view_pose, **kw).replace(sensor=view)
-        return render(view, view_pose, **kw)
+    def restricted(fn: Callable[..., Frame]) -> Callable[..., Frame]:
+        """``fn`` drawing only what the plan draws, no farther than its far plane."""
+        def draw(view: Sensor, view_pose: np.ndarray, exclude: Sequence[int] = (), **kw: Any) -> Frame:
+            ids = only
+            if len(exclude):
+                ids = np.setdiff1d(materials.ids if ids is None else ids, np.asarray(exclude, np.uint32))
+            if ids is not None:
+                kw["only"] = ids
+            if far is not None and far < view.far_m:
+                return fn(dataclasses.replace(view, far_m=far), view_pose, **kw).replace(sensor=view)
+            return fn(view, view_pose, **kw)
+        return draw
+
+    draw = restricted(render)
+    if hasattr(render, "lens"):   # a supersampled render: the exact lens mode supersamples through the lens
+        draw.lens = restricted(render.lens)
 
     normals = any(eff.needs_normals for eff in sensor.effects)
     kw = {"normals": True} if normals else {}

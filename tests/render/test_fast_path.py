@@ -28,7 +28,8 @@ def assert_same_frames(a, b):
 
 def culled_and_unculled(glctx, scene, sensor, poses, **kw):
     with Renderer(scene, context=glctx, cull=False) as a, Renderer(scene, context=glctx, cull=True) as b:
-        b.cull_min_faces = 0  # cull however few faces are in view
+        b.cull_min_faces = b.occlusion_min_faces = 0  # cull however few faces are in view,
+        b._culler.break_even = 0.0                      # and occlusion-cull every frame
         out = []
         for p in poses:
             fa, fb = a.render(sensor, p, **kw), b.render(sensor, p, **kw)

@@ -247,7 +247,7 @@ def test_cube_faces_for_a_wide_fisheye_and_one_view_for_a_narrow_lens():
     assert m.render_sensor.width <= np.ceil((x.max() - x.min()) * 2 * cam.fx) + 5
 
 
-@pytest.mark.parametrize("mode", ["nearest", "bilinear", "exact"])
+@pytest.mark.parametrize("mode", ["nearest", "bilinear", "plane", "exact"])
 def test_resample_modes_never_blend_ids_and_exact_is_exact(glctx, mode):
     cam = st.lens_sensor("k1=+0.5 (pincushion)", 160, 120)
     scene, n, p0 = tilted_plane()
@@ -259,7 +259,7 @@ def test_resample_modes_never_blend_ids_and_exact_is_exact(glctx, mode):
     plane = st.interior(f.instance == 5, 2)
     want = st.plane_depth(cam, n, p0)
     err = np.abs(f.depth[plane] - want[plane]) / want[plane]
-    assert err.max() < {"nearest": 5e-3, "bilinear": 1e-5, "exact": 1e-5}[mode]
+    assert err.max() < {"nearest": 5e-3, "bilinear": 1e-5, "plane": 1e-5, "exact": 1e-5}[mode]
     if mode == "nearest":
         assert err.max() > 1e-5     # nearest is what exact improves on
     with pytest.raises(gg.ConfigError, match="resample: unknown mode 'cubic'"):
