@@ -37,12 +37,14 @@ from typing import Any
 
 import numpy as np
 
+from .checks import whole_number
 from .errors import ConfigError
 
 PINHOLE_LENGTHS = (0, 4, 5, 8, 12, 14)
 MODELS: dict[str, tuple[int, ...]] = {"pinhole": PINHOLE_LENGTHS, "fisheye": (0, 4), "omni": (1, 5)}
 NEAR_CLIP_RATIO = 1.0 / 1024   # the GL near plane, as a share of the sensor's minimum range
 MAX_OFF_AXIS = np.radians(89.9)  # rays beyond this are not represented (depth is z)
+MAX_SIDE_OVER_F = 1e5  # a side over 1e5 focal lengths spans 179.999 degrees through a pinhole
 
 
 def tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:
@@ -164,8 +166,13 @@ class Camera:
             raise ConfigError(f"{who}: fx and fy must be > 0 (fx={K[0, 0]}, fy={K[1, 1]})")
         if not np.allclose(K[2], [0, 0, 1]) or K[1, 0] != 0:
             raise ConfigError(f"{who}: K's last row must be [0, 0, 1] and K[1,0] = 0")
-        if int(self.width) <= 0 or int(self.height) <= 0:
-            raise ConfigError(f"{who}: width and height must be > 0 ({self.width}x{self.height})")
+        for side in ("width", "height"):
+            whole_number(getattr(self, side), f"{who}: {side}", 1, 1_000_000)
+        for f, side in ((K[0, 0], self.width), (K[1, 1], self.height)):
+            if side / f > MAX_SIDE_OVER_F:   # a pinhole image that wide spans 180 degrees (and more)
+                raise ConfigError(f"{who}: focal length {f:g} px for a {int(side)} px side: a field of view no lens "
+                                  f"renders; expected fx, fy >= {side / MAX_SIDE_OVER_F:g} px (a real lens has about "
+                                  "the image width)")
         if self.model not in MODELS:
             raise ConfigError(f"{who}: unknown lens model {self.model!r}; known: {', '.join(MODELS)}")
         d = np.asarray(self.dist, dtype=np.float64).ravel()

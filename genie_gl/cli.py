@@ -13,10 +13,12 @@ import argparse
 import importlib
 import logging
 import os
+import signal
 import sys
+import threading
 
 from . import __version__
-from .errors import GenieError
+from .errors import GenieError, os_error_message
 
 # subcommand -> (module with add_arguments/run, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -60,6 +62,20 @@ def command_of(argv: list[str]) -> str | None:
     return next((a for a in argv if not a.startswith("-")), None)
 
 
+# the optional packages a command may need, by import name: (PyPI name, genie-gl extra)
+OPTIONAL = {"kiss_icp": ("kiss-icp", "bench"), "evo": ("evo", "bench"), "open3d": ("open3d", "bench"),
+            "pye57": ("pye57", "sequences"), "laspy": ("laspy", "sequences"), "rosbags": ("rosbags", "sequences"),
+            "fast_simplification": ("fast-simplification", "lod"), "ray": ("ray", "ray"), "torch": ("torch", "neural")}
+
+
+def missing_package(name: str) -> str:
+    """One line: which optional package is not installed, and how to install it."""
+    top = name.split(".")[0]
+    pypi, extra = OPTIONAL.get(top, (top, None))
+    how = f"pip install 'genie-gl[{extra}]' (or pip install {pypi})" if extra else f"pip install {pypi}"
+    return f"needs the Python package {top!r}, which is not installed here; {how}"
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(command_of(argv))
@@ -73,6 +89,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    stopped: list[int] = []
+
+    def stop(signum: int, frame: object) -> None:   # SIGTERM as SIGINT: unwind, so pools stop their workers
+        stopped.append(signum)
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, stop) if threading.current_thread() is threading.main_thread() else None
     try:
         backend = os.environ.get("GENIE_GL_BACKEND")
         if backend:
@@ -83,9 +106,26 @@ def main(argv: list[str] | None = None) -> int:
     except GenieError as exc:
         print(f"genie {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except ModuleNotFoundError as exc:
+        if not exc.name or exc.name.split(".")[0] == "genie_gl":
+            raise   # a module of ours missing is a bug, not an input
+        print(f"genie {args.command}: error: {missing_package(exc.name)}", file=sys.stderr)
+        return 2
+    except OSError as exc:   # the file system said no (full, read-only, name too long, ...): one line
+        print(f"genie {args.command}: error: {os_error_message(exc)}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print(f"genie {args.command}: error: out of memory; use smaller inputs (fewer cameras, scenes or workers, "
+              "a smaller sensor) or lower the limits (--max-memory-gb where the command has it)", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
-        print(f"genie {args.command}: interrupted", file=sys.stderr)
-        return 130
+        how = "stopped by SIGTERM" if stopped else "interrupted"
+        print(f"genie {args.command}: {how}; its workers are stopped and what was written whole is kept (a dataset "
+              "resumes when the same command runs again)", file=sys.stderr)
+        return 128 + (stopped[0] if stopped else signal.SIGINT)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ the fix. Catch :class:`GenieError` to catch them all.
 from __future__ import annotations
 
 import difflib
+import errno
 from collections.abc import Iterable
 
 
@@ -47,3 +48,17 @@ class ExportError(GenieError, ValueError):
 class LimitError(ConfigError):
     """A run estimated to need more memory, disk or work than allowed; the message gives the
     estimate and the option that raises the limit."""
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for a file-system error: the file, what happened, what to do."""
+    where = exc.filename or "a file"
+    if exc.filename2:
+        where = f"{exc.filename} -> {exc.filename2}"
+    fix = {errno.ENOSPC: "free space and run again; nothing half-written is left",
+           errno.EDQUOT: "free space and run again; nothing half-written is left",
+           errno.EFBIG: "beyond the file-size limit of this file system or process; nothing half-written is left",
+           errno.EROFS: "write somewhere else",
+           errno.EACCES: "write somewhere else, or give permission",
+           errno.ENAMETOOLONG: "use a shorter name"}.get(exc.errno or -1)
+    return f"{where}: {exc.strerror or exc}" + (f" ({fix})" if fix else "")

@@ -22,7 +22,8 @@ import json
 import os
 import shutil
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,7 @@ from PIL import Image
 from PIL.PngImagePlugin import PngInfo
 
 from . import __version__
-from .errors import ConfigError
+from .errors import ConfigError, os_error_message
 
 MANIFEST = "manifest.json"
 #: names a claimed folder always owns: its manifest and a dataset run's lock
@@ -45,14 +46,27 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")  # one per writer: workers may write the same file
-    try:
+    with written(path, tmp):
         with open(tmp, "wb") as fh:
             fh.write(data)
         tmp.replace(path)
+    return path
+
+
+@contextmanager
+def written(path: Path, tmp: Path) -> Iterator[None]:
+    """Around the writing of ``tmp`` and its rename to ``path``: the temporary file is removed
+    whatever happens, and a file-system error names ``path`` (a full disk raises OSError
+    without a file name)."""
+    try:
+        yield
+    except OSError as exc:
+        if not exc.filename:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+        raise
     finally:
         if tmp.exists():
             tmp.unlink()
-    return path
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
@@ -69,8 +83,17 @@ def check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool], 
     wrote, as told by ``is_ours(path)`` (a stamp the writer puts in every file it writes).
 
     ``what`` names the file's kind for the message ("USD scene"); ``option`` the CLI option
-    that named it, if any.
+    that named it, if any. A path the file system refuses outright (a name too long, a
+    folder that cannot be read) is refused in one line too.
     """
+    try:
+        return _check_replaceable(path, is_ours, what=what, option=option)
+    except OSError as exc:
+        raise ConfigError(f"{option + ' ' if option else ''}{os_error_message(exc)}") from None
+
+
+def _check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool], *, what: str,
+                       option: str | None = None) -> Path:
     path = Path(path)
     where = f"{option} {path}" if option else str(path)
     if path.is_dir():
@@ -120,12 +143,9 @@ def save_png(image: Any, path: str | os.PathLike, *, option: str | None = None) 
     """Save a Pillow image as a stamped PNG, atomically, replacing only a PNG genie-gl wrote."""
     path = check_replaceable(path, png_is_ours, what="PNG picture", option=option)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
-    try:
+    with written(path, tmp):
         image.save(tmp, format="PNG", pnginfo=png_info())
         tmp.replace(path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
 
 
@@ -220,8 +240,18 @@ def claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] = 
     ------
     ConfigError
         ``path`` is a file or unwritable; it holds a ``manifest.json`` genie-gl did not write or
-        one of another command; a name this run must write is taken by the user's entry.
+        one of another command; a name this run must write is taken by the user's entry; the
+        file system refuses the path outright (a name too long, ...).
     """
+    try:
+        return _claim_folder(path, command, writes, option=option, reserve=reserve)
+    except OSError as exc:
+        raise ConfigError(f"{option} {os_error_message(exc)}") from None
+
+
+def _claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] = (), *,
+                  option: str = "--out", reserve: bool = False) -> OutputFolder:
+    """The claim itself (:func:`claim_folder`)."""
     folder = Path(path)
     where = f"{option} {folder}"
     if folder.exists() and not folder.is_dir():

@@ -5,8 +5,11 @@ install) they are the top-level folders of the repository. :func:`data_dir` find
 """
 from __future__ import annotations
 
+import json
+import os
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from .errors import ConfigError, did_you_mean
 
@@ -33,6 +36,9 @@ def resolve(name_or_path: str | Path, kind: str, suffixes: tuple[str, ...]) -> P
     A path with a folder in it that does not exist is an error: it never falls back to a
     shipped file of the same name.
     """
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise ConfigError(f"{kind[:-1]}: expected a file name or the name of a shipped {kind[:-1]} (str or path), got "
+                          f"{type(name_or_path).__name__} {name_or_path!r:.60}")
     path = Path(name_or_path)
     if path.is_file():
         return path
@@ -65,3 +71,15 @@ def read_text(path: str | Path, what: str) -> str:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text at byte {exc.start}, expected a {what}") from None
+
+
+def read_json(path: str | Path, what: str) -> Any:
+    """The parsed JSON of an input file: a bad file (binary, not UTF-8, invalid, nested too
+    deeply for the parser) is a one-line ConfigError naming it."""
+    text = read_text(path, what)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: JSON nested too deeply to be a {what}") from None

@@ -76,3 +76,42 @@ def _gl_guard(request):
     assert not leaked, f"the test left {len(leaked)} GL context(s) unreleased"
     if request.node.get_closest_marker("gl") is None:
         assert contexts_created() == created, "the test started GL: mark it gl (pytest.mark.gl)"
+
+
+# --- the fault-injection suite's counts (cases marked @pytest.mark.fault(kind=, guard=)) -------
+_FAULTS: list[tuple[str, str, str]] = []   # (kind, guard, outcome)
+
+
+@pytest.fixture(autouse=True)
+def _fault_case(request):
+    """Record a fault case's kind and guard on its report (they travel back from xdist workers)."""
+    m = request.node.get_closest_marker("fault")
+    if m is not None:
+        request.node.user_properties.append(("fault", [m.kwargs["kind"], m.kwargs["guard"]]))
+    yield
+
+
+def pytest_runtest_logreport(report):
+    props = dict(report.user_properties)
+    if "fault" in props and (report.when == "call" or (report.when == "setup" and not report.passed)):
+        kind, guard = props["fault"]
+        _FAULTS.append((kind, guard, report.outcome))
+
+
+def pytest_terminal_summary(terminalreporter):
+    if not _FAULTS:
+        return
+    ran = [f for f in _FAULTS if f[2] != "skipped"]
+    kinds = {}
+    for kind, _, _ in ran:
+        kinds[kind] = kinds.get(kind, 0) + 1
+    failed = {g: sum(1 for _, guard, o in ran if guard == g and o == "failed")
+              for g in ("loss", "traceback", "hang", "wrong")}
+    cases = {g: sum(1 for _, guard, _ in ran if guard == g) for g in failed}
+    skipped = len(_FAULTS) - len(ran)
+    terminalreporter.write_sep("-", "fault injection")
+    terminalreporter.write_line(f"{len(ran)} cases run ({skipped} skipped): " +
+                                ", ".join(f"{k} {n}" for k, n in sorted(kinds.items())))
+    terminalreporter.write_line("failed: " + ", ".join(f"{failed[g]} {name} (of {cases[g]} guarded)" for g, name in
+                                (("loss", "losses"), ("traceback", "tracebacks"), ("hang", "hangs or out-of-memory"),
+                                 ("wrong", "silent wrongs"))))

@@ -93,6 +93,11 @@ def test_one_and_two_workers_give_the_same_bytes(reference, tmp_path):
     import json
     m = json.loads((tmp_path / "manifest.json").read_text())
     assert m["inputs"]["seed"] == 0 and m["scenes_made"] == 2 and "genie_gl" in m
+    # 2 scenes for shares 0.8, 0.1, 0.1: both in train, none in two splits, and the run says so
+    import yaml
+    split = yaml.safe_load((tmp_path / "genie-gl.yaml").read_text())["split"]
+    assert split == {"train": [0, 1], "valid": [], "test": []}
+    assert len(m["notes"]) == 1 and "valid and test get none, the rest is in train" in m["notes"][0]
     # each worker warmed up once, before its first scene, and says so apart from the scenes
     run = m["runs"][-1]
     workers = {s["worker"] for s in run["scene_s"]}

@@ -20,7 +20,8 @@ ARGS = ["assembly_line", "--cameras", "2", "--sensor", "ideal_pinhole", "--point
 @pytest.fixture(scope="module")
 def kitti(tmp_path_factory):
     out = tmp_path_factory.mktemp("kitti")
-    assert main(["dataset", *ARGS, "--scenes", "3", "--out", str(out)]) == 0
+    # three sequences, one per split (the default 0.8, 0.1, 0.1 would put all three in train)
+    assert main(["dataset", *ARGS, "--scenes", "3", "--split", "1,1,1", "--out", str(out)]) == 0
     return out
 
 

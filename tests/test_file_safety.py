@@ -164,6 +164,16 @@ def test_bench_keeps_the_users_files(tmp_path, capsys):
     assert_intact(tmp_path, planted)
 
 
+@pytest.mark.gl
+def test_a_benchmark_writes_beside_the_users_files(tmp_path, capsys):
+    """genie bench stability (one case) runs to the end in a folder of the user's files."""
+    planted = plant(tmp_path)
+    assert main(["bench", "stability", "--case", "far_near", "--out", str(tmp_path)]) in (0, 1)
+    assert_intact(tmp_path, planted)
+    m = json.loads((tmp_path / "manifest.json").read_text())
+    assert m["command"] == "bench" and m["outputs"] == ["stability.json"]
+
+
 # --- the API ---------------------------------------------------------------------------------
 
 def _cloud() -> "gg.PointCloud":
@@ -189,6 +199,7 @@ def test_export_writes_beside_the_users_files_and_refuses_their_names(tmp_path, 
 def test_single_file_writers_replace_only_their_own(tmp_path):
     from genie_gl.sensors.accuracy import AccuracySettings, write_accuracy
     from genie_gl.layout import save_layout_png
+    from genie_gl.export import e57, las, npz, pcd, ply
     from genie_gl.sensors import Calibration, write_calibration
 
     layout = gg.generate_layout("assembly_line", seed=0)
@@ -201,6 +212,11 @@ def test_single_file_writers_replace_only_their_own(tmp_path):
         "s.usda": lambda p: gg.write_usd(s, p),
         "c.yml": lambda p: write_calibration(calib, p),
         "a.yaml": lambda p: write_accuracy(p, AccuracySettings()),
+        "c.ply": lambda p: ply.write(_cloud(), p),
+        "c.pcd": lambda p: pcd.write(_cloud(), p),
+        "c.npz": lambda p: npz.write(_cloud(), p),
+        "c.las": lambda p: las.write(_cloud(), p),
+        "c.e57": lambda p: e57.write([_cloud()], p),
     }
     for name, write in writers.items():
         write(tmp_path / name)
@@ -211,3 +227,29 @@ def test_single_file_writers_replace_only_their_own(tmp_path):
             write(mine)
         assert mine.read_bytes() == b"the user's own " + name.encode()
     assert not [p.name for p in tmp_path.iterdir() if ".tmp" in p.name]
+
+
+@pytest.mark.gl
+def test_a_bag_replaces_only_its_own_folder(tmp_path):
+    """A ROS 2 bag is a folder: the writer replaces a bag it wrote, and refuses a folder of the
+    user's of that name (it used to delete it), leaving no temporary folder behind."""
+    from genie_gl.capture.trajectory import record
+    from genie_gl.export.rosbag import write_recording
+    from genie_gl.sensors.paths import make_trajectory
+    from genie_gl.sensors.rig import Rig
+
+    layout = gg.generate_layout("assembly_line", seed=0)
+    scene = gg.build_scene(layout, seed=0)
+    rig = Rig.single(gg.load_sensor("ideal_pinhole"), rate_hz=2.0)
+    tr = make_trajectory(layout, scene, "aisles", seed=0, duration_s=1.0)
+    bag = tmp_path / "bag"
+    for _ in range(2):                                      # its own bag: replaced
+        write_recording(rig, tr, record(scene, rig, tr, seed=0, depth_only=True), bag)
+    assert sorted(p.name for p in bag.iterdir()) == ["bag.mcap", "metadata.yaml"]
+    mine = tmp_path / "mine"
+    (mine / "notes").mkdir(parents=True)
+    (mine / "notes" / "a.txt").write_text("the user's own")
+    with pytest.raises(gg.ConfigError, match="not written by genie-gl"):
+        write_recording(rig, tr, record(scene, rig, tr, seed=0, depth_only=True), mine)
+    assert (mine / "notes" / "a.txt").read_text() == "the user's own"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag", "mine"]

@@ -35,7 +35,7 @@ from ..errors import ConfigError
 from ..sensors.accuracy import AccuracySettings, write_accuracy
 from ..sensors.placement import CoverageProblem, genetic_placement, greedy_placement
 from .accuracy_budget import pick
-from .accuracy_case import content_poses, make_case  # noqa: F401  (content_poses: public)
+from .accuracy_case import check_path, content_poses, make_case  # noqa: F401  (content_poses: public)
 from .accuracy_errors import compare, noise_check, pool
 from .accuracy_plot import pareto, plot
 from .accuracy_runner import Runner, references, spread
@@ -87,6 +87,11 @@ def placement_rows(case: Case, repeats: int, seed: int) -> list[dict]:
                      "is_default": (gens, popn) == PLACEMENT_DEFAULT, "coverage_pct": 100.0 * cov,
                      "cameras": n, "seconds": spread(ts[1:])})
     return rows
+
+
+def check_arguments(args: argparse.Namespace) -> None:
+    """What can be checked before the output folder is claimed (``genie bench`` calls it)."""
+    check_path(args)
 
 
 def run(args: argparse.Namespace) -> int:

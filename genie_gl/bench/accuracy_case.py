@@ -21,7 +21,7 @@ from ..resources import resolve
 from ..scene import build_scene, usd
 from ..sensors import load_sensor, place_sensors
 from ..sensors.pose import look_at
-from ..sensors.paths import PATHS, make_trajectory
+from ..sensors.paths import make_trajectory, path_kind
 from ..sensors.rig import body_from_sensor
 from . import analytic
 from .knobs import Case
@@ -58,12 +58,26 @@ def content_poses(scene, n: int, *, distance_m: float = 4.0, height_m: float = 3
     return poses
 
 
+def check_path(args: argparse.Namespace) -> None:
+    """``--path``: with a strategy or layout ``--scene`` only, and no ``--poses`` (checked
+    before the output folder is claimed or any scene is read)."""
+    if not getattr(args, "path", None):
+        return
+    if args.scene is None or str(args.scene).lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
+        raise ConfigError(f"--path {args.path}: frames along a trajectory need a strategy or layout --scene (its "
+                          "free floor); give one, or drop --path")
+    if args.poses:
+        raise ConfigError(f"--path {args.path}: the trajectory gives the poses; drop --poses {args.poses}")
+    path_kind(args.path)
+
+
 def make_case(args: argparse.Namespace) -> Case:
     """The scene, sensor and poses the rows run on."""
     if args.cameras is not None and args.cameras < 1:
         raise ConfigError(f"--cameras: expected >= 1, got {args.cameras}")
     if args.repeats < 1:
         raise ConfigError(f"--repeats: expected >= 1, got {args.repeats}")
+    check_path(args)
     if args.scene is None:
         sensor = analytic.sensor() if args.sensor is None else load_sensor(args.sensor)
         poses = read_poses(args.poses) if args.poses else [np.eye(4)]
@@ -104,7 +118,7 @@ def make_case(args: argparse.Namespace) -> Case:
 def path_poses(layout, scene, sensor, path: str, n: int, *, seed: int) -> list[np.ndarray]:
     """``n`` poses of ``sensor`` carried (level, tilted 10° down) along a trajectory of kind
     ``path`` (aisles, random or a waypoints file) on the scene's free floor, evenly in time."""
-    kind = path if path in PATHS[:2] else "waypoints"
+    kind = path_kind(path)
     tr = make_trajectory(layout, scene, kind, seed=seed, waypoints=path if kind == "waypoints" else None)
     body = tr.at(np.linspace(tr.start_s, tr.end_s, max(1, n)))
     return list(body @ body_from_sensor(pitch_rad=float(np.radians(10.0))))

@@ -33,6 +33,9 @@ def _register() -> None:
             w = parent.w / n
             return [Child(parent.x + i * w, parent.y, w, parent.h, "strip") for i in range(n)]
 
+        def max_children(self, w, h, parents, area):  # the limits' bound: n strips per parent
+            return parents * int(self.args["n"])
+
         def generate_batch(self, parents, *, rng):  # every parent at once
             n, m = int(self.args["n"]), len(parents)
             w = np.repeat(parents.w / n, n)

@@ -16,19 +16,12 @@ import numpy as np
 
 from ..capture.trajectory import record
 from ..export.semantickitti_sequence import write_recording
-from ..layout import generate_layout
+from ..layout import generate_layout, load_strategy
+from ..outputs import atomic_write_text
 from ..render import shared_context
 from ..scene import build_scene
 from ..sensors.paths import make_trajectory
 from ..sensors.rig import load_rig
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--strategy", default="storage_area")
-    p.add_argument("--rig", default="panorama_cube")
-    p.add_argument("--path", default="aisles", choices=("aisles", "random"))
-    p.add_argument("--duration-s", type=float, default=30.0)
-    p.add_argument("--seed", type=int, default=0)
 
 
 def read_sequence(seq: Path) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
@@ -44,15 +37,21 @@ def read_sequence(seq: Path) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     return scans, np.array(poses), np.loadtxt(seq / "times.txt")
 
 
+def check_arguments(args: argparse.Namespace) -> None:
+    """The rig and the strategy read before the output folder is claimed (``genie bench`` calls it)."""
+    load_rig(args.rig)
+    load_strategy(args.strategy)
+
+
 def run(args: argparse.Namespace) -> int:
     from evo.core import metrics     # the bench extra: evo and kiss-icp
     from evo.core.trajectory import PoseTrajectory3D
     from kiss_icp.config import KISSConfig
     from kiss_icp.kiss_icp import KissICP
 
+    rig = load_rig(args.rig)   # a bad rig file is refused before the scene is built
     layout = generate_layout(args.strategy, seed=args.seed)
     scene = build_scene(layout, seed=args.seed)
-    rig = load_rig(args.rig)
     tr = make_trajectory(layout, scene, args.path, seed=args.seed, duration_s=args.duration_s)
     out = Path(args.out) / "odometry"
     seq, = write_recording(rig, tr, record(scene, rig, tr, seed=args.seed, depth_only=True, context=shared_context()),
@@ -80,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
               "ate_max_m": float(ape.get_statistic(metrics.StatisticsType.max)),
               "rpe_per_m_rmse_m": float(rpe.get_statistic(metrics.StatisticsType.rmse)),
               "end_error_m": float(np.linalg.norm(gt[-1][:3, 3] - est[-1][:3, 3]))}
-    (Path(args.out) / "odometry.json").write_text(json.dumps(result, indent=1))
+    atomic_write_text(Path(args.out) / "odometry.json", json.dumps(result, indent=1))
     print(f"KISS-ICP on {len(scans)} scans of {rig.name} along {tr.length_m:.1f} m ({args.strategy}, {args.path}, "
           f"seed {args.seed}): evo ATE RMSE {100 * result['ate_rmse_m']:.2f} cm (max {100 * result['ate_max_m']:.2f} cm), "
           f"RPE per metre {100 * result['rpe_per_m_rmse_m']:.2f} cm, end point {100 * result['end_error_m']:.2f} cm")

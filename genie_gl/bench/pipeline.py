@@ -1,7 +1,7 @@
 """``genie bench pipeline``: seconds per scene end to end at the paper's setup (40 cameras,
-640 x 480, the assembly line strategy) against the target (<= 0.5 s of stage time
-per scene on 2 cores), and unprojection against a plain numpy version on synthetic and
-rendered frames. ``--unprojection-only`` skips the dataset runs, ``--dataset-only`` the rest.
+640 x 480, the assembly line strategy) against the targets (<= 0.4 s of stage time per steady
+scene with 1 worker on 2 cores, <= 0.25 s per scene for the whole machine), and unprojection
+against a plain numpy version on synthetic and rendered frames. ``--unprojection-only`` skips the dataset runs, ``--dataset-only`` the rest.
 
 Each worker count runs ``genie dataset`` in a fresh process (as a user does: imports, numba's
 cached kernels, the GL context, all paid again), ``--repeats`` times. From each run's manifest
@@ -42,7 +42,8 @@ from ..layout import generate_layout, load_strategy
 from ..render import Renderer, create_context
 from ..resources import resolve
 
-TARGET_S = 0.5  # the target: stage seconds per scene on 2 cores
+TARGET_S = 0.4  # stage seconds per steady scene, 1 worker on 2 cores
+TARGET_MACHINE_S = 0.25  # stage seconds per scene for the whole machine (steady / workers, best count)
 
 
 def _dataset_run(args: argparse.Namespace, workers: int) -> dict:
@@ -79,7 +80,7 @@ def _spread(v: list[float]) -> str:
 
 def dataset_runs(args: argparse.Namespace) -> list[dict]:
     """The runs of every worker count, worker counts taking turns (a drifting load hits all)."""
-    counts = [int(x) for x in args.workers.split(",")]
+    counts = list(args.workers)
     runs = [_dataset_run(args, w) for _ in range(args.repeats) for w in counts]
     print(f"genie dataset assembly_line: {args.scenes} scenes x {args.cameras} cameras ({args.sensor}), "
           f"{args.repeats} runs per worker count, {os.cpu_count()} cores; load average (1 min) at the starts: "
@@ -103,17 +104,18 @@ def dataset_runs(args: argparse.Namespace) -> list[dict]:
               f"{_spread(steady):>21s} {machine:15.2f} {command:15.2f} {_spread(cpu):>12s}")
     one = next((s for s in summary if s["workers"] == 1), None)
     if args.cameras != 40:
-        print("   (the target is for 40 cameras a scene: run with --cameras 40 to check it)")
+        print("   (the targets are for 40 cameras a scene: run with --cameras 40 to check it)")
     elif one is not None and one["steady_median_s"] is not None:
         best = min(s["machine_s_per_scene"] for s in summary)
         met = one["steady_median_s"] <= TARGET_S
+        met_machine = best <= TARGET_MACHINE_S
         cpu = float(np.median(one["steady_cpu_s"])) if one["steady_cpu_s"] else float("nan")
         load = float(np.median([r["load_avg_1min"] for r in runs]))
-        print(f"   target: <= {TARGET_S} s of stage time per scene on 2 cores: "
-              f"{one['steady_median_s']:.2f} s per scene after the first (1 worker: llvmpipe and numba on both "
-              f"cores) -> {'met' if met else 'NOT met'} "
-              f"at load average {load:.1f} on {os.cpu_count()} cores; whole machine {best:.2f} s per scene at best; "
-              f"CPU {cpu:.2f} s per steady scene (about its stage time on idle cores with 1 worker)")
+        print(f"   target: <= {TARGET_S} s of stage time per scene with 1 worker on {os.cpu_count()} cores: "
+              f"{one['steady_median_s']:.2f} s per scene after the first (llvmpipe and numba on every core) -> "
+              f"{'met' if met else 'NOT met'}; <= {TARGET_MACHINE_S} s per scene for the whole machine: "
+              f"{best:.2f} s at best -> {'met' if met_machine else 'NOT met'}; at load average {load:.1f}; "
+              f"CPU {cpu:.2f} s per steady scene with 1 worker (about its stage time on idle cores)")
         stages = [st for r in runs if r["workers"] == 1 for st in r["steady_stages"]]
         med = {k: float(np.median([st[k] for st in stages])) for k in stages[0]} if stages else {}
         print("   steady scene, 1 worker, median s per stage: " + ", ".join(f"{k} {v:.3f}" for k, v in med.items()))

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, did_you_mean
 from ..outputs import atomic_write_text
 from ..render import Renderer
 from ..render.reference import ReferenceRenderer
@@ -281,30 +281,41 @@ def _print(table: dict, whole: dict) -> None:
                   f"peak {w['peak_rss_mib']:.0f} MiB per process")
 
 
+def _listed(value, known, option: str) -> list[str]:
+    """The names of ``value`` (a list from the command line or a comma-separated string from
+    a caller), each one of ``known`` (a ConfigError in the option's words otherwise)."""
+    parts = [v.strip() for v in (value.split(",") if isinstance(value, str) else value) if v.strip()]
+    for name in parts or [""]:
+        if name not in known:
+            raise ConfigError(f"genie bench render {option}: unknown name {name!r}{did_you_mean(name, known)}; "
+                              f"expected some of {', '.join(known)}")
+    return parts
+
+
 def run(args: argparse.Namespace) -> int:
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
-    scenes = [s.strip() for s in args.scenes.split(",") if s.strip()]
-    tools = [t.strip() for t in args.tools.split(",") if t.strip()]
-    for name in scenes:
-        if name not in SIZES:
-            raise ConfigError(f"genie bench render --scenes: unknown scene {name!r}; expected some of {', '.join(SIZES)}")
-    for name in tools:
-        if name not in TOOLS:
-            raise ConfigError(f"genie bench render --tools: unknown tool {name!r}; expected some of {', '.join(TOOLS)}")
+    scenes, tools = _listed(args.scenes, SIZES, "--scenes"), _listed(args.tools, TOOLS, "--tools")
     skipped = {t: f"not installed: {PEERS[t][1]}" for t in tools if not available(t)}
     tools = [t for t in tools if t not in skipped]
     load = os.getloadavg()
+    print("genie bench render: compiling (or loading) the kernels once in a throw-away process "
+          "(the first run on a machine takes about a minute) ...", flush=True)
     _warm()
     runs = []
+    total, done = len(scenes) * args.repeats * len(tools), 0
     for scene in scenes:
         for k in range(args.repeats):
             turn = tools[k % len(tools):] + tools[:k % len(tools)]   # who goes first rotates
             for tool in turn:
+                done += 1
+                print(f"  [{done}/{total}] scene {scene}, {tool}, turn {k + 1} of {args.repeats}: a fresh process "
+                      "builds the scene and renders its 40 poses ...", flush=True)
                 runs.append(_fresh(tool, scene))
     whole: dict = {}
     if args.whole_machine:
         for scene in scenes:
+            print(f"  scene {scene}: each tool on the whole machine ({args.frames} frames per process) ...", flush=True)
             whole[scene] = {t: whole_machine(t, scene, args.frames) for t in tools}
     table = summarise(runs)
     results = {"machine": {"cpus": os.cpu_count(), "load_before": load, "load_after": os.getloadavg()},

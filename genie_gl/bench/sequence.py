@@ -14,7 +14,8 @@ from pathlib import Path
 
 from ..capture import capture
 from ..capture.trajectory import record, schedule
-from ..layout import generate_layout
+from ..layout import generate_layout, load_strategy
+from ..outputs import atomic_write_text
 from ..render import shared_context
 from ..scene import build_scene
 from ..sensors import place_sensors
@@ -22,18 +23,16 @@ from ..sensors.paths import make_trajectory
 from ..sensors.rig import load_rig
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--strategy", default="storage_area")
-    p.add_argument("--rig", default="d435_quad")
-    p.add_argument("--duration-s", type=float, default=4.0)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--repeat", type=int, default=2, help="alternate the two runs this many times; best of each")
+def check_arguments(args: argparse.Namespace) -> None:
+    """The rig and the strategy read before the output folder is claimed (``genie bench`` calls it)."""
+    load_rig(args.rig)
+    load_strategy(args.strategy)
 
 
 def run(args: argparse.Namespace) -> int:
+    rig = load_rig(args.rig)   # a bad rig file is refused before the scene is built
     layout = generate_layout(args.strategy, seed=args.seed)
     scene = build_scene(layout, seed=args.seed)
-    rig = load_rig(args.rig)
     tr = make_trajectory(layout, scene, "aisles", seed=args.seed, duration_s=args.duration_s)
     shots = schedule(rig, tr)
     per = [sum(s.sensor == k for s in shots) for k in range(len(rig))]
@@ -52,8 +51,7 @@ def run(args: argparse.Namespace) -> int:
               "trajectory_s": best["trajectory"], "standing_s": best["standing"],
               "trajectory_fps": n / best["trajectory"], "standing_fps": n / best["standing"],
               "ratio": best["trajectory"] / best["standing"]}
-    Path(args.out).mkdir(parents=True, exist_ok=True)
-    (Path(args.out) / "sequence.json").write_text(json.dumps(result, indent=1))
+    atomic_write_text(Path(args.out) / "sequence.json", json.dumps(result, indent=1))
     print(f"{n} frames of {rig.name} ({len(rig)} sensors) on {args.strategy}: along a {tr.duration_s:.1f} s "
           f"trajectory {result['trajectory_fps']:.1f} frames/s, standing {result['standing_fps']:.1f} frames/s "
           f"(trajectory / standing time = {result['ratio']:.2f})")

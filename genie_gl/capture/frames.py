@@ -14,7 +14,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..checks import capture_arguments, check_pose, expect
 from ..frame import Frame
+from ..limits import check_frames
 from ..render.context import GLContext
 from ..render.renderer import Renderer
 from ..scene.materials import MaterialTable
@@ -39,6 +41,9 @@ def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | Non
     Creates and frees a GL context: to render many poses use :func:`capture`, or a
     :class:`~genie_gl.render.Renderer` with :func:`~genie_gl.capture.through_lens`.
     """
+    expect(scene, Scene, "render: scene")
+    expect(sensor, Sensor, "render: sensor")
+    pose = check_pose(pose, "render: pose")
     with Renderer(scene, backend=backend, depth_precision=depth_precision) as r:
         return through_lens(r.render)(sensor, pose, depth_only=depth_only, normals=normals)
 
@@ -70,6 +75,8 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     context : a :class:`~genie_gl.render.GLContext` to render in (``workers=1`` only; e.g.
         :func:`~genie_gl.render.shared_context`, kept from scene to scene); None makes one.
     """
+    scene, sensor, poses, seed = capture_arguments(scene, sensor, poses, seed, Scene, Sensor)
+    check_frames(len(poses), sensor.width, sensor.height, "capture")   # every frame is returned: all in memory
     accuracy = settings_for(sensor, accuracy)
     sensor = apply_to_sensor(sensor, accuracy)
     if depth_precision == "float32":
@@ -91,6 +98,15 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     if workers <= 1:
         with Renderer(scene, backend=backend, depth_precision=depth_precision, context=context,
                       lod=level_of_detail(accuracy)) as r:
-            return capture_serial(r, sensor, poses, seed, range(n), accuracy, depth_only, plan, materials)
-    return capture_in_workers(scene, sensor, poses, seed, workers, backend, accuracy, depth_only, depth_precision,
-                              plan, materials)
+            return _said_if_empty(capture_serial(r, sensor, poses, seed, range(n), accuracy, depth_only, plan,
+                                                 materials), sensor)
+    return _said_if_empty(capture_in_workers(scene, sensor, poses, seed, workers, backend, accuracy, depth_only,
+                                             depth_precision, plan, materials), sensor)
+
+
+def _said_if_empty(frames: list[Frame], sensor: Sensor) -> list[Frame]:
+    """``frames``, with a warning when not one of them has a return."""
+    if frames and not any(bool((f.depth > 0).any()) for f in frames):
+        log.warning("capture: no point captured: none of the %d frames of sensor %s (%dx%d px, range %g-%g m) has a "
+                    "return", len(frames), sensor.name, sensor.width, sensor.height, sensor.near_m, sensor.far_m)
+    return frames

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import capture_arguments
 from ..scene.convexity import is_convex
 from ..scene.materials import MaterialTable
 from ..scene.model import Mesh, Scene
@@ -120,23 +121,30 @@ class Plan:
 
 
 def _spheres(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """World bounding spheres of the instances: ids (N,), centres (N, 3), radii (N,)."""
-    cache: dict[str, tuple[np.ndarray, float]] = {}
-    ids, centres, radii = [], [], []
-    for inst in scene.instances:
-        if inst.mesh not in cache:
-            v = scene.meshes[inst.mesh].vertices.astype(np.float64)
-            if len(v) == 0:
-                cache[inst.mesh] = (np.zeros(3), -1.0)
-            else:
-                c = (v.min(0) + v.max(0)) / 2
-                cache[inst.mesh] = (c, float(np.linalg.norm(v - c, axis=1).max()))
-        c, r = cache[inst.mesh]
-        T = inst.world_from_model
-        ids.append(inst.instance)
-        centres.append(T[:3, :3] @ c + T[:3, 3])
-        radii.append(r * float(np.linalg.norm(T[:3, :3], axis=0).max()))
-    return (np.array(ids, np.uint32), np.array(centres).reshape(-1, 3), np.array(radii))
+    """World bounding spheres of the instances: ids (N,), centres (N, 3), radii (N,).
+
+    A mesh's sphere is found once; the instances' transforms are applied all at once, with the
+    per-instance arithmetic's operations in its order (``T[:3, :3] @ c + T[:3, 3]``, the
+    largest column norm of ``T[:3, :3]`` times the radius)."""
+    spheres: dict[str, tuple[np.ndarray, float]] = {}
+    for key in {inst.mesh for inst in scene.instances}:
+        v = scene.meshes[key].vertices.astype(np.float64)
+        if len(v) == 0:
+            spheres[key] = (np.zeros(3), -1.0)
+        else:
+            c = (v.min(0) + v.max(0)) / 2
+            spheres[key] = (c, float(np.linalg.norm(v - c, axis=1).max()))
+    n = len(scene.instances)
+    ids = np.fromiter((inst.instance for inst in scene.instances), np.uint32, n)
+    if n == 0:
+        return ids, np.zeros((0, 3)), np.zeros(0)
+    T = np.stack([inst.world_from_model for inst in scene.instances]).astype(np.float64, copy=False)
+    c = np.array([spheres[inst.mesh][0] for inst in scene.instances])
+    r = np.array([spheres[inst.mesh][1] for inst in scene.instances])
+    R = T[:, :3, :3]
+    centres = (R[:, :, 0] * c[:, :1] + R[:, :, 1] * c[:, 1:2]) + R[:, :, 2] * c[:, 2:] + T[:, :3, 3]
+    radii = r * np.sqrt(np.add.reduce(R * R, axis=1)).max(axis=1)
+    return ids, centres, radii
 
 
 def _is_convex(mesh: Mesh) -> bool:
@@ -179,6 +187,7 @@ def _frustum(sensor: Sensor) -> list[tuple[np.ndarray, np.ndarray]]:
 def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
          materials: MaterialTable | None = None) -> Plan:
     """Decide, per pose (world_from_camera), what is drawn and which effects run, and why."""
+    scene, sensor, poses, _ = capture_arguments(scene, sensor, poses, 0, Scene, Sensor, "plan")
     ids, centres, radii = _spheres(scene)
     table = MaterialTable.from_scene(scene) if materials is None else materials
     mesh_of = np.array([i.mesh for i in scene.instances])

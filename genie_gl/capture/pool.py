@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..frame import Frame
+from ..processes import die_with_parent
 from ..render.context import default_backend
 from ..render.lod import LevelOfDetail
 from ..render.renderer import Renderer
@@ -27,6 +28,7 @@ _WORKER: dict[str, Any] = {}
 
 def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32",
                  lod: LevelOfDetail | None = None) -> None:
+    die_with_parent()
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
     limit_threads(lp_threads)
     _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision, lod=lod)

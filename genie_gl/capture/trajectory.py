@@ -15,7 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..checks import check_seed, expect
 from ..frame import Frame
+from ..scene.model import Scene
 from ..sensors.registration import MID_RANGE_M
 from ..sensors.rig import Rig
 from ..sensors.trajectory import Trajectory
@@ -71,9 +73,19 @@ def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bo
     time order; each frame's ``meta`` gains ``time_s``, ``rig_sensor`` and ``shot``.
 
     ``depth_only``, ``accuracy`` and ``context`` are ``gg.capture``'s; ``shots`` a subset of
-    :func:`schedule` (default: all).
+    :func:`schedule` (default: all). The arguments are checked when it is called, before the
+    first frame is asked for.
     """
-    shots = schedule(rig, trajectory) if shots is None else shots
+    expect(scene, Scene, "record: scene")
+    expect(rig, Rig, "record: rig")
+    expect(trajectory, Trajectory, "record: trajectory")
+    seed = check_seed(seed, "record: seed")
+    return _recorded(scene, rig, trajectory, seed, depth_only, accuracy, context,
+                     schedule(rig, trajectory) if shots is None else shots)
+
+
+def _recorded(scene, rig: Rig, trajectory: Trajectory, seed: int, depth_only: bool, accuracy, context,
+              shots: list[Shot]) -> Iterator[tuple[Shot, Frame]]:
     per = max(1, WINDOW)
     start = 0
     window = 0

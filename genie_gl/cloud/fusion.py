@@ -13,8 +13,10 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..checks import expect
+from ..errors import ConfigError, LimitError
 from ..frame import Frame
+from ..limits import check_memory, memory_limit_bytes
 from .pointcloud import PointCloud
 from .unproject import unproject
 
@@ -35,10 +37,14 @@ class VoxelMap:
         if not voxel_m > 0:
             raise ConfigError(f"map voxel: expected > 0 m, got {voxel_m}")
         self.lo = np.asarray(bounds[0], np.float64)
-        self.dims = np.maximum(1, np.ceil((np.asarray(bounds[1]) - self.lo) / voxel_m).astype(np.int64))
-        if int(np.prod(self.dims)) > MAX_VOXELS:
-            raise ConfigError(f"map voxel {voxel_m} m: the {np.ptp(bounds, axis=0).round(1).tolist()} m scene would "
-                              f"need {int(np.prod(self.dims)):,} voxels; use a larger voxel")
+        extent = np.asarray(bounds[1], np.float64) - self.lo
+        cells = [max(1.0, float(np.ceil(x / voxel_m))) for x in extent]   # floats: no int64 overflow
+        voxels = float(np.prod(cells))
+        where = f"map voxel {voxel_m:g} m over the {np.round(extent, 1).tolist()} m scene ({voxels:.3g} voxels)"
+        if voxels > MAX_VOXELS:
+            raise LimitError(f"{where}: above the limit of {MAX_VOXELS:.3g} voxels; use a larger voxel")
+        check_memory(voxels / 8, memory_limit_bytes(), f"{where}, one bit each", "use a larger voxel", option=None)
+        self.dims = np.array(cells, np.int64)
         self.voxel_m, self.origin = float(voxel_m), np.asarray(origin, np.float64)
         self.bits = np.zeros((int(np.prod(self.dims)) + 7) // 8, np.uint8)
         self.parts: list[PointCloud] = []
@@ -48,6 +54,7 @@ class VoxelMap:
 
     def add(self, frame: Frame) -> int:
         """Fuse ``frame`` (at its ``world_from_camera``); returns how many points it added."""
+        expect(frame, Frame, f"fuse: frames[{self.frames}]")
         if self.frames >= MAX_FRAMES:
             raise ConfigError(f"a mobile-scan map holds at most {MAX_FRAMES} frames; use a shorter trajectory or "
                               "lower frame rates")
@@ -81,7 +88,14 @@ def fuse(frames: Iterable[Frame], *, bounds: np.ndarray, voxel_m: float = 0.02,
          origin: np.ndarray | None = None) -> PointCloud:
     """The frames' points fused in the world frame, one per ``voxel_m`` voxel (the first seen),
     within ``bounds`` (2, 3); ``camera`` is each point's frame index."""
-    bounds = np.asarray(bounds, np.float64)
+    given = bounds
+    try:
+        bounds = np.asarray(bounds, np.float64)
+    except (TypeError, ValueError):
+        bounds = np.zeros(0)
+    if bounds.shape != (2, 3) or not np.isfinite(bounds).all() or not (bounds[1] > bounds[0]).all():
+        raise ConfigError(f"fuse: bounds: expected a (2, 3) box [[xmin, ymin, zmin], [xmax, ymax, zmax]] of finite "
+                          f"numbers, max above min, got {given!r:.80}")
     origin = np.round(bounds.mean(0) / 100.0) * 100.0 + 0.0 if origin is None else origin
     m = VoxelMap(bounds, voxel_m, origin)
     for f in frames:

@@ -5,6 +5,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..checks import expect_sequence
+from ..errors import ConfigError
 from ..frame import Frame
 from .pointcloud import PointCloud
 from . import kernels
@@ -62,11 +64,10 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
     own camera first, so a site of any size (20 km and more) keeps 0.1 mm.
     """
     if precision not in ("float32", "float64"):
-        raise ValueError(f"to_cloud: precision must be 'float32' or 'float64', got {precision!r}")
-    if not frames:
-        raise ValueError("to_cloud: no frames")
+        raise ConfigError(f"to_cloud: precision must be 'float32' or 'float64', got {precision!r}")
+    frames = expect_sequence(frames, Frame, "to_cloud: frames")
     if max_points is not None and rng is None:
-        raise ValueError("to_cloud: max_points needs an rng (numpy.random.Generator)")
+        raise ConfigError("to_cloud: max_points needs an rng (numpy.random.Generator)")
     origin = choose_origin(frames) if origin is None else np.asarray(origin, np.float64)
     counts = np.array([kernels.count_valid(f.depth) for f in frames], np.int64)
     ends = np.cumsum(counts)
@@ -218,12 +219,14 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     for k, (f, (depth, tx, ty, M, (_, pick, _))) in enumerate(zip(frames, inputs)):
         m = pick(depth, tx, ty, M, size, I0, J0, grid, seen, start_a, picked, taken, src, dst, out_xyz)
         s, d = src[:m], dst[:m]
-        v, u = np.divmod(s, depth.shape[1])
-        out_sem[d], out_inst[d], out_camera[d] = f.semantic[v, u], f.instance[v, u], k
-        if with_rgb:
-            out_rgb[d] = f.rgb[v, u]
-        if with_normal:
-            out_normal[d] = rotate(f.normal[v, u], f.world_from_camera)
+        # labels gathered by flat pixel index (C order, as the kernel numbers pixels)
+        out_sem[d], out_inst[d], out_camera[d] = np.take(f.semantic, s), np.take(f.instance, s), k
+        if with_rgb or with_normal:
+            v, u = np.divmod(s, depth.shape[1])
+            if with_rgb:
+                out_rgb[d] = f.rgb[v, u]
+            if with_normal:
+                out_normal[d] = rotate(f.normal[v, u], f.world_from_camera)
     merged = PointCloud(out_xyz, out_sem, out_inst, origin, out_rgb, out_normal, out_camera)
     tiles = [(key, merged.select(slice(a, b))) for key, a, b in zip(kept, ends - sizes, ends)]
     return tiles, total

@@ -3,46 +3,17 @@
 stage, so a command may use any of them; the stages never import a command."""
 from __future__ import annotations
 
-import argparse
-import math
 from contextlib import contextmanager
 
-
-def seed(text: str) -> int:
-    """argparse type of a seed: a whole number >= 0 (numpy's SeedSequence takes no negatives)."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if v < 0 or v >= 2**63:
-        raise argparse.ArgumentTypeError(f"expected a whole number in 0..2**63-1, got {text}")
-    return v
+from ..options import count, counts, names, positive, seed  # noqa: F401  (the commands' option types)
 
 
-def count(lo: int = 1, hi: int = 10**6):
-    """argparse type of a whole number in [lo, hi]."""
-    def parse(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-        if not lo <= v <= hi:
-            raise argparse.ArgumentTypeError(f"expected a whole number in {lo}..{hi}, got {v}")
-        return v
-    return parse
+def announce_compilation(command: str) -> None:
+    """Say, if this run compiles genie-gl's kernels (numba's cache is cold: the first run), that
+    it is a one-time cost (:func:`genie_gl.processes.say_when_compiling`)."""
+    from ..processes import say_when_compiling
 
-
-def positive(hi: float = 1e6):
-    """argparse type of a finite number in (0, hi]."""
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-        if not (math.isfinite(v) and 0 < v <= hi):
-            raise argparse.ArgumentTypeError(f"expected a finite number in (0, {hi:g}], got {text}")
-        return v
-    return parse
+    say_when_compiling(f"genie {command}")
 
 
 @contextmanager
@@ -51,7 +22,8 @@ def stages(names: list[str], *, title: str = "genie", enabled: bool = True):
     step: step("render"); ...``."""
     from tqdm import tqdm
 
-    bar = tqdm(total=len(names), unit="stage", disable=not enabled, bar_format="{desc} [{elapsed}]")
+    # shown on a terminal only (tqdm: disable=None), so a log or a pipe gets the one-line error alone
+    bar = tqdm(total=len(names), unit="stage", disable=True if not enabled else None, bar_format="{desc} [{elapsed}]")
     bar.set_description(title)
     seen: list[str] = []
 

@@ -7,18 +7,25 @@ import argparse
 import importlib
 from collections.abc import Callable
 
+from . import announce_compilation, count, counts, names, positive, seed
+
+#: the scenes of ``genie bench render`` (genie_gl.bench.scenes.SIZES) and the tools it times
+RENDER_SCENES = ("100k", "1M", "10M", "hall", "generated")
+RENDER_TOOLS = ("genie-gl", "Open3D", "pyrender")
+
 
 def _render(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenes", default="100k,1M,hall", help="scenes to run, from 100k, 1M, 10M, hall, generated")
-    p.add_argument("--repeats", type=int, default=2, help="fresh processes per tool and scene (turns)")
-    p.add_argument("--tools", default="genie-gl,Open3D,pyrender", help="tools to time")
+    p.add_argument("--scenes", type=names(RENDER_SCENES), default="100k,1M,hall",
+                   help=f"scenes to run, from {', '.join(RENDER_SCENES)}")
+    p.add_argument("--repeats", type=count(1, 1000), default=2, help="fresh processes per tool and scene (turns)")
+    p.add_argument("--tools", type=names(RENDER_TOOLS), default=",".join(RENDER_TOOLS), help="tools to time")
     p.add_argument("--whole-machine", action="store_true",
                    help="also frames/s of P = cores processes per tool at once")
-    p.add_argument("--frames", type=int, default=40, help="frames per process in the whole-machine run")
+    p.add_argument("--frames", type=count(1, 100_000), default=40, help="frames per process in the whole-machine run")
 
 
 def _layout(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--repeats", type=count(1, 1000), default=3)
 
 
 def _accuracy(p: argparse.ArgumentParser) -> None:
@@ -26,26 +33,27 @@ def _accuracy(p: argparse.ArgumentParser) -> None:
                    help="USD stage, or layout / strategy JSON (default: the built-in analytic case)")
     p.add_argument("--sensor", default=None, help="sensor profile or calibration file (default: the built-in "
                                                    "rational-lens stereo sensor without --scene, ideal_pinhole with one)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the layout, scene, placement and noise")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the layout, scene, placement and noise")
     views = p.add_mutually_exclusive_group()
-    views.add_argument("--cameras", type=int, default=3, help="cameras placed over the scene (default 3)")
+    views.add_argument("--cameras", type=count(1, 1000), default=3, help="cameras placed over the scene (default 3)")
     views.add_argument("--poses", default=None, help="JSON list of 4x4 world_from_camera, or .npy (N, 4, 4)")
     p.add_argument("--path", default=None, help="with a strategy --scene: the --cameras frames along a trajectory "
                                                 "(aisles, random or a waypoints file) instead of standing cameras")
-    p.add_argument("--repeats", type=int, default=5, help="timed passes per row after one warm-up (default 5)")
-    p.add_argument("--budget-mm", type=float, default=None, help="depth error budget (p99, mm)")
-    p.add_argument("--budget-px", type=float, default=None, help="silhouette budget (mean edge error, px)")
+    p.add_argument("--repeats", type=count(1, 1000), default=5, help="timed passes per row after one warm-up (default 5)")
+    p.add_argument("--budget-mm", type=positive(1e6), default=None, help="depth error budget (p99, mm)")
+    p.add_argument("--budget-px", type=positive(1e6), default=None, help="silhouette budget (mean edge error, px)")
     p.add_argument("--knobs", default=None, help="comma-separated subset of knobs to run (default: all)")
     p.add_argument("--no-cache", action="store_true",
                    help="render the exact reference again (default: reuse OUT/cache/reference-*.npz of the same inputs)")
 
 
 def _pipeline(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenes", type=int, default=6, help="scenes per run (enough that each worker makes several)")
-    p.add_argument("--cameras", type=int, default=40)
+    p.add_argument("--scenes", type=count(1, 10_000), default=6,
+                   help="scenes per run (enough that each worker makes several)")
+    p.add_argument("--cameras", type=count(1, 10_000), default=40)
     p.add_argument("--sensor", default="ideal_pinhole")
-    p.add_argument("--workers", default="1,2")
-    p.add_argument("--repeats", type=int, default=2, help="runs per worker count")
+    p.add_argument("--workers", type=counts(1, 4096), default="1,2", help="worker counts to compare, e.g. 1,2")
+    p.add_argument("--repeats", type=count(1, 1000), default=2, help="runs per worker count")
     p.add_argument("--unprojection-only", action="store_true", help="only the unprojection figures")
     p.add_argument("--dataset-only", action="store_true", help="only the dataset runs")
 
@@ -55,28 +63,28 @@ def _stability(p: argparse.ArgumentParser) -> None:
 
 
 def _planning(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--cameras", type=int, default=4)
-    p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--cameras", type=count(1, 1000), default=4)
+    p.add_argument("--rounds", type=count(1, 1000), default=3)
 
 
 def _sequence(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="storage_area")
     p.add_argument("--rig", default="d435_quad")
-    p.add_argument("--duration-s", type=float, default=4.0)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--repeat", type=int, default=2, help="alternate the two runs this many times; best of each")
+    p.add_argument("--duration-s", type=positive(3600), default=4.0, help="seconds of the trajectory")
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--repeat", type=count(1, 1000), default=2, help="alternate the two runs this many times; best of each")
 
 
 def _odometry(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="storage_area")
     p.add_argument("--rig", default="panorama_cube")
     p.add_argument("--path", default="aisles", choices=("aisles", "random"))
-    p.add_argument("--duration-s", type=float, default=30.0)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--duration-s", type=positive(3600), default=30.0, help="seconds of the trajectory")
+    p.add_argument("--seed", type=seed, default=0)
 
 
 def _cli(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--repeats", type=int, default=15, help="runs of each command line (default 15)")
+    p.add_argument("--repeats", type=count(1, 1000), default=15, help="runs of each command line (default 15)")
     p.add_argument("--against", default=None, metavar="DIR",
                    help="also time the package of another checkout (DIR/genie_gl), in turns with this one")
 
@@ -114,7 +122,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..outputs import claim_folder
 
+    mod = importlib.import_module(f"genie_gl.bench.{args.bench}")
+    check = getattr(mod, "check_arguments", None)
+    if check is not None:   # a benchmark's own option checks, before its folder is claimed
+        check(args)
     folder = claim_folder(args.out, "bench", BENCHMARKS[args.bench][2], reserve=True)
-    code = int(importlib.import_module(f"genie_gl.bench.{args.bench}").run(args) or 0)
+    announce_compilation(f"bench {args.bench}")
+    code = int(mod.run(args) or 0)
     folder.finish({"last": args.bench})
     return code

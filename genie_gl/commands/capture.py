@@ -11,19 +11,20 @@ from __future__ import annotations
 import argparse
 
 from ..errors import ConfigError, did_you_mean
-from . import count, positive, seed, stages
+from ..limits import MAX_CAMERAS, check_disk, check_frames
+from . import announce_compilation, count, positive, seed, stages
 from .plan import warn_empty
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", help="USD scene (.usda/.usdc/.usd)")
     p.add_argument("--sensor", default="ideal_pinhole", help="sensor profile name or path")
-    p.add_argument("--cameras", type=count(1, 10_000), default=8)
+    p.add_argument("--cameras", type=count(1, MAX_CAMERAS), default=8)
     p.add_argument("--out", required=True)
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--format", default="ply")
     p.add_argument("--seed", type=seed, default=0)
-    p.add_argument("--height", type=positive(1e4), default=None,
+    p.add_argument("--mount", "--height", dest="height", type=positive(1e4), default=None, metavar="M",
                    help="camera height above the scene's floor (m); default: chosen for the sensor's range")
     p.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] (instead of --cameras)")
 
@@ -43,21 +44,31 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
                           f"{did_you_mean(args.format, FORMATS)}")
     sensor = load_sensor(args.sensor)
+    given = read_poses(args.poses) if args.poses else None
+    n = len(given) if given is not None else args.cameras
+    check_frames(n, sensor.width, sensor.height, f"--sensor {args.sensor}, {n} cameras")   # before any work
     fmt = get_format(args.format)
     folder = claim_folder(args.out, "capture", fmt.cloud_outputs("cloud"))   # before any work
+    check_disk(n * sensor.width * sensor.height * fmt.bytes_per_point, args.out, f"--out {args.out}",
+               fix="use fewer --cameras or a smaller sensor, or free space", option=None)
     with stages(["read scene", "plan", "render", "cloud", "export"], title="genie capture",
                 enabled=not args.no_progress) as step:
         step("read scene")
         scene = read_usd(args.scene)
         step("place cameras and plan")
-        poses = (read_poses(args.poses) if args.poses
-                 else scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.height))
+        poses = given if given is not None else scene_poses(scene, sensor, args.cameras, args.seed,
+                                                            mount_height_m=args.height)
         plan = make_plan(scene, sensor, poses)
         warn_empty(plan, "capture")
+        announce_compilation("capture")
         step(f"render {len(poses)} cameras")
         frames = capture(scene, sensor, poses, seed=args.seed, workers=None, plan=plan)
         step("cloud")
         cloud = to_cloud(frames)
+        if not len(cloud):
+            raise ConfigError(f"{args.scene}: no point captured: none of the {len(frames)} cameras of sensor "
+                              f"{args.sensor} ({sensor.width}x{sensor.height} px, range {sensor.near_m:g}-"
+                              f"{sensor.far_m:g} m) saw a surface; check --mount, --poses and the sensor")
         step("export")
         folder.reserve()
         path = fmt.write_cloud(cloud, folder.path, name="cloud")

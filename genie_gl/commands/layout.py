@@ -7,9 +7,9 @@ import json
 import sys
 
 from ..errors import ConfigError, LimitError
-from . import positive, seed
+from ..limits import MAX_RASTER_CELLS, MAX_REGIONS
+from . import count, positive, seed
 
-MAX_RASTER_CELLS = 100_000_000  # the label raster: 100 M cells (~200 MB as uint16)
 OUTPUTS = ("layout.json", "layout.png", "labels.npy")
 
 
@@ -18,6 +18,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--out", help="output folder (layout.json, layout.png, labels.npy, manifest.json)")
     p.add_argument("--resolution", type=positive(1e3), default=0.1, help="label raster cell size in metres")
+    p.add_argument("--max-nodes", type=count(1, 10**12), default=MAX_REGIONS,
+                   help="limit on the layout's regions (and work), checked before any work")
     p.add_argument("--schema", action="store_true", help="print the strategy JSON Schema and exit")
 
 
@@ -40,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
         raise LimitError(f"--resolution {args.resolution}: a {w:g} x {h:g} m hall makes a label raster of {cells:.3g} "
                          f"cells, more than {MAX_RASTER_CELLS:,}; use a coarser --resolution")
     folder = claim_folder(args.out, "layout", OUTPUTS)   # before any work: refuse the user's names
-    layout = generate_layout(strategy, seed=args.seed)
+    layout = generate_layout(strategy, seed=args.seed, max_regions=args.max_nodes)
     raster = layout.label_raster(args.resolution)
     folder.reserve()
     out = folder.path

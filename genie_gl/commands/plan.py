@@ -12,23 +12,29 @@ import json
 import sys
 
 from ..errors import ConfigError
+from ..limits import MAX_CAMERAS
+from . import announce_compilation, count, positive, seed, stages
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", required=True, help="USD scene (.usda/.usdc/.usd)")
     p.add_argument("--sensor", default="ideal_pinhole", help="sensor profile name or path")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--cameras", type=int, default=8, help="cameras placed inside the scene (default 8)")
+    g.add_argument("--cameras", type=count(1, MAX_CAMERAS), default=None,
+                   help="cameras placed inside the scene (default 8)")
     g.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] world_from_camera")
-    p.add_argument("--mount", type=float, default=None,
+    p.add_argument("--mount", type=positive(1e4), default=None, metavar="M",
                    help="camera height above the floor (m); default: chosen for the sensor's range")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--scenes", type=int, default=1, help="scenes of a dataset run, for the predicted time")
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--scenes", type=count(1, 1_000_000), default=1,
+                   help="scenes of a dataset run, for the predicted time")
     p.add_argument("--json", action="store_true", help="print the whole plan as JSON")
+    p.add_argument("--no-progress", action="store_true")
     p.add_argument("--rig", default=None, help="plan a rig's recording along a trajectory (a rig file or shipped name)")
     p.add_argument("--path", default=None, help="with --rig: aisles (default), random, or a waypoints file")
-    p.add_argument("--duration-s", type=float, default=20.0, help="with --rig: seconds of the trajectory")
-    p.add_argument("--registration", choices=("mobile", "none"), default="none",
+    p.add_argument("--duration-s", type=positive(3600), default=None,
+                   help="with --rig: seconds of the trajectory (default 20)")
+    p.add_argument("--registration", choices=("mobile", "none"), default=None,
                    help="with --rig: predict a mobile-scan map's registration error per frame")
 
 
@@ -44,38 +50,37 @@ def scene_layout(scene):
 
 def run_recording(args: argparse.Namespace) -> int:
     from ..capture.trajectory import plan_recording
-    from ..scene.model import Scene
-    from ..sensors.paths import PATHS, make_trajectory
+    from ..scene.usd import read_usd
+    from ..sensors.paths import make_trajectory, path_kind
     from ..sensors.registration import registration_of
     from ..sensors.rig import load_rig
 
     rig = load_rig(args.rig)
-    scene = Scene.from_usd(args.scene)
     path = args.path or "aisles"
-    kind = path if path in PATHS[:2] else "waypoints"
-    tr = make_trajectory(scene_layout(scene), scene, kind, seed=args.seed, duration_s=args.duration_s,
+    kind = path_kind(path)
+    scene = read_usd(args.scene)
+    tr = make_trajectory(scene_layout(scene), scene, kind, seed=args.seed, duration_s=args.duration_s or 20.0,
                          waypoints=path if kind == "waypoints" else None)
-    p = plan_recording(scene, rig, tr, registration=registration_of(args.registration))
+    p = plan_recording(scene, rig, tr, registration=registration_of(args.registration or "none"))
     print(json.dumps(p.to_dict(), indent=1) if args.json else p.summary())
     for name, sp in p.plans.items():
         warn_empty(sp, f"plan [{name}]")
     return 0
 
 
-def scene_sensor_poses(args: argparse.Namespace):
+def scene_sensor_poses(args: argparse.Namespace, step=lambda name: None):
     from ..checks import read_poses
     from ..scene.usd import read_usd
     from ..sensors import load_sensor
     from ..sensors.placement import scene_poses
 
-    if getattr(args, "cameras", 1) is not None and args.cameras < 1:
-        raise ConfigError("--cameras must be >= 1")
     sensor = load_sensor(args.sensor)
+    given = read_poses(args.poses) if getattr(args, "poses", None) else None
+    step("read scene")
     scene = read_usd(args.scene)
-    if getattr(args, "poses", None):
-        poses = read_poses(args.poses)
-    else:
-        poses = scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.mount)
+    step(f"place {args.cameras} cameras" if given is None else "read poses")
+    poses = given if given is not None else scene_poses(scene, sensor, args.cameras, args.seed,
+                                                        mount_height_m=args.mount)
     return scene, sensor, poses
 
 
@@ -85,13 +90,35 @@ def warn_empty(plan, command: str) -> None:
             print(f"genie {command}: warning: frame {f.index}: {f.reason} (its cloud will be empty)", file=sys.stderr)
 
 
+# options of one kind of plan that the other does not use: given to it, refused (never ignored)
+STANDING = (("cameras", "--cameras"), ("poses", "--poses"), ("mount", "--mount"))
+MOVING = (("path", "--path"), ("duration_s", "--duration-s"), ("registration", "--registration"))
+
+
+def check_kind(args: argparse.Namespace) -> None:
+    """A plan of standing cameras or (``--rig``) of a recording: refuse the other's options."""
+    moving = bool(getattr(args, "rig", None))
+    for key, option in STANDING if moving else MOVING:
+        if getattr(args, key, None) is not None:
+            raise ConfigError(f"{option} {getattr(args, key)}: " + (
+                "a plan with --rig places no standing cameras (the trajectory carries the rig); drop it" if moving
+                else "is for a rig's recording; give --rig RIG too, or drop it"))
+
+
 def run(args: argparse.Namespace) -> int:
+    check_kind(args)
     if getattr(args, "rig", None):
         return run_recording(args)
+    if args.cameras is None:
+        args.cameras = 8
     from ..capture import plan as make_plan
 
-    scene, sensor, poses = scene_sensor_poses(args)
-    p = make_plan(scene, sensor, poses)
+    announce_compilation("plan")
+    with stages(["read scene", "place cameras", "plan"], title="genie plan",
+                enabled=not getattr(args, "no_progress", False)) as step:
+        scene, sensor, poses = scene_sensor_poses(args, step)
+        step(f"plan {len(poses)} frames over {len(scene.instances):,} instances")
+        p = make_plan(scene, sensor, poses)
     if args.json:
         out = p.to_dict()
         out["predicted_dataset_s"] = round(p.predicted_s * max(1, args.scenes), 3)

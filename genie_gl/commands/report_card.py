@@ -18,22 +18,23 @@ import sys
 from pathlib import Path
 
 from ..errors import ConfigError
+from . import count, positive, seed
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sensor", action="append", required=True,
                    help="profile name or path (repeat for several; 'all' = every shipped profile with a reference file)")
     p.add_argument("--references", help="a reference file to judge against (default: the shipped one of the profile)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--frames", type=int, default=8, help="frames per test scene (>= 2; default 8)")
+    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--frames", type=count(1, 10_000), default=8, help="frames per test scene (>= 2; default 8)")
     p.add_argument("--quick", action="store_true", help="fewer distances and angles (a smoke test, not a card)")
     p.add_argument("--out", help="folder for <name>.card.json, <name>.card.md and manifest.json")
     p.add_argument("--pages", help="folder for the Markdown pages and PNG curves (e.g. docs/sensors)")
     p.add_argument("--json", action="store_true", help="print the card as JSON instead of Markdown")
     p.add_argument("--captures", help="folder of 16-bit depth PNGs of a flat wall from your own camera")
     p.add_argument("--calibration", help="your camera's OpenCV calibration file (with --captures)")
-    p.add_argument("--wall-distance", type=float, help="the wall's distance on the optical axis, m (with --captures)")
-    p.add_argument("--depth-scale", type=float, default=0.001, help="metres per depth PNG unit (default 0.001)")
+    p.add_argument("--wall-distance", type=positive(1e4), help="the wall's distance on the optical axis, m (with --captures)")
+    p.add_argument("--depth-scale", type=positive(1e3), default=0.001, help="metres per depth PNG unit (default 0.001)")
 
 
 def _sensors(names: list[str]) -> list[str]:

@@ -5,7 +5,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import ConfigError
-from . import seed, stages
+from . import announce_compilation, seed, stages
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -30,6 +30,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_picture:
         check_replaceable(out.with_suffix(".png"), png_is_ours, what="PNG picture", option="--out")
     layout = Layout.from_json(args.layout)
+    announce_compilation("scene")
     names = ["build scene", "write USD"] + ([] if args.no_picture else ["render overview"])
     with stages(names, title="genie scene", enabled=not args.no_progress) as step:
         step("build scene")

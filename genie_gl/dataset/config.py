@@ -20,9 +20,10 @@ from ..cloud.balance import load_target
 from ..errors import ConfigError, did_you_mean
 from ..export.registry import DATASET_FORMATS
 from ..labels import CLASSES
+from ..limits import MAX_CAMERAS, MAX_REGIONS, available_memory_bytes  # noqa: F401  (kept importable from here)
 from ..sensors import Sensor
 from ..sensors.accuracy import AccuracySettings, from_dict, load_accuracy
-from ..sensors.paths import PATHS
+from ..sensors.paths import PATHS, path_kind  # noqa: F401  (PATHS kept importable from here)
 
 # the CLI spelling of each field, for messages
 OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
@@ -31,9 +32,13 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "previews": "--previews", "executor": "--executor", "address": "--address", "split": "--split",
           "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
           "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget",
-          "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion", "duration_s": "--duration-s",
-          "voxel_m": "--voxel-m", "registration": "--registration"}
+          "mount_m": "--mount", "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion",
+          "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration"}
 CAPTURES = ("static", "trajectory", "mobile-map")
+# the options one kind of capture uses and another does not (given to one that does not: refused)
+USED_BY = {"cameras": ("static",), "mount_m": ("static",), "rig": ("trajectory", "mobile-map"),
+           "path": ("trajectory", "mobile-map"), "motion": ("trajectory", "mobile-map"),
+           "duration_s": ("trajectory", "mobile-map"), "voxel_m": ("mobile-map",), "registration": ("mobile-map",)}
 
 
 @dataclass(frozen=True)
@@ -65,7 +70,7 @@ class DatasetConfig(BaseModel):
     strategy: str = Field(min_length=1)
     out: str = Field(min_length=1)
     scenes: int = Field(3, ge=1, le=1_000_000)
-    cameras: int = Field(8, ge=1, le=10_000)
+    cameras: int = Field(8, ge=1, le=MAX_CAMERAS)
     sensor: str = Field("realsense_d435", min_length=1)
     format: str = "semantickitti"
     workers: int = Field(1, ge=1, le=4096)
@@ -78,7 +83,7 @@ class DatasetConfig(BaseModel):
     executor: Literal["process", "ray"] = "process"
     address: Optional[str] = None
     split: tuple[float, float, float] = (0.8, 0.1, 0.1)
-    max_nodes: int = Field(2_000_000, ge=1)
+    max_nodes: int = Field(MAX_REGIONS, ge=1)
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
     accuracy: Optional[AccuracyFile] = None   # --accuracy FILE (accuracy_option())
@@ -86,6 +91,7 @@ class DatasetConfig(BaseModel):
     # given as the name, the target is read here, so the fingerprint holds the shares
     class_balance: Optional[dict[str, Any]] = None
     points_budget: Optional[int] = Field(None, ge=1)
+    mount_m: Optional[float] = Field(None, gt=0, le=1e4)   # camera height above the floor; None: from the range
     # cameras that move (genie_gl.dataset.recording): standing cameras (static), a rig's
     # recording along a trajectory, or a mobile-scan map fused from it
     capture: Literal["static", "trajectory", "mobile-map"] = "static"
@@ -135,16 +141,25 @@ class DatasetConfig(BaseModel):
             raise ConfigError(f"--class-balance and --points-budget sub-sample point clouds; --format "
                               f"{self.format} with --capture {self.capture} writes images or recordings: use a "
                               "point-cloud format with --capture static or mobile-map")
+        self._used_options()
         if self.capture != "static":
-            if self.path not in PATHS[:2] and not os.path.isfile(self.path):
-                raise ConfigError(f"--path {self.path!r}: expected aisles, random or a waypoints file (no such file)")
+            path_kind(self.path)
         return self
+
+    def _used_options(self) -> None:
+        """Refuse an option the capture does not use (given, and not its default), never ignore it."""
+        given = [k for k in self.model_fields_set
+                 if k in USED_BY and getattr(self, k) is not None and getattr(self, k) != type(self).model_fields[k].default]
+        for k in sorted(given, key=list(USED_BY).index):
+            if self.capture not in USED_BY[k]:
+                raise ConfigError(f"{OPTION[k]} {getattr(self, k)!r:.40}: --capture {self.capture} does not use it; it "
+                                  f"is for --capture {' or '.join(USED_BY[k])}")
 
     # the fields that decide the bytes written: resuming with any other value is refused
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
                                                 "min_labelled_share", "split", "accuracy", "class_balance",
-                                                "points_budget", "capture", "rig", "path", "motion", "duration_s",
-                                                "voxel_m", "registration")
+                                                "points_budget", "mount_m", "capture", "rig", "path", "motion",
+                                                "duration_s", "voxel_m", "registration")
     # fingerprinted only when the capture is not static (a static run's fingerprint is as before)
     MOVING: ClassVar[tuple[str, ...]] = ("capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration")
 
@@ -195,17 +210,6 @@ def parse_split(text: str) -> tuple[float, float, float]:
     if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
         raise ConfigError(f"--split {text!r}: expected three shares TRAIN,VALID,TEST such as 0.8,0.1,0.1")
     return parts  # type: ignore[return-value]
-
-
-def available_memory_bytes() -> int:
-    """Memory this process may still use: MemAvailable from /proc/meminfo (or total RAM)."""
-    try:
-        for line in open("/proc/meminfo"):
-            if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
 
 
 # -- the --accuracy option: what was asked for, what the captures used ---------------------------

@@ -13,6 +13,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from ..processes import die_with_parent, say_when_compiling
 from ..render.context import default_backend, set_default_backend
 from ..render.threads import limit_threads
 from .config import DatasetConfig
@@ -55,6 +56,7 @@ def make_scene(cfg: DatasetConfig, inputs: RunInputs, index: int, *, verify: boo
 def _worker(job: tuple) -> dict:
     cfg, inputs, index, verify, backend, status = job if len(job) == 6 else (*job, None)
     set_default_backend(backend)   # the parent's choice (a spawned worker starts without it)
+    say_when_compiling(f"genie dataset (worker {os.getpid()})")
     limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
 
     def stage(name: str) -> None:
@@ -109,7 +111,8 @@ def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
             ctx = mp.get_context("spawn")
             # the stages under way are shown through a manager's dict: a server process of its
             # own, started only when there is a bar to show them on
-            with ctx.Manager() if progress else nullcontext() as manager, ctx.Pool(n) as pool:
+            with ctx.Manager() if progress else nullcontext() as manager, \
+                    ctx.Pool(n, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
                 status = manager.dict() if manager is not None else None  # scene -> its worker's stage
                 it = pool.imap_unordered(_worker, [(cfg, inputs, i, verify, default_backend(), status)
                                                    for i in range(cfg.scenes)])

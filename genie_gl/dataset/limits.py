@@ -1,33 +1,39 @@
-"""Size limits checked before any work: a run that cannot fit is refused up front with the
-estimate and the option that raises the limit, never after minutes of work or a MemoryError.
+"""The limits of a dataset run (:mod:`genie_gl.limits`), checked before any work: a run that
+cannot fit is refused up front with the estimate and the option that raises the limit, never
+after minutes of work or a MemoryError.
 
-- layout work: regions a scene's layout can make (each level's generators at their largest
-  arguments, bounded by the hall's area: each generator says, ``Generator.bound``) plus the
-  work they do besides (``random_rooms``' overlap tests / 10); limit ``--max-nodes``
-  (default 2 000 000).
-- frame size: each side at most :data:`MAX_SIDE` px (the GL texture limit of Mesa llvmpipe).
+- layout work: regions a scene's layout can make and the work of making them
+  (:func:`genie_gl.layout.estimate.layout_estimate`, each generator's own bound); limit
+  ``--max-nodes`` (default 2 000 000).
+- frame size: each side at most :data:`MAX_SIDE` px (the GL texture limit of Mesa llvmpipe;
+  the renderer checks its own context's).
 - memory: per worker, the frames of one scene (cameras x pixels x :data:`BYTES_PER_PIXEL`)
   plus the layout (:data:`BYTES_PER_NODE` per region), times the workers; limit
   ``--max-memory-gb`` (default: 80 % of the memory available now).
 - disk: the points (or images) the run writes, as its format counts them
-  (``DatasetFormat.scene_bytes``); limit ``--max-disk-gb`` (default: the
-  free space of the ``--out`` file system).
+  (``DatasetFormat.scene_bytes``); limit ``--max-disk-gb`` (default: the free space of the
+  ``--out`` file system).
+- a moving capture (``--capture trajectory|mobile-map``): its frames are ``--duration-s``
+  times the rig's summed rates; a worker holds one window of them
+  (:data:`genie_gl.capture.trajectory.WINDOW` shots) and, for a mobile-scan map, the map's
+  bit set (one bit per ``--voxel-m`` voxel of the hall up to its ceiling); a trajectory
+  writes every frame's points.
 """
 from __future__ import annotations
 
-import math
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import LimitError
+import numpy as np
+
+from ..capture.trajectory import WINDOW
 from ..export import get_format
-from .config import DatasetConfig, available_memory_bytes
-
-MAX_SIDE = 16384
-BYTES_PER_PIXEL = 40   # depth f4 + ids u4 + semantic u2 + rgb 3 + normals/render targets
-BYTES_PER_NODE = 2048  # layout arrays, scene instances, placement cover
-
+from ..layout.estimate import layout_estimate
+from ..limits import (BYTES_PER_CLOUD_POINT, BYTES_PER_NODE, BYTES_PER_PIXEL, MAX_SIDE, check_disk, check_frame_side,
+                      check_memory, check_regions, memory_limit_bytes)
+from ..sensors.placement import ceiling_of
+from .config import DatasetConfig
+from .recording import rig_of
 
 @dataclass(frozen=True)
 class Estimate:
@@ -38,33 +44,14 @@ class Estimate:
     disk_bytes: int
 
 
-def layout_estimate(strategy) -> tuple[int, int]:
-    """(regions, work) a layout of ``strategy`` can make at most: each level's generators at
-    their largest arguments (:meth:`~genie_gl.layout.generators.Generator.bound`), bounded by
-    the hall's area, plus the work they do besides making regions."""
-    W, H = strategy.root.width, strategy.root.height
-    area = W * H
-    nodes, work = 1, 1  # a level may split any region made so far: all of them are its parents
-    for level in strategy.levels:
-        if level == "merge" or not isinstance(level, dict):
-            continue
-        per_parent, area_cap = 1.0, math.inf
-        for rule in level.values():
-            bound = rule.generator.bound(W, H)
-            per_parent = max(per_parent, bound.per_parent)
-            if bound.min_area_m2 is not None:   # its regions tile at most twice the hall, plus the parents
-                area_cap = min(area_cap, 2 * area / bound.min_area_m2 + 2 * nodes)
-            work += int(bound.work) * nodes
-        made = int(min(nodes * per_parent, area_cap, 1e18))
-        nodes += made
-        work += made
-    return int(min(nodes, 1e18)), int(min(work, 1e18))
-
-
 def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
+    if cfg.capture != "static":
+        return moving_estimate(cfg, strategy)
     nodes, work = layout_estimate(strategy)
     pixels = int(sensor.width) * int(sensor.height)
     per_worker = cfg.cameras * pixels * BYTES_PER_PIXEL + nodes * BYTES_PER_NODE
+    if cfg.previews:   # a preview scene's frames are merged into one cloud as well
+        per_worker += cfg.cameras * pixels * BYTES_PER_CLOUD_POINT
     workers = min(cfg.workers, cfg.scenes)
     chunks = max(1.0, strategy.root.width / cfg.chunk_m + 1) * max(1.0, strategy.root.height / cfg.chunk_m + 1)
     points = min(chunks * cfg.points, cfg.cameras * pixels)   # a scene keeps at most its chunks' points
@@ -72,31 +59,44 @@ def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
     return Estimate(nodes, work, pixels, int(per_worker * workers), int(disk))
 
 
-def _gb(b: float) -> str:
-    return f"{b / 1e9:.3g} GB"
+def voxel_bytes(width_m: float, depth_m: float, height_m: float, voxel_m: float) -> float:
+    """Bytes of a mobile-scan map's bit set over a ``width_m`` x ``depth_m`` x ``height_m`` box
+    (:class:`genie_gl.cloud.fusion.VoxelMap`), as a float (no overflow however small the voxel)."""
+    return float(np.prod([max(1.0, np.ceil(x / voxel_m)) for x in (width_m, depth_m, height_m)])) / 8.0
+
+
+def moving_estimate(cfg: DatasetConfig, strategy) -> Estimate:
+    """The estimate of a recording along a trajectory (``--capture trajectory|mobile-map``)."""
+    nodes, work = layout_estimate(strategy)
+    rig = rig_of(cfg)
+    frames = cfg.duration_s * sum(s.rate_hz for s in rig.sensors)
+    pixels = max(int(s.sensor.width) * int(s.sensor.height) for s in rig.sensors)
+    per_worker = WINDOW * pixels * BYTES_PER_PIXEL + nodes * BYTES_PER_NODE
+    root = strategy.root
+    if cfg.capture == "mobile-map":   # the hall's box with the half metre the map keeps around it
+        per_worker += voxel_bytes(root.width + 1, root.height + 1, ceiling_of(strategy.scene) + 1, cfg.voxel_m)
+        chunks = max(1.0, root.width / cfg.chunk_m + 1) * max(1.0, root.height / cfg.chunk_m + 1)
+        points = min(chunks * cfg.points, frames * pixels)
+    else:
+        points = frames * pixels
+    disk = cfg.scenes * get_format(cfg.format).scene_bytes(points, frames * pixels)
+    return Estimate(nodes, work, pixels, int(per_worker * min(cfg.workers, cfg.scenes)), int(disk))
 
 
 def check_limits(cfg: DatasetConfig, strategy, sensor, out: Path) -> Estimate:
     """Refuse ``cfg`` with a :class:`LimitError` when its estimate exceeds a limit."""
     e = estimate(cfg, strategy, sensor)
-    src = getattr(strategy, "source", "strategy")
-    if e.layout_work > cfg.max_nodes:
-        raise LimitError(f"{src}: a layout of this strategy can make up to {e.layout_work:.3g} regions (or overlap "
-                         f"tests / 10), above the limit of {cfg.max_nodes:,}; lower its generators' counts or raise "
-                         f"it with --max-nodes")
-    if max(sensor.width, sensor.height) > MAX_SIDE:
-        raise LimitError(f"--sensor {cfg.sensor}: {sensor.width}x{sensor.height} px frames; each side must be at most "
-                         f"{MAX_SIDE} px (the GL texture limit)")
-    mem_limit = cfg.max_memory_gb * 1e9 if cfg.max_memory_gb else 0.8 * available_memory_bytes()
-    if e.memory_bytes > mem_limit:
-        raise LimitError(f"estimated memory {_gb(e.memory_bytes)} ({min(cfg.workers, cfg.scenes)} workers x "
-                         f"{cfg.cameras} cameras x {sensor.width}x{sensor.height} px x {BYTES_PER_PIXEL} B + "
-                         f"{e.nodes:.3g} regions) exceeds {_gb(mem_limit)}; use fewer --workers or --cameras, a "
-                         f"smaller sensor, or raise the limit with --max-memory-gb")
-    probe = out if out.exists() else next((p for p in out.parents if p.exists()), Path("."))
-    disk_limit = cfg.max_disk_gb * 1e9 if cfg.max_disk_gb else shutil.disk_usage(probe).free
-    if e.disk_bytes > disk_limit:
-        raise LimitError(f"--out {out}: the run would write about {_gb(e.disk_bytes)}, more than "
-                         f"{_gb(disk_limit)} {'allowed' if cfg.max_disk_gb else 'free'}; make fewer --scenes or "
-                         f"raise the limit with --max-disk-gb")
+    check_regions(e.layout_work, cfg.max_nodes, str(getattr(strategy, "source", "strategy")))
+    check_frame_side(sensor.width, sensor.height, f"--sensor {cfg.sensor}", MAX_SIDE)
+    workers = min(cfg.workers, cfg.scenes)
+    if cfg.capture == "static":
+        what, fix = (f"{workers} workers x {cfg.cameras} cameras x {sensor.width}x{sensor.height} px x "
+                     f"{BYTES_PER_PIXEL} B + {e.nodes:.3g} regions"), "use fewer --workers or --cameras, a smaller sensor"
+    else:
+        what = f"{workers} workers x a window of {WINDOW} frames of the rig + {e.nodes:.3g} regions" + (
+            f" + the map's bit set at --voxel-m {cfg.voxel_m:g}" if cfg.capture == "mobile-map" else "")
+        fix = "use fewer --workers, a larger --voxel-m" if cfg.capture == "mobile-map" else "use fewer --workers"
+    check_memory(e.memory_bytes, memory_limit_bytes(cfg.max_memory_gb), what, fix)
+    check_disk(e.disk_bytes, out, f"--out {out}", max_disk_gb=cfg.max_disk_gb,
+               fix="make fewer --scenes" + (", a shorter --duration-s" if cfg.capture == "trajectory" else ""))
     return e

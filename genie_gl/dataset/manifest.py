@@ -22,7 +22,7 @@ from typing import Any
 
 from .. import __version__
 from ..errors import ConfigError
-from .config import DatasetConfig
+from .config import USED_BY, DatasetConfig
 from .recording import recording_files
 
 LOCK = ".genie-lock"
@@ -62,6 +62,8 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
             continue
         if k in DatasetConfig.MOVING and cfg.capture == "static":   # standing cameras: as before these options
             continue
+        if cfg.capture not in USED_BY.get(k, (cfg.capture,)):   # an option this capture does not use
+            continue
         parts[k] = list(v) if isinstance(v, tuple) else v
     if cfg.capture != "static":   # the rig's file and its sensors' files, the waypoints file
         for role, path in recording_files(cfg).items():
@@ -89,6 +91,8 @@ def check_resume(out: Path, fp: dict[str, Any], scenes: int | None = None) -> di
             raise ConfigError(f"--out {out}: holds a dataset of {before} scenes; --scenes {scenes} would leave scenes "
                               f"{scenes}..{before - 1} in it: give --scenes {before} (or more), or another --out")
         return old
+    if not old.get("runs") and not any((out / str(name)).exists() for name in old.get("outputs") or []):
+        return None   # an earlier attempt that was refused or stopped before it made anything: start afresh
     a, b = old_fp.get("parts", {}), fp["parts"]
     changed = [k for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
     shown = ", ".join(f"{k} {a.get(k)!r:.20} -> {b.get(k)!r:.20}" if k in DatasetConfig.FINGERPRINTED or k == "genie_gl"

@@ -20,6 +20,7 @@ from ..capture.settings import settings_for
 from ..cloud import PointCloud, frame_chunks, keep_cloud
 from ..frame import Frame
 from ..layout import Layout, Strategy, generate_layout, load_strategy
+from ..limits import MAX_REGIONS
 from ..render import shared_context
 from ..scene import build_scene
 from ..scene.model import Scene
@@ -42,18 +43,24 @@ class RunInputs:
     sensor : the sensor, its accuracy knobs not yet applied (the capture applies them).
     accuracy : the settings every scene uses: ``--accuracy``, else the profile's, else the
         defaults (:func:`~genie_gl.capture.settings.settings_for`).
+    max_regions : the limit on a layout's regions (``--max-nodes``).
+    mount_m : the standing cameras' height above the floor in metres (``--mount``); None:
+        chosen for the sensor's range.
     """
 
     strategy: Strategy
     sensor: Sensor
     accuracy: AccuracySettings
+    max_regions: int = MAX_REGIONS
+    mount_m: float | None = None
 
 
 def load_inputs(cfg: DatasetConfig) -> RunInputs:
     """The strategy, sensor and accuracy settings of ``cfg``, read and checked."""
     sensor = load_sensor(cfg.sensor)
     return RunInputs(load_strategy(cfg.strategy), sensor,
-                     settings_for(sensor, None if cfg.accuracy is None else cfg.accuracy.settings))
+                     settings_for(sensor, None if cfg.accuracy is None else cfg.accuracy.settings),
+                     max_regions=cfg.max_nodes, mount_m=cfg.mount_m)
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,7 +81,7 @@ def make_scene(inputs: RunInputs, streams: SceneStreams, *,
     ``"scene"``); ``stage(name)`` as each stage starts. Standing and moving captures alike."""
     clock = {"start": time.perf_counter()}
     stage("layout")
-    layout = generate_layout(inputs.strategy, rng=streams.rng("layout"))
+    layout = generate_layout(inputs.strategy, rng=streams.rng("layout"), max_regions=inputs.max_regions)
     clock["layout"] = time.perf_counter()
     stage("scene")
     scene = build_scene(layout, rng=streams.rng("scene"), segments=inputs.accuracy.tessellation)
@@ -89,7 +96,8 @@ def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: 
     store none)."""
     layout, scene, clock = make_scene(inputs, streams, stage=stage)
     stage("placement")
-    poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed)
+    poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed,
+                          mount_height_m=inputs.mount_m)
     clock["placement"] = time.perf_counter()
     stage("capture")
     frames = capture(scene, inputs.sensor, poses, seed=streams.capture_seed, workers=1, depth_only=depth_only,
@@ -120,10 +128,10 @@ def chunk(cfg: DatasetConfig, frames: list[Frame], streams: SceneStreams, *, chu
         for key, tile in tiles:
             if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
                 kept.append((key, tile))
-                np.add.at(counts, tile.semantic, 1)
+                counts += np.bincount(tile.semantic, minlength=len(counts))
     else:
         for f in frames:
             ok = f.depth > 0
             points_total += int(ok.sum())
-            np.add.at(counts, f.semantic[ok], 1)
+            counts += np.bincount(f.semantic[ok], minlength=len(counts))
     return Chunks(kept, int(points_total), counts)

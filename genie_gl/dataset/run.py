@@ -23,9 +23,11 @@ from __future__ import annotations
 
 import errno
 import json
+import logging
 import platform
 import shutil
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -36,15 +38,19 @@ from ..errors import ConfigError
 from ..export import get_format
 from ..outputs import OutputFolder, atomic_write_text, claim_folder
 from ..scene import ASSETS
+from ..sensors.paths import path_kind, read_waypoints
+from ..sensors.placement import ceiling_of, mount_for
 from . import curation
 from .config import DatasetConfig, accuracy_used
 from .executors import map_scenes
 from .limits import check_limits
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete
 from .recipe import RunInputs, load_inputs
-from .report import dataset_cost, histogram
+from .report import class_totals, dataset_cost, histogram
 from .scene import run_scene, scene_dir  # noqa: F401  (the run's public names)
 from .streams import SceneStreams
+
+log = logging.getLogger(__name__)
 
 SCENE_RECORDS = 1000  # a run's manifest record lists the timings of at most this many scenes
 
@@ -69,12 +75,20 @@ def claim_output(cfg: DatasetConfig, fmt) -> OutputFolder:
 
 def prepare(cfg: DatasetConfig) -> tuple[RunInputs, dict]:
     """Check what a run needs before any work: the strategy and sensor load (once: every
-    scene gets them from here), the output folder may be written, the estimate fits the
-    limits; returns (the run's inputs, the fingerprint)."""
+    scene gets them from here), placement can work (or the waypoints file reads), the output
+    folder may be written, the estimate fits the limits; returns (the run's inputs, the
+    fingerprint)."""
     inputs = load_inputs(cfg)
     strategy, sensor = inputs.strategy, inputs.sensor
-    claim_output(cfg, get_format(cfg.format))
+    if cfg.capture == "static":
+        mount_for(sensor, ceiling_m=ceiling_of(strategy.scene), mount_height_m=cfg.mount_m)   # placement can work
+    elif path_kind(cfg.path) == "waypoints":
+        read_waypoints(cfg.path)   # a bad waypoints file is refused before any work
+    fmt = get_format(cfg.format)
+    claim_output(cfg, fmt)
     check_limits(cfg, strategy, sensor, Path(cfg.out))
+    for note in fmt.notes(cfg) if fmt.notes else []:
+        log.warning(note)
     if cfg.executor == "ray":
         try:
             import ray  # noqa: F401
@@ -116,8 +130,10 @@ def _write_manifest(folder: OutputFolder, manifest: dict) -> None:
     atomic_write_text(folder.path / "manifest.json", json.dumps(manifest, indent=1))
 
 
-def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False) -> dict[str, Any]:
-    """Make every missing (or damaged) scene of the dataset described by ``cfg``."""
+def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False,
+                on_start: Callable[[], None] | None = None) -> dict[str, Any]:
+    """Make every missing (or damaged) scene of the dataset described by ``cfg``; ``on_start()``
+    is called once every check has passed, before the first scene."""
     _check_registered_assets(cfg)
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
@@ -139,6 +155,8 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
         manifest["outputs"] = sorted(set(folder.owned) | set(folder.declared))
         atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1))  # before any scene: a later
         _clear_leftovers(folder, fmt)                  # resume knows the inputs, and what is its own
+        if on_start is not None:
+            on_start()
         try:
             _run(cfg, inputs, folder, fmt, manifest, runs, progress=progress, verify=verify)
         except OSError as exc:
@@ -190,4 +208,20 @@ def _run(cfg: DatasetConfig, inputs: RunInputs, folder: OutputFolder, fmt, manif
         for s in stats:
             manifest["sequences"][f"{s['sequence']:02d}"].append(s["scene"])
     manifest.update(curation.manifest(cfg, stats))
+    manifest["notes"] = fmt.notes(cfg) if fmt.notes else []
     _write_manifest(folder, manifest)
+    _check_not_empty(cfg, stats)
+
+
+def _check_not_empty(cfg: DatasetConfig, stats: list[dict]) -> None:
+    """A dataset without a point, or without a labelled one, is an error (its files are kept,
+    recorded in the manifest, so a run with other options replaces them)."""
+    totals = class_totals(stats)
+    where = f"--out {cfg.out}: the {cfg.scenes} scene(s) of {cfg.strategy}"
+    if not sum(totals.values()):
+        raise ConfigError(f"{where} hold no point: every chunk has fewer than --min-points {cfg.min_points} points or "
+                          f"a labelled share under --min-labelled-share {cfg.min_labelled_share:g} (or no camera saw "
+                          "anything); lower them, or check the sensor and --mount")
+    if not sum(v for k, v in totals.items() if k != 0):
+        raise ConfigError(f"{where} hold nothing labelled: every point is background (class 0); the strategy's "
+                          "regions may be too small for its assets (see the warnings above)")

@@ -3,11 +3,14 @@ written into a temporary folder with its file record and renamed into place when
 from __future__ import annotations
 
 import json
+import logging
 import os
 import shutil
 import time
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from ..capture import effect_totals, frame_costs
 from ..export import SceneData, get_format
@@ -18,6 +21,8 @@ from .previews import write_previews, write_recording_previews
 from .recipe import STAGES, RunInputs, chunk, load_inputs, make, make_scene
 from .recording import capture_moving, stats_of, write_trajectory
 from .streams import SceneStreams
+
+log = logging.getLogger(__name__)
 
 
 def scene_dir(out: Path, index: int, fmt: str, n_scenes: int = 0) -> Path:
@@ -56,6 +61,12 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
     cut = chunk(cfg, frames, streams, chunks=fmt.chunks)
     kept, points_total, counts = cut.kept, cut.points_total, cut.counts
     t["cloud"] = time.perf_counter()
+    if fmt.chunks and not kept:
+        log.warning("scene %d: no chunk kept: every chunk of its %d points has fewer than --min-points %d points or "
+                    "a labelled share under --min-labelled-share %g", index, points_total, cfg.min_points,
+                    cfg.min_labelled_share)
+    elif not counts[1:].any():
+        log.warning("scene %d: nothing labelled: its %d points are all background (class 0)", index, points_total)
     if curation.active(cfg):  # balanced once every scene is made (genie_gl/dataset/curation.py)
         if index < cfg.previews:
             write_previews(out / "previews", index, layout, frames, scene)
@@ -73,7 +84,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
     layout.to_json(tmp / "layout.json")
     stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
              "points_total": int(points_total), "chunks": len(kept),
-             "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+             "class_points": _class_points(counts)}
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
@@ -117,7 +128,7 @@ def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t,
     layout.to_json(tmp / "layout.json")
     counts = moving.tally.counts
     stats = {"scene": index, **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points),
-             "chunks": len(moving.kept), "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}}
+             "chunks": len(moving.kept), "class_points": _class_points(counts)}
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
@@ -130,6 +141,11 @@ def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t,
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
     return stats | _timings(t, moving.tally.preview, cpu)
+
+
+def _class_points(counts: np.ndarray) -> dict[str, int]:
+    """{class id as text: points} for the classes with points, in id order (``counts``: (65536,) int64)."""
+    return {str(k): int(counts[k]) for k in np.flatnonzero(counts).tolist()}
 
 
 def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:

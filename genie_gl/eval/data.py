@@ -62,6 +62,10 @@ class Scan:
             raise ConfigError(f"{self.path}: points must be (N, 3) float32, got {self.xyz.shape} {self.xyz.dtype}")
         if self.label.shape != (n,):
             raise ConfigError(f"{self.path}: {len(self.label)} labels for {n} points")
+        bad = ~np.isfinite(self.xyz).all(axis=1)
+        if bad.any():   # NaN or infinite coordinates crash the feature workers: refuse them here
+            raise ConfigError(f"{self.path}: {int(bad.sum())} of {n} points have coordinates that are not finite "
+                              f"(NaN or infinite; the first is point {int(np.argmax(bad))}); expected finite x, y, z")
 
     @property
     def height(self) -> np.ndarray:
@@ -232,6 +236,8 @@ def _read_semantickitti(root: Path, part: str | None, mapping: str | os.PathLike
     their = {int(k): str(v) for k, v in data["labels"].items()}
     ours = str(data.get("name", "")) == "genie-gl" or ypath.name == OUR_YAML
     if ours:   # genie-gl's own classes; a --label-map is for foreign sets
+        if mapping is not None:
+            log.warning("%s: --label-map %s is not used: this set holds genie-gl's own classes", root, mapping)
         lmap = labelmap.identity({k: v for k, v in their.items() if k > 9})
         labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
     elif mapping is not None:
@@ -359,7 +365,8 @@ def read_set(spec: str | os.PathLike, *, label_map: str | os.PathLike | None = N
         scans, lmap, names = _read_semantickitti(root, part, label_map)
     else:
         if label_map is not None:
-            log.info("%s: --label-map applies to SemanticKITTI sets; %s holds genie-gl's classes", spec, fmt)
+            log.warning("%s: --label-map %s is not used: it applies to SemanticKITTI sets; %s holds genie-gl's "
+                        "classes", spec, label_map, fmt)
         scans, lmap, names = _read_chunks(root, fmt, part)
     scans = [s for s in scans if len(s)]
     if not scans:

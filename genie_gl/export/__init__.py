@@ -7,6 +7,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from ..checks import expect
+from ..errors import ExportError
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError
 from ..outputs import claim_folder
@@ -23,6 +25,10 @@ def export(cloud: PointCloud, out_dir: str | os.PathLike, format: str = "semanti
     ``out_dir`` may hold the user's own files: they are kept, and a name the format must write
     that is taken by one of them is refused (:mod:`genie_gl.outputs`); ``out_dir/manifest.json``
     records what genie-gl wrote there."""
+    expect(cloud, PointCloud, "export: cloud")
+    if not len(cloud):
+        raise ExportError(f"export to {out_dir}: the cloud holds no point; nothing was written (did any camera see "
+                          "a surface?)")
     fmt = get_format(format, "export format")
     if fmt.write_cloud is None:
         raise ConfigError(f"export format {format!r} writes datasets of frames, not clouds (clouds: {', '.join(FORMATS)})")

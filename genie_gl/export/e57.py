@@ -13,13 +13,20 @@ index, in the scan's point order.
 """
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import itertools
 import os
+import types
+import uuid
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError
+from ..outputs import check_replaceable, written
 from ..sensors.trajectory import quaternion_xyzw
 from .semantickitti_sequence import camera_points
 
@@ -37,14 +44,44 @@ def _quat_wxyz(R: np.ndarray) -> np.ndarray:
     return np.array([w, x, y, z])
 
 
-class E57Writer:
-    """Scans added one at a time; the file (and its labels) appear whole on :meth:`close`."""
+@contextlib.contextmanager
+def _guids(root: uuid.UUID, part: str):
+    """pye57 gives the file and each scan a random ``uuid4``; within this block the k-th is
+    ``uuid5(root, f"{part}.{k}")`` instead, so the same content gives the same bytes and
+    other content other GUIDs."""
+    module = _pye57().e57
+    counter = itertools.count()
+    saved = module.uuid
+    module.uuid = types.SimpleNamespace(uuid4=lambda: uuid.uuid5(root, f"{part}.{next(counter)}"))
+    try:
+        yield
+    finally:
+        module.uuid = saved
 
-    def __init__(self, path: str | os.PathLike) -> None:
+
+def content_guid(*arrays: np.ndarray) -> uuid.UUID:
+    """A GUID made from the bytes of ``arrays`` (the file's GUIDs derive from it)."""
+    h = hashlib.sha256()
+    for a in arrays:
+        h.update(np.ascontiguousarray(a).view(np.uint8).reshape(-1))
+    return uuid.UUID(bytes=h.digest()[:16], version=4)
+
+
+class E57Writer:
+    """Scans added one at a time; the file (and its labels) appear whole on :meth:`close`.
+    ``key`` (a GUID made from the file's content, :func:`content_guid`) seeds the GUIDs the
+    format asks for, so the same points give the same file."""
+
+    def __init__(self, path: str | os.PathLike, key: uuid.UUID) -> None:
         self.path = Path(path)
+        labels = self.path.with_name(self.path.name + ".labels.npz")
+        check_replaceable(self.path, lambda p: labels_are_ours(labels), what="E57")   # a user's file stays as it is
+        check_replaceable(labels, labels_are_ours, what="E57 labels")
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        self.e57 = _pye57().E57(str(self.tmp), mode="w")
+        self.key = key
+        with _guids(key, "file"):
+            self.e57 = _pye57().E57(str(self.tmp), mode="w")
         self.labels: dict[str, np.ndarray] = {}
         self.n = 0
 
@@ -57,20 +94,48 @@ class E57Writer:
         if rgb is not None:
             data.update(colorRed=np.ascontiguousarray(rgb[:, 0]), colorGreen=np.ascontiguousarray(rgb[:, 1]),
                         colorBlue=np.ascontiguousarray(rgb[:, 2]))
-        self.e57.write_scan_raw(data, name=name or f"scan {self.n}", rotation=_quat_wxyz(world_from_scan[:3, :3]),
-                                translation=np.asarray(world_from_scan[:3, 3], np.float64))
+        with _guids(self.key, f"scan {self.n}"):
+            self.e57.write_scan_raw(data, name=name or f"scan {self.n}", rotation=_quat_wxyz(world_from_scan[:3, :3]),
+                                    translation=np.asarray(world_from_scan[:3, 3], np.float64))
         self.labels[f"semantic_{self.n}"] = semantic.astype(np.uint16)
         self.labels[f"instance_{self.n}"] = instance.astype(np.uint32)
         self.n += 1
 
     def close(self) -> Path:
-        self.e57.close()
-        labels = self.path.with_name(self.path.name + ".labels.npz")
-        tmp = labels.with_name(f".{labels.name}.{os.getpid()}.tmp.npz")
-        np.savez(tmp, **self.labels)
-        tmp.replace(labels)
-        self.tmp.replace(self.path)
+        with written(self.path, self.tmp):
+            self.e57.close()
+            labels = self.path.with_name(self.path.name + ".labels.npz")
+            tmp = labels.with_name(f".{labels.name}.{os.getpid()}.tmp.npz")
+            with written(labels, tmp):
+                np.savez(tmp, **self.labels)
+                tmp.replace(labels)
+            self.tmp.replace(self.path)
         return self.path
+
+    def abort(self) -> None:
+        """Drop what was written so far (nothing half-written is left)."""
+        try:
+            self.e57.close()
+        except Exception:   # pye57 may refuse to close a file it failed to write
+            pass
+        self.tmp.unlink(missing_ok=True)
+
+
+def labels_are_ours(path: Path) -> bool:
+    """True when ``path`` is the labels file an :class:`E57Writer` wrote (its arrays only)."""
+    with np.load(path) as z:
+        return bool(z.files) and all(k.startswith(("semantic_", "instance_")) for k in z.files)
+
+
+@contextlib.contextmanager
+def e57_writer(path: str | os.PathLike, key: uuid.UUID) -> Iterator[E57Writer]:
+    """An :class:`E57Writer` that leaves nothing behind when its scans fail half way."""
+    w = E57Writer(path, key)
+    try:
+        yield w
+    except BaseException:
+        w.abort()
+        raise
 
 
 def cloud_pose(cloud: PointCloud) -> np.ndarray:
@@ -81,10 +146,10 @@ def cloud_pose(cloud: PointCloud) -> np.ndarray:
 
 def write(clouds: list[PointCloud], path: str | os.PathLike) -> Path:
     """``clouds`` as the scans of one E57 file (each posed at its origin)."""
-    w = E57Writer(path)
-    for k, c in enumerate(clouds):
-        w.add(c.xyz, c.semantic, c.instance, cloud_pose(c), rgb=c.rgb, name=f"chunk {k}")
-    return w.close()
+    with e57_writer(path, content_guid(*(a for c in clouds for a in (c.xyz, c.semantic, c.instance)))) as w:
+        for k, c in enumerate(clouds):
+            w.add(c.xyz, c.semantic, c.instance, cloud_pose(c), rgb=c.rgb, name=f"chunk {k}")
+        return w.close()
 
 
 def read(path: str | os.PathLike) -> list[PointCloud]:
@@ -105,12 +170,14 @@ def read(path: str | os.PathLike) -> list[PointCloud]:
 
 def write_recording(rig, trajectory, recording, path: str | os.PathLike) -> Path:
     """A recording ((Shot, Frame) pairs) as one E57 file, a scan per shot in its optical frame."""
-    w = E57Writer(path)
-    for shot, frame in recording:
-        c = camera_points(frame)
-        w.add(c.xyz, c.semantic, c.instance, shot.world_from_camera, rgb=c.rgb,
-              name=f"{rig.sensors[shot.sensor].name} {shot.time_s - trajectory.start_s:.6f}")
-    return w.close()
+    key = content_guid(*(a for shot, frame in recording
+                         for a in (shot.world_from_camera, frame.depth, frame.instance)))
+    with e57_writer(path, key) as w:
+        for shot, frame in recording:
+            c = camera_points(frame)
+            w.add(c.xyz, c.semantic, c.instance, shot.world_from_camera, rgb=c.rgb,
+                  name=f"{rig.sensors[shot.sensor].name} {shot.time_s - trajectory.start_s:.6f}")
+        return w.close()
 
 
 def _write_scene(data, folder: Path) -> None:

@@ -18,9 +18,10 @@ import numpy as np
 
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError, ExportError
-from ..outputs import atomic_write_bytes
+from ..outputs import check_replaceable, written
 
 SCALE_M = 1e-4
+SOFTWARE = "genie-gl"   # the header's generating software of the files written here
 
 
 def _laspy():
@@ -34,9 +35,11 @@ def _laspy():
 def write(cloud: PointCloud, path: str | os.PathLike, *, frame_times_s: np.ndarray | None = None) -> Path:
     """``cloud`` as one LAS 1.4 file; ``frame_times_s[k]``: the time of frame k (gps_time)."""
     laspy = _laspy()
+    path = check_replaceable(path, las_is_ours, what="LAS point cloud")   # a user's file stays as it is
     if len(cloud) and int(cloud.semantic.max()) > 255:
         raise ExportError(f"LAS classification holds ids 0-255, got semantic id {int(cloud.semantic.max())}")
     header = laspy.LasHeader(point_format=7 if cloud.rgb is not None else 6, version="1.4")
+    header.generating_software = SOFTWARE   # how a later run knows the file as its own
     header.scales = np.full(3, SCALE_M)
     header.offsets = np.asarray(cloud.origin, np.float64)
     header.add_extra_dim(laspy.ExtraBytesParams(name="instance_id", type=np.uint32,
@@ -53,13 +56,18 @@ def write(cloud: PointCloud, path: str | os.PathLike, *, frame_times_s: np.ndarr
     if cloud.rgb is not None:
         rgb = cloud.rgb.astype(np.uint16) * 257
         las.red, las.green, las.blue = rgb[:, 0], rgb[:, 1], rgb[:, 2]
-    path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.las")
     path.parent.mkdir(parents=True, exist_ok=True)
-    las.write(str(tmp))
-    data = tmp.read_bytes()
-    tmp.unlink()
-    return atomic_write_bytes(path, data)
+    with written(path, tmp):
+        las.write(str(tmp))
+        tmp.replace(path)
+    return path
+
+
+def las_is_ours(path: Path) -> bool:
+    """True when ``path`` is a LAS file :func:`write` wrote (its header's generating software)."""
+    with _laspy().open(str(path)) as f:
+        return str(f.header.generating_software).startswith(SOFTWARE)
 
 
 def read(path: str | os.PathLike) -> PointCloud:

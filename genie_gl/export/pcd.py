@@ -9,10 +9,18 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
-from ..outputs import atomic_write_bytes
+from ..outputs import atomic_write_bytes, check_replaceable
+
+
+def written_by_genie(path: Path) -> bool:
+    """True when ``path`` is a PCD file genie-gl wrote (its header's comment)."""
+    with open(path, "rb") as fh:
+        return b"genie-gl point cloud" in fh.read(256)
 
 
 def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
+    """Write ``cloud`` as binary PCD; an existing file is replaced only when genie-gl wrote it."""
+    path = check_replaceable(path, written_by_genie, what="PCD point cloud")
     n = len(cloud)
     names, types = ["x", "y", "z"], ["F", "F", "F"]
     dtype = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
@@ -41,4 +49,5 @@ def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "
 from .registry import DatasetFormat, file_output, register_format, write_chunks  # noqa: E402
 
 DATASET = register_format(DatasetFormat("pcd", "scenes", write_scene=write_chunks("pcd", write),
-                                        write_cloud=_write_cloud, cloud_outputs=file_output('pcd'), description=__doc__.splitlines()[0]))
+                                        write_cloud=_write_cloud, cloud_outputs=file_output('pcd'),
+                                        bytes_per_point=24, description=__doc__.splitlines()[0]))

@@ -12,14 +12,22 @@ from pathlib import Path
 import numpy as np
 
 from ..cloud.pointcloud import PointCloud
-from ..outputs import atomic_write_bytes
+from ..outputs import atomic_write_bytes, check_replaceable
 
 INT32_MAX = 2**31 - 1
 PLY_TYPE = {"<f4": "float", "u1": "uchar", "<i4": "int", "<u4": "uint"}
 log = logging.getLogger(__name__)
 
 
+def written_by_genie(path: Path) -> bool:
+    """True when ``path`` is a PLY file genie-gl wrote (its header's comment)."""
+    with open(path, "rb") as fh:
+        return b"comment genie-gl point cloud" in fh.read(512)
+
+
 def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
+    """Write ``cloud`` as binary PLY; an existing file is replaced only when genie-gl wrote it."""
+    path = check_replaceable(path, written_by_genie, what="PLY point cloud")
     wide = bool(len(cloud)) and int(cloud.instance.max()) > INT32_MAX
     if wide:  # the full uint32 range kept (plyfile, CloudCompare); Open3D's tensor reader skips uint
         log.warning("%s: instance ids above %d written as PLY uint, which Open3D's tensor reader skips",
@@ -53,4 +61,5 @@ def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "
 from .registry import DatasetFormat, file_output, register_format, write_chunks  # noqa: E402
 
 DATASET = register_format(DatasetFormat("ply", "scenes", write_scene=write_chunks("ply", write),
-                                        write_cloud=_write_cloud, cloud_outputs=file_output('ply'), description=__doc__.splitlines()[0]))
+                                        write_cloud=_write_cloud, cloud_outputs=file_output('ply'),
+                                        bytes_per_point=35, description=__doc__.splitlines()[0]))

@@ -53,12 +53,14 @@ class DatasetFormat:
     write_sequence: Callable[[SceneData, Path], None] | None = None  # a recording into a folder
     cloud_outputs: Callable[[str], tuple[str, ...]] | None = None  # top-level names write_cloud(name=) makes
     dataset_outputs: tuple[str, ...] = ()                         # top-level names of a dataset, beside folder
+    notes: Callable[[Any], list[str]] | None = None               # (config) -> what the user must be told first
     # the disk a scene takes, for the size check before a run (dataset/limits.py): bytes per
-    # point kept (xyz f4 + label u4 = 16 for the point formats) and per pixel of its frames
-    bytes_per_point: float = 16.0
+    # point kept, at most (xyz f4 + label u4 = 16 for SemanticKITTI; more for ply, pcd, npz),
+    # and per pixel of its frames (image formats)
+    bytes_per_point: float = 40.0
     bytes_per_pixel: float = 0.0
 
-    def scene_bytes(self, points: int, pixels: int) -> float:
+    def scene_bytes(self, points: float, pixels: float) -> float:
         """Bytes a scene of at most ``points`` points kept, from frames of ``pixels`` pixels
         in all, takes on disk (an estimate from above)."""
         return points * self.bytes_per_point + pixels * self.bytes_per_pixel

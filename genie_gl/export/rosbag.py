@@ -24,12 +24,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from ..errors import ConfigError
 from ..sensors.trajectory import quaternion_xyzw
 from .semantickitti_sequence import camera_points
 
 DISTORTION = {"fisheye": "equidistant"}   # pinhole: plumb_bob (<= 5 coefficients) or rational_polynomial
 MAP, BODY = "map", "base_link"
+STAMP_KEY = "genie-gl"   # the bag's custom_data key holding the version that wrote it
 
 
 def _modules():
@@ -103,8 +105,39 @@ def write_recording(rig, trajectory, recording, bag_dir: str | os.PathLike) -> P
     (a folder the writer makes: ``metadata.yaml`` and ``<name>.mcap``); returns it."""
     Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, StoragePlugin, Writer, ts = _modules()
     bag_dir = Path(bag_dir)
-    if bag_dir.exists():
-        shutil.rmtree(bag_dir)
+    if bag_dir.exists() and not bag_is_ours(bag_dir):
+        raise ConfigError(f"{bag_dir}: already exists and was not written by genie-gl; it is left as it is (remove "
+                          "or rename it, or write the ROS 2 bag elsewhere)")
+    # written whole in a temporary folder of ours, then moved into place (the bag's file is named
+    # after its folder, so the folder keeps its name inside the temporary one)
+    tmp_root = bag_dir.parent / f".{bag_dir.name}.{os.getpid()}.tmp"
+    shutil.rmtree(tmp_root, ignore_errors=True)
+    tmp_root.mkdir(parents=True)
+    try:
+        _write_bag(rig, trajectory, recording, tmp_root / bag_dir.name, Writer, StoragePlugin, ts, Qos,
+                   (QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime))
+        if bag_dir.exists():
+            shutil.rmtree(bag_dir)   # a bag genie-gl wrote (checked above)
+        (tmp_root / bag_dir.name).rename(bag_dir)
+    finally:
+        shutil.rmtree(tmp_root, ignore_errors=True)
+    return bag_dir
+
+
+def bag_is_ours(bag_dir: Path) -> bool:
+    """True when ``bag_dir`` is a bag folder :func:`write_recording` wrote: its metadata and its
+    one MCAP file only, the metadata carrying genie-gl's custom data."""
+    names = {p.name for p in bag_dir.iterdir()} if bag_dir.is_dir() else set()
+    if not names or not names <= {"metadata.yaml", f"{bag_dir.name}.mcap"} or "metadata.yaml" not in names:
+        return False
+    try:
+        return f"{STAMP_KEY}:" in (bag_dir / "metadata.yaml").read_text(errors="replace")
+    except OSError:
+        return False
+
+
+def _write_bag(rig, trajectory, recording, bag_dir: Path, Writer, StoragePlugin, ts, Qos, qos_kinds) -> None:
+    QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime = qos_kinds
     m = _Messages(ts)
     never = QosTime(sec=0, nsec=0)
     latched = Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, never, never,
@@ -114,6 +147,7 @@ def write_recording(rig, trajectory, recording, bag_dir: str | os.PathLike) -> P
         return int(round((t - trajectory.start_s) * 1e9)) + 1   # the bag's clock: ns from the start, never 0
 
     with Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        w.set_custom_data(STAMP_KEY, __version__)   # how a later run knows the bag as its own
         def conn(topic: str, msgtype: str, qos=()):
             return w.add_connection(topic, msgtype, typestore=ts, offered_qos_profiles=qos)
 

@@ -54,32 +54,47 @@ def label_map_yaml(counts: Mapping[int, int] | None = None,
     return yaml.safe_dump(data, sort_keys=False)
 
 
-def split_sequences(n: int, ratios: Sequence[float] = (0.8, 0.1, 0.1)) -> dict[str, list[int]]:
-    """Sequences 0..n-1 into train/valid/test, contiguous in that order (as KITTI's), sized by
-    ``ratios`` (largest remainder) with at least one sequence in every split whose ratio is
-    above 0; with fewer sequences than such splits the last sequence serves the later ones too."""
-    names = ("train", "valid", "test")
-    if len(ratios) != 3 or min(ratios) < 0 or sum(ratios) <= 0:
+SPLITS = ("train", "valid", "test")
+
+
+def split_sizes(n: int, ratios: Sequence[float] = (0.8, 0.1, 0.1)) -> list[int]:
+    """How many of ``n`` sequences each split gets: as close to ``ratios`` as whole sequences
+    allow (largest remainder, which minimises the total deviation; ties go to the earlier
+    split). A split may get none when ``n`` is too small: see :func:`split_note`."""
+    if len(ratios) != 3 or any(not math.isfinite(r) or r < 0 for r in ratios) or sum(ratios) <= 0:
         raise ExportError(f"split ratios {tuple(ratios)}: expected three numbers >= 0 (train, valid, test), not all 0")
-    want = [i for i in range(3) if ratios[i] > 0]
-    if n < len(want):
-        out = {name: [] for name in names}
-        for j, i in enumerate(want):
-            out[names[i]] = [min(j, n - 1)] if n else []
-        return out
     exact = [n * r / sum(ratios) for r in ratios]
     sizes = [math.floor(e) for e in exact]
-    for i in sorted(want, key=lambda i: (sizes[i] - exact[i], i))[: n - sum(sizes)]:
+    for i in sorted(range(3), key=lambda i: (sizes[i] - exact[i], i))[: n - sum(sizes)]:
         sizes[i] += 1
-    for i in want:
-        if sizes[i] == 0:
-            sizes[max(range(3), key=lambda k: sizes[k])] -= 1
-            sizes[i] = 1
+    return sizes
+
+
+def split_sequences(n: int, ratios: Sequence[float] = (0.8, 0.1, 0.1)) -> dict[str, list[int]]:
+    """Sequences 0..n-1 into train/valid/test, contiguous in that order (as KITTI's), sized by
+    :func:`split_sizes`: every sequence in exactly one split, never two."""
     out, start = {}, 0
-    for name, size in zip(names, sizes):
+    for name, size in zip(SPLITS, split_sizes(n, ratios)):
         out[name] = list(range(start, start + size))
         start += size
     return out
+
+
+def split_note(n: int, ratios: Sequence[float] = (0.8, 0.1, 0.1)) -> str | None:
+    """What a user must be told about the split of ``n`` sequences: the splits asked for (a
+    share above 0) that get no sequence, and how many sequences would give each one; None
+    when every such split gets at least one."""
+    sizes = split_sizes(n, ratios)
+    empty = [SPLITS[i] for i in range(3) if ratios[i] > 0 and sizes[i] == 0]
+    if not empty:
+        return None
+    need = next((m for m in range(n + 1, 100_000)
+                 if all(s > 0 or r == 0 for s, r in zip(split_sizes(m, ratios), ratios))), None)
+    shares = ",".join(f"{r:g}" for r in ratios)
+    got = ", ".join(f"{name} {size}" for name, size in zip(SPLITS, sizes))
+    more = f"; {need} sequences would give every split one" if need else ""
+    return (f"--split {shares}: {n} sequence{'s are' if n != 1 else ' is'} too few for these shares: "
+            f"{' and '.join(empty)} get{'s' * (len(empty) == 1)} none, the rest is in train ({got}){more}")
 
 
 def encode_instances(instance: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
@@ -167,8 +182,7 @@ def write(cloud: PointCloud, out_dir: str | os.PathLike, *, sequence: int = 0, f
     cfg = root / "genie-gl.yaml"
     if not cfg.exists():
         counts = dict(zip(*np.unique(cloud.semantic, return_counts=True)))
-        atomic_write_text(cfg, label_map_yaml(counts, {"train": [sequence], "valid": [sequence],
-                                                       "test": [sequence]}))
+        atomic_write_text(cfg, label_map_yaml(counts, {"train": [sequence], "valid": [], "test": []}))
     return bin_path
 
 
@@ -262,6 +276,13 @@ def _finish(out: Path, cfg, stats: list[dict]) -> None:
         s["sequence"] = next(q for q, members in groups.items() if s["scene"] in members)
 
 
+def _notes(cfg) -> list[str]:
+    """Before a dataset run: a split that cannot give every asked split a sequence."""
+    n = -(-cfg.scenes // scenes_per_sequence(cfg.scenes))
+    note = split_note(n, tuple(cfg.split))
+    return [f"--scenes {cfg.scenes}: {note}"] if note else []
+
+
 def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, sequence: int = 0, frame: int = 0,
                  **_: object) -> Path:
     return write(cloud, out_dir, sequence=sequence, frame=frame)
@@ -275,4 +296,5 @@ DATASET = register_format(DatasetFormat(
     "semantickitti", "scenes", colour=False, write_scene=_write_scene, finish=_finish, write_cloud=_write_cloud,
 
     stale=("sequences",), cloud_outputs=lambda name: ("sequences", "genie-gl.yaml"),
-    dataset_outputs=("sequences", "genie-gl.yaml"), description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))
+    dataset_outputs=("sequences", "genie-gl.yaml"), notes=_notes, bytes_per_point=16,
+    description="SemanticKITTI sequences (scans, labels, poses, label-map YAML)"))

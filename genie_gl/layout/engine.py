@@ -10,13 +10,17 @@ import numpy as np
 from .generators import Children, Parents
 from .merge import merge_tree, renumber
 from .model import ORIENTATIONS, Layout, Node, Region, RegionType, Tree
-from .strategy import Rule, Strategy, load_strategy
+from ..checks import check_seed, describe, whole_number
+from ..errors import ConfigError
+from ..limits import MAX_REGIONS, check_regions
+from .estimate import layout_estimate
+from .strategy import Rule, Strategy, load_strategy, parse_strategy
 
 log = logging.getLogger(__name__)
 
 
-def generate_layout(strategy: Strategy | str | Path, seed: int = 0, *,
-                    rng: np.random.Generator | None = None) -> Layout:
+def generate_layout(strategy: Strategy | str | Path | dict, seed: int = 0, *,
+                    rng: np.random.Generator | None = None, max_regions: int = MAX_REGIONS) -> Layout:
     """Generate a layout tree from a strategy (object, file path or shipped name).
 
     Algorithm 2 a level at a time: the leaves of each region type that the level has a rule
@@ -24,8 +28,16 @@ def generate_layout(strategy: Strategy | str | Path, seed: int = 0, *,
     orientations chosen in arrays, and the new nodes appended grouped by parent, so the tree
     stays breadth-first. The same strategy and seed give the same layout, byte for byte
     (``rng`` overrides seed).
+
+    A strategy whose layouts can hold more than ``max_regions`` regions (or cost as much work,
+    :func:`~genie_gl.layout.estimate.layout_estimate`) is refused before any work
+    (:class:`~genie_gl.errors.LimitError`).
     """
-    strat = strategy if isinstance(strategy, Strategy) else load_strategy(strategy)
+    strat = as_strategy(strategy)
+    seed = check_seed(seed)
+    max_regions = whole_number(max_regions, "generate_layout: max_regions", 1)
+    check_regions(layout_estimate(strat)[1], max_regions, str(strat.source),
+                  option="--max-nodes (max_regions= in the API)")
     rng = np.random.default_rng(seed) if rng is None else rng
     names = tuple(strat.region_types)
     r = strat.root
@@ -44,6 +56,18 @@ def generate_layout(strategy: Strategy | str | Path, seed: int = 0, *,
     if merges:
         meta["merges"] = merges
     return Layout(tree, strat.region_types, meta)
+
+
+def as_strategy(strategy: Strategy | str | Path | dict) -> Strategy:
+    """A :class:`Strategy` from itself, a file path, a shipped name or parsed JSON (a dict)."""
+    if isinstance(strategy, Strategy):
+        return strategy
+    if isinstance(strategy, dict):
+        return parse_strategy(strategy, "strategy (dict)")
+    if isinstance(strategy, (str, Path)):
+        return load_strategy(strategy)
+    raise ConfigError(f"strategy: expected a Strategy, a strategy file, a shipped name or its JSON as a dict, "
+                      f"got {describe(strategy)}")
 
 
 def _expand_level(tree: Tree, level: dict[str, Rule], types: dict[str, RegionType],

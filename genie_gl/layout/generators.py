@@ -12,6 +12,7 @@ orientation provider (generators suggest one: the direction of a line, the paren
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -75,25 +76,6 @@ class Children:
         return len(self.parent)
 
 
-@dataclass(frozen=True)
-class RegionBound:
-    """The most a generator makes of one parent region (the size check before a dataset run,
-    :mod:`genie_gl.dataset.limits`).
-
-    Attributes
-    ----------
-    per_parent : float, regions made of one parent, at most.
-    min_area_m2 : float or None, the smallest area of a region it makes (m²): its regions of a
-        level cover the hall at most twice, so a level makes at most 2·area/min_area_m2 of
-        them (plus the parents); None: no such bound.
-    work : float, work per parent besides making regions (e.g. overlap tests / 10).
-    """
-
-    per_parent: float
-    min_area_m2: float | None = None
-    work: float = 0.0
-
-
 class Generator:
     """Base class: ``slots`` lists the slot names the generator can produce.
 
@@ -136,11 +118,17 @@ class Generator:
         """Raise ConfigError naming ``where`` when what the arguments ask for cannot fit a
         parent of ``width`` x ``height`` metres (checked on the strategy's root)."""
 
-    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
-        """The most regions it makes of one parent in a hall of ``hall_w`` x ``hall_h`` m, its
-        arguments at their largest. A generator that does not say is taken to make at most
-        one region per 4 m x 4 m cell of the hall (override this to say more exactly)."""
-        return RegionBound((max(hall_w, hall_h) / 4.0 + 1) ** 2)
+    def max_children(self, w: float, h: float, parents: float, area: float) -> float:
+        """An upper bound on the children this generator makes for ``parents`` regions, each
+        at most ``w`` x ``h`` m, together covering at most ``area`` m² (the limits' estimate,
+        :func:`~genie_gl.layout.estimate.layout_estimate`). The default, for a generator that
+        does not say: as a grid of 4 m cells would."""
+        return parents * (max(w, h) / 4.0 + 1) ** 2
+
+    def work(self, w: float, h: float, parents: float) -> float:
+        """Work beyond the children made, in regions' worth (overlap tests, walk steps / 10):
+        0 unless the generator says."""
+        return 0.0
 
 
 GENERATORS: dict[str, type[Generator]] = {}
@@ -164,8 +152,13 @@ def get_generator(name: str, where: str) -> type[Generator]:
                           f"(known: {', '.join(sorted(GENERATORS))})") from None
 
 
-def _range(value: Any, where: str, name: str, positive: bool = True) -> tuple[float, float]:
+def _range(value: Any, where: str, name: str, positive: bool = True, whole: bool = False) -> tuple[float, float]:
     lo, hi = (value, value) if np.isscalar(value) else tuple(value)
+    if any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in (lo, hi)):
+        raise ConfigError(f"{where}.{name}: expected {'whole numbers' if whole else 'finite numbers'} or a range "
+                          f"[min, max] of them, got {value!r}")
+    if whole and (float(lo) != int(lo) or float(hi) != int(hi)):
+        raise ConfigError(f"{where}.{name}: expected whole numbers, got {value!r}")
     if positive and (lo <= 0 or hi < lo):
         raise ConfigError(f"{where}.{name}: expected a positive size or a range [min, max] with "
                           f"0 < min <= max, got {value!r}")
@@ -174,17 +167,20 @@ def _range(value: Any, where: str, name: str, positive: bool = True) -> tuple[fl
     return float(lo), float(hi)
 
 
+def _number(args: dict, key: str, default: float, where: str, *, lo: float = 0.0, lo_open: bool = False,
+            whole: bool = False) -> float:
+    """A generator argument that is one finite number (>= lo, or > lo), whole where it counts."""
+    v = args.get(key, default)
+    ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and \
+        (v > lo if lo_open else v >= lo)
+    if not ok or (whole and float(v) != int(v)):
+        kind = "a whole number" if whole else "a finite number"
+        raise ConfigError(f"{where}.args.{key}: expected {kind} {'>' if lo_open else '>='} {lo:g}, got {v!r:.40}")
+    return float(v)
+
+
 def _draw(r: tuple[float, float], *, rng: np.random.Generator) -> float:
     return r[0] if r[0] == r[1] else float(rng.uniform(r[0], r[1]))
-
-
-def _largest(value: Any, default: float) -> float:
-    """The largest value of a number or a [min, max] range argument (``default`` when unset)."""
-    if value is None:
-        return default
-    if isinstance(value, (list, tuple)):
-        return float(max(value)) if value else default
-    return float(value)
 
 
 def _along(parent: Region) -> bool:
@@ -203,11 +199,14 @@ class Grid(Generator):
 
     def check(self, where: str) -> None:
         cell = self.args.get("cell")
-        if not isinstance(cell, (list, tuple)) or len(cell) != 2 or min(cell) <= 0:
-            raise ConfigError(f"{where}.args.cell: expected [width, height] > 0 in metres, got {cell!r}")
+        if not isinstance(cell, (list, tuple)) or len(cell) != 2 or \
+                not all(not isinstance(c, bool) and isinstance(c, (int, float)) and math.isfinite(c) and c > 0
+                        for c in cell):
+            raise ConfigError(f"{where}.args.cell: expected [width, height], finite numbers > 0 in metres, "
+                              f"got {cell!r}")
         for k in ("spacing", "aisle"):
-            if float(self.args.get(k, 0)) < 0:
-                raise ConfigError(f"{where}.args.{k}: expected >= 0, got {self.args[k]!r}")
+            _number(self.args, k, 0.0, where)
+        _number(self.args, "aisle_every", 0, where, whole=True)
         if self.args.get("leftover", "empty") not in ("empty", "spread"):
             raise ConfigError(f"{where}.args.leftover: expected 'empty' or 'spread', got {self.args['leftover']!r}")
 
@@ -219,10 +218,17 @@ class Grid(Generator):
                 raise ConfigError(f"{where}.args.cell: a {cell[0]} x {cell[1]} m cell is larger than its parent "
                                   f"({width} x {height} m)")
 
-    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
-        cw, ch = (float(c) for c in self.args.get("cell", (1.0, 1.0)))
+    def _per_parent(self, w: float, h: float) -> float:
+        cw, ch = map(float, self.args["cell"])
         sp = float(self.args.get("spacing", 0.0))
-        return RegionBound((max(hall_w, hall_h) / (min(cw, ch) + sp) + 1) ** 2 + 1, min_area_m2=cw * ch)
+        # cells across times rows along (aisles only remove rows), either way round, plus 2 leftovers
+        fit = lambda a, c: math.floor((a + sp + EPS) / (c + sp))  # noqa: E731
+        return max(fit(w, cw) * fit(h, ch), fit(h, cw) * fit(w, ch)) + 2
+
+    def max_children(self, w: float, h: float, parents: float, area: float) -> float:
+        cw, ch = map(float, self.args["cell"])
+        # cells never overlap: no more than the parents' area holds, plus two leftovers each
+        return min(parents * self._per_parent(w, h), area * (1 + 1e-9) / (cw * ch) + 2 * parents)
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         cw, ch = map(float, self.args["cell"])
@@ -279,9 +285,7 @@ class AssemblyLine(Generator):
             if k in a:
                 _range(a[k], f"{where}.args", k, positive=(k in ("line_width", "path_width")))
         if "paths" in a:
-            lo, hi = _range(a["paths"], f"{where}.args", "paths", positive=False)
-            if int(lo) != lo or int(hi) != hi:
-                raise ConfigError(f"{where}.args.paths: expected whole numbers, got {a['paths']!r}")
+            _range(a["paths"], f"{where}.args", "paths", positive=False, whole=True)
         if a.get("direction", "random") not in ("horizontal", "vertical", "random"):
             raise ConfigError(f"{where}.args.direction: expected horizontal, vertical or random, got {a['direction']!r}")
 
@@ -291,8 +295,9 @@ class AssemblyLine(Generator):
         if lw > max(width, height):
             raise ConfigError(f"{where}.args.line_width: a {lw} m line does not fit its parent ({width} x {height} m)")
 
-    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
-        return RegionBound(2 * _largest(self.args.get("paths"), 2.0) + 8)
+    def max_children(self, w: float, h: float, parents: float, area: float) -> float:
+        # per path a strip and a leftover band; the line, two material strips and their bands
+        return parents * (2 * _range(self.args.get("paths", [1, 2]), "", "paths", False)[1] + 8)
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
@@ -369,13 +374,19 @@ class RandomRooms(Generator):
 
     def check(self, where: str) -> None:
         a = self.args
-        _range(a.get("count", [1, 1]), f"{where}.args", "count", positive=True)
+        _range(a.get("count", [1, 1]), f"{where}.args", "count", positive=True, whole=True)
         _range(a.get("width", 1.0), f"{where}.args", "width")
         _range(a.get("height", 1.0), f"{where}.args", "height")
+        _number(a, "gap", 0.0, where)
+        _number(a, "attempts", 50, where, lo=1, whole=True)
 
-    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
-        n = _largest(self.args.get("count"), 1.0)
-        return RegionBound(n, work=n * n * _largest(self.args.get("attempts"), 50.0) / 2 / 10)
+    def max_children(self, w: float, h: float, parents: float, area: float) -> float:
+        return parents * _range(self.args.get("count", [1, 1]), "", "count")[1]
+
+    def work(self, w: float, h: float, parents: float) -> float:
+        # each try of each room tests the rooms placed before it: count² · attempts / 2 tests
+        n = _range(self.args.get("count", [1, 1]), "", "count")[1]
+        return parents * n * n * float(self.args.get("attempts", 50)) / 2 / 10
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
@@ -405,14 +416,19 @@ class DrunkardWalk(Generator):
     slots = ("room",)
     arguments = ('block', 'steps')
 
-    def check(self, where: str) -> None:
-        if float(self.args.get("block", 1.0)) <= 0 or int(self.args.get("steps", 1)) < 1:
-            raise ConfigError(f"{where}.args: block must be > 0 and steps >= 1")
+    CHUNK = 1 << 20  # steps drawn at a time (the same stream as one draw: memory stays small)
 
-    def bound(self, hall_w: float, hall_h: float) -> RegionBound:
-        b = float(self.args.get("block", 1.0))
-        return RegionBound(min(_largest(self.args.get("steps"), 50.0) + 1, (max(hall_w, hall_h) / b) ** 2),
-                           min_area_m2=b * b)
+    def check(self, where: str) -> None:
+        _number(self.args, "block", 1.0, where, lo_open=True)
+        _number(self.args, "steps", 50, where, lo=1, whole=True)
+
+    def max_children(self, w: float, h: float, parents: float, area: float) -> float:
+        b, steps = float(self.args.get("block", 1.0)), float(self.args.get("steps", 50))
+        # rectangles of whole blocks, disjoint: no more than the blocks visited or the area holds
+        return min(parents * min(steps + 1, (w / b) * (h / b)), area * (1 + 1e-9) / (b * b))
+
+    def work(self, w: float, h: float, parents: float) -> float:
+        return parents * float(self.args.get("steps", 50)) / 10
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         b = float(self.args.get("block", 1.0))
@@ -421,11 +437,14 @@ class DrunkardWalk(Generator):
             return []
         grid = np.zeros((ny, nx), bool)
         i, j = ny // 2, nx // 2
-        moves = np.array([[0, 1], [1, 0], [0, -1], [-1, 0]])
-        for step in rng.integers(0, 4, int(self.args.get("steps", 50))):
-            grid[i, j] = True
-            i = int(np.clip(i + moves[step, 0], 0, ny - 1))
-            j = int(np.clip(j + moves[step, 1], 0, nx - 1))
+        di, dj = (0, 1, 0, -1), (1, 0, -1, 0)
+        left = int(self.args.get("steps", 50))
+        while left:
+            for step in rng.integers(0, 4, min(left, self.CHUNK)).tolist():
+                grid[i, j] = True
+                i = min(max(i + di[step], 0), ny - 1)
+                j = min(max(j + dj[step], 0), nx - 1)
+            left -= min(left, self.CHUNK)
         grid[i, j] = True
         return [Child(parent.x + c0 * b, parent.y + r0 * b, (c1 - c0) * b, (r1 - r0) * b, "room")
                 for r0, r1, c0, c1 in rectangles(grid)]

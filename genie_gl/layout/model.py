@@ -9,8 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, did_you_mean
 from ..outputs import atomic_write_text, check_replaceable
+from ..resources import read_json
 
 LAYOUT_FORMAT = "genie-gl layout 1"
 
@@ -256,20 +257,97 @@ class Layout:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> "Layout":
-        try:
-            types = {k: RegionType(**{**v, "color": tuple(v["color"])}) for k, v in data["region_types"].items()}
-            nodes = [Node(Region(**n["region"]), n["depth"], n["parent"], list(n["children"])) for n in data["nodes"]]
-        except (KeyError, TypeError) as exc:
-            raise ConfigError(f"{source}: not a genie-gl layout JSON ({exc})") from exc
-        return cls(nodes, types, data.get("meta", {}))
+        """A layout from its JSON data (:meth:`to_dict`), every field checked: unknown keys
+        (with the nearest known one), undeclared region types, parents that do not come
+        before their children, children lists that disagree with the parents, sizes that
+        are not finite and positive are refused in one line naming the JSON path."""
+        types, nodes, meta = _parse_layout(data, source)
+        return cls(nodes, types, meta)
 
     @classmethod
     def from_json(cls, path: str | os.PathLike) -> "Layout":
-        try:
-            data = json.loads(Path(path).read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"{path}: cannot read layout JSON ({exc})") from exc
-        return cls.from_dict(data, str(path))
+        return cls.from_dict(read_json(path, "layout JSON"), str(path))
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Layout) and self.to_dict() == other.to_dict()
+
+
+_LAYOUT_KEYS = ("format", "meta", "region_types", "nodes")
+_NODE_KEYS = ("region", "depth", "parent", "children")
+_REGION_KEYS = ("x", "y", "w", "h", "type", "orientation")
+_TYPE_KEYS = ("name", "final", "color", "semantic", "asset_group", "fill")
+
+
+def _known(d: Any, keys: tuple[str, ...], where: str, what: str) -> dict:
+    if not isinstance(d, dict):
+        raise ConfigError(f"{where}: expected {what} (a JSON object), got {type(d).__name__}")
+    for k in d:
+        if k not in keys:
+            raise ConfigError(f"{where}.{k}: not a field of {what}{did_you_mean(k, keys)} (fields: {', '.join(keys)})")
+    return d
+
+
+def _parse_layout(data: Any, source: str) -> tuple[dict[str, RegionType], list[Node], dict]:
+    """(region types, nodes, meta) of layout JSON data, checked (see :meth:`Layout.from_dict`)."""
+    _known(data, _LAYOUT_KEYS, f"{source}: $", "a genie-gl layout")
+    if not str(data.get("format", LAYOUT_FORMAT)).startswith("genie-gl layout"):
+        raise ConfigError(f"{source}: $.format: {data['format']!r}, expected {LAYOUT_FORMAT!r}")
+    for k in ("region_types", "nodes"):
+        if k not in data:
+            raise ConfigError(f"{source}: $.{k}: missing; not a genie-gl layout JSON (genie layout writes one)")
+    types: dict[str, RegionType] = {}
+    if not isinstance(data["region_types"], dict) or not data["region_types"]:
+        raise ConfigError(f"{source}: $.region_types: expected a JSON object of region types")
+    for name, v in data["region_types"].items():
+        where = f"{source}: $.region_types.{name}"
+        v = _known(v, _TYPE_KEYS, where, "a region type")
+        color = v.get("color", (200, 200, 200))
+        if not (isinstance(color, list) and len(color) == 3
+                and all(isinstance(c, int) and 0 <= c <= 255 for c in color)):
+            raise ConfigError(f"{where}.color: expected [r, g, b] (0-255), got {color!r:.40}")
+        try:
+            types[name] = RegionType(**{**v, "name": name, "color": tuple(color)})
+        except TypeError as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+    raw = data["nodes"]
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError(f"{source}: $.nodes: expected a non-empty list of nodes, got {type(raw).__name__}")
+    nodes: list[Node] = []
+    kids: list[list[int]] = [[] for _ in raw]
+    for i, n in enumerate(raw):
+        where = f"{source}: $.nodes[{i}]"
+        n = _known(n, _NODE_KEYS, where, "a layout node")
+        r = _known(n.get("region"), _REGION_KEYS, f"{where}.region", "a region")
+        for k in ("x", "y", "w", "h"):
+            v = r.get(k)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or \
+                    (k in ("w", "h") and v <= 0) or abs(v) > 1e9:
+                raise ConfigError(f"{where}.region.{k}: expected a finite number{' > 0' if k in 'wh' else ''} "
+                                  f"(metres), got {v!r:.40}")
+        t = r.get("type")
+        if t not in types:
+            raise ConfigError(f"{where}.region.type: {t!r} is not declared in $.region_types"
+                              f"{did_you_mean(str(t), types)}")
+        o = r.get("orientation", "up")
+        if o not in ORIENTATIONS:
+            raise ConfigError(f"{where}.region.orientation: {o!r}, expected one of {', '.join(ORIENTATIONS)}"
+                              f"{did_you_mean(str(o), ORIENTATIONS)}")
+        p = n.get("parent")
+        if isinstance(p, bool) or not isinstance(p, int) or (i == 0 and p != -1) or (i > 0 and not 0 <= p < i):
+            raise ConfigError(f"{where}.parent: {p!r}; expected " + ("-1 (node 0 is the root)" if i == 0 else
+                              f"the index of an earlier node (0..{i - 1}): parents come before their children"))
+        depth = 0 if i == 0 else nodes[p].depth + 1
+        if n.get("depth", depth) != depth:
+            raise ConfigError(f"{where}.depth: {n['depth']!r}, expected {depth} (its parent's depth + 1)")
+        if p >= 0:
+            kids[p].append(i)
+        nodes.append(Node(Region(float(r["x"]), float(r["y"]), float(r["w"]), float(r["h"]), t, o), depth, p))
+    for i, n in enumerate(raw):
+        if "children" in n and n["children"] != kids[i]:
+            raise ConfigError(f"{source}: $.nodes[{i}].children: {n['children']!r:.60} disagrees with the nodes whose "
+                              f"parent is {i} ({kids[i]!r:.60})")
+        nodes[i].children = kids[i]
+    meta = data.get("meta", {})
+    if not isinstance(meta, dict):
+        raise ConfigError(f"{source}: $.meta: expected a JSON object, got {type(meta).__name__}")
+    return types, nodes, meta

@@ -21,7 +21,6 @@ generator, its ``args``, a type provider per slot, an orientation provider) or i
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Union
@@ -29,7 +28,7 @@ from typing import Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ..errors import ConfigError, did_you_mean
-from ..resources import read_text, resolve
+from ..resources import read_json, resolve
 from ..scene_options import scene_options
 from .generators import GENERATORS, Generator, get_generator
 from .model import ORIENTATIONS, RegionType
@@ -184,6 +183,21 @@ def _fill(fill: FillSpec, source: str, name: str) -> dict[str, Any]:
     return {k: (list(v) if isinstance(v, tuple) else v) for k, v in out.items()}
 
 
+def _model_at(loc: tuple) -> type[BaseModel]:
+    """The strategy model that validates the object at JSON path ``loc``."""
+    if not loc:
+        return StrategySpec
+    if loc[0] == "root":
+        return RootSpec
+    if loc[0] == "merge":
+        return MergeSpec
+    if loc[0] == "region_types":
+        return FillSpec if len(loc) > 2 and loc[2] == "fill" else RegionTypeSpec
+    if loc[0] == "levels":
+        return RuleSpec
+    return StrategySpec
+
+
 def _path(loc: tuple) -> str:
     out = "$"
     for p in loc:
@@ -196,8 +210,18 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
     try:
         spec = StrategySpec.model_validate(data)
     except ValidationError as exc:
-        e = exc.errors()[0]
+        # the most specific problem: a level's rule with a bad key fails both the "merge" branch
+        # and the rule's own field; the latter is the one to name
+        errors = exc.errors()
+        e = max(errors, key=lambda e: (e["type"] != "literal_error", len(e["loc"])))
         loc = tuple(p for p in e["loc"] if p not in ("literal['merge']", "dict[str,RuleSpec]"))
+        if e["type"] == "extra_forbidden":
+            known = tuple(_model_at(loc[:-1]).model_fields)
+            raise ConfigError(f"{source}: {_path(loc)}: unknown key{did_you_mean(str(loc[-1]), known)} (known here: "
+                              f"{', '.join(known)})") from None
+        if len(loc) == 2 and loc[0] == "levels" and isinstance(e.get("input"), str):
+            raise ConfigError(f"{source}: {_path(loc)}: {e['input']!r:.40}: expected \"merge\" or a level (an object "
+                              f"of rules){did_you_mean(e['input'], ['merge'])}") from None
         raise ConfigError(f"{source}: {_path(loc)}: {e['msg']} (got {e.get('input')!r:.80})") from None
     types = {}
     for name, t in spec.region_types.items():
@@ -270,10 +294,7 @@ def _culprit(cls, args: dict[str, Any], where: str) -> str:
 def load_strategy(path_or_name: str | Path) -> Strategy:
     """Load and validate a strategy file, or a shipped one by name (``"assembly_line"``)."""
     path = resolve(path_or_name, "layouts", (".json",))
-    try:
-        data = json.loads(read_text(path, "strategy JSON"))
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    data = read_json(path, "strategy JSON")
     return parse_strategy(_anchor_assets(data, Path(path).resolve().parent), str(path))
 
 

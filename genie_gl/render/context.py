@@ -96,6 +96,15 @@ class GLContext:
         with self.current():
             return self.ctx.error
 
+    @property
+    def max_side(self) -> int:
+        """The largest frame side (px) this context can render: the least of its texture,
+        renderbuffer and viewport limits (call with the context current)."""
+        info = self.ctx.info
+        dims = info.get("GL_MAX_VIEWPORT_DIMS") or (0, 0)
+        sides = [info.get("GL_MAX_TEXTURE_SIZE"), info.get("GL_MAX_RENDERBUFFER_SIZE"), *dims]
+        return int(min(s for s in sides if s)) if any(sides) else 16384
+
     def subpixel_bits(self) -> int:
         """GL_SUBPIXEL_BITS: the rasteriser snaps vertices to 1 / 2^bits of a pixel (call with
         the context current; asked once). GL guarantees at least 4."""

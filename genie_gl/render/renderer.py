@@ -9,6 +9,7 @@ bounding box, and only the triangles that may cover a pixel centre (``render/cul
 from __future__ import annotations
 
 import ctypes
+import threading
 import time
 from collections.abc import Collection, Iterable, Iterator, Sequence
 from typing import Any
@@ -16,8 +17,9 @@ from typing import Any
 import moderngl
 import numpy as np
 
-from ..checks import check_pose
-from ..errors import ConfigError, RenderError
+from ..checks import check_pose, expect
+from ..errors import ConfigError, LimitError, RenderError
+from ..limits import check_frame_side
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
@@ -104,8 +106,10 @@ class Renderer:
                                    ("targets", targets, TARGETS), ("readback", readback, READBACKS)):
             if value not in known:
                 raise ConfigError(f"Renderer {name}={value!r} is unknown; expected one of {', '.join(known)}")
+        expect(scene, Scene, "Renderer: scene")
         if lod is not None and not isinstance(lod, LevelOfDetail):
             raise ConfigError(f"Renderer lod: expected a genie_gl.render.LevelOfDetail or None, got {type(lod).__name__}")
+        self._thread = threading.get_ident()   # GL contexts are current in one thread: see _current
         self.depth_precision, self.cull, self.lod = depth_precision, bool(cull), lod
         self.targets, self.readback = targets, readback
         self._own_context = context is None
@@ -126,6 +130,10 @@ class Renderer:
     def _current(self) -> Any:
         # made current around every call where the platform needs it (EGL), so other GL users
         # in the process (pyrender, a second Renderer) cannot leave theirs current under us
+        if threading.get_ident() != self._thread:
+            raise RenderError("a Renderer is used from a thread other than the one that made it; its GL context "
+                              "belongs to that thread: make one Renderer per thread (or use gg.capture(..., "
+                              "workers=N), which renders in processes)")
         return self.gl.current()
 
     # -- scene upload ------------------------------------------------------------------------
@@ -244,6 +252,15 @@ class Renderer:
         key = (width, height, color, normals, slot, triangles)
         if key in self._fbos:
             return self._fbos[key]
+        check_frame_side(width, height, "Renderer", self.gl.max_side)
+        try:
+            self._fbos[key] = self._make_framebuffer(width, height, color, normals, triangles)
+        except moderngl.Error as exc:   # the driver could not allocate the targets
+            raise LimitError(f"Renderer: the GL driver ({self.gl.renderer}) could not allocate {width}x{height} px "
+                             f"render targets ({str(exc).strip()}); use a smaller sensor") from None
+        return self._fbos[key]
+
+    def _make_framebuffer(self, width: int, height: int, color: bool, normals: bool, triangles: bool = False) -> tuple:
         ctx, size = self.ctx, (width, height)
         if self._packed:  # (depth bits, instance): see render/readback.py
             targets = [ctx.texture(size, 2, dtype="u4")]
@@ -270,8 +287,7 @@ class Renderer:
         if self.depth_precision == "depth24":  # a second, depth-only target of 24 bits
             d24 = ctx.depth_texture(size)
             extra = [ctx.framebuffer(depth_attachment=d24), d24]
-        self._fbos[key] = (fbo, targets, depth, extra)
-        return self._fbos[key]
+        return fbo, targets, depth, extra
 
     # -- rendering -----------------------------------------------------------------------------
     def render(self, sensor: Sensor, pose: np.ndarray, *, depth_only: bool = False,

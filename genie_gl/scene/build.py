@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import check_seed, expect
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
 from ..scene_options import SceneOptions, scene_options
@@ -49,11 +50,12 @@ BASE_COLOR = {"pallet": (176, 136, 90), "rack": (40, 90, 170), "car": (200, 200,
 
 
 def _transform(yaw: float, x: float, y: float, z: float = 0.0) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    T = np.eye(4)
-    T[:2, :2] = [[c, -s], [s, c]]
-    T[:3, 3] = [x, y, z]
-    return T
+    return _turned(np.cos(yaw), np.sin(yaw), x, y, z)
+
+
+def _turned(c: float, s: float, x: float, y: float, z: float) -> np.ndarray:
+    """(4, 4) float64: a turn about z (cos ``c``, sin ``s``), then the translation (x, y, z)."""
+    return np.array((c, -s, 0.0, x, s, c, 0.0, y, 0.0, 0.0, 1.0, z, 0.0, 0.0, 0.0, 1.0), np.float64).reshape(4, 4)
 
 
 def _footprint(bounds: np.ndarray, yaw: float) -> tuple[float, float]:
@@ -70,6 +72,7 @@ class SceneBuilder:
         self.scene = Scene(metadata={"layout": layout.meta})
         self._keys: dict[tuple[str, str], str] = {}
         self._bounds: dict[tuple[str, str], np.ndarray] = {}
+        self._centres: dict[tuple[str, str], np.ndarray] = {}
         # a child stream: drawing materials leaves the placement draws as they were
         self.material_rng = rng.spawn(1)[0]
 
@@ -85,15 +88,17 @@ class SceneBuilder:
         return class_material(cls, rng=self.material_rng)
 
     def color(self, cls: str) -> tuple[int, int, int]:
-        base = np.array(BASE_COLOR.get(cls, (160, 160, 160)), float)
-        if self.opt.color:
-            base = base * self.rng.uniform(0.75, 1.15) + self.rng.normal(0, 12, 3)
-        return tuple(int(c) for c in np.clip(base, 0, 255))
+        base = BASE_COLOR.get(cls, (160, 160, 160))
+        if not self.opt.color:
+            return base
+        # per channel in plain floats (once per instance): the array form's operations and bits
+        gain, noise = self.rng.uniform(0.75, 1.15), self.rng.normal(0, 12, 3).tolist()
+        return tuple(int(min(max(b * gain + e, 0.0), 255.0)) for b, e in zip(base, noise))  # type: ignore[return-value]
 
     def add(self, cls: str, variant: str, T: np.ndarray, name: str) -> int:
         key = self._keys.get((cls, variant))
         if key is None:
-            mesh = self.assets.mesh(cls, variant)
+            mesh = self.assets.scene_mesh(cls, variant)
             key = self._keys[(cls, variant)] = self.scene.add_mesh(mesh, name=f"{cls}_{variant}")
         return self.scene.add(key, T, semantic=lib.SEMANTIC[cls], color=self.color(cls), name=name,
                               material=self.material(cls))
@@ -204,8 +209,8 @@ class SceneBuilder:
         if self.opt.jitters:
             jit = self.opt.jitter
             slack_x, slack_y = (slot.w - fw) / 2, (slot.h - fd) / 2
-            cx += float(np.clip(self.rng.normal(0, jit.position_m), -slack_x, slack_x))
-            cy += float(np.clip(self.rng.normal(0, jit.position_m), -slack_y, slack_y))
+            cx += min(max(float(self.rng.normal(0, jit.position_m)), -slack_x), slack_x)  # np.clip's rule
+            cy += min(max(float(self.rng.normal(0, jit.position_m)), -slack_y), slack_y)
             # a yaw turn must keep the turned footprint inside: only where there is room
             dyaw = float(self.rng.normal(0, jit.yaw_rad))
             diag = np.hypot(fw, fd) / 2
@@ -228,11 +233,18 @@ class SceneBuilder:
 
     def _put(self, cls: str, v: str, yaw: float, cx: float, cy: float, z: float, name: str) -> int:
         """An instance whose footprint centre lands on (cx, cy), turned by ``yaw``."""
-        b = self.bounds(cls, v)
-        off = (b[0] + b[1]) / 2
+        off = self._centre(cls, v)
         c, s = np.cos(yaw), np.sin(yaw)
         ox, oy = c * off[0] - s * off[1], s * off[0] + c * off[1]
-        return self.add(cls, v, _transform(yaw, cx - ox, cy - oy, z), name)
+        return self.add(cls, v, _turned(c, s, cx - ox, cy - oy, z), name)
+
+    def _centre(self, cls: str, variant: str) -> np.ndarray:
+        """(3,) float64: the middle of a variant's bounds."""
+        off = self._centres.get((cls, variant))
+        if off is None:
+            b = self.bounds(cls, variant)
+            off = self._centres[(cls, variant)] = (b[0] + b[1]) / 2
+        return off
 
     def _load(self, variant: str, yaw: float, cx: float, cy: float, load: dict[str, float], base: str,
               i: int) -> None:
@@ -318,6 +330,8 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
     built-in assets (the tessellation accuracy knob); None keeps each part's own count.
     Same layout, options, assets, seed and segments: the same scene (and the same USD bytes).
     """
+    expect(layout, Layout, "build_scene: layout")
+    seed = check_seed(seed, "build_scene: seed")
     segments = lib.check_segments(segments, "build_scene")
     opts = scene_options(layout.meta.get("scene", {}) if options is None else options,
                          "build_scene options" if options is not None else "layout scene options")
@@ -326,6 +340,14 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
         cat = cat.copy(segments=segments)
     b = SceneBuilder(layout, opts, cat, rng=np.random.default_rng(seed) if rng is None else rng)
     b.background()
-    for i, reg in enumerate(layout.leaves()):
+    before = len(b.scene.instances)
+    leaves = layout.leaves()
+    for i, reg in enumerate(leaves):
         b.region(i, reg)
+    if len(b.scene.instances) == before:   # an empty hall is a result nobody asked for: say so
+        grouped = sum(1 for r in leaves if layout.region_types[r.type].asset_group)
+        why = (f"none of its {len(leaves)} regions has an asset_group" if not grouped else
+               f"its {grouped} regions with an asset group are all too small for their assets (or dropped out)")
+        log.warning("build_scene: no asset placed: the layout of %s holds floor and walls only (%s)",
+                    layout.meta.get("strategy", "its strategy"), why)
     return b.scene

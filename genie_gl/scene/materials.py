@@ -35,18 +35,23 @@ class MaterialKind:
     ior: tuple[float, float] = (1.5, 1.5)
 
     def draw(self, rng: np.random.Generator) -> Material:
-        """One material within the ranges (6 uniform draws, always, whatever the ranges)."""
-        u = rng.random(6)
-        lo, hi = np.array(self.diffuse_lo), np.array(self.diffuse_hi)
-        grey = u[0]   # one shade for all channels keeps the hue of the kind
-        col = lo + (hi - lo) * np.clip(grey + 0.1 * (u[1] - 0.5), 0.0, 1.0)
+        """One material within the ranges (6 uniform draws, always, whatever the ranges).
+
+        Plain float arithmetic, the same operations as the array form (``lo + (hi - lo) *
+        clip(...)`` then ``np.round(col, 4)``, i.e. ``rint(x * 1e4) / 1e4``), so the same bits:
+        it runs once per instance."""
+        u0, u1, u2, u3, u4, u5 = rng.random(6).tolist()
+        t = min(max(u0 + 0.1 * (u1 - 0.5), 0.0), 1.0)   # one shade for all channels keeps the hue
+        lo, hi = self.diffuse_lo, self.diffuse_hi
+        col = (round((lo[0] + (hi[0] - lo[0]) * t) * 10000.0) / 10000.0,
+               round((lo[1] + (hi[1] - lo[1]) * t) * 10000.0) / 10000.0,
+               round((lo[2] + (hi[2] - lo[2]) * t) * 10000.0) / 10000.0)
 
         def pick(r: tuple[float, float], x: float) -> float:
             return float(r[0] + (r[1] - r[0]) * x)
 
-        return Material(tuple(float(c) for c in np.round(col, 4)),  # type: ignore[arg-type]
-                        round(pick(self.metallic, u[2]), 4), round(pick(self.roughness, u[3]), 4),
-                        round(pick(self.opacity, u[4]), 4), round(pick(self.ior, u[5]), 4))
+        return Material(col, round(pick(self.metallic, u2), 4), round(pick(self.roughness, u3), 4),
+                        round(pick(self.opacity, u4), 4), round(pick(self.ior, u5), 4))
 
 
 KINDS: dict[str, MaterialKind] = {

@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
+import struct
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +28,7 @@ from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
 
+_FLOAT32X7 = struct.Struct("=7f")   # a material's seven inputs as float32
 RECENTRE_RATIO = 4.0   # vertices whose centre lies farther than this many radii out are recentred
 
 
@@ -62,6 +64,10 @@ class Mesh:
             finite = np.isfinite(v64).all(axis=1)
             if finite.any():
                 lo, hi = v64[finite].min(axis=0), v64[finite].max(axis=0)
+                far = float(max(np.abs(lo).max(), np.abs(hi).max()))
+                if far > MAX_COORD_M:
+                    raise ConfigError(f"mesh vertices: a coordinate of {far:.3g} m, beyond {MAX_COORD_M:g} m (absurd "
+                                      "coordinates; check the file's units)")
                 centre, radius = (lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2
                 if np.linalg.norm(centre) > max(RECENTRE_RATIO * radius, 1.0):
                     origin = np.round(centre, 3)
@@ -146,7 +152,27 @@ class Material:
     ior: float = 1.5
 
     def __post_init__(self) -> None:
-        # values held at float32 precision, as USD stores them: a round trip is exact
+        # values held at float32 precision, as USD stores them: a round trip is exact. One
+        # pack to float32 and back rounds all seven as np.float32 does (a C cast); anything it
+        # cannot take (a string, a wrong length, an overflow) goes the slow way, to its message.
+        try:
+            *c, metallic, roughness, opacity, ior = _FLOAT32X7.unpack(_FLOAT32X7.pack(
+                *self.diffuse_color, self.metallic, self.roughness, self.opacity, self.ior))
+        except (struct.error, OverflowError, TypeError):
+            self._check_slowly()
+            return
+        if (0.0 <= c[0] <= 1.0 and 0.0 <= c[1] <= 1.0 and 0.0 <= c[2] <= 1.0 and 0.0 <= metallic <= 1.0
+                and 0.0 <= roughness <= 1.0 and 0.0 <= opacity <= 1.0 and 1.0 <= float(self.ior) <= 5.0):
+            object.__setattr__(self, "diffuse_color", tuple(c))
+            object.__setattr__(self, "metallic", metallic)
+            object.__setattr__(self, "roughness", roughness)
+            object.__setattr__(self, "opacity", opacity)
+            object.__setattr__(self, "ior", ior)
+            return
+        self._check_slowly()
+
+    def _check_slowly(self) -> None:
+        """Each value on its own: rounded to float32 and checked, the first bad one named."""
         c = tuple(float(np.float32(x)) for x in self.diffuse_color)
         if len(c) != 3 or not all(0.0 <= x <= 1.0 for x in c):
             raise ConfigError(f"material diffuse_color: expected 3 values in [0, 1], got {self.diffuse_color!r}")
@@ -209,7 +235,8 @@ def _as_transform(transform: Any, check: bool = True) -> np.ndarray:
         raise ConfigError(f"transform: expected a (4, 4) matrix or a (3,) translation, got {t.shape}")
     if check and not np.all(np.isfinite(t)):
         raise ConfigError("transform: contains NaN or Inf")
-    if np.abs(t[:3, 3]).max() > MAX_COORD_M:
+    x, y, z = t[:3, 3].tolist()
+    if (abs(x) > MAX_COORD_M or abs(y) > MAX_COORD_M or abs(z) > MAX_COORD_M) and x == x and y == y and z == z:
         raise ConfigError(f"transform: translation {t[:3, 3].tolist()} m is beyond {MAX_COORD_M:g} m (absurd coordinates)")
     return t
 
@@ -274,6 +301,7 @@ class Scene:
     metadata: dict[str, Any] = field(default_factory=dict)
     _digests: dict[str, str] = field(default_factory=dict, repr=False)
     _ids: set[int] | None = field(default=None, repr=False)
+    _max_id: int = field(default=0, repr=False)   # the largest of ``_ids``: the next free id is one more
     dropped: list[str] = field(default_factory=list, repr=False)
 
     def add_mesh(self, mesh: Any, name: str | None = None) -> str:
@@ -325,10 +353,10 @@ class Scene:
                 return 0
             raise ConfigError(f"scene.add: {who!r}: {why}; fix or remove it (or add it with degenerate='drop')")
         origin = self.meshes[key].origin
-        transform = t if not origin.any() else t @ _translation(origin)
+        transform = t if not (origin[0] or origin[1] or origin[2]) else t @ _translation(origin)
         used = self._used_ids
         if instance is None:
-            instance = max(used, default=0) + 1 if len(used) != len(self.instances) else self._next_id()
+            instance = self._max_id + 1
         if not 0 < int(instance) < 2**32:
             raise ConfigError(f"scene.add: instance id must be in 1..2**32-1, got {instance}")
         if int(instance) in used:
@@ -342,6 +370,7 @@ class Scene:
             Instance(key, transform, int(semantic), int(instance), col, name, material)  # type: ignore[arg-type]
         )
         used.add(int(instance))
+        self._max_id = max(self._max_id, int(instance))
         return int(instance)
 
     def report(self) -> dict[str, Any]:
@@ -361,12 +390,12 @@ class Scene:
 
     @property
     def _used_ids(self) -> set[int]:
+        """The instance ids in use (rebuilt, with their maximum, when ``instances`` was
+        changed from outside)."""
         if self._ids is None or len(self._ids) != len(self.instances):
             self._ids = {i.instance for i in self.instances}
+            self._max_id = max(self._ids, default=0)
         return self._ids
-
-    def _next_id(self) -> int:
-        return max(self._ids, default=0) + 1
 
     def bounds(self) -> np.ndarray:
         """(2, 3) float64 world-space bounding box of all instances (NaN when empty)."""

@@ -20,6 +20,7 @@ prims had none is ``scene.metadata["prims_without_material"]``).
 """
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import re
@@ -29,8 +30,10 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt
 
 from .. import __version__, labels
+from ..checks import MAX_COORD_M
+from ..limits import MAX_INSTANCES, check_instances
 from ..errors import ConfigError
-from ..outputs import check_replaceable
+from ..outputs import check_replaceable, written
 from .gprims import tessellate
 from .model import Material, Mesh, Scene
 
@@ -57,7 +60,28 @@ def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
         raise ConfigError(f"{path}: USD files end in .usda, .usdc or .usd")
     check_replaceable(path, written_by_genie, what="USD scene")
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
-    stage = Usd.Stage.CreateNew(str(tmp))
+    with written(path, tmp):
+        _write_stage(scene, tmp, path)
+        tmp.replace(path)
+    return path
+
+
+def _write_stage(scene: Scene, tmp: Path, path: Path) -> None:
+    try:
+        stage = Usd.Stage.CreateNew(str(tmp))
+        _fill_stage(scene, stage)
+        ok = stage.GetRootLayer().Save()
+    except Tf.ErrorException as exc:  # USD reports a failed write (a full disk ...) as its own error
+        why = re.search(r"Error occurred writing file: ([^'\n]*)", str(exc)) or re.search(r" : '([^\n]*)'", str(exc))
+        text = why.group(1) if why else "USD could not write the file"
+        code = next((e for e in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES)
+                     if os.strerror(e) in text), errno.EIO)
+        raise OSError(code, text, str(path)) from None
+    if not ok:
+        raise OSError(errno.EIO, "USD could not save the stage", str(path))
+
+
+def _fill_stage(scene: Scene, stage: Usd.Stage) -> None:
     stage.GetRootLayer().customLayerData = {"genie_gl": __version__}   # how a later write knows it is ours
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
@@ -109,10 +133,6 @@ def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
                 mat = materials[inst.material] = _define_material(
                     stage, looks.GetPath().AppendChild(f"Material_{len(materials):04d}"), inst.material)
             UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat)
-    stage.GetRootLayer().Save()
-    del stage
-    tmp.replace(path)
-    return path
 
 
 GPRIMS = {"Sphere": UsdGeom.Sphere, "Cube": UsdGeom.Cube, "Cylinder": UsdGeom.Cylinder,
@@ -215,13 +235,15 @@ def _triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
 
 
 def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
-             up_axis: str | None = None, segments: int = 32) -> Scene:
+             up_axis: str | None = None, segments: int = 32, max_instances: int = MAX_INSTANCES) -> Scene:
     """Read any USD stage into a Scene (world Z up, metres).
 
     ``meters_per_unit`` and ``up_axis`` ("y" or "z") override the stage's ``metersPerUnit``
     and ``upAxis`` (whose fallbacks, when unauthored, are USD's: centimetres and Y up).
     ``segments`` (>= 3): segments per circle of tessellated implicit gprims (a sphere of
-    radius r deviates from its facets by at most r·(1 − cos(π/segments))).
+    radius r deviates from its facets by at most r·(1 − cos(π/segments))). A stage of more
+    than ``max_instances`` instances (a point instancer's are counted before any is read) is
+    refused (:class:`~genie_gl.errors.LimitError`).
     """
     if int(segments) < 3:
         raise ConfigError(f"{path}: segments must be >= 3 (segments per circle), got {segments}")
@@ -239,7 +261,10 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     mpu = UsdGeom.GetStageMetersPerUnit(stage) if meters_per_unit is None else float(meters_per_unit)
     if not (np.isfinite(mpu) and 0 < mpu <= 1e6):
         raise ConfigError(f"{path}: metersPerUnit {mpu}: expected a number > 0 (1 = metres, 0.01 = centimetres)")
-    up = UsdGeom.GetStageUpAxis(stage) if up_axis is None else up_axis.upper()
+    up = UsdGeom.GetStageUpAxis(stage) if up_axis is None else str(up_axis).upper()
+    if up not in (UsdGeom.Tokens.y, UsdGeom.Tokens.z):   # USD knows these two; another is not read as Z
+        raise ConfigError(f"{path}: upAxis {up!r}: a USD stage is Y or Z up; fix the stage's upAxis (or read it with "
+                          "up_axis='y' or 'z')")
     fix = np.eye(4) * mpu
     fix[3, 3] = 1.0
     if up == UsdGeom.Tokens.y:  # Y up -> Z up: +90 deg about x
@@ -265,6 +290,9 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             v = np.asarray(pts, dtype=np.float64)
             if not np.all(np.isfinite(v)):
                 raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()} has NaN or Inf points")
+            if np.abs(v).max(initial=0.0) * mpu > MAX_COORD_M:
+                raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()}: a point {np.abs(v).max():.3g} units from its "
+                                  f"origin, beyond {MAX_COORD_M:g} m (absurd coordinates; check the stage's units)")
             counts, idx = np.asarray(counts, np.int64), np.asarray(idx, np.int64)
             if (counts < 0).any() or counts.sum() != len(idx) or (len(idx) and (idx.min() < 0 or idx.max() >= len(v))):
                 raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()}: faceVertexCounts (sum {int(counts.sum())}) and "
@@ -276,8 +304,15 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     authored: dict[int, str] = {}  # genie:instanceId -> the prim that authored it
     missing = [0]
 
-    def place(key: str, world: np.ndarray, prim: Usd.Prim, name: str) -> None:
-        sem, inst = _label(prim)
+    looks: dict[str, tuple] = {}   # a point instancer's prototype prim -> (labels, material), read once
+
+    def place(key: str, world: np.ndarray, prim: Usd.Prim, name: str, shared: bool = False) -> None:
+        if shared:
+            if str(prim.GetPath()) not in looks:
+                looks[str(prim.GetPath())] = (_label(prim), _material(prim))
+            (sem, inst), material = looks[str(prim.GetPath())]
+        else:
+            (sem, inst), material = _label(prim), None
         if inst is not None:
             owner = prim
             while owner and not owner.HasAttribute("genie:instanceId"):
@@ -292,7 +327,8 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             while next_id[0] in taken:
                 next_id[0] += 1
             inst = next_id[0]
-        material = _material(prim)
+        if not shared:
+            material = _material(prim)
         # a prim with a zero or singular scale (a common way to hide one) is dropped and
         # counted in Scene.report(), named by its path
         if scene.add(key, fix @ world, semantic=sem or 0, instance=inst, name=name,
@@ -307,27 +343,36 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
         if not prim.IsActive() or prim.IsAbstract() or _in_instancer(prim):
             continue
         if is_geometry(prim):
+            if len(scene.instances) >= max_instances:
+                check_instances(len(scene.instances) + 1, max_instances, str(path))
             key = mesh_key(prim)
             if key is not None:
                 world = np.array(cache.GetLocalToWorldTransform(prim)).T
                 place(key, world, prim, prim.GetParent().GetName() if prim.IsInstanceProxy() else prim.GetName())
         elif prim.IsA(UsdGeom.PointInstancer):
             pi = UsdGeom.PointInstancer(prim)
-            xf = pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default())
-            ids = pi.GetProtoIndicesAttr().Get() or []
+            ids = np.asarray(pi.GetProtoIndicesAttr().Get() or [], np.int64)
             targets = pi.GetPrototypesRel().GetTargets()
+            if len(ids) and (ids.min() < 0 or ids.max() >= len(targets)):
+                raise ConfigError(f"{path}: point instancer {prim.GetPath()}: protoIndices up to {int(ids.max())} for "
+                                  f"{len(targets)} prototypes")
+            # every prototype's meshes relative to its root, once (not once per instance)
+            parts = []
+            for t in targets:
+                proto = stage.GetPrimAtPath(t)
+                inv = np.linalg.inv(np.array(cache.GetLocalToWorldTransform(proto)).T)
+                parts.append([(sub, inv @ np.array(cache.GetLocalToWorldTransform(sub)).T)
+                              for sub in Usd.PrimRange(proto) if is_geometry(sub)])
+            count = int(sum(len(parts[k]) for k in ids)) if len(ids) else 0
+            check_instances(len(scene.instances) + count, max_instances, f"{path}: point instancer {prim.GetPath()}")
+            xf = pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default())
             base = np.array(cache.GetLocalToWorldTransform(prim)).T
-            for j, (pidx, m) in enumerate(zip(ids, xf)):
-                proto = stage.GetPrimAtPath(targets[pidx])
-                proto_world = np.array(cache.GetLocalToWorldTransform(proto)).T
-                for sub in Usd.PrimRange(proto):
-                    if is_geometry(sub):
-                        key = mesh_key(sub)
-                        if key is None:
-                            continue
-                        # mesh relative to its prototype root, then the instance, then the instancer
-                        rel = np.linalg.inv(proto_world) @ np.array(cache.GetLocalToWorldTransform(sub)).T
-                        place(key, base @ np.array(m).T @ rel, sub, f"{prim.GetName()}_{j}")
+            for j, (pidx, m) in enumerate(zip(ids.tolist(), xf)):
+                world = base @ np.array(m).T
+                for sub, rel in parts[pidx]:
+                    key = mesh_key(sub)
+                    if key is not None:   # mesh relative to its prototype root, then the instance, then the instancer
+                        place(key, world @ rel, sub, f"{prim.GetName()}_{j}", shared=True)
     if not scene.instances:
         raise ConfigError(f"{path}: the stage holds no mesh")
     scene.metadata["prims_without_material"] = missing[0]

@@ -35,6 +35,10 @@ DEPTH_PRECISION = ("float32", "depth24", "reversed_z")
 SUPERSAMPLE = (1, 2, 4)
 
 
+#: the fields of a sensor profile (``profile.py`` reads them; an accuracy file may be a profile)
+PROFILE_KEYS = ("name", "calibration", "effects", "near_m", "far_m", "accuracy", "baseline_m", "description",
+                "source")
+
 @dataclass(frozen=True)
 class AccuracySettings:
     """How exactly a frame is made (every field has a cheaper and a more exact end).
@@ -152,7 +156,17 @@ def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
     except yaml.YAMLError as exc:
         raise ConfigError(f"{p}: not valid YAML or JSON ({str(exc).splitlines()[0]})") from None
     if isinstance(data, dict) and "accuracy" in data:
+        for key in data:   # a profile's other fields may stand beside the block
+            if key not in PROFILE_KEYS:
+                raise ConfigError(f"{p}: {key}: not a field of an accuracy file or sensor profile"
+                                  f"{did_you_mean(str(key), PROFILE_KEYS)} (expected an accuracy: block)")
         data = data["accuracy"]
+    elif isinstance(data, dict):
+        names = [f.name for f in fields(AccuracySettings)]
+        for key in data:
+            if key not in names:
+                raise ConfigError(f"{p}: {key}: unknown{did_you_mean(str(key), [*names, 'accuracy'])}; expected an "
+                                  f"accuracy: block, or its settings ({', '.join(names)})")
     return from_dict(data, str(p))
 
 

@@ -22,7 +22,8 @@ import cv2
 import numpy as np
 import yaml
 
-from ..errors import ConfigError
+from ..checks import whole_number
+from ..errors import ConfigError, did_you_mean
 from ..outputs import check_replaceable
 from ..camera import MODELS
 
@@ -32,6 +33,15 @@ W_KEYS = ("image_width", "image_Width", "imageWidth", "width")
 H_KEYS = ("image_height", "image_Height", "imageHeight", "height")
 ERR_KEYS = ("avg_reprojection_error", "Avg_Reprojection_Error", "reprojection_error", "rms")
 MODEL_KEYS = ("distortion_model", "Distortion_Model", "lens_model", "camera_model")
+# what calibration programs write beside the fields read above (OpenCV's calibration samples,
+# stereoCalibrate/stereoRectify, ROS camera_info): known, kept unread; any other key is refused
+OTHER_KEYS = (
+    "calibration_time", "calibrationDate", "nframes", "nr_of_frames", "nrOfFrames", "board_width", "board_height",
+    "board_Width", "board_Height", "square_size", "square_Size", "marker_size", "aspectRatio", "aspect_ratio",
+    "fix_aspect_ratio", "flags", "flagValue", "calibration_flags", "fisheye_model", "per_view_reprojection_errors",
+    "extrinsic_parameters", "image_points", "grid_points", "camera_name", "rectification_matrix",
+    "projection_matrix", "binning_x", "binning_y", "roi", "E", "F", "R1", "R2", "P1", "P2", "Q", "M2", "D2", "K2",
+    "validRoi1", "validRoi2", "header", "name", "description", "source")
 # lens model names as ROS, OpenCV programs and Kalibr write them -> (genie-gl model, counts)
 LENS_NAMES: dict[str, tuple[str, tuple[int, ...]]] = {
     "plumb_bob": ("pinhole", (4, 5)), "radtan": ("pinhole", (4, 5)), "radial-tangential": ("pinhole", (4, 5)),
@@ -134,7 +144,9 @@ def _kalibr(data: dict, path: Path) -> Calibration:
         raise ConfigError(f"{where}: intrinsics: expected {spelled}, got {cam['intrinsics']!r}")
     values = _matrix(cam["intrinsics"], f"{where}: intrinsics", (n_in,))
     fu, fv, pu, pv = values[-4:]
-    W, H = (int(v) for v in cam["resolution"])
+    if np.size(cam["resolution"]) != 2 or isinstance(cam["resolution"], (str, dict)):
+        raise ConfigError(f"{where}: resolution: expected [width, height], got {cam['resolution']!r:.60}")
+    W, H = (whole_number(v, f"{where}: resolution", 1, 1_000_000) for v in cam["resolution"])
     dist = np.asarray(cam.get("distortion_coeffs") or [], float)
     model = lens_model(cam.get("distortion_model", "none"), len(dist), f"{where}: distortion_model")
     if kind == "omni":
@@ -169,6 +181,8 @@ def read_calibration(path: str | os.PathLike) -> Calibration:
         if "cam0" in data:
             return _kalibr(data, path)
 
+    _known_keys(data, path)
+
     def first(keys, field):
         for k in keys:
             if k in data and data[k] is not None:
@@ -197,7 +211,20 @@ def read_calibration(path: str | os.PathLike) -> Calibration:
     _, err = first(ERR_KEYS, "avg_reprojection_error")
     R = _matrix(data["R"], f"{path}: R", (3, 3)) if "R" in data and np.size(data["R"]) == 9 else None
     T = _matrix(data["T"], f"{path}: T").ravel() if "T" in data and np.size(data["T"]) == 3 else None
-    return Calibration(int(W), int(H), K, dist, None if err is None else float(err), R, T, str(path), model)
+    W = whole_number(W, f"{path}: {w_key}", 1, 1_000_000)
+    H = whole_number(H, f"{path}: {h_key}", 1, 1_000_000)
+    return Calibration(W, H, K, dist, None if err is None else float(err), R, T, str(path), model)
+
+
+def _known_keys(data: dict, path: Path) -> None:
+    """Refuse a key no calibration program writes (a misspelt field would be read as absent)."""
+    known = (*K_KEYS, *D_KEYS, *W_KEYS, *H_KEYS, *ERR_KEYS, *MODEL_KEYS, "R", "T", *OTHER_KEYS)
+    for key in data:
+        if key not in known:
+            near = did_you_mean(key, known)
+            raise ConfigError(f"{path}: {key}: not a field of an OpenCV or ROS calibration{near or ''} (it reads "
+                              f"camera_matrix, distortion_coefficients, image_width, image_height, distortion_model, "
+                              f"R, T and the other fields calibration programs write)")
 
 
 STAMP = "written by genie-gl"

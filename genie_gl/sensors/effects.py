@@ -47,9 +47,18 @@ __all__ = ["DEFAULT_BASELINE_M", "DEFAULT_SIGMA_D_PX", "EFFECTS", "Decision", "D
 def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
     """Effects from profile data: a list of ``{"type": name, ...params}``."""
     out = []
+    if specs is not None and not isinstance(specs, (list, tuple)):
+        raise ConfigError(f"{where}: effects: expected a list of effects ({{type: name, ...}}), got {specs!r:.60}")
+    seen: dict[str, int] = {}
     for i, spec in enumerate(specs or []):
         if not isinstance(spec, dict) or "type" not in spec:
             raise ConfigError(f"{where}: effects[{i}]: expected a mapping with a 'type', got {spec!r}")
+        if not isinstance(spec["type"], str):
+            raise ConfigError(f"{where}: effects[{i}].type: expected an effect name, got {spec['type']!r:.40}")
+        if spec["type"] in seen:   # an effect runs once per frame: a second entry would apply it twice
+            raise ConfigError(f"{where}: effects[{i}]: {spec['type']!r} is listed twice (also effects"
+                              f"[{seen[spec['type']]}]); give each effect once, with all its parameters")
+        seen[spec["type"]] = i
         params = {k: v for k, v in spec.items() if k not in ("type", "source")}
         cls = EFFECTS.get(spec["type"])
         if cls is None:

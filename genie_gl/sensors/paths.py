@@ -25,8 +25,12 @@ import os
 import numpy as np
 from scipy.sparse import csgraph
 
+from ..checks import check_seed, expect, finite_number
 from ..errors import ConfigError, did_you_mean
+from ..layout.model import Layout
+from ..limits import MAX_DURATION_S
 from ..resources import read_text
+from ..scene.model import Scene
 from .floor import SEE_M, FreeFloor, free_floor
 from .motion import Motion, follow, motion_of
 from .trajectory import Trajectory
@@ -175,6 +179,17 @@ def waypoint_route(floor: FreeFloor, waypoints: np.ndarray, *, source: str = "wa
     return legs
 
 
+def path_kind(path: str | os.PathLike, option: str = "--path") -> str:
+    """The kind of a path option's value: ``aisles``, ``random``, or ``waypoints`` (an existing
+    file); anything else is a one-line :class:`ConfigError` naming the option (did-you-mean)."""
+    if str(path) in PATHS[:2]:
+        return str(path)
+    if os.path.isfile(path):
+        return "waypoints"
+    raise ConfigError(f"{option} {str(path)!r}: expected aisles, random or a waypoints file (no such file)"
+                      f"{did_you_mean(str(path), PATHS[:2])}")
+
+
 def route(floor: FreeFloor, path: str = "aisles", *, rng: np.random.Generator, waypoints=None,
           length_m: float | None = None, spacing_m: float = 3.0) -> list[np.ndarray]:
     """The legs ((k, 2) each, shortest paths over free cells) of a route of kind ``path`` (one
@@ -210,6 +225,14 @@ def make_trajectory(layout, scene=None, path: str = "aisles", *, seed: int = 0, 
     duration_s : keep the first this many seconds.
     floor : a :class:`FreeFloor` already made for this layout/scene and motion's radius.
     """
+    expect(layout, Layout, "make_trajectory: layout")
+    if scene is not None:
+        expect(scene, Scene, "make_trajectory: scene")
+    seed = check_seed(seed, "make_trajectory: seed")
+    if duration_s is not None:
+        duration_s = finite_number(duration_s, "make_trajectory: duration_s", 0.0, MAX_DURATION_S, lo_open=True)
+    if length_m is not None:
+        length_m = finite_number(length_m, "make_trajectory: length_m", 0.0, 1e6, lo_open=True)
     m = motion_of(motion)
     if floor is None:
         floor = free_floor(layout, scene, body_radius_m=m.body_radius_m)

@@ -29,8 +29,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..checks import check_seed, expect, finite_number, whole_number
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region, RegionType
+from ..limits import MAX_CAMERAS
 from ..scene_options import scene_options
 from . import coverage
 from .floor import furnished_rects, outside_rects
@@ -72,7 +74,13 @@ def sensor_range(sensor) -> tuple[float, float] | None:
 
 def layout_ceiling(layout: Layout) -> float:
     """The hall's height: the strategy's wall height when it builds walls, else the default."""
-    opts = scene_options(layout.meta.get("scene") if isinstance(layout.meta, dict) else None, "layout scene options")
+    return ceiling_of(layout.meta.get("scene") if isinstance(layout.meta, dict) else None)
+
+
+def ceiling_of(options: dict | None) -> float:
+    """The hall's height from a strategy's scene options (``walls``, ``wall_height_m``): the
+    wall height when it builds walls, else the default."""
+    opts = scene_options(options, "scene options")
     return float(opts.wall_height_m) if opts.walls else DEFAULT_CEILING_M
 
 
@@ -85,7 +93,8 @@ def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: floa
     """
     rng = sensor_range(sensor)
     if rng is None:
-        h = DEFAULT_MOUNT_M if mount_height_m is None else float(mount_height_m)
+        h = DEFAULT_MOUNT_M if mount_height_m is None else \
+            finite_number(mount_height_m, "placement: mount_height_m", 0.0, 1e4, lo_open=True)
         return Mount(h, None, DEFAULT_RADIUS_M if radius_m is None else float(radius_m))
     lo, hi = rng
     half_v = float(np.arctan2(sensor.height / 2, sensor.fy))
@@ -97,11 +106,10 @@ def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: floa
             raise ConfigError(
                 f"placement: sensor {sensor.name!r} (range {lo:g}-{hi:g} m, {np.degrees(2 * half_v):.1f}° "
                 f"vertical field) cannot see the floor from any mount between {min_mount_m:g} and "
-                f"{ceiling_m:g} m (it needs a mount below {fit:.2f} m); give a mount height (mount_height_m=, genie --mount)")
+                f"{ceiling_m:g} m (it needs a mount below {fit:.2f} m); give a mount height: --mount M (genie "
+                f"capture, plan, dataset), mount_height_m= in the API")
     else:
-        h = float(mount_height_m)
-        if h <= 0:
-            raise ConfigError(f"placement: mount_height_m must be > 0, got {h}")
+        h = finite_number(mount_height_m, "placement: mount_height_m", 0.0, 1e4, lo_open=True)
         if h > fit:
             log.warning("placement: at %.2f m the floor lies beyond %s's %.2f m range", h, sensor.name, hi)
     # the least tilt whose top edge meets the floor within reach (90°: straight down)
@@ -343,6 +351,11 @@ def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, rad
         with gg.Renderer(scene) as r:
             poses = gg.place_sensors(layout, sensor, n=8, fitness="visibility", render=r.render)
     """
+    expect(layout, Layout, "place_sensors: layout")
+    if sensor is not None:
+        expect(sensor, Sensor, "place_sensors: sensor")
+    n = whole_number(n, "place_sensors: n", 1, MAX_CAMERAS)
+    seed = check_seed(seed, "place_sensors: seed")
     mount = mount_for(sensor, ceiling_m=layout_ceiling(layout) if ceiling_m is None else float(ceiling_m),
                       min_mount_m=min_mount_m, mount_height_m=mount_height_m, radius_m=radius_m)
     radius_m, mount_height_m = mount.radius_m, mount.height_m

@@ -9,9 +9,9 @@ import cv2
 import numpy as np
 import yaml
 
-from ..errors import ConfigError
+from ..errors import ConfigError, did_you_mean
 from ..resources import read_text, resolve
-from .accuracy import from_dict
+from .accuracy import PROFILE_KEYS, from_dict
 from .calibration import Calibration, read_calibration
 from .camera import Sensor, Stereo
 from .effects import build_effects
@@ -34,8 +34,10 @@ def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m:
     path = resolve(name_or_path, "sensors", (".yaml",))
     try:
         return _load_sensor(path, near_m, far_m)
-    except ConfigError:
-        raise
+    except ConfigError as exc:   # the file is named in every message (a camera's own check names the camera)
+        if str(path) in str(exc) or Path(path).name in str(exc):
+            raise
+        raise ConfigError(f"{path}: {exc}") from None
     except (cv2.error, TypeError, ValueError, KeyError, IndexError, AttributeError, OverflowError) as exc:
         # a field of the wrong kind that no check above named: still one line naming the file
         why = str(exc).strip().splitlines()[-1][:160] if str(exc).strip() else type(exc).__name__
@@ -58,6 +60,10 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
                       model=calib.model, **calibration_fields(calib))
     if not isinstance(data, dict) or "calibration" not in data:
         raise ConfigError(f"{path}: a sensor profile needs a 'calibration' field (an OpenCV calibration file)")
+    for key in data:
+        if key not in PROFILE_KEYS:
+            raise ConfigError(f"{path}: {key}: not a field of a sensor profile{did_you_mean(key, PROFILE_KEYS)} "
+                              f"(its fields: {', '.join(PROFILE_KEYS)})")
     calib = read_calibration(Path(path).parent / data["calibration"])
     effects = build_effects(data.get("effects") or [], str(path))
     # the sensor's range (minimum range: nearer surfaces give no return) may be the profile's

@@ -282,3 +282,26 @@ def test_nguyen_incidence_term_computed_only_where_it_applies_gives_the_same_sig
     assert (full > np.pi / 3).sum() > 100
     np.testing.assert_array_equal(eff.sigma(d[valid].astype(float), 60.0, DepthNoise.steep_angles(f, valid)),
                                   eff.sigma(d[valid].astype(float), 60.0, full))
+
+
+def test_instance_spheres_follow_each_transform():
+    """A box's bounding sphere moved, turned and scaled by each instance's transform: centre
+    T @ (box centre), radius the half diagonal times the largest column scale."""
+    from genie_gl.capture.planner import _spheres
+    scene = gg.Scene()
+    key = scene.add_mesh(trimesh.creation.box(extents=(2.0, 1.0, 0.5)).apply_translation((1.0, 0.0, 0.25)))
+    rng = np.random.default_rng(3)
+    want = []
+    for k in range(25):
+        yaw, s = rng.uniform(-np.pi, np.pi), rng.uniform(0.5, 2.0, 3)
+        T = np.eye(4)
+        T[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+        T[:3, :3] = T[:3, :3] * s
+        T[:3, 3] = rng.uniform(-20, 20, 3)
+        scene.add(key, T, instance=100 + 2 * k)
+        want.append((100 + 2 * k, T[:3, :3] @ [1.0, 0.0, 0.25] + T[:3, 3], np.sqrt(2.0**2 + 1 + 0.25) / 2 * s.max()))
+    ids, centres, radii = _spheres(scene)
+    assert ids.tolist() == [w[0] for w in want]
+    assert np.allclose(centres, [w[1] for w in want], atol=1e-9) and np.allclose(radii, [w[2] for w in want], atol=1e-9)
+    empty = _spheres(gg.Scene())
+    assert [a.shape for a in empty] == [(0,), (0, 3), (0,)]

@@ -98,7 +98,7 @@ def test_sequence_bounds_poses_times_and_the_label_map(tmp_path):
     # the label map: written by the first scan (its class shares), kept by the later ones
     cfg = yaml.safe_load((tmp_path / "genie-gl.yaml").read_text())
     assert cfg["content"][2] == 0.5 and cfg["content"][1] == 0.25 and cfg["content"][0] == 0.25
-    assert cfg["split"] == {"train": [99], "valid": [99], "test": [99]}
+    assert cfg["split"] == {"train": [99], "valid": [], "test": []}   # one sequence: in one split only
 
 
 def test_ply_instance_field_is_int32_up_to_its_limit_then_uint32(tmp_path):

@@ -227,3 +227,19 @@ def test_e57_and_las_clouds_read_back_by_pye57_and_laspy(tmp_path):
     big = gg.PointCloud(cloud.xyz, np.full(n, 300, np.uint16), cloud.instance, origin)
     with pytest.raises(gg.GenieError, match="0-255"):
         gg.export(big, tmp_path / "big", format="las")
+
+
+def test_e57_same_points_same_bytes_other_points_other_guids(tmp_path):
+    import pye57
+
+    rng = np.random.default_rng(1)
+    n = 2000
+    cloud = gg.PointCloud(rng.uniform(-6, 6, (n, 3)).astype(np.float32), rng.integers(0, 10, n).astype(np.uint16),
+                          rng.integers(0, 1000, n).astype(np.uint32), np.array([3.0, 4.0, 0.0]))
+    paths = [gg.export(cloud, tmp_path / d, format="e57", name="c") and tmp_path / d / "c.e57" for d in "ab"]
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+    other = gg.PointCloud(cloud.xyz[::-1].copy(), cloud.semantic, cloud.instance, cloud.origin)
+    gg.export(other, tmp_path / "c", format="e57", name="c")
+    files = [pye57.E57(str(p)) for p in (paths[0], tmp_path / "c" / "c.e57")]
+    guids = [f.root["guid"].value() for f in files]
+    assert guids[0] != guids[1] and len(set(guids[0])) > 4

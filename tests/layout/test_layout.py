@@ -52,7 +52,7 @@ def test_stochastic_provider_follows_its_weights():
     (lambda s: s["levels"][0]["hall"].update(generator="gird"), r"\$\.levels\[0\]\.hall\.generator: unknown generator 'gird'; did you mean 'grid'\?"),
     (lambda s: s["levels"][0]["hall"].update(children={"cell": "cel"}), r"region type 'cel' is not declared .*did you mean 'cell'"),
     (lambda s: s["levels"][0].update(cell={"generator": "grid", "args": {"cell": [1, 1]}, "children": {"cell": "a"}}), r"'cell' is final and cannot have a generator"),
-    (lambda s: s["levels"][0]["hall"]["args"].update(cell=[-1.0, 1.0]), r"args\.cell: expected \[width, height\] > 0"),
+    (lambda s: s["levels"][0]["hall"]["args"].update(cell=[-1.0, 1.0]), r"args\.cell: expected \[width, height\], finite numbers > 0"),
     (lambda s: s["levels"][0]["hall"]["args"].update(cell=[20.0, 1.0]), r"larger than its parent"),
     (lambda s: s.update(levels=[]), r"\$\.levels: List should have at least 1 item"),
     (lambda s: s["levels"].append({}), r"\$\.levels\[1\]: empty level"),

@@ -241,3 +241,21 @@ def test_dataset_worker_processes_refuse_process_local_registrations(tmp_path):
     with pytest.raises(gg.ConfigError, match="worker processes would not see them; list them in the strategy"):
         run_dataset({"executor": "process", "workers": 2, "out": str(tmp_path / "out")}, progress=False)
     assert not (tmp_path / "out").exists()
+
+
+def test_scene_meshes_are_converted_once_and_shared(tmp_path):
+    """A variant's scene mesh is made once (per process for built-in variants, per catalogue
+    for registered ones) and equals a fresh conversion of the variant's mesh."""
+    v = next(iter(gg.scene.assets.library.VARIANTS["pallet"]))
+    a, b = Catalogue().scene_mesh("pallet", v), Catalogue().scene_mesh("pallet", v)
+    assert a is b
+    fresh = gg.Mesh.from_trimesh(ASSETS.mesh("pallet", v))
+    assert a.digest() == fresh.digest() and np.array_equal(a.vertices, fresh.vertices)
+    path = tmp_path / "crate.stl"
+    _box(EXTENTS, [0, 0, EXTENTS[2] / 2]).export(path)
+    one, other = Catalogue(), Catalogue()
+    name = one.register("klt", path)
+    other.register("klt", path)
+    m = one.scene_mesh("klt", name)
+    assert m is one.scene_mesh("klt", name) and m is not other.scene_mesh("klt", name)
+    assert np.allclose(m.bounds, BOUNDS, atol=EXACT) and m.digest() == other.scene_mesh("klt", name).digest()

@@ -166,3 +166,23 @@ def test_bad_material_is_refused():
         Material(roughness=1.5)
     with pytest.raises(ConfigError, match="diffuse_color"):
         Material(diffuse_color=(2.0, 0, 0))
+
+
+def test_material_inputs_are_held_as_float32_whatever_their_type():
+    """Every input is its float32 value (as USD stores it): random values, the ends of the
+    ranges, values that round onto an end, numpy scalars and text; out of range is refused."""
+    rng = np.random.default_rng(7)
+    f32 = lambda x: float(np.float32(x))  # noqa: E731
+    for _ in range(300):
+        c, (m, r, o), ior = rng.random(3), rng.random(3), 1.0 + 4.0 * rng.random()
+        got = Material(tuple(c), m, r, o, ior)
+        assert got.diffuse_color == tuple(f32(x) for x in c)
+        assert (got.metallic, got.roughness, got.opacity, got.ior) == (f32(m), f32(r), f32(o), f32(ior))
+    edge = Material((0.0, 1.0, 1.0 + 1e-12), np.float64(1.0), np.float32(0.25), "0.5", 5.0)
+    assert edge.diffuse_color == (0.0, 1.0, 1.0) and (edge.metallic, edge.roughness, edge.opacity) == (1.0, 0.25, 0.5)
+    assert edge.ior == 5.0
+    for bad, field in (({"metallic": 1.001}, "metallic"), ({"opacity": float("nan")}, "opacity"),
+                       ({"diffuse_color": (0.5, 0.5)}, "diffuse_color"), ({"roughness": 1e300}, "roughness"),
+                       ({"ior": 0.5}, "ior"), ({"diffuse_color": (0.1, -0.2, 0.3)}, "diffuse_color")):
+        with pytest.raises(ConfigError, match=field):
+            Material(**bad)

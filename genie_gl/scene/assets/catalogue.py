@@ -20,6 +20,7 @@ import numpy as np
 import trimesh
 
 from ...errors import ConfigError, did_you_mean
+from ..model import Mesh
 from ..usd import read_usd
 from . import library as lib
 
@@ -134,6 +135,7 @@ class Catalogue:
 
     def __init__(self, *, segments: int | None = None) -> None:
         self._registered: dict[str, dict[str, trimesh.Trimesh]] = {}
+        self._scene_meshes: dict[tuple[str, str], Mesh] = {}  # registered variants as scenes store them
         self.segments = lib.check_segments(segments, "Catalogue")
 
     def register(self, cls: str, path: str | os.PathLike, *, variant: str | None = None,
@@ -169,6 +171,18 @@ class Catalogue:
         registered = self._registered.get(cls, {})
         return registered[variant] if variant in registered else lib.make(cls, variant, self.segments)
 
+    def scene_mesh(self, cls: str, variant: str) -> Mesh:
+        """:meth:`mesh` as a scene stores it (:class:`~genie_gl.scene.model.Mesh`), converted
+        once per process (built-in variants) or per catalogue (registered ones): the scenes
+        built from it share the one object, as they share the trimesh it comes from."""
+        registered = self._registered.get(cls, {})
+        if variant not in registered:
+            return _builtin_scene_mesh(cls, variant, self.segments if cls in lib.CURVED else None)
+        mesh = self._scene_meshes.get((cls, variant))
+        if mesh is None:
+            mesh = self._scene_meshes[(cls, variant)] = Mesh.from_trimesh(registered[variant])
+        return mesh
+
     def copy(self, *, segments: int | None = None) -> "Catalogue":
         """A catalogue with the same registrations; registering into it leaves this one as is.
 
@@ -181,6 +195,12 @@ class Catalogue:
     def clear(self) -> None:
         """Forget every registered asset (the built-in variants stay)."""
         self._registered.clear()
+        self._scene_meshes.clear()
+
+
+@lru_cache(maxsize=None)
+def _builtin_scene_mesh(cls: str, variant: str, segments: int | None) -> Mesh:
+    return Mesh.from_trimesh(lib.make(cls, variant, segments))
 
 
 ASSETS = Catalogue()
