@@ -106,3 +106,13 @@ def test_a_rigs_files_are_in_the_fingerprint(tmp_path):
     for name in ("front", "left", "back", "right"):
         assert Path(read[f"rig {name} profile"]).name == "realsense_d435.yaml"
         assert Path(read[f"rig {name} calibration"]).is_file()
+
+
+def test_the_manifest_counts_the_cost_and_effects_of_every_frame_of_a_recording(tmp_path):
+    """``cost`` and ``effects`` sum every frame of the recording (16 shots of a D435 at 10 Hz
+    over 1.5 s), not a preview of it: each effect is decided on every frame."""
+    made = run_dataset(cfg(tmp_path / "d", scenes=1, sensor="realsense_d435", previews=1), progress=False)
+    m = json.loads((tmp_path / "d" / "manifest.json").read_text())
+    assert made["scenes_made"] == 1 and np.loadtxt(tmp_path / "d" / "sequences" / "00" / "poses.txt").shape == (16, 12)
+    assert m["effects"] and all(e["run"] + e["skipped"] == 16 for e in m["effects"].values())
+    assert m["cost"]["frames"] == 16 and m["cost"]["capture"]["render"]["total_ms"] > 0

@@ -8,9 +8,11 @@ sensor's effects, each frame with its own generator.
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -77,12 +79,75 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     """
     scene, sensor, poses, seed = capture_arguments(scene, sensor, poses, seed, Scene, Sensor)
     check_frames(len(poses), sensor.width, sensor.height, "capture")   # every frame is returned: all in memory
+    prep = prepare(scene, sensor, poses, accuracy=accuracy, depth_precision=depth_precision, plan=plan)
+    n = len(prep.poses)
+    workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
+    workers = min(workers, n)
+    if workers <= 1:
+        with prep.renderer(scene, backend=backend, context=context) as r:
+            return _said_if_empty(prep.frames(r, seed, depth_only), prep.sensor)
+    return _said_if_empty(capture_in_workers(scene, prep.sensor, prep.poses, seed, workers, backend, prep.accuracy,
+                                             depth_only, prep.depth_precision, prep.plan, prep.materials),
+                          prep.sensor)
+
+
+def _said_if_empty(frames: list[Frame], sensor: Sensor) -> list[Frame]:
+    """``frames``, with a warning when not one of them has a return."""
+    if frames and not any(bool((f.depth > 0).any()) for f in frames):
+        log.warning("capture: no point captured: none of the %d frames of sensor %s (%dx%d px, range %g-%g m) has a "
+                    "return", len(frames), sensor.name, sensor.width, sensor.height, sensor.near_m, sensor.far_m)
+    return frames
+
+
+@dataclass(frozen=True, eq=False)
+class Prepared:
+    """What :func:`capture` settles before it renders: the sensor with its accuracy knobs
+    set, the settings, the depth precision, the poses ((4, 4) float64 world_from_camera), the
+    plan of those poses (None: no plan) and the material table the effects read. A caller
+    that renders the poses in parts (a recording, window by window) prepares once and hands
+    :meth:`frames` one renderer and each part's :meth:`part`."""
+
+    sensor: Sensor
+    accuracy: AccuracySettings
+    depth_precision: str
+    poses: list
+    plan: Plan | None
+    materials: MaterialTable | None
+
+    @property
+    def renderer_key(self) -> tuple:
+        """Captures with equal keys can share one :class:`Renderer` (depth precision, level of detail)."""
+        return self.depth_precision, self.accuracy.lod_px
+
+    def renderer(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None) -> Renderer:
+        """A renderer of ``scene`` as these settings ask (depth precision, level of detail)."""
+        return Renderer(scene, backend=backend, depth_precision=self.depth_precision, context=context,
+                        lod=level_of_detail(self.accuracy))
+
+    def part(self, start: int, stop: int) -> "Prepared":
+        """Poses ``start:stop`` as a capture of their own (the plan's frames renumbered from 0)."""
+        sub = None
+        if self.plan is not None:
+            frames = [dataclasses.replace(f, index=i) for i, f in enumerate(self.plan.frames[start:stop])]
+            sub = Plan(self.plan.sensor, frames, self.plan.materials)
+        return dataclasses.replace(self, poses=self.poses[start:stop], plan=sub)
+
+    def frames(self, renderer: Renderer, seed: int, depth_only: bool = False) -> list[Frame]:
+        """Every pose's frame, rendered with ``renderer`` in this process; frame i's noise from (seed, i)."""
+        return capture_serial(renderer, self.sensor, self.poses, seed, range(len(self.poses)), self.accuracy,
+                              depth_only, self.plan, self.materials)
+
+
+def prepare(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, accuracy: AccuracySettings | None = None,
+            depth_precision: str = "float32", plan: Plan | bool | None = True) -> Prepared:
+    """Settle a capture of ``poses`` (``gg.capture``'s arguments of the same names): the
+    settings, the sensor they set, the plan (warning of frames with nothing in range) and the
+    materials."""
     accuracy = settings_for(sensor, accuracy)
     sensor = apply_to_sensor(sensor, accuracy)
     if depth_precision == "float32":
         depth_precision = accuracy.depth_precision
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
-    n = len(poses)
     if plan is True:
         plan = make_plan(scene, sensor, poses)
     materials = None
@@ -93,20 +158,4 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
                 log.warning("capture: frame %d: %s (its cloud will be empty)", f.index, f.reason)
     elif any(e.needs_materials for e in sensor.effects):
         materials = MaterialTable.from_scene(scene)
-    workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
-    workers = min(workers, n)
-    if workers <= 1:
-        with Renderer(scene, backend=backend, depth_precision=depth_precision, context=context,
-                      lod=level_of_detail(accuracy)) as r:
-            return _said_if_empty(capture_serial(r, sensor, poses, seed, range(n), accuracy, depth_only, plan,
-                                                 materials), sensor)
-    return _said_if_empty(capture_in_workers(scene, sensor, poses, seed, workers, backend, accuracy, depth_only,
-                                             depth_precision, plan, materials), sensor)
-
-
-def _said_if_empty(frames: list[Frame], sensor: Sensor) -> list[Frame]:
-    """``frames``, with a warning when not one of them has a return."""
-    if frames and not any(bool((f.depth > 0).any()) for f in frames):
-        log.warning("capture: no point captured: none of the %d frames of sensor %s (%dx%d px, range %g-%g m) has a "
-                    "return", len(frames), sensor.name, sensor.width, sensor.height, sensor.near_m, sensor.far_m)
-    return frames
+    return Prepared(sensor, accuracy, depth_precision, poses, plan, materials)

@@ -3,14 +3,17 @@
 Each rig sensor fires at its own rate (:meth:`~genie_gl.sensors.rig.RigSensor.times`) over
 the trajectory's span; a *shot* is one such firing, with the body's pose interpolated at its
 time and the sensor's pose ``world_from_body(t) @ body_from_sensor``. :func:`record` renders
-the shots through ``gg.capture`` (lens, plan, accuracy settings, effects) a window at a time
+the shots as ``gg.capture`` does (lens, plan, accuracy settings, effects) a window at a time
 and yields them in time order (then in the rig's sensor order), so a long recording never
-holds more than one window of frames. A shot's noise comes from ``(seed, sensor, window)``
+holds more than one window of frames. The scene is uploaded once (one renderer per depth
+precision and level of detail the rig's sensors ask for) and each sensor's shots are planned
+once, for the whole recording. A shot's noise comes from ``(seed, sensor, window)``
 and its place in the window: the same seed gives the same frames, bit for bit.
 """
 from __future__ import annotations
 
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +24,7 @@ from ..scene.model import Scene
 from ..sensors.registration import MID_RANGE_M
 from ..sensors.rig import Rig
 from ..sensors.trajectory import Trajectory
-from .frames import capture
+from .frames import prepare
 from .planner import plan
 
 WINDOW = 48   # shots of one sensor rendered per capture call (a window of the recording)
@@ -86,32 +89,39 @@ def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bo
 
 def _recorded(scene, rig: Rig, trajectory: Trajectory, seed: int, depth_only: bool, accuracy, context,
               shots: list[Shot]) -> Iterator[tuple[Shot, Frame]]:
-    per = max(1, WINDOW)
-    start = 0
-    window = 0
-    while start < len(shots):
-        # a window: the next shots up to WINDOW of the busiest sensor
-        stop = start
-        seen = np.zeros(len(rig), np.int64)
-        while stop < len(shots) and seen[shots[stop].sensor] < per:
-            seen[shots[stop].sensor] += 1
-            stop += 1
-        part = shots[start:stop]
-        frames: dict[int, Frame] = {}
-        for k, s in enumerate(rig.sensors):
-            mine = [sh for sh in part if sh.sensor == k]
-            if not mine:
-                continue
-            got = capture(scene, s.sensor, [sh.world_from_camera for sh in mine], seed=window_seed(seed, k, window),
-                          workers=1, depth_only=depth_only, accuracy=accuracy, context=context)
-            for sh, f in zip(mine, got):
-                meta = dict(f.meta or {})
-                meta.update(time_s=sh.time_s, rig_sensor=s.name, shot=sh.index)
-                frames[sh.index] = f.replace(meta=meta)
-        for sh in part:
-            yield sh, frames.pop(sh.index)
-        start = stop
-        window += 1
+    mine = [[sh for sh in shots if sh.sensor == k] for k in range(len(rig))]
+    # settled once per sensor for the whole recording: its settings and the plan of all its shots
+    prep = [prepare(scene, s.sensor, [sh.world_from_camera for sh in mine[k]], accuracy=accuracy) if mine[k] else None
+            for k, s in enumerate(rig.sensors)]
+    done = [0] * len(rig)          # each sensor's shots rendered so far
+    with ExitStack() as stack:
+        renderers: dict = {}       # one per renderer key (depth precision, level of detail): the scene uploaded once
+        start = window = 0
+        while start < len(shots):
+            # a window: the next shots up to WINDOW of the busiest sensor
+            stop = start
+            seen = np.zeros(len(rig), np.int64)
+            while stop < len(shots) and seen[shots[stop].sensor] < WINDOW:
+                seen[shots[stop].sensor] += 1
+                stop += 1
+            frames: dict[int, Frame] = {}
+            for k, s in enumerate(rig.sensors):
+                if not seen[k]:
+                    continue
+                p = prep[k]
+                if p.renderer_key not in renderers:
+                    renderers[p.renderer_key] = stack.enter_context(p.renderer(scene, context=context))
+                part = p.part(done[k], done[k] + int(seen[k]))
+                got = part.frames(renderers[p.renderer_key], window_seed(seed, k, window), depth_only)
+                for sh, f in zip(mine[k][done[k]:done[k] + int(seen[k])], got):
+                    meta = dict(f.meta or {})
+                    meta.update(time_s=sh.time_s, rig_sensor=s.name, shot=sh.index)
+                    frames[sh.index] = f.replace(meta=meta)
+                done[k] += int(seen[k])
+            for sh in shots[start:stop]:
+                yield sh, frames.pop(sh.index)
+            start = stop
+            window += 1
 
 
 @dataclass(frozen=True, eq=False)

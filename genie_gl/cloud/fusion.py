@@ -5,13 +5,15 @@ often an area was seen; here every frame is unprojected at its (estimated) pose 
 kept only when its voxel (``voxel_m``, the map's density) holds none yet: the first point seen
 of each voxel, in frame order, then pixel order. Voxels are marked in a bit set over the
 scene's bounds, so a map of any number of frames costs one bit per voxel of the hall and its
-kept points. The map is then cut into chunks like any cloud (:func:`.process.chunks`).
+kept points; a compiled pass per frame tests and marks each point's voxel in pixel order
+(linear in the frame's points, no sort). The map is then cut into chunks like any cloud (:func:`.process.chunks`).
 """
 from __future__ import annotations
 
 from collections.abc import Iterable
 
 import numpy as np
+from numba import njit
 
 from ..checks import expect
 from ..errors import ConfigError, LimitError
@@ -22,6 +24,30 @@ from .unproject import unproject
 
 MAX_VOXELS = 2**34   # a bit set larger than 2 GB: the voxel is too small for the hall
 MAX_FRAMES = 65535   # PointCloud.camera is uint16
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _first_in_voxel(xyz, shift, voxel, dims, bits):  # pragma: no cover - compiled
+    """One pass over the points in order: the indices of those whose voxel of the grid
+    (``floor((xyz + shift) / voxel)``, ``dims`` voxels) held no point yet, each marking its
+    voxel in the bit set ``bits`` as it is taken, and the number of points outside the grid."""
+    take = np.empty(xyz.shape[0], np.int64)
+    m = 0
+    outside = 0
+    for p in range(xyz.shape[0]):
+        i = np.int64(np.floor((np.float64(xyz[p, 0]) + shift[0]) / voxel))
+        j = np.int64(np.floor((np.float64(xyz[p, 1]) + shift[1]) / voxel))
+        k = np.int64(np.floor((np.float64(xyz[p, 2]) + shift[2]) / voxel))
+        if i < 0 or j < 0 or k < 0 or i >= dims[0] or j >= dims[1] or k >= dims[2]:
+            outside += 1
+            continue
+        key = (i * dims[1] + j) * dims[2] + k
+        bit = np.uint8(1 << (key & 7))
+        if bits[key >> 3] & bit == 0:
+            bits[key >> 3] |= bit
+            take[m] = p
+            m += 1
+    return take[:m], outside
 
 
 class VoxelMap:
@@ -61,16 +87,8 @@ class VoxelMap:
         c = unproject(frame, origin=self.origin, camera_index=self.frames)
         self.frames += 1
         self.seen += len(c)
-        ijk = np.floor((c.xyz.astype(np.float64) + (self.origin - self.lo)) / self.voxel_m).astype(np.int64)
-        inside = np.all((ijk >= 0) & (ijk < self.dims), axis=1)
-        self.dropped += int((~inside).sum())
-        idx = np.flatnonzero(inside)
-        key = (ijk[idx, 0] * self.dims[1] + ijk[idx, 1]) * self.dims[2] + ijk[idx, 2]
-        key, first = np.unique(key, return_index=True)
-        new = (self.bits[key >> 3] & (1 << (key & 7)).astype(np.uint8)) == 0
-        key, first = key[new], first[new]
-        np.bitwise_or.at(self.bits, key >> 3, (1 << (key & 7)).astype(np.uint8))
-        take = idx[np.sort(first)]
+        take, outside = _first_in_voxel(c.xyz, self.origin - self.lo, self.voxel_m, self.dims, self.bits)
+        self.dropped += int(outside)
         if len(take):
             self.parts.append(c.select(take))
         return len(take)

@@ -12,6 +12,8 @@ from . import announce_compilation, count, counts, names, positive, seed
 #: the scenes of ``genie bench render`` (genie_gl.bench.scenes.SIZES) and the tools it times
 RENDER_SCENES = ("100k", "1M", "10M", "hall", "generated")
 RENDER_TOOLS = ("genie-gl", "Open3D", "pyrender")
+#: ``genie bench odometry``'s defaults (genie_gl.bench.odometry: RATE_HZ, SCAN_POINTS, MAX_RANGE_M, VOXEL_M)
+ODOMETRY = {"rate_hz": 20.0, "scan_points": 100_000, "max_range": 30.0, "voxel_m": 0.1}
 
 
 def _render(p: argparse.ArgumentParser) -> None:
@@ -79,8 +81,16 @@ def _odometry(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="storage_area")
     p.add_argument("--rig", default="panorama_cube")
     p.add_argument("--path", default="aisles", choices=("aisles", "random"))
-    p.add_argument("--duration-s", type=positive(3600), default=30.0, help="seconds of the trajectory")
+    p.add_argument("--duration-s", type=positive(3600), default=10.0, help="seconds of the trajectory")
     p.add_argument("--seed", type=seed, default=0)
+    p.add_argument("--rate-hz", type=positive(1000.0), default=ODOMETRY["rate_hz"],
+                   help="every rig sensor's frame rate (panorama_cube's own: 5)")
+    p.add_argument("--sequence", default=None, help="a SemanticKITTI sequence folder to run on instead of recording one")
+    p.add_argument("--scan-points", type=count(0, 10**8), default=ODOMETRY["scan_points"],
+                   help="points drawn at random from each scan before KISS-ICP sees it (0: every point)")
+    p.add_argument("--max-range", type=positive(1000.0), default=ODOMETRY["max_range"],
+                   help="KISS-ICP's max_range (m)")
+    p.add_argument("--voxel-m", type=positive(10.0), default=ODOMETRY["voxel_m"], help="KISS-ICP's map voxel size (m)")
 
 
 def _cli(p: argparse.ArgumentParser) -> None:

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..capture.costs import add_totals, effect_totals, frame_costs
 from ..capture.mobile_map import registration_rng, with_registration
 from ..capture.trajectory import record
 from ..cloud import chunks, keep_cloud
@@ -83,19 +84,25 @@ def write_trajectory(trajectory, path: Path) -> None:
 
 @dataclass
 class Tally:
-    """Points per class and frames, counted as a recording streams past."""
+    """Points per class, frames, and what every frame cost and what its effects did (the
+    manifest's ``cost`` and ``effects``), counted as a recording streams past."""
 
     counts: np.ndarray = field(default_factory=lambda: np.zeros(65536, np.int64))
     points: int = 0
     shots: int = 0
     preview: list = field(default_factory=list)
+    cost_ms: dict = field(default_factory=dict)
+    effects: dict = field(default_factory=dict)
 
     def watch(self, recording):
         for shot, frame in recording:
             ok = frame.depth > 0
             self.points += int(ok.sum())
-            np.add.at(self.counts, frame.semantic[ok], 1)
+            self.counts += np.bincount(frame.semantic[ok].ravel(), minlength=len(self.counts))
             self.shots += 1
+            for k, v in frame_costs([frame]).items():
+                self.cost_ms[k] = self.cost_ms.get(k, 0.0) + v
+            add_totals(self.effects, effect_totals([frame]))
             if len(self.preview) < PREVIEW_FRAMES:
                 self.preview.append(frame)
             yield shot, frame

@@ -111,7 +111,7 @@ def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t,
         stats = curation.cache_scene(cfg, index, moving.kept, layout, {
             **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points)})
         t["export"] = time.perf_counter()
-        return stats | _timings(t, moving.tally.preview, cpu)
+        return stats | _timings(t, None, cpu, moving.tally)
     stage("export")
     for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
         shutil.rmtree(stale, ignore_errors=True)
@@ -140,7 +140,7 @@ def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t,
     if final.exists():  # an incomplete scene of an earlier run
         shutil.rmtree(final)
     tmp.replace(final)  # the scene appears whole, or not at all
-    return stats | _timings(t, moving.tally.preview, cpu)
+    return stats | _timings(t, None, cpu, moving.tally)
 
 
 def _class_points(counts: np.ndarray) -> dict[str, int]:
@@ -148,10 +148,12 @@ def _class_points(counts: np.ndarray) -> dict[str, int]:
     return {str(k): int(counts[k]) for k in np.flatnonzero(counts).tolist()}
 
 
-def _timings(t: dict[str, float], frames: list, cpu: float) -> dict[str, Any]:
+def _timings(t: dict[str, float], frames: list | None, cpu: float, tally=None) -> dict[str, Any]:
     """Seconds per stage, CPU seconds of the scene (all threads), the frames' cost (the
-    manifest's "cost" block) and what each sensor effect did: not in stats.json."""
+    manifest's "cost" block) and what each sensor effect did: not in stats.json. A moving
+    capture's ``tally`` (:class:`~genie_gl.dataset.recording.Tally`) summed them over every
+    frame as the recording streamed past."""
     keys = ("start",) + STAGES
     return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "cpu_s": time.process_time() - cpu,
-            "frame_cost_ms": frame_costs(frames),
-            "effects": effect_totals(frames)}
+            "frame_cost_ms": frame_costs(frames) if tally is None else dict(tally.cost_ms),
+            "effects": effect_totals(frames) if tally is None else tally.effects}

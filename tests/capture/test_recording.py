@@ -3,6 +3,7 @@ poses the SemanticKITTI sequence stores, lands on the scene's surfaces (ideal se
 1e-4 m, measured by Open3D's distance query) and on the fused map (within a voxel); the
 registration error moves a map as its model predicts; the same seed gives the same frames."""
 import dataclasses
+import sys
 
 import numpy as np
 import pytest
@@ -164,3 +165,28 @@ def test_the_accuracy_bench_can_take_its_frames_along_a_path():
     heights = [p[2, 3] for p in poses]
     np.testing.assert_allclose(heights, 1.7)
     np.testing.assert_allclose([np.degrees(np.arcsin(-p[2, 2])) for p in poses], 10.0)   # optical axis 10 deg down
+
+
+def test_a_recording_is_gg_capture_of_each_window_with_one_renderer_and_one_plan(recorded, monkeypatch):
+    """Recorded with windows of 3 shots per sensor (so the 6 shots of each sensor span two
+    windows), every frame equals ``gg.capture`` of its window's poses with the window's seed:
+    one renderer and one plan for the whole recording change no byte."""
+    from genie_gl.capture.trajectory import schedule, window_seed
+
+    scene, rig, tr, _ = recorded
+    rig = Rig(rig.name, tuple(dataclasses.replace(s, sensor=gg.load_sensor("realsense_d435")) for s in rig.sensors[:2]))
+    monkeypatch.setattr(sys.modules[record.__module__], "WINDOW", 3)
+    pairs = list(record(scene, rig, tr, seed=5))
+    shots = schedule(rig, tr)
+    assert [s.index for s, _ in pairs] == [s.index for s in shots] and len(shots) == 12
+    for k, s in enumerate(rig.sensors):
+        mine = [sh for sh in shots if sh.sensor == k]
+        for window, part in enumerate((mine[:3], mine[3:])):
+            want = gg.capture(scene, s.sensor, [sh.world_from_camera for sh in part],
+                              seed=window_seed(5, k, window))
+            for sh, w in zip(part, want):
+                got = pairs[sh.index][1]
+                assert got.depth.tobytes() == w.depth.tobytes() and got.rgb.tobytes() == w.rgb.tobytes()
+                assert got.semantic.tobytes() == w.semantic.tobytes()
+                assert [(e["name"], e["run"], e["changed"]) for e in got.meta["effects"]] == \
+                    [(e["name"], e["run"], e["changed"]) for e in w.meta["effects"]]
