@@ -23,7 +23,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-sequence bench-odometry bench-eval studies \
+.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -68,11 +68,12 @@ test-slow: setup ## run only the slow tests (the cloud kernels again with numba'
 
 MUTANT_MODULES ?= all
 MUTANT_TIMEOUT ?= 3600
-mutants: setup ## mutation testing of the numerical core: kill rate per module and the surviving mutants
+mutants: setup ## mutation testing of the numerical core: kill rate per module and the survivors (report in out/mutants/)
 	$(PY) -m pip install -q -e ".[mutants]"
-	$(PY) tools/mutants.py --modules $(MUTANT_MODULES) --timeout $(MUTANT_TIMEOUT) --recheck 900
+	mkdir -p $(OUT)/mutants
+	$(PY) tools/mutants.py --modules $(MUTANT_MODULES) --timeout $(MUTANT_TIMEOUT) --recheck 900 2>&1 | tee $(OUT)/mutants/report.txt
 
-planted-bugs: setup ## plant issue 18's bugs one at a time in build/planted/ and list the tests that catch each
+planted-bugs: setup ## plant known bugs one at a time in build/planted/ and list the tests that catch each
 	$(PY) tools/planted_bugs.py
 
 demo: setup ## generate a 3-scene demo dataset with preview pictures into out/demo
@@ -80,7 +81,7 @@ demo: setup ## generate a 3-scene demo dataset with preview pictures into out/de
 	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/demo --workers $(WORKERS) --seed $(SEED)
 	@echo "demo dataset and previews in $(OUT)/demo (open $(OUT)/demo/previews/)"
 
-bench: setup ## run every benchmark (render, layout, accuracy, pipeline, stability); figures into out/bench
+bench: setup ## run every benchmark (render, layout, accuracy, pipeline, stability, planning, cli); figures into out/bench
 	$(VENV)/bin/pip install -q "open3d>=0.18" && { ldconfig -p | grep -q libusb-1.0 || apt-get install -y -qq libusb-1.0-0; } || echo "open3d unavailable: the render bench skips it"
 	$(GENIE) bench render --out $(OUT)/bench
 	$(GENIE) bench layout --out $(OUT)/bench
@@ -88,6 +89,7 @@ bench: setup ## run every benchmark (render, layout, accuracy, pipeline, stabili
 	$(GENIE) bench pipeline --out $(OUT)/bench
 	$(GENIE) bench stability --out $(OUT)/bench
 	$(GENIE) bench planning --out $(OUT)/bench
+	$(GENIE) bench cli --out $(OUT)/bench
 
 bench-render: setup ## renderer against pyrender and Open3D
 	$(GENIE) bench render --out $(OUT)/bench
@@ -106,6 +108,8 @@ studies: setup ## every genie eval study (datasets made once under out/eval-cach
 	$(GENIE) eval --study all --out $(OUT)/studies --workers $(WORKERS) --yes
 bench-planning: setup ## a full D435 / Azure frame before and after planning (x the ideal render)
 	$(GENIE) bench planning --out $(OUT)/bench
+bench-cli: setup ## seconds genie --help and every subcommand's --help take
+	$(GENIE) bench cli --out $(OUT)/bench
 bench-sequence: setup ## frames/s along a trajectory against the same number of standing frames
 	$(GENIE) bench sequence --out $(OUT)/bench
 bench-odometry: setup ## KISS-ICP on a SemanticKITTI sequence of ours; evo's ATE against its ground truth

@@ -14,12 +14,12 @@ import numpy as np
 import genie_gl as gg
 from genie_gl.capture.planner import plan
 from genie_gl.cloud.process import frame_chunks, keep_cloud
-from genie_gl.dataset.scene import scene_rngs
+from genie_gl.dataset.streams import SceneStreams
 from genie_gl.layout.engine import generate_layout
 from genie_gl.layout.strategy import load_strategy
 
 sensor = gg.load_sensor("ideal_pinhole")
-layouts = [generate_layout(load_strategy("assembly_line"), rng=scene_rngs(0, i)["layout"]) for i in range(6)]
+layouts = [generate_layout(load_strategy("assembly_line"), rng=SceneStreams(0, i).rng("layout")) for i in range(6)]
 
 
 def least(fn, repeats: int) -> float:
@@ -32,9 +32,9 @@ def least(fn, repeats: int) -> float:
 
 
 for lay in layouts:  # every variant's mesh made once, as a worker's first scene makes them
-    gg.build_scene(lay, rng=scene_rngs(0, 0)["scene"])
-build = np.mean([least(lambda: gg.build_scene(lay, rng=scene_rngs(0, i)["scene"]), 7) for i, lay in enumerate(layouts)])
-scenes = [gg.build_scene(lay, rng=scene_rngs(0, i)["scene"]) for i, lay in enumerate(layouts)]
+    gg.build_scene(lay, rng=SceneStreams(0, 0).rng("scene"))
+build = np.mean([least(lambda: gg.build_scene(lay, rng=SceneStreams(0, i).rng("scene")), 7) for i, lay in enumerate(layouts)])
+scenes = [gg.build_scene(lay, rng=SceneStreams(0, i).rng("scene")) for i, lay in enumerate(layouts)]
 poses = [gg.place_sensors(lay, sensor, n=40, seed=i) for i, lay in enumerate(layouts)]
 planning = np.mean([least(lambda: plan(s, sensor, p), 7) for s, p in zip(scenes, poses)])
 frames = gg.capture(scenes[1], sensor, poses[1], seed=1, depth_only=True)

@@ -58,6 +58,7 @@ _EXPORTS: dict[str, str] = {
     # sensors
     "Camera": "genie_gl.camera",
     "Sensor": "genie_gl.sensors.camera",
+    "Stereo": "genie_gl.sensors.camera",
     "load_sensor": "genie_gl.sensors",
     "place_sensors": "genie_gl.sensors",
     # cameras that move: rigs, trajectories, recordings, mobile-scan maps

@@ -17,18 +17,16 @@ so ``gg.capture(..., seed=-1)`` and ``genie capture --seed -1`` say the same thi
 from __future__ import annotations
 
 import json
-import math
-import numbers
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .bounds import MAX_SEED, number_problem, whole_problem  # noqa: F401  (the words of every number check)
 from .errors import ConfigError
 
 MAX_COORD_M = 1e9
 ROTATION_TOL = 1e-6
-MAX_SEED = 2**63 - 1
 
 #: how to make each stage's object, for the message when something else came
 MAKERS = {
@@ -56,24 +54,6 @@ def describe(value: Any) -> str:
     return f"a {kind}"
 
 
-def whole_problem(value: Any, lo: int | None = None, hi: int | None = None) -> str | None:
-    """Why ``value`` is not a whole number in ``lo..hi`` (None when it is). A float is taken
-    only when it is whole (``3.0``); ``3.5``, True, NaN and text are refused."""
-    span = f" in {lo}..{hi}" if lo is not None and hi is not None else f" >= {lo}" if lo is not None else ""
-    span = span.replace(f"..{MAX_SEED}", "..2**63-1")
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return f"expected a whole number{span}, got {value!r:.60}"
-    if isinstance(value, numbers.Integral):
-        v = int(value)
-    elif math.isfinite(float(value)) and float(value).is_integer():
-        v = int(value)
-    else:
-        return f"expected a whole number{span}, got {value!r}"
-    if (lo is not None and v < lo) or (hi is not None and v > hi):
-        return f"expected a whole number{span}, got {v}"
-    return None
-
-
 def whole_number(value: Any, where: str, lo: int | None = None, hi: int | None = None) -> int:
     """``value`` as an int in ``lo..hi``; a :class:`ConfigError` naming ``where`` otherwise."""
     why = whole_problem(value, lo, hi)
@@ -85,20 +65,6 @@ def whole_number(value: Any, where: str, lo: int | None = None, hi: int | None =
 def check_seed(seed: Any, where: str = "seed") -> int:
     """A seed: a whole number in 0..2**63-1 (numpy's SeedSequence takes no negatives)."""
     return whole_number(seed, where, 0, MAX_SEED)
-
-
-def number_problem(value: Any, lo: float | None = None, hi: float | None = None, *,
-                   lo_open: bool = False) -> str | None:
-    """Why ``value`` is not a finite number in [lo, hi] (``lo_open``: (lo, hi]); None when it is."""
-    left = "(" if lo_open else "["
-    span = f" in {left}{lo:g}, {hi:g}]" if lo is not None and hi is not None else \
-        (f" {'>' if lo_open else '>='} {lo:g}" if lo is not None else "")
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return f"expected a finite number{span}, got {value!r:.60}"
-    v = float(value)
-    if not math.isfinite(v) or (lo is not None and (v < lo or (lo_open and v == lo))) or (hi is not None and v > hi):
-        return f"expected a finite number{span}, got {value!r}"
-    return None
 
 
 def finite_number(value: Any, where: str, lo: float | None = None, hi: float | None = None, *,

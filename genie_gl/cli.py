@@ -1,9 +1,11 @@
 """The ``genie`` command.
 
-Each subcommand is a module of :mod:`genie_gl.commands` (or a stage's own command module)
-with ``add_arguments(parser)`` and ``run(args) -> int``, listed in :data:`COMMANDS` one line
-each; this file only wires them up, reads the environment (the one place
-that does) and turns :class:`~genie_gl.errors.GenieError` into one clear line and exit code 2.
+Each subcommand is a module of :mod:`genie_gl.commands` with ``add_arguments(parser)`` and
+``run(args) -> int``, listed in :data:`COMMANDS` one line each. Only the module of the command
+given is imported, and a command module imports the pipeline only when it runs, so
+``genie --help`` and ``genie COMMAND --help`` answer at once. This file wires them up, reads
+the environment (the one place that does) and turns :class:`~genie_gl.errors.GenieError` into
+one clear line and exit code 2.
 """
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "capture": ("genie_gl.commands.capture", "render a scene from K placed cameras and export clouds"),
     "plan": ("genie_gl.commands.plan", "print which effects run where, and why, before rendering"),
     "dataset": ("genie_gl.commands.dataset", "run the whole pipeline for N scenes"),
-    "bench": ("genie_gl.bench", "benchmarks: render | layout | accuracy | pipeline"),
+    "bench": ("genie_gl.commands.bench", "benchmarks: render | layout | accuracy | pipeline | stability | planning | sequence | odometry | cli"),
     "report-card": ("genie_gl.commands.report_card", "a sensor profile against published measurements of the real device"),
     "eval": ("genie_gl.commands.eval", "train and test segmentation models on datasets; protocols and studies"),
 }
@@ -38,7 +40,9 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``genie`` parser; the options of ``command`` (its module imported) when given, every
+    other subcommand by name and help line only."""
     parser = _Parser(
         prog="genie", description="genie-gl: labelled synthetic point clouds of industrial scenes"
     )
@@ -47,16 +51,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, (module, help_text) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
-        try:
-            mod = importlib.import_module(module)
-        except ModuleNotFoundError as exc:  # a stage not built yet
-            if exc.name and exc.name.startswith("genie_gl"):
-                p.set_defaults(_module=None, _missing=module)
-                continue
-            raise
-        mod.add_arguments(p)
         p.set_defaults(_module=module)
+        if name == command:
+            importlib.import_module(module).add_arguments(p)
     return parser
+
+
+def command_of(argv: list[str]) -> str | None:
+    """The subcommand ``argv`` names: its first word that is not an option."""
+    return next((a for a in argv if not a.startswith("-")), None)
 
 
 # the optional packages a command may need, by import name: (PyPI name, genie-gl extra)
@@ -74,7 +77,8 @@ def missing_package(name: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(command_of(argv))
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse's one-line error (or --help, --version)
@@ -84,9 +88,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     if args.command is None:
         parser.print_help()
-        return 2
-    if args._module is None:
-        print(f"genie {args.command}: not available in this build ({args._missing})", file=sys.stderr)
         return 2
     stopped: list[int] = []
 

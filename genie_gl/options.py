@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from .checks import MAX_SEED, number_problem, whole_problem
+from .bounds import MAX_SEED, number_problem, whole_problem
 from .errors import did_you_mean
 
 

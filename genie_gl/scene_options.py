@@ -31,7 +31,8 @@ class AssetFile(_Strict):
 
 
 class SceneOptions(_Strict):
-    """See :mod:`genie_gl.scene.build` for what each option does."""
+    """A strategy's ``scene`` section, typed (see :mod:`genie_gl.scene.build` for what each
+    option does); every option has its default here, the builder reads the fields."""
 
     walls: bool = False
     wall_height_m: float = Field(5.0, gt=0, le=1000)
@@ -44,15 +45,26 @@ class SceneOptions(_Strict):
     clutter: float = Field(0.0, ge=0, le=1)
     assets: dict[str, list[Union[str, AssetFile]]] = {}
 
+    @property
+    def jitters(self) -> bool:
+        """True when the section asks for jitter (a ``jitter`` with at least one value)."""
+        return self.jitter is not None and bool(self.jitter.model_fields_set)
 
-def check_scene_options(options: Any, where: str = "scene") -> dict[str, Any]:
-    """Validate ``options``; returns them as given (a plain dict: unset keys stay unset)."""
+    def asset_entries(self) -> dict[str, list[dict[str, Any]]]:
+        """The ``assets`` option as {class: [{"path", "variant", "units", "up"}, ...]}."""
+        return {cls: [{"path": e} if isinstance(e, str) else e.model_dump() for e in entries]
+                for cls, entries in self.assets.items()}
+
+
+def scene_options(options: Any, where: str = "scene") -> SceneOptions:
+    """``options`` (a strategy's ``scene`` section, a mapping) validated into
+    :class:`SceneOptions`; None gives the defaults."""
     if options is None:
-        return {}
+        return SceneOptions()
     if not isinstance(options, dict):
         raise ConfigError(f"{where}: expected an object of scene options, got {options!r:.60}")
     try:
-        SceneOptions(**options)
+        return SceneOptions(**options)
     except ValidationError as exc:
         e = exc.errors()[0]
         key = ".".join(str(p) for p in e["loc"])
@@ -61,4 +73,3 @@ def check_scene_options(options: Any, where: str = "scene") -> dict[str, Any]:
             raise ConfigError(f"{where}.{key}: unknown scene option{did_you_mean(str(e['loc'][-1]), known)} "
                               f"(known: {', '.join(known)})") from None
         raise ConfigError(f"{where}.{key}: {e['msg']} (got {e.get('input')!r:.60})") from None
-    return dict(options)

@@ -1,4 +1,5 @@
-"""Suite-wide settings: the hypothesis profiles, and fresh caches under mutation testing.
+"""Suite-wide settings: the hypothesis profiles, fresh caches under mutation testing, and the
+GL guard every test runs under.
 
 ``ci`` (the default): derandomized (the examples are a fixed function of each test, so a run
 is repeatable and its time bounded), a per-example deadline and a bounded number of examples.
@@ -13,6 +14,8 @@ from datetime import timedelta
 
 import pytest
 from hypothesis import HealthCheck, settings
+
+from genie_gl.render.context import contexts_created, create_context, is_shared, live_contexts
 
 settings.register_profile("ci", derandomize=True, max_examples=40, deadline=timedelta(seconds=5),
                           print_blob=True, suppress_health_check=[HealthCheck.too_slow])
@@ -37,6 +40,42 @@ def _fresh_caches_under_mutation():
                     if isinstance(value, functools._lru_cache_wrapper):
                         value.cache_clear()
     yield
+
+
+@pytest.fixture(scope="session")
+def gl():
+    """One EGL context per test process, for tests that render into a given context."""
+    context = create_context("egl")
+    yield context
+    context.release()
+
+
+@pytest.fixture
+def glctx(gl):
+    """The session's EGL context (the GL guard checks it around the test)."""
+    return gl
+
+
+@pytest.fixture(autouse=True)
+def _gl_guard(request):
+    """Around every test: each GL context of this process has no GL error before and after
+    it, and its state is reset after it (:meth:`GLContext.reset`); a test leaves no context
+    it made unreleased (contexts ``shared_context`` keeps on purpose excepted); a test not
+    marked ``gl`` starts no GL at all (non-GL stages never start GL)."""
+    before, created = live_contexts(), contexts_created()
+    for context in before:
+        assert context.error() == "GL_NO_ERROR", f"a GL error was pending before {request.node.nodeid}"
+    yield
+    after = live_contexts()
+    new = [c for c in after if all(c is not b for b in before)]
+    errors = [(c.backend, e) for c in after if (e := c.error()) != "GL_NO_ERROR"]
+    for context in after:
+        context.reset()
+    assert not errors, f"GL errors after the test: {errors}"
+    leaked = [c for c in new if not is_shared(c) and not any(c is v for v in request.node.funcargs.values())]
+    assert not leaked, f"the test left {len(leaked)} GL context(s) unreleased"
+    if request.node.get_closest_marker("gl") is None:
+        assert contexts_created() == created, "the test started GL: mark it gl (pytest.mark.gl)"
 
 
 # --- the fault-injection suite's counts (cases marked @pytest.mark.fault(kind=, guard=)) -------

@@ -10,6 +10,7 @@ import pytest
 
 from genie_gl.cli import main
 from genie_gl.dataset import DatasetConfig, run_dataset
+from genie_gl.dataset.recording import recording_files
 from genie_gl.errors import ConfigError
 
 pytestmark = pytest.mark.gl
@@ -95,6 +96,16 @@ def test_a_class_balanced_mobile_map_reaches_its_target(tmp_path):
     for k, share in target.items():
         if labels.name(k) not in short:
             assert hist.get(labels.name(k), 0) / total == pytest.approx(share / rest, abs=0.002), labels.name(k)
+
+
+def test_a_rigs_files_are_in_the_fingerprint(tmp_path):
+    """With --rig, the rig file and each of its sensors' profile and calibration files are
+    inputs of the run (a changed one is refused on resume)."""
+    read = recording_files(cfg(tmp_path, rig="d435_quad"))
+    assert Path(read["rig"]).name == "d435_quad.yaml"
+    for name in ("front", "left", "back", "right"):
+        assert Path(read[f"rig {name} profile"]).name == "realsense_d435.yaml"
+        assert Path(read[f"rig {name} calibration"]).is_file()
 
 
 def test_the_manifest_counts_the_cost_and_effects_of_every_frame_of_a_recording(tmp_path):

@@ -96,6 +96,7 @@ def test_layout_in_the_current_folder_keeps_it(tmp_path, capsys, monkeypatch):
     assert (tmp_path / "layout.json").is_file()
 
 
+@pytest.mark.gl
 def test_scene_replaces_only_its_own_usd_and_picture(tmp_path, capsys):
     assert main(["layout", "assembly_line", "--out", str(tmp_path / "lay")]) == 0
     layout = str(tmp_path / "lay" / "layout.json")

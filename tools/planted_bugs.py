@@ -1,4 +1,4 @@
-"""`make planted-bugs`: plant the bugs of issue 18's table one at a time and count the tests
+"""`make planted-bugs`: plant known bugs one at a time (the table below) and count the tests
 that catch each.
 
 Every bug is a precise textual substitution (old -> new) in a named file of a scratch copy of

@@ -31,7 +31,6 @@ from typing import Any
 
 import numpy as np
 
-from ..options import count, positive, seed
 from ..errors import ConfigError
 from ..sensors.accuracy import AccuracySettings, write_accuracy
 from ..sensors.placement import CoverageProblem, genetic_placement, greedy_placement
@@ -43,25 +42,6 @@ from .accuracy_runner import Runner, references, spread
 from .knobs import KNOBS, PLACEMENT_DEFAULT, PLACEMENT_LEVELS, Case, Knob, Setting, exact_setting, levels
 
 PLACEMENT_CAMERAS = 12
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scene", default=None,
-                   help="USD stage, or layout / strategy JSON (default: the built-in analytic case)")
-    p.add_argument("--sensor", default=None, help="sensor profile or calibration file (default: the built-in "
-                                                   "rational-lens stereo sensor without --scene, ideal_pinhole with one)")
-    p.add_argument("--seed", type=seed, default=0, help="seed of the layout, scene, placement and noise")
-    views = p.add_mutually_exclusive_group()
-    views.add_argument("--cameras", type=count(1, 1000), default=3, help="cameras placed over the scene (default 3)")
-    views.add_argument("--poses", default=None, help="JSON list of 4x4 world_from_camera, or .npy (N, 4, 4)")
-    p.add_argument("--path", default=None, help="with a strategy --scene: the --cameras frames along a trajectory "
-                                                "(aisles, random or a waypoints file) instead of standing cameras")
-    p.add_argument("--repeats", type=count(1, 1000), default=5, help="timed passes per row after one warm-up (default 5)")
-    p.add_argument("--budget-mm", type=positive(1e6), default=None, help="depth error budget (p99, mm)")
-    p.add_argument("--budget-px", type=positive(1e6), default=None, help="silhouette budget (mean edge error, px)")
-    p.add_argument("--knobs", default=None, help="comma-separated subset of knobs to run (default: all)")
-    p.add_argument("--no-cache", action="store_true",
-                   help="render the exact reference again (default: reuse OUT/cache/reference-*.npz of the same inputs)")
 
 
 # -- the case -----------------------------------------------------------------------------------

@@ -14,7 +14,7 @@ from tqdm import tqdm
 from .. import __version__
 from ..capture.lens import through_lens
 from ..capture.serial import pose_rng
-from ..capture.settings import apply_to_sensor, renderer_options, simulate_options
+from ..capture.settings import apply_to_sensor
 from ..capture.supersample import supersampled
 from ..cloud.unproject import unproject
 from ..errors import ConfigError
@@ -65,13 +65,12 @@ class Runner:
         self._materials: dict = {}
 
     def _renderer(self, setting: Setting):
-        opts = renderer_options(setting.accuracy)
-        key = (setting.accuracy.tessellation, tuple(sorted(opts.items())))
+        key = (setting.accuracy.tessellation, setting.accuracy.depth_precision)
         if key not in self._renderers:
             if self._gl is None:
                 self._gl = create_context(None)
             scene = self.case.scene_for(setting.accuracy.tessellation)
-            self._renderers[key] = Renderer(scene, context=self._gl, **opts)
+            self._renderers[key] = Renderer(scene, context=self._gl, depth_precision=setting.accuracy.depth_precision)
             self._materials[key] = _materials(scene)
         return self._renderers[key]
 
@@ -140,7 +139,7 @@ class Runner:
                 render.lens = lambda s, p, **kw: base.lens(s, p, **{**kw, "normals": True})
         clock: dict[str, float] = defaultdict(float)
         timed = dataclasses.replace(sensor, effects=tuple(Timed(e, clock) for e in sensor.effects))
-        options = simulate_options(acc)
+        options = {"resample": acc.resample, "oversample": acc.oversample}
         if materials is not None:
             options["materials"] = materials
         frames, costs = [], defaultdict(float)
@@ -233,10 +232,18 @@ def cache_key(case: Case, setting: Setting, seed: int) -> str:
         h.update(Path(case.source).read_bytes())
     s = case.sensor
     h.update(repr((s.width, s.height, s.K.tobytes(), s.dist.tobytes(), s.near_m, s.far_m, s.effects,
-                   sorted((k, str(v)) for k, v in s.meta.items()), seed, setting.key(), __version__)).encode())
+                   _sensor_fields(s), seed, setting.key(), __version__)).encode())
     for pose in case.poses:
         h.update(np.asarray(pose, np.float64).tobytes())
     return h.hexdigest()[:20]
+
+
+def _sensor_fields(s) -> list[tuple[str, str]]:
+    """The sensor's fields beside the camera and its effects, those set, as text."""
+    fields = {"stereo": None if s.stereo is None else (s.stereo.baseline_m, s.stereo.R, s.stereo.T),
+              "accuracy": s.accuracy, "calibration": s.calibration, "profile": s.profile,
+              "reprojection_error_px": s.reprojection_error_px}
+    return sorted((k, str(v)) for k, v in fields.items() if v is not None)
 
 
 def references(runner: Runner, cache: Path | None = None) -> dict[str, list[dict]]:

@@ -4,21 +4,19 @@ A knob names a field of :class:`~genie_gl.sensors.accuracy.AccuracySettings` (or
 which changes the sensor rather than a setting), its levels, the value the reference uses
 (the most exact), whether the built-in case measures it against analytic truth (knobs that
 change geometry) or against the exact setting (knobs that change how faithfully an effect
-is simulated), and what it needs to run. A knob whose mechanism is missing from this build,
-or that has nothing to act on (lens knobs on a pinhole sensor), reports why and shows as
+is simulated), and what it needs to run. A knob that has nothing to act on (lens knobs on a
+pinhole sensor, an effect's knob on a sensor without that effect: the effects declare their
+knobs, :attr:`~genie_gl.sensors.effect.Effect.accuracy_knobs`) reports why and shows as
 unavailable; it is never faked.
 """
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from ..render import Renderer
-from ..sensors import distortion
 from ..sensors.accuracy import AccuracySettings
-from ..sensors.simulate import simulate
+from ..sensors.effects import EFFECTS
 from .analytic import DEFAULT_SEGMENTS
 
 
@@ -47,54 +45,29 @@ class Case:
     tessellation_supported: bool = False
 
 
-def _takes(fn: Callable, name: str) -> bool:
-    try:
-        return name in inspect.signature(fn).parameters
-    except (TypeError, ValueError):
-        return False
-
-
-def _effect(sensor, name: str):
-    return next((e for e in sensor.effects if getattr(e, "name", "") == name), None)
-
-
-def _lens(keyword: str) -> Callable[[Case], str | None]:
-    def need(case: Case) -> str | None:
-        if case.sensor.is_pinhole:
-            return f"{case.sensor.name} has no lens distortion: nothing to resample"
-        if not (_takes(distortion.distort, keyword) or _takes(distortion.distortion_maps, keyword)):
-            return f"this build's lens module takes no {keyword}= (not landed)"
-        if not _takes(simulate, keyword):
-            return f"this build's simulate takes no {keyword}= (not landed)"
-        return None
-    return need
-
-
-def _depth_precision(case: Case) -> str | None:
-    return None if _takes(Renderer.__init__, "depth_precision") else "this build's Renderer takes no depth_precision= (not landed)"
-
-
-def _shadow(case: Case) -> str | None:
-    eff = _effect(case.sensor, "stereo_shadow")
-    if eff is None:
-        return f"{case.sensor.name} has no stereo_shadow effect"
-    resolved = getattr(eff, "resolved_method", None)
-    if resolved is not None and resolved(case.sensor) == "scanline":
-        return f"{case.sensor.name}'s stereo shadow is drawn by scanline: no second view to scale (shadow: render)"
+def _lens(case: Case) -> str | None:
+    """What a lens knob needs: a distorted sensor."""
+    if case.sensor.is_pinhole:
+        return f"{case.sensor.name} has no lens distortion: nothing to resample"
     return None
 
 
-def _multipaths(sensor) -> list:
-    return [e for e in sensor.effects if "multipath" in getattr(e, "name", "")]
+def _effect_knob(knob: str) -> Callable[[Case], str | None]:
+    """What a knob an effect declares (:attr:`Effect.accuracy_knobs`) needs: an effect of the
+    sensor that takes it and on which it acts (:meth:`Effect.knob_unused`)."""
+    def need(case: Case) -> str | None:
+        effs = _takers(case.sensor, knob)
+        if not effs:
+            owners = sorted(name for name, cls in EFFECTS.items() if knob in cls.accuracy_knobs)
+            return f"{case.sensor.name} has no {' or '.join(owners)} effect"
+        unused = [why for e in effs if (why := e.knob_unused(knob, case.sensor)) is not None]
+        return unused[0] if len(unused) == len(effs) else None
+    return need
 
 
-def _multipath(case: Case) -> str | None:
-    effs = _multipaths(case.sensor)
-    if not effs:
-        return f"{case.sensor.name} has no multipath effect"
-    if any(hasattr(e, "samples") for e in effs):
-        return None
-    return "this build's multipath model takes no samples= (not landed)"
+def _takers(sensor, knob: str) -> list:
+    """The sensor's effects that take ``knob``."""
+    return [e for e in sensor.effects if knob in e.accuracy_knobs]
 
 
 def _tessellation(case: Case) -> str | None:
@@ -140,14 +113,15 @@ KNOBS: tuple[Knob, ...] = (
     Knob("resolution", "resolution (x sensor)", None, (0.5, 1.0, 2.0), 1.0, True),
     Knob("supersample", "edge supersampling", "supersample", (1, 2, 4), 4, True),
     Knob("resample", "lens resampling", "resample", ("nearest", "bilinear", "plane", "exact"), "exact", True,
-         _lens("resample")),
-    Knob("oversample", "wide-render oversampling", "oversample", (1.0, 1.5, 2.0), 2.0, True, _lens("oversample")),
+         _lens),
+    Knob("oversample", "wide-render oversampling", "oversample", (1.0, 1.5, 2.0), 2.0, True, _lens),
     Knob("depth_precision", "depth precision", "depth_precision", ("depth24", "reversed_z", "float32"),
-         "float32", True, _depth_precision),
-    Knob("shadow_scale", "second-view scale", "shadow_scale", (0.25, 0.5, 1.0), 2.0, False, _shadow),
+         "float32", True),
+    Knob("shadow_scale", "second-view scale", "shadow_scale", (0.25, 0.5, 1.0), 2.0, False, _effect_knob("shadow_scale")),
     Knob("tessellation", "tessellation (segments/circle)", "tessellation", (8, 16, 32, 64), 128, True,
          _tessellation),
-    Knob("multipath_samples", "multipath samples", "multipath_samples", (8, 16, 32, 64), 128, False, _multipath),
+    Knob("multipath_samples", "multipath samples", "multipath_samples", (8, 16, 32, 64), 128, False,
+         _effect_knob("multipath_samples")),
     Knob("lod", "level of detail (below px across)", "lod_px", (16.0, 48.0, 128.0), None, True, unit=" px"),
 )
 KNOB = {k.name: k for k in KNOBS}
@@ -159,10 +133,9 @@ def own_value(knob: Knob, case: Case) -> Any:
     d = knob.default()
     if d is not None:
         return d
-    if knob.name == "shadow_scale":
-        return getattr(_effect(case.sensor, "stereo_shadow"), "scale", None)
-    if knob.name == "multipath_samples":
-        return next((e.samples for e in _multipaths(case.sensor) if hasattr(e, "samples")), None)
+    takers = [] if knob.field is None else _takers(case.sensor, knob.field)
+    if takers:   # the first effect's own parameter
+        return getattr(takers[0], takers[0].accuracy_knobs[knob.field])
     if knob.name == "tessellation" and case.kind == "builtin":
         return DEFAULT_SEGMENTS
     return None

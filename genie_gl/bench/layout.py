@@ -10,13 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..options import count
 from ..layout import Child, Generator, generate_layout, parse_strategy, register
 from ..layout.generators import Children
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--repeats", type=count(1, 1000), default=3)
 
 
 def _strategy(R: int, L: int, generator: str = "strips") -> dict:

@@ -29,7 +29,6 @@ from ..capture.trajectory import record
 from ..errors import ConfigError
 from ..export.semantickitti_sequence import write_recording
 from ..layout import generate_layout, load_strategy
-from ..options import count, positive, seed
 from ..outputs import atomic_write_text
 from ..render import shared_context
 from ..scene import build_scene
@@ -57,21 +56,6 @@ def reduced(scan: np.ndarray, n: int, *, rng: np.random.Generator) -> np.ndarray
     if n <= 0:
         return scan
     return scan[rng.permutation(len(scan))[:n]]
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--strategy", default="storage_area")
-    p.add_argument("--rig", default="panorama_cube")
-    p.add_argument("--path", default="aisles", choices=("aisles", "random"))
-    p.add_argument("--duration-s", type=positive(3600), default=10.0, help="seconds of the trajectory")
-    p.add_argument("--seed", type=seed, default=0)
-    p.add_argument("--rate-hz", type=positive(1000.0), default=RATE_HZ,
-                   help="every rig sensor's frame rate (panorama_cube's own: 5)")
-    p.add_argument("--sequence", default=None, help="a SemanticKITTI sequence folder to run on instead of recording one")
-    p.add_argument("--scan-points", type=count(0, 10**8), default=SCAN_POINTS,
-                   help="points drawn at random from each scan before KISS-ICP sees it (0: every point)")
-    p.add_argument("--max-range", type=positive(1000.0), default=MAX_RANGE_M, help="KISS-ICP's max_range (m)")
-    p.add_argument("--voxel-m", type=positive(10.0), default=VOXEL_M, help="KISS-ICP's map voxel size (m)")
 
 
 def read_sequence(seq: Path) -> tuple[Iterator[np.ndarray], np.ndarray, np.ndarray]:

@@ -35,9 +35,8 @@ import genie_gl as gg
 
 from ..cloud import to_cloud
 from ..cloud.kernels import count_valid
-from ..options import count, counts
 from ..cloud.unproject import ray_table, unproject_into
-from ..dataset.scene import scene_rngs
+from ..dataset.streams import SceneStreams
 from ..frame import Frame
 from ..layout import generate_layout, load_strategy
 from ..render import Renderer, create_context
@@ -45,16 +44,6 @@ from ..resources import resolve
 
 TARGET_S = 0.4  # stage seconds per steady scene, 1 worker on 2 cores
 TARGET_MACHINE_S = 0.25  # stage seconds per scene for the whole machine (steady / workers, best count)
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenes", type=count(1, 10_000), default=6, help="scenes per run (enough that each worker makes several)")
-    p.add_argument("--cameras", type=count(1, 10_000), default=40)
-    p.add_argument("--sensor", default="ideal_pinhole")
-    p.add_argument("--workers", type=counts(1, 4096), default="1,2", help="worker counts to compare, e.g. 1,2")
-    p.add_argument("--repeats", type=count(1, 1000), default=2, help="runs per worker count")
-    p.add_argument("--unprojection-only", action="store_true", help="only the unprojection figures")
-    p.add_argument("--dataset-only", action="store_true", help="only the dataset runs")
 
 
 def _dataset_run(args: argparse.Namespace, workers: int) -> dict:
@@ -145,10 +134,10 @@ def readback(repeats: int = 8) -> list[dict]:
     sensor = gg.load_sensor("ideal_pinhole")
     data = []
     for i in range(3):
-        rng = scene_rngs(0, i)
-        layout = generate_layout(load_strategy("assembly_line"), rng=rng["layout"])
-        scene = gg.build_scene(layout, rng=rng["scene"])
-        data.append((scene, gg.place_sensors(layout, sensor, n=40, seed=int(rng["placement"].integers(2**31)))))
+        streams = SceneStreams(0, i)
+        layout = generate_layout(load_strategy("assembly_line"), rng=streams.rng("layout"))
+        scene = gg.build_scene(layout, rng=streams.rng("scene"))
+        data.append((scene, gg.place_sensors(layout, sensor, n=40, seed=streams.placement_seed)))
     modes = {"separate targets": {"targets": "separate"}, "packed (default)": {},
              "packed + PBO": {"readback": "pbo"}}
     gl = create_context()

@@ -6,12 +6,14 @@ on a generated scene (the assembly line, cameras placed for the sensor's range):
 
 * ideal — the frame through the lens, no effect (what ``gg.render`` gives);
 * before — every effect of the profile run on every frame, nothing culled, the stereo second
-  view always rendered (the pipeline before the planner);
+  view always rendered (the pipeline before the planner: ``simulate(plan=None, decide=False)``
+  with the shadow's ``second_view="always"``);
 * planned — ``capture``'s path: the plan's culling and far plane, effects skipped where the
   view or the frame cannot call for them (same output as running them);
 * reference — the planned path with the effects' reference computations where a fused one
-  replaced them (noise drawn by numpy's ``rng.standard_normal(n)`` before the compiled pass;
-  the shadow mask, then ``drop``): the same bytes, checked on every view before timing;
+  replaced them (their ``fused=False``: noise drawn by numpy's ``rng.standard_normal(n)``
+  before the compiled pass; the shadow mask, then ``drop``): the same bytes, checked on every
+  view before timing. Every column runs the effects' own code: nothing is copied here;
 * shadow rendered — the planned path with the stereo shadow's second view rendered (method
   "render", the default before the scanline method: what this column was before it); where
   the scanline method is the default, how often it agrees with a full-resolution render of
@@ -22,7 +24,7 @@ One more row: the Azure profile on a matte convex sphere, where the planner skip
 noisy); the median of the per-frame ratios to the ideal is quoted, of wall time and of the
 process's CPU time (all renderer threads included: steadier where other work shares the
 cores, since a busy machine stretches a single-threaded effect's wall time more than a
-render spread over every core). Goals (issue 12): D435 at <= 2x the ideal render, Azure with
+render spread over every core). Goals: D435 at <= 2x the ideal render, Azure with
 multipath at <= 3x.
 """
 from __future__ import annotations
@@ -44,99 +46,25 @@ from ..render import Renderer
 from ..render.projection import look_at
 from ..resources import resolve
 from ..scene.model import Material
-from ..sensors import kernels
-from ..sensors.distortion import render_through_lens
-from ..sensors.effect import drop, record
 from ..sensors.effects import DepthNoise
-from ..sensors.geometry import pixel_rays
 from ..sensors.shadow import StereoShadow
 from ..sensors.simulate import simulate
 
-from ..options import count
 
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--cameras", type=count(1, 1000), default=4)
-    p.add_argument("--rounds", type=count(1, 1000), default=3)
-
-
-def _before(sensor, pose, render, rng, materials):
-    """Every effect, every frame: the unplanned pipeline."""
-    normals = any(e.needs_normals for e in sensor.effects)
-    frame = render_through_lens(render, sensor, pose, normals=normals)   # as simulate renders it
-
-    def render_depth(view, view_pose):
-        return render(view, view_pose, depth_only=True).depth
-
-    def render_frame(view, view_pose, exclude=()):
-        keep = np.setdiff1d(materials.ids, np.asarray(exclude, np.uint32))
-        return render(view, view_pose, depth_only=True, only=keep)
-
-    for eff in sensor.effects:
-        kw = {}
-        if eff.needs_render:
-            kw.update(render_depth=render_depth, render_frame=render_frame)
-        if eff.needs_materials:
-            kw["materials"] = materials
-        if eff.name == "stereo_shadow":   # the second view always rendered, as before planning
-            eff = _AlwaysSecondView(**{**{f.name: getattr(eff, f.name) for f in dataclasses.fields(eff)},
-                                       "method": "render"})
-        frame = eff.apply(frame, rng=rng, **kw)
-    return frame
-
-
-def _always():
-    class AlwaysSecondView(StereoShadow):
-        def casts_shadow(self, frame):
-            return True
-
-    return AlwaysSecondView
-
-
-_AlwaysSecondView = None
+def _before(sensor):
+    """``sensor`` as the pipeline ran before planning: the stereo shadow's second view rendered
+    on every frame (method "render", ``second_view="always"``); with ``simulate(plan=None,
+    decide=False)``: every effect on every frame, nothing culled."""
+    effects = tuple(dataclasses.replace(e, method="render", second_view="always") if isinstance(e, StereoShadow)
+                    else e for e in sensor.effects)
+    return dataclasses.replace(sensor, effects=effects)
 
 
 def _reference(sensor):
-    """``sensor`` with its fused effects replaced by their reference computations."""
-    class NumpyDraws(DepthNoise):
-        def apply(self, frame, *, rng):
-            if self.model not in ("stereo", "tof_linear"):
-                return super().apply(frame, rng=rng)
-            draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
-            if self.model == "stereo":
-                depth, lost = kernels.stereo_noise(frame.depth, draws, frame.sensor.fx * self.baseline(frame.sensor),
-                                                   self.sigma_d_px(frame.sensor), float(self.subpixel_step))
-            else:
-                depth, lost = kernels.linear_noise(frame.depth, draws, float(self.a_m), float(self.b),
-                                                   float(self.z0_m))
-            out = frame.replace(depth=depth)
-            return drop(out, (frame.depth > 0) & (depth == 0)) if lost else out
-
-    class MaskThenDrop(StereoShadow):
-        def apply(self, frame, *, rng, render_depth=None, **needs):
-            if self.resolved_method(frame.sensor) == "scanline":
-                gone, occluded, outside = kernels.scanline_shadow(
-                    frame.depth, float(self.scanline_shift(frame.sensor)), float(self.tolerance_m),
-                    float(self.tolerance_rel))
-                out = drop(frame, gone) if gone.any() else frame
-                return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=False,
-                              method="scanline")
-            if not (frame.depth > 0).any():
-                return frame
-            second, view = self.second_from_first(frame.sensor), self.view_sensor(frame.sensor)
-            rendered = self.casts_shadow(frame)
-            depth2 = (render_depth(view, frame.world_from_camera @ np.linalg.inv(second)) if rendered
-                      else np.zeros((1, 1), np.float32))
-            gone, occluded, outside = kernels.shadow_mask(
-                frame.depth, pixel_rays(frame.sensor), np.ascontiguousarray(second[:3, :3]),
-                np.ascontiguousarray(second[:3, 3]), view.K, view.width, view.height, float(view.near_m), depth2,
-                rendered, float(self.tolerance_m), float(self.tolerance_rel))
-            out = drop(frame, gone) if gone.any() else frame
-            return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=rendered)
-
-    swap = {DepthNoise: NumpyDraws, StereoShadow: MaskThenDrop}
-    effects = tuple(swap[type(e)](**{f.name: getattr(e, f.name) for f in dataclasses.fields(e)})
-                    if type(e) in swap else e for e in sensor.effects)
+    """``sensor`` with its fused effects computing the reference way (``fused=False``: numpy's
+    draws before the compiled noise pass; the shadow's mask, then ``drop``): the same bytes."""
+    effects = tuple(dataclasses.replace(e, fused=False) if isinstance(e, (DepthNoise, StereoShadow)) else e
+                    for e in sensor.effects)
     return dataclasses.replace(sensor, effects=effects)
 
 
@@ -187,6 +115,7 @@ def _time(fn) -> tuple[float, float, object]:
 def _rows(label, scene, sensor, poses, rounds):
     p = make_plan(scene, sensor, poses)
     ideal_sensor = dataclasses.replace(sensor, effects=())
+    before = _before(sensor)
     reference = _reference(sensor)
     rendered = _rendered_shadow(sensor)
     ms = {"ideal": [], "before": [], "reference": [], "rendered": [], "planned": []}
@@ -199,13 +128,15 @@ def _rows(label, scene, sensor, poses, rounds):
                              plan=p.frames[k]) for s in (sensor, reference))
             if any(getattr(a, n).tobytes() != getattr(b, n).tobytes() for n in ("depth", "instance", "semantic")):
                 raise AssertionError(f"{label}: the fused effects differ from their reference on view {k}")
-            _before(sensor, pose, lens_render, np.random.default_rng(k), p.materials)
+            simulate(before, pose, render=lens_render, rng=np.random.default_rng(k), materials=p.materials,
+                     decide=False)
         for _ in range(rounds):
             for k, pose in enumerate(poses):
                 _add(ms, cpu, "ideal", _time(lambda: simulate(ideal_sensor, pose, render=lens_render,
                                                           rng=np.random.default_rng(k))))
-                _add(ms, cpu, "before", _time(lambda: _before(sensor, pose, lens_render, np.random.default_rng(k),
-                                                          p.materials)))
+                _add(ms, cpu, "before", _time(lambda: simulate(before, pose, render=lens_render,
+                                                           rng=np.random.default_rng(k), materials=p.materials,
+                                                           decide=False)))
                 _add(ms, cpu, "reference", _time(lambda: simulate(reference, pose, render=lens_render,
                                                               rng=np.random.default_rng(k),
                                                               materials=p.materials, plan=p.frames[k])))
@@ -245,8 +176,6 @@ def _add(ms, cpu, key, timed, effects=None) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    global _AlwaysSecondView
-    _AlwaysSecondView = _always()
     layout = gg.generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=0)
     scene = gg.build_scene(layout, seed=0)
     rows = []

@@ -38,7 +38,6 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, did_you_mean
-from ..options import count, names
 from ..outputs import atomic_write_text
 from ..render import Renderer
 from ..render.reference import ReferenceRenderer
@@ -47,18 +46,6 @@ from ..sensors.camera import Sensor
 from .scenes import SIZES, bench_spec, to_scene
 
 CAMERAS = (24, 40)
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--scenes", type=names(SIZES), default="100k,1M,hall",
-                        help=f"scenes to run, from {', '.join(SIZES)}")
-    parser.add_argument("--repeats", type=count(1, 1000), default=2, help="fresh processes per tool and scene (turns)")
-    parser.add_argument("--tools", type=names(("genie-gl", "Open3D", "pyrender")), default="genie-gl,Open3D,pyrender",
-                        help="tools to time")
-    parser.add_argument("--whole-machine", action="store_true",
-                        help="also frames/s of P = cores processes per tool at once")
-    parser.add_argument("--frames", type=count(1, 100_000), default=40,
-                        help="frames per process in the whole-machine run")
 
 
 def sensor_640():

@@ -19,21 +19,12 @@ from pathlib import Path
 from ..capture import capture
 from ..capture.trajectory import record, schedule
 from ..layout import generate_layout, load_strategy
-from ..options import count, positive, seed
 from ..outputs import atomic_write_text
 from ..render import shared_context
 from ..scene import build_scene
 from ..sensors import place_sensors
 from ..sensors.paths import make_trajectory
 from ..sensors.rig import load_rig
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--strategy", default="storage_area")
-    p.add_argument("--rig", default="d435_quad")
-    p.add_argument("--duration-s", type=positive(3600), default=4.0, help="seconds of the trajectory")
-    p.add_argument("--seed", type=seed, default=0)
-    p.add_argument("--repeat", type=count(1, 1000), default=2, help="alternate the two runs this many times; best of each")
 
 
 def check_arguments(args: argparse.Namespace) -> None:

@@ -20,7 +20,7 @@ import trimesh
 
 from ..capture import through_lens
 from ..cloud import to_cloud
-from ..errors import ConfigError
+from ..errors import ConfigError, did_you_mean
 from ..layout import generate_layout
 from ..scene import build_scene
 from ..scene.model import Mesh, Scene
@@ -341,6 +341,10 @@ def wide_site(context=None) -> list[Row]:
 
 # -- the command ---------------------------------------------------------------------------------------
 def run_cases(names=None, context=None) -> list[Row]:
+    unknown = [n for n in names or () if n not in CASES]
+    if unknown:
+        raise ConfigError(f"--case {unknown[0]!r}: unknown{did_you_mean(unknown[0], CASES)}; expected some of "
+                          f"{', '.join(sorted(CASES))}")
     rows = []
     for name in names or CASES:
         t0 = time.perf_counter()
@@ -358,10 +362,6 @@ def table(rows: list[Row]) -> str:
         lines.append(f"{r.case:<{w}}  {r.tolerance:>10.3g}  {r.worst:>12.3g}  {r.unit:<14}  "
                      f"{'ok' if r.ok else 'FAIL':<6}  {r.note}")
     return "\n".join(lines)
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--case", action="append", choices=sorted(CASES), help="run only this case (repeatable)")
 
 
 def run(args: argparse.Namespace) -> int:

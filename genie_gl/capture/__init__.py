@@ -13,9 +13,9 @@ from .frames import capture, render
 from .lens import silhouettes, through_lens
 from .planner import EffectPlan, FramePlan, Plan, far_plane, plan
 from .serial import pose_rng
-from .settings import apply_to_sensor, renderer_options, segments_option, settings_for, simulate_options
+from .settings import apply_to_sensor, settings_for
 from .supersample import supersampled
 
 __all__ = ["EffectPlan", "FramePlan", "Plan", "add_totals", "apply_to_sensor", "capture", "effect_totals",
-           "far_plane", "frame_cost", "frame_costs", "plan", "pose_rng", "render", "renderer_options",
-           "segments_option", "settings_for", "silhouettes", "simulate_options", "supersampled", "through_lens"]
+           "far_plane", "frame_cost", "frame_costs", "plan", "pose_rng", "render", "settings_for",
+           "silhouettes", "supersampled", "through_lens"]

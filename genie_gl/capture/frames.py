@@ -30,7 +30,7 @@ from .planner import Plan
 from .planner import plan as make_plan
 from .pool import capture_in_workers
 from .serial import capture_serial
-from .settings import apply_to_sensor, renderer_options, settings_for
+from .settings import apply_to_sensor, level_of_detail, settings_for
 
 log = logging.getLogger(__name__)
 
@@ -86,8 +86,8 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     if workers <= 1:
         with prep.renderer(scene, backend=backend, context=context) as r:
             return _said_if_empty(prep.frames(r, seed, depth_only), prep.sensor)
-    return _said_if_empty(capture_in_workers(scene, prep.sensor, prep.poses, seed, workers, backend, depth_only,
-                                             prep.depth_precision, prep.plan, prep.materials, prep.accuracy),
+    return _said_if_empty(capture_in_workers(scene, prep.sensor, prep.poses, seed, workers, backend, prep.accuracy,
+                                             depth_only, prep.depth_precision, prep.plan, prep.materials),
                           prep.sensor)
 
 
@@ -121,8 +121,8 @@ class Prepared:
 
     def renderer(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None) -> Renderer:
         """A renderer of ``scene`` as these settings ask (depth precision, level of detail)."""
-        lod = renderer_options(self.accuracy).get("lod")
-        return Renderer(scene, backend=backend, depth_precision=self.depth_precision, context=context, lod=lod)
+        return Renderer(scene, backend=backend, depth_precision=self.depth_precision, context=context,
+                        lod=level_of_detail(self.accuracy))
 
     def part(self, start: int, stop: int) -> "Prepared":
         """Poses ``start:stop`` as a capture of their own (the plan's frames renumbered from 0)."""
@@ -134,8 +134,8 @@ class Prepared:
 
     def frames(self, renderer: Renderer, seed: int, depth_only: bool = False) -> list[Frame]:
         """Every pose's frame, rendered with ``renderer`` in this process; frame i's noise from (seed, i)."""
-        return capture_serial(renderer, self.sensor, self.poses, seed, range(len(self.poses)), depth_only, self.plan,
-                              self.materials, self.accuracy)
+        return capture_serial(renderer, self.sensor, self.poses, seed, range(len(self.poses)), self.accuracy,
+                              depth_only, self.plan, self.materials)
 
 
 def prepare(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, accuracy: AccuracySettings | None = None,

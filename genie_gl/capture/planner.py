@@ -160,7 +160,7 @@ def far_plane(sensor: Sensor) -> float:
     if not reach or any(not np.isfinite(r) for r in reach):
         return float(sensor.far_m)
     far = max(reach)
-    b = float(sensor.meta.get("baseline_m", 0.0) or 0.0)
+    b = 0.0 if sensor.stereo is None else float(sensor.stereo.baseline_m)
     return float(min(sensor.far_m, far * (1 + MARGIN_REL) + MARGIN_M + b))
 
 
@@ -192,7 +192,7 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
     table = MaterialTable.from_scene(scene) if materials is None else materials
     mesh_of = np.array([i.mesh for i in scene.instances])
     # convexity decides only views of a single object (multipath): computed for those alone
-    wants_convex = any(e.name in ("multipath", "tof_multipath") for e in sensor.effects)
+    wants_convex = any(e.needs_convexity for e in sensor.effects)
     convex_mesh: dict[str, bool] = {}
     rows = table.rows(ids)
     reflective = table.reflective(ids)

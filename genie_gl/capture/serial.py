@@ -12,12 +12,11 @@ from ..render.renderer import Renderer
 from ..scene.materials import MaterialTable
 from ..sensors.accuracy import AccuracySettings
 from ..sensors.camera import Sensor
-from ..sensors.distortion import DEFAULT_RESAMPLE, lens_views
+from ..sensors.distortion import lens_views
 from ..sensors.simulate import simulate
 from .lens import through_lens
 from .planner import Plan
 from .prefetch import Prefetched
-from .settings import simulate_options
 from .supersample import supersampled
 
 
@@ -27,19 +26,21 @@ def pose_rng(seed: int, index: int) -> np.random.Generator:
 
 
 def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
-                   indices: Sequence[int], depth_only: bool = False, plan: Plan | None = None,
-                   materials: MaterialTable | None = None, accuracy: AccuracySettings | None = None) -> list[Frame]:
+                   indices: Sequence[int], accuracy: AccuracySettings, depth_only: bool = False,
+                   plan: Plan | None = None, materials: MaterialTable | None = None) -> list[Frame]:
     """The frames ``indices`` of a capture, in this process, with ``renderer``: poses[k] is
-    pose ``indices[k]`` of the capture (its generator and its frame plan)."""
+    pose ``indices[k]`` of the capture (its generator and its frame plan). ``accuracy``: the
+    supersampling, lens resampling and oversampling (the renderer carries its depth
+    precision, the sensor's effects their own knobs)."""
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     normals = any(eff.needs_normals for eff in sensor.effects)
     triangles = False
     if sensor.is_pinhole:
         view = sensor
     else:  # the pinhole view the lens is resampled from, with what its resampling needs
-        views = lens_views(sensor, oversample=None if accuracy is None else accuracy.oversample)
+        views = lens_views(sensor, oversample=accuracy.oversample)
         view = views[0].render_sensor if len(views) == 1 else sensor   # cube faces: no prefetch
-        resample = DEFAULT_RESAMPLE if accuracy is None else accuracy.resample
+        resample = accuracy.resample
         triangles = resample == "exact"
         normals = (normals or resample == "plane") and not triangles
     frame_plans = None if plan is None else [plan.frames[i] for i in indices]
@@ -49,11 +50,11 @@ def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarra
         far = frame_plans[0].far_m if frame_plans else view.far_m
         if far < view.far_m:
             view = dataclasses.replace(view, far_m=far)
-    if accuracy is not None and accuracy.supersample > 1:   # every render through the supersampler
+    if accuracy.supersample > 1:   # every render through the supersampler
         draw = supersampled(functools.partial(through_lens(renderer.render), depth_only=depth_only),
                             accuracy.supersample)
     else:
         draw = Prefetched(renderer, view, poses, depth_only, normals, only, triangles)
-    opts = simulate_options(accuracy)
     return [simulate(sensor, poses[k], render=draw, rng=pose_rng(seed, i), materials=materials,
-                     plan=None if frame_plans is None else frame_plans[k], **opts) for k, i in enumerate(indices)]
+                     plan=None if frame_plans is None else frame_plans[k], resample=accuracy.resample,
+                     oversample=accuracy.oversample) for k, i in enumerate(indices)]

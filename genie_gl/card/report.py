@@ -151,7 +151,7 @@ def report_card(sensor: Sensor | str, *, settings: CardSettings | None = None, s
         yours = measure_captures(captures, roi_fraction=settings.roi_fraction)
     comps = tuple(Comparison(f, judge(f, sim), judge(f, yours) if captures is not None else None)
                   for f in (refs.figures if refs is not None else ()))
-    return ReportCard(sensor.name, str(sensor.meta.get("profile", sensor.meta.get("calibration", ""))), settings,
+    return ReportCard(sensor.name, str(sensor.profile or sensor.calibration or ""), settings,
                       tuple(sim), None if refs is None else refs.path, comps, tuple(yours),
                       None if captures is None else captures.source)
 

@@ -5,19 +5,16 @@ import argparse
 import os
 from pathlib import Path
 
-from ..dataset.config import DatasetConfig, parse_split
 from ..limits import MAX_REGIONS
 from . import announce_compilation
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from ..export import DATASET_FORMATS
-
     p.add_argument("strategy", help="strategy JSON file, or a shipped name (assembly_line, ...)")
     p.add_argument("--scenes", type=int, default=3)
     p.add_argument("--cameras", type=int, default=None, help="standing cameras per scene (default 8)")
     p.add_argument("--sensor", default="realsense_d435", help="sensor profile: a file, or a shipped name")
-    p.add_argument("--format", default="semantickitti", help=f"one of {', '.join(DATASET_FORMATS)}")
+    p.add_argument("--format", default="semantickitti", help="a format of genie_gl.export (default semantickitti; an unknown name lists them)")
     p.add_argument("--out", required=True)
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     p.add_argument("--seed", type=int, default=0, help="dataset seed, >= 0")
@@ -57,7 +54,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="accuracy settings: a file with an accuracy: block (genie bench accuracy --budget-mm writes one)")
 
 
-def config_from_args(args: argparse.Namespace) -> DatasetConfig:
+def config_from_args(args: argparse.Namespace):
+    """The :class:`~genie_gl.dataset.DatasetConfig` of the options, checked."""
+    from ..dataset.config import DatasetConfig, accuracy_option, parse_split
+
     fields = {k: getattr(args, k) for k in ("strategy", "scenes", "cameras", "sensor", "format", "out", "workers",
                                              "seed", "points", "chunk_m", "min_points", "min_labelled_share",
                                              "previews", "executor", "address", "max_nodes", "max_memory_gb",
@@ -68,9 +68,7 @@ def config_from_args(args: argparse.Namespace) -> DatasetConfig:
         if fields[k] is None:   # not given: the configuration's default (an option given is checked against --capture)
             del fields[k]
     fields["split"] = parse_split(args.split)
-    from ..dataset.config import accuracy_option as option
-
-    fields["accuracy"] = option(getattr(args, "accuracy", None))   # read and checked before any work
+    fields["accuracy"] = accuracy_option(getattr(args, "accuracy", None))   # read and checked before any work
     fields["class_balance"] = args.class_balance or None   # curation: genie_gl/dataset/curation.py
     fields["points_budget"] = args.points_budget
     return DatasetConfig.parse(fields, "")

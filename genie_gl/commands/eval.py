@@ -19,19 +19,20 @@ import os
 import sys
 from pathlib import Path
 
-from ..checks import MAX_SEED
+from ..bounds import MAX_SEED
 from ..errors import ConfigError
 from ..limits import MAX_CAMERAS
 from . import count, counts
 
 log = logging.getLogger(__name__)
 STUDY_NAMES = ("strategy", "sensor", "accuracy", "balance", "models", "mix", "all")
+# the names of genie_gl.eval.run.MODELS and genie_gl.eval.protocols.PRESETS, spelt here so that
+# `genie eval --help` imports no model (tests/eval/test_inputs.py checks they agree)
+MODELS = ("classical", "height", "majority", "neural")
+PRESETS = ("mix", "finetune", "scarce")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from ..eval.protocols import PRESETS
-    from ..eval.run import MODELS
-
     p.add_argument("--train", nargs="+", metavar="DIR", help="training datasets (DIR or DIR:PART)")
     p.add_argument("--test", nargs="+", metavar="DIR", help="test datasets (DIR or DIR:PART)")
     p.add_argument("--model", default=None, help=f"one of {', '.join(MODELS)} (default classical)")

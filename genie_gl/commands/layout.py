@@ -6,10 +6,7 @@ import io
 import json
 import sys
 
-import numpy as np
-
 from ..errors import ConfigError, LimitError
-from ..outputs import atomic_write_bytes, claim_folder
 from ..limits import MAX_RASTER_CELLS, MAX_REGIONS
 from . import count, positive, seed
 
@@ -27,7 +24,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ..layout import generate_layout, json_schema, load_strategy, save_layout_png
+    from ..outputs import atomic_write_bytes, claim_folder
 
     if args.schema:
         json.dump(json_schema(), sys.stdout, indent=2)

@@ -1,9 +1,12 @@
 """Datasets of many scenes: :func:`run_dataset` (``genie dataset``), configured by a typed
-:class:`DatasetConfig`; the run, its configuration and limits, the manifest and lock, the
-executors, previews and report each in their own module."""
+:class:`DatasetConfig`; each scene made by one recipe (:mod:`.recipe`) from its own random
+streams (:class:`SceneStreams`); the run, its configuration and limits, the manifest and
+lock, the executors, previews and report each in their own module."""
 from __future__ import annotations
 
 from .config import DatasetConfig
-from .run import run_dataset, run_scene, scene_dir, scene_rngs
+from .recipe import RunInputs, load_inputs
+from .run import run_dataset, run_scene, scene_dir
+from .streams import SceneStreams
 
-__all__ = ["DatasetConfig", "run_dataset", "run_scene", "scene_dir", "scene_rngs"]
+__all__ = ["DatasetConfig", "RunInputs", "SceneStreams", "load_inputs", "run_dataset", "run_scene", "scene_dir"]

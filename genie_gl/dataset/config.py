@@ -9,19 +9,21 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 from typing import Any, ClassVar, Literal, Optional
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_serializer, field_validator,
+                      model_validator)
 
 from ..cloud.balance import load_target
 from ..errors import ConfigError, did_you_mean
 from ..export.registry import DATASET_FORMATS
 from ..labels import CLASSES
 from ..limits import MAX_CAMERAS, MAX_REGIONS, available_memory_bytes  # noqa: F401  (kept importable from here)
+from ..sensors import Sensor
+from ..sensors.accuracy import AccuracySettings, from_dict, load_accuracy
 from ..sensors.paths import PATHS, path_kind  # noqa: F401  (PATHS kept importable from here)
-from ..sensors import load_sensor
-from ..sensors.accuracy import AccuracySettings, load_accuracy
 
 # the CLI spelling of each field, for messages
 OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
@@ -39,10 +41,31 @@ USED_BY = {"cameras": ("static",), "mount_m": ("static",), "rig": ("trajectory",
            "duration_s": ("trajectory", "mobile-map"), "voxel_m": ("mobile-map",), "registration": ("mobile-map",)}
 
 
+@dataclass(frozen=True)
+class AccuracyFile:
+    """``--accuracy FILE``: the file named and the settings read from it."""
+
+    file: str
+    settings: AccuracySettings
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"file", "settings"}`` as configurations and manifests hold it."""
+        return {"file": self.file, "settings": self.settings.to_dict()}
+
+    @classmethod
+    def parse(cls, value: Any) -> "AccuracyFile":
+        """The record of a ``{"file", "settings"}`` mapping (a manifest's inputs), checked."""
+        if isinstance(value, cls):
+            return value
+        if not isinstance(value, dict) or set(value) != {"file", "settings"}:
+            raise ConfigError(f"--accuracy {value!r:.60}: expected a file with an accuracy: block")
+        return cls(str(value["file"]), from_dict(value["settings"], str(value["file"])))
+
+
 class DatasetConfig(BaseModel):
     """Inputs of a dataset run (the CLI's options; see ``genie dataset --help``)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, arbitrary_types_allowed=True)
 
     strategy: str = Field(min_length=1)
     out: str = Field(min_length=1)
@@ -63,7 +86,7 @@ class DatasetConfig(BaseModel):
     max_nodes: int = Field(MAX_REGIONS, ge=1)
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
-    accuracy: Optional[dict[str, Any]] = None   # accuracy_option(): {"file", "settings"}
+    accuracy: Optional[AccuracyFile] = None   # --accuracy FILE (accuracy_option())
     # curation (genie_gl.dataset.curation): {"name": "paper" or a file, "target": {class id: share}};
     # given as the name, the target is read here, so the fingerprint holds the shares
     class_balance: Optional[dict[str, Any]] = None
@@ -85,6 +108,15 @@ class DatasetConfig(BaseModel):
         if v not in DATASET_FORMATS:
             raise ValueError(f"unknown; expected one of {', '.join(DATASET_FORMATS)}{did_you_mean(v, DATASET_FORMATS)}")
         return v
+
+    @field_validator("accuracy", mode="before")
+    @classmethod
+    def _accuracy(cls, v: Any) -> Any:
+        return None if v is None else AccuracyFile.parse(v)
+
+    @field_serializer("accuracy")
+    def _accuracy_dict(self, v: AccuracyFile | None) -> dict[str, Any] | None:
+        return None if v is None else v.to_dict()
 
     @field_validator("split")
     @classmethod
@@ -181,23 +213,18 @@ def parse_split(text: str) -> tuple[float, float, float]:
 
 
 # -- the --accuracy option: what was asked for, what the captures used ---------------------------
-def accuracy_option(path: str | os.PathLike | None) -> dict[str, Any] | None:
-    """``--accuracy FILE``: ``{"file", "settings"}`` (a plain dict, for configs and manifests),
-    read and checked now so a bad file fails before any work; None without the option."""
+def accuracy_option(path: str | os.PathLike | None) -> AccuracyFile | None:
+    """``--accuracy FILE``: the file and its settings, read and checked now so a bad file fails
+    before any work; None without the option."""
     if path is None:
         return None
-    return {"file": str(path), "settings": load_accuracy(path).to_dict()}
+    return AccuracyFile(str(path), load_accuracy(path))
 
 
-def settings_of(block: dict[str, Any] | None) -> AccuracySettings | None:
-    """The settings of an :func:`accuracy_option` block (None: none given)."""
-    return AccuracySettings(**block["settings"]) if block else None
-
-
-def accuracy_used(block: dict[str, Any] | None, sensor: str) -> dict[str, Any]:
+def accuracy_used(cfg: DatasetConfig, sensor: Sensor) -> dict[str, Any]:
     """What a manifest records: the settings the captures used and where they came from
     (the --accuracy file, the sensor profile's accuracy: block, or the defaults)."""
-    if block:
-        return {"source": block["file"], "settings": block["settings"]}
-    prof = load_sensor(sensor).meta.get("accuracy")
-    return {"source": "sensor profile" if prof else "defaults", "settings": (prof or AccuracySettings()).to_dict()}
+    if cfg.accuracy is not None:
+        return {"source": cfg.accuracy.file, "settings": cfg.accuracy.settings.to_dict()}
+    return {"source": "sensor profile" if sensor.accuracy else "defaults",
+            "settings": (sensor.accuracy or AccuracySettings()).to_dict()}

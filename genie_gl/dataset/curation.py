@@ -27,6 +27,7 @@ from ..export import SceneData, get_format
 from ..labels import CLASSES
 from ..layout import Layout
 from .manifest import RECORD, record_files, scene_complete
+from .streams import SceneStreams
 
 BALANCE_SEED = 0x62616C616E6365  # "balance": the dataset's generator for the chunks a budget keeps
 
@@ -53,7 +54,7 @@ def cache_scene(cfg, index: int, kept: list, layout, info: dict) -> dict[str, An
 
 def finish(cfg, *, verify: bool = False) -> list[int]:
     """One plan over every scene's chunks, then each scene not complete yet sub-sampled with
-    its sixth generator (``SeedSequence([seed, index]).spawn(6)[5]``), written into a
+    its own stream (:class:`~.streams.SceneStreams` ``balance``), written into a
     temporary folder with its file record and renamed into place; returns the scenes written."""
     out, fmt = Path(cfg.out), get_format(cfg.format)
     for stale in (out / ".balance").glob("*.tmp.npz"):  # a cache a killed run left half-written
@@ -71,7 +72,7 @@ def finish(cfg, *, verify: bool = False) -> list[int]:
         final = fmt.scene_dir(out, i)
         chunks, info = load_chunks(cache)
         kept = apply_plan(chunks, quota, keep,
-                          rng=np.random.default_rng(np.random.SeedSequence([int(cfg.seed), i]).spawn(6)[5]))
+                          rng=SceneStreams(cfg.seed, i).rng("balance"))
         layout = Layout.from_dict(info.pop("layout"))
         for stale in final.parent.glob(f".tmp-{final.name}-*"):
             shutil.rmtree(stale, ignore_errors=True)
@@ -111,5 +112,5 @@ def manifest(cfg, stats: list[dict]) -> dict[str, Any]:
             points[int(k)] = points.get(int(k), 0) + v
     entry = summary(points, target(cfg), short(stats) or {}, CLASSES)
     entry["draws"] = (f"chunks a budget keeps: SeedSequence([seed, {BALANCE_SEED:#x}]); points: "
-                      "SeedSequence([seed, scene index]).spawn(6)[5]")
+                      f"{SceneStreams.describe()['balance']}")
     return {"class_balance": entry}

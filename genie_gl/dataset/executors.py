@@ -14,19 +14,20 @@ from typing import Any
 from tqdm import tqdm
 
 from ..processes import die_with_parent, say_when_compiling
-from ..render.context import set_default_backend
+from ..render.context import default_backend, set_default_backend
 from ..render.threads import limit_threads
 from .config import DatasetConfig
+from .recipe import RunInputs
 from .scene import run_scene
 from .warmup import warm_up
 
 _PROCESS: dict[str, Any] = {}  # this process: warmed up?, scenes made, warm-up seconds to report
 
 
-def _prepare(cfg: DatasetConfig) -> None:
+def _prepare(cfg: DatasetConfig, inputs: RunInputs) -> None:
     """The process's warm-up, the first time one of its scenes needs making."""
     if not _PROCESS.get("warm"):
-        _PROCESS["warmup_s"] = warm_up(cfg)
+        _PROCESS["warmup_s"] = warm_up(cfg, inputs)
         _PROCESS["warm"] = True
 
 
@@ -41,20 +42,20 @@ def _made(r: dict) -> dict:
     return r
 
 
-def make_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None) -> dict[str, Any]:
+def make_scene(cfg: DatasetConfig, inputs: RunInputs, index: int, *, verify: bool = False,
+               stage=None) -> dict[str, Any]:
     """:func:`~genie_gl.dataset.scene.run_scene` with this process's warm-up and bookkeeping."""
     def prepare() -> None:
         if stage is not None and not _PROCESS.get("warm"):
             stage("warm-up")  # the bar shows the worker's warm-up as a stage of its first scene
-        _prepare(cfg)
+        _prepare(cfg, inputs)
 
-    return _made(run_scene(cfg, index, verify=verify, stage=stage, prepare=prepare))
+    return _made(run_scene(cfg, index, inputs=inputs, verify=verify, stage=stage, prepare=prepare))
 
 
 def _worker(job: tuple) -> dict:
-    if os.environ.get("GENIE_GL_BACKEND"):  # a spawned worker: the CLI's choice, inherited
-        set_default_backend(os.environ["GENIE_GL_BACKEND"])
-    cfg, index, verify, status = job if len(job) == 4 else (*job, None)
+    cfg, inputs, index, verify, backend, status = job if len(job) == 6 else (*job, None)
+    set_default_backend(backend)   # the parent's choice (a spawned worker starts without it)
     say_when_compiling(f"genie dataset (worker {os.getpid()})")
     limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
 
@@ -63,7 +64,7 @@ def _worker(job: tuple) -> dict:
             status[index] = name
 
     try:
-        return make_scene(cfg, index, verify=verify, stage=stage)
+        return make_scene(cfg, inputs, index, verify=verify, stage=stage)
     finally:
         if status is not None:
             status.pop(index, None)
@@ -77,8 +78,10 @@ def _describe(status) -> str:
     return ", ".join(f"scene {i}: {name}" for i, name in items)
 
 
-def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = False) -> list[dict[str, Any]]:
-    """Run every scene of ``cfg`` (finished ones are checked and skipped); returns their stats.
+def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
+               verify: bool = False) -> list[dict[str, Any]]:
+    """Run every scene of ``cfg`` with the run's ``inputs`` (finished ones are checked and
+    skipped); returns their stats.
     The progress bar names the scene and stage being worked on (this process) or the scenes
     under way (workers)."""
     bar = tqdm(total=cfg.scenes, unit="scene", disable=not progress, desc="scenes", mininterval=0.5)
@@ -94,14 +97,14 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
 
             ray.init(address=cfg.address, ignore_reinit_error=True, log_to_driver=False)
             remote = ray.remote(_worker)  # stages are not reported back from the cluster
-            pending = [remote.remote((cfg, i, verify)) for i in range(cfg.scenes)]
+            pending = [remote.remote((cfg, inputs, i, verify, default_backend())) for i in range(cfg.scenes)]
             bar.set_postfix_str(f"{len(pending)} scenes on Ray")
             while pending:
                 ready, pending = ray.wait(pending, num_returns=1)
                 done(ray.get(ready[0]))
         elif cfg.workers <= 1 or cfg.scenes <= 1:
             for i in range(cfg.scenes):
-                done(make_scene(cfg, i, verify=verify,
+                done(make_scene(cfg, inputs, i, verify=verify,
                                 stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}", refresh=True)))
         else:
             n = min(cfg.workers, cfg.scenes)
@@ -111,7 +114,8 @@ def map_scenes(cfg: DatasetConfig, *, progress: bool = True, verify: bool = Fals
             with ctx.Manager() if progress else nullcontext() as manager, \
                     ctx.Pool(n, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
                 status = manager.dict() if manager is not None else None  # scene -> its worker's stage
-                it = pool.imap_unordered(_worker, [(cfg, i, verify, status) for i in range(cfg.scenes)])
+                it = pool.imap_unordered(_worker, [(cfg, inputs, i, verify, default_backend(), status)
+                                                   for i in range(cfg.scenes)])
                 left = cfg.scenes
                 while left:
                     try:

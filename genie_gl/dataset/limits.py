@@ -10,8 +10,9 @@ after minutes of work or a MemoryError.
 - memory: per worker, the frames of one scene (cameras x pixels x :data:`BYTES_PER_PIXEL`)
   plus the layout (:data:`BYTES_PER_NODE` per region), times the workers; limit
   ``--max-memory-gb`` (default: 80 % of the memory available now).
-- disk: the points (or images for BOP) the run writes; limit ``--max-disk-gb`` (default: the
-  free space of the ``--out`` file system).
+- disk: the points (or images) the run writes, as its format counts them
+  (``DatasetFormat.scene_bytes``); limit ``--max-disk-gb`` (default: the free space of the
+  ``--out`` file system).
 - a moving capture (``--capture trajectory|mobile-map``): its frames are ``--duration-s``
   times the rig's summed rates; a worker holds one window of them
   (:data:`genie_gl.capture.trajectory.WINDOW` shots) and, for a mobile-scan map, the map's
@@ -34,9 +35,6 @@ from ..sensors.placement import ceiling_of
 from .config import DatasetConfig
 from .recording import rig_of
 
-BOP_BYTES_PER_PIXEL = 4  # 16-bit depth + RGB + masks, PNG-compressed
-
-
 @dataclass(frozen=True)
 class Estimate:
     nodes: int
@@ -55,11 +53,9 @@ def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
     if cfg.previews:   # a preview scene's frames are merged into one cloud as well
         per_worker += cfg.cameras * pixels * BYTES_PER_CLOUD_POINT
     workers = min(cfg.workers, cfg.scenes)
-    if cfg.format == "bop":
-        disk = cfg.scenes * cfg.cameras * pixels * BOP_BYTES_PER_PIXEL
-    else:
-        chunks = max(1.0, strategy.root.width / cfg.chunk_m + 1) * max(1.0, strategy.root.height / cfg.chunk_m + 1)
-        disk = int(cfg.scenes * min(chunks * cfg.points, cfg.cameras * pixels) * get_format(cfg.format).bytes_per_point)
+    chunks = max(1.0, strategy.root.width / cfg.chunk_m + 1) * max(1.0, strategy.root.height / cfg.chunk_m + 1)
+    points = min(chunks * cfg.points, cfg.cameras * pixels)   # a scene keeps at most its chunks' points
+    disk = int(cfg.scenes * get_format(cfg.format).scene_bytes(points, cfg.cameras * pixels))
     return Estimate(nodes, work, pixels, int(per_worker * workers), int(disk))
 
 
@@ -83,7 +79,7 @@ def moving_estimate(cfg: DatasetConfig, strategy) -> Estimate:
         points = min(chunks * cfg.points, frames * pixels)
     else:
         points = frames * pixels
-    disk = cfg.scenes * points * get_format(cfg.format).bytes_per_point
+    disk = cfg.scenes * get_format(cfg.format).scene_bytes(points, frames * pixels)
     return Estimate(nodes, work, pixels, int(per_worker * min(cfg.workers, cfg.scenes)), int(disk))
 
 

@@ -45,9 +45,8 @@ def input_files(strategy, sensor) -> dict[str, str]:
             p = e if isinstance(e, str) else (e.get("path") if isinstance(e, dict) else None)
             if p:
                 files[f"asset {cls}[{k}]"] = p
-    for key in ("profile", "calibration"):
-        if sensor.meta.get(key):
-            files[f"sensor {key}"] = str(sensor.meta[key])
+    for key, path in sensor.files.items():
+        files[f"sensor {key}"] = str(path)
     return files
 
 
@@ -56,8 +55,9 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
     parts: dict[str, Any] = {"genie_gl": __version__}
     for role, path in input_files(strategy, sensor).items():
         parts[role] = _file_hash(path) if Path(path).is_file() else f"missing: {path}"
+    values = cfg.model_dump()   # plain values (the --accuracy record as its {"file", "settings"})
     for k in DatasetConfig.FINGERPRINTED:
-        v = getattr(cfg, k)
+        v = values[k]
         if v is None:  # an option not asked for (--class-balance, ...): the fingerprint of a run without it
             continue
         if k in DatasetConfig.MOVING and cfg.capture == "static":   # standing cameras: as before these options

@@ -37,6 +37,7 @@ from ..sensors.registration import registration_of
 from ..sensors.rig import Rig, load_rig
 from ..sensors.trajectory import quaternion_xyzw
 from .config import DatasetConfig
+from .streams import SceneStreams
 
 log = logging.getLogger(__name__)
 
@@ -59,16 +60,16 @@ def recording_files(cfg: DatasetConfig) -> dict[str, str]:
         files["rig"] = str(resolve(cfg.rig, "rigs", (".yaml", ".yml")))
         for s in rig_of(cfg).sensors:
             for key in ("profile", "calibration"):
-                if s.sensor.meta.get(key):
-                    files[f"rig {s.name} {key}"] = str(s.sensor.meta[key])
+                if getattr(s.sensor, key):
+                    files[f"rig {s.name} {key}"] = str(getattr(s.sensor, key))
     if Path(cfg.path).is_file():
         files["waypoints"] = cfg.path
     return files
 
 
-def trajectory_of(cfg: DatasetConfig, layout, scene, rng: np.random.Generator):
+def trajectory_of(cfg: DatasetConfig, layout, scene, *, seed: int):
     kind = cfg.path if cfg.path in PATHS[:2] else "waypoints"
-    return make_trajectory(layout, scene, kind, seed=int(rng.integers(2**31)), motion=cfg.motion,
+    return make_trajectory(layout, scene, kind, seed=seed, motion=cfg.motion,
                            waypoints=cfg.path if kind == "waypoints" else None, duration_s=cfg.duration_s)
 
 
@@ -120,15 +121,16 @@ class Moving:
     extra: dict = field(default_factory=dict)
 
 
-def capture_moving(cfg: DatasetConfig, layout, scene, rng: dict[str, np.random.Generator], fmt, accuracy,
+def capture_moving(cfg: DatasetConfig, layout, scene, streams: SceneStreams, fmt, accuracy,
                    stage, t: dict[str, float]) -> Moving:
-    """The trajectory and the recording (trajectory) or the fused map's chunks (mobile-map)."""
+    """The trajectory and the recording (trajectory) or the fused map's chunks (mobile-map),
+    drawn from the scene's ``streams`` (trajectory, capture, cloud)."""
     stage("placement")
     rig = rig_of(cfg)
-    trajectory = trajectory_of(cfg, layout, scene, rng["trajectory"])
+    trajectory = trajectory_of(cfg, layout, scene, seed=streams.trajectory_seed)
     t["placement"] = time.perf_counter()
     stage("capture")
-    seed = int(rng["capture"].integers(2**31))
+    seed = streams.capture_seed
     tally = Tally()
     stream = tally.watch(record(scene, rig, trajectory, seed=seed, depth_only=not fmt.colour, accuracy=accuracy,
                                 context=shared_context()))
@@ -151,7 +153,7 @@ def capture_moving(cfg: DatasetConfig, layout, scene, rng: dict[str, np.random.G
     stage("cloud")
     kept = []
     tally.counts[:] = 0
-    for key, tile in chunks(cloud, cfg.chunk_m, min_points=1, max_points=cfg.points, rng=rng["cloud"]):
+    for key, tile in chunks(cloud, cfg.chunk_m, min_points=1, max_points=cfg.points, rng=streams.rng("cloud")):
         if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
             kept.append((key, tile))
             np.add.at(tally.counts, tile.semantic, 1)

@@ -35,21 +35,20 @@ from .. import __version__
 from ..capture import add_totals
 from ..cloud.balance import PAPER_REAL
 from ..errors import ConfigError
-from ..outputs import OutputFolder, atomic_write_text, claim_folder
 from ..export import get_format
-from ..layout import load_strategy
+from ..outputs import OutputFolder, atomic_write_text, claim_folder
 from ..scene import ASSETS
-from ..sensors import load_sensor
 from ..sensors.paths import path_kind, read_waypoints
 from ..sensors.placement import ceiling_of, mount_for
 from . import curation
-from .config import DatasetConfig
-from .config import accuracy_used as used
+from .config import DatasetConfig, accuracy_used
 from .executors import map_scenes
 from .limits import check_limits
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete
+from .recipe import RunInputs, load_inputs
 from .report import class_totals, dataset_cost, histogram
-from .scene import STAGES, run_scene, scene_dir, scene_rngs  # noqa: F401  (the run's public names)
+from .scene import run_scene, scene_dir  # noqa: F401  (the run's public names)
+from .streams import SceneStreams
 
 log = logging.getLogger(__name__)
 
@@ -74,11 +73,13 @@ def claim_output(cfg: DatasetConfig, fmt) -> OutputFolder:
     return claim_folder(cfg.out, "dataset", (fmt.folder, *fmt.dataset_outputs, *DATASET_ENTRIES))
 
 
-def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
-    """Check what a run needs before any work: the strategy and sensor load, the output folder
-    is writable, the estimate fits the limits; returns (strategy, sensor, fingerprint)."""
-    strategy = load_strategy(cfg.strategy)
-    sensor = load_sensor(cfg.sensor)
+def prepare(cfg: DatasetConfig) -> tuple[RunInputs, dict]:
+    """Check what a run needs before any work: the strategy and sensor load (once: every
+    scene gets them from here), placement can work (or the waypoints file reads), the output
+    folder may be written, the estimate fits the limits; returns (the run's inputs, the
+    fingerprint)."""
+    inputs = load_inputs(cfg)
+    strategy, sensor = inputs.strategy, inputs.sensor
     if cfg.capture == "static":
         mount_for(sensor, ceiling_m=ceiling_of(strategy.scene), mount_height_m=cfg.mount_m)   # placement can work
     elif path_kind(cfg.path) == "waypoints":
@@ -93,7 +94,7 @@ def prepare(cfg: DatasetConfig) -> tuple[Any, Any, dict]:
             import ray  # noqa: F401
         except ImportError:
             raise ConfigError("--executor ray needs Ray: pip install 'genie-gl[ray]'") from None
-    return strategy, sensor, fingerprint(cfg, strategy, sensor)
+    return inputs, fingerprint(cfg, strategy, sensor)
 
 
 def _clear_leftovers(folder: OutputFolder, fmt) -> None:
@@ -136,7 +137,7 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
     _check_registered_assets(cfg)
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
-    strategy, sensor, fp = prepare(cfg)
+    inputs, fp = prepare(cfg)
     fmt = get_format(cfg.format)
     folder = claim_output(cfg, fmt)
     folder.path.mkdir(parents=True, exist_ok=True)
@@ -148,7 +149,7 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
             "genie_gl": __version__, "python": platform.python_version(), "command": "dataset",
             "fingerprint": fp,
             "inputs": {k: v for k, v in cfg.model_dump().items() if k != "out"},
-            "scene_seeds": "numpy SeedSequence([seed, scene index]).spawn(5): layout, scene, placement, capture, cloud",
+            "scene_seeds": SceneStreams.describe(),
             "runs": runs,
         }
         manifest["outputs"] = sorted(set(folder.owned) | set(folder.declared))
@@ -157,7 +158,7 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
         if on_start is not None:
             on_start()
         try:
-            _run(cfg, folder, fmt, manifest, runs, progress=progress, verify=verify)
+            _run(cfg, inputs, folder, fmt, manifest, runs, progress=progress, verify=verify)
         except OSError as exc:
             if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
                 raise ConfigError(f"--out {out}: disk full or file too large while writing "
@@ -167,13 +168,13 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
     return manifest
 
 
-def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: list, *, progress: bool,
-         verify: bool) -> None:
+def _run(cfg: DatasetConfig, inputs: RunInputs, folder: OutputFolder, fmt, manifest: dict, runs: list, *,
+         progress: bool, verify: bool) -> None:
     """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
     out = folder.path
     started = time.time()
     t0 = time.perf_counter()
-    results = map_scenes(cfg, progress=progress, verify=verify)
+    results = map_scenes(cfg, inputs, progress=progress, verify=verify)
     balanced = curation.finish(cfg, verify=verify) if curation.active(cfg) else None  # one plan over every scene
     elapsed = time.perf_counter() - t0
     stats = [scene_complete(fmt.scene_dir(out, i)) for i in range(cfg.scenes)]
@@ -198,7 +199,7 @@ def _run(cfg: DatasetConfig, folder: OutputFolder, fmt, manifest: dict, runs: li
         "scene_s": [{"scene": r.get("scene"), "worker": r.get("worker"), "nth": r.get("nth"),
                      "stages": r.get("timings_s", {}), "cpu_s": r.get("cpu_s")}
                     for r in sorted(made, key=lambda r: r.get("scene", -1))[:SCENE_RECORDS]]}]
-    manifest["cost"], manifest["accuracy"] = dataset_cost(made), used(cfg.accuracy, cfg.sensor)
+    manifest["cost"], manifest["accuracy"] = dataset_cost(made), accuracy_used(cfg, inputs.sensor)
     manifest["scenes_made"], manifest["scenes_skipped"] = n_made, cfg.scenes - n_made
     manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
     manifest["effects"] = manifest["runs"][-1]["effects"]

@@ -12,30 +12,17 @@ from typing import Any
 
 import numpy as np
 
-from ..capture import capture, effect_totals, frame_costs, segments_option
-from ..cloud import frame_chunks, keep_cloud
+from ..capture import effect_totals, frame_costs
 from ..export import SceneData, get_format
-from ..layout import generate_layout, load_strategy
-from ..render import shared_context
-from ..scene import build_scene
-from ..sensors import load_sensor, place_sensors
 from . import curation
-from .config import DatasetConfig, settings_of
+from .config import DatasetConfig
 from .manifest import record_files, scene_complete
 from .previews import write_previews, write_recording_previews
+from .recipe import STAGES, RunInputs, chunk, load_inputs, make, make_scene
 from .recording import capture_moving, stats_of, write_trajectory
+from .streams import SceneStreams
 
 log = logging.getLogger(__name__)
-
-STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
-
-
-def scene_rngs(seed: int, index: int) -> dict[str, np.random.Generator]:
-    """Independent generators of scene ``index`` (layout, scene, placement, capture, cloud,
-    trajectory)."""
-    names = ("layout", "scene", "placement", "capture", "cloud", "trajectory")   # appended: earlier ones unchanged
-    kids = np.random.SeedSequence([int(seed), int(index)]).spawn(len(names))
-    return {n: np.random.default_rng(k) for n, k in zip(names, kids)}
 
 
 def scene_dir(out: Path, index: int, fmt: str, n_scenes: int = 0) -> Path:
@@ -43,10 +30,13 @@ def scene_dir(out: Path, index: int, fmt: str, n_scenes: int = 0) -> Path:
     return get_format(fmt).scene_dir(out, index)
 
 
-def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=None, prepare=None) -> dict[str, Any]:
+def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None, verify: bool = False, stage=None,
+              prepare=None) -> dict[str, Any]:
     """Make scene ``index`` and write it; returns its stats (also in stats.json).
-    ``stage(name)`` is called as each stage starts (progress display); ``prepare()`` once the
-    scene is known to need making, before its clock starts (a worker's warm-up)."""
+    ``inputs``: the run's strategy, sensor and settings (:func:`~.recipe.load_inputs`; loaded
+    here when not given). ``stage(name)`` is called as each stage starts (progress display);
+    ``prepare()`` once the scene is known to need making, before its clock starts (a
+    worker's warm-up)."""
     stage = stage or (lambda name: None)
     out = Path(cfg.out)
     fmt = get_format(cfg.format)
@@ -56,45 +46,20 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
         return done | {"skipped": True}
     if curation.active(cfg) and curation.cache_path(cfg, index).is_file():  # made, waiting to be balanced
         return {"scene": index, "pending": True, "skipped": True}
+    inputs = inputs or load_inputs(cfg)
     if prepare is not None:
         prepare()
-    rng = scene_rngs(cfg.seed, index)
-    t = {"start": time.perf_counter()}
+    streams = SceneStreams(cfg.seed, index)
     cpu = time.process_time()  # the process's CPU time, its rasteriser and kernel threads included
-    stage("layout")
-    layout = generate_layout(load_strategy(cfg.strategy), rng=rng["layout"], max_regions=cfg.max_nodes)
-    t["layout"] = time.perf_counter()
-    stage("scene")
-    accuracy = settings_of(cfg.accuracy)
-    scene = build_scene(layout, rng=rng["scene"], **segments_option(accuracy))
-    t["scene"] = time.perf_counter()
     if cfg.capture != "static":   # a rig along a trajectory (genie_gl/dataset/recording.py)
-        return _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, out, final)
-    stage("placement")
-    sensor = load_sensor(cfg.sensor)
-    poses = place_sensors(layout, sensor, n=cfg.cameras, seed=int(rng["placement"].integers(2**31)),
-                          mount_height_m=cfg.mount_m)
-    t["placement"] = time.perf_counter()
-    stage("capture")
+        layout, scene, t = make_scene(inputs, streams, stage=stage)
+        return _run_moving(cfg, index, layout, scene, streams, fmt, stage, t, cpu, out, final)
     # a format that stores no colour renders none (an output not asked for costs nothing)
-    frames = capture(scene, sensor, poses, seed=int(rng["capture"].integers(2**31)), workers=1,
-                     depth_only=not fmt.colour, accuracy=accuracy, context=shared_context())
-    t["capture"] = time.perf_counter()
+    made = make(inputs, streams, cameras=cfg.cameras, depth_only=not fmt.colour, stage=stage)
+    layout, scene, frames, t = made.layout, made.scene, made.frames, dict(made.clock)
     stage("cloud")
-    kept, points_total, counts = [], 0, np.zeros(65536, np.int64)
-    if fmt.chunks:
-        # the chunks straight from the frames: the merged cloud (~12 M points at 40 cameras)
-        # is built only for a preview that shows it
-        tiles, points_total = frame_chunks(frames, cfg.chunk_m, max_points=cfg.points, rng=rng["cloud"])
-        for key, tile in tiles:
-            if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
-                kept.append((key, tile))
-                counts += np.bincount(tile.semantic, minlength=len(counts))
-    else:
-        for f in frames:
-            ok = f.depth > 0
-            points_total += int(ok.sum())
-            counts += np.bincount(f.semantic[ok], minlength=len(counts))
+    cut = chunk(cfg, frames, streams, chunks=fmt.chunks)
+    kept, points_total, counts = cut.kept, cut.points_total, cut.counts
     t["cloud"] = time.perf_counter()
     if fmt.chunks and not kept:
         log.warning("scene %d: no chunk kept: every chunk of its %d points has fewer than --min-points %d points or "
@@ -133,9 +98,11 @@ def run_scene(cfg: DatasetConfig, index: int, *, verify: bool = False, stage=Non
     return stats | _timings(t, frames, cpu)
 
 
-def _run_moving(cfg, index, layout, scene, rng, fmt, accuracy, stage, t, cpu, out: Path, final: Path) -> dict[str, Any]:
+def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t, cpu, out: Path,
+                final: Path) -> dict[str, Any]:
     """Scene ``index`` captured along a trajectory: a recording or a mobile-scan map."""
-    moving = capture_moving(cfg, layout, scene, rng, fmt, accuracy, stage, t)
+    accuracy = None if cfg.accuracy is None else cfg.accuracy.settings   # each rig sensor's own otherwise
+    moving = capture_moving(cfg, layout, scene, streams, fmt, accuracy, stage, t)
     info = {"instances": len(scene.instances), **stats_of(moving)}
     if curation.active(cfg):   # a mobile-scan map's chunks, balanced once every scene is made
         if index < cfg.previews:

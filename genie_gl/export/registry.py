@@ -54,7 +54,16 @@ class DatasetFormat:
     cloud_outputs: Callable[[str], tuple[str, ...]] | None = None  # top-level names write_cloud(name=) makes
     dataset_outputs: tuple[str, ...] = ()                         # top-level names of a dataset, beside folder
     notes: Callable[[Any], list[str]] | None = None               # (config) -> what the user must be told first
-    bytes_per_point: int = 40                                     # at most, on disk (the limits' disk estimate)
+    # the disk a scene takes, for the size check before a run (dataset/limits.py): bytes per
+    # point kept, at most (xyz f4 + label u4 = 16 for SemanticKITTI; more for ply, pcd, npz),
+    # and per pixel of its frames (image formats)
+    bytes_per_point: float = 40.0
+    bytes_per_pixel: float = 0.0
+
+    def scene_bytes(self, points: float, pixels: float) -> float:
+        """Bytes a scene of at most ``points`` points kept, from frames of ``pixels`` pixels
+        in all, takes on disk (an estimate from above)."""
+        return points * self.bytes_per_point + pixels * self.bytes_per_pixel
 
     def scene_dir(self, out: str | os.PathLike, index: int) -> Path:
         return Path(out) / self.folder / f"{index:0{self.digits}d}"

@@ -114,6 +114,10 @@ class Generator:
     def check(self, where: str) -> None:
         """Validate arguments; raise ConfigError naming ``where`` (file and JSON path)."""
 
+    def check_fits(self, width: float, height: float, where: str) -> None:
+        """Raise ConfigError naming ``where`` when what the arguments ask for cannot fit a
+        parent of ``width`` x ``height`` metres (checked on the strategy's root)."""
+
     def max_children(self, w: float, h: float, parents: float, area: float) -> float:
         """An upper bound on the children this generator makes for ``parents`` regions, each
         at most ``w`` x ``h`` m, together covering at most ``area`` m² (the limits' estimate,
@@ -206,6 +210,14 @@ class Grid(Generator):
         if self.args.get("leftover", "empty") not in ("empty", "spread"):
             raise ConfigError(f"{where}.args.leftover: expected 'empty' or 'spread', got {self.args['leftover']!r}")
 
+    def check_fits(self, width: float, height: float, where: str) -> None:
+        cell = self.args.get("cell")
+        if isinstance(cell, list) and len(cell) == 2:
+            cw, ch = sorted(float(c) for c in cell)
+            if ch > max(width, height) or cw > min(width, height):
+                raise ConfigError(f"{where}.args.cell: a {cell[0]} x {cell[1]} m cell is larger than its parent "
+                                  f"({width} x {height} m)")
+
     def _per_parent(self, w: float, h: float) -> float:
         cw, ch = map(float, self.args["cell"])
         sp = float(self.args.get("spacing", 0.0))
@@ -276,6 +288,12 @@ class AssemblyLine(Generator):
             _range(a["paths"], f"{where}.args", "paths", positive=False, whole=True)
         if a.get("direction", "random") not in ("horizontal", "vertical", "random"):
             raise ConfigError(f"{where}.args.direction: expected horizontal, vertical or random, got {a['direction']!r}")
+
+    def check_fits(self, width: float, height: float, where: str) -> None:
+        lw = self.args.get("line_width", 0)
+        lw = max(lw) if isinstance(lw, list) else float(lw)
+        if lw > max(width, height):
+            raise ConfigError(f"{where}.args.line_width: a {lw} m line does not fit its parent ({width} x {height} m)")
 
     def max_children(self, w: float, h: float, parents: float, area: float) -> float:
         # per path a strip and a leftover band; the line, two material strips and their bands

@@ -29,7 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ..errors import ConfigError, did_you_mean
 from ..resources import read_json, resolve
-from ..scene_options import check_scene_options
+from ..scene_options import scene_options
 from .generators import GENERATORS, Generator, get_generator
 from .model import ORIENTATIONS, RegionType
 from .providers import OrientationProvider, TypeProvider
@@ -274,27 +274,11 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
                 for t in orient.values:
                     known(t, f"{where}.orientation.face")
             if i == 0 and tname == spec.root.type:
-                _check_fits(rule, spec.root, f"{source}: {where}")
+                gen.check_fits(spec.root.width, spec.root.height, f"{source}: {where}")
             rules[tname] = Rule(gen, rule.generator, providers, orient)
         levels.append(rules)
-    check_scene_options(spec.scene, f"{source}: $.scene")
+    scene_options(spec.scene, f"{source}: $.scene")   # checked here, typed where it is used
     return Strategy(spec.name, spec.root, types, levels, spec.scene, source, spec.merge.l_shape)
-
-
-def _check_fits(rule: RuleSpec, root: RootSpec, where: str) -> None:
-    a = rule.args
-    big, small = max(root.width, root.height), min(root.width, root.height)
-    if rule.generator == "grid" and isinstance(a.get("cell"), list) and len(a["cell"]) == 2:
-        cw, ch = sorted(float(c) for c in a["cell"])
-        if ch > big or cw > small:
-            raise ConfigError(f"{where}.args.cell: a {a['cell'][0]} x {a['cell'][1]} m cell is larger than its "
-                              f"parent ({root.width} x {root.height} m)")
-    if rule.generator == "assembly_line":
-        lw = a.get("line_width", 0)
-        lw = max(lw) if isinstance(lw, list) else float(lw)
-        if lw > big:
-            raise ConfigError(f"{where}.args.line_width: a {lw} m line does not fit its parent "
-                              f"({root.width} x {root.height} m)")
 
 
 def _culprit(cls, args: dict[str, Any], where: str) -> str:

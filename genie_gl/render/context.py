@@ -1,43 +1,47 @@
-"""OpenGL contexts: the only module that creates them.
+"""OpenGL contexts: the only module that creates them, and the one place a platform is chosen.
 
-``create_context(backend)`` returns a :class:`GLContext` holding a moderngl context on
+``create_context(backend)`` returns a :class:`GLContext` holding a moderngl context started by
+one of the platforms of :mod:`genie_gl.render.platforms` (one module each behind a small
+interface, :class:`~genie_gl.render.platforms.base.Platform`):
 
 * ``"egl"`` — surfaceless EGL (Mesa llvmpipe on a CPU box, NVIDIA's EGL on a GPU box), the
   default; or
-* ``"osmesa"`` — Mesa's off-screen renderer (Debian's libosmesa6), loaded with ctypes and
-  adopted by moderngl; a fallback several times slower than llvmpipe through EGL.
+* ``"osmesa"`` — Mesa's off-screen renderer, a fallback several times slower than llvmpipe
+  through EGL.
 
-``backend=None`` tries EGL, then OSMesa. The environment variable ``GENIE_GL_BACKEND`` is read
-by the CLI, never here. When nothing starts, :class:`BackendUnavailableError` says what was
-tried and which Debian packages fix it.
-
-A process forked after it started EGL cannot render through EGL: the driver's threads (Mesa's
-rasterizer, NVIDIA's) stay in the parent, and the child's first read-back waits for them
-forever. In such a child ``backend=None`` goes straight to OSMesa (a separate driver instance,
-started in the child) and ``"egl"`` raises; :func:`shared_context` never hands a child its
-parent's contexts. The package's own worker pools spawn, so this concerns callers that fork.
+``backend=None`` takes the process's default (:func:`set_default_backend`, which the CLI calls
+with ``GENIE_GL_BACKEND``: the environment is read there, never here), else tries every
+platform in order. A platform that cannot start in this process says why
+(:meth:`~genie_gl.render.platforms.base.Platform.unusable`: EGL in a child forked after its
+parent started EGL) and the next is tried; a named one raises. When nothing starts,
+:class:`BackendUnavailableError` says what was tried and which Debian packages fix it.
+:func:`shared_context` never hands a forked child its parent's contexts. The package's own
+worker pools spawn, and hand their workers the backend chosen here
+(:func:`default_backend`).
 """
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import logging
 import os
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-import glcontext
 import moderngl
 
 from ..errors import BackendUnavailableError, ConfigError
+from .platforms import PLATFORMS, Platform
 
 log = logging.getLogger(__name__)
 
-BACKENDS = ("egl", "osmesa")
+BACKENDS = tuple(PLATFORMS)
 APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6"
 
 _default_backend: str | None = None  # set once by the CLI from GENIE_GL_BACKEND
-_egl_pid: int | None = None          # the process that started EGL (its driver threads live there)
+
+_LIVE: dict[int, "GLContext"] = {}          # contexts created in this process, not yet released
+_CREATED = [0]                                # how many this process has created
 
 GL_LOWER_LEFT = 0x8CA1
 GL_ZERO_TO_ONE = 0x935F
@@ -51,29 +55,51 @@ class GLContext:
     Attributes
     ----------
     ctx : moderngl.Context
-    backend : str, "egl" or "osmesa".
+    platform : Platform, the platform that started it.
     renderer : str, the GL_RENDERER string (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
     """
 
     ctx: moderngl.Context
-    backend: str
+    platform: Platform
     renderer: str
-    _get_proc: Callable[[bytes], int] = field(repr=False)
-    _keepalive: list[Any] = field(default_factory=list, repr=False)
     programs: dict = field(default_factory=dict, repr=False)  # built shaders, shared by renderers
     _subpixel_bits: int | None = field(default=None, repr=False)
 
+    @property
+    def backend(self) -> str:
+        """The platform's name: "egl" or "osmesa"."""
+        return self.platform.name
+
+    def current(self) -> AbstractContextManager:
+        """A context manager making this context current around a call, where the platform
+        needs it (EGL: so that other GL users of the process cannot leave theirs current)."""
+        return self.platform.current(self.ctx)
+
     def gl_function(self, name: str, restype: Any, *argtypes: Any) -> Callable[..., Any]:
         """A ctypes binding of a GL entry point moderngl does not expose (e.g. glClipControl)."""
-        address = self._get_proc(name.encode())
+        address = self.platform.proc_address(name.encode())
         if not address:
             raise BackendUnavailableError(f"{self.backend}: GL function {name} is not available")
         return ctypes.CFUNCTYPE(restype, *argtypes)(address)
 
+    def reset(self) -> None:
+        """Put the state a renderer sets back to GL's defaults (no depth test or face culling,
+        depth function "<", counter-clockwise front faces, the default framebuffer bound)."""
+        with self.current():
+            self.ctx.detect_framebuffer(0).use()
+            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+            self.ctx.depth_func = "<"
+            self.ctx.front_face = "ccw"
+
+    def error(self) -> str:
+        """GL's error flag ("GL_NO_ERROR" when none), read (and so cleared) in this context."""
+        with self.current():
+            return self.ctx.error
+
     @property
     def max_side(self) -> int:
         """The largest frame side (px) this context can render: the least of its texture,
-        renderbuffer and viewport limits."""
+        renderbuffer and viewport limits (call with the context current)."""
         info = self.ctx.info
         dims = info.get("GL_MAX_VIEWPORT_DIMS") or (0, 0)
         sides = [info.get("GL_MAX_TEXTURE_SIZE"), info.get("GL_MAX_RENDERBUFFER_SIZE"), *dims]
@@ -91,18 +117,24 @@ class GLContext:
 
     def release(self) -> None:
         """Free the context and everything created in it."""
+        _LIVE.pop(id(self), None)
         self.programs.clear()
         self.ctx.release()
-        self._keepalive.clear()
+        self.platform.release()
 
 
 def set_default_backend(backend: str | None) -> None:
     """The backend ``create_context(None)`` uses in this process (the CLI passes
-    ``GENIE_GL_BACKEND`` here; worker processes inherit the variable and do the same)."""
+    ``GENIE_GL_BACKEND`` here; worker pools pass their parent's to their workers)."""
     global _default_backend
     if backend is not None and backend not in BACKENDS:
         raise ConfigError(f"GENIE_GL_BACKEND={backend!r} is unknown; expected one of {', '.join(BACKENDS)}")
     _default_backend = backend or None
+
+
+def default_backend() -> str | None:
+    """The backend ``create_context(None)`` uses in this process (None: the first that starts)."""
+    return _default_backend
 
 
 def create_context(backend: str | None = None, *, device_index: int = 0) -> GLContext:
@@ -110,7 +142,7 @@ def create_context(backend: str | None = None, *, device_index: int = 0) -> GLCo
 
     Parameters
     ----------
-    backend : "egl", "osmesa" or None (try EGL, then OSMesa).
+    backend : "egl", "osmesa" or None (the process's default, else EGL, then OSMesa).
     device_index : int, the EGL device (GPU) to use on multi-GPU machines.
     """
     backend = backend or _default_backend
@@ -118,12 +150,23 @@ def create_context(backend: str | None = None, *, device_index: int = 0) -> GLCo
         raise ConfigError(f"GL backend {backend!r} is unknown; expected one of {', '.join(BACKENDS)}")
     tried: list[str] = []
     for name in [backend] if backend else list(BACKENDS):
+        platform = PLATFORMS[name]()
+        why = platform.unusable()
+        if why is not None:
+            if backend:
+                raise BackendUnavailableError(why)
+            tried.append(f"{name}: {why}")
+            continue
         try:
-            gl = _EGL(device_index) if name == "egl" else _osmesa()
-            log.debug("GL context on %s: %s", name, gl.renderer)
-            return gl
-        except Exception as exc:  # each backend fails in its own way; report them all
+            ctx = platform.start(device_index)
+        except Exception as exc:  # each platform fails in its own way; report them all
             tried.append(f"{name}: {type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else ''}")
+            continue
+        gl = GLContext(ctx, platform, ctx.info["GL_RENDERER"])
+        _LIVE[id(gl)] = gl
+        _CREATED[0] += 1
+        log.debug("GL context on %s: %s", name, gl.renderer)
+        return gl
     raise BackendUnavailableError(
         "no OpenGL backend could start (tried " + "; ".join(tried) + "). "
         f"On Debian/Ubuntu install the Mesa libraries: `{APT_HINT}`; on an NVIDIA machine "
@@ -156,77 +199,24 @@ def shared_context(backend: str | None = None) -> GLContext:
     return gl
 
 
+def live_contexts() -> list[GLContext]:
+    """The contexts this process created and has not released (the test suite checks them)."""
+    return list(_LIVE.values())
+
+
+def contexts_created() -> int:
+    """How many contexts this process has created (the test suite checks that a test of a
+    stage that needs no GL starts none)."""
+    return _CREATED[0]
+
+
+def is_shared(gl: GLContext) -> bool:
+    """True for a context :func:`shared_context` holds (it outlives its renderers on purpose)."""
+    return any(gl is s for s in _SHARED.values())
+
+
 def release_shared_contexts() -> None:
     """Release the contexts :func:`shared_context` made in this process."""
     _forget_parents_contexts()
     while _SHARED:
         _SHARED.popitem()[1].release()
-
-
-def _EGL(device_index: int) -> GLContext:
-    global _egl_pid
-    if _egl_pid not in (None, os.getpid()):
-        raise BackendUnavailableError(f"EGL was started in process {_egl_pid}, which forked this one "
-                                      f"({os.getpid()}): its driver threads are not here")
-    ctx = moderngl.create_context(standalone=True, backend="egl", require=330, device_index=device_index)
-    _egl_pid = os.getpid()
-    lib = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
-    lib.eglGetProcAddress.restype = ctypes.c_void_p
-    lib.eglGetProcAddress.argtypes = [ctypes.c_char_p]
-    return GLContext(ctx, "egl", ctx.info["GL_RENDERER"], lib.eglGetProcAddress, [lib])
-
-
-class _OSMesaLoader:
-    """What moderngl asks of a glcontext backend, for an OSMesa context made current here."""
-
-    def __init__(self, lib: ctypes.CDLL, handle: int) -> None:
-        self.lib, self.handle = lib, handle
-
-    def load_opengl_function(self, name: str) -> int:
-        return self.lib.OSMesaGetProcAddress(name.encode()) or 0
-
-    load = load_opengl_function
-
-    def __enter__(self) -> "_OSMesaLoader":
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        return None
-
-    def release(self) -> None:
-        if self.handle:
-            self.lib.OSMesaDestroyContext(self.handle)
-            self.handle = 0
-
-
-def _osmesa() -> GLContext:
-    # Mesa's OSMesa through ctypes (no PyOpenGL platform switch needed, so it works in a
-    # process that already imported PyOpenGL for EGL).
-    path = ctypes.util.find_library("OSMesa") or "libOSMesa.so.8"
-    lib = ctypes.CDLL(path)
-    lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
-    lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
-    lib.OSMesaMakeCurrent.restype = ctypes.c_ubyte
-    lib.OSMesaMakeCurrent.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_int]
-    lib.OSMesaGetProcAddress.restype = ctypes.c_void_p
-    lib.OSMesaGetProcAddress.argtypes = [ctypes.c_char_p]
-    lib.OSMesaDestroyContext.argtypes = [ctypes.c_void_p]
-    # OSMESA_FORMAT=RGBA, DEPTH_BITS=24, PROFILE=CORE, CONTEXT_MAJOR/MINOR_VERSION=3.3 (osmesa.h)
-    attribs = (ctypes.c_int * 11)(0x22, 0x1908, 0x30, 24, 0x33, 0x34, 0x36, 3, 0x37, 3, 0)
-    handle = lib.OSMesaCreateContextAttribs(attribs, None)
-    if not handle:
-        raise BackendUnavailableError(f"{path}: OSMesaCreateContextAttribs (core 3.3) returned NULL")
-    buf = (ctypes.c_ubyte * 4)()  # OSMesa needs a colour buffer; we render into our own FBOs
-    if not lib.OSMesaMakeCurrent(handle, buf, 0x1401, 1, 1):
-        lib.OSMesaDestroyContext(handle)
-        raise BackendUnavailableError(f"{path}: OSMesaMakeCurrent failed")
-    loader = _OSMesaLoader(lib, handle)
-    # moderngl adopts the current context through glcontext's default backend: point it at
-    # OSMesa for the duration of this call only.
-    saved = glcontext.default_backend
-    glcontext.default_backend = lambda: (lambda *a, **k: loader)
-    try:
-        ctx = moderngl.create_context(require=330, libgl=path)
-    finally:
-        glcontext.default_backend = saved
-    return GLContext(ctx, "osmesa", ctx.info["GL_RENDERER"], lib.OSMesaGetProcAddress, [lib, buf, loader])

@@ -12,7 +12,6 @@ import ctypes
 import threading
 import time
 from collections.abc import Collection, Iterable, Iterator, Sequence
-from contextlib import nullcontext
 from typing import Any
 
 import moderngl
@@ -129,13 +128,13 @@ class Renderer:
         self.stats: dict[str, float] = {}
 
     def _current(self) -> Any:
-        # EGL contexts are made current around every call, so other GL users in the process
-        # (pyrender, a second Renderer) cannot leave theirs current under us.
+        # made current around every call where the platform needs it (EGL), so other GL users
+        # in the process (pyrender, a second Renderer) cannot leave theirs current under us
         if threading.get_ident() != self._thread:
             raise RenderError("a Renderer is used from a thread other than the one that made it; its GL context "
                               "belongs to that thread: make one Renderer per thread (or use gg.capture(..., "
                               "workers=N), which renders in processes)")
-        return self.ctx if self.gl.backend == "egl" else nullcontext()
+        return self.gl.current()
 
     # -- scene upload ------------------------------------------------------------------------
     def _upload(self, scene: Scene) -> None:

@@ -32,7 +32,7 @@ import numpy as np
 from ..checks import check_seed, expect
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
-from ..scene_options import check_scene_options
+from ..scene_options import SceneOptions, scene_options
 from .assets import library as lib
 from .assets.catalogue import ASSETS, Catalogue
 from .materials import class_material
@@ -66,7 +66,7 @@ def _footprint(bounds: np.ndarray, yaw: float) -> tuple[float, float]:
 
 
 class SceneBuilder:
-    def __init__(self, layout: Layout, options: dict[str, Any], assets: Catalogue, *,
+    def __init__(self, layout: Layout, options: SceneOptions, assets: Catalogue, *,
                  rng: np.random.Generator) -> None:
         self.layout, self.opt, self.rng, self.assets = layout, options, rng, assets
         self.scene = Scene(metadata={"layout": layout.meta})
@@ -89,7 +89,7 @@ class SceneBuilder:
 
     def color(self, cls: str) -> tuple[int, int, int]:
         base = BASE_COLOR.get(cls, (160, 160, 160))
-        if not self.opt.get("color"):
+        if not self.opt.color:
             return base
         # per channel in plain floats (once per instance): the array form's operations and bits
         gain, noise = self.rng.uniform(0.75, 1.15), self.rng.normal(0, 12, 3).tolist()
@@ -108,15 +108,15 @@ class SceneBuilder:
         f = lib.floor(w, h)
         self.scene.add(self.scene.add_mesh(f, "floor"), _transform(0, x0, y0), semantic=0,
                        color=BASE_COLOR["floor"], name="floor", material=self.material("floor"))
-        if self.opt.get("walls"):
-            t, H = 0.2, float(self.opt.get("wall_height_m", 5.0))
+        if self.opt.walls:
+            t, H = 0.2, float(self.opt.wall_height_m)
             for i, (sx, sy, cx, cy) in enumerate([(w + 2 * t, t, w / 2, -t / 2), (w + 2 * t, t, w / 2, h + t / 2),
                                                   (t, h, -t / 2, h / 2), (t, h, w + t / 2, h / 2)]):
                 m = lib.box([sx, sy, H], [0, 0, H / 2])
                 self.scene.add(self.scene.add_mesh(m, f"wall_{i}"), _transform(0, x0 + cx, y0 + cy),
                                semantic=0, color=BASE_COLOR["wall"], name=f"wall_{i}",
                                material=self.material("wall"))
-        spacing = float(self.opt.get("columns", 0) or 0)
+        spacing = float(self.opt.columns)
         if spacing > 0:
             key = self.scene.add_mesh(lib.column(), "column")
             k = 0
@@ -138,7 +138,7 @@ class SceneBuilder:
         classes = GROUPS[group]
         if not classes:
             return
-        if self.opt.get("dropout") and self.rng.random() < float(self.opt["dropout"]):
+        if self.opt.dropout and self.rng.random() < float(self.opt.dropout):
             return
         fill = rtype.fill or {}
         _check_load(reg.type, fill.get("load"))
@@ -206,13 +206,13 @@ class SceneBuilder:
         options ask for kept inside it. Instance names end in ``_<region index>_<layer>``."""
         v, yaw, fw, fd = choice
         cx, cy = slot.centre
-        jit = self.opt.get("jitter")
-        if jit:
+        if self.opt.jitters:
+            jit = self.opt.jitter
             slack_x, slack_y = (slot.w - fw) / 2, (slot.h - fd) / 2
-            cx += min(max(float(self.rng.normal(0, jit.get("position_m", 0.0))), -slack_x), slack_x)  # np.clip's rule
-            cy += min(max(float(self.rng.normal(0, jit.get("position_m", 0.0))), -slack_y), slack_y)
+            cx += min(max(float(self.rng.normal(0, jit.position_m)), -slack_x), slack_x)  # np.clip's rule
+            cy += min(max(float(self.rng.normal(0, jit.position_m)), -slack_y), slack_y)
             # a yaw turn must keep the turned footprint inside: only where there is room
-            dyaw = float(self.rng.normal(0, jit.get("yaw_rad", 0.0)))
+            dyaw = float(self.rng.normal(0, jit.yaw_rad))
             diag = np.hypot(fw, fd) / 2
             if diag <= min(slot.w / 2 - abs(cx - slot.centre[0]), slot.h / 2 - abs(cy - slot.centre[1])):
                 yaw += dyaw
@@ -220,13 +220,13 @@ class SceneBuilder:
         layers = 1
         if cls in lib.STACKABLE and fill.get("stack_m") is not None:
             layers = max(1, int(_span(fill["stack_m"], rng=self.rng) // (height + 0.001)))
-        elif self.opt.get("stack") and cls in lib.STACKABLE:
-            limit = float(self.opt.get("stack_height_m", 1.6))
+        elif self.opt.stack and cls in lib.STACKABLE:
+            limit = float(self.opt.stack_height_m)
             max_layers = max(1, int(limit // height))
             layers = int(self.rng.integers(1, max_layers + 1))
         for k in range(layers):
             self._put(cls, v, yaw, cx, cy, k * (height + 0.001), f"{base}_{i}_{k}")
-        if cls == "pallet" and self.opt.get("clutter") and self.rng.random() < float(self.opt["clutter"]):
+        if cls == "pallet" and self.opt.clutter and self.rng.random() < float(self.opt.clutter):
             self._put("klt", "6428", yaw, cx, cy, layers * (height + 0.001), f"{base}_{i}_klt")
         if cls == "rack" and fill.get("load"):
             self._load(v, yaw, cx, cy, fill["load"], base, i)
@@ -333,9 +333,9 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
     expect(layout, Layout, "build_scene: layout")
     seed = check_seed(seed, "build_scene: seed")
     segments = lib.check_segments(segments, "build_scene")
-    opts = check_scene_options(layout.meta.get("scene", {}) if options is None else options,
-                               "build_scene options" if options is not None else "layout scene options")
-    cat = _with_assets(opts.get("assets"), ASSETS if assets is None else assets)
+    opts = scene_options(layout.meta.get("scene", {}) if options is None else options,
+                         "build_scene options" if options is not None else "layout scene options")
+    cat = _with_assets(opts.asset_entries(), ASSETS if assets is None else assets)
     if segments is not None:
         cat = cat.copy(segments=segments)
     b = SceneBuilder(layout, opts, cat, rng=np.random.default_rng(seed) if rng is None else rng)

@@ -18,6 +18,7 @@ An effect answers three questions:
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -76,8 +77,13 @@ class Effect:
     Class flags ask ``simulate`` for more than the ideal frame: ``needs_normals`` (rendered
     normals), ``needs_render`` (``render_depth=``, a depth render from any pose),
     ``needs_materials`` (``materials=``, the scene's
-    :class:`~genie_gl.scene.materials.MaterialTable`). ``cost_ms_per_mpx`` is the planner's
-    estimate of the effect's time per million pixels on this machine class (llvmpipe host).
+    :class:`~genie_gl.scene.materials.MaterialTable`); and the planner: ``needs_convexity``
+    (whether each instance's mesh is convex, in :class:`View`, when one object is in view).
+    ``cost_ms_per_mpx`` is the planner's estimate of the effect's time per million pixels on
+    this machine class (llvmpipe host). ``accuracy_knobs`` maps the fields of
+    :class:`~genie_gl.sensors.accuracy.AccuracySettings` that set one of the effect's
+    parameters to that parameter (the capture applies them; ``genie bench accuracy`` turns
+    them); :meth:`knob_unused` says when one changes nothing.
     """
 
     name: ClassVar[str] = ""
@@ -85,7 +91,9 @@ class Effect:
     needs_normals: ClassVar[bool] = False
     needs_render: ClassVar[bool] = False
     needs_materials: ClassVar[bool] = False
+    needs_convexity: ClassVar[bool] = False
     cost_ms_per_mpx: ClassVar[float] = 10.0
+    accuracy_knobs: ClassVar[Mapping[str, str]] = {}
 
     def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         raise NotImplementedError
@@ -109,6 +117,16 @@ class Effect:
         """The planner's estimate (ms per million pixels) for ``sensor``: ``cost_ms_per_mpx``
         unless the effect's method depends on the sensor."""
         return float(self.cost_ms_per_mpx)
+
+    def knob_unused(self, knob: str, sensor: Any) -> str | None:
+        """Why the accuracy knob ``knob`` (a key of ``accuracy_knobs``) changes nothing on
+        ``sensor`` (one sentence), or None when it acts."""
+        return None
+
+    def range_m(self) -> tuple[float, float] | None:
+        """The (min, max) range in metres of the returns this effect lets through, when it
+        bounds them to a finite interval (the placement mounts cameras for it); else None."""
+        return None
 
     def reach_m(self, sensor: Any) -> float | None:
         """The farthest depth (m) whose surfaces can still change this effect's output, or

@@ -52,6 +52,9 @@ class RangeLimits(Effect):
             return f"every return lies inside [{self.min_m}, {self.max_m}] m"
         return None
 
+    def range_m(self) -> tuple[float, float] | None:
+        return (float(self.min_m), float(self.max_m)) if np.isfinite(self.max_m) else None
+
     def reach_m(self, sensor: Any) -> float | None:
         return float(self.max_m)
 
@@ -71,7 +74,7 @@ class DepthNoise(Effect):
     Parameters
     ----------
     model : "kinect_nguyen2012", "stereo" or "tof_linear".
-    baseline_m : stereo baseline b; None = the calibration's (``sensor.meta["baseline_m"]``,
+    baseline_m : stereo baseline b; None = the calibration's (``sensor.stereo.baseline_m``,
         from its stereo T), else 0.05.
     subpixel : σ_d in pixels (stereo); None = derived from the calibration, see
         :meth:`sigma_d_px`.
@@ -79,6 +82,9 @@ class DepthNoise(Effect):
     a_m, b, z0_m : tof_linear coefficients.
     incidence : kinect_nguyen2012 only: add Nguyen's θ > 60° term (needs normals; θ is
         clamped to 85°, where the term, 0.029/√z m, already dwarfs the rest).
+    fused : stereo, tof_linear: draw inside the compiled pass (default); False: the reference
+        computation, numpy's ``rng.standard_normal(n)`` before the pass: the same bytes, slower
+        (``genie bench planning`` times both).
     """
 
     name: ClassVar[str] = "depth_noise"
@@ -92,6 +98,7 @@ class DepthNoise(Effect):
     b: float = 0.001
     z0_m: float = 0.5
     incidence: bool = True
+    fused: bool = True
 
     def __post_init__(self) -> None:
         if self.model not in ("kinect_nguyen2012", "stereo", "tof_linear"):
@@ -111,8 +118,8 @@ class DepthNoise(Effect):
         """b in metres: the profile's, else the calibration's, else 0.05."""
         if self.baseline_m is not None:
             return float(self.baseline_m)
-        meta = sensor.meta if sensor is not None else {}
-        return float(meta.get("baseline_m", DEFAULT_BASELINE_M))
+        stereo = getattr(sensor, "stereo", None)
+        return DEFAULT_BASELINE_M if stereo is None else float(stereo.baseline_m)
 
     def sigma_d_px(self, sensor: Sensor | None = None) -> float:
         """σ_d, the disparity noise in pixels: ``subpixel`` when the profile sets it; else from
@@ -126,7 +133,7 @@ class DepthNoise(Effect):
         """
         if self.subpixel is not None:
             return float(self.subpixel)
-        rms = (sensor.meta if sensor is not None else {}).get("reprojection_error_px")
+        rms = getattr(sensor, "reprojection_error_px", None)
         return DEFAULT_SIGMA_D_PX if rms is None else float(rms)
 
     def sigma(self, z: np.ndarray, f_px: float | None = None, theta: np.ndarray | None = None,
@@ -162,6 +169,17 @@ class DepthNoise(Effect):
         theta[cand] = np.arccos(np.clip(cos[cand], 0.0, 1.0))
         return theta
 
+    def apply_reference(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
+        """The compiled models with their draws made first by numpy (``rng.standard_normal``,
+        one per return, row-major): what the fused pass computes, draw for draw."""
+        draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
+        if self.model == "stereo":
+            depth, lost = kernels.stereo_noise(frame.depth, draws, frame.sensor.fx * self.baseline(frame.sensor),
+                                               self.sigma_d_px(frame.sensor), float(self.subpixel_step))
+        else:
+            depth, lost = kernels.linear_noise(frame.depth, draws, float(self.a_m), float(self.b), float(self.z0_m))
+        return self._noisy(frame, depth, lost, int(np.count_nonzero(depth != frame.depth)))
+
     def _noisy(self, frame: Frame, depth: np.ndarray, lost: int, changed: int) -> Frame:
         """``frame`` with the compiled pass's depth; the returns it lost dropped (ids 0); the
         pixels it changed recorded for ``simulate``."""
@@ -170,6 +188,8 @@ class DepthNoise(Effect):
         return record(out, self.name, changed=int(changed))
 
     def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
+        if not self.fused and self.model in ("stereo", "tof_linear"):
+            return self.apply_reference(frame, rng=rng)
         if self.model == "stereo":   # one compiled pass drawing from rng: the draws as below
             fb = frame.sensor.fx * self.baseline(frame.sensor)
             depth, lost, changed = kernels.stereo_noise_rng(frame.depth, rng, fb, self.sigma_d_px(frame.sensor),

@@ -33,6 +33,7 @@ from ..checks import check_seed, expect, finite_number, whole_number
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region, RegionType
 from ..limits import MAX_CAMERAS
+from ..scene_options import scene_options
 from . import coverage
 from .floor import furnished_rects, outside_rects
 from .camera import Sensor
@@ -62,22 +63,25 @@ class Mount:
 
 
 def sensor_range(sensor) -> tuple[float, float] | None:
-    """(min, max) range of the sensor's ``range`` effect, or None when it has none."""
+    """(min, max) range of the returns the sensor's effects let through (the first effect that
+    bounds them, :meth:`Effect.range_m`: the ``range`` effect), or None when none does."""
     for eff in getattr(sensor, "effects", ()):
-        if eff.name == "range" and np.isfinite(eff.max_m):
-            return float(eff.min_m), float(eff.max_m)
+        bounds = eff.range_m()
+        if bounds is not None:
+            return bounds
     return None
 
 
 def layout_ceiling(layout: Layout) -> float:
     """The hall's height: the strategy's wall height when it builds walls, else the default."""
-    return ceiling_of(layout.meta.get("scene", {}) if isinstance(layout.meta, dict) else {})
+    return ceiling_of(layout.meta.get("scene") if isinstance(layout.meta, dict) else None)
 
 
-def ceiling_of(scene_options: dict) -> float:
-    """The hall's height from a strategy's scene options (``walls``, ``wall_height_m``)."""
-    s = scene_options or {}
-    return float(s.get("wall_height_m", DEFAULT_CEILING_M)) if s.get("walls") else DEFAULT_CEILING_M
+def ceiling_of(options: dict | None) -> float:
+    """The hall's height from a strategy's scene options (``walls``, ``wall_height_m``): the
+    wall height when it builds walls, else the default."""
+    opts = scene_options(options, "scene options")
+    return float(opts.wall_height_m) if opts.walls else DEFAULT_CEILING_M
 
 
 def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: float = MIN_MOUNT_M,

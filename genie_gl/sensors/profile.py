@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -12,22 +13,20 @@ from ..errors import ConfigError, did_you_mean
 from ..resources import read_text, resolve
 from .accuracy import PROFILE_KEYS, from_dict
 from .calibration import Calibration, read_calibration
-from .camera import Sensor
+from .camera import Sensor, Stereo
 from .effects import build_effects
 
 
-def calibration_meta(calib: Calibration) -> dict:
-    """What effects read from a calibration (``Sensor.meta``): ``calibration`` (its path),
-    ``baseline_m``, ``stereo_R`` and ``stereo_T`` (``X2 = R·X1 + T``) when it is a stereo
-    calibration, ``reprojection_error_px`` (OpenCV's RMS) when it has one."""
-    meta: dict = {"calibration": calib.source}
+def calibration_fields(calib: Calibration) -> dict[str, Any]:
+    """The :class:`Sensor` fields a calibration gives beside the camera: ``calibration`` (its
+    path), ``stereo`` (its R, T) when it is a stereo calibration, ``reprojection_error_px``
+    (OpenCV's RMS) when it has one."""
+    out: dict[str, Any] = {"calibration": calib.source}
     if calib.T is not None:
-        meta["baseline_m"] = calib.baseline_m
-        meta["stereo_R"] = np.eye(3) if calib.R is None else np.array(calib.R, dtype=np.float64)
-        meta["stereo_T"] = np.array(calib.T, dtype=np.float64)
+        out["stereo"] = Stereo(calib.baseline_m, np.eye(3) if calib.R is None else calib.R, calib.T)
     if calib.reprojection_error is not None:
-        meta["reprojection_error_px"] = float(calib.reprojection_error)
-    return meta
+        out["reprojection_error_px"] = float(calib.reprojection_error)
+    return out
 
 
 def load_sensor(name_or_path: str | os.PathLike, *, near_m: float = 0.05, far_m: float = 1.0e4) -> Sensor:
@@ -50,7 +49,7 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
     if "opencv-matrix" in text or text.lstrip().startswith("<?xml"):
         calib = read_calibration(path)
         return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem,
-                      meta=calibration_meta(calib), model=calib.model)
+                      model=calib.model, **calibration_fields(calib))
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -58,7 +57,7 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
     if isinstance(data, dict) and "calibration" not in data and ("cam0" in data or "camera_matrix" in data):
         calib = read_calibration(path)   # a bare ROS camera_info or Kalibr camchain
         return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem,
-                      meta=calibration_meta(calib), model=calib.model)
+                      model=calib.model, **calibration_fields(calib))
     if not isinstance(data, dict) or "calibration" not in data:
         raise ConfigError(f"{path}: a sensor profile needs a 'calibration' field (an OpenCV calibration file)")
     for key in data:
@@ -73,11 +72,13 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
     except (TypeError, ValueError):
         raise ConfigError(f"{path}: near_m and far_m must be numbers (metres), got {data.get('near_m')!r}, "
                           f"{data.get('far_m')!r}") from None
-    meta = calibration_meta(calib)
-    meta["profile"] = str(path)
-    if data.get("accuracy") is not None:   # the profile's accuracy: block (genie_gl.sensors.accuracy)
-        meta["accuracy"] = from_dict(data["accuracy"], str(path))
+    fields = calibration_fields(calib)
     if calib.T is None and data.get("baseline_m") is not None:
-        meta["baseline_m"] = float(data["baseline_m"])
+        try:
+            fields["stereo"] = Stereo(float(data["baseline_m"]))
+        except (TypeError, ValueError):
+            raise ConfigError(f"{path}: baseline_m must be a number (metres), got {data['baseline_m']!r}") from None
+    accuracy = None if data.get("accuracy") is None else from_dict(data["accuracy"], str(path))
     return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, effects,
-                  name=str(data.get("name", Path(path).stem)), meta=meta, model=calib.model)
+                  name=str(data.get("name", Path(path).stem)), model=calib.model, profile=str(path),
+                  accuracy=accuracy, **fields)

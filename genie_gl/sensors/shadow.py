@@ -38,6 +38,7 @@ analytic strip widths, a post narrower than its shadow, agreement on a cluttered
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -48,7 +49,7 @@ from ..frame import Frame
 from . import kernels
 from .camera import Sensor
 from .distortion import distortion_maps
-from .effect import Effect, drop_compiled, record
+from .effect import Effect, drop, drop_compiled, record
 from .geometry import pixel_rays
 
 METHODS = ("auto", "scanline", "render")
@@ -63,8 +64,8 @@ class StereoShadow(Effect):
     ----------
     baseline_m : offset of the second view along ``axis``, used when the calibration has no
         stereo T. The calibration's R, T (``X2 = R·X1 + T``, as ``stereoCalibrate`` writes
-        them; ``sensor.meta["stereo_R"]``, ``["stereo_T"]``) take precedence; without either,
-        a profile-level ``baseline_m`` (``sensor.meta["baseline_m"]``) is used.
+        them; ``sensor.stereo.R``, ``.T``) take precedence; without either, a profile-level
+        ``baseline_m`` (``sensor.stereo.baseline_m``) is used.
     axis : (3,) direction of the second view's centre in the camera frame (default +x: the
         right imager of a D400, the projector of a Zivid).
     scale : resolution of the second view's render relative to the sensor's (0.5: a quarter
@@ -74,21 +75,31 @@ class StereoShadow(Effect):
         the second view by more than tolerance_m + tolerance_rel·z (the render is sampled at
         the nearest pixel: the relative term absorbs the depth change across half a pixel of a
         slanted surface, up to about 75° incidence at scale 0.5).
+    second_view : "needed" (default): the render method renders the second view only when
+        the frame has an edge that can hide something from it; "always": on every frame (the
+        same bytes; how it ran before that check, ``genie bench planning``'s "before").
+    fused : True (default): the returns dropped in one compiled pass; False: the reference
+        computation, the mask then :func:`~.effect.drop` (the same bytes, slower).
     """
 
     name: ClassVar[str] = "stereo_shadow"
     needs_render: ClassVar[bool] = True
     cost_ms_per_mpx: ClassVar[float] = 120.0
+    accuracy_knobs: ClassVar[Mapping[str, str]] = {"shadow_scale": "scale", "shadow": "method"}
     baseline_m: float | None = None
     axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
     scale: float = 0.5
     tolerance_m: float = 0.005
     tolerance_rel: float = 0.02
     method: str = "auto"
+    second_view: str = "needed"
+    fused: bool = True
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ConfigError(f"stereo_shadow.method: expected {' | '.join(METHODS)}, got {self.method!r}")
+        if self.second_view not in ("needed", "always"):
+            raise ConfigError(f"stereo_shadow.second_view: expected needed | always, got {self.second_view!r}")
         a = np.asarray(self.axis, dtype=np.float64)
         if a.shape != (3,) or not np.isfinite(a).all() or np.linalg.norm(a) == 0:
             raise ConfigError(f"stereo_shadow.axis: expected a non-zero 3-vector, got {self.axis!r}")
@@ -100,13 +111,13 @@ class StereoShadow(Effect):
     def second_from_first(self, sensor: Sensor) -> np.ndarray:
         """(4, 4) camera2_from_camera1: the calibration's [R | T], else a translation of the
         baseline along ``axis``."""
-        meta = sensor.meta
+        stereo = getattr(sensor, "stereo", None)
         out = np.eye(4)
-        if meta.get("stereo_T") is not None:
-            out[:3, :3] = np.asarray(meta.get("stereo_R", np.eye(3)), dtype=np.float64).reshape(3, 3)
-            out[:3, 3] = np.asarray(meta["stereo_T"], dtype=np.float64).ravel()
+        if stereo is not None and stereo.T is not None:
+            out[:3, :3] = stereo.R
+            out[:3, 3] = stereo.T
             return out
-        b = self.baseline_m if self.baseline_m is not None else meta.get("baseline_m")
+        b = self.baseline_m if self.baseline_m is not None else (None if stereo is None else stereo.baseline_m)
         if b is None:
             raise ConfigError(f"stereo_shadow on sensor {sensor.name!r}: no baseline; give the effect "
                               "baseline_m, or a calibration with a stereo T")
@@ -142,6 +153,11 @@ class StereoShadow(Effect):
         llvmpipe host: about 1.6 ms for the pass and 0.3 ms for the drop)."""
         return SCANLINE_MS_PER_MPX if self.resolved_method(sensor) == "scanline" else float(self.cost_ms_per_mpx)
 
+    def knob_unused(self, knob: str, sensor: Sensor) -> str | None:
+        if knob == "shadow_scale" and self.resolved_method(sensor) == "scanline":
+            return f"{sensor.name}'s stereo shadow is drawn by scanline: no second view to scale (shadow: render)"
+        return None
+
     def view_sensor(self, sensor: Sensor) -> Sensor:
         """The pinhole camera of the second view's low-resolution render."""
         base = sensor
@@ -158,7 +174,10 @@ class StereoShadow(Effect):
         return Sensor(w, h, K, near_m=base.near_m, far_m=base.far_m, name=f"{sensor.name}-second-view")
 
     def casts_shadow(self, frame: Frame) -> bool:
-        """True when some depth edge can hide a point from the second view (module docstring)."""
+        """True when some depth edge can hide a point from the second view (module docstring);
+        always True with ``second_view="always"``."""
+        if self.second_view == "always":
+            return True
         b = float(np.linalg.norm(self.second_from_first(frame.sensor)[:3, 3]))
         fb = max(frame.sensor.fx, frame.sensor.fy) * b
         return bool(kernels.casts_shadow(frame.depth, fb, float(self.tolerance_m), float(self.tolerance_rel)))
@@ -181,14 +200,17 @@ class StereoShadow(Effect):
             frame.depth, pixel_rays(frame.sensor), np.ascontiguousarray(second[:3, :3]),
             np.ascontiguousarray(second[:3, 3]), view.K, view.width, view.height, float(view.near_m), depth2,
             rendered, float(self.tolerance_m), float(self.tolerance_rel))
-        out = drop_compiled(frame, gone) if occluded + outside else frame
+        out = self._drop(frame, gone) if occluded + outside else frame
         return record(out, self.name, occluded=int(occluded), outside=int(outside),
                       second_view=rendered, method="render", changed=int(occluded + outside))
+
+    def _drop(self, frame: Frame, gone: np.ndarray) -> Frame:
+        return drop_compiled(frame, gone) if self.fused else drop(frame, gone)
 
     def apply_scanline(self, frame: Frame) -> Frame:
         """The scanline method: the second view from the depth image (no render)."""
         gone, occluded, outside = kernels.scanline_shadow(
             frame.depth, float(self.scanline_shift(frame.sensor)), float(self.tolerance_m), float(self.tolerance_rel))
-        out = drop_compiled(frame, gone) if occluded + outside else frame
+        out = self._drop(frame, gone) if occluded + outside else frame
         return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=False,
                       method="scanline", changed=int(occluded + outside))

@@ -50,13 +50,15 @@ def _changed(a: Frame, b: Frame) -> int:
 
 def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.random.Generator,
              resample: str = "exact", oversample: float | None = None, materials: Any = None,
-             plan: Any = None) -> Frame:
+             plan: Any = None, decide: bool = True) -> Frame:
     """Render ``sensor`` at ``pose`` (world_from_camera) and apply its effects in order.
 
     ``resample`` and ``oversample``: how a distorted sensor's image is made from its pinhole
     views (see :mod:`.distortion`; ignored for a pinhole sensor). ``materials``: the scene's
     MaterialTable (effects that need it get it); ``plan``: this frame's
-    :class:`~genie_gl.capture.FramePlan` (None: every effect is decided on the frame).
+    :class:`~genie_gl.capture.FramePlan` (None: every effect is decided on the frame);
+    ``decide`` False: no effect is asked whether the frame calls for it, every one runs (the
+    same output: the pipeline before the planner, for comparison).
     """
     only = None if plan is None else plan.drawn
     far = None if plan is None else plan.far_m
@@ -106,7 +108,7 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
             needs["materials"] = materials
         reason = decided.reason if decided is not None else None
         run = decided.run if decided is not None else True
-        if run:
+        if run and decide:
             why = eff.check(frame, **needs)
             if why is not None:
                 run, reason = False, why

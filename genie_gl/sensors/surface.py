@@ -169,6 +169,7 @@ class Multipath(Effect):
 
     name: ClassVar[str] = "multipath"
     needs_normals: ClassVar[bool] = True
+    needs_convexity: ClassVar[bool] = True
     cost_ms_per_mpx: ClassVar[float] = 300.0
     bias_m: float = 0.01
     radius_px: int = 8

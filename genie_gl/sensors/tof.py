@@ -34,6 +34,7 @@ phasors. Everything here mixes in that phase domain, at the profile's modulation
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -166,7 +167,9 @@ class TofMultipath(Effect):
     name: ClassVar[str] = "tof_multipath"
     needs_normals: ClassVar[bool] = True
     needs_materials: ClassVar[bool] = True
+    needs_convexity: ClassVar[bool] = True
     cost_ms_per_mpx: ClassVar[float] = 400.0
+    accuracy_knobs: ClassVar[Mapping[str, str]] = {"multipath_samples": "samples"}
     frequency_mhz: float = 16.0
     samples: int = 32
     stride: int = 8

@@ -8,6 +8,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.render.projection import look_at
 from genie_gl.scene.materials import MaterialTable
+from genie_gl.sensors.camera import Stereo
 from genie_gl.scene.model import Material
 from genie_gl.sensors import simulate
 from genie_gl.sensors.edges import EdgeDropout, FlyingPixels
@@ -52,7 +53,7 @@ def table(*materials):
 
 def simulated(eff, f, materials=None, seed=0):
     """(simulate's frame and record, the forced run's frame, both generators after)."""
-    sensor = gg.Sensor(f.sensor.width, f.sensor.height, f.sensor.K, effects=(eff,), meta={"baseline_m": 0.05})
+    sensor = gg.Sensor(f.sensor.width, f.sensor.height, f.sensor.K, effects=(eff,), stereo=Stereo(0.05))
     rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
     out = simulate(sensor, np.eye(4), render=lambda s, p, **kw: f.replace(sensor=s), rng=rng_a,
                    materials=materials)
@@ -141,6 +142,7 @@ def captured(scene, sensor, pose, seed=3):
     return planned, unplanned
 
 
+@pytest.mark.gl
 def test_multipath_skipped_on_a_matte_convex_object_and_the_frame_is_identical():
     sensor = tof(RangeLimits(min_m=0.5, max_m=4.0), TofMultipath(samples=64), DepthNoise(model="tof_linear"))
     scene = sphere_scene()
@@ -156,6 +158,7 @@ def test_multipath_skipped_on_a_matte_convex_object_and_the_frame_is_identical()
     assert {e["name"]: e["run"] for e in planned.meta["effects"]}["tof_multipath"] is False
 
 
+@pytest.mark.gl
 def test_multipath_in_a_metallic_inner_corner_pushes_depth_away_never_closer():
     eff = TofMultipath(samples=64)
     scene = corner_scene()
@@ -175,6 +178,7 @@ def test_multipath_in_a_metallic_inner_corner_pushes_depth_away_never_closer():
     assert delta[:, u_mid - 3:u_mid + 4].max() > delta[:, :5].max()
 
 
+@pytest.mark.gl
 def test_plan_level_skips_keep_output_and_rng_stream():
     """calibration_error with zero sigmas and a constant lateral noise of 0 px are skipped by
     the plan; they still draw what they would, so the noise after them is the same."""
@@ -189,6 +193,7 @@ def test_plan_level_skips_keep_output_and_rng_stream():
     assert all(e["changed"] == 0 for e in unplanned.meta["effects"][:-1])
 
 
+@pytest.mark.gl
 def test_low_albedo_and_specular_loss_run_where_the_scene_calls_for_them():
     dark = Material((0.02, 0.02, 0.02), 0.0, 0.9)
     eff = LowAlbedo(ref_albedo=0.15, ref_range_m=4.65)
@@ -208,6 +213,7 @@ def test_low_albedo_and_specular_loss_run_where_the_scene_calls_for_them():
     assert out.meta["effects"][0]["run"] and out.meta["effects"][0]["changed"] > 0
 
 
+@pytest.mark.gl
 def test_range_culling_and_empty_frames():
     sensor = tof(RangeLimits(min_m=0.5, max_m=4.0))
     scene = sphere_scene(far_one=True)
@@ -224,6 +230,7 @@ def test_range_culling_and_empty_frames():
     assert same(planned, unplanned)
 
 
+@pytest.mark.gl
 def test_stereo_shadow_renders_the_second_view_only_for_an_edge():
     flat = gg.Scene()
     flat.add(trimesh.creation.box((6.0, 6.0, 0.02)), [0.0, 0.0, 0.0], material=MATTE)

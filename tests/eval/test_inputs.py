@@ -9,9 +9,12 @@ import pytest
 import yaml
 
 from genie_gl.cli import main
+from genie_gl.commands import eval as command
 from genie_gl.errors import ConfigError
 from genie_gl.eval import evaluate, read_set
 from genie_gl.eval.classical import BoostParams
+from genie_gl.eval.protocols import PRESETS
+from genie_gl.eval.run import MODELS
 from tests.eval.toy import make_set, relabel
 
 FAST = BoostParams(max_points=20_000, rounds=30, early_stop=10)
@@ -163,3 +166,8 @@ def test_eval_writes_only_what_it_creates(tmp_path, capsys):
     assert main(args[:-5] + ["--out", str(mine), "--workers", "1", "--no-progress"]) == 2
     assert "already holds 'metrics.json', which genie-gl did not write" in capsys.readouterr().err
     assert (mine / "metrics.json").read_text() == "{}"
+
+
+def test_the_commands_names_are_the_harness_names():
+    """`genie eval --help` lists the models and presets without importing them: the same names."""
+    assert command.MODELS == MODELS and command.PRESETS == PRESETS

@@ -1,24 +1,6 @@
-"""GL fixtures: one EGL context per test process, checked for GL errors around every test."""
+"""Helpers of the render tests: exact ray casting of boxes, interior pixels (the GL fixtures
+and the guard every test runs under live in tests/conftest.py)."""
 import numpy as np
-import pytest
-
-from genie_gl.render import create_context
-
-
-@pytest.fixture(scope="session")
-def gl():
-    context = create_context("egl")
-    yield context
-    context.release()
-
-
-@pytest.fixture
-def glctx(gl):
-    with gl.ctx:
-        assert gl.ctx.error == "GL_NO_ERROR"
-    yield gl
-    with gl.ctx:
-        assert gl.ctx.error == "GL_NO_ERROR"
 
 
 def ray_dirs(sensor):

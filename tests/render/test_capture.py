@@ -113,7 +113,7 @@ def test_a_process_forked_after_egl_renders_through_osmesa(tmp_path):
     import signal
 
     from genie_gl.render import Renderer, shared_context
-    from genie_gl.render import context as glc
+    from genie_gl.render.platforms import egl
 
     scene, sensor = small_scene(), gg.Sensor.pinhole(96, 72, 80.0)
     pose = look_at([5.0, -4.0, 3.0], [0, 0, 0.5])
@@ -141,7 +141,7 @@ def test_a_process_forked_after_egl_renders_through_osmesa(tmp_path):
             os._exit(code)
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0, os.waitstatus_to_exitcode(status)
-    assert glc._egl_pid == os.getpid() and shared_context("egl") is parent_shared   # the parent's untouched
+    assert egl.started_in == os.getpid() and shared_context("egl") is parent_shared   # the parent's untouched
     c = np.load(tmp_path / "child.npz")
     child = gg.Frame(c["depth"], c["instance"], np.zeros(c["depth"].shape, np.uint16), None, sensor, pose)
     assert_matches_truth(child, scene, pose)

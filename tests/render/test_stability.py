@@ -173,7 +173,7 @@ cam1:
 """)
     s = gg.load_sensor(p)
     assert s.size == (752, 480) and s.model == "pinhole" and s.fx == pytest.approx(458.654)
-    assert s.meta["baseline_m"] == pytest.approx(0.1100772, rel=1e-5)
+    assert s.stereo.baseline_m == pytest.approx(0.1100772, rel=1e-5)
     np.testing.assert_allclose(s.dist, [-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05])
     text = p.read_text().replace("distortion_model: radtan\n  distortion_coeffs: [-0.28340811, 0.07395907, 0.00019359, "
                                  "1.76187114e-05]", "distortion_model: equidistant\n  distortion_coeffs: [0.01, 0.02, 0.0, 0.0]")

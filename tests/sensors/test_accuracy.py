@@ -54,7 +54,7 @@ def test_a_profile_carries_its_accuracy_block_and_capture_settings_apply_to_effe
                                    f"calibration: {src.parent / 'realsense_d435.calib.yml'}")
     (tmp_path / "d435.yaml").write_text(text + "accuracy:\n  supersample: 2\n  shadow_scale: 0.25\n")
     sensor = load_sensor(tmp_path / "d435.yaml")
-    acc = sensor.meta["accuracy"]
+    acc = sensor.accuracy
     assert acc == AccuracySettings(supersample=2, shadow_scale=0.25)
     shadow = [e for e in apply_to_sensor(sensor, acc).effects if e.name == "stereo_shadow"]
     assert shadow[0].scale == 0.25

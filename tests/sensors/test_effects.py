@@ -7,13 +7,14 @@ from genie_gl.sensors import simulate
 from genie_gl.sensors.edges import EdgeDropout, FlyingPixels
 from genie_gl.sensors.effects import EFFECTS, DepthNoise
 from genie_gl.sensors.miscalibration import CalibrationError
+from genie_gl.sensors.camera import Stereo
 from genie_gl.sensors.surface import IncidenceDropout, LateralNoise, Multipath
 
 W, H = 200, 160          # 32 000 pixels: a σ measured over them is good to ~0.4 %
 
 
-def frame(depth, f=500.0, normal=None, meta=None, instance=None):
-    s = gg.Sensor.pinhole(depth.shape[1], depth.shape[0], f, meta=meta or {})
+def frame(depth, f=500.0, normal=None, sensor_fields=None, instance=None):
+    s = gg.Sensor.pinhole(depth.shape[1], depth.shape[0], f, **(sensor_fields or {}))
     d = depth.astype(np.float32)
     inst = np.where(d > 0, 1, 0).astype(np.uint32) if instance is None else instance.astype(np.uint32)
     n = None if normal is None else np.broadcast_to(np.asarray(normal, np.float32), d.shape + (3,)).copy()
@@ -168,8 +169,8 @@ def test_calibration_error_resamples_into_the_true_camera():
 
 
 def test_sigma_d_and_baseline_come_from_the_calibration_unless_the_profile_sets_them():
-    meta = {"reprojection_error_px": 0.3, "baseline_m": 0.06}
-    f = frame(np.full((H, W), 2.0), meta=meta)
+    fields = {"reprojection_error_px": 0.3, "stereo": Stereo(0.06)}
+    f = frame(np.full((H, W), 2.0), sensor_fields=fields)
     eff = DepthNoise(model="stereo")
     assert eff.sigma_d_px(f.sensor) == 0.3 and eff.baseline(f.sensor) == 0.06
     out = eff.apply(f, rng=np.random.default_rng(0))
@@ -177,8 +178,9 @@ def test_sigma_d_and_baseline_come_from_the_calibration_unless_the_profile_sets_
     assert DepthNoise(model="stereo", subpixel=0.08).sigma_d_px(f.sensor) == 0.08
     assert DepthNoise(model="stereo").sigma_d_px(gg.Sensor.pinhole(8, 8, 10.0)) == 0.08
     d435 = gg.load_sensor("realsense_d435")
-    assert d435.meta["reprojection_error_px"] == 0.25
-    np.testing.assert_allclose(d435.meta["stereo_T"], [-0.05, 0, 0])
+    assert d435.reprojection_error_px == 0.25
+    np.testing.assert_allclose(d435.stereo.T, [-0.05, 0, 0])
+    np.testing.assert_array_equal(d435.stereo.R, np.eye(3))
 
 
 ZERO = {"lateral_noise": dict(model="constant", sigma_px=0.0), "flying_pixels": dict(probability=0.0),

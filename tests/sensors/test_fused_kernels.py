@@ -108,3 +108,47 @@ def test_nguyen_noise_is_z_plus_sigma_times_the_generators_normals():
     assert (t > np.pi / 3).sum() > 100
     np.testing.assert_array_equal(out.depth[valid], ref.astype(np.float32))   # in float64, rounded once
     assert np.abs(out.depth[valid] - d[valid]).max() > 0.01                 # noise, not the frame
+
+
+def test_the_effects_reference_computations_give_the_fused_bytes_and_record():
+    """``fused=False`` (what ``genie bench planning`` times beside the fused path) runs the
+    reference computation of the effect's own code: the same frame, byte for byte."""
+    from genie_gl.sensors.camera import Stereo
+    from genie_gl.sensors.shadow import StereoShadow
+
+    d = depth_with_holes(2, 48, 64)
+    d[10:30, 20:30] = 0.9                        # a near block: edges that cast a stereo shadow
+    sensor = gg.Sensor.pinhole(64, 48, 60.0, stereo=Stereo(0.05))
+    inst = (d > 0).astype(np.uint32)
+    frame = gg.Frame(d, inst, inst.astype(np.uint16), None, sensor, np.eye(4))
+    for fused in (DepthNoise(model="stereo", subpixel_step=1 / 32), DepthNoise(model="tof_linear"),
+                  StereoShadow(method="scanline")):
+        reference = fused.__class__(**{**vars(fused), "fused": False})
+        a, b = fused.apply(frame, rng=np.random.default_rng(5)), reference.apply(frame, rng=np.random.default_rng(5))
+        for name in ("depth", "instance", "semantic"):
+            assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), (fused.name, name)
+        assert a.meta[fused.name] == b.meta[fused.name]
+        assert (a.depth != d).any()                # the effect did change the frame
+
+
+def test_every_effect_on_every_frame_gives_the_frame_the_checks_give():
+    """``simulate(decide=False)`` (the pipeline before the planner) runs every effect the
+    checks would skip, and gives the same frame: a skip never changes the output."""
+    from genie_gl.sensors import simulate
+    from genie_gl.sensors.camera import Stereo
+    from genie_gl.sensors.effects import build_effects
+
+    effects = build_effects([{"type": "range", "min_m": 0.3, "max_m": 5.0}, {"type": "stereo_shadow"},
+                             {"type": "depth_noise", "model": "stereo"}, {"type": "edge_dropout"}], "test")
+    sensor = gg.Sensor.pinhole(64, 48, 60.0, effects=effects, stereo=Stereo(0.05))
+    for d in (depth_with_holes(3, 48, 64), np.zeros((48, 64), np.float32)):   # the second: nothing to do
+        inst = (d > 0).astype(np.uint32)
+
+        def render(s, pose, **kw):
+            return gg.Frame(d, inst, inst.astype(np.uint16), None, s, pose)
+
+        a = simulate(sensor, np.eye(4), render=render, rng=np.random.default_rng(1))
+        b = simulate(sensor, np.eye(4), render=render, rng=np.random.default_rng(1), decide=False)
+        assert a.depth.tobytes() == b.depth.tobytes() and a.instance.tobytes() == b.instance.tobytes()
+        assert all(e["run"] for e in b.meta["effects"])
+    assert not all(e["run"] for e in a.meta["effects"])   # on the empty frame the checks skip

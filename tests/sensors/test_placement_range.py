@@ -24,6 +24,7 @@ def test_the_shipped_files_are_all_here():
     assert len(STRATEGIES) >= 3 and {"realsense_d435", "azure_kinect_nfov", "zivid2_m70"} <= set(PROFILES)
 
 
+@pytest.mark.gl
 @pytest.mark.parametrize("profile", PROFILES)
 def test_every_profile_on_every_strategy_gives_frames_with_points(hall, profile):
     layout, scene = hall

@@ -7,6 +7,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.layout.model import Layout, Region, RegionType
 from genie_gl.render import Renderer
+from genie_gl.sensors.camera import Stereo
 from genie_gl.sensors import simulate
 from genie_gl.sensors.effects import DepthNoise
 from genie_gl.sensors.placement import VisibilityProblem
@@ -28,8 +29,8 @@ def box_and_wall():
         yield r
 
 
-def shadowed(r, effect, meta=None):
-    s = gg.Sensor.pinhole(320, 240, F, effects=(effect,), meta=meta or {})
+def shadowed(r, effect, stereo=None):
+    s = gg.Sensor.pinhole(320, 240, F, effects=(effect,), stereo=stereo)
     ideal = r.render(s, np.eye(4))
     out = simulate(s, np.eye(4), render=r.render, rng=np.random.default_rng(0))
     return ideal, out
@@ -54,7 +55,7 @@ def test_stereo_shadow_strip_has_the_analytic_width(box_and_wall, method):
     assert np.abs(np.array(widths) - strip).max() <= 1.5
     assert np.abs(np.array(bands) - band).max() <= 1.0
     # the same pair from a stereo calibration (X2 = X1 + T, T = (-b, 0, 0)) gives the same frame
-    stereo = {"stereo_R": np.eye(3), "stereo_T": np.array([-B, 0, 0])}
+    stereo = Stereo.from_extrinsics(np.eye(3), [-B, 0, 0])
     _, calibrated = shadowed(box_and_wall, StereoShadow(method=method), stereo)
     assert calibrated.depth.tobytes() == out.depth.tobytes()
 
@@ -132,7 +133,7 @@ def test_structured_light_profile_end_to_end():
         ideal = simulate(ideal_sensor, np.eye(4), render=r.render, rng=np.random.default_rng(0))
     wall = (ideal.depth > 0.85) & (out.depth > 0)
     assert wall.sum() > 10_000 and np.isfinite(out.depth).all()
-    expected = 0.9 ** 2 * 0.0122 / (s.fx * s.meta["baseline_m"])      # 0.1 mm
+    expected = 0.9 ** 2 * 0.0122 / (s.fx * s.stereo.baseline_m)      # 0.1 mm
     assert np.std(out.depth[wall].astype(np.float64) - ideal.depth[wall]) == pytest.approx(expected, rel=0.05)
     # the projector, 112 mm to the right, cannot light a strip left of the cube
     assert out.meta["stereo_shadow"]["occluded"] > 0 and out.meta["stereo_shadow"]["outside"] > 0

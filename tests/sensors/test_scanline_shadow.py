@@ -8,6 +8,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.render import Renderer
 from genie_gl.sensors import kernels, simulate
+from genie_gl.sensors.camera import Stereo
 from genie_gl.sensors.effect import drop
 from genie_gl.sensors.shadow import StereoShadow
 
@@ -140,16 +141,16 @@ def test_the_fused_drop_equals_the_mask_then_drop():
 
 
 def test_the_method_follows_the_pair_and_the_lens():
-    pinhole = gg.Sensor.pinhole(64, 48, 50.0, meta={"baseline_m": 0.05})
+    pinhole = gg.Sensor.pinhole(64, 48, 50.0, stereo=Stereo(0.05))
     assert StereoShadow().resolved_method(pinhole) == "scanline"
     assert StereoShadow(method="render").resolved_method(pinhole) == "render"
     # a calibration with a rotation or a vertical offset: not rectified, so rendered
     for R, T in ((np.diag([1.0, 1.0, 1.0]) + np.eye(3, k=1) * 1e-3, [-0.05, 0, 0]), (np.eye(3), [-0.05, 0.001, 0])):
-        tilted = gg.Sensor.pinhole(64, 48, 50.0, meta={"stereo_R": R, "stereo_T": np.array(T)})
+        tilted = gg.Sensor.pinhole(64, 48, 50.0, stereo=Stereo.from_extrinsics(R, T))
         assert StereoShadow().resolved_method(tilted) == "render"
         with pytest.raises(gg.ConfigError, match="scanline needs a rectified pair"):
             StereoShadow(method="scanline").resolved_method(tilted)
-    distorted = gg.Sensor(64, 48, pinhole.K, np.array([0.1, 0, 0, 0, 0]), meta={"baseline_m": 0.05})
+    distorted = gg.Sensor(64, 48, pinhole.K, np.array([0.1, 0, 0, 0, 0]), stereo=Stereo(0.05))
     assert StereoShadow().resolved_method(distorted) == "render"
     with pytest.raises(gg.ConfigError, match="stereo_shadow.method"):
         StereoShadow(method="fast")

@@ -5,6 +5,7 @@ import pytest
 
 import genie_gl as gg
 from genie_gl.sensors import Calibration, read_calibration, simulate, write_calibration
+from genie_gl.sensors.camera import Stereo
 from genie_gl.sensors.distortion import distortion_maps, project
 from genie_gl.sensors.effects import DepthNoise, RangeLimits, build_effects
 from genie_gl.sensors.placement import CoverageProblem, genetic_placement, greedy_placement
@@ -196,10 +197,10 @@ def test_shipped_profiles_load():
     for name in ("ideal_pinhole", "realsense_d435", "azure_kinect_nfov", "kinect_v2", "zivid2_m70"):
         s = gg.load_sensor(name)
         assert s.width > 0 and s.fx > 0
-    assert gg.load_sensor("realsense_d435").meta["baseline_m"] == pytest.approx(0.05)
+    assert gg.load_sensor("realsense_d435").stereo.baseline_m == pytest.approx(0.05)
     zivid = gg.load_sensor("zivid2_m70")
     # Zivid's nominal Zivid 2 M70: 1785 px at 1944x1200, projector (111.2, 0, 9.7) mm from the camera
-    assert zivid.size == (972, 600) and zivid.meta["baseline_m"] == pytest.approx(np.hypot(0.1112, 0.0097))
+    assert zivid.size == (972, 600) and zivid.stereo.baseline_m == pytest.approx(np.hypot(0.1112, 0.0097))
     assert np.degrees(2 * np.arctan(486 / zivid.fx)) == pytest.approx(57.1, abs=0.1)
     assert [e.name for e in zivid.effects] == ["range", "stereo_shadow", "specular_loss", "incidence_dropout",
                                                "depth_noise"]
@@ -276,7 +277,7 @@ def test_depth_noise_draws_one_normal_per_return(model):
 
 def test_disparity_quantisation_rounds_to_the_nearest_step_with_the_calibration_baseline():
     """z = f·b / (step · round(f·b / (z · step))), with b from the sensor's calibration."""
-    s = gg.Sensor.pinhole(200, 160, 500.0, meta={"baseline_m": 0.1})
+    s = gg.Sensor.pinhole(200, 160, 500.0, stereo=Stereo(0.1))
     z = np.linspace(0.4, 3.0, 200 * 160).reshape(160, 200)
     f = gg.Frame(z.astype(np.float32), np.ones((160, 200), np.uint32), np.ones((160, 200), np.uint16), None, s,
                  np.eye(4))
@@ -318,7 +319,7 @@ def test_sigma_models_against_the_papers_at_several_depths():
     z = np.array([0.2, 0.5, 1.0, 2.5, 6.0])
     tof = DepthNoise(model="tof_linear", a_m=0.002, b=0.004, z0_m=0.8)
     np.testing.assert_allclose(tof.sigma(z, 500.0), [0.002, 0.002, 0.0028, 0.0088, 0.0228], rtol=1e-12)
-    s = gg.Sensor.pinhole(200, 160, 400.0, meta={"baseline_m": 0.12, "reprojection_error_px": 0.3})
+    s = gg.Sensor.pinhole(200, 160, 400.0, stereo=Stereo(0.12), reprojection_error_px=0.3)
     np.testing.assert_allclose(DepthNoise(model="stereo").sigma(z, 400.0, None, s), z * z * 0.3 / (400.0 * 0.12),
                                rtol=1e-12)
     kin = DepthNoise(model="kinect_nguyen2012")

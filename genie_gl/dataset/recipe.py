@@ -1,0 +1,137 @@
+"""The one recipe of a dataset scene: layout → scene → placement → capture → cloud chunks
+(standing cameras; a moving capture shares the layout and scene, :func:`make_scene`).
+
+A run makes every scene with it (:func:`~genie_gl.dataset.scene.run_scene`) and each worker
+warms up with it on a throw-away scene (:func:`~genie_gl.dataset.warmup.warm_up`), so the
+warm-up fills exactly the caches the scenes use. What every scene of a run shares is loaded
+once, where the run starts (:func:`load_inputs`: the strategy, the sensor, the accuracy
+settings), and handed down frozen, to worker processes too.
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..capture import capture
+from ..capture.settings import settings_for
+from ..cloud import PointCloud, frame_chunks, keep_cloud
+from ..frame import Frame
+from ..layout import Layout, Strategy, generate_layout, load_strategy
+from ..limits import MAX_REGIONS
+from ..render import shared_context
+from ..scene import build_scene
+from ..scene.model import Scene
+from ..sensors import Sensor, load_sensor, place_sensors
+from ..sensors.accuracy import AccuracySettings
+from .config import DatasetConfig
+from .streams import SceneStreams
+
+# the stages of a scene, in order (the progress bar names them; stats time them)
+STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
+
+
+@dataclass(frozen=True, eq=False)
+class RunInputs:
+    """What every scene of a run shares, loaded once.
+
+    Attributes
+    ----------
+    strategy : the layout strategy.
+    sensor : the sensor, its accuracy knobs not yet applied (the capture applies them).
+    accuracy : the settings every scene uses: ``--accuracy``, else the profile's, else the
+        defaults (:func:`~genie_gl.capture.settings.settings_for`).
+    max_regions : the limit on a layout's regions (``--max-nodes``).
+    mount_m : the standing cameras' height above the floor in metres (``--mount``); None:
+        chosen for the sensor's range.
+    """
+
+    strategy: Strategy
+    sensor: Sensor
+    accuracy: AccuracySettings
+    max_regions: int = MAX_REGIONS
+    mount_m: float | None = None
+
+
+def load_inputs(cfg: DatasetConfig) -> RunInputs:
+    """The strategy, sensor and accuracy settings of ``cfg``, read and checked."""
+    sensor = load_sensor(cfg.sensor)
+    return RunInputs(load_strategy(cfg.strategy), sensor,
+                     settings_for(sensor, None if cfg.accuracy is None else cfg.accuracy.settings),
+                     max_regions=cfg.max_nodes, mount_m=cfg.mount_m)
+
+
+@dataclass(frozen=True, eq=False)
+class MadeScene:
+    """A scene made by :func:`make`: its layout, scene, poses and frames, and the clock
+    (``perf_counter`` at the end of each stage, keyed by stage, ``"start"`` first)."""
+
+    layout: Layout
+    scene: Scene
+    poses: list[np.ndarray]
+    frames: list[Frame]
+    clock: dict[str, float] = field(default_factory=dict)
+
+
+def make_scene(inputs: RunInputs, streams: SceneStreams, *,
+               stage: Callable[[str], None] = lambda name: None) -> tuple[Layout, Scene, dict[str, float]]:
+    """The layout and scene of ``streams`` and the clock (``"start"``, ``"layout"``,
+    ``"scene"``); ``stage(name)`` as each stage starts. Standing and moving captures alike."""
+    clock = {"start": time.perf_counter()}
+    stage("layout")
+    layout = generate_layout(inputs.strategy, rng=streams.rng("layout"), max_regions=inputs.max_regions)
+    clock["layout"] = time.perf_counter()
+    stage("scene")
+    scene = build_scene(layout, rng=streams.rng("scene"), segments=inputs.accuracy.tessellation)
+    clock["scene"] = time.perf_counter()
+    return layout, scene, clock
+
+
+def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: bool,
+         stage: Callable[[str], None] = lambda name: None) -> MadeScene:
+    """The scene of ``streams`` up to its frames, taken by ``cameras`` standing cameras;
+    ``stage(name)`` as each stage starts. ``depth_only``: render no colour (for formats that
+    store none)."""
+    layout, scene, clock = make_scene(inputs, streams, stage=stage)
+    stage("placement")
+    poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed,
+                          mount_height_m=inputs.mount_m)
+    clock["placement"] = time.perf_counter()
+    stage("capture")
+    frames = capture(scene, inputs.sensor, poses, seed=streams.capture_seed, workers=1, depth_only=depth_only,
+                     accuracy=inputs.accuracy, context=shared_context())
+    clock["capture"] = time.perf_counter()
+    return MadeScene(layout, scene, poses, frames, clock)
+
+
+@dataclass(frozen=True, eq=False)
+class Chunks:
+    """The cloud stage's result: the chunks kept by the cleaning rules ([(tile key,
+    PointCloud)]), the points of every frame, and the points per class id (65536,) int64."""
+
+    kept: list[tuple[tuple[int, int], PointCloud]]
+    points_total: int
+    counts: np.ndarray
+
+
+def chunk(cfg: DatasetConfig, frames: list[Frame], streams: SceneStreams, *, chunks: bool) -> Chunks:
+    """The cloud stage: the frames' points cut into ``cfg.chunk_m`` tiles of at most
+    ``cfg.points`` points, those the cleaning rules keep (``chunks`` False: no tiles, for
+    formats of images; the counts only)."""
+    kept, points_total, counts = [], 0, np.zeros(65536, np.int64)
+    if chunks:
+        # the chunks straight from the frames: the merged cloud (~12 M points at 40 cameras)
+        # is built only for a preview that shows it
+        tiles, points_total = frame_chunks(frames, cfg.chunk_m, max_points=cfg.points, rng=streams.rng("cloud"))
+        for key, tile in tiles:
+            if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
+                kept.append((key, tile))
+                counts += np.bincount(tile.semantic, minlength=len(counts))
+    else:
+        for f in frames:
+            ok = f.depth > 0
+            points_total += int(ok.sum())
+            counts += np.bincount(f.semantic[ok], minlength=len(counts))
+    return Chunks(kept, int(points_total), counts)
