@@ -75,26 +75,16 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
         t["export"] = time.perf_counter()
         return stats | _timings(t, frames, cpu)
     stage("export")
-    for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
-        shutil.rmtree(stale, ignore_errors=True)
-    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
-    tmp.mkdir(parents=True)
+    tmp = _scene_tmp(final)
     data = SceneData(index, scene, layout, frames, kept, cfg)
     fmt.write_scene(data, tmp)
     layout.to_json(tmp / "layout.json")
     stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
              "points_total": int(points_total), "chunks": len(kept),
              "class_points": _class_points(counts)}
-    stats["files"] = record_files(tmp)
-    (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
         write_previews(out / "previews", index, layout, frames, scene)
-    if fmt.before_rename is not None:
-        fmt.before_rename(data, out)
-    t["export"] = time.perf_counter()
-    if final.exists():  # an incomplete scene of an earlier run
-        shutil.rmtree(final)
-    tmp.replace(final)  # the scene appears whole, or not at all
+    _publish(stats, tmp, final, data, fmt, out, t)
     return stats | _timings(t, frames, cpu)
 
 
@@ -113,10 +103,7 @@ def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t,
         t["export"] = time.perf_counter()
         return stats | _timings(t, None, cpu, moving.tally)
     stage("export")
-    for stale in final.parent.glob(f".tmp-{final.name}-*"):  # what a killed run left
-        shutil.rmtree(stale, ignore_errors=True)
-    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
-    tmp.mkdir(parents=True)
+    tmp = _scene_tmp(final)
     data = SceneData(index, scene, layout, [], moving.kept, cfg, dict(moving.extra), rig=moving.rig,
                      trajectory=moving.trajectory, recording=moving.recording)
     if cfg.capture == "trajectory":
@@ -129,18 +116,36 @@ def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t,
     counts = moving.tally.counts
     stats = {"scene": index, **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points),
              "chunks": len(moving.kept), "class_points": _class_points(counts)}
-    stats["files"] = record_files(tmp)
-    (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if index < cfg.previews:
         write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
                                  moving.map_cloud, scene)
+    _publish(stats, tmp, final, data, fmt, out, t)
+    return stats | _timings(t, None, cpu, moving.tally)
+
+
+def _scene_tmp(final: Path) -> Path:
+    """A fresh temporary folder beside scene folder ``final``; what a killed run of ours left
+    there (``.tmp-<name>-<pid>``) goes first."""
+    for stale in final.parent.glob(f".tmp-{final.name}-*"):
+        shutil.rmtree(stale, ignore_errors=True)
+    tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
+    tmp.mkdir(parents=True)
+    return tmp
+
+
+def _publish(stats: dict[str, Any], tmp: Path, final: Path, data: SceneData, fmt, out: Path,
+             t: dict[str, float]) -> None:
+    """Record the files of ``tmp`` and ``stats`` in its ``stats.json``, let the format finish
+    (``before_rename``), then rename ``tmp`` to ``final``: the scene appears whole, or not at all
+    (an incomplete ``final`` of an earlier run is replaced)."""
+    stats["files"] = record_files(tmp)
+    (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if fmt.before_rename is not None:
         fmt.before_rename(data, out)
     t["export"] = time.perf_counter()
-    if final.exists():  # an incomplete scene of an earlier run
+    if final.exists():
         shutil.rmtree(final)
-    tmp.replace(final)  # the scene appears whole, or not at all
-    return stats | _timings(t, None, cpu, moving.tally)
+    tmp.replace(final)
 
 
 def _class_points(counts: np.ndarray) -> dict[str, int]:
