@@ -41,6 +41,14 @@ def did_you_mean(value: str, choices: Iterable[str]) -> str:
     return f"; did you mean '{close[0]}'?" if close else ""
 
 
+def json_path(loc: Iterable[object]) -> str:
+    """A validation error's location as a JSON path: ``("levels", 0, "args")`` -> ``$.levels[0].args``."""
+    out = "$"
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else f".{part}"
+    return out
+
+
 class ExportError(GenieError, ValueError):
     """Data that a format cannot hold (an id beyond its range, ...); the message names the limit."""
 

@@ -41,7 +41,7 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..errors import ConfigError, did_you_mean
+from ..errors import ConfigError, did_you_mean, json_path
 from ..resources import data_dir, read_text
 
 # metric -> (test scene, unit, what it is)
@@ -209,12 +209,6 @@ def load_references(path_or_name: str | os.PathLike) -> References:
     return parse_references(data, str(p))
 
 
-def _path(loc: tuple) -> str:
-    out = "$"
-    for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else f".{part}"
-    return out
-
 
 def parse_references(data: object, source: str = "<dict>") -> References:
     """Validate parsed reference data; errors name ``source`` and the key's path."""
@@ -222,7 +216,7 @@ def parse_references(data: object, source: str = "<dict>") -> References:
         spec = ReferenceSpec.model_validate(data)
     except ValidationError as exc:
         e = exc.errors()[0]
-        raise ConfigError(f"{source}: {_path(tuple(e['loc']))}: {e['msg']}") from None
+        raise ConfigError(f"{source}: {json_path(tuple(e['loc']))}: {e['msg']}") from None
     sources = {k: Source(k, s.citation, s.where, s.url, s.verification, s.note) for k, s in spec.sources.items()}
     figures = []
     for i, f in enumerate(spec.figures):

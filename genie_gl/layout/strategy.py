@@ -27,7 +27,7 @@ from typing import Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from ..errors import ConfigError, did_you_mean
+from ..errors import ConfigError, did_you_mean, json_path
 from ..resources import read_json, resolve
 from ..scene_options import scene_options
 from .generators import GENERATORS, Generator, get_generator
@@ -198,12 +198,6 @@ def _model_at(loc: tuple) -> type[BaseModel]:
     return StrategySpec
 
 
-def _path(loc: tuple) -> str:
-    out = "$"
-    for p in loc:
-        out += f"[{p}]" if isinstance(p, int) else f".{p}"
-    return out
-
 
 def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
     """Validate strategy data (already parsed JSON); errors give ``source`` and a JSON path."""
@@ -217,12 +211,12 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
         loc = tuple(p for p in e["loc"] if p not in ("literal['merge']", "dict[str,RuleSpec]"))
         if e["type"] == "extra_forbidden":
             known = tuple(_model_at(loc[:-1]).model_fields)
-            raise ConfigError(f"{source}: {_path(loc)}: unknown key{did_you_mean(str(loc[-1]), known)} (known here: "
+            raise ConfigError(f"{source}: {json_path(loc)}: unknown key{did_you_mean(str(loc[-1]), known)} (known here: "
                               f"{', '.join(known)})") from None
         if len(loc) == 2 and loc[0] == "levels" and isinstance(e.get("input"), str):
-            raise ConfigError(f"{source}: {_path(loc)}: {e['input']!r:.40}: expected \"merge\" or a level (an object "
+            raise ConfigError(f"{source}: {json_path(loc)}: {e['input']!r:.40}: expected \"merge\" or a level (an object "
                               f"of rules){did_you_mean(e['input'], ['merge'])}") from None
-        raise ConfigError(f"{source}: {_path(loc)}: {e['msg']} (got {e.get('input')!r:.80})") from None
+        raise ConfigError(f"{source}: {json_path(loc)}: {e['msg']} (got {e.get('input')!r:.80})") from None
     types = {}
     for name, t in spec.region_types.items():
         types[name] = RegionType(name, t.final, _color(t.color, f"{source}: $.region_types.{name}.color"),
