@@ -147,9 +147,12 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
                   c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj, planes, near, width,
-                  height, xs, ys, sys_, owner, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally):
+                  height, xs, ys, sys_, owner, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally, cull):
     """Draw cluster k of visible instance q into the rows of thread t (of T); counts into
-    ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels tested)."""
+    ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
+    tested, pixels of occlusion tiles refreshed). Without ``cull``, every face is tested
+    against every pixel centre of its box (no cluster, cone, cell, occlusion or span test):
+    the reference the culled frame must equal byte for byte."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     f0 = fbase[q] + k * CLUSTER
     nf = min(CLUSTER, nfaces[q] - k * CLUSTER)
@@ -172,12 +175,12 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
             rmag = max(rmag, abs(m[r, c]))
     rad = c_radius[cl] * sc * (1 + 1e-6) + 1e-9
     for p in range(planes.shape[0]):
-        if planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
+        if cull and planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
             return
     # the sphere's pixel box (the whole image when it reaches the near plane)
     zlo = ez - rad
     ulo_c, uhi_c, vlo_c, vhi_c = 0.0, last_u, 0.0, last_v
-    if zlo > near:
+    if cull and zlo > near:
         zhi = ez + rad
         xa, xb = min((ex - rad) / zlo, (ex - rad) / zhi), max((ex + rad) / zlo, (ex + rad) / zhi)
         ya, yb = min((ey - rad) / zlo, (ey - rad) / zhi), max((ey + rad) / zlo, (ey + rad) / zhi)
@@ -194,11 +197,11 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
             break
     if not mine:
         return
-    if zlo > near and _hidden(tmax, t, T, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
+    if cull and zlo > near and _hidden(tmax, t, T, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
         return
     tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
     # the culler's cone bound holds for the GPU's float32 rounding; float64 rounds far less
-    if bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
+    if cull and bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
                           c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near, 2.0 ** -8,
                           width, height):
         return
@@ -219,7 +222,7 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
         ka, kb, kc = keys_u[a], keys_u[b], keys_u[c]
         la, lb, lc = keys_v[a], keys_v[b], keys_v[c]
-        if ((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc)):   # one branch, mostly taken
+        if cull & (((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc))):   # one branch, mostly taken
             continue
         az, bz, cz = wz[a], wz[b], wz[c]
         front = (az >= near) + (bz >= near) + (cz >= near)
@@ -259,7 +262,7 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
         if bc and vol > 0.0:
             continue
         tally[1] += 1
-        if _hidden(tmax, t, T, ulo, uhi, vlo, vhi, 1.0 / zmin):
+        if cull and _hidden(tmax, t, T, ulo, uhi, vlo, vhi, 1.0 / zmin):
             tally[2] += 1
             continue
         tally[3] += 1
@@ -298,7 +301,7 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
             if rows and owner[iw] != t:
                 continue
             lo, hi, gap = x_lo, x_hi, 0.0
-            for k in range(3):
+            for k in range(3 if cull else 0):
                 if span[k, 0] > 0.0:
                     lo = max(lo, span[k, 1] + span[k, 2] * iw)
                 elif span[k, 0] < 0.0:
@@ -312,7 +315,7 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
             i_hi = int(min(math.floor(hi) + 1.0, x_hi))
             if i_lo > i_hi:
                 continue
-            in_lo, in_hi = lo + gap, hi - gap
+            in_lo, in_hi = (lo + gap, hi - gap) if cull else (math.inf, -math.inf)
             tally[4] += i_hi - i_lo + 1
             for ix in range(i_lo, i_hi + 1):
                 iu, iv = (ix, iw) if rows else (iw, ix)
@@ -342,7 +345,7 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
 def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
             slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
-            zbs, whos, tmins, zb, who, tally):
+            zbs, whos, tmins, zb, who, tally, cull):
     """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
     nearest first, and merge: ``zb`` (float64 1 / z, 0 where nothing) and ``who`` (slot << 32
     | face, -1 where nothing), H x W flattened. With T = len(zbs) threads, thread t draws
@@ -394,7 +397,7 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
             _draw_cluster(q, j - job0[q], 0, 1, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos,
                           c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj,
                           planes, near, width, height, xs, ys, sys_, owner, zt, wt, tt, wx, wy, wz, wu, wv, keys_u,
-                          keys_v, box, span, tally[t])
+                          keys_v, box, span, tally[t], cull)
     for r in prange(H):
         for p in range(r * W, (r + 1) * W):
             z, h = zbs[0, p], whos[0, p]
@@ -501,10 +504,11 @@ class Rasteriser:
 
     def draw(self, slots: np.ndarray, mesh: np.ndarray, backcull: np.ndarray, cfm: np.ndarray, eye: np.ndarray,
              det: np.ndarray, K: np.ndarray, width: int, height: int, near: float,
-             planes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+             planes: np.ndarray, cull: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """(inverse depth, hit): per pixel (H*W) 1 / z of the nearest hit (float64, 0: nothing) at or beyond
         ``near`` and its (slot << 32 | face), -1 where nothing; arguments as
-        :meth:`genie_gl.render.cull.TriangleCuller.select`."""
+        :meth:`genie_gl.render.cull.TriangleCuller.select`; ``cull=False`` tests every face
+        against every pixel centre of its box (the reference, slow)."""
         c = self.culler
         nf = c.mesh_nfaces[mesh]
         nclus = -(-nf // CLUSTER)
@@ -523,7 +527,7 @@ class Rasteriser:
         _raster(c.vertices, c.faces, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
                 nf, c.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
                 np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64), proj, planes,
-                float(near), float(width), float(height), zbs, whos, tmins, depth, hit, self.tally[:T])
+                float(near), float(width), float(height), zbs, whos, tmins, depth, hit, self.tally[:T], bool(cull))
         self.counts = self.tally[:T].sum(axis=0)
         return depth, hit
 

@@ -101,7 +101,9 @@ class Renderer:
         on scenes of a million triangles (docs/real-size-scenes.md). Its depth is the exact
         ray hit where GL's is interpolated in float32, so the two differ in the last bits, and
         at edges a pixel centre may go to the other triangle; ``depth_precision`` must be
-        "float32", and ``targets``, ``readback`` and ``cull`` do not apply.
+        "float32", and ``targets`` and ``readback`` do not apply. ``cull=False`` tests every
+        triangle against every pixel centre of its box (the reference the culled frame
+        equals byte for byte; slow).
     """
 
     cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
@@ -446,7 +448,8 @@ class Renderer:
             cfm, slots, m, backcull, eye = seen
             r = self._rasteriser
             r.face_vbase(self._vbase, self._fbase, self._nfaces)
-            depth, hit = r.draw(slots, m, backcull, cfm, eye, self._det[slots], K, W, H, near, self._planes)
+            depth, hit = r.draw(slots, m, backcull, cfm, eye, self._det[slots], K, W, H, near, self._planes,
+                                self.cull)
             face0[slots] = self._fbase[m]
             drawn, faces = len(slots), int(self._nfaces[m].sum())
             if triangles:
