@@ -37,8 +37,8 @@ from .clusters import CLUSTER
 from .cull import _cone_drops
 
 PARALLEL_FACES = 50_000     # below this many faces in view, one thread draws a frame
-BAND = 16                   # rows: thread t of T draws the rows of every T-th band
-TILE = 8                    # pixels: the side of an occlusion tile (BAND is a multiple)
+SHIFT = 3
+TILE = 1 << SHIFT           # pixels: the side of an occlusion tile
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -68,26 +68,22 @@ def _clip_box(ax, ay, az, bx, by, bz, cx_, cy_, cz, near, proj, box):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
-def _hidden(tmin, t, T, ulo, uhi, vlo, vhi, iz):
-    """True when every tile of thread t's rows that the pixel box touches holds only inverse
-    depths above ``iz`` (nearer than 1 / iz; a tile's value is its pixels' least)."""
-    for tr in range(int(vlo) // TILE, int(vhi) // TILE + 1):
-        if ((tr * TILE) // BAND) % T != t:
-            continue
-        for tc in range(int(ulo) // TILE, int(uhi) // TILE + 1):
+def _hidden(tmin, ulo, uhi, vlo, vhi, iz):
+    """True when every tile the pixel box touches holds only inverse depths above ``iz``
+    (nearer than 1 / iz; a tile's value is its pixels' least)."""
+    for tr in range(int(vlo) >> SHIFT, (int(vhi) >> SHIFT) + 1):
+        for tc in range(int(ulo) >> SHIFT, (int(uhi) >> SHIFT) + 1):
             if tmin[tr, tc] <= iz:
                 return False
     return True
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _refresh(tmin, zb, t, T, ulo, uhi, vlo, vhi, Wi, Hi):
-    """Recompute the tiles of thread t's rows in the pixel box: the least inverse depth each
-    holds (0 while one of its pixels is empty)."""
-    for tr in range(vlo // TILE, vhi // TILE + 1):
-        if (tr * TILE // BAND) % T != t:
-            continue
-        for tc in range(ulo // TILE, uhi // TILE + 1):
+def _refresh(tmin, zb, ulo, uhi, vlo, vhi, Wi, Hi):
+    """Recompute the tiles in the pixel box: the least inverse depth each holds (0 while one
+    of its pixels is empty)."""
+    for tr in range(vlo >> SHIFT, (vhi >> SHIFT) + 1):
+        for tc in range(ulo >> SHIFT, (uhi >> SHIFT) + 1):
             lo = math.inf
             for iv in range(tr * TILE, min((tr + 1) * TILE, Hi)):
                 row = iv * Wi
@@ -145,10 +141,10 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
+def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
                   c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj, planes, near, width,
-                  height, xs, ys, sys_, owner, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally, cull):
-    """Draw cluster k of visible instance q into the rows of thread t (of T); counts into
+                  height, xs, ys, sys_, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally, cull):
+    """Draw cluster k of visible instance q into the columns col_lo..col_hi; counts into
     ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
     tested, pixels of occlusion tiles refreshed). Without ``cull``, every face is tested
     against every pixel centre of its box (no cluster, cone, cell, occlusion or span test):
@@ -179,25 +175,18 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
             return
     # the sphere's pixel box (the whole image when it reaches the near plane)
     zlo = ez - rad
-    ulo_c, uhi_c, vlo_c, vhi_c = 0.0, last_u, 0.0, last_v
+    ulo_c, uhi_c, vlo_c, vhi_c = col_lo, col_hi, 0.0, last_v
     if cull and zlo > near:
         zhi = ez + rad
         xa, xb = min((ex - rad) / zlo, (ex - rad) / zhi), max((ex + rad) / zlo, (ex + rad) / zhi)
         ya, yb = min((ey - rad) / zlo, (ey - rad) / zhi), max((ey + rad) / zlo, (ey + rad) / zhi)
-        ulo_c = max(math.floor(fx * xa + min(s * ya, s * yb) + cx) - 1.0, 0.0)
-        uhi_c = min(math.ceil(fx * xb + max(s * ya, s * yb) + cx) + 1.0, last_u)
+        ulo_c = max(math.floor(fx * xa + min(s * ya, s * yb) + cx) - 1.0, col_lo)
+        uhi_c = min(math.ceil(fx * xb + max(s * ya, s * yb) + cx) + 1.0, col_hi)
         vlo_c = max(math.floor(fy * ya + cy) - 1.0, 0.0)
         vhi_c = min(math.ceil(fy * yb + cy) + 1.0, last_v)
         if ulo_c > uhi_c or vlo_c > vhi_c:
             return
-    mine = False
-    for bnd in range(int(vlo_c) // BAND, int(vhi_c) // BAND + 1):
-        if owner[bnd * BAND] == t:
-            mine = True
-            break
-    if not mine:
-        return
-    if cull and zlo > near and _hidden(tmax, t, T, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
+    if cull and zlo > near and _hidden(tmax, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
         return
     tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
     # the culler's cone bound holds for the GPU's float32 rounding; float64 rounds far less
@@ -242,8 +231,8 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
         # the edge functions below decide)
         mu = 1e-7 * (abs(umin) + abs(umax) + 1.0)
         mv = 1e-7 * (abs(vmin) + abs(vmax) + 1.0)
-        ulo = max(math.ceil(umin - mu), 0.0)
-        uhi = min(math.floor(umax + mu), last_u)
+        ulo = max(math.ceil(umin - mu), col_lo)
+        uhi = min(math.floor(umax + mu), col_hi)
         if ulo > uhi:
             continue
         vlo = max(math.ceil(vmin - mv), 0.0)
@@ -262,7 +251,7 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
         if bc and vol > 0.0:
             continue
         tally[1] += 1
-        if cull and _hidden(tmax, t, T, ulo, uhi, vlo, vhi, 1.0 / zmin):
+        if cull and _hidden(tmax, ulo, uhi, vlo, vhi, 1.0 / zmin):
             tally[2] += 1
             continue
         tally[3] += 1
@@ -298,8 +287,6 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
         w_lo, w_hi = (vlo, vhi) if rows else (ulo, uhi)
         x_lo, x_hi = (ulo, uhi) if rows else (vlo, vhi)
         for iw in range(int(w_lo), int(w_hi) + 1):
-            if rows and owner[iw] != t:
-                continue
             lo, hi, gap = x_lo, x_hi, 0.0
             for k in range(3 if cull else 0):
                 if span[k, 0] > 0.0:
@@ -319,8 +306,6 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
             tally[4] += i_hi - i_lo + 1
             for ix in range(i_lo, i_hi + 1):
                 iu, iv = (ix, iw) if rows else (iw, ix)
-                if not rows and owner[iv] != t:
-                    continue
                 yn = ys[iv]
                 xn = xs[iu] - sys_[iv]
                 if not (in_lo < ix < in_hi):
@@ -339,21 +324,18 @@ def _draw_cluster(q, k, t, T, vertices, faces, c_centre, c_radius, c_vrange, c_a
                     dv_lo, dv_hi = min(dv_lo, iv), max(dv_hi, iv)
     if du_hi >= 0:
         tally[5] += (du_hi - du_lo + 1) * (dv_hi - dv_lo + 1)
-        _refresh(tmax, zb, t, T, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
+        _refresh(tmax, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
 def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
             slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
-            zbs, whos, tmins, zb, who, tally, cull):
+            T, zb, who, tmin, tally, cull):
     """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
-    nearest first, and merge: ``zb`` (float64 1 / z, 0 where nothing) and ``who`` (slot << 32
-    | face, -1 where nothing), H x W flattened. With T = len(zbs) threads, thread t draws
-    every T-th cluster of that order into buffers of its own (``zbs[t]``, ``whos[t]``, its
-    occlusion tiles ``tmins[t]``), and the merge keeps per pixel the nearest hit, the lower
-    (slot, face) on a tie: the frame does not depend on T."""
-    T = zbs.shape[0]
-    npx = zb.shape[0]
+    nearest first into ``zb`` (float64 1 / z, 0 where nothing) and ``who`` (slot << 32 |
+    face, -1 where nothing), H x W flattened, with T threads: thread t draws the columns of
+    strip t, the strips cut where the clusters' centres split evenly (whole tiles), so each
+    thread's occlusion tiles see every occluder of its strip and no pixel is written by two."""
     W = int(width)
     H = int(height)
     xs = np.empty(W)
@@ -363,10 +345,10 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
     for v in range(H):
         ys[v] = (v - proj[4]) / proj[3]
         sys_[v] = proj[1] * ys[v] / proj[0]
-    owner = np.zeros(H, np.int64)     # every row drawn by the thread that draws the cluster
     njobs = job0[len(job0) - 1]
     key = np.empty(njobs)
     whose = np.empty(njobs, np.int64)
+    at = np.empty(njobs)
     q = 0
     for j in range(njobs):
         while job0[q + 1] <= j:
@@ -375,38 +357,41 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         m = cfm[slot[q]]
         cl = cbase[q] + j - job0[q]
         c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
+        ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
+        ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
         ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
         sc = 0.0
         for c in range(3):
             sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
         key[j] = ez - c_radius[cl] * sc
+        at[j] = min(max((proj[0] * ex + proj[1] * ey) / ez + proj[2], 0.0), width - 1.0) if ez > near else -1.0
     order = np.argsort(key)
+    # strips: T runs of whole tiles, cut at the quantiles of the clusters' centre columns
+    cut = np.zeros(T + 1, np.int64)
+    cut[T] = W
+    seen = np.sort(at[at >= 0.0])
+    for t in range(1, T):
+        u = seen[(len(seen) * t) // T] if len(seen) else (W * t) / T
+        cut[t] = min(max((int(u) >> SHIFT) << SHIFT, cut[t - 1]), W)
+    for p in prange(len(zb)):
+        zb[p] = 0.0
+        who[p] = -1
+    tmin[:, :] = 0.0
     tally[:, :] = 0
     for t in prange(T):
-        zt, wt, tt = zbs[t], whos[t], tmins[t]
-        zt[:] = 0.0
-        wt[:] = -1
-        tt[:, :] = 0.0
+        if cut[t] >= cut[t + 1]:
+            continue
         wx, wy, wz = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
         keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         span = np.empty((3, 4))
-        for jj in range(t, njobs, T):
+        for jj in range(njobs):
             j = order[jj]
             q = whose[j]
-            _draw_cluster(q, j - job0[q], 0, 1, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos,
-                          c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj,
-                          planes, near, width, height, xs, ys, sys_, owner, zt, wt, tt, wx, wy, wz, wu, wv, keys_u,
-                          keys_v, box, span, tally[t], cull)
-    for r in prange(H):
-        for p in range(r * W, (r + 1) * W):
-            z, h = zbs[0, p], whos[0, p]
-            for t in range(1, T):
-                z2, h2 = zbs[t, p], whos[t, p]
-                if z2 > z or (z2 == z and h2 != -1 and (h == -1 or h2 < h)):
-                    z, h = z2, h2
-            zb[p] = z
-            who[p] = h
+            _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_centre,
+                          c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces,
+                          cbase, backcull, cfm, eye, det, proj, planes, near, width, height, xs, ys, sys_, zb, who,
+                          tmin, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally[t], cull)
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -520,14 +505,13 @@ class Rasteriser:
         npx = width * height
         tiles = (-(-height // TILE), -(-width // TILE))
         buf = self._buffers
-        if buf is None or buf[0].shape != (T, npx) or buf[2].shape[1:] != tiles:
-            buf = self._buffers = (np.empty((T, npx)), np.empty((T, npx), np.int64), np.empty((T, *tiles)),
-                                   np.empty(npx), np.empty(npx, np.int64))
-        zbs, whos, tmins, depth, hit = buf
+        if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
+            buf = self._buffers = (np.empty(npx), np.empty(npx, np.int64), np.empty(tiles))
+        depth, hit, tmin = buf
         _raster(c.vertices, c.faces, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
                 nf, c.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
                 np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64), proj, planes,
-                float(near), float(width), float(height), zbs, whos, tmins, depth, hit, self.tally[:T], bool(cull))
+                float(near), float(width), float(height), T, depth, hit, tmin, self.tally[:T], bool(cull))
         self.counts = self.tally[:T].sum(axis=0)
         return depth, hit
 
