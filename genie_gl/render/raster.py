@@ -143,7 +143,7 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
                   c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj, planes, near, width,
-                  height, xs, ys, sys_, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally, cull):
+                  height, xs, ys, sys_, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally, cull):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi; counts into
     ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
     tested, pixels of occlusion tiles refreshed). Without ``cull``, every face is tested
@@ -206,13 +206,19 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
     inear = 1.0 / near
     ifx, ify = 1.0 / fx, 1.0 / fy
     du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1     # the pixels this cluster wrote
+    # the faces whose vertices do not share a cell, listed without a branch per face (most
+    # faces of a large scene are smaller than a pixel and go here)
+    nl = 0
     for i in range(nf):
         f = f0 + i
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
         ka, kb, kc = keys_u[a], keys_u[b], keys_u[c]
         la, lb, lc = keys_v[a], keys_v[b], keys_v[c]
-        if cull & (((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc))):   # one branch, mostly taken
-            continue
+        live[nl] = i
+        nl += 1 - (cull & (((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc))))
+    for ii in range(nl):
+        f = f0 + live[ii]
+        a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
         az, bz, cz = wz[a], wz[b], wz[c]
         front = (az >= near) + (bz >= near) + (cz >= near)
         if front == 0:
@@ -275,9 +281,10 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
             C = sg * ez_ - A * cx - B * cy
             a_, b_ = (A, B) if rows else (B, A)   # the scanned coordinate's coefficient, the line's
             if a_ != 0.0:
+                ia = -1.0 / a_
                 span[k, 0] = 1.0 if a_ > 0.0 else -1.0
-                span[k, 1] = -C / a_
-                span[k, 2] = -b_ / a_
+                span[k, 1] = C * ia
+                span[k, 2] = b_ * ia
                 span[k, 3] = 1e-12 * (abs(span[k, 1]) + abs(span[k, 2]) * (Wi + Hi) + 1.0)
             else:
                 span[k, 0] = 0.0
@@ -384,6 +391,7 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         wx, wy, wz = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
         keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+        live = np.empty(CLUSTER, np.int64)
         span = np.empty((3, 4))
         for jj in range(njobs):
             j = order[jj]
@@ -391,7 +399,7 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
             _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_centre,
                           c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces,
                           cbase, backcull, cfm, eye, det, proj, planes, near, width, height, xs, ys, sys_, zb, who,
-                          tmin, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally[t], cull)
+                          tmin, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
