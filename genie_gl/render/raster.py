@@ -36,7 +36,7 @@ from numba import njit, prange
 from .clusters import CLUSTER
 from .cull import _cone_drops
 
-PARALLEL_FACES = 50_000     # below this many faces in view, one thread draws a frame
+PARALLEL_FACES = 5_000      # below this many faces in view, one thread draws a frame
 SHIFT = 3
 TILE = 1 << SHIFT           # pixels: the side of an occlusion tile
 
@@ -79,11 +79,14 @@ def _hidden(tmin, ulo, uhi, vlo, vhi, iz):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _refresh(tmin, zb, ulo, uhi, vlo, vhi, Wi, Hi):
-    """Recompute the tiles in the pixel box: the least inverse depth each holds (0 while one
-    of its pixels is empty)."""
+def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
+    """Recompute the tiles written since their last refresh (``dirty``) in the pixel box: the
+    least inverse depth each holds (0 while one of its pixels is empty)."""
     for tr in range(vlo >> SHIFT, (vhi >> SHIFT) + 1):
         for tc in range(ulo >> SHIFT, (uhi >> SHIFT) + 1):
+            if not dirty[tr, tc]:
+                continue
+            dirty[tr, tc] = 0
             lo = math.inf
             for iv in range(tr * TILE, min((tr + 1) * TILE, Hi)):
                 row = iv * Wi
@@ -143,7 +146,7 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
                   c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj, planes, near, width,
-                  height, xs, ys, sys_, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally, cull):
+                  height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally, cull):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi; counts into
     ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
     tested, pixels of occlusion tiles refreshed). Without ``cull``, every face is tested
@@ -327,11 +330,12 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
                 if (iz <= inear) & ((iz > zb[p]) | ((iz == zb[p]) & (key < who[p]))):
                     zb[p] = iz
                     who[p] = key
+                    dirty[iv >> SHIFT, iu >> SHIFT] = 1
                     du_lo, du_hi = min(du_lo, iu), max(du_hi, iu)
                     dv_lo, dv_hi = min(dv_lo, iv), max(dv_hi, iv)
     if du_hi >= 0:
         tally[5] += (du_hi - du_lo + 1) * (dv_hi - dv_lo + 1)
-        _refresh(tmax, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
+        _refresh(tmax, dirty, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
@@ -384,6 +388,7 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         zb[p] = 0.0
         who[p] = -1
     tmin[:, :] = 0.0
+    dirty = np.zeros(tmin.shape, np.uint8)
     tally[:, :] = 0
     for t in prange(T):
         if cut[t] >= cut[t + 1]:
@@ -399,68 +404,77 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
             _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_centre,
                           c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces,
                           cbase, backcull, cfm, eye, det, proj, planes, near, width, height, xs, ys, sys_, zb, who,
-                          tmin, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
+                          tmin, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
 
 
-@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _vertex(vertices, vi, m, r):
+    """Row r of camera_from_model ``m`` applied to vertex ``vi`` (float64)."""
+    return (m[r, 0] * np.float64(vertices[vi, 0]) + m[r, 1] * np.float64(vertices[vi, 1])
+            + m[r, 2] * np.float64(vertices[vi, 2]) + m[r, 3])
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
 def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face0, proj, near_m, far_m, width,
            out_depth, out_instance, out_semantic, out_rgb, out_normal, out_tri, want_rgb, want_normal, want_tri):
-    """The frame's targets from the merged buffers: z in [near_m, far_m] (else no return),
-    instance and semantic ids, and on request the face normal (camera frame, towards the
-    eye), the colour (the instance's, Lambert with a head light, as the GL shader) and the
-    (slot + 1, face within the slot's mesh) of every pixel a triangle won, in range or not."""
+    """The frame's targets from the drawn buffers, row by row in parallel: z in [near_m,
+    far_m] (else no return), instance and semantic ids, and on request the face normal
+    (camera frame, towards the eye), the colour (the instance's, Lambert with a head light,
+    as the GL shader) and the (slot + 1, face within the slot's mesh) of every pixel a
+    triangle won, in range or not. A face's unit normal is computed once per run of pixels
+    that show it."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
-    for p in range(len(depth)):
-        h = hit[p]
-        z = 1.0 / depth[p] if h >= 0 else 0.0
-        if want_tri:
-            if h < 0:
-                out_tri[p, 0] = 0
-                out_tri[p, 1] = 0
-            else:
-                out_tri[p, 0] = np.uint32((h >> np.int64(32)) + 1)
-                out_tri[p, 1] = np.uint32((h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)])
-        if h < 0 or z < near_m or z > far_m:
-            out_depth[p] = 0.0
-            out_instance[p] = 0
-            out_semantic[p] = 0
-            if want_rgb:
-                out_rgb[p, 0] = 0
-                out_rgb[p, 1] = 0
-                out_rgb[p, 2] = 0
-                out_rgb[p, 3] = 0
-            if want_normal:
-                out_normal[p, 0] = 0.0
-                out_normal[p, 1] = 0.0
-                out_normal[p, 2] = 0.0
-            continue
-        sl = h >> np.int64(32)
-        f = h & np.int64(0xFFFFFFFF)
-        out_depth[p] = np.float32(z)
-        out_instance[p] = ids[sl]
-        out_semantic[p] = sems[sl]
-        if want_rgb or want_normal:
-            m = cfm[sl]
-            q = np.empty((3, 3))
-            for k in range(3):
-                vi = fvbase[f] + faces[f, k]
-                px, py, pz = (np.float64(vertices[vi, 0]), np.float64(vertices[vi, 1]),
-                              np.float64(vertices[vi, 2]))
-                for r in range(3):
-                    q[k, r] = m[r, 0] * px + m[r, 1] * py + m[r, 2] * pz + m[r, 3]
-            ux, uy, uz = q[1, 0] - q[0, 0], q[1, 1] - q[0, 1], q[1, 2] - q[0, 2]
-            wx_, wy_, wz_ = q[2, 0] - q[0, 0], q[2, 1] - q[0, 1], q[2, 2] - q[0, 2]
-            nx, ny, nz = uy * wz_ - uz * wy_, uz * wx_ - ux * wz_, ux * wy_ - uy * wx_
-            v = p // width
-            u = p - v * width
+    W = int(width)
+    rows = len(depth) // W
+    for v in prange(rows):
+        last = np.int64(-1)
+        ux = uy = uz = 0.0
+        for p in range(v * W, (v + 1) * W):
+            h = hit[p]
+            z = 1.0 / depth[p] if h >= 0 else 0.0
+            if want_tri:
+                if h < 0:
+                    out_tri[p, 0] = 0
+                    out_tri[p, 1] = 0
+                else:
+                    out_tri[p, 0] = np.uint32((h >> np.int64(32)) + 1)
+                    out_tri[p, 1] = np.uint32((h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)])
+            if h < 0 or z < near_m or z > far_m:
+                out_depth[p] = 0.0
+                out_instance[p] = 0
+                out_semantic[p] = 0
+                if want_rgb:
+                    for k in range(4):
+                        out_rgb[p, k] = 0
+                if want_normal:
+                    for k in range(3):
+                        out_normal[p, k] = 0.0
+                continue
+            sl = h >> np.int64(32)
+            out_depth[p] = np.float32(z)
+            out_instance[p] = ids[sl]
+            out_semantic[p] = sems[sl]
+            if not (want_rgb or want_normal):
+                continue
+            if h != last:
+                f = h & np.int64(0xFFFFFFFF)
+                m = cfm[sl]
+                va, vb, vc = fvbase[f] + faces[f, 0], fvbase[f] + faces[f, 1], fvbase[f] + faces[f, 2]
+                ax, ay, az = _vertex(vertices, va, m, 0), _vertex(vertices, va, m, 1), _vertex(vertices, va, m, 2)
+                bx, by, bz = _vertex(vertices, vb, m, 0) - ax, _vertex(vertices, vb, m, 1) - ay, _vertex(vertices, vb, m, 2) - az
+                wx, wy, wz = _vertex(vertices, vc, m, 0) - ax, _vertex(vertices, vc, m, 1) - ay, _vertex(vertices, vc, m, 2) - az
+                ux, uy, uz = by * wz - bz * wy, bz * wx - bx * wz, bx * wy - by * wx
+                nl = math.sqrt(ux * ux + uy * uy + uz * uz)
+                if nl > 0.0:
+                    ux, uy, uz = ux / nl, uy / nl, uz / nl
+                last = h
+            u = p - v * W
             yn = (v - cy) / fy
             xn = (u - cx - s * yn) / fx
             dl = math.sqrt(xn * xn + yn * yn + 1.0)
             vx, vy, vz = xn / dl, yn / dl, 1.0 / dl
-            nl = math.sqrt(nx * nx + ny * ny + nz * nz)
-            if nl > 0.0:
-                nx, ny, nz = nx / nl, ny / nl, nz / nl
-            else:
+            nx, ny, nz = ux, uy, uz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
                 nx, ny, nz = -vx, -vy, -vz
             if nx * vx + ny * vy + nz * vz > 0.0:
                 nx, ny, nz = -nx, -ny, -nz
