@@ -144,7 +144,7 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
+def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
                   c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj, planes, near, width,
                   height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally, cull):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi; counts into
@@ -189,8 +189,32 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
         vhi_c = min(math.ceil(fy * yb + cy) + 1.0, last_v)
         if ulo_c > uhi_c or vlo_c > vhi_c:
             return
-    if cull and zlo > near and _hidden(tmax, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
-        return
+    if cull and zlo > near:
+        # the cluster's box (model frame): its eight corners bound it more tightly than the
+        # sphere, in depth and on screen (a strip of a cylinder, a patch of floor)
+        zb_lo, bu_lo, bu_hi, bv_lo, bv_hi = math.inf, math.inf, -math.inf, math.inf, -math.inf
+        for corner in range(8):
+            px = c_hi[cl, 0] if corner & 1 else c_lo[cl, 0]
+            py = c_hi[cl, 1] if corner & 2 else c_lo[cl, 1]
+            pz = c_hi[cl, 2] if corner & 4 else c_lo[cl, 2]
+            x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
+            y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
+            z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+            zb_lo = min(zb_lo, z)
+            if z > 0.0:
+                u = (fx * x + s * y) / z + cx
+                v = fy * y / z + cy
+                bu_lo, bu_hi, bv_lo, bv_hi = min(bu_lo, u), max(bu_hi, u), min(bv_lo, v), max(bv_hi, v)
+        if zb_lo > near:
+            zlo = max(zlo, zb_lo * (1.0 - 1e-12))
+            ulo_c = max(ulo_c, math.floor(bu_lo) - 1.0)
+            uhi_c = min(uhi_c, math.ceil(bu_hi) + 1.0)
+            vlo_c = max(vlo_c, math.floor(bv_lo) - 1.0)
+            vhi_c = min(vhi_c, math.ceil(bv_hi) + 1.0)
+            if ulo_c > uhi_c or vlo_c > vhi_c:
+                return
+        if _hidden(tmax, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
+            return
     tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
     # the culler's cone bound holds for the GPU's float32 rounding; float64 rounds far less
     if cull and bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
@@ -339,7 +363,7 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
-def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
+def _raster(vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
             slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
             T, zb, who, tmin, tally, cull):
     """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
@@ -401,7 +425,7 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         for jj in range(njobs):
             j = order[jj]
             q = whose[j]
-            _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_centre,
+            _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_lo, c_hi, c_centre,
                           c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces,
                           cbase, backcull, cfm, eye, det, proj, planes, near, width, height, xs, ys, sys_, zb, who,
                           tmin, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
@@ -489,6 +513,21 @@ def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face
                 out_rgb[p, 3] = 255
 
 
+@njit(cache=True, nogil=True, boundscheck=False)
+def _cluster_boxes(vertices, vrange, mesh_vbase, mesh_cbase, mesh_clusters):
+    """(C, 3) lows and highs: each cluster's box in its model frame (float64)."""
+    n = len(vrange)
+    lo, hi = np.full((n, 3), np.inf), np.full((n, 3), -np.inf)
+    for i in range(len(mesh_cbase)):
+        for cl in range(mesh_cbase[i], mesh_cbase[i] + mesh_clusters[i]):
+            for v in range(mesh_vbase[i] + vrange[cl, 0], mesh_vbase[i] + vrange[cl, 1]):
+                for a in range(3):
+                    x = np.float64(vertices[v, a])
+                    lo[cl, a] = min(lo[cl, a], x)
+                    hi[cl, a] = max(hi[cl, a], x)
+    return lo, hi
+
+
 class Rasteriser:
     """Per-scene state of the CPU rasteriser: the culler's cluster arrays (shared, not
     copied) and per-thread buffers reused from frame to frame."""
@@ -498,6 +537,8 @@ class Rasteriser:
         self._buffers: tuple | None = None
         self._face_vbase: np.ndarray | None = None
         self.tally = np.zeros((64, 8), np.int64)
+        self.boxes = _cluster_boxes(culler.vertices, culler.clusters[2], culler.mesh_vbase, culler.mesh_cbase,
+                                    -(-culler.mesh_nfaces // CLUSTER))
         self.counts = np.zeros(8, np.int64)   # the last frame's tally (see _draw_cluster)
 
     def face_vbase(self, mesh_vbase: np.ndarray, mesh_fbase: np.ndarray, mesh_nfaces: np.ndarray) -> np.ndarray:
@@ -530,7 +571,7 @@ class Rasteriser:
         if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
             buf = self._buffers = (np.empty(npx), np.empty(npx, np.int64), np.empty(tiles))
         depth, hit, tmin = buf
-        _raster(c.vertices, c.faces, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
+        _raster(c.vertices, c.faces, *self.boxes, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
                 nf, c.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
                 np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64), proj, planes,
                 float(near), float(width), float(height), T, depth, hit, tmin, self.tally[:T], bool(cull))
