@@ -76,7 +76,7 @@ def main() -> None:
     raster._raster = kernel
     c = counts / len(spec.poses)
     print(f"per frame: {c[0]:,.0f} clusters drawn, {c[1]:,.0f} faces with a pixel box, {c[2]:,.0f} of them hidden, "
-          f"{c[3]:,.0f} drawn, {c[4]:,.0f} pixel centres tested, {c[5]:,.0f} tile pixels refreshed")
+          f"{c[3]:,.0f} drawn, {c[4]:,.0f} pixel centres tested, {c[5]:,.0f} occlusion tiles refreshed")
 
 
 if __name__ == "__main__":

@@ -81,18 +81,21 @@ def _hidden(tmin, ulo, uhi, vlo, vhi, iz):
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
     """Recompute the tiles written since their last refresh (``dirty``) in the pixel box: the
-    least inverse depth each holds (0 while one of its pixels is empty)."""
+    least inverse depth each holds (0 while one of its pixels is empty); returns how many."""
+    n = 0
     for tr in range(vlo >> SHIFT, (vhi >> SHIFT) + 1):
         for tc in range(ulo >> SHIFT, (uhi >> SHIFT) + 1):
             if not dirty[tr, tc]:
                 continue
             dirty[tr, tc] = 0
+            n += 1
             lo = math.inf
             for iv in range(tr * TILE, min((tr + 1) * TILE, Hi)):
                 row = iv * Wi
                 for iu in range(tc * TILE, min((tc + 1) * TILE, Wi)):
                     lo = min(lo, zb[row + iu])
             tmin[tr, tc] = lo
+    return n
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
@@ -149,7 +152,7 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
                   height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally, cull):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi; counts into
     ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
-    tested, pixels of occlusion tiles refreshed). Without ``cull``, every face is tested
+    tested, occlusion tiles refreshed). Without ``cull``, every face is tested
     against every pixel centre of its box (no cluster, cone, cell, occlusion or span test):
     the reference the culled frame must equal byte for byte."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
@@ -232,7 +235,7 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
     key0 = np.int64(sl) << np.int64(32)
     inear = 1.0 / near
     ifx, ify = 1.0 / fx, 1.0 / fy
-    du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1     # the pixels this cluster wrote
+    du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1     # the box of the pixels this cluster tested
     # the faces whose vertices do not share a cell, listed without a branch per face (most
     # faces of a large scene are smaller than a pixel and go here)
     nl = 0
@@ -338,6 +341,11 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
                 continue
             in_lo, in_hi = (lo + gap, hi - gap) if cull else (math.inf, -math.inf)
             tally[4] += i_hi - i_lo + 1
+            # the box of what this cluster may have written (the dirty tiles in it are refreshed)
+            if rows:
+                du_lo, du_hi, dv_lo, dv_hi = min(du_lo, i_lo), max(du_hi, i_hi), min(dv_lo, iw), max(dv_hi, iw)
+            else:
+                du_lo, du_hi, dv_lo, dv_hi = min(du_lo, iw), max(du_hi, iw), min(dv_lo, i_lo), max(dv_hi, i_hi)
             for ix in range(i_lo, i_hi + 1):
                 iu, iv = (ix, iw) if rows else (iw, ix)
                 yn = ys[iv]
@@ -355,11 +363,8 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
                     zb[p] = iz
                     who[p] = key
                     dirty[iv >> SHIFT, iu >> SHIFT] = 1
-                    du_lo, du_hi = min(du_lo, iu), max(du_hi, iu)
-                    dv_lo, dv_hi = min(dv_lo, iv), max(dv_hi, iv)
     if du_hi >= 0:
-        tally[5] += (du_hi - du_lo + 1) * (dv_hi - dv_lo + 1)
-        _refresh(tmax, dirty, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
+        tally[5] += _refresh(tmax, dirty, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
