@@ -122,13 +122,16 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
     instructions wherever it is stored, so a vertex shared by two clusters is the same."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     last_u, last_v = width - 1.0, height - 1.0
+    m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]   # in registers: the stores below
+    m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]   # cannot be proven not to alias m
+    m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
     for w in range(nv):
         px = np.float64(vertices[v0 + w, 0])
         py = np.float64(vertices[v0 + w, 1])
         pz = np.float64(vertices[v0 + w, 2])
-        x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
-        y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
-        z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+        x = m00 * px + m01 * py + m02 * pz + m03
+        y = m10 * px + m11 * py + m12 * pz + m13
+        z = m20 * px + m21 * py + m22 * pz + m23
         wx[w], wy[w], wz[w] = x, y, z
         own = -2.0 - w
         iz = 1.0 / (z if z >= near else 1.0)
@@ -136,9 +139,9 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
         v = fy * y * iz + cy
         wu[w], wv[w] = u, v
         e = 1e-7 * (abs(u) + abs(v) + 1.0)
-        hu, hv = math.floor(u + e), math.floor(v + e)
-        ku = hu if math.ceil(u - e) > hu else own
-        kv = hv if math.ceil(v - e) > hv else own
+        hu, hv = np.floor(u + e), np.floor(v + e)
+        ku = hu if np.ceil(u - e) > hu else own
+        kv = hv if np.ceil(v - e) > hv else own
         ku = -1.0 if u + e < 0.0 else (width if u - e > last_u else ku)
         kv = -1.0 if v + e < 0.0 else (height if v - e > last_v else kv)
         front = z >= near
@@ -186,10 +189,10 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
         zhi = ez + rad
         xa, xb = min((ex - rad) / zlo, (ex - rad) / zhi), max((ex + rad) / zlo, (ex + rad) / zhi)
         ya, yb = min((ey - rad) / zlo, (ey - rad) / zhi), max((ey + rad) / zlo, (ey + rad) / zhi)
-        ulo_c = max(math.floor(fx * xa + min(s * ya, s * yb) + cx) - 1.0, col_lo)
-        uhi_c = min(math.ceil(fx * xb + max(s * ya, s * yb) + cx) + 1.0, col_hi)
-        vlo_c = max(math.floor(fy * ya + cy) - 1.0, 0.0)
-        vhi_c = min(math.ceil(fy * yb + cy) + 1.0, last_v)
+        ulo_c = max(np.floor(fx * xa + min(s * ya, s * yb) + cx) - 1.0, col_lo)
+        uhi_c = min(np.ceil(fx * xb + max(s * ya, s * yb) + cx) + 1.0, col_hi)
+        vlo_c = max(np.floor(fy * ya + cy) - 1.0, 0.0)
+        vhi_c = min(np.ceil(fy * yb + cy) + 1.0, last_v)
         if ulo_c > uhi_c or vlo_c > vhi_c:
             return
     if cull and zlo > near:
@@ -210,10 +213,10 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
                 bu_lo, bu_hi, bv_lo, bv_hi = min(bu_lo, u), max(bu_hi, u), min(bv_lo, v), max(bv_hi, v)
         if zb_lo > near:
             zlo = max(zlo, zb_lo * (1.0 - 1e-12))
-            ulo_c = max(ulo_c, math.floor(bu_lo) - 1.0)
-            uhi_c = min(uhi_c, math.ceil(bu_hi) + 1.0)
-            vlo_c = max(vlo_c, math.floor(bv_lo) - 1.0)
-            vhi_c = min(vhi_c, math.ceil(bv_hi) + 1.0)
+            ulo_c = max(ulo_c, np.floor(bu_lo) - 1.0)
+            uhi_c = min(uhi_c, np.ceil(bu_hi) + 1.0)
+            vlo_c = max(vlo_c, np.floor(bv_lo) - 1.0)
+            vhi_c = min(vhi_c, np.ceil(bv_hi) + 1.0)
             if ulo_c > uhi_c or vlo_c > vhi_c:
                 return
         if _hidden(tmax, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
@@ -267,12 +270,12 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
         # the edge functions below decide)
         mu = 1e-7 * (abs(umin) + abs(umax) + 1.0)
         mv = 1e-7 * (abs(vmin) + abs(vmax) + 1.0)
-        ulo = max(math.ceil(umin - mu), col_lo)
-        uhi = min(math.floor(umax + mu), col_hi)
+        ulo = max(np.ceil(umin - mu), col_lo)
+        uhi = min(np.floor(umax + mu), col_hi)
         if ulo > uhi:
             continue
-        vlo = max(math.ceil(vmin - mv), 0.0)
-        vhi = min(math.floor(vmax + mv), last_v)
+        vlo = max(np.ceil(vmin - mv), 0.0)
+        vhi = min(np.floor(vmax + mv), last_v)
         if vlo > vhi:
             continue
         ax_, ay_ = wx[a], wy[a]
@@ -335,8 +338,8 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
                 gap = max(gap, span[k, 3])
             if not (lo <= hi + 2.0):
                 continue
-            i_lo = int(max(math.ceil(lo) - 1.0, x_lo))
-            i_hi = int(min(math.floor(hi) + 1.0, x_hi))
+            i_lo = int(max(np.ceil(lo) - 1.0, x_lo))
+            i_hi = int(min(np.floor(hi) + 1.0, x_hi))
             if i_lo > i_hi:
                 continue
             in_lo, in_hi = (lo + gap, hi - gap) if cull else (math.inf, -math.inf)
@@ -514,7 +517,7 @@ def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face
             if want_rgb:
                 lam = max(-(nx * vx + ny * vy + nz * vz), 0.0)
                 for k in range(3):
-                    out_rgb[p, k] = np.uint8(min(255.0, math.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5)))
+                    out_rgb[p, k] = np.uint8(min(255.0, np.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5)))
                 out_rgb[p, 3] = 255
 
 
