@@ -91,8 +91,10 @@ class SceneBuilder:
         base = BASE_COLOR.get(cls, (160, 160, 160))
         if not self.opt.color:
             return base
-        # per channel in plain floats (once per instance): the array form's operations and bits
-        gain, noise = self.rng.uniform(0.75, 1.15), self.rng.normal(0, 12, 3).tolist()
+        # per channel in plain floats (once per instance): the array form's operations and bits.
+        # uniform(lo, hi) is lo + (hi - lo) * random() in numpy, one draw alike: written so, it
+        # skips the scalar call's argument handling (3.5 us of ~4)
+        gain, noise = 0.75 + (1.15 - 0.75) * self.rng.random(), self.rng.normal(0.0, 12.0, 3).tolist()
         return tuple(int(min(max(b * gain + e, 0.0), 255.0)) for b, e in zip(base, noise))  # type: ignore[return-value]
 
     def add(self, cls: str, variant: str, T: np.ndarray, name: str) -> int:
