@@ -79,6 +79,14 @@ class _Ours:
         self.r.release()
 
 
+class _OursCPU(_Ours):
+    name = "genie-gl-cpu"
+
+    def __init__(self, spec) -> None:
+        self.r = Renderer(to_scene(spec), raster="cpu")
+        self.triangles = self.r.triangles
+
+
 class _Pyrender:
     name = "pyrender"
 
@@ -128,7 +136,8 @@ class _Open3D:
         self.rc = None
 
 
-TOOLS = {"genie-gl": _Ours, "Open3D": _Open3D, "pyrender": _Pyrender}
+TOOLS = {"genie-gl": _Ours, "genie-gl-cpu": _OursCPU, "Open3D": _Open3D, "pyrender": _Pyrender}
+OURS = ("genie-gl", "genie-gl-cpu")
 
 
 def available(name: str) -> bool:
@@ -183,7 +192,7 @@ def _measure(args) -> dict:
            "steady_cpu_ms": 1e3 * frames_cpu / (CAMERAS[-1] - 1),
            **{f"cameras_{n}_s": build + marks[n] for n in CAMERAS},
            "peak_rss_mib": peak_rss_mib(), "rss_before_mib": before, "triangles": spec.triangles}
-    if name == "genie-gl":
+    if name in OURS:
         r = tool.r
         r.render(sensor, poses[0], depth_only=True)
         out["triangles_drawn_pose0"] = int(r.stats["triangles_drawn"])
@@ -266,16 +275,16 @@ def _print(table: dict, whole: dict) -> None:
         drawn = f", {ours['triangles_drawn_pose0']:,} drawn at pose 0" if ours else ""
         print(f"\nscene {scene}: {tri:,} triangles{drawn}; 640x480, depth + instance ids; min (median) of "
               f"{next(iter(tools.values()))['n']} fresh processes per tool")
-        print(f"  {'tool':<10}" + "".join(f"{label:>22}" for _, label, _ in METRICS))
+        print(f"  {'tool':<13}" + "".join(f"{label:>22}" for _, label, _ in METRICS))
         for tool, row in tools.items():
             cells = "".join(f"{row[k]['min']:>12.3g} ({row[k]['median']:.3g})" for k, _, _ in METRICS)
-            print(f"  {tool:<10}{cells}")
-        if ours:
+            print(f"  {tool:<13}{cells}")
+        for mine in (t for t in OURS if t in tools):
             for tool, row in tools.items():
-                if tool == "genie-gl":
+                if tool in OURS:
                     continue
-                ratios = [row[k]["median"] / ours[k]["median"] for k, _, _ in METRICS]
-                print(f"  {tool + ' / ours':<10}" + "".join(f"{x:>22.2f}" for x in ratios) + "   (medians)")
+                ratios = [row[k]["median"] / tools[mine][k]["median"] for k, _, _ in METRICS]
+                print(f"  {tool + ' / ' + mine:<10}" + "".join(f"{x:>22.2f}" for x in ratios) + "   (medians)")
         for tool, w in whole.get(scene, {}).items():
             print(f"  whole machine {tool}: {w['fps']:.1f} frames/s with {w['processes']} processes, "
                   f"peak {w['peak_rss_mib']:.0f} MiB per process")

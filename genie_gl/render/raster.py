@@ -1,0 +1,538 @@
+"""The CPU rasteriser: per pixel centre, the nearest triangle along its ray (numba, parallel).
+
+``Renderer(scene, raster="cpu")`` draws with this instead of OpenGL. It visits the same
+hierarchy as the culler (:mod:`genie_gl.render.cull`): instances outside the frustum are
+dropped before anything here runs; per cluster, its bounding sphere against the frustum and,
+for back-face-culled instances, its normal cone; then each triangle of the clusters that pass.
+
+A triangle is tested against the rays of the pixel centres in its screen box, in the camera
+frame and in float64, with homogeneous edge functions (Olano and Greer, 1997): the ray
+``d = K^-1 (u, v, 1)`` lies inside triangle ABC when ``(A x B)·d``, ``(B x C)·d`` and
+``(C x A)·d`` all have the sign of ``A·(B x C)``. No triangle is clipped: one crossing the
+near plane is tested like any other, its box taken from its part in front. Where the ray hits
+it, the depth is the exact intersection ``z = A·(B x C) / (n·d)`` with its plane (``n`` its
+normal), and the nearest hit wins. Edge functions of a shared edge are computed from the same
+two vertices in the same order of operations (no fused multiply-add: the kernels are built
+without ``fastmath``), so the two triangles of an edge give exact negatives and a pixel
+centre on it belongs to both: there are no cracks between triangles.
+
+Depth ties (equal float64 z) go to the lower (instance slot, face): each thread draws into a
+depth buffer of its own and the buffers are merged pixel by pixel on that key, so a frame
+does not depend on the number of threads or on the order the clusters are visited.
+
+What this gives against the OpenGL raster: depth exact along each pixel's ray (the GL path
+interpolates float32 eye coordinates over a snapped triangle), coverage decided at the pixel
+centre in float64 (GL: sub-pixel fixed point and its fill rule), no GL context, no clear and
+no read-back. Sub-pixel triangles, most of a scene of millions, cost a box test each.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from .clusters import CLUSTER
+from .cull import _cone_drops
+
+PARALLEL_FACES = 50_000     # below this many faces in view, one thread draws a frame
+SHIFT = 3
+TILE = 1 << SHIFT           # pixels: the side of an occlusion tile
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _clip_box(ax, ay, az, bx, by, bz, cx_, cy_, cz, near, proj, box):
+    """The pixel-centre box (ulo, uhi, vlo, vhi) of the part of triangle ABC at z >= near,
+    written into ``box`` (unbounded in float, clamped by the caller)."""
+    fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
+    umin, umax, vmin, vmax = math.inf, -math.inf, math.inf, -math.inf
+    px = (ax, bx, cx_)
+    py = (ay, by, cy_)
+    pz = (az, bz, cz)
+    for i in range(3):
+        j = (i + 1) % 3
+        x0, y0, z0 = px[i], py[i], pz[i]
+        x1, y1, z1 = px[j], py[j], pz[j]
+        if z0 >= near:    # the vertex itself
+            u = (fx * x0 + s * y0) / z0 + cx
+            v = fy * y0 / z0 + cy
+            umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
+        if (z0 >= near) != (z1 >= near):    # where the edge crosses the near plane
+            t = (near - z0) / (z1 - z0)
+            x, y = x0 + t * (x1 - x0), y0 + t * (y1 - y0)
+            u = (fx * x + s * y) / near + cx
+            v = fy * y / near + cy
+            umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
+    box[0], box[1], box[2], box[3] = umin, umax, vmin, vmax
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _hidden(tmin, ulo, uhi, vlo, vhi, iz):
+    """True when every tile the pixel box touches holds only inverse depths above ``iz``
+    (nearer than 1 / iz; a tile's value is its pixels' least)."""
+    for tr in range(int(vlo) >> SHIFT, (int(vhi) >> SHIFT) + 1):
+        for tc in range(int(ulo) >> SHIFT, (int(uhi) >> SHIFT) + 1):
+            if tmin[tr, tc] <= iz:
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _refresh(tmin, zb, ulo, uhi, vlo, vhi, Wi, Hi):
+    """Recompute the tiles in the pixel box: the least inverse depth each holds (0 while one
+    of its pixels is empty)."""
+    for tr in range(vlo >> SHIFT, (vhi >> SHIFT) + 1):
+        for tc in range(ulo >> SHIFT, (uhi >> SHIFT) + 1):
+            lo = math.inf
+            for iv in range(tr * TILE, min((tr + 1) * TILE, Hi)):
+                row = iv * Wi
+                for iu in range(tc * TILE, min((tc + 1) * TILE, Wi)):
+                    lo = min(lo, zb[row + iu])
+            tmin[tr, tc] = lo
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _edge_span(ex, ry, sg, fx, cx, sy, lo, hi):
+    """Narrow [lo, hi] (floats) to the u where sg E(u) >= 0 for an edge E(u) = ex xn(u) + ry,
+    xn(u) = (u - cx) / fx - sy; the caller widens by a pixel and tests exactly."""
+    a = sg * ex / fx
+    b = sg * (ry - ex * (cx / fx + sy))
+    if a > 0.0:
+        lo = max(lo, -b / a)
+    elif a < 0.0:
+        hi = min(hi, -b / a)
+    elif b < 0.0:
+        lo, hi = 1.0, 0.0
+    return lo, hi
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"nnan", "ninf", "nsz"})
+def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v):
+    """Camera-frame vertices ``v0 .. v0 + nv``, their window coordinates, and per axis the
+    cell (k, k + 1) between pixel centres that holds each with a margin (a vertex near a
+    centre, or behind the near plane, gets a key of its own): a triangle whose vertices share
+    a cell on either axis holds no pixel centre. Each vertex is computed by the same
+    instructions wherever it is stored, so a vertex shared by two clusters is the same."""
+    fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
+    last_u, last_v = width - 1.0, height - 1.0
+    for w in range(nv):
+        px = np.float64(vertices[v0 + w, 0])
+        py = np.float64(vertices[v0 + w, 1])
+        pz = np.float64(vertices[v0 + w, 2])
+        x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
+        y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
+        z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+        wx[w], wy[w], wz[w] = x, y, z
+        own = -2.0 - w
+        iz = 1.0 / (z if z >= near else 1.0)
+        u = (fx * x + s * y) * iz + cx
+        v = fy * y * iz + cy
+        wu[w], wv[w] = u, v
+        e = 1e-7 * (abs(u) + abs(v) + 1.0)
+        hu, hv = math.floor(u + e), math.floor(v + e)
+        ku = hu if math.ceil(u - e) > hu else own
+        kv = hv if math.ceil(v - e) > hv else own
+        ku = -1.0 if u + e < 0.0 else (width if u - e > last_u else ku)
+        kv = -1.0 if v + e < 0.0 else (height if v - e > last_v else kv)
+        front = z >= near
+        keys_u[w] = ku if front else own
+        keys_v[w] = kv if front else own
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
+                  c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj, planes, near, width,
+                  height, xs, ys, sys_, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally, cull):
+    """Draw cluster k of visible instance q into the columns col_lo..col_hi; counts into
+    ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
+    tested, pixels of occlusion tiles refreshed). Without ``cull``, every face is tested
+    against every pixel centre of its box (no cluster, cone, cell, occlusion or span test):
+    the reference the culled frame must equal byte for byte."""
+    fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
+    f0 = fbase[q] + k * CLUSTER
+    nf = min(CLUSTER, nfaces[q] - k * CLUSTER)
+    cl = cbase[q] + k
+    vb = vbase[q]
+    sl = slot[q]
+    m = cfm[sl]
+    bc = backcull[q]
+    Wi, Hi = int(width), int(height)
+    last_u, last_v = width - 1.0, height - 1.0
+    c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
+    ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
+    ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
+    ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
+    sc = 0.0
+    rmag = 0.0
+    for c in range(3):
+        sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
+        for r in range(3):
+            rmag = max(rmag, abs(m[r, c]))
+    rad = c_radius[cl] * sc * (1 + 1e-6) + 1e-9
+    for p in range(planes.shape[0]):
+        if cull and planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
+            return
+    # the sphere's pixel box (the whole image when it reaches the near plane)
+    zlo = ez - rad
+    ulo_c, uhi_c, vlo_c, vhi_c = col_lo, col_hi, 0.0, last_v
+    if cull and zlo > near:
+        zhi = ez + rad
+        xa, xb = min((ex - rad) / zlo, (ex - rad) / zhi), max((ex + rad) / zlo, (ex + rad) / zhi)
+        ya, yb = min((ey - rad) / zlo, (ey - rad) / zhi), max((ey + rad) / zlo, (ey + rad) / zhi)
+        ulo_c = max(math.floor(fx * xa + min(s * ya, s * yb) + cx) - 1.0, col_lo)
+        uhi_c = min(math.ceil(fx * xb + max(s * ya, s * yb) + cx) + 1.0, col_hi)
+        vlo_c = max(math.floor(fy * ya + cy) - 1.0, 0.0)
+        vhi_c = min(math.ceil(fy * yb + cy) + 1.0, last_v)
+        if ulo_c > uhi_c or vlo_c > vhi_c:
+            return
+    if cull and zlo > near and _hidden(tmax, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
+        return
+    tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
+    # the culler's cone bound holds for the GPU's float32 rounding; float64 rounds far less
+    if cull and bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
+                          c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near, 2.0 ** -8,
+                          width, height):
+        return
+    tally[0] += 1
+    v_lo = c_vrange[cl, 0]
+    nv = c_vrange[cl, 1] - v_lo
+    # camera-frame vertices, window coordinates, and per axis the cell (k, k + 1) between
+    # pixel centres that holds the vertex with a margin (a vertex near a centre, or behind the
+    # near plane, gets a key of its own): a triangle whose vertices share a cell on either
+    # axis holds no pixel centre
+    _project(m, vertices, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v)
+    key0 = np.int64(sl) << np.int64(32)
+    inear = 1.0 / near
+    ifx, ify = 1.0 / fx, 1.0 / fy
+    du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1     # the pixels this cluster wrote
+    for i in range(nf):
+        f = f0 + i
+        a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
+        ka, kb, kc = keys_u[a], keys_u[b], keys_u[c]
+        la, lb, lc = keys_v[a], keys_v[b], keys_v[c]
+        if cull & (((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc))):   # one branch, mostly taken
+            continue
+        az, bz, cz = wz[a], wz[b], wz[c]
+        front = (az >= near) + (bz >= near) + (cz >= near)
+        if front == 0:
+            continue
+        if front == 3:
+            ua, ub, uc = wu[a], wu[b], wu[c]
+            va, vb_, vc = wv[a], wv[b], wv[c]
+            umin, umax = min(ua, min(ub, uc)), max(ua, max(ub, uc))
+            vmin, vmax = min(va, min(vb_, vc)), max(va, max(vb_, vc))
+            zmin = min(az, min(bz, cz))
+        else:
+            _clip_box(wx[a], wy[a], az, wx[b], wy[b], bz, wx[c], wy[c], cz, near, proj, box)
+            umin, umax, vmin, vmax = box[0], box[1], box[2], box[3]
+            zmin = near
+        # the box of the pixel centres it may hold (projection rounding: a generous margin,
+        # the edge functions below decide)
+        mu = 1e-7 * (abs(umin) + abs(umax) + 1.0)
+        mv = 1e-7 * (abs(vmin) + abs(vmax) + 1.0)
+        ulo = max(math.ceil(umin - mu), col_lo)
+        uhi = min(math.floor(umax + mu), col_hi)
+        if ulo > uhi:
+            continue
+        vlo = max(math.ceil(vmin - mv), 0.0)
+        vhi = min(math.floor(vmax + mv), last_v)
+        if vlo > vhi:
+            continue
+        ax_, ay_ = wx[a], wy[a]
+        bx_, by_ = wx[b], wy[b]
+        cx_, cy_ = wx[c], wy[c]
+        # edge functions (A x B)·d, (B x C)·d, (C x A)·d
+        e1x, e1y, e1z = by_ * cz - bz * cy_, bz * cx_ - bx_ * cz, bx_ * cy_ - by_ * cx_
+        vol = ax_ * e1x + ay_ * e1y + az * e1z        # A·(B x C): twice the signed volume
+        if vol == 0.0:
+            continue                                   # its plane holds the eye: edge-on
+        # front faces are clockwise on screen (v down): A·(B x C) < 0 seen from outside
+        if bc and vol > 0.0:
+            continue
+        tally[1] += 1
+        if cull and _hidden(tmax, ulo, uhi, vlo, vhi, 1.0 / zmin):
+            tally[2] += 1
+            continue
+        tally[3] += 1
+        e0x, e0y, e0z = ay_ * bz - az * by_, az * bx_ - ax_ * bz, ax_ * by_ - ay_ * bx_
+        e2x, e2y, e2z = cy_ * az - cz * ay_, cz * ax_ - cx_ * az, cx_ * ay_ - cy_ * ax_
+        nx, ny, nz = e0x + e1x + e2x, e0y + e1y + e2y, e0z + e1z + e2z   # (B - A) x (C - A)
+        sg = 1.0 if vol > 0.0 else -1.0
+        ivol = 1.0 / vol
+        key = key0 | np.int64(f)
+        # per edge, sg E = A u + B v + C in pixel coordinates. The box is scanned along its
+        # longer side, line by line (rows: v fixed; columns: u fixed): on a line w the edge's
+        # inner side is x >= P + Q w or x <= P + Q w (x the scanned coordinate), or all or
+        # nothing. The span's rounding is far below ``gap``: centres more than ``gap`` inside
+        # it are inside; those nearer its ends get the exact test, the same expression
+        # whichever way a triangle is scanned (so that shared edges stay watertight).
+        rows = (vhi - vlo) <= (uhi - ulo)
+        for k in range(3):
+            ex_, ey_, ez_ = (e0x, e0y, e0z) if k == 0 else ((e1x, e1y, e1z) if k == 1 else (e2x, e2y, e2z))
+            A = sg * ex_ * ifx
+            B = sg * (ey_ - ex_ * s * ifx) * ify
+            C = sg * ez_ - A * cx - B * cy
+            a_, b_ = (A, B) if rows else (B, A)   # the scanned coordinate's coefficient, the line's
+            if a_ != 0.0:
+                span[k, 0] = 1.0 if a_ > 0.0 else -1.0
+                span[k, 1] = -C / a_
+                span[k, 2] = -b_ / a_
+                span[k, 3] = 1e-12 * (abs(span[k, 1]) + abs(span[k, 2]) * (Wi + Hi) + 1.0)
+            else:
+                span[k, 0] = 0.0
+                span[k, 1] = b_
+                span[k, 2] = C
+                span[k, 3] = 0.0
+        w_lo, w_hi = (vlo, vhi) if rows else (ulo, uhi)
+        x_lo, x_hi = (ulo, uhi) if rows else (vlo, vhi)
+        for iw in range(int(w_lo), int(w_hi) + 1):
+            lo, hi, gap = x_lo, x_hi, 0.0
+            for k in range(3 if cull else 0):
+                if span[k, 0] > 0.0:
+                    lo = max(lo, span[k, 1] + span[k, 2] * iw)
+                elif span[k, 0] < 0.0:
+                    hi = min(hi, span[k, 1] + span[k, 2] * iw)
+                elif span[k, 1] * iw + span[k, 2] < -1e-9 * (abs(span[k, 1] * iw) + abs(span[k, 2])):
+                    hi = -1.0
+                gap = max(gap, span[k, 3])
+            if not (lo <= hi + 2.0):
+                continue
+            i_lo = int(max(math.ceil(lo) - 1.0, x_lo))
+            i_hi = int(min(math.floor(hi) + 1.0, x_hi))
+            if i_lo > i_hi:
+                continue
+            in_lo, in_hi = (lo + gap, hi - gap) if cull else (math.inf, -math.inf)
+            tally[4] += i_hi - i_lo + 1
+            for ix in range(i_lo, i_hi + 1):
+                iu, iv = (ix, iw) if rows else (iw, ix)
+                yn = ys[iv]
+                xn = xs[iu] - sys_[iv]
+                if not (in_lo < ix < in_hi):
+                    inside = ((sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0)
+                              & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
+                              & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0))
+                    if not inside:
+                        continue
+                # inverse depth 1 / z = (n·d) / A·(B x C): larger is nearer
+                iz = (nx * xn + (ny * yn + nz)) * ivol
+                p = iv * Wi + iu
+                if (iz <= inear) & ((iz > zb[p]) | ((iz == zb[p]) & (key < who[p]))):
+                    zb[p] = iz
+                    who[p] = key
+                    du_lo, du_hi = min(du_lo, iu), max(du_hi, iu)
+                    dv_lo, dv_hi = min(dv_lo, iv), max(dv_hi, iv)
+    if du_hi >= 0:
+        tally[5] += (du_hi - du_lo + 1) * (dv_hi - dv_lo + 1)
+        _refresh(tmax, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
+def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
+            slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
+            T, zb, who, tmin, tally, cull):
+    """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
+    nearest first into ``zb`` (float64 1 / z, 0 where nothing) and ``who`` (slot << 32 |
+    face, -1 where nothing), H x W flattened, with T threads: thread t draws the columns of
+    strip t, the strips cut where the clusters' centres split evenly (whole tiles), so each
+    thread's occlusion tiles see every occluder of its strip and no pixel is written by two."""
+    W = int(width)
+    H = int(height)
+    xs = np.empty(W)
+    for u in range(W):
+        xs[u] = (u - proj[2]) / proj[0]
+    ys, sys_ = np.empty(H), np.empty(H)
+    for v in range(H):
+        ys[v] = (v - proj[4]) / proj[3]
+        sys_[v] = proj[1] * ys[v] / proj[0]
+    njobs = job0[len(job0) - 1]
+    key = np.empty(njobs)
+    whose = np.empty(njobs, np.int64)
+    at = np.empty(njobs)
+    q = 0
+    for j in range(njobs):
+        while job0[q + 1] <= j:
+            q += 1
+        whose[j] = q
+        m = cfm[slot[q]]
+        cl = cbase[q] + j - job0[q]
+        c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
+        ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
+        ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
+        ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
+        sc = 0.0
+        for c in range(3):
+            sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
+        key[j] = ez - c_radius[cl] * sc
+        at[j] = min(max((proj[0] * ex + proj[1] * ey) / ez + proj[2], 0.0), width - 1.0) if ez > near else -1.0
+    order = np.argsort(key)
+    # strips: T runs of whole tiles, cut at the quantiles of the clusters' centre columns
+    cut = np.zeros(T + 1, np.int64)
+    cut[T] = W
+    seen = np.sort(at[at >= 0.0])
+    for t in range(1, T):
+        u = seen[(len(seen) * t) // T] if len(seen) else (W * t) / T
+        cut[t] = min(max((int(u) >> SHIFT) << SHIFT, cut[t - 1]), W)
+    for p in prange(len(zb)):
+        zb[p] = 0.0
+        who[p] = -1
+    tmin[:, :] = 0.0
+    tally[:, :] = 0
+    for t in prange(T):
+        if cut[t] >= cut[t + 1]:
+            continue
+        wx, wy, wz = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+        wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
+        keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+        span = np.empty((3, 4))
+        for jj in range(njobs):
+            j = order[jj]
+            q = whose[j]
+            _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_centre,
+                          c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces,
+                          cbase, backcull, cfm, eye, det, proj, planes, near, width, height, xs, ys, sys_, zb, who,
+                          tmin, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally[t], cull)
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face0, proj, near_m, far_m, width,
+           out_depth, out_instance, out_semantic, out_rgb, out_normal, out_tri, want_rgb, want_normal, want_tri):
+    """The frame's targets from the merged buffers: z in [near_m, far_m] (else no return),
+    instance and semantic ids, and on request the face normal (camera frame, towards the
+    eye), the colour (the instance's, Lambert with a head light, as the GL shader) and the
+    (slot + 1, face within the slot's mesh) of every pixel a triangle won, in range or not."""
+    fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
+    for p in range(len(depth)):
+        h = hit[p]
+        z = 1.0 / depth[p] if h >= 0 else 0.0
+        if want_tri:
+            if h < 0:
+                out_tri[p, 0] = 0
+                out_tri[p, 1] = 0
+            else:
+                out_tri[p, 0] = np.uint32((h >> np.int64(32)) + 1)
+                out_tri[p, 1] = np.uint32((h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)])
+        if h < 0 or z < near_m or z > far_m:
+            out_depth[p] = 0.0
+            out_instance[p] = 0
+            out_semantic[p] = 0
+            if want_rgb:
+                out_rgb[p, 0] = 0
+                out_rgb[p, 1] = 0
+                out_rgb[p, 2] = 0
+                out_rgb[p, 3] = 0
+            if want_normal:
+                out_normal[p, 0] = 0.0
+                out_normal[p, 1] = 0.0
+                out_normal[p, 2] = 0.0
+            continue
+        sl = h >> np.int64(32)
+        f = h & np.int64(0xFFFFFFFF)
+        out_depth[p] = np.float32(z)
+        out_instance[p] = ids[sl]
+        out_semantic[p] = sems[sl]
+        if want_rgb or want_normal:
+            m = cfm[sl]
+            q = np.empty((3, 3))
+            for k in range(3):
+                vi = fvbase[f] + faces[f, k]
+                px, py, pz = (np.float64(vertices[vi, 0]), np.float64(vertices[vi, 1]),
+                              np.float64(vertices[vi, 2]))
+                for r in range(3):
+                    q[k, r] = m[r, 0] * px + m[r, 1] * py + m[r, 2] * pz + m[r, 3]
+            ux, uy, uz = q[1, 0] - q[0, 0], q[1, 1] - q[0, 1], q[1, 2] - q[0, 2]
+            wx_, wy_, wz_ = q[2, 0] - q[0, 0], q[2, 1] - q[0, 1], q[2, 2] - q[0, 2]
+            nx, ny, nz = uy * wz_ - uz * wy_, uz * wx_ - ux * wz_, ux * wy_ - uy * wx_
+            v = p // width
+            u = p - v * width
+            yn = (v - cy) / fy
+            xn = (u - cx - s * yn) / fx
+            dl = math.sqrt(xn * xn + yn * yn + 1.0)
+            vx, vy, vz = xn / dl, yn / dl, 1.0 / dl
+            nl = math.sqrt(nx * nx + ny * ny + nz * nz)
+            if nl > 0.0:
+                nx, ny, nz = nx / nl, ny / nl, nz / nl
+            else:
+                nx, ny, nz = -vx, -vy, -vz
+            if nx * vx + ny * vy + nz * vz > 0.0:
+                nx, ny, nz = -nx, -ny, -nz
+            if want_normal:
+                out_normal[p, 0] = nx
+                out_normal[p, 1] = ny
+                out_normal[p, 2] = nz
+            if want_rgb:
+                lam = max(-(nx * vx + ny * vy + nz * vz), 0.0)
+                for k in range(3):
+                    out_rgb[p, k] = np.uint8(min(255.0, math.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5)))
+                out_rgb[p, 3] = 255
+
+
+class Rasteriser:
+    """Per-scene state of the CPU rasteriser: the culler's cluster arrays (shared, not
+    copied) and per-thread buffers reused from frame to frame."""
+
+    def __init__(self, culler) -> None:
+        self.culler = culler
+        self._buffers: tuple | None = None
+        self._face_vbase: np.ndarray | None = None
+        self.tally = np.zeros((64, 8), np.int64)
+        self.counts = np.zeros(8, np.int64)   # the last frame's tally (see _draw_cluster)
+
+    def face_vbase(self, mesh_vbase: np.ndarray, mesh_fbase: np.ndarray, mesh_nfaces: np.ndarray) -> np.ndarray:
+        """(F,) int64: per face of the joined arrays, the first vertex row of its mesh."""
+        if self._face_vbase is None:
+            out = np.zeros(len(self.culler.faces), np.int64)
+            for vb, fb, nf in zip(mesh_vbase, mesh_fbase, mesh_nfaces):
+                out[fb:fb + nf] = vb
+            self._face_vbase = out
+        return self._face_vbase
+
+    def draw(self, slots: np.ndarray, mesh: np.ndarray, backcull: np.ndarray, cfm: np.ndarray, eye: np.ndarray,
+             det: np.ndarray, K: np.ndarray, width: int, height: int, near: float,
+             planes: np.ndarray, cull: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """(inverse depth, hit): per pixel (H*W) 1 / z of the nearest hit (float64, 0: nothing) at or beyond
+        ``near`` and its (slot << 32 | face), -1 where nothing; arguments as
+        :meth:`genie_gl.render.cull.TriangleCuller.select`; ``cull=False`` tests every face
+        against every pixel centre of its box (the reference, slow)."""
+        c = self.culler
+        nf = c.mesh_nfaces[mesh]
+        nclus = -(-nf // CLUSTER)
+        job0 = np.zeros(len(slots) + 1, np.int64)
+        np.cumsum(nclus, out=job0[1:])
+        proj = np.array([K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], dtype=np.float64)
+        threads = numba.get_num_threads()
+        T = 1 if threads == 1 or int(nf.sum()) < PARALLEL_FACES else threads
+        npx = width * height
+        tiles = (-(-height // TILE), -(-width // TILE))
+        buf = self._buffers
+        if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
+            buf = self._buffers = (np.empty(npx), np.empty(npx, np.int64), np.empty(tiles))
+        depth, hit, tmin = buf
+        _raster(c.vertices, c.faces, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
+                nf, c.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
+                np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64), proj, planes,
+                float(near), float(width), float(height), T, depth, hit, tmin, self.tally[:T], bool(cull))
+        self.counts = self.tally[:T].sum(axis=0)
+        return depth, hit
+
+    def shade(self, depth: np.ndarray | None, hit: np.ndarray | None, cfm: np.ndarray, ids: np.ndarray,
+              semantic: np.ndarray, color: np.ndarray, slot_face0: np.ndarray, K: np.ndarray, near_m: float,
+              far_m: float, out: dict[str, np.ndarray]) -> None:
+        """Fill a frame's arrays ``out`` (:func:`genie_gl.render.memory.frame_buffers`) from
+        :meth:`draw`'s buffers (None: nothing drawn); per slot its ids, RGB colour (uint8) and
+        first face in the joined arrays (``slot_face0``)."""
+        H, W = out["depth"].shape
+        if depth is None:
+            for a in out.values():
+                a.fill(0)
+            return
+        c = self.culler
+        want_rgb, want_normal, want_tri = "rgba" in out, "normal" in out, "primitive" in out
+        none32 = np.zeros((1, 4), np.uint8)
+        _shade(depth, hit, c.vertices, c.faces, self._face_vbase, cfm, ids, semantic, color, slot_face0,
+               np.array([K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], dtype=np.float64), float(near_m), float(far_m),
+               W, out["depth"].reshape(-1), out["instance"].reshape(-1), out["semantic"].reshape(-1),
+               out["rgba"].reshape(-1, 4) if want_rgb else none32,
+               out["normal"].reshape(-1, 3) if want_normal else np.zeros((1, 3), np.float32),
+               out["primitive"].reshape(-1, 2) if want_tri else np.zeros((1, 2), np.uint32),
+               want_rgb, want_normal, want_tri)
