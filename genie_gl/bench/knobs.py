@@ -115,7 +115,7 @@ KNOBS: tuple[Knob, ...] = (
     Knob("resample", "lens resampling", "resample", ("nearest", "bilinear", "plane", "exact"), "exact", True,
          _lens),
     Knob("oversample", "wide-render oversampling", "oversample", (1.0, 1.5, 2.0), 2.0, True, _lens),
-    Knob("depth_precision", "depth precision", "depth_precision", ("depth24", "reversed_z", "float32"),
+    Knob("depth_precision", "depth precision", "depth_precision", ("depth24", "reversed_z", "float32", "exact"),
          "float32", True),
     Knob("shadow_scale", "second-view scale", "shadow_scale", (0.25, 0.5, 1.0), 2.0, False, _effect_knob("shadow_scale")),
     Knob("tessellation", "tessellation (segments/circle)", "tessellation", (8, 16, 32, 64), 128, True,

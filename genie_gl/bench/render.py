@@ -79,11 +79,11 @@ class _Ours:
         self.r.release()
 
 
-class _OursCPU(_Ours):
-    name = "genie-gl-cpu"
+class _OursExact(_Ours):
+    name = "genie-gl-exact"
 
     def __init__(self, spec) -> None:
-        self.r = Renderer(to_scene(spec), raster="cpu")
+        self.r = Renderer(to_scene(spec), depth_precision="exact")
         self.triangles = self.r.triangles
 
 
@@ -136,8 +136,8 @@ class _Open3D:
         self.rc = None
 
 
-TOOLS = {"genie-gl": _Ours, "genie-gl-cpu": _OursCPU, "Open3D": _Open3D, "pyrender": _Pyrender}
-OURS = ("genie-gl", "genie-gl-cpu")
+TOOLS = {"genie-gl": _Ours, "genie-gl-exact": _OursExact, "Open3D": _Open3D, "pyrender": _Pyrender}
+OURS = ("genie-gl", "genie-gl-exact")
 
 
 def available(name: str) -> bool:

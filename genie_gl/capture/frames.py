@@ -65,7 +65,7 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         this process. The frames do not depend on it.
     backend : GL backend ("egl", "osmesa" or None).
     depth_only : skip the colour target (frames get ``rgb=None``).
-    depth_precision : "float32", "depth24" or "reversed_z" (see :class:`Renderer`).
+    depth_precision : "float32", "depth24", "reversed_z" or "exact" (see :class:`Renderer`).
     plan : True (default): follow :func:`~genie_gl.capture.plan` of these poses (culling, far
         plane, effects skipped where the view cannot call for them; same output as running
         them); a :class:`~genie_gl.capture.Plan` of these poses; None: no plan (every effect

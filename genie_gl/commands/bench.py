@@ -11,7 +11,7 @@ from . import announce_compilation, count, counts, names, positive, seed
 
 #: the scenes of ``genie bench render`` (genie_gl.bench.scenes.SIZES) and the tools it times
 RENDER_SCENES = ("100k", "1M", "10M", "hall", "generated")
-RENDER_TOOLS = ("genie-gl", "genie-gl-cpu", "Open3D", "pyrender")
+RENDER_TOOLS = ("genie-gl", "genie-gl-exact", "Open3D", "pyrender")
 #: ``genie bench odometry``'s defaults (genie_gl.bench.odometry: RATE_HZ, SCAN_POINTS, MAX_RANGE_M, VOXEL_M)
 ODOMETRY = {"rate_hz": 20.0, "scan_points": 100_000, "max_range": 30.0, "voxel_m": 0.1}
 

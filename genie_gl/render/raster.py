@@ -36,7 +36,7 @@ from numba import njit, prange
 from .clusters import CLUSTER
 from .cull import _cone_drops
 
-PARALLEL_FACES = 50_000     # below this many faces in view, one thread draws a frame
+PARALLEL_FACES = 5_000      # below this many faces in view, one thread draws a frame
 SHIFT = 3
 TILE = 1 << SHIFT           # pixels: the side of an occlusion tile
 
@@ -79,17 +79,23 @@ def _hidden(tmin, ulo, uhi, vlo, vhi, iz):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _refresh(tmin, zb, ulo, uhi, vlo, vhi, Wi, Hi):
-    """Recompute the tiles in the pixel box: the least inverse depth each holds (0 while one
-    of its pixels is empty)."""
+def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
+    """Recompute the tiles written since their last refresh (``dirty``) in the pixel box: the
+    least inverse depth each holds (0 while one of its pixels is empty); returns how many."""
+    n = 0
     for tr in range(vlo >> SHIFT, (vhi >> SHIFT) + 1):
         for tc in range(ulo >> SHIFT, (uhi >> SHIFT) + 1):
+            if not dirty[tr, tc]:
+                continue
+            dirty[tr, tc] = 0
+            n += 1
             lo = math.inf
             for iv in range(tr * TILE, min((tr + 1) * TILE, Hi)):
                 row = iv * Wi
                 for iu in range(tc * TILE, min((tc + 1) * TILE, Wi)):
                     lo = min(lo, zb[row + iu])
             tmin[tr, tc] = lo
+    return n
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
@@ -141,12 +147,12 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
+def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
                   c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj, planes, near, width,
-                  height, xs, ys, sys_, zb, who, tmax, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally, cull):
+                  height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally, cull):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi; counts into
     ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
-    tested, pixels of occlusion tiles refreshed). Without ``cull``, every face is tested
+    tested, occlusion tiles refreshed). Without ``cull``, every face is tested
     against every pixel centre of its box (no cluster, cone, cell, occlusion or span test):
     the reference the culled frame must equal byte for byte."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
@@ -186,8 +192,32 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
         vhi_c = min(math.ceil(fy * yb + cy) + 1.0, last_v)
         if ulo_c > uhi_c or vlo_c > vhi_c:
             return
-    if cull and zlo > near and _hidden(tmax, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
-        return
+    if cull and zlo > near:
+        # the cluster's box (model frame): its eight corners bound it more tightly than the
+        # sphere, in depth and on screen (a strip of a cylinder, a patch of floor)
+        zb_lo, bu_lo, bu_hi, bv_lo, bv_hi = math.inf, math.inf, -math.inf, math.inf, -math.inf
+        for corner in range(8):
+            px = c_hi[cl, 0] if corner & 1 else c_lo[cl, 0]
+            py = c_hi[cl, 1] if corner & 2 else c_lo[cl, 1]
+            pz = c_hi[cl, 2] if corner & 4 else c_lo[cl, 2]
+            x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
+            y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
+            z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+            zb_lo = min(zb_lo, z)
+            if z > 0.0:
+                u = (fx * x + s * y) / z + cx
+                v = fy * y / z + cy
+                bu_lo, bu_hi, bv_lo, bv_hi = min(bu_lo, u), max(bu_hi, u), min(bv_lo, v), max(bv_hi, v)
+        if zb_lo > near:
+            zlo = max(zlo, zb_lo * (1.0 - 1e-12))
+            ulo_c = max(ulo_c, math.floor(bu_lo) - 1.0)
+            uhi_c = min(uhi_c, math.ceil(bu_hi) + 1.0)
+            vlo_c = max(vlo_c, math.floor(bv_lo) - 1.0)
+            vhi_c = min(vhi_c, math.ceil(bv_hi) + 1.0)
+            if ulo_c > uhi_c or vlo_c > vhi_c:
+                return
+        if _hidden(tmax, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
+            return
     tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
     # the culler's cone bound holds for the GPU's float32 rounding; float64 rounds far less
     if cull and bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
@@ -205,14 +235,20 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
     key0 = np.int64(sl) << np.int64(32)
     inear = 1.0 / near
     ifx, ify = 1.0 / fx, 1.0 / fy
-    du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1     # the pixels this cluster wrote
+    du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1     # the box of the pixels this cluster tested
+    # the faces whose vertices do not share a cell, listed without a branch per face (most
+    # faces of a large scene are smaller than a pixel and go here)
+    nl = 0
     for i in range(nf):
         f = f0 + i
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
         ka, kb, kc = keys_u[a], keys_u[b], keys_u[c]
         la, lb, lc = keys_v[a], keys_v[b], keys_v[c]
-        if cull & (((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc))):   # one branch, mostly taken
-            continue
+        live[nl] = i
+        nl += 1 - (cull & (((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc))))
+    for ii in range(nl):
+        f = f0 + live[ii]
+        a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
         az, bz, cz = wz[a], wz[b], wz[c]
         front = (az >= near) + (bz >= near) + (cz >= near)
         if front == 0:
@@ -275,9 +311,10 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
             C = sg * ez_ - A * cx - B * cy
             a_, b_ = (A, B) if rows else (B, A)   # the scanned coordinate's coefficient, the line's
             if a_ != 0.0:
+                ia = -1.0 / a_
                 span[k, 0] = 1.0 if a_ > 0.0 else -1.0
-                span[k, 1] = -C / a_
-                span[k, 2] = -b_ / a_
+                span[k, 1] = C * ia
+                span[k, 2] = b_ * ia
                 span[k, 3] = 1e-12 * (abs(span[k, 1]) + abs(span[k, 2]) * (Wi + Hi) + 1.0)
             else:
                 span[k, 0] = 0.0
@@ -304,6 +341,11 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
                 continue
             in_lo, in_hi = (lo + gap, hi - gap) if cull else (math.inf, -math.inf)
             tally[4] += i_hi - i_lo + 1
+            # the box of what this cluster may have written (the dirty tiles in it are refreshed)
+            if rows:
+                du_lo, du_hi, dv_lo, dv_hi = min(du_lo, i_lo), max(du_hi, i_hi), min(dv_lo, iw), max(dv_hi, iw)
+            else:
+                du_lo, du_hi, dv_lo, dv_hi = min(du_lo, iw), max(du_hi, iw), min(dv_lo, i_lo), max(dv_hi, i_hi)
             for ix in range(i_lo, i_hi + 1):
                 iu, iv = (ix, iw) if rows else (iw, ix)
                 yn = ys[iv]
@@ -320,15 +362,13 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_centre, c_radius, c_v
                 if (iz <= inear) & ((iz > zb[p]) | ((iz == zb[p]) & (key < who[p]))):
                     zb[p] = iz
                     who[p] = key
-                    du_lo, du_hi = min(du_lo, iu), max(du_hi, iu)
-                    dv_lo, dv_hi = min(dv_lo, iv), max(dv_hi, iv)
+                    dirty[iv >> SHIFT, iu >> SHIFT] = 1
     if du_hi >= 0:
-        tally[5] += (du_hi - du_lo + 1) * (dv_hi - dv_lo + 1)
-        _refresh(tmax, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
+        tally[5] += _refresh(tmax, dirty, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
-def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
+def _raster(vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
             slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
             T, zb, who, tmin, tally, cull):
     """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
@@ -377,6 +417,7 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         zb[p] = 0.0
         who[p] = -1
     tmin[:, :] = 0.0
+    dirty = np.zeros(tmin.shape, np.uint8)
     tally[:, :] = 0
     for t in prange(T):
         if cut[t] >= cut[t + 1]:
@@ -384,75 +425,85 @@ def _raster(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         wx, wy, wz = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
         keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+        live = np.empty(CLUSTER, np.int64)
         span = np.empty((3, 4))
         for jj in range(njobs):
             j = order[jj]
             q = whose[j]
-            _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_centre,
+            _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_lo, c_hi, c_centre,
                           c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces,
                           cbase, backcull, cfm, eye, det, proj, planes, near, width, height, xs, ys, sys_, zb, who,
-                          tmin, wx, wy, wz, wu, wv, keys_u, keys_v, box, span, tally[t], cull)
+                          tmin, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
 
 
-@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _vertex(vertices, vi, m, r):
+    """Row r of camera_from_model ``m`` applied to vertex ``vi`` (float64)."""
+    return (m[r, 0] * np.float64(vertices[vi, 0]) + m[r, 1] * np.float64(vertices[vi, 1])
+            + m[r, 2] * np.float64(vertices[vi, 2]) + m[r, 3])
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
 def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face0, proj, near_m, far_m, width,
            out_depth, out_instance, out_semantic, out_rgb, out_normal, out_tri, want_rgb, want_normal, want_tri):
-    """The frame's targets from the merged buffers: z in [near_m, far_m] (else no return),
-    instance and semantic ids, and on request the face normal (camera frame, towards the
-    eye), the colour (the instance's, Lambert with a head light, as the GL shader) and the
-    (slot + 1, face within the slot's mesh) of every pixel a triangle won, in range or not."""
+    """The frame's targets from the drawn buffers, row by row in parallel: z in [near_m,
+    far_m] (else no return), instance and semantic ids, and on request the face normal
+    (camera frame, towards the eye), the colour (the instance's, Lambert with a head light,
+    as the GL shader) and the (slot + 1, face within the slot's mesh) of every pixel a
+    triangle won, in range or not. A face's unit normal is computed once per run of pixels
+    that show it."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
-    for p in range(len(depth)):
-        h = hit[p]
-        z = 1.0 / depth[p] if h >= 0 else 0.0
-        if want_tri:
-            if h < 0:
-                out_tri[p, 0] = 0
-                out_tri[p, 1] = 0
-            else:
-                out_tri[p, 0] = np.uint32((h >> np.int64(32)) + 1)
-                out_tri[p, 1] = np.uint32((h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)])
-        if h < 0 or z < near_m or z > far_m:
-            out_depth[p] = 0.0
-            out_instance[p] = 0
-            out_semantic[p] = 0
-            if want_rgb:
-                out_rgb[p, 0] = 0
-                out_rgb[p, 1] = 0
-                out_rgb[p, 2] = 0
-                out_rgb[p, 3] = 0
-            if want_normal:
-                out_normal[p, 0] = 0.0
-                out_normal[p, 1] = 0.0
-                out_normal[p, 2] = 0.0
-            continue
-        sl = h >> np.int64(32)
-        f = h & np.int64(0xFFFFFFFF)
-        out_depth[p] = np.float32(z)
-        out_instance[p] = ids[sl]
-        out_semantic[p] = sems[sl]
-        if want_rgb or want_normal:
-            m = cfm[sl]
-            q = np.empty((3, 3))
-            for k in range(3):
-                vi = fvbase[f] + faces[f, k]
-                px, py, pz = (np.float64(vertices[vi, 0]), np.float64(vertices[vi, 1]),
-                              np.float64(vertices[vi, 2]))
-                for r in range(3):
-                    q[k, r] = m[r, 0] * px + m[r, 1] * py + m[r, 2] * pz + m[r, 3]
-            ux, uy, uz = q[1, 0] - q[0, 0], q[1, 1] - q[0, 1], q[1, 2] - q[0, 2]
-            wx_, wy_, wz_ = q[2, 0] - q[0, 0], q[2, 1] - q[0, 1], q[2, 2] - q[0, 2]
-            nx, ny, nz = uy * wz_ - uz * wy_, uz * wx_ - ux * wz_, ux * wy_ - uy * wx_
-            v = p // width
-            u = p - v * width
+    W = int(width)
+    rows = len(depth) // W
+    for v in prange(rows):
+        last = np.int64(-1)
+        ux = uy = uz = 0.0
+        for p in range(v * W, (v + 1) * W):
+            h = hit[p]
+            z = 1.0 / depth[p] if h >= 0 else 0.0
+            if want_tri:
+                if h < 0:
+                    out_tri[p, 0] = 0
+                    out_tri[p, 1] = 0
+                else:
+                    out_tri[p, 0] = np.uint32((h >> np.int64(32)) + 1)
+                    out_tri[p, 1] = np.uint32((h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)])
+            if h < 0 or z < near_m or z > far_m:
+                out_depth[p] = 0.0
+                out_instance[p] = 0
+                out_semantic[p] = 0
+                if want_rgb:
+                    for k in range(4):
+                        out_rgb[p, k] = 0
+                if want_normal:
+                    for k in range(3):
+                        out_normal[p, k] = 0.0
+                continue
+            sl = h >> np.int64(32)
+            out_depth[p] = np.float32(z)
+            out_instance[p] = ids[sl]
+            out_semantic[p] = sems[sl]
+            if not (want_rgb or want_normal):
+                continue
+            if h != last:
+                f = h & np.int64(0xFFFFFFFF)
+                m = cfm[sl]
+                va, vb, vc = fvbase[f] + faces[f, 0], fvbase[f] + faces[f, 1], fvbase[f] + faces[f, 2]
+                ax, ay, az = _vertex(vertices, va, m, 0), _vertex(vertices, va, m, 1), _vertex(vertices, va, m, 2)
+                bx, by, bz = _vertex(vertices, vb, m, 0) - ax, _vertex(vertices, vb, m, 1) - ay, _vertex(vertices, vb, m, 2) - az
+                wx, wy, wz = _vertex(vertices, vc, m, 0) - ax, _vertex(vertices, vc, m, 1) - ay, _vertex(vertices, vc, m, 2) - az
+                ux, uy, uz = by * wz - bz * wy, bz * wx - bx * wz, bx * wy - by * wx
+                nl = math.sqrt(ux * ux + uy * uy + uz * uz)
+                if nl > 0.0:
+                    ux, uy, uz = ux / nl, uy / nl, uz / nl
+                last = h
+            u = p - v * W
             yn = (v - cy) / fy
             xn = (u - cx - s * yn) / fx
             dl = math.sqrt(xn * xn + yn * yn + 1.0)
             vx, vy, vz = xn / dl, yn / dl, 1.0 / dl
-            nl = math.sqrt(nx * nx + ny * ny + nz * nz)
-            if nl > 0.0:
-                nx, ny, nz = nx / nl, ny / nl, nz / nl
-            else:
+            nx, ny, nz = ux, uy, uz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
                 nx, ny, nz = -vx, -vy, -vz
             if nx * vx + ny * vy + nz * vz > 0.0:
                 nx, ny, nz = -nx, -ny, -nz
@@ -467,6 +518,21 @@ def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face
                 out_rgb[p, 3] = 255
 
 
+@njit(cache=True, nogil=True, boundscheck=False)
+def _cluster_boxes(vertices, vrange, mesh_vbase, mesh_cbase, mesh_clusters):
+    """(C, 3) lows and highs: each cluster's box in its model frame (float64)."""
+    n = len(vrange)
+    lo, hi = np.full((n, 3), np.inf), np.full((n, 3), -np.inf)
+    for i in range(len(mesh_cbase)):
+        for cl in range(mesh_cbase[i], mesh_cbase[i] + mesh_clusters[i]):
+            for v in range(mesh_vbase[i] + vrange[cl, 0], mesh_vbase[i] + vrange[cl, 1]):
+                for a in range(3):
+                    x = np.float64(vertices[v, a])
+                    lo[cl, a] = min(lo[cl, a], x)
+                    hi[cl, a] = max(hi[cl, a], x)
+    return lo, hi
+
+
 class Rasteriser:
     """Per-scene state of the CPU rasteriser: the culler's cluster arrays (shared, not
     copied) and per-thread buffers reused from frame to frame."""
@@ -476,6 +542,8 @@ class Rasteriser:
         self._buffers: tuple | None = None
         self._face_vbase: np.ndarray | None = None
         self.tally = np.zeros((64, 8), np.int64)
+        self.boxes = _cluster_boxes(culler.vertices, culler.clusters[2], culler.mesh_vbase, culler.mesh_cbase,
+                                    -(-culler.mesh_nfaces // CLUSTER))
         self.counts = np.zeros(8, np.int64)   # the last frame's tally (see _draw_cluster)
 
     def face_vbase(self, mesh_vbase: np.ndarray, mesh_fbase: np.ndarray, mesh_nfaces: np.ndarray) -> np.ndarray:
@@ -508,7 +576,7 @@ class Rasteriser:
         if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
             buf = self._buffers = (np.empty(npx), np.empty(npx, np.int64), np.empty(tiles))
         depth, hit, tmin = buf
-        _raster(c.vertices, c.faces, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
+        _raster(c.vertices, c.faces, *self.boxes, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
                 nf, c.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
                 np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64), proj, planes,
                 float(near), float(width), float(height), T, depth, hit, tmin, self.tally[:T], bool(cull))

@@ -46,9 +46,8 @@ GL_DEPTH_COMPONENT32F = 0x8CAC
 GL_DEPTH_COMPONENT = 0x1902
 GL_FLOAT = 0x1406
 
-DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z")
+DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z", "exact")
 TARGETS = ("packed", "separate")
-RASTERS = ("gl", "cpu")
 READBACKS = ("direct", "pbo")
 _BYTES = {"f1": 1, "u2": 2, "u4": 4, "f4": 4}
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
@@ -83,7 +82,14 @@ class Renderer:
         "depth24": a 24-bit fixed-point window depth buffer of a conventional projection
         (near and far planes of the sensor), read back and linearised; its error grows as
         z² (as on most real-time renderers). "reversed_z": the float32 reversed, infinite-far
-        depth buffer (near / z) read back and linearised.
+        depth buffer (near / z) read back and linearised. "exact": no GL at all; the CPU
+        rasteriser (:mod:`genie_gl.render.raster`) finds the nearest triangle along each
+        pixel centre's ray in float64 and its exact depth (ids, colour and normals from that
+        triangle). Faster than llvmpipe on scenes of a million triangles
+        (docs/real-size-scenes.md); against "float32" the depth differs in the last bits
+        and, at edges, a pixel centre may go to the neighbouring triangle. ``targets`` and
+        ``readback`` do not apply; ``cull=False`` tests every triangle at every pixel centre
+        of its box (the reference the culled frame equals byte for byte; slow).
     cull : drop triangles that cannot cover a pixel centre (exact; False draws everything). A
         frame with fewer than ``cull_min_faces`` faces in view is drawn whole either way.
     targets : "packed" (default): depth and instance id in one RG32UI target, the semantic id
@@ -95,15 +101,6 @@ class Renderer:
         arrays once the next frame is submitted; "pbo": each frame is read into pixel buffer
         objects as soon as it is submitted and copied out a frame later (on llvmpipe this
         costs a second copy and is slower: see ``genie bench pipeline``).
-    raster : "gl" (default): OpenGL draws the frame. "cpu": the CPU rasteriser
-        (:mod:`genie_gl.render.raster`) finds the nearest triangle along each pixel centre's
-        ray in float64 and its exact depth, with no GL context at all; faster than llvmpipe
-        on scenes of a million triangles (docs/real-size-scenes.md). Its depth is the exact
-        ray hit where GL's is interpolated in float32, so the two differ in the last bits, and
-        at edges a pixel centre may go to the other triangle; ``depth_precision`` must be
-        "float32", and ``targets`` and ``readback`` do not apply. ``cull=False`` tests every
-        triangle against every pixel centre of its box (the reference the culled frame
-        equals byte for byte; slow).
     """
 
     cull_min_faces = 20_000  # fewer faces in view: drawing them all costs less than culling
@@ -113,20 +110,17 @@ class Renderer:
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
-                 readback: str = "direct", lod: LevelOfDetail | None = None, raster: str = "gl"):
+                 readback: str = "direct", lod: LevelOfDetail | None = None):
         for name, value, known in (("depth_precision", depth_precision, DEPTH_PRECISIONS),
-                                   ("targets", targets, TARGETS), ("readback", readback, READBACKS),
-                                   ("raster", raster, RASTERS)):
+                                   ("targets", targets, TARGETS), ("readback", readback, READBACKS)):
             if value not in known:
                 raise ConfigError(f"Renderer {name}={value!r} is unknown; expected one of {', '.join(known)}")
         expect(scene, Scene, "Renderer: scene")
         if lod is not None and not isinstance(lod, LevelOfDetail):
             raise ConfigError(f"Renderer lod: expected a genie_gl.render.LevelOfDetail or None, got {type(lod).__name__}")
-        if raster == "cpu" and depth_precision != "float32":
-            raise ConfigError(f"Renderer raster='cpu' computes exact float depth; depth_precision={depth_precision!r} "
-                              "is the GL raster's (use raster='gl', or depth_precision='float32')")
         self._thread = threading.get_ident()   # GL contexts are current in one thread: see _current
         self.depth_precision, self.cull, self.lod = depth_precision, bool(cull), lod
+        raster = "cpu" if depth_precision == "exact" else "gl"
         self.targets, self.readback, self.raster = targets, readback, raster
         self._own_context = context is None and raster == "gl"
         self.gl = context or (create_context(backend) if raster == "gl" else None)

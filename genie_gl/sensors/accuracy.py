@@ -31,7 +31,7 @@ from ..outputs import atomic_write_text, check_replaceable
 
 RESAMPLE = ("nearest", "bilinear", "plane", "exact")
 SHADOW = ("scanline", "render")
-DEPTH_PRECISION = ("float32", "depth24", "reversed_z")
+DEPTH_PRECISION = ("float32", "depth24", "reversed_z", "exact")
 SUPERSAMPLE = (1, 2, 4)
 
 
@@ -55,7 +55,9 @@ class AccuracySettings:
     oversample : float or None, resolution of that wide pinhole render relative to the
         sensor's (None: the lens module's default).
     depth_precision : "float32" (linear view-z target), "depth24" (24-bit window depth read
-        back and linearised) or "reversed_z" (reversed-Z float depth).
+        back and linearised), "reversed_z" (reversed-Z float depth) or "exact" (no GL: the
+        CPU rasteriser's nearest triangle per pixel-centre ray and its float64 depth; the
+        fastest on scenes of a million triangles without a GPU).
     shadow_scale : float or None, resolution of the second view's render (stereo /
         structured-light shadow) relative to the sensor's (None: the profile's); used by the
         "render" shadow method only.

@@ -1,0 +1,83 @@
+"""Where a frame of the CPU rasteriser (``depth_precision="exact"``) goes: the kernel cut
+short after each of its stages in turn, one thread, CPU per frame over a benchmark scene's
+40 poses (best of ``repeats`` passes), and what each stage counts per frame.
+
+    python docs/raster_profile.py 1M 3
+
+Each cut is the module's source with one line changed (printed), loaded from a temporary
+file and put in place of the kernel; the differences between successive cuts are the stages'
+costs. Numba compiles each cut once (a minute or two on a first run).
+"""
+import importlib.util
+import inspect
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from genie_gl.bench.render import sensor_640
+from genie_gl.bench.scenes import bench_spec, to_scene
+from genie_gl.render import Renderer, raster
+
+CUTS = (
+    ("clusters: sphere, cone and occlusion tests, set-up, clear", "    tally[0] += 1\n", "    tally[0] += 1\n    return\n"),
+    ("+ vertices: transform, window coordinates, cells", "    for i in range(nf):\n        f = f0 + i\n",
+     "    for i in range(0):\n        f = f0 + i\n"),
+    ("+ faces: cell test, box, volume, occlusion test", "        rows = (vhi - vlo) <= (uhi - ulo)\n",
+     "        rows = (vhi - vlo) <= (uhi - ulo)\n        continue\n"),
+    ("+ edge set-up: edge functions, spans per line", "        for iw in range(int(w_lo), int(w_hi) + 1):",
+     "        for iw in range(int(w_lo), int(w_lo)):"),
+    ("+ pixels: exact tests, depth, occlusion tiles (the whole kernel)", None, None),
+)
+
+
+def variant(source: str, old: str | None, new: str | None, where: Path, k: int):
+    """The rasteriser module with ``old`` replaced by ``new``, loaded from ``where``."""
+    if old is not None:
+        assert source.count(old) == 1, old
+        source = source.replace(old, new)
+    source = source.replace("from .clusters", "from genie_gl.render.clusters").replace("from .cull", "from genie_gl.render.cull")
+    path = where / f"raster_cut{k}.py"
+    path.write_text(source)
+    spec = importlib.util.spec_from_file_location(f"raster_cut{k}", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def main() -> None:
+    size = sys.argv[1] if len(sys.argv) > 1 else "1M"
+    repeats = int(sys.argv[2]) if len(sys.argv) > 2 else 3
+    spec = bench_spec(size)
+    sensor = sensor_640()
+    K, W, H, near = sensor.K, sensor.width, sensor.height, float(sensor.clip_near_m)
+    source = inspect.getsource(raster)
+    numba.set_num_threads(1)
+    r = Renderer(to_scene(spec), depth_precision="exact")
+    kernel = raster._raster
+    print(f"scene {size}: {r.triangles:,} triangles, 640 x 480, one thread, CPU ms per frame (best of {repeats})")
+    with tempfile.TemporaryDirectory() as tmp:
+        for k, (label, old, new) in enumerate(CUTS):
+            raster._raster = variant(source, old, new, Path(tmp), k)._raster if old else kernel
+            r.render(sensor, spec.poses[0], depth_only=True)    # compile the cut
+            best, counts = np.inf, np.zeros(8)
+            for _ in range(repeats):
+                c = time.process_time()
+                counts[:] = 0
+                for p in spec.poses:
+                    cfm, slots, m, bc, eye = r._visible(p, K, W, H, near, None)
+                    r._rasteriser.draw(slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, r._planes)
+                    counts += r._rasteriser.counts
+                best = min(best, (time.process_time() - c) / len(spec.poses))
+            print(f"  {1e3 * best:6.1f} ms  {label}")
+    raster._raster = kernel
+    c = counts / len(spec.poses)
+    print(f"per frame: {c[0]:,.0f} clusters drawn, {c[1]:,.0f} faces with a pixel box, {c[2]:,.0f} of them hidden, "
+          f"{c[3]:,.0f} drawn, {c[4]:,.0f} pixel centres tested, {c[5]:,.0f} occlusion tiles refreshed")
+
+
+if __name__ == "__main__":
+    main()
