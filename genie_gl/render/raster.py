@@ -122,13 +122,16 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
     instructions wherever it is stored, so a vertex shared by two clusters is the same."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     last_u, last_v = width - 1.0, height - 1.0
+    m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]   # in registers: the stores below
+    m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]   # cannot be proven not to alias m
+    m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
     for w in range(nv):
         px = np.float64(vertices[v0 + w, 0])
         py = np.float64(vertices[v0 + w, 1])
         pz = np.float64(vertices[v0 + w, 2])
-        x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
-        y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
-        z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+        x = m00 * px + m01 * py + m02 * pz + m03
+        y = m10 * px + m11 * py + m12 * pz + m13
+        z = m20 * px + m21 * py + m22 * pz + m23
         wx[w], wy[w], wz[w] = x, y, z
         own = -2.0 - w
         iz = 1.0 / (z if z >= near else 1.0)
@@ -136,9 +139,9 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
         v = fy * y * iz + cy
         wu[w], wv[w] = u, v
         e = 1e-7 * (abs(u) + abs(v) + 1.0)
-        hu, hv = math.floor(u + e), math.floor(v + e)
-        ku = hu if math.ceil(u - e) > hu else own
-        kv = hv if math.ceil(v - e) > hv else own
+        hu, hv = np.floor(u + e), np.floor(v + e)
+        ku = hu if np.ceil(u - e) > hu else own
+        kv = hv if np.ceil(v - e) > hv else own
         ku = -1.0 if u + e < 0.0 else (width if u - e > last_u else ku)
         kv = -1.0 if v + e < 0.0 else (height if v - e > last_v else kv)
         front = z >= near
@@ -147,24 +150,22 @@ def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv,
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick,
-                  c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, proj, planes, near, width,
-                  height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally, cull):
-    """Draw cluster k of visible instance q into the columns col_lo..col_hi; counts into
-    ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
-    tested, occlusion tiles refreshed). Without ``cull``, every face is tested
-    against every pixel centre of its box (no cluster, cone, cell, occlusion or span test):
-    the reference the culled frame must equal byte for byte."""
+def _bound_cluster(q, k, c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c_thick, c_perim, slot, cbase,
+                   backcull, cfm, eye, det, proj, planes, near, width, height, cull, out):
+    """Whether cluster k of visible instance q may show: False when its sphere is outside the
+    frustum, when every face is back-facing (back-face-culled instances: the culler's cone
+    bound, which holds for the GPU's float32 rounding and so for float64), or when its box is
+    off screen. Writes (ulo, uhi, vlo, vhi, z) into ``out``: the pixel box it may cover and
+    its nearest depth (its box's eight corners bound both more tightly than its sphere; the
+    whole image and the near plane when it reaches the near plane). Without ``cull``, always
+    True with the whole image."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
-    f0 = fbase[q] + k * CLUSTER
-    nf = min(CLUSTER, nfaces[q] - k * CLUSTER)
-    cl = cbase[q] + k
-    vb = vbase[q]
-    sl = slot[q]
-    m = cfm[sl]
-    bc = backcull[q]
-    Wi, Hi = int(width), int(height)
     last_u, last_v = width - 1.0, height - 1.0
+    out[0], out[1], out[2], out[3], out[4] = 0.0, last_u, 0.0, last_v, near
+    if not cull:
+        return True
+    cl = cbase[q] + k
+    m = cfm[slot[q]]
     c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
     ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
     ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
@@ -177,52 +178,64 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
             rmag = max(rmag, abs(m[r, c]))
     rad = c_radius[cl] * sc * (1 + 1e-6) + 1e-9
     for p in range(planes.shape[0]):
-        if cull and planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
-            return
-    # the sphere's pixel box (the whole image when it reaches the near plane)
-    zlo = ez - rad
-    ulo_c, uhi_c, vlo_c, vhi_c = col_lo, col_hi, 0.0, last_v
-    if cull and zlo > near:
-        zhi = ez + rad
-        xa, xb = min((ex - rad) / zlo, (ex - rad) / zhi), max((ex + rad) / zlo, (ex + rad) / zhi)
-        ya, yb = min((ey - rad) / zlo, (ey - rad) / zhi), max((ey + rad) / zlo, (ey + rad) / zhi)
-        ulo_c = max(math.floor(fx * xa + min(s * ya, s * yb) + cx) - 1.0, col_lo)
-        uhi_c = min(math.ceil(fx * xb + max(s * ya, s * yb) + cx) + 1.0, col_hi)
-        vlo_c = max(math.floor(fy * ya + cy) - 1.0, 0.0)
-        vhi_c = min(math.ceil(fy * yb + cy) + 1.0, last_v)
-        if ulo_c > uhi_c or vlo_c > vhi_c:
-            return
-    if cull and zlo > near:
-        # the cluster's box (model frame): its eight corners bound it more tightly than the
-        # sphere, in depth and on screen (a strip of a cylinder, a patch of floor)
-        zb_lo, bu_lo, bu_hi, bv_lo, bv_hi = math.inf, math.inf, -math.inf, math.inf, -math.inf
-        for corner in range(8):
-            px = c_hi[cl, 0] if corner & 1 else c_lo[cl, 0]
-            py = c_hi[cl, 1] if corner & 2 else c_lo[cl, 1]
-            pz = c_hi[cl, 2] if corner & 4 else c_lo[cl, 2]
-            x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
-            y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
-            z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
-            zb_lo = min(zb_lo, z)
-            if z > 0.0:
-                u = (fx * x + s * y) / z + cx
-                v = fy * y / z + cy
-                bu_lo, bu_hi, bv_lo, bv_hi = min(bu_lo, u), max(bu_hi, u), min(bv_lo, v), max(bv_hi, v)
-        if zb_lo > near:
-            zlo = max(zlo, zb_lo * (1.0 - 1e-12))
-            ulo_c = max(ulo_c, math.floor(bu_lo) - 1.0)
-            uhi_c = min(uhi_c, math.ceil(bu_hi) + 1.0)
-            vlo_c = max(vlo_c, math.floor(bv_lo) - 1.0)
-            vhi_c = min(vhi_c, math.ceil(bv_hi) + 1.0)
-            if ulo_c > uhi_c or vlo_c > vhi_c:
-                return
-        if _hidden(tmax, ulo_c, uhi_c, vlo_c, vhi_c, 1.0 / zlo):
-            return
+        if planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
+            return False
     tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
-    # the culler's cone bound holds for the GPU's float32 rounding; float64 rounds far less
-    if cull and bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
-                          c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near, 2.0 ** -8,
-                          width, height):
+    if backcull[q] and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
+                                   c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near, 2.0 ** -8,
+                                   width, height):
+        return False
+    zlo = ez - rad
+    if zlo <= near:
+        return True
+    zb_lo, bu_lo, bu_hi, bv_lo, bv_hi = math.inf, math.inf, -math.inf, math.inf, -math.inf
+    for corner in range(8):
+        px = c_hi[cl, 0] if corner & 1 else c_lo[cl, 0]
+        py = c_hi[cl, 1] if corner & 2 else c_lo[cl, 1]
+        pz = c_hi[cl, 2] if corner & 4 else c_lo[cl, 2]
+        x = m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz + m[0, 3]
+        y = m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz + m[1, 3]
+        z = m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz + m[2, 3]
+        zb_lo = min(zb_lo, z)
+        if z > 0.0:
+            u = (fx * x + s * y) / z + cx
+            v = fy * y / z + cy
+            bu_lo, bu_hi, bv_lo, bv_hi = min(bu_lo, u), max(bu_hi, u), min(bv_lo, v), max(bv_hi, v)
+    if zb_lo <= near:   # the sphere reaches no nearer than the near plane; its box does
+        return True
+    out[0] = max(np.floor(bu_lo) - 1.0, 0.0)
+    out[1] = min(np.ceil(bu_hi) + 1.0, last_u)
+    out[2] = max(np.floor(bv_lo) - 1.0, 0.0)
+    out[3] = min(np.ceil(bv_hi) + 1.0, last_v)
+    out[4] = max(zlo, zb_lo * (1.0 - 1e-12))
+    return out[0] <= out[1] and out[2] <= out[3]
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _draw_cluster(q, k, col_lo, col_hi, bound, vertices, faces, c_vrange, slot, vbase, fbase, nfaces, cbase,
+                  backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv,
+                  keys_u, keys_v, live, box, span, tally, cull):
+    """Draw cluster k of visible instance q into the columns col_lo..col_hi, unless every
+    tile of its box there (``bound``: :func:`_bound_cluster`'s) lies nearer than it; counts
+    into ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
+    tested, occlusion tiles refreshed). Without ``cull``, every face is tested against every
+    pixel centre of its box (no cluster, cone, cell, occlusion or span test): the reference
+    the culled frame must equal byte for byte."""
+    fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
+    f0 = fbase[q] + k * CLUSTER
+    nf = min(CLUSTER, nfaces[q] - k * CLUSTER)
+    cl = cbase[q] + k
+    vb = vbase[q]
+    sl = slot[q]
+    m = cfm[sl]
+    bc = backcull[q]
+    Wi, Hi = int(width), int(height)
+    last_u, last_v = width - 1.0, height - 1.0
+    ulo_c, uhi_c = max(bound[0], col_lo), min(bound[1], col_hi)
+    if ulo_c > uhi_c:
+        return
+    zlo = bound[4]
+    if cull and zlo > near and _hidden(tmax, ulo_c, uhi_c, bound[2], bound[3], 1.0 / zlo):
         return
     tally[0] += 1
     v_lo = c_vrange[cl, 0]
@@ -267,12 +280,12 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
         # the edge functions below decide)
         mu = 1e-7 * (abs(umin) + abs(umax) + 1.0)
         mv = 1e-7 * (abs(vmin) + abs(vmax) + 1.0)
-        ulo = max(math.ceil(umin - mu), col_lo)
-        uhi = min(math.floor(umax + mu), col_hi)
+        ulo = max(np.ceil(umin - mu), col_lo)
+        uhi = min(np.floor(umax + mu), col_hi)
         if ulo > uhi:
             continue
-        vlo = max(math.ceil(vmin - mv), 0.0)
-        vhi = min(math.floor(vmax + mv), last_v)
+        vlo = max(np.ceil(vmin - mv), 0.0)
+        vhi = min(np.floor(vmax + mv), last_v)
         if vlo > vhi:
             continue
         ax_, ay_ = wx[a], wy[a]
@@ -335,8 +348,8 @@ def _draw_cluster(q, k, col_lo, col_hi, vertices, faces, c_lo, c_hi, c_centre, c
                 gap = max(gap, span[k, 3])
             if not (lo <= hi + 2.0):
                 continue
-            i_lo = int(max(math.ceil(lo) - 1.0, x_lo))
-            i_hi = int(min(math.floor(hi) + 1.0, x_hi))
+            i_lo = int(max(np.ceil(lo) - 1.0, x_lo))
+            i_hi = int(min(np.floor(hi) + 1.0, x_hi))
             if i_lo > i_hi:
                 continue
             in_lo, in_hi = (lo + gap, hi - gap) if cull else (math.inf, -math.inf)
@@ -386,32 +399,28 @@ def _raster(vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c
         ys[v] = (v - proj[4]) / proj[3]
         sys_[v] = proj[1] * ys[v] / proj[0]
     njobs = job0[len(job0) - 1]
-    key = np.empty(njobs)
     whose = np.empty(njobs, np.int64)
-    at = np.empty(njobs)
     q = 0
     for j in range(njobs):
         while job0[q + 1] <= j:
             q += 1
         whose[j] = q
-        m = cfm[slot[q]]
-        cl = cbase[q] + j - job0[q]
-        c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
-        ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
-        ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
-        ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
-        sc = 0.0
-        for c in range(3):
-            sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
-        key[j] = ez - c_radius[cl] * sc
-        at[j] = min(max((proj[0] * ex + proj[1] * ey) / ez + proj[2], 0.0), width - 1.0) if ez > near else -1.0
-    order = np.argsort(key)
-    # strips: T runs of whole tiles, cut at the quantiles of the clusters' centre columns
+    # once per cluster, in parallel: may it show, its pixel box and its nearest depth
+    bounds = np.empty((njobs, 5))
+    alive = np.zeros(njobs, np.bool_)
+    for j in prange(njobs):
+        q = whose[j]
+        alive[j] = _bound_cluster(q, j - job0[q], c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c_thick,
+                                  c_perim, slot, cbase, backcull, cfm, eye, det, proj, planes, near, width, height,
+                                  cull, bounds[j])
+    shown = np.flatnonzero(alive)
+    order = shown[np.argsort(bounds[shown, 4], kind="mergesort")]   # nearest first
+    # strips: T runs of whole tiles, cut at the quantiles of the clusters' box centres
     cut = np.zeros(T + 1, np.int64)
     cut[T] = W
-    seen = np.sort(at[at >= 0.0])
+    at = np.sort(0.5 * (bounds[shown, 0] + bounds[shown, 1]))
     for t in range(1, T):
-        u = seen[(len(seen) * t) // T] if len(seen) else (W * t) / T
+        u = at[(len(at) * t) // T] if len(at) else (W * t) / T
         cut[t] = min(max((int(u) >> SHIFT) << SHIFT, cut[t - 1]), W)
     for p in prange(len(zb)):
         zb[p] = 0.0
@@ -422,18 +431,20 @@ def _raster(vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c
     for t in prange(T):
         if cut[t] >= cut[t + 1]:
             continue
+        col_lo, col_hi = float(cut[t]), float(cut[t + 1] - 1)
         wx, wy, wz = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
         keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         live = np.empty(CLUSTER, np.int64)
         span = np.empty((3, 4))
-        for jj in range(njobs):
+        for jj in range(len(order)):
             j = order[jj]
+            if bounds[j, 1] < col_lo or bounds[j, 0] > col_hi:
+                continue
             q = whose[j]
-            _draw_cluster(q, j - job0[q], float(cut[t]), float(cut[t + 1] - 1), vertices, faces, c_lo, c_hi, c_centre,
-                          c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces,
-                          cbase, backcull, cfm, eye, det, proj, planes, near, width, height, xs, ys, sys_, zb, who,
-                          tmin, dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
+            _draw_cluster(q, j - job0[q], col_lo, col_hi, bounds[j], vertices, faces, c_vrange, slot, vbase, fbase,
+                          nfaces, cbase, backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmin,
+                          dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
@@ -514,7 +525,7 @@ def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face
             if want_rgb:
                 lam = max(-(nx * vx + ny * vy + nz * vz), 0.0)
                 for k in range(3):
-                    out_rgb[p, k] = np.uint8(min(255.0, math.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5)))
+                    out_rgb[p, k] = np.uint8(min(255.0, np.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5)))
                 out_rgb[p, 3] = 255
 
 

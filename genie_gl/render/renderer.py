@@ -76,8 +76,8 @@ class Renderer:
     scene : Scene
     backend : "egl", "osmesa" or None (EGL, falling back to OSMesa).
     context : GLContext, an existing context to share (then ``backend`` is ignored and the
-        context is not released with the renderer).
-    depth_precision : how ``Frame.depth`` is obtained; ids never depend on it.
+        context is not released with the renderer; unused with depth_precision="exact").
+    depth_precision : how ``Frame.depth`` is obtained (ids do not depend on the three GL ones).
         "float32" (default): view z interpolated per fragment into a float32 target.
         "depth24": a 24-bit fixed-point window depth buffer of a conventional projection
         (near and far planes of the sensor), read back and linearised; its error grows as
@@ -123,7 +123,7 @@ class Renderer:
         raster = "cpu" if depth_precision == "exact" else "gl"
         self.targets, self.readback, self.raster = targets, readback, raster
         self._own_context = context is None and raster == "gl"
-        self.gl = context or (create_context(backend) if raster == "gl" else None)
+        self.gl = None if raster == "cpu" else (context or create_context(backend))   # "exact": no GL
         self.ctx = self.gl.ctx if self.gl is not None else None
         self._programs = self.gl.programs if self.gl is not None else {}  # one build per context
         self._fbos: dict = {}
