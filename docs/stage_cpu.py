@@ -22,11 +22,11 @@ limit_threads(os.cpu_count() or 1)   # one worker: every core, as genie dataset 
 with tempfile.TemporaryDirectory(prefix="genie-stage-cpu-") as out:
     cfg = DatasetConfig(strategy="assembly_line", out=out, scenes=n + 1, cameras=40, previews=0,
                         sensor="ideal_pinhole")
-    prepare(cfg)
+    inputs, _ = prepare(cfg)
     rows = []
     for i in range(n + 1):
         marks: list[tuple[str, float]] = []
-        r = make_scene(cfg, i, stage=lambda name: marks.append((name, time.process_time())))
+        r = make_scene(cfg, inputs, i, stage=lambda name: marks.append((name, time.process_time())))
         end = time.process_time()
         cpu = {a[0]: (b[1] if b else end) - a[1] for a, b in zip(marks, marks[1:] + [None]) if a[0] != "warm-up"}
         if i:

@@ -321,3 +321,53 @@ def test_the_layout_estimate_bounds_the_regions_made(name):
     nodes, work = layout_estimate(strategy)
     made = max(len(generate_layout(strategy, seed=s)) for s in range(8))
     assert made <= nodes <= work and nodes < 20 * made  # an upper bound, and not a vacuous one
+
+
+def _pose_verdict(check, T):
+    try:
+        return "ok", check(T, "pose").tolist()
+    except gg.ConfigError as e:
+        return "refused", str(e)
+
+
+def test_pose_check_fast_path_decides_as_the_array_tests(monkeypatch):
+    """check_pose accepts a plainly rigid pose in plain floats; every pose it is given is
+    decided (and worded) exactly as the array tests alone decide it: rotations, and poses
+    just inside and just outside each limit (scale, shear, mirror, last row, translation,
+    NaN)."""
+    import genie_gl.checks as checks
+
+    rng = np.random.default_rng(7)
+    poses = []
+    for _ in range(60):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        w, x, y, z = q
+        R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R, rng.uniform(-50, 50, 3)
+        poses.append(T)
+        # a scale around the tolerance (|RᵀR - I| = 2 eps): under half of it, between half of
+        # it and it (the array tests decide), over it
+        for eps in (1e-7, 4.9e-7, 5.1e-7, 9e-7, 1.1e-6, 1e-3):
+            S = T.copy()
+            S[:3, 0] *= 1 + eps
+            poses.append(S)
+        M = T.copy()
+        M[:3, 0] *= -1   # a mirror
+        poses.append(M)
+    base = poses[0]
+    for row, v in (((3, 0), 1e-12), ((3, 0), 2e-12), ((3, 3), 1 + 1e-5), ((3, 3), 1 + 2e-5), ((0, 3), 1e9),
+                   ((0, 3), 1.0000001e9), ((1, 3), np.nan), ((2, 2), np.inf), ((0, 1), 1e-4)):
+        T = base.copy()
+        T[row] = v
+        poses.append(T)
+    full = checks.check_pose
+    fast = [_pose_verdict(full, T) for T in poses]
+    monkeypatch.setattr(checks, "_plainly_rigid", lambda T: False)   # the array tests alone
+    slow = [_pose_verdict(full, T) for T in poses]
+    assert fast == slow
+    kinds = [v[0] for v in slow]
+    assert kinds.count("ok") >= 60 * 3 and kinds.count("refused") >= 60 * 4 + 5   # both sides of every limit

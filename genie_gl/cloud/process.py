@@ -10,10 +10,12 @@ from ..errors import ConfigError
 from ..frame import Frame
 from .pointcloud import PointCloud
 from . import kernels
+from .tile_runs import RUNNERS
 from .unproject import _pose_rows, rays, rotate, unproject_into, world_normals
 
 WINDOW = 129  # frame_chunks counts a camera's points in this many tiles a side around it first
 MAX_TILES = 50_000_000  # a tile grid larger than this is a mistake (chunks far too small)
+RUN_ROOM = 4  # pass 1 keeps up to one run per this many pixels of a frame (more: no runs kept)
 
 
 ORIGIN_GRID_M = 100.0   # the cloud's origin is the cameras' mean snapped to this grid
@@ -144,9 +146,10 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     same points, drawn the same way; returns (tiles, number of points of the merged cloud).
 
     The merged cloud of a 40-camera scene holds ~12 M points (~220 MB) of which the chunks
-    keep a few hundred thousand. Here each frame's depth is read twice and no cloud is
-    written: once to count the points per tile, then, once every tile's choice of ranks is
-    drawn, to write just the chosen points (their labels gathered by pixel).
+    keep a few hundred thousand. Here no cloud is written: each frame is read once to count
+    the points per tile, keeping its runs of pixels per tile (:mod:`.tile_runs`), then,
+    once every tile's choice of ranks is drawn, its runs give just the chosen points (their
+    labels gathered by pixel).
     """
     if not frames:
         raise ValueError("frame_chunks: no frames")
@@ -154,14 +157,24 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
         raise ValueError("frame_chunks: max_points needs an rng (numpy.random.Generator)")
     origin = choose_origin(frames) if origin is None else np.asarray(origin, np.float64)
     size = float(size_m)
-    inputs = [(np.ascontiguousarray(f.depth, np.float32), *rays(f.sensor), _pose_rows(f, origin),
-               kernels.TILERS[rays(f.sensor)[0].shape[0] == 1]) for f in frames]
-    # pass 1: points per tile, counted in a window of tiles around each camera
+    inputs = []
+    for f in frames:
+        tx, ty = rays(f.sensor)
+        separable = tx.shape[0] == 1
+        inputs.append((np.ascontiguousarray(f.depth, np.float32), tx, ty, _pose_rows(f, origin),
+                       kernels.TILERS[separable], RUNNERS[separable]))
+    # pass 1: points per tile, counted in a window of tiles around each camera; the frame's
+    # runs of pixels per tile kept for pass 2 (None: it reached beyond the window, or had
+    # more runs than the room given)
     per_tile: dict[tuple[int, int], int] = {}
-    for f, (depth, tx, ty, M, (count, _, extent)) in zip(frames, inputs):
+    windows: list[tuple[int, int, np.ndarray] | None] = []
+    room = np.empty((max(f.depth.size for f in frames) // RUN_ROOM + 1, 4), np.int32)
+    for f, (depth, tx, ty, M, (count, _, extent), (count_runs, _)) in zip(frames, inputs):
         i0, j0 = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(np.int64) - WINDOW // 2
         counts = np.zeros((WINDOW, WINDOW), np.int64)
-        if count(depth, tx, ty, M, size, i0, j0, counts):  # points beyond the window: the exact extent
+        outside, n_runs = count_runs(depth, tx, ty, M, size, i0, j0, counts, room)
+        windows.append((int(i0), int(j0), room[:n_runs].copy()) if n_runs >= 0 and not outside else None)
+        if outside:  # points beyond the window: the exact extent
             i0, i1, j0, j1 = extent(depth, tx, ty, M, size)
             if (i1 - i0 + 1) * (j1 - j0 + 1) > MAX_TILES:
                 raise ValueError(f"frame_chunks: tiles of {size_m} m are too small for the frames' extent "
@@ -174,22 +187,23 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     total = sum(per_tile.values())
     # the draws, tile by tile in (i, j) order, exactly as chunks() makes them
     kept: list[tuple[int, int]] = []
-    start, sizes, chosen = [], [], []
-    offset = 0
+    start, sizes, chosen, next_q = [], [], [], []
+    offset = q = 0
     for key in sorted(per_tile):
         c = per_tile[key]
         if c < min_points:
             continue
         kept.append(key)
         if max_points is not None and c > max_points:
-            mask = np.zeros(c, bool)
-            mask[rng.choice(c, max_points, replace=False)] = True
-            chosen.append(mask)
+            chosen.append(np.sort(rng.choice(c, max_points, replace=False)))
             start.append(offset)
+            next_q.append(q)
             offset += c
+            q += max_points
             sizes.append(max_points)
         else:
             start.append(-1)
+            next_q.append(-1)
             sizes.append(c)
     if not kept:
         return [], total
@@ -211,13 +225,25 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     out_camera = np.empty(m_all, np.uint16)
     seen = np.zeros(len(kept), np.int64)
     taken = (ends - sizes).astype(np.int64)
-    picked = np.concatenate(chosen) if chosen else np.zeros(0, bool)
+    ranks = np.concatenate(chosen) if chosen else np.zeros(0, np.int64)
+    next_q_a = np.array(next_q, np.int64)
+    end_q = np.where(next_q_a >= 0, next_q_a + max_points if max_points is not None else 0, -1)
     start_a = np.array(start, np.int64)
+    picked = None   # the chosen ranks as a mask over every down-sampled tile's points, if a frame has no runs
+    if any(w is None for w in windows):
+        picked = np.zeros(offset, bool)
+        for t in np.flatnonzero(start_a >= 0).tolist():
+            picked[start_a[t] + ranks[next_q_a[t]:end_q[t]]] = True
     cap = max(f.depth.size for f in frames)
     src, dst = np.empty(cap, np.int64), np.empty(cap, np.int64)
     # pass 2: write the chosen points, gather their labels by pixel
-    for k, (f, (depth, tx, ty, M, (_, pick, _))) in enumerate(zip(frames, inputs)):
-        m = pick(depth, tx, ty, M, size, I0, J0, grid, seen, start_a, picked, taken, src, dst, out_xyz)
+    for k, (f, (depth, tx, ty, M, (_, pick, _), (_, pick_runs)), window) in enumerate(zip(frames, inputs, windows)):
+        if window is None:   # no runs: every pixel's tile computed again
+            m = pick(depth, tx, ty, M, size, I0, J0, grid, seen, start_a, picked, taken, src, dst, out_xyz)
+        else:
+            i0, j0, runs = window
+            m = pick_runs(runs, depth, tx, ty, M, _window_tiles(grid, i0 - I0, j0 - J0), seen, next_q_a, end_q,
+                          ranks, taken, src, dst, out_xyz)
         s, d = src[:m], dst[:m]
         # labels gathered by flat pixel index (C order, as the kernel numbers pixels)
         out_sem[d], out_inst[d], out_camera[d] = np.take(f.semantic, s), np.take(f.instance, s), k
@@ -230,3 +256,15 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     merged = PointCloud(out_xyz, out_sem, out_inst, origin, out_rgb, out_normal, out_camera)
     tiles = [(key, merged.select(slice(a, b))) for key, a, b in zip(kept, ends - sizes, ends)]
     return tiles, total
+
+
+def _window_tiles(grid: np.ndarray, a0: int, b0: int) -> np.ndarray:
+    """(WINDOW * WINDOW,) int64: the output tile (``grid``'s value, -1 for none) of each tile
+    code of a frame's runs (a * WINDOW + b) when its window starts at grid cell (a0, b0),
+    possibly outside the grid."""
+    out = np.full((WINDOW, WINDOW), -1, np.int64)
+    A, B = grid.shape
+    a_lo, a_hi, b_lo, b_hi = max(0, -a0), min(WINDOW, A - a0), max(0, -b0), min(WINDOW, B - b0)
+    if a_lo < a_hi and b_lo < b_hi:
+        out[a_lo:a_hi, b_lo:b_hi] = grid[a0 + a_lo:a0 + a_hi, b0 + b_lo:b0 + b_hi]
+    return out.reshape(-1)

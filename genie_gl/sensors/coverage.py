@@ -87,3 +87,27 @@ def greedy(n, indptr, indices, weight):  # pragma: no cover - compiled
         for p in range(indptr[best], indptr[best + 1]):
             covered[indices[p]] = True
     return chosen
+
+
+@njit(cache=True, nogil=True)
+def breed(pop, fit, a, b, perm, cross, mutate, mutation, draws):  # pragma: no cover - compiled
+    """One generation of the genetic search from its random draws: tournament winners
+    ``parents[k] = pop[a[k]] if fit[a[k]] >= fit[b[k]] else pop[b[k]]``, mates
+    ``parents[perm]``, a uniform crossover (``cross < 0.5`` keeps the parent's gene), point
+    mutations where ``mutate < mutation`` (the genes of ``draws`` in row order) and the elite
+    (the first fittest of ``pop``) as child 0. The numpy steps' results, integer by integer."""
+    P, n = pop.shape
+    parents = np.empty_like(pop)
+    for k in range(P):
+        src = a[k] if fit[a[k]] >= fit[b[k]] else b[k]
+        parents[k] = pop[src]
+    child = np.empty_like(pop)
+    d = 0
+    for k in range(P):
+        for g in range(n):
+            child[k, g] = parents[k, g] if cross[k, g] < 0.5 else parents[perm[k], g]
+            if mutate[k, g] < mutation:
+                child[k, g] = draws[d]
+                d += 1
+    child[0] = pop[np.argmax(fit)]
+    return child

@@ -273,16 +273,15 @@ def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Genera
         pop[0] = greedy_indices(problem, n)
     fit = problem.fitnesses(pop)
     history = [float(fit.max())]
+    pop = np.ascontiguousarray(pop, np.int64)
     for _ in range(generations):
-        elite = pop[fit.argmax()].copy()
+        # the draws, in their order; the steps between them compiled (coverage.breed)
         a, b = rng.integers(0, population, (2, population))
-        parents = np.where((fit[a] >= fit[b])[:, None], pop[a], pop[b])
-        mates = parents[rng.permutation(population)]
-        child = np.where(rng.random((population, n)) < 0.5, parents, mates)
-        mut = rng.random((population, n)) < mutation
-        child[mut] = rng.integers(0, m, int(mut.sum()))
-        child[0] = elite
-        pop = child
+        perm = rng.permutation(population)
+        cross = rng.random((population, n))
+        mutate = rng.random((population, n))
+        draws = rng.integers(0, m, int(np.count_nonzero(mutate < mutation)))
+        pop = coverage.breed(pop, fit, a, b, perm, cross, mutate, float(mutation), draws)
         fit = problem.fitnesses(pop)
         history.append(float(fit.max()))
     best = pop[fit.argmax()]

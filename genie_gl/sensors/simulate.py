@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..frame import Frame
 from ..scene.materials import MaterialTable
 from .camera import Sensor
@@ -48,10 +49,11 @@ def _changed(a: Frame, b: Frame) -> int:
     return int(changed(a.depth, b.depth, a.instance, b.instance))
 
 
-def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.random.Generator,
+def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.random.Generator | None,
              resample: str = "exact", oversample: float | None = None, materials: Any = None,
              plan: Any = None, decide: bool = True) -> Frame:
-    """Render ``sensor`` at ``pose`` (world_from_camera) and apply its effects in order.
+    """Render ``sensor`` at ``pose`` (world_from_camera) and apply its effects in order,
+    each drawing from ``rng`` (None only for a sensor without effects).
 
     ``resample`` and ``oversample``: how a distorted sensor's image is made from its pinhole
     views (see :mod:`.distortion`; ignored for a pinhole sensor). ``materials``: the scene's
@@ -88,6 +90,8 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
         frame = render_through_lens(draw, sensor, pose, resample=resample, oversample=oversample, **kw)
     if not sensor.effects:
         return frame
+    if rng is None:
+        raise ConfigError(f"simulate: sensor {sensor.name!r} has effects: they need an rng (numpy.random.Generator)")
 
     def render_depth(view: Sensor, view_pose: np.ndarray) -> np.ndarray:
         return draw(view, view_pose, depth_only=True).depth

@@ -81,3 +81,24 @@ def test_frame_chunks_of_frames_that_see_nothing():
 def test_frame_chunks_refuse_a_tile_grid_beyond_reason():
     with pytest.raises(ValueError, match="too small for the frames' extent"):
         frame_chunks(ground_frames(n=2), 1e-4, max_points=10, rng=np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("window, room", [(7, 4), (129, 8)])
+def test_frame_chunks_with_frames_from_runs_and_frames_recomputed(monkeypatch, window, room):
+    """Pass 2 walks pass 1's runs of pixels per tile for frames whose points stay in the
+    window of tiles counted around their camera and whose runs fit the room given, and
+    computes every pixel's tile again for the others. A small window (3 of the 6 frames
+    reach beyond it) or little room for runs (4 of the 6 frames have too many) mixes both in
+    one call; the tiles are still those of the merged cloud."""
+    import genie_gl.cloud.process as process
+
+    frames = ground_frames(n=6)
+    monkeypatch.setattr(process, "WINDOW", window)
+    monkeypatch.setattr(process, "RUN_ROOM", room)
+    from_runs = []
+    real = process._window_tiles
+    monkeypatch.setattr(process, "_window_tiles", lambda *a: from_runs.append(a) or real(*a))
+    a = chunks(to_cloud(frames), 1.0, min_points=5, max_points=60, rng=np.random.default_rng(4))
+    b, _ = frame_chunks(frames, 1.0, min_points=5, max_points=60, rng=np.random.default_rng(4))
+    assert 0 < len(from_runs) < len(frames)
+    assert_same_tiles(a, b)

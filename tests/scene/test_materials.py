@@ -186,3 +186,23 @@ def test_material_inputs_are_held_as_float32_whatever_their_type():
                        ({"ior": 0.5}, "ior"), ({"diffuse_color": (0.1, -0.2, 0.3)}, "diffuse_color")):
         with pytest.raises(ConfigError, match=field):
             Material(**bad)
+
+
+def test_instance_colours_are_numpys_uniform_gain_and_normal_noise():
+    """Each instance's colour: its class's base colour times a gain drawn uniformly from
+    [0.75, 1.15) plus N(0, 12) noise per channel, clipped to 0..255 and truncated, drawn
+    as numpy's ``uniform`` and ``normal`` draw them (the same values, the generator left in
+    the same state)."""
+    from genie_gl.scene.build import BASE_COLOR, SceneBuilder
+    from genie_gl.scene.assets.catalogue import ASSETS
+    from genie_gl.scene_options import scene_options
+
+    layout = gg.generate_layout("assembly_line", seed=1)
+    builder = SceneBuilder(layout, scene_options({"color": True}, "test"), ASSETS, rng=np.random.default_rng(21))
+    ref = np.random.default_rng(21)
+    ref.spawn(1)   # the builder's material stream
+    for cls in ("pallet", "rack", "car", "klt", "forklift") * 40:
+        gain, noise = ref.uniform(0.75, 1.15), ref.normal(0, 12, 3)
+        want = tuple(int(c) for c in np.clip(np.array(BASE_COLOR[cls]) * gain + noise, 0, 255))
+        assert builder.color(cls) == want
+    assert builder.rng.random() == ref.random()

@@ -244,3 +244,23 @@ def test_instances_do_not_interpenetrate(name):
     a = boxes[0]
     moved = lambda step: (a[0], a[1] + a[2] @ (step * a[3]), a[2], a[3])  # noqa: E731
     assert not _separated(a, moved(np.r_[1.0, 1.0, 0.0])) and _separated(a, moved(np.r_[3.0, 0.0, 0.0]))
+
+
+def test_the_halls_meshes_are_made_once_and_are_the_librarys():
+    """The floor, walls and columns of a hall are converted once per process for each size
+    and shared by the scenes, like the assets' meshes: the same vertices and faces as the
+    library's floor, box and column, and one object for two scenes of one strategy."""
+    from genie_gl.scene.assets import library as lib
+    from genie_gl.scene.model import Mesh
+
+    layout = gg.generate_layout("assembly_line", seed=2)
+    a, b = gg.build_scene(layout, seed=1), gg.build_scene(gg.generate_layout("assembly_line", seed=3), seed=2)
+    x0, y0, w, h = layout.bounds
+    for key, made in (("floor", lib.floor(w, h)), ("wall_2", lib.box([0.2, h, 5.0], [0, 0, 2.5])),
+                      ("column", lib.column())):
+        want = Mesh.from_trimesh(made)
+        got = a.meshes[key]
+        np.testing.assert_array_equal(got.vertices, want.vertices)
+        np.testing.assert_array_equal(got.faces, want.faces)
+        assert got.closed == want.closed and got.digest() == want.digest()
+        assert b.meshes[key] is got   # one hall size: one mesh for both scenes

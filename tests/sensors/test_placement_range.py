@@ -57,3 +57,25 @@ def test_a_sensor_that_cannot_fit_is_refused_unless_the_mount_is_given():
         mount_for(zivid, ceiling_m=4.0)
     m = mount_for(zivid, ceiling_m=4.0, mount_height_m=0.8)
     assert m.height_m == 0.8 and 0 < m.pitch_rad <= np.pi / 2
+
+
+def test_look_at_is_an_opencv_camera_with_the_cross_products_of_numpy():
+    """A placed camera's pose: z from the eye to the target, x = z × up, y = z × x (right,
+    down, forward), orthonormal; the cross products are numpy's, bit for bit (the poses, and
+    so every dataset, stay the same)."""
+    from genie_gl.sensors.pose import look_at
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        eye, target = rng.uniform(-30, 30, 3), rng.uniform(-30, 30, 3)
+        T = look_at(eye, target)
+        z = (target - eye) / np.linalg.norm(target - eye)
+        x = np.cross(z, [0.0, 0.0, 1.0])
+        x /= np.linalg.norm(x)
+        assert np.array_equal(T[:3, 2], z) and np.array_equal(T[:3, 0], x)
+        assert np.array_equal(T[:3, 1], np.cross(z, x)) and np.array_equal(T[:3, 3], eye)
+        np.testing.assert_allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-12)
+        assert T[2, 1] <= 1e-12   # image y points down (or level): the camera is upright
+    down = look_at([1.0, 2.0, 5.0], [1.0, 2.0, 0.0])   # straight down: any perpendicular x
+    np.testing.assert_array_equal(down[:3, 2], [0.0, 0.0, -1.0])
+    np.testing.assert_array_equal(down[:3, 0], np.cross([0.0, 0.0, -1.0], [1.0, 0.0, 0.0]))

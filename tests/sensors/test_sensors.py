@@ -125,6 +125,11 @@ def test_no_effects_means_the_ideal_frame_bit_for_bit_and_no_draw():
     state = rng.bit_generator.state
     out = simulate(s, np.eye(4), render=lambda sensor, pose: f, rng=rng)
     assert out is f and rng.bit_generator.state == state
+    # so a capture gives such a sensor no generator at all; one with effects must have one
+    assert simulate(s, np.eye(4), render=lambda sensor, pose: f, rng=None) is f
+    noisy = gg.Sensor(32, 24, s.K, effects=(RangeLimits(0.1, 10.0),))
+    with pytest.raises(gg.ConfigError, match="need an rng"):
+        simulate(noisy, np.eye(4), render=lambda sensor, pose: f.replace(sensor=noisy), rng=None)
 
 
 @pytest.mark.parametrize("dist", [[0.1, -0.05, 0.001, -0.002, 0.01],
