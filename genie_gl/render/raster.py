@@ -114,30 +114,33 @@ def _edge_span(ex, ry, sg, fx, cx, sy, lo, hi):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"nnan", "ninf", "nsz"})
-def _project(m, vertices, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v):
+def _project(m, X, Y, Z, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v):
     """Camera-frame vertices ``v0 .. v0 + nv``, their window coordinates, and per axis the
     cell (k, k + 1) between pixel centres that holds each with a margin (a vertex near a
     centre, or behind the near plane, gets a key of its own): a triangle whose vertices share
     a cell on either axis holds no pixel centre. Each vertex is computed by the same
-    instructions wherever it is stored, so a vertex shared by two clusters is the same."""
+    instructions wherever it is stored, so a vertex shared by two clusters is the same (the
+    loop runs in vector registers: the coordinates come as three arrays, ``X``, ``Y``, ``Z``)."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     last_u, last_v = width - 1.0, height - 1.0
     m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]   # in registers: the stores below
     m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]   # cannot be proven not to alias m
     m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
+    Xs, Ys, Zs = X[v0:v0 + nv], Y[v0:v0 + nv], Z[v0:v0 + nv]
     for w in range(nv):
-        px = np.float64(vertices[v0 + w, 0])
-        py = np.float64(vertices[v0 + w, 1])
-        pz = np.float64(vertices[v0 + w, 2])
+        px, py, pz = np.float64(Xs[w]), np.float64(Ys[w]), np.float64(Zs[w])
         x = m00 * px + m01 * py + m02 * pz + m03
         y = m10 * px + m11 * py + m12 * pz + m13
         z = m20 * px + m21 * py + m22 * pz + m23
-        wx[w], wy[w], wz[w] = x, y, z
+        wx[w] = x
+        wy[w] = y
+        wz[w] = z
         own = -2.0 - w
         iz = 1.0 / (z if z >= near else 1.0)
         u = (fx * x + s * y) * iz + cx
         v = fy * y * iz + cy
-        wu[w], wv[w] = u, v
+        wu[w] = u
+        wv[w] = v
         e = 1e-7 * (abs(u) + abs(v) + 1.0)
         hu, hv = np.floor(u + e), np.floor(v + e)
         ku = hu if np.ceil(u - e) > hu else own
@@ -212,7 +215,7 @@ def _bound_cluster(q, k, c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _draw_cluster(q, k, col_lo, col_hi, bound, vertices, faces, c_vrange, slot, vbase, fbase, nfaces, cbase,
+def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, vbase, fbase, nfaces, cbase,
                   backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv,
                   keys_u, keys_v, live, box, span, tally, cull):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi, unless every
@@ -244,7 +247,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, vertices, faces, c_vrange, slot, 
     # pixel centres that holds the vertex with a margin (a vertex near a centre, or behind the
     # near plane, gets a key of its own): a triangle whose vertices share a cell on either
     # axis holds no pixel centre
-    _project(m, vertices, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v)
+    _project(m, X, Y, Z, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v)
     key0 = np.int64(sl) << np.int64(32)
     inear = 1.0 / near
     ifx, ify = 1.0 / fx, 1.0 / fy
@@ -381,7 +384,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, vertices, faces, c_vrange, slot, 
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
-def _raster(vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
+def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
             slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
             T, zb, who, tmin, tally, cull):
     """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
@@ -442,7 +445,7 @@ def _raster(vertices, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c
             if bounds[j, 1] < col_lo or bounds[j, 0] > col_hi:
                 continue
             q = whose[j]
-            _draw_cluster(q, j - job0[q], col_lo, col_hi, bounds[j], vertices, faces, c_vrange, slot, vbase, fbase,
+            _draw_cluster(q, j - job0[q], col_lo, col_hi, bounds[j], X, Y, Z, faces, c_vrange, slot, vbase, fbase,
                           nfaces, cbase, backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmin,
                           dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
 
@@ -553,6 +556,7 @@ class Rasteriser:
         self._buffers: tuple | None = None
         self._face_vbase: np.ndarray | None = None
         self.tally = np.zeros((64, 8), np.int64)
+        self.xyz = tuple(np.ascontiguousarray(culler.vertices[:, a]) for a in range(3))   # float32, per axis
         self.boxes = _cluster_boxes(culler.vertices, culler.clusters[2], culler.mesh_vbase, culler.mesh_cbase,
                                     -(-culler.mesh_nfaces // CLUSTER))
         self.counts = np.zeros(8, np.int64)   # the last frame's tally (see _draw_cluster)
@@ -587,7 +591,7 @@ class Rasteriser:
         if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
             buf = self._buffers = (np.empty(npx), np.empty(npx, np.int64), np.empty(tiles))
         depth, hit, tmin = buf
-        _raster(c.vertices, c.faces, *self.boxes, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
+        _raster(*self.xyz, c.faces, *self.boxes, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
                 nf, c.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
                 np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64), proj, planes,
                 float(near), float(width), float(height), T, depth, hit, tmin, self.tally[:T], bool(cull))
