@@ -313,6 +313,23 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
         sg = 1.0 if vol > 0.0 else -1.0
         ivol = 1.0 / vol
         key = key0 | np.int64(f)
+        if ulo == uhi and vlo == vhi:
+            # one pixel centre in its box (most faces of a large scene that get this far):
+            # the exact test at once, no spans
+            iu, iv = int(ulo), int(vlo)
+            yn = ys[iv]
+            xn = xs[iu] - sys_[iv]
+            tally[4] += 1
+            if ((sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0) & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
+                    & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0)):
+                iz = (nx * xn + (ny * yn + nz)) * ivol
+                p = iv * Wi + iu
+                if (iz <= inear) & ((iz > zb[p]) | ((iz == zb[p]) & (key < who[p]))):
+                    zb[p] = iz
+                    who[p] = key
+                    dirty[iv >> SHIFT, iu >> SHIFT] = 1
+                du_lo, du_hi, dv_lo, dv_hi = min(du_lo, iu), max(du_hi, iu), min(dv_lo, iv), max(dv_hi, iv)
+            continue
         # per edge, sg E = A u + B v + C in pixel coordinates. The box is scanned along its
         # longer side, line by line (rows: v fixed; columns: u fixed): on a line w the edge's
         # inner side is x >= P + Q w or x <= P + Q w (x the scanned coordinate), or all or
@@ -389,7 +406,7 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
             T, zb, who, tmin, tally, cull):
     """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
     nearest first into ``zb`` (float64 1 / z, 0 where nothing) and ``who`` (slot << 32 |
-    face, -1 where nothing), H x W flattened, with T threads: thread t draws the columns of
+    face where ``zb`` holds a hit; not cleared, so anything elsewhere), H x W flattened, with T threads: thread t draws the columns of
     strip t, the strips cut where the clusters' centres split evenly (whole tiles), so each
     thread's occlusion tiles see every occluder of its strip and no pixel is written by two."""
     W = int(width)
@@ -425,9 +442,8 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
     for t in range(1, T):
         u = at[(len(at) * t) // T] if len(at) else (W * t) / T
         cut[t] = min(max((int(u) >> SHIFT) << SHIFT, cut[t - 1]), W)
-    for p in prange(len(zb)):
+    for p in prange(len(zb)):    # ``who`` is read only where ``zb`` holds a hit: not cleared
         zb[p] = 0.0
-        who[p] = -1
     tmin[:, :] = 0.0
     dirty = np.zeros(tmin.shape, np.uint8)
     tally[:, :] = 0
@@ -473,7 +489,7 @@ def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face
         last = np.int64(-1)
         ux = uy = uz = 0.0
         for p in range(v * W, (v + 1) * W):
-            h = hit[p]
+            h = hit[p] if depth[p] > 0.0 else np.int64(-1)
             z = 1.0 / depth[p] if h >= 0 else 0.0
             if want_tri:
                 if h < 0:
@@ -574,7 +590,7 @@ class Rasteriser:
              det: np.ndarray, K: np.ndarray, width: int, height: int, near: float,
              planes: np.ndarray, cull: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """(inverse depth, hit): per pixel (H*W) 1 / z of the nearest hit (float64, 0: nothing) at or beyond
-        ``near`` and its (slot << 32 | face), -1 where nothing; arguments as
+        ``near`` and its (slot << 32 | face) where the inverse depth is not 0; arguments as
         :meth:`genie_gl.render.cull.TriangleCuller.select`; ``cull=False`` tests every face
         against every pixel centre of its box (the reference, slow)."""
         c = self.culler
