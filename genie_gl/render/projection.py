@@ -49,11 +49,15 @@ def frustum_planes(K: np.ndarray, width: int, height: int, near: float) -> np.nd
     return planes
 
 
+_EYE3 = np.eye(3)
+
+
 def rigid_inverse(T: np.ndarray) -> np.ndarray:
     """Inverse of a 4x4 transform; exact (transpose) when its rotation is orthonormal."""
     T = np.asarray(T, dtype=np.float64)
     R = T[:3, :3]
-    if np.allclose(R @ R.T, np.eye(3), atol=1e-12):
+    # np.allclose(R @ R.T, I, atol=1e-12) without its per-call overhead (once per frame)
+    if (np.abs(R @ R.T - _EYE3) <= 1e-12 + 1e-5 * _EYE3).all():
         out = np.eye(4)
         out[:3, :3] = R.T
         out[:3, 3] = -R.T @ T[:3, 3]

@@ -442,8 +442,6 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
     for t in range(1, T):
         u = at[(len(at) * t) // T] if len(at) else (W * t) / T
         cut[t] = min(max((int(u) >> SHIFT) << SHIFT, cut[t - 1]), W)
-    for p in prange(len(zb)):    # ``who`` is read only where ``zb`` holds a hit: not cleared
-        zb[p] = 0.0
     tmin[:, :] = 0.0
     dirty = np.zeros(tmin.shape, np.uint8)
     tally[:, :] = 0
@@ -451,6 +449,8 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
         if cut[t] >= cut[t + 1]:
             continue
         col_lo, col_hi = float(cut[t]), float(cut[t + 1] - 1)
+        for r in range(H):   # each thread clears its strip (``who`` is read only where ``zb`` holds a hit)
+            zb[r * W + cut[t]:r * W + cut[t + 1]] = 0.0
         wx, wy, wz = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
         keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
