@@ -99,6 +99,18 @@ def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _write(zb, who, dirty, iu, iv, Wi, iz, key, inear):
+    """The depth test of a hit at pixel (iu, iv) of inverse depth ``iz`` = (n·d) / A·(B x C)
+    (larger is nearer; no hit nearer than the near plane, 1 / ``inear``): it wins over what
+    the pixel holds when nearer, or as near and of a lower (slot, face) ``key``."""
+    p = iv * Wi + iu
+    if (iz <= inear) & ((iz > zb[p]) | ((iz == zb[p]) & (key < who[p]))):
+        zb[p] = iz
+        who[p] = key
+        dirty[iv >> SHIFT, iu >> SHIFT] = 1
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def _edge_span(ex, ry, sg, fx, cx, sy, lo, hi):
     """Narrow [lo, hi] (floats) to the u where sg E(u) >= 0 for an edge E(u) = ex xn(u) + ry,
     xn(u) = (u - cx) / fx - sy; the caller widens by a pixel and tests exactly."""
@@ -322,12 +334,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
             tally[4] += 1
             if ((sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0) & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
                     & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0)):
-                iz = (nx * xn + (ny * yn + nz)) * ivol
-                p = iv * Wi + iu
-                if (iz <= inear) & ((iz > zb[p]) | ((iz == zb[p]) & (key < who[p]))):
-                    zb[p] = iz
-                    who[p] = key
-                    dirty[iv >> SHIFT, iu >> SHIFT] = 1
+                _write(zb, who, dirty, iu, iv, Wi, (nx * xn + (ny * yn + nz)) * ivol, key, inear)
                 du_lo, du_hi, dv_lo, dv_hi = min(du_lo, iu), max(du_hi, iu), min(dv_lo, iv), max(dv_hi, iv)
             continue
         # per edge, sg E = A u + B v + C in pixel coordinates. The box is scanned along its
@@ -389,13 +396,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
                               & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0))
                     if not inside:
                         continue
-                # inverse depth 1 / z = (n·d) / A·(B x C): larger is nearer
-                iz = (nx * xn + (ny * yn + nz)) * ivol
-                p = iv * Wi + iu
-                if (iz <= inear) & ((iz > zb[p]) | ((iz == zb[p]) & (key < who[p]))):
-                    zb[p] = iz
-                    who[p] = key
-                    dirty[iv >> SHIFT, iu >> SHIFT] = 1
+                _write(zb, who, dirty, iu, iv, Wi, (nx * xn + (ny * yn + nz)) * ivol, key, inear)
     if du_hi >= 0:
         tally[5] += _refresh(tmax, dirty, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
 
