@@ -14,9 +14,10 @@ import pytest
 from .common import ROOT, _env, fault
 
 pytestmark = pytest.mark.gl
-# four scenes for two workers: both are still at work once the first scene is whole (with two, the
-# run could end between two looks at it, and the case fail on a healthy run)
-ARGS = ["dataset", "assembly_line", "--scenes", "4", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "3000",
+# twelve scenes for two workers: both are still at work once the first scene is whole (with four,
+# a scene of two cameras now takes a tenth of a second, and the run could end between the first
+# scene and the signal: the case would fail on a healthy run)
+ARGS = ["dataset", "assembly_line", "--scenes", "12", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "3000",
         "--min-points", "100", "--previews", "0", "--workers", "2", "--split", "1,0,0", "--no-progress"]
 
 
