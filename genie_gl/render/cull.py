@@ -141,6 +141,32 @@ def _centre_near(ua, va, ub, vb, uc, vc, e, sg, ulo, uhi, vlo, vhi):
     return False
 
 
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def sphere_in_view(m, c_centre, c_radius, cl, planes):
+    """Cluster ``cl``'s bounding sphere under camera_from_model ``m`` (3, 4): its centre in
+    the camera frame (ex, ey, ez), its radius there (grown by a relative 1e-6), the largest
+    column norm and entry of m's 3 x 3 part, the size of its translation, and whether the
+    sphere reaches inside every plane of ``planes``. Inlined, so each caller keeps its own
+    floating-point flags."""
+    c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
+    ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
+    ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
+    ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
+    sc = 0.0
+    rmag = 0.0
+    for c in range(3):
+        sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
+        for r in range(3):
+            rmag = max(rmag, abs(m[r, c]))
+    rad = c_radius[cl] * sc * (1 + 1e-6) + 1e-9
+    inside = True
+    for p in range(planes.shape[0]):
+        if planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
+            inside = False
+    tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
+    return ex, ey, ez, rad, sc, rmag, tmag, inside
+
+
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
 def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
              slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, usc, proj, planes, near_keep, snap, width,
@@ -161,20 +187,9 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
     bc = backcull[q]
     # cluster sphere against the frustum (camera frame)
     c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
-    ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
-    ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
-    ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
-    sc = 0.0
-    rmag = 0.0
-    for c in range(3):
-        sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
-        for r in range(3):
-            rmag = max(rmag, abs(m[r, c]))
-    rad = c_radius[cl] * sc * (1 + 1e-6) + 1e-9
-    for p in range(planes.shape[0]):
-        if planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
-            return 0
-    tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
+    ex, ey, ez, rad, sc, rmag, tmag, inside = sphere_in_view(m, c_centre, c_radius, cl, planes)
+    if not inside:
+        return 0
     if bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
                           c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near_keep, snap, width,
                           height):

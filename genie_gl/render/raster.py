@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit, prange
 
 from .clusters import CLUSTER
-from .cull import _cone_drops
+from .cull import _cone_drops, sphere_in_view
 
 PARALLEL_FACES = 5_000      # below this many faces in view, one thread draws a frame
 SHIFT = 3
@@ -181,21 +181,9 @@ def _bound_cluster(q, k, c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c
         return True
     cl = cbase[q] + k
     m = cfm[slot[q]]
-    c0, c1, c2 = c_centre[cl, 0], c_centre[cl, 1], c_centre[cl, 2]
-    ex = m[0, 0] * c0 + m[0, 1] * c1 + m[0, 2] * c2 + m[0, 3]
-    ey = m[1, 0] * c0 + m[1, 1] * c1 + m[1, 2] * c2 + m[1, 3]
-    ez = m[2, 0] * c0 + m[2, 1] * c1 + m[2, 2] * c2 + m[2, 3]
-    sc = 0.0
-    rmag = 0.0
-    for c in range(3):
-        sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
-        for r in range(3):
-            rmag = max(rmag, abs(m[r, c]))
-    rad = c_radius[cl] * sc * (1 + 1e-6) + 1e-9
-    for p in range(planes.shape[0]):
-        if planes[p, 0] * ex + planes[p, 1] * ey + planes[p, 2] * ez + planes[p, 3] < -rad:
-            return False
-    tmag = abs(m[0, 3]) + abs(m[1, 3]) + abs(m[2, 3])
+    ex, ey, ez, rad, sc, rmag, tmag, inside = sphere_in_view(m, c_centre, c_radius, cl, planes)
+    if not inside:
+        return False
     if backcull[q] and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
                                    c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near, 2.0 ** -8,
                                    width, height):
