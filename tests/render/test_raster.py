@@ -88,8 +88,12 @@ def test_one_thread_or_two_give_the_same_bytes(monkeypatch):
     sensor = sensor_640()
     monkeypatch.setattr(raster, "PARALLEL_FACES", 0)   # two threads however small the frame
     threads = numba.get_num_threads()
+    assert threads >= 2, "numba has one thread here: the case cannot compare one thread with two"
     with Renderer(scene, depth_precision="exact") as r:
-        two = [r.render(sensor, p, normals=True) for p in poses[:2]]
+        two = []
+        for p in poses[:2]:
+            two.append(r.render(sensor, p, normals=True))
+            assert (r._rasteriser.tally[:2, 0] > 0).all()   # both threads drew clusters of this frame
         numba.set_num_threads(1)
         try:
             one = [r.render(sensor, p, normals=True) for p in poses[:2]]
@@ -215,7 +219,7 @@ def test_bad_options_are_refused():
 
 
 @pytest.mark.gl
-def test_a_capture_through_a_distorted_lens_with_effects_takes_the_exact_raster():
+def test_a_capture_through_a_distorted_lens_with_effects_takes_the_exact_raster(monkeypatch):
     """``accuracy: {depth_precision: exact}`` reaches the renderer through ``capture``: the
     Azure Kinect's fisheye-like lens (its ids from each lens pixel's own ray) and its
     effects run on the CPU raster's frames and agree with the GL raster's."""
@@ -225,7 +229,12 @@ def test_a_capture_through_a_distorted_lens_with_effects_takes_the_exact_raster(
     scene = gg.build_scene(layout, seed=1)
     sensor = gg.load_sensor(resolve("azure_kinect_nfov", "sensors", (".yaml",)))
     poses = gg.place_sensors(layout, sensor, n=2, seed=1)
+    drawn = []   # the CPU rasteriser's frames, counted (it still draws them)
+    draw = raster.Rasteriser.draw
+    monkeypatch.setattr(raster.Rasteriser, "draw", lambda self, *a, **k: drawn.append(1) or draw(self, *a, **k))
     exact = gg.capture(scene, sensor, poses, seed=0, accuracy=AccuracySettings(depth_precision="exact"))
+    assert len(drawn) >= len(poses)   # (the lens resamples each pixel's ray: depth alone cannot tell)
+    monkeypatch.undo()
     gl = gg.capture(scene, sensor, poses, seed=0, accuracy=AccuracySettings(depth_precision="float32"))
     for a, b in zip(exact, gl):
         assert (a.instance > 0).mean() > 0.2
