@@ -4,7 +4,6 @@ before any work. A seeded, bounded fuzz test: every input ends in a result or a 
 import json
 import time
 
-import cv2
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -15,6 +14,8 @@ from genie_gl.cli import main
 from genie_gl.layout import load_strategy
 from genie_gl.resources import data_dir
 
+from .faults.common import write_calibration
+
 
 def one_line_error(argv, capsys, message):
     t = time.perf_counter()
@@ -23,16 +24,6 @@ def one_line_error(argv, capsys, message):
     assert message in err, err
     assert len(err.splitlines()) == 1, err
     assert time.perf_counter() - t < 20
-
-
-def write_calibration(path, w, h):
-    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
-    fs.write("image_width", w)
-    fs.write("image_height", h)
-    fs.write("camera_matrix", np.array([[w, 0, w / 2], [0, w, h / 2], [0, 0, 1]], np.float64))
-    fs.write("distortion_coefficients", np.zeros((5, 1)))
-    fs.release()
-    return path
 
 
 @pytest.mark.parametrize("args, message", [

@@ -142,3 +142,17 @@ def no_temporaries(folder: Path) -> None:
     left = [str(p) for p in folder.rglob(".*.tmp*") if p.name != ".hidden.tmp"]
     left += [str(p) for p in folder.rglob(".tmp-*")]
     assert not left, left
+
+
+def write_calibration(path, w, h):
+    """An OpenCV calibration file of a w x h pinhole (fx = fy = w, no distortion) at ``path``."""
+    import cv2
+    import numpy as np
+
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    fs.write("image_width", w)
+    fs.write("image_height", h)
+    fs.write("camera_matrix", np.array([[w, 0, w / 2], [0, w, h / 2], [0, 0, 1]], np.float64))
+    fs.write("distortion_coefficients", np.zeros((5, 1)))
+    fs.release()
+    return path

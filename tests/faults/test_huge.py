@@ -3,7 +3,6 @@ option that raises them, in seconds and within a few GB, never by running out of
 time. Each runs in a child with 3 GB of address space and a deadline."""
 import json
 
-import cv2
 import numpy as np
 import pytest
 
@@ -12,7 +11,7 @@ from genie_gl.errors import LimitError
 from genie_gl.layout.estimate import layout_estimate
 from genie_gl.resources import data_dir
 
-from .common import cli, cli_proc, fault, refused
+from .common import cli, cli_proc, fault, refused, write_calibration
 
 HUGE = fault("huge input", "hang")
 MEMORY_GB = 3.0
@@ -97,16 +96,6 @@ def test_the_layout_estimate_bounds_what_random_strategies_make(seed):
     assert made <= nodes <= work, (made, nodes, work)
 
 
-def calibration(path, w, h):
-    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
-    fs.write("image_width", w)
-    fs.write("image_height", h)
-    fs.write("camera_matrix", np.array([[w, 0, w / 2], [0, w, h / 2], [0, 0, 1]], np.float64))
-    fs.write("distortion_coefficients", np.zeros((5, 1)))
-    fs.release()
-    return path
-
-
 @pytest.fixture(scope="module")
 def scene_usd(tmp_path_factory):
     import trimesh
@@ -133,7 +122,7 @@ def test_a_huge_sensor_is_refused_before_rendering(side, scene_usd, tmp_path):
     """20 000 px exceeds every side the GL context allows; 16 000 px passes that check but not
     the memory this run may use (3 GB): refused by its estimate, or by the renderer when the
     driver cannot allocate its targets, never a crash."""
-    cal = calibration(tmp_path / "huge.yml", side, side)
+    cal = write_calibration(tmp_path / "huge.yml", side, side)
     run = cli_proc("capture", scene_usd, "--cameras", "1", "--sensor", cal, "--out", tmp_path / "o",
                    "--no-progress", timeout=120, memory_gb=MEMORY_GB)
     refused(run, f"{side}x{side} px")
