@@ -3,6 +3,7 @@ short after each of its stages in turn, one thread, CPU per frame over a benchma
 40 poses (best of ``repeats`` passes), and what each stage counts per frame.
 
     python docs/raster_profile.py 1M 3
+    python docs/raster_profile.py dataset 3     # a dataset scene (assembly line) and its 40 cameras
 
 Each cut is the module's source with one line changed (printed), loaded from a temporary
 file and put in place of the kernel; the differences between successive cuts are the stages'
@@ -49,33 +50,48 @@ def variant(source: str, old: str | None, new: str | None, where: Path, k: int):
     return mod
 
 
+def dataset_scene():
+    """Scene 1 of a ``genie dataset assembly_line`` run (seed 0) and its 40 placed cameras."""
+    import genie_gl as gg
+    from genie_gl.dataset.streams import SceneStreams
+    from genie_gl.layout import generate_layout, load_strategy
+    streams = SceneStreams(0, 1)
+    layout = generate_layout(load_strategy("assembly_line"), rng=streams.rng("layout"))
+    scene = gg.build_scene(layout, rng=streams.rng("scene"))
+    return scene, gg.place_sensors(layout, gg.load_sensor("ideal_pinhole"), n=40, seed=streams.placement_seed)
+
+
 def main() -> None:
     size = sys.argv[1] if len(sys.argv) > 1 else "1M"
     repeats = int(sys.argv[2]) if len(sys.argv) > 2 else 3
-    spec = bench_spec(size)
+    if size == "dataset":
+        scene, poses = dataset_scene()
+    else:
+        spec = bench_spec(size)
+        scene, poses = to_scene(spec), spec.poses
     sensor = sensor_640()
     K, W, H, near = sensor.K, sensor.width, sensor.height, float(sensor.clip_near_m)
     source = inspect.getsource(raster)
     numba.set_num_threads(1)
-    r = Renderer(to_scene(spec), depth_precision="exact")
+    r = Renderer(scene, depth_precision="exact")
     kernel = raster._raster
     print(f"scene {size}: {r.triangles:,} triangles, 640 x 480, one thread, CPU ms per frame (best of {repeats})")
     with tempfile.TemporaryDirectory() as tmp:
         for k, (label, old, new) in enumerate(CUTS):
             raster._raster = variant(source, old, new, Path(tmp), k)._raster if old else kernel
-            r.render(sensor, spec.poses[0], depth_only=True)    # compile the cut
+            r.render(sensor, poses[0], depth_only=True)    # compile the cut
             best, counts = np.inf, np.zeros(8)
             for _ in range(repeats):
                 c = time.process_time()
                 counts[:] = 0
-                for p in spec.poses:
+                for p in poses:
                     cfm, slots, m, bc, eye = r._visible(p, K, W, H, near, None)
                     r._rasteriser.draw(slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, r._planes)
                     counts += r._rasteriser.counts
-                best = min(best, (time.process_time() - c) / len(spec.poses))
+                best = min(best, (time.process_time() - c) / len(poses))
             print(f"  {1e3 * best:6.1f} ms  {label}")
     raster._raster = kernel
-    c = counts / len(spec.poses)
+    c = counts / len(poses)
     print(f"per frame: {c[0]:,.0f} clusters drawn, {c[1]:,.0f} faces with a pixel box, {c[2]:,.0f} of them hidden, "
           f"{c[3]:,.0f} drawn, {c[4]:,.0f} pixel centres tested, {c[5]:,.0f} occlusion tiles refreshed")
 
