@@ -34,6 +34,7 @@ from .projection import clip_coefficients, frustum_planes, rigid_inverse
 from .raster import Rasteriser
 from .readback import semantic_table, unpack
 from .shader import load_program
+from .visibility import compose, eyes, in_view
 
 # one row per drawn instance: camera_from_model (3 rows), ids, colour
 INSTANCE_DTYPE = np.dtype([("rows", "<f4", (3, 4)), ("instance", "<u4"), ("semantic", "<u4"),
@@ -614,26 +615,26 @@ class Renderer:
             return None
         camera_from_world = rigid_inverse(pose)
         # float64 composition relative to the camera, then float32 (far scenes stay exact)
-        cfm = np.einsum("ij,njk->nik", camera_from_world[:3], self._world_from_model)
+        n = len(self._mesh)
+        cfm = np.empty((n, 3, 4))
+        compose(camera_from_world, self._world_from_model, cfm)
         mesh = self._mesh
-        centres = np.einsum("nij,nj->ni", cfm[:, :, :3], self._centre[mesh]) + cfm[:, :, 3]
-        radii = self._radius[mesh] * self._scale
         planes = frustum_planes(K, W, H, near)
-        visible = ((centres @ planes[:, :3].T + planes[:, 3]) >= -radii[:, None]).all(axis=1)
+        centre_z, radii = np.empty(n), np.empty(n)
+        visible = in_view(cfm, mesh, self._centre, self._radius, self._scale, planes, centre_z, radii)
         if only is not None:
             visible &= np.isin(self._ids, np.fromiter(only, np.int64))
         slots = np.flatnonzero(visible)
         if len(slots) == 0:
             return None
         m = mesh[slots]
-        small = choose(self.lod, self._copy_of[m] >= 0, centres[slots, 2], radii[slots], K)
-        m = np.where(small, self._copy_of[m], m)
-        self._lod_drawn = int(small.sum())
+        if self.lod is not None:
+            small = choose(self.lod, self._copy_of[m] >= 0, centre_z[slots], radii[slots], K)
+            m = np.where(small, self._copy_of[m], m)
+            self._lod_drawn = int(small.sum())
         # camera inside the (slightly grown) box of a closed mesh: draw both faces to see the inside
-        eye = np.einsum("nij,j->ni", self._model_from_world[slots, :3], pose[:, 3])
-        pad = 1e-6 * (1 + np.abs(self._hi[m] - self._lo[m]))
-        inside = ((eye >= self._lo[m] - pad) & (eye <= self._hi[m] + pad)).all(axis=1)
-        backcull = self._closed[m] & ~inside
+        eye, backcull = eyes(self._model_from_world, slots, np.ascontiguousarray(pose[:, 3], np.float64), self._lo,
+                             self._hi, m, self._closed)
         self._planes = planes
         return cfm, slots, m, backcull, eye
 
