@@ -14,18 +14,19 @@ targets="separate")``, kept for the comparison: tests/render/test_readback.py).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 
-@njit(cache=True, nogil=True, boundscheck=False)
+@njit(cache=True, nogil=True, boundscheck=False, parallel=True)
 def _unpack(bits, lut, depth, instance, semantic, with_depth, half, far):  # pragma: no cover - compiled
     """Split packed (depth bits, instance) pixels into ``depth`` (when ``with_depth``),
     ``instance`` and ``semantic`` (``lut[instance]``). With ``with_depth``, a pixel with depth
     beyond ``far`` or within ``|z - half| < half`` (0 < z < near, in float32 as numpy computes
-    it) gets no return (0, 0, 0). Branch-free; returns how many pixels were emptied so."""
+    it) gets no return (0, 0, 0). Branch-free, on every thread numba has; returns how many
+    pixels were emptied so."""
     z_of = bits.view(np.float32)
     emptied = 0
-    for p in range(instance.shape[0]):
+    for p in prange(instance.shape[0]):
         i = bits[2 * p + 1]
         sem = lut[i]
         if with_depth:

@@ -196,6 +196,9 @@ class Renderer:
         self._model_from_world = np.linalg.inv(self._world_from_model) if N else np.zeros((0, 4, 4))
         self._det = np.linalg.det(self._world_from_model[:, :3, :3]) if N else np.zeros(0)
         self._ids = np.array([inst[k].instance for k in order], dtype=np.uint32)
+        self._id_order = np.argsort(self._ids, kind="stable")   # None below when an id is used twice
+        if len(self._ids) > 1 and (np.diff(self._ids[self._id_order].astype(np.int64)) == 0).any():
+            self._id_order = None
         self._scale = (np.linalg.norm(self._world_from_model[:, :3, :3], axis=1).max(axis=1)
                        if N else np.zeros(0))
         self._rows = np.zeros(N, INSTANCE_DTYPE)
@@ -623,7 +626,7 @@ class Renderer:
         centre_z, radii = np.empty(n), np.empty(n)
         visible = in_view(cfm, mesh, self._centre, self._radius, self._scale, planes, centre_z, radii)
         if only is not None:
-            visible &= np.isin(self._ids, np.fromiter(only, np.int64))
+            visible &= self._among(only)
         slots = np.flatnonzero(visible)
         if len(slots) == 0:
             return None
@@ -637,6 +640,18 @@ class Renderer:
                              self._hi, m, self._closed)
         self._planes = planes
         return cfm, slots, m, backcull, eye
+
+    def _among(self, only: Collection[int]) -> np.ndarray:
+        """(N,) bool: which slots hold an instance whose id is in ``only``."""
+        want = np.asarray(only, np.int64) if isinstance(only, np.ndarray) else np.fromiter(only, np.int64)
+        if self._id_order is None:   # an id used twice
+            return np.isin(self._ids, want)
+        ids = self._ids[self._id_order]
+        at = np.minimum(np.searchsorted(ids, want), max(len(ids) - 1, 0))
+        mask = np.zeros(len(ids), bool)
+        if len(ids):
+            mask[self._id_order[at[ids[at] == want]]] = True
+        return mask
 
     def _commands(self, pose: np.ndarray, K: np.ndarray, W: int, H: int, near: float,
                   only: Collection[int] | None, parity: int = 0,
