@@ -426,7 +426,7 @@ def _nearest_first(alive, bounds, near):
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
 def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
             slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
-            T, zb, who, tmin, tally, cull):
+            T, zb, who, tmin, tally, cull, ids, sems, near_m, far_m, out_depth, out_instance, out_semantic):
     """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
     nearest first into ``zb`` (float64 1 / z, 0 where nothing) and ``who`` (slot << 32 |
     face where ``zb`` holds a hit; not cleared, so anything elsewhere), H x W flattened, with T threads: thread t draws the columns of
@@ -495,6 +495,20 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
             _draw_cluster(q, j - job0[q], col_lo, col_hi, bounds[j], X, Y, Z, faces, c_vrange, slot, vbase, fbase,
                           nfaces, cbase, backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmin,
                           dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
+        if len(out_depth) > 1:   # the strip's depth and ids at once (as :func:`_shade` makes them)
+            for r in range(H):
+                for p in range(r * W + cut[t], r * W + cut[t + 1]):
+                    d = zb[p]
+                    z = 1.0 / d if d > 0.0 else 0.0
+                    if d > 0.0 and z >= near_m and z <= far_m:
+                        sl = who[p] >> np.int64(32)
+                        out_depth[p] = np.float32(z)
+                        out_instance[p] = ids[sl]
+                        out_semantic[p] = sems[sl]
+                    else:
+                        out_depth[p] = 0.0
+                        out_instance[p] = 0
+                        out_semantic[p] = 0
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
@@ -619,11 +633,13 @@ class Rasteriser:
 
     def draw(self, slots: np.ndarray, mesh: np.ndarray, backcull: np.ndarray, cfm: np.ndarray, eye: np.ndarray,
              det: np.ndarray, K: np.ndarray, width: int, height: int, near: float,
-             planes: np.ndarray, cull: bool = True) -> tuple[np.ndarray, np.ndarray]:
+             planes: np.ndarray, cull: bool = True, ids_out: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(inverse depth, hit): per pixel (H*W) 1 / z of the nearest hit (float64, 0: nothing) at or beyond
         ``near`` and its (slot << 32 | face) where the inverse depth is not 0; arguments as
         :meth:`genie_gl.render.cull.TriangleCuller.select`; ``cull=False`` tests every face
-        against every pixel centre of its box (the reference, slow)."""
+        against every pixel centre of its box (the reference, slow). ``ids_out``: (ids,
+        semantic ids, near_m, far_m, frame arrays) for a frame of depth and ids alone, which
+        each thread then fills for its strip as :meth:`shade` would (no :meth:`shade` after)."""
         c = self.culler
         nf = c.mesh_nfaces[mesh]
         nclus = -(-nf // CLUSTER)
@@ -641,9 +657,20 @@ class Rasteriser:
         _raster(*self.xyz, c.faces, *self.boxes, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
                 nf, c.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
                 np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64), proj, planes,
-                float(near), float(width), float(height), T, depth, hit, tmin, self.tally[:T], bool(cull))
+                float(near), float(width), float(height), T, depth, hit, tmin, self.tally[:T], bool(cull),
+                *self._ids_out(ids_out))
         self.counts = self.tally[:T].sum(axis=0)
         return depth, hit
+
+    @staticmethod
+    def _ids_out(ids_out: tuple | None) -> tuple:
+        """:func:`_raster`'s last seven arguments (one-element arrays: no strip shading)."""
+        if ids_out is None:
+            return (np.zeros(1, np.uint32), np.zeros(1, np.uint32), 0.0, 0.0, np.zeros(1, np.float32),
+                    np.zeros(1, np.uint32), np.zeros(1, np.uint16))
+        ids, sems, near_m, far_m, out = ids_out
+        return (ids, sems, float(near_m), float(far_m), out["depth"].reshape(-1), out["instance"].reshape(-1),
+                out["semantic"].reshape(-1))
 
     def shade(self, depth: np.ndarray | None, hit: np.ndarray | None, cfm: np.ndarray, ids: np.ndarray,
               semantic: np.ndarray, color: np.ndarray, slot_face0: np.ndarray, K: np.ndarray, near_m: float,

@@ -440,14 +440,17 @@ class Renderer:
         fields = self._no_triangles() if triangles else None
         depth = hit = None
         drawn = faces = 0
+        ids_only = False
         face0 = np.zeros(len(self._mesh), np.int64)
         cfm = np.zeros((max(1, len(self._mesh)), 3, 4))
         if seen is not None:
             cfm, slots, m, backcull, eye = seen
             r = self._rasteriser
             r.face_vbase(self._vbase, self._fbase, self._nfaces)
+            ids_only = not (color or normals or triangles) and H * W > 1
             depth, hit = r.draw(slots, m, backcull, cfm, eye, self._det[slots], K, W, H, near, self._planes,
-                                self.cull)
+                                self.cull, (self._ids, self._rows["semantic"], sensor.near_m, sensor.far_m, out)
+                                if ids_only else None)
             face0[slots] = self._fbase[m]
             drawn, faces = len(slots), int(self._nfaces[m].sum())
             if triangles:
@@ -458,8 +461,9 @@ class Renderer:
                           mesh_count)
         t1 = time.perf_counter()
         rgb = self._rows["color"][:, :3] if len(self._mesh) else np.zeros((1, 3), np.uint8)
-        self._rasteriser.shade(depth, hit, cfm, self._ids, self._rows["semantic"], rgb, face0, K, sensor.near_m,
-                               sensor.far_m, out)
+        if depth is None or not ids_only:   # (a frame of depth and ids alone was filled as it was drawn)
+            self._rasteriser.shade(depth, hit, cfm, self._ids, self._rows["semantic"], rgb, face0, K, sensor.near_m,
+                                   sensor.far_m, out)
         t2 = time.perf_counter()
         self.stats = {"cull_s": 0.0, "draw_s": t1 - t0, "readback_s": t2 - t1, "instances_drawn": drawn,
                       "triangles_drawn": faces, "instances_simplified": self._lod_drawn, "occlusion_culled": False}
