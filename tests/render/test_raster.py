@@ -241,3 +241,30 @@ def test_a_capture_through_a_distorted_lens_with_effects_takes_the_exact_raster(
         assert (a.instance == b.instance).mean() > 0.999
         same = (a.instance == b.instance) & (a.depth > 0) & (b.depth > 0)
         assert np.median(np.abs(a.depth[same] - b.depth[same])) < 1e-4   # the same noise, the same surfaces
+
+
+def test_a_frame_of_depth_and_ids_alone_equals_those_of_a_full_frame(monkeypatch):
+    """Depth and ids alone are filled strip by strip as they are drawn; with colour and
+    normals the shading pass fills them: the same values, with the sensor's range applied
+    (a far limit inside the scene empties pixels), on one thread and on two."""
+    import dataclasses
+
+    scene, poses = bench_scene("100k")
+    sensor = dataclasses.replace(sensor_640(), far_m=6.0)
+    monkeypatch.setattr(raster, "PARALLEL_FACES", 0)
+    threads = numba.get_num_threads()
+    with Renderer(scene, depth_precision="exact") as r:
+        for t in sorted({1, threads}):
+            numba.set_num_threads(t)
+            try:
+                for p in poses[:3]:
+                    alone = r.render(sensor, p, depth_only=True)
+                    full = r.render(sensor, p, normals=True)
+                    assert alone.rgb is None and full.rgb is not None
+                    assert alone.depth.tobytes() == full.depth.tobytes()
+                    assert np.array_equal(alone.instance, full.instance)
+                    assert np.array_equal(alone.semantic, full.semantic)
+                    cut = (full.depth == 0) & (alone.instance == 0)
+                    assert 0.01 < cut.mean() < 0.99 and alone.depth.max() <= 6.0
+            finally:
+                numba.set_num_threads(threads)
