@@ -19,6 +19,7 @@ import time
 
 from ..export import get_format
 from ..render.memory import prefault
+from ..scene.assets.catalogue import ASSETS
 from .config import DatasetConfig
 from .recipe import RunInputs, chunk, make
 from .streams import SceneStreams
@@ -31,6 +32,8 @@ def warm_up(cfg: DatasetConfig, inputs: RunInputs) -> float:
     """Make a throw-away scene of ``cfg`` with ``inputs`` in this process; returns seconds."""
     t0 = time.perf_counter()
     fmt = get_format(cfg.format)
+    segments = inputs.accuracy.tessellation
+    (ASSETS if segments is None else ASSETS.copy(segments=segments)).build_builtins()
     streams = SceneStreams(WARM_SEED, 0)
     # (the culling kernels load only if a view of this scene draws enough faces to cull: the
     # assembly line's views never do, so its scenes never load them)

@@ -183,6 +183,17 @@ class Catalogue:
             mesh = self._scene_meshes[(cls, variant)] = Mesh.from_trimesh(registered[variant])
         return mesh
 
+    def build_builtins(self) -> int:
+        """Build every built-in variant now, at this catalogue's tessellation (into the
+        per-process caches :meth:`mesh` and :meth:`scene_mesh` read); returns how many. A
+        dataset worker's warm-up does this, so no scene pays for a variant's first build."""
+        n = 0
+        for cls, variants in lib.VARIANTS.items():
+            for variant in variants:
+                self.scene_mesh(cls, variant)
+                n += 1
+        return n
+
     def copy(self, *, segments: int | None = None) -> "Catalogue":
         """A catalogue with the same registrations; registering into it leaves this one as is.
 
