@@ -119,7 +119,7 @@ def dataset_runs(args: argparse.Namespace) -> list[dict]:
         stages = [st for r in runs if r["workers"] == 1 for st in r["steady_stages"]]
         med = {k: float(np.median([st[k] for st in stages])) for k in stages[0]} if stages else {}
         print("   steady scene, 1 worker, median s per stage: " + ", ".join(f"{k} {v:.3f}" for k, v in med.items()))
-    print("   warm-up: once per worker before its first scene (imports, numba kernels, GL context, shaders, frame "
+    print("   warm-up: once per worker before its first scene (imports, numba kernels, GL context, shaders, asset meshes, frame "
           "memory); first scene: its stage time after that; machine s/scene: steady / workers; command s/scene: the "
           "whole command's wall time / scenes (start-up and warm-up included); steady CPU s: CPU time of a steady "
           "scene's process, all its threads (on 2 cores, wall >= CPU / 2)")
