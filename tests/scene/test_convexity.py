@@ -43,13 +43,20 @@ def test_split_vertices_are_merged_and_a_flipped_face_is_not_convex():
     assert not convexity.convex_arrays(tri, flipped)
 
 
-def test_convexity_is_decided_once_per_mesh(monkeypatch):
+def test_convexity_is_decided_once_per_geometry(monkeypatch):
+    """Once per mesh object, and once per geometry: a new Mesh of the same vertices and faces
+    (what a new scene of the same assets makes) finds the answer by its digest."""
     calls = []
     real = convexity.convex_arrays
     monkeypatch.setattr(convexity, "convex_arrays", lambda v, f: calls.append(1) or real(v, f))
-    mesh = gg.Mesh(np.asarray(trimesh.creation.icosphere(2).vertices), np.asarray(trimesh.creation.icosphere(2).faces),
-                   closed=True)
+    monkeypatch.setattr(convexity, "_BY_CONTENT", {})
+    ball = trimesh.creation.icosphere(2)
+    mesh = gg.Mesh(np.asarray(ball.vertices), np.asarray(ball.faces), closed=True)
     assert convexity.is_convex(mesh) and convexity.is_convex(mesh)
     assert len(calls) == 1
-    other = gg.Mesh(mesh.vertices, mesh.faces, closed=True)   # an equal mesh is a mesh of its own
-    assert convexity.is_convex(other) and len(calls) == 2
+    other = gg.Mesh(mesh.vertices.copy(), mesh.faces.copy(), closed=True)
+    assert convexity.is_convex(other) and len(calls) == 1
+    dented = np.asarray(ball.vertices).copy()
+    dented[0] *= 0.5
+    assert not convexity.is_convex(gg.Mesh(dented, np.asarray(ball.faces), closed=True)) and len(calls) == 2
+
