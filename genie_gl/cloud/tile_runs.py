@@ -25,6 +25,17 @@ from numba import njit
 from .kernels import _frame_rows, _row_points
 
 
+@njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _close_run(counts, runs, nr, a, b, p0, p1, n):  # pragma: no cover - compiled
+    """Add a closed run (pixels p0 .. p1 - 1 of tile (a, b), n valid) to ``counts`` and, while
+    there is room, to ``runs``; returns the runs written (-1 once ``runs`` overflowed)."""
+    counts[a, b] += n
+    if 0 <= nr < runs.shape[0]:
+        runs[nr, 0], runs[nr, 1], runs[nr, 2], runs[nr, 3] = p0, p1, a * counts.shape[1] + b, n
+        return nr + 1
+    return -1
+
+
 def _make_runners(separable: bool):
     """count (pass 1, runs kept) and pick (pass 2, from the runs) for one kind of ray table."""
 
@@ -39,7 +50,6 @@ def _make_runners(separable: bool):
         H, W, d, tx, ty, inv, rows = _frame_rows(depth, tx, ty, size)
         px, py, pz, ka, kb = rows
         I, J = counts.shape
-        R = runs.shape[0]
         outside = 0
         nr = 0
         for v in range(H):
@@ -56,24 +66,14 @@ def _make_runners(separable: bool):
                     last = u
                     continue
                 if inside:
-                    counts[a, b] += run
-                    if 0 <= nr < R:
-                        runs[nr, 0], runs[nr, 1], runs[nr, 2], runs[nr, 3] = row + first, row + last + 1, a * J + b, run
-                        nr += 1
-                    else:
-                        nr = -1
+                    nr = _close_run(counts, runs, nr, a, b, row + first, row + last + 1, run)
                 a, b = au, bu
                 inside = 0 <= a < I and 0 <= b < J
                 run = 1
                 first = last = u
                 outside += not inside
             if inside:
-                counts[a, b] += run
-                if 0 <= nr < R:
-                    runs[nr, 0], runs[nr, 1], runs[nr, 2], runs[nr, 3] = row + first, row + last + 1, a * J + b, run
-                    nr += 1
-                else:
-                    nr = -1
+                nr = _close_run(counts, runs, nr, a, b, row + first, row + last + 1, run)
         return outside, nr
 
     @njit(cache=True, nogil=True, boundscheck=False)

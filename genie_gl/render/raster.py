@@ -16,9 +16,9 @@ two vertices in the same order of operations (no fused multiply-add: the kernels
 without ``fastmath``), so the two triangles of an edge give exact negatives and a pixel
 centre on it belongs to both: there are no cracks between triangles.
 
-Depth ties (equal float64 z) go to the lower (instance slot, face): each thread draws into a
-depth buffer of its own and the buffers are merged pixel by pixel on that key, so a frame
-does not depend on the number of threads or on the order the clusters are visited.
+Depth ties (equal float64 z) go to the lower (instance slot, face). Each thread draws column
+strips of its own (no pixel is written by two threads), so a frame does not depend on the
+number of threads or on the order the clusters are visited.
 
 What this gives against the OpenGL raster: depth exact along each pixel's ray (the GL path
 interpolates float32 eye coordinates over a snapped triangle), coverage decided at the pixel
