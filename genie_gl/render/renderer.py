@@ -647,7 +647,13 @@ class Renderer:
 
     def _among(self, only: Collection[int]) -> np.ndarray:
         """(N,) bool: which slots hold an instance whose id is in ``only``."""
-        want = np.asarray(only, np.int64) if isinstance(only, np.ndarray) else np.fromiter(only, np.int64)
+        try:
+            want = np.asarray(only if isinstance(only, np.ndarray) else list(only))
+        except (TypeError, ValueError):
+            want = np.zeros((0, 0))
+        if want.ndim != 1 or (want.size and want.dtype.kind not in "iu"):
+            raise ConfigError(f"Renderer: only: expected a collection of instance ids (integers), got {only!r:.60}")
+        want = want.astype(np.int64)
         if self._id_order is None:   # an id used twice
             return np.isin(self._ids, want)
         ids = self._ids[self._id_order]

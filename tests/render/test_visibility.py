@@ -44,3 +44,12 @@ def test_drawing_only_some_instances_is_the_frame_of_a_scene_of_them(glctx, prec
             for f in (a, c):
                 assert np.array_equal(f.instance, b.instance) and np.array_equal(f.semantic, b.semantic)
                 assert f.depth.tobytes() == b.depth.tobytes()
+
+
+@pytest.mark.parametrize("bad", [["a"], [1.5, 2.0], [[1, 2]], 7, [True]])
+def test_only_that_is_not_a_collection_of_ids_is_refused_by_name(bad):
+    scene, poses = bench_scene("100k")
+    with Renderer(scene, depth_precision="exact") as r:
+        with pytest.raises(gg.errors.ConfigError, match="only: expected a collection of instance ids"):
+            r.render(sensor_640(), poses[0], depth_only=True, only=bad)
+        assert r.render(sensor_640(), poses[0], depth_only=True, only=[]).instance.max() == 0
