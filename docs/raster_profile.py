@@ -5,8 +5,8 @@ short after each of its stages in turn, one thread, CPU per frame over a benchma
     python docs/raster_profile.py 1M 3
     python docs/raster_profile.py dataset 3     # a dataset scene (assembly line) and its 40 cameras
 
-Each cut is the module's source with one line changed (printed), loaded from a temporary
-file and put in place of the kernel; the differences between successive cuts are the stages'
+Each cut is the rasteriser's source (``coverage`` and ``raster`` as one module) with one line
+changed, loaded from a temporary file and put in place of the kernel; the differences between successive cuts are the stages'
 costs. Numba compiles each cut once (a minute or two on a first run).
 """
 import importlib.util
@@ -21,7 +21,7 @@ import numpy as np
 
 from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
-from genie_gl.render import Renderer, raster
+from genie_gl.render import Renderer, coverage, raster
 
 CUTS = (
     ("clusters: sphere, cone and occlusion tests, set-up, clear", "    tally[0] += 1\n", "    tally[0] += 1\n    return\n"),
@@ -42,6 +42,7 @@ def variant(source: str, old: str | None, new: str | None, where: Path, k: int):
         assert source.count(old) == 1, old
         source = source.replace(old, new)
     source = source.replace("from .clusters", "from genie_gl.render.clusters").replace("from .cull", "from genie_gl.render.cull")
+    source = source.replace("from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", "")
     path = where / f"raster_cut{k}.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location(f"raster_cut{k}", path)
@@ -71,7 +72,7 @@ def main() -> None:
         scene, poses = to_scene(spec), spec.poses
     sensor = sensor_640()
     K, W, H, near = sensor.K, sensor.width, sensor.height, float(sensor.clip_near_m)
-    source = inspect.getsource(raster)
+    source = inspect.getsource(coverage) + inspect.getsource(raster).replace("from __future__ import annotations\n", "")
     numba.set_num_threads(1)
     r = Renderer(scene, depth_precision="exact")
     kernel = raster._raster
@@ -79,7 +80,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for k, (label, old, new) in enumerate(CUTS):
             raster._raster = variant(source, old, new, Path(tmp), k)._raster if old else kernel
-            r.render(sensor, poses[0], depth_only=True)    # compile the cut
+            cfm, slots, m, bc, eye = r._visible(poses[0], K, W, H, near, None)   # compile the cut as it is timed
+            r._rasteriser.draw(slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, r._planes)
             best, counts = np.inf, np.zeros(8)
             for _ in range(repeats):
                 c = time.process_time()
