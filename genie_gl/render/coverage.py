@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 
 from .clusters import CLUSTER
-from .cull import _cone_drops, sphere_in_view
+from .cull import _cone_drops, shares_cell, sphere_in_view
 
 SHIFT = 3
 TILE = 1 << SHIFT           # pixels: the side of an occlusion tile
@@ -231,10 +231,8 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
     for i in range(nf):
         f = f0 + i
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
-        ka, kb, kc = keys_u[a], keys_u[b], keys_u[c]
-        la, lb, lc = keys_v[a], keys_v[b], keys_v[c]
         live[nl] = i
-        nl += 1 - (cull & (((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc))))
+        nl += 1 - (cull & shares_cell(keys_u, keys_v, a, b, c))
     for ii in range(nl):
         f = f0 + live[ii]
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo

@@ -142,6 +142,14 @@ def _centre_near(ua, va, ub, vb, uc, vc, e, sg, ulo, uhi, vlo, vhi):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def shares_cell(keys_u, keys_v, a, b, c):
+    """Whether vertices a, b and c lie in one cell between pixel centres on either axis (their
+    keys, one per axis, equal): then their triangle holds no pixel centre. Branch-free."""
+    return (((keys_u[a] == keys_u[b]) & (keys_u[b] == keys_u[c]))
+            | ((keys_v[a] == keys_v[b]) & (keys_v[b] == keys_v[c])))
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def sphere_in_view(m, c_centre, c_radius, cl, planes):
     """Cluster ``cl``'s bounding sphere under camera_from_model ``m`` (3, 4): its centre in
     the camera frame (ex, ey, ez), its radius there (grown by a relative 1e-6), the largest
@@ -257,9 +265,7 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
     for i in range(nf):
         f = f0 + i
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
-        ka, kb, kc = keys_u[a], keys_u[b], keys_u[c]
-        la, lb, lc = keys_v[a], keys_v[b], keys_v[c]
-        if ((ka == kb) & (kb == kc)) | ((la == lb) & (lb == lc)):   # one branch, mostly taken
+        if shares_cell(keys_u, keys_v, a, b, c):   # one branch, mostly taken
             continue
         keep = True
         if wz[a] > near_keep and wz[b] > near_keep and wz[c] > near_keep:
