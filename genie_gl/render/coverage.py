@@ -206,7 +206,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
     m = cfm[sl]
     bc = backcull[q]
     Wi, Hi = int(width), int(height)
-    last_u, last_v = width - 1.0, height - 1.0
+    last_v = height - 1.0
     ulo_c, uhi_c = max(bound[0], col_lo), min(bound[1], col_hi)
     if ulo_c > uhi_c:
         return

@@ -28,13 +28,14 @@ from ..triangles import PixelTriangles, SceneTriangles
 from .clusters import Clusters, prepare
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
 from .cull import TriangleCuller
-from .lod import LevelOfDetail, choose, simplified
+from .lod import LevelOfDetail, simplified
 from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
-from .projection import clip_coefficients, frustum_planes, rigid_inverse
+from .projection import clip_coefficients
 from .raster import Rasteriser
-from .readback import semantic_table, unpack
+from .readback import semantic_table
+from .readout import Readout
 from .shader import load_program
-from .visibility import compose, eyes, in_view
+from .visibility import Visibility
 
 # one row per drawn instance: camera_from_model (3 rows), ids, colour
 INSTANCE_DTYPE = np.dtype([("rows", "<f4", (3, 4)), ("instance", "<u4"), ("semantic", "<u4"),
@@ -50,12 +51,11 @@ GL_FLOAT = 0x1406
 DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z", "exact")
 TARGETS = ("packed", "separate")
 READBACKS = ("direct", "pbo")
-_BYTES = {"f1": 1, "u2": 2, "u4": 4, "f4": 4}
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
                           ("base_instance", "<u4")])  # DrawElementsIndirectCommand
 
 
-class Renderer:
+class Renderer(Visibility, Readout):
     """Renders ideal pinhole frames of one scene from any number of cameras.
 
     Use as a context manager (or call :meth:`release`)::
@@ -476,107 +476,6 @@ class Renderer:
             self._gl_flush = self.gl.gl_function("glFlush", None)
         self._gl_flush()
 
-    def _reads(self, job: dict) -> list[tuple[int, int, str, str]]:
-        """(attachment, components, dtype, name) of every read of a frame; attachment -1 is
-        the depth buffer (of the 24-bit pass when there is one)."""
-        color, normals = job["color"], job["normals"]
-        linear = self.depth_precision == "float32"
-        reads = [] if linear else [(-1, 1, "f4", "depth")]
-        if self._packed:
-            reads.append((0, 2, "u4", "packed"))
-            at = 1
-        else:
-            reads += ([(0, 1, "f4", "depth")] if linear else []) + [(1, 1, "u4", "instance"), (2, 1, "u2", "semantic")]
-            at = 3
-        if color:  # RGBA is read as stored (a 3-component read converts: 7x slower)
-            reads.append((at, 4, "f1", "rgba"))
-        if normals:
-            reads.append((at + 1, 3, "f4", "normal"))  # the colour target is there, used or not
-        if job["pixel_triangles"] is not None:
-            reads.append((at + (2 if normals else 1 if color else 0), 2, "u4", "primitive"))
-        return reads
-
-    def _start_read(self, job: dict) -> None:
-        """readback="pbo": copy the frame's targets into its pixel buffer objects now."""
-        W, H = job["sensor"].width, job["sensor"].height
-        job["pbo"] = []
-        for k, (att, comps, dtype, _) in enumerate(self._reads(job)):
-            source = job["fbo24"] if att < 0 and job["fbo24"] is not None else job["fbo"]
-            key = (id(job["fbo"]), k, comps, dtype)
-            if key not in self._pbos:
-                self._pbos[key] = self.ctx.buffer(reserve=W * H * comps * _BYTES[dtype])
-            source.read_into(self._pbos[key], components=comps, attachment=att, dtype=dtype)
-            job["pbo"].append(self._pbos[key])
-
-    def _scratch(self, H: int, W: int) -> np.ndarray:
-        """The packed target's read-back buffer (unpacked at once, so one per size)."""
-        buf = getattr(self, "_packed_buf", None)
-        if buf is None or buf.shape[:2] != (H, W):
-            buf = self._packed_buf = np.empty((H, W, 2), np.uint32)
-        return buf
-
-    def _read(self, job: dict, finish: bool = False) -> Frame:
-        """Read a drawn frame back (waits for its rasterisation) and make the Frame."""
-        ctx, sensor, color, normals = self.ctx, job["sensor"], job["color"], job["normals"]
-        W, H = sensor.width, sensor.height
-        if finish:
-            ctx.finish()  # so that the read-back time below is the copy alone
-        t2 = time.perf_counter()
-        linear = self.depth_precision == "float32"
-        want_triangles = job["pixel_triangles"] is not None
-        out = frame_buffers(H, W, color, normals, want_triangles)
-        depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
-        if self._packed:
-            out["packed"] = self._scratch(H, W)
-        pbos = job.get("pbo")
-        for k, (att, comps, dtype, name) in enumerate(self._reads(job)):
-            if pbos is not None:
-                pbos[k].read_into(out[name])
-            else:
-                source = job["fbo24"] if att < 0 and job["fbo24"] is not None else job["fbo"]
-                source.read_into(out[name], components=comps, attachment=att, dtype=dtype)
-        rgb = out["rgba"][..., :3] if color else None
-        normal = out["normal"] if normals else None
-        err = ctx.error
-        if err != "GL_NO_ERROR":
-            raise RenderError(f"OpenGL error after rendering: {err}")
-        emptied = 0
-        if self._packed:  # ids, semantic ids and (linear) depth with the range applied, in one pass
-            emptied = unpack(out["packed"], self._semantics, depth if linear else None, instance, semantic,
-                             sensor.near_m, sensor.far_m)
-        if not linear:
-            self._linearise(depth, instance, sensor)
-        t3 = time.perf_counter()
-        if self._packed and linear:
-            if emptied and (rgb is not None or normal is not None):
-                beyond = instance == 0
-                beyond &= out["packed"][..., 1] != 0
-                if rgb is not None:
-                    rgb[beyond] = 0
-                if normal is not None:
-                    normal[beyond] = 0
-        else:
-            half = np.float32(0.5 * sensor.near_m)
-            too_near = np.abs(depth - half) < half if job["drawn"] else None  # 0 < depth < near_m
-            if job["drawn"] and (float(depth.max()) > sensor.far_m or too_near.any()):
-                # infinite-far projection, near plane below the range: the range is applied here
-                beyond = (depth > sensor.far_m) | too_near
-                depth[beyond] = 0
-                instance[beyond] = 0
-                semantic[beyond] = 0
-                if rgb is not None:
-                    rgb[beyond] = 0
-                if normal is not None:
-                    normal[beyond] = 0
-        t0, t1 = job["t0"], job["t1"]
-        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
-                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"],
-                      "occlusion_culled": job["occluded"]}
-        tri = (PixelTriangles(out["primitive"], *job["pixel_triangles"], self._triangle_scene(),
-                              self._clip_near(sensor)) if want_triangles else None)
-        return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
-                     {"render_ms": 1e3 * (time.perf_counter() - t0)}, tri)
-
     def _triangle_scene(self) -> SceneTriangles:
         """The scene's meshes for :class:`PixelTriangles`, made the first time a frame asks
         for triangles."""
@@ -591,18 +490,6 @@ class Renderer:
         clipped and what lies behind it shows (the float depth modes give no return)."""
         return float(sensor.near_m if self.depth_precision == "depth24" else sensor.clip_near_m)
 
-    def _linearise(self, depth: np.ndarray, instance: np.ndarray, sensor: Sensor) -> None:
-        """Window depth read back into ``depth`` -> z in metres (0 where no instance)."""
-        n = np.float64(self._clip_near(sensor))
-        d = depth.astype(np.float64)
-        hit = instance != 0
-        if self.depth_precision == "reversed_z":  # d = near / z
-            z = np.divide(n, d, out=np.zeros_like(d), where=hit & (d > 0))
-        else:  # d = A + B / z with A = f / (f - n), B = -f n / (f - n)
-            f = np.float64(sensor.far_m)
-            z = np.divide(f * n, f - d * (f - n), out=np.zeros_like(d), where=hit & (d < 1))
-        depth[...] = z
-
     def _no_triangles(self) -> tuple:
         """The per-slot fields of :class:`PixelTriangles` (after ``pixel``) of a frame that
         draws nothing yet."""
@@ -610,58 +497,6 @@ class Renderer:
         return (np.full(n, -1, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, bool),
                 np.zeros((n, 3, 4)), np.zeros(0, np.uint32), self._ids, self._rows["semantic"].astype(np.uint16),
                 np.zeros(n, np.int64), np.zeros(n, np.int64))
-
-    def _visible(self, pose: np.ndarray, K: np.ndarray, W: int, H: int, near: float,
-                 only: Collection[int] | None) -> tuple | None:
-        """The instances a frame draws, nothing in Python per instance: (camera_from_model of
-        every slot (N, 3, 4), the visible slots, the mesh each draws (its simplified copy with
-        level of detail), back-face culling per visible slot, the eye in each one's model
-        frame), or None when none is visible."""
-        self._lod_drawn = 0
-        if len(self._mesh) == 0:
-            return None
-        camera_from_world = rigid_inverse(pose)
-        # float64 composition relative to the camera, then float32 (far scenes stay exact)
-        n = len(self._mesh)
-        cfm = np.empty((n, 3, 4))
-        compose(camera_from_world, self._world_from_model, cfm)
-        mesh = self._mesh
-        planes = frustum_planes(K, W, H, near)
-        centre_z, radii = np.empty(n), np.empty(n)
-        visible = in_view(cfm, mesh, self._centre, self._radius, self._scale, planes, centre_z, radii)
-        if only is not None:
-            visible &= self._among(only)
-        slots = np.flatnonzero(visible)
-        if len(slots) == 0:
-            return None
-        m = mesh[slots]
-        if self.lod is not None:
-            small = choose(self.lod, self._copy_of[m] >= 0, centre_z[slots], radii[slots], K)
-            m = np.where(small, self._copy_of[m], m)
-            self._lod_drawn = int(small.sum())
-        # camera inside the (slightly grown) box of a closed mesh: draw both faces to see the inside
-        eye, backcull = eyes(self._model_from_world, slots, np.ascontiguousarray(pose[:, 3], np.float64), self._lo,
-                             self._hi, m, self._closed)
-        self._planes = planes
-        return cfm, slots, m, backcull, eye
-
-    def _among(self, only: Collection[int]) -> np.ndarray:
-        """(N,) bool: which slots hold an instance whose id is in ``only``."""
-        try:
-            want = np.asarray(only if isinstance(only, np.ndarray) else list(only))
-        except (TypeError, ValueError):
-            want = np.zeros((0, 0))
-        if want.ndim != 1 or (want.size and want.dtype.kind not in "iu"):
-            raise ConfigError(f"Renderer: only: expected a collection of instance ids (integers), got {only!r:.60}")
-        want = want.astype(np.int64)
-        if self._id_order is None:   # an id used twice
-            return np.isin(self._ids, want)
-        ids = self._ids[self._id_order]
-        at = np.minimum(np.searchsorted(ids, want), max(len(ids) - 1, 0))
-        mask = np.zeros(len(ids), bool)
-        if len(ids):
-            mask[self._id_order[at[ids[at] == want]]] = True
-        return mask
 
     def _commands(self, pose: np.ndarray, K: np.ndarray, W: int, H: int, near: float,
                   only: Collection[int] | None, parity: int = 0,

@@ -1,9 +1,16 @@
 """Which instances a frame draws, in one compiled pass over them (no numpy call per step:
-at a few hundred instances the calls' overhead, not the arithmetic, was the cost)."""
+at a few hundred instances the calls' overhead, not the arithmetic, was the cost), and the
+renderer's methods that ask it (:class:`Visibility`, for both rasters)."""
 from __future__ import annotations
+
+from collections.abc import Collection
 
 import numpy as np
 from numba import njit
+
+from ..errors import ConfigError
+from .lod import choose
+from .projection import frustum_planes, rigid_inverse
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -61,3 +68,60 @@ def eyes(model_from_world, slots, eye_world, lo, hi, mesh, closed):
             inside &= (e >= lo[m, i] - pad) & (e <= hi[m, i] + pad)
         backcull[q] = closed[m] and not inside
     return eye, backcull
+
+
+class Visibility:
+    """The renderer's per-frame choice of instances (a mix-in of
+    :class:`~genie_gl.render.renderer.Renderer`, used by the GL and the exact raster alike)."""
+
+    def _visible(self, pose: np.ndarray, K: np.ndarray, W: int, H: int, near: float,
+                 only: Collection[int] | None) -> tuple | None:
+        """The instances a frame draws, nothing in Python per instance: (camera_from_model of
+        every slot (N, 3, 4), the visible slots, the mesh each draws (its simplified copy with
+        level of detail), back-face culling per visible slot, the eye in each one's model
+        frame), or None when none is visible."""
+        self._lod_drawn = 0
+        if len(self._mesh) == 0:
+            return None
+        camera_from_world = rigid_inverse(pose)
+        # float64 composition relative to the camera, then float32 (far scenes stay exact)
+        n = len(self._mesh)
+        cfm = np.empty((n, 3, 4))
+        compose(camera_from_world, self._world_from_model, cfm)
+        mesh = self._mesh
+        planes = frustum_planes(K, W, H, near)
+        centre_z, radii = np.empty(n), np.empty(n)
+        visible = in_view(cfm, mesh, self._centre, self._radius, self._scale, planes, centre_z, radii)
+        if only is not None:
+            visible &= self._among(only)
+        slots = np.flatnonzero(visible)
+        if len(slots) == 0:
+            return None
+        m = mesh[slots]
+        if self.lod is not None:
+            small = choose(self.lod, self._copy_of[m] >= 0, centre_z[slots], radii[slots], K)
+            m = np.where(small, self._copy_of[m], m)
+            self._lod_drawn = int(small.sum())
+        # camera inside the (slightly grown) box of a closed mesh: draw both faces to see the inside
+        eye, backcull = eyes(self._model_from_world, slots, np.ascontiguousarray(pose[:, 3], np.float64), self._lo,
+                             self._hi, m, self._closed)
+        self._planes = planes
+        return cfm, slots, m, backcull, eye
+
+    def _among(self, only: Collection[int]) -> np.ndarray:
+        """(N,) bool: which slots hold an instance whose id is in ``only``."""
+        try:
+            want = np.asarray(only if isinstance(only, np.ndarray) else list(only))
+        except (TypeError, ValueError):
+            want = np.zeros((0, 0))
+        if want.ndim != 1 or (want.size and want.dtype.kind not in "iu"):
+            raise ConfigError(f"Renderer: only: expected a collection of instance ids (integers), got {only!r:.60}")
+        want = want.astype(np.int64)
+        if self._id_order is None:   # an id used twice
+            return np.isin(self._ids, want)
+        ids = self._ids[self._id_order]
+        at = np.minimum(np.searchsorted(ids, want), max(len(ids) - 1, 0))
+        mask = np.zeros(len(ids), bool)
+        if len(ids):
+            mask[self._id_order[at[ids[at] == want]]] = True
+        return mask

@@ -1,0 +1,141 @@
+"""The GL renderer's read-back: a drawn frame's targets into the frame's arrays.
+
+:class:`Readout` is the half of :class:`~genie_gl.render.renderer.Renderer` that reads a
+frame back once it is drawn: which targets a frame reads (the packed depth and ids, or three
+targets; colour, normals, the pixel's triangle), read at once or through pixel buffer objects
+(``readback="pbo"``), unpacked by :func:`~genie_gl.render.readback.unpack` with the sensor's
+range applied, window depth turned into metres for the GL depth modes, and the
+:class:`~genie_gl.frame.Frame` made. It works on the renderer's state (its context, targets,
+semantic table and options); :meth:`Renderer._draw` makes the ``job`` it reads.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import RenderError
+from ..frame import Frame
+from ..sensors.camera import Sensor
+from ..triangles import PixelTriangles
+from .memory import frame_buffers
+from .readback import unpack
+
+_BYTES = {"f1": 1, "u2": 2, "u4": 4, "f4": 4}
+
+
+class Readout:
+    """The renderer's read-back methods (a mix-in of :class:`~genie_gl.render.renderer.Renderer`)."""
+
+    def _reads(self, job: dict) -> list[tuple[int, int, str, str]]:
+        """(attachment, components, dtype, name) of every read of a frame; attachment -1 is
+        the depth buffer (of the 24-bit pass when there is one)."""
+        color, normals = job["color"], job["normals"]
+        linear = self.depth_precision == "float32"
+        reads = [] if linear else [(-1, 1, "f4", "depth")]
+        if self._packed:
+            reads.append((0, 2, "u4", "packed"))
+            at = 1
+        else:
+            reads += ([(0, 1, "f4", "depth")] if linear else []) + [(1, 1, "u4", "instance"), (2, 1, "u2", "semantic")]
+            at = 3
+        if color:  # RGBA is read as stored (a 3-component read converts: 7x slower)
+            reads.append((at, 4, "f1", "rgba"))
+        if normals:
+            reads.append((at + 1, 3, "f4", "normal"))  # the colour target is there, used or not
+        if job["pixel_triangles"] is not None:
+            reads.append((at + (2 if normals else 1 if color else 0), 2, "u4", "primitive"))
+        return reads
+
+    def _start_read(self, job: dict) -> None:
+        """readback="pbo": copy the frame's targets into its pixel buffer objects now."""
+        W, H = job["sensor"].width, job["sensor"].height
+        job["pbo"] = []
+        for k, (att, comps, dtype, _) in enumerate(self._reads(job)):
+            source = job["fbo24"] if att < 0 and job["fbo24"] is not None else job["fbo"]
+            key = (id(job["fbo"]), k, comps, dtype)
+            if key not in self._pbos:
+                self._pbos[key] = self.ctx.buffer(reserve=W * H * comps * _BYTES[dtype])
+            source.read_into(self._pbos[key], components=comps, attachment=att, dtype=dtype)
+            job["pbo"].append(self._pbos[key])
+
+    def _scratch(self, H: int, W: int) -> np.ndarray:
+        """The packed target's read-back buffer (unpacked at once, so one per size)."""
+        buf = getattr(self, "_packed_buf", None)
+        if buf is None or buf.shape[:2] != (H, W):
+            buf = self._packed_buf = np.empty((H, W, 2), np.uint32)
+        return buf
+
+    def _read(self, job: dict, finish: bool = False) -> Frame:
+        """Read a drawn frame back (waits for its rasterisation) and make the Frame."""
+        ctx, sensor, color, normals = self.ctx, job["sensor"], job["color"], job["normals"]
+        W, H = sensor.width, sensor.height
+        if finish:
+            ctx.finish()  # so that the read-back time below is the copy alone
+        t2 = time.perf_counter()
+        linear = self.depth_precision == "float32"
+        want_triangles = job["pixel_triangles"] is not None
+        out = frame_buffers(H, W, color, normals, want_triangles)
+        depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
+        if self._packed:
+            out["packed"] = self._scratch(H, W)
+        pbos = job.get("pbo")
+        for k, (att, comps, dtype, name) in enumerate(self._reads(job)):
+            if pbos is not None:
+                pbos[k].read_into(out[name])
+            else:
+                source = job["fbo24"] if att < 0 and job["fbo24"] is not None else job["fbo"]
+                source.read_into(out[name], components=comps, attachment=att, dtype=dtype)
+        rgb = out["rgba"][..., :3] if color else None
+        normal = out["normal"] if normals else None
+        err = ctx.error
+        if err != "GL_NO_ERROR":
+            raise RenderError(f"OpenGL error after rendering: {err}")
+        emptied = 0
+        if self._packed:  # ids, semantic ids and (linear) depth with the range applied, in one pass
+            emptied = unpack(out["packed"], self._semantics, depth if linear else None, instance, semantic,
+                             sensor.near_m, sensor.far_m)
+        if not linear:
+            self._linearise(depth, instance, sensor)
+        t3 = time.perf_counter()
+        if self._packed and linear:
+            if emptied and (rgb is not None or normal is not None):
+                beyond = instance == 0
+                beyond &= out["packed"][..., 1] != 0
+                if rgb is not None:
+                    rgb[beyond] = 0
+                if normal is not None:
+                    normal[beyond] = 0
+        else:
+            half = np.float32(0.5 * sensor.near_m)
+            too_near = np.abs(depth - half) < half if job["drawn"] else None  # 0 < depth < near_m
+            if job["drawn"] and (float(depth.max()) > sensor.far_m or too_near.any()):
+                # infinite-far projection, near plane below the range: the range is applied here
+                beyond = (depth > sensor.far_m) | too_near
+                depth[beyond] = 0
+                instance[beyond] = 0
+                semantic[beyond] = 0
+                if rgb is not None:
+                    rgb[beyond] = 0
+                if normal is not None:
+                    normal[beyond] = 0
+        t0, t1 = job["t0"], job["t1"]
+        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
+                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"],
+                      "occlusion_culled": job["occluded"]}
+        tri = (PixelTriangles(out["primitive"], *job["pixel_triangles"], self._triangle_scene(),
+                              self._clip_near(sensor)) if want_triangles else None)
+        return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
+                     {"render_ms": 1e3 * (time.perf_counter() - t0)}, tri)
+
+    def _linearise(self, depth: np.ndarray, instance: np.ndarray, sensor: Sensor) -> None:
+        """Window depth read back into ``depth`` -> z in metres (0 where no instance)."""
+        n = np.float64(self._clip_near(sensor))
+        d = depth.astype(np.float64)
+        hit = instance != 0
+        if self.depth_precision == "reversed_z":  # d = near / z
+            z = np.divide(n, d, out=np.zeros_like(d), where=hit & (d > 0))
+        else:  # d = A + B / z with A = f / (f - n), B = -f n / (f - n)
+            f = np.float64(sensor.far_m)
+            z = np.divide(f * n, f - d * (f - n), out=np.zeros_like(d), where=hit & (d < 1))
+        depth[...] = z
