@@ -153,6 +153,12 @@ def test_frame_buffers_are_recycled_only_when_no_view_remains():
 
     from genie_gl.render.renderer import _POOL, frame_buffers
 
+    # what earlier tests left: their garbage collected now (a block it frees would otherwise
+    # come back during this test, ahead of ours) and the free blocks dropped (a full pool
+    # would keep none)
+    gc.collect()
+    _POOL.free.clear()
+    _POOL.bytes = 0
     a = frame_buffers(48, 64, True, True)
     keep = a["semantic"]                      # one view keeps the whole block lent out
     addr = a["depth"].ctypes.data
