@@ -1,12 +1,12 @@
-"""Read-back of a frame's ids and depth: one packed target, unpacked by one compiled pass.
+"""Read-back of a frame's ids and depth: one packed target, unpacked by one compiled kernel.
 
 The geometry pass writes depth and instance id into one RG32UI target (the float32 view z as
 its bits, the instance id beside it): a frame is one read of 8 bytes a pixel instead of three
 reads (depth R32F, instance R32UI, semantic R16UI), and llvmpipe writes one target per
 fragment instead of three (measured: ~15 % less rasteriser CPU a frame at 640 x 480). The
-semantic id is not rendered: it is the instance's, looked up in a per-instance table while
-the packed pixels are split into the frame's arrays, in the same pass that applies the
-sensor's range (nothing nearer than ``near_m``, nothing beyond ``far_m``).
+semantic id is not rendered: it is the instance's, looked up in a per-instance table once
+the packed pixels are split into the frame's arrays and the sensor's range is applied
+(nothing nearer than ``near_m``, nothing beyond ``far_m``).
 
 The frames are the same bit for bit as the three-target layout (``Renderer(...,
 targets="separate")``, kept for the comparison: tests/render/test_readback.py).
