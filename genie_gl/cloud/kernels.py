@@ -217,10 +217,11 @@ def _frame_rows(depth, tx, ty, size):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, boundscheck=False, inline="always")
-def _row_points(separable, v, W, d, tx, ty, M, inv, rows):  # pragma: no cover - compiled
+def _row_points(separable, v, W, d, tx, ty, M, inv, rows, with_z=True):  # pragma: no cover - compiled
     """World points (px, py, pz; the expression and order of :func:`_write`, so the same
     bits) and tile indices (ka, kb) of every pixel of row v, valid or not, into ``rows``:
-    dense loops that vectorise (a strided read of a written cloud would cost more)."""
+    dense loops that vectorise (a strided read of a written cloud would cost more).
+    ``with_z`` False leaves pz alone (a count needs the tiles alone)."""
     px, py, pz, ka, kb = rows
     row = v * W
     y = ty[v] if separable else ty[row]
@@ -238,7 +239,8 @@ def _row_points(separable, v, W, d, tx, ty, M, inv, rows):  # pragma: no cover -
             b0, b1, b2 = m01 * y + m02, m11 * y + m12, m21 * y + m22
         px[u] = dk * (m00 * x + b0) + m03
         py[u] = dk * (m10 * x + b1) + m13
-        pz[u] = dk * (m20 * x + b2) + m23
+        if with_z:
+            pz[u] = dk * (m20 * x + b2) + m23
     for u in range(W):
         ka[u] = _tile(px[u], inv)
         kb[u] = _tile(py[u], inv)
@@ -257,7 +259,7 @@ def _make_tilers(separable: bool):
         I, J = counts.shape
         outside = 0
         for v in range(H):
-            _row_points(separable, v, W, d, tx, ty, M, inv, rows)
+            _row_points(separable, v, W, d, tx, ty, M, inv, rows, False)
             a, b, inside, run = np.int64(0), np.int64(0), False, 0  # the current tile, its count
             for u in range(W):
                 if not d[v * W + u] > 0:
@@ -325,7 +327,7 @@ def _make_tilers(separable: bool):
         i0 = j0 = np.int64(2**62)
         i1 = j1 = -np.int64(2**62)
         for v in range(H):
-            _row_points(separable, v, W, d, tx, ty, M, inv, rows)
+            _row_points(separable, v, W, d, tx, ty, M, inv, rows, False)
             for u in range(W):
                 if d[v * W + u] > 0:
                     i0, i1, j0, j1 = min(i0, ka[u]), max(i1, ka[u]), min(j0, kb[u]), max(j1, kb[u])

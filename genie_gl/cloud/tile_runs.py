@@ -53,7 +53,7 @@ def _make_runners(separable: bool):
         outside = 0
         nr = 0
         for v in range(H):
-            _row_points(separable, v, W, d, tx, ty, M, inv, rows)
+            _row_points(separable, v, W, d, tx, ty, M, inv, rows, False)
             row = v * W
             a, b, inside, run = np.int64(0), np.int64(0), False, 0  # the current tile, its count
             first = last = 0   # the current tile's first and last valid pixel in the row

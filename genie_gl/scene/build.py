@@ -87,6 +87,10 @@ class SceneBuilder:
         self._keys: dict[tuple[str, str], str] = {}
         self._bounds: dict[tuple[str, str], np.ndarray] = {}
         self._centres: dict[tuple[str, str], np.ndarray] = {}
+        self._turns: dict[float, tuple[Any, Any]] = {}   # yaw -> (np.cos(yaw), np.sin(yaw))
+        # the options read per instance, read once (a pydantic attribute costs a microsecond)
+        self._jitter = options.jitter if options.jitters else None
+        self._vary_color = bool(options.color)
         # a child stream: drawing materials leaves the placement draws as they were
         self.material_rng = rng.spawn(1)[0]
 
@@ -103,13 +107,14 @@ class SceneBuilder:
 
     def color(self, cls: str) -> tuple[int, int, int]:
         base = BASE_COLOR.get(cls, (160, 160, 160))
-        if not self.opt.color:
+        if not self._vary_color:
             return base
         # per channel in plain floats (once per instance): the array form's operations and bits.
         # uniform(lo, hi) is lo + (hi - lo) * random() in numpy, one draw alike: written so, it
         # skips the scalar call's argument handling (3.5 us of ~4)
-        gain, noise = 0.75 + (1.15 - 0.75) * self.rng.random(), self.rng.normal(0.0, 12.0, 3).tolist()
-        return tuple(int(min(max(b * gain + e, 0.0), 255.0)) for b, e in zip(base, noise))  # type: ignore[return-value]
+        gain, (e0, e1, e2) = 0.75 + (1.15 - 0.75) * self.rng.random(), self.rng.normal(0.0, 12.0, 3).tolist()
+        return (int(min(max(base[0] * gain + e0, 0.0), 255.0)), int(min(max(base[1] * gain + e1, 0.0), 255.0)),
+                int(min(max(base[2] * gain + e2, 0.0), 255.0)))
 
     def add(self, cls: str, variant: str, T: np.ndarray, name: str) -> int:
         key = self._keys.get((cls, variant))
@@ -220,8 +225,8 @@ class SceneBuilder:
         options ask for kept inside it. Instance names end in ``_<region index>_<layer>``."""
         v, yaw, fw, fd = choice
         cx, cy = slot.centre
-        if self.opt.jitters:
-            jit = self.opt.jitter
+        if self._jitter is not None:
+            jit = self._jitter
             slack_x, slack_y = (slot.w - fw) / 2, (slot.h - fd) / 2
             cx += min(max(float(self.rng.normal(0, jit.position_m)), -slack_x), slack_x)  # np.clip's rule
             cy += min(max(float(self.rng.normal(0, jit.position_m)), -slack_y), slack_y)
@@ -248,7 +253,12 @@ class SceneBuilder:
     def _put(self, cls: str, v: str, yaw: float, cx: float, cy: float, z: float, name: str) -> int:
         """An instance whose footprint centre lands on (cx, cy), turned by ``yaw``."""
         off = self._centre(cls, v)
-        c, s = np.cos(yaw), np.sin(yaw)
+        turn = self._turns.get(yaw) if yaw else None   # (0.0 and -0.0 are one key: not kept)
+        if turn is None:   # the layers of a stack, a shelf's items: one turn, many instances
+            turn = (np.cos(yaw), np.sin(yaw))
+            if yaw:
+                self._turns[yaw] = turn
+        c, s = turn
         ox, oy = c * off[0] - s * off[1], s * off[0] + c * off[1]
         return self.add(cls, v, _turned(c, s, cx - ox, cy - oy, z), name)
 

@@ -16,6 +16,7 @@ per instance, and an effect looks its frame's instance-id buffer up in it.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,6 +35,14 @@ class MaterialKind:
     opacity: tuple[float, float] = (1.0, 1.0)
     ior: tuple[float, float] = (1.5, 1.5)
 
+    def __post_init__(self) -> None:
+        # per input after the colour (metallic, roughness, opacity, ior): what draw() gives
+        # when its range holds one value (lo + 0 * u, rounded: the same for every draw u in
+        # [0, 1)), else None; worked out once, not per instance
+        object.__setattr__(self, "_fixed", tuple(
+            round(float(r[0] + 0.0), 4) if r[0] == r[1] and math.isfinite(r[0]) else None
+            for r in (self.metallic, self.roughness, self.opacity, self.ior)))
+
     def draw(self, rng: np.random.Generator) -> Material:
         """One material within the ranges (6 uniform draws, always, whatever the ranges).
 
@@ -46,13 +55,10 @@ class MaterialKind:
         col = (round((lo[0] + (hi[0] - lo[0]) * t) * 10000.0) / 10000.0,
                round((lo[1] + (hi[1] - lo[1]) * t) * 10000.0) / 10000.0,
                round((lo[2] + (hi[2] - lo[2]) * t) * 10000.0) / 10000.0)
-
-        def pick(r: tuple[float, float], x: float) -> float:
-            return float(r[0] + (r[1] - r[0]) * x)
-
-        return Material(col, round(pick(self.metallic, u2), 4), round(pick(self.roughness, u3), 4),
-                        round(pick(self.opacity, u4), 4), round(pick(self.ior, u5), 4))
-
+        fixed = self._fixed
+        return Material(col, *[f if f is not None else round(float(r[0] + (r[1] - r[0]) * u), 4)
+                               for f, r, u in ((fixed[0], self.metallic, u2), (fixed[1], self.roughness, u3),
+                                               (fixed[2], self.opacity, u4), (fixed[3], self.ior, u5))])
 
 KINDS: dict[str, MaterialKind] = {
     # paint over steel: a dielectric coat, semi-gloss

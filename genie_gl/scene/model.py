@@ -357,21 +357,21 @@ class Scene:
         used = self._used_ids
         if instance is None:
             instance = self._max_id + 1
-        if not 0 < int(instance) < 2**32:
+        iid, sem = int(instance), int(semantic)
+        if not 0 < iid < 2**32:
             raise ConfigError(f"scene.add: instance id must be in 1..2**32-1, got {instance}")
-        if int(instance) in used:
+        if iid in used:
             raise ConfigError(f"scene.add: instance id {instance} is already used")
-        if not 0 <= int(semantic) < 2**16:
+        if not 0 <= sem < 2**16:
             raise ConfigError(f"scene.add: semantic id must be in 0..65535, got {semantic}")
         if material is not None and not isinstance(material, Material):
             raise ConfigError(f"scene.add: material must be a genie_gl.Material, got {type(material).__name__}")
-        col = _palette(int(instance)) if color is None else tuple(int(c) for c in color[:3])
-        self.instances.append(
-            Instance(key, transform, int(semantic), int(instance), col, name, material)  # type: ignore[arg-type]
-        )
-        used.add(int(instance))
-        self._max_id = max(self._max_id, int(instance))
-        return int(instance)
+        col = _palette(iid) if color is None else tuple(map(int, color[:3]))
+        self.instances.append(Instance(key, transform, sem, iid, col, name, material))  # type: ignore[arg-type]
+        used.add(iid)
+        if iid > self._max_id:
+            self._max_id = iid
+        return iid
 
     def report(self) -> dict[str, Any]:
         """What the scene holds and what of it cannot be drawn: instances dropped for a

@@ -37,7 +37,7 @@ from ..scene_options import scene_options
 from . import coverage
 from .floor import furnished_rects, outside_rects
 from .camera import Sensor
-from .placement_bits import DiscBits
+from .placement_bits import DiscBits, evolve
 from .pose import look_at
 
 log = logging.getLogger(__name__)
@@ -274,6 +274,12 @@ def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Genera
     fit = problem.fitnesses(pop)
     history = [float(fit.max())]
     pop = np.ascontiguousarray(pop, np.int64)
+    bits = problem.disc_bits() if type(problem) is CoverageProblem else None
+    if bits is not None and generations > 0:   # the generations compiled whole: the same draws, the same result
+        pop, fit, best = evolve(rng, pop, fit, int(generations), m, float(mutation), bits.bits, bits.classes,
+                                bits.class_w, float(problem.total))
+        history += best.tolist()
+        generations = 0
     for _ in range(generations):
         # the draws, in their order; the steps between them compiled (coverage.breed)
         a, b = rng.integers(0, population, (2, population))

@@ -17,6 +17,8 @@ from llvmlite import ir  # noqa: F401  (the intrinsic's builder types)
 from numba import njit, types
 from numba.core.extending import intrinsic
 
+from .coverage import breed
+
 
 @intrinsic
 def _popcount(typingctx, x):  # pragma: no cover - compiled
@@ -83,6 +85,27 @@ def greedy(n, bits, classes, class_w):  # pragma: no cover - compiled
         for w in range(W):
             free[w] &= ~bits[best, w]
     return chosen
+
+
+@njit(cache=True)
+def evolve(rng, pop, fit, generations, m, mutation, bits, classes, class_w, total):  # pragma: no cover
+    """``generations`` generations of :func:`~genie_gl.sensors.placement.genetic_placement`
+    compiled whole, fitness as :meth:`DiscBits.fitnesses` / ``total``: each generation's five
+    draws from ``rng`` in their order (numba's Generator draws numpy's numbers, call by call),
+    :func:`~genie_gl.sensors.coverage.breed`, the fitnesses. Returns (population, fitnesses,
+    the best fitness of each generation)."""
+    population, n = pop.shape
+    best = np.empty(generations)
+    for g in range(generations):
+        ab = rng.integers(0, population, (2, population))
+        perm = rng.permutation(population)
+        cross = rng.random((population, n))
+        mutate = rng.random((population, n))
+        draws = rng.integers(0, m, np.count_nonzero(mutate < mutation))
+        pop = breed(pop, fit, ab[0], ab[1], perm, cross, mutate, mutation, draws)
+        fit = union_weights(pop, bits, classes, class_w) / total
+        best[g] = fit.max()
+    return pop, fit, best
 
 
 class DiscBits:

@@ -85,6 +85,37 @@ def test_unpack_looks_semantic_ids_up_by_instance(big):
     assert semantic_table(np.array([4, 4], np.uint32), np.array([1, 2], np.uint16)) is None
 
 
+def _unpack_one_pass(packed, lut, with_depth, near_m, far_m):
+    """The unpacking as the kernel's docstring states it, pixel by pixel in plain numpy."""
+    z, i = packed[..., 0].view(np.float32), packed[..., 1]
+    half = np.float32(0.5 * near_m)
+    bad = ((z > np.float32(far_m)) | (np.abs(z - half) < half)) if with_depth else np.zeros(z.shape, bool)
+    return (np.where(bad, np.float32(0), z), np.where(bad, np.uint32(0), i),
+            np.where(bad, np.uint16(0), lut[i]).astype(np.uint16), int(bad.sum()))
+
+
+@pytest.mark.parametrize("with_zero_id", [False, True])  # a scene's table; one holding an id 0
+@pytest.mark.parametrize("with_depth", [True, False])
+def test_unpack_equals_the_one_pass_reading_on_a_full_frame(with_zero_id, with_depth):
+    rng = np.random.default_rng(11)
+    ids = np.arange(0 if with_zero_id else 1, 900, dtype=np.uint32)
+    table = semantic_table(ids, rng.integers(1, 60, len(ids)).astype(np.uint16))
+    z = rng.uniform(0.0, 20.0, (480, 640)).astype(np.float32)
+    z[:40] = 0.0
+    z[40:60] = 0.01       # nearer than the range
+    z[60:70] = -0.0
+    inst = rng.integers(0, 900, z.shape).astype(np.uint32)
+    inst[:20] = 0
+    packed = np.stack([z.view(np.uint32), inst], axis=-1)
+    depth, instance, semantic = np.full_like(z, -1), np.empty_like(inst), np.empty(z.shape, np.uint16)
+    emptied = unpack(packed, table, depth if with_depth else None, instance, semantic, near_m=0.1, far_m=15.0)
+    want_depth, want_instance, want_semantic, want_emptied = _unpack_one_pass(packed, table[0], with_depth, 0.1, 15.0)
+    assert emptied == want_emptied and (want_emptied > 0) == with_depth
+    assert instance.tobytes() == want_instance.tobytes() and semantic.tobytes() == want_semantic.tobytes()
+    if with_depth:
+        assert depth.tobytes() == want_depth.tobytes()
+
+
 def test_unknown_targets_or_readback_is_a_config_error():
     for kw in ({"targets": "rg"}, {"readback": "async"}):
         with pytest.raises(ConfigError, match=next(iter(kw))):

@@ -44,3 +44,21 @@ def test_the_genetic_search_takes_the_same_path_and_fractional_weights_keep_the_
     assert fractional.disc_bits() is None
     pop = np.random.default_rng(2).integers(0, len(fractional.candidates), (8, 10))
     assert fractional.fitnesses(pop).tobytes() == cell_by_cell(fractional, pop).tobytes()
+
+
+@pytest.mark.parametrize("seed, mutation", [(0, 0.05), (4, 0.3)])
+def test_the_compiled_generations_equal_the_generation_loop(seed, mutation):
+    layout = gg.generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=seed)
+    problem = CoverageProblem(layout, 6.0)
+
+    class Looped(CoverageProblem):   # any subclass takes the loop in Python, generation by generation
+        pass
+
+    looped = object.__new__(Looped)
+    looped.__dict__.update(problem.__dict__)
+    rngs = np.random.default_rng(seed), np.random.default_rng(seed)
+    fast = genetic_placement(problem, 40, rng=rngs[0], mutation=mutation)
+    slow = genetic_placement(looped, 40, rng=rngs[1], mutation=mutation)
+    assert fast.history == slow.history and fast.coverage == slow.coverage and len(fast.history) == 151
+    assert fast.centres.tobytes() == slow.centres.tobytes()
+    assert rngs[0].bit_generator.state == rngs[1].bit_generator.state   # the same draws, to the last
