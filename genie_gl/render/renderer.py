@@ -340,9 +340,11 @@ class Renderer(Visibility, Readout):
     def frames(self, sensor: Sensor, poses: Iterable[np.ndarray], *, depth_only: bool = False,
                normals: bool = False, only: Sequence[Collection[int] | None] | None = None,
                triangles: bool = False) -> Iterator[Frame]:
-        """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose,
-        with CPU and GL overlapped: frame i+1 is culled and submitted (into a second set of
-        targets) before frame i is read back, and renders while the caller works on frame i.
+        """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose:
+        frame i+1 is culled and submitted (into a second set of targets) before frame i is
+        read back, so its culling and submission overlap frame i's raster. (llvmpipe returns
+        the read of frame i only once frame i+1 has rendered too: the caller's work on a frame
+        does not overlap a raster; see docs/pipeline.md, fourth round.)
         ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``; ``triangles``
         as ``render(..., triangles=)``."""
         if not sensor.is_pinhole:
