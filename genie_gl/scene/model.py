@@ -288,6 +288,19 @@ def _palette(instance: int) -> tuple[int, int, int]:
     return tuple(int(round(255 * c)) for c in rgb)  # type: ignore[return-value]
 
 
+def _whole(value: Any, what: str) -> int:
+    """``value`` as an int when it is a whole number (3 or 3.0), else a ConfigError naming
+    ``what`` (int() would cut 1.5 to 1 and fail on a string with a TypeError or ValueError)."""
+    try:
+        whole = int(value)
+        exact = whole == value
+    except (TypeError, ValueError, OverflowError):
+        exact = False
+    if not exact:
+        raise ConfigError(f"scene.add: {what} must be a whole number, got {value!r}")
+    return whole
+
+
 @dataclass(eq=False)
 class Scene:
     """Meshes stored once by name, and the instances that place them in the world (Z up, metres).
@@ -357,7 +370,7 @@ class Scene:
         used = self._used_ids
         if instance is None:
             instance = self._max_id + 1
-        iid, sem = int(instance), int(semantic)
+        iid, sem = _whole(instance, "instance id"), _whole(semantic, "semantic id")
         if not 0 < iid < 2**32:
             raise ConfigError(f"scene.add: instance id must be in 1..2**32-1, got {instance}")
         if iid in used:

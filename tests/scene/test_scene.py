@@ -264,3 +264,16 @@ def test_the_halls_meshes_are_made_once_and_are_the_librarys():
         np.testing.assert_array_equal(got.faces, want.faces)
         assert got.closed == want.closed and got.digest() == want.digest()
         assert b.meshes[key] is got   # one hall size: one mesh for both scenes
+
+
+@pytest.mark.parametrize("field, bad", [("instance", 1.5), ("instance", "7"), ("instance", float("nan")),
+                                        ("semantic", None), ("semantic", 2.5)])
+def test_an_id_that_is_not_a_whole_number_is_refused_by_name(field, bad):
+    """Ids were cut by int() (1.5 became 1) or failed in it with a TypeError; a whole float is
+    an id, anything else a ConfigError naming the id, and the scene is left as it was."""
+    scene = gg.Scene()
+    box = trimesh.creation.box()
+    assert scene.add(box, np.eye(4), semantic=3.0, instance=np.int64(5)) == 5
+    with pytest.raises(gg.errors.ConfigError, match=f"{field} id must be a whole number"):
+        scene.add(box, np.eye(4), **{"semantic": 1, field: bad})
+    assert [i.instance for i in scene.instances] == [5]
