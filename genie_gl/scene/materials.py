@@ -60,6 +60,7 @@ class MaterialKind:
                                for f, r, u in ((fixed[0], self.metallic, u2), (fixed[1], self.roughness, u3),
                                                (fixed[2], self.opacity, u4), (fixed[3], self.ior, u5))])
 
+
 KINDS: dict[str, MaterialKind] = {
     # paint over steel: a dielectric coat, semi-gloss
     "painted_steel": MaterialKind((0.05, 0.12, 0.30), (0.15, 0.35, 0.65), (0.0, 0.0), (0.35, 0.6)),

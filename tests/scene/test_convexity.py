@@ -59,4 +59,3 @@ def test_convexity_is_decided_once_per_geometry(monkeypatch):
     dented = np.asarray(ball.vertices).copy()
     dented[0] *= 0.5
     assert not convexity.is_convex(gg.Mesh(dented, np.asarray(ball.faces), closed=True)) and len(calls) == 2
-
