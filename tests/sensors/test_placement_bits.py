@@ -47,9 +47,14 @@ def test_the_genetic_search_takes_the_same_path_and_fractional_weights_keep_the_
 
 
 @pytest.mark.parametrize("seed, mutation", [(0, 0.05), (4, 0.3)])
-def test_the_compiled_generations_equal_the_generation_loop(seed, mutation):
+def test_the_compiled_generations_equal_the_generation_loop(seed, mutation, monkeypatch):
+    from genie_gl.sensors import placement
+
     layout = gg.generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=seed)
     problem = CoverageProblem(layout, 6.0)
+    calls = []   # the compiled path is taken (else both sides below would run the loop)
+    evolve = placement.evolve
+    monkeypatch.setattr(placement, "evolve", lambda *a: calls.append(1) or evolve(*a))
 
     class Looped(CoverageProblem):   # any subclass takes the loop in Python, generation by generation
         pass
@@ -62,3 +67,4 @@ def test_the_compiled_generations_equal_the_generation_loop(seed, mutation):
     assert fast.history == slow.history and fast.coverage == slow.coverage and len(fast.history) == 151
     assert fast.centres.tobytes() == slow.centres.tobytes()
     assert rngs[0].bit_generator.state == rngs[1].bit_generator.state   # the same draws, to the last
+    assert calls == [1]
