@@ -6,6 +6,7 @@ differs and the instances simplified per frame.
 
     python docs/lod_saving.py                  # 1M and hall, both rasters, 16 / 48 / 128 px
     python docs/lod_saving.py hall exact 3     # one scene, one raster, rounds
+    python docs/lod_saving.py generated gl 2   # the generated hall (assets of a few hundred faces)
 
 The settings take turns pose by pose in one process; a pose's time is its least over the
 rounds (what a loaded machine blurs least), a setting's the mean of those over the poses.
@@ -25,7 +26,10 @@ SETTINGS = (None, 16.0, 48.0, 128.0)
 def measure(scene_name: str, raster: str, rounds: int) -> None:
     spec = bench_spec(scene_name)
     scene, poses, sensor = to_scene(spec), spec.poses, sensor_640()
-    precision = {"gl": "float32", "exact": "exact"}[raster]
+    precisions = {"gl": "float32", "exact": "exact"}
+    if raster not in precisions:
+        raise SystemExit(f"lod_saving.py: raster {raster!r} is unknown; expected gl or exact")
+    precision = precisions[raster]
     renderers = {px: Renderer(scene, depth_precision=precision,
                               lod=None if px is None else LevelOfDetail(below_px=px)) for px in SETTINGS}
     best = {px: np.full(len(poses), np.inf) for px in SETTINGS}
