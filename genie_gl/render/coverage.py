@@ -92,10 +92,39 @@ def _write(zb, who, dirty, iu, iv, Wi, iz, key, inear):
     (larger is nearer; no hit nearer than the near plane, 1 / ``inear``): it wins over what
     the pixel holds when nearer, or as near and of a lower (slot, face) ``key``."""
     p = iv * Wi + iu
-    if (iz <= inear) & ((iz > zb[p]) | ((iz == zb[p]) & (key < who[p]))):
+    held = zb[p]
+    if iz <= inear and (iz > held or (iz == held and key < who[p])):
         zb[p] = iz
         who[p] = key
         dirty[iv >> SHIFT, iu >> SHIFT] = 1
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _line(ex_, ey_, ez_, sg, ifx, ify, s, cx, cy, rows, extent):
+    """One edge's inner side on the scanned lines: sg E = A u + B v + C in pixel coordinates;
+    on line w, the scanned coordinate x must be >= P + Q w (d > 0) or <= P + Q w (d < 0);
+    with d == 0 the line is inside where P w + Q >= 0. Returns (d, P, Q, the span's rounding)."""
+    A = sg * ex_ * ifx
+    B = sg * (ey_ - ex_ * s * ifx) * ify
+    C = sg * ez_ - A * cx - B * cy
+    a_, b_ = (A, B) if rows else (B, A)   # the scanned coordinate's coefficient, the line's
+    if a_ != 0.0:
+        ia = -1.0 / a_
+        P, Q = C * ia, b_ * ia
+        return (1.0 if a_ > 0.0 else -1.0), P, Q, 1e-12 * (abs(P) + abs(Q) * extent + 1.0)
+    return 0.0, b_, C, 0.0
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _clip(d, P, Q, iw, lo, hi):
+    """[lo, hi] narrowed to one edge's inner side on line ``iw`` (see :func:`_line`)."""
+    if d > 0.0:
+        lo = max(lo, P + Q * iw)
+    elif d < 0.0:
+        hi = min(hi, P + Q * iw)
+    elif P * iw + Q < -1e-9 * (abs(P * iw) + abs(Q)):
+        hi = -1.0
+    return lo, hi
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"nnan", "ninf", "nsz"})
@@ -190,7 +219,7 @@ def _bound_cluster(q, k, c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, vbase, fbase, nfaces, cbase,
                   backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv,
-                  keys_u, keys_v, live, box, span, tally, cull):
+                  keys_u, keys_v, live, box, tally, cull):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi, unless every
     tile of its box there (``bound``: :func:`_bound_cluster`'s) lies nearer than it; counts
     into ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
@@ -303,39 +332,22 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
         # it are inside; those nearer its ends get the exact test, the same expression
         # whichever way a triangle is scanned (so that shared edges stay watertight).
         rows = (vhi - vlo) <= (uhi - ulo)
-        for k in range(3):
-            ex_, ey_, ez_ = (e0x, e0y, e0z) if k == 0 else ((e1x, e1y, e1z) if k == 1 else (e2x, e2y, e2z))
-            A = sg * ex_ * ifx
-            B = sg * (ey_ - ex_ * s * ifx) * ify
-            C = sg * ez_ - A * cx - B * cy
-            a_, b_ = (A, B) if rows else (B, A)   # the scanned coordinate's coefficient, the line's
-            if a_ != 0.0:
-                ia = -1.0 / a_
-                span[k, 0] = 1.0 if a_ > 0.0 else -1.0
-                span[k, 1] = C * ia
-                span[k, 2] = b_ * ia
-                span[k, 3] = 1e-12 * (abs(span[k, 1]) + abs(span[k, 2]) * (Wi + Hi) + 1.0)
-            else:
-                span[k, 0] = 0.0
-                span[k, 1] = b_
-                span[k, 2] = C
-                span[k, 3] = 0.0
+        d0, p0, q0, g0 = _line(e0x, e0y, e0z, sg, ifx, ify, s, cx, cy, rows, Wi + Hi)
+        d1, p1, q1, g1 = _line(e1x, e1y, e1z, sg, ifx, ify, s, cx, cy, rows, Wi + Hi)
+        d2, p2, q2, g2 = _line(e2x, e2y, e2z, sg, ifx, ify, s, cx, cy, rows, Wi + Hi)
         w_lo, w_hi = (vlo, vhi) if rows else (ulo, uhi)
         x_lo, x_hi = (ulo, uhi) if rows else (vlo, vhi)
         for iw in range(int(w_lo), int(w_hi) + 1):
             lo, hi, gap = x_lo, x_hi, 0.0
-            for k in range(3 if cull else 0):
-                if span[k, 0] > 0.0:
-                    lo = max(lo, span[k, 1] + span[k, 2] * iw)
-                elif span[k, 0] < 0.0:
-                    hi = min(hi, span[k, 1] + span[k, 2] * iw)
-                elif span[k, 1] * iw + span[k, 2] < -1e-9 * (abs(span[k, 1] * iw) + abs(span[k, 2])):
-                    hi = -1.0
-                gap = max(gap, span[k, 3])
+            if cull:
+                lo, hi = _clip(d0, p0, q0, iw, lo, hi)
+                lo, hi = _clip(d1, p1, q1, iw, lo, hi)
+                lo, hi = _clip(d2, p2, q2, iw, lo, hi)
+                gap = max(max(g0, g1), g2)
             if not (lo <= hi + 2.0):
                 continue
-            i_lo = int(max(np.ceil(lo) - 1.0, x_lo))
-            i_hi = int(min(np.floor(hi) + 1.0, x_hi))
+            i_lo = int(max(np.ceil(lo - gap), x_lo))
+            i_hi = int(min(np.floor(hi + gap), x_hi))
             if i_lo > i_hi:
                 continue
             in_lo, in_hi = (lo + gap, hi - gap) if cull else (math.inf, -math.inf)

@@ -139,7 +139,6 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
         wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
         keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         live = np.empty(CLUSTER, np.int64)
-        span = np.empty((3, 4))
         for jj in range(len(order)):
             j = order[jj]
             if bounds[j, 1] < col_lo or bounds[j, 0] > col_hi:
@@ -147,7 +146,7 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
             q = whose[j]
             _draw_cluster(q, j - job0[q], col_lo, col_hi, bounds[j], X, Y, Z, faces, c_vrange, slot, vbase, fbase,
                           nfaces, cbase, backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmin,
-                          dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, span, tally[t], cull)
+                          dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, tally[t], cull)
         if len(out_depth) > 1:   # the strip's depth and ids at once (as :func:`_shade` makes them)
             for r in range(H):
                 for p in range(r * W + cut[t], r * W + cut[t + 1]):
