@@ -268,3 +268,31 @@ def test_a_frame_of_depth_and_ids_alone_equals_those_of_a_full_frame(monkeypatch
                     assert 0.01 < cut.mean() < 0.99 and alone.depth.max() <= 6.0
             finally:
                 numba.set_num_threads(threads)
+
+
+def test_culling_changes_no_byte_where_edges_graze_pixel_centres():
+    """Triangles of a few to tens of pixels whose vertices lie on pixel-centre rays or within
+    1e-12..1e-6 px of them, with edges nearly parallel to the rows or the columns: a line's
+    span ends land on or next to centres, where only the exact test may decide (the spans
+    skip the test only for centres more than their rounding inside)."""
+    rng = np.random.default_rng(5)
+    sensor = gg.Sensor(64, 48, np.array([[50.0, 0.0, 31.5], [0, 50.0, 23.5], [0, 0, 1]]))
+    n = 400
+    uv = rng.integers(0, 64, (n, 3, 2)).astype(float)
+    uv[..., 1] %= 48
+    nudge = rng.choice([0.0, 1e-12, -1e-12, 1e-9, -1e-9, 1e-6, -1e-6, 0.5], (n, 3, 2))
+    uv += nudge
+    flat = rng.random(n) < 0.5              # an edge nearly along a row (or a column)
+    axis = rng.integers(0, 2, n)
+    uv[flat, 1, axis[flat]] = uv[flat, 0, axis[flat]] + rng.choice([0.0, 1e-11, -1e-11], flat.sum())
+    z = rng.uniform(1.5, 3.0, (n, 3))
+    xyz = np.stack([(uv[..., 0] - 31.5) * z / 50.0, (uv[..., 1] - 23.5) * z / 50.0, z], axis=-1)
+    scene = gg.Scene()
+    scene.add(gg.Mesh(xyz.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3)), np.eye(4), semantic=2)
+    (fa, fb, counts), = culled_and_unculled(scene, sensor, [np.eye(4)])
+    assert_same_frames(fa, fb)
+    assert (fa.instance > 0).mean() > 0.5
+    with Renderer(scene, depth_precision="exact", cull=False) as r:
+        r.render(sensor, np.eye(4))
+        every = r._rasteriser.counts[4]
+    assert counts[4] < every   # the spans did narrow the lines (the culled frame tested fewer centres)
