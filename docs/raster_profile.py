@@ -42,6 +42,7 @@ def variant(source: str, old: str | None, new: str | None, where: Path, k: int):
         assert source.count(old) == 1, old
         source = source.replace(old, new)
     source = source.replace("from .clusters", "from genie_gl.render.clusters").replace("from .cull", "from genie_gl.render.cull")
+    source = source.replace("from ..jit", "from genie_gl.jit")
     source = source.replace("from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", "")
     path = where / f"raster_cut{k}.py"
     path.write_text(source)

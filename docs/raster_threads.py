@@ -49,6 +49,7 @@ def instrumented(where: Path):
     source = inspect.getsource(coverage) + inspect.getsource(raster).replace("from __future__ import annotations\n", "")
     source = source.replace("from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", "")
     source = source.replace("from .clusters", "from genie_gl.render.clusters").replace("from .cull", "from genie_gl.render.cull")
+    source = source.replace("from ..jit", "from genie_gl.jit")
     for old, before in MARKS:
         assert source.count(old) == 1, old
         source = source.replace(old, before + old)

@@ -23,7 +23,7 @@ STAGES = ("base", "layout", "scene", "sensors", "render", "capture", "cloud", "e
           "card", "commands", "cli", "bench")
 # the bottom of the package: the contracts every stage shares (top-level modules of genie_gl)
 BASE = ("errors", "outputs", "resources", "bounds", "checks", "options", "limits", "processes", "labels", "camera", "frame",
-        "triangles", "scene_options")
+        "triangles", "scene_options", "jit")
 # optional dependencies (extras, or used only for pictures) that a function may import when it needs them
 DEFERRABLE = ("matplotlib", "open3d", "ray", "pyrender", "OpenGL", "fast_simplification", "rosbags", "pye57",
               "laspy", "evo", "kiss_icp", "torch")

@@ -13,11 +13,11 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 import numpy as np
-from numba import njit
 
 from ..checks import expect
 from ..errors import ConfigError, LimitError
 from ..frame import Frame
+from ..jit import njit
 from ..limits import check_memory, memory_limit_bytes
 from .pointcloud import PointCloud
 from .unproject import unproject

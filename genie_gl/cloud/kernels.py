@@ -21,8 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 from llvmlite import ir
-from numba import int64, njit, types, uint64
+from numba import int64, types, uint64
 from numba.core.extending import intrinsic
+
+from ..jit import njit
 
 MAX_RUNS = 2  # a 64-pixel word with more runs of valid pixels than this is written pixel by pixel
 

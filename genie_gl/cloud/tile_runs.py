@@ -20,8 +20,8 @@ for it.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from .kernels import _frame_rows, _row_points
 
 

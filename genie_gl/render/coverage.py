@@ -20,8 +20,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from .clusters import CLUSTER
 from .cull import _cone_drops, shares_cell, sphere_in_view
 

@@ -38,8 +38,8 @@ import math
 
 import numba
 import numpy as np
-from numba import njit, prange
 
+from ..jit import njit, prange
 from .clusters import CLUSTER
 from .occlusion import ROUND, UNBOUNDED, DepthBound, cluster_depth, hidden, triangle_depths, write
 

@@ -33,7 +33,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 TILE = 8                    # pixels per tile side
 EMPTY = np.float32(1e30)    # eye z of a pixel with nothing certainly drawn yet

@@ -34,8 +34,8 @@ import math
 
 import numba
 import numpy as np
-from numba import njit, prange
 
+from ..jit import njit, prange
 from .clusters import CLUSTER
 from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster
 

@@ -14,7 +14,8 @@ targets="separate")``, kept for the comparison: tests/render/test_readback.py).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 
 @njit(cache=True, nogil=True, boundscheck=False)

@@ -6,9 +6,9 @@ from __future__ import annotations
 from collections.abc import Collection
 
 import numpy as np
-from numba import njit
 
 from ..errors import ConfigError
+from ..jit import njit
 from .lod import choose
 from .projection import frustum_planes, rigid_inverse
 

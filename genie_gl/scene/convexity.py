@@ -24,8 +24,8 @@ import math
 import weakref
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from .model import Mesh
 
 PLANAR = 1e-5       # trimesh's tol.planar: local convexity threshold, relative to the mesh's size

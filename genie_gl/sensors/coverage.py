@@ -9,7 +9,8 @@ marks first: O(covered cells), not O(candidates x cells).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 
 @njit(cache=True, nogil=True)

@@ -13,9 +13,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 # the stereo shadow's loops live beside it (one topic, one module); named here as well
+from ..jit import njit
 from .shadow_kernels import casts_shadow, scanline_shadow, shadow_mask  # noqa: F401
 
 

@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 from llvmlite import ir  # noqa: F401  (the intrinsic's builder types)
-from numba import njit, types
+from numba import types
 from numba.core.extending import intrinsic
 
+from ..jit import njit
 from .coverage import breed
 
 

@@ -26,7 +26,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 STATS = ("rays", "candidates", "tested", "missed")   # what resample_rays counts, in this order
 TILE = 4   # view pixels per side of a tile of the triangles' index

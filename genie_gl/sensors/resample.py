@@ -10,7 +10,8 @@ intersected with the view's triangles, is :mod:`.ray_hits`.)
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 NEAREST, BILINEAR, PLANE = 0, 1, 2
 MODES = {"nearest": NEAREST, "bilinear": BILINEAR, "plane": PLANE}

@@ -6,7 +6,8 @@ view of a rectified pair (:func:`scanline_shadow`). :mod:`.kernels` re-exports t
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 
 @njit(cache=True, nogil=True)

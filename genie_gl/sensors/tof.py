@@ -39,10 +39,10 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit
 
 from ..errors import ConfigError
 from ..frame import Frame
+from ..jit import njit
 from . import kernels
 from .effect import Decision, Effect, View, drop, record
 from .geometry import pixel_rays, surface_normals
