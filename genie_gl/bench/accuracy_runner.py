@@ -14,7 +14,7 @@ from tqdm import tqdm
 from .. import __version__
 from ..capture.lens import through_lens
 from ..capture.serial import pose_rng
-from ..capture.settings import apply_to_sensor
+from ..capture.settings import apply_to_sensor, level_of_detail
 from ..capture.supersample import supersampled
 from ..cloud.unproject import unproject
 from ..errors import ConfigError
@@ -65,12 +65,16 @@ class Runner:
         self._materials: dict = {}
 
     def _renderer(self, setting: Setting):
-        key = (setting.accuracy.tessellation, setting.accuracy.depth_precision)
+        """The renderer of the setting's scene (its tessellation), depth precision and level of
+        detail, as a capture with these settings makes it."""
+        acc = setting.accuracy
+        key = (acc.tessellation, acc.depth_precision, acc.lod_px)
         if key not in self._renderers:
             if self._gl is None:
                 self._gl = create_context(None)
-            scene = self.case.scene_for(setting.accuracy.tessellation)
-            self._renderers[key] = Renderer(scene, context=self._gl, depth_precision=setting.accuracy.depth_precision)
+            scene = self.case.scene_for(acc.tessellation)
+            self._renderers[key] = Renderer(scene, context=self._gl, depth_precision=acc.depth_precision,
+                                            lod=level_of_detail(acc))
             self._materials[key] = _materials(scene)
         return self._renderers[key]
 

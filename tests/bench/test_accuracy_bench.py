@@ -312,3 +312,32 @@ def test_a_time_within_half_the_fastest_rows_spread_is_a_tie_won_by_the_more_exa
     quick, close, slow = row(100, 20, 0.9), row(108, 3, 0.2), row(150, 1, 0.0)
     assert fastest([quick, close, slow]) is close
     assert fastest([row(100, 0, 0.9), row(108, 3, 0.2)])["time_ms"]["total"]["median"] == 100
+
+
+def test_the_level_of_detail_knob_reaches_the_renderer():
+    """Each lod_px row renders with its own level of detail (as a capture with that setting
+    would): a far high-poly sphere is drawn simplified at 48 px and not with LOD off."""
+    import trimesh
+
+    from genie_gl.bench.accuracy_runner import Runner
+    from genie_gl.bench.knobs import Case, Setting
+    from genie_gl.render.projection import look_at
+    from genie_gl.sensors.accuracy import AccuracySettings
+
+    scene = gg.Scene()
+    T = np.eye(4)
+    T[:3, 3] = [0.0, 0.0, 30.0]
+    scene.add(trimesh.creation.icosphere(5, radius=0.3), T, semantic=3)   # 20,480 faces, ~7 px across
+    sensor = gg.Sensor.pinhole(160, 120, 130.0)
+    case = Case("builtin", "sphere", sensor, [look_at(np.zeros(3), T[:3, 3])], lambda t: scene)
+    runner = Runner(case, 1, 0)
+    try:
+        drawn = {}
+        for lod in (None, 48.0):
+            setting = Setting(accuracy=AccuracySettings(lod_px=lod))
+            runner._render_fn(setting)(sensor, case.poses[0])
+            r = runner._renderer(setting)
+            drawn[lod] = r.stats["instances_simplified"]
+        assert drawn == {None: 0, 48.0: 1}
+    finally:
+        runner.close()
