@@ -7,34 +7,64 @@ stamp hashes that one file. A kernel compiles in the kernels it calls from other
 :mod:`genie_gl.render.coverage`'s), so a change to a called module alone would leave the old
 code running, with no error, until the calling file changed too. Every kernel module takes
 ``njit`` from here; importing this module first gives numba cache locators whose stamp
-hashes every ``.py`` file of the package (once per process), so any change to the package
-compiles its kernels afresh. Functions outside the package keep numba's own locators.
+hashes the kernel's module and every module of the package it imports, directly or not (once
+per module and process), so a change to any of them compiles the kernel afresh. Functions
+outside the package keep numba's own locators.
 """
 from __future__ import annotations
 
 import hashlib
+import re
 from pathlib import Path
 
 from numba import njit, prange  # noqa: F401  (re-exported: ``from genie_gl.jit import njit``)
 from numba.core import caching
 
 PACKAGE = Path(__file__).resolve().parent
-_stamp: list[str] = []
+_RELATIVE = re.compile(r"^\s*from\s+(\.+)([\w.]*)\s+import\s+(.+?)\s*$", re.M)
+_stamps: dict[Path, str] = {}
 
 
-def package_stamp() -> str:
-    """The sha256 of every ``.py`` file of the package (paths and contents), computed once."""
-    if not _stamp:
+def _imported(path: Path) -> list[Path]:
+    """The package's files that module ``path`` imports with relative imports (the modules
+    named, and for ``from . import x`` the submodules x)."""
+    out = []
+    for dots, name, names in _RELATIVE.findall(path.read_text(encoding="utf-8")):
+        base = path.parent
+        for _ in range(len(dots) - 1):
+            base = base.parent
+        target = base.joinpath(*name.split(".")) if name else base
+        heads = [target] if name else [target / n.strip().split(" ")[0] for n in names.strip("()").split(",")]
+        for head in heads:
+            for candidate in (head.with_suffix(".py"), head / "__init__.py"):
+                if candidate.is_file():
+                    out.append(candidate.resolve())
+                    break
+    return out
+
+
+def source_stamp(path: str | Path) -> str:
+    """The sha256 of module ``path`` and of every module of the package it imports, directly
+    or not (paths and contents), computed once per module and process."""
+    path = Path(path).resolve()
+    if path not in _stamps:
+        seen, todo = set(), [path]
+        while todo:
+            f = todo.pop()
+            if f not in seen and f.is_relative_to(PACKAGE):
+                seen.add(f)
+                todo.extend(_imported(f))
         h = hashlib.sha256()
-        for path in sorted(PACKAGE.rglob("*.py")):
-            h.update(str(path.relative_to(PACKAGE)).encode())
-            h.update(path.read_bytes())
-        _stamp.append(h.hexdigest())
-    return _stamp[0]
+        for f in sorted(seen):
+            h.update(str(f.relative_to(PACKAGE)).encode())
+            h.update(f.read_bytes())
+        _stamps[path] = h.hexdigest()
+    return _stamps[path]
 
 
 class _WholePackage:
-    """A numba cache locator for functions defined in the package, stamped by the whole package."""
+    """A numba cache locator for functions defined in the package, stamped by their module and
+    every module of the package it imports."""
 
     @classmethod
     def from_function(cls, py_func, py_file):
@@ -45,7 +75,7 @@ class _WholePackage:
         return super().from_function(py_func, py_file) if inside else None
 
     def get_source_stamp(self):
-        return package_stamp()
+        return source_stamp(self._py_file)
 
 
 def _numba(name: str):
