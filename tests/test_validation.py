@@ -200,7 +200,10 @@ def test_a_full_disk_is_one_line_and_nothing_half_written_is_left(tmp_path):
                        preexec_fn=small_files,
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 2, r.stderr
-    assert "disk full or file too large" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    # the one-time note of a process that compiles kernels (a cold cache: this test run first)
+    # is not the error's; the error is one line
+    lines = [x for x in r.stderr.strip().splitlines() if "compiling genie-gl's kernels" not in x]
+    assert "disk full or file too large" in r.stderr and len(lines) == 1, r.stderr
     assert not (out / "scenes" / "0000").exists()  # the scene was not renamed into place half-written
 
 
