@@ -116,15 +116,21 @@ def _line(ex_, ey_, ez_, sg, ifx, ify, s, cx, cy, rows, extent):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
-def _clip(d, P, Q, iw, lo, hi):
-    """[lo, hi] narrowed to one edge's inner side on line ``iw`` (see :func:`_line`)."""
+def _clip(d, P, Q, iw, lo, hi, whole):
+    """[lo, hi] narrowed to one edge's inner side on line ``iw`` (see :func:`_line`), and
+    ``whole`` set when the line runs along an edge parallel to it, within its rounding: then
+    the span cannot tell inside from outside and every centre of the line gets the exact test."""
     if d > 0.0:
         lo = max(lo, P + Q * iw)
     elif d < 0.0:
         hi = min(hi, P + Q * iw)
-    elif P * iw + Q < -1e-9 * (abs(P * iw) + abs(Q)):
-        hi = -1.0
-    return lo, hi
+    else:
+        tol = 1e-9 * (abs(P * iw) + abs(Q))
+        if P * iw + Q < -tol:
+            hi = -1.0
+        elif P * iw + Q <= tol:
+            whole = True
+    return lo, hi, whole
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"nnan", "ninf", "nsz"})
@@ -338,11 +344,11 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
         w_lo, w_hi = (vlo, vhi) if rows else (ulo, uhi)
         x_lo, x_hi = (ulo, uhi) if rows else (vlo, vhi)
         for iw in range(int(w_lo), int(w_hi) + 1):
-            lo, hi, gap = x_lo, x_hi, 0.0
+            lo, hi, gap, whole = x_lo, x_hi, 0.0, False
             if cull:
-                lo, hi = _clip(d0, p0, q0, iw, lo, hi)
-                lo, hi = _clip(d1, p1, q1, iw, lo, hi)
-                lo, hi = _clip(d2, p2, q2, iw, lo, hi)
+                lo, hi, whole = _clip(d0, p0, q0, iw, lo, hi, whole)
+                lo, hi, whole = _clip(d1, p1, q1, iw, lo, hi, whole)
+                lo, hi, whole = _clip(d2, p2, q2, iw, lo, hi, whole)
                 gap = max(max(g0, g1), g2)
             if not (lo <= hi + 2.0):
                 continue
@@ -350,7 +356,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
             i_hi = int(min(np.floor(hi + gap), x_hi))
             if i_lo > i_hi:
                 continue
-            in_lo, in_hi = (lo + gap, hi - gap) if cull else (math.inf, -math.inf)
+            in_lo, in_hi = (lo + gap, hi - gap) if cull and not whole else (math.inf, -math.inf)
             tally[4] += i_hi - i_lo + 1
             # the box of what this cluster may have written (the dirty tiles in it are refreshed)
             if rows:

@@ -296,3 +296,24 @@ def test_culling_changes_no_byte_where_edges_graze_pixel_centres():
         r.render(sensor, np.eye(4))
         every = r._rasteriser.counts[4]
     assert counts[4] < every   # the spans did narrow the lines (the culled frame tested fewer centres)
+
+
+def test_culling_changes_no_byte_where_a_row_runs_along_an_edge_parallel_to_it():
+    """An edge exactly parallel to the pixel rows (its two vertices at one height and depth in
+    the camera frame), the camera level with it to within 1e-13..2e-10 relative of a row of
+    centres: the span cannot tell that row's inside from its outside, so each of its centres
+    gets the exact test (it was taken whole, 36 centres the exact test leaves out)."""
+    sensor = gg.Sensor(64, 48, np.array([[64.0, 0.0, 31.5], [0, 64.0, 23.5], [0, 0, 1]]))
+    for delta in (1e-13, -1e-13, 1e-11, -1e-11, 2e-10, -2e-10):
+        for row in (10, 30):
+            y = np.float32(0.3)
+            pose = np.eye(4)
+            pose[1, 3] = float(y) - (row - 23.5) / 64.0 * 2.0 * (1 + delta)   # camera-frame y of the edge
+            for off in (0.5, -0.5):
+                tri = np.array([[-0.6, y, 2.0], [0.6, y, 2.0], [0.0, y + off, 2.0]])
+                for order in ([0, 1, 2], [1, 0, 2]):
+                    scene = gg.Scene()
+                    scene.add(gg.Mesh(tri, np.array([order])), np.eye(4), semantic=2)
+                    (fa, fb, _), = culled_and_unculled(scene, sensor, [pose])
+                    assert_same_frames(fa, fb)
+                    assert (fa.instance > 0).sum() > 100
