@@ -1,5 +1,5 @@
-"""numba's ``njit`` for the package's kernels, with a cache that is fresh only while the whole
-package is unchanged.
+"""numba's ``njit`` for the package's kernels, with a cache that is fresh only while a
+kernel's module and the package modules it imports are unchanged.
 
 numba keeps a compiled kernel (``cache=True``) until the file that defines it changes: its
 stamp hashes that one file. A kernel compiles in the kernels it calls from other modules
@@ -62,7 +62,7 @@ def source_stamp(path: str | Path) -> str:
     return _stamps[path]
 
 
-class _WholePackage:
+class _ImportStamped:
     """A numba cache locator for functions defined in the package, stamped by their module and
     every module of the package it imports."""
 
@@ -79,19 +79,19 @@ class _WholePackage:
 
 
 def _numba(name: str):
-    """A class of numba's caching module by its name (public since numba 0.61, "_" before)."""
+    """A class of numba's caching module by its name (public in recent numba, "_" before)."""
     return getattr(caching, name, None) or getattr(caching, "_" + name)
 
 
 def installed() -> bool:
     """Whether numba picks this module's locators for the package's kernels."""
-    return any(issubclass(c, _WholePackage) for c in _numba("CacheImpl")._locator_classes)
+    return any(issubclass(c, _ImportStamped) for c in _numba("CacheImpl")._locator_classes)
 
 
 def _install() -> None:
     classes = _numba("CacheImpl")._locator_classes
     if not installed():
-        classes[:0] = [type(f"Package{base.__name__.lstrip('_')}", (_WholePackage, base), {})
+        classes[:0] = [type(f"Package{base.__name__.lstrip('_')}", (_ImportStamped, base), {})
                        for base in map(_numba, ("UserProvidedCacheLocator", "InTreeCacheLocator",
                                                 "UserWideCacheLocator"))]
 

@@ -10,7 +10,7 @@ from genie_gl.render import raster
 def test_the_package_kernels_are_cached_under_their_modules_stamp():
     assert jit.installed()
     locator = raster._raster._cache._impl.locator
-    assert isinstance(locator, jit._WholePackage)
+    assert isinstance(locator, jit._ImportStamped)
     assert locator.get_source_stamp() == jit.source_stamp(raster.__file__)
 
 
@@ -37,5 +37,5 @@ def test_the_stamp_follows_the_imported_modules_only(tmp_path, monkeypatch):
         first = stamp()
     outside = tmp_path.parent / "elsewhere.py"
     outside.write_text("def f():\n    return 1\n")
-    cls = next(c for c in numba.core.caching.CacheImpl._locator_classes if issubclass(c, jit._WholePackage))
+    cls = next(c for c in numba.core.caching.CacheImpl._locator_classes if issubclass(c, jit._ImportStamped))
     assert cls.from_function(lambda: 1, str(outside)) is None
