@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import hashlib
 import re
+import warnings
 from pathlib import Path
 
+import numba
 from numba import njit, prange  # noqa: F401  (re-exported: ``from genie_gl.jit import njit``)
 from numba.core import caching
 
@@ -89,11 +91,20 @@ def installed() -> bool:
 
 
 def _install() -> None:
-    classes = _numba("CacheImpl")._locator_classes
+    """Put this module's locators first. Where numba's caching module lacks the names used
+    here (a numba newer than this was written for), warn once and keep numba's own locators:
+    kernels still compile and cache, stamped by their own file only (``tests/test_jit.py``
+    fails there, so the change is seen)."""
+    try:
+        classes = _numba("CacheImpl")._locator_classes
+        bases = [_numba(n) for n in ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator")]
+    except AttributeError as exc:
+        warnings.warn(f"genie_gl.jit: numba {numba.__version__}'s cache has no {exc.name!r}; compiled kernels "
+                      "are stamped by their own file only (clear __pycache__/*.nbi after changing a module a "
+                      "kernel imports)", RuntimeWarning, stacklevel=2)
+        return
     if not installed():
-        classes[:0] = [type(f"Package{base.__name__.lstrip('_')}", (_ImportStamped, base), {})
-                       for base in map(_numba, ("UserProvidedCacheLocator", "InTreeCacheLocator",
-                                                "UserWideCacheLocator"))]
+        classes[:0] = [type(f"Package{base.__name__.lstrip('_')}", (_ImportStamped, base), {}) for base in bases]
 
 
 _install()

@@ -39,3 +39,11 @@ def test_the_stamp_follows_the_imported_modules_only(tmp_path, monkeypatch):
     outside.write_text("def f():\n    return 1\n")
     cls = next(c for c in numba.core.caching.CacheImpl._locator_classes if issubclass(c, jit._ImportStamped))
     assert cls.from_function(lambda: 1, str(outside)) is None
+
+
+def test_a_numba_without_the_names_warns_and_keeps_its_own_cache(monkeypatch):
+    import pytest
+
+    monkeypatch.delattr(numba.core.caching, "CacheImpl")
+    with pytest.warns(RuntimeWarning, match="stamped by their own file only"):
+        jit._install()
