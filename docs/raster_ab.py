@@ -39,12 +39,18 @@ def kernel(coverage: str, frame: str, where: Path, name: str):
 
 
 def at(rev: str, name: str) -> str:
-    return subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:genie_gl/render/{name}"], capture_output=True,
-                          text=True, check=True).stdout
+    got = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:genie_gl/render/{name}"], capture_output=True,
+                         text=True)
+    if got.returncode:
+        sys.exit(f"raster_ab.py: revision {rev!r}: no genie_gl/render/{name} there ({got.stderr.strip()})")
+    return got.stdout
 
 
 def main() -> None:
-    size, threads, rounds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+    try:
+        size, threads, rounds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+    except (IndexError, ValueError):
+        sys.exit("usage: python docs/raster_ab.py SCENE THREADS ROUNDS [REVISION]   (e.g. 1M 2 5 HEAD~1)")
     rev = sys.argv[4] if len(sys.argv) > 4 else "HEAD"
     numba.set_num_threads(threads)
     clock = time.process_time if threads == 1 else time.perf_counter
