@@ -1,8 +1,11 @@
 """Merging, down-sampling, chunking and cleaning of clouds (paper §3.4.2)."""
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 
 from ..checks import expect_sequence
@@ -168,12 +171,18 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     # more runs than the room given)
     per_tile: dict[tuple[int, int], int] = {}
     windows: list[tuple[int, int, np.ndarray] | None] = []
-    room = np.empty((max(f.depth.size for f in frames) // RUN_ROOM + 1, 4), np.int32)
-    for f, (depth, tx, ty, M, (count, _, extent), (count_runs, _)) in zip(frames, inputs):
+    rooms = threading.local()   # each thread's room for a frame's runs (copied out when kept)
+    n_room = max(f.depth.size for f in frames) // RUN_ROOM + 1
+
+    def tally(f: Frame, args: tuple) -> tuple[tuple[int, int, np.ndarray] | None, int, int, np.ndarray]:
+        depth, tx, ty, M, (count, _, extent), (count_runs, _) = args
+        room = getattr(rooms, "room", None)
+        if room is None:
+            room = rooms.room = np.empty((n_room, 4), np.int32)
         i0, j0 = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(np.int64) - WINDOW // 2
         counts = np.zeros((WINDOW, WINDOW), np.int64)
         outside, n_runs = count_runs(depth, tx, ty, M, size, i0, j0, counts, room)
-        windows.append((int(i0), int(j0), room[:n_runs].copy()) if n_runs >= 0 and not outside else None)
+        window = (int(i0), int(j0), room[:n_runs].copy()) if n_runs >= 0 and not outside else None
         if outside:  # points beyond the window: the exact extent
             i0, i1, j0, j1 = extent(depth, tx, ty, M, size)
             if (i1 - i0 + 1) * (j1 - j0 + 1) > MAX_TILES:
@@ -181,6 +190,18 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
                                  f"({(i1 - i0 + 1) * size:.0f} x {(j1 - j0 + 1) * size:.0f} m)")
             counts = np.zeros((i1 - i0 + 1, j1 - j0 + 1), np.int64)
             count(depth, tx, ty, M, size, i0, j0, counts)
+        return window, int(i0), int(j0), counts
+
+    # the frames are counted apart (the kernels release the GIL: on as many threads as numba
+    # may use), their counts summed in frame order: the same integers however many threads
+    threads = min(len(frames), numba.get_num_threads())
+    if threads > 1:
+        with ThreadPoolExecutor(threads) as pool:
+            tallies = list(pool.map(tally, frames, inputs))
+    else:
+        tallies = [tally(f, args) for f, args in zip(frames, inputs)]
+    for window, i0, j0, counts in tallies:
+        windows.append(window)
         for a, b in zip(*np.nonzero(counts)):
             key = (int(i0 + a), int(j0 + b))
             per_tile[key] = per_tile.get(key, 0) + int(counts[a, b])

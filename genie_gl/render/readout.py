@@ -59,26 +59,33 @@ class Readout:
             source.read_into(self._pbos[key], components=comps, attachment=att, dtype=dtype)
             job["pbo"].append(self._pbos[key])
 
-    def _scratch(self, H: int, W: int) -> np.ndarray:
-        """The packed target's read-back buffer (unpacked at once, so one per size)."""
-        buf = getattr(self, "_packed_buf", None)
+    def _scratch(self, H: int, W: int, slot: int = 0) -> np.ndarray:
+        """The packed target's read-back buffer of target set ``slot`` (a frame's is unpacked
+        before its slot draws again, so one per slot and size)."""
+        bufs = self.__dict__.setdefault("_packed_bufs", {})
+        buf = bufs.get(slot)
         if buf is None or buf.shape[:2] != (H, W):
-            buf = self._packed_buf = np.empty((H, W, 2), np.uint32)
+            buf = bufs[slot] = np.empty((H, W, 2), np.uint32)
         return buf
 
     def _read(self, job: dict, finish: bool = False) -> Frame:
         """Read a drawn frame back (waits for its rasterisation) and make the Frame."""
+        self._fetch(job, finish)
+        return self._finish(job)
+
+    def _fetch(self, job: dict, finish: bool = False) -> None:
+        """The GL half of a read-back: wait for the frame's rasterisation and copy its targets
+        into the frame's arrays (``job["out"]``). :meth:`_finish` makes the Frame from them,
+        with no GL call: :meth:`Renderer.frames` runs it while the next frame rasterises."""
         ctx, sensor, color, normals = self.ctx, job["sensor"], job["color"], job["normals"]
         W, H = sensor.width, sensor.height
         if finish:
             ctx.finish()  # so that the read-back time below is the copy alone
         t2 = time.perf_counter()
-        linear = self.depth_precision == "float32"
         want_triangles = job["pixel_triangles"] is not None
         out = frame_buffers(H, W, color, normals, want_triangles)
-        depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
         if self._packed:
-            out["packed"] = self._scratch(H, W)
+            out["packed"] = self._scratch(H, W, job["slot"])
         pbos = job.get("pbo")
         for k, (att, comps, dtype, name) in enumerate(self._reads(job)):
             if pbos is not None:
@@ -86,11 +93,21 @@ class Readout:
             else:
                 source = job["fbo24"] if att < 0 and job["fbo24"] is not None else job["fbo"]
                 source.read_into(out[name], components=comps, attachment=att, dtype=dtype)
-        rgb = out["rgba"][..., :3] if color else None
-        normal = out["normal"] if normals else None
         err = ctx.error
         if err != "GL_NO_ERROR":
             raise RenderError(f"OpenGL error after rendering: {err}")
+        job["out"], job["t2"], job["fetch_s"] = out, t2, time.perf_counter() - t2
+
+    def _finish(self, job: dict) -> Frame:
+        """The CPU half of a read-back (after :meth:`_fetch`): the packed pixels unpacked, the
+        sensor's range applied, depth in metres; the Frame."""
+        t_unpack = time.perf_counter()
+        sensor, color, normals, out, t2 = job["sensor"], job["color"], job["normals"], job.pop("out"), job["t2"]
+        linear = self.depth_precision == "float32"
+        want_triangles = job["pixel_triangles"] is not None
+        depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
+        rgb = out["rgba"][..., :3] if color else None
+        normal = out["normal"] if normals else None
         emptied = 0
         if self._packed:  # ids, semantic ids and (linear) depth with the range applied, in one pass
             emptied = unpack(out["packed"], self._semantics, depth if linear else None, instance, semantic,
@@ -120,7 +137,8 @@ class Readout:
                 if normal is not None:
                     normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
-        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": t3 - t2, "instances_drawn": job["drawn"],
+        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": job["fetch_s"] + (t3 - t_unpack),
+                      "instances_drawn": job["drawn"],
                       "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"],
                       "occlusion_culled": job["occluded"]}
         tri = (PixelTriangles(out["primitive"], *job["pixel_triangles"], self._triangle_scene(),

@@ -340,11 +340,12 @@ class Renderer(Visibility, Readout):
     def frames(self, sensor: Sensor, poses: Iterable[np.ndarray], *, depth_only: bool = False,
                normals: bool = False, only: Sequence[Collection[int] | None] | None = None,
                triangles: bool = False) -> Iterator[Frame]:
-        """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose:
-        frame i+1 is culled and submitted (into a second set of targets) before frame i is
-        read back, so its culling and submission overlap frame i's raster. (llvmpipe returns
-        the read of frame i only once frame i+1 has rendered too: the caller's work on a frame
-        does not overlap a raster; see docs/pipeline.md, fourth round.)
+        """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose.
+        Frame i is copied out of its targets once it has rasterised, and unpacked into its
+        Frame, and handed to the caller, only after frame i+1 is submitted (into a second set
+        of targets): its unpacking and the caller's work on it run while frame i+1
+        rasterises. (A read waits for every frame submitted before it, so frame i is copied
+        before frame i+1 is submitted; see docs/pipeline.md.)
         ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``; ``triangles``
         as ``render(..., triangles=)``."""
         if not sensor.is_pinhole:
@@ -355,7 +356,7 @@ class Renderer(Visibility, Readout):
                 yield self._render_cpu(sensor, pose, not depth_only, normals, None if only is None else only[k],
                                        triangles)
             return
-        pending = None
+        fetched = None   # the frame read back last, not yet unpacked
         for k, pose in enumerate(poses):
             with self._current():
                 job = self._draw(sensor, pose, not depth_only, normals, None if only is None else only[k],
@@ -363,14 +364,13 @@ class Renderer(Visibility, Readout):
                 self._flush()  # llvmpipe rasterises a frame's bins once they are flushed
                 if self.readback == "pbo":
                     self._start_read(job)
-                frame = self._read(pending) if pending is not None else None
-            if frame is not None:
-                yield frame
-            pending = job
-        if pending is not None:
+            if fetched is not None:   # unpacked, and the caller's work on it done, while this frame rasterises
+                yield self._finish(fetched)
             with self._current():
-                frame = self._read(pending)
-            yield frame
+                self._fetch(job)
+            fetched = job
+        if fetched is not None:
+            yield self._finish(fetched)
 
     def _render(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool,
                 only: Collection[int] | None = None, triangles: bool = False) -> Frame:
@@ -423,7 +423,7 @@ class Renderer(Visibility, Readout):
             fbo24.clear(depth=1.0)
             self._submit(p24, lists, parity)
         ctx.disable(moderngl.CULL_FACE)
-        return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "fbo": fbo, "fbo24": fbo24,
+        return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "slot": slot, "fbo": fbo, "fbo24": fbo24,
                 "pixel_triangles": self._frame_triangles if triangles else None, "drawn": drawn,
                 "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
                 "simplified": self._lod_drawn, "occluded": self._culled and self._culler.occluded,
