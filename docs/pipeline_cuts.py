@@ -19,7 +19,7 @@ import numpy as np
 
 import genie_gl as gg
 import genie_gl.checks as checks
-import genie_gl.cloud.process as process
+import genie_gl.cloud.tally as tally
 from genie_gl.cloud import frame_chunks
 from genie_gl.dataset.streams import SceneStreams
 from genie_gl.layout.engine import generate_layout
@@ -54,10 +54,10 @@ def turns(before, after, repeats: int = 7) -> tuple[float, float]:
 
 def cloud(room: int):
     def run():
-        process.RUN_ROOM = room
+        tally.RUN_ROOM = room
         for fr in frames:
             frame_chunks(fr, 12.0, max_points=25000, rng=np.random.default_rng(5))
-        process.RUN_ROOM = 4
+        tally.RUN_ROOM = 4
     return run
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,7 +53,8 @@ def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | Non
 def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
             workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
             depth_precision: str = "float32", plan: Plan | bool | None = True,
-            accuracy: AccuracySettings | None = None, context: GLContext | None = None) -> list[Frame]:
+            accuracy: AccuracySettings | None = None, context: GLContext | None = None,
+            on_frame: Callable[[Frame], None] | None = None) -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -76,6 +77,9 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         level of detail; tessellation is the scene's).
     context : a :class:`~genie_gl.render.GLContext` to render in (``workers=1`` only; e.g.
         :func:`~genie_gl.render.shared_context`, kept from scene to scene); None makes one.
+    on_frame : called with each frame, in pose order: with ``workers=1`` as soon as the frame
+        is made, while the next ones render (``genie dataset`` starts counting its points per
+        tile so); with workers, once all are back.
     """
     scene, sensor, poses, seed = capture_arguments(scene, sensor, poses, seed, Scene, Sensor)
     check_frames(len(poses), sensor.width, sensor.height, "capture")   # every frame is returned: all in memory
@@ -85,10 +89,13 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     workers = min(workers, n)
     if workers <= 1:
         with prep.renderer(scene, backend=backend, context=context) as r:
-            return _said_if_empty(prep.frames(r, seed, depth_only), prep.sensor)
-    return _said_if_empty(capture_in_workers(scene, prep.sensor, prep.poses, seed, workers, backend, prep.accuracy,
-                                             depth_only, prep.depth_precision, prep.plan, prep.materials),
-                          prep.sensor)
+            return _said_if_empty(prep.frames(r, seed, depth_only, on_frame=on_frame), prep.sensor)
+    frames = capture_in_workers(scene, prep.sensor, prep.poses, seed, workers, backend, prep.accuracy, depth_only,
+                                prep.depth_precision, prep.plan, prep.materials)
+    if on_frame is not None:
+        for f in frames:
+            on_frame(f)
+    return _said_if_empty(frames, prep.sensor)
 
 
 def _said_if_empty(frames: list[Frame], sensor: Sensor) -> list[Frame]:
@@ -132,10 +139,12 @@ class Prepared:
             sub = Plan(self.plan.sensor, frames, self.plan.materials)
         return dataclasses.replace(self, poses=self.poses[start:stop], plan=sub)
 
-    def frames(self, renderer: Renderer, seed: int, depth_only: bool = False) -> list[Frame]:
-        """Every pose's frame, rendered with ``renderer`` in this process; frame i's noise from (seed, i)."""
+    def frames(self, renderer: Renderer, seed: int, depth_only: bool = False,
+               on_frame: Callable[[Frame], None] | None = None) -> list[Frame]:
+        """Every pose's frame, rendered with ``renderer`` in this process; frame i's noise from
+        (seed, i); ``on_frame(frame)`` as each is made."""
         return capture_serial(renderer, self.sensor, self.poses, seed, range(len(self.poses)), self.accuracy,
-                              depth_only, self.plan, self.materials)
+                              depth_only, self.plan, self.materials, on_frame)
 
 
 def prepare(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, accuracy: AccuracySettings | None = None,

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -27,11 +27,13 @@ def pose_rng(seed: int, index: int) -> np.random.Generator:
 
 def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
                    indices: Sequence[int], accuracy: AccuracySettings, depth_only: bool = False,
-                   plan: Plan | None = None, materials: MaterialTable | None = None) -> list[Frame]:
+                   plan: Plan | None = None, materials: MaterialTable | None = None,
+                   on_frame: Callable[[Frame], None] | None = None) -> list[Frame]:
     """The frames ``indices`` of a capture, in this process, with ``renderer``: poses[k] is
     pose ``indices[k]`` of the capture (its generator and its frame plan). ``accuracy``: the
     supersampling, lens resampling and oversampling (the renderer carries its depth
-    precision, the sensor's effects their own knobs)."""
+    precision, the sensor's effects their own knobs). ``on_frame(frame)``: called with each
+    frame, in order, as soon as it is made (while the next ones render)."""
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     normals = any(eff.needs_normals for eff in sensor.effects)
     triangles = False
@@ -56,6 +58,11 @@ def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarra
     else:
         draw = Prefetched(renderer, view, poses, depth_only, normals, only, triangles)
     # a sensor without effects never draws: its frames need no generator (~0.1 ms each to make)
-    return [simulate(sensor, poses[k], render=draw, rng=pose_rng(seed, i) if sensor.effects else None,
-                     materials=materials, plan=None if frame_plans is None else frame_plans[k],
-                     resample=accuracy.resample, oversample=accuracy.oversample) for k, i in enumerate(indices)]
+    frames = []
+    for k, i in enumerate(indices):
+        frames.append(simulate(sensor, poses[k], render=draw, rng=pose_rng(seed, i) if sensor.effects else None,
+                               materials=materials, plan=None if frame_plans is None else frame_plans[k],
+                               resample=accuracy.resample, oversample=accuracy.oversample))
+        if on_frame is not None:
+            on_frame(frames[-1])
+    return frames

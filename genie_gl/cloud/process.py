@@ -1,9 +1,7 @@
 """Merging, down-sampling, chunking and cleaning of clouds (paper §3.4.2)."""
 from __future__ import annotations
 
-import threading
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
 
 import numba
 import numpy as np
@@ -13,12 +11,9 @@ from ..errors import ConfigError
 from ..frame import Frame
 from .pointcloud import PointCloud
 from . import kernels
-from .tile_runs import RUNNERS
-from .unproject import _pose_rows, rays, rotate, unproject_into, world_normals
+from .tally import MAX_TILES, WINDOW, FrameTally, frame_inputs, tally_frames, too_small
+from .unproject import rotate, unproject_into, world_normals
 
-WINDOW = 129  # frame_chunks counts a camera's points in this many tiles a side around it first
-MAX_TILES = 50_000_000  # a tile grid larger than this is a mistake (chunks far too small)
-RUN_ROOM = 4  # pass 1 keeps up to one run per this many pixels of a frame (more: no runs kept)
 
 
 ORIGIN_GRID_M = 100.0   # the cloud's origin is the cameras' mean snapped to this grid
@@ -30,7 +25,13 @@ def choose_origin(frames: Sequence[Frame]) -> np.ndarray:
     so float32 coordinates stay small: a point within 1.6 km of the origin keeps 0.1 mm
     (float32 rounds to 2⁻²⁴ of the distance), i.e. any point within 1.5 km of the cameras'
     mean, whether the site sits at the world origin or 1e7 m away."""
-    centres = np.array([f.world_from_camera[:3, 3] for f in frames])
+    return origin_of([f.world_from_camera for f in frames])
+
+
+def origin_of(poses: Sequence[np.ndarray]) -> np.ndarray:
+    """:func:`choose_origin` of frames taken at ``poses`` ((4, 4) world_from_camera): known
+    before they are rendered."""
+    centres = np.array([np.asarray(p, np.float64)[:3, 3] for p in poses])
     if len(centres) == 0:
         return np.zeros(3)
     return np.round(centres.mean(0) / ORIGIN_GRID_M) * ORIGIN_GRID_M + 0.0   # + 0.0: no -0.0 in headers
@@ -144,7 +145,8 @@ def keep_cloud(cloud: PointCloud, *, min_points: int = 1000, min_labelled_share:
 
 def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1, max_points: int | None = None,
                  rng: np.random.Generator | None = None,
-                 origin: np.ndarray | None = None) -> tuple[list[tuple[tuple[int, int], PointCloud]], int]:
+                 origin: np.ndarray | None = None,
+                 tally: FrameTally | None = None) -> tuple[list[tuple[tuple[int, int], PointCloud]], int]:
     """``chunks(to_cloud(frames), ...)`` without the merged cloud: the same tiles with the
     same points, drawn the same way; returns (tiles, number of points of the merged cloud).
 
@@ -153,6 +155,10 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     the points per tile, keeping its runs of pixels per tile (:mod:`.tile_runs`), then,
     once every tile's choice of ranks is drawn, its runs give just the chosen points (their
     labels gathered by pixel).
+
+    ``tally``: a :class:`~genie_gl.cloud.tally.FrameTally` that counted these frames as they
+    were made (taken when of these frames, this origin and tile size; else closed and the
+    frames counted here): the same tiles either way.
     """
     if not frames:
         raise ValueError("frame_chunks: no frames")
@@ -160,47 +166,20 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
         raise ValueError("frame_chunks: max_points needs an rng (numpy.random.Generator)")
     origin = choose_origin(frames) if origin is None else np.asarray(origin, np.float64)
     size = float(size_m)
-    inputs = []
-    for f in frames:
-        tx, ty = rays(f.sensor)
-        separable = tx.shape[0] == 1
-        inputs.append((np.ascontiguousarray(f.depth, np.float32), tx, ty, _pose_rows(f, origin),
-                       kernels.TILERS[separable], RUNNERS[separable]))
     # pass 1: points per tile, counted in a window of tiles around each camera; the frame's
     # runs of pixels per tile kept for pass 2 (None: it reached beyond the window, or had
-    # more runs than the room given)
+    # more runs than the room given). Counted already by ``tally`` when it is of these frames.
+    if tally is not None and tally.matches(frames, origin, size):
+        inputs, tallies = tally.results()
+    else:
+        if tally is not None:
+            tally.close()
+        inputs = [frame_inputs(f, origin) for f in frames]
+        # the kernels release the GIL: the frames are counted on as many threads as numba may use
+        tallies = tally_frames(frames, inputs, origin, size, threads=numba.get_num_threads())
     per_tile: dict[tuple[int, int], int] = {}
     windows: list[tuple[int, int, np.ndarray] | None] = []
-    rooms = threading.local()   # each thread's room for a frame's runs (copied out when kept)
-    n_room = max(f.depth.size for f in frames) // RUN_ROOM + 1
-
-    def tally(f: Frame, args: tuple) -> tuple[tuple[int, int, np.ndarray] | None, int, int, np.ndarray]:
-        depth, tx, ty, M, (count, _, extent), (count_runs, _) = args
-        room = getattr(rooms, "room", None)
-        if room is None:
-            room = rooms.room = np.empty((n_room, 4), np.int32)
-        i0, j0 = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(np.int64) - WINDOW // 2
-        counts = np.zeros((WINDOW, WINDOW), np.int64)
-        outside, n_runs = count_runs(depth, tx, ty, M, size, i0, j0, counts, room)
-        window = (int(i0), int(j0), room[:n_runs].copy()) if n_runs >= 0 and not outside else None
-        if outside:  # points beyond the window: the exact extent
-            i0, i1, j0, j1 = extent(depth, tx, ty, M, size)
-            if (i1 - i0 + 1) * (j1 - j0 + 1) > MAX_TILES:
-                raise ValueError(f"frame_chunks: tiles of {size_m} m are too small for the frames' extent "
-                                 f"({(i1 - i0 + 1) * size:.0f} x {(j1 - j0 + 1) * size:.0f} m)")
-            counts = np.zeros((i1 - i0 + 1, j1 - j0 + 1), np.int64)
-            count(depth, tx, ty, M, size, i0, j0, counts)
-        return window, int(i0), int(j0), counts
-
-    # the frames are counted apart (the kernels release the GIL: on as many threads as numba
-    # may use), their counts summed in frame order: the same integers however many threads
-    threads = min(len(frames), numba.get_num_threads())
-    if threads > 1:
-        with ThreadPoolExecutor(threads) as pool:
-            tallies = list(pool.map(tally, frames, inputs))
-    else:
-        tallies = [tally(f, args) for f, args in zip(frames, inputs)]
-    for window, i0, j0, counts in tallies:
+    for window, i0, j0, counts in tallies:   # summed in frame order: the same integers however counted
         windows.append(window)
         for a, b in zip(*np.nonzero(counts)):
             key = (int(i0 + a), int(j0 + b))
@@ -231,8 +210,7 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     I0, J0 = min(k[0] for k in per_tile), min(k[1] for k in per_tile)
     shape = (max(k[0] for k in per_tile) - I0 + 1, max(k[1] for k in per_tile) - J0 + 1)
     if shape[0] * shape[1] > MAX_TILES:
-        raise ValueError(f"frame_chunks: tiles of {size_m} m are too small for the frames' extent "
-                         f"({shape[0] * size:.0f} x {shape[1] * size:.0f} m)")
+        raise too_small(size_m, shape[0] * size, shape[1] * size)
     grid = np.full(shape, -1, np.int64)
     for t, (i, j) in enumerate(kept):
         grid[i - I0, j - J0] = t

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..capture import capture
 from ..capture.settings import settings_for
-from ..cloud import PointCloud, frame_chunks, keep_cloud
+from ..cloud import FrameTally, PointCloud, frame_chunks, keep_cloud, origin_of
 from ..frame import Frame
 from ..layout import Layout, Strategy, generate_layout, load_strategy
 from ..limits import MAX_REGIONS
@@ -73,6 +73,7 @@ class MadeScene:
     poses: list[np.ndarray]
     frames: list[Frame]
     clock: dict[str, float] = field(default_factory=dict)
+    tally: FrameTally | None = None
 
 
 def make_scene(inputs: RunInputs, streams: SceneStreams, *,
@@ -90,20 +91,29 @@ def make_scene(inputs: RunInputs, streams: SceneStreams, *,
 
 
 def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: bool,
-         stage: Callable[[str], None] = lambda name: None) -> MadeScene:
+         stage: Callable[[str], None] = lambda name: None, chunk_m: float | None = None) -> MadeScene:
     """The scene of ``streams`` up to its frames, taken by ``cameras`` standing cameras;
     ``stage(name)`` as each stage starts. ``depth_only``: render no colour (for formats that
-    store none)."""
+    store none). ``chunk_m``: the tile size the cloud stage will cut (None: no tiles); each
+    frame's points per tile are counted as the capture makes it, while the next frames
+    render (the result's ``tally``, for :func:`chunk`)."""
     layout, scene, clock = make_scene(inputs, streams, stage=stage)
     stage("placement")
     poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed,
                           mount_height_m=inputs.mount_m)
     clock["placement"] = time.perf_counter()
     stage("capture")
-    frames = capture(scene, inputs.sensor, poses, seed=streams.capture_seed, workers=1, depth_only=depth_only,
-                     accuracy=inputs.accuracy, context=shared_context())
+    tally = None if chunk_m is None or not poses else FrameTally(chunk_m, origin_of(poses))
+    try:
+        frames = capture(scene, inputs.sensor, poses, seed=streams.capture_seed, workers=1, depth_only=depth_only,
+                         accuracy=inputs.accuracy, context=shared_context(),
+                         on_frame=None if tally is None else tally.add)
+    except BaseException:
+        if tally is not None:
+            tally.close()
+        raise
     clock["capture"] = time.perf_counter()
-    return MadeScene(layout, scene, poses, frames, clock)
+    return MadeScene(layout, scene, poses, frames, clock, tally)
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,20 +126,29 @@ class Chunks:
     counts: np.ndarray
 
 
-def chunk(cfg: DatasetConfig, frames: list[Frame], streams: SceneStreams, *, chunks: bool) -> Chunks:
+def chunk(cfg: DatasetConfig, frames: list[Frame], streams: SceneStreams, *, chunks: bool,
+          tally: FrameTally | None = None) -> Chunks:
     """The cloud stage: the frames' points cut into ``cfg.chunk_m`` tiles of at most
     ``cfg.points`` points, those the cleaning rules keep (``chunks`` False: no tiles, for
-    formats of images; the counts only)."""
+    formats of images; the counts only). ``tally``: the frames' points per tile counted
+    during the capture (:func:`make`'s), taken when it is of these frames."""
     kept, points_total, counts = [], 0, np.zeros(65536, np.int64)
     if chunks:
         # the chunks straight from the frames: the merged cloud (~12 M points at 40 cameras)
         # is built only for a preview that shows it
-        tiles, points_total = frame_chunks(frames, cfg.chunk_m, max_points=cfg.points, rng=streams.rng("cloud"))
+        try:
+            tiles, points_total = frame_chunks(frames, cfg.chunk_m, max_points=cfg.points,
+                                               rng=streams.rng("cloud"), tally=tally)
+        finally:
+            if tally is not None:
+                tally.close()
         for key, tile in tiles:
             if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
                 kept.append((key, tile))
                 counts += np.bincount(tile.semantic, minlength=len(counts))
     else:
+        if tally is not None:
+            tally.close()
         for f in frames:
             ok = f.depth > 0
             points_total += int(ok.sum())

@@ -55,10 +55,11 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
         layout, scene, t = make_scene(inputs, streams, stage=stage)
         return _run_moving(cfg, index, layout, scene, streams, fmt, stage, t, cpu, out, final)
     # a format that stores no colour renders none (an output not asked for costs nothing)
-    made = make(inputs, streams, cameras=cfg.cameras, depth_only=not fmt.colour, stage=stage)
+    made = make(inputs, streams, cameras=cfg.cameras, depth_only=not fmt.colour, stage=stage,
+                chunk_m=cfg.chunk_m if fmt.chunks else None)
     layout, scene, frames, t = made.layout, made.scene, made.frames, dict(made.clock)
     stage("cloud")
-    cut = chunk(cfg, frames, streams, chunks=fmt.chunks)
+    cut = chunk(cfg, frames, streams, chunks=fmt.chunks, tally=made.tally)
     kept, points_total, counts = cut.kept, cut.points_total, cut.counts
     t["cloud"] = time.perf_counter()
     if fmt.chunks and not kept:

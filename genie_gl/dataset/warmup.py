@@ -37,9 +37,11 @@ def warm_up(cfg: DatasetConfig, inputs: RunInputs) -> float:
     streams = SceneStreams(WARM_SEED, 0)
     # (the culling kernels load only if a view of this scene draws enough faces to cull: the
     # assembly line's views never do, so its scenes never load them)
-    frames = make(inputs, streams, cameras=min(WARM_CAMERAS, cfg.cameras), depth_only=not fmt.colour).frames
+    made = make(inputs, streams, cameras=min(WARM_CAMERAS, cfg.cameras), depth_only=not fmt.colour,
+                chunk_m=cfg.chunk_m if fmt.chunks else None)
+    frames = made.frames
     if frames:  # every frame of a scene is held until its clouds are made: map their memory now
         f = frames[0]
         prefault(*f.depth.shape, f.rgb is not None, f.normal is not None, cfg.cameras)
-    chunk(cfg, frames, streams, chunks=fmt.chunks)
+    chunk(cfg, frames, streams, chunks=fmt.chunks, tally=made.tally)
     return time.perf_counter() - t0

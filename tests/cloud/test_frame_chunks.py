@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import genie_gl as gg
-from genie_gl.cloud import chunks, frame_chunks, to_cloud
+from genie_gl.cloud import choose_origin, chunks, frame_chunks, to_cloud
 from genie_gl.render.projection import look_at
 
 
@@ -91,10 +91,12 @@ def test_frame_chunks_with_frames_from_runs_and_frames_recomputed(monkeypatch, w
     reach beyond it) or little room for runs (4 of the 6 frames have too many) mixes both in
     one call; the tiles are still those of the merged cloud."""
     import genie_gl.cloud.process as process
+    import genie_gl.cloud.tally as tally
 
     frames = ground_frames(n=6)
     monkeypatch.setattr(process, "WINDOW", window)
-    monkeypatch.setattr(process, "RUN_ROOM", room)
+    monkeypatch.setattr(tally, "WINDOW", window)
+    monkeypatch.setattr(tally, "RUN_ROOM", room)
     from_runs = []
     real = process._window_tiles
     monkeypatch.setattr(process, "_window_tiles", lambda *a: from_runs.append(a) or real(*a))
@@ -102,3 +104,78 @@ def test_frame_chunks_with_frames_from_runs_and_frames_recomputed(monkeypatch, w
     b, _ = frame_chunks(frames, 1.0, min_points=5, max_points=60, rng=np.random.default_rng(4))
     assert 0 < len(from_runs) < len(frames)
     assert_same_tiles(a, b)
+
+
+@pytest.mark.parametrize("window", [7, 129])
+def test_frames_counted_as_they_come_give_the_tiles_of_frames_counted_at_once(monkeypatch, window):
+    """A FrameTally counts each frame on its own thread as it is handed over (as the capture
+    makes them); frame_chunks takes those counts and cuts the same tiles as when it counts
+    the frames itself, on one thread or two. With a small window some frames reach beyond
+    it (counted over their exact extent)."""
+    import numba
+
+    import genie_gl.cloud.process as process
+    import genie_gl.cloud.tally as tally_module
+    from genie_gl.cloud import FrameTally, origin_of
+
+    monkeypatch.setattr(process, "WINDOW", window)
+    monkeypatch.setattr(tally_module, "WINDOW", window)
+    frames = ground_frames(n=6)
+    kw = dict(min_points=5, max_points=60)
+    origin = origin_of([f.world_from_camera for f in frames])
+    np.testing.assert_array_equal(origin, choose_origin(frames))
+    tally = FrameTally(1.0, origin)
+    for f in frames:
+        tally.add(f)
+    assert tally.matches(frames, origin, 1.0)
+    counted = []
+    real = tally.results
+    monkeypatch.setattr(tally, "results", lambda: counted.append(1) or real())
+    a, total_a = frame_chunks(frames, 1.0, rng=np.random.default_rng(4), tally=tally, **kw)
+    assert counted == [1]   # its counts were taken
+    with pytest.raises(RuntimeError, match="closed"):
+        tally.add(frames[0])
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        b, total_b = frame_chunks(frames, 1.0, rng=np.random.default_rng(4), **kw)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        c, total_c = frame_chunks(frames, 1.0, rng=np.random.default_rng(4), **kw)
+    finally:
+        numba.set_num_threads(threads)
+    assert total_a == total_b == total_c > 0 and len(a) > 3
+    assert_same_tiles(a, b)
+    assert_same_tiles(a, c)
+    assert_same_tiles(chunks(to_cloud(frames), 1.0, rng=np.random.default_rng(4), **kw), a)
+
+
+def test_a_tally_of_other_frames_origin_or_tiles_is_not_taken():
+    """Counts of other frames (a frame left out, or another object), another origin or
+    another tile size are not used: frame_chunks counts again, and the tiles stay right."""
+    from genie_gl.cloud import FrameTally, origin_of
+
+    frames = ground_frames(n=4)
+    origin = origin_of([f.world_from_camera for f in frames])
+    want, _ = frame_chunks(frames, 4.0, max_points=50, rng=np.random.default_rng(1))
+    cases = [(frames[:3], origin, 4.0), ([f.replace(depth=f.depth.copy()) for f in frames], origin, 4.0),
+             (frames, origin + [100.0, 0, 0], 4.0), (frames, origin, 2.0)]
+    for handed, o, size in cases:
+        tally = FrameTally(size, o)
+        for f in handed:
+            tally.add(f)
+        assert not tally.matches(frames, origin, 4.0)
+        got, _ = frame_chunks(frames, 4.0, max_points=50, rng=np.random.default_rng(1), tally=tally)
+        assert_same_tiles(want, got)
+        with pytest.raises(RuntimeError, match="closed"):   # closed by frame_chunks all the same
+            tally.add(frames[0])
+
+
+def test_a_tally_hands_on_the_error_of_a_frame_it_could_not_count():
+    from genie_gl.cloud import FrameTally, origin_of
+
+    frames = ground_frames(n=2)
+    tally = FrameTally(1e-4, origin_of([f.world_from_camera for f in frames]))
+    for f in frames:
+        tally.add(f)
+    with pytest.raises(ValueError, match="too small for the frames' extent"):
+        frame_chunks(frames, 1e-4, max_points=10, rng=np.random.default_rng(0), tally=tally)

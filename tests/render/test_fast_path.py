@@ -205,6 +205,28 @@ def test_overlapped_frames_equal_frame_by_frame_renders(glctx):
         assert np.array_equal(a.world_from_camera, b.world_from_camera)
 
 
+def test_renders_between_overlapped_frames_change_neither(glctx):
+    """A frame of ``frames`` is handed over while the next one rasterises: a render the
+    caller makes then (an effect's extra view) and the frames after it are all as drawn one
+    by one."""
+    layout = gg.generate_layout(resolve("assembly_line", "layouts", (".json",)), seed=2)
+    scene = gg.build_scene(layout, seed=2)
+    sensor = gg.Sensor.pinhole(120, 90, 100.0)
+    poses = gg.place_sensors(layout, sensor, n=4, seed=2)
+    extra = [poses[(k + 2) % 4] for k in range(4)]
+    with Renderer(scene, context=glctx) as r:
+        one_by_one = [r.render(sensor, p) for p in poses]
+        extra_alone = [r.render(sensor, p, depth_only=True) for p in extra]
+        overlapped, between = [], []
+        for k, f in enumerate(r.frames(sensor, poses)):
+            between.append(r.render(sensor, extra[k], depth_only=True))
+            overlapped.append(f)
+    assert (one_by_one[0].instance > 0).mean() > 0.2
+    for a, b in zip(one_by_one + extra_alone, overlapped + between):
+        assert_same_frames(a, b)
+        assert (a.rgb is None) == (b.rgb is None) and (a.rgb is None or a.rgb.tobytes() == b.rgb.tobytes())
+
+
 def test_culling_keeps_triangles_that_miss_a_pixel_centre_by_less_than_the_snapping():
     """Triangles one of whose edges passes within 1/500 pixel of a pixel centre, on either
     side: the GPU snaps vertices to 1/256 pixel, so some that miss the centre exactly cover it

@@ -1,0 +1,146 @@
+"""Pass 1 of :func:`~genie_gl.cloud.process.frame_chunks`: each frame's points counted per
+tile, its runs of pixels per tile kept (:mod:`.tile_runs`), frame by frame.
+
+A frame's count depends on that frame alone (and on the cloud's origin and the tile size),
+so it can start as soon as the frame is made: :class:`FrameTally` counts frames on a thread
+of its own while the capture renders the next ones (``genie dataset`` hands it each frame
+as the capture makes it), and :func:`frame_chunks` takes its counts when they are of the
+same frames, origin and tile size. The kernels release the GIL; the counts are integers
+summed in frame order, so they are the same on any number of threads.
+"""
+from __future__ import annotations
+
+import threading
+from collections.abc import Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import numpy as np
+
+from ..frame import Frame
+from . import kernels
+from .tile_runs import RUNNERS
+from .unproject import _pose_rows, rays
+
+WINDOW = 129  # a camera's points are counted in this many tiles a side around it first
+RUN_ROOM = 4  # a frame's runs are kept up to one run per this many pixels (more: none kept)
+MAX_TILES = 50_000_000  # a tile grid larger than this is a mistake (chunks far too small)
+
+#: what pass 1 finds in a frame: (its runs as (i0, j0, runs) or None, i0, j0, counts)
+Tally = tuple[tuple[int, int, np.ndarray] | None, int, int, np.ndarray]
+
+
+def frame_inputs(f: Frame, origin: np.ndarray) -> tuple:
+    """What both passes read of frame ``f``: its depth, ray tables, pose rows relative to
+    ``origin`` and the kernels for its kind of ray table."""
+    tx, ty = rays(f.sensor)
+    separable = tx.shape[0] == 1
+    return (np.ascontiguousarray(f.depth, np.float32), tx, ty, _pose_rows(f, origin), kernels.TILERS[separable],
+            RUNNERS[separable])
+
+
+def too_small(size_m: float, extent_x_m: float, extent_y_m: float) -> ValueError:
+    return ValueError(f"frame_chunks: tiles of {size_m} m are too small for the frames' extent "
+                      f"({extent_x_m:.0f} x {extent_y_m:.0f} m)")
+
+
+def tally_frame(f: Frame, args: tuple, origin: np.ndarray, size: float, room: np.ndarray) -> Tally:
+    """Frame ``f``'s points per tile of ``size`` m: counted in the window of tiles around its
+    camera, its runs written to ``room`` and copied out (None: it reached beyond the window,
+    or had more runs than ``room`` holds; then counted over its exact extent)."""
+    depth, tx, ty, M, (count, _, extent), (count_runs, _) = args
+    i0, j0 = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(np.int64) - WINDOW // 2
+    counts = np.zeros((WINDOW, WINDOW), np.int64)
+    outside, n_runs = count_runs(depth, tx, ty, M, size, i0, j0, counts, room)
+    window = (int(i0), int(j0), room[:n_runs].copy()) if n_runs >= 0 and not outside else None
+    if outside:  # points beyond the window: the exact extent
+        i0, i1, j0, j1 = extent(depth, tx, ty, M, size)
+        if (i1 - i0 + 1) * (j1 - j0 + 1) > MAX_TILES:
+            raise too_small(size, (i1 - i0 + 1) * size, (j1 - j0 + 1) * size)
+        counts = np.zeros((i1 - i0 + 1, j1 - j0 + 1), np.int64)
+        count(depth, tx, ty, M, size, i0, j0, counts)
+    return window, int(i0), int(j0), counts
+
+
+def room_for(pixels: int) -> np.ndarray:
+    """Room for the runs of a frame of ``pixels`` pixels."""
+    return np.empty((pixels // RUN_ROOM + 1, 4), np.int32)
+
+
+def tally_frames(frames: Sequence[Frame], inputs: Sequence[tuple], origin: np.ndarray, size: float,
+                 threads: int = 1) -> list[Tally]:
+    """:func:`tally_frame` of every frame, on ``threads`` threads (each with its own room)."""
+    pixels = max(f.depth.size for f in frames)
+    threads = max(1, min(len(frames), int(threads)))
+    if threads == 1:
+        room = room_for(pixels)
+        return [tally_frame(f, args, origin, size, room) for f, args in zip(frames, inputs)]
+    local = threading.local()
+
+    def one(f: Frame, args: tuple) -> Tally:
+        room = getattr(local, "room", None)
+        if room is None or len(room) < pixels // RUN_ROOM + 1:
+            room = local.room = room_for(pixels)
+        return tally_frame(f, args, origin, size, room)
+
+    with ThreadPoolExecutor(threads) as pool:
+        return list(pool.map(one, frames, inputs))
+
+
+class FrameTally:
+    """Pass 1 of :func:`~genie_gl.cloud.process.frame_chunks` for frames handed to
+    :meth:`add` as they are made, counted in order on a thread of this object's.
+
+    Parameters
+    ----------
+    size_m : the tile size the chunks will be cut with.
+    origin : (3,) the cloud's origin (:func:`~genie_gl.cloud.process.origin_of` of the
+        capture's poses: ``frame_chunks`` takes the counts only if its origin is this one).
+    """
+
+    def __init__(self, size_m: float, origin: np.ndarray) -> None:
+        self.size = float(size_m)
+        self.origin = np.asarray(origin, np.float64)
+        self.frames: list[Frame] = []
+        self._inputs: list[tuple] = []
+        self._futures: list[Future] = []
+        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="frame-tally")
+        self._room: np.ndarray | None = None
+
+    def add(self, frame: Frame) -> None:
+        """Start counting ``frame`` (the next frame of the capture)."""
+        if self._pool is None:
+            raise RuntimeError("FrameTally.add: the tally is closed")
+        args = frame_inputs(frame, self.origin)
+        self.frames.append(frame)
+        self._inputs.append(args)
+        self._futures.append(self._pool.submit(self._count, frame, args))
+
+    def _count(self, frame: Frame, args: tuple) -> Tally:
+        if self._room is None or len(self._room) < frame.depth.size // RUN_ROOM + 1:
+            self._room = room_for(frame.depth.size)
+        return tally_frame(frame, args, self.origin, self.size, self._room)
+
+    def matches(self, frames: Sequence[Frame], origin: np.ndarray, size: float) -> bool:
+        """Whether these counts are of ``frames`` (the same objects, in order), ``origin`` and
+        tile size ``size``."""
+        return (float(size) == self.size and np.array_equal(np.asarray(origin, np.float64), self.origin)
+                and len(frames) == len(self.frames) and all(a is b for a, b in zip(frames, self.frames)))
+
+    def results(self) -> tuple[list[tuple], list[Tally]]:
+        """(every frame's inputs, every frame's counts), once all are counted; closes the tally."""
+        try:
+            return self._inputs, [f.result() for f in self._futures]
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Stop the thread (counts not yet made are dropped)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def __enter__(self) -> "FrameTally":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
