@@ -179,3 +179,20 @@ def test_a_tally_hands_on_the_error_of_a_frame_it_could_not_count():
         tally.add(f)
     with pytest.raises(ValueError, match="too small for the frames' extent"):
         frame_chunks(frames, 1e-4, max_points=10, rng=np.random.default_rng(0), tally=tally)
+
+
+def test_a_tally_shortens_the_switch_interval_only_while_it_counts():
+    import sys
+
+    from genie_gl.cloud import FrameTally
+    from genie_gl.cloud.tally import SWITCH_INTERVAL_S
+
+    before = sys.getswitchinterval()
+    assert before > SWITCH_INTERVAL_S
+    a, b = FrameTally(4.0, np.zeros(3)), FrameTally(4.0, np.zeros(3))
+    assert sys.getswitchinterval() == SWITCH_INTERVAL_S
+    a.close()
+    a.close()   # closing twice counts once
+    assert sys.getswitchinterval() == SWITCH_INTERVAL_S   # b still counts
+    b.close()
+    assert sys.getswitchinterval() == before
