@@ -15,6 +15,7 @@ import threading
 from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 
+import numba
 import numpy as np
 
 from ..frame import Frame
@@ -109,6 +110,13 @@ def _hold_switch_interval(on: bool) -> None:
             _switch["tallies"] -= 1
             if _switch["tallies"] == 0:
                 sys.setswitchinterval(_switch["saved"])
+
+
+def spare_core() -> bool:
+    """Whether this process may use more than one core (numba's thread count, which
+    :func:`~genie_gl.render.limit_threads` sets from the workers of a run): only then does
+    counting frames on a thread beside the capture gain anything."""
+    return numba.get_num_threads() > 1
 
 
 class FrameTally:

@@ -18,6 +18,7 @@ import numpy as np
 from ..capture import capture
 from ..capture.settings import settings_for
 from ..cloud import FrameTally, PointCloud, frame_chunks, keep_cloud, origin_of
+from ..cloud.tally import spare_core
 from ..frame import Frame
 from ..layout import Layout, Strategy, generate_layout, load_strategy
 from ..limits import MAX_REGIONS
@@ -103,7 +104,9 @@ def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: 
                           mount_height_m=inputs.mount_m)
     clock["placement"] = time.perf_counter()
     stage("capture")
-    tally = None if chunk_m is None or not poses else FrameTally(chunk_m, origin_of(poses))
+    # (a thread of its own only where this process may use another core: one of two workers
+    # on two cores counts the frames in the cloud stage instead)
+    tally = FrameTally(chunk_m, origin_of(poses)) if chunk_m is not None and poses and spare_core() else None
     try:
         frames = capture(scene, inputs.sensor, poses, seed=streams.capture_seed, workers=1, depth_only=depth_only,
                          accuracy=inputs.accuracy, context=shared_context(),
