@@ -170,3 +170,38 @@ def test_bop_format_writes_scenes_that_bop_readers_load(tmp_path):
             vis = cv2.imread(str(scene / "mask_visib" / f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_UNCHANGED)
             assert ((vis == 255) <= (full == 255)).all() and 0 < inf["visib_fract"] <= 1
     assert (scene / "stats.json").exists() and (tmp_path / "camera.json").exists()
+
+
+def test_a_scene_counts_its_frames_beside_the_capture_only_with_a_core_to_spare(monkeypatch):
+    """The recipe hands each frame to a FrameTally as the capture makes it, and the cloud stage
+    takes those counts (the same chunks as counting afterwards); in a process limited to one
+    core (one of two workers on two cores) there is no tally."""
+    import numba
+
+    import genie_gl.cloud.process as process
+    from genie_gl.dataset.config import DatasetConfig
+    from genie_gl.dataset.recipe import chunk, load_inputs, make
+    from genie_gl.dataset.streams import SceneStreams
+
+    cfg = DatasetConfig(strategy="assembly_line", out="unused", scenes=1, cameras=3, sensor="ideal_pinhole",
+                        previews=0)
+    inputs = load_inputs(cfg)
+    taken = []
+    real = process.FrameTally.results
+    monkeypatch.setattr(process.FrameTally, "results", lambda self: taken.append(len(self.frames)) or real(self))
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        made = make(inputs, SceneStreams(0, 0), cameras=3, depth_only=True, chunk_m=cfg.chunk_m)
+        assert made.tally is not None and made.tally.frames == made.frames
+        with_tally = chunk(cfg, made.frames, SceneStreams(0, 0), chunks=True, tally=made.tally)
+        assert taken == [3]
+        without = chunk(cfg, made.frames, SceneStreams(0, 0), chunks=True)
+        numba.set_num_threads(1)
+        assert make(inputs, SceneStreams(0, 0), cameras=3, depth_only=True, chunk_m=cfg.chunk_m).tally is None
+    finally:
+        numba.set_num_threads(threads)
+    assert with_tally.points_total == without.points_total > 0
+    assert [k for k, _ in with_tally.kept] == [k for k, _ in without.kept] and with_tally.kept
+    for (_, a), (_, b) in zip(with_tally.kept, without.kept):
+        assert a.xyz.tobytes() == b.xyz.tobytes() and a.instance.tobytes() == b.instance.tobytes()

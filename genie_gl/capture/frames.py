@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import capture_arguments, check_pose, expect
+from ..checks import capture_arguments, check_pose, describe, expect
+from ..errors import ConfigError
 from ..frame import Frame
 from ..limits import check_frames
 from ..render.context import GLContext
@@ -82,6 +83,8 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
         tile so); with workers, once all are back.
     """
     scene, sensor, poses, seed = capture_arguments(scene, sensor, poses, seed, Scene, Sensor)
+    if on_frame is not None and not callable(on_frame):
+        raise ConfigError(f"capture: on_frame: expected a function taking a Frame (or None), got {describe(on_frame)}")
     check_frames(len(poses), sensor.width, sensor.height, "capture")   # every frame is returned: all in memory
     prep = prepare(scene, sensor, poses, accuracy=accuracy, depth_precision=depth_precision, plan=plan)
     n = len(prep.poses)

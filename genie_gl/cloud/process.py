@@ -6,7 +6,7 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-from ..checks import expect_sequence
+from ..checks import expect, expect_sequence
 from ..errors import ConfigError
 from ..frame import Frame
 from .pointcloud import PointCloud
@@ -164,6 +164,8 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
         raise ValueError("frame_chunks: no frames")
     if max_points is not None and rng is None:
         raise ValueError("frame_chunks: max_points needs an rng (numpy.random.Generator)")
+    if tally is not None:
+        expect(tally, FrameTally, "frame_chunks: tally")
     origin = choose_origin(frames) if origin is None else np.asarray(origin, np.float64)
     size = float(size_m)
     # pass 1: points per tile, counted in a window of tiles around each camera; the frame's

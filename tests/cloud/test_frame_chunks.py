@@ -196,3 +196,8 @@ def test_a_tally_shortens_the_switch_interval_only_while_it_counts():
     assert sys.getswitchinterval() == SWITCH_INTERVAL_S   # b still counts
     b.close()
     assert sys.getswitchinterval() == before
+
+
+def test_a_tally_that_is_not_one_is_a_clear_error():
+    with pytest.raises(gg.ConfigError, match="frame_chunks: tally: expected a FrameTally, got a list of 0"):
+        frame_chunks(ground_frames(n=1), 4.0, max_points=10, rng=np.random.default_rng(0), tally=[])

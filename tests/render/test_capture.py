@@ -202,3 +202,11 @@ def test_frame_buffers_are_recycled_only_when_no_view_remains():
     assert c["depth"].ctypes.data == addr     # the first block came back and is reused
     assert c["rgba"].shape == (48, 64, 4) and c["normal"].dtype == np.float32 and c["depth"].flags.writeable
     assert _POOL.bytes <= _POOL.max_bytes
+
+
+def test_an_on_frame_that_is_no_function_is_one_clear_error_before_anything_renders():
+    scene = small_scene()
+    sensor = gg.Sensor.pinhole(64, 48, 50.0)
+    with pytest.raises(gg.ConfigError, match=r"capture: on_frame: expected a function taking a Frame \(or None\), "
+                                             r"got int 3"):
+        gg.capture(scene, sensor, [look_at([6, 0, 3], [0, 0, 0.5])], seed=0, on_frame=3)
