@@ -1,5 +1,5 @@
 """`genie dataset` of the work tree against that of a git revision, runs taking turns: each
-run makes SCENES scenes of the assembly line (40 cameras) with WORKERS workers in a fresh
+run makes SCENES scenes of STRATEGY (the assembly line unless given; 40 cameras) with WORKERS workers in a fresh
 process, the revision's package (exported with ``git archive`` into a temporary folder)
 and the work tree's alternating, the order flipping each round. A scene's stage time is the
 sum of its stages in the run's manifest (``runs[-1].scene_s``, steady scenes: each worker's
@@ -7,7 +7,7 @@ first is left out); a scene index's time is its median over the rounds, and the 
 the median over scene indices of work tree / revision (the same scenes both sides: the
 same seed makes the same scenes).
 
-    python docs/pipeline_ab.py REV WORKERS ROUNDS [SCENES] [SENSOR]    # e.g. HEAD~1 1 8
+    python docs/pipeline_ab.py REV WORKERS ROUNDS [SCENES] [SENSOR] [STRATEGY]   # e.g. HEAD~1 1 8
 """
 import json
 import os
@@ -33,9 +33,9 @@ def export(rev: str, where: Path) -> Path:
     return where
 
 
-def run(tree: Path, workers: int, scenes: int, sensor: str, out: Path) -> list[dict]:
+def run(tree: Path, workers: int, scenes: int, sensor: str, strategy: str, out: Path) -> list[dict]:
     shutil.rmtree(out, ignore_errors=True)
-    cmd = [sys.executable, "-m", "genie_gl.cli", "dataset", "assembly_line", "--scenes", str(scenes), "--cameras", "40",
+    cmd = [sys.executable, "-m", "genie_gl.cli", "dataset", strategy, "--scenes", str(scenes), "--cameras", "40",
            "--sensor", sensor, "--workers", str(workers), "--previews", "0", "--no-progress", "--out", str(out)]
     done = subprocess.run(cmd, cwd=tree, env=dict(os.environ, PYTHONPATH=str(tree)), capture_output=True, text=True)
     if done.returncode:
@@ -48,8 +48,10 @@ def main() -> None:
         rev, workers, rounds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
         scenes = int(sys.argv[4]) if len(sys.argv) > 4 else 8
     except (IndexError, ValueError):
-        sys.exit("usage: python docs/pipeline_ab.py REVISION WORKERS ROUNDS [SCENES] [SENSOR]   (e.g. HEAD~1 1 8)")
+        sys.exit("usage: python docs/pipeline_ab.py REVISION WORKERS ROUNDS [SCENES] [SENSOR] [STRATEGY]   "
+                 "(e.g. HEAD~1 1 8)")
     sensor = sys.argv[5] if len(sys.argv) > 5 else "ideal_pinhole"
+    strategy = sys.argv[6] if len(sys.argv) > 6 else "assembly_line"
     with tempfile.TemporaryDirectory(prefix="pipeline-ab-") as tmp:
         trees = {rev: export(rev, Path(tmp) / "rev"), "work tree": ROOT}
         times: dict[str, dict[int, list[float]]] = {k: {} for k in trees}
@@ -58,7 +60,7 @@ def main() -> None:
         for r in range(rounds):
             for name in (list(trees) if r % 2 == 0 else list(trees)[::-1]):
                 load.append(os.getloadavg()[0])
-                for s in run(trees[name], workers, scenes, sensor, Path(tmp) / "out"):
+                for s in run(trees[name], workers, scenes, sensor, strategy, Path(tmp) / "out"):
                     times[name].setdefault(s["scene"], []).append(sum(s["stages"].values()))
                     cpu[name].append(s["cpu_s"])
     for name in trees:
@@ -66,7 +68,7 @@ def main() -> None:
         print(f"{name}: steady stage time {np.median(every):.3f} s a scene (IQR {np.percentile(every, 25):.3f}-"
               f"{np.percentile(every, 75):.3f}, {len(every)} scenes), CPU {np.median(cpu[name]):.3f} s")
     ratios = [np.median(times["work tree"][k]) / np.median(times[rev][k]) for k in times[rev] if k in times["work tree"]]
-    print(f"{workers} worker(s), {sensor}, {rounds} rounds: work tree / {rev}, per scene index, median "
+    print(f"{strategy}, {workers} worker(s), {sensor}, {rounds} rounds: work tree / {rev}, per scene index, median "
           f"{np.median(ratios):.3f} (range {min(ratios):.3f}-{max(ratios):.3f}); load average (1 min) at the runs' "
           f"starts {min(load):.1f}-{max(load):.1f}")
 

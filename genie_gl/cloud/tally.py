@@ -90,8 +90,8 @@ def tally_frames(frames: Sequence[Frame], inputs: Sequence[tuple], origin: np.nd
 
 #: the interpreter's switch interval while a FrameTally counts: the drawing thread, back from
 #: each compiled call that let the GIL go (culling, unpacking), waits at most this long for
-#: it instead of the default 5 ms (measured: the culling's first kernel took 0.5 ms a frame
-#: on average against 0.04 ms; a dataset scene 0.27-0.28 s of wall time against 0.30 s)
+#: it instead of the default 5 ms (``python docs/pipeline_parts.py``: with 5 ms the culling's
+#: first kernel takes ~0.5 ms a frame against 0.02-0.04 ms, a dataset scene ~5 % longer)
 SWITCH_INTERVAL_S = 0.0005
 _switch = {"tallies": 0, "saved": None}
 _switch_lock = threading.Lock()
