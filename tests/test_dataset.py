@@ -114,7 +114,7 @@ def test_a_killed_run_resumes_to_the_same_bytes(reference, tmp_path):
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     while not (tmp_path / "scenes" / "0000").exists() and time.time() < deadline and proc.poll() is None:
-        time.sleep(0.05)
+        time.sleep(0.002)   # a 2-camera scene whose parts were made ahead takes ~30 ms
     proc.send_signal(signal.SIGKILL)  # mid-way through scene 1
     proc.wait()
     assert not (tmp_path / "scenes" / "0001").exists()

@@ -16,9 +16,12 @@ from tqdm import tqdm
 from ..processes import die_with_parent, say_when_compiling
 from ..render.context import default_backend, set_default_backend
 from ..render.threads import limit_threads
+from ..cloud.tally import spare_core
+from ..scene.assets.catalogue import ASSETS
+from .ahead import Ahead
 from .config import DatasetConfig
 from .recipe import RunInputs
-from .scene import run_scene
+from .scene import needs_making, run_scene
 from .warmup import warm_up
 
 _PROCESS: dict[str, Any] = {}  # this process: warmed up?, scenes made, warm-up seconds to report
@@ -43,14 +46,15 @@ def _made(r: dict) -> dict:
 
 
 def make_scene(cfg: DatasetConfig, inputs: RunInputs, index: int, *, verify: bool = False,
-               stage=None) -> dict[str, Any]:
-    """:func:`~genie_gl.dataset.scene.run_scene` with this process's warm-up and bookkeeping."""
+               stage=None, ahead: Ahead | None = None) -> dict[str, Any]:
+    """:func:`~genie_gl.dataset.scene.run_scene` with this process's warm-up and bookkeeping
+    (``ahead``: a helper process making scenes' first stages, :mod:`.ahead`)."""
     def prepare() -> None:
         if stage is not None and not _PROCESS.get("warm"):
             stage("warm-up")  # the bar shows the worker's warm-up as a stage of its first scene
         _prepare(cfg, inputs)
 
-    return _made(run_scene(cfg, index, inputs=inputs, verify=verify, stage=stage, prepare=prepare))
+    return _made(run_scene(cfg, index, inputs=inputs, verify=verify, stage=stage, prepare=prepare, ahead=ahead))
 
 
 def _worker(job: tuple) -> dict:
@@ -68,6 +72,23 @@ def _worker(job: tuple) -> dict:
     finally:
         if status is not None:
             status.pop(index, None)
+
+
+def _ahead(cfg: DatasetConfig, inputs: RunInputs) -> Ahead | None:
+    """A helper process making the layout, scene and placement of this process's scenes one
+    scene ahead (:mod:`.ahead`; it starts with the first scene to make, after the warm-up),
+    where it can gain: standing cameras, two scenes or more to make, a core to spare, no asset
+    registered in this process only. None otherwise."""
+    if cfg.capture != "static" or not spare_core() or ASSETS.registered():
+        return None
+    first = next((i for i in range(cfg.scenes) if needs_making(cfg, i)), None)
+    if first is None or not any(needs_making(cfg, j) for j in range(first + 1, cfg.scenes)):
+        return None
+
+    def upcoming(index: int) -> int | None:
+        return next((j for j in range(index + 1, cfg.scenes) if needs_making(cfg, j)), None)
+
+    return Ahead(inputs, cfg.seed, cfg.cameras, upcoming)
 
 
 def _describe(status) -> str:
@@ -103,9 +124,10 @@ def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
                 ready, pending = ray.wait(pending, num_returns=1)
                 done(ray.get(ready[0]))
         elif cfg.workers <= 1 or cfg.scenes <= 1:
-            for i in range(cfg.scenes):
-                done(make_scene(cfg, inputs, i, verify=verify,
-                                stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}", refresh=True)))
+            with _ahead(cfg, inputs) or nullcontext() as ahead:
+                for i in range(cfg.scenes):
+                    done(make_scene(cfg, inputs, i, verify=verify, ahead=ahead,
+                                    stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}", refresh=True)))
         else:
             n = min(cfg.workers, cfg.scenes)
             ctx = mp.get_context("spawn")

@@ -8,7 +8,8 @@ after minutes of work or a MemoryError.
 - frame size: each side at most :data:`MAX_SIDE` px (the GL texture limit of Mesa llvmpipe;
   the renderer checks its own context's).
 - memory: per worker, the frames of one scene (cameras x pixels x :data:`BYTES_PER_PIXEL`)
-  plus the layout (:data:`BYTES_PER_NODE` per region), times the workers; limit
+  plus the layout (:data:`BYTES_PER_NODE` per region), times the workers, and one layout
+  more for one worker's helper process (the next scene's, :mod:`genie_gl.dataset.ahead`); limit
   ``--max-memory-gb`` (default: 80 % of the memory available now).
 - disk: the points (or images) the run writes, as its format counts them
   (``DatasetFormat.scene_bytes``); limit ``--max-disk-gb`` (default: the free space of the
@@ -53,10 +54,11 @@ def estimate(cfg: DatasetConfig, strategy, sensor) -> Estimate:
     if cfg.previews:   # a preview scene's frames are merged into one cloud as well
         per_worker += cfg.cameras * pixels * BYTES_PER_CLOUD_POINT
     workers = min(cfg.workers, cfg.scenes)
+    helper = nodes * BYTES_PER_NODE if workers == 1 and cfg.scenes > 1 else 0
     chunks = max(1.0, strategy.root.width / cfg.chunk_m + 1) * max(1.0, strategy.root.height / cfg.chunk_m + 1)
     points = min(chunks * cfg.points, cfg.cameras * pixels)   # a scene keeps at most its chunks' points
     disk = int(cfg.scenes * get_format(cfg.format).scene_bytes(points, cfg.cameras * pixels))
-    return Estimate(nodes, work, pixels, int(per_worker * workers), int(disk))
+    return Estimate(nodes, work, pixels, int(per_worker * workers + helper), int(disk))
 
 
 def voxel_bytes(width_m: float, depth_m: float, height_m: float, voxel_m: float) -> float:

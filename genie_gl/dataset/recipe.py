@@ -12,6 +12,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,8 +31,12 @@ from ..sensors.accuracy import AccuracySettings
 from .config import DatasetConfig
 from .streams import SceneStreams
 
+if TYPE_CHECKING:
+    from .ahead import Ahead
+
 # the stages of a scene, in order (the progress bar names them; stats time them)
 STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
+PARTS = STAGES[:3]   # the stages before the capture (:func:`make_parts`; :mod:`.ahead` makes them ahead)
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +72,10 @@ def load_inputs(cfg: DatasetConfig) -> RunInputs:
 @dataclass(frozen=True, eq=False)
 class MadeScene:
     """A scene made by :func:`make`: its layout, scene, poses and frames, and the clock
-    (``perf_counter`` at the end of each stage, keyed by stage, ``"start"`` first)."""
+    (``perf_counter`` at the end of each stage, keyed by stage, ``"start"`` first).
+    ``ahead_s`` and ``ahead_cpu_s``: when a helper process made the layout, scene and
+    placement (:mod:`.ahead`), the seconds of each there and its CPU seconds; the clock's
+    layout stage is then the wait for them."""
 
     layout: Layout
     scene: Scene
@@ -75,6 +83,43 @@ class MadeScene:
     frames: list[Frame]
     clock: dict[str, float] = field(default_factory=dict)
     tally: FrameTally | None = None
+    ahead_s: dict[str, float] | None = None
+    ahead_cpu_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class Parts:
+    """Scene ``index``'s layout, scene and camera poses (None: a moving capture's, placed
+    later); ``stages_s``: the seconds each of :data:`PARTS` took where it was made;
+    ``cpu_s``: that process's CPU seconds for them."""
+
+    index: int
+    layout: Layout
+    scene: Scene
+    poses: list[np.ndarray] | None
+    stages_s: dict[str, float] = field(default_factory=dict)
+    cpu_s: float = 0.0
+
+
+def make_parts(inputs: RunInputs, streams: SceneStreams, cameras: int | None, *,
+               stage: Callable[[str], None] = lambda name: None) -> Parts:
+    """The layout, scene and placement of ``cameras`` standing cameras (None: no placement)
+    of the scene of ``streams``; ``stage(name)`` as each stage starts."""
+    cpu, t = time.process_time(), [time.perf_counter()]
+    stage("layout")
+    layout = generate_layout(inputs.strategy, rng=streams.rng("layout"), max_regions=inputs.max_regions)
+    t.append(time.perf_counter())
+    stage("scene")
+    scene = build_scene(layout, rng=streams.rng("scene"), segments=inputs.accuracy.tessellation)
+    t.append(time.perf_counter())
+    poses = None
+    if cameras is not None:
+        stage("placement")
+        poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed,
+                              mount_height_m=inputs.mount_m)
+        t.append(time.perf_counter())
+    return Parts(streams.index, layout, scene, poses, {k: b - a for k, a, b in zip(PARTS, t, t[1:])},
+                 time.process_time() - cpu)
 
 
 def make_scene(inputs: RunInputs, streams: SceneStreams, *,
@@ -82,27 +127,39 @@ def make_scene(inputs: RunInputs, streams: SceneStreams, *,
     """The layout and scene of ``streams`` and the clock (``"start"``, ``"layout"``,
     ``"scene"``); ``stage(name)`` as each stage starts. Standing and moving captures alike."""
     clock = {"start": time.perf_counter()}
-    stage("layout")
-    layout = generate_layout(inputs.strategy, rng=streams.rng("layout"), max_regions=inputs.max_regions)
-    clock["layout"] = time.perf_counter()
-    stage("scene")
-    scene = build_scene(layout, rng=streams.rng("scene"), segments=inputs.accuracy.tessellation)
-    clock["scene"] = time.perf_counter()
-    return layout, scene, clock
+    parts = make_parts(inputs, streams, None, stage=stage)
+    t = clock["start"]
+    for k, s in parts.stages_s.items():
+        t += s
+        clock[k] = t
+    return parts.layout, parts.scene, clock
 
 
 def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: bool,
-         stage: Callable[[str], None] = lambda name: None, chunk_m: float | None = None) -> MadeScene:
+         stage: Callable[[str], None] = lambda name: None, chunk_m: float | None = None,
+         ahead: Ahead | None = None) -> MadeScene:
     """The scene of ``streams`` up to its frames, taken by ``cameras`` standing cameras;
     ``stage(name)`` as each stage starts. ``depth_only``: render no colour (for formats that
     store none). ``chunk_m``: the tile size the cloud stage will cut (None: no tiles); each
     frame's points per tile are counted as the capture makes it, while the next frames
-    render (the result's ``tally``, for :func:`chunk`)."""
-    layout, scene, clock = make_scene(inputs, streams, stage=stage)
-    stage("placement")
-    poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed,
-                          mount_height_m=inputs.mount_m)
-    clock["placement"] = time.perf_counter()
+    render (the result's ``tally``, for :func:`chunk`). ``ahead``: a helper process that
+    made (or is making) the layout, scene and placement of this scene (:mod:`.ahead`; made
+    here when it has not)."""
+    start = time.perf_counter()
+    clock = {"start": start}
+    parts = None
+    if ahead is not None:
+        stage("layout")
+        parts = ahead.take(streams.index)
+        if parts is not None:
+            clock["layout"] = clock["scene"] = clock["placement"] = time.perf_counter()
+    if parts is None:
+        parts = make_parts(inputs, streams, cameras, stage=stage)
+        for k in PARTS:
+            start += parts.stages_s[k]
+            clock[k] = start
+        ahead = None
+    layout, scene, poses = parts.layout, parts.scene, parts.poses
     stage("capture")
     # (a thread of its own only where this process may use another core: one of two workers
     # on two cores counts the frames in the cloud stage instead)
@@ -116,7 +173,8 @@ def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: 
             tally.close()
         raise
     clock["capture"] = time.perf_counter()
-    return MadeScene(layout, scene, poses, frames, clock, tally)
+    return MadeScene(layout, scene, poses, frames, clock, tally,
+                     None if ahead is None else dict(parts.stages_s), 0.0 if ahead is None else parts.cpu_s)
 
 
 @dataclass(frozen=True, eq=False)

@@ -197,7 +197,8 @@ def _run(cfg: DatasetConfig, inputs: RunInputs, folder: OutputFolder, fmt, manif
         "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made),
         "cost": dataset_cost(made), "warmup_s": [r["warmup_s"] for r in made if "warmup_s" in r],
         "scene_s": [{"scene": r.get("scene"), "worker": r.get("worker"), "nth": r.get("nth"),
-                     "stages": r.get("timings_s", {}), "cpu_s": r.get("cpu_s")}
+                     "stages": r.get("timings_s", {}), "cpu_s": r.get("cpu_s"),
+                     **({"ahead_s": r["ahead_s"]} if "ahead_s" in r else {})}
                     for r in sorted(made, key=lambda r: r.get("scene", -1))[:SCENE_RECORDS]]}]
     manifest["cost"], manifest["accuracy"] = dataset_cost(made), accuracy_used(cfg, inputs.sensor)
     manifest["scenes_made"], manifest["scenes_skipped"] = n_made, cfg.scenes - n_made

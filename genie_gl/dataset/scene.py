@@ -15,6 +15,7 @@ import numpy as np
 from ..capture import effect_totals, frame_costs
 from ..export import SceneData, get_format
 from . import curation
+from .ahead import Ahead
 from .config import DatasetConfig
 from .manifest import record_files, scene_complete
 from .previews import write_previews, write_recording_previews
@@ -30,13 +31,22 @@ def scene_dir(out: Path, index: int, fmt: str, n_scenes: int = 0) -> Path:
     return get_format(fmt).scene_dir(out, index)
 
 
+def needs_making(cfg: DatasetConfig, index: int) -> bool:
+    """Whether scene ``index`` is still to be made, as far as a quick look tells (its files
+    are not checked against their hashes: :func:`run_scene` does that with ``verify``)."""
+    if scene_complete(get_format(cfg.format).scene_dir(Path(cfg.out), index)) is not None:
+        return False
+    return not (curation.active(cfg) and curation.cache_path(cfg, index).is_file())
+
+
 def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None, verify: bool = False, stage=None,
-              prepare=None) -> dict[str, Any]:
+              prepare=None, ahead: Ahead | None = None) -> dict[str, Any]:
     """Make scene ``index`` and write it; returns its stats (also in stats.json).
     ``inputs``: the run's strategy, sensor and settings (:func:`~.recipe.load_inputs`; loaded
     here when not given). ``stage(name)`` is called as each stage starts (progress display);
     ``prepare()`` once the scene is known to need making, before its clock starts (a
-    worker's warm-up)."""
+    worker's warm-up). ``ahead``: a helper process making the layout, scene and placement of
+    standing cameras' scenes (:mod:`.ahead`)."""
     stage = stage or (lambda name: None)
     out = Path(cfg.out)
     fmt = get_format(cfg.format)
@@ -56,8 +66,9 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
         return _run_moving(cfg, index, layout, scene, streams, fmt, stage, t, cpu, out, final)
     # a format that stores no colour renders none (an output not asked for costs nothing)
     made = make(inputs, streams, cameras=cfg.cameras, depth_only=not fmt.colour, stage=stage,
-                chunk_m=cfg.chunk_m if fmt.chunks else None)
+                chunk_m=cfg.chunk_m if fmt.chunks else None, ahead=ahead)
     layout, scene, frames, t = made.layout, made.scene, made.frames, dict(made.clock)
+    cpu -= made.ahead_cpu_s   # the helper's CPU time for this scene's parts counts as the scene's
     stage("cloud")
     cut = chunk(cfg, frames, streams, chunks=fmt.chunks, tally=made.tally)
     kept, points_total, counts = cut.kept, cut.points_total, cut.counts
@@ -74,7 +85,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
         stats = curation.cache_scene(cfg, index, kept, layout, {"instances": len(scene.instances),
                                                                 "cameras": len(frames), "points_total": int(points_total)})
         t["export"] = time.perf_counter()
-        return stats | _timings(t, frames, cpu)
+        return stats | _timings(t, frames, cpu, ahead_s=made.ahead_s)
     stage("export")
     tmp = _scene_tmp(final)
     data = SceneData(index, scene, layout, frames, kept, cfg)
@@ -86,7 +97,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
     if index < cfg.previews:
         write_previews(out / "previews", index, layout, frames, scene)
     _publish(stats, tmp, final, data, fmt, out, t)
-    return stats | _timings(t, frames, cpu)
+    return stats | _timings(t, frames, cpu, ahead_s=made.ahead_s)
 
 
 def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t, cpu, out: Path,
@@ -154,12 +165,17 @@ def _class_points(counts: np.ndarray) -> dict[str, int]:
     return {str(k): int(counts[k]) for k in np.flatnonzero(counts).tolist()}
 
 
-def _timings(t: dict[str, float], frames: list | None, cpu: float, tally=None) -> dict[str, Any]:
-    """Seconds per stage, CPU seconds of the scene (all threads), the frames' cost (the
-    manifest's "cost" block) and what each sensor effect did: not in stats.json. A moving
-    capture's ``tally`` (:class:`~genie_gl.dataset.recording.Tally`) summed them over every
-    frame as the recording streamed past."""
+def _timings(t: dict[str, float], frames: list | None, cpu: float, tally=None,
+             ahead_s: dict[str, float] | None = None) -> dict[str, Any]:
+    """Seconds per stage, CPU seconds of the scene (all threads, a helper's included), the
+    frames' cost (the manifest's "cost" block) and what each sensor effect did: not in
+    stats.json. A moving capture's ``tally`` (:class:`~genie_gl.dataset.recording.Tally`)
+    summed them over every frame as the recording streamed past. ``ahead_s``: the seconds of
+    the stages a helper process made (:mod:`.ahead`), there."""
     keys = ("start",) + STAGES
-    return {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "cpu_s": time.process_time() - cpu,
-            "frame_cost_ms": frame_costs(frames) if tally is None else dict(tally.cost_ms),
-            "effects": effect_totals(frames) if tally is None else tally.effects}
+    out = {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "cpu_s": time.process_time() - cpu,
+           "frame_cost_ms": frame_costs(frames) if tally is None else dict(tally.cost_ms),
+           "effects": effect_totals(frames) if tally is None else tally.effects}
+    if ahead_s is not None:
+        out["ahead_s"] = ahead_s
+    return out

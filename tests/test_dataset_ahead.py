@@ -1,0 +1,69 @@
+"""One worker on two cores: the next scene's layout, scene and placement made in a helper
+process (genie_gl/dataset/ahead.py) change no byte, are recorded as made there, skip the
+scenes already made, and a helper that dies leaves the worker to make the rest."""
+import json
+import logging
+import os
+import shutil
+
+import pytest
+
+from genie_gl.cli import main
+from genie_gl.dataset import ahead, executors
+from genie_gl.dataset.recipe import PARTS
+
+from .test_dataset import ARGS, digest
+
+pytestmark = pytest.mark.gl
+
+
+def _die(index: int):
+    """Stands in for the helper's job: the helper process ends at once."""
+    os._exit(3)
+
+
+def _run(out, monkeypatch, *, helper: bool, scenes: int = 3) -> list[dict]:
+    """``genie dataset`` of ARGS, one worker, with or without a helper; its scene records."""
+    monkeypatch.setattr(executors, "spare_core", lambda: helper)
+    assert main(["dataset", *ARGS, "--scenes", str(scenes), "--workers", "1", "--out", str(out)]) == 0
+    return json.loads((out / "manifest.json").read_text())["runs"][-1]["scene_s"]
+
+
+@pytest.fixture(scope="module")
+def alone(tmp_path_factory):
+    """Three scenes made by the worker alone."""
+    out = tmp_path_factory.mktemp("alone")
+    with pytest.MonkeyPatch.context() as mp:
+        records = _run(out, mp, helper=False)
+    assert not any("ahead_s" in r for r in records)
+    return out
+
+
+def test_scenes_made_ahead_are_the_same_bytes_and_say_where_their_parts_were_made(alone, tmp_path, monkeypatch):
+    records = _run(tmp_path, monkeypatch, helper=True)
+    assert digest(tmp_path) == digest(alone)
+    first, *later = sorted(records, key=lambda r: r["scene"])
+    assert "ahead_s" not in first   # made by the worker while the helper warmed up
+    assert later and all(set(r["ahead_s"]) == set(PARTS) and min(r["ahead_s"].values()) > 0 for r in later)
+    assert {r["worker"] for r in records} == {first["worker"]}   # one worker: the helper makes no scene
+
+
+def test_the_helper_skips_scenes_already_made(alone, tmp_path, monkeypatch):
+    out = tmp_path / "d"
+    shutil.copytree(alone, out)
+    for gone in ("0000", "0002"):
+        shutil.rmtree(out / "scenes" / gone)
+    records = _run(out, monkeypatch, helper=True)
+    assert [r["scene"] for r in records] == [0, 2]
+    assert "ahead_s" not in records[0] and set(records[1]["ahead_s"]) == set(PARTS)   # scene 1 was not made again
+    assert digest(out) == digest(alone)
+
+
+def test_a_helper_that_dies_leaves_the_worker_to_make_the_rest(alone, tmp_path, monkeypatch, caplog):
+    monkeypatch.setattr(ahead, "_make", _die)
+    with caplog.at_level(logging.WARNING):
+        records = _run(tmp_path, monkeypatch, helper=True)
+    assert digest(tmp_path) == digest(alone)
+    assert not any("ahead_s" in r for r in records)
+    said = [r.getMessage() for r in caplog.records if "helper process" in r.getMessage()]
+    assert len(said) == 1 and "this worker makes the rest itself" in said[0]
