@@ -24,6 +24,7 @@ remaining scenes itself.
 """
 from __future__ import annotations
 
+import gc
 import logging
 import multiprocessing as mp
 import os
@@ -54,6 +55,7 @@ def _warm() -> None:
     build the assets and load the placement's kernels."""
     h = _HELPER
     make_parts(h["inputs"], SceneStreams(WARM_SEED, 0), min(WARM_CAMERAS, h["cameras"]))
+    gc.freeze()
 
 
 def _make(index: int) -> Parts:
