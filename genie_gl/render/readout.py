@@ -137,7 +137,7 @@ class Readout:
                 if normal is not None:
                     normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
-        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - t1, "readback_s": job["fetch_s"] + (t3 - t_unpack),
+        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - job["t_issue"], "readback_s": job["fetch_s"] + (t3 - t_unpack),
                       "instances_drawn": job["drawn"],
                       "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"],
                       "occlusion_culled": job["occluded"]}

@@ -357,20 +357,28 @@ class Renderer(Visibility, Readout):
                                        triangles)
             return
         fetched = None   # the frame read back last, not yet unpacked
+        planned = None   # the next frame, culled and its draws written, not yet issued
         for k, pose in enumerate(poses):
             with self._current():
-                job = self._draw(sensor, pose, not depth_only, normals, None if only is None else only[k],
+                job = self._plan(sensor, pose, not depth_only, normals, None if only is None else only[k],
                                  slot=1 + k % 2, triangles=triangles)
+            if planned is not None:   # the frame before: read back once rasterised, then this one issued
+                with self._current():
+                    self._fetch(planned)
+                fetched = planned
+            with self._current():
+                self._issue(job)
                 self._flush()  # llvmpipe rasterises a frame's bins once they are flushed
                 if self.readback == "pbo":
                     self._start_read(job)
             if fetched is not None:   # unpacked, and the caller's work on it done, while this frame rasterises
                 yield self._finish(fetched)
+                fetched = None
+            planned = job
+        if planned is not None:
             with self._current():
-                self._fetch(job)
-            fetched = job
-        if fetched is not None:
-            yield self._finish(fetched)
+                self._fetch(planned)
+            yield self._finish(planned)
 
     def _render(self, sensor: Sensor, pose: np.ndarray, depth_only: bool, normals: bool,
                 only: Collection[int] | None = None, triangles: bool = False) -> Frame:
@@ -380,6 +388,16 @@ class Renderer(Visibility, Readout):
     def _draw(self, sensor: Sensor, pose: np.ndarray, color: bool, normals: bool,
               only: Collection[int] | None, slot: int, triangles: bool = False) -> dict:
         """Cull and issue the draws of one frame into the targets of ``slot``."""
+        job = self._plan(sensor, pose, color, normals, only, slot, triangles)
+        self._issue(job)
+        return job
+
+    def _plan(self, sensor: Sensor, pose: np.ndarray, color: bool, normals: bool,
+              only: Collection[int] | None, slot: int, triangles: bool = False) -> dict:
+        """The CPU half of a frame's draws: its culling, its instances' rows and culled indices
+        written (into the buffers of ``slot``'s parity, which no frame in flight reads), its
+        program and uniforms set; :meth:`_issue` draws it. :meth:`frames` plans frame i+1
+        while frame i rasterises."""
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = check_pose(pose, "render pose")  # a rigid world_from_camera: no scale, shear or mirror
@@ -400,7 +418,20 @@ class Renderer(Visibility, Readout):
 
         parity = slot % 2
         lists = self._commands(pose, K, W, H, clip_near, only, parity, triangles)
-        t1 = time.perf_counter()
+        return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "slot": slot, "fbo": fbo,
+                "fbo24": None, "extra": extra, "program": program, "proj": (proj_x, proj_y), "lists": lists,
+                "culled": self._culled, "pixel_triangles": self._frame_triangles if triangles else None, "drawn": 0,
+                "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
+                "simplified": self._lod_drawn, "occluded": self._culled and self._culler.occluded,
+                "t0": t0, "t1": time.perf_counter()}
+
+    def _issue(self, job: dict) -> None:
+        """The GL half of a frame's draws (after :meth:`_plan`): its targets cleared, its
+        draws submitted (and the 24-bit depth pass, with that precision)."""
+        job["t_issue"] = time.perf_counter()
+        ctx, sensor, fbo, lists = self.ctx, job["sensor"], job["fbo"], job.pop("lists")
+        W, H = sensor.width, sensor.height
+        parity = job["slot"] % 2
         fbo.use()
         ctx.viewport = (0, 0, W, H)
         self._clip_control(GL_LOWER_LEFT, GL_ZERO_TO_ONE)
@@ -409,11 +440,11 @@ class Renderer(Visibility, Readout):
         # v grows with window y (row 0 = v = 0) mirrors the image, so outward CCW faces are CW
         ctx.front_face = "cw"
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)  # 0.0f has all bits zero: ids clear to 0
-        drawn = self._submit(program, lists, parity)
-        fbo24 = None
+        job["drawn"] = self._submit(job.pop("program"), lists, parity, job["culled"])
         if self.depth_precision == "depth24":
             n, f = float(sensor.near_m), float(sensor.far_m)
-            fbo24 = extra[0]
+            proj_x, proj_y = job["proj"]
+            fbo24 = job["fbo24"] = job["extra"][0]
             p24 = self._program(("NO_LINEAR_DEPTH", "DEPTH_ONLY") + (("PACKED_IDS",) if self._packed else ()))
             p24["u_proj_x"].value = tuple(proj_x.astype(np.float32))
             p24["u_proj_y"].value = tuple(proj_y.astype(np.float32))
@@ -421,13 +452,8 @@ class Renderer(Visibility, Readout):
             fbo24.use()
             ctx.depth_func = "<"
             fbo24.clear(depth=1.0)
-            self._submit(p24, lists, parity)
+            self._submit(p24, lists, parity, job["culled"])
         ctx.disable(moderngl.CULL_FACE)
-        return {"sensor": sensor, "pose": pose, "color": color, "normals": normals, "slot": slot, "fbo": fbo, "fbo24": fbo24,
-                "pixel_triangles": self._frame_triangles if triangles else None, "drawn": drawn,
-                "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
-                "simplified": self._lod_drawn, "occluded": self._culled and self._culler.occluded,
-                "t0": t0, "t1": t1}
 
     def _render_cpu(self, sensor: Sensor, pose: np.ndarray, color: bool, normals: bool,
                     only: Collection[int] | None, triangles: bool) -> Frame:
@@ -548,11 +574,13 @@ class Renderer(Visibility, Readout):
             self._frame_triangles = (first, count, base, cull, cfm, drawn_indices, ids, sem, mesh_first, mesh_count)
         return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
 
-    def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0) -> int:
-        """Issue the frame's multi-draw calls; returns the number of instances drawn."""
+    def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0,
+                culled: bool = False) -> int:
+        """Issue the frame's multi-draw calls (``culled``: from the culled index buffer);
+        returns the number of instances drawn."""
         if not lists:
             return 0
-        vao = self._vao(program, parity, self._culled)
+        vao = self._vao(program, parity, culled)
         cmd_buf = self._stream(parity)[2]
         everything = np.concatenate([c for c, _ in lists])
         cmd_buf.write(everything)

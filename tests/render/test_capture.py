@@ -71,27 +71,31 @@ def test_capture_is_independent_of_worker_count():
 def test_each_frame_is_handed_over_in_order_as_the_capture_makes_it(monkeypatch):
     """``on_frame`` gets every frame, in pose order, the very objects the capture returns;
     in this process each one as soon as the next pose is drawn (before the poses after it),
-    with workers once they are all back."""
+    with workers once they are all back. In this process, frame k+1 is planned (culled, its
+    draws written) before frame k is read back: while frame k rasterises."""
     from genie_gl.render import Renderer
 
     scene = small_scene()
     sensor = gg.Sensor.pinhole(64, 48, 50.0)
     poses = [look_at([6 * np.cos(a), 6 * np.sin(a), 3], [0, 0, 0.5]) for a in np.linspace(0, 6, 4)]
-    real, drawn = Renderer._draw, []
-
-    def draw(self, *a, **k):
-        drawn.append(1)
-        return real(self, *a, **k)
-
-    monkeypatch.setattr(Renderer, "_draw", draw)
+    events = []
+    for name in ("_plan", "_issue", "_fetch"):
+        def step(self, *a, _real=getattr(Renderer, name), _name=name, **k):
+            events.append(_name[1:])
+            return _real(self, *a, **k)
+        monkeypatch.setattr(Renderer, name, step)
     for workers in (1, 2):
         handed, drawn_then = [], []
-        drawn.clear()
+        events.clear()
         frames = gg.capture(scene, sensor, poses, seed=3, workers=workers,
-                            on_frame=lambda f: (handed.append(f), drawn_then.append(len(drawn))))
+                            on_frame=lambda f: (handed.append(f), drawn_then.append(events.count("issue")),
+                                                events.append("hand")))
         assert len(frames) == 4 and all(a is b for a, b in zip(handed, frames))
         # in this process: frame k is handed over once frame k + 1 is drawn, not later
         assert drawn_then == ([2, 3, 4, 4] if workers == 1 else [0, 0, 0, 0])
+        if workers == 1:
+            assert events == ["plan", "issue", "plan", "fetch", "issue", "hand", "plan", "fetch", "issue", "hand",
+                              "plan", "fetch", "issue", "hand", "fetch", "hand"]
 
 
 def test_unknown_backend_is_a_clear_error():
