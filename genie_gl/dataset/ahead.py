@@ -28,6 +28,7 @@ import gc
 import logging
 import multiprocessing as mp
 import os
+import signal
 import warnings
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -47,6 +48,10 @@ _HELPER: dict = {}
 
 def _start(parent: int, inputs, seed: int, cameras: int) -> None:
     die_with_parent(parent)
+    # Ctrl-C and SIGTERM reach the whole process group: the worker unwinds and ends the helper
+    # (its pool's shutdown), which goes with it, not on its own, and says nothing
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     _HELPER.update(inputs=inputs, seed=seed, cameras=cameras)
 
 
