@@ -80,3 +80,42 @@ def test_a_run_in_this_process_hides_what_its_warm_up_made_from_the_collector_an
     _run(tmp_path, monkeypatch, helper=False, scenes=2)
     assert len(frozen) == 2 and min(frozen) > before + 10_000   # the imports' and the warm-up's objects
     assert gc.get_freeze_count() == before
+
+
+def test_a_process_forked_from_a_run_does_not_hold_its_output_lock(tmp_path):
+    """The holder killed outright while a process it forked lives on: the folder is free at
+    once (the helper goes with its worker, but a moment later)."""
+    import signal
+    import subprocess
+    import sys
+
+    from genie_gl.dataset.manifest import OutputLock
+
+    holder = subprocess.Popen([sys.executable, "-c", f"""
+import os, sys, time
+from pathlib import Path
+from genie_gl.dataset.manifest import OutputLock
+with OutputLock(Path({str(tmp_path)!r})):
+    child = os.fork()
+    if child == 0:
+        time.sleep(60)
+        os._exit(0)
+    print(child, flush=True)
+    time.sleep(60)
+"""], stdout=subprocess.PIPE, text=True)
+    child = int(holder.stdout.readline())
+    try:
+        with pytest.raises(Exception, match="another genie dataset run"):
+            with OutputLock(tmp_path):
+                pass
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+        os.kill(child, 0)   # the forked process still lives
+        with OutputLock(tmp_path):
+            pass
+    finally:
+        holder.kill()
+        try:
+            os.kill(child, signal.SIGKILL)
+        except ProcessLookupError:
+            pass

@@ -17,6 +17,7 @@ import fcntl
 import hashlib
 import json
 import os
+import weakref
 from pathlib import Path
 from typing import Any
 
@@ -101,8 +102,27 @@ def check_resume(out: Path, fp: dict[str, Any], scenes: int | None = None) -> di
                       "inputs, or choose another --out")
 
 
+_HELD: "weakref.WeakSet[OutputLock]" = weakref.WeakSet()   # the locks this process holds
+
+
+def _drop_held_in_child() -> None:
+    """In a process forked from a lock holder (the scene helper of :mod:`.ahead`): close its
+    copies of the held locks' files, so that the lock lives and dies with the run that took
+    it (an flock belongs to the open file, which a fork shares; closing a copy, unlike
+    unlocking it, leaves the parent's hold as it is)."""
+    for lock in list(_HELD):
+        if lock.fh is not None:
+            lock.fh.close()
+            lock.fh = None
+    _HELD.clear()
+
+
+os.register_at_fork(after_in_child=_drop_held_in_child)
+
+
 class OutputLock:
-    """Exclusive hold on an output folder for one run (``with OutputLock(out): ...``)."""
+    """Exclusive hold on an output folder for one run (``with OutputLock(out): ...``); a
+    process forked meanwhile does not hold it."""
 
     def __init__(self, out: Path) -> None:
         self.path = Path(out) / LOCK
@@ -123,9 +143,11 @@ class OutputLock:
         self.fh.truncate()
         self.fh.write(f"pid {os.getpid()} on {os.uname().nodename}\n")
         self.fh.flush()
+        _HELD.add(self)
         return self
 
     def __exit__(self, *exc) -> None:
+        _HELD.discard(self)
         if self.fh is not None:
             try:
                 self.path.unlink()
