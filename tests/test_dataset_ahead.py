@@ -119,3 +119,46 @@ with OutputLock(Path({str(tmp_path)!r})):
             os.kill(child, signal.SIGKILL)
         except ProcessLookupError:
             pass
+
+
+def test_a_helper_forked_while_another_thread_compiles_stops_and_the_worker_makes_the_scenes(caplog):
+    """numba's compiler lock held by another thread at the fork stays held in the helper for
+    good: it must stop at once, not wait on it, and the worker make the scenes itself."""
+    import threading
+
+    from numba.core.compiler_lock import global_compiler_lock
+
+    from genie_gl.dataset.config import DatasetConfig
+    from genie_gl.dataset.recipe import load_inputs
+
+    inputs = load_inputs(DatasetConfig(strategy="assembly_line", out="unused", cameras=2, sensor="ideal_pinhole"))
+    held, forked = threading.Event(), threading.Event()
+
+    def compile_meanwhile():
+        with global_compiler_lock:
+            held.set()
+            forked.wait(30)
+
+    other = threading.Thread(target=compile_meanwhile)
+    other.start()
+    held.wait(30)
+    taken = []
+    try:
+        with caplog.at_level(logging.WARNING):
+            helper = ahead.Ahead(inputs, 0, 2, lambda i: i + 1 if i < 3 else None)
+            forked.set()
+            other.join()
+            worker = threading.Thread(target=lambda: taken.extend([helper.take(0), helper.take(1)]), daemon=True)
+            worker.start()
+            worker.join(60)
+            if worker.is_alive():   # waiting on a helper that can never answer: end it, and fail
+                for proc in list((helper._pool._processes or {}).values()):
+                    proc.kill()
+                pytest.fail("the worker waited on a helper stuck on a lock held at the fork")
+            helper.close()
+    finally:
+        forked.set()
+        other.join()
+    assert taken == [None, None]   # the first scene never asked for; the second made by the worker
+    said = [r.getMessage() for r in caplog.records if "helper process" in r.getMessage()]
+    assert len(said) == 1 and "this worker makes the rest itself" in said[0]

@@ -34,6 +34,8 @@ from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
+from numba.core.compiler_lock import global_compiler_lock
+
 from ..processes import die_with_parent
 from ..scene.model import Mesh
 from .recipe import Parts, make_parts
@@ -46,8 +48,23 @@ log = logging.getLogger(__name__)
 _HELPER: dict = {}
 
 
+def _compiler_free() -> bool:
+    """Whether numba's compiler lock is free in this process. A fork copies only the forking
+    thread: a lock another thread held at that moment stays held for good in the copy, and
+    the helper's first kernel (placement's) would wait on it for ever."""
+    lock = getattr(global_compiler_lock, "_lock", None)
+    if lock is None or not hasattr(lock, "acquire"):
+        return True
+    if not lock.acquire(blocking=False):
+        return False
+    lock.release()
+    return True
+
+
 def _start(parent: int, inputs, seed: int, cameras: int) -> None:
     die_with_parent(parent)
+    if not _compiler_free():   # the worker is told (the pool breaks) and makes the scenes itself
+        raise RuntimeError("forked while another thread of the worker held numba's compiler lock")
     # Ctrl-C and SIGTERM reach the whole process group: the worker unwinds and ends the helper
     # (its pool's shutdown), which goes with it, not on its own, and says nothing
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -85,7 +102,10 @@ class Ahead:
     maps would cost the first scene about 0.2 s). Forking is safe here, where the capture's
     workers are spawned: the helper draws nothing and runs no parallel kernel, so it needs
     none of the GL driver's or the kernels' threads, which a fork does not copy; it ends with
-    ``os._exit``, running no exit handler of the worker's."""
+    ``os._exit``, running no exit handler of the worker's. A lock that another thread of the
+    worker held at the fork stays held in the helper for good: it checks numba's compiler
+    lock, which its work takes, and stops at once if it is held (the worker then makes its
+    scenes itself); the output folder's lock it closes (:mod:`.manifest`)."""
 
     def __init__(self, inputs, seed: int, cameras: int, upcoming: Callable[[int], int | None]):
         self._upcoming = upcoming
