@@ -162,3 +162,44 @@ def test_a_helper_forked_while_another_thread_compiles_stops_and_the_worker_make
     assert taken == [None, None]   # the first scene never asked for; the second made by the worker
     said = [r.getMessage() for r in caplog.records if "helper process" in r.getMessage()]
     assert len(said) == 1 and "this worker makes the rest itself" in said[0]
+
+
+def test_a_scene_made_ahead_counts_the_helpers_cpu_time_as_its_own(tmp_path):
+    """The helper's CPU seconds for a scene's parts are the scene's: ``cpu_s`` includes them
+    (the helper stands in here, handing over real parts that say they took 100 s of CPU)."""
+    from dataclasses import replace
+
+    from genie_gl.dataset.config import DatasetConfig
+    from genie_gl.dataset.recipe import load_inputs, make_parts
+    from genie_gl.dataset.scene import run_scene
+    from genie_gl.dataset.streams import SceneStreams
+
+    cfg = DatasetConfig(strategy="assembly_line", out=str(tmp_path), scenes=1, cameras=2, sensor="ideal_pinhole",
+                        points=4000, min_points=500, previews=0)
+    inputs = load_inputs(cfg)
+
+    class Helper:   # what Ahead.take hands over, made in this process
+        def take(self, index):
+            parts = make_parts(inputs, SceneStreams(cfg.seed, index), cfg.cameras)
+            return replace(parts, cpu_s=100.0, stages_s={k: 7.0 for k in PARTS})
+
+    stats = run_scene(cfg, 0, inputs=inputs, ahead=Helper())
+    assert stats["cpu_s"] >= 100.0 and stats["ahead_s"] == {k: 7.0 for k in PARTS}
+    assert sum(stats["timings_s"][k] for k in PARTS) < 7.0   # the worker's own: its wait, not the helper's time
+    alone = run_scene(cfg.model_copy(update={"out": str(tmp_path / "b")}), 0, inputs=inputs)
+    assert alone["cpu_s"] < 100.0 and "ahead_s" not in alone
+
+
+def test_the_memory_estimate_counts_the_helpers_layout():
+    from genie_gl.dataset.config import DatasetConfig
+    from genie_gl.dataset.limits import estimate
+    from genie_gl.dataset.recipe import load_inputs
+    from genie_gl.limits import BYTES_PER_NODE
+
+    one = DatasetConfig(strategy="assembly_line", out="unused", scenes=1, cameras=4, sensor="ideal_pinhole")
+    inputs = load_inputs(one)
+    a = estimate(one, inputs.strategy, inputs.sensor)
+    b = estimate(one.model_copy(update={"scenes": 2}), inputs.strategy, inputs.sensor)
+    c = estimate(one.model_copy(update={"scenes": 2, "workers": 2}), inputs.strategy, inputs.sensor)
+    assert b.memory_bytes - a.memory_bytes == a.nodes * BYTES_PER_NODE > 0   # one worker, a helper: one layout more
+    assert c.memory_bytes == 2 * a.memory_bytes                              # two workers: no helper

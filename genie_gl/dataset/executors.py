@@ -14,10 +14,10 @@ from typing import Any
 
 from tqdm import tqdm
 
+from ..cloud.tally import spare_core
 from ..processes import die_with_parent, say_when_compiling
 from ..render.context import default_backend, set_default_backend
 from ..render.threads import limit_threads
-from ..cloud.tally import spare_core
 from ..scene.assets.catalogue import ASSETS
 from .ahead import Ahead
 from .config import DatasetConfig
@@ -83,9 +83,10 @@ def _worker(job: tuple) -> dict:
 
 def _ahead(cfg: DatasetConfig, inputs: RunInputs) -> Ahead | None:
     """A helper process making the layout, scene and placement of this process's scenes one
-    scene ahead (:mod:`.ahead`; it starts with the first scene to make, after the warm-up),
-    where it can gain: standing cameras, two scenes or more to make, a core to spare, no asset
-    registered in this process only. None otherwise."""
+    scene ahead (:mod:`.ahead`; forked now, before the warm-up, it makes the second scene to
+    make while this process makes the first), where it can gain: standing cameras, two scenes
+    or more to make, a core to spare, no asset registered in this process only. None
+    otherwise."""
     if cfg.capture != "static" or not spare_core() or ASSETS.registered():
         return None
     first = next((i for i in range(cfg.scenes) if needs_making(cfg, i)), None)
