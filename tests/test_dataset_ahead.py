@@ -203,3 +203,19 @@ def test_the_memory_estimate_counts_the_helpers_layout():
     c = estimate(one.model_copy(update={"scenes": 2, "workers": 2}), inputs.strategy, inputs.sensor)
     assert b.memory_bytes - a.memory_bytes == a.nodes * BYTES_PER_NODE > 0   # one worker, a helper: one layout more
     assert c.memory_bytes == 2 * a.memory_bytes                              # two workers: no helper
+
+
+def test_meshes_handed_over_are_the_first_copy_of_their_content_the_worker_received():
+    """What is cached per mesh in the worker (the planner's convexity check) holds across
+    scenes made ahead: a mesh of the same content is the same object in every scene."""
+    from genie_gl.dataset.config import DatasetConfig
+    from genie_gl.dataset.recipe import load_inputs
+
+    inputs = load_inputs(DatasetConfig(strategy="assembly_line", out="unused", cameras=2, sensor="ideal_pinhole"))
+    with ahead.Ahead(inputs, 0, 2, lambda i: i + 1 if i < 2 else None) as helper:
+        assert helper.take(0) is None
+        a, b = helper.take(1), helper.take(2)
+    assert a is not None and b is not None and a.index == 1 and b.index == 2
+    by_digest = {m.digest(): m for m in a.scene.meshes.values()}
+    shared = [m for m in b.scene.meshes.values() if m.digest() in by_digest]
+    assert shared and all(m is by_digest[m.digest()] for m in shared)
