@@ -36,8 +36,8 @@ SUPERSAMPLE = (1, 2, 4)
 
 
 #: the fields of a sensor profile (``profile.py`` reads them; an accuracy file may be a profile)
-PROFILE_KEYS = ("name", "calibration", "effects", "near_m", "far_m", "accuracy", "baseline_m", "description",
-                "source")
+PROFILE_KEYS = ("name", "calibration", "camera", "effects", "near_m", "far_m", "accuracy", "baseline_m",
+                "description", "source")
 
 @dataclass(frozen=True)
 class AccuracySettings:

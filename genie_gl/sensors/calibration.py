@@ -1,15 +1,16 @@
 """OpenCV, ROS and Kalibr calibration files in and out.
 
-Reads OpenCV ``FileStorage`` YAML/XML as ``calibrateCamera`` / ``stereoCalibrate`` /
-``cv2.fisheye.calibrate`` programs write them (any of the common key spellings), ROS
-``camera_info`` YAML (``distortion_model`` ``plumb_bob``, ``rational_polynomial``,
-``equidistant``) and Kalibr camchain YAML (``camera_model: pinhole`` with ``distortion_model``
-``radtan``, ``equidistant`` or ``none``, and ``camera_model: omni``; the first camera, and the
-baseline to the second);
-writes OpenCV YAML/XML with OpenCV's lower-case keys (plus ``distortion_model`` for a
-fisheye lens). A file without K or the image size, with a malformed matrix, or with a lens
-model genie-gl does not know is rejected with an error naming the file, the field and the
-model, never read as another model.
+Reads the calibration files of the field, liberally (:mod:`.calibration_keys`): OpenCV
+``FileStorage`` YAML/XML/JSON as OpenCV's tutorial program, its ``calibration.cpp`` sample,
+``stereoCalibrate`` programs (``M1 D1 M2 D2 R T ...``, either camera) and
+``cv2.fisheye.calibrate`` programs write them; ROS ``camera_info`` YAML (``distortion_model``
+``plumb_bob``, ``rational_polynomial``, ``equidistant``); Kalibr camchains (:mod:`.kalibr`,
+any camera by name); vendors' files that give ``fx fy cx cy`` and ``k1 k2 p1 p2 k3``. Keys
+genie-gl does not need are left unread (listed at debug level). Writes OpenCV YAML/XML with
+OpenCV's lower-case keys (plus ``distortion_model`` for a fisheye lens). A file without K or
+the image size, with a malformed or non-finite matrix, a focal length not above 0, a size of
+0, or a lens model genie-gl does not know is refused with one line naming the file and the
+field, never read as another model.
 """
 from __future__ import annotations
 
@@ -22,41 +23,22 @@ import cv2
 import numpy as np
 import yaml
 
-from ..checks import whole_number
-from ..errors import ConfigError, did_you_mean
-from ..outputs import check_replaceable
 from ..camera import MODELS
+from ..checks import whole_number
+from ..errors import ConfigError
+from ..outputs import check_replaceable
+from . import calibration_keys as keys
+from .calibration_keys import Fields, is_matrix, is_number, lens_model, matrix
+from .kalibr import is_camchain, read_camchain
 
-K_KEYS = ("camera_matrix", "Camera_Matrix", "cameraMatrix", "K", "K1", "M1", "intrinsics")
-D_KEYS = ("distortion_coefficients", "Distortion_Coefficients", "dist_coeffs", "distCoeffs", "D", "D1")
-W_KEYS = ("image_width", "image_Width", "imageWidth", "width")
-H_KEYS = ("image_height", "image_Height", "imageHeight", "height")
-ERR_KEYS = ("avg_reprojection_error", "Avg_Reprojection_Error", "reprojection_error", "rms")
-MODEL_KEYS = ("distortion_model", "Distortion_Model", "lens_model", "camera_model")
-# what calibration programs write beside the fields read above (OpenCV's calibration samples,
-# stereoCalibrate/stereoRectify, ROS camera_info): known, kept unread; any other key is refused
-OTHER_KEYS = (
-    "calibration_time", "calibrationDate", "nframes", "nr_of_frames", "nrOfFrames", "board_width", "board_height",
-    "board_Width", "board_Height", "square_size", "square_Size", "marker_size", "aspectRatio", "aspect_ratio",
-    "fix_aspect_ratio", "flags", "flagValue", "calibration_flags", "fisheye_model", "per_view_reprojection_errors",
-    "extrinsic_parameters", "image_points", "grid_points", "camera_name", "rectification_matrix",
-    "projection_matrix", "binning_x", "binning_y", "roi", "E", "F", "R1", "R2", "P1", "P2", "Q", "M2", "D2", "K2",
-    "validRoi1", "validRoi2", "header", "name", "description", "source")
-# lens model names as ROS, OpenCV programs and Kalibr write them -> (genie-gl model, counts)
-LENS_NAMES: dict[str, tuple[str, tuple[int, ...]]] = {
-    "plumb_bob": ("pinhole", (4, 5)), "radtan": ("pinhole", (4, 5)), "radial-tangential": ("pinhole", (4, 5)),
-    "rational_polynomial": ("pinhole", (8, 12, 14)), "opencv": ("pinhole", MODELS["pinhole"]),
-    "pinhole": ("pinhole", MODELS["pinhole"]), "none": ("pinhole", (0,)),
-    "equidistant": ("fisheye", (4,)), "fisheye": ("fisheye", (4,)), "kannala_brandt": ("fisheye", (4,)),
-    "kannala-brandt": ("fisheye", (4,)), "omni": ("omni", (5,)), "mei": ("omni", (5,)),
-}
+__all__ = ["Calibration", "camera_index", "is_calibration", "lens_model", "read_calibration", "write_calibration"]
 
 
 @dataclass(frozen=True, eq=False)
 class Calibration:
     """A camera calibration: size, K (3x3), lens coefficients (N,), optional RMS error, stereo
-    R, T (X2 = R·X1 + T), and the lens model (``"pinhole"`` or ``"fisheye"``, see
-    :mod:`genie_gl.camera`)."""
+    R, T (X2 = R·X1 + T: this camera to the other of a stereo pair), and the lens model
+    (``"pinhole"``, ``"fisheye"`` or ``"omni"``, see :mod:`genie_gl.camera`)."""
 
     width: int
     height: int
@@ -73,158 +55,164 @@ class Calibration:
         return None if self.T is None else float(np.linalg.norm(self.T))
 
 
-def _matrix(value, where: str, shape: tuple | None = None) -> np.ndarray:
-    if isinstance(value, dict):  # ROS style {rows, cols, data}
-        try:
-            a = np.asarray(value["data"], float).reshape(int(value["rows"]), int(value["cols"]))
-        except (KeyError, ValueError) as exc:
-            raise ConfigError(f"{where}: malformed matrix ({exc})") from None
-    else:
-        a = np.asarray(value, float)
-    if shape is not None and a.size == np.prod(shape):
-        a = a.reshape(shape)
-    if shape is not None and a.shape != shape:
-        raise ConfigError(f"{where}: expected a {shape[0]}x{shape[1]} matrix, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ConfigError(f"{where}: contains NaN or Inf")
-    return a
+def camera_index(camera: Any, where: str) -> int | None:
+    """The index of a camera named ``camera`` (0, 1, "cam1", "1"); None for None."""
+    if camera is None:
+        return None
+    text = str(camera).strip().lower()
+    if isinstance(camera, (int, np.integer)) and not isinstance(camera, bool) and camera >= 0:
+        return int(camera)
+    for prefix in ("cam", "camera", ""):
+        rest = text[len(prefix):] if text.startswith(prefix) else None
+        if rest is not None and rest.isdigit():
+            return int(rest)
+    raise ConfigError(f"{where}: camera {camera!r}: expected a camera's index (0, 1, ...) or name (cam0, cam1, ...)")
 
 
-def _read_filestorage(path: Path) -> dict:
-    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    if not fs.isOpened():
-        raise ConfigError(f"{path}: OpenCV cannot read this file")
-    out = {}
-    root = fs.root()
-    for key in root.keys():
-        node = fs.getNode(key)
-        if node.isMap() and not node.mat() is None:
-            out[key] = node.mat()
-        elif node.isInt() or node.isReal():
-            out[key] = node.real()
-        elif node.isString():
-            out[key] = node.string()
-        else:
-            m = node.mat()
-            if m is not None:
-                out[key] = m
-    fs.release()
-    return out
+def is_calibration(data: Any) -> bool:
+    """True when a parsed YAML/JSON mapping looks like a calibration file (a camera matrix or
+    its numbers under any common name, or a Kalibr camchain) rather than a sensor profile."""
+    if not isinstance(data, dict) or "calibration" in data:
+        return False
+    if is_camchain(data):
+        return True
+    f = Fields(data, "")
+    return any(f.find(names)[0] is not None for names in
+               (keys.K_NAMES, tuple(n + "1" for n in keys.STEREO_K), keys.FX))
 
 
-def lens_model(name: Any, n: int, where: str) -> str:
-    """The genie-gl lens model of a file's model name with ``n`` coefficients; an unknown
-    name, or a count the model does not have, is refused by name."""
-    key = str(name).strip().lower()
-    if key not in LENS_NAMES:
-        raise ConfigError(f"{where}: unknown lens model {name!r}; genie-gl reads {', '.join(sorted(LENS_NAMES))}")
-    model, counts = LENS_NAMES[key]
-    if n not in counts and not (n == 0 and key != "none"):
-        raise ConfigError(f"{where}: lens model {name!r} takes {' or '.join(map(str, counts))} coefficients, got {n}")
-    return model
+def _read_data(path: Path) -> dict:
+    text = path.read_text(errors="replace")
+    head = text.lstrip()
+    if head.startswith("%YAML") or head.startswith("<?xml") or "opencv-matrix" in text:
+        return keys.read_filestorage(path)
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping of calibration fields, got {type(data).__name__}")
+    return data
 
 
-def _kalibr(data: dict, path: Path) -> Calibration:
-    """The first camera of a Kalibr camchain (and the baseline to the second, if any)."""
-    cam = data["cam0"]
-    where = f"{path}: cam0"
-    if not isinstance(cam, dict):
-        raise ConfigError(f"{where}: expected a mapping of camera fields")
-    kind = str(cam.get("camera_model", "pinhole"))
-    if kind not in ("pinhole", "omni"):
-        raise ConfigError(f"{where}: camera_model {kind!r} is not supported (genie-gl reads Kalibr 'pinhole' "
-                          "cameras with 'radtan', 'equidistant' or 'none' distortion, and 'omni' with 'radtan' or "
-                          "'none')")
-    for key in ("intrinsics", "resolution"):
-        if key not in cam:
-            raise ConfigError(f"{where}: missing field {key}")
-    n_in = 5 if kind == "omni" else 4
-    if np.size(cam["intrinsics"]) != n_in:
-        spelled = "[xi, fu, fv, pu, pv]" if kind == "omni" else "[fu, fv, pu, pv]"
-        raise ConfigError(f"{where}: intrinsics: expected {spelled}, got {cam['intrinsics']!r}")
-    values = _matrix(cam["intrinsics"], f"{where}: intrinsics", (n_in,))
-    fu, fv, pu, pv = values[-4:]
-    if np.size(cam["resolution"]) != 2 or isinstance(cam["resolution"], (str, dict)):
-        raise ConfigError(f"{where}: resolution: expected [width, height], got {cam['resolution']!r:.60}")
-    W, H = (whole_number(v, f"{where}: resolution", 1, 1_000_000) for v in cam["resolution"])
-    dist = np.asarray(cam.get("distortion_coeffs") or [], float)
-    model = lens_model(cam.get("distortion_model", "none"), len(dist), f"{where}: distortion_model")
-    if kind == "omni":
-        if model != "pinhole":
-            raise ConfigError(f"{where}: an omni camera takes 'radtan' or 'none' distortion, got "
-                              f"{cam.get('distortion_model')!r}")
-        dist = np.concatenate([[values[0]], dist if len(dist) else np.zeros(4)])
-        model = "omni"
-    K = np.array([[fu, 0, pu], [0, fv, pv], [0, 0, 1.0]])
-    R = T = None
-    if isinstance(data.get("cam1"), dict) and "T_cn_cnm1" in data["cam1"]:
-        M = _matrix(data["cam1"]["T_cn_cnm1"], f"{path}: cam1: T_cn_cnm1", (4, 4))
-        R, T = M[:3, :3], M[:3, 3]
-    return Calibration(W, H, K, dist, None, R, T, str(path), model)
+def read_calibration(path: str | os.PathLike, *, camera: int | str | None = None) -> Calibration:
+    """Read a calibration file: OpenCV (YAML/XML/JSON, any program's key spelling), ROS
+    camera_info, Kalibr camchain or a vendor's ``fx fy cx cy`` file.
 
-
-def read_calibration(path: str | os.PathLike) -> Calibration:
-    """Read an OpenCV (YAML/XML), ROS camera_info or Kalibr camchain calibration file."""
+    camera : which camera of a file of several: an index or a name (``cam1``; a Kalibr
+        camchain's own names; 0 and 1 are the cameras 1 and 2 of an OpenCV stereo file, M1/D1
+        and M2/D2). None: the first.
+    """
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: no such calibration file")
-    text = path.read_text(errors="replace")
-    if text.lstrip().startswith("%YAML") or text.lstrip().startswith("<?xml") or "opencv-matrix" in text:
-        data = _read_filestorage(path)
-    else:
-        try:
-            data = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"{path}: not valid YAML ({exc})") from None
-        if not isinstance(data, dict):
-            raise ConfigError(f"{path}: expected a mapping of calibration fields")
-        if "cam0" in data:
-            return _kalibr(data, path)
+    data = _read_data(path)
+    if is_camchain(data):
+        return Calibration(**read_camchain(data, path, camera), source=str(path))
+    index = camera_index(camera, str(path)) or 0
+    f = Fields(data, str(path))
+    calib = _opencv(f, path, index)
+    f.log_unread()
+    return calib
 
-    _known_keys(data, path)
 
-    def first(keys, field):
-        for k in keys:
-            if k in data and data[k] is not None:
-                return k, data[k]
-        return None, None
-
-    k_key, K = first(K_KEYS, "camera_matrix")
+def _find_k(f: Fields, path: Path, index: int) -> tuple[str, np.ndarray]:
+    names = keys.K_NAMES + tuple(n + "1" for n in keys.STEREO_K) if index == 0 else \
+        tuple(f"{n}{index + 1}" for n in keys.STEREO_K)
+    k_key, K = f.find(names, is_matrix(0))
+    if K is not None and np.size(K if not isinstance(K, dict) else K.get("data", ())) == 4:
+        fx, fy, cx, cy = matrix(K, f"{path}: {k_key}", (4,))   # [fu, fv, pu, pv]
+        K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]
+    if K is None and index == 0:   # K as numbers (vendors' tools)
+        parts = [f.find(n, is_number) for n in (keys.FX, keys.FY, keys.CX, keys.CY)]
+        if all(k is not None for k, _ in parts):
+            k_key = "/".join(k for k, _ in parts)
+            fx, fy, cx, cy = (float(v) for _, v in parts)
+            K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]
     if K is None:
-        raise ConfigError(f"{path}: missing field camera_matrix (K); accepted names: {', '.join(K_KEYS)}")
-    K = _matrix(K, f"{path}: {k_key}", (3, 3))
-    if K[0, 0] <= 0 or K[1, 1] <= 0:
-        raise ConfigError(f"{path}: {k_key}: fx and fy must be > 0")
-    w_key, W = first(W_KEYS, "image_width")
-    h_key, H = first(H_KEYS, "image_height")
+        if index > 0:
+            raise ConfigError(f"{path}: camera {index}: no camera matrix for it (M{index + 1}, K{index + 1} or "
+                              f"cameraMatrix{index + 1}; the file's first camera is camera 0)")
+        raise ConfigError(f"{path}: missing field camera_matrix (K): no camera matrix under any of the names "
+                          f"calibration programs use (camera_matrix, Camera_Matrix, cameraMatrix, K, M1, intrinsics; "
+                          f"or fx, fy, cx, cy){f.near(keys.K_NAMES)}")
+    K = matrix(K, f"{path}: {k_key}", (3, 3))
+    if not K[0, 0] > 0 or not K[1, 1] > 0:
+        raise ConfigError(f"{path}: {k_key}: fx and fy must be > 0, got {K[0, 0]:g} and {K[1, 1]:g}")
+    if not np.array_equal(K[2], [0, 0, 1]) or K[1, 0] != 0:
+        raise ConfigError(f"{path}: {k_key}: not a camera matrix (expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]], "
+                          f"got rows {K[1].tolist()} and {K[2].tolist()})")
+    return k_key, K
+
+
+def _find_dist(f: Fields, path: Path, index: int) -> tuple[str | None, np.ndarray]:
+    names = keys.D_NAMES + tuple(n + "1" for n in keys.STEREO_D) if index == 0 else \
+        tuple(f"{n}{index + 1}" for n in keys.STEREO_D)
+    d_key, D = f.find(names, is_matrix(0))
+    if D is not None:
+        return d_key, matrix(D, f"{path}: {d_key}").ravel()
+    found = [f.find((n,), is_number) for n in keys.D_SCALARS] if index == 0 else []
+    if any(k is not None for k, _ in found):   # k1 k2 p1 p2 [k3 ...]: up to the last one given
+        last = max(i for i, (k, _) in enumerate(found) if k is not None)
+        n = next(c for c in MODELS["pinhole"] if c > last)
+        values = [0.0 if v is None else float(v) for _, v in found[:last + 1]] + [0.0] * (n - last - 1)
+        return "k1/k2/p1/p2", matrix(values, f"{path}: k1/k2/p1/p2")
+    near = f.near(keys.D_NAMES)
+    if near:
+        keys.logger.warning("%s: no distortion coefficients read, so none are applied%s", path, near)
+    return None, np.zeros(0)
+
+
+def _find_size(f: Fields, path: Path) -> tuple[int, int]:
+    w_key, W = f.find(keys.W_NAMES, is_number)
+    h_key, H = f.find(keys.H_NAMES, is_number)
     if W is None or H is None:
-        raise ConfigError(f"{path}: missing field image_width/image_height (the image size)")
-    d_key, D = first(D_KEYS, "distortion_coefficients")
-    dist = np.zeros(0) if D is None else _matrix(D, f"{path}: {d_key}").ravel()
-    m_key, name = first(MODEL_KEYS, "distortion_model")
-    if name is None or name == "":
-        model = "pinhole"
-        if len(dist) not in MODELS["pinhole"]:
-            raise ConfigError(f"{path}: {d_key}: expected 4, 5, 8, 12 or 14 coefficients, got {len(dist)}")
-    else:
-        model = lens_model(name, len(dist), f"{path}: {m_key}")
-    _, err = first(ERR_KEYS, "avg_reprojection_error")
-    R = _matrix(data["R"], f"{path}: R", (3, 3)) if "R" in data and np.size(data["R"]) == 9 else None
-    T = _matrix(data["T"], f"{path}: T").ravel() if "T" in data and np.size(data["T"]) == 3 else None
-    W = whole_number(W, f"{path}: {w_key}", 1, 1_000_000)
-    H = whole_number(H, f"{path}: {h_key}", 1, 1_000_000)
-    return Calibration(W, H, K, dist, None if err is None else float(err), R, T, str(path), model)
+        s_key, size = f.find(keys.SIZE_NAMES, is_matrix(2))
+        if size is None:
+            raise ConfigError(f"{path}: missing field image_width/image_height (the image size; also read as "
+                              f"image_Width/image_Height, imageSize or resolution [width, height])"
+                              f"{f.near(keys.W_NAMES + keys.H_NAMES + keys.SIZE_NAMES)}")
+        w_key = h_key = s_key
+        W, H = (v.item() if isinstance(v, np.generic) else v for v in np.asarray(size).ravel())
+    return (whole_number(W, f"{path}: {w_key}", 1, 1_000_000), whole_number(H, f"{path}: {h_key}", 1, 1_000_000))
 
 
-def _known_keys(data: dict, path: Path) -> None:
-    """Refuse a key no calibration program writes (a misspelt field would be read as absent)."""
-    known = (*K_KEYS, *D_KEYS, *W_KEYS, *H_KEYS, *ERR_KEYS, *MODEL_KEYS, "R", "T", *OTHER_KEYS)
-    for key in data:
-        if key not in known:
-            near = did_you_mean(key, known)
-            raise ConfigError(f"{path}: {key}: not a field of an OpenCV or ROS calibration{near or ''} (it reads "
-                              f"camera_matrix, distortion_coefficients, image_width, image_height, distortion_model, "
-                              f"R, T and the other fields calibration programs write)")
+def _find_model(f: Fields, path: Path, d_key: str | None, dist: np.ndarray) -> str:
+    m_key, name = f.find(keys.MODEL_NAMES, lambda v: isinstance(v, str) and v.strip() != "")
+    if name is None:   # Kalibr-like files say camera_model; OpenCV's tutorial says fisheye_model: 1
+        m_key, name = f.find(("cameramodel",), lambda v: isinstance(v, str) and v.strip().lower() in keys.LENS_NAMES)
+    if name is None:
+        fe_key, fisheye = f.find(keys.FISHEYE_NAMES, lambda v: is_number(v) or isinstance(v, bool))
+        if fisheye:
+            m_key, name = fe_key, "fisheye"
+    if name is not None:
+        return lens_model(name, len(dist), f"{path}: {m_key}")
+    if len(dist) not in MODELS["pinhole"]:
+        raise ConfigError(f"{path}: {d_key}: expected 4, 5, 8, 12 or 14 coefficients, got {len(dist)}")
+    return "pinhole"
+
+
+def _stereo(f: Fields, path: Path, index: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """R, T from this camera to the other of a stereo file (camera 0: the file's own R, T)."""
+    r_key, R = f.find(("r", "rotation"), is_matrix(9))
+    t_key, T = f.find(("t", "translation"), is_matrix(3))
+    if R is None or T is None:
+        return None, None
+    R, T = matrix(R, f"{path}: {r_key}", (3, 3)), matrix(T, f"{path}: {t_key}").ravel()
+    if index == 0:
+        return R, T
+    return R.T, -R.T @ T
+
+
+def _opencv(f: Fields, path: Path, index: int) -> Calibration:
+    _, K = _find_k(f, path, index)
+    d_key, dist = _find_dist(f, path, index)
+    model = _find_model(f, path, d_key, dist)
+    W, H = _find_size(f, path)
+    e_key, err = f.find(keys.ERR_NAMES, is_number)
+    err = float(err) if err is not None and np.isfinite(float(err)) and float(err) >= 0 else None
+    R, T = _stereo(f, path, index)
+    return Calibration(W, H, K, dist, err, R, T, str(path), model)
 
 
 STAMP = "written by genie-gl"

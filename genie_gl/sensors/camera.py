@@ -105,8 +105,9 @@ class Sensor(Camera):
         return cls(**base)
 
     @classmethod
-    def from_opencv(cls, path: str | Path) -> "Sensor":
+    def from_opencv(cls, path: str | Path, *, camera: int | str | None = None) -> "Sensor":
         """An ideal sensor (no noise) with the lens model of a calibration file (OpenCV,
-        ROS camera_info or Kalibr camchain; see :mod:`.calibration`)."""
-        calib = read_calibration(path)
+        ROS camera_info or Kalibr camchain; see :mod:`.calibration`); ``camera``: which
+        camera of a file of several (an index, or a name such as ``cam1``)."""
+        calib = read_calibration(path, camera=camera)
         return cls(calib.width, calib.height, calib.K, calib.dist, name=Path(path).stem, model=calib.model)

@@ -12,7 +12,7 @@ import yaml
 from ..errors import ConfigError, did_you_mean
 from ..resources import read_text, resolve
 from .accuracy import PROFILE_KEYS, from_dict
-from .calibration import Calibration, read_calibration
+from .calibration import Calibration, is_calibration, read_calibration
 from .camera import Sensor, Stereo
 from .effects import build_effects
 
@@ -22,7 +22,7 @@ def calibration_fields(calib: Calibration) -> dict[str, Any]:
     path), ``stereo`` (its R, T) when it is a stereo calibration, ``reprojection_error_px``
     (OpenCV's RMS) when it has one."""
     out: dict[str, Any] = {"calibration": calib.source}
-    if calib.T is not None:
+    if calib.T is not None and calib.baseline_m > 0:   # cameras at one place (a rig's zero offset) are no pair
         out["stereo"] = Stereo(calib.baseline_m, np.eye(3) if calib.R is None else calib.R, calib.T)
     if calib.reprojection_error is not None:
         out["reprojection_error_px"] = float(calib.reprojection_error)
@@ -54,8 +54,8 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({exc})") from None
-    if isinstance(data, dict) and "calibration" not in data and ("cam0" in data or "camera_matrix" in data):
-        calib = read_calibration(path)   # a bare ROS camera_info or Kalibr camchain
+    if is_calibration(data):
+        calib = read_calibration(path)   # a bare ROS camera_info, Kalibr camchain or vendor's file
         return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, name=Path(path).stem,
                       model=calib.model, **calibration_fields(calib))
     if not isinstance(data, dict) or "calibration" not in data:
@@ -64,7 +64,7 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
         if key not in PROFILE_KEYS:
             raise ConfigError(f"{path}: {key}: not a field of a sensor profile{did_you_mean(key, PROFILE_KEYS)} "
                               f"(its fields: {', '.join(PROFILE_KEYS)})")
-    calib = read_calibration(Path(path).parent / data["calibration"])
+    calib = read_calibration(Path(path).parent / data["calibration"], camera=data.get("camera"))
     effects = build_effects(data.get("effects") or [], str(path))
     # the sensor's range (minimum range: nearer surfaces give no return) may be the profile's
     try:

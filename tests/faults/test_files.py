@@ -112,12 +112,13 @@ def test_a_layout_json_nested_too_deeply_is_one_line(tmp_path):
     refused(cli("scene", p, "--out", tmp_path / "s.usda"), "JSON nested too deeply")
 
 
-def write_calibration(path: Path, w=64, h=48, **extra) -> Path:
+def write_calibration(path: Path, w=64, h=48, k_key="camera_matrix", d_key="distortion_coefficients",
+                      **extra) -> Path:
     fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
     fs.write("image_width", w)
     fs.write("image_height", h)
-    fs.write("camera_matrix", np.array([[60.0, 0, 32], [0, 60.0, 24], [0, 0, 1]]))
-    fs.write("distortion_coefficients", np.zeros((5, 1)))
+    fs.write(k_key, np.array([[60.0, 0, 32], [0, 60.0, 24], [0, 0, 1]]))
+    fs.write(d_key, np.zeros((5, 1)))
     for k, v in extra.items():
         fs.write(k, v)
     fs.release()
@@ -174,19 +175,27 @@ def test_a_whole_float_image_size_still_reads(tmp_path):
 
 
 @WRONG
-def test_a_misspelt_calibration_key_is_refused(tmp_path):
-    p = write_calibration(tmp_path / "c.yml", distortion_coefficents=np.zeros((5, 1)))
-    with pytest.raises(gg.ConfigError, match=r"distortion_coefficents: not a field of an OpenCV or ROS calibration; "
-                                             r"did you mean 'distortion_coefficients'"):
+def test_a_misspelt_calibration_key_is_not_read_silently(tmp_path, caplog):
+    """A calibration file belongs to the program that wrote it: a key genie-gl does not know is
+    not read; one that looks like a needed field is named (K: refused; distortion: a warning)."""
+    p = write_calibration(tmp_path / "c.yml", k_key="camera_matirx")
+    with pytest.raises(gg.ConfigError, match=r"c\.yml: missing field camera_matrix .*the file's 'camera_matirx' "
+                                             r"is not read: did you mean 'cameramatrix'"):
         gg.load_sensor(p)
+    p = write_calibration(tmp_path / "d.yml", d_key="distortion_coeficients")
+    with caplog.at_level("WARNING", logger="genie_gl.sensors.calibration"):
+        s = gg.load_sensor(p)
+    assert len(s.dist) == 0
+    assert any("the file's 'distortion_coeficients' is not read" in r.getMessage() for r in caplog.records)
 
 
 @WRONG
 def test_the_keys_calibration_programs_write_are_read(tmp_path):
-    """What OpenCV's calibration sample writes beside K and D is known, not refused."""
+    """What OpenCV's calibration sample writes beside K and D is left unread, not refused."""
     p = write_calibration(tmp_path / "c.yml", calibration_time="Mon", nr_of_frames=25, board_width=9,
                           board_height=6, square_size=0.025, flags=0, avg_reprojection_error=0.3,
-                          per_view_reprojection_errors=np.zeros((25, 1)), extrinsic_parameters=np.zeros((25, 6)))
+                          per_view_reprojection_errors=np.zeros((25, 1)), extrinsic_parameters=np.zeros((25, 6)),
+                          calibration_Time="Mon", nrOfFrames=25, flagValue=14, Image_points=np.zeros((2, 4, 2)))
     assert gg.load_sensor(p).width == 64
 
 
