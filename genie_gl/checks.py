@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -85,6 +86,13 @@ def expect(value: Any, cls: type, where: str) -> Any:
     make = MAKERS.get(cls.__name__)
     hint = f"; make one with {make}" if make else ""
     raise ConfigError(f"{where}: expected a {cls.__name__}, got {describe(value)}{hint}")
+
+
+def expect_path(value: Any, where: str) -> Path:
+    """``value`` (a str or path-like naming a file) as a Path; anything else is refused by name."""
+    if isinstance(value, (str, os.PathLike)) and str(value).strip():
+        return Path(value)
+    raise ConfigError(f"{where}: expected a file name (str or pathlib.Path), got {describe(value)}")
 
 
 def expect_sequence(values: Any, cls: type, where: str) -> list:

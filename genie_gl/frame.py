@@ -69,8 +69,8 @@ class Frame:
 
     @property
     def valid(self) -> np.ndarray:
-        """(H, W) bool: pixels with a return (depth > 0)."""
-        return self.depth > 0
+        """(H, W) bool: pixels with a return (0 < depth < inf)."""
+        return (self.depth > 0) & (self.depth < np.inf)
 
     def replace(self, **changes: Any) -> "Frame":
         """A copy with some fields replaced (effects use this)."""

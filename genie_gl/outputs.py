@@ -114,6 +114,9 @@ def _check_parent_writable(folder: Path, where: str) -> None:
     """Refuse when nothing can be created in ``folder`` (or its nearest existing parent): a
     real probe, since permission bits say nothing of read-only or virtual file systems."""
     for p in (folder, *folder.parents):
+        if p.is_symlink() and not p.exists():   # dangling, or a loop: mkdir would say only "File exists"
+            raise ConfigError(f"{where}: {p} is a symbolic link that leads nowhere (to {os.readlink(p)!r}: missing, "
+                              "or a loop of links); point it at a folder or choose another")
         if p.exists():
             if not p.is_dir():
                 raise ConfigError(f"{where}: not writable ({p} is a file, not a folder)")
@@ -272,6 +275,10 @@ def _claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] =
         owned = frozenset(str(n) for n in previous["outputs"])
     else:  # a manifest of ours from before outputs were recorded: it vouches for the names we write
         owned = frozenset(n for n in writes if n in before)
+    writes = list(writes)
+    for n in writes:   # a name joined to the folder stays inside it
+        if not str(n) or Path(n).is_absolute() or ".." in Path(n).parts:
+            raise ConfigError(f"{where}: will not write {str(n)!r}: a name outside the folder")
     declared = frozenset(Path(n).parts[0] for n in writes)
     taken = sorted(n for n in declared if n in before and n not in owned and n not in _ALWAYS_OURS)
     if taken:

@@ -31,15 +31,23 @@ MAX_RUNS = 2  # a 64-pixel word with more runs of valid pixels than this is writ
 
 @intrinsic
 def _valid64(typingctx, row, start):  # pragma: no cover - compiled
-    """Bit k set where row[start + k] > 0 (ordered: NaN is not valid), k < 64: one vector
-    compare (row float32, contiguous, start + 64 <= len)."""
+    """Bit k set where 0 < row[start + k] < inf (ordered: NaN is not valid, nor is +Inf: no
+    return), k < 64: two vector compares (row float32, contiguous, start + 64 <= len)."""
     def codegen(context, builder, signature, args):
         a, s = args
         data = context.make_array(signature.args[0])(context, builder, a).data
         vty = ir.VectorType(ir.FloatType(), 64)
         vec = builder.load(builder.bitcast(builder.gep(data, [s]), vty.as_pointer()), align=4)
-        return builder.bitcast(builder.fcmp_ordered(">", vec, ir.Constant(vty, [0.0] * 64)), ir.IntType(64))
+        above = builder.fcmp_ordered(">", vec, ir.Constant(vty, [0.0] * 64))
+        below = builder.fcmp_ordered("<", vec, ir.Constant(vty, [float("inf")] * 64))
+        return builder.bitcast(builder.and_(above, below), ir.IntType(64))
     return types.uint64(row, start), codegen
+
+
+@njit(nogil=True, inline="always")
+def has_return(x):  # pragma: no cover - compiled
+    """A depth that is a return: 0 < x < inf (NaN, 0, negatives and +Inf are none)."""
+    return x > 0 and x < np.inf
 
 
 @intrinsic
@@ -123,7 +131,7 @@ def _write(separable, colour, dense, p, q, x0, n, bufs, pose):  # pragma: no cov
             c, r = uint64(3) * n, cs * (p + k)
             for j in range(uint64(3)):
                 co[c + j] = rgb[r + j]
-        n += uint64(d[p + k] > 0)
+        n += uint64(has_return(d[p + k]))
     return int64(n)
 
 
@@ -193,7 +201,7 @@ _KERNELS = {(s, c): _make(s, c) for s in (True, False) for c in (True, False)}
 
 
 def unproject(depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out, rgb_out) -> int:
-    """Write the points of the valid pixels (depth > 0) of one frame, in pixel order; returns
+    """Write the points of the valid pixels (0 < depth < inf) of one frame, in pixel order; returns
     their number n. The outputs need room for n + 1 points (the spare slot of the branch-free
     compaction), xyz for n + 2 (see :func:`_write`).
 
@@ -264,7 +272,7 @@ def _make_tilers(separable: bool):
             _row_points(separable, v, W, d, tx, ty, M, inv, rows, False)
             a, b, inside, run = np.int64(0), np.int64(0), False, 0  # the current tile, its count
             for u in range(W):
-                if not d[v * W + u] > 0:
+                if not has_return(d[v * W + u]):
                     continue
                 au, bu = ka[u] - i0, kb[u] - j0
                 if inside and au == a and bu == b:
@@ -297,7 +305,7 @@ def _make_tilers(separable: bool):
         for v in range(H):
             _row_points(separable, v, W, d, tx, ty, M, inv, rows)
             for u in range(W):
-                if not d[v * W + u] > 0:
+                if not has_return(d[v * W + u]):
                     continue
                 au, bu = ka[u] - i0, kb[u] - j0
                 if au != a or bu != b:
@@ -331,7 +339,7 @@ def _make_tilers(separable: bool):
         for v in range(H):
             _row_points(separable, v, W, d, tx, ty, M, inv, rows, False)
             for u in range(W):
-                if d[v * W + u] > 0:
+                if has_return(d[v * W + u]):
                     i0, i1, j0, j1 = min(i0, ka[u]), max(i1, ka[u]), min(j0, kb[u]), max(j1, kb[u])
         return i0, i1, j0, j1
 
@@ -350,12 +358,12 @@ def _count_valid(depth):  # pragma: no cover - compiled
         n += int64(_popcount(_valid64(d, c)))
         c += 64
     for k in range(c, d.shape[0]):
-        n += d[k] > 0
+        n += has_return(d[k])
     return n
 
 
 def count_valid(depth: np.ndarray) -> int:
-    """The number of valid pixels (depth > 0; NaN is not valid), as :func:`unproject` counts
+    """The number of valid pixels (0 < depth < inf; NaN is not valid), as :func:`unproject` counts
     them: 64 pixels per vector compare, ~10x faster than ``np.count_nonzero`` on float32."""
     return int(_count_valid(np.ascontiguousarray(depth, np.float32)))
 

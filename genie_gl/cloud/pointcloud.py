@@ -53,6 +53,18 @@ class PointCloud:
         """(N, 3) float64 absolute world coordinates."""
         return self.xyz.astype(np.float64) + self.origin
 
+    def finite(self) -> np.ndarray:
+        """(N,) bool: the points whose coordinates (and origin) are finite."""
+        if not np.isfinite(self.origin).all():
+            return np.zeros(len(self), bool)
+        return np.isfinite(self.xyz).all(axis=1)
+
+    def non_finite(self) -> int:
+        """How many points have a NaN or infinite coordinate (0 for a cloud fit to write)."""
+        if not np.isfinite(self.origin).all():
+            return len(self)
+        return 0 if np.isfinite(self.xyz).all() else int(len(self) - self.finite().sum())
+
     def select(self, index: Any) -> "PointCloud":
         """The points at ``index`` (boolean mask or integer indices)."""
         kw = {f.name: (getattr(self, f.name)[index] if getattr(self, f.name) is not None else None)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
-from .kernels import _frame_rows, _row_points
+from .kernels import _frame_rows, _row_points, has_return
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
@@ -58,7 +58,7 @@ def _make_runners(separable: bool):
             a, b, inside, run = np.int64(0), np.int64(0), False, 0  # the current tile, its count
             first = last = 0   # the current tile's first and last valid pixel in the row
             for u in range(W):
-                if not d[row + u] > 0:
+                if not has_return(d[row + u]):
                     continue
                 au, bu = ka[u] - i0, kb[u] - j0
                 if inside and au == a and bu == b:
@@ -122,7 +122,7 @@ def _make_runners(separable: bool):
                 if holes:   # walk to the run's i-th valid pixel
                     while j < i:
                         p += 1
-                        if d[p] > 0:
+                        if has_return(d[p]):
                             j += 1
                 else:
                     p = p0 + i

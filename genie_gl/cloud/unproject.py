@@ -103,7 +103,7 @@ def unproject_into(frame: Frame, origin: np.ndarray, xyz: np.ndarray, semantic: 
 
 def world_normals(frame: Frame) -> np.ndarray:
     """(n, 3) float32 world-frame normals of the valid pixels, in pixel order."""
-    return rotate(frame.normal[frame.depth > 0], frame.world_from_camera)
+    return rotate(frame.normal[frame.valid], frame.world_from_camera)
 
 
 def rotate(v: np.ndarray, pose: np.ndarray) -> np.ndarray:
@@ -114,7 +114,7 @@ def rotate(v: np.ndarray, pose: np.ndarray) -> np.ndarray:
 
 
 def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: int | None = None) -> PointCloud:
-    """The world-frame points of ``frame``'s valid pixels (depth > 0), relative to ``origin``."""
+    """The world-frame points of ``frame``'s valid pixels (0 < depth < inf), relative to ``origin``."""
     origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
     n = kernels.count_valid(frame.depth)
     xyz = np.empty((n + 2, 3), np.float32)

@@ -30,7 +30,7 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt
 
 from .. import __version__, labels
-from ..checks import MAX_COORD_M
+from ..checks import MAX_COORD_M, expect, expect_path, whole_number
 from ..limits import MAX_INSTANCES, check_instances
 from ..errors import ConfigError
 from ..outputs import check_replaceable, written
@@ -55,7 +55,8 @@ def written_by_genie(path: str | os.PathLike) -> bool:
 
 def write_usd(scene: Scene, path: str | os.PathLike) -> Path:
     """Write ``scene`` to ``path`` (.usda text or .usd/.usdc binary), via a temporary file."""
-    path = Path(path)
+    expect(scene, Scene, "write_usd: scene")
+    path = expect_path(path, "write_usd: path")
     if path.suffix not in (".usda", ".usdc", ".usd"):
         raise ConfigError(f"{path}: USD files end in .usda, .usdc or .usd")
     check_replaceable(path, written_by_genie, what="USD scene")
@@ -245,9 +246,10 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     than ``max_instances`` instances (a point instancer's are counted before any is read) is
     refused (:class:`~genie_gl.errors.LimitError`).
     """
-    if int(segments) < 3:
-        raise ConfigError(f"{path}: segments must be >= 3 (segments per circle), got {segments}")
-    path = Path(path)
+    path = expect_path(path, "read_usd: path")
+    if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or segments < 3:
+        raise ConfigError(f"read_usd: segments must be an integer >= 3 (segments per circle), got {segments!r}")
+    max_instances = whole_number(max_instances, "read_usd: max_instances", 1)
     if not path.is_file():
         raise ConfigError(f"{path}: no such USD file")
     try:

@@ -26,6 +26,7 @@ from typing import Any
 
 import yaml
 
+from ..checks import expect_path
 from ..errors import ConfigError, did_you_mean
 from ..outputs import atomic_write_text, check_replaceable
 
@@ -150,7 +151,7 @@ def from_dict(data: Any, where: str) -> AccuracySettings:
 def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
     """Settings from a YAML or JSON file holding an ``accuracy:`` block (a profile, or what
     ``genie bench accuracy --budget-mm`` wrote), or the bare mapping."""
-    p = Path(path)
+    p = expect_path(path, "accuracy")
     try:
         data = yaml.safe_load(p.read_text())   # JSON is YAML
     except OSError as exc:

@@ -24,7 +24,7 @@ import numpy as np
 import yaml
 
 from ..camera import MODELS
-from ..checks import whole_number
+from ..checks import expect, expect_path, whole_number
 from ..errors import ConfigError
 from ..outputs import check_replaceable
 from . import calibration_keys as keys
@@ -103,7 +103,7 @@ def read_calibration(path: str | os.PathLike, *, camera: int | str | None = None
         camchain's own names; 0 and 1 are the cameras 1 and 2 of an OpenCV stereo file, M1/D1
         and M2/D2). None: the first.
     """
-    path = Path(path)
+    path = expect_path(path, "calibration")
     if not path.is_file():
         raise ConfigError(f"{path}: no such calibration file")
     data = _read_data(path)
@@ -226,7 +226,8 @@ def _written_by_genie(path: Path) -> bool:
 def write_calibration(calib: Calibration, path: str | os.PathLike) -> Path:
     """Write OpenCV FileStorage YAML (.yml/.yaml) or XML (.xml) with OpenCV's key names. An
     existing file is replaced only when genie-gl wrote it (a comment says so)."""
-    path = check_replaceable(path, _written_by_genie, what="calibration")
+    expect(calib, Calibration, "write_calibration: calib")
+    path = check_replaceable(expect_path(path, "write_calibration: path"), _written_by_genie, what="calibration")
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
     fs.writeComment(STAMP)
