@@ -76,6 +76,19 @@ def missing_package(name: str) -> str:
     return f"needs the Python package {top!r}, which is not installed here; {how}"
 
 
+# what a command stopped half-way leaves: the workers some commands start, and which resume
+WORKERS = ("capture", "dataset", "eval", "bench")
+
+
+def stopped_message(command: str, by_sigterm: bool) -> str:
+    """The line a command stopped by SIGINT or SIGTERM prints: what it stopped, what it kept
+    and (``genie dataset`` alone) that running it again resumes."""
+    how = "stopped by SIGTERM" if by_sigterm else "interrupted"
+    workers = "its workers are stopped and " if command in WORKERS else ""
+    resume = "; the same command run again resumes the dataset" if command == "dataset" else ""
+    return f"{how}; {workers}what was written whole is kept, nothing half-written{resume}"
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(command_of(argv))
@@ -119,9 +132,7 @@ def main(argv: list[str] | None = None) -> int:
               "a smaller sensor) or lower the limits (--max-memory-gb where the command has it)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        how = "stopped by SIGTERM" if stopped else "interrupted"
-        print(f"genie {args.command}: {how}; its workers are stopped and what was written whole is kept (a dataset "
-              "resumes when the same command runs again)", file=sys.stderr)
+        print(f"genie {args.command}: {stopped_message(args.command, bool(stopped))}", file=sys.stderr)
         return 128 + (stopped[0] if stopped else signal.SIGINT)
     finally:
         if previous is not None:

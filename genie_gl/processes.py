@@ -11,10 +11,14 @@ elsewhere nothing).
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import os
 import signal
 import sys
+import threading
+from collections.abc import Callable, Iterator
+from typing import Any
 
 from numba.core import event
 
@@ -35,6 +39,53 @@ def die_with_parent(parent: int | None = None) -> bool:
     if os.getppid() == 1 or (parent is not None and os.getppid() != parent):   # it died before the request
         os._exit(1)
     return True
+
+
+@contextlib.contextmanager
+def pool_started(make: Callable[[], Any]) -> Iterator[Any]:
+    """The pool ``make()`` makes, made where no Ctrl-C reaches it; terminated when the block
+    ends (as ``with pool:`` would).
+
+    A Ctrl-C reaches the whole process group: a worker still unpickling its start-up data
+    would print a ``KeyboardInterrupt`` traceback, and a leader interrupted half-way through
+    making its pool would leave the workers it had started to fail on its vanished pipes
+    (``EOFError``, ``UnpicklingError``, ``FileNotFoundError`` in ``spawn_main``). So the pool is
+    made in a thread of its own with SIGINT blocked: no ``KeyboardInterrupt`` can land in the
+    middle of it, and its workers inherit the blocked signal and never see one (their leader
+    ends them: the pool's ``terminate``, or the kernel when it dies). The leader's interrupt
+    lands in its main thread, which waits for the pool to be whole, terminates it and goes on
+    unwinding."""
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        with make() as pool:
+            yield pool
+        return
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()   # it unblocks SIGINT once it has started its own process: start it first
+    box: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            box["pool"] = make()
+        except BaseException as exc:   # noqa: BLE001  (handed to the main thread as it is)
+            box["error"] = exc
+
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:   # the thread inherits the blocked signal; the main thread gets it back at once
+        maker = threading.Thread(target=run, name="genie-gl pool maker", daemon=True)
+        maker.start()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    try:
+        while maker.is_alive():
+            maker.join(0.05)
+        if "error" in box:
+            raise box["error"]
+        yield box["pool"]
+    finally:
+        maker.join()
+        if "pool" in box:
+            box["pool"].terminate()
 
 
 _SAID: list[str] = []

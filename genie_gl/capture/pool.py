@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..frame import Frame
-from ..processes import die_with_parent
+from ..processes import die_with_parent, pool_started
 from ..render.context import default_backend
 from ..render.lod import LevelOfDetail
 from ..render.renderer import Renderer
@@ -49,8 +49,8 @@ def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray]
     lp_threads = max(1, (os.cpu_count() or 1) // workers)
     backend = backend or default_backend()   # the parent's choice, handed to each worker
     ctx = mp.get_context("spawn")
-    with ctx.Pool(workers, initializer=_worker_init,
-                  initargs=(scene, backend, lp_threads, depth_precision, level_of_detail(accuracy))) as pool:
+    initargs = (scene, backend, lp_threads, depth_precision, level_of_detail(accuracy))
+    with pool_started(lambda: ctx.Pool(workers, initializer=_worker_init, initargs=initargs)) as pool:
         parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, accuracy, depth_only, plan,
                                            materials) for c in chunks])
     frames: list[Frame | None] = [None] * n

@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     from ..outputs import claim_folder
     from ..scene.usd import read_usd
     from ..sensors import load_sensor
-    from ..sensors.placement import scene_poses
+    from ..sensors.placement import scene_poses, sensor_range
 
     if args.format not in FORMATS:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"
@@ -66,9 +66,11 @@ def run(args: argparse.Namespace) -> int:
         step("cloud")
         cloud = to_cloud(frames)
         if not len(cloud):
+            lo, hi = sensor_range(sensor) or (sensor.near_m, sensor.far_m)   # the profile's range, not the clip's
+            lo, hi = max(lo, sensor.near_m), min(hi, sensor.far_m)
             raise ConfigError(f"{args.scene}: no point captured: none of the {len(frames)} cameras of sensor "
-                              f"{args.sensor} ({sensor.width}x{sensor.height} px, range {sensor.near_m:g}-"
-                              f"{sensor.far_m:g} m) saw a surface; check --mount, --poses and the sensor")
+                              f"{args.sensor} ({sensor.width}x{sensor.height} px, range {lo:g}-{hi:g} m) saw a "
+                              "surface; check --mount, --poses and the sensor")
         step("export")
         folder.reserve()
         path = fmt.write_cloud(cloud, folder.path, name="cloud")

@@ -64,6 +64,12 @@ def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
         if cls is None:
             raise ConfigError(f"{where}: effects[{i}].type: unknown effect {spec['type']!r}"
                               f"{did_you_mean(spec['type'], EFFECTS)} (known: {', '.join(sorted(EFFECTS))})")
+        names = [f.name for f in dataclasses.fields(cls)]
+        for key in params:   # our own file: a key the effect does not take is a typo, refused by name
+            if key not in names:
+                raise ConfigError(f"{where}: effects[{i}] ({spec['type']}).{key}: not a parameter of the "
+                                  f"{spec['type']!r} effect{did_you_mean(str(key), names)} (its parameters: "
+                                  f"{', '.join(names) or 'none'})")
         for f in dataclasses.fields(cls):  # a number where the effect expects one, before it looks
             d, v = f.default, params.get(f.name)
             if f.name in params and isinstance(d, (int, float)) and not isinstance(d, bool) and \
@@ -78,6 +84,13 @@ def build_effects(specs: list[Any], where: str) -> tuple[Effect, ...]:
 
 
 SIGNED = {"bias_m", "axis"}  # parameters that may be negative
+# the largest value a parameter of each kind takes in any real sensor (past it is a typo, or an
+# overflow waiting in a kernel: 1e300 px of disparity noise is metres beyond any frame), by
+# the parameter's name: (suffix or name, ceiling, unit)
+CEILINGS = (("_deg", 90.0, "degrees"), ("_mhz", 1e4, "MHz"), ("_mm", 1e7, "mm"), ("_m", 1e5, "m"),
+            ("_px", 1e4, "px"), ("_step", 10.0, "px"), ("_rel", 10.0, "(a share)"), ("probability", 1.0, ""),
+            ("subpixel", 10.0, "px"), ("albedo", 1.0, ""), ("roughness", 1.0, ""))
+ANY_CEILING = 1e6   # any other number (a count, a coefficient)
 
 
 def _magnitude(name: str) -> bool:
@@ -107,6 +120,13 @@ def _check_numbers(e: Effect, where: str) -> None:
                 raise ConfigError(f"{where}.{f.name}: expected a probability in [0, 1], got {v!r}")
             if f.name.endswith("_deg") and x > 90:
                 raise ConfigError(f"{where}.{f.name}: expected an angle in [0, 90] degrees, got {v!r}")
+            if math.isinf(x) and d == math.inf:
+                continue   # "no bound" where the default is no bound (the range's max_m)
+            hi, unit = next(((c, u) for key, c, u in CEILINGS if f.name.endswith(key) or f.name == key),
+                            (ANY_CEILING, ""))
+            if not abs(x) <= hi:
+                raise ConfigError(f"{where}.{f.name}: expected a value of at most {hi:g}{' ' + unit if unit else ''} "
+                                  f"(beyond any real sensor), got {v!r:.40}")
     lo, hi = getattr(e, "min_m", None), getattr(e, "max_m", None)
     if lo is not None and hi is not None and lo > hi:
         raise ConfigError(f"{where}: min_m {lo} is above max_m {hi}; expected min_m <= max_m")

@@ -150,8 +150,19 @@ def read_waypoints(path: str | os.PathLike) -> np.ndarray:
                 raise ConfigError(f"{path}:{n}: expected two numbers 'x y' (metres), got {' '.join(line)!r}") from None
             rows.append((x, y))
         pts = np.array(rows, np.float64).reshape(-1, 2)
-    if len(pts) < 2 or not np.all(np.isfinite(pts)):
-        raise ConfigError(f"{path}: expected at least two finite waypoints, got {len(pts)}")
+    return check_waypoints(pts, str(path))
+
+
+def check_waypoints(pts: np.ndarray, source: str) -> np.ndarray:
+    """``pts`` (n, 2) when they are at least two waypoints, all finite; one line naming the
+    first NaN or infinite one (1-based) otherwise."""
+    bad = np.flatnonzero(~np.isfinite(pts).all(axis=1)) if pts.ndim == 2 and pts.shape[1:] == (2,) else []
+    if len(bad):
+        k = int(bad[0])
+        raise ConfigError(f"{source}: waypoint {k + 1} ({pts[k, 0]:g}, {pts[k, 1]:g}) is not a finite point; "
+                          f"expected x y in metres ({len(bad)} of the {len(pts)} waypoints are NaN or infinite)")
+    if pts.ndim != 2 or pts.shape[1:] != (2,) or len(pts) < 2:
+        raise ConfigError(f"{source}: expected at least two waypoints (x y in metres), got {len(pts)}")
     return pts
 
 
@@ -204,7 +215,11 @@ def route(floor: FreeFloor, path: str = "aisles", *, rng: np.random.Generator, w
         source = "waypoints"
         if isinstance(waypoints, (str, os.PathLike)):
             source, waypoints = str(waypoints), read_waypoints(waypoints)
-        return waypoint_route(floor, np.asarray(waypoints, np.float64), source=source)
+        try:
+            pts = np.asarray(waypoints, np.float64)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{source}: expected an (n, 2) array of waypoints (metres)") from None
+        return waypoint_route(floor, check_waypoints(pts, source), source=source)
     raise ConfigError(f"path {path!r}: unknown{did_you_mean(str(path), PATHS)}; expected one of {', '.join(PATHS)} "
                       "(waypoints: give the file)")
 
@@ -222,7 +237,8 @@ def make_trajectory(layout, scene=None, path: str = "aisles", *, seed: int = 0, 
     motion : "person", "robot" or a :class:`~.motion.Motion` (speed, height, turning rate,
         acceleration, body radius).
     length_m : stop the route once it is this long (random walk: default 60 m).
-    duration_s : keep the first this many seconds.
+    duration_s : keep the first this many seconds; a route that ends sooner is walked there
+        and back until it lasts them.
     floor : a :class:`FreeFloor` already made for this layout/scene and motion's radius.
     """
     expect(layout, Layout, "make_trajectory: layout")
@@ -247,5 +263,22 @@ def make_trajectory(layout, scene=None, path: str = "aisles", *, seed: int = 0, 
     if duration_s is not None:
         if not duration_s > 0:
             raise ConfigError(f"trajectory: duration_s must be > 0, got {duration_s}")
+        if traj.duration_s < duration_s:
+            traj = _lasting(floor, legs, m, traj, duration_s)
         traj = traj.crop(duration_s)
     return traj
+
+
+def _lasting(floor: FreeFloor, legs: list[np.ndarray], motion: Motion, once: Trajectory,
+             duration_s: float) -> Trajectory:
+    """The route walked there and back (and there again, ...) until it lasts ``duration_s``:
+    a route shorter than the time asked for is patrolled, not cut short (the meta's ``laps``
+    counts the walks along it)."""
+    back = [leg[::-1] for leg in legs[::-1]]
+    laps = max(2, int(np.ceil(duration_s / max(once.duration_s, 1e-9))) + 1)
+    while True:
+        route = [leg for k in range(laps) for leg in (legs if k % 2 == 0 else back)]
+        traj = follow(floor, route, motion, meta={**once.meta, "laps": laps})
+        if traj.duration_s >= duration_s or laps > 4 * MAX_DURATION_S:
+            return traj
+        laps *= 2

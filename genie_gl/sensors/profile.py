@@ -9,12 +9,16 @@ import cv2
 import numpy as np
 import yaml
 
+from ..checks import finite_number
 from ..errors import ConfigError, did_you_mean
 from ..resources import read_text, resolve
 from .accuracy import PROFILE_KEYS, from_dict
 from .calibration import Calibration, is_calibration, read_calibration
 from .camera import Sensor, Stereo
 from .effects import build_effects
+
+
+MAX_RANGE_M = 1e5   # the farthest range of any sensor a profile may describe
 
 
 def calibration_fields(calib: Calibration) -> dict[str, Any]:
@@ -67,17 +71,15 @@ def _load_sensor(path: Path, near_m: float, far_m: float) -> Sensor:
     calib = read_calibration(Path(path).parent / data["calibration"], camera=data.get("camera"))
     effects = build_effects(data.get("effects") or [], str(path))
     # the sensor's range (minimum range: nearer surfaces give no return) may be the profile's
-    try:
-        near_m, far_m = float(data.get("near_m", near_m)), float(data.get("far_m", far_m))
-    except (TypeError, ValueError):
-        raise ConfigError(f"{path}: near_m and far_m must be numbers (metres), got {data.get('near_m')!r}, "
-                          f"{data.get('far_m')!r}") from None
+    # the sensor's range (a real sensor's: metres to kilometres) and a stereo baseline (cm to m)
+    if "near_m" in data:
+        near_m = finite_number(data["near_m"], f"{path}: near_m (m)", 0.0, 1e3, lo_open=True)
+    if "far_m" in data:
+        far_m = finite_number(data["far_m"], f"{path}: far_m (m)", 0.0, MAX_RANGE_M, lo_open=True)
     fields = calibration_fields(calib)
     if calib.T is None and data.get("baseline_m") is not None:
-        try:
-            fields["stereo"] = Stereo(float(data["baseline_m"]))
-        except (TypeError, ValueError):
-            raise ConfigError(f"{path}: baseline_m must be a number (metres), got {data['baseline_m']!r}") from None
+        fields["stereo"] = Stereo(finite_number(data["baseline_m"], f"{path}: baseline_m (m)", 0.0, 100.0,
+                                                lo_open=True))
     accuracy = None if data.get("accuracy") is None else from_dict(data["accuracy"], str(path))
     return Sensor(calib.width, calib.height, calib.K, calib.dist, near_m, far_m, effects,
                   name=str(data.get("name", Path(path).stem)), model=calib.model, profile=str(path),

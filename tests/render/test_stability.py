@@ -359,7 +359,7 @@ def test_a_profile_sets_the_sensors_range(tmp_path):
     s = gg.load_sensor(tmp_path / "p.yaml")
     assert (s.near_m, s.far_m, s.clip_near_m) == (0.2, 12.0, 0.2 / 1024)
     (tmp_path / "bad.yaml").write_text("name: p\ncalibration: cam.yaml\nnear_m: close\n")
-    with pytest.raises(gg.ConfigError, match="bad.yaml: near_m and far_m must be numbers"):
+    with pytest.raises(gg.ConfigError, match=r"bad.yaml: near_m \(m\): expected a finite number in \(0, 1000\], got 'close'"):
         gg.load_sensor(tmp_path / "bad.yaml")
 
 
