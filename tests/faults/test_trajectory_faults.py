@@ -48,7 +48,6 @@ def test_a_duration_longer_than_the_route_is_what_is_made(hall, path, tmp_path):
     np.testing.assert_allclose(tr.positions[:n - 1], once.positions[:n - 1], atol=1e-9)
 
 
-@WRONG
 def test_a_shorter_duration_still_crops(hall):
     layout, scene, floor = hall
     once = make_trajectory(layout, scene, "waypoints", waypoints=two_points(floor), floor=floor)
