@@ -14,7 +14,6 @@ from genie_gl.cli import stopped_message
 from .common import cli, fault, refused, write_calibration
 
 BAD = fault("bad file", "traceback")
-WRONG = fault("bad file", "wrong")
 
 
 def profile(tmp_path, effects=None, **fields):
@@ -84,7 +83,6 @@ def test_an_unknown_key_in_an_effect_is_a_did_you_mean(tmp_path, effect, key, ne
     assert "__init__" not in msg and "unexpected keyword" not in msg
 
 
-@WRONG
 def test_the_shipped_profiles_are_within_the_bounds():
     for name in ("kinect_v2", "realsense_d435", "azure_kinect_nfov", "zivid2_m70", "ideal_pinhole", "cube_face"):
         assert gg.load_sensor(name).width > 0
