@@ -89,6 +89,18 @@ def stopped_message(command: str, by_sigterm: bool) -> str:
     return f"{how}; {workers}what was written whole is kept, nothing half-written{resume}"
 
 
+def interrupted(exc: BaseException) -> bool:
+    """True when a KeyboardInterrupt lies behind ``exc`` (a library that turned the interrupt
+    into an error of its own: numba interrupted while it compiles a kernel)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(command_of(argv))
@@ -132,6 +144,11 @@ def main(argv: list[str] | None = None) -> int:
               "a smaller sensor) or lower the limits (--max-memory-gb where the command has it)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        print(f"genie {args.command}: {stopped_message(args.command, bool(stopped))}", file=sys.stderr)
+        return 128 + (stopped[0] if stopped else signal.SIGINT)
+    except Exception as exc:   # noqa: BLE001  (re-raised unless an interrupt caused it)
+        if not interrupted(exc):
+            raise
         print(f"genie {args.command}: {stopped_message(args.command, bool(stopped))}", file=sys.stderr)
         return 128 + (stopped[0] if stopped else signal.SIGINT)
     finally:

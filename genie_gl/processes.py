@@ -70,20 +70,21 @@ def pool_started(make: Callable[[], Any]) -> Iterator[Any]:
         except BaseException as exc:   # noqa: BLE001  (handed to the main thread as it is)
             box["error"] = exc
 
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:   # the thread inherits the blocked signal; the main thread gets it back at once
-        maker = threading.Thread(target=run, name="genie-gl pool maker", daemon=True)
-        maker.start()
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    maker = threading.Thread(target=run, name="genie-gl pool maker", daemon=True)
     try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:   # the thread inherits the blocked signal; the main thread gets it back at once
+            maker.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
         while maker.is_alive():
             maker.join(0.05)
         if "error" in box:
             raise box["error"]
         yield box["pool"]
-    finally:
-        maker.join()
+    finally:   # an interrupt anywhere above, even inside start(): the pool is made whole, then ended
+        with contextlib.suppress(RuntimeError):   # a thread that never started
+            maker.join()
         if "pool" in box:
             box["pool"].terminate()
 

@@ -9,7 +9,7 @@ import trimesh
 import yaml
 
 import genie_gl as gg
-from genie_gl.cli import stopped_message
+from genie_gl.cli import interrupted, stopped_message
 
 from .common import cli, fault, refused, write_calibration
 
@@ -115,3 +115,18 @@ def test_a_stopped_command_says_what_it_keeps_and_only_a_dataset_resumes(command
         assert line.startswith("stopped by SIGTERM" if sigterm else "interrupted")
         assert ("resumes" in line) == resumes and ("workers" in line) == workers
         assert "what was written whole is kept" in line
+
+
+@fault("signal", "traceback")
+def test_an_interrupt_a_library_turned_into_its_own_error_is_still_an_interrupt():
+    """numba interrupted while it compiles raises RuntimeError("no compiled object yet ...")
+    from the KeyboardInterrupt: the CLI says "interrupted", not a traceback."""
+    def compile_kernel():
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise RuntimeError("no compiled object yet for <Library 'evolve'>")   # as numba's cache does
+
+    with pytest.raises(RuntimeError) as e:
+        compile_kernel()
+    assert interrupted(e.value) and not interrupted(RuntimeError("a bug")) and not interrupted(ValueError())
