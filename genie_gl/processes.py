@@ -18,6 +18,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable, Iterator
+from multiprocessing import resource_tracker
 from typing import Any
 
 from numba.core import event
@@ -59,8 +60,6 @@ def pool_started(make: Callable[[], Any]) -> Iterator[Any]:
         with make() as pool:
             yield pool
         return
-    from multiprocessing import resource_tracker
-
     resource_tracker.ensure_running()   # it unblocks SIGINT once it has started its own process: start it first
     box: dict[str, Any] = {}
 
