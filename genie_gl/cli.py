@@ -16,6 +16,7 @@ import os
 import signal
 import sys
 import threading
+from typing import Any
 
 from . import __version__
 from .errors import GenieError, os_error_message
@@ -120,7 +121,13 @@ def main(argv: list[str] | None = None) -> int:
         stopped.append(signum)
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, stop) if threading.current_thread() is threading.main_thread() else None
+    def unraisable(info: Any) -> None:   # an interrupt inside a C callback (numba compiling) is no error
+        if not isinstance(info.exc_value, KeyboardInterrupt):
+            sys.__unraisablehook__(info)
+
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = {s: signal.signal(s, stop) for s in (signal.SIGTERM, signal.SIGINT)} if main_thread else {}
+    sys.unraisablehook = unraisable
     try:
         backend = os.environ.get("GENIE_GL_BACKEND")
         if backend:
@@ -144,16 +151,19 @@ def main(argv: list[str] | None = None) -> int:
               "a smaller sensor) or lower the limits (--max-memory-gb where the command has it)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"genie {args.command}: {stopped_message(args.command, bool(stopped))}", file=sys.stderr)
-        return 128 + (stopped[0] if stopped else signal.SIGINT)
-    except Exception as exc:   # noqa: BLE001  (re-raised unless an interrupt caused it)
-        if not interrupted(exc):
+        by = stopped[0] if stopped else signal.SIGINT
+        print(f"genie {args.command}: {stopped_message(args.command, by == signal.SIGTERM)}", file=sys.stderr)
+        return 128 + by
+    except Exception as exc:   # noqa: BLE001  (re-raised unless a signal caused it)
+        if not (stopped or interrupted(exc)):   # a library may turn the interrupt into an error of its own
             raise
-        print(f"genie {args.command}: {stopped_message(args.command, bool(stopped))}", file=sys.stderr)
-        return 128 + (stopped[0] if stopped else signal.SIGINT)
+        by = stopped[0] if stopped else signal.SIGINT
+        print(f"genie {args.command}: {stopped_message(args.command, by == signal.SIGTERM)}", file=sys.stderr)
+        return 128 + by
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = sys.__unraisablehook__
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 if __name__ == "__main__":

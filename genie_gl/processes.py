@@ -55,35 +55,55 @@ def pool_started(make: Callable[[], Any]) -> Iterator[Any]:
     middle of it, and its workers inherit the blocked signal and never see one (their leader
     ends them: the pool's ``terminate``, or the kernel when it dies). The leader's interrupt
     lands in its main thread, which waits for the pool to be whole, terminates it and goes on
-    unwinding."""
+    unwinding (an interrupt that comes while the maker thread starts is held and raised once
+    it has: one raised inside ``Thread.start`` would leave it making a pool no one ends)."""
     if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
         with make() as pool:
             yield pool
         return
     resource_tracker.ensure_running()   # it unblocks SIGINT once it has started its own process: start it first
     box: dict[str, Any] = {}
+    done = threading.Event()   # waited on, not join(): a join interrupted by Ctrl-C can mark a live thread stopped
 
     def run() -> None:
         try:
             box["pool"] = make()
         except BaseException as exc:   # noqa: BLE001  (handed to the main thread as it is)
             box["error"] = exc
+        finally:
+            done.set()
 
     maker = threading.Thread(target=run, name="genie-gl pool maker", daemon=True)
+    held: list[int] = []
+
+    def hold(signum: int, frame: object) -> None:
+        held.append(signum)
+
+    # While the maker starts, an interrupt is recorded, not raised: one raised inside start()
+    # would leave a thread making a pool that no one ends. (One raised before this line finds
+    # nothing started.)
+    previous = {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:   # the thread inherits the blocked SIGINT; the main thread gets it back at once
+        maker.start()
+    except BaseException:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        raise
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
     try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:   # the thread inherits the blocked signal; the main thread gets it back at once
-            maker.start()
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
-        while maker.is_alive():
-            maker.join(0.05)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for sig in held[:1]:   # the interrupt that came meanwhile, through the caller's handler
+            signal.raise_signal(sig)
+        while not done.wait(0.05):
+            pass
         if "error" in box:
             raise box["error"]
         yield box["pool"]
-    finally:   # an interrupt anywhere above, even inside start(): the pool is made whole, then ended
-        with contextlib.suppress(RuntimeError):   # a thread that never started
-            maker.join()
+    finally:   # an interrupt anywhere above: the pool is made whole, then ended
+        done.wait()
         if "pool" in box:
             box["pool"].terminate()
 
