@@ -161,7 +161,8 @@ RECHECK_WORKER = r"""
 import json, os, signal, sys
 import pytest
 job = json.load(open(sys.argv[1]))
-args = ["--rootdir=.", "-p", "no:xdist", "-p", "no:cacheprovider", "-p", "no:randomly", "-q", "-m", "not slow"]
+args = ["--rootdir=.", "-p", "no:xdist", "-p", "no:cacheprovider", "-p", "no:randomly", "-q",
+        "-m", "not slow"]
 out, err = os.dup(1), os.dup(2)
 null = os.open(os.devnull, os.O_WRONLY)
 os.dup2(null, 1); os.dup2(null, 2)

@@ -55,7 +55,8 @@ def pytest_collection_finish(session):
     for name in ("genie_gl", "tests"):
         mod = sys.modules.get(name)
         if mod is None or HERE not in Path(mod.__file__).resolve().parents:
-            pytest.exit(f"{name} imported from {getattr(mod, '__file__', None)}, not from {HERE}", returncode=4)
+            where = getattr(mod, '__file__', None)
+            pytest.exit(f"{name} imported from {where}, not from {HERE}", returncode=4)
 
 
 def pytest_collectreport(report):

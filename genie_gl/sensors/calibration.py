@@ -98,7 +98,7 @@ def _read_filestorage(path: Path) -> dict:
     root = fs.root()
     for key in root.keys():
         node = fs.getNode(key)
-        if node.isMap() and not node.mat() is None:
+        if node.isMap() and node.mat() is not None:
             out[key] = node.mat()
         elif node.isInt() or node.isReal():
             out[key] = node.real()
