@@ -54,7 +54,8 @@ $(STAMP): pyproject.toml
 
 setup: $(STAMP) ## install system libraries, create .venv and install genie-gl with its test extras
 
-test: setup ## run the test suite (real GL on EGL/llvmpipe); tests marked slow are left to test-slow
+test: setup ## ruff check, then the test suite (real GL on EGL/llvmpipe); tests marked slow are left to test-slow
+	$(VENV)/bin/ruff check .
 	$(PY) -m pytest $(PYTEST_ARGS)
 
 docs-images: setup ## remake the README's pictures (one scene, seed 0) into docs/images

@@ -219,6 +219,7 @@ def test_bop_toolkit_loaders_and_checks_accept_the_dataset(tmp_path):
             assert cKDTree(pts).query(pts @ S[:3, :3].T + S[:3, 3])[0].max() < 1.0
     for im in sc:
         K = np.array(sc[im]["cam_K"]).reshape(3, 3)
+        assert K[0, 0] > 0 and K[1, 1] > 0 and np.array_equal(K[2], [0, 0, 1])
         assert "cam_model" not in sc[im]
         depth = imageio.imread(scene / "depth" / f"{im:06d}.png").astype(np.float32)  # inout.load_depth
         depth_mm = depth * sc[im]["depth_scale"]

@@ -56,12 +56,12 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                   "test_strong_barrel_distortion_drops_what_the_model_folds",
                   "test_project_without_distortion_is_the_pinhole_k")),
               # (its hypothesis tests of the same lens maps against cv2 cost ~4 s per mutant)
-              *(f"tests/render/test_stability.py::{t}" for t in (
+              *(f"tests/bench/test_stability.py::{t}" for t in (
                   "test_lens_folds_are_dropped_not_wrapped",
                   "test_cube_faces_for_a_wide_fisheye_and_one_view_for_a_narrow_lens",
                   "test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel"))]),
     "unprojection": (["genie_gl/cloud/unproject.py"], ["*.unproject.x_*"],
-                     ["tests/cloud/test_unproject_kernel.py", "tests/cloud/test_cloud_export.py",
+                     ["tests/cloud/test_unproject_kernel.py", "tests/export/test_cloud_export.py",
                       "tests/cloud/test_frame_chunks.py", "tests/cloud/test_unproject_contract.py"]),
     # the noise models' numbers (DepthNoise's cost_per_mpx is left out: an estimate the planner
     # ranks effects by, measured by `genie bench planning`, never a number in the data)
@@ -72,7 +72,7 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                 "genie_gl/export/npz.py"],
                ["*.semantickitti.x_pack_labels__*", "*.semantickitti.x_write__*", "*.semantickitti.x_read__*",
                 "*.semantickitti.x_encode_instances__*", "*.ply.x_*", "*.pcd.x_*", "*.npz.x_*"],
-               ["tests/cloud/test_cloud_export.py", "tests/cloud/test_export_limits.py"]),
+               ["tests/export/test_cloud_export.py", "tests/export/test_export_limits.py"]),
     "layout": (["genie_gl/layout/engine.py", "genie_gl/layout/generators.py", "genie_gl/layout/merge.py"],
                # the merge layer (layout/merge.py since the rewrite; engine.merge is its node-list
                # front), the grid generator and the rectangle cover of a mask
@@ -161,7 +161,8 @@ RECHECK_WORKER = r"""
 import json, os, signal, sys
 import pytest
 job = json.load(open(sys.argv[1]))
-args = ["--rootdir=.", "-p", "no:xdist", "-p", "no:cacheprovider", "-p", "no:randomly", "-q", "-m", "not slow"]
+args = ["--rootdir=.", "-p", "no:xdist", "-p", "no:cacheprovider", "-p", "no:randomly", "-q",
+        "-m", "not slow"]
 out, err = os.dup(1), os.dup(2)
 null = os.open(os.devnull, os.O_WRONLY)
 os.dup2(null, 1); os.dup2(null, 2)

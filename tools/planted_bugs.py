@@ -55,7 +55,8 @@ def pytest_collection_finish(session):
     for name in ("genie_gl", "tests"):
         mod = sys.modules.get(name)
         if mod is None or HERE not in Path(mod.__file__).resolve().parents:
-            pytest.exit(f"{name} imported from {getattr(mod, '__file__', None)}, not from {HERE}", returncode=4)
+            where = getattr(mod, '__file__', None)
+            pytest.exit(f"{name} imported from {where}, not from {HERE}", returncode=4)
 
 
 def pytest_collectreport(report):
@@ -89,11 +90,11 @@ class Bug:
 
 RENDER = ("tests/render/test_analytic.py", "tests/render/test_hard_cases.py", "tests/render/test_reference.py",
           "tests/render/test_readback.py", "tests/capture/test_supersample.py")
-CLOUD = ("tests/cloud/test_unproject_kernel.py", "tests/cloud/test_cloud_export.py", "tests/cloud/test_frame_chunks.py")
-LENS = ("tests/sensors/test_sensors.py", "tests/sensors/test_lens_truths.py", "tests/render/test_stability.py",
+CLOUD = ("tests/cloud/test_unproject_kernel.py", "tests/export/test_cloud_export.py", "tests/cloud/test_frame_chunks.py")
+LENS = ("tests/sensors/test_sensors.py", "tests/sensors/test_lens_truths.py", "tests/bench/test_stability.py",
         "tests/render/test_analytic.py::test_distorted_render_puts_points_where_cv2_projects_them")
 NOISE = ("tests/sensors/test_sensors.py", "tests/sensors/test_effects.py", "tests/sensors/test_fused_kernels.py")
-LABELS = ("tests/cloud/test_cloud_export.py", "tests/cloud/test_export_limits.py", "tests/test_field_readers.py")
+LABELS = ("tests/export/test_cloud_export.py", "tests/export/test_export_limits.py", "tests/test_field_readers.py")
 LAYOUT = ("tests/layout",)
 
 BUGS = [
@@ -136,7 +137,7 @@ BUGS = [
     Bug("g", "voxel down-sampling: a wrong stride in the voxel key (distinct voxels collide)",
         "genie_gl/cloud/process.py",
         "flat = (keys[:, 0] * dims[1] + keys[:, 1]) * dims[2] + keys[:, 2]",
-        "flat = keys[:, 0] * dims[1] + keys[:, 1] * dims[2] + keys[:, 2]", ("tests/cloud/test_cloud_export.py",)),
+        "flat = keys[:, 0] * dims[1] + keys[:, 1] * dims[2] + keys[:, 2]", ("tests/export/test_cloud_export.py",)),
     # from the weak tests: a label raster flipped upside down (one label everywhere passes)
     Bug("h", "layout label raster flipped (row 0 at the top instead of y0)",
         "genie_gl/layout/model.py",

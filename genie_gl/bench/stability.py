@@ -3,7 +3,7 @@
 Every case renders a small scene whose answer is known in closed form (a plane's depth along
 each ray, a box seen from inside, where OpenCV's own projection puts a point, which id covers
 which pixel) and reports the worst error it measured beside the tolerance it must hold. The
-test suite runs the same cases (``tests/render/test_stability.py``); a case over its tolerance
+test suite runs the same cases (``tests/bench/test_stability.py``); a case over its tolerance
 fails the command (exit 1).
 """
 from __future__ import annotations

@@ -17,13 +17,13 @@ def announce_compilation(command: str) -> None:
 
 
 @contextmanager
-def stages(names: list[str], *, title: str = "genie", enabled: bool = True):
+def stages(steps: list[str], *, title: str = "genie", enabled: bool = True):
     """A progress bar over a command's stages, naming the one under way: ``with stages([...]) as
     step: step("render"); ...``."""
     from tqdm import tqdm
 
     # shown on a terminal only (tqdm: disable=None), so a log or a pipe gets the one-line error alone
-    bar = tqdm(total=len(names), unit="stage", disable=True if not enabled else None, bar_format="{desc} [{elapsed}]")
+    bar = tqdm(total=len(steps), unit="stage", disable=True if not enabled else None, bar_format="{desc} [{elapsed}]")
     bar.set_description(title)
     seen: list[str] = []
 
@@ -31,10 +31,10 @@ def stages(names: list[str], *, title: str = "genie", enabled: bool = True):
         if seen:
             bar.update(1)
         seen.append(name)
-        bar.set_description(f"{title}: {name} (stage {len(seen)} of {len(names)})", refresh=True)
+        bar.set_description(f"{title}: {name} (stage {len(seen)} of {len(steps)})", refresh=True)
 
     try:
         yield step
-        bar.update(len(names) - bar.n)
+        bar.update(len(steps) - bar.n)
     finally:
         bar.close()

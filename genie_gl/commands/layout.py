@@ -36,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.strategy or not args.out:
         raise ConfigError("give a STRATEGY and --out DIR (or --schema)")
     strategy = load_strategy(args.strategy)
-    x0, y0, w, h = strategy.root.x, strategy.root.y, strategy.root.width, strategy.root.height
+    w, h = strategy.root.width, strategy.root.height
     cells = (w / args.resolution + 1) * (h / args.resolution + 1)
     if cells > MAX_RASTER_CELLS:
         raise LimitError(f"--resolution {args.resolution}: a {w:g} x {h:g} m hall makes a label raster of {cells:.3g} "

@@ -27,11 +27,17 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import trimesh
+from scipy.spatial import cKDTree
 
+from ..capture.lens import silhouettes
 from ..errors import ConfigError, ExportError
 from ..frame import Frame
-from ..scene.model import Scene
 from ..outputs import atomic_write_bytes, atomic_write_text, claim_folder
+from ..render.renderer import Renderer
+from ..scene.assets.library import SEMANTIC, VARIANTS
+from ..scene.model import Scene
+from .registry import DatasetFormat, register_format
 
 MAX_U16 = 65535
 
@@ -270,14 +276,6 @@ def _write_dataset_scene(data, folder: Path) -> None:
 def _before_rename(data, out: Path) -> None:
     write_dataset_files(data.scene, data.frames[0], out, data.extra.get("bop_meshes", []))
 
-
-import trimesh
-from scipy.spatial import cKDTree
-
-from ..capture.lens import silhouettes
-from ..render.renderer import Renderer
-from ..scene.assets.library import SEMANTIC, VARIANTS
-from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
     "bop", "train_pbr", digits=6, chunks=False, captures=("static",), dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,

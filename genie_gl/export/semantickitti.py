@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -25,6 +26,7 @@ from .. import labels as label_map
 from ..cloud.pointcloud import PointCloud
 from ..errors import ExportError
 from ..outputs import atomic_write_bytes, atomic_write_text
+from .registry import DatasetFormat, register_format
 
 CLASSES = label_map.CLASSES  # kept for callers of genie-gl <= 0.1
 COLORS_RGB = label_map.COLORS_RGB
@@ -288,9 +290,6 @@ def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, sequence: int
     return write(cloud, out_dir, sequence=sequence, frame=frame)
 
 
-import shutil
-
-from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
     "semantickitti", "scenes", colour=False, write_scene=_write_scene, finish=_finish, write_cloud=_write_cloud,

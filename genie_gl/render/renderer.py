@@ -401,7 +401,7 @@ class Renderer(Visibility, Readout):
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = check_pose(pose, "render pose")  # a rigid world_from_camera: no scale, shear or mirror
-        ctx = self.ctx
+        self.ctx   # current before the framebuffer is made
         fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals, slot, triangles)
         linear = self.depth_precision == "float32"
         defines = (("WITH_COLOR",) if color else ()) + (("WITH_NORMAL",) if normals else ()) + \

@@ -106,7 +106,6 @@ def _view(sensor: Camera, rot: np.ndarray, name: str, serve: np.ndarray, xv: np.
           fx: float, fy: float, cx0: float, cy0: float, z_scale: np.ndarray | None) -> DistortionMaps:
     """A view with focal (fx, fy) whose principal point is (cx0, cy0) shifted by whole pixels
     so that every served ray lies at least 1 pixel inside it."""
-    H, W = sensor.height, sensor.width
     if serve.any():
         lo_x, hi_x = xv[serve].min(), xv[serve].max()
         lo_y, hi_y = yv[serve].min(), yv[serve].max()

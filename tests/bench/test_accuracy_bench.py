@@ -341,3 +341,15 @@ def test_the_level_of_detail_knob_reaches_the_renderer():
         assert drawn == {None: 0, 48.0: 1}
     finally:
         runner.close()
+
+
+def test_the_accuracy_bench_can_take_its_frames_along_a_path():
+    from genie_gl.bench.accuracy_case import path_poses
+
+    layout = gg.generate_layout("storage_area", seed=0)
+    scene = gg.build_scene(layout, seed=0)
+    poses = path_poses(layout, scene, gg.load_sensor("ideal_pinhole"), "random", 5, seed=1)
+    assert len(poses) == 5
+    heights = [p[2, 3] for p in poses]
+    np.testing.assert_allclose(heights, 1.7)
+    np.testing.assert_allclose([np.degrees(np.arcsin(-p[2, 2])) for p in poses], 10.0)   # optical axis 10 deg down

@@ -155,18 +155,6 @@ def test_the_plan_of_a_recording_is_each_sensors_plan_of_its_shots_and_the_regis
     assert p.to_dict()["shots"] == 24
 
 
-def test_the_accuracy_bench_can_take_its_frames_along_a_path():
-    from genie_gl.bench.accuracy_case import path_poses
-
-    layout = gg.generate_layout("storage_area", seed=0)
-    scene = gg.build_scene(layout, seed=0)
-    poses = path_poses(layout, scene, gg.load_sensor("ideal_pinhole"), "random", 5, seed=1)
-    assert len(poses) == 5
-    heights = [p[2, 3] for p in poses]
-    np.testing.assert_allclose(heights, 1.7)
-    np.testing.assert_allclose([np.degrees(np.arcsin(-p[2, 2])) for p in poses], 10.0)   # optical axis 10 deg down
-
-
 def test_a_recording_is_gg_capture_of_each_window_with_one_renderer_and_one_plan(recorded, monkeypatch):
     """Recorded with windows of 3 shots per sensor (so the 6 shots of each sensor span two
     windows), every frame equals ``gg.capture`` of its window's poses with the window's seed:

@@ -102,7 +102,8 @@ def test_command_puts_your_captures_beside_the_profile_and_writes_pages(tmp_path
 sources:
   test: {citation: "a test's own figure, 2024", where: here, verification: read}
 figures:
-  - {metric: temporal_noise_mm, distance_m: 1.2, bound: max, value: 2.0, source: test, quote: "<= 2 mm"}
+  - {metric: temporal_noise_mm, distance_m: 1.2, bound: max, value: 2.0, source: test,
+     quote: "<= 2 mm"}
 """)
     args = ["report-card", "--sensor", "ideal_pinhole", "--references", str(ref), "--frames", "2", "--quick",
             "--captures", str(cap), "--calibration", str(tmp_path / "c.yml"), "--wall-distance", "1.2",

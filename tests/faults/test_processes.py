@@ -2,7 +2,6 @@
 before the output folder's lock is released; SIGKILL of the leader takes its workers with it
 (the kernel's parent-death signal); what was written whole is kept and a new run finishes."""
 import fcntl
-import os
 import signal
 import subprocess
 import sys

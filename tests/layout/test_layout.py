@@ -8,7 +8,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 
 import genie_gl as gg
-from genie_gl.layout import Child, Generator, Region, generate_layout, merge, parse_strategy, register
+from genie_gl.layout import Child, Generator, generate_layout, parse_strategy, register
 from genie_gl.layout.providers import TypeProvider
 
 BASE = {
@@ -353,11 +353,11 @@ def test_shipped_strategies_generate_and_fill_scenes(name):
 
 
 def test_array_generators_grow_the_same_tree_as_per_region_ones():
-    from genie_gl.bench.layout import _register, _strategy
+    from tests.scenes import register_strips, strips_strategy
 
-    _register()
-    fast = generate_layout(parse_strategy(_strategy(6, 3)), seed=0)
-    slow = generate_layout(parse_strategy(_strategy(6, 3, "strips_per_region")), seed=0)
+    register_strips()
+    fast = generate_layout(parse_strategy(strips_strategy(6, 3)), seed=0)
+    slow = generate_layout(parse_strategy(strips_strategy(6, 3, "test_strips_per_region")), seed=0)
     assert len(fast) == 1 + 6 + 36 + 216
     assert json.dumps(fast.to_dict()) == json.dumps(slow.to_dict())
     t = fast.tree

@@ -33,7 +33,8 @@ def test_tilted_plane_depth_is_exact(glctx):
     # plane through p0 with a normal tilted 40 deg from the optical axis (camera frame)
     p0 = np.array([0.2, -0.1, 3.0])
     n = np.array([np.sin(np.radians(40)), 0.0, -np.cos(np.radians(40))])
-    a = np.cross(n, [0, 1, 0]); a /= np.linalg.norm(a)
+    a = np.cross(n, [0, 1, 0])
+    a /= np.linalg.norm(a)
     b = np.cross(n, a)
     corners_cam = [p0 + 3 * (sa * a + sb * b) for sa, sb in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
     corners = [pose[:3, :3] @ c + pose[:3, 3] for c in corners_cam]

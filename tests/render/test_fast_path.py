@@ -1,18 +1,16 @@
 """The fast path changes no pixel: culled == unculled (depth bytes, ids, colour), on generated
-scenes, a scene of sub-pixel triangles, a far-away scene and the benchmark scenes; the public
-API and the benchmark give the same frames; the depth-precision options against analytic
-depth."""
+scenes, a scene of sub-pixel triangles, a far-away scene and the tests' object and hall scenes;
+the depth-precision options against analytic depth."""
 import numpy as np
 import pytest
 import trimesh
 
 import genie_gl as gg
-from genie_gl.bench.render import bench_frames, bench_scene, sensor_640
 from genie_gl.errors import ConfigError
-from genie_gl.capture import capture
 from genie_gl.render import Renderer, create_context
 from genie_gl.render.projection import look_at
 from genie_gl.resources import resolve
+from tests.scenes import scene_of, sensor_640
 
 from .conftest import ray_dirs
 
@@ -38,7 +36,7 @@ def culled_and_unculled(glctx, scene, sensor, poses, **kw):
 
 
 def test_culling_changes_no_pixel_on_the_benchmark_scene(glctx):
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     pairs = culled_and_unculled(glctx, scene, sensor_640(), poses)
     for fa, fb, na, nb in pairs:
         assert_same_frames(fa, fb)
@@ -48,7 +46,7 @@ def test_culling_changes_no_pixel_on_the_benchmark_scene(glctx):
 
 @pytest.mark.parametrize("size", ["1M", "hall"])
 def test_culling_changes_no_pixel_on_the_million_and_ten_million_triangle_scenes(glctx, size):
-    scene, poses = bench_scene(size)
+    scene, poses = scene_of(size)
     (fa, fb, na, nb), = culled_and_unculled(glctx, scene, sensor_640(), poses[:1], depth_only=True)
     assert_same_frames(fa, fb)
     assert (fa.instance > 0).mean() > 0.3
@@ -112,7 +110,7 @@ def test_culling_changes_no_pixel_with_sub_pixel_triangles_near_pixel_centres():
 
 
 def test_benchmark_scene_moved_1e7_m_away_renders_the_same_depth(glctx):
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     shift = np.eye(4)
     shift[:3, 3] = [1e7, -1e7, 2e6]
     far = gg.Scene()
@@ -127,18 +125,6 @@ def test_benchmark_scene_moved_1e7_m_away_renders_the_same_depth(glctx):
             assert (fa.instance == fb.instance).mean() > 0.999  # ids may differ on a few edge pixels
             same = hit & (fa.instance == fb.instance)
             np.testing.assert_allclose(fb.depth[same], fa.depth[same], rtol=1e-6)
-
-
-def test_api_path_and_benchmark_path_give_the_same_frames():
-    scene, poses = bench_scene("100k")
-    sensor = sensor_640()
-    timed = bench_frames(scene, sensor, poses[:2])                 # what genie bench render times
-    api = capture(scene, sensor, poses[:2], seed=0, depth_only=True)  # what users call
-    with Renderer(scene) as r:
-        direct = [r.render(sensor, p, depth_only=True) for p in poses[:2]]
-    for a, b, c in zip(timed, api, direct):
-        assert_same_frames(a, b)
-        assert_same_frames(a, c)
 
 
 def test_unknown_depth_precision_is_a_config_error():

@@ -8,11 +8,11 @@ import pytest
 import trimesh
 
 import genie_gl as gg
-from genie_gl.bench.render import bench_scene, sensor_640
 from genie_gl.errors import ConfigError
 from genie_gl.render import Renderer, raster
 from genie_gl.render.projection import look_at
 from genie_gl.resources import resolve
+from tests.scenes import scene_of, sensor_640
 
 from .conftest import ray_dirs
 
@@ -32,7 +32,7 @@ def culled_and_unculled(scene, sensor, poses, **kw):
 
 
 def test_culling_changes_no_byte_on_the_benchmark_scene():
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     for fa, fb, counts in culled_and_unculled(scene, sensor_640(), poses[:3]):
         assert_same_frames(fa, fb)
         assert (fa.instance > 0).mean() > 0.3
@@ -84,7 +84,7 @@ def test_culling_changes_no_byte_with_sub_pixel_triangles_near_and_far():
 
 
 def test_one_thread_or_two_give_the_same_bytes(monkeypatch):
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     sensor = sensor_640()
     monkeypatch.setattr(raster, "PARALLEL_FACES", 0)   # two threads however small the frame
     threads = numba.get_num_threads()
@@ -150,7 +150,7 @@ def test_no_cracks_where_edges_and_vertices_lie_on_pixel_centre_rays():
 
 def test_depth_and_ids_agree_with_open3d_ray_casting():
     o3d = pytest.importorskip("open3d")
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     sensor = sensor_640()
     rc = o3d.t.geometry.RaycastingScene()
     ids = []
@@ -198,7 +198,7 @@ def test_agrees_with_the_gl_raster_in_ids_normals_and_colour(glctx):
 
 
 def test_each_pixel_names_the_triangle_its_depth_comes_from():
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     sensor = sensor_640()
     with Renderer(scene, depth_precision="exact") as r:
         f = r.render(sensor, poses[0], depth_only=True, triangles=True)
@@ -213,7 +213,7 @@ def test_each_pixel_names_the_triangle_its_depth_comes_from():
 
 
 def test_bad_options_are_refused():
-    scene, _ = bench_scene("100k")
+    scene, _ = scene_of("100k")
     with pytest.raises(ConfigError, match="depth_precision='exakt' is unknown"):
         Renderer(scene, depth_precision="exakt")
 
@@ -249,7 +249,7 @@ def test_a_frame_of_depth_and_ids_alone_equals_those_of_a_full_frame(monkeypatch
     (a far limit inside the scene empties pixels), on one thread and on two."""
     import dataclasses
 
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     sensor = dataclasses.replace(sensor_640(), far_m=6.0)
     monkeypatch.setattr(raster, "PARALLEL_FACES", 0)
     threads = numba.get_num_threads()

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import genie_gl as gg
-from genie_gl.bench.accuracy_case import content_poses
 from genie_gl.render import Renderer
 from genie_gl.sensors.distortion import render_through_lens
+from tests.scenes import content_views
 
 pytestmark = pytest.mark.gl
 
@@ -111,7 +111,7 @@ def test_markers_through_the_tutorial_lens_land_where_cv2_puts_each_pixel_ray(gl
 def storage_area():
     layout = gg.generate_layout("storage_area", seed=0)
     scene = gg.build_scene(layout, seed=0)
-    return scene, open3d_caster(scene), content_poses(scene, 2)
+    return scene, open3d_caster(scene), content_views(scene, 2)
 
 
 @pytest.mark.parametrize("lens", sorted(LENSES))

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import genie_gl as gg
-from genie_gl.bench.render import bench_scene, sensor_640
 from genie_gl.render import Renderer
 from genie_gl.render.visibility import compose
+from tests.scenes import scene_of, sensor_640
 
 
 def test_compose_has_the_bits_of_numpy_einsum():
@@ -23,7 +23,7 @@ def test_compose_has_the_bits_of_numpy_einsum():
 
 @pytest.mark.parametrize("precision", ["float32", "exact"])
 def test_drawing_only_some_instances_is_the_frame_of_a_scene_of_them(glctx, precision):
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     rng = np.random.default_rng(2)
     ids = [inst.instance for inst in scene.instances]
     keep = set(rng.choice(ids, size=len(ids) // 3, replace=False).tolist())
@@ -48,7 +48,7 @@ def test_drawing_only_some_instances_is_the_frame_of_a_scene_of_them(glctx, prec
 
 @pytest.mark.parametrize("bad", [["a"], [1.5, 2.0], [[1, 2]], 7, [True]])
 def test_only_that_is_not_a_collection_of_ids_is_refused_by_name(bad):
-    scene, poses = bench_scene("100k")
+    scene, poses = scene_of("100k")
     with Renderer(scene, depth_precision="exact") as r:
         with pytest.raises(gg.errors.ConfigError, match="only: expected a collection of instance ids"):
             r.render(sensor_640(), poses[0], depth_only=True, only=bad)

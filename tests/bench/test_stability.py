@@ -271,7 +271,10 @@ def test_subpixel_calibration_error_changes_the_image():
 
     s = gg.Sensor.pinhole(80, 60, 70.0)
     u, v = np.meshgrid(np.arange(80.0), np.arange(60.0))
-    inv = lambda uu, vv: 0.5 - 0.001 * uu - 0.002 * vv   # a slanted plane: 1/z is affine in the pixel  # noqa: E731
+
+    def inv(uu, vv):   # a slanted plane: 1/z is affine in the pixel
+        return 0.5 - 0.001 * uu - 0.002 * vv
+
     depth = (1 / inv(u, v)).astype(np.float32)
     f = gg.Frame(depth, np.ones((60, 80), np.uint32), np.zeros((60, 80), np.uint16), None, s, np.eye(4))
     eff = CalibrationError(sigma_f_px=0.0, sigma_c_px=0.0)

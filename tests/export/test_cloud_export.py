@@ -1,5 +1,4 @@
 """Unprojection, merging and every export read back through an independent reader."""
-import json
 
 import numpy as np
 import pytest

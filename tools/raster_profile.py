@@ -2,8 +2,8 @@
 short after each of its stages in turn, one thread, CPU per frame over a benchmark scene's
 40 poses (best of ``repeats`` passes), and what each stage counts per frame.
 
-    python docs/raster_profile.py 1M 3
-    python docs/raster_profile.py dataset 3     # a dataset scene (assembly line) and its 40 cameras
+    python tools/raster_profile.py 1M 3
+    python tools/raster_profile.py dataset 3     # a dataset scene (assembly line) and its 40 cameras
 
 Each cut is the rasteriser's source (``coverage`` and ``raster`` as one module) with one line
 changed, loaded from a temporary file and put in place of the kernel; the differences between successive cuts are the stages'

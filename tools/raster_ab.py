@@ -4,7 +4,7 @@ module each, loaded from temporary files) draw a benchmark scene's 40 poses in t
 pose, the order flipping each round; a pose's time is its least over the rounds (process CPU
 time with one thread, wall time with more), and the ratio is of the sums.
 
-    python docs/raster_ab.py 1M 2 5 HEAD~1      # scene, threads, rounds, revision
+    python tools/raster_ab.py 1M 2 5 HEAD~1      # scene, threads, rounds, revision
 """
 import importlib.util
 import subprocess
@@ -50,7 +50,7 @@ def main() -> None:
     try:
         size, threads, rounds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     except (IndexError, ValueError):
-        sys.exit("usage: python docs/raster_ab.py SCENE THREADS ROUNDS [REVISION]   (e.g. 1M 2 5 HEAD~1)")
+        sys.exit("usage: python tools/raster_ab.py SCENE THREADS ROUNDS [REVISION]   (e.g. 1M 2 5 HEAD~1)")
     rev = sys.argv[4] if len(sys.argv) > 4 else "HEAD"
     numba.set_num_threads(threads)
     clock = time.process_time if threads == 1 else time.perf_counter

@@ -7,7 +7,7 @@ first is left out); a scene index's time is its median over the rounds, and the 
 the median over scene indices of work tree / revision (the same scenes both sides: the
 same seed makes the same scenes).
 
-    python docs/pipeline_ab.py REV WORKERS ROUNDS [SCENES] [SENSOR] [STRATEGY]   # e.g. HEAD~1 1 8
+    python tools/pipeline_ab.py REV WORKERS ROUNDS [SCENES] [SENSOR] [STRATEGY]   # e.g. HEAD~1 1 8
 """
 import json
 import os
@@ -48,7 +48,7 @@ def main() -> None:
         rev, workers, rounds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
         scenes = int(sys.argv[4]) if len(sys.argv) > 4 else 8
     except (IndexError, ValueError):
-        sys.exit("usage: python docs/pipeline_ab.py REVISION WORKERS ROUNDS [SCENES] [SENSOR] [STRATEGY]   "
+        sys.exit("usage: python tools/pipeline_ab.py REVISION WORKERS ROUNDS [SCENES] [SENSOR] [STRATEGY]   "
                  "(e.g. HEAD~1 1 8)")
     sensor = sys.argv[5] if len(sys.argv) > 5 else "ideal_pinhole"
     strategy = sys.argv[6] if len(sys.argv) > 6 else "assembly_line"

@@ -4,7 +4,7 @@ frame kernel (loaded from a temporary file and put in place of the kernel), over
 scene's 40 poses: cycles of the cluster bounds (parallel), of the order and strip cut
 (serial), of each thread's strip, and how much the slower strip takes over the mean of the two.
 
-    python docs/raster_threads.py 1M
+    python tools/raster_threads.py 1M
 """
 import importlib.util
 import inspect

@@ -1,4 +1,4 @@
-"""Lens resampling against Open3D's ray caster, and what each mode costs, on a benchmark scene.
+"""Lens resampling against Open3D's ray caster, and what each mode costs.
 
 For four lens models (the OpenCV tutorial's k1 = -0.42 plumb-bob, a rational lens, a
 Kannala-Brandt fisheye, an omnidirectional lens), on the ``storage_area`` layout (seed 0) seen
@@ -6,20 +6,22 @@ from its first two content poses: the share of pixels whose instance equals the 
 ``RaycastingScene.cast_rays`` hits along the same ray (``Camera.directions``), in every mode;
 then the ms per frame of each mode, the modes taking turns in one process (median of 10);
 ``resampling``: the CPU ms of the resampling alone (the views rendered once, first pose;
-median of 6 after a warm-up).
+median of 6 after a warm-up)::
 
-    python docs/lens_ids.py [agreement|cost|both|resampling]
+    python -m benchmarks lens_ids [agreement|cost|both|resampling]
 """
-import sys
+from __future__ import annotations
+
 import time
 
 import numpy as np
-import open3d as o3d
 
 import genie_gl as gg
 from genie_gl.bench.accuracy_case import content_poses
 from genie_gl.render import Renderer
 from genie_gl.sensors.distortion import lens_views, render_through_lens, resample_views
+
+from .common import benchmark_scene, header, parser
 
 K = np.array([[535.9, 0, 342.3], [0, 535.9, 235.6], [0, 0, 1.0]])
 LENSES = {
@@ -34,6 +36,8 @@ MODES = ("nearest", "bilinear", "plane", "exact")
 
 
 def caster(scene):
+    import open3d as o3d
+
     rc, ids = o3d.t.geometry.RaycastingScene(), {}
     for inst in scene.instances:
         m = scene.meshes[inst.mesh]
@@ -44,6 +48,8 @@ def caster(scene):
 
 
 def cast(rc, ids, sensor, pose):
+    import open3d as o3d
+
     d = sensor.directions().reshape(-1, 3)
     ok = np.isfinite(d[:, 0])
     dw = np.where(ok[:, None], d, 0.0) @ pose[:3, :3].T
@@ -55,7 +61,7 @@ def cast(rc, ids, sensor, pose):
     return np.where(seen, inst, 0).reshape(sensor.height, sensor.width)
 
 
-def resampling(r, sensor, pose) -> str:
+def resampling(r, sensor, pose) -> dict[str, float]:
     """CPU ms of resample_views per mode, on views rendered once."""
     views = lens_views(sensor)
     posed = []
@@ -72,43 +78,66 @@ def resampling(r, sensor, pose) -> str:
             t0 = time.process_time()
             resample_views(frames, sensor, views, pose, resample=m)
             cpu[m].append(1e3 * (time.process_time() - t0))
-    return " | ".join(f"{np.median(cpu[m][1:]):.1f}" for m in MODES)
+    return {m: float(np.median(cpu[m][1:])) for m in MODES}
 
 
-def main(what: str) -> None:
-    scene = gg.build_scene(gg.generate_layout("storage_area", seed=0), seed=0)
-    poses = content_poses(scene, 2)
+def run(what: str = "both", scene_name: str = "storage_area", poses: int = 2, lenses=None,
+        rounds: int = 5) -> dict[str, dict]:
+    """Per lens: ``agreement`` {mode: (share of pixels whose id is Open3D's, wrong pixels)},
+    ``ms`` {mode: median ms a frame}, ``resampling_ms`` {mode: median CPU ms}, as ``what`` asks.
+    ``scene_name``: a shipped strategy (seed 0) or a benchmark scene."""
+    if scene_name in ("100k", "1M", "10M", "hall", "generated"):
+        scene = benchmark_scene(scene_name)[1]
+    else:
+        scene = gg.build_scene(gg.generate_layout(scene_name, seed=0), seed=0)
+    views = content_poses(scene, poses)
+    chosen = {k: v for k, v in LENSES.items() if lenses is None or k in lenses}
+    out: dict[str, dict] = {name: {} for name in chosen}
     if what == "resampling":
         with Renderer(scene) as r:
-            for name, s in LENSES.items():
-                print(f"| {name} | {resampling(r, s, poses[0])} |", flush=True)
-        return
+            for name, s in chosen.items():
+                out[name]["resampling_ms"] = resampling(r, s, views[0])
+        return out
     rc, ids = caster(scene) if what in ("agreement", "both") else (None, None)
     with Renderer(scene) as r:
-        for name, s in LENSES.items():
+        for name, s in chosen.items():
             if rc is not None:
-                truth = [cast(rc, ids, s, p) for p in poses]
-                cells = []
+                truth = [cast(rc, ids, s, p) for p in views]
+                agree = {}
                 for m in MODES:
                     wrong = sum(int((render_through_lens(r.render, s, p, resample=m).instance != t).sum())
-                                for p, t in zip(poses, truth))
-                    cells.append(f"{m} {100 * (1 - wrong / (len(poses) * s.width * s.height)):.4f} % ({wrong} px)")
-                print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
+                                for p, t in zip(views, truth))
+                    agree[m] = (1 - wrong / (len(views) * s.width * s.height), wrong)
+                out[name]["agreement"] = agree
             if what in ("cost", "both"):
                 for m in MODES:
-                    render_through_lens(r.render, s, poses[0], resample=m)   # warm-up: compile, buffers
-                ms = {m: [] for m in MODES}
-                for k in range(5):
+                    render_through_lens(r.render, s, views[0], resample=m)   # warm-up: compile, buffers
+                ms: dict[str, list[float]] = {m: [] for m in MODES}
+                for k in range(rounds):
                     for j in range(len(MODES)):
                         m = MODES[(j + k) % len(MODES)]
-                        for p in poses:
+                        for p in views:
                             t0 = time.perf_counter()
                             render_through_lens(r.render, s, p, resample=m)
                             ms[m].append(1e3 * (time.perf_counter() - t0))
-                med = {m: float(np.median(v)) for m, v in ms.items()}
-                print(f"| {name} | " + " | ".join(f"{med[m]:.0f}" for m in MODES)
-                      + f" | {med['exact'] / med['nearest']:.2f} |", flush=True)
+                out[name]["ms"] = {m: float(np.median(v)) for m, v in ms.items()}
+    return out
 
 
-if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "both")
+def main(argv: list[str]) -> None:
+    p = parser("lens_ids", __doc__)
+    p.add_argument("what", nargs="?", default="both", choices=("agreement", "cost", "both", "resampling"))
+    p.add_argument("--scene", default="storage_area", help="a shipped strategy or a benchmark scene")
+    p.add_argument("--poses", type=int, default=2)
+    a = p.parse_args(argv)
+    print(header())
+    for name, r in run(a.what, a.scene, a.poses).items():
+        if "resampling_ms" in r:
+            print(f"| {name} | " + " | ".join(f"{r['resampling_ms'][m]:.1f}" for m in MODES) + " |")
+        if "agreement" in r:
+            print(f"| {name} | " + " | ".join(f"{m} {100 * share:.4f} % ({wrong} px)"
+                                             for m, (share, wrong) in r["agreement"].items()) + " |")
+        if "ms" in r:
+            med = r["ms"]
+            print(f"| {name} | " + " | ".join(f"{med[m]:.0f}" for m in MODES)
+                  + f" | {med['exact'] / med['nearest']:.2f} |")

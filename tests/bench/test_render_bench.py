@@ -1,0 +1,28 @@
+"""``genie bench render`` times the frames users get: the benchmark's frames equal
+``gg.capture``'s and the renderer's own, byte for byte."""
+import numpy as np
+import pytest
+
+from genie_gl.bench.render import bench_frames
+from genie_gl.capture import capture
+from genie_gl.render import Renderer
+from tests.scenes import scene_of, sensor_640
+
+pytestmark = pytest.mark.gl
+
+
+def assert_same_frames(a, b):
+    assert a.depth.tobytes() == b.depth.tobytes()
+    assert np.array_equal(a.instance, b.instance) and np.array_equal(a.semantic, b.semantic)
+
+
+def test_api_path_and_benchmark_path_give_the_same_frames():
+    scene, poses = scene_of("100k")
+    sensor = sensor_640()
+    timed = bench_frames(scene, sensor, poses[:2])                 # what genie bench render times
+    api = capture(scene, sensor, poses[:2], seed=0, depth_only=True)  # what users call
+    with Renderer(scene) as r:
+        direct = [r.render(sensor, p, depth_only=True) for p in poses[:2]]
+    for a, b, c in zip(timed, api, direct):
+        assert_same_frames(a, b)
+        assert_same_frames(a, c)
