@@ -83,7 +83,7 @@ class _OursExact(_Ours):
     name = "genie-gl-exact"
 
     def __init__(self, spec) -> None:
-        self.r = Renderer(to_scene(spec), depth_precision="exact")
+        self.r = Renderer(to_scene(spec), raster="cpu")
         self.triangles = self.r.triangles
 
 

@@ -32,6 +32,7 @@ from .lod import LevelOfDetail, simplified
 from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
 from .projection import clip_coefficients
 from .raster import Rasteriser
+from .rasters import resolve_raster
 from .readback import semantic_table
 from .readout import Readout
 from .shader import load_program
@@ -48,7 +49,7 @@ GL_DEPTH_COMPONENT32F = 0x8CAC
 GL_DEPTH_COMPONENT = 0x1902
 GL_FLOAT = 0x1406
 
-DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z", "exact")
+DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z")
 TARGETS = ("packed", "separate")
 READBACKS = ("direct", "pbo")
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
@@ -77,20 +78,23 @@ class Renderer(Visibility, Readout):
     scene : Scene
     backend : "egl", "osmesa" or None (EGL, falling back to OSMesa).
     context : GLContext, an existing context to share (then ``backend`` is ignored and the
-        context is not released with the renderer; unused with depth_precision="exact").
-    depth_precision : how ``Frame.depth`` is obtained (ids do not depend on the three GL ones).
+        context is not released with the renderer; unused with raster="cpu").
+    raster : "gl" (default) or "cpu": which rasteriser draws (:mod:`genie_gl.render.rasters`;
+        None: the machine's default, "cpu" without a hardware GPU). "cpu": no GL at all; the
+        exact CPU rasteriser (:mod:`genie_gl.render.raster`) finds the nearest triangle along
+        each pixel centre's ray in float64 and its exact depth (ids, colour and normals from
+        that triangle). Faster than llvmpipe on scenes of a hundred thousand triangles and
+        more (docs/real-size-scenes.md); against GL's "float32" the depth differs in the last
+        bits and, at edges, a pixel centre may go to the neighbouring triangle.
+        ``depth_precision``, ``targets`` and ``readback`` do not apply to it; ``cull=False``
+        tests every triangle at every pixel centre of its box (the reference the culled
+        frame equals byte for byte; slow).
+    depth_precision : how the GL raster obtains ``Frame.depth`` (ids do not depend on it).
         "float32" (default): view z interpolated per fragment into a float32 target.
         "depth24": a 24-bit fixed-point window depth buffer of a conventional projection
         (near and far planes of the sensor), read back and linearised; its error grows as
         z² (as on most real-time renderers). "reversed_z": the float32 reversed, infinite-far
-        depth buffer (near / z) read back and linearised. "exact": no GL at all; the CPU
-        rasteriser (:mod:`genie_gl.render.raster`) finds the nearest triangle along each
-        pixel centre's ray in float64 and its exact depth (ids, colour and normals from that
-        triangle). Faster than llvmpipe on scenes of a million triangles
-        (docs/real-size-scenes.md); against "float32" the depth differs in the last bits
-        and, at edges, a pixel centre may go to the neighbouring triangle. ``targets`` and
-        ``readback`` do not apply; ``cull=False`` tests every triangle at every pixel centre
-        of its box (the reference the culled frame equals byte for byte; slow).
+        depth buffer (near / z) read back and linearised.
     cull : drop triangles that cannot cover a pixel centre (exact; False draws everything). A
         frame with fewer than ``cull_min_faces`` faces in view is drawn whole either way.
     targets : "packed" (default): depth and instance id in one RG32UI target, the semantic id
@@ -111,7 +115,10 @@ class Renderer(Visibility, Readout):
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
-                 readback: str = "direct", lod: LevelOfDetail | None = None):
+                 readback: str = "direct", lod: LevelOfDetail | None = None, raster: str | None = "gl"):
+        if depth_precision == "exact":
+            raise ConfigError("Renderer depth_precision='exact' is the CPU rasteriser: ask for it by name, "
+                              "raster='cpu' (depth_precision names the GL raster's depth buffers)")
         for name, value, known in (("depth_precision", depth_precision, DEPTH_PRECISIONS),
                                    ("targets", targets, TARGETS), ("readback", readback, READBACKS)):
             if value not in known:
@@ -121,10 +128,10 @@ class Renderer(Visibility, Readout):
             raise ConfigError(f"Renderer lod: expected a genie_gl.render.LevelOfDetail or None, got {type(lod).__name__}")
         self._thread = threading.get_ident()   # GL contexts are current in one thread: see _current
         self.depth_precision, self.cull, self.lod = depth_precision, bool(cull), lod
-        raster = "cpu" if depth_precision == "exact" else "gl"
+        raster = resolve_raster(raster, "Renderer")
         self.targets, self.readback, self.raster = targets, readback, raster
         self._own_context = context is None and raster == "gl"
-        self.gl = None if raster == "cpu" else (context or create_context(backend))   # "exact": no GL
+        self.gl = None if raster == "cpu" else (context or create_context(backend))   # the CPU raster: no GL
         self.ctx = self.gl.ctx if self.gl is not None else None
         self._programs = self.gl.programs if self.gl is not None else {}  # one build per context
         self._fbos: dict = {}
