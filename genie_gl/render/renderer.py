@@ -20,7 +20,7 @@ import numpy as np
 
 from ..checks import check_pose, expect
 from ..errors import ConfigError, LimitError, RenderError
-from ..limits import check_frame_side
+from ..limits import BYTES_PER_PIXEL, MAX_SIDE, check_frame_side, check_memory, memory_limit_bytes
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
@@ -50,6 +50,8 @@ GL_DEPTH_COMPONENT = 0x1902
 GL_FLOAT = 0x1406
 
 DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z")
+CPU_RASTER_BYTES_PER_PIXEL = 16   # the CPU raster's 1 / z (float64) and slot << 32 | face (int64) per pixel
+GL_MAX_REACH_M = 1e5   # farther from the camera, float32 vertices lose pixels and depth (Renderer._check_reach)
 TARGETS = ("packed", "separate")
 READBACKS = ("direct", "pbo")
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
@@ -140,6 +142,7 @@ class Renderer(Visibility, Readout):
         self._clip_control = (self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
                               if self.gl is not None else None)
         self._gl_flush = None
+        self._sizes_checked: set[tuple[int, int]] = set()   # frame sizes the CPU raster found room for
         self._culled = False
         self._lod_drawn = 0
         with self._current():
@@ -468,7 +471,13 @@ class Renderer(Visibility, Readout):
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = check_pose(pose, "render pose")
-        check_frame_side(W, H, "Renderer", 1 << 15)
+        if (W, H) not in self._sizes_checked:
+            check_frame_side(W, H, "Renderer", MAX_SIDE, "the largest frame genie-gl draws")
+            # the raster's buffers (1 / z float64, slot and face int64) and the frame's arrays
+            check_memory(W * H * (CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL), memory_limit_bytes(),
+                         f"a {W}x{H} px frame x {CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL} B", "Renderer: use a "
+                         "smaller sensor", option=None)
+            self._sizes_checked.add((W, H))
         near = float(sensor.clip_near_m)
         out = frame_buffers(H, W, color, normals, triangles)
         seen = self._visible(pose, K, W, H, near, only)
@@ -545,6 +554,7 @@ class Renderer(Visibility, Readout):
         if seen is None:
             return []
         cfm, slots, m, backcull, eye = seen
+        self._check_reach(cfm, slots, m)
         self._rows["rows"] = cfm
         inst_buf, dyn_ibo, _ = self._stream(parity)
         inst_buf.write(self._rows)
@@ -580,6 +590,21 @@ class Renderer(Visibility, Readout):
             mesh_first[slots], mesh_count[slots] = self._fbase[m], self._nfaces[m]   # every face, culled or not
             self._frame_triangles = (first, count, base, cull, cfm, drawn_indices, ids, sem, mesh_first, mesh_count)
         return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
+
+    def _check_reach(self, cfm: np.ndarray, slots: np.ndarray, m: np.ndarray) -> None:
+        """Refuse a frame whose drawn instances reach farther than :data:`GL_MAX_REACH_M` from
+        the camera: the GL raster holds camera-frame vertices in float32, and a triangle that
+        reaches that far is drawn with pixels lost and depth off (a ground triangle of
+        +-1e6 m: 0.4 % of its pixels lost, 1.6 % depth error); the CPU raster draws it exactly."""
+        c = cfm[slots]
+        centre = np.einsum("nij,nj->ni", c[:, :, :3], self._centre[m]) + c[:, :, 3]
+        reach = np.linalg.norm(centre, axis=1) + self._radius[m] * self._scale[slots]
+        far = int(np.argmax(reach)) if len(reach) else 0
+        if len(reach) and reach[far] > GL_MAX_REACH_M:
+            raise LimitError(f"Renderer: instance {int(self._ids[slots[far]])} reaches {reach[far]:.3g} m from the "
+                             f"camera; the GL raster draws geometry within {GL_MAX_REACH_M:g} m of it exactly enough "
+                             "(float32 vertices): use raster='cpu' (--raster cpu), which draws it in float64, or cut "
+                             "the mesh smaller")
 
     def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0,
                 culled: bool = False) -> int:
