@@ -325,3 +325,25 @@ def test_culling_changes_no_byte_where_a_row_runs_along_an_edge_parallel_to_it()
                     (fa, fb, _), = culled_and_unculled(scene, sensor, [pose])
                     assert_same_frames(fa, fb)
                     assert (fa.instance > 0).sum() > 100
+
+
+def test_ties_go_to_the_lower_slot_then_the_lower_face():
+    """The CPU raster's one tie rule (:func:`genie_gl.render.coverage._write`): a pixel
+    centre that two triangles meet at the same float64 depth goes to the lower (slot, face).
+    Two coincident copies of a square wall at z = 2: every pixel shows the first copy; on
+    the square's diagonal, where the pixel centres' rays cross the edge both its faces share
+    (edge functions exactly 0), the pixel shows face 0; off it, the face that covers it."""
+    sensor = gg.Sensor(64, 64, np.array([[32.0, 0, 32], [0, 32.0, 32], [0, 0, 1]]))
+    wall = gg.Mesh(np.array([[-2, -2, 2], [2, -2, 2], [2, 2, 2], [-2, 2, 2]], float), np.array([[0, 1, 2], [0, 2, 3]]))
+    scene = gg.Scene()
+    first = scene.add(wall, np.eye(4), semantic=1)
+    scene.add(wall, np.eye(4), semantic=2)
+    with Renderer(scene, raster="cpu") as r:
+        f = r.render(sensor, np.eye(4), triangles=True)
+    assert (f.instance == first).all() and (f.semantic == 1).all()
+    np.testing.assert_array_equal(f.depth, 2.0)
+    slot, face = f.triangles.pixel[..., 0], f.triangles.pixel[..., 1]
+    assert (slot == 1).all()
+    u, v = np.meshgrid(np.arange(64), np.arange(64))
+    assert (face[u == v] == 0).all()
+    assert (face[u > v] == 0).all() and (face[u < v] == 1).all()   # x > y: below the diagonal, face 0 (0-1-2)
