@@ -153,8 +153,8 @@ def available(name: str) -> bool:
 
 def bench_frames(scene, sensor, poses) -> list:
     """The frames ``genie bench render`` times, made by the object it times (depth and ids,
-    what ``capture`` calls for a sensor without effects)."""
-    with Renderer(scene) as r:
+    what ``capture`` calls for a sensor without effects): the default path's raster."""
+    with Renderer(scene, raster=_Ours.raster) as r:
         first = [r.render(sensor, poses[0], depth_only=True)]
         return first + list(r.frames(sensor, poses[1:], depth_only=True))
 
