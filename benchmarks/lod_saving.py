@@ -22,7 +22,7 @@ from genie_gl.render import LevelOfDetail, Renderer
 from .common import benchmark_scene, header, parser, sensor_640
 
 SETTINGS = (None, 16.0, 48.0, 128.0)
-PRECISIONS = {"gl": "float32", "exact": "exact"}
+RASTERS = {"gl": "gl", "exact": "cpu"}
 
 
 def run(scene_name: str, raster: str, rounds: int, poses: int | None = None) -> list[dict]:
@@ -31,8 +31,7 @@ def run(scene_name: str, raster: str, rounds: int, poses: int | None = None) -> 
     poses of the scene (all 40 by default)."""
     spec, scene = benchmark_scene(scene_name)
     views, sensor = spec.poses[:poses], sensor_640()
-    precision = PRECISIONS[raster]
-    renderers = {px: Renderer(scene, depth_precision=precision,
+    renderers = {px: Renderer(scene, raster=RASTERS[raster],
                               lod=None if px is None else LevelOfDetail(below_px=px)) for px in SETTINGS}
     best = {px: np.full(len(views), np.inf) for px in SETTINGS}
     errors: dict = {px: [] for px in SETTINGS}

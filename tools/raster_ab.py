@@ -56,7 +56,7 @@ def main() -> None:
     clock = time.process_time if threads == 1 else time.perf_counter
     spec = bench_spec(size)
     poses, sensor = spec.poses, sensor_640()
-    r = Renderer(to_scene(spec), depth_precision="exact")
+    r = Renderer(to_scene(spec), raster="cpu")
     own = raster._raster
     with tempfile.TemporaryDirectory() as tmp:
         kernels = {rev: kernel(at(rev, "coverage.py"), at(rev, "raster.py"), Path(tmp), "ab_base"),

@@ -1,4 +1,4 @@
-"""Where a frame of the CPU rasteriser (``depth_precision="exact"``) goes: the kernel cut
+"""Where a frame of the CPU rasteriser (``raster="cpu"``) goes: the kernel cut
 short after each of its stages in turn, one thread, CPU per frame over a benchmark scene's
 40 poses (best of ``repeats`` passes), and what each stage counts per frame.
 
@@ -75,7 +75,7 @@ def main() -> None:
     K, W, H, near = sensor.K, sensor.width, sensor.height, float(sensor.clip_near_m)
     source = inspect.getsource(coverage) + inspect.getsource(raster).replace("from __future__ import annotations\n", "")
     numba.set_num_threads(1)
-    r = Renderer(scene, depth_precision="exact")
+    r = Renderer(scene, raster="cpu")
     kernel = raster._raster
     print(f"scene {size}: {r.triangles:,} triangles, 640 x 480, one thread, CPU ms per frame (best of {repeats})")
     with tempfile.TemporaryDirectory() as tmp:

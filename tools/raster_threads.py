@@ -1,4 +1,4 @@
-"""How a frame of the CPU rasteriser (``depth_precision="exact"``) shares its two threads: the
+"""How a frame of the CPU rasteriser (``raster="cpu"``) shares its two threads: the
 rasteriser's source with the processor's cycle counter read at the phase boundaries of the
 frame kernel (loaded from a temporary file and put in place of the kernel), over a benchmark
 scene's 40 poses: cycles of the cluster bounds (parallel), of the order and strip cut
@@ -72,7 +72,7 @@ def main() -> None:
     size = sys.argv[1] if len(sys.argv) > 1 else "1M"
     spec = bench_spec(size)
     scene, poses, sensor = to_scene(spec), spec.poses, sensor_640()
-    r = Renderer(scene, depth_precision="exact")
+    r = Renderer(scene, raster="cpu")
     kernel = raster._raster
     with tempfile.TemporaryDirectory() as tmp:
         raster._raster = instrumented(Path(tmp))

@@ -172,9 +172,9 @@ def test_capture_applies_the_settings_given_or_the_profiles(glctx):
     scene = _random_boxes(7)
     sensor = Sensor.pinhole(48, 36, 40.0, effects=(StereoShadow(baseline_m=0.1, scale=0.5),))
     acc = AccuracySettings(supersample=2, shadow_scale=0.25)
-    (f,) = capture(scene, sensor, [np.eye(4)], seed=0, accuracy=acc)
+    (f,) = capture(scene, sensor, [np.eye(4)], seed=0, accuracy=acc, raster="gl")
     assert f.meta["supersample"] == 2
-    (g,) = capture(scene, dataclasses.replace(sensor, accuracy=acc), [np.eye(4)], seed=0)
+    (g,) = capture(scene, dataclasses.replace(sensor, accuracy=acc), [np.eye(4)], seed=0, raster="gl")
     assert np.array_equal(f.depth, g.depth) and np.array_equal(f.instance, g.instance)
     # the same frame by hand: a 2x render reduced, a second view at a quarter of the scale
     by_hand = dataclasses.replace(sensor, effects=(StereoShadow(baseline_m=0.1, scale=0.25),))

@@ -103,8 +103,8 @@ def test_lod_is_an_accuracy_setting_that_capture_follows():
 
     scene, pose = balls()
     sensor = gg.Sensor.pinhole(320, 240, 260.0)
-    exact, = capture(scene, sensor, [pose], seed=0, depth_only=True)
-    lod, = capture(scene, sensor, [pose], seed=0, depth_only=True, accuracy=AccuracySettings(lod_px=60.0))
+    exact, = capture(scene, sensor, [pose], seed=0, depth_only=True, raster="gl")
+    lod, = capture(scene, sensor, [pose], seed=0, depth_only=True, accuracy=AccuracySettings(lod_px=60.0), raster="gl")
     with Renderer(scene, lod=LevelOfDetail(below_px=60.0)) as r:
         direct = r.render(sensor, pose, depth_only=True)
     assert lod.depth.tobytes() == direct.depth.tobytes() and lod.depth.tobytes() != exact.depth.tobytes()
