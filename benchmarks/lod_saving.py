@@ -70,7 +70,7 @@ def run(scene_name: str, raster: str, rounds: int, poses: int | None = None) -> 
 def main(argv: list[str]) -> None:
     p = parser("lod_saving", __doc__)
     p.add_argument("scene", nargs="?", help="benchmark scene (default: 1M and hall)")
-    p.add_argument("raster", nargs="?", choices=tuple(PRECISIONS), help="default: both")
+    p.add_argument("raster", nargs="?", choices=tuple(RASTERS), help="default: both")
     p.add_argument("rounds", nargs="?", type=int, default=3)
     a = p.parse_args(argv)
     print(header())

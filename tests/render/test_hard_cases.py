@@ -6,7 +6,6 @@ import pytest
 import trimesh
 
 import genie_gl as gg
-from genie_gl.render import Renderer
 from genie_gl.render.projection import look_at
 
 from .conftest import cast_boxes, interior, ray_dirs
