@@ -82,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
                     on_start=lambda: announce_compilation("dataset"))
     warm = m["runs"][-1].get("warmup_s", []) if m.get("runs") else []
     warm_text = f" (warm-up per worker before its first scene: {', '.join(f'{w:.1f}' for w in warm)} s)" if warm else ""
+    previews = Path(cfg.out) / "previews"
+    shown = f" (previews in {previews})" if cfg.previews and previews.is_dir() else ""
     print(f"dataset: {m['scenes_made']} scenes made, {m['scenes_skipped']} already there, "
-          f"{m['wall_s']:.1f} s{warm_text} -> {cfg.out} (previews in {Path(cfg.out) / 'previews'})")
+          f"{m['wall_s']:.1f} s{warm_text} -> {cfg.out}{shown}")
     return 0

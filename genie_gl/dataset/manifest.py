@@ -164,6 +164,17 @@ def record_files(folder: Path) -> dict[str, list]:
             for p in sorted(folder.rglob("*")) if p.is_file() and p.name != RECORD}
 
 
+def recorded_files(folder: Path) -> list[str]:
+    """The files genie-gl wrote in scene ``folder``, as its record lists them (the record
+    included); none when there is no readable record (then only the names a new run writes are
+    replaced, and nothing is removed)."""
+    try:
+        files = json.loads((folder / RECORD).read_text())["files"]
+        return [RECORD, *(str(k) for k in files)]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return []
+
+
 def scene_complete(folder: Path, *, verify: bool = False) -> dict[str, Any] | None:
     """The scene's record when every file it lists is there with its size (and hash when
     ``verify``); None when the scene must be made again."""

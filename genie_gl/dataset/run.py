@@ -25,6 +25,7 @@ import errno
 import json
 import logging
 import platform
+import re
 import shutil
 import time
 from collections.abc import Callable
@@ -62,6 +63,9 @@ def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
                           "process and worker processes would not see them; list them in the strategy's "
                           "scene.assets, or use one worker")
 
+
+#: the temporary name of a file being written (``.<name>.<pid>.tmp``, ``.tmp.png``, ``.tmp.npz``)
+TEMPORARY = re.compile(r"\..+\.\d+\.tmp(\.png|\.npz|\.las)?")
 
 #: what a dataset writes at the top of ``--out`` besides its format's own entries
 DATASET_ENTRIES = ("previews", "histogram.txt", "histogram.json", "histogram.png", ".balance")
@@ -112,8 +116,8 @@ def _clear_leftovers(folder: OutputFolder, fmt) -> None:
             continue
         if not folder.owns(entry.name) or entry.is_symlink() or not entry.is_dir():
             continue
-        for p in entry.rglob("*.tmp*"):
-            if p.is_file() and (p.name.endswith(".tmp") or p.name.endswith(".tmp.png") or p.name.endswith(".tmp.npz")):
+        for p in entry.rglob(".*.tmp*"):   # only the temporary names genie-gl's writers use: a user's
+            if p.is_file() and TEMPORARY.fullmatch(p.name):   # draft.tmp, even in our folders, stays
                 p.unlink()
 
 

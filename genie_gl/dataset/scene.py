@@ -14,10 +14,11 @@ import numpy as np
 
 from ..capture import effect_totals, frame_costs
 from ..export import SceneData, get_format
+from ..outputs import publish_folder
 from . import curation
 from .ahead import Ahead
 from .config import DatasetConfig
-from .manifest import record_files, scene_complete
+from .manifest import RECORD, record_files, recorded_files, scene_complete
 from .previews import write_previews, write_recording_previews
 from .recipe import STAGES, RunInputs, chunk, load_inputs, make, make_scene
 from .recording import capture_moving, stats_of, write_trajectory
@@ -149,15 +150,14 @@ def _publish(stats: dict[str, Any], tmp: Path, final: Path, data: SceneData, fmt
              t: dict[str, float]) -> None:
     """Record the files of ``tmp`` and ``stats`` in its ``stats.json``, let the format finish
     (``before_rename``), then rename ``tmp`` to ``final``: the scene appears whole, or not at all
-    (an incomplete ``final`` of an earlier run is replaced)."""
+    (an incomplete ``final`` of an earlier run has the files its record lists replaced; what the
+    user put beside them stays)."""
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if fmt.before_rename is not None:
         fmt.before_rename(data, out)
     t["export"] = time.perf_counter()
-    if final.exists():
-        shutil.rmtree(final)
-    tmp.replace(final)
+    publish_folder(tmp, final, previous=recorded_files(final), record=RECORD)
 
 
 def _class_points(counts: np.ndarray) -> dict[str, int]:
