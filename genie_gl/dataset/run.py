@@ -34,18 +34,15 @@ from typing import Any
 
 from .. import __version__
 from ..capture import add_totals
-from ..cloud.balance import PAPER_REAL
 from ..errors import ConfigError
 from ..export import get_format
 from ..outputs import OutputFolder, atomic_write_text, claim_folder
 from ..scene import ASSETS
-from ..sensors.paths import path_kind, read_waypoints
-from ..sensors.placement import ceiling_of, mount_for
 from . import curation
 from .config import DatasetConfig, accuracy_used
 from .executors import map_scenes
-from .limits import check_limits
 from .manifest import OutputLock, check_resume, fingerprint, scene_complete
+from .modes.base import get_mode
 from .recipe import RunInputs, load_inputs
 from .report import class_totals, dataset_cost, histogram
 from .scene import run_scene, scene_dir  # noqa: F401  (the run's public names)
@@ -84,13 +81,11 @@ def prepare(cfg: DatasetConfig) -> tuple[RunInputs, dict]:
     fingerprint)."""
     inputs = load_inputs(cfg)
     strategy, sensor = inputs.strategy, inputs.sensor
-    if cfg.capture == "static":
-        mount_for(sensor, ceiling_m=ceiling_of(strategy.scene), mount_height_m=cfg.mount_m)   # placement can work
-    elif path_kind(cfg.path) == "waypoints":
-        read_waypoints(cfg.path)   # a bad waypoints file is refused before any work
+    mode = get_mode(cfg.capture)
+    mode.prepare(cfg, inputs)   # placement can work, a waypoints file reads
     fmt = get_format(cfg.format)
     claim_output(cfg, fmt)
-    check_limits(cfg, strategy, sensor, Path(cfg.out))
+    mode.check_limits(cfg, strategy, sensor, Path(cfg.out))
     for note in fmt.notes(cfg) if fmt.notes else []:
         log.warning(note)
     if cfg.executor == "ray":
@@ -185,10 +180,11 @@ def _run(cfg: DatasetConfig, inputs: RunInputs, folder: OutputFolder, fmt, manif
     missing = [i for i, s in enumerate(stats) if s is None]
     if missing:
         raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
-    if fmt.finish is not None:
-        fmt.finish(out, cfg, stats)
-    hist = histogram(out, stats, curation.target(cfg), curation.short(stats),
-                     reference=PAPER_REAL if cfg.capture == "mobile-map" else None)
+    mode = get_mode(cfg.capture)
+    finish = mode.finish(fmt)
+    if finish is not None:
+        finish(out, cfg, stats)
+    hist = histogram(out, stats, curation.target(cfg), curation.short(stats), reference=mode.reference())
     made = [r for r in results if not r.get("skipped")]
     n_made = len(made) if balanced is None else len(balanced)  # balanced: the scenes written by this run
     stage_t: dict[str, float] = {}

@@ -280,6 +280,6 @@ from ..scene.assets.library import SEMANTIC, VARIANTS
 from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
-    "bop", "train_pbr", digits=6, chunks=False, captures=("static",), dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
+    "bop", "train_pbr", digits=6, chunks=False, dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
     bytes_per_point=0.0, bytes_per_pixel=4.0,   # 16-bit depth + RGB + masks, PNG-compressed
     description="BOP scene-wise RGB-D frames, masks, poses and object models"))

@@ -148,9 +148,7 @@ def assemble(out: str | os.PathLike, scene_dirs: list[Path], *, counts=None, spl
 
 
 def _finish(out: Path, cfg, stats: list[dict]) -> None:
-    """The dataset's sequences: each scene's recording its own (trajectory), else the chunks'."""
-    if cfg is None or cfg.capture != "trajectory":
-        return STATIC_FINISH(out, cfg, stats)
+    """The dataset's sequences, each scene's recording its own (hard links), and the label map."""
     counts: dict[int, int] = {}
     for s in stats:
         for k, v in s["class_points"].items():
@@ -161,6 +159,5 @@ def _finish(out: Path, cfg, stats: list[dict]) -> None:
 
 
 # the SemanticKITTI format takes recordings too: its registration, with the sequence writer
-STATIC_FINISH = semantickitti.DATASET.finish
-DATASET = register_format(dataclasses.replace(semantickitti.DATASET, write_sequence=write_scene, finish=_finish,
-                                              captures=("static", "mobile-map", "trajectory")))
+DATASET = register_format(dataclasses.replace(semantickitti.DATASET, write_sequence=write_scene,
+                                              finish_recordings=_finish))
