@@ -23,7 +23,7 @@ from ..labels import CLASSES
 from ..limits import MAX_CAMERAS, MAX_REGIONS, available_memory_bytes  # noqa: F401  (kept importable from here)
 from ..sensors import Sensor
 from ..sensors.accuracy import AccuracySettings, from_dict, load_accuracy
-from .modes.base import CAPTURE_MODES, get_mode, mode_options, users_of
+from .modes.base import CAPTURE_MODES, DEFAULT_MODE, get_mode, mode_options, users_of
 
 # the CLI spelling of each field, for messages
 OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
@@ -88,7 +88,7 @@ class DatasetConfig(BaseModel):
     points_budget: Optional[int] = Field(None, ge=1)
     mount_m: Optional[float] = Field(None, gt=0, le=1e4)   # camera height above the floor; None: from the range
     # the capture mode (genie_gl.dataset.modes): its name; the options below it are the modes'
-    capture: str = "static"
+    capture: str = DEFAULT_MODE
     rig: Optional[str] = None                 # a rig file or shipped name; None: --sensor alone
     path: str = Field("aisles", min_length=1)  # aisles, random, or a waypoints file
     motion: Literal["person", "robot"] = "person"

@@ -54,7 +54,7 @@ class DatasetFormat:
     cloud_outputs: Callable[[str], tuple[str, ...]] | None = None  # top-level names write_cloud(name=) makes
     dataset_outputs: tuple[str, ...] = ()                         # top-level names of a dataset, beside folder
     notes: Callable[[Any], list[str]] | None = None               # (config) -> what the user must be told first
-    # the disk a scene takes, for the size check before a run (dataset/limits.py): bytes per
+    # the disk a scene takes, for the size check before a run (a capture mode's estimate): bytes per
     # point kept, at most (xyz f4 + label u4 = 16 for SemanticKITTI; more for ply, pcd, npz),
     # and per pixel of its frames (image formats)
     bytes_per_point: float = 40.0

@@ -163,6 +163,8 @@ class CaptureMode:
 
 
 CAPTURE_MODES: dict[str, CaptureMode] = {}
+#: the mode of a run that names none: standing cameras (:mod:`.standing`)
+DEFAULT_MODE = "static"
 
 
 def register_mode(mode: CaptureMode) -> CaptureMode:
