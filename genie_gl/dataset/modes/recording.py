@@ -39,6 +39,7 @@ class Recording(RigOnPath):
         # the frames were rendered as the writer read them: those seconds are the capture's
         got.clock["capture"] = got.clock["cloud"] = got.clock["placement"] + tally.seconds
         got.counts, got.points, got.shots = tally.counts, tally.points, tally.shots
+        got.info["trajectory"]["shots"] = tally.shots   # counted once the writer has read them all
 
 
 RECORDING = register_mode(Recording())
