@@ -197,3 +197,29 @@ def test_a_need_over_its_limit_reads_larger(tmp_path, need, limit):
                           (str(disk.value), r"about ([\d.e+]+) GB, more than ([\d.e+]+) GB")):
         shown, allowed = (float(x) for x in re.search(pattern, text).groups())
         assert shown > allowed, text
+
+
+@pytest.mark.gl
+@RERUN
+def test_a_bop_scene_written_again_keeps_the_users_files(tmp_path):
+    """``bop.write_scene`` (``genie capture --format bop``) into a folder that holds the scene
+    already: the user's notes in it stay, its frames of an earlier, longer capture go."""
+    import genie_gl as gg
+    from genie_gl.export import bop
+    from genie_gl.render import Renderer
+    from genie_gl.render.projection import look_at
+    from tests.cloud.test_bop import two_box_scene
+
+    scene = two_box_scene()
+    sensor = gg.Sensor(160, 120, np.array([[150.0, 0, 80.0], [0, 150.0, 60.0], [0, 0, 1]]))
+    poses = [look_at([0.5, -3.0, 1.6], [0.1, 0.6, 0.4]), look_at([2.5, -2.0, 2.0], [0.0, 0.5, 0.4])]
+    with Renderer(scene) as r:
+        frames = [r.render(sensor, p) for p in poses]
+    folder = bop.write_scene(scene, frames, tmp_path, scene_id=0)
+    mine = {"NOTES.md": b"mine\n", "rgb/000001_edited.png": b"my edit", "depth/draft.tmp": b"x"}
+    for rel, data in mine.items():
+        (folder / rel).write_bytes(data)
+    bop.write_scene(scene, frames[:1], tmp_path, scene_id=0)
+    for rel, data in mine.items():
+        assert (folder / rel).read_bytes() == data, rel
+    assert not (folder / "rgb" / "000001.png").exists() and (folder / "rgb" / "000000.png").is_file()
