@@ -179,6 +179,7 @@ class RigOnPath(CaptureMode):
         tally = Tally()
         stream = tally.watch(record(scene, rig, trajectory, seed=streams.capture_seed, depth_only=not fmt.colour,
                                     accuracy=accuracy, context=shared_context()))
+        stamp(clock, "capture")   # the recording's set-up (and its first window); the rest as it streams
         return Ride(layout, scene, clock, rig, trajectory, tally, stream)
 
     def captured(self, ride: Ride, *, map_cloud=None, **fields) -> Captured:

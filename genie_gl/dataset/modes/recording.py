@@ -37,7 +37,7 @@ class Recording(RigOnPath):
         tally = got.tally
         fmt.write_sequence(data, folder)
         # the frames were rendered as the writer read them: those seconds are the capture's
-        got.clock["capture"] = got.clock["cloud"] = got.clock["placement"] + tally.seconds
+        got.clock["capture"] = got.clock["cloud"] = got.clock["capture"] + tally.seconds
         got.counts, got.points, got.shots = tally.counts, tally.points, tally.shots
         got.info["trajectory"]["shots"] = tally.shots   # counted once the writer has read them all
 
