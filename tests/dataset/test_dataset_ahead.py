@@ -72,10 +72,10 @@ def test_a_helper_that_dies_leaves_the_worker_to_make_the_rest(alone, tmp_path, 
 def test_a_run_in_this_process_hides_what_its_warm_up_made_from_the_collector_and_shows_it_again(tmp_path, monkeypatch):
     import gc
 
-    from genie_gl.dataset import scene
+    from genie_gl.dataset.modes import standing
 
-    frozen, real = [], scene.make
-    monkeypatch.setattr(scene, "make", lambda *a, **k: frozen.append(gc.get_freeze_count()) or real(*a, **k))
+    frozen, real = [], standing.make
+    monkeypatch.setattr(standing, "make", lambda *a, **k: frozen.append(gc.get_freeze_count()) or real(*a, **k))
     before = gc.get_freeze_count()
     _run(tmp_path, monkeypatch, helper=False, scenes=2)
     assert len(frozen) == 2 and min(frozen) > before + 10_000   # the imports' and the warm-up's objects
@@ -192,12 +192,13 @@ def test_a_scene_made_ahead_counts_the_helpers_cpu_time_as_its_own(tmp_path):
 
 def test_the_memory_estimate_counts_the_helpers_layout():
     from genie_gl.dataset.config import DatasetConfig
-    from genie_gl.dataset.limits import estimate
+    from genie_gl.dataset.modes import get_mode
     from genie_gl.dataset.recipe import load_inputs
     from genie_gl.limits import BYTES_PER_NODE
 
     one = DatasetConfig(strategy="assembly_line", out="unused", scenes=1, cameras=4, sensor="ideal_pinhole")
     inputs = load_inputs(one)
+    estimate = get_mode(one.capture).estimate
     a = estimate(one, inputs.strategy, inputs.sensor)
     b = estimate(one.model_copy(update={"scenes": 2}), inputs.strategy, inputs.sensor)
     c = estimate(one.model_copy(update={"scenes": 2, "workers": 2}), inputs.strategy, inputs.sensor)
