@@ -11,6 +11,7 @@ percentile of the scan's z).
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import re
@@ -74,6 +75,22 @@ class Scan:
 
     def __len__(self) -> int:
         return len(self.xyz)
+
+    @property
+    def digest(self) -> str:
+        """SHA-256 (hex) of the scan's points as read: in the world frame (so of the scan file,
+        its pose and its calibration), with their origin and floor height; everything a
+        point's features depend on. Two scans of one digest are the same points, wherever
+        their files lie (their labels aside)."""
+        cached = self.__dict__.get("_digest")
+        if cached is None:
+            h = hashlib.sha256()
+            h.update(np.ascontiguousarray(self.xyz, np.float32).tobytes())
+            h.update(np.asarray(self.origin, np.float64).tobytes())
+            h.update(np.float64(self.floor_z).tobytes())
+            cached = h.hexdigest()
+            object.__setattr__(self, "_digest", cached)
+        return cached
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,25 +180,55 @@ def _find_yaml(root: Path) -> Path:
 
 def _read_yaml(path: Path) -> dict:
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: cannot read the label-map yaml (not a text file: byte {exc.start} is not "
+                          "UTF-8)") from None
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigError(f"{path}: cannot read the label-map yaml ({str(exc).splitlines()[0]})") from None
     if not isinstance(data, dict) or not isinstance(data.get("labels"), dict):
         raise ConfigError(f"{path}: a SemanticKITTI label-map yaml needs 'labels: {{raw id: name}}'")
+    bad = [k for k in data["labels"] if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < labelmap.RAW_IDS]
+    if bad:
+        raise ConfigError(f"{path}: labels: {bad[0]!r} is not a raw id; expected whole numbers in "
+                          f"0..{labelmap.RAW_IDS - 1}")
     return data
 
 
-def _matrices(path: Path, n: int | None = None) -> list[np.ndarray]:
+def _text_lines(path: Path) -> list[str]:
+    try:
+        return path.read_text(encoding="utf-8").splitlines()
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not a text file (byte {exc.start} is not UTF-8); expected lines of 12 "
+                          "numbers (a 3x4 matrix)") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from None
+
+
+def _matrix(text: str, where: str) -> np.ndarray:
+    """A 3x4 matrix (12 numbers) as a 4x4 one; ``where`` names the file, line and field."""
+    try:
+        v = np.array([float(x) for x in text.split()], np.float64)
+    except ValueError as exc:
+        word = str(exc).rsplit(":", 1)[-1].strip()
+        raise ConfigError(f"{where}: {word} is not a number; expected 12 numbers (a 3x4 matrix)") from None
+    if v.size != 12:
+        raise ConfigError(f"{where}: expected 12 numbers (a 3x4 matrix), got {v.size}")
+    if not np.isfinite(v).all():
+        raise ConfigError(f"{where}: number {int(np.argmin(np.isfinite(v))) + 1} of 12 is {v[~np.isfinite(v)][0]}; "
+                          "expected 12 finite numbers (a 3x4 matrix)")
+    m = np.eye(4)
+    m[:3] = v.reshape(3, 4)
+    return m
+
+
+def _matrices(path: Path) -> list[np.ndarray]:
+    """The poses of ``poses.txt``, one 3x4 matrix a line (blank lines skipped)."""
     rows = []
-    for line in path.read_text().splitlines():
+    for i, line in enumerate(_text_lines(path), 1):
         line = line.split(":", 1)[1] if ":" in line else line
         if line.strip():
-            v = np.array([float(x) for x in line.split()], np.float64)
-            if v.size != 12:
-                raise ConfigError(f"{path}: expected 12 numbers (a 3x4 matrix) per line, got {v.size}")
-            m = np.eye(4)
-            m[:3] = v.reshape(3, 4)
-            rows.append(m)
+            rows.append(_matrix(line, f"{path}: line {i}"))
     return rows
 
 
@@ -189,19 +236,14 @@ def _calib_tr(seq: Path) -> np.ndarray:
     calib = seq / "calib.txt"
     if not calib.exists():
         return np.eye(4)
-    for line in calib.read_text().splitlines():
+    for i, line in enumerate(_text_lines(calib), 1):
         if line.startswith("Tr:"):
-            return _matrices_from_text(line, calib)
+            tr = _matrix(line.split(":", 1)[1], f"{calib}: line {i} (Tr)")
+            if abs(np.linalg.det(tr[:3, :3])) < 1e-9:
+                raise ConfigError(f"{calib}: line {i} (Tr): a singular matrix (its rotation has determinant 0); "
+                                  "expected the velodyne-to-camera transform")
+            return tr
     return np.eye(4)
-
-
-def _matrices_from_text(line: str, where: Path) -> np.ndarray:
-    v = np.array([float(x) for x in line.split(":", 1)[1].split()], np.float64)
-    if v.size != 12:
-        raise ConfigError(f"{where}: Tr needs 12 numbers, got {v.size}")
-    m = np.eye(4)
-    m[:3] = v.reshape(3, 4)
-    return m
 
 
 def _select(names: list[str], part: str | None, split: dict | None, where: Path) -> list[str]:
@@ -235,20 +277,18 @@ def _read_semantickitti(root: Path, part: str | None, mapping: str | os.PathLike
     data = _read_yaml(ypath)
     their = {int(k): str(v) for k, v in data["labels"].items()}
     ours = str(data.get("name", "")) == "genie-gl" or ypath.name == OUR_YAML
-    if ours:   # genie-gl's own classes; a --label-map is for foreign sets
-        if mapping is not None:
-            log.warning("%s: --label-map %s is not used: this set holds genie-gl's own classes", root, mapping)
-        lmap = labelmap.identity({k: v for k, v in their.items() if k > 9})
-        labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
-    elif mapping is not None:
+    if mapping is not None:   # the user's map, for their set or to ignore ids in one of ours
         lmap = labelmap.load(mapping, their)
+    elif ours:   # genie-gl's own classes: the ids its yaml names, and no other
+        lmap = labelmap.identity({k: v for k, v in their.items() if k > 9}, only=their, source=str(ypath))
+        labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
     else:
         try:
             labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
         except ConfigError:
             raise ConfigError(f"{ypath}: this set's classes are not genie-gl's (e.g. {next(iter(their.items()))}); "
                               "give --label-map FILE mapping their classes to ours") from None
-        lmap = labelmap.identity(their)
+        lmap = labelmap.identity(their, only=their, source=str(ypath))
     seq_root = root / "sequences"
     names = sorted(p.name for p in seq_root.iterdir() if p.is_dir() and p.name.isdigit())
     scans = []
@@ -272,6 +312,9 @@ def _read_semantickitti(root: Path, part: str | None, mapping: str | os.PathLike
             if len(raw) != len(pts):
                 raise ConfigError(f"{lab_path}: {len(raw)} labels for {len(pts)} points in {b.name}")
             k = int(b.stem)
+            if poses and k >= len(poses):
+                raise ConfigError(f"{seq / 'poses.txt'}: {len(poses)} poses, but scan {b.name} needs line {k + 1}; "
+                                  "expected one pose per scan")
             pose = tr_inv @ poses[k] @ tr if k < len(poses) else np.eye(4)
             # world = R xyz + t; keep float32 relative to the translation
             rot, origin = pose[:3, :3], pose[:3, 3].copy()
