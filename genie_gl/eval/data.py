@@ -342,25 +342,58 @@ def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if "format binary_little_endian 1.0" not in header:
         raise ConfigError(f"{path}: only binary little-endian PLY is read (genie-gl writes it)")
     fields, n, origin, in_vertex = [], 0, np.zeros(3), False
-    for line in header:
+    for i, line in enumerate(header, 1):
         parts = line.split()
-        if parts[:2] == ["comment", "origin"]:
-            origin = np.array([float(x) for x in parts[2:5]])
-        elif parts[:1] == ["element"]:
-            in_vertex = parts[1] == "vertex"
-            if in_vertex:
-                n = int(parts[2])
-        elif parts[:1] == ["property"] and in_vertex:
-            if parts[1] not in _PLY_TYPES:
-                raise ConfigError(f"{path}: vertex property type {parts[1]!r} not read")
-            fields.append((parts[2], _PLY_TYPES[parts[1]]))
+        try:
+            if parts[:2] == ["comment", "origin"]:
+                origin = np.array([float(x) for x in parts[2:5]])
+                if origin.shape != (3,) or not np.isfinite(origin).all():
+                    raise ValueError(f"expected three finite numbers, got {' '.join(parts[2:])!r:.60}")
+            elif parts[:1] == ["element"]:
+                in_vertex = len(parts) > 1 and parts[1] == "vertex"
+                if in_vertex:
+                    n = int(parts[2])
+                    if n < 0:
+                        raise ValueError(f"a count of {n}")
+            elif parts[:1] == ["property"] and in_vertex:
+                if parts[1] not in _PLY_TYPES:
+                    raise ConfigError(f"{path}: vertex property type {parts[1]!r} not read")
+                fields.append((parts[2], _PLY_TYPES[parts[1]]))
+        except (ValueError, IndexError) as exc:
+            raise ConfigError(f"{path}: header line {i} ({line.strip()!r:.60}): {exc}") from None
     names = [f for f, _ in fields]
     if "semantic" not in names or not {"x", "y", "z"} <= set(names):
         raise ConfigError(f"{path}: unlabelled cloud (expected vertex properties x, y, z and semantic; "
                           f"got {', '.join(names)})")
-    rec = np.frombuffer(raw, dtype=np.dtype(fields), count=n, offset=end + len(b"end_header\n"))
+    dtype = np.dtype(fields)
+    body = len(raw) - end - len(b"end_header\n")
+    if body < n * dtype.itemsize:
+        raise ConfigError(f"{path}: truncated: {body} bytes of vertex data for the {n} vertices of "
+                          f"{dtype.itemsize} bytes its header announces")
+    rec = np.frombuffer(raw, dtype=dtype, count=n, offset=end + len(b"end_header\n"))
     xyz = np.stack([rec["x"], rec["y"], rec["z"]], 1).astype(np.float32)
     return xyz, rec["semantic"].astype(np.int64), origin
+
+
+def _read_npz(f: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(xyz float32 (N, 3), semantic (N,) int64, origin (3,)) of a cloud as
+    ``genie_gl.export.npz`` writes it; a file numpy cannot read, labels that are not whole
+    numbers or an origin that is not three finite numbers is one line naming the file."""
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            if "semantic" not in z.files or "xyz" not in z.files:
+                raise ConfigError(f"{f}: unlabelled cloud (expected arrays xyz and semantic; got "
+                                  f"{', '.join(z.files)})")
+            xyz, sem = z["xyz"], z["semantic"]
+            origin = z["origin"] if "origin" in z.files else np.zeros(3)
+    except (OSError, ValueError, EOFError) as exc:   # not a .npz, truncated, or object arrays
+        raise ConfigError(f"{f}: not a readable NPZ cloud ({str(exc).splitlines()[0][:80]})") from None
+    if sem.dtype.kind not in "iub":
+        raise ConfigError(f"{f}: semantic is {sem.dtype}; expected whole class ids (an integer array)")
+    origin = np.asarray(origin, np.float64)
+    if origin.shape != (3,) or not np.isfinite(origin).all():
+        raise ConfigError(f"{f}: origin {origin.tolist()!r:.60}: expected three finite numbers")
+    return xyz.astype(np.float32), sem.astype(np.int64), origin
 
 
 def _read_chunks(root: Path, fmt: str, part: str | None) -> tuple:
@@ -372,12 +405,7 @@ def _read_chunks(root: Path, fmt: str, part: str | None) -> tuple:
             if fmt == "ply":
                 xyz, sem, origin = read_ply(f)
             else:
-                with np.load(f) as z:
-                    if "semantic" not in z.files or "xyz" not in z.files:
-                        raise ConfigError(f"{f}: unlabelled cloud (expected arrays xyz and semantic; got "
-                                          f"{', '.join(z.files)})")
-                    xyz, sem = z["xyz"].astype(np.float32), z["semantic"].astype(np.int64)
-                    origin = z["origin"].astype(np.float64) if "origin" in z.files else np.zeros(3)
+                xyz, sem, origin = _read_npz(f)
             if sem.size and (sem.min() < 0 or sem.max() >= labelmap.RAW_IDS):
                 raise ConfigError(f"{f}: label {int(sem.min() if sem.min() < 0 else sem.max())} is outside "
                                   f"0..{labelmap.RAW_IDS - 1}")

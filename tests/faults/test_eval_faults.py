@@ -199,3 +199,35 @@ def test_read_set_refuses_a_stray_label_in_a_set_of_ours(sets):
     with pytest.raises(ConfigError, match=r"label 200 \(on 50 of \d+ points\) is outside the label map"):
         read_set(sets["stray200"])
     assert max(s.label.max() for s in read_set(sets["tr"]).scans) <= 9
+
+
+def _ply_edit(old: bytes, new: bytes):
+    def edit(f: Path) -> None:
+        f.write_bytes(f.read_bytes().replace(old, new, 1))
+    return edit
+
+
+CHUNKS = [   # (mark, format, how the file is broken, what the one line says)
+    (BAD, "ply", _ply_edit(b"element vertex ", b"element vertex x"), "header line 5 ('element vertex x"),
+    (BAD, "ply", _ply_edit(b"comment origin ", b"comment origin zz "), "header line 4 ('comment origin zz"),
+    (BAD, "ply", lambda f: f.write_bytes(f.read_bytes()[:-40]), "truncated: 5920 bytes of vertex data for the 298"),
+    (BAD, "npz", lambda f: f.write_bytes(b"garbage" * 10), "not a readable NPZ cloud"),
+    (fault("bad file", "wrong"), "npz",
+     lambda f: np.savez(f, xyz=np.zeros((3, 3), np.float32), semantic=np.array([0, 1, 2.5])),
+     "semantic is float64; expected whole class ids"),
+    (fault("bad file", "wrong"), "npz",
+     lambda f: np.savez(f, xyz=np.zeros((3, 3), np.float32), semantic=np.zeros(3, np.uint16),
+                        origin=np.array([0, np.nan, 0])), "origin [0.0, nan, 0.0]: expected three finite numbers"),
+]
+
+
+@pytest.mark.parametrize("mark, fmt, edit, needle",
+                         [pytest.param(*c, marks=c[0], id=f"{c[1]}: {c[3][:30]}") for c in CHUNKS])
+def test_a_broken_chunk_file_is_one_line_naming_it(mark, fmt, edit, needle, tmp_path):
+    root = make_set(tmp_path / "s", scenes=1, seed=0, fmt=fmt, points=300)
+    f = next(root.glob(f"scenes/*/*.{fmt}"))
+    edit(f)
+    with pytest.raises(ConfigError) as e:
+        read_set(root)
+    assert str(e.value).startswith(str(f)) and needle in str(e.value), str(e.value)
+    assert len(str(e.value).splitlines()) == 1
