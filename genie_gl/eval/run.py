@@ -252,6 +252,9 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
         raise ConfigError(f"--train {', '.join(s.spec for s in train_sets)}: no labelled point")
     seen = set(np.unique(train_pts.labels[train_pts.labels >= 0]).tolist())
     test_pts = [PointTable(list(s.scans), class_map=lut, **opts) for s in test_sets]
+    for labels in [train_pts.labels] + [tp.labels for tp in test_pts]:   # a class no map names (a PLY
+        for c in np.unique(labels[labels >= 0]).tolist():                 # set's own id): named by its id
+            names.setdefault(int(c), f"class {c}")
     t_read = time.perf_counter() - t0
     needs_features = model != "majority" and model != "neural"
     t1 = time.perf_counter()

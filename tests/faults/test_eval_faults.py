@@ -231,3 +231,25 @@ def test_a_broken_chunk_file_is_one_line_naming_it(mark, fmt, edit, needle, tmp_
         read_set(root)
     assert str(e.value).startswith(str(f)) and needle in str(e.value), str(e.value)
     assert len(str(e.value).splitlines()) == 1
+
+
+@fault("bad file", "traceback")
+def test_a_class_no_map_names_is_scored_by_its_id(tmp_path):
+    """A PLY set holds a strategy's own class 12 (no yaml names it) that training never saw:
+    reported as "class 12", where the summary line died with KeyError: 12."""
+    from genie_gl.cloud.pointcloud import PointCloud
+    from genie_gl.eval.data import read_ply
+    from genie_gl.export import ply
+
+    tr = make_set(tmp_path / "tr", scenes=1, seed=0, fmt="ply", points=600)
+    src = make_set(tmp_path / "src", scenes=1, seed=1, fmt="ply", points=600)
+    xyz, sem, _ = read_ply(next(src.glob("scenes/*/*.ply")))
+    sem[:40] = 12
+    ply.write(PointCloud(xyz=xyz, semantic=sem.astype(np.uint16), instance=np.zeros(len(sem), np.uint32)),
+              tmp_path / "te" / "scenes" / "0000" / "cloud_000.ply")
+    run = cli("eval", "--no-progress", "--seeds", "0", "--workers", "1", "--train", tr, "--test", tmp_path / "te",
+              "--out", tmp_path / "o", timeout=120)
+    assert run.rc == 0 and "Traceback" not in run.err, run.err[-2000:]
+    assert "never seen in training: class 12" in run.out
+    metrics = json.loads((tmp_path / "o" / "metrics.json").read_text())
+    assert metrics["tests"][0]["unseen_classes"] == ["class 12"]
