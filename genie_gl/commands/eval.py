@@ -155,18 +155,24 @@ def run(args: argparse.Namespace) -> int:
         from ..outputs import claim_folder
         from ..studies.report import preset_markdown
 
-        claim_folder(args.out, "eval-preset", reserve=True)
-
-        if args.preset == "finetune":
-            res = protocols.finetune(args.target_train, args.target_test, args.train, out=args.out, model=model,
-                                     seeds=seeds, workers=args.workers, label_map=args.label_map,
-                                     cache=_cache(args) / "features", progress=progress)
-        else:
-            res = protocols.mix(args.target_train, args.target_test, args.train, out=args.out, model=model,
-                                seeds=seeds, scarce=args.preset == "scarce", workers=args.workers,
-                                label_map=args.label_map, cache=_cache(args) / "features", progress=progress,
-                      allow_overlap=args.allow_overlap)
-        print(preset_markdown(args.preset, res, Path(args.out)))
+        folder = claim_folder(args.out, "eval-preset", reserve=True)
+        try:
+            if args.preset == "finetune":
+                res = protocols.finetune(args.target_train, args.target_test, args.train, out=args.out, model=model,
+                                         seeds=seeds, workers=args.workers, label_map=args.label_map,
+                                         cache=_cache(args) / "features", progress=progress)
+            else:
+                res = protocols.mix(args.target_train, args.target_test, args.train, out=args.out, model=model,
+                                    seeds=seeds, scarce=args.preset == "scarce", workers=args.workers,
+                                    label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
+        except BaseException:   # a failed run leaves a manifest of what exists (no folder, if it made one)
+            folder.abandon()
+            raise
+        text = preset_markdown(args.preset, res, Path(args.out))
+        folder.finish({"inputs": {"preset": args.preset, "target_train": args.target_train,
+                                  "target_test": args.target_test, "train": list(args.train), "model": model,
+                                  "seeds": seeds, "label_map": args.label_map}})
+        print(text)
         return 0
     if not args.train or not args.test:
         raise ConfigError("give --train DIR ... and --test DIR ... (or --preset, --study, --bench)")

@@ -253,3 +253,20 @@ def test_a_class_no_map_names_is_scored_by_its_id(tmp_path):
     assert "never seen in training: class 12" in run.out
     metrics = json.loads((tmp_path / "o" / "metrics.json").read_text())
     assert metrics["tests"][0]["unseen_classes"] == ["class 12"]
+
+
+@fault("bad option", "wrong")
+def test_a_failed_preset_leaves_no_folder_and_a_good_one_runs(sets, tmp_path):
+    """The preset claims its folder first: a run that fails on a missing set leaves no folder
+    with a manifest of nothing; the same preset on real sets finishes (its options pass)."""
+    run = cli("eval", "--no-progress", "--preset", "finetune", "--target-train", tmp_path / "none", "--target-test",
+              sets["te"], "--train", sets["tr"], "--seeds", "0", "--out", tmp_path / "p")
+    refused(run, "none: no such dataset folder")
+    assert not (tmp_path / "p").exists()
+    ok = cli("eval", "--no-progress", "--preset", "finetune", "--target-train", f"{sets['tr']}:00", "--target-test",
+             sets["te"], "--train", f"{sets['tr']}:01", "--seeds", "0", "--workers", "1", "--out", tmp_path / "p",
+             timeout=300)
+    assert ok.rc == 0 and "Traceback" not in ok.err, ok.err[-2000:]
+    manifest = json.loads((tmp_path / "p" / "manifest.json").read_text())
+    assert set(manifest["outputs"]) == {p.name for p in (tmp_path / "p").iterdir()} - {"manifest.json"}
+    assert not (tmp_path / "cache").exists() and (tmp_path / "p" / "cache").is_dir()
