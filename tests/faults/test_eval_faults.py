@@ -270,3 +270,14 @@ def test_a_failed_preset_leaves_no_folder_and_a_good_one_runs(sets, tmp_path):
     manifest = json.loads((tmp_path / "p" / "manifest.json").read_text())
     assert set(manifest["outputs"]) == {p.name for p in (tmp_path / "p").iterdir()} - {"manifest.json"}
     assert not (tmp_path / "cache").exists() and (tmp_path / "p" / "cache").is_dir()
+
+
+@fault("bad API call", "wrong")
+def test_stray_labels_ignored_only_when_asked(sets, tmp_path):
+    """The explicit way past a stray id in a set of ours: a --label-map that maps our classes
+    and ignores the rest; the 50 stray points are then left out, the others kept."""
+    p = tmp_path / "map.yaml"
+    p.write_text("map: {" + ", ".join(f"{c}: {c}" for c in range(10)) + "}\ndefault: ignore\n")
+    s = read_set(sets["stray200"], label_map=p)
+    labels = np.concatenate([x.label for x in s.scans])
+    assert int((labels == -1).sum()) == 50 and labels.max() <= 9
