@@ -106,7 +106,7 @@ bench-eval: setup ## the classical model's training time on ~1 M points (makes a
 	$(GENIE) dataset assembly_line --scenes 10 --cameras 16 --sensor realsense_d435 --out $(OUT)/eval-cache/datasets/assembly_line.realsense_d435.s0.n10.c16 --seed 0 --previews 0 --workers $(WORKERS)
 	$(GENIE) eval --bench --train $(OUT)/eval-cache/datasets/assembly_line.realsense_d435.s0.n10.c16 --out $(OUT)/bench --workers $(WORKERS)
 studies: setup ## every genie eval study (datasets made once under out/eval-cache; hours on 2 cores)
-	$(GENIE) eval --study all --out $(OUT)/studies --workers $(WORKERS) --yes
+	$(GENIE) eval --study all --out $(OUT)/studies --cache $(OUT)/eval-cache --workers $(WORKERS) --yes
 bench-planning: setup ## a full D435 / Azure frame before and after planning (x the ideal render)
 	$(GENIE) bench planning --out $(OUT)/bench
 bench-cli: setup ## seconds genie --help and every subcommand's --help take

@@ -200,18 +200,47 @@ class OutputFolder:
         return sorted(mine - _ALWAYS_OURS)
 
     def reserve(self, record: dict[str, Any] | None = None) -> None:
-        """Write a manifest naming this run's outputs before the first of them is written, so a
-        run killed half-way leaves nothing a later run would take for the user's."""
+        """Write a manifest naming the outputs this run is about to write (``"writing"``) before
+        the first of them is written, so a run killed half-way leaves nothing a later run would
+        take for the user's; ``"outputs"`` lists only the entries that exist."""
         self.path.mkdir(parents=True, exist_ok=True)
         data = dict(record or self.previous or {})
-        data.update({"genie_gl": __version__, "command": self.command,
-                     "outputs": sorted((set(self.owned) | set(self.declared)) - _ALWAYS_OURS)})
+        data.pop("writing", None)
+        data.update({"genie_gl": __version__, "command": self.command, "outputs": self.outputs(),
+                     "writing": sorted(set(self.declared) - _ALWAYS_OURS)})
         atomic_write_text(self.path / MANIFEST, json.dumps(data, indent=1))
         self._reserved = True
+
+    def abandon(self, remove: Iterable[str] = ()) -> None:
+        """After a failed run: remove the entries ``remove`` (outputs this run began and left
+        partial; only genie-gl's), then leave a manifest listing only what exists, as the last
+        finished run wrote it; a folder this run made and left holding nothing is removed."""
+        for name in remove:
+            if (self.path / name).exists() or (self.path / name).is_symlink():
+                self.remove(name)
+        if not self.path.is_dir():
+            return
+        left = {p.name for p in self.path.iterdir()} - _ALWAYS_OURS
+        if self.made and not left:
+            for name in _ALWAYS_OURS:
+                if (self.path / name).is_file():
+                    (self.path / name).unlink()
+            try:
+                self.path.rmdir()
+            except OSError:   # something appeared meanwhile: leave it
+                pass
+            return
+        if self.previous is None and not self._reserved:
+            return
+        data = dict(self.previous or {})
+        data.pop("writing", None)
+        data.update({"genie_gl": __version__, "command": self.command, "outputs": self.outputs()})
+        atomic_write_text(self.path / MANIFEST, json.dumps(data, indent=1))
 
     def finish(self, manifest: dict[str, Any]) -> Path:
         """Write ``manifest`` (plus ``genie_gl``, ``command`` and ``outputs``) atomically."""
         data = {"genie_gl": __version__, "command": self.command, **manifest}
+        data.pop("writing", None)
         data["outputs"] = self.outputs()
         return atomic_write_text(self.path / MANIFEST, json.dumps(data, indent=1))
 
@@ -271,8 +300,8 @@ def _claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] =
                           f"`genie {command}` into another folder")
     if previous is None:
         owned: frozenset[str] = frozenset()
-    elif isinstance(previous.get("outputs"), list):
-        owned = frozenset(str(n) for n in previous["outputs"])
+    elif isinstance(previous.get("outputs"), list):   # and what a run stopped half-way was writing
+        owned = frozenset(str(n) for n in previous["outputs"] + list(previous.get("writing") or []))
     else:  # a manifest of ours from before outputs were recorded: it vouches for the names we write
         owned = frozenset(n for n in writes if n in before)
     writes = list(writes)

@@ -42,7 +42,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="YAML/JSON {map: {their class: our class}} for a foreign SemanticKITTI set")
     p.add_argument("--out", required=False, help="output folder")
     p.add_argument("--workers", type=count(1, 1024), default=2, help="processes/threads (results do not depend on it)")
-    p.add_argument("--cache", default=None, help="feature and dataset cache (default: OUT/../eval-cache)")
+    p.add_argument("--cache", default=None, help="feature and dataset cache (default: OUT/cache, inside the output "
+                                                 "folder)")
+    p.add_argument("--allow-overlap", action="store_true",
+                   help="test on scans that are training scans too (refused by default: the score would be on "
+                        "training data)")
     p.add_argument("--preset", choices=PRESETS, default=None, help="a paper protocol (with --target-train/--target-test)")
     p.add_argument("--target-train", default=None, metavar="DIR", help="the target's training set (your real scans)")
     p.add_argument("--target-test", default=None, metavar="DIR", help="the target's test set")
@@ -78,14 +82,14 @@ def _seeds(value) -> list[int]:
 
 # the options of one way of running genie eval (given to another, they are refused, never ignored)
 MODES = {"study": ("scenes", "test_scenes", "cameras", "yes"), "preset": ("target_train", "target_test"),
-         "train/test": ("test", "label_map", "model", "seeds")}
+         "train/test": ("test", "label_map", "model", "seeds", "allow_overlap")}
 USED = {"bench": {"train", "workers", "out", "cache"},
         "study": {"scenes", "test_scenes", "cameras", "yes", "seeds", "workers", "out", "cache"},
         "preset": {"preset", "target_train", "target_test", "train", "model", "seeds", "workers", "label_map", "out",
                    "cache"},
-        "train/test": {"train", "test", "model", "seeds", "label_map", "workers", "out", "cache"}}
+        "train/test": {"train", "test", "model", "seeds", "label_map", "workers", "out", "cache", "allow_overlap"}}
 FLAG = {"test_scenes": "--test-scenes", "target_train": "--target-train", "target_test": "--target-test",
-        "label_map": "--label-map"}
+        "label_map": "--label-map", "allow_overlap": "--allow-overlap"}
 
 
 def check_mode(args: argparse.Namespace) -> str:
@@ -93,9 +97,9 @@ def check_mode(args: argparse.Namespace) -> str:
     does not use is refused in one line naming the way it belongs to."""
     mode = "bench" if args.bench else "study" if args.study else "preset" if args.preset else "train/test"
     for key in ("train", "test", "model", "seeds", "label_map", "scenes", "test_scenes", "cameras", "target_train",
-                "target_test", "cache", "preset"):
+                "target_test", "cache", "preset", "allow_overlap"):
         value = getattr(args, key, None)
-        if value is None or key in USED[mode]:
+        if value is None or value is False or key in USED[mode]:
             continue
         flag = FLAG.get(key, f"--{key.replace('_', '-')}")
         owner = next((m for m, keys in MODES.items() if key in keys), None)
@@ -110,9 +114,11 @@ def check_mode(args: argparse.Namespace) -> str:
 
 
 def _cache(args: argparse.Namespace) -> Path:
+    """The cache: the user's ``--cache`` folder, or ``OUT/cache``, inside the output folder (a run
+    writes nowhere it was not told to)."""
     if args.cache:
         return Path(args.cache)
-    return Path(args.out).parent / "eval-cache"
+    return Path(args.out) / "cache"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -149,24 +155,32 @@ def run(args: argparse.Namespace) -> int:
         from ..outputs import claim_folder
         from ..studies.report import preset_markdown
 
-        claim_folder(args.out, "eval-preset", reserve=True)
-
-        if args.preset == "finetune":
-            res = protocols.finetune(args.target_train, args.target_test, args.train, out=args.out, model=model,
-                                     seeds=seeds, workers=args.workers, label_map=args.label_map,
-                                     cache=_cache(args) / "features", progress=progress)
-        else:
-            res = protocols.mix(args.target_train, args.target_test, args.train, out=args.out, model=model,
-                                seeds=seeds, scarce=args.preset == "scarce", workers=args.workers,
-                                label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
-        print(preset_markdown(args.preset, res, Path(args.out)))
+        folder = claim_folder(args.out, "eval-preset", reserve=True)
+        try:
+            if args.preset == "finetune":
+                res = protocols.finetune(args.target_train, args.target_test, args.train, out=args.out, model=model,
+                                         seeds=seeds, workers=args.workers, label_map=args.label_map,
+                                         cache=_cache(args) / "features", progress=progress)
+            else:
+                res = protocols.mix(args.target_train, args.target_test, args.train, out=args.out, model=model,
+                                    seeds=seeds, scarce=args.preset == "scarce", workers=args.workers,
+                                    label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
+        except BaseException:   # a failed run leaves a manifest of what exists (no folder, if it made one)
+            folder.abandon()
+            raise
+        text = preset_markdown(args.preset, res, Path(args.out))
+        folder.finish({"inputs": {"preset": args.preset, "target_train": args.target_train,
+                                  "target_test": args.target_test, "train": list(args.train), "model": model,
+                                  "seeds": seeds, "label_map": args.label_map}})
+        print(text)
         return 0
     if not args.train or not args.test:
         raise ConfigError("give --train DIR ... and --test DIR ... (or --preset, --study, --bench)")
     from ..eval import evaluate
 
     result = evaluate(args.train, args.test, model=model, seeds=seeds, out=args.out, workers=args.workers,
-                      label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
+                      label_map=args.label_map, cache=_cache(args) / "features", progress=progress,
+                      allow_overlap=args.allow_overlap)
     for t in result.tests:
         s = t.summary
         extra = f"; never seen in training: {', '.join(result.names[c] for c in t.unseen)}" if t.unseen else ""

@@ -11,6 +11,7 @@ percentile of the scan's z).
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import re
@@ -74,6 +75,22 @@ class Scan:
 
     def __len__(self) -> int:
         return len(self.xyz)
+
+    @property
+    def digest(self) -> str:
+        """SHA-256 (hex) of the scan's points as read: in the world frame (so of the scan file,
+        its pose and its calibration), with their origin and floor height; everything a
+        point's features depend on. Two scans of one digest are the same points, wherever
+        their files lie (their labels aside)."""
+        cached = self.__dict__.get("_digest")
+        if cached is None:
+            h = hashlib.sha256()
+            h.update(np.ascontiguousarray(self.xyz, np.float32).tobytes())
+            h.update(np.asarray(self.origin, np.float64).tobytes())
+            h.update(np.float64(self.floor_z).tobytes())
+            cached = h.hexdigest()
+            object.__setattr__(self, "_digest", cached)
+        return cached
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,25 +180,55 @@ def _find_yaml(root: Path) -> Path:
 
 def _read_yaml(path: Path) -> dict:
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: cannot read the label-map yaml (not a text file: byte {exc.start} is not "
+                          "UTF-8)") from None
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigError(f"{path}: cannot read the label-map yaml ({str(exc).splitlines()[0]})") from None
     if not isinstance(data, dict) or not isinstance(data.get("labels"), dict):
         raise ConfigError(f"{path}: a SemanticKITTI label-map yaml needs 'labels: {{raw id: name}}'")
+    bad = [k for k in data["labels"] if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < labelmap.RAW_IDS]
+    if bad:
+        raise ConfigError(f"{path}: labels: {bad[0]!r} is not a raw id; expected whole numbers in "
+                          f"0..{labelmap.RAW_IDS - 1}")
     return data
 
 
-def _matrices(path: Path, n: int | None = None) -> list[np.ndarray]:
+def _text_lines(path: Path) -> list[str]:
+    try:
+        return path.read_text(encoding="utf-8").splitlines()
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not a text file (byte {exc.start} is not UTF-8); expected lines of 12 "
+                          "numbers (a 3x4 matrix)") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from None
+
+
+def _matrix(text: str, where: str) -> np.ndarray:
+    """A 3x4 matrix (12 numbers) as a 4x4 one; ``where`` names the file, line and field."""
+    try:
+        v = np.array([float(x) for x in text.split()], np.float64)
+    except ValueError as exc:
+        word = str(exc).rsplit(":", 1)[-1].strip()
+        raise ConfigError(f"{where}: {word} is not a number; expected 12 numbers (a 3x4 matrix)") from None
+    if v.size != 12:
+        raise ConfigError(f"{where}: expected 12 numbers (a 3x4 matrix), got {v.size}")
+    if not np.isfinite(v).all():
+        raise ConfigError(f"{where}: number {int(np.argmin(np.isfinite(v))) + 1} of 12 is {v[~np.isfinite(v)][0]}; "
+                          "expected 12 finite numbers (a 3x4 matrix)")
+    m = np.eye(4)
+    m[:3] = v.reshape(3, 4)
+    return m
+
+
+def _matrices(path: Path) -> list[np.ndarray]:
+    """The poses of ``poses.txt``, one 3x4 matrix a line (blank lines skipped)."""
     rows = []
-    for line in path.read_text().splitlines():
+    for i, line in enumerate(_text_lines(path), 1):
         line = line.split(":", 1)[1] if ":" in line else line
         if line.strip():
-            v = np.array([float(x) for x in line.split()], np.float64)
-            if v.size != 12:
-                raise ConfigError(f"{path}: expected 12 numbers (a 3x4 matrix) per line, got {v.size}")
-            m = np.eye(4)
-            m[:3] = v.reshape(3, 4)
-            rows.append(m)
+            rows.append(_matrix(line, f"{path}: line {i}"))
     return rows
 
 
@@ -189,19 +236,14 @@ def _calib_tr(seq: Path) -> np.ndarray:
     calib = seq / "calib.txt"
     if not calib.exists():
         return np.eye(4)
-    for line in calib.read_text().splitlines():
+    for i, line in enumerate(_text_lines(calib), 1):
         if line.startswith("Tr:"):
-            return _matrices_from_text(line, calib)
+            tr = _matrix(line.split(":", 1)[1], f"{calib}: line {i} (Tr)")
+            if abs(np.linalg.det(tr[:3, :3])) < 1e-9:
+                raise ConfigError(f"{calib}: line {i} (Tr): a singular matrix (its rotation has determinant 0); "
+                                  "expected the velodyne-to-camera transform")
+            return tr
     return np.eye(4)
-
-
-def _matrices_from_text(line: str, where: Path) -> np.ndarray:
-    v = np.array([float(x) for x in line.split(":", 1)[1].split()], np.float64)
-    if v.size != 12:
-        raise ConfigError(f"{where}: Tr needs 12 numbers, got {v.size}")
-    m = np.eye(4)
-    m[:3] = v.reshape(3, 4)
-    return m
 
 
 def _select(names: list[str], part: str | None, split: dict | None, where: Path) -> list[str]:
@@ -235,20 +277,18 @@ def _read_semantickitti(root: Path, part: str | None, mapping: str | os.PathLike
     data = _read_yaml(ypath)
     their = {int(k): str(v) for k, v in data["labels"].items()}
     ours = str(data.get("name", "")) == "genie-gl" or ypath.name == OUR_YAML
-    if ours:   # genie-gl's own classes; a --label-map is for foreign sets
-        if mapping is not None:
-            log.warning("%s: --label-map %s is not used: this set holds genie-gl's own classes", root, mapping)
-        lmap = labelmap.identity({k: v for k, v in their.items() if k > 9})
-        labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
-    elif mapping is not None:
+    if mapping is not None:   # the user's map, for their set or to ignore ids in one of ours
         lmap = labelmap.load(mapping, their)
+    elif ours:   # genie-gl's own classes: the ids its yaml names, and no other
+        lmap = labelmap.identity({k: v for k, v in their.items() if k > 9}, only=their, source=str(ypath))
+        labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
     else:
         try:
             labelmap.check_same_classes(their, str(ypath), labelmap.identity().names, "genie-gl's classes")
         except ConfigError:
             raise ConfigError(f"{ypath}: this set's classes are not genie-gl's (e.g. {next(iter(their.items()))}); "
                               "give --label-map FILE mapping their classes to ours") from None
-        lmap = labelmap.identity(their)
+        lmap = labelmap.identity(their, only=their, source=str(ypath))
     seq_root = root / "sequences"
     names = sorted(p.name for p in seq_root.iterdir() if p.is_dir() and p.name.isdigit())
     scans = []
@@ -272,6 +312,9 @@ def _read_semantickitti(root: Path, part: str | None, mapping: str | os.PathLike
             if len(raw) != len(pts):
                 raise ConfigError(f"{lab_path}: {len(raw)} labels for {len(pts)} points in {b.name}")
             k = int(b.stem)
+            if poses and k >= len(poses):
+                raise ConfigError(f"{seq / 'poses.txt'}: {len(poses)} poses, but scan {b.name} needs line {k + 1}; "
+                                  "expected one pose per scan")
             pose = tr_inv @ poses[k] @ tr if k < len(poses) else np.eye(4)
             # world = R xyz + t; keep float32 relative to the translation
             rot, origin = pose[:3, :3], pose[:3, 3].copy()
@@ -299,25 +342,58 @@ def read_ply(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if "format binary_little_endian 1.0" not in header:
         raise ConfigError(f"{path}: only binary little-endian PLY is read (genie-gl writes it)")
     fields, n, origin, in_vertex = [], 0, np.zeros(3), False
-    for line in header:
+    for i, line in enumerate(header, 1):
         parts = line.split()
-        if parts[:2] == ["comment", "origin"]:
-            origin = np.array([float(x) for x in parts[2:5]])
-        elif parts[:1] == ["element"]:
-            in_vertex = parts[1] == "vertex"
-            if in_vertex:
-                n = int(parts[2])
-        elif parts[:1] == ["property"] and in_vertex:
-            if parts[1] not in _PLY_TYPES:
-                raise ConfigError(f"{path}: vertex property type {parts[1]!r} not read")
-            fields.append((parts[2], _PLY_TYPES[parts[1]]))
+        try:
+            if parts[:2] == ["comment", "origin"]:
+                origin = np.array([float(x) for x in parts[2:5]])
+                if origin.shape != (3,) or not np.isfinite(origin).all():
+                    raise ValueError(f"expected three finite numbers, got {' '.join(parts[2:])!r:.60}")
+            elif parts[:1] == ["element"]:
+                in_vertex = len(parts) > 1 and parts[1] == "vertex"
+                if in_vertex:
+                    n = int(parts[2])
+                    if n < 0:
+                        raise ValueError(f"a count of {n}")
+            elif parts[:1] == ["property"] and in_vertex:
+                if parts[1] not in _PLY_TYPES:
+                    raise ConfigError(f"{path}: vertex property type {parts[1]!r} not read")
+                fields.append((parts[2], _PLY_TYPES[parts[1]]))
+        except (ValueError, IndexError) as exc:
+            raise ConfigError(f"{path}: header line {i} ({line.strip()!r:.60}): {exc}") from None
     names = [f for f, _ in fields]
     if "semantic" not in names or not {"x", "y", "z"} <= set(names):
         raise ConfigError(f"{path}: unlabelled cloud (expected vertex properties x, y, z and semantic; "
                           f"got {', '.join(names)})")
-    rec = np.frombuffer(raw, dtype=np.dtype(fields), count=n, offset=end + len(b"end_header\n"))
+    dtype = np.dtype(fields)
+    body = len(raw) - end - len(b"end_header\n")
+    if body < n * dtype.itemsize:
+        raise ConfigError(f"{path}: truncated: {body} bytes of vertex data for the {n} vertices of "
+                          f"{dtype.itemsize} bytes its header announces")
+    rec = np.frombuffer(raw, dtype=dtype, count=n, offset=end + len(b"end_header\n"))
     xyz = np.stack([rec["x"], rec["y"], rec["z"]], 1).astype(np.float32)
     return xyz, rec["semantic"].astype(np.int64), origin
+
+
+def _read_npz(f: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(xyz float32 (N, 3), semantic (N,) int64, origin (3,)) of a cloud as
+    ``genie_gl.export.npz`` writes it; a file numpy cannot read, labels that are not whole
+    numbers or an origin that is not three finite numbers is one line naming the file."""
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            if "semantic" not in z.files or "xyz" not in z.files:
+                raise ConfigError(f"{f}: unlabelled cloud (expected arrays xyz and semantic; got "
+                                  f"{', '.join(z.files)})")
+            xyz, sem = z["xyz"], z["semantic"]
+            origin = z["origin"] if "origin" in z.files else np.zeros(3)
+    except (OSError, ValueError, EOFError) as exc:   # not a .npz, truncated, or object arrays
+        raise ConfigError(f"{f}: not a readable NPZ cloud ({str(exc).splitlines()[0][:80]})") from None
+    if sem.dtype.kind not in "iub":
+        raise ConfigError(f"{f}: semantic is {sem.dtype}; expected whole class ids (an integer array)")
+    origin = np.asarray(origin, np.float64)
+    if origin.shape != (3,) or not np.isfinite(origin).all():
+        raise ConfigError(f"{f}: origin {origin.tolist()!r:.60}: expected three finite numbers")
+    return xyz.astype(np.float32), sem.astype(np.int64), origin
 
 
 def _read_chunks(root: Path, fmt: str, part: str | None) -> tuple:
@@ -329,12 +405,7 @@ def _read_chunks(root: Path, fmt: str, part: str | None) -> tuple:
             if fmt == "ply":
                 xyz, sem, origin = read_ply(f)
             else:
-                with np.load(f) as z:
-                    if "semantic" not in z.files or "xyz" not in z.files:
-                        raise ConfigError(f"{f}: unlabelled cloud (expected arrays xyz and semantic; got "
-                                          f"{', '.join(z.files)})")
-                    xyz, sem = z["xyz"].astype(np.float32), z["semantic"].astype(np.int64)
-                    origin = z["origin"].astype(np.float64) if "origin" in z.files else np.zeros(3)
+                xyz, sem, origin = _read_npz(f)
             if sem.size and (sem.min() < 0 or sem.max() >= labelmap.RAW_IDS):
                 raise ConfigError(f"{f}: label {int(sem.min() if sem.min() < 0 else sem.max())} is outside "
                                   f"0..{labelmap.RAW_IDS - 1}")

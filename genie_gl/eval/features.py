@@ -105,11 +105,25 @@ def _one(args: tuple[np.ndarray, np.ndarray, tuple[int, ...], tuple[float, ...]]
     return scan_features(*args)
 
 
+def _code_version() -> str:
+    """genie-gl's and pgeof's versions: a new release may compute a feature differently."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from .. import __version__
+
+    try:
+        pg = version("pgeof")
+    except PackageNotFoundError:
+        pg = "?"
+    return f"genie-gl {__version__}, pgeof {pg}, features {VERSION}"
+
+
 def _key(scan: Scan, scales: Sequence[int], cells: Sequence[float]) -> str:
-    st = os.stat(scan.path)
-    text = json.dumps([VERSION, list(scales), list(cells), scan.path, st.st_size, st.st_mtime_ns,
-                       repr(scan.floor_z), scan.origin.tolist()])
-    return hashlib.sha256(text.encode()).hexdigest()[:32]
+    """The cache name of a scan's features: a hash of everything they depend on (the points
+    as read, with their pose, calibration, origin and floor: :attr:`Scan.digest`), the
+    settings and the code's version; never of a file's name, size or time."""
+    text = json.dumps([_code_version(), [int(k) for k in scales], [float(c) for c in cells], scan.digest])
+    return hashlib.sha256(text.encode()).hexdigest()[:40]
 
 
 def scans_features(scans: Sequence[Scan], *, workers: int = 1, cache: str | os.PathLike | None = None,
@@ -118,8 +132,9 @@ def scans_features(scans: Sequence[Scan], *, workers: int = 1, cache: str | os.P
     """Features of every point of ``scans``, in order: (sum of N, F) float32.
 
     ``workers`` processes share the scans (the result does not depend on it); with ``cache``,
-    a folder, each scan's array is kept there under a key of its file (path, size, time), its
-    floor and the feature version, and read back the next time.
+    a folder, each scan's array is kept there under a hash of its points as read (the scan,
+    its pose and calibration, its origin and floor), the settings and the code's version, and
+    read back the next time.
     """
     width = len(names(scales, cells))
     parts: list[np.ndarray | None] = [None] * len(scans)
@@ -129,8 +144,11 @@ def scans_features(scans: Sequence[Scan], *, workers: int = 1, cache: str | os.P
         if cache is not None:
             paths[i] = Path(cache) / f"{_key(scan, scales, cells)}.npy"
             if paths[i].exists():
-                arr = np.load(paths[i])
-                if arr.shape == (len(scan), width):
+                try:
+                    arr = np.load(paths[i], allow_pickle=False)
+                except (OSError, ValueError, EOFError):   # a damaged cache file: computed again
+                    arr = None
+                if arr is not None and arr.shape == (len(scan), width) and arr.dtype == np.float32:
                     parts[i] = arr
                     continue
         todo.append(i)

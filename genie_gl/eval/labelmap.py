@@ -63,11 +63,27 @@ class LabelMap:
         out = self.lut[raw.astype(np.int64)]
         bad = out == UNMAPPED
         if bad.any():
-            ids = np.unique(raw[bad])[:5]
-            raise ConfigError(f"{where}: label {int(ids[0])} is outside the label map ({self.source}); "
-                              f"unmapped ids here: {', '.join(str(int(i)) for i in ids)}; map them in a "
-                              "--label-map file (their id: our class, or ignore)")
+            ids, counts = np.unique(raw[bad], return_counts=True)
+            others = f" (and {len(ids) - 1} other unmapped ids: {', '.join(str(int(i)) for i in ids[1:6])}" \
+                     f"{' ...' if len(ids) > 6 else ''})" if len(ids) > 1 else ""
+            raise ConfigError(f"{where}: label {int(ids[0])} (on {int(counts[0])} of {raw.size} points) is outside the "
+                              f"label map ({self.source}: ids {self.ids_text()}){others}; fix the labels, or give a "
+                              "--label-map file that maps it (their id: our class, or ignore)")
         return out.astype(np.int16)
+
+    def ids_text(self, most: int = 12) -> str:
+        """The raw ids the map covers, shortened (``0-9, 12``), for messages."""
+        ids = np.flatnonzero(self.lut != UNMAPPED)
+        if len(ids) == RAW_IDS:
+            return f"0-{RAW_IDS - 1}"
+        runs, start = [], None
+        for i, v in enumerate(ids):
+            if start is None:
+                start = v
+            if i + 1 == len(ids) or ids[i + 1] != v + 1:
+                runs.append(f"{start}" if start == v else f"{start}-{v}")
+                start = None
+        return ", ".join(runs[:most]) + (" ..." if len(runs) > most else "")
 
     def inverse(self) -> np.ndarray:
         """(C,) uint32: for each of our classes, the smallest raw id mapped to it (0 if none):
@@ -79,12 +95,24 @@ class LabelMap:
         return inv
 
 
-def identity(extra: Mapping[int, str] | None = None) -> LabelMap:
-    """genie-gl's own ids: every id maps to itself (ids above 9 are a strategy's own)."""
-    lut = np.arange(RAW_IDS, dtype=np.int32)
+def identity(extra: Mapping[int, str] | None = None, *, only: Mapping[int, str] | None = None,
+             source: str = "genie-gl's own classes") -> LabelMap:
+    """genie-gl's own ids: every id maps to itself (ids above 9 are a strategy's own).
+
+    ``only``: the ids a set's label-map yaml names (``labels``); every other raw id is then
+    refused when it occurs (a stray id must never become a class of its own).
+    """
+    if only is None:
+        lut = np.arange(RAW_IDS, dtype=np.int32)
+    else:
+        lut = np.full(RAW_IDS, UNMAPPED, np.int32)
+        keep = np.array([int(k) for k in only if 0 <= int(k) < RAW_IDS], np.int64)
+        lut[keep] = keep
     names = dict(ours.CLASSES)
     names.update({int(k): str(v) for k, v in (extra or {}).items()})
-    return LabelMap(lut=lut, source="genie-gl's own classes", names=names)
+    if only is not None:
+        names = {k: v for k, v in names.items() if lut[k] == k}
+    return LabelMap(lut=lut, source=source, names=names)
 
 
 def our_class(value: Any, where: str) -> int:
@@ -118,9 +146,12 @@ def load(path: str | os.PathLike, their_labels: Mapping[int, str] | None = None)
     """
     path = Path(path)
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise ConfigError(f"--label-map {path}: cannot read ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"--label-map {path}: not a text file (byte {exc.start} is not UTF-8); expected a YAML/JSON "
+                          "label map {map: {their class: our class}}") from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"--label-map {path}: not YAML/JSON ({str(exc).splitlines()[0]})") from None
     if not isinstance(data, dict) or not isinstance(data.get("map"), dict) or not data["map"]:

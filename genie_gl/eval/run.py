@@ -136,7 +136,7 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
              workers: int = 1, label_map: str | os.PathLike | None = None, cache: str | os.PathLike | None = None,
              progress: bool = False, class_map: dict[int, int] | None = None,
              eval_classes: Sequence[int] | None = None, params: Any = None, init: Any = None,
-             write_predictions: bool = True, pictures: bool = True) -> EvalResult:
+             write_predictions: bool = True, pictures: bool = True, allow_overlap: bool = False) -> EvalResult:
     """Train ``model`` on ``train`` and test it on each of ``test``, once per seed.
 
     Parameters
@@ -153,10 +153,18 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     eval_classes : classes to average over (default: those present in each test set)
     params : model parameters (``BoostParams`` or ``NeuralParams``)
     init : a function ``seed -> trained model`` to go on training from (fine-tuning)
+    allow_overlap : test on scans that are training scans too (refused by default: the same
+        file, or the same points read from another file)
 
     Returns
     -------
     EvalResult
+
+    Raises
+    ------
+    ConfigError
+        Bad or overlapping inputs; the output folder is then left as it was (nothing written, or
+        its last finished run's files and a manifest listing them).
     """
     seeds = tuple(int(s) for s in seeds)
     if not seeds:
@@ -165,13 +173,63 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
         raise ConfigError("--train: at least one dataset")
     if not test:
         raise ConfigError("--test: at least one dataset")
+    if model not in MODELS:
+        make_model(model, 10)   # the one-line refusal, before anything is read
     t0 = time.perf_counter()
     folder = None
+    writes = ["metrics.json", "timings.json", "report.md", "predictions"]
+    if out is not None and cache is not None and _inside(cache, out):
+        writes.append(Path(os.path.relpath(Path(cache).resolve(), Path(out).resolve())).parts[0])
     if out is not None:   # claimed before any work: only what genie eval writes is ever replaced
-        folder = claim_folder(out, "eval", ("metrics.json", "timings.json", "report.md", "predictions"),
-                              reserve=True)
+        folder = claim_folder(out, "eval", writes)
     train_sets = [_as_set(x, label_map) for x in train]
     test_sets = [_as_set(x, label_map) for x in test]
+    if not allow_overlap:
+        check_disjoint(train_sets, test_sets)
+    if folder is not None:   # the inputs are read and sound: from here on this run writes
+        folder.reserve()
+    begun: list[str] = []
+    try:
+        return _evaluate(train_sets, test_sets, model=model, seeds=seeds, out=out, workers=workers,
+                         label_map=label_map, cache=cache, progress=progress, class_map=class_map,
+                         eval_classes=eval_classes, params=params, init=init, write_predictions=write_predictions,
+                         pictures=pictures, folder=folder, begun=begun, t0=t0)
+    except BaseException:
+        if folder is not None:   # a failed run leaves no partial output and a manifest of what exists
+            folder.abandon(begun)
+        raise
+
+
+def _inside(path: str | os.PathLike, folder: str | os.PathLike) -> bool:
+    p, f = Path(path).resolve(), Path(folder).resolve()
+    return p != f and f in p.parents
+
+
+def check_disjoint(train_sets: Sequence[EvalSet], test_sets: Sequence[EvalSet]) -> None:
+    """Refuse test scans that are training scans too (the same file, or the same points read
+    from another file): a score on data the model was trained on says nothing of new data."""
+    seen: dict[str, tuple[str, str]] = {}
+    for ts in train_sets:
+        for s in ts.scans:
+            seen.setdefault(os.path.realpath(s.path), (ts.spec, s.path))
+            seen.setdefault(s.digest, (ts.spec, s.path))
+    for ts in test_sets:
+        both = [(s, seen.get(os.path.realpath(s.path)) or seen.get(s.digest)) for s in ts.scans]
+        both = [(s, b) for s, b in both if b is not None]
+        if both:
+            s, (spec, path) = both[0]
+            how = "the same file" if os.path.realpath(path) == os.path.realpath(s.path) else f"the same points as {path}"
+            raise ConfigError(f"--test {ts.spec}: {len(both)} of its {len(ts.scans)} scans are training scans too "
+                              f"(--train {spec}; e.g. {s.path}: {how}); a score on training data says nothing of new "
+                              "data: test on other scans (DIR:test, another set), or allow it with --allow-overlap")
+
+
+def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str, seeds: tuple[int, ...],
+              out: str | os.PathLike | None, workers: int, label_map: str | os.PathLike | None,
+              cache: str | os.PathLike | None, progress: bool, class_map: dict[int, int] | None,
+              eval_classes: Sequence[int] | None, params: Any, init: Any, write_predictions: bool, pictures: bool,
+              folder: Any, begun: list[str], t0: float) -> EvalResult:
+    """:func:`evaluate` once its inputs are read; ``begun`` collects the outputs it starts writing."""
     everything = train_sets + test_sets
     names = dict(label_names.CLASSES)
     named_by: dict[int, str] = {}
@@ -194,6 +252,9 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
         raise ConfigError(f"--train {', '.join(s.spec for s in train_sets)}: no labelled point")
     seen = set(np.unique(train_pts.labels[train_pts.labels >= 0]).tolist())
     test_pts = [PointTable(list(s.scans), class_map=lut, **opts) for s in test_sets]
+    for labels in [train_pts.labels] + [tp.labels for tp in test_pts]:   # a class no map names (a PLY
+        for c in np.unique(labels[labels >= 0]).tolist():                 # set's own id): named by its id
+            names.setdefault(int(c), f"class {c}")
     t_read = time.perf_counter() - t0
     needs_features = model != "majority" and model != "neural"
     t1 = time.perf_counter()
@@ -217,6 +278,10 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
             pred = m.predict(tp, threads=workers)
             t_pred.append(time.perf_counter() - t3)
             if out_p is not None and write_predictions:
+                if "predictions" not in begun:   # a previous run's predictions go as a whole
+                    begun.append("predictions")
+                    if folder is not None:
+                        folder.remove("predictions")
                 predictions.write(ts, pred, out_p / "predictions" / f"seed{seed}" / set_name(ts.spec))
             conf = metrics.confusion(tp.labels, pred, n_classes)
             runs[j].append(metrics.scores(conf, eval_classes))
@@ -235,6 +300,7 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
                                  "predict_s": t_pred, "total_s": time.perf_counter() - t0},
                         out=out_p)
     if out_p is not None and folder is not None:
+        begun.extend(["metrics.json", "timings.json", "report.md"])
         _write_json(out_p / "metrics.json", result.as_dict())
         _write_json(out_p / "timings.json", result.timings)
         atomic_write_text(out_p / "report.md", result_markdown(result))

@@ -22,6 +22,10 @@ from ..errors import ConfigError, did_you_mean
 from .model import ORIENTATIONS, Region
 
 EPS = 1e-9
+#: what a region made by the per-region loop (:meth:`Generator.generate`) costs, in regions'
+#: worth of the engine's array path: ~60 us against ~1.7 us a region (``genie bench layout``,
+#: R=20 L=4, strips_per_region against strips)
+LOOP_COST = 30.0
 
 
 @dataclass(frozen=True)
@@ -130,6 +134,17 @@ class Generator:
         0 unless the generator says."""
         return 0.0
 
+    def child_cost(self) -> float:
+        """What one child costs to make, in regions' worth: 1 with array code
+        (``generate_batch``), :data:`LOOP_COST` through the per-region loop (``generate``)."""
+        return 1.0 if type(self).generate_batch is not Generator.generate_batch else LOOP_COST
+
+    def always_splits(self, slots: set[str]) -> bool:
+        """True when every parent gets at least one child in one of ``slots`` (the slots the
+        strategy gives a type), whatever its size and the draw: the parent is then no leaf
+        any more (the estimate's bound). False unless the generator says."""
+        return False
+
 
 GENERATORS: dict[str, type[Generator]] = {}
 
@@ -230,6 +245,9 @@ class Grid(Generator):
         # cells never overlap: no more than the parents' area holds, plus two leftovers each
         return min(parents * self._per_parent(w, h), area * (1 + 1e-9) / (cw * ch) + 2 * parents)
 
+    def always_splits(self, slots: set[str]) -> bool:
+        return {"cell", "empty"} <= slots   # cells, or one "empty" child when none fits
+
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         cw, ch = map(float, self.args["cell"])
         sp = float(self.args.get("spacing", 0.0))
@@ -298,6 +316,9 @@ class AssemblyLine(Generator):
     def max_children(self, w: float, h: float, parents: float, area: float) -> float:
         # per path a strip and a leftover band; the line, two material strips and their bands
         return parents * (2 * _range(self.args.get("paths", [1, 2]), "", "paths", False)[1] + 8)
+
+    def always_splits(self, slots: set[str]) -> bool:
+        return {"line", "rest"} <= slots   # the line, or one "rest" child when it does not fit
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
@@ -387,6 +408,9 @@ class RandomRooms(Generator):
         # each try of each room tests the rooms placed before it: count² · attempts / 2 tests
         n = _range(self.args.get("count", [1, 1]), "", "count")[1]
         return parents * n * n * float(self.args.get("attempts", 50)) / 2 / 10
+
+    def always_splits(self, slots: set[str]) -> bool:
+        return "room" in slots   # at least one room is asked for, and the first always fits
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args

@@ -21,6 +21,7 @@ generator, its ``args``, a type provider per slot, an orientation provider) or i
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Union
@@ -36,7 +37,7 @@ from .providers import OrientationProvider, TypeProvider
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 Span = Union[float, tuple[float, float]]  # a value, or a range [min, max] drawn from the scene's Generator
@@ -199,8 +200,32 @@ def _model_at(loc: tuple) -> type[BaseModel]:
 
 
 
+def non_finite(data: Any, loc: tuple = ()) -> tuple | None:
+    """The JSON path (as a tuple) of the first number in ``data`` that is not finite (JSON's
+    ``Infinity``, ``-Infinity``, ``NaN``), or None."""
+    stack = [(data, loc)]
+    while stack:   # depth-first without recursion: a deeply nested file cannot overflow the stack
+        value, at = stack.pop()
+        if isinstance(value, float) and not math.isfinite(value):
+            return at
+        if isinstance(value, dict):
+            stack.extend((v, at + (k,)) for k, v in reversed(list(value.items())))
+        elif isinstance(value, (list, tuple)):
+            stack.extend((v, at + (i,)) for i, v in reversed(list(enumerate(value))))
+    return None
+
+
 def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
-    """Validate strategy data (already parsed JSON); errors give ``source`` and a JSON path."""
+    """Validate strategy data (already parsed JSON); errors give ``source`` and a JSON path.
+
+    Every number must be finite (JSON's ``Infinity`` and ``NaN`` are refused here, once, for
+    every command and generator)."""
+    bad = non_finite(data)
+    if bad is not None:
+        value = data
+        for part in bad:
+            value = value[part]
+        raise ConfigError(f"{source}: {json_path(bad)}: {value} is not a finite number; expected a finite number")
     try:
         spec = StrategySpec.model_validate(data)
     except ValidationError as exc:

@@ -35,7 +35,7 @@ from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
 from ..scene_options import SceneOptions, scene_options
 from .assets import library as lib
-from .assets.catalogue import ASSETS, Catalogue
+from .assets.catalogue import ASSETS, UNITS, Catalogue
 from .materials import class_material
 from .model import Mesh, Scene
 
@@ -343,6 +343,55 @@ def _with_assets(spec: Any, base: Catalogue) -> Catalogue:
     return cat
 
 
+def _fits(ext: np.ndarray, w: float, h: float) -> bool:
+    """A footprint (x, y) fits a w x h region as it is or a quarter turn (as ``_fit`` tries)."""
+    return bool((ext[0] <= w + 1e-9 and ext[1] <= h + 1e-9) or (ext[1] <= w + 1e-9 and ext[0] <= h + 1e-9))
+
+
+def check_registered_fit(layout: Layout, cat: Catalogue, leaves: list[Region]) -> None:
+    """Refuse a registered asset that fits none of the regions its class is drawn for in
+    ``layout`` (it would never be used: a file in millimetres read as metres is the usual
+    cause): one line naming the file, its size, the unit it was read in and the units that
+    would make it fit. The shelves of racks whose regions carry a ``load`` count as places
+    for the classes of the load."""
+    sizes: dict[str, list[tuple[float, float]]] = {}
+    regions: dict[str, int] = {}
+    on_shelves: set[str] = set()
+    shelves = [(w, d) for v in lib.SHELVES.get("rack", {}).values() for _, _, w, d in v]
+    for reg in leaves:
+        rtype = layout.region_types[reg.type]
+        for cls in GROUPS.get(rtype.asset_group or "", []):
+            sizes.setdefault(cls, []).append((reg.w, reg.h))
+            regions[cls] = regions.get(cls, 0) + 1
+        for cls in (rtype.fill or {}).get("load") or {}:
+            if cls != "empty" and cls not in on_shelves and "rack" in GROUPS.get(rtype.asset_group or "", []):
+                sizes.setdefault(cls, []).extend(shelves)
+                on_shelves.add(cls)
+    for cls, variants in cat.registered().items():
+        if cls not in sizes:
+            continue
+        for v in variants:
+            ext = np.asarray(cat.mesh(cls, v).extents, np.float64)
+            if any(_fits(ext, w, h) for w, h in sizes[cls]):
+                continue
+            src = cat.source(cls, v)
+            w, h = max(sizes[cls], key=lambda r: r[0] * r[1])
+            size = " x ".join(f"{e:.4g}" for e in ext)
+            fix = "; no unit makes it fit: give a smaller asset or larger regions"
+            if src is not None and src.meters_per_unit is not None or (src is not None and "metres" in src.units):
+                now = src.meters_per_unit or 1.0
+                good = [(u, ext * m / now) for u, m in UNITS.items() if m != now and
+                        any(_fits(ext * m / now, rw, rh) for rw, rh in sizes[cls]) and (ext * m / now).max() >= 0.05]
+                if good:
+                    fix = "; it fits in " + " or ".join(
+                        f"\"units\": \"{u}\" ({' x '.join(f'{e:.3g}' for e in e2)} m)" for u, e2 in good)
+            where = f"the {regions.get(cls, 0)} regions that draw a {cls}" + (
+                " nor a rack's shelf" if cls in on_shelves else "")
+            raise ConfigError(f"{src.path if src else v}: a {cls} asset of {size} m (read in "
+                              f"{src.units if src else 'metres'}) fits none of {where} (the largest "
+                              f"{w:.3g} x {h:.3g} m){fix}")
+
+
 def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None = None,
                 rng: np.random.Generator | None = None, assets: Catalogue | None = None,
                 segments: int | None = None) -> Scene:
@@ -363,9 +412,10 @@ def build_scene(layout: Layout, seed: int = 0, *, options: dict[str, Any] | None
     if segments is not None:
         cat = cat.copy(segments=segments)
     b = SceneBuilder(layout, opts, cat, rng=np.random.default_rng(seed) if rng is None else rng)
+    leaves = layout.leaves()
+    check_registered_fit(layout, cat, leaves)
     b.background()
     before = len(b.scene.instances)
-    leaves = layout.leaves()
     for i, reg in enumerate(leaves):
         b.region(i, reg)
     if len(b.scene.instances) == before:   # an empty hall is a result nobody asked for: say so

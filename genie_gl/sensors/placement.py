@@ -290,8 +290,34 @@ def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Genera
         pop = coverage.breed(pop, fit, a, b, perm, cross, mutate, float(mutation), draws)
         fit = problem.fitnesses(pop)
         history.append(float(fit.max()))
-    best = pop[fit.argmax()]
-    return Placement(problem.candidates[best], float(fit.max()), history)
+    best = distinct(problem, pop[fit.argmax()])
+    return Placement(problem.candidates[best], problem.fitness(best), history)
+
+
+def distinct(problem: CoverageProblem, chosen: np.ndarray) -> np.ndarray:
+    """``chosen`` candidate indices with every repeat replaced by an unused candidate, the one
+    farthest from those kept (in order): two cameras never share a position. A repeat adds no
+    coverage, so the covered weight never falls. With fewer candidates than cameras the
+    repeats stay (:func:`poses_from_centres` then turns them apart)."""
+    chosen = np.asarray(chosen, np.int64).copy()
+    m = len(problem.candidates)
+    _, first = np.unique(chosen, return_index=True)
+    repeats = np.setdiff1d(np.arange(len(chosen)), first)
+    if not len(repeats) or len(first) >= m:
+        return chosen
+    kept = chosen[np.sort(first)]
+    used = kept.tolist()
+    d = np.min(np.linalg.norm(problem.candidates[:, None, :] - problem.candidates[None, kept, :], axis=2), axis=1)
+    d[used] = -1.0
+    for i in repeats:
+        if len(used) >= m:   # every candidate used
+            break
+        k = int(np.argmax(d))
+        chosen[i] = k
+        used.append(k)
+        d = np.minimum(d, np.linalg.norm(problem.candidates - problem.candidates[k], axis=1))
+        d[used] = -1.0
+    return chosen
 
 
 def greedy_indices(problem: CoverageProblem, n: int) -> np.ndarray:
@@ -304,22 +330,29 @@ def greedy_indices(problem: CoverageProblem, n: int) -> np.ndarray:
 
 def greedy_placement(problem: CoverageProblem, n: int) -> Placement:
     """Baseline: add, n times, the disc that covers the most new weight."""
-    chosen = greedy_indices(problem, n)
+    chosen = distinct(problem, greedy_indices(problem, n))
     return Placement(problem.candidates[chosen], problem.fitness(chosen))
 
 
 def random_placement(problem: CoverageProblem, n: int, *, rng: np.random.Generator) -> Placement:
     """Baseline: n candidate positions drawn uniformly."""
-    chosen = rng.integers(0, len(problem.candidates), n)
+    chosen = distinct(problem, rng.integers(0, len(problem.candidates), n))
     return Placement(problem.candidates[chosen], problem.fitness(chosen))
 
 
 def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: float,
                        mount_height_m: float, pitch_rad: float | None = None) -> list[np.ndarray]:
     """world_from_camera poses: above each centre, turned towards the weighted centroid it
-    covers; tilted down to it, or by ``pitch_rad`` below the horizon when given."""
+    covers; tilted down to it, or by ``pitch_rad`` below the horizon when given. A centre
+    given again (more cameras than candidate positions) is turned by a share of the full
+    circle for each repeat, so no two cameras share a pose."""
     poses = []
+    seen: dict[tuple[float, float], int] = {}
     for c in centres:
+        repeat = seen.get((float(c[0]), float(c[1])), 0)
+        seen[(float(c[0]), float(c[1]))] = repeat + 1
+        if repeat:
+            turn = 2 * np.pi * repeat / max(2, int(np.sum(np.all(np.asarray(centres) == c, axis=1))))
         inside = ((problem.px - c) ** 2).sum(1) <= radius_m ** 2
         if inside.any():
             target = (problem.px[inside] * problem.weight[inside, None]).sum(0) / problem.weight[inside].sum()
@@ -329,6 +362,10 @@ def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: 
         if np.linalg.norm(d) < 0.3 * radius_m:  # nothing to turn to: look outwards at half radius
             d = np.array([1.0, 0.0]) if np.linalg.norm(d) < 1e-9 else d / np.linalg.norm(d)
             target = c + 0.5 * radius_m * d
+        if repeat:   # the same view, turned about the vertical by a share of the circle
+            d = target - c
+            cs, sn = np.cos(turn), np.sin(turn)
+            target = c + np.array([cs * d[0] - sn * d[1], sn * d[0] + cs * d[1]])
         if pitch_rad is not None:
             d = target - c
             d = d / max(float(np.linalg.norm(d)), 1e-12)

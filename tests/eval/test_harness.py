@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from numpy.testing import assert_allclose
 
 from genie_gl.eval import evaluate, read_set
@@ -80,6 +81,9 @@ def test_planted_off_by_one_class_is_caught_and_the_unseen_class_reported(toy, t
     bad = tmp_path / "shifted"
     shutil.copytree(toy["test"], bad)
     relabel(bad, {9: 10, 2: 3, 1: 2, 0: 1})   # every class id one up (applied in this order)
+    cfg = yaml.safe_load((bad / "genie-gl.yaml").read_text())
+    cfg["labels"][10] = "shifted"   # a set's yaml names its ids: an id it does not name is refused
+    (bad / "genie-gl.yaml").write_text(yaml.safe_dump(cfg))
     res = _run(toy, tmp_path / "b", test=bad)
     run = res.tests[0].runs[0]
     assert run.miou < 0.1

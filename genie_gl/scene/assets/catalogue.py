@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import os
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
@@ -130,11 +131,30 @@ def load_asset(path: str | os.PathLike, *, units: str | float | None = None,
     return _load(str(p.resolve()), (st.st_mtime_ns, st.st_size), mpu, up)
 
 
+@dataclass(frozen=True)
+class Source:
+    """Where a registered variant came from, for messages: the file, the units it was read in
+    (as given, or the file's own) and metres per unit (None: the file's own)."""
+
+    path: str
+    units: str
+    meters_per_unit: float | None
+
+
+def units_text(units: str | float | None, path: str | os.PathLike) -> str:
+    """The unit a file is read in, in words: ``mm``, ``0.5 m per unit``, or the file's own."""
+    if units is None:
+        return ("the stage's own metersPerUnit" if Path(path).suffix.lower() in USD_SUFFIXES
+                else "metres: the file states no units")
+    return units if isinstance(units, str) else f"{float(units):g} m per unit"
+
+
 class Catalogue:
     """Asset class -> variant names: the library's built-in variants, then registered meshes."""
 
     def __init__(self, *, segments: int | None = None) -> None:
         self._registered: dict[str, dict[str, trimesh.Trimesh]] = {}
+        self._sources: dict[tuple[str, str], Source] = {}
         self._scene_meshes: dict[tuple[str, str], Mesh] = {}  # registered variants as scenes store them
         self.segments = lib.check_segments(segments, "Catalogue")
 
@@ -153,6 +173,7 @@ class Catalogue:
                               "pass variant= to name this one")
         mesh = load_asset(path, units=units, up=up)
         self._registered.setdefault(cls, {})[name] = mesh
+        self._sources[(cls, name)] = Source(str(path), units_text(units, path), _meters_per_unit(units, Path(path)))
         log.debug("registered %s variant %r from %s (%.3f x %.3f x %.3f m)",
                   cls, name, path, *mesh.extents)
         return name
@@ -160,6 +181,10 @@ class Catalogue:
     def variants(self, cls: str) -> list[str]:
         """The variant names of ``cls``: built-in first, then registered in order."""
         return list(lib.VARIANTS[cls]) + list(self._registered.get(cls, {}))
+
+    def source(self, cls: str, variant: str) -> Source | None:
+        """Where a registered variant came from (None for a built-in one)."""
+        return self._sources.get((cls, variant))
 
     def registered(self) -> dict[str, list[str]]:
         """The registered variant names of each class that has some."""
@@ -201,11 +226,13 @@ class Catalogue:
         when given."""
         other = Catalogue(segments=self.segments if segments is None else segments)
         other._registered = {c: dict(v) for c, v in self._registered.items()}
+        other._sources = dict(self._sources)
         return other
 
     def clear(self) -> None:
         """Forget every registered asset (the built-in variants stay)."""
         self._registered.clear()
+        self._sources.clear()
         self._scene_meshes.clear()
 
 
