@@ -43,7 +43,7 @@ $(STAMP): pyproject.toml
 	$(MAKE) system-deps
 	[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e ".[test,neural]"
+	$(PY) -m pip install -q -e ".[test,neural,view]"
 	# pyrender (the reference renderer) pins PyOpenGL==3.1.0, whose OSMesa import is broken:
 	# install it without its pins; its real dependencies come with the test extra.
 	$(PY) -m pip install -q --no-deps "pyrender==0.1.45"

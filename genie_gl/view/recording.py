@@ -70,6 +70,8 @@ def write_rrd(views: list[SceneView], path: str | os.PathLike, *, max_points: in
     returns the path."""
     rr = _rerun()
     path = Path(path)
+    if not views:
+        raise ConfigError(f"{path}: nothing to record (no scene)")
     if path.suffix != ".rrd":
         raise ConfigError(f"{path}: a Rerun recording is named *.rrd")
     if path.exists() and not rrd_is_ours(path):
@@ -79,6 +81,8 @@ def write_rrd(views: list[SceneView], path: str | os.PathLike, *, max_points: in
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     rec_id = uuid.uuid5(uuid.NAMESPACE_URL, "genie-gl:" + ",".join(v.name for v in views))
     rec = rr.RecordingStream(APPLICATION, recording_id=rec_id, send_properties=False)
+    rec.set_log_time_enabled(False)   # the data's own clock only ("time"), not the writer's
+    rec.set_log_tick_enabled(False)
     try:
         rec.save(tmp)
         rec.log("/", annotation_context(rr), static=True)
