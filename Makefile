@@ -13,6 +13,8 @@ GENIE := $(VENV)/bin/genie
 # GL for the renderer (EGL/Mesa, OSMesa fallback); libgl1, libx11-6, libusb-1.0-0 and libgomp1
 # for Open3D, one of the independent readers the tests use
 APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6 libgl1 libx11-6 libusb-1.0-0 libgomp1
+# the tests' browser: Debian's chromium opens genie view's web viewer headless (WebGL on SwiftShader)
+TEST_APT_PACKAGES := chromium
 STAMP := $(VENV)/.setup-stamp
 OUT ?= out
 SEED ?= 0
@@ -23,7 +25,7 @@ SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
+.PHONY: help setup system-deps test-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -54,7 +56,14 @@ $(STAMP): pyproject.toml
 
 setup: $(STAMP) ## install system libraries, create .venv and install genie-gl with its test extras
 
-test: setup ## run the test suite (real GL on EGL/llvmpipe); tests marked slow are left to test-slow
+test-deps: ## install what only the tests need (chromium, for the web viewer's test) with apt-get when missing
+	@if ! command -v chromium >/dev/null 2>&1; then \
+	  echo "installing $(TEST_APT_PACKAGES)"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] && echo "" || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $(TEST_APT_PACKAGES) >/dev/null; \
+	fi
+
+test: setup test-deps ## run the test suite (real GL on EGL/llvmpipe); tests marked slow are left to test-slow
 	$(PY) -m pytest $(PYTEST_ARGS)
 
 docs-images: setup ## remake the README's pictures (one scene, seed 0) into docs/images
@@ -63,7 +72,7 @@ docs-images: setup ## remake the README's pictures (one scene, seed 0) into docs
 sensor-pages: setup ## each shipped profile's report card against published figures: pages and curves in docs/sensors
 	$(GENIE) report-card --sensor all --seed $(SEED) --pages docs/sensors --out $(OUT)/report-card
 
-test-slow: setup ## run only the slow tests (the cloud kernels again with numba's bounds checks on)
+test-slow: setup test-deps ## run only the slow tests (the cloud kernels again with numba's bounds checks on)
 	$(PY) -m pytest $(PYTEST_ARGS) -m slow
 
 MUTANT_MODULES ?= all

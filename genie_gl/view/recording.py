@@ -33,6 +33,7 @@ from .folders import SceneView
 TIMELINE = "time"
 APPLICATION = "genie-gl"
 MAX_POINTS = 2_000_000
+POINT_RADIUS = -2.0   # negative: in screen points (Rerun's convention), so sparse clouds stay visible
 
 
 def _rerun():
@@ -88,6 +89,7 @@ def write_rrd(views: list[SceneView], path: str | os.PathLike, *, max_points: in
         rec.log("/", annotation_context(rr), static=True)
         for v in views:
             _log_scene(rr, rec, v, max_points)
+        rec.send_blueprint(blueprint(views))
         rec.flush()
         rec.disconnect()
         tmp.replace(path)
@@ -95,6 +97,46 @@ def write_rrd(views: list[SceneView], path: str | os.PathLike, *, max_points: in
         if tmp.exists():
             tmp.unlink()
     return path
+
+
+def _eye(v: SceneView):
+    """An eye above one corner of the scene looking at its middle (z up), as the previews'
+    overview; None for a scene without points or meshes."""
+    import rerun.blueprint as rrb
+
+    pts = v.xyz if len(v.xyz) else (np.concatenate([m[0] for m in v.meshes]) if v.meshes else None)
+    if pts is None:
+        return None
+    lo, hi = np.percentile(pts, 1, axis=0), np.percentile(pts, 99, axis=0)
+    w, h = max(hi[0] - lo[0], 1.0), max(hi[1] - lo[1], 1.0)
+    mid = (lo + hi) / 2
+    eye = [lo[0] - 0.15 * w, lo[1] - 0.35 * h, hi[2] + 0.45 * max(w, h)]
+    return rrb.archetypes.EyeControls3D(position=eye, look_target=[mid[0], mid[1], lo[2]], eye_up=[0, 0, 1])
+
+
+def blueprint(views: list[SceneView]):
+    """The viewer's layout: per scene a tab with the 3-D view (classes; a second tab with the
+    instance layer), the layout picture and the first camera's images beside it."""
+    import rerun.blueprint as rrb
+
+    tabs = []
+    for v in views:
+        root = f"{v.name}/world"
+        eye = _eye(v)
+        views3d = rrb.Tabs(
+            rrb.Spatial3DView(origin=root, contents=["$origin/**", "-$origin/cloud/instance"], name="classes",
+                              eye_controls=eye),
+            rrb.Spatial3DView(origin=root, contents=["$origin/**", "-$origin/cloud/class"], name="instances",
+                              eye_controls=eye))
+        side = []
+        if v.layout is not None:
+            side.append(rrb.Spatial2DView(origin=f"{v.name}/layout", name="layout"))
+        cams = sorted({s.camera for s in v.shots if s.K is not None})
+        if cams:
+            side.append(rrb.Spatial2DView(origin=f"{root}/cameras/{cams[0]}/image", name=cams[0]))
+        part = rrb.Horizontal(views3d, rrb.Vertical(*side), column_shares=[3, 1]) if side else views3d
+        tabs.append(rrb.Horizontal(part, name=v.name) if side else part)
+    return rrb.Blueprint(rrb.Tabs(*tabs) if len(tabs) > 1 else tabs[0], collapse_panels=False)
 
 
 def rrd_is_ours(path: Path) -> bool:
@@ -117,9 +159,9 @@ def _log_scene(rr, rec, v: SceneView, max_points: int) -> None:
     if len(v.xyz):
         k = stride(len(v.xyz), max_points)
         xyz = v.xyz[::k].astype(np.float32)
-        rec.log(f"{root}/world/cloud/class", rr.Points3D(xyz, class_ids=v.semantic[::k], radii=0.01), static=True)
+        rec.log(f"{root}/world/cloud/class", rr.Points3D(xyz, class_ids=v.semantic[::k], radii=POINT_RADIUS), static=True)
         inst = v.instance[::k]
-        rec.log(f"{root}/world/cloud/instance", rr.Points3D(xyz, colors=instance_colors(inst), radii=0.01),
+        rec.log(f"{root}/world/cloud/instance", rr.Points3D(xyz, colors=instance_colors(inst), radii=POINT_RADIUS),
                 rr.AnyValues(instance_id=inst.astype(np.uint32)), static=True)
     for n, (verts, faces, sem, inst) in enumerate(v.meshes):
         rec.log(f"{root}/world/meshes/{n:05d}", rr.Mesh3D(vertex_positions=verts, triangle_indices=faces,
