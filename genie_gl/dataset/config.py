@@ -33,12 +33,14 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
           "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget",
           "mount_m": "--mount", "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion",
-          "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration"}
+          "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration",
+          "cloud_stride": "--cloud-stride"}
 CAPTURES = ("static", "trajectory", "mobile-map")
 # the options one kind of capture uses and another does not (given to one that does not: refused)
 USED_BY = {"cameras": ("static",), "mount_m": ("static",), "rig": ("trajectory", "mobile-map"),
            "path": ("trajectory", "mobile-map"), "motion": ("trajectory", "mobile-map"),
-           "duration_s": ("trajectory", "mobile-map"), "voxel_m": ("mobile-map",), "registration": ("mobile-map",)}
+           "duration_s": ("trajectory", "mobile-map"), "voxel_m": ("mobile-map",), "registration": ("mobile-map",),
+           "cloud_stride": ("trajectory",)}
 
 
 @dataclass(frozen=True)
@@ -101,6 +103,8 @@ class DatasetConfig(BaseModel):
     duration_s: float = Field(20.0, gt=0, le=3600)
     voxel_m: float = Field(0.02, gt=0, le=1.0)
     registration: Literal["mobile", "none"] = "mobile"
+    # --format rosbag: the points clouds from every k-th pixel row and column (None: every pixel)
+    cloud_stride: int | None = Field(None, ge=1, le=64)
 
     @field_validator("format")
     @classmethod
@@ -142,6 +146,9 @@ class DatasetConfig(BaseModel):
                               f"{self.format} with --capture {self.capture} writes images or recordings: use a "
                               "point-cloud format with --capture static or mobile-map")
         self._used_options()
+        if self.cloud_stride not in (None, 1) and self.format != "rosbag":
+            raise ConfigError(f"--cloud-stride {self.cloud_stride}: thins the point clouds of a ROS 2 bag; --format "
+                              f"{self.format} does not use it (use --format rosbag)")
         if self.capture != "static":
             path_kind(self.path)
         return self
@@ -159,9 +166,10 @@ class DatasetConfig(BaseModel):
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
                                                 "min_labelled_share", "split", "accuracy", "class_balance",
                                                 "points_budget", "mount_m", "capture", "rig", "path", "motion",
-                                                "duration_s", "voxel_m", "registration")
+                                                "duration_s", "voxel_m", "registration", "cloud_stride")
     # fingerprinted only when the capture is not static (a static run's fingerprint is as before)
-    MOVING: ClassVar[tuple[str, ...]] = ("capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration")
+    MOVING: ClassVar[tuple[str, ...]] = ("capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration",
+                                         "cloud_stride")
 
     @classmethod
     def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":
