@@ -23,6 +23,8 @@ CAMERAS ?= 8
 WORKERS ?= 2
 SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
+# the demo's 3 sequences, one each to train, valid and test (0.8,0.1,0.1 would leave two splits empty)
+DEMO_SPLIT ?= 1,1,1
 PYTEST_ARGS ?= -n 2
 
 .PHONY: help setup system-deps test-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
@@ -52,6 +54,9 @@ $(STAMP): pyproject.toml
 	# semantic-kitti-api's declared dependencies pull torch, PyQt5 and vispy (~6 GB); its reader
 	# and evaluation classes need only numpy and PyYAML: install it without them (tests read with it)
 	$(PY) -m pip install -q --no-deps "semantic-kitti-api==0.1"
+	# numba compiles genie-gl's kernels on first use (a minute or two, in every worker at once):
+	# compile the demo recipe's kernels into numba's cache now, so the first make demo loads them
+	$(PY) -c "from genie_gl.dataset.warmup import compile_kernels as c; print(f'kernels compiled and cached in {c(sensor=\"$(SENSOR)\", format=\"$(FORMAT)\"):.0f} s')"
 	touch $(STAMP)
 
 setup: $(STAMP) ## install system libraries, create .venv and install genie-gl with its test extras
@@ -87,8 +92,8 @@ planted-bugs: setup ## plant known bugs one at a time in build/planted/ and list
 
 demo: setup ## generate a 3-scene demo dataset with preview pictures into out/demo
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \
-	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/demo --workers $(WORKERS) --seed $(SEED)
-	@echo "demo dataset and previews in $(OUT)/demo (open $(OUT)/demo/previews/)"
+	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/demo --workers $(WORKERS) --seed $(SEED) --split $(DEMO_SPLIT)
+	@echo "demo dataset and previews in $(OUT)/demo (open $(OUT)/demo/previews/; genie view $(OUT)/demo --serve: a 3-D view in the browser)"
 
 bench: setup ## run every benchmark (render, layout, accuracy, pipeline, stability, planning, cli); figures into out/bench
 	$(VENV)/bin/pip install -q "open3d>=0.18" && { ldconfig -p | grep -q libusb-1.0 || apt-get install -y -qq libusb-1.0-0; } || echo "open3d unavailable: the render bench skips it"

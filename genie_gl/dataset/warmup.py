@@ -9,6 +9,11 @@ two cameras, nothing written), so that scene times measure scenes and the warm-u
 reported on its own (``warmup_s`` per worker in the manifest's run record and in
 ``genie bench pipeline``).
 
+:func:`compile_kernels` runs the same warm-up once, outside any run, so that numba compiles
+the kernels of a recipe into its cache (beside the package's modules, or the user's cache
+when the install cannot be written): ``make setup`` does it for the demo's recipe, so the
+first ``make demo`` loads the kernels instead of compiling them in every worker at once.
+
 The throw-away scene draws from its own streams and fills only caches that the scenes fill
 anyway (the GL context, shaders, kernels, ray tables, tessellated assets): every scene still
 depends only on (seed, index), byte for byte.
@@ -21,7 +26,7 @@ from ..export import get_format
 from ..render.memory import prefault
 from ..scene.assets.catalogue import ASSETS
 from .config import DatasetConfig
-from .recipe import RunInputs, chunk, make
+from .recipe import RunInputs, chunk, load_inputs, make
 from .streams import SceneStreams
 
 WARM_SEED = 20_26_11_23  # the throw-away scene's seed (any fixed value)
@@ -45,3 +50,13 @@ def warm_up(cfg: DatasetConfig, inputs: RunInputs) -> float:
         prefault(*f.depth.shape, f.rgb is not None, f.normal is not None, cfg.cameras)
     chunk(cfg, frames, streams, chunks=fmt.chunks, tally=made.tally)
     return time.perf_counter() - t0
+
+
+def compile_kernels(strategy: str = "assembly_line", sensor: str = "realsense_d435",
+                    format: str = "semantickitti") -> float:
+    """Compile and cache the kernels a dataset run of this recipe loads (the warm-up, in this
+    process, nothing written but numba's cache); returns seconds."""
+    cfg = DatasetConfig.parse({"strategy": strategy, "sensor": sensor, "format": format, "out": ".",
+                               "scenes": 1, "cameras": WARM_CAMERAS, "previews": 0})
+    return warm_up(cfg, load_inputs(cfg))
+
