@@ -27,7 +27,7 @@ FORMAT ?= semantickitti
 DEMO_SPLIT ?= 1,1,1
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
+.PHONY: help setup system-deps test-deps test test-slow mutants planted-bugs demo docs-images docs-view-image sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -73,6 +73,9 @@ test: setup test-deps ## run the test suite (real GL on EGL/llvmpipe); tests mar
 
 docs-images: setup ## remake the README's pictures (one scene, seed 0) into docs/images
 	$(PY) docs/make_images.py $(OUT)/docs
+
+docs-view-image: setup test-deps ## the picture of genie view's web viewer on the demo dataset (make demo first) into docs/images
+	$(PY) docs/make_view_image.py $(OUT)/demo
 
 sensor-pages: setup ## each shipped profile's report card against published figures: pages and curves in docs/sensors
 	$(GENIE) report-card --sensor all --seed $(SEED) --pages docs/sensors --out $(OUT)/report-card
