@@ -94,3 +94,24 @@ def test_a_cloud_stride_out_of_range_is_refused(recorded, tmp_path):
         with pytest.raises(ConfigError, match="--cloud-stride"):
             write_recording(rig, tr, pairs, tmp_path / "b", cloud_stride=bad)
     assert not (tmp_path / "b").exists()
+
+
+def test_cloud_stride_is_an_option_of_rosbag_recordings_only(tmp_path):
+    from genie_gl.dataset import DatasetConfig
+
+    base = dict(strategy="storage_area", scenes=1, sensor="ideal_pinhole", out=str(tmp_path / "d"))
+    ok = DatasetConfig.parse(base | dict(format="rosbag", capture="trajectory", cloud_stride=2))
+    assert ok.cloud_stride == 2
+    with pytest.raises(ConfigError, match="--cloud-stride 2: .*--format semantickitti"):
+        DatasetConfig.parse(base | dict(format="semantickitti", capture="trajectory", cloud_stride=2))
+    with pytest.raises(ConfigError, match="--cloud-stride"):
+        DatasetConfig.parse(base | dict(format="rosbag", capture="trajectory", cloud_stride=0))
+    # a run without the option keeps the fingerprint it had (the option is fingerprinted only when given)
+    from genie_gl.dataset.manifest import fingerprint
+    from genie_gl.layout import load_strategy
+    from genie_gl.sensors import load_sensor
+
+    plain = DatasetConfig.parse(base | dict(format="rosbag", capture="trajectory"))
+    parts = fingerprint(plain, load_strategy("storage_area"), load_sensor("ideal_pinhole"))["parts"]
+    assert "cloud_stride" not in parts
+    assert fingerprint(ok, load_strategy("storage_area"), load_sensor("ideal_pinhole"))["parts"]["cloud_stride"] == 2
