@@ -45,7 +45,8 @@ with Reader(z1) as r, Writer(plain, version=9, storage_plugin=StoragePlugin.MCAP
 sizes = {}
 for name, bag in (("uncompressed", plain), ("zstd", z1), ("zstd, --cloud-stride 2", z2)):
     f, = bag.glob("*.mcap")
-    cr = counts_rosbags(bag); cm, comp = counts_mcap(bag)
+    cr = counts_rosbags(bag)
+    cm, comp = counts_mcap(bag)
     assert cr == cm, name
     sizes[name] = f.stat().st_size
     print(f"{name}: {f.stat().st_size/1e6:.1f} MB, chunks {comp}, {sum(cr.values())} messages, {len(cr)} topics, "
@@ -65,7 +66,8 @@ dt = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("label", "<u2"), ("pad", "<u2")
 a, b = np.frombuffer(bytes(full.data), dt), np.frombuffer(bytes(half.data), dt)
 d = np.frombuffer(bytes(depth.data), "<f4").reshape(depth.height, depth.width)
 valid = d > 0
-keep = np.zeros_like(valid); keep[::2, ::2] = True
+keep = np.zeros_like(valid)
+keep[::2, ::2] = True
 assert len(a) == valid.sum() and np.array_equal(a[keep[valid]], b), "stride-2 cloud differs"
 assert np.allclose(a["z"], d[valid]), "cloud z is not the depth"
 print(f"{topic}: first cloud {len(a)} points (= valid depth pixels, z = depth), stride 2: {len(b)} = every 2nd row and column")

@@ -3,7 +3,6 @@ opened in headless Chromium (Debian's package; WebGL on SwiftShader), screenshot
 3-D view shows the scene's cloud in the classes' colours (not a blank page, not an error page)."""
 import time
 
-import numpy as np
 import pytest
 from PIL import Image
 
