@@ -13,6 +13,8 @@ GENIE := $(VENV)/bin/genie
 # GL for the renderer (EGL/Mesa, OSMesa fallback); libgl1, libx11-6, libusb-1.0-0 and libgomp1
 # for Open3D, one of the independent readers the tests use
 APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosmesa6 libgl1 libx11-6 libusb-1.0-0 libgomp1
+# the tests' browser: Debian's chromium opens genie view's web viewer headless (WebGL on SwiftShader)
+TEST_APT_PACKAGES := chromium
 STAMP := $(VENV)/.setup-stamp
 OUT ?= out
 SEED ?= 0
@@ -21,9 +23,11 @@ CAMERAS ?= 8
 WORKERS ?= 2
 SENSOR ?= realsense_d435
 FORMAT ?= semantickitti
+# the demo's 3 sequences, one each to train, valid and test (0.8,0.1,0.1 would leave two splits empty)
+DEMO_SPLIT ?= 1,1,1
 PYTEST_ARGS ?= -n 2
 
-.PHONY: help setup system-deps test test-slow mutants planted-bugs demo docs-images sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
+.PHONY: help setup system-deps test-deps test test-slow mutants planted-bugs demo docs-images docs-view-image sensor-pages bench bench-render bench-layout bench-accuracy bench-pipeline bench-planning bench-stability bench-cli bench-sequence bench-odometry bench-eval studies \
         dataset-assembly-line dataset-storage-area dataset-logistics-lane clean
 
 help: ## list the targets
@@ -43,28 +47,41 @@ $(STAMP): pyproject.toml
 	$(MAKE) system-deps
 	[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e ".[test,neural]"
+	$(PY) -m pip install -q -e ".[test,neural,view]"
 	# pyrender (the reference renderer) pins PyOpenGL==3.1.0, whose OSMesa import is broken:
 	# install it without its pins; its real dependencies come with the test extra.
 	$(PY) -m pip install -q --no-deps "pyrender==0.1.45"
 	# semantic-kitti-api's declared dependencies pull torch, PyQt5 and vispy (~6 GB); its reader
 	# and evaluation classes need only numpy and PyYAML: install it without them (tests read with it)
 	$(PY) -m pip install -q --no-deps "semantic-kitti-api==0.1"
+	# numba compiles genie-gl's kernels on first use (a minute or two, in every worker at once):
+	# compile the demo recipe's kernels into numba's cache now, so the first make demo loads them
+	$(PY) -c "from genie_gl.dataset.warmup import compile_kernels as c; print(f'kernels compiled and cached in {c(sensor=\"$(SENSOR)\", format=\"$(FORMAT)\"):.0f} s')"
 	touch $(STAMP)
 
 setup: $(STAMP) ## install system libraries, create .venv and install genie-gl with its test extras
 
-test: setup ## ruff check, then the test suite (real GL on EGL/llvmpipe); tests marked slow are left to test-slow
+test-deps: ## install what only the tests need (chromium, for the web viewer's test) with apt-get when missing
+	@if ! command -v chromium >/dev/null 2>&1; then \
+	  echo "installing $(TEST_APT_PACKAGES)"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] && echo "" || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $(TEST_APT_PACKAGES) >/dev/null; \
+	fi
+
+test: setup test-deps ## ruff check, then the test suite (real GL on EGL/llvmpipe); tests marked slow are left to test-slow
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest $(PYTEST_ARGS)
 
 docs-images: setup ## remake the README's pictures (one scene, seed 0) into docs/images
 	$(PY) docs/make_images.py $(OUT)/docs
 
+docs-view-image: setup test-deps ## the picture of genie view's web viewer on the demo dataset (make demo first) into docs/images
+	$(PY) docs/make_view_image.py $(OUT)/demo
+
 sensor-pages: setup ## each shipped profile's report card against published figures: pages and curves in docs/sensors
 	$(GENIE) report-card --sensor all --seed $(SEED) --pages docs/sensors --out $(OUT)/report-card
 
-test-slow: setup ## run only the slow tests (the cloud kernels again with numba's bounds checks on)
+test-slow: setup test-deps ## run only the slow tests (the cloud kernels again with numba's bounds checks on)
 	$(PY) -m pytest $(PYTEST_ARGS) -m slow
 
 MUTANT_MODULES ?= all
@@ -79,8 +96,8 @@ planted-bugs: setup ## plant known bugs one at a time in build/planted/ and list
 
 demo: setup ## generate a 3-scene demo dataset with preview pictures into out/demo
 	$(GENIE) dataset layouts/assembly_line.json --scenes $(SCENES) --cameras $(CAMERAS) \
-	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/demo --workers $(WORKERS) --seed $(SEED)
-	@echo "demo dataset and previews in $(OUT)/demo (open $(OUT)/demo/previews/)"
+	  --sensor $(SENSOR) --format $(FORMAT) --out $(OUT)/demo --workers $(WORKERS) --seed $(SEED) --split $(DEMO_SPLIT)
+	@echo "demo dataset and previews in $(OUT)/demo (open $(OUT)/demo/previews/; genie view $(OUT)/demo --serve: a 3-D view in the browser)"
 
 bench: setup ## run every benchmark (render, layout, accuracy, pipeline, stability, planning, cli); figures into out/bench
 	$(VENV)/bin/pip install -q "open3d>=0.18" && { ldconfig -p | grep -q libusb-1.0 || apt-get install -y -qq libusb-1.0-0; } || echo "open3d unavailable: the render bench skips it"

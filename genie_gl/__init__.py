@@ -11,6 +11,7 @@ The public API, one name per pipeline stage (DESIGN.md)::
     frames = gg.capture(scene, sensor, poses, seed=0)
     cloud  = gg.to_cloud(frames)
     gg.export(cloud, "out/", format="semantickitti")
+    gg.view("out/")                                 # out/view.rrd: a Rerun recording of it
 
     rig   = gg.load_rig("d435_quad")                # sensors with fixed extrinsics on a body
     path  = gg.make_trajectory(layout, scene, "aisles", seed=0)   # on the free floor
@@ -88,13 +89,15 @@ _EXPORTS: dict[str, str] = {
     "export": "genie_gl.export",
     # the sensor's report card (published measurements of the real device beside ours)
     "report_card": "genie_gl.card.report",
+    # look at what was made: a Rerun recording of exported files, and its web viewer
+    "view": "genie_gl.view",
 }
 
 __all__ = sorted(_EXPORTS) + ["__version__"]
 
 
 # public functions named as a stage package is (the package stays in sys.modules)
-_FUNCTIONS = ("render", "capture", "export")
+_FUNCTIONS = ("render", "capture", "export", "view")
 
 
 class _Package(types.ModuleType):

@@ -31,6 +31,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("genie_gl.commands.bench", "benchmarks: render | layout | accuracy | pipeline | stability | planning | sequence | odometry | cli"),
     "report-card": ("genie_gl.commands.report_card", "a sensor profile against published measurements of the real device"),
     "eval": ("genie_gl.commands.eval", "train and test segmentation models on datasets; protocols and studies"),
+    "view": ("genie_gl.commands.view", "a Rerun recording (.rrd) of a dataset, recording, capture or scene; --serve: web viewer"),
 }
 
 
@@ -66,7 +67,8 @@ def command_of(argv: list[str]) -> str | None:
 # the optional packages a command may need, by import name: (PyPI name, genie-gl extra)
 OPTIONAL = {"kiss_icp": ("kiss-icp", "bench"), "evo": ("evo", "bench"), "open3d": ("open3d", "bench"),
             "pye57": ("pye57", "sequences"), "laspy": ("laspy", "sequences"), "rosbags": ("rosbags", "sequences"),
-            "fast_simplification": ("fast-simplification", "lod"), "ray": ("ray", "ray"), "torch": ("torch", "neural")}
+            "fast_simplification": ("fast-simplification", "lod"), "ray": ("ray", "ray"), "torch": ("torch", "neural"),
+            "rerun": ("rerun-sdk", "view"), "rerun_cli": ("rerun-sdk", "view")}
 
 
 def missing_package(name: str) -> str:

@@ -50,6 +50,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--voxel-m", type=float, default=None, help="mobile-map: the map's voxel (its density; default 0.02)")
     p.add_argument("--registration", choices=("mobile", "none"), default=None,
                    help="mobile-map: a mobile scanner's registration error (drift, pass misalignment) or none")
+    p.add_argument("--cloud-stride", type=int, default=None, metavar="K",
+                   help="rosbag: the points clouds from every K-th pixel row and column (1/K^2 of the points; the "
+                        "depth images keep every pixel)")
     p.add_argument("--accuracy", default=None, metavar="FILE",
                    help="accuracy settings: a file with an accuracy: block (genie bench accuracy --budget-mm writes one)")
     p.add_argument("--raster", choices=("cpu", "gl"), default=None,
@@ -64,9 +67,9 @@ def config_from_args(args: argparse.Namespace):
                                              "seed", "points", "chunk_m", "min_points", "min_labelled_share",
                                              "previews", "executor", "address", "max_nodes", "max_memory_gb",
                                              "max_disk_gb", "capture", "rig", "path", "motion", "duration_s",
-                                             "voxel_m", "registration", "raster")}
+                                             "voxel_m", "registration", "raster", "cloud_stride")}
     fields["mount_m"] = args.mount
-    for k in ("cameras", "capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration"):
+    for k in ("cameras", "capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration", "cloud_stride"):
         if fields[k] is None:   # not given: the configuration's default (an option given is checked against --capture)
             del fields[k]
     fields["split"] = parse_split(args.split)

@@ -33,7 +33,8 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
           "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget",
           "mount_m": "--mount", "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion",
-          "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration", "raster": "--raster"}
+          "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration", "raster": "--raster",
+          "cloud_stride": "--cloud-stride"}
 
 
 @dataclass(frozen=True)
@@ -98,6 +99,8 @@ class DatasetConfig(BaseModel):
     # the rasteriser (genie_gl.render.rasters); None: decided where the run starts (the accuracy
     # settings', the dataset's manifest's when resuming, else the machine's default) and recorded
     raster: Optional[Literal["cpu", "gl"]] = None
+    # --format rosbag: the points clouds from every k-th pixel row and column (None: every pixel)
+    cloud_stride: int | None = Field(None, ge=1, le=64)
 
     @field_validator("format")
     @classmethod
@@ -149,6 +152,9 @@ class DatasetConfig(BaseModel):
                               f"point-cloud format with --capture {' or '.join(modes)}")
         self._used_options()
         mode.check(self)
+        if self.cloud_stride not in (None, 1) and self.format != "rosbag":
+            raise ConfigError(f"--cloud-stride {self.cloud_stride}: thins the point clouds of a ROS 2 bag; --format "
+                              f"{self.format} does not use it (use --format rosbag)")
         return self
 
     def _used_options(self) -> None:
@@ -165,7 +171,7 @@ class DatasetConfig(BaseModel):
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
                                                 "min_labelled_share", "split", "accuracy", "class_balance",
                                                 "points_budget", "mount_m", "capture", "rig", "path", "motion",
-                                                "duration_s", "voxel_m", "registration", "raster")
+                                                "duration_s", "voxel_m", "registration", "raster", "cloud_stride")
     # of these, "capture" and the modes' own options enter only as the mode says (genie_gl.dataset.modes)
 
     @classmethod

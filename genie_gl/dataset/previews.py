@@ -18,7 +18,8 @@ from ..sensors.camera import Sensor
 def _legend(ax, ids) -> None:
     from matplotlib.patches import Patch
 
-    handles = [Patch(color=np.array(labels.color(k)) / 255, label=f"{k} {labels.name(k)}") for k in sorted(ids)]
+    handles = [Patch(facecolor=np.array(labels.color(k)) / 255, edgecolor="0.35", linewidth=0.6,
+                     label=f"{k} {labels.name(k)}") for k in sorted(ids)]
     if handles:
         ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False,
                   title="class", title_fontsize=8)
@@ -113,7 +114,9 @@ def layout_picture(layout, title: str, path: Path, *, path_xy: np.ndarray | None
     ax.set_ylabel("y (m)")
     ax.set_title(title)
     used = sorted({r.type for r in layout.leaves()})
-    ax.legend(handles=[Patch(color=np.array(layout.region_types[t].color) / 255, label=t) for t in used],
+    # swatches outlined: a near-white region type (empty floor) stays visible on the white legend
+    ax.legend(handles=[Patch(facecolor=np.array(layout.region_types[t].color) / 255, edgecolor="0.35", linewidth=0.6,
+                             label=t) for t in used],
               loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False, title="region type",
               title_fontsize=8)
     fig.tight_layout()

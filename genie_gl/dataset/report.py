@@ -52,7 +52,7 @@ def histogram(out: Path, stats: list[dict], target: dict[int, float] | None = No
            color=[np.array(labels.color(k)) / 255 for k in keys])
     ax.set_yscale("log")
     ax.set_ylabel("points")
-    ax.set_title(f"points per class ({len(stats)} scenes, {sum(total.values()):,} points)")
+    ax.set_title(f"points per class ({len(stats)} scene{'s' * (len(stats) != 1)}, {sum(total.values()):,} points)")
     plt.setp(ax.get_xticklabels(), rotation=30, ha="right")
     fig.tight_layout()
     fig.savefig(out / "histogram.png", dpi=100, metadata={"Software": None})

@@ -15,6 +15,12 @@ all with ``frame_id`` ``NAME_optical_frame`` (REP 103: z forward, x right, y dow
 - ``/tf``: ``map`` → ``base_link`` (the body: x forward, y left, z up) at every shot time;
 - ``/tf_static`` (transient local, as ROS latches it): ``base_link`` →
   ``NAME_optical_frame``, the rig's extrinsics, once.
+
+The MCAP file's chunks are compressed with zstd (MCAP's chunk compression, which the ``mcap``
+readers, rosbag2's MCAP storage, Foxglove and rosbags read; its metadata says
+``compression_mode: ''`` as rosbag2 writes it for storage-level compression). ``cloud_stride``
+k > 1 thins the ``points`` clouds to every k-th pixel row and column of each frame (1/k² of
+the points; the depth images keep every pixel, so the full cloud can be made from them).
 """
 from __future__ import annotations
 
@@ -34,14 +40,23 @@ MAP, BODY = "map", "base_link"
 STAMP_KEY = "genie-gl"   # the bag's custom_data key holding the version that wrote it
 
 
+MAX_CLOUD_STRIDE = 64
+
+
 def _modules():
     try:
         from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
     except ImportError as exc:
         raise ConfigError(f"--format rosbag needs the rosbags package: pip install 'genie-gl[sequences]' ({exc})") from None
-    return Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, StoragePlugin, Writer, \
+    def writer(path: Path, compress: bool):
+        w = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+        if compress:   # MCAP chunk compression (zstd): what rosbag2 calls storage-level compression
+            w.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        return w
+
+    return Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, writer, \
         get_typestore(Stores.ROS2_HUMBLE)
 
 
@@ -100,10 +115,16 @@ class _Messages:
             is_dense=True)
 
 
-def write_recording(rig, trajectory, recording, bag_dir: str | os.PathLike) -> Path:
+def write_recording(rig, trajectory, recording, bag_dir: str | os.PathLike, *, compress: bool = True,
+                    cloud_stride: int = 1) -> Path:
     """Write the recording ((Shot, Frame) pairs in time order) as an MCAP bag in ``bag_dir``
-    (a folder the writer makes: ``metadata.yaml`` and ``<name>.mcap``); returns it."""
-    Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, StoragePlugin, Writer, ts = _modules()
+    (a folder the writer makes: ``metadata.yaml`` and ``<name>.mcap``); returns it.
+    ``compress``: zstd chunk compression; ``cloud_stride``: the ``points`` clouds from every
+    k-th pixel row and column (1 = every pixel)."""
+    if not isinstance(cloud_stride, int) or not 1 <= cloud_stride <= MAX_CLOUD_STRIDE:
+        raise ConfigError(f"--cloud-stride {cloud_stride!r}: expected an integer 1..{MAX_CLOUD_STRIDE} (every k-th "
+                          "pixel row and column of a frame's points)")
+    Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, writer, ts = _modules()
     bag_dir = Path(bag_dir)
     if bag_dir.exists() and not bag_is_ours(bag_dir):
         raise ConfigError(f"{bag_dir}: already exists and was not written by genie-gl; it is left as it is (remove "
@@ -114,8 +135,8 @@ def write_recording(rig, trajectory, recording, bag_dir: str | os.PathLike) -> P
     shutil.rmtree(tmp_root, ignore_errors=True)
     tmp_root.mkdir(parents=True)
     try:
-        _write_bag(rig, trajectory, recording, tmp_root / bag_dir.name, Writer, StoragePlugin, ts, Qos,
-                   (QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime))
+        _write_bag(rig, trajectory, recording, writer(tmp_root / bag_dir.name, compress), ts, Qos,
+                   (QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime), cloud_stride)
         if bag_dir.exists():
             shutil.rmtree(bag_dir)   # a bag genie-gl wrote (checked above)
         (tmp_root / bag_dir.name).rename(bag_dir)
@@ -136,7 +157,21 @@ def bag_is_ours(bag_dir: Path) -> bool:
         return False
 
 
-def _write_bag(rig, trajectory, recording, bag_dir: Path, Writer, StoragePlugin, ts, Qos, qos_kinds) -> None:
+def cloud_arrays(frame, stride: int = 1):
+    """xyz (n, 3) float32 in the optical frame, semantic (n,) and instance (n,) of the frame's
+    returns at every ``stride``-th pixel row and column, in pixel order (stride 1: every
+    return, as :func:`~.semantickitti_sequence.camera_points` gives them)."""
+    cloud = camera_points(frame)
+    if stride == 1:
+        return cloud.xyz, cloud.semantic, cloud.instance
+    valid = frame.depth > 0
+    keep = np.zeros_like(valid)
+    keep[::stride, ::stride] = True
+    sel = keep[valid]   # the returns in pixel order, as camera_points lists them
+    return cloud.xyz[sel], cloud.semantic[sel], cloud.instance[sel]
+
+
+def _write_bag(rig, trajectory, recording, bag, ts, Qos, qos_kinds, cloud_stride: int = 1) -> None:
     QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime = qos_kinds
     m = _Messages(ts)
     never = QosTime(sec=0, nsec=0)
@@ -146,7 +181,7 @@ def _write_bag(rig, trajectory, recording, bag_dir: Path, Writer, StoragePlugin,
     def ns(t: float) -> int:
         return int(round((t - trajectory.start_s) * 1e9)) + 1   # the bag's clock: ns from the start, never 0
 
-    with Writer(bag_dir, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+    with bag as w:
         w.set_custom_data(STAMP_KEY, __version__)   # how a later run knows the bag as its own
         def conn(topic: str, msgtype: str, qos=()):
             return w.add_connection(topic, msgtype, typestore=ts, offered_qos_profiles=qos)
@@ -179,15 +214,14 @@ def _write_bag(rig, trajectory, recording, bag_dir: Path, Writer, StoragePlugin,
                 if "color" not in c:
                     c["color"] = conn(f"/{s.name}/color/image_raw", "sensor_msgs/msg/Image")
                 w.write(c["color"], t, ts.serialize_cdr(m.image(t, optical, frame.rgb, "rgb8"), "sensor_msgs/msg/Image"))
-            cloud = camera_points(frame)
-            w.write(c["points"], t, ts.serialize_cdr(m.points(t, optical, cloud.xyz, cloud.semantic, cloud.instance),
-                                                     "sensor_msgs/msg/PointCloud2"))
-    return bag_dir
+            xyz, sem, inst = cloud_arrays(frame, cloud_stride)
+            w.write(c["points"], t, ts.serialize_cdr(m.points(t, optical, xyz, sem, inst), "sensor_msgs/msg/PointCloud2"))
 
 
 def _write_scene(data, folder: Path) -> None:
     folder.mkdir(parents=True, exist_ok=True)
-    write_recording(data.rig, data.trajectory, data.recording, folder / "bag")
+    stride = int(getattr(data.options, "cloud_stride", 1) or 1)
+    write_recording(data.rig, data.trajectory, data.recording, folder / "bag", cloud_stride=stride)
 
 
 from .registry import DatasetFormat, register_format  # noqa: E402

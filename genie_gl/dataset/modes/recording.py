@@ -17,6 +17,7 @@ class Recording(RigOnPath):
     name = "trajectory"
     description = "a rig's recording along a trajectory"
     rank = 1
+    options = (*RigOnPath.options, "cloud_stride")
     disk_fix = "make fewer --scenes, a shorter --duration-s"
 
     def takes(self, fmt) -> bool:
