@@ -18,7 +18,8 @@ from ..sensors.beams import scan_beams, scan_starts
 from ..sensors.scanner import Scanner
 from ..sensors.scanner_rig import ScannerRig
 from ..sensors.trajectory import Trajectory
-from .scan import Scan, plan_scan, take_scan
+from .scan import plan_scan, take_scan
+from .scan_record import Scan
 
 
 def scan_rng(seed: int, head_index: int, scan_index: int) -> np.random.Generator:

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..capture.scan import Scan
+from ..capture.scan_record import Scan
 from ..errors import ConfigError
 from .pointcloud import PointCloud
 
