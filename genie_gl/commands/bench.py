@@ -93,6 +93,15 @@ def _odometry(p: argparse.ArgumentParser) -> None:
     p.add_argument("--voxel-m", type=positive(10.0), default=ODOMETRY["voxel_m"], help="KISS-ICP's map voxel size (m)")
 
 
+def _lidar(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenes", type=names(RENDER_SCENES), default="1M,10M", help="benchmark scenes to cast on")
+    p.add_argument("--scanners", default="velodyne_vlp16,ouster_os1_128", help="scanner profiles, comma-separated")
+    p.add_argument("--repeats", type=count(1, 1000), default=3, help="casts per tool, in turns (best kept)")
+    p.add_argument("--rig", default="navvis_wearable", help="scanner rig of the walk")
+    p.add_argument("--walk", type=float, default=10.0, help="seconds of the wearable's walk (0: none)")
+    p.add_argument("--seed", type=seed, default=0)
+
+
 def _cli(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repeats", type=count(1, 1000), default=15, help="runs of each command line (default 15)")
     p.add_argument("--against", default=None, metavar="DIR",
@@ -116,6 +125,8 @@ BENCHMARKS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], tupl
                  ("sequence.json",)),
     "odometry": ("KISS-ICP on a SemanticKITTI sequence of a rig's recording; evo's ATE against its ground truth",
                  _odometry, ("odometry.json", "odometry")),
+    "lidar": ("scanners' beams/s against Open3D on the same beams, agreement, and a wearable's walk in points/s",
+              _lidar, ("lidar.json",)),
     "cli": ("seconds `genie --help` and every subcommand's --help take (median of fresh processes)", _cli,
             ("cli.json",)),
 }
