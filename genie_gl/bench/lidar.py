@@ -37,27 +37,29 @@ HELIOS_PTS_S = 23_000      # HELIOS++ user run, points/s (as the issue cites it)
 HEAD_HEIGHT_M = 1.8
 
 
-def open3d_caster(scene):
-    """Open3D's ray caster of ``scene`` (world-frame float32 triangles, one geometry per
-    instance) and the instance id of each geometry id."""
+def open3d_caster(scene, origin=(0.0, 0.0, 0.0)):
+    """Open3D's ray caster of ``scene`` (float32 triangles, one geometry per instance,
+    placed in float64 and stored relative to ``origin``, the head's position, so float32
+    loses the least near the head), the instance id of each geometry id, and ``origin``."""
     import open3d as o3d
 
+    origin = np.asarray(origin, np.float64)
     rc = o3d.t.geometry.RaycastingScene()
     ids = {}
     for inst in scene.instances:
         m = scene.meshes[inst.mesh]
-        v = np.asarray(m.vertices, np.float64) @ inst.world_from_model[:3, :3].T + inst.world_from_model[:3, 3]
+        v = np.asarray(m.vertices, np.float64) @ inst.world_from_model[:3, :3].T + (inst.world_from_model[:3, 3] - origin)
         g = rc.add_triangles(o3d.core.Tensor(v.astype(np.float32)), o3d.core.Tensor(np.asarray(m.faces, np.uint32)))
         ids[g] = inst.instance
-    return rc, ids
+    return rc, ids, origin
 
 
 def open3d_cast(caster, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(distance (0: none), instance) along each ray, by Open3D."""
     import open3d as o3d
 
-    rc, ids = caster
-    rays = np.c_[origins, directions].astype(np.float32)
+    rc, ids, origin = caster
+    rays = np.c_[origins - origin, directions].astype(np.float32)
     out = rc.cast_rays(o3d.core.Tensor(rays))
     t = out["t_hit"].numpy().astype(np.float64)
     g = out["geometry_ids"].numpy()
@@ -94,7 +96,7 @@ def cast_row(scene, scene_name: str, scanner, repeats: int) -> dict:
     ours = cast_beams(scene, beams.origins, beams.directions)        # builds the engine's hierarchy
     build_ours = time.perf_counter() - t
     t = time.perf_counter()
-    caster = open3d_caster(scene)
+    caster = open3d_caster(scene, beams.origins[0])
     theirs = open3d_cast(caster, beams.origins, beams.directions)
     build_o3d = time.perf_counter() - t
     best_ours = best_o3d = np.inf

@@ -13,6 +13,8 @@ import argparse
 from ..errors import ConfigError
 from . import positive, seed, stages
 
+FORMATS = ("kitti", "rosbag", "las", "e57", "pcd", "ply")   # genie_gl.export.lidar_output.SCAN_FORMATS
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("strategy", help="layout strategy (a shipped name or a JSON file)")
@@ -22,24 +24,27 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--path", default="aisles", choices=("aisles", "random"), help="the route on the free floor")
     p.add_argument("--motion", default="person", choices=("person", "robot"), help="how the body moves")
     p.add_argument("--duration", type=positive(3600), default=10.0, metavar="S", help="seconds of the walk")
-    p.add_argument("--format", default="kitti", help="kitti | rosbag | las | e57 | pcd | ply")
+    p.add_argument("--format", default="kitti", choices=FORMATS, help="the scans' format")
     p.add_argument("--out", required=True)
     p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--no-progress", action="store_true")
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..capture.scanning import scan
-    from ..export.lidar_output import SCAN_FORMATS, export_scans
-    from ..layout import generate_layout
-    from ..scene import build_scene
-    from ..sensors.paths import make_trajectory
     from ..sensors.scanner_profile import load_scanner
     from ..sensors.scanner_rig import ScannerRig, load_scanner_rig
 
-    if args.format not in SCAN_FORMATS:
-        raise ConfigError(f"--format {args.format!r}: expected one of {', '.join(SCAN_FORMATS)}")
+    if args.format not in FORMATS:
+        raise ConfigError(f"--format {args.format!r}: expected one of {', '.join(FORMATS)}")
+    # the scanner files first: a mistake in them is one line before the pipeline is even imported
     rig = load_scanner_rig(args.rig) if args.rig else ScannerRig.single(load_scanner(args.scanner))
+
+    from ..capture.scanning import scan
+    from ..export.lidar_output import export_scans
+    from ..layout import generate_layout
+    from ..scene import build_scene
+    from ..sensors.paths import make_trajectory
+
     with stages(["layout", "scene", "trajectory", "scan", "export"], title="genie scan",
                 enabled=not args.no_progress) as step:
         step("layout")
