@@ -79,6 +79,9 @@ _EXPORTS: dict[str, str] = {
     # render and capture
     "Frame": "genie_gl.frame",
     "Renderer": "genie_gl.render",
+    "Rays": "genie_gl.render.rays",
+    "RayHits": "genie_gl.render.rays",
+    "cast_rays": "genie_gl.render.rays",
     "render": "genie_gl.capture",
     "capture": "genie_gl.capture",
     "plan": "genie_gl.capture",
