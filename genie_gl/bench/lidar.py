@@ -135,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     load = os.getloadavg()
     rows = []
-    for name in args.scenes.split(","):
+    for name in args.scenes:
         scene = to_scene(bench_spec(name, seed=args.seed))
         for profile in args.scanners.split(","):
             row = cast_row(scene, name, load_scanner(profile), args.repeats)
@@ -151,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
               f"points/s made, HELIOS++ ~{HELIOS_PTS_S:,}/s)")
     result = {"load_avg_1_5_15": load, "cpus": os.cpu_count(), "casts": rows, "walk": walk,
               "command": "genie bench lidar " + " ".join(f"--{k.replace('_', '-')} {v}" for k, v in
-                                                         (("scenes", args.scenes), ("scanners", args.scanners),
+                                                         (("scenes", ",".join(args.scenes)), ("scanners", args.scanners),
                                                           ("repeats", args.repeats), ("rig", args.rig),
                                                           ("walk", args.walk), ("seed", args.seed)))}
     atomic_write_text(out / "lidar.json", json.dumps(result, indent=1))
