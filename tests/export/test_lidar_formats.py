@@ -195,3 +195,17 @@ def test_pointcloud2_in_a_ros2_bag_read_by_rosbags(scans, tmp_path, style, time_
         assert width["UINT16"] == 2 and rec[time_field].min() >= 0
     rec, fields = point_fields(scans[0], style)
     assert [n for n, _, _ in fields][:3] == ["x", "y", "z"]
+
+
+def test_the_map_is_cut_into_chunks_of_the_papers_25000_points():
+    from genie_gl.cloud.scan_map import class_shares, scan_map
+    s = replace(load_scanner("velodyne_vlp16"), effects=())
+    traj = Trajectory(np.array([0.0, 1.0]), planar_poses(np.array([[0.0, 0.0], [SPEED, 0.0]]), np.zeros(2), HEIGHT))
+    scans = [floor_scan(s, traj, 0.1 * k, k) for k in range(8)]
+    # four quadrant tiles around the walk (x, y = 0 are tile edges), each with more than 25,000 points
+    tiles = scan_map(scans, voxel_m=None, chunk_m=200.0, rng=np.random.default_rng(0))
+    assert len(tiles) == 4 and all(len(t) == 25_000 for _, t in tiles)
+    c = tiles[0][1]
+    assert c.ring is not None and c.time is not None and c.returns is not None   # the scanner's fields kept
+    np.testing.assert_array_equal(class_shares([c]), np.eye(10)[3])
+    assert scan_map(scans, voxel_m=None, chunk_m=1.0, rng=np.random.default_rng(0)) == []   # none that full
