@@ -210,6 +210,8 @@ def build_lidar_effects(specs: list[Any], where: str) -> tuple[LidarEffect, ...]
             if isinstance(v, bool) or (v is not None and not isinstance(v, (int, float))) \
                     or (v is not None and (not math.isfinite(v) or v < 0)):
                 raise ConfigError(f"{where}: effects[{i}].{k}: expected a number >= 0, got {v!r:.40}")
+            if k == "rings" and (not isinstance(v, int) or v > 4):
+                raise ConfigError(f"{where}: effects[{i}].rings: expected a whole number of rings 0-4, got {v!r:.40}")
         if kind in [type(e).name for e in out]:
             raise ConfigError(f"{where}: effects[{i}]: {kind} is listed twice")
         out.append(cls(**params))

@@ -98,3 +98,5 @@ def test_effect_lists_are_strict():
         build_lidar_effects([{"type": "range_noise", "sigma_m": -1}], "x.lidar.yml")
     with pytest.raises(Exception, match=r"listed twice"):
         build_lidar_effects([{"type": "dropout"}, {"type": "dropout"}], "x.lidar.yml")
+    with pytest.raises(Exception, match=r"rings: expected a whole number"):
+        build_lidar_effects([{"type": "beam_divergence", "rings": 1.5}], "x.lidar.yml")
