@@ -5,7 +5,8 @@ A scan is one revolution of the head, ``1 / rate_hz`` s from its start. Firings 
 10 Hz give scans of 1808 or 1809 firings, as a driver cuts them); a firing's channels fire at
 ``channel_time_s`` after it. The head's azimuth at time t (s from the recording start) is
 ``start_azimuth - spin 2 pi rate t`` (:mod:`.scanner`). A moving head fires each firing from
-its pose at the firing's time (``world_from_scanner(t)``, interpolated on a trajectory), so a
+its pose at the firing's time (``world_from_scanner(t)``, interpolated on a trajectory; each
+channel at its own time within the firing), so a
 scan written in the scanner's frame is skewed as a real driver's is, and each point's time
 lets a deskewer undo it.
 """
@@ -29,7 +30,7 @@ class Beams:
     ----------
     origins, directions : (B, 3) float64, world frame; directions unit length.
     sensor_origins, sensor_directions : (B, 3) float64, the same in the scanner's frame at
-        the beam's own firing.
+        the beam's own time (its firing's, plus its channel's offset).
     channel : (B,) uint16, the channel (laser id / row); ring : (B,) uint16 (the driver's ring).
     column : (B,) uint32, the firing's index within the scan (0 = first).
     firing : (B,) int64, index into ``firing_poses`` (the same as column).
@@ -93,7 +94,13 @@ def scan_beams(scanner: Scanner, pose_at: PoseAt | np.ndarray, start_s: float, *
     if scanner.beam_origin_m:
         o[:, 0], o[:, 1] = (scanner.beam_origin_m * np.cos(head)).ravel(), (scanner.beam_origin_m * np.sin(head)).ravel()
     firing = np.repeat(np.arange(F), C)
-    R, T = poses[firing, :3, :3], poses[firing, :3, 3]
+    if callable(pose_at) and np.any(scanner.channel_time_s):
+        # each beam from the pose at its own time (a Velodyne's lasers fire 2.304 us apart), so a
+        # point's time gives exactly the pose it was fired from
+        beam_poses = np.asarray(pose_at(t.ravel()), np.float64)
+        R, T = beam_poses[:, :3, :3], beam_poses[:, :3, 3]
+    else:
+        R, T = poses[firing, :3, :3], poses[firing, :3, 3]
     world_d = np.einsum("bij,bj->bi", R, d)
     world_d /= np.linalg.norm(world_d, axis=1, keepdims=True)
     world_o = np.einsum("bij,bj->bi", R, o) + T

@@ -88,6 +88,8 @@ def test_a_moving_head_fires_each_firing_from_its_own_pose():
     t_fire = firing_times(s, 0.3)
     assert len(t_fire) == len(b) // 16
     np.testing.assert_allclose(b.origins[::16, 0], 2.0 * t_fire, atol=1e-12)   # 2 m/s along x
+    # each laser from the pose at its own time: laser 5 fires 11.52 us after its firing
+    np.testing.assert_allclose(b.origins[5::16, 0], 2.0 * (t_fire + 5 * 2.304e-6), atol=1e-12)
     np.testing.assert_allclose(b.origins[:, 2], 1.0)
     # raw (scanner-frame) directions are those of a standing head
     still = scan_beams(s, np.eye(4), 0.3)
