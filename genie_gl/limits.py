@@ -123,11 +123,11 @@ def check_frames(cameras: int, width: int, height: int, where: str, *, max_memor
                  "smaller sensor", option=option)
 
 
-def check_frame_side(width: int, height: int, where: str, max_side: int = MAX_SIDE) -> None:
+def check_frame_side(width: int, height: int, where: str, max_side: int = MAX_SIDE,
+                     why: str = "the GL texture limit of this driver") -> None:
     """Refuse a frame whose side exceeds ``max_side`` px (the renderer passes its context's)."""
     if max(width, height) > max_side:
-        raise LimitError(f"{where}: {width}x{height} px frames; each side must be at most {max_side} px (the GL "
-                         "texture limit of this driver)")
+        raise LimitError(f"{where}: {width}x{height} px frames; each side must be at most {max_side} px ({why})")
 
 
 def check_disk(need: float, out: str | os.PathLike, where: str, *, max_disk_gb: float | None = None,

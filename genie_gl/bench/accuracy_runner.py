@@ -65,16 +65,19 @@ class Runner:
         self._materials: dict = {}
 
     def _renderer(self, setting: Setting):
-        """The renderer of the setting's scene (its tessellation), depth precision and level of
-        detail, as a capture with these settings makes it."""
+        """The renderer of the setting's scene (its tessellation), raster, depth precision and
+        level of detail, as a capture with these settings makes it (the GL raster unless the
+        setting asks for the CPU one: the depth precisions are GL's)."""
         acc = setting.accuracy
-        key = (acc.tessellation, acc.depth_precision, acc.lod_px)
+        raster = acc.raster or "gl"
+        key = (acc.tessellation, raster, acc.depth_precision, acc.lod_px)
         if key not in self._renderers:
-            if self._gl is None:
+            if self._gl is None and raster == "gl":
                 self._gl = create_context(None)
             scene = self.case.scene_for(acc.tessellation)
-            self._renderers[key] = Renderer(scene, context=self._gl, depth_precision=acc.depth_precision,
-                                            lod=level_of_detail(acc))
+            self._renderers[key] = Renderer(scene, context=self._gl if raster == "gl" else None,
+                                            depth_precision=acc.depth_precision, lod=level_of_detail(acc),
+                                            raster=raster)
             self._materials[key] = _materials(scene)
         return self._renderers[key]
 

@@ -62,10 +62,14 @@ PEERS = {"pyrender": ("pyrender", "pip install pyrender"), "Open3D": ("open3d", 
 
 
 class _Ours:
+    """The default path: the raster gg.capture and genie dataset draw with on this machine
+    (:func:`genie_gl.render.rasters.default_raster`)."""
+
     name = "genie-gl"
+    raster: str | None = None
 
     def __init__(self, spec) -> None:
-        self.r = Renderer(to_scene(spec))
+        self.r = Renderer(to_scene(spec), raster=self.raster)
         self.triangles = self.r.triangles
 
     def frame(self, sensor, pose):
@@ -81,10 +85,12 @@ class _Ours:
 
 class _OursExact(_Ours):
     name = "genie-gl-exact"
+    raster = "cpu"
 
-    def __init__(self, spec) -> None:
-        self.r = Renderer(to_scene(spec), depth_precision="exact")
-        self.triangles = self.r.triangles
+
+class _OursGL(_Ours):
+    name = "genie-gl-gl"
+    raster = "gl"
 
 
 class _Pyrender:
@@ -136,8 +142,9 @@ class _Open3D:
         self.rc = None
 
 
-TOOLS = {"genie-gl": _Ours, "genie-gl-exact": _OursExact, "Open3D": _Open3D, "pyrender": _Pyrender}
-OURS = ("genie-gl", "genie-gl-exact")
+TOOLS = {"genie-gl": _Ours, "genie-gl-exact": _OursExact, "genie-gl-gl": _OursGL, "Open3D": _Open3D,
+         "pyrender": _Pyrender}
+OURS = ("genie-gl", "genie-gl-exact", "genie-gl-gl")
 
 
 def available(name: str) -> bool:

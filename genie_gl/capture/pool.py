@@ -27,11 +27,11 @@ _WORKER: dict[str, Any] = {}
 
 
 def _worker_init(scene: Scene, backend: str | None, lp_threads: int, depth_precision: str = "float32",
-                 lod: LevelOfDetail | None = None) -> None:
+                 lod: LevelOfDetail | None = None, raster: str = "gl") -> None:
     die_with_parent()
     # llvmpipe reads LP_NUM_THREADS when the driver loads; the parent's context is untouched.
     limit_threads(lp_threads)
-    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision, lod=lod)
+    _WORKER["renderer"] = Renderer(scene, backend=backend, depth_precision=depth_precision, lod=lod, raster=raster)
 
 
 def _worker_render(job: tuple) -> list[Frame]:
@@ -41,7 +41,7 @@ def _worker_render(job: tuple) -> list[Frame]:
 
 def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], seed: int, workers: int,
                        backend: str | None, accuracy: AccuracySettings, depth_only: bool, depth_precision: str,
-                       plan: Plan | None, materials: MaterialTable | None) -> list[Frame]:
+                       plan: Plan | None, materials: MaterialTable | None, raster: str = "gl") -> list[Frame]:
     """The frames of ``poses`` made by ``workers`` processes, pose i by worker i mod workers
     (the frames do not depend on the split: each has its own generator)."""
     n = len(poses)
@@ -50,7 +50,7 @@ def capture_in_workers(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray]
     backend = backend or default_backend()   # the parent's choice, handed to each worker
     ctx = mp.get_context("spawn")
     with ctx.Pool(workers, initializer=_worker_init,
-                  initargs=(scene, backend, lp_threads, depth_precision, level_of_detail(accuracy))) as pool:
+                  initargs=(scene, backend, lp_threads, depth_precision, level_of_detail(accuracy), raster)) as pool:
         parts = pool.map(_worker_render, [(sensor, [poses[i] for i in c], seed, c, accuracy, depth_only, plan,
                                            materials) for c in chunks])
     frames: list[Frame | None] = [None] * n

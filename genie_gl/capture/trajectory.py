@@ -71,11 +71,11 @@ def window_seed(seed: int, sensor: int, window: int) -> int:
 
 
 def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bool = False, accuracy=None,
-           context=None, shots: list[Shot] | None = None) -> Iterator[tuple[Shot, Frame]]:
+           context=None, shots: list[Shot] | None = None, raster: str | None = None) -> Iterator[tuple[Shot, Frame]]:
     """Yield (shot, frame) for every shot of ``rig`` along ``trajectory`` over ``scene``, in
     time order; each frame's ``meta`` gains ``time_s``, ``rig_sensor`` and ``shot``.
 
-    ``depth_only``, ``accuracy`` and ``context`` are ``gg.capture``'s; ``shots`` a subset of
+    ``depth_only``, ``accuracy``, ``context`` and ``raster`` are ``gg.capture``'s; ``shots`` a subset of
     :func:`schedule` (default: all). The arguments are checked when it is called, before the
     first frame is asked for.
     """
@@ -84,14 +84,15 @@ def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bo
     expect(trajectory, Trajectory, "record: trajectory")
     seed = check_seed(seed, "record: seed")
     return _recorded(scene, rig, trajectory, seed, depth_only, accuracy, context,
-                     schedule(rig, trajectory) if shots is None else shots)
+                     schedule(rig, trajectory) if shots is None else shots, raster)
 
 
 def _recorded(scene, rig: Rig, trajectory: Trajectory, seed: int, depth_only: bool, accuracy, context,
-              shots: list[Shot]) -> Iterator[tuple[Shot, Frame]]:
+              shots: list[Shot], raster: str | None = None) -> Iterator[tuple[Shot, Frame]]:
     mine = [[sh for sh in shots if sh.sensor == k] for k in range(len(rig))]
     # settled once per sensor for the whole recording: its settings and the plan of all its shots
-    prep = [prepare(scene, s.sensor, [sh.world_from_camera for sh in mine[k]], accuracy=accuracy) if mine[k] else None
+    prep = [prepare(scene, s.sensor, [sh.world_from_camera for sh in mine[k]], accuracy=accuracy, raster=raster)
+            if mine[k] else None
             for k, s in enumerate(rig.sensors)]
     done = [0] * len(rig)          # each sensor's shots rendered so far
     with ExitStack() as stack:

@@ -11,7 +11,7 @@ from . import announce_compilation, count, counts, names, positive, seed
 
 #: the scenes of ``genie bench render`` (genie_gl.bench.scenes.SIZES) and the tools it times
 RENDER_SCENES = ("100k", "1M", "10M", "hall", "generated")
-RENDER_TOOLS = ("genie-gl", "genie-gl-exact", "Open3D", "pyrender")
+RENDER_TOOLS = ("genie-gl", "genie-gl-exact", "genie-gl-gl", "Open3D", "pyrender")
 #: ``genie bench odometry``'s defaults (genie_gl.bench.odometry: RATE_HZ, SCAN_POINTS, MAX_RANGE_M, VOXEL_M)
 ODOMETRY = {"rate_hz": 20.0, "scan_points": 100_000, "max_range": 30.0, "voxel_m": 0.1}
 
@@ -20,7 +20,9 @@ def _render(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenes", type=names(RENDER_SCENES), default="100k,1M,hall",
                    help=f"scenes to run, from {', '.join(RENDER_SCENES)}")
     p.add_argument("--repeats", type=count(1, 1000), default=2, help="fresh processes per tool and scene (turns)")
-    p.add_argument("--tools", type=names(RENDER_TOOLS), default=",".join(RENDER_TOOLS), help="tools to time")
+    p.add_argument("--tools", type=names(RENDER_TOOLS), default="genie-gl,genie-gl-gl,Open3D,pyrender",
+                   help="tools to time: genie-gl is the default path (the CPU raster without a hardware GPU), "
+                        "genie-gl-exact the CPU raster, genie-gl-gl the GL raster")
     p.add_argument("--whole-machine", action="store_true",
                    help="also frames/s of P = cores processes per tool at once")
     p.add_argument("--frames", type=count(1, 100_000), default=40, help="frames per process in the whole-machine run")

@@ -27,6 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mount", "--height", dest="height", type=positive(1e4), default=None, metavar="M",
                    help="camera height above the scene's floor (m); default: chosen for the sensor's range")
     p.add_argument("--poses", help="poses file: .npy (K, 4, 4) or .json [[4x4], ...] (instead of --cameras)")
+    p.add_argument("--raster", choices=("cpu", "gl"), default=None, help="which rasteriser draws: cpu (exact, float64, no GL) or gl (OpenGL); default: cpu without a hardware GPU, else gl")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -36,6 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from ..cloud import to_cloud
     from ..export import FORMATS, get_format
     from ..outputs import claim_folder
+    from ..render.rasters import resolve_raster
     from ..scene.usd import read_usd
     from ..sensors import load_sensor
     from ..sensors.placement import scene_poses
@@ -62,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
         warn_empty(plan, "capture")
         announce_compilation("capture")
         step(f"render {len(poses)} cameras")
-        frames = capture(scene, sensor, poses, seed=args.seed, workers=None, plan=plan)
+        raster = resolve_raster(args.raster or (sensor.accuracy.raster if sensor.accuracy else None), "--raster")
+        frames = capture(scene, sensor, poses, seed=args.seed, workers=None, plan=plan, raster=raster)
         step("cloud")
         cloud = to_cloud(frames)
         if not len(cloud):
@@ -74,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         path = fmt.write_cloud(cloud, folder.path, name="cloud")
     folder.finish({
         "scene": args.scene, "sensor": args.sensor, "cameras": len(poses), "seed": args.seed,
-        "format": args.format, "points": len(cloud), "effects": effect_totals(frames),
+        "format": args.format, "raster": raster, "points": len(cloud), "effects": effect_totals(frames),
         "empty_frames": plan.empty_frames})
     print(f"capture: {len(frames)} frames, {len(cloud):,} points -> {path}")
     return 0

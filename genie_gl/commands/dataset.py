@@ -52,6 +52,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="mobile-map: a mobile scanner's registration error (drift, pass misalignment) or none")
     p.add_argument("--accuracy", default=None, metavar="FILE",
                    help="accuracy settings: a file with an accuracy: block (genie bench accuracy --budget-mm writes one)")
+    p.add_argument("--raster", choices=("cpu", "gl"), default=None,
+                   help="which rasteriser draws: cpu (exact, float64, no GL) or gl (OpenGL); default: cpu without a hardware GPU, else gl" "; a resumed dataset keeps the one its manifest records")
 
 
 def config_from_args(args: argparse.Namespace):
@@ -62,7 +64,7 @@ def config_from_args(args: argparse.Namespace):
                                              "seed", "points", "chunk_m", "min_points", "min_labelled_share",
                                              "previews", "executor", "address", "max_nodes", "max_memory_gb",
                                              "max_disk_gb", "capture", "rig", "path", "motion", "duration_s",
-                                             "voxel_m", "registration")}
+                                             "voxel_m", "registration", "raster")}
     fields["mount_m"] = args.mount
     for k in ("cameras", "rig", "path", "motion", "duration_s", "voxel_m", "registration"):
         if fields[k] is None:   # not given: the configuration's default (an option given is checked against --capture)

@@ -33,7 +33,7 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
           "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget",
           "mount_m": "--mount", "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion",
-          "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration"}
+          "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration", "raster": "--raster"}
 CAPTURES = ("static", "trajectory", "mobile-map")
 # the options one kind of capture uses and another does not (given to one that does not: refused)
 USED_BY = {"cameras": ("static",), "mount_m": ("static",), "rig": ("trajectory", "mobile-map"),
@@ -101,6 +101,9 @@ class DatasetConfig(BaseModel):
     duration_s: float = Field(20.0, gt=0, le=3600)
     voxel_m: float = Field(0.02, gt=0, le=1.0)
     registration: Literal["mobile", "none"] = "mobile"
+    # the rasteriser (genie_gl.render.rasters); None: decided where the run starts (the accuracy
+    # settings', the dataset's manifest's when resuming, else the machine's default) and recorded
+    raster: Optional[Literal["cpu", "gl"]] = None
 
     @field_validator("format")
     @classmethod
@@ -159,7 +162,7 @@ class DatasetConfig(BaseModel):
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
                                                 "min_labelled_share", "split", "accuracy", "class_balance",
                                                 "points_budget", "mount_m", "capture", "rig", "path", "motion",
-                                                "duration_s", "voxel_m", "registration")
+                                                "duration_s", "voxel_m", "registration", "raster")
     # fingerprinted only when the capture is not static (a static run's fingerprint is as before)
     MOVING: ClassVar[tuple[str, ...]] = ("capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration")
 

@@ -61,6 +61,8 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
         v = values[k]
         if v is None:  # an option not asked for (--class-balance, ...): the fingerprint of a run without it
             continue
+        if k == "raster" and v == "gl":   # datasets made before the choice existed were drawn by GL
+            continue
         if k in DatasetConfig.MOVING and cfg.capture == "static":   # standing cameras: as before these options
             continue
         if cfg.capture not in USED_BY.get(k, (cfg.capture,)):   # an option this capture does not use
@@ -180,3 +182,18 @@ def scene_complete(folder: Path, *, verify: bool = False) -> dict[str, Any] | No
         except OSError:
             return None
     return stats
+
+
+def recorded_raster(out: Path) -> str | None:
+    """The raster an earlier run in ``out`` drew with (its manifest's ``inputs.raster``; "gl"
+    for a manifest written before the choice existed), or None when ``out`` holds no
+    readable manifest."""
+    try:
+        old = json.loads((out / "manifest.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(old, dict) or not isinstance(old.get("inputs"), dict):
+        return None
+    raster = old["inputs"].get("raster") or "gl"
+    return raster if raster in ("cpu", "gl") else None
+

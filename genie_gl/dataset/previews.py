@@ -125,14 +125,14 @@ def overview_pose(bounds):
     return look_at([x0 - 0.15 * w, y0 - 0.35 * h, 0.45 * max(w, h)], [x0 + w / 2, y0 + h / 2, 0.0])
 
 
-def overview_picture(scene, layout, title: str, path: Path) -> None:
-    """The scene rendered from above one corner of the hall, with a title."""
+def overview_picture(scene, layout, title: str, path: Path, raster: str | None = None) -> None:
+    """The scene rendered from above one corner of the hall (by ``raster``: the dataset's), with a title."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds))
+    frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds), raster=raster)
     fig, ax = plt.subplots(figsize=(10.24, 6.9))
     ax.imshow(frame.rgb)
     ax.set_axis_off()
@@ -141,7 +141,7 @@ def overview_picture(scene, layout, title: str, path: Path) -> None:
     _save(fig, path)
 
 
-def write_previews(folder: Path, index: int, layout, frames, scene=None) -> None:
+def write_previews(folder: Path, index: int, layout, frames, scene=None, raster: str | None = None) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     layout_picture(layout, f"scene {index}: layout ({len(layout.leaves())} regions)",
                    folder / f"scene_{index:04d}_layout.png")
@@ -149,13 +149,14 @@ def write_previews(folder: Path, index: int, layout, frames, scene=None) -> None
         camera_picture(f, f"scene {index}, camera {c}", folder / f"scene_{index:04d}_cam{c:02d}.png")
     if scene is not None:
         overview_picture(scene, layout, f"scene {index}: {len(scene.instances)} objects, rendered from above a corner",
-                         folder / f"scene_{index:04d}_overview.png")
+                         folder / f"scene_{index:04d}_overview.png", raster)
     cloud = to_cloud(frames)
     cloud_top_picture(cloud, layout.bounds, f"scene {index}: merged cloud from above ({len(cloud):,} points)",
                       folder / f"scene_{index:04d}_cloud_top.png")
 
 
-def write_recording_previews(folder: Path, index: int, layout, frames, trajectory, map_cloud=None, scene=None) -> None:
+def write_recording_previews(folder: Path, index: int, layout, frames, trajectory, map_cloud=None, scene=None,
+                             raster: str | None = None) -> None:
     """The pictures of a scene captured along a trajectory: the path on the layout, a frame or
     two, the scene from above, and the fused map from above (a mobile-scan map) or the frames'
     points (a recording)."""
@@ -167,7 +168,7 @@ def write_recording_previews(folder: Path, index: int, layout, frames, trajector
                        folder / f"scene_{index:04d}_cam{c:02d}.png")
     if scene is not None:
         overview_picture(scene, layout, f"scene {index}: {len(scene.instances)} objects, rendered from above a corner",
-                         folder / f"scene_{index:04d}_overview.png")
+                         folder / f"scene_{index:04d}_overview.png", raster)
     if map_cloud is not None:
         cloud_top_picture(map_cloud, layout.bounds, f"scene {index}: fused mobile-scan map from above "
                           f"({len(map_cloud):,} points)", folder / f"scene_{index:04d}_map_top.png")

@@ -9,6 +9,7 @@ settings), and handed down frozen, to worker processes too.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -64,9 +65,10 @@ class RunInputs:
 def load_inputs(cfg: DatasetConfig) -> RunInputs:
     """The strategy, sensor and accuracy settings of ``cfg``, read and checked."""
     sensor = load_sensor(cfg.sensor)
-    return RunInputs(load_strategy(cfg.strategy), sensor,
-                     settings_for(sensor, None if cfg.accuracy is None else cfg.accuracy.settings),
-                     max_regions=cfg.max_nodes, mount_m=cfg.mount_m)
+    accuracy = settings_for(sensor, None if cfg.accuracy is None else cfg.accuracy.settings)
+    if cfg.raster is not None:
+        accuracy = dataclasses.replace(accuracy, raster=cfg.raster)
+    return RunInputs(load_strategy(cfg.strategy), sensor, accuracy, max_regions=cfg.max_nodes, mount_m=cfg.mount_m)
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,7 +168,7 @@ def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: 
     tally = FrameTally(chunk_m, origin_of(poses)) if chunk_m is not None and poses and spare_core() else None
     try:
         frames = capture(scene, inputs.sensor, poses, seed=streams.capture_seed, workers=1, depth_only=depth_only,
-                         accuracy=inputs.accuracy, context=shared_context(),
+                         accuracy=inputs.accuracy, context=shared_context() if inputs.accuracy.raster == "gl" else None,
                          on_frame=None if tally is None else tally.add)
     except BaseException:
         if tally is not None:

@@ -133,7 +133,7 @@ def capture_moving(cfg: DatasetConfig, layout, scene, streams: SceneStreams, fmt
     seed = streams.capture_seed
     tally = Tally()
     stream = tally.watch(record(scene, rig, trajectory, seed=seed, depth_only=not fmt.colour, accuracy=accuracy,
-                                context=shared_context()))
+                                context=shared_context() if cfg.raster == "gl" else None, raster=cfg.raster))
     if cfg.capture == "trajectory":
         t["capture"] = t["cloud"] = time.perf_counter()   # rendered as the writer reads it (export)
         return Moving(rig, trajectory, tally, recording=stream)

@@ -37,6 +37,7 @@ from ..cloud.balance import PAPER_REAL
 from ..errors import ConfigError
 from ..export import get_format
 from ..outputs import OutputFolder, atomic_write_text, claim_folder
+from ..render.rasters import default_raster
 from ..scene import ASSETS
 from ..sensors.paths import path_kind, read_waypoints
 from ..sensors.placement import ceiling_of, mount_for
@@ -44,7 +45,7 @@ from . import curation
 from .config import DatasetConfig, accuracy_used
 from .executors import map_scenes
 from .limits import check_limits
-from .manifest import OutputLock, check_resume, fingerprint, scene_complete
+from .manifest import OutputLock, check_resume, fingerprint, recorded_raster, scene_complete
 from .recipe import RunInputs, load_inputs
 from .report import class_totals, dataset_cost, histogram
 from .scene import run_scene, scene_dir  # noqa: F401  (the run's public names)
@@ -138,6 +139,10 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
     inputs, fp = prepare(cfg)
+    if cfg.raster is None:   # settled once, recorded in the manifest: a resume keeps it
+        raster = inputs.accuracy.raster or recorded_raster(Path(cfg.out)) or default_raster()
+        cfg = cfg.model_copy(update={"raster": raster})
+        inputs, fp = prepare(cfg)
     fmt = get_format(cfg.format)
     folder = claim_output(cfg, fmt)
     folder.path.mkdir(parents=True, exist_ok=True)

@@ -81,7 +81,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
         log.warning("scene %d: nothing labelled: its %d points are all background (class 0)", index, points_total)
     if curation.active(cfg):  # balanced once every scene is made (genie_gl/dataset/curation.py)
         if index < cfg.previews:
-            write_previews(out / "previews", index, layout, frames, scene)
+            write_previews(out / "previews", index, layout, frames, scene, cfg.raster)
         stats = curation.cache_scene(cfg, index, kept, layout, {"instances": len(scene.instances),
                                                                 "cameras": len(frames), "points_total": int(points_total)})
         t["export"] = time.perf_counter()
@@ -95,7 +95,7 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
              "points_total": int(points_total), "chunks": len(kept),
              "class_points": _class_points(counts)}
     if index < cfg.previews:
-        write_previews(out / "previews", index, layout, frames, scene)
+        write_previews(out / "previews", index, layout, frames, scene, cfg.raster)
     _publish(stats, tmp, final, data, fmt, out, t)
     return stats | _timings(t, frames, cpu, ahead_s=made.ahead_s)
 
@@ -109,7 +109,7 @@ def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t,
     if curation.active(cfg):   # a mobile-scan map's chunks, balanced once every scene is made
         if index < cfg.previews:
             write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
-                                     moving.map_cloud, scene)
+                                     moving.map_cloud, scene, cfg.raster)
         stats = curation.cache_scene(cfg, index, moving.kept, layout, {
             **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points)})
         t["export"] = time.perf_counter()
@@ -130,7 +130,7 @@ def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t,
              "chunks": len(moving.kept), "class_points": _class_points(counts)}
     if index < cfg.previews:
         write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
-                                 moving.map_cloud, scene)
+                                 moving.map_cloud, scene, cfg.raster)
     _publish(stats, tmp, final, data, fmt, out, t)
     return stats | _timings(t, None, cpu, moving.tally)
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..checks import check_pose, expect
 from ..errors import ConfigError, LimitError, RenderError
-from ..limits import check_frame_side
+from ..limits import BYTES_PER_PIXEL, MAX_SIDE, check_frame_side, check_memory, memory_limit_bytes
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
@@ -32,6 +32,7 @@ from .lod import LevelOfDetail, simplified
 from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
 from .projection import clip_coefficients
 from .raster import Rasteriser
+from .rasters import resolve_raster
 from .readback import semantic_table
 from .readout import Readout
 from .shader import load_program
@@ -48,7 +49,9 @@ GL_DEPTH_COMPONENT32F = 0x8CAC
 GL_DEPTH_COMPONENT = 0x1902
 GL_FLOAT = 0x1406
 
-DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z", "exact")
+DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z")
+CPU_RASTER_BYTES_PER_PIXEL = 16   # the CPU raster's 1 / z (float64) and slot << 32 | face (int64) per pixel
+GL_MAX_REACH_M = 1e5   # farther from the camera, float32 vertices lose pixels and depth (Renderer._check_reach)
 TARGETS = ("packed", "separate")
 READBACKS = ("direct", "pbo")
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first", "<u4"), ("base_vertex", "<i4"),
@@ -77,20 +80,23 @@ class Renderer(Visibility, Readout):
     scene : Scene
     backend : "egl", "osmesa" or None (EGL, falling back to OSMesa).
     context : GLContext, an existing context to share (then ``backend`` is ignored and the
-        context is not released with the renderer; unused with depth_precision="exact").
-    depth_precision : how ``Frame.depth`` is obtained (ids do not depend on the three GL ones).
+        context is not released with the renderer; unused with raster="cpu").
+    raster : "gl" (default) or "cpu": which rasteriser draws (:mod:`genie_gl.render.rasters`;
+        None: the machine's default, "cpu" without a hardware GPU). "cpu": no GL at all; the
+        exact CPU rasteriser (:mod:`genie_gl.render.raster`) finds the nearest triangle along
+        each pixel centre's ray in float64 and its exact depth (ids, colour and normals from
+        that triangle). Faster than llvmpipe on scenes of a hundred thousand triangles and
+        more (docs/real-size-scenes.md); against GL's "float32" the depth differs in the last
+        bits and, at edges, a pixel centre may go to the neighbouring triangle.
+        ``depth_precision``, ``targets`` and ``readback`` do not apply to it; ``cull=False``
+        tests every triangle at every pixel centre of its box (the reference the culled
+        frame equals byte for byte; slow).
+    depth_precision : how the GL raster obtains ``Frame.depth`` (ids do not depend on it).
         "float32" (default): view z interpolated per fragment into a float32 target.
         "depth24": a 24-bit fixed-point window depth buffer of a conventional projection
         (near and far planes of the sensor), read back and linearised; its error grows as
         z² (as on most real-time renderers). "reversed_z": the float32 reversed, infinite-far
-        depth buffer (near / z) read back and linearised. "exact": no GL at all; the CPU
-        rasteriser (:mod:`genie_gl.render.raster`) finds the nearest triangle along each
-        pixel centre's ray in float64 and its exact depth (ids, colour and normals from that
-        triangle). Faster than llvmpipe on scenes of a million triangles
-        (docs/real-size-scenes.md); against "float32" the depth differs in the last bits
-        and, at edges, a pixel centre may go to the neighbouring triangle. ``targets`` and
-        ``readback`` do not apply; ``cull=False`` tests every triangle at every pixel centre
-        of its box (the reference the culled frame equals byte for byte; slow).
+        depth buffer (near / z) read back and linearised.
     cull : drop triangles that cannot cover a pixel centre (exact; False draws everything). A
         frame with fewer than ``cull_min_faces`` faces in view is drawn whole either way.
     targets : "packed" (default): depth and instance id in one RG32UI target, the semantic id
@@ -111,7 +117,10 @@ class Renderer(Visibility, Readout):
 
     def __init__(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None,
                  depth_precision: str = "float32", cull: bool = True, targets: str = "packed",
-                 readback: str = "direct", lod: LevelOfDetail | None = None):
+                 readback: str = "direct", lod: LevelOfDetail | None = None, raster: str | None = "gl"):
+        if depth_precision == "exact":
+            raise ConfigError("Renderer depth_precision='exact' is the CPU rasteriser: ask for it by name, "
+                              "raster='cpu' (depth_precision names the GL raster's depth buffers)")
         for name, value, known in (("depth_precision", depth_precision, DEPTH_PRECISIONS),
                                    ("targets", targets, TARGETS), ("readback", readback, READBACKS)):
             if value not in known:
@@ -121,10 +130,10 @@ class Renderer(Visibility, Readout):
             raise ConfigError(f"Renderer lod: expected a genie_gl.render.LevelOfDetail or None, got {type(lod).__name__}")
         self._thread = threading.get_ident()   # GL contexts are current in one thread: see _current
         self.depth_precision, self.cull, self.lod = depth_precision, bool(cull), lod
-        raster = "cpu" if depth_precision == "exact" else "gl"
+        raster = resolve_raster(raster, "Renderer")
         self.targets, self.readback, self.raster = targets, readback, raster
         self._own_context = context is None and raster == "gl"
-        self.gl = None if raster == "cpu" else (context or create_context(backend))   # "exact": no GL
+        self.gl = None if raster == "cpu" else (context or create_context(backend))   # the CPU raster: no GL
         self.ctx = self.gl.ctx if self.gl is not None else None
         self._programs = self.gl.programs if self.gl is not None else {}  # one build per context
         self._fbos: dict = {}
@@ -133,6 +142,7 @@ class Renderer(Visibility, Readout):
         self._clip_control = (self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
                               if self.gl is not None else None)
         self._gl_flush = None
+        self._sizes_checked: set[tuple[int, int]] = set()   # frame sizes the CPU raster found room for
         self._culled = False
         self._lod_drawn = 0
         with self._current():
@@ -461,7 +471,13 @@ class Renderer(Visibility, Readout):
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = check_pose(pose, "render pose")
-        check_frame_side(W, H, "Renderer", 1 << 15)
+        if (W, H) not in self._sizes_checked:
+            check_frame_side(W, H, "Renderer", MAX_SIDE, "the largest frame genie-gl draws")
+            # the raster's buffers (1 / z float64, slot and face int64) and the frame's arrays
+            check_memory(W * H * (CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL), memory_limit_bytes(),
+                         f"a {W}x{H} px frame x {CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL} B", "Renderer: use a "
+                         "smaller sensor", option=None)
+            self._sizes_checked.add((W, H))
         near = float(sensor.clip_near_m)
         out = frame_buffers(H, W, color, normals, triangles)
         seen = self._visible(pose, K, W, H, near, only)
@@ -538,6 +554,7 @@ class Renderer(Visibility, Readout):
         if seen is None:
             return []
         cfm, slots, m, backcull, eye = seen
+        self._check_reach(cfm, slots, m)
         self._rows["rows"] = cfm
         inst_buf, dyn_ibo, _ = self._stream(parity)
         inst_buf.write(self._rows)
@@ -573,6 +590,21 @@ class Renderer(Visibility, Readout):
             mesh_first[slots], mesh_count[slots] = self._fbase[m], self._nfaces[m]   # every face, culled or not
             self._frame_triangles = (first, count, base, cull, cfm, drawn_indices, ids, sem, mesh_first, mesh_count)
         return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
+
+    def _check_reach(self, cfm: np.ndarray, slots: np.ndarray, m: np.ndarray) -> None:
+        """Refuse a frame whose drawn instances reach farther than :data:`GL_MAX_REACH_M` from
+        the camera: the GL raster holds camera-frame vertices in float32, and a triangle that
+        reaches that far is drawn with pixels lost and depth off (a ground triangle of
+        +-1e6 m: 0.4 % of its pixels lost, 1.6 % depth error); the CPU raster draws it exactly."""
+        c = cfm[slots]
+        centre = np.einsum("nij,nj->ni", c[:, :, :3], self._centre[m]) + c[:, :, 3]
+        reach = np.linalg.norm(centre, axis=1) + self._radius[m] * self._scale[slots]
+        far = int(np.argmax(reach)) if len(reach) else 0
+        if len(reach) and reach[far] > GL_MAX_REACH_M:
+            raise LimitError(f"Renderer: instance {int(self._ids[slots[far]])} reaches {reach[far]:.3g} m from the "
+                             f"camera; the GL raster draws geometry within {GL_MAX_REACH_M:g} m of it exactly enough "
+                             "(float32 vertices): use raster='cpu' (--raster cpu), which draws it in float64, or cut "
+                             "the mesh smaller")
 
     def _submit(self, program: moderngl.Program, lists: list[tuple[np.ndarray, bool]], parity: int = 0,
                 culled: bool = False) -> int:

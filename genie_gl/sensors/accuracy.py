@@ -5,7 +5,8 @@ A sensor profile (``sensors/*.yaml``) and ``genie dataset --accuracy FILE`` acce
     accuracy:
       supersample: 2          # render at 2x and reduce; ids never blended
       resample: exact         # nearest | bilinear | plane | exact (distorted lenses)
-      depth_precision: float32
+      raster: cpu             # cpu | gl (missing: cpu without a hardware GPU, else gl)
+      depth_precision: float32   # the GL raster's depth buffer
 
 ``genie bench accuracy --budget-mm X`` writes such a file: the fastest setting whose error
 stays within the budget. Every key is optional; a missing key keeps the default. A value of
@@ -31,7 +32,8 @@ from ..outputs import atomic_write_text, check_replaceable
 
 RESAMPLE = ("nearest", "bilinear", "plane", "exact")
 SHADOW = ("scanline", "render")
-DEPTH_PRECISION = ("float32", "depth24", "reversed_z", "exact")
+DEPTH_PRECISION = ("float32", "depth24", "reversed_z")
+RASTER = ("cpu", "gl")   # the rasterisers (genie_gl.render.rasters; sensors cannot import render)
 SUPERSAMPLE = (1, 2, 4)
 
 
@@ -54,10 +56,13 @@ class AccuracySettings:
         a ray caster's).
     oversample : float or None, resolution of that wide pinhole render relative to the
         sensor's (None: the lens module's default).
-    depth_precision : "float32" (linear view-z target), "depth24" (24-bit window depth read
-        back and linearised), "reversed_z" (reversed-Z float depth) or "exact" (no GL: the
-        CPU rasteriser's nearest triangle per pixel-centre ray and its float64 depth; the
-        fastest on scenes of a million triangles without a GPU).
+    raster : "cpu", "gl" or None: which rasteriser draws (:mod:`genie_gl.render.rasters`).
+        "cpu": no GL, each pixel centre's ray meets its nearest triangle in float64 (exact
+        depth and ids; the fastest without a GPU); "gl": OpenGL. None (the default): "cpu"
+        on a machine without a hardware GPU, else "gl" (a dataset records what it used).
+    depth_precision : the GL raster's depth: "float32" (linear view-z target), "depth24"
+        (24-bit window depth read back and linearised) or "reversed_z" (reversed-Z float
+        depth).
     shadow_scale : float or None, resolution of the second view's render (stereo /
         structured-light shadow) relative to the sensor's (None: the profile's); used by the
         "render" shadow method only.
@@ -82,13 +87,18 @@ class AccuracySettings:
     multipath_samples: int | None = None
     shadow: str | None = None
     lod_px: float | None = None
+    raster: str | None = None
 
     def __post_init__(self) -> None:
         check(self, "accuracy")
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``accuracy:`` block (every field, ``None`` kept as null)."""
-        return dataclasses.asdict(self)
+        """The ``accuracy:`` block (every field, ``None`` kept as null; ``raster`` only when
+        given, so the blocks written before it existed read the same)."""
+        out = dataclasses.asdict(self)
+        if out["raster"] is None:
+            del out["raster"]
+        return out
 
     def changed(self) -> dict[str, Any]:
         """Only the fields that differ from the defaults."""
@@ -110,6 +120,11 @@ def check(s: AccuracySettings, where: str) -> None:
         raise bad("supersample", "1, 2 or 4")
     if s.resample not in RESAMPLE:
         raise bad("resample", " | ".join(RESAMPLE) + did_you_mean(s.resample, RESAMPLE))
+    if s.depth_precision == "exact":
+        raise ConfigError(f"{where}: accuracy.depth_precision: 'exact' is the CPU rasteriser: write raster: cpu "
+                          "(depth_precision names the GL raster's depth buffers: " + " | ".join(DEPTH_PRECISION) + ")")
+    if s.raster is not None and s.raster not in RASTER:
+        raise bad("raster", " | ".join(RASTER) + " or null" + did_you_mean(str(s.raster), RASTER))
     if s.depth_precision not in DEPTH_PRECISION:
         raise bad("depth_precision", " | ".join(DEPTH_PRECISION) + did_you_mean(s.depth_precision, DEPTH_PRECISION))
     if s.oversample is not None and not (_number(s.oversample) and 0.25 <= s.oversample <= 8):

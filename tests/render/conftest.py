@@ -1,6 +1,9 @@
 """Helpers of the render tests: exact ray casting of boxes, interior pixels (the GL fixtures
 and the guard every test runs under live in tests/conftest.py)."""
 import numpy as np
+import pytest
+
+from genie_gl.render import Renderer
 
 
 def ray_dirs(sensor):
@@ -51,3 +54,12 @@ def interior(ids, margin=1):
             ok &= p[margin + dy:margin + dy + H, margin + dx:margin + dx + W] == ids
     ok[:margin], ok[-margin:], ok[:, :margin], ok[:, -margin:] = False, False, False, False
     return ok
+
+
+@pytest.fixture(params=["gl", "cpu"])
+def draw(request, glctx):
+    """Makes a renderer of a scene with each raster in turn (the oracle tests run over both):
+    GL in the test's context, or the CPU raster (no GL)."""
+    if request.param == "gl":
+        return lambda scene, **kw: Renderer(scene, context=glctx, raster="gl", **kw)
+    return lambda scene, **kw: Renderer(scene, raster="cpu", **kw)

@@ -27,7 +27,7 @@ def quad(corners):
     return gg.Mesh(np.asarray(corners, float), np.array([[0, 1, 2], [0, 2, 3]]))
 
 
-def test_tilted_plane_depth_is_exact(glctx):
+def test_tilted_plane_depth_is_exact(draw):
     rng = np.random.default_rng(1)
     pose = random_pose(rng, 5.0)
     # plane through p0 with a normal tilted 40 deg from the optical axis (camera frame)
@@ -39,7 +39,7 @@ def test_tilted_plane_depth_is_exact(glctx):
     corners = [pose[:3, :3] @ c + pose[:3, 3] for c in corners_cam]
     scene = gg.Scene()
     scene.add(quad(corners), semantic=7, instance=42)
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = r.render(SENSOR, pose)
     d = ray_dirs(SENSOR)
     expected = (n @ p0) / (d @ n)
@@ -50,13 +50,13 @@ def test_tilted_plane_depth_is_exact(glctx):
     assert f.rgb is not None and f.rgb[hit].max() > 0
 
 
-def test_sphere_depth_matches_closed_form(glctx):
+def test_sphere_depth_matches_closed_form(draw):
     r_s, centre = 1.0, np.array([0.3, -0.2, 4.0])
     sphere = trimesh.creation.icosphere(subdivisions=5, radius=r_s)
     scene = gg.Scene()
     pose = np.eye(4)
     scene.add(sphere, centre, semantic=1)
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = r.render(SENSOR, pose)
     d = ray_dirs(SENSOR)
     # |t d - c|^2 = r^2, smallest root; d has z = 1 so t is the depth
@@ -83,7 +83,7 @@ def test_sphere_depth_matches_closed_form(glctx):
     assert (f.instance[inside] == 1).all()
 
 
-def test_boxes_depth_and_ids_match_exact_ray_casting(glctx):
+def test_boxes_depth_and_ids_match_exact_ray_casting(draw):
     rng = np.random.default_rng(7)
     scene, boxes = gg.Scene(), []
     pose = look_at([0.0, -6.0, 2.0], [0.0, 0.0, 0.5])
@@ -95,7 +95,7 @@ def test_boxes_depth_and_ids_match_exact_ray_casting(glctx):
             T[:3, 3] = [0.0, -2.0, 0.5]
         iid = scene.add(trimesh.creation.box(ext), T, semantic=i % 5)
         boxes.append((T, ext / 2, iid))
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = r.render(SENSOR, pose)
     depth, ids = cast_boxes(SENSOR, pose, boxes)
     core = interior(ids, 1)
@@ -111,7 +111,7 @@ def test_boxes_depth_and_ids_match_exact_ray_casting(glctx):
 
 
 @pytest.mark.parametrize("point", [[0.0, 0.0, 2.0], [0.9, 0.5, 3.0], [-1.1, -0.6, 2.5], [2.7, 1.3, 6.0]])
-def test_projected_point_lands_where_cv2_puts_it(glctx, point):
+def test_projected_point_lands_where_cv2_puts_it(draw, point):
     rng = np.random.default_rng(3)
     pose = random_pose(rng, 10.0)
     p_cam = np.array(point)
@@ -119,7 +119,7 @@ def test_projected_point_lands_where_cv2_puts_it(glctx, point):
     corners_cam = [p_cam + side * np.array([sx, sy, 0]) for sx, sy in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
     scene = gg.Scene()
     scene.add(quad([pose[:3, :3] @ c + pose[:3, 3] for c in corners_cam]), instance=9)
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = r.render(SENSOR, pose)
     v, u = np.nonzero(f.instance == 9)
     assert len(u) >= 16

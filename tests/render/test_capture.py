@@ -72,7 +72,7 @@ def test_each_frame_is_handed_over_in_order_as_the_capture_makes_it(monkeypatch)
     """``on_frame`` gets every frame, in pose order, the very objects the capture returns;
     in this process each one as soon as the next pose is drawn (before the poses after it),
     with workers once they are all back. In this process, frame k+1 is planned (culled, its
-    draws written) before frame k is read back: while frame k rasterises."""
+    draws written) before frame k is read back: while frame k rasterises (the GL raster)."""
     from genie_gl.render import Renderer
 
     scene = small_scene()
@@ -87,7 +87,7 @@ def test_each_frame_is_handed_over_in_order_as_the_capture_makes_it(monkeypatch)
     for workers in (1, 2):
         handed, drawn_then = [], []
         events.clear()
-        frames = gg.capture(scene, sensor, poses, seed=3, workers=workers,
+        frames = gg.capture(scene, sensor, poses, seed=3, workers=workers, raster="gl",   # GL's pipelining
                             on_frame=lambda f: (handed.append(f), drawn_then.append(events.count("issue")),
                                                 events.append("hand")))
         assert len(frames) == 4 and all(a is b for a, b in zip(handed, frames))

@@ -24,12 +24,12 @@ def facing_quad(z, x0, x1, y0, y1):
     return quad([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]])
 
 
-def test_planes_1mm_apart_at_50m_with_far_near_ratio_1e5(glctx):
+def test_planes_1mm_apart_at_50m_with_far_near_ratio_1e5(draw):
     sensor = gg.Sensor.pinhole(128, 96, 110.0, near_m=0.1, far_m=1e4)
     scene = gg.Scene()
     scene.add(facing_quad(50.0, -40, 40, -40, 40), instance=1)     # behind, full view
     scene.add(facing_quad(49.999, -40, 0, -40, 40), instance=2)    # 1 mm in front, left half
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = r.render(sensor, np.eye(4))
     left, right = f.instance[:, :62], f.instance[:, 66:]
     assert (left == 2).all() and (right == 1).all()
@@ -38,7 +38,7 @@ def test_planes_1mm_apart_at_50m_with_far_near_ratio_1e5(glctx):
 
 
 @pytest.mark.parametrize("offset", [1e5, 1e6])
-def test_scene_far_from_origin_renders_to_the_millimetre(glctx, offset):
+def test_scene_far_from_origin_renders_to_the_millimetre(draw, offset):
     rng = np.random.default_rng(5)
     pose0 = look_at([0.3, -7.0, 2.5], [0.0, 0.0, 0.5])
     boxes, scene0, scene1 = [], gg.Scene(), gg.Scene()
@@ -51,7 +51,7 @@ def test_scene_far_from_origin_renders_to_the_millimetre(glctx, offset):
         iid = scene0.add(trimesh.creation.box(ext), T)
         scene1.add(trimesh.creation.box(ext), shift @ T)
         boxes.append((T, ext / 2, iid))
-    with Renderer(scene0, context=glctx) as r0, Renderer(scene1, context=glctx) as r1:
+    with draw(scene0) as r0, draw(scene1) as r1:
         f0 = r0.render(SENSOR, pose0)
         f1 = r1.render(SENSOR, shift @ pose0)
     depth, ids = cast_boxes(SENSOR, pose0, boxes)
@@ -61,7 +61,7 @@ def test_scene_far_from_origin_renders_to_the_millimetre(glctx, offset):
     np.testing.assert_allclose(f1.depth[core], f0.depth[core], rtol=1e-5)
 
 
-def test_grazing_incidence_85_degrees(glctx):
+def test_grazing_incidence_85_degrees(draw):
     # a floor seen at 85 deg incidence at the image centre
     tilt = np.radians(85.0)
     pose = np.eye(4)
@@ -71,7 +71,7 @@ def test_grazing_incidence_85_degrees(glctx):
     # plane y = h in the world = camera frame rotated; build it in world coordinates
     scene = gg.Scene()
     scene.add(quad([[-500, h, 0.0], [500, h, 0.0], [500, h, 2000.0], [-500, h, 2000.0]]), instance=3)
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = r.render(SENSOR, pose)
     d = ray_dirs(SENSOR) @ pose[:3, :3].T  # world rays (camera rays with z = 1, rotated)
     with np.errstate(divide="ignore"):
@@ -86,12 +86,12 @@ def test_grazing_incidence_85_degrees(glctx):
     assert f.instance[centre] == 3
 
 
-def test_camera_inside_a_closed_mesh_sees_its_inner_walls(glctx):
+def test_camera_inside_a_closed_mesh_sees_its_inner_walls(draw):
     scene = gg.Scene()
     T = np.eye(4)
     iid = scene.add(trimesh.creation.box((4.0, 3.0, 2.5)), T)
     pose = look_at([0.4, -0.3, 0.2], [1.0, 1.0, 0.0])
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = r.render(SENSOR, pose, normals=True)
     depth, ids = cast_boxes(SENSOR, pose, [(T, np.array([2.0, 1.5, 1.25]), iid)])
     assert (ids == iid).all() and (f.instance == iid).all()
@@ -100,19 +100,19 @@ def test_camera_inside_a_closed_mesh_sees_its_inner_walls(glctx):
     assert np.isfinite(f.normal).all()
 
 
-def test_empty_scene_gives_no_returns(glctx):
-    with Renderer(gg.Scene(), context=glctx) as r:
+def test_empty_scene_gives_no_returns(draw):
+    with draw(gg.Scene()) as r:
         f = r.render(SENSOR, np.eye(4))
     assert not f.depth.any() and not f.instance.any() and not f.semantic.any()
     assert f.depth.dtype == np.float32 and f.instance.dtype == np.uint32
 
 
-def test_nan_and_degenerate_triangles_are_skipped_with_a_warning(glctx, caplog):
+def test_nan_and_degenerate_triangles_are_skipped_with_a_warning(draw, caplog):
     v = np.array([[-1, -1, 3], [1, -1, 3], [1, 1, 3], [-1, 1, 3], [np.nan, 0, 3], [0, 0, 3]], float)
     f = np.array([[0, 1, 2], [0, 2, 3], [0, 4, 1], [5, 5, 2], [0, 1, 1]])
     scene = gg.Scene()
     scene.add(gg.Mesh(v, f), instance=4)
-    with caplog.at_level(logging.WARNING), Renderer(scene, context=glctx) as r:
+    with caplog.at_level(logging.WARNING), draw(scene) as r:
         frame = r.render(SENSOR, np.eye(4), normals=True)
     assert "skipped 3 of 5 faces" in caplog.text
     assert np.isfinite(frame.depth).all() and np.isfinite(frame.normal).all()
@@ -120,22 +120,22 @@ def test_nan_and_degenerate_triangles_are_skipped_with_a_warning(glctx, caplog):
     assert (frame.depth > 0).sum() == pytest.approx((2 * 110 / 3) ** 2, rel=0.05)
 
 
-def test_objects_beyond_far_and_before_near_are_clipped(glctx):
+def test_objects_beyond_far_and_before_near_are_clipped(draw):
     sensor = gg.Sensor.pinhole(64, 48, 50.0, near_m=1.0, far_m=20.0)
     scene = gg.Scene()
     scene.add(facing_quad(30.0, -50, 50, -50, 50), instance=1)   # beyond far
     scene.add(facing_quad(0.5, -0.1, 0.1, -0.1, 0.1), instance=2)  # before near
     scene.add(facing_quad(10.0, 0, 5, -5, 5), instance=3)
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = r.render(sensor, np.eye(4))
     assert set(np.unique(f.instance)) == {0, 3}
     assert f.depth.max() == pytest.approx(10.0)
 
 
-def test_depth_only_mode_matches_full_mode(glctx):
+def test_depth_only_mode_matches_full_mode(draw):
     scene = gg.Scene()
     scene.add(trimesh.creation.icosphere(3, radius=1.0), [0, 0, 4.0])
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         full = r.render(SENSOR, np.eye(4))
         fast = r.render(SENSOR, np.eye(4), depth_only=True)
     assert fast.rgb is None

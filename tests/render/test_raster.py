@@ -1,4 +1,4 @@
-"""The CPU rasteriser (``Renderer(depth_precision="exact")``): culling changes no byte against testing
+"""The CPU rasteriser (``Renderer(raster="cpu")``): culling changes no byte against testing
 every triangle at every pixel centre of its box; threads change no byte; depth is the exact
 ray hit (analytic planes, Open3D's ray caster); shared edges leave no crack; it agrees with
 the GL raster and with its own triangles per pixel; bad options are refused."""
@@ -27,7 +27,7 @@ def assert_same_frames(a, b, normals=False):
 
 
 def culled_and_unculled(scene, sensor, poses, **kw):
-    with Renderer(scene, depth_precision="exact", cull=False) as a, Renderer(scene, depth_precision="exact") as b:
+    with Renderer(scene, raster="cpu", cull=False) as a, Renderer(scene, raster="cpu") as b:
         return [(a.render(sensor, p, **kw), b.render(sensor, p, **kw), b._rasteriser.counts.copy()) for p in poses]
 
 
@@ -89,7 +89,7 @@ def test_one_thread_or_two_give_the_same_bytes(monkeypatch):
     monkeypatch.setattr(raster, "PARALLEL_FACES", 0)   # two threads however small the frame
     threads = numba.get_num_threads()
     assert threads >= 2, "numba has one thread here: the case cannot compare one thread with two"
-    with Renderer(scene, depth_precision="exact") as r:
+    with Renderer(scene, raster="cpu") as r:
         two = []
         for p in poses[:2]:
             two.append(r.render(sensor, p, normals=True))
@@ -115,7 +115,7 @@ def test_depth_is_the_exact_ray_hit_on_a_tilted_plane_far_away():
     scene.add(gg.Mesh(corners, np.array([[0, 1, 2], [0, 2, 3]])), np.eye(4), semantic=1)
     d = ray_dirs(sensor)
     truth = 400.0 / (1 - 0.7 * d[..., 0] + 0.2 * d[..., 1])
-    with Renderer(scene, depth_precision="exact") as r:
+    with Renderer(scene, raster="cpu") as r:
         f = r.render(sensor, np.eye(4))
     assert (f.instance > 0).all()
     err = np.abs(f.depth - truth) / truth
@@ -142,7 +142,7 @@ def test_no_cracks_where_edges_and_vertices_lie_on_pixel_centre_rays():
             faces += [[a, b, c], [a, c, dd]] if (i + j) % 2 else [[a, b, dd], [b, c, dd]]
     scene = gg.Scene()
     wall = scene.add(gg.Mesh(pts, np.array(faces)), np.eye(4), semantic=1)
-    with Renderer(scene, depth_precision="exact") as r:
+    with Renderer(scene, raster="cpu") as r:
         f = r.render(sensor, np.eye(4))
     assert (f.instance == wall).all()
     np.testing.assert_allclose(f.depth, z, rtol=2 ** -23)
@@ -161,7 +161,7 @@ def test_depth_and_ids_agree_with_open3d_ray_casting():
         rc.add_triangles(o3d.core.Tensor(w.astype(np.float32)), o3d.core.Tensor(np.asarray(mesh.faces, np.uint32)))
         ids.append(inst.instance)
     ids = np.array(ids + [0], np.uint32)
-    with Renderer(scene, depth_precision="exact") as r:
+    with Renderer(scene, raster="cpu") as r:
         for pose in poses[:2]:
             f = r.render(sensor, pose, depth_only=True)
             d = ray_dirs(sensor) @ pose[:3, :3].T
@@ -186,7 +186,7 @@ def test_agrees_with_the_gl_raster_in_ids_normals_and_colour(glctx):
     scene = gg.build_scene(layout, seed=5)
     sensor = gg.Sensor.pinhole(320, 240, 260.0)
     poses = gg.place_sensors(layout, sensor, n=3, seed=5)
-    with Renderer(scene, depth_precision="exact") as c, Renderer(scene, context=glctx) as g:
+    with Renderer(scene, raster="cpu") as c, Renderer(scene, context=glctx) as g:
         for p in poses:
             a, b = c.render(sensor, p, normals=True), g.render(sensor, p, normals=True)
             same = (a.instance == b.instance) & (a.instance > 0)
@@ -200,7 +200,7 @@ def test_agrees_with_the_gl_raster_in_ids_normals_and_colour(glctx):
 def test_each_pixel_names_the_triangle_its_depth_comes_from():
     scene, poses = bench_scene("100k")
     sensor = sensor_640()
-    with Renderer(scene, depth_precision="exact") as r:
+    with Renderer(scene, raster="cpu") as r:
         f = r.render(sensor, poses[0], depth_only=True, triangles=True)
     d = ray_dirs(sensor)
     rng = np.random.default_rng(0)
@@ -216,11 +216,19 @@ def test_bad_options_are_refused():
     scene, _ = bench_scene("100k")
     with pytest.raises(ConfigError, match="depth_precision='exakt' is unknown"):
         Renderer(scene, depth_precision="exakt")
+    with pytest.raises(ConfigError, match="ask for it by name, raster='cpu'"):
+        Renderer(scene, depth_precision="exact")
+    with pytest.raises(ConfigError, match="raster 'cp' is unknown; expected cpu or gl; did you mean 'cpu'"):
+        Renderer(scene, raster="cp")
+    from genie_gl.sensors.accuracy import AccuracySettings
+    with pytest.raises(ConfigError, match="'exact' is the CPU rasteriser: write raster: cpu"):
+        AccuracySettings(depth_precision="exact")
+    assert "raster" not in AccuracySettings().to_dict() and AccuracySettings(raster="gl").to_dict()["raster"] == "gl"
 
 
 @pytest.mark.gl
 def test_a_capture_through_a_distorted_lens_with_effects_takes_the_exact_raster(monkeypatch):
-    """``accuracy: {depth_precision: exact}`` reaches the renderer through ``capture``: the
+    """``accuracy: {raster: cpu}`` reaches the renderer through ``capture``: the
     Azure Kinect's fisheye-like lens (its ids from each lens pixel's own ray) and its
     effects run on the CPU raster's frames and agree with the GL raster's."""
     from genie_gl.sensors.accuracy import AccuracySettings
@@ -232,10 +240,10 @@ def test_a_capture_through_a_distorted_lens_with_effects_takes_the_exact_raster(
     drawn = []   # the CPU rasteriser's frames, counted (it still draws them)
     draw = raster.Rasteriser.draw
     monkeypatch.setattr(raster.Rasteriser, "draw", lambda self, *a, **k: drawn.append(1) or draw(self, *a, **k))
-    exact = gg.capture(scene, sensor, poses, seed=0, accuracy=AccuracySettings(depth_precision="exact"))
+    exact = gg.capture(scene, sensor, poses, seed=0, accuracy=AccuracySettings(raster="cpu"))
     assert len(drawn) >= len(poses)   # (the lens resamples each pixel's ray: depth alone cannot tell)
     monkeypatch.undo()
-    gl = gg.capture(scene, sensor, poses, seed=0, accuracy=AccuracySettings(depth_precision="float32"))
+    gl = gg.capture(scene, sensor, poses, seed=0, accuracy=AccuracySettings(raster="gl"))
     for a, b in zip(exact, gl):
         assert (a.instance > 0).mean() > 0.2
         assert (a.instance == b.instance).mean() > 0.999
@@ -253,7 +261,7 @@ def test_a_frame_of_depth_and_ids_alone_equals_those_of_a_full_frame(monkeypatch
     sensor = dataclasses.replace(sensor_640(), far_m=6.0)
     monkeypatch.setattr(raster, "PARALLEL_FACES", 0)
     threads = numba.get_num_threads()
-    with Renderer(scene, depth_precision="exact") as r:
+    with Renderer(scene, raster="cpu") as r:
         for t in sorted({1, threads}):
             numba.set_num_threads(t)
             try:
@@ -292,7 +300,7 @@ def test_culling_changes_no_byte_where_edges_graze_pixel_centres():
     (fa, fb, counts), = culled_and_unculled(scene, sensor, [np.eye(4)])
     assert_same_frames(fa, fb)
     assert (fa.instance > 0).mean() > 0.5
-    with Renderer(scene, depth_precision="exact", cull=False) as r:
+    with Renderer(scene, raster="cpu", cull=False) as r:
         r.render(sensor, np.eye(4))
         every = r._rasteriser.counts[4]
     assert counts[4] < every   # the spans did narrow the lines (the culled frame tested fewer centres)
@@ -317,3 +325,25 @@ def test_culling_changes_no_byte_where_a_row_runs_along_an_edge_parallel_to_it()
                     (fa, fb, _), = culled_and_unculled(scene, sensor, [pose])
                     assert_same_frames(fa, fb)
                     assert (fa.instance > 0).sum() > 100
+
+
+def test_ties_go_to_the_lower_slot_then_the_lower_face():
+    """The CPU raster's one tie rule (:func:`genie_gl.render.coverage._write`): a pixel
+    centre that two triangles meet at the same float64 depth goes to the lower (slot, face).
+    Two coincident copies of a square wall at z = 2: every pixel shows the first copy; on
+    the square's diagonal, where the pixel centres' rays cross the edge both its faces share
+    (edge functions exactly 0), the pixel shows face 0; off it, the face that covers it."""
+    sensor = gg.Sensor(64, 64, np.array([[32.0, 0, 32], [0, 32.0, 32], [0, 0, 1]]))
+    wall = gg.Mesh(np.array([[-2, -2, 2], [2, -2, 2], [2, 2, 2], [-2, 2, 2]], float), np.array([[0, 1, 2], [0, 2, 3]]))
+    scene = gg.Scene()
+    first = scene.add(wall, np.eye(4), semantic=1)
+    scene.add(wall, np.eye(4), semantic=2)
+    with Renderer(scene, raster="cpu") as r:
+        f = r.render(sensor, np.eye(4), triangles=True)
+    assert (f.instance == first).all() and (f.semantic == 1).all()
+    np.testing.assert_array_equal(f.depth, 2.0)
+    slot, face = f.triangles.pixel[..., 0], f.triangles.pixel[..., 1]
+    assert (slot == 1).all()
+    u, v = np.meshgrid(np.arange(64), np.arange(64))
+    assert (face[u == v] == 0).all()
+    assert (face[u > v] == 0).all() and (face[u < v] == 1).all()   # x > y: below the diagonal, face 0 (0-1-2)

@@ -26,7 +26,7 @@ def random_scene(rng, n=200, size=20.0):
     return scene
 
 
-def test_agrees_with_pyrender_seg_mode(glctx):
+def test_agrees_with_pyrender_seg_mode(draw):
     rng = np.random.default_rng(11)
     scene = random_scene(rng)
     # pyrender linearises a 24-bit depth buffer: give it a tight near/far so that the
@@ -35,7 +35,7 @@ def test_agrees_with_pyrender_seg_mode(glctx):
                        near_m=0.5, far_m=40.0)
     poses = [look_at([-9.0, -9.0, 5.0], [0, 0, 0]), look_at([8.0, -3.0, 3.0], [-2, 2, 0.5])]
     ref = ReferenceRenderer(scene)
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         for pose in poses:
             ours = r.render(sensor, pose, depth_only=True)
             theirs = ref.render(sensor, pose)

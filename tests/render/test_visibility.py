@@ -21,8 +21,8 @@ def test_compose_has_the_bits_of_numpy_einsum():
         assert out.tobytes() == np.einsum("ij,njk->nik", cw, wfm).tobytes()
 
 
-@pytest.mark.parametrize("precision", ["float32", "exact"])
-def test_drawing_only_some_instances_is_the_frame_of_a_scene_of_them(glctx, precision):
+@pytest.mark.parametrize("raster", ["gl", "cpu"])
+def test_drawing_only_some_instances_is_the_frame_of_a_scene_of_them(glctx, raster):
     scene, poses = bench_scene("100k")
     rng = np.random.default_rng(2)
     ids = [inst.instance for inst in scene.instances]
@@ -33,8 +33,8 @@ def test_drawing_only_some_instances_is_the_frame_of_a_scene_of_them(glctx, prec
             sub.add(scene.meshes[inst.mesh], inst.world_from_model, semantic=inst.semantic, instance=inst.instance,
                     color=inst.color)
     sensor = sensor_640()
-    kw = {"context": glctx} if precision != "exact" else {}
-    with Renderer(scene, depth_precision=precision, **kw) as r, Renderer(sub, depth_precision=precision, **kw) as s:
+    kw = {"context": glctx} if raster == "gl" else {}
+    with Renderer(scene, raster=raster, **kw) as r, Renderer(sub, raster=raster, **kw) as s:
         for p in poses[:2]:
             a = r.render(sensor, p, depth_only=True, only=np.array(sorted(keep), np.int64))
             b = s.render(sensor, p, depth_only=True)
@@ -49,7 +49,7 @@ def test_drawing_only_some_instances_is_the_frame_of_a_scene_of_them(glctx, prec
 @pytest.mark.parametrize("bad", [["a"], [1.5, 2.0], [[1, 2]], 7, [True]])
 def test_only_that_is_not_a_collection_of_ids_is_refused_by_name(bad):
     scene, poses = bench_scene("100k")
-    with Renderer(scene, depth_precision="exact") as r:
+    with Renderer(scene, raster="cpu") as r:
         with pytest.raises(gg.errors.ConfigError, match="only: expected a collection of instance ids"):
             r.render(sensor_640(), poses[0], depth_only=True, only=bad)
         assert r.render(sensor_640(), poses[0], depth_only=True, only=[]).instance.max() == 0
