@@ -17,6 +17,10 @@ The public API, one name per pipeline stage (DESIGN.md)::
     path  = gg.make_trajectory(layout, scene, "aisles", seed=0)   # on the free floor
     shots = gg.record(scene, rig, path, seed=0)    # (Shot, Frame) in time order
 
+    head  = gg.load_scanner("velodyne_vlp16")      # or gg.load_scanner_rig("navvis_wearable")
+    scans = gg.scan(scene, head, path, seed=0)     # one Scan per revolution, each firing from its pose
+    gg.export_scans(scans, "out/", format="kitti") # kitti, rosbag, las, e57, pcd, ply
+
 Names are imported lazily, so ``import genie_gl`` stays cheap and starts no GL.
 
 ``gg.render``, ``gg.capture`` and ``gg.export`` are plain functions although stage packages
@@ -87,6 +91,16 @@ _EXPORTS: dict[str, str] = {
     "PointCloud": "genie_gl.cloud",
     "to_cloud": "genie_gl.cloud",
     "export": "genie_gl.export",
+    # scanners (LiDAR): profiles, rigs of heads, scans along a trajectory, their clouds and files
+    "Scanner": "genie_gl.sensors.scanner",
+    "load_scanner": "genie_gl.sensors.scanner_profile",
+    "ScannerRig": "genie_gl.sensors.scanner_rig",
+    "load_scanner_rig": "genie_gl.sensors.scanner_rig",
+    "scan": "genie_gl.capture.scanning",
+    "Scan": "genie_gl.capture.scan_record",
+    "scan_cloud": "genie_gl.cloud.scan_cloud",
+    "scans_cloud": "genie_gl.cloud.scan_cloud",
+    "export_scans": "genie_gl.export.lidar_output",
     # the sensor's report card (published measurements of the real device beside ours)
     "report_card": "genie_gl.card.report",
     # look at what was made: a Rerun recording of exported files, and its web viewer

@@ -26,6 +26,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "layout": ("genie_gl.commands.layout", "generate a region layout tree from a JSON strategy"),
     "scene": ("genie_gl.commands.scene", "build a 3D scene (USD) from a layout JSON"),
     "capture": ("genie_gl.commands.capture", "render a scene from K placed cameras and export clouds"),
+    "scan": ("genie_gl.commands.scan", "scan a strategy's scene with a LiDAR scanner or rig along a trajectory"),
     "plan": ("genie_gl.commands.plan", "print which effects run where, and why, before rendering"),
     "dataset": ("genie_gl.commands.dataset", "run the whole pipeline for N scenes"),
     "bench": ("genie_gl.commands.bench", "benchmarks: render | layout | accuracy | pipeline | stability | planning | sequence | odometry | cli"),

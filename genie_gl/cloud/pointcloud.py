@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-OPTIONAL = ("rgb", "normal", "camera")
+OPTIONAL = ("rgb", "normal", "camera", "intensity", "ring", "time", "return_number", "returns")
 
 
 @dataclass(frozen=True, eq=False)
@@ -21,6 +21,16 @@ class PointCloud:
     semantic : (N,) uint16; instance : (N,) uint32.
     rgb : (N, 3) uint8 or None; normal : (N, 3) float32 or None (world frame);
     camera : (N,) uint16 or None, index of the frame that saw the point.
+
+    A scanner's points also carry (each None for a camera's cloud, LIDAR.md §9.5 gives what
+    each format calls them):
+    intensity : (N,) float32 or None, reflectivity as the head reports it: the surface's
+        albedo x cos(incidence) for a diffuse surface, in [0, 1];
+    ring : (N,) uint16 or None, the beam's ring (the driver's: Velodyne 0 = lowest beam,
+        Ouster 0 = top row);
+    time : (N,) float64 or None, the beam's firing time in seconds from its scan's start;
+    return_number : (N,) uint8 or None, 1-based, nearest echo first;
+    returns : (N,) uint8 or None, the number of echoes its beam reported.
     """
 
     xyz: np.ndarray
@@ -30,12 +40,19 @@ class PointCloud:
     rgb: np.ndarray | None = None
     normal: np.ndarray | None = None
     camera: np.ndarray | None = None
+    intensity: np.ndarray | None = None
+    ring: np.ndarray | None = None
+    time: np.ndarray | None = None
+    return_number: np.ndarray | None = None
+    returns: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.xyz)
         object.__setattr__(self, "origin", np.zeros(3) if self.origin is None else np.asarray(self.origin, np.float64))
         checks = {"xyz": ((n, 3), np.float32), "semantic": ((n,), np.uint16), "instance": ((n,), np.uint32),
-                  "rgb": ((n, 3), np.uint8), "normal": ((n, 3), np.float32), "camera": ((n,), np.uint16)}
+                  "rgb": ((n, 3), np.uint8), "normal": ((n, 3), np.float32), "camera": ((n,), np.uint16),
+                  "intensity": ((n,), np.float32), "ring": ((n,), np.uint16), "time": ((n,), np.float64),
+                  "return_number": ((n,), np.uint8), "returns": ((n,), np.uint8)}
         for name, (shape, dtype) in checks.items():
             a = getattr(self, name)
             if a is None:

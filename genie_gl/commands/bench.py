@@ -95,6 +95,33 @@ def _odometry(p: argparse.ArgumentParser) -> None:
     p.add_argument("--voxel-m", type=positive(10.0), default=ODOMETRY["voxel_m"], help="KISS-ICP's map voxel size (m)")
 
 
+def _lidar(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenes", type=names(RENDER_SCENES), default="1M,10M", help="benchmark scenes to cast on")
+    p.add_argument("--scanners", default="velodyne_vlp16,ouster_os1_128", help="scanner profiles, comma-separated")
+    p.add_argument("--repeats", type=count(1, 1000), default=3, help="casts per tool, in turns (best kept)")
+    p.add_argument("--rig", default="navvis_wearable", help="scanner rig of the walk")
+    p.add_argument("--walk", type=float, default=10.0, help="seconds of the wearable's walk (0: none)")
+    p.add_argument("--seed", type=seed, default=0)
+
+
+def _deskew(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--strategy", default="assembly_line", help="layout strategy of the scene")
+    p.add_argument("--duration-s", type=positive(3600), default=20.0, help="seconds of the fast walk")
+    p.add_argument("--max-range", type=positive(1e4), default=30.0, help="KISS-ICP's max range (m)")
+    p.add_argument("--voxel-m", type=positive(100), default=0.1, help="KISS-ICP's map voxel (m)")
+    p.add_argument("--seed", type=seed, default=0)
+
+
+def _lidarmap(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--rig", default="navvis_wearable", help="scanner rig walking the aisles")
+    p.add_argument("--strategy", default="assembly_line", help="layout strategy of the scene")
+    p.add_argument("--duration-s", type=positive(3600), default=20.0, help="seconds of the walk")
+    p.add_argument("--voxel-m", type=positive(10), default=0.02, help="the map's voxel before chunking (m)")
+    p.add_argument("--chunk-m", type=positive(1000), default=6.0, help="side of a chunk (m)")
+    p.add_argument("--ideal", action="store_true", help="the heads without their profiles' effects (faster)")
+    p.add_argument("--seed", type=seed, default=0)
+
+
 def _cli(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repeats", type=count(1, 1000), default=15, help="runs of each command line (default 15)")
     p.add_argument("--against", default=None, metavar="DIR",
@@ -118,6 +145,12 @@ BENCHMARKS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], tupl
                  ("sequence.json",)),
     "odometry": ("KISS-ICP on a SemanticKITTI sequence of a rig's recording; evo's ATE against its ground truth",
                  _odometry, ("odometry.json", "odometry")),
+    "lidar": ("scanners' beams/s against Open3D on the same beams, agreement, and a wearable's walk in points/s",
+              _lidar, ("lidar.json",)),
+    "deskew": ("a VLP-16's raw scans of a fast walk through KISS-ICP with deskew on, off and time shuffled (evo ATE)",
+               _deskew, ("deskew.json",)),
+    "lidar_map": ("the wearable's LiDAR mobile map in 25,000-point chunks: class shares beside Table 3's real column",
+                  _lidarmap, ("lidarmap.json", "lidarmap.png")),
     "cli": ("seconds `genie --help` and every subcommand's --help take (median of fresh processes)", _cli,
             ("cli.json",)),
 }

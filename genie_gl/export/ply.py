@@ -2,7 +2,9 @@
 blue`` (uchar), ``semantic`` and ``instance`` (int, i.e. int32): the types that plyfile,
 CloudCompare and Open3D's tensor reader all keep (Open3D skips ``ushort`` and ``uint``).
 Instance ids above 2**31 - 1 (rare: ids are per scene) are written as ``uint`` instead, so the
-full uint32 range is kept (plyfile, CloudCompare), with a warning that Open3D skips them."""
+full uint32 range is kept (plyfile, CloudCompare), with a warning that Open3D skips them.
+A scanner's cloud adds ``intensity`` (float), ``ring`` (ushort), ``time`` (double, s from the
+scan start), ``return_number`` and ``returns`` (uchar)."""
 from __future__ import annotations
 
 import logging
@@ -15,7 +17,8 @@ from ..cloud.pointcloud import PointCloud
 from ..outputs import atomic_write_bytes, check_replaceable
 
 INT32_MAX = 2**31 - 1
-PLY_TYPE = {"<f4": "float", "u1": "uchar", "<i4": "int", "<u4": "uint"}
+PLY_TYPE = {"<f4": "float", "u1": "uchar", "<i4": "int", "<u4": "uint", "<u2": "ushort", "<f8": "double"}
+SCANNER_FIELDS = (("intensity", "<f4"), ("ring", "<u2"), ("time", "<f8"), ("return_number", "u1"), ("returns", "u1"))
 log = logging.getLogger(__name__)
 
 
@@ -38,6 +41,8 @@ def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
     if cloud.rgb is not None:
         fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
     fields += [("semantic", "<i4"), ("instance", "<u4" if wide else "<i4")]
+    scanner = [(k, t) for k, t in SCANNER_FIELDS if getattr(cloud, k) is not None]
+    fields += scanner
     rec = np.empty(len(cloud), dtype=fields)
     rec["x"], rec["y"], rec["z"] = cloud.xyz.T
     if cloud.normal is not None:
@@ -45,6 +50,8 @@ def write(cloud: PointCloud, path: str | os.PathLike) -> Path:
     if cloud.rgb is not None:
         rec["red"], rec["green"], rec["blue"] = cloud.rgb.T
     rec["semantic"], rec["instance"] = cloud.semantic, cloud.instance
+    for k, _ in scanner:
+        rec[k] = getattr(cloud, k)
     header = ["ply", "format binary_little_endian 1.0",
               "comment genie-gl point cloud; world = xyz + origin",
               "comment origin " + " ".join(f"{float(v):.17g}" for v in cloud.origin),

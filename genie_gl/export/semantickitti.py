@@ -151,6 +151,8 @@ def write_scans(clouds: Sequence[PointCloud], seq_dir: str | os.PathLike, *,
 def _write_scan(cloud: PointCloud, seq: Path, frame: int) -> Path:
     scan = np.zeros((len(cloud), 4), "<f4")
     scan[:, :3] = cloud.xyz
+    if cloud.intensity is not None:   # a scanner's reflectivity, 0-1 as KITTI's remission (LIDAR.md §9.5)
+        scan[:, 3] = cloud.intensity
     inst, table = encode_instances(cloud.instance)
     bin_path = atomic_write_bytes(seq / "velodyne" / f"{frame:06d}.bin", scan.tobytes())
     atomic_write_bytes(seq / "labels" / f"{frame:06d}.label", pack_labels(cloud.semantic, inst).tobytes())

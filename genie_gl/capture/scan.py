@@ -1,0 +1,91 @@
+"""LiDAR scans: the beams of each revolution cast exactly, then the profile's effects.
+
+One scan is one bundle of rays (:func:`cast_beams`, the only caller of the ray engine
+here): the beams of one revolution, each firing from its own pose, plus the sub-rays of
+their footprints when the profile's ``beam_divergence`` runs. Each hit becomes an echo
+(:class:`~genie_gl.sensors.lidar_effect.Echoes`) with the surface's ids, incidence and
+reflectance (its UsdPreviewSurface material); the effects the scene's plan keeps then map
+the echoes, and the echoes become the scan's points (:class:`Scan`).
+
+Randomness: each scan draws from its own generator, made from (seed, head, scan index), so
+a scan is the same whichever worker makes it and whichever scans are made before it.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..render.rays import RayHits, cast_rays
+from ..scene.materials import MaterialTable
+from ..scene.model import Scene
+from ..sensors.beams import Beams
+from ..sensors.effect import Decision
+from ..sensors.lidar_effect import Echoes, SceneMaterials
+from ..sensors.scanner import Scanner
+from .scan_record import Scan
+
+
+def scene_materials(table: MaterialTable) -> SceneMaterials:
+    """What the planner needs of the scene's materials."""
+    n = len(table.ids)
+    shiny = int(np.sum((table.metallic[:n] >= 0.5) & (table.roughness[:n] <= 0.3)))
+    alb = table.albedo[:n] if n else np.zeros(1)
+    return SceneMaterials(n, shiny, float(alb.min()), float(alb.max()))
+
+
+def plan_scan(scene: Scene, scanner: Scanner, table: MaterialTable | None = None) -> dict[str, Decision]:
+    """Per effect of ``scanner``, whether it runs on ``scene`` and why."""
+    mats = scene_materials(MaterialTable.from_scene(scene) if table is None else table)
+    return {e.name: e.plan(mats, scanner) for e in scanner.effects}
+
+
+def cast_beams(scene: Scene, origins: np.ndarray, directions: np.ndarray) -> RayHits:
+    """The exact nearest hit of every ray ((B, 3) float64 each): one bundle, one cast."""
+    return cast_rays(scene, origins, directions)
+
+
+def _echoes(hits: RayHits, directions: np.ndarray, parent: np.ndarray, table: MaterialTable,
+            max_range_m: float) -> Echoes:
+    """An echo per ray that hits within range (``parent``: each ray's beam)."""
+    keep = hits.hit & (hits.distance <= max_range_m)
+    idx = np.flatnonzero(keep)
+    inst = hits.instance[idx]
+    n = hits.normal[idx].astype(np.float64)
+    cos = np.clip(np.abs(np.einsum("ij,ij->i", n, directions[idx])), 0.0, 1.0)
+    rows = table.rows(inst)
+    refl = table.albedo[rows]
+    m = len(idx)
+    return Echoes(parent[idx].astype(np.int64), hits.distance[idx], inst, hits.semantic[idx], n, cos, refl,
+                  table.metallic[rows], table.roughness[rows], refl * cos, np.ones(m, np.uint8), np.ones(m, np.uint8))
+
+
+def take_scan(scene: Scene, scanner: Scanner, beams: Beams, *, rng: np.random.Generator,
+              table: MaterialTable | None = None, plan: dict[str, Decision] | None = None,
+              head: str = "head", head_index: int = 0) -> Scan:
+    """The scan of ``beams``: cast, echoes, the effects ``plan`` runs (default: the scene's plan)."""
+    table = MaterialTable.from_scene(scene) if table is None else table
+    plan = plan_scan(scene, scanner, table) if plan is None else plan
+    running = [e for e in scanner.effects if plan.get(e.name, Decision(True, "")).run]
+    footprint = next((e for e in running if e.casts_subrays), None)
+    if footprint is None:
+        hits = cast_beams(scene, beams.origins, beams.directions)
+        echoes = _echoes(hits, beams.directions, np.arange(len(beams)), table, scanner.max_range_m)
+    else:
+        dirs = footprint.subrays(beams.directions, scanner)
+        k = len(dirs) // max(len(beams), 1)
+        origins = np.repeat(beams.origins, k, axis=0)
+        hits = cast_beams(scene, origins, dirs)
+        parent = np.repeat(np.arange(len(beams)), k)
+        sub = _echoes(hits, dirs, parent, table, scanner.max_range_m)
+        weight = np.tile(footprint.pattern(scanner)[1], len(beams))[hits.hit & (hits.distance <= scanner.max_range_m)]
+        echoes = footprint.combine(sub, weight, scanner)
+    for effect in running:
+        if not effect.casts_subrays and len(echoes):
+            echoes = effect.apply(echoes, scanner, rng=rng)
+    b = echoes.beam
+    world = beams.origins[b] + beams.directions[b] * echoes.range_m[:, None]
+    sensor = beams.sensor_origins[b] + beams.sensor_directions[b] * echoes.range_m[:, None]
+    return Scan(head, head_index, scanner, beams.index, beams.start_s, world, sensor, echoes.range_m,
+                np.clip(echoes.intensity, 0.0, 1.0).astype(np.float32), beams.ring[b], beams.channel[b],
+                beams.column[b], beams.time_s[b], beams.azimuth_rad[b], echoes.return_number, echoes.returns,
+                echoes.semantic, echoes.instance, beams.firing_poses, len(beams),
+                {name: (d.run, d.reason) for name, d in plan.items()})
