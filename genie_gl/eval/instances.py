@@ -22,9 +22,11 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
+from sklearn.cluster import DBSCAN
 
 from ..errors import ConfigError
-from .panoptic import STUFF
+from .panoptic import STUFF, PanopticCounts, panoptic_scores, stuff_free
 
 MAX_ID = 0xFFFF
 
@@ -52,9 +54,6 @@ class ClusterParams:
 
 
 def _dbscan(xyz: np.ndarray, eps_m: float, min_samples: int) -> np.ndarray:
-    from scipy.spatial import cKDTree
-    from sklearn.cluster import DBSCAN
-
     lab = DBSCAN(eps=eps_m, min_samples=min_samples, algorithm="kd_tree").fit_predict(xyz)
     noise = lab < 0
     if noise.all():
@@ -127,8 +126,6 @@ def tune(xyz: Sequence[np.ndarray], sem: Sequence[np.ndarray], inst: Sequence[np
     ----------
     xyz, sem, inst : one (N_i, 3) / (N_i,) / (N_i,) array per scan: points (m), true classes, true ids
     """
-    from .panoptic import PanopticCounts, panoptic_scores, stuff_free
-
     if not len(xyz):
         raise ConfigError("cluster tuning: no training scan")
     pick = np.unique(np.linspace(0, len(xyz) - 1, min(max_scans, len(xyz))).round().astype(int))

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from .data import EvalSet
+from .data import _PLY_TYPES, EvalSet
 from .metrics import Spread
 
 STUFF: tuple[int, ...] = (0,)      # background
@@ -204,8 +204,6 @@ def spread_dict(summary: dict, names: dict[int, str]) -> dict:
 
 def _ply_property(path: Path, name: str) -> np.ndarray | None:
     """One vertex property of a binary little-endian PLY (None when it has none)."""
-    from .data import _PLY_TYPES
-
     raw = path.read_bytes()
     end = raw.find(b"end_header\n")
     fields, n, in_vertex = [], 0, False
