@@ -76,8 +76,9 @@ def card_markdown(card: ReportCard, heading: str = "##") -> str:
             unit = METRICS[f.metric][1]
             ours, verdict = _verdict(c.sim, unit)
             tag = f.source.verification + ("" if f.counted else ", not counted")
+            why = f" ({c.sim.why})" if c.sim.why else ""
             row = (f"| {f.metric} | {_condition(f)} | {_published(f)} | {f.source.key} ({tag}) | {ours} | "
-                   f"**{verdict}** |")
+                   f"**{verdict}**{why} |")
             if yours:
                 y, yv = _verdict(c.captures, unit)
                 row += f" {y} | {yv} |"
@@ -85,7 +86,8 @@ def card_markdown(card: ReportCard, heading: str = "##") -> str:
         n = card.counts()
         lines += ["", f"Counted figures: {n['pass']} pass, {n['differs']} differ, {n['not measured']} not measured "
                       "(only figures read in their source count; secondary and unverified ones are shown, "
-                      "not counted)."]
+                      f"not counted; so are {n['by construction']} read by construction and {n['not modelled']} "
+                      "not modelled, which the profile could not have failed)."]
     else:
         lines.append("No reference file: nothing to compare against.")
     lines += ["", f"{heading} Measured", ""]
