@@ -3,7 +3,7 @@ protocols; the project's studies.
 
 ::
 
-    genie eval --train DIR [DIR ...] --test DIR [DIR ...] [--model classical|height|majority|neural]
+    genie eval --train DIR [DIR ...] --test DIR [DIR ...] [--model classical|height|majority|neural|randla]
                [--seeds 0,1,2] [--label-map FILE] --out OUT
     genie eval --preset mix|finetune|scarce --target-train DIR --target-test DIR --train SYNTHETIC ... --out OUT
     genie eval --study strategy|sensor|accuracy|balance|models|mix|all --out OUT [--scenes 10 --test-scenes 4]
@@ -28,7 +28,7 @@ log = logging.getLogger(__name__)
 STUDY_NAMES = ("strategy", "sensor", "accuracy", "balance", "models", "mix", "all")
 # the names of genie_gl.eval.run.MODELS and genie_gl.eval.protocols.PRESETS, spelt here so that
 # `genie eval --help` imports no model (tests/eval/test_inputs.py checks they agree)
-MODELS = ("classical", "height", "majority", "neural")
+MODELS = ("classical", "height", "majority", "neural", "randla")
 PRESETS = ("mix", "finetune", "scarce")
 
 

@@ -37,11 +37,12 @@ from .data import EvalSet, read_set
 from .features import PointTable
 from .labelmap import check_same_classes
 from .neural import NeuralModel, NeuralParams
+from .randla import RandLAModel, RandLAParams
 from .plots import confusion_png, iou_bars_png
 from .report import result_markdown
 
 log = logging.getLogger(__name__)
-MODELS = ("classical", "height", "majority", "neural")
+MODELS = ("classical", "height", "majority", "neural", "randla")
 
 
 def make_model(name: str, n_classes: int, params: Any = None) -> Any:
@@ -54,6 +55,8 @@ def make_model(name: str, n_classes: int, params: Any = None) -> Any:
         return MajorityModel(n_classes)
     if name == "neural":
         return NeuralModel(n_classes, params or NeuralParams())
+    if name == "randla":
+        return RandLAModel(n_classes, params or RandLAParams())
     raise ConfigError(f"--model {name!r}: unknown{did_you_mean(name, MODELS)}; expected one of {', '.join(MODELS)}")
 
 
@@ -155,7 +158,7 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     Parameters
     ----------
     train, test : sequences of dataset specs (``DIR``, ``DIR:test``, ...) or read sets
-    model : ``classical`` | ``height`` | ``majority`` | ``neural``
+    model : ``classical`` | ``height`` | ``majority`` | ``neural`` | ``randla``
     seeds : at least one; three or more give a spread
     out : folder for metrics, predictions and pictures (None: nothing written)
     workers : processes for features, threads for the classifier; the results do not depend on it
@@ -212,7 +215,7 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     seen = set(np.unique(train_pts.labels[train_pts.labels >= 0]).tolist())
     test_pts = [PointTable(list(s.scans), class_map=lut, **opts) for s in test_sets]
     t_read = time.perf_counter() - t0
-    needs_features = model != "majority" and model != "neural"
+    needs_features = model not in ("majority", "neural", "randla")
     t1 = time.perf_counter()
     if needs_features:
         _ = train_pts.features
@@ -234,7 +237,7 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     upper_inst = [instances.scan_instances(x, t, params=cluster) for x, t in zip(xyz, truth)]
     pan_runs: list[dict[str, list]] = [{"model": [], "one per class": [], "true classes": []} for _ in test_sets]
     t_panoptic = time.perf_counter() - t_pan
-    rounds, t_train, t_pred = [], [], []
+    rounds, t_train, t_pred, curves = [], [], [], []
     for seed in seeds:
         m = make_model(model, n_classes, params)
         t2 = time.perf_counter()
@@ -242,6 +245,7 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
               init=init(seed) if init is not None else None, progress=progress)
         t_train.append(time.perf_counter() - t2)
         rounds.append(int(getattr(m, "rounds_used", 0)))
+        curves.append(list(getattr(m, "curve", [])))
         for j, (ts, tp) in enumerate(zip(test_sets, test_pts)):
             t3 = time.perf_counter()
             pred = m.predict(tp, threads=workers)
@@ -275,7 +279,8 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     result = EvalResult(model=model, seeds=seeds, train=tuple(s.spec for s in train_sets), tests=tuple(tests),
                         names=names, n_train_points=len(train_pts), rounds=tuple(rounds), cluster=cluster,
                         timings={"read_s": t_read, "features_s": t_features, "train_s": t_train,
-                                 "predict_s": t_pred, "panoptic_s": t_panoptic, "total_s": time.perf_counter() - t0},
+                                 "predict_s": t_pred, "panoptic_s": t_panoptic, "total_s": time.perf_counter() - t0,
+                                 **({"learning_curves": curves} if any(curves) else {})},
                         out=out_p)
     if out_p is not None and folder is not None:
         _write_json(out_p / "metrics.json", result.as_dict())
