@@ -6,7 +6,7 @@ protocols; the project's studies.
     genie eval --train DIR [DIR ...] --test DIR [DIR ...] [--model classical|height|majority|neural|randla]
                [--seeds 0,1,2] [--label-map FILE] --out OUT
     genie eval --preset mix|finetune|scarce --target-train DIR --target-test DIR --train SYNTHETIC ... --out OUT
-    genie eval --study strategy|sensor|accuracy|balance|models|mix|all --out OUT [--scenes 10 --test-scenes 4]
+    genie eval --study strategy|sensor|accuracy|balance|models|mix|costs|all --out OUT [--scenes 10 --test-scenes 4]
     genie eval --bench [--train DIR]      # training time of the classical model on ~1 M points
 
 A dataset is ``DIR`` or ``DIR:train|valid|test|00,03`` (sequences or scenes of it).
@@ -25,7 +25,7 @@ from ..limits import MAX_CAMERAS
 from . import count, counts
 
 log = logging.getLogger(__name__)
-STUDY_NAMES = ("strategy", "sensor", "accuracy", "balance", "models", "mix", "all")
+STUDY_NAMES = ("strategy", "sensor", "accuracy", "balance", "models", "mix", "costs", "all")
 # the names of genie_gl.eval.run.MODELS and genie_gl.eval.protocols.PRESETS, spelt here so that
 # `genie eval --help` imports no model (tests/eval/test_inputs.py checks they agree)
 MODELS = ("classical", "height", "majority", "neural", "randla")
