@@ -53,6 +53,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="study: held-out test scenes per condition (default 4)")
     p.add_argument("--cameras", type=count(1, MAX_CAMERAS), default=None, help="study: cameras per scene (default 16)")
     p.add_argument("--yes", action="store_true", help="study: do not stop after printing the time estimate")
+    p.add_argument("--steps", type=count(1, 10_000_000), default=None,
+                   help="training steps of the neural models (neural: 300, randla: 1500 by default)")
     p.add_argument("--bench", action="store_true", help="time the classical model's training on ~1 M points")
     p.add_argument("--no-progress", action="store_true")
 
@@ -78,12 +80,12 @@ def _seeds(value) -> list[int]:
 
 # the options of one way of running genie eval (given to another, they are refused, never ignored)
 MODES = {"study": ("scenes", "test_scenes", "cameras", "yes"), "preset": ("target_train", "target_test"),
-         "train/test": ("test", "label_map", "model", "seeds")}
+         "train/test": ("test", "label_map", "model", "seeds", "steps")}
 USED = {"bench": {"train", "workers", "out", "cache"},
         "study": {"scenes", "test_scenes", "cameras", "yes", "seeds", "workers", "out", "cache"},
         "preset": {"preset", "target_train", "target_test", "train", "model", "seeds", "workers", "label_map", "out",
-                   "cache"},
-        "train/test": {"train", "test", "model", "seeds", "label_map", "workers", "out", "cache"}}
+                   "cache", "steps"},
+        "train/test": {"train", "test", "model", "seeds", "label_map", "workers", "out", "cache", "steps"}}
 FLAG = {"test_scenes": "--test-scenes", "target_train": "--target-train", "target_test": "--target-test",
         "label_map": "--label-map"}
 
@@ -93,7 +95,7 @@ def check_mode(args: argparse.Namespace) -> str:
     does not use is refused in one line naming the way it belongs to."""
     mode = "bench" if args.bench else "study" if args.study else "preset" if args.preset else "train/test"
     for key in ("train", "test", "model", "seeds", "label_map", "scenes", "test_scenes", "cameras", "target_train",
-                "target_test", "cache", "preset"):
+                "target_test", "cache", "preset", "steps"):
         value = getattr(args, key, None)
         if value is None or key in USED[mode]:
             continue
@@ -107,6 +109,21 @@ def check_mode(args: argparse.Namespace) -> str:
     if args.label_map is not None and not Path(args.label_map).is_file():
         raise ConfigError(f"--label-map {args.label_map}: no such file (a YAML/JSON label map)")
     return mode
+
+
+def _params(model: str, steps: int | None):
+    """The model's parameters with ``--steps`` (None: the model's defaults)."""
+    if steps is None:
+        return None
+    if model == "neural":
+        from ..eval.neural import NeuralParams
+
+        return NeuralParams(steps=steps)
+    if model == "randla":
+        from ..eval.randla import RandLAParams
+
+        return RandLAParams(steps=steps)
+    raise ConfigError(f"--steps: the {model} model has no training steps; it is for --model neural or randla")
 
 
 def _cache(args: argparse.Namespace) -> Path:
@@ -133,6 +150,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.out:
         raise ConfigError("--out: required (the folder for metrics, predictions and pictures)")
     seeds = _seeds(args.seeds)
+    params = _params(model, getattr(args, "steps", None))
     if args.study:
         from ..studies.runner import run_study
 
@@ -154,11 +172,12 @@ def run(args: argparse.Namespace) -> int:
         if args.preset == "finetune":
             res = protocols.finetune(args.target_train, args.target_test, args.train, out=args.out, model=model,
                                      seeds=seeds, workers=args.workers, label_map=args.label_map,
-                                     cache=_cache(args) / "features", progress=progress)
+                                     cache=_cache(args) / "features", progress=progress, params=params)
         else:
             res = protocols.mix(args.target_train, args.target_test, args.train, out=args.out, model=model,
                                 seeds=seeds, scarce=args.preset == "scarce", workers=args.workers,
-                                label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
+                                label_map=args.label_map, cache=_cache(args) / "features", progress=progress,
+                                params=params)
         print(preset_markdown(args.preset, res, Path(args.out)))
         return 0
     if not args.train or not args.test:
@@ -166,7 +185,8 @@ def run(args: argparse.Namespace) -> int:
     from ..eval import evaluate
 
     result = evaluate(args.train, args.test, model=model, seeds=seeds, out=args.out, workers=args.workers,
-                      label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
+                      label_map=args.label_map, cache=_cache(args) / "features", progress=progress,
+                      params=params)
     for t in result.tests:
         s = t.summary
         extra = f"; never seen in training: {', '.join(result.names[c] for c in t.unseen)}" if t.unseen else ""

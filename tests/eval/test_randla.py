@@ -59,3 +59,15 @@ def test_randla_learns_is_reproducible_and_records_its_curve(toy, tmp_path):
     curve = runs[0].timings["learning_curves"][0]
     assert [c["step"] for c in curve] == [25, 50]
     assert all(0 <= c["val_miou"] <= 1 and c["seconds"] > 0 and c["epoch"] > 0 for c in curve)
+
+
+def test_steps_on_the_command_line(tmp_path, capsys):
+    from genie_gl.cli import main
+    from genie_gl.commands.eval import _params
+
+    assert _params("randla", 7) == RandLAParams(steps=7) and _params("neural", 9).steps == 9
+    assert _params("classical", None) is None
+    root = make_set(tmp_path / "s", scenes=1, seed=0, points=500)
+    assert main(["eval", "--train", str(root), "--test", str(root), "--steps", "5", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--steps: the classical model has no training steps" in err[0]
