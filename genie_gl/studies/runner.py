@@ -162,7 +162,8 @@ def run_training(t: Training, c: Context) -> dict:
 def _costs_study(c: Context, confirm: bool) -> str:
     from .costs import costs_markdown, time_effects
 
-    head = f"study costs: each {PROFILE} effect timed alone on {c.cameras} frames, 5 times (~{c.cameras / 2:.0f} min)"
+    head = (f"study costs: each {PROFILE} effect timed alone on {c.cameras} frames, 5 times "
+            f"(~{c.cameras * 6 * 5 * 0.1 / 60:.0f}-{c.cameras * 6 * 5 * 0.5 / 60:.0f} min on 2 cores)")
     print(head, flush=True)
     if not confirm:
         return head + "\n(run again with --yes to start)"
