@@ -161,17 +161,20 @@ def balance_study(c: Any, results: dict) -> str:
 
 def models_study(c: Any, results: dict) -> str:
     cl = _test(results[f"sensor-{PROFILE}"][1], 1)
-    ne = _test(results["models-neural"][1])
-    a, b = spread(cl["summary"]["miou"]), spread(ne["summary"]["miou"])
+    a = spread(cl["summary"]["miou"])
+    rows = [["classical (LightGBM)", a.text(), spread(cl["summary"]["macc"]).text(),
+             spread(cl["summary"]["oa"]).text(), "—"]]
+    bars = {"classical": _summary_spreads(cl)}
+    for key, label in (("models-neural", "neural (DGCNN-style)"), ("models-randla", "RandLA-Net")):
+        ne = _test(results[key][1])
+        b = spread(ne["summary"]["miou"])
+        rows.append([label, b.text(), spread(ne["summary"]["macc"]).text(), spread(ne["summary"]["oa"]).text(),
+                     delta_text(b, a)])
+        bars[label] = _summary_spreads(ne)
     md = _header("Neural against classical on the same split (assembly line, D435)", c,
                  "genie eval --study models --out out/studies --yes")
-    md += table(["model", "mIoU", "mAcc", "OA", "neural − classical"],
-                [["classical (LightGBM)", a.text(), spread(cl["summary"]["macc"]).text(),
-                  spread(cl["summary"]["oa"]).text(), "—"],
-                 ["neural (DGCNN-style)", b.text(), spread(ne["summary"]["macc"]).text(),
-                  spread(ne["summary"]["oa"]).text(), delta_text(b, a)]])
-    p = iou_bars_png({"classical": _summary_spreads(cl), "neural": _summary_spreads(ne)}, CLASSES,
-                     c.out / "models.iou.png", title="IoU per class: classical against neural")
+    md += table(["model", "mIoU", "mAcc", "OA", "model − classical"], rows)
+    p = iou_bars_png(bars, CLASSES, c.out / "models.iou.png", title="IoU per class: classical against the neural models")
     md += f"\n![models]({p.name})\n"
     return md
 
