@@ -8,9 +8,10 @@ folder::
 
     OUT/metrics.json        per seed and summarised (mean, std, min, max): mIoU, mAcc, OA, per
                             class IoU and Acc, confusion matrices; the same bytes for the same inputs
-    OUT/timings.json        seconds of each step (not in metrics.json: they vary run to run)
+    OUT/timings.json        seconds of each step, and a neural model's learning curves (not in
+                            metrics.json: they vary run to run)
     OUT/report.md           the tables
-    OUT/predictions/seed<S>/<test>/...   the .label files
+    OUT/predictions/seed<S>/<test>/...   the .label files (class and instance id)
     OUT/<test>.confusion.png, OUT/<test>.iou.png
 """
 from __future__ import annotations

@@ -30,6 +30,7 @@ from ..eval import evaluate
 from ..outputs import atomic_write_text, claim_folder
 from . import datasets as ds
 from . import report
+from .costs import costs_markdown, time_effects
 from .datasets import PROFILE, SENSORS, STRATEGIES, TARGET, DataSpec
 
 log = logging.getLogger(__name__)
@@ -163,8 +164,6 @@ def run_training(t: Training, c: Context) -> dict:
 
 
 def _costs_study(c: Context, confirm: bool) -> str:
-    from .costs import costs_markdown, time_effects
-
     head = (f"study costs: each {PROFILE} effect timed alone on {c.cameras} frames, 5 times "
             f"(~{c.cameras * 6 * 5 * 0.1 / 60:.0f}-{c.cameras * 6 * 5 * 0.5 / 60:.0f} min on 2 cores)")
     print(head, flush=True)
