@@ -33,6 +33,7 @@ def test_a_skipped_effect_reads_as_skipped_and_a_partly_skipped_one_says_so():
 
 
 @pytest.mark.slow
+@pytest.mark.gl
 def test_time_effects_times_each_effect_of_the_profile_on_real_frames():
     r = time_effects("realsense_d435", "assembly_line", frames=2, repeats=2)
     assert list(r["effects"]) == ["range", "stereo_shadow", "specular_loss", "depth_noise"]
