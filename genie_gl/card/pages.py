@@ -56,6 +56,8 @@ def _verdict(j: Judgement | None, unit: str) -> tuple[str, str]:
         return "", ""
     if j.verdict == "not measured":
         return "–", "not measured"
+    if j.distance_m is None:   # by construction or not modelled, with nothing measured under the figure
+        return "–", j.verdict
     at = f" (at {j.distance_m:g} m)"
     return f"{_num(j.ours)} {unit}{at}", j.verdict
 

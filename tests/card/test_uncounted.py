@@ -58,3 +58,17 @@ def test_a_profile_parameter_the_profile_lacks_is_refused():
         qualify(f, judge(f, [_m("subpixel_rms_px", 0.07)]), gg.load_sensor("realsense_d435"), "ref.yml")
     with pytest.raises(ConfigError, match=r"profile_parameter"):
         _refs("realsense_d435", profile_parameter="subpixel")   # effect.parameter expected
+
+
+def test_the_card_shows_the_uncounted_verdicts_with_their_reason():
+    from genie_gl.card.pages import card_markdown
+
+    sensor = gg.load_sensor("realsense_d435")
+    refs = load_references("realsense_d435")
+    measured = [_m("subpixel_rms_px", 0.0775, 1.0), _m("bias_mm", 0.07, 1.0), _m("plane_fit_rms_mm", 3.6)]
+    comps = tuple(Comparison(f, qualify(f, judge(f, measured), sensor)) for f in refs.figures)
+    md = card_markdown(ReportCard("realsense_d435", "p", CardSettings(), (), refs.path, comps))
+    row = next(x for x in md.splitlines() if x.startswith("| subpixel_rms_px") and "intel_grunnet_3904" in x)
+    assert "**by construction** (the profile's depth_noise.subpixel = 0.08" in row
+    assert "**not modelled** (no effect of the profile moves the mean depth" in md
+    assert "so are 1 read by construction and 1 not modelled" in md
