@@ -56,6 +56,8 @@ def _verdict(j: Judgement | None, unit: str) -> tuple[str, str]:
         return "", ""
     if j.verdict == "not measured":
         return "–", "not measured"
+    if j.distance_m is None:   # by construction or not modelled, with nothing measured under the figure
+        return "–", j.verdict
     at = f" (at {j.distance_m:g} m)"
     return f"{_num(j.ours)} {unit}{at}", j.verdict
 
@@ -76,8 +78,9 @@ def card_markdown(card: ReportCard, heading: str = "##") -> str:
             unit = METRICS[f.metric][1]
             ours, verdict = _verdict(c.sim, unit)
             tag = f.source.verification + ("" if f.counted else ", not counted")
+            why = f" ({c.sim.why})" if c.sim.why else ""
             row = (f"| {f.metric} | {_condition(f)} | {_published(f)} | {f.source.key} ({tag}) | {ours} | "
-                   f"**{verdict}** |")
+                   f"**{verdict}**{why} |")
             if yours:
                 y, yv = _verdict(c.captures, unit)
                 row += f" {y} | {yv} |"
@@ -85,7 +88,8 @@ def card_markdown(card: ReportCard, heading: str = "##") -> str:
         n = card.counts()
         lines += ["", f"Counted figures: {n['pass']} pass, {n['differs']} differ, {n['not measured']} not measured "
                       "(only figures read in their source count; secondary and unverified ones are shown, "
-                      "not counted)."]
+                      f"not counted; so are {n['by construction']} read by construction and {n['not modelled']} "
+                      "not modelled, which the profile could not have failed)."]
     else:
         lines.append("No reference file: nothing to compare against.")
     lines += ["", f"{heading} Measured", ""]

@@ -29,6 +29,12 @@ source itself, ``secondary`` (quoted by someone else; the source itself not read
 ``unverified`` (a figure to confirm). The card shows every figure and counts only the ones
 read in their source.
 
+``profile_parameter`` (``effect.parameter``, e.g. ``depth_noise.subpixel``) names a parameter of
+the profile that was itself taken from the figure's sentence: ours then agrees by construction,
+and the card shows the figure as ``by construction``, not counted. A figure of a systematic error
+(:data:`SYSTEMATIC`) against a profile none of whose effects moves the mean depth
+(``Effect.systematic_error``) is shown as ``not modelled``, not counted.
+
 Unknown keys, metrics, sources or bounds are refused with the file and the key named.
 """
 from __future__ import annotations
@@ -64,6 +70,7 @@ METRICS: dict[str, tuple[str, str, str]] = {
     "banding_peak_ratio": ("wall", "x", "fullest sub-pixel disparity bin over the mean bin (stereo)"),
 }
 BOUNDS = ("max", "min", "max_abs", "value")
+SYSTEMATIC = ("bias_mm", "bias_pct", "z_accuracy_pct")   # metrics of a systematic (mean) depth error
 VERIFICATION = ("read", "secondary", "unverified")
 
 
@@ -92,6 +99,7 @@ class FigureSpec(_Strict):
     per_m: float = 0.0
     tolerance: float | None = Field(default=None, ge=0)
     tolerance_from: str | None = None
+    profile_parameter: str | None = Field(default=None, pattern=r"^[a-z_]+\.[a-z_0-9]+$")
     note: str | None = None
 
     @model_validator(mode="after")
@@ -145,6 +153,7 @@ class Figure:
     tolerance: float | None
     tolerance_from: str | None
     note: str | None
+    profile_parameter: str | None = None
 
     def limit(self, distance_m: float) -> float:
         """The figure's value at ``distance_m`` (value + per_m * distance)."""
@@ -232,5 +241,5 @@ def parse_references(data: object, source: str = "<dict>") -> References:
                               "panel material such as 'dark_15')")
         figures.append(Figure(f.metric, scene, f.bound, float(f.value), sources[f.source], f.quote, f.distance_m,
                               f.distance_range_m, float(f.angle_deg), f.part, float(f.per_m), f.tolerance,
-                              f.tolerance_from, f.note))
+                              f.tolerance_from, f.note, f.profile_parameter))
     return References(source, spec.sensor, sources, tuple(figures))

@@ -3,12 +3,15 @@ the published figures of its reference file (:mod:`genie_gl.card.references`) be
 
 :func:`report_card` measures the profile (and a user's captures, when given) and judges every
 figure: ``pass`` when every measurement under it agrees, ``differs`` otherwise, ``not
-measured`` when none falls under it; the worst case is reported.
+measured`` when none falls under it; the worst case is reported. Two verdicts are shown and
+never counted, because the profile could not have failed them: ``by construction`` (the figure
+names the profile parameter taken from its own sentence) and ``not modelled`` (a systematic
+error the profile has no effect for: its measured bias is the noise's, not a model's).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from typing import Any, Iterable
 
 from ..errors import ConfigError, RenderError
@@ -16,7 +19,9 @@ from ..sensors.camera import Sensor
 from ..sensors.profile import load_sensor
 from .captures import measure_captures
 from .measurements import CardSettings, Measurement, measure
-from .references import Figure, References, load_references, reference_path
+from .references import SYSTEMATIC, Figure, References, load_references, reference_path
+
+UNCOUNTED = ("by construction", "not modelled")   # verdicts shown beside a figure, never counted
 
 
 @dataclass(frozen=True)
@@ -29,6 +34,7 @@ class Judgement:
     ours: float | None
     limit: float | None
     verdict: str
+    why: str | None = None      # for a verdict in UNCOUNTED: the reason
 
 
 @dataclass(frozen=True)
@@ -57,8 +63,9 @@ class ReportCard:
     capture_source: str | None = None
 
     def counts(self) -> dict[str, int]:
-        """Verdicts of the counted figures (read in their source): pass, differs, not measured."""
-        out = {"pass": 0, "differs": 0, "not measured": 0}
+        """Verdicts of the figures read in their source: pass, differs, not measured (the counted
+        ones), and by construction, not modelled (read, shown, not counted)."""
+        out = {"pass": 0, "differs": 0, "not measured": 0, "by construction": 0, "not modelled": 0}
         for c in self.comparisons:
             if c.figure.counted:
                 out[c.sim.verdict] += 1
@@ -111,6 +118,32 @@ def judge(figure: Figure, measured: Iterable[Measurement]) -> Judgement:
     return Judgement(m.distance_m, m.value, figure.limit(m.distance_m), "pass" if ok else "differs")
 
 
+def profile_value(sensor: Sensor, parameter: str, where: str) -> Any:
+    """The value of ``effect.parameter`` in the sensor's effects (the first effect of that
+    type); a parameter the profile does not have is one ConfigError naming ``where``."""
+    effect, _, name = parameter.partition(".")
+    for e in sensor.effects:
+        if e.name == effect and name in {f.name for f in fields(e)}:
+            return getattr(e, name)
+    have = ", ".join(e.name for e in sensor.effects) or "none"
+    raise ConfigError(f"{where}: profile_parameter {parameter!r}: the profile {sensor.name} has no such effect "
+                      f"parameter (its effects: {have})")
+
+
+def qualify(figure: Figure, j: Judgement, sensor: Sensor, where: str = "reference file") -> Judgement:
+    """The judgement of the simulated profile, made ``by construction`` or ``not modelled``
+    where the profile could not have failed the figure (see the module's docstring)."""
+    if figure.profile_parameter:
+        value = profile_value(sensor, figure.profile_parameter, where)
+        return replace(j, verdict="by construction",
+                       why=f"the profile's {figure.profile_parameter} = {value:g} comes from this figure's own "
+                           f"sentence ({figure.source.key})")
+    if figure.metric in SYSTEMATIC and not any(getattr(e, "systematic_error", False) for e in sensor.effects):
+        return replace(j, verdict="not modelled",
+                       why="no effect of the profile moves the mean depth: its bias is the noise's, not a model's")
+    return j
+
+
 def report_card(sensor: Sensor | str, *, settings: CardSettings | None = None, seed: int | None = None,
                 references: References | str | None = "shipped", captures: Any = None,
                 context: Any = None) -> ReportCard:
@@ -149,11 +182,12 @@ def report_card(sensor: Sensor | str, *, settings: CardSettings | None = None, s
     if captures is not None:
 
         yours = measure_captures(captures, roi_fraction=settings.roi_fraction)
-    comps = tuple(Comparison(f, judge(f, sim), judge(f, yours) if captures is not None else None)
+    comps = tuple(Comparison(f, qualify(f, judge(f, sim), sensor, refs.path if refs is not None else ""),
+                             judge(f, yours) if captures is not None else None)
                   for f in (refs.figures if refs is not None else ()))
     return ReportCard(sensor.name, str(sensor.profile or sensor.calibration or ""), settings,
                       tuple(sim), None if refs is None else refs.path, comps, tuple(yours),
                       None if captures is None else captures.source)
 
 
-__all__ = ["CardSettings", "Comparison", "Judgement", "Measurement", "ReportCard", "judge", "report_card"]
+__all__ = ["CardSettings", "Comparison", "Judgement", "Measurement", "ReportCard", "judge", "qualify", "report_card"]

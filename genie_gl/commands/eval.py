@@ -3,10 +3,10 @@ protocols; the project's studies.
 
 ::
 
-    genie eval --train DIR [DIR ...] --test DIR [DIR ...] [--model classical|height|majority|neural]
+    genie eval --train DIR [DIR ...] --test DIR [DIR ...] [--model classical|height|majority|neural|randla]
                [--seeds 0,1,2] [--label-map FILE] --out OUT
     genie eval --preset mix|finetune|scarce --target-train DIR --target-test DIR --train SYNTHETIC ... --out OUT
-    genie eval --study strategy|sensor|accuracy|balance|models|mix|all --out OUT [--scenes 10 --test-scenes 4]
+    genie eval --study strategy|sensor|accuracy|balance|models|mix|costs|all --out OUT [--scenes 10 --test-scenes 4]
     genie eval --bench [--train DIR]      # training time of the classical model on ~1 M points
 
 A dataset is ``DIR`` or ``DIR:train|valid|test|00,03`` (sequences or scenes of it).
@@ -25,10 +25,10 @@ from ..limits import MAX_CAMERAS
 from . import count, counts
 
 log = logging.getLogger(__name__)
-STUDY_NAMES = ("strategy", "sensor", "accuracy", "balance", "models", "mix", "all")
+STUDY_NAMES = ("strategy", "sensor", "accuracy", "balance", "models", "mix", "costs", "all")
 # the names of genie_gl.eval.run.MODELS and genie_gl.eval.protocols.PRESETS, spelt here so that
 # `genie eval --help` imports no model (tests/eval/test_inputs.py checks they agree)
-MODELS = ("classical", "height", "majority", "neural")
+MODELS = ("classical", "height", "majority", "neural", "randla")
 PRESETS = ("mix", "finetune", "scarce")
 
 
@@ -57,6 +57,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="study: held-out test scenes per condition (default 4)")
     p.add_argument("--cameras", type=count(1, MAX_CAMERAS), default=None, help="study: cameras per scene (default 16)")
     p.add_argument("--yes", action="store_true", help="study: do not stop after printing the time estimate")
+    p.add_argument("--steps", type=count(1, 10_000_000), default=None,
+                   help="training steps of the neural models (neural: 300, randla: 1500 by default)")
     p.add_argument("--bench", action="store_true", help="time the classical model's training on ~1 M points")
     p.add_argument("--no-progress", action="store_true")
 
@@ -82,12 +84,13 @@ def _seeds(value) -> list[int]:
 
 # the options of one way of running genie eval (given to another, they are refused, never ignored)
 MODES = {"study": ("scenes", "test_scenes", "cameras", "yes"), "preset": ("target_train", "target_test"),
-         "train/test": ("test", "label_map", "model", "seeds", "allow_overlap")}
+         "train/test": ("test", "label_map", "model", "seeds", "allow_overlap", "steps")}
 USED = {"bench": {"train", "workers", "out", "cache"},
         "study": {"scenes", "test_scenes", "cameras", "yes", "seeds", "workers", "out", "cache"},
         "preset": {"preset", "target_train", "target_test", "train", "model", "seeds", "workers", "label_map", "out",
-                   "cache"},
-        "train/test": {"train", "test", "model", "seeds", "label_map", "workers", "out", "cache", "allow_overlap"}}
+                   "cache", "steps"},
+        "train/test": {"train", "test", "model", "seeds", "label_map", "workers", "out", "cache", "allow_overlap",
+                       "steps"}}
 FLAG = {"test_scenes": "--test-scenes", "target_train": "--target-train", "target_test": "--target-test",
         "label_map": "--label-map", "allow_overlap": "--allow-overlap"}
 
@@ -97,7 +100,7 @@ def check_mode(args: argparse.Namespace) -> str:
     does not use is refused in one line naming the way it belongs to."""
     mode = "bench" if args.bench else "study" if args.study else "preset" if args.preset else "train/test"
     for key in ("train", "test", "model", "seeds", "label_map", "scenes", "test_scenes", "cameras", "target_train",
-                "target_test", "cache", "preset", "allow_overlap"):
+                "target_test", "cache", "preset", "allow_overlap", "steps"):
         value = getattr(args, key, None)
         if value is None or value is False or key in USED[mode]:
             continue
@@ -111,6 +114,21 @@ def check_mode(args: argparse.Namespace) -> str:
     if args.label_map is not None and not Path(args.label_map).is_file():
         raise ConfigError(f"--label-map {args.label_map}: no such file (a YAML/JSON label map)")
     return mode
+
+
+def _params(model: str, steps: int | None):
+    """The model's parameters with ``--steps`` (None: the model's defaults)."""
+    if steps is None:
+        return None
+    if model == "neural":
+        from ..eval.neural import NeuralParams
+
+        return NeuralParams(steps=steps)
+    if model == "randla":
+        from ..eval.randla import RandLAParams
+
+        return RandLAParams(steps=steps)
+    raise ConfigError(f"--steps: the {model} model has no training steps; it is for --model neural or randla")
 
 
 def _cache(args: argparse.Namespace) -> Path:
@@ -139,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.out:
         raise ConfigError("--out: required (the folder for metrics, predictions and pictures)")
     seeds = _seeds(args.seeds)
+    params = _params(model, getattr(args, "steps", None))
     if args.study:
         from ..studies.runner import run_study
 
@@ -160,11 +179,12 @@ def run(args: argparse.Namespace) -> int:
             if args.preset == "finetune":
                 res = protocols.finetune(args.target_train, args.target_test, args.train, out=args.out, model=model,
                                          seeds=seeds, workers=args.workers, label_map=args.label_map,
-                                         cache=_cache(args) / "features", progress=progress)
+                                         cache=_cache(args) / "features", progress=progress, params=params)
             else:
                 res = protocols.mix(args.target_train, args.target_test, args.train, out=args.out, model=model,
                                     seeds=seeds, scarce=args.preset == "scarce", workers=args.workers,
-                                    label_map=args.label_map, cache=_cache(args) / "features", progress=progress)
+                                    label_map=args.label_map, cache=_cache(args) / "features", progress=progress,
+                                    params=params)
         except BaseException:   # a failed run leaves a manifest of what exists (no folder, if it made one)
             folder.abandon()
             raise
@@ -180,7 +200,7 @@ def run(args: argparse.Namespace) -> int:
 
     result = evaluate(args.train, args.test, model=model, seeds=seeds, out=args.out, workers=args.workers,
                       label_map=args.label_map, cache=_cache(args) / "features", progress=progress,
-                      allow_overlap=args.allow_overlap)
+                      allow_overlap=args.allow_overlap, params=params)
     for t in result.tests:
         s = t.summary
         extra = f"; never seen in training: {', '.join(result.names[c] for c in t.unseen)}" if t.unseen else ""

@@ -7,8 +7,9 @@ field's evaluator (semantic-kitti-api: ``auxiliary.np_ioueval.iouEval``, its
   classes written as the smallest raw id the label map sends to it);
 - a PLY or NPZ set: ``OUT/scenes/NNNN/cloud_XXX.label`` beside each cloud's name.
 
-Each file is ``uint32`` little-endian, one per point in the scan's order, the instance half 0,
-written to a temporary name and renamed.
+Each file is ``uint32`` little-endian, one per point in the scan's order, ``(instance << 16) |
+class`` (the instance half 0 when no instance ids are given), written to a temporary name and
+renamed.
 """
 from __future__ import annotations
 
@@ -30,8 +31,10 @@ def label_path(out: Path, key: str, fmt: str) -> Path:
     return out / "/".join(parts[:-1]) / f"{parts[-1]}.label"
 
 
-def write(test: EvalSet, pred: np.ndarray, out: str | os.PathLike) -> list[Path]:
-    """Write ``pred`` ((test.n_points,) our class ids, scans in order) as ``.label`` files.
+def write(test: EvalSet, pred: np.ndarray, out: str | os.PathLike,
+          instances: Sequence[np.ndarray] | None = None) -> list[Path]:
+    """Write ``pred`` ((test.n_points,) our class ids, scans in order) as ``.label`` files,
+    with ``instances`` (one (N_i,) array of ids below 2**16 per scan) in the upper half.
 
     Returns the paths, in scan order.
     """
@@ -40,10 +43,12 @@ def write(test: EvalSet, pred: np.ndarray, out: str | os.PathLike) -> list[Path]
     if pred.size and int(pred.max()) >= len(inverse):
         inverse = np.concatenate([inverse, np.arange(len(inverse), int(pred.max()) + 1, dtype=np.uint32)])
     paths, start = [], 0
-    for scan in test.scans:
+    for i, scan in enumerate(test.scans):
         p = pred[start:start + len(scan)]
         start += len(scan)
         raw = inverse[p.astype(np.int64)].astype("<u4")
+        if instances is not None:
+            raw = raw | (np.asarray(instances[i]).astype("<u4") << 16)
         paths.append(atomic_write_bytes(label_path(out, scan.key, test.format), raw.tobytes()))
     return paths
 

@@ -8,9 +8,10 @@ folder::
 
     OUT/metrics.json        per seed and summarised (mean, std, min, max): mIoU, mAcc, OA, per
                             class IoU and Acc, confusion matrices; the same bytes for the same inputs
-    OUT/timings.json        seconds of each step (not in metrics.json: they vary run to run)
+    OUT/timings.json        seconds of each step, and a neural model's learning curves (not in
+                            metrics.json: they vary run to run)
     OUT/report.md           the tables
-    OUT/predictions/seed<S>/<test>/...   the .label files
+    OUT/predictions/seed<S>/<test>/...   the .label files (class and instance id)
     OUT/<test>.confusion.png, OUT/<test>.iou.png
 """
 from __future__ import annotations
@@ -31,17 +32,18 @@ import numpy as np
 from .. import labels as label_names
 from ..outputs import atomic_write_text, claim_folder
 from ..errors import ConfigError, did_you_mean
-from . import metrics, predictions
+from . import instances, metrics, panoptic, predictions
 from .classical import BoostParams, ClassicalModel, HeightModel, MajorityModel
 from .data import EvalSet, read_set
 from .features import PointTable
 from .labelmap import check_same_classes
 from .neural import NeuralModel, NeuralParams
+from .randla import RandLAModel, RandLAParams
 from .plots import confusion_png, iou_bars_png
 from .report import result_markdown
 
 log = logging.getLogger(__name__)
-MODELS = ("classical", "height", "majority", "neural")
+MODELS = ("classical", "height", "majority", "neural", "randla")
 
 
 def make_model(name: str, n_classes: int, params: Any = None) -> Any:
@@ -54,6 +56,8 @@ def make_model(name: str, n_classes: int, params: Any = None) -> Any:
         return MajorityModel(n_classes)
     if name == "neural":
         return NeuralModel(n_classes, params or NeuralParams())
+    if name == "randla":
+        return RandLAModel(n_classes, params or RandLAParams())
     raise ConfigError(f"--model {name!r}: unknown{did_you_mean(name, MODELS)}; expected one of {', '.join(MODELS)}")
 
 
@@ -67,6 +71,7 @@ class TestResult:
     summary: dict
     unseen: tuple[int, ...]          # test classes no training point had
     n_points: int
+    panoptic: dict = field(default_factory=dict)   # {"model" | "one per class": summary, "true classes": summary}
 
 
 @dataclass(frozen=True)
@@ -80,6 +85,7 @@ class EvalResult:
     names: dict[int, str]
     n_train_points: int
     rounds: tuple[int, ...] = ()
+    cluster: Any = None              # the instance model's settings (instances.ClusterParams)
     timings: dict = field(default_factory=dict)
     out: Path | None = None
 
@@ -98,12 +104,22 @@ class EvalResult:
                     "confusion_summed": summary["confusion"].tolist()}
         return {"model": self.model, "seeds": list(self.seeds), "train": list(self.train),
                 "n_train_points": self.n_train_points, "rounds": list(self.rounds),
+                "cluster": None if self.cluster is None else
+                {"min_samples": self.cluster.min_samples, "eps_m": self.cluster.eps_m,
+                 "eps_m_by_class": {self.names.get(c, f"class_{c}"): e for c, e in self.cluster.eps_by_class}},
                 "classes": {str(k): v for k, v in sorted(self.names.items())},
                 "tests": [{"spec": t.spec, "name": t.name, "points": t.n_points,
                            "unseen_classes": [self.names.get(c, f"class_{c}") for c in t.unseen],
                            "summary": spread_dict(t.summary),
+                           "panoptic": {k: panoptic.spread_dict(v, self.names) for k, v in t.panoptic.items()},
                            "runs": [dict(seed=s, **r.as_dict(self.names)) for s, r in zip(self.seeds, t.runs)]}
                           for t in self.tests]}
+
+
+def _per_scan(values: np.ndarray, test: EvalSet) -> list[np.ndarray]:
+    """A test table's per-point array cut into its scans (in scan order)."""
+    ends = np.cumsum([len(s) for s in test.scans])
+    return np.split(np.asarray(values), ends[:-1])
 
 
 def set_name(spec: str) -> str:
@@ -136,13 +152,14 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
              workers: int = 1, label_map: str | os.PathLike | None = None, cache: str | os.PathLike | None = None,
              progress: bool = False, class_map: dict[int, int] | None = None,
              eval_classes: Sequence[int] | None = None, params: Any = None, init: Any = None,
-             write_predictions: bool = True, pictures: bool = True, allow_overlap: bool = False) -> EvalResult:
+             write_predictions: bool = True, pictures: bool = True, allow_overlap: bool = False,
+             cluster: instances.ClusterParams | None = None) -> EvalResult:
     """Train ``model`` on ``train`` and test it on each of ``test``, once per seed.
 
     Parameters
     ----------
     train, test : sequences of dataset specs (``DIR``, ``DIR:test``, ...) or read sets
-    model : ``classical`` | ``height`` | ``majority`` | ``neural``
+    model : ``classical`` | ``height`` | ``majority`` | ``neural`` | ``randla``
     seeds : at least one; three or more give a spread
     out : folder for metrics, predictions and pictures (None: nothing written)
     workers : processes for features, threads for the classifier; the results do not depend on it
@@ -155,6 +172,10 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     init : a function ``seed -> trained model`` to go on training from (fine-tuning)
     allow_overlap : test on scans that are training scans too (refused by default: the same
         file, or the same points read from another file)
+    cluster : the instance model's DBSCAN settings (:mod:`.instances`; None: tuned on the
+        training scans' true classes and instances, :func:`.instances.tune`); the panoptic figures
+        (:mod:`.panoptic`) of the model, of one instance per class, and of the true classes
+        clustered, are in each test's ``panoptic``
 
     Returns
     -------
@@ -193,7 +214,7 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
         return _evaluate(train_sets, test_sets, model=model, seeds=seeds, out=out, workers=workers,
                          label_map=label_map, cache=cache, progress=progress, class_map=class_map,
                          eval_classes=eval_classes, params=params, init=init, write_predictions=write_predictions,
-                         pictures=pictures, folder=folder, begun=begun, t0=t0)
+                         pictures=pictures, cluster=cluster, folder=folder, begun=begun, t0=t0)
     except BaseException:
         if folder is not None:   # a failed run leaves no partial output and a manifest of what exists
             folder.abandon(begun)
@@ -228,7 +249,7 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
               out: str | os.PathLike | None, workers: int, label_map: str | os.PathLike | None,
               cache: str | os.PathLike | None, progress: bool, class_map: dict[int, int] | None,
               eval_classes: Sequence[int] | None, params: Any, init: Any, write_predictions: bool, pictures: bool,
-              folder: Any, begun: list[str], t0: float) -> EvalResult:
+              cluster: instances.ClusterParams | None, folder: Any, begun: list[str], t0: float) -> EvalResult:
     """:func:`evaluate` once its inputs are read; ``begun`` collects the outputs it starts writing."""
     everything = train_sets + test_sets
     names = dict(label_names.CLASSES)
@@ -256,7 +277,7 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
         for c in np.unique(labels[labels >= 0]).tolist():                 # set's own id): named by its id
             names.setdefault(int(c), f"class {c}")
     t_read = time.perf_counter() - t0
-    needs_features = model != "majority" and model != "neural"
+    needs_features = model not in ("majority", "neural", "randla")
     t1 = time.perf_counter()
     if needs_features:
         _ = train_pts.features
@@ -265,7 +286,20 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
     t_features = time.perf_counter() - t1
     out_p = Path(out) if out is not None else None
     runs: list[list[metrics.Scores]] = [[] for _ in test_sets]
-    rounds, t_train, t_pred = [], [], []
+    # panoptic: the truth per scan, and the true classes clustered (what the clustering alone loses)
+    t_pan = time.perf_counter()
+    if cluster is None:
+        train_scans = [sc for ts in train_sets for sc in ts.scans]
+        cluster = instances.tune([sc.xyz for sc in train_scans],
+                                 np.split(train_pts.labels, np.cumsum([len(sc) for sc in train_scans])[:-1]),
+                                 [i for ts in train_sets for i in panoptic.truth_instances(ts)], n_classes)
+    truth = [_per_scan(tp.labels, ts) for ts, tp in zip(test_sets, test_pts)]
+    truth_inst = [panoptic.truth_instances(ts) for ts in test_sets]
+    xyz = [[s.xyz for s in ts.scans] for ts in test_sets]
+    upper_inst = [instances.scan_instances(x, t, params=cluster) for x, t in zip(xyz, truth)]
+    pan_runs: list[dict[str, list]] = [{"model": [], "one per class": [], "true classes": []} for _ in test_sets]
+    t_panoptic = time.perf_counter() - t_pan
+    rounds, t_train, t_pred, curves = [], [], [], []
     for seed in seeds:
         m = make_model(model, n_classes, params)
         t2 = time.perf_counter()
@@ -273,31 +307,46 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
               init=init(seed) if init is not None else None, progress=progress)
         t_train.append(time.perf_counter() - t2)
         rounds.append(int(getattr(m, "rounds_used", 0)))
+        curves.append(list(getattr(m, "curve", [])))
         for j, (ts, tp) in enumerate(zip(test_sets, test_pts)):
             t3 = time.perf_counter()
             pred = m.predict(tp, threads=workers)
             t_pred.append(time.perf_counter() - t3)
+            conf = metrics.confusion(tp.labels, pred, n_classes)
+            sc = metrics.scores(conf, eval_classes)
+            runs[j].append(sc)
+            t4 = time.perf_counter()
+            pred_scans = _per_scan(pred, ts)
+            inst = instances.scan_instances(xyz[j], pred_scans, params=cluster)
+            for key, (ps, pi) in {"model": (pred_scans, inst),
+                                  "one per class": (pred_scans, instances.scan_instances(xyz[j], pred_scans,
+                                                                                         "one_per_class")),
+                                  "true classes": (truth[j], upper_inst[j])}.items():
+                pan_runs[j][key].append(panoptic.evaluate_scans(truth[j], truth_inst[j], ps, pi, sc.classes,
+                                                                sc.iou if key != "true classes" else
+                                                                np.where(np.isnan(sc.iou), np.nan, 1.0), n_classes))
+            t_panoptic += time.perf_counter() - t4
             if out_p is not None and write_predictions:
                 if "predictions" not in begun:   # a previous run's predictions go as a whole
                     begun.append("predictions")
                     if folder is not None:
                         folder.remove("predictions")
-                predictions.write(ts, pred, out_p / "predictions" / f"seed{seed}" / set_name(ts.spec))
-            conf = metrics.confusion(tp.labels, pred, n_classes)
-            runs[j].append(metrics.scores(conf, eval_classes))
+                predictions.write(ts, pred, out_p / "predictions" / f"seed{seed}" / set_name(ts.spec), inst)
     tests = []
-    for ts, tp, r in zip(test_sets, test_pts, runs):
+    for ts, tp, r, pr in zip(test_sets, test_pts, runs, pan_runs):
         present = set(np.unique(tp.labels[tp.labels >= 0]).tolist())
         unseen = tuple(sorted(present - seen))
         if unseen:
             log.warning("%s: test classes never seen in training: %s (scored, IoU 0 unless predicted)", ts.spec,
                         ", ".join(names.get(c, str(c)) for c in unseen))
         tests.append(TestResult(spec=ts.spec, name=set_name(ts.spec), runs=tuple(r),
-                                summary=metrics.summarise(r), unseen=unseen, n_points=len(tp)))
+                                summary=metrics.summarise(r), unseen=unseen, n_points=len(tp),
+                                panoptic={k: panoptic.summarise(v) for k, v in pr.items()}))
     result = EvalResult(model=model, seeds=seeds, train=tuple(s.spec for s in train_sets), tests=tuple(tests),
-                        names=names, n_train_points=len(train_pts), rounds=tuple(rounds),
+                        names=names, n_train_points=len(train_pts), rounds=tuple(rounds), cluster=cluster,
                         timings={"read_s": t_read, "features_s": t_features, "train_s": t_train,
-                                 "predict_s": t_pred, "total_s": time.perf_counter() - t0},
+                                 "predict_s": t_pred, "panoptic_s": t_panoptic, "total_s": time.perf_counter() - t0,
+                                 **({"learning_curves": curves} if any(curves) else {})},
                         out=out_p)
     if out_p is not None and folder is not None:
         begun.extend(["metrics.json", "timings.json", "report.md"])

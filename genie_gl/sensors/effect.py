@@ -83,7 +83,8 @@ class Effect:
     this machine class (llvmpipe host). ``accuracy_knobs`` maps the fields of
     :class:`~genie_gl.sensors.accuracy.AccuracySettings` that set one of the effect's
     parameters to that parameter (the capture applies them; ``genie bench accuracy`` turns
-    them); :meth:`knob_unused` says when one changes nothing.
+    them); :meth:`knob_unused` says when one changes nothing. ``systematic_error``: the effect
+    moves the mean depth of a flat surface (a bias the report card can judge), not only its spread.
     """
 
     name: ClassVar[str] = ""
@@ -93,6 +94,7 @@ class Effect:
     needs_materials: ClassVar[bool] = False
     needs_convexity: ClassVar[bool] = False
     cost_ms_per_mpx: ClassVar[float] = 10.0
+    systematic_error: ClassVar[bool] = False
     accuracy_knobs: ClassVar[Mapping[str, str]] = {}
 
     def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:

@@ -172,6 +172,7 @@ class Multipath(Effect):
     needs_convexity: ClassVar[bool] = True
     cost_ms_per_mpx: ClassVar[float] = 300.0
     bias_m: float = 0.01
+    systematic_error: ClassVar[bool] = True
     radius_px: int = 8
     min_offset_m: float = 0.01
 

@@ -165,6 +165,7 @@ class TofMultipath(Effect):
     """
 
     name: ClassVar[str] = "tof_multipath"
+    systematic_error: ClassVar[bool] = True   # indirect light lengthens the range of a wall near a floor
     needs_normals: ClassVar[bool] = True
     needs_materials: ClassVar[bool] = True
     needs_convexity: ClassVar[bool] = True

@@ -3,6 +3,7 @@ it). Every cell is mean ± std over the seeds; a difference is given with its sp
 gain or a loss only when it exceeds it (:func:`genie_gl.eval.metrics.compare`)."""
 from __future__ import annotations
 
+import json
 import os
 import time
 from pathlib import Path
@@ -15,6 +16,7 @@ from ..eval.report import table
 from ..labels import CLASSES
 from ..outputs import atomic_write_text
 from . import datasets as ds
+from .costs import cost_text
 from .datasets import PROFILE, SENSORS, STRATEGIES, data_cost
 
 
@@ -92,25 +94,47 @@ def sensor_study(c: Any, results: dict) -> str:
     return md
 
 
+def _costs(c: Any) -> tuple[dict | None, str]:
+    """The dedicated timing run (``OUT/costs.json`` of ``--study costs``) and the cost column's
+    heading; without one, the training dataset's own per-frame milliseconds, said so."""
+    timed = c.out / "costs.json"
+    if timed.is_file():
+        r = json.loads(timed.read_text())
+        head = (f"its cost, ms per frame (timed alone, {r['date']}, load {r['load_before']:.1f}-{r['load_after']:.1f}: "
+                "costs.md)")
+        return r, head
+    return None, "its cost, ms per frame (the dataset run's manifest: no costs.json; run --study costs)"
+
+
 def accuracy_study(c: Any, results: dict) -> str:
     on = spread(_test(results[f"sensor-{PROFILE}"][1], 1)["summary"]["miou"])
+    timed, head = _costs(c)
     cost = data_cost(c.train("assembly_line", PROFILE), c.cache).get("capture", {})
     rows, labels, deltas, costs = [], [], [], []
     for e in ds.profile_effects(PROFILE):
         off = spread(_test(results[f"accuracy-no-{e}"][1])["summary"]["miou"])
-        ms = cost.get(f"effect:{e}", {}).get("per_frame_ms")
+        if timed is not None:
+            entry = timed["effects"].get(e)
+            ms = entry["ms_per_frame"] if entry and entry["ran_frames"] else None
+            cell = cost_text(entry)
+        else:
+            ms = cost.get(f"effect:{e}", {}).get("per_frame_ms")
+            cell = f"{ms:.1f}" if ms is not None else "—"
         d = on.mean - off.mean
-        rows.append([e, off.text(), on.text(), delta_text(on, off), f"{ms:.1f}" if ms is not None else "—"])
+        rows.append([e, off.text(), on.text(), delta_text(on, off), cell])
         labels.append(e)
         deltas.append((d, on.std + off.std))
         costs.append(ms)
     ideal = spread(_test(results["sensor-ideal_pinhole"][1], 1)["summary"]["miou"])
-    total = sum(v.get("per_frame_ms", 0.0) for k, v in cost.items() if k.startswith("effect:"))
+    if timed is not None:
+        total = timed["(full profile)"] - timed["(ideal render)"]
+    else:
+        total = sum(v.get("per_frame_ms", 0.0) for k, v in cost.items() if k.startswith("effect:"))
     rows.append(["every effect (ideal sensor)", ideal.text(), on.text(), delta_text(on, ideal), f"{total:.1f}"])
     md = _header(f"What accuracy buys: each {PROFILE} effect off and on, tested on full-profile data", c,
                  "genie eval --study accuracy --out out/studies --yes")
-    md += table(["effect", "mIoU trained without it", "mIoU trained with it (full profile)", "Δ (on − off)",
-                 "its cost, ms per frame"], rows)
+    md += table(["effect", "mIoU trained without it", "mIoU trained with it (full profile)", "Δ (on − off)", head],
+                rows)
     p = delta_bars_png(labels + ["all (ideal)"], deltas + [(on.mean - ideal.mean, on.std + ideal.std)],
                        costs + [total], c.out / "accuracy-buys.png",
                        title=f"ΔmIoU of training with each {PROFILE} effect, beside its cost")
@@ -137,17 +161,20 @@ def balance_study(c: Any, results: dict) -> str:
 
 def models_study(c: Any, results: dict) -> str:
     cl = _test(results[f"sensor-{PROFILE}"][1], 1)
-    ne = _test(results["models-neural"][1])
-    a, b = spread(cl["summary"]["miou"]), spread(ne["summary"]["miou"])
+    a = spread(cl["summary"]["miou"])
+    rows = [["classical (LightGBM)", a.text(), spread(cl["summary"]["macc"]).text(),
+             spread(cl["summary"]["oa"]).text(), "—"]]
+    bars = {"classical": _summary_spreads(cl)}
+    for key, label in (("models-neural", "neural (DGCNN-style)"), ("models-randla", "RandLA-Net")):
+        ne = _test(results[key][1])
+        b = spread(ne["summary"]["miou"])
+        rows.append([label, b.text(), spread(ne["summary"]["macc"]).text(), spread(ne["summary"]["oa"]).text(),
+                     delta_text(b, a)])
+        bars[label] = _summary_spreads(ne)
     md = _header("Neural against classical on the same split (assembly line, D435)", c,
                  "genie eval --study models --out out/studies --yes")
-    md += table(["model", "mIoU", "mAcc", "OA", "neural − classical"],
-                [["classical (LightGBM)", a.text(), spread(cl["summary"]["macc"]).text(),
-                  spread(cl["summary"]["oa"]).text(), "—"],
-                 ["neural (DGCNN-style)", b.text(), spread(ne["summary"]["macc"]).text(),
-                  spread(ne["summary"]["oa"]).text(), delta_text(b, a)]])
-    p = iou_bars_png({"classical": _summary_spreads(cl), "neural": _summary_spreads(ne)}, CLASSES,
-                     c.out / "models.iou.png", title="IoU per class: classical against neural")
+    md += table(["model", "mIoU", "mAcc", "OA", "model − classical"], rows)
+    p = iou_bars_png(bars, CLASSES, c.out / "models.iou.png", title="IoU per class: classical against the neural models")
     md += f"\n![models]({p.name})\n"
     return md
 

@@ -9,7 +9,10 @@
   the full profile: ΔmIoU with its spread beside the effect's ms per frame (the dataset's
   manifest, ``cost.capture``).
 - ``balance``: ``--class-balance paper`` against the natural distribution.
-- ``models``: the neural model against the classical one on the same split.
+- ``models``: the neural models (the small DGCNN, RandLA-Net) against the classical one on the
+  same split.
+- ``costs``: each D435 effect timed alone on the frames of one scene (:mod:`.costs`), the cost
+  column the ``accuracy`` study then shows (from ``OUT/costs.json``).
 - ``mix``: the ``mix`` preset on the stand-in target (storage area seen by an Azure Kinect).
 """
 from __future__ import annotations
@@ -27,11 +30,12 @@ from ..eval import evaluate
 from ..outputs import atomic_write_text, claim_folder
 from . import datasets as ds
 from . import report
+from .costs import costs_markdown, time_effects
 from .datasets import PROFILE, SENSORS, STRATEGIES, TARGET, DataSpec
 
 log = logging.getLogger(__name__)
 
-SECONDS_PER_TRAINING = {"classical": 120.0, "height": 30.0, "majority": 5.0, "neural": 400.0}
+SECONDS_PER_TRAINING = {"classical": 120.0, "height": 30.0, "majority": 5.0, "neural": 400.0, "randla": 900.0}
 
 
 @dataclass(frozen=True)
@@ -96,7 +100,9 @@ def _plan(study: str, c: Context) -> list[Training]:
         return [Training(f"sensor-{d435}", (c.train("assembly_line", d435),),
                          tuple(c.test("assembly_line", s) for s in SENSORS)),
                 Training("models-neural", (c.train("assembly_line", d435),), (c.test("assembly_line", d435),),
-                         "neural")]
+                         "neural"),
+                Training("models-randla", (c.train("assembly_line", d435),), (c.test("assembly_line", d435),),
+                         "randla")]
     raise ConfigError(f"--study {study!r}: unknown")
 
 
@@ -157,6 +163,24 @@ def run_training(t: Training, c: Context) -> dict:
     return json.loads((path / "metrics.json").read_text())
 
 
+def _costs_study(c: Context, confirm: bool) -> str:
+    head = (f"study costs: each {PROFILE} effect timed alone on {c.cameras} frames, 5 times "
+            f"(~{c.cameras * 6 * 5 * 0.1 / 60:.0f}-{c.cameras * 6 * 5 * 0.5 / 60:.0f} min on 2 cores)")
+    print(head, flush=True)
+    if not confirm:
+        return head + "\n(run again with --yes to start)"
+    folder = claim_folder(c.out, "eval-study", reserve=True)
+    for name in ("costs.md", "costs.json"):
+        if (c.out / name).exists() and not folder.owns(name):
+            raise ConfigError(f"--out {c.out}: already holds {name}, which genie-gl did not write; choose another folder")
+    result = time_effects(PROFILE, "assembly_line", frames=c.cameras, repeats=5, seed=ds.TRAIN_SEED)
+    text = costs_markdown(result, f"genie eval --study costs --cameras {c.cameras} --out {c.out} --yes")
+    atomic_write_text(c.out / "costs.json", json.dumps(result, indent=1) + "\n")
+    atomic_write_text(c.out / "costs.md", text)
+    folder.finish({"study": "costs", "cameras": c.cameras})
+    return text
+
+
 def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 1, 2), scenes: int = 10,
               test_scenes: int = 4, cameras: int = 16, workers: int = 1, progress: bool = True,
               confirm: bool = True) -> str:
@@ -164,6 +188,8 @@ def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 
     if scenes < 1 or test_scenes < 1 or cameras < 1:
         raise ConfigError("--scenes, --test-scenes and --cameras must be >= 1")
     c = Context(Path(out), Path(cache), tuple(seeds), scenes, test_scenes, cameras, workers, progress)
+    if study == "costs":
+        return _costs_study(c, confirm)
     names = ["strategy", "sensor", "accuracy", "balance", "models", "mix"] if study == "all" else [study]
     trainings: list[Training] = []
     data: list[DataSpec] = []

@@ -1,7 +1,8 @@
 """Tiny labelled scenes for the evaluation tests, made in a fraction of a second without GL: a
 floor (class 0) with tall racks (2), low flat pallets (1) and small boxes (9) standing on it,
 their surfaces sampled at random and written with genie-gl's own exporters, so the tests read
-them back through the same code as a real dataset."""
+them back through the same code as a real dataset. Each box is an instance of its own (ids 1,
+2, ...); the floor, stuff, carries instance 0 as SemanticKITTI's stuff does."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -35,10 +36,11 @@ def _box_surface(centre: np.ndarray, size: tuple[float, float, float], n: int, r
 
 def scene_cloud(rng: np.random.Generator, *, size_m: float = 8.0, points: int = 6000) -> PointCloud:
     """One toy scene: a floor and a few boxes of each class, ~``points`` points."""
-    parts, labels = [], []
+    parts, labels, ids = [], [], []
     n_floor = points // 3
     parts.append(np.column_stack([rng.random((n_floor, 2)) * size_m, np.zeros(n_floor)]))
     labels.append(np.zeros(n_floor, np.uint16))
+    ids.append(np.zeros(n_floor, np.uint32))
     per_class = (points - n_floor) // len(BOXES)
     for cls, size in BOXES.items():
         k = int(rng.integers(2, 4))
@@ -47,10 +49,11 @@ def scene_cloud(rng: np.random.Generator, *, size_m: float = 8.0, points: int = 
             pts = _box_surface(centre, size, per_class // k, rng)
             parts.append(pts)
             labels.append(np.full(len(pts), cls, np.uint16))
+            ids.append(np.full(len(pts), len(ids), np.uint32))
     xyz = np.concatenate(parts)
     xyz += rng.normal(0, 0.003, xyz.shape)
     sem = np.concatenate(labels)
-    return PointCloud(xyz=xyz.astype(np.float32), semantic=sem, instance=np.zeros(len(sem), np.uint32))
+    return PointCloud(xyz=xyz.astype(np.float32), semantic=sem, instance=np.concatenate(ids))
 
 
 def make_set(root: Path, *, scenes: int = 4, seed: int = 0, fmt: str = "semantickitti",
