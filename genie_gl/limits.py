@@ -80,6 +80,16 @@ def gb(b: float) -> str:
     return f"{b / 1e9:.3g} GB"
 
 
+def gb_pair(need: float, limit: float) -> tuple[str, str]:
+    """``need`` and ``limit`` (bytes) in GB with as many digits as it takes to tell them apart
+    (a need above its limit never reads "10.2 GB exceeds 10.2 GB")."""
+    for digits in range(3, 16):
+        a, b = f"{need / 1e9:.{digits}g} GB", f"{limit / 1e9:.{digits}g} GB"
+        if a != b:
+            return a, b
+    return f"{need:.0f} B", f"{limit:.0f} B"
+
+
 def check_regions(work: int, limit: int, where: str, *, option: str = "--max-nodes") -> None:
     """Refuse a layout whose estimated regions (or overlap tests / 10) exceed ``limit``."""
     if work > limit:
@@ -103,7 +113,8 @@ def check_memory(need: float, limit: float, what: str, fix: str, *, option: str 
     """Refuse work whose estimated memory ``need`` (bytes) exceeds ``limit`` (bytes); ``what``
     says how it was estimated, ``fix`` what to lower, ``option`` what raises the limit."""
     if need > limit:
-        raise LimitError(f"estimated memory {gb(need)} ({what}) exceeds {gb(limit)}{' allowed' if option else ''}; "
+        shown, allowed = gb_pair(need, limit)
+        raise LimitError(f"estimated memory {shown} ({what}) exceeds {allowed}{' allowed' if option else ''}; "
                          f"{fix}{_raise(option)}")
 
 
@@ -136,5 +147,6 @@ def check_disk(need: float, out: str | os.PathLike, where: str, *, max_disk_gb: 
     limit (``max_disk_gb``, else the free space of its file system)."""
     limit = max_disk_gb * 1e9 if max_disk_gb else free_disk_bytes(out)
     if need > limit:
-        raise LimitError(f"{where}: the run would write about {gb(need)}, more than {gb(limit)} "
+        shown, allowed = gb_pair(need, limit)
+        raise LimitError(f"{where}: the run would write about {shown}, more than {allowed} "
                          f"{'allowed' if max_disk_gb else 'free'}; {fix}{_raise(option)}")

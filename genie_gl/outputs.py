@@ -282,3 +282,69 @@ def _claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] =
     if reserve:
         out.reserve()
     return out
+
+
+# -- replacing a folder genie-gl wrote, keeping what the user put in it ---------------------------
+def _inside(rel: str) -> bool:
+    """True when ``rel`` names a path inside its folder (not absolute, no ``..``)."""
+    p = Path(rel)
+    return bool(rel) and not p.is_absolute() and ".." not in p.parts
+
+
+def remove_files(folder: str | os.PathLike, rels: Iterable[str]) -> None:
+    """Remove the files ``rels`` (paths relative to ``folder``, files genie-gl wrote there) and
+    the folders that this leaves empty, ``folder`` included; anything else stays."""
+    folder = Path(folder)
+    for rel in sorted(set(rels)):
+        p = folder / rel
+        if not _inside(rel) or not (p.is_file() or p.is_symlink()):
+            continue
+        p.unlink()
+        for parent in p.parents:
+            if parent == folder.parent:
+                break
+            try:
+                parent.rmdir()   # only when empty: a user's file keeps its folder
+            except OSError:
+                break
+
+
+def publish_folder(tmp: str | os.PathLike, final: str | os.PathLike, *, previous: Iterable[str] | None = (),
+                   record: str | None = None) -> None:
+    """Put the freshly written folder ``tmp`` in place as ``final``.
+
+    A new ``final`` is ``tmp`` renamed. An existing one (an earlier run's) keeps what the user
+    put in it: the files ``previous`` (relative paths genie-gl wrote there before) that ``tmp``
+    does not hold are removed, ``tmp``'s files replace their namesakes, and nothing else is
+    touched. ``record``: the name of the file that vouches for the folder's completeness; it
+    is removed first and moved in last, so a run killed half-way leaves an incomplete folder,
+    never one that passes for whole.
+    """
+    tmp, final = Path(tmp), Path(final)
+    if not final.exists() and not final.is_symlink():
+        tmp.replace(final)
+        return
+    if final.is_symlink() or not final.is_dir():
+        raise ConfigError(f"{final}: expected a folder genie-gl wrote; it is left as it is (move it away)")
+    new = sorted(p.relative_to(tmp).as_posix() for p in tmp.rglob("*") if p.is_file() or p.is_symlink())
+    if record is not None and ((final / record).is_file() or (final / record).is_symlink()):
+        (final / record).unlink()
+    stale = [rel for rel in previous or () if rel not in set(new)]
+    for rel in stale:   # emptied folders of ours go, the folder itself stays
+        p = final / rel
+        if _inside(rel) and (p.is_file() or p.is_symlink()):
+            p.unlink()
+            for parent in p.parents:
+                if parent == final:
+                    break
+                try:
+                    parent.rmdir()
+                except OSError:
+                    break
+    for rel in [r for r in new if r != record] + ([record] if record in new else []):
+        dst = final / rel
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        if dst.is_dir() and not dst.is_symlink():
+            raise ConfigError(f"{dst}: a folder where genie-gl writes a file; it is left as it is (move it away)")
+        os.replace(tmp / rel, dst)
+    shutil.rmtree(tmp)   # empty folders only, now

@@ -38,9 +38,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--points-budget", type=int, default=None, metavar="N", help="at most N points in the dataset")
     p.add_argument("--verify", action="store_true", help="check finished scenes' file hashes, not only sizes")
     p.add_argument("--no-progress", action="store_true")
-    p.add_argument("--capture", choices=("static", "trajectory", "mobile-map"), default="static",
-                   help="standing cameras (placed for coverage), a rig's recording along a trajectory, or a "
-                        "mobile-scan map fused from it")
+    p.add_argument("--capture", default=None, metavar="MODE",
+                   help="the capture mode: static (standing cameras placed for coverage; the default), trajectory "
+                        "(a rig's recording along a trajectory) or mobile-map (a mobile-scan map fused from it)")
     p.add_argument("--rig", default=None, help="trajectory/mobile-map: a rig file or shipped name (d435_quad, "
                                                "panorama_cube); default: --sensor alone at 10 Hz")
     p.add_argument("--path", default=None, help="trajectory: aisles, random, or a waypoints file ('x y' per line)")
@@ -66,7 +66,7 @@ def config_from_args(args: argparse.Namespace):
                                              "max_disk_gb", "capture", "rig", "path", "motion", "duration_s",
                                              "voxel_m", "registration", "raster")}
     fields["mount_m"] = args.mount
-    for k in ("cameras", "rig", "path", "motion", "duration_s", "voxel_m", "registration"):
+    for k in ("cameras", "capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration"):
         if fields[k] is None:   # not given: the configuration's default (an option given is checked against --capture)
             del fields[k]
     fields["split"] = parse_split(args.split)
@@ -84,6 +84,8 @@ def run(args: argparse.Namespace) -> int:
                     on_start=lambda: announce_compilation("dataset"))
     warm = m["runs"][-1].get("warmup_s", []) if m.get("runs") else []
     warm_text = f" (warm-up per worker before its first scene: {', '.join(f'{w:.1f}' for w in warm)} s)" if warm else ""
+    previews = Path(cfg.out) / "previews"
+    shown = f" (previews in {previews})" if cfg.previews and previews.is_dir() else ""
     print(f"dataset: {m['scenes_made']} scenes made, {m['scenes_skipped']} already there, "
-          f"{m['wall_s']:.1f} s{warm_text} -> {cfg.out} (previews in {Path(cfg.out) / 'previews'})")
+          f"{m['wall_s']:.1f} s{warm_text} -> {cfg.out}{shown}")
     return 0

@@ -23,7 +23,7 @@ from ..labels import CLASSES
 from ..limits import MAX_CAMERAS, MAX_REGIONS, available_memory_bytes  # noqa: F401  (kept importable from here)
 from ..sensors import Sensor
 from ..sensors.accuracy import AccuracySettings, from_dict, load_accuracy
-from ..sensors.paths import PATHS, path_kind  # noqa: F401  (PATHS kept importable from here)
+from .modes.base import CAPTURE_MODES, DEFAULT_MODE, get_mode, mode_options, users_of
 
 # the CLI spelling of each field, for messages
 OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
@@ -34,11 +34,6 @@ OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", 
           "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget",
           "mount_m": "--mount", "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion",
           "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration", "raster": "--raster"}
-CAPTURES = ("static", "trajectory", "mobile-map")
-# the options one kind of capture uses and another does not (given to one that does not: refused)
-USED_BY = {"cameras": ("static",), "mount_m": ("static",), "rig": ("trajectory", "mobile-map"),
-           "path": ("trajectory", "mobile-map"), "motion": ("trajectory", "mobile-map"),
-           "duration_s": ("trajectory", "mobile-map"), "voxel_m": ("mobile-map",), "registration": ("mobile-map",)}
 
 
 @dataclass(frozen=True)
@@ -92,9 +87,8 @@ class DatasetConfig(BaseModel):
     class_balance: Optional[dict[str, Any]] = None
     points_budget: Optional[int] = Field(None, ge=1)
     mount_m: Optional[float] = Field(None, gt=0, le=1e4)   # camera height above the floor; None: from the range
-    # cameras that move (genie_gl.dataset.recording): standing cameras (static), a rig's
-    # recording along a trajectory, or a mobile-scan map fused from it
-    capture: Literal["static", "trajectory", "mobile-map"] = "static"
+    # the capture mode (genie_gl.dataset.modes): its name; the options below it are the modes'
+    capture: str = DEFAULT_MODE
     rig: Optional[str] = None                 # a rig file or shipped name; None: --sensor alone
     path: str = Field("aisles", min_length=1)  # aisles, random, or a waypoints file
     motion: Literal["person", "robot"] = "person"
@@ -110,6 +104,13 @@ class DatasetConfig(BaseModel):
     def _known_format(cls, v: str) -> str:
         if v not in DATASET_FORMATS:
             raise ValueError(f"unknown; expected one of {', '.join(DATASET_FORMATS)}{did_you_mean(v, DATASET_FORMATS)}")
+        return v
+
+    @field_validator("capture")
+    @classmethod
+    def _known_capture(cls, v: str) -> str:
+        if v not in CAPTURE_MODES:
+            raise ValueError(f"unknown; expected one of {', '.join(CAPTURE_MODES)}{did_you_mean(v, CAPTURE_MODES)}")
         return v
 
     @field_validator("accuracy", mode="before")
@@ -135,36 +136,37 @@ class DatasetConfig(BaseModel):
 
     @model_validator(mode="after")
     def _curated_clouds(self) -> "DatasetConfig":
-        fmt = DATASET_FORMATS[self.format]
-        if self.capture not in fmt.captures:
-            takes = sorted(n for n, f in DATASET_FORMATS.items() if self.capture in f.captures)
-            raise ConfigError(f"--format {self.format} takes --capture {' or '.join(fmt.captures)}, not "
+        fmt, mode = DATASET_FORMATS[self.format], get_mode(self.capture)
+        if not mode.takes(fmt):
+            takes = sorted(n for n, f in DATASET_FORMATS.items() if mode.takes(f))
+            modes = [n for n, m in CAPTURE_MODES.items() if m.takes(fmt)]
+            raise ConfigError(f"--format {self.format} takes --capture {' or '.join(modes)}, not "
                               f"{self.capture}; --capture {self.capture} writes {', '.join(takes)}")
-        if (self.class_balance or self.points_budget) and (not fmt.chunks or self.capture == "trajectory"):
+        if (self.class_balance or self.points_budget) and not mode.curates(fmt):
+            modes = [n for n, m in CAPTURE_MODES.items() if any(m.curates(f) for f in DATASET_FORMATS.values())]
             raise ConfigError(f"--class-balance and --points-budget sub-sample point clouds; --format "
                               f"{self.format} with --capture {self.capture} writes images or recordings: use a "
-                              "point-cloud format with --capture static or mobile-map")
+                              f"point-cloud format with --capture {' or '.join(modes)}")
         self._used_options()
-        if self.capture != "static":
-            path_kind(self.path)
+        mode.check(self)
         return self
 
     def _used_options(self) -> None:
         """Refuse an option the capture does not use (given, and not its default), never ignore it."""
+        options, mode = mode_options(), get_mode(self.capture)
         given = [k for k in self.model_fields_set
-                 if k in USED_BY and getattr(self, k) is not None and getattr(self, k) != type(self).model_fields[k].default]
-        for k in sorted(given, key=list(USED_BY).index):
-            if self.capture not in USED_BY[k]:
+                 if k in options and getattr(self, k) is not None and getattr(self, k) != type(self).model_fields[k].default]
+        for k in sorted(given, key=options.index):
+            if k not in mode.options:
                 raise ConfigError(f"{OPTION[k]} {getattr(self, k)!r:.40}: --capture {self.capture} does not use it; it "
-                                  f"is for --capture {' or '.join(USED_BY[k])}")
+                                  f"is for --capture {' or '.join(users_of(k))}")
 
     # the fields that decide the bytes written: resuming with any other value is refused
     FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
                                                 "min_labelled_share", "split", "accuracy", "class_balance",
                                                 "points_budget", "mount_m", "capture", "rig", "path", "motion",
                                                 "duration_s", "voxel_m", "registration", "raster")
-    # fingerprinted only when the capture is not static (a static run's fingerprint is as before)
-    MOVING: ClassVar[tuple[str, ...]] = ("capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration")
+    # of these, "capture" and the modes' own options enter only as the mode says (genie_gl.dataset.modes)
 
     @classmethod
     def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":

@@ -26,7 +26,8 @@ from ..cloud.balance import apply_plan, load_chunks, plan_dataset, save_chunks, 
 from ..export import SceneData, get_format
 from ..labels import CLASSES
 from ..layout import Layout
-from .manifest import RECORD, record_files, scene_complete
+from ..outputs import publish_folder
+from .manifest import RECORD, record_files, recorded_files, scene_complete
 from .streams import SceneStreams
 
 BALANCE_SEED = 0x62616C616E6365  # "balance": the dataset's generator for the chunks a budget keeps
@@ -90,9 +91,9 @@ def finish(cfg, *, verify: bool = False) -> list[int]:
         (tmp / RECORD).write_text(json.dumps(stats, indent=1, sort_keys=True))
         if fmt.before_rename is not None:
             fmt.before_rename(data, out)
-        if final.exists():  # an incomplete scene of an earlier run
-            shutil.rmtree(final)
-        tmp.replace(final)  # the scene appears whole, or not at all
+        # the scene appears whole, or not at all; an incomplete one of an earlier run has its own
+        # files replaced, the user's kept
+        publish_folder(tmp, final, previous=recorded_files(final), record=RECORD)
         written.append(i)
     return written
 

@@ -21,6 +21,7 @@ from ..render.threads import limit_threads
 from ..scene.assets.catalogue import ASSETS
 from .ahead import Ahead
 from .config import DatasetConfig
+from .modes.base import get_mode
 from .recipe import RunInputs
 from .scene import needs_making, run_scene
 from .warmup import warm_up
@@ -84,10 +85,10 @@ def _worker(job: tuple) -> dict:
 def _ahead(cfg: DatasetConfig, inputs: RunInputs) -> Ahead | None:
     """A helper process making the layout, scene and placement of this process's scenes one
     scene ahead (:mod:`.ahead`; forked now, before the warm-up, it makes the second scene to
-    make while this process makes the first), where it can gain: standing cameras, two scenes
+    make while this process makes the first), where it can gain: a mode that allows it (standing cameras), two scenes
     or more to make, a core to spare, no asset registered in this process only. None
     otherwise."""
-    if cfg.capture != "static" or not spare_core() or ASSETS.registered():
+    if not get_mode(cfg.capture).made_ahead or not spare_core() or ASSETS.registered():
         return None
     first = next((i for i in range(cfg.scenes) if needs_making(cfg, i)), None)
     if first is None or not any(needs_making(cfg, j) for j in range(first + 1, cfg.scenes)):

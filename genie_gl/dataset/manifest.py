@@ -23,8 +23,8 @@ from typing import Any
 
 from .. import __version__
 from ..errors import ConfigError
-from .config import USED_BY, DatasetConfig
-from .recording import recording_files
+from .config import DatasetConfig
+from .modes.base import get_mode, mode_options
 
 LOCK = ".genie-lock"
 RECORD = "stats.json"
@@ -57,20 +57,20 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
     for role, path in input_files(strategy, sensor).items():
         parts[role] = _file_hash(path) if Path(path).is_file() else f"missing: {path}"
     values = cfg.model_dump()   # plain values (the --accuracy record as its {"file", "settings"})
+    mode, options = get_mode(cfg.capture), mode_options()
     for k in DatasetConfig.FINGERPRINTED:
         v = values[k]
         if v is None:  # an option not asked for (--class-balance, ...): the fingerprint of a run without it
             continue
         if k == "raster" and v == "gl":   # datasets made before the choice existed were drawn by GL
             continue
-        if k in DatasetConfig.MOVING and cfg.capture == "static":   # standing cameras: as before these options
+        if k == "capture" and not mode.fingerprints_mode:   # standing cameras: as before other modes
             continue
-        if cfg.capture not in USED_BY.get(k, (cfg.capture,)):   # an option this capture does not use
+        if k in options and k not in mode.options:   # an option this capture does not use
             continue
         parts[k] = list(v) if isinstance(v, tuple) else v
-    if cfg.capture != "static":   # the rig's file and its sensors' files, the waypoints file
-        for role, path in recording_files(cfg).items():
-            parts[role] = _file_hash(path)
+    for role, path in mode.input_files(cfg).items():   # a rig's files, a waypoints file
+        parts[role] = _file_hash(path)
     blob = json.dumps(parts, sort_keys=True).encode()
     return {"sha256": hashlib.sha256(blob).hexdigest(), "parts": parts}
 
@@ -166,6 +166,17 @@ def record_files(folder: Path) -> dict[str, list]:
             for p in sorted(folder.rglob("*")) if p.is_file() and p.name != RECORD}
 
 
+def recorded_files(folder: Path) -> list[str]:
+    """The files genie-gl wrote in scene ``folder``, as its record lists them (the record
+    included); none when there is no readable record (then only the names a new run writes are
+    replaced, and nothing is removed)."""
+    try:
+        files = json.loads((folder / RECORD).read_text())["files"]
+        return [RECORD, *(str(k) for k in files)]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return []
+
+
 def scene_complete(folder: Path, *, verify: bool = False) -> dict[str, Any] | None:
     """The scene's record when every file it lists is there with its size (and hash when
     ``verify``); None when the scene must be made again."""
@@ -196,4 +207,3 @@ def recorded_raster(out: Path) -> str | None:
         return None
     raster = old["inputs"].get("raster") or "gl"
     return raster if raster in ("cpu", "gl") else None
-

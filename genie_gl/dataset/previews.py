@@ -2,6 +2,7 @@
 the classes shown, axes in metres (top view) or a depth colour bar in metres (cameras)."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +27,7 @@ def _legend(ax, ids) -> None:
 def _save(fig, path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    tmp = path.with_name(path.stem + ".tmp.png")
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")   # the temporary name every writer of ours uses
     fig.savefig(tmp, dpi=100, metadata={"Software": None})
     plt.close(fig)
     tmp.replace(path)

@@ -13,7 +13,7 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -31,9 +31,6 @@ from ..sensors import Sensor, load_sensor, place_sensors
 from ..sensors.accuracy import AccuracySettings
 from .config import DatasetConfig
 from .streams import SceneStreams
-
-if TYPE_CHECKING:
-    from .ahead import Ahead
 
 # the stages of a scene, in order (the progress bar names them; stats time them)
 STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
@@ -103,6 +100,13 @@ class Parts:
     cpu_s: float = 0.0
 
 
+class PartsAhead(Protocol):
+    """What hands over scenes' parts made ahead in another process (:class:`~.ahead.Ahead`)."""
+
+    def take(self, index: int) -> Parts | None:
+        """Scene ``index``'s parts, or None when they were not made there."""
+
+
 def make_parts(inputs: RunInputs, streams: SceneStreams, cameras: int | None, *,
                stage: Callable[[str], None] = lambda name: None) -> Parts:
     """The layout, scene and placement of ``cameras`` standing cameras (None: no placement)
@@ -139,7 +143,7 @@ def make_scene(inputs: RunInputs, streams: SceneStreams, *,
 
 def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: bool,
          stage: Callable[[str], None] = lambda name: None, chunk_m: float | None = None,
-         ahead: Ahead | None = None) -> MadeScene:
+         ahead: PartsAhead | None = None) -> MadeScene:
     """The scene of ``streams`` up to its frames, taken by ``cameras`` standing cameras;
     ``stage(name)`` as each stage starts. ``depth_only``: render no colour (for formats that
     store none). ``chunk_m``: the tile size the cloud stage will cut (None: no tiles); each

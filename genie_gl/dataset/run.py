@@ -25,6 +25,7 @@ import errno
 import json
 import logging
 import platform
+import re
 import shutil
 import time
 from collections.abc import Callable
@@ -33,19 +34,16 @@ from typing import Any
 
 from .. import __version__
 from ..capture import add_totals
-from ..cloud.balance import PAPER_REAL
 from ..errors import ConfigError
 from ..export import get_format
 from ..outputs import OutputFolder, atomic_write_text, claim_folder
 from ..render.rasters import default_raster
 from ..scene import ASSETS
-from ..sensors.paths import path_kind, read_waypoints
-from ..sensors.placement import ceiling_of, mount_for
 from . import curation
 from .config import DatasetConfig, accuracy_used
 from .executors import map_scenes
-from .limits import check_limits
 from .manifest import OutputLock, check_resume, fingerprint, recorded_raster, scene_complete
+from .modes.base import get_mode
 from .recipe import RunInputs, load_inputs
 from .report import class_totals, dataset_cost, histogram
 from .scene import run_scene, scene_dir  # noqa: F401  (the run's public names)
@@ -64,6 +62,9 @@ def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
                           "scene.assets, or use one worker")
 
 
+#: the temporary name of a file being written (``.<name>.<pid>.tmp``, ``.tmp.png``, ``.tmp.npz``)
+TEMPORARY = re.compile(r"\..+\.\d+\.tmp(\.png|\.npz|\.las)?")
+
 #: what a dataset writes at the top of ``--out`` besides its format's own entries
 DATASET_ENTRIES = ("previews", "histogram.txt", "histogram.json", "histogram.png", ".balance")
 
@@ -81,13 +82,11 @@ def prepare(cfg: DatasetConfig) -> tuple[RunInputs, dict]:
     fingerprint)."""
     inputs = load_inputs(cfg)
     strategy, sensor = inputs.strategy, inputs.sensor
-    if cfg.capture == "static":
-        mount_for(sensor, ceiling_m=ceiling_of(strategy.scene), mount_height_m=cfg.mount_m)   # placement can work
-    elif path_kind(cfg.path) == "waypoints":
-        read_waypoints(cfg.path)   # a bad waypoints file is refused before any work
+    mode = get_mode(cfg.capture)
+    mode.prepare(cfg, inputs)   # placement can work, a waypoints file reads
     fmt = get_format(cfg.format)
     claim_output(cfg, fmt)
-    check_limits(cfg, strategy, sensor, Path(cfg.out))
+    mode.check_limits(cfg, strategy, sensor, Path(cfg.out))
     for note in fmt.notes(cfg) if fmt.notes else []:
         log.warning(note)
     if cfg.executor == "ray":
@@ -113,8 +112,8 @@ def _clear_leftovers(folder: OutputFolder, fmt) -> None:
             continue
         if not folder.owns(entry.name) or entry.is_symlink() or not entry.is_dir():
             continue
-        for p in entry.rglob("*.tmp*"):
-            if p.is_file() and (p.name.endswith(".tmp") or p.name.endswith(".tmp.png") or p.name.endswith(".tmp.npz")):
+        for p in entry.rglob(".*.tmp*"):   # only the temporary names genie-gl's writers use: a user's
+            if p.is_file() and TEMPORARY.fullmatch(p.name):   # draft.tmp, even in our folders, stays
                 p.unlink()
 
 
@@ -186,10 +185,11 @@ def _run(cfg: DatasetConfig, inputs: RunInputs, folder: OutputFolder, fmt, manif
     missing = [i for i, s in enumerate(stats) if s is None]
     if missing:
         raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
-    if fmt.finish is not None:
-        fmt.finish(out, cfg, stats)
-    hist = histogram(out, stats, curation.target(cfg), curation.short(stats),
-                     reference=PAPER_REAL if cfg.capture == "mobile-map" else None)
+    mode = get_mode(cfg.capture)
+    finish = mode.finish(fmt)
+    if finish is not None:
+        finish(out, cfg, stats)
+    hist = histogram(out, stats, curation.target(cfg), curation.short(stats), reference=mode.reference())
     made = [r for r in results if not r.get("skipped")]
     n_made = len(made) if balanced is None else len(balanced)  # balanced: the scenes written by this run
     stage_t: dict[str, float] = {}

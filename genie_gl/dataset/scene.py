@@ -12,15 +12,14 @@ from typing import Any
 
 import numpy as np
 
-from ..capture import effect_totals, frame_costs
 from ..export import SceneData, get_format
+from ..outputs import publish_folder
 from . import curation
 from .ahead import Ahead
 from .config import DatasetConfig
-from .manifest import record_files, scene_complete
-from .previews import write_previews, write_recording_previews
-from .recipe import STAGES, RunInputs, chunk, load_inputs, make, make_scene
-from .recording import capture_moving, stats_of, write_trajectory
+from .manifest import RECORD, record_files, recorded_files, scene_complete
+from .modes.base import Captured, get_mode
+from .recipe import STAGES, RunInputs, load_inputs
 from .streams import SceneStreams
 
 log = logging.getLogger(__name__)
@@ -46,7 +45,8 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
     here when not given). ``stage(name)`` is called as each stage starts (progress display);
     ``prepare()`` once the scene is known to need making, before its clock starts (a
     worker's warm-up). ``ahead``: a helper process making the layout, scene and placement of
-    standing cameras' scenes (:mod:`.ahead`)."""
+    the scenes of a mode that allows it (:mod:`.ahead`). The capture mode makes the scene's
+    frames (:mod:`.modes`); the tail is every mode's: curation, export, previews, publishing."""
     stage = stage or (lambda name: None)
     out = Path(cfg.out)
     fmt = get_format(cfg.format)
@@ -59,80 +59,30 @@ def run_scene(cfg: DatasetConfig, index: int, *, inputs: RunInputs | None = None
     inputs = inputs or load_inputs(cfg)
     if prepare is not None:
         prepare()
-    streams = SceneStreams(cfg.seed, index)
+    mode = get_mode(cfg.capture)
     cpu = time.process_time()  # the process's CPU time, its rasteriser and kernel threads included
-    if cfg.capture != "static":   # a rig along a trajectory (genie_gl/dataset/recording.py)
-        layout, scene, t = make_scene(inputs, streams, stage=stage)
-        return _run_moving(cfg, index, layout, scene, streams, fmt, stage, t, cpu, out, final)
-    # a format that stores no colour renders none (an output not asked for costs nothing)
-    made = make(inputs, streams, cameras=cfg.cameras, depth_only=not fmt.colour, stage=stage,
-                chunk_m=cfg.chunk_m if fmt.chunks else None, ahead=ahead)
-    layout, scene, frames, t = made.layout, made.scene, made.frames, dict(made.clock)
-    cpu -= made.ahead_cpu_s   # the helper's CPU time for this scene's parts counts as the scene's
-    stage("cloud")
-    cut = chunk(cfg, frames, streams, chunks=fmt.chunks, tally=made.tally)
-    kept, points_total, counts = cut.kept, cut.points_total, cut.counts
-    t["cloud"] = time.perf_counter()
-    if fmt.chunks and not kept:
-        log.warning("scene %d: no chunk kept: every chunk of its %d points has fewer than --min-points %d points or "
-                    "a labelled share under --min-labelled-share %g", index, points_total, cfg.min_points,
-                    cfg.min_labelled_share)
-    elif not counts[1:].any():
-        log.warning("scene %d: nothing labelled: its %d points are all background (class 0)", index, points_total)
+    got = mode.capture(cfg, inputs, SceneStreams(cfg.seed, index), fmt, stage=stage, ahead=ahead)
+    cpu -= got.ahead_cpu_s   # a helper's CPU time for this scene's parts counts as the scene's
+    t = got.clock
     if curation.active(cfg):  # balanced once every scene is made (genie_gl/dataset/curation.py)
         if index < cfg.previews:
-            write_previews(out / "previews", index, layout, frames, scene, cfg.raster)
-        stats = curation.cache_scene(cfg, index, kept, layout, {"instances": len(scene.instances),
-                                                                "cameras": len(frames), "points_total": int(points_total)})
+            got.previews(out / "previews", index)
+        stats = curation.cache_scene(cfg, index, got.kept, got.layout, {
+            **got.info, "cameras": got.shots, "points_total": int(got.points)})
         t["export"] = time.perf_counter()
-        return stats | _timings(t, frames, cpu, ahead_s=made.ahead_s)
+        return stats | _timings(t, got, cpu)
     stage("export")
     tmp = _scene_tmp(final)
-    data = SceneData(index, scene, layout, frames, kept, cfg)
-    fmt.write_scene(data, tmp)
-    layout.to_json(tmp / "layout.json")
-    stats = {"scene": index, "instances": len(scene.instances), "cameras": len(frames),
-             "points_total": int(points_total), "chunks": len(kept),
-             "class_points": _class_points(counts)}
+    data = SceneData(index, got.scene, got.layout, got.frames, got.kept, cfg, dict(got.extra), rig=got.rig,
+                     trajectory=got.trajectory, recording=got.recording)
+    mode.write(fmt, data, tmp, got)
+    got.layout.to_json(tmp / "layout.json")
+    stats = {"scene": index, **got.info, "cameras": got.shots, "points_total": int(got.points),
+             "chunks": len(got.kept), "class_points": _class_points(got.counts)}
     if index < cfg.previews:
-        write_previews(out / "previews", index, layout, frames, scene, cfg.raster)
+        got.previews(out / "previews", index)
     _publish(stats, tmp, final, data, fmt, out, t)
-    return stats | _timings(t, frames, cpu, ahead_s=made.ahead_s)
-
-
-def _run_moving(cfg, index, layout, scene, streams: SceneStreams, fmt, stage, t, cpu, out: Path,
-                final: Path) -> dict[str, Any]:
-    """Scene ``index`` captured along a trajectory: a recording or a mobile-scan map."""
-    accuracy = None if cfg.accuracy is None else cfg.accuracy.settings   # each rig sensor's own otherwise
-    moving = capture_moving(cfg, layout, scene, streams, fmt, accuracy, stage, t)
-    info = {"instances": len(scene.instances), **stats_of(moving)}
-    if curation.active(cfg):   # a mobile-scan map's chunks, balanced once every scene is made
-        if index < cfg.previews:
-            write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
-                                     moving.map_cloud, scene, cfg.raster)
-        stats = curation.cache_scene(cfg, index, moving.kept, layout, {
-            **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points)})
-        t["export"] = time.perf_counter()
-        return stats | _timings(t, None, cpu, moving.tally)
-    stage("export")
-    tmp = _scene_tmp(final)
-    data = SceneData(index, scene, layout, [], moving.kept, cfg, dict(moving.extra), rig=moving.rig,
-                     trajectory=moving.trajectory, recording=moving.recording)
-    if cfg.capture == "trajectory":
-        fmt.write_sequence(data, tmp)     # renders the recording as it writes it
-        t["capture"] = t["cloud"] = time.perf_counter()
-    else:
-        fmt.write_scene(data, tmp)
-    write_trajectory(moving.trajectory, tmp / "trajectory.txt")
-    layout.to_json(tmp / "layout.json")
-    counts = moving.tally.counts
-    stats = {"scene": index, **info, "cameras": moving.tally.shots, "points_total": int(moving.tally.points),
-             "chunks": len(moving.kept), "class_points": _class_points(counts)}
-    if index < cfg.previews:
-        write_recording_previews(out / "previews", index, layout, moving.tally.preview, moving.trajectory,
-                                 moving.map_cloud, scene, cfg.raster)
-    _publish(stats, tmp, final, data, fmt, out, t)
-    return stats | _timings(t, None, cpu, moving.tally)
+    return stats | _timings(t, got, cpu)
 
 
 def _scene_tmp(final: Path) -> Path:
@@ -149,15 +99,14 @@ def _publish(stats: dict[str, Any], tmp: Path, final: Path, data: SceneData, fmt
              t: dict[str, float]) -> None:
     """Record the files of ``tmp`` and ``stats`` in its ``stats.json``, let the format finish
     (``before_rename``), then rename ``tmp`` to ``final``: the scene appears whole, or not at all
-    (an incomplete ``final`` of an earlier run is replaced)."""
+    (an incomplete ``final`` of an earlier run has the files its record lists replaced; what the
+    user put beside them stays)."""
     stats["files"] = record_files(tmp)
     (tmp / "stats.json").write_text(json.dumps(stats, indent=1, sort_keys=True))
     if fmt.before_rename is not None:
         fmt.before_rename(data, out)
     t["export"] = time.perf_counter()
-    if final.exists():
-        shutil.rmtree(final)
-    tmp.replace(final)
+    publish_folder(tmp, final, previous=recorded_files(final), record=RECORD)
 
 
 def _class_points(counts: np.ndarray) -> dict[str, int]:
@@ -165,17 +114,14 @@ def _class_points(counts: np.ndarray) -> dict[str, int]:
     return {str(k): int(counts[k]) for k in np.flatnonzero(counts).tolist()}
 
 
-def _timings(t: dict[str, float], frames: list | None, cpu: float, tally=None,
-             ahead_s: dict[str, float] | None = None) -> dict[str, Any]:
+def _timings(t: dict[str, float], got: Captured, cpu: float) -> dict[str, Any]:
     """Seconds per stage, CPU seconds of the scene (all threads, a helper's included), the
     frames' cost (the manifest's "cost" block) and what each sensor effect did: not in
-    stats.json. A moving capture's ``tally`` (:class:`~genie_gl.dataset.recording.Tally`)
-    summed them over every frame as the recording streamed past. ``ahead_s``: the seconds of
-    the stages a helper process made (:mod:`.ahead`), there."""
+    stats.json. ``ahead_s``: the seconds of the stages a helper process made (:mod:`.ahead`), there."""
     keys = ("start",) + STAGES
+    cost_ms, effects = got.costs()
     out = {"timings_s": {k: t[k] - t[p] for p, k in zip(keys, keys[1:])}, "cpu_s": time.process_time() - cpu,
-           "frame_cost_ms": frame_costs(frames) if tally is None else dict(tally.cost_ms),
-           "effects": effect_totals(frames) if tally is None else tally.effects}
-    if ahead_s is not None:
-        out["ahead_s"] = ahead_s
+           "frame_cost_ms": cost_ms, "effects": effects}
+    if got.ahead_s is not None:
+        out["ahead_s"] = got.ahead_s
     return out

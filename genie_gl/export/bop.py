@@ -20,6 +20,7 @@ from __future__ import annotations
 import fcntl
 import json
 import os
+import re
 import shutil
 import zlib
 from collections.abc import Mapping, Sequence
@@ -31,7 +32,7 @@ import numpy as np
 from ..errors import ConfigError, ExportError
 from ..frame import Frame
 from ..scene.model import Scene
-from ..outputs import atomic_write_bytes, atomic_write_text, claim_folder
+from ..outputs import atomic_write_bytes, atomic_write_text, claim_folder, publish_folder
 
 MAX_U16 = 65535
 
@@ -171,6 +172,18 @@ def write_models(scene: Scene, out_dir: str | os.PathLike, names: Sequence[str])
     return info
 
 
+#: the files BOP's writer puts in a scene folder (relative paths): a user's own files there stay
+SCENE_FILE = re.compile(r"(rgb|depth)/\d{6}\.png|mask(_visib)?/\d{6}_\d{6}\.png|scene_(camera|gt|gt_info)\.json")
+
+
+def scene_files(folder: Path) -> list[str]:
+    """The files of BOP scene ``folder`` that genie-gl wrote (:data:`SCENE_FILE`)."""
+    if not folder.is_dir() or folder.is_symlink():
+        return []
+    return [rel for rel in (p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
+            if SCENE_FILE.fullmatch(rel)]
+
+
 def write_scene(scene: Scene, frames: Sequence[Frame], out_dir: str | os.PathLike, *, scene_id: int = 0,
                 split: str = "train_pbr", depth_scale: float | None = None,
                 full_masks: Sequence[Mapping[int, np.ndarray]] | None = None) -> Path:
@@ -191,9 +204,7 @@ def write_scene(scene: Scene, frames: Sequence[Frame], out_dir: str | os.PathLik
     tmp = final.parent / f".tmp-{final.name}-{os.getpid()}"
     used = write_scene_files(scene, frames, tmp, depth_scale=depth_scale, full_masks=full_masks)
     write_dataset_files(scene, frames[0], out, used, 1.0 if depth_scale is None else depth_scale)
-    if final.exists():
-        shutil.rmtree(final)
-    tmp.replace(final)
+    publish_folder(tmp, final, previous=scene_files(final))   # a user's files in an earlier scene folder stay
     folder.finish({"scenes": sorted(int(p.name) for p in (out / split).iterdir() if p.name.isdigit())})
     return final
 
@@ -280,6 +291,6 @@ from ..scene.assets.library import SEMANTIC, VARIANTS
 from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
-    "bop", "train_pbr", digits=6, chunks=False, captures=("static",), dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
+    "bop", "train_pbr", digits=6, chunks=False, dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
     bytes_per_point=0.0, bytes_per_pixel=4.0,   # 16-bit depth + RGB + masks, PNG-compressed
     description="BOP scene-wise RGB-D frames, masks, poses and object models"))

@@ -196,6 +196,5 @@ from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
     "e57", "scenes", write_scene=_write_scene, write_cloud=_write_cloud, write_sequence=_write_sequence,
-    captures=("static", "mobile-map", "trajectory"),
     cloud_outputs=lambda name: (f"{name}.e57", f"{name}.e57.labels.npz"),
     description="E57 (ASTM E2807) scans with their poses; labels in intensity and a .labels.npz beside"))

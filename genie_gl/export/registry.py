@@ -2,9 +2,9 @@
 (as sensor effects register themselves); ``gg.export``, ``genie capture`` and ``genie dataset``
 all look formats up here, so a new format is one new module imported in ``export/__init__``.
 
-A format says where a dataset scene goes, what the scene needs (colour, chunks), which
-captures it takes (standing cameras, a rig's recording along a trajectory, a mobile-scan
-map), how one scene is written into its (temporary) folder, what dataset-level files the scene needs before
+A format says where a dataset scene goes, what the scene needs (colour, chunks), how it
+writes a scene's chunks or frames and a recording (which capture modes it takes follows:
+:mod:`genie_gl.dataset.modes` asks), how one scene is written into its (temporary) folder, what dataset-level files the scene needs before
 its folder is renamed into place, and what is written once all scenes are there.
 """
 from __future__ import annotations
@@ -47,14 +47,14 @@ class DatasetFormat:
     write_cloud: Callable[..., Path] | None = None                # one cloud: (cloud, out_dir, name=, **kw)
     description: str = ""
     stale: tuple[str, ...] = field(default=())                    # extra folders whose .tmp-* a run clears
-    # the captures it writes: "static" and "mobile-map" give chunks (or frames, for image
-    # formats), "trajectory" a recording through write_sequence
-    captures: tuple[str, ...] = ("static", "mobile-map")
+    # what it writes is what the capture modes ask of it (genie_gl.dataset.modes): a scene's
+    # chunks or frames through write_scene, a recording through write_sequence
     write_sequence: Callable[[SceneData, Path], None] | None = None  # a recording into a folder
+    finish_recordings: Callable[[Path, Any, list[dict]], None] | None = None  # finish, after recordings
     cloud_outputs: Callable[[str], tuple[str, ...]] | None = None  # top-level names write_cloud(name=) makes
     dataset_outputs: tuple[str, ...] = ()                         # top-level names of a dataset, beside folder
     notes: Callable[[Any], list[str]] | None = None               # (config) -> what the user must be told first
-    # the disk a scene takes, for the size check before a run (dataset/limits.py): bytes per
+    # the disk a scene takes, for the size check before a run (a capture mode's estimate): bytes per
     # point kept, at most (xyz f4 + label u4 = 16 for SemanticKITTI; more for ply, pcd, npz),
     # and per pixel of its frames (image formats)
     bytes_per_point: float = 40.0

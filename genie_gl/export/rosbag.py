@@ -193,5 +193,5 @@ def _write_scene(data, folder: Path) -> None:
 from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
-    "rosbag", "scenes", colour=False, chunks=False, captures=("trajectory",), write_sequence=_write_scene,
+    "rosbag", "scenes", colour=False, chunks=False, write_sequence=_write_scene,
     description="ROS 2 bag (MCAP): depth, camera_info, labelled PointCloud2, tf and tf_static per rig sensor"))

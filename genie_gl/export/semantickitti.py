@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -24,7 +25,7 @@ import yaml
 from .. import labels as label_map
 from ..cloud.pointcloud import PointCloud
 from ..errors import ExportError
-from ..outputs import atomic_write_bytes, atomic_write_text
+from ..outputs import atomic_write_bytes, atomic_write_text, publish_folder, remove_files
 
 CLASSES = label_map.CLASSES  # kept for callers of genie-gl <= 0.1
 COLORS_RGB = label_map.COLORS_RGB
@@ -216,6 +217,20 @@ def _link(src: Path, dst: Path) -> None:
         shutil.copyfile(src, dst)
 
 
+#: the files genie-gl writes in a sequence folder (relative paths); a user's own files there
+#: (a model's ``predictions/``, notes) are never replaced or removed
+SEQUENCE_FILE = re.compile(r"(velodyne/\d{6}\.bin|labels/\d{6}\.label|instance_maps/\d{6}\.txt"
+                           r"|poses\.txt|times\.txt|calib\.txt|world_pose\.txt)")
+
+
+def sequence_files(folder: Path) -> list[str]:
+    """The files of sequence ``folder`` that genie-gl wrote (:data:`SEQUENCE_FILE`)."""
+    if not folder.is_dir() or folder.is_symlink():
+        return []
+    return [rel for rel in (p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
+            if SEQUENCE_FILE.fullmatch(rel)]
+
+
 def scenes_per_sequence(n_scenes: int) -> int:
     return max(1, -(-n_scenes // MAX_SEQUENCES))
 
@@ -253,12 +268,10 @@ def assemble_sequences(out: str | os.PathLike, scene_dirs: Sequence[Path], *,
         eye = _fmt(np.eye(4)[:3].ravel())
         (tmp / "calib.txt").write_text("".join(f"{k}: {eye}\n" for k in ("P0", "P1", "P2", "P3", "Tr")))
         final = root / f"{s:02d}"
-        if final.exists():
-            shutil.rmtree(final)
-        tmp.replace(final)
-    for old in root.iterdir():  # sequences of an earlier, larger grouping
-        if old.name.isdigit() and int(old.name) not in groups:
-            shutil.rmtree(old)
+        publish_folder(tmp, final, previous=sequence_files(final))   # a user's files there stay
+    for old in root.iterdir():  # sequences of an earlier, larger grouping: genie-gl's files go
+        if old.name.isdigit() and int(old.name) not in groups and old.is_dir() and not old.is_symlink():
+            remove_files(old, sequence_files(old))
     atomic_write_text(Path(out) / "genie-gl.yaml", label_map_yaml(counts, split_sequences(len(groups), split)))
     return groups
 

@@ -27,10 +27,11 @@ import numpy as np
 
 from ..cloud.unproject import unproject
 from ..errors import ExportError
-from ..outputs import atomic_write_bytes, atomic_write_text
+from ..outputs import atomic_write_bytes, atomic_write_text, publish_folder, remove_files
 from . import semantickitti
 from .registry import register_format
-from .semantickitti import MAX_SEQUENCES, _fmt, _link, encode_instances, label_map_yaml, pack_labels, split_sequences
+from .semantickitti import (MAX_SEQUENCES, _fmt, _link, encode_instances, label_map_yaml, pack_labels,
+                            sequence_files, split_sequences)
 
 
 def groups(rig) -> list[list[int]]:
@@ -137,22 +138,17 @@ def assemble(out: str | os.PathLike, scene_dirs: list[Path], *, counts=None, spl
             if f.is_file():
                 (tmp / f.relative_to(d)).parent.mkdir(parents=True, exist_ok=True)
                 _link(f, tmp / f.relative_to(d))
-        final = root / f"{q:02d}"
-        if final.exists():
-            shutil.rmtree(final)
-        tmp.replace(final)
+        publish_folder(tmp, root / f"{q:02d}", previous=sequence_files(root / f"{q:02d}"))   # a user's files stay
         made[q] = [i]
-    for old in root.iterdir():
-        if old.name.isdigit() and int(old.name) not in made:
-            shutil.rmtree(old)
+    for old in root.iterdir():   # sequences of an earlier run that made more: genie-gl's files go
+        if old.name.isdigit() and int(old.name) not in made and old.is_dir() and not old.is_symlink():
+            remove_files(old, sequence_files(old))
     atomic_write_text(Path(out) / "genie-gl.yaml", label_map_yaml(counts, split_sequences(len(made), split)))
     return made
 
 
 def _finish(out: Path, cfg, stats: list[dict]) -> None:
-    """The dataset's sequences: each scene's recording its own (trajectory), else the chunks'."""
-    if cfg is None or cfg.capture != "trajectory":
-        return STATIC_FINISH(out, cfg, stats)
+    """The dataset's sequences, each scene's recording its own (hard links), and the label map."""
     counts: dict[int, int] = {}
     for s in stats:
         for k, v in s["class_points"].items():
@@ -163,6 +159,5 @@ def _finish(out: Path, cfg, stats: list[dict]) -> None:
 
 
 # the SemanticKITTI format takes recordings too: its registration, with the sequence writer
-STATIC_FINISH = semantickitti.DATASET.finish
-DATASET = register_format(dataclasses.replace(semantickitti.DATASET, write_sequence=write_scene, finish=_finish,
-                                              captures=("static", "mobile-map", "trajectory")))
+DATASET = register_format(dataclasses.replace(semantickitti.DATASET, write_sequence=write_scene,
+                                              finish_recordings=_finish))

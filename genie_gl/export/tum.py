@@ -86,5 +86,5 @@ def _write_scene(data, folder: Path) -> None:
 from .registry import DatasetFormat, register_format  # noqa: E402
 
 DATASET = register_format(DatasetFormat(
-    "tum", "scenes", colour=True, chunks=False, captures=("trajectory",), write_sequence=_write_scene,
+    "tum", "scenes", colour=True, chunks=False, write_sequence=_write_scene,
     description="TUM RGB-D sequences per rig sensor (rgb/, depth/ x5000, associations, groundtruth)"))

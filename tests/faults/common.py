@@ -3,8 +3,8 @@ limits (time, memory, a tmpfs of its own), and the checks of an outcome: refused
 no traceback, nothing of the user's touched.
 
 Every case carries ``@pytest.mark.fault(kind, guard)``: ``kind`` is the input injected (bad
-file, bad option, bad API call, kill, signal, full disk, read-only disk, huge input); ``guard``
-the failure it would be if the code regressed (loss, traceback, hang, wrong). The suite's
+file, bad option, bad API call, kill, signal, full disk, read-only disk, huge input, a re-run
+over its own output holding the user's files); ``guard`` the failure it would be if the code regressed (loss, traceback, hang, wrong). The suite's
 counts are printed at the end of the run (tests/conftest.py)."""
 from __future__ import annotations
 
@@ -25,7 +25,8 @@ import pytest
 from genie_gl.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent.parent
-KINDS = ("bad file", "bad option", "bad API call", "kill", "signal", "full disk", "read-only disk", "huge input")
+KINDS = ("bad file", "bad option", "bad API call", "kill", "signal", "full disk", "read-only disk", "huge input",
+         "re-run")
 GUARDS = ("loss", "traceback", "hang", "wrong")
 
 

@@ -91,7 +91,7 @@ CASES = [
     (OPTION, ["dataset", "assembly_line", "--capture", "mobile-map", "--voxel-m", "0"], ["--voxel-m 0.0"]),
     (OPTION, ["dataset", "assembly_line", "--capture", "trajectory", "--format", "bop"],
      ["--format bop takes --capture static, not trajectory"]),
-    (OPTION, ["dataset", "assembly_line", "--capture", "mobil-map"], ["invalid choice: 'mobil-map'"]),
+    (OPTION, ["dataset", "assembly_line", "--capture", "mobil-map"], ["--capture 'mobil-map': unknown", "did you mean 'mobile-map'"]),
     # genie plan --rig: a recording's plan and a standing plan do not share options
     (WRONG, ["plan", "--scene", "{usd}", "--path", "aisles"], ["--path aisles", "give --rig RIG too"]),
     (WRONG, ["plan", "--scene", "{usd}", "--duration-s", "5"], ["--duration-s 5.0", "give --rig RIG too"]),

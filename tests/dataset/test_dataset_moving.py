@@ -10,7 +10,7 @@ import pytest
 
 from genie_gl.cli import main
 from genie_gl.dataset import DatasetConfig, run_dataset
-from genie_gl.dataset.recording import recording_files
+from genie_gl.dataset.modes import get_mode
 from genie_gl.errors import ConfigError
 
 pytestmark = pytest.mark.gl
@@ -64,7 +64,8 @@ def test_each_format_names_the_captures_it_takes(tmp_path, capsys):
     from genie_gl.sensors import load_sensor
 
     parts = fingerprint(static, load_strategy("storage_area"), load_sensor("realsense_d435"))["parts"]
-    assert not set(DatasetConfig.MOVING) & set(parts)
+    moving = {"capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration"}
+    assert not moving & set(parts) and {"cameras", "format", "seed"} <= set(parts)
 
 
 def test_mobile_map_chunks_hold_25000_points_and_show_the_real_shares(tmp_path):
@@ -101,7 +102,8 @@ def test_a_class_balanced_mobile_map_reaches_its_target(tmp_path):
 def test_a_rigs_files_are_in_the_fingerprint(tmp_path):
     """With --rig, the rig file and each of its sensors' profile and calibration files are
     inputs of the run (a changed one is refused on resume)."""
-    read = recording_files(cfg(tmp_path, rig="d435_quad"))
+    c = cfg(tmp_path, rig="d435_quad")
+    read = get_mode(c.capture).input_files(c)
     assert Path(read["rig"]).name == "d435_quad.yaml"
     for name in ("front", "left", "back", "right"):
         assert Path(read[f"rig {name} profile"]).name == "realsense_d435.yaml"
@@ -116,3 +118,15 @@ def test_the_manifest_counts_the_cost_and_effects_of_every_frame_of_a_recording(
     assert made["scenes_made"] == 1 and np.loadtxt(tmp_path / "d" / "sequences" / "00" / "poses.txt").shape == (16, 12)
     assert m["effects"] and all(e["run"] + e["skipped"] == 16 for e in m["effects"].values())
     assert m["cost"]["frames"] == 16 and m["cost"]["capture"]["render"]["total_ms"] > 0
+
+
+def test_a_recordings_frames_are_counted_once_rendered(tmp_path):
+    """The recording is rendered as the writer reads it: its frames are counted once the
+    writer has read them all (the scene's record said 0 shots), and the time the writer waited
+    for them is the capture stage's (it was stamped before the first frame)."""
+    run_dataset(cfg(tmp_path / "t", scenes=1, duration_s=0.5), progress=False)
+    m = json.loads((tmp_path / "t" / "manifest.json").read_text())
+    stages = m["runs"][-1]["scene_s"][0]["stages"]
+    assert stages["capture"] > 0 and stages["cloud"] == 0.0
+    stats = json.loads((tmp_path / "t" / "scenes" / "0000" / "stats.json").read_text())
+    assert stats["trajectory"]["shots"] == stats["cameras"] == m["cost"]["frames"] > 0

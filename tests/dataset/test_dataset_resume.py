@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from genie_gl.cli import main
-from tests.test_dataset import assert_scenes_are_what_the_public_api_makes
+from tests.dataset.test_dataset import assert_scenes_are_what_the_public_api_makes
 
 pytestmark = pytest.mark.gl
 ARGS = ["assembly_line", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "3000",
@@ -71,7 +71,7 @@ def loadable_as_bop_toolkit_lists_it(root: Path) -> None:
 def test_killed_at_random_moments_resumes_to_the_same_bytes(references, fmt, tmp_path):
     ref, wall = references(fmt)
     rng = np.random.default_rng(7)
-    env = dict(os.environ, PYTHONPATH=str(Path(__file__).parent.parent))
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).parent.parent.parent))
     kills = 0
     # random moments within the run (the child also spends >= 1 s importing); should both land
     # after it finished, the folder is emptied and the run killed early: a kill is always tested

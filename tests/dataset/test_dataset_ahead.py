@@ -192,12 +192,13 @@ def test_a_scene_made_ahead_counts_the_helpers_cpu_time_as_its_own(tmp_path):
 
 def test_the_memory_estimate_counts_the_helpers_layout():
     from genie_gl.dataset.config import DatasetConfig
-    from genie_gl.dataset.limits import estimate
+    from genie_gl.dataset.modes import get_mode
     from genie_gl.dataset.recipe import load_inputs
     from genie_gl.limits import BYTES_PER_NODE
 
     one = DatasetConfig(strategy="assembly_line", out="unused", scenes=1, cameras=4, sensor="ideal_pinhole")
     inputs = load_inputs(one)
+    estimate = get_mode(one.capture).estimate
     a = estimate(one, inputs.strategy, inputs.sensor)
     b = estimate(one.model_copy(update={"scenes": 2}), inputs.strategy, inputs.sensor)
     c = estimate(one.model_copy(update={"scenes": 2, "workers": 2}), inputs.strategy, inputs.sensor)

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from genie_gl.cli import main
-from tests.test_dataset import assert_scenes_are_what_the_public_api_makes
+from tests.dataset.test_dataset import assert_scenes_are_what_the_public_api_makes
 
 pytestmark = pytest.mark.gl
 ARGS = ["assembly_line", "--scenes", "2", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "4000",
