@@ -18,9 +18,12 @@ import numpy as np
 import trimesh
 
 from ..capture.scanning import scan
+from ..errors import ConfigError
+from ..resources import resolve
 from ..scene.model import Material, Scene
 from ..sensors.lidar_effects import RangeNoise
 from ..sensors.scanner import Scanner
+from ..sensors.scanner_profile import SUFFIX
 
 ROOM_M = 30.0
 ROOM_HEIGHT_M = 30.0
@@ -138,11 +141,8 @@ def scanner_card_markdown(card: dict[str, Any]) -> str:
 def scanner_profile_file(name: str):
     """The scanner profile ``name`` names (``sensors/<name>.lidar.yml`` or a ``*.lidar.yml``
     path), or None when it names a camera profile."""
-    from ..errors import ConfigError
-    from ..resources import resolve
-    from ..sensors.scanner_profile import SUFFIX
 
-    if str(name).endswith(SUFFIX):
+    if str(name).endswith(SUFFIX):   # a scanner profile's file: a mistake in its name is said
         return resolve(name, "sensors", (SUFFIX,))
     try:
         return resolve(name, "sensors", (SUFFIX,))

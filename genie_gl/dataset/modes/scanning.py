@@ -36,7 +36,7 @@ from ...errors import ConfigError
 from ...export import get_format
 from ...export.lidar_output import SCAN_FORMATS
 from ...layout.estimate import layout_estimate
-from ...limits import BYTES_PER_NODE
+from ...limits import BYTES_PER_NODE, check_disk, check_memory, check_regions, memory_limit_bytes
 from ...resources import resolve
 from ...sensors.paths import path_kind, read_waypoints
 from ...sensors.scanner_rig import SUFFIX, ScannerRig, load_scanner_rig, scanner_rig_file
@@ -109,8 +109,6 @@ class ScannerOnPath(CaptureMode):
                         "use fewer --workers, a shorter --duration-s", "make fewer --scenes, a shorter --duration-s")
 
     def check_limits(self, cfg, strategy, sensor, out: Path) -> Estimate:
-        from ...limits import check_disk, check_memory, check_regions, memory_limit_bytes
-
         e = self.estimate(cfg, strategy, sensor)   # no frame: no frame side to check
         check_regions(e.layout_work, cfg.max_nodes, str(getattr(strategy, "source", "strategy")))
         check_memory(e.memory_bytes, memory_limit_bytes(cfg.max_memory_gb), e.memory_what, e.memory_fix)
