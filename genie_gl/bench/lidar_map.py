@@ -12,12 +12,16 @@ from pathlib import Path
 import numpy as np
 
 from ..capture.scanning import scan
+from ..capture.trajectory import record
+from ..cloud.fusion import fuse
+from ..cloud.process import chunks
 from ..cloud.scan_map import CHUNK_POINTS, class_shares, scan_map
 from ..labels import COLORS_RGB, name
 from ..layout import generate_layout
 from ..outputs import atomic_write_text
 from ..scene import build_scene
 from ..sensors.paths import make_trajectory
+from ..sensors.rig import load_rig
 from ..sensors.scanner_rig import ScannerRig, load_scanner_rig
 
 # Table 3, "# points in real dataset" (3DGENie §4.1.1), classes 0..9 in the label map's order
@@ -37,8 +41,10 @@ def run(args: argparse.Namespace) -> int:
     ours = class_shares([t for _, t in tiles]) if tiles else np.zeros(10)
     real = np.array(TABLE3_REAL, np.float64) / sum(TABLE3_REAL)
     names = [name(k) for k in range(10)]
-    lines = [f"{'class':<20}{'LiDAR map':>12}{'Table 3 real':>14}"]
-    lines += [f"{n:<20}{100 * a:>11.2f}%{100 * b:>13.2f}%" for n, a, b in zip(names, ours, real)]
+    depth = _depth_map(args, scene, path) if args.depth_rig else None
+    lines = [f"{'class':<20}{'LiDAR map':>12}{'Table 3 real':>14}" + (f"{'depth rig':>12}" if depth else "")]
+    lines += [f"{n:<20}{100 * a:>11.2f}%{100 * b:>13.2f}%" + (f"{100 * depth[0][k]:>11.2f}%" if depth else "")
+              for k, (n, a, b) in enumerate(zip(names, ours, real))]
     print(f"{len(scans)} scans over {path.duration_s:.1f} s -> {len(tiles)} chunks of {CHUNK_POINTS:,} points")
     print("\n".join(lines))
     out = Path(args.out)
@@ -48,8 +54,31 @@ def run(args: argparse.Namespace) -> int:
         "rig": rig.name, "ideal": bool(args.ideal), "strategy": args.strategy, "seed": args.seed,
         "duration_s": path.duration_s, "scans": len(scans), "points": int(sum(len(s) for s in scans)),
         "chunks": len(tiles), "chunk_points": CHUNK_POINTS, "class_share": dict(zip(names, ours.tolist())),
-        "table3_real_share": dict(zip(names, real.tolist())), "load_avg_1_5_15": os.getloadavg()}, indent=1))
+        "table3_real_share": dict(zip(names, real.tolist())),
+        **({"depth_rig": args.depth_rig, "depth_rig_chunks": depth[1], "depth_rig_frames": depth[2],
+            "depth_rig_share": dict(zip(names, depth[0].tolist()))} if depth else {}),
+        "load_avg_1_5_15": os.getloadavg()}, indent=1))
     return 0
+
+
+def _depth_map(args, scene, path) -> tuple[np.ndarray, int, int]:
+    """A camera rig's depth frames along ``path``, fused at ``--voxel-m`` and cut into the same
+    chunks as the scans' map: (class shares (10,), chunks, frames)."""
+
+    b = scene.bounds()
+    b[0] -= 0.5
+    b[1] += 0.5
+    frames = [0]
+
+    def stream():
+        for _, frame in record(scene, load_rig(args.depth_rig), path, seed=args.seed, depth_only=True):
+            frames[0] += 1
+            yield frame
+
+    cloud = fuse(stream(), bounds=b, voxel_m=args.voxel_m)
+    rng = np.random.default_rng(np.random.SeedSequence([args.seed, 25_000, 1]))
+    tiles = chunks(cloud, args.chunk_m, min_points=CHUNK_POINTS, max_points=CHUNK_POINTS, rng=rng)
+    return (class_shares([t for _, t in tiles]) if tiles else np.zeros(10)), len(tiles), frames[0]
 
 
 def _picture(tiles, path: Path) -> None:

@@ -119,6 +119,8 @@ def _lidarmap(p: argparse.ArgumentParser) -> None:
     p.add_argument("--voxel-m", type=positive(10), default=0.02, help="the map's voxel before chunking (m)")
     p.add_argument("--chunk-m", type=positive(1000), default=6.0, help="side of a chunk (m)")
     p.add_argument("--ideal", action="store_true", help="the heads without their profiles' effects (faster)")
+    p.add_argument("--depth-rig", default=None, help="also a camera rig's depth map along the same walk, cut the same "
+                                                     "way (e.g. d435_quad; its class shares in a column beside)")
     p.add_argument("--seed", type=seed, default=0)
 
 

@@ -40,9 +40,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--capture", default=None, metavar="MODE",
                    help="the capture mode: static (standing cameras placed for coverage; the default), trajectory "
-                        "(a rig's recording along a trajectory) or mobile-map (a mobile-scan map fused from it)")
+                        "(a rig's recording along a trajectory), mobile-map (a mobile-scan map fused from it), scans (a "
+                        "scanner rig's raw scans along a trajectory) or scan-map (a map fused from them)")
     p.add_argument("--rig", default=None, help="trajectory/mobile-map: a rig file or shipped name (d435_quad, "
-                                               "panorama_cube); default: --sensor alone at 10 Hz")
+                                               "panorama_cube); default: --sensor alone at 10 Hz; scans/scan-map: "
+                                               "a scanner rig (navvis_wearable, forklift_vlp16)")
     p.add_argument("--path", default=None, help="trajectory: aisles, random, or a waypoints file ('x y' per line)")
     p.add_argument("--motion", choices=("person", "robot"), default=None,
                    help="trajectory: speed, height, turning rate and clearance of the body")

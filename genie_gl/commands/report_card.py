@@ -83,7 +83,21 @@ def run(args: argparse.Namespace) -> int:
         pages = claim_folder(args.pages, "report-card", [n for s in stems for n in page_names(s)] + ["index.md"],
                              option="--pages")
     cards, refs = [], {}
+    from ..card.scanner_card import scanner_card, scanner_card_markdown, scanner_profile_file
+    from ..sensors.scanner_profile import load_scanner
+
     for name in names:
+        if scanner_profile_file(name) is not None:   # a spinning scanner: its own card
+            print(f"genie report-card: {name}: scanning the test scenes ...", file=sys.stderr)
+            card = scanner_card(load_scanner(name), seed=args.seed)
+            text = scanner_card_markdown(card)
+            print(json.dumps({**card, "rows": [list(r) for r in card["rows"]]}, indent=1) if args.json else text)
+            if out is not None:
+                atomic_write_text(out.path / f"{card['sensor']}.card.md", text)
+            if pages is not None:
+                atomic_write_text(pages.path / f"{card['sensor']}.md", text)
+                print(f"genie report-card: wrote {pages.path / (card['sensor'] + '.md')}", file=sys.stderr)
+            continue
         sensor = load_sensor(name)
         ref = None
         if args.references:
@@ -107,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         out.finish({"version": __version__, "sensors": [c.sensor for c in cards], "seed": args.seed,
                     "frames": args.frames, "quick": bool(args.quick), "captures": args.captures,
                     "references": {c.sensor: c.references for c in cards}})
-    if pages is not None:
+    if pages is not None and cards:   # the cameras' pages and their index
         for page in write_pages(cards, pages, refs):
             print(f"genie report-card: wrote {page}", file=sys.stderr)
     return 0

@@ -6,7 +6,7 @@ the executors, previews and report each in their own module."""
 from __future__ import annotations
 
 from .config import DatasetConfig
-from .modes import mobile_map, recording, standing  # noqa: F401  (the capture modes register)
+from .modes import mobile_map, recording, scanning, standing  # noqa: F401  (the capture modes register)
 from .recipe import RunInputs, load_inputs
 from .run import run_dataset, run_scene, scene_dir
 from .streams import SceneStreams

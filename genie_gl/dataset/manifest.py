@@ -207,4 +207,3 @@ def recorded_raster(out: Path) -> str | None:
         return None
     raster = old["inputs"].get("raster") or "gl"
     return raster if raster in ("cpu", "gl") else None
-

@@ -147,3 +147,16 @@ def load_scanner_rig(name_or_path: str | os.PathLike) -> ScannerRig:
                            roll_rad=np.radians(h.roll_deg))
         heads.append(Head(h.name, scanner, T, float(h.offset_s)))
     return ScannerRig(spec.name or Path(path).name.removesuffix(SUFFIX), tuple(heads))
+
+
+def scanner_rig_file(name: str | None) -> Path | None:
+    """The scanner-rig file ``name`` names (a ``*.lidar.yml`` path or a shipped scanner rig's
+    bare name), or None when it names none (a camera rig, or no rig)."""
+    if not name:
+        return None
+    if Path(name).is_file():
+        return Path(name) if str(name).endswith(SUFFIX) else None
+    try:
+        return resolve(name, "rigs", (SUFFIX,))
+    except ConfigError:
+        return None

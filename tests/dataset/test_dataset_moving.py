@@ -51,7 +51,8 @@ def test_a_trajectory_dataset_is_the_same_with_one_and_two_workers_and_resumes(t
 def test_each_format_names_the_captures_it_takes(tmp_path, capsys):
     with pytest.raises(ConfigError, match="--format tum takes --capture trajectory, not static"):
         cfg(tmp_path, capture="static", format="tum")
-    with pytest.raises(ConfigError, match="--format ply takes --capture static or mobile-map, not trajectory; "
+    with pytest.raises(ConfigError, match="--format ply takes --capture static or mobile-map or scans or scan-map, "
+                                          "not trajectory; "
                                           "--capture trajectory writes e57, rosbag, semantickitti, tum"):
         cfg(tmp_path, format="ply")
     assert main(["dataset", "storage_area", "--capture", "trajectory", "--path", "nowhere.txt",

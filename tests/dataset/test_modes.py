@@ -17,6 +17,11 @@ TAKEN = {"semantickitti": {"static", "mobile-map", "trajectory"}, "ply": {"stati
          "pcd": {"static", "mobile-map"}, "npz": {"static", "mobile-map"}, "las": {"static", "mobile-map"},
          "e57": {"static", "mobile-map", "trajectory"}, "bop": {"static"}, "tum": {"trajectory"},
          "rosbag": {"trajectory"}}
+# a scanner rig's raw scans go to the scanner formats; the map fused from them to any chunk format
+for _name in ("semantickitti", "rosbag", "las", "e57", "pcd", "ply"):
+    TAKEN[_name] = TAKEN[_name] | {"scans"}
+for _name in ("semantickitti", "ply", "pcd", "npz", "las", "e57"):
+    TAKEN[_name] = TAKEN[_name] | {"scan-map"}
 
 
 def test_each_mode_takes_the_formats_it_took():
@@ -25,9 +30,10 @@ def test_each_mode_takes_the_formats_it_took():
 
 
 def test_the_modes_and_their_options_in_order():
-    assert list(CAPTURE_MODES) == ["static", "trajectory", "mobile-map"]
+    assert list(CAPTURE_MODES) == ["static", "trajectory", "mobile-map", "scans", "scan-map"]
     assert mode_options() == ("cameras", "mount_m", "rig", "path", "motion", "duration_s", "voxel_m", "registration")
-    assert users_of("voxel_m") == ("mobile-map",) and users_of("path") == ("trajectory", "mobile-map")
+    assert users_of("voxel_m") == ("mobile-map", "scan-map")
+    assert users_of("path") == ("trajectory", "mobile-map", "scans", "scan-map")
 
 
 def test_an_unknown_mode_is_refused_with_did_you_mean(tmp_path):
@@ -41,8 +47,11 @@ def test_an_unknown_mode_is_refused_with_did_you_mean(tmp_path):
     ("static", {"cameras"}, {"capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration"}),
     ("trajectory", {"capture", "path", "motion", "duration_s"}, {"cameras", "mount_m", "voxel_m", "registration"}),
     ("mobile-map", {"capture", "path", "duration_s", "voxel_m", "registration"}, {"cameras", "mount_m"}),
+    ("scans", {"capture", "rig", "rig head 0 profile", "path", "duration_s"}, {"cameras", "voxel_m", "registration"}),
+    ("scan-map", {"capture", "rig", "path", "duration_s", "voxel_m"}, {"cameras", "mount_m", "registration"}),
 ])
 def test_the_fingerprint_holds_the_modes_own_options(tmp_path, capture, present, absent):
-    cfg = DatasetConfig.parse({"strategy": "assembly_line", "out": str(tmp_path), "capture": capture}, "")
+    rig = {"rig": "forklift_vlp16"} if capture.startswith("scan") else {}
+    cfg = DatasetConfig.parse({"strategy": "assembly_line", "out": str(tmp_path), "capture": capture, **rig}, "")
     parts = fingerprint(cfg, load_strategy("assembly_line"), load_sensor("realsense_d435"))["parts"]
     assert present <= set(parts) and not absent & set(parts)

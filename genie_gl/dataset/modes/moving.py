@@ -29,10 +29,12 @@ from ...layout.estimate import layout_estimate
 from ...limits import BYTES_PER_NODE, BYTES_PER_PIXEL
 from ...outputs import atomic_write_text
 from ...render import shared_context
+from ...errors import ConfigError
 from ...resources import resolve
 from ...sensors import load_sensor
 from ...sensors.paths import PATHS, make_trajectory, path_kind, read_waypoints
 from ...sensors.rig import Rig, load_rig
+from ...sensors.scanner_rig import scanner_rig_file
 from ...sensors.trajectory import quaternion_xyzw
 from ..previews import write_recording_previews
 from ..recipe import make_scene
@@ -125,6 +127,9 @@ class RigOnPath(CaptureMode):
 
     def check(self, cfg) -> None:
         path_kind(cfg.path)
+        if scanner_rig_file(cfg.rig) is not None:
+            raise ConfigError(f"--rig {cfg.rig}: a scanner rig; its capture is --capture scans (its raw scans) or "
+                              f"scan-map (a map fused from them), not --capture {cfg.capture}")
 
     def prepare(self, cfg, inputs) -> None:
         if path_kind(cfg.path) == "waypoints":
