@@ -17,6 +17,7 @@ The normal's x and y are left out: they say which way an object is turned, not w
 from __future__ import annotations
 
 import hashlib
+from importlib.metadata import PackageNotFoundError, version
 import json
 import logging
 import os
@@ -107,15 +108,13 @@ def _one(args: tuple[np.ndarray, np.ndarray, tuple[int, ...], tuple[float, ...]]
 
 def _code_version() -> str:
     """genie-gl's and pgeof's versions: a new release may compute a feature differently."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    from .. import __version__
-
-    try:
-        pg = version("pgeof")
-    except PackageNotFoundError:
-        pg = "?"
-    return f"genie-gl {__version__}, pgeof {pg}, features {VERSION}"
+    found = []
+    for dist in ("genie-gl", "pgeof"):
+        try:
+            found.append(version(dist))
+        except PackageNotFoundError:
+            found.append("?")
+    return f"genie-gl {found[0]}, pgeof {found[1]}, features {VERSION}"
 
 
 def _key(scan: Scan, scales: Sequence[int], cells: Sequence[float]) -> str:

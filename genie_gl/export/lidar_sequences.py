@@ -102,7 +102,7 @@ def write_scan_bag(scans: Sequence[Scan], bag_dir: str | os.PathLike, *, style: 
     ``style``: the point fields (default: each head's own, a generic head's velodyne)."""
     if not scans:
         raise ExportError("ROS 2 bag: no scan to write")
-    Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, StoragePlugin, Writer, ts = _modules()
+    Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, writer, ts = _modules()
     bag_dir = Path(bag_dir)
     if bag_dir.exists() and not bag_is_ours(bag_dir):
         raise ConfigError(f"{bag_dir}: already exists and was not written by genie-gl; it is left as it is (remove "
@@ -114,7 +114,7 @@ def write_scan_bag(scans: Sequence[Scan], bag_dir: str | os.PathLike, *, style: 
     F = ts.types["sensor_msgs/msg/PointField"]
     t0 = min(s.start_s for s in scans)
     try:
-        with Writer(tmp_root / bag_dir.name, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        with writer(tmp_root / bag_dir.name, True) as w:   # zstd chunks, as the camera bags
             w.set_custom_data(STAMP_KEY, __version__)
             tf = w.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=ts)
             topics = {}

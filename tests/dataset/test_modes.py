@@ -31,7 +31,9 @@ def test_each_mode_takes_the_formats_it_took():
 
 def test_the_modes_and_their_options_in_order():
     assert list(CAPTURE_MODES) == ["static", "trajectory", "mobile-map", "scans", "scan-map"]
-    assert mode_options() == ("cameras", "mount_m", "rig", "path", "motion", "duration_s", "voxel_m", "registration")
+    assert mode_options() == ("cameras", "mount_m", "rig", "path", "motion", "duration_s", "cloud_stride", "voxel_m",
+                              "registration")
+    assert users_of("cloud_stride") == ("trajectory",)
     assert users_of("voxel_m") == ("mobile-map", "scan-map")
     assert users_of("path") == ("trajectory", "mobile-map", "scans", "scan-map")
 

@@ -50,7 +50,7 @@ STRATEGIES = [
     (BAD, "an unknown generator", strategy(levels__0__hall__generator="asembly_line"), "did you mean 'assembly_line'"),
     (BAD, "an undeclared region type", strategy(levels__0__hall__children={"line": "lien"}), "'lien' is not declared"),
     (BAD, "a NaN grid cell", strategy(levels__1__line__args__cell=[float("nan"), 5.6]),
-     "args.cell: expected [width, height], finite numbers > 0"),
+     "args.cell[0]: nan is not a finite number"),
     (BAD, "an infinite spacing", strategy(levels__1__line__args__spacing=float("inf")), "args.spacing"),
     (WRONG, "fractional paths", strategy(levels__0__hall__args__paths=1.5), "args.paths: expected whole numbers"),
     (BAD, "a text size", strategy(levels__0__hall__args__line_width="wide"), "args.line_width"),

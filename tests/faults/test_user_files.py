@@ -208,7 +208,7 @@ def test_a_bop_scene_written_again_keeps_the_users_files(tmp_path):
     from genie_gl.export import bop
     from genie_gl.render import Renderer
     from genie_gl.render.projection import look_at
-    from tests.cloud.test_bop import two_box_scene
+    from tests.export.test_bop import two_box_scene
 
     scene = two_box_scene()
     sensor = gg.Sensor(160, 120, np.array([[150.0, 0, 80.0], [0, 150.0, 60.0], [0, 0, 1]]))
