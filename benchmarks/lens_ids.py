@@ -19,7 +19,7 @@ import numpy as np
 import genie_gl as gg
 from genie_gl.bench.accuracy_case import content_poses
 from genie_gl.render import Renderer
-from genie_gl.sensors.distortion import lens_views, render_through_lens, resample_views
+from genie_gl.lens.distortion import lens_views, render_through_lens, resample_views
 
 from .common import benchmark_scene, header, parser
 

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from .checks import whole_number
+from .validation.arguments import whole_number
 from .errors import ConfigError
 
 PINHOLE_LENGTHS = (0, 4, 5, 8, 12, 14)

@@ -1,8 +1,8 @@
 """Which triangle each pixel of a pinhole frame shows, and the geometry to intersect it.
 
-A distorted lens's image is resampled from pinhole views (:mod:`genie_gl.sensors.distortion`);
+A distorted lens's image is resampled from pinhole views (:mod:`genie_gl.lens.distortion`);
 for labels exact per pixel ray, each lens pixel's own ray is intersected with the triangles
-its view shows (:mod:`genie_gl.sensors.ray_hits`). The renderer fills this record when asked
+its view shows (:mod:`genie_gl.lens.ray_hits`). The renderer fills this record when asked
 (``Renderer.render(..., triangles=True)``): per pixel, the draw slot and the triangle within
 that draw (one more RG32UI target); per frame, what turns that pair into the triangle's three
 vertices in the camera frame, in float64 (the frame's index buffer and the scene's

@@ -200,7 +200,7 @@ def test_single_file_writers_replace_only_their_own(tmp_path):
     from genie_gl.sensors.accuracy import AccuracySettings, write_accuracy
     from genie_gl.layout import save_layout_png
     from genie_gl.export import e57, las, npz, pcd, ply
-    from genie_gl.sensors import Calibration, write_calibration
+    from genie_gl.sensors.calibration import Calibration, write_calibration
 
     layout = gg.generate_layout("assembly_line", seed=0)
     s = gg.Scene()
@@ -235,8 +235,8 @@ def test_a_bag_replaces_only_its_own_folder(tmp_path):
     user's of that name (it used to delete it), leaving no temporary folder behind."""
     from genie_gl.capture.trajectory import record
     from genie_gl.export.rosbag import write_recording
-    from genie_gl.sensors.paths import make_trajectory
-    from genie_gl.sensors.rig import Rig
+    from genie_gl.motion.paths import make_trajectory
+    from genie_gl.motion.rig import Rig
 
     layout = gg.generate_layout("assembly_line", seed=0)
     scene = gg.build_scene(layout, seed=0)

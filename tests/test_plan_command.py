@@ -70,7 +70,7 @@ def test_genie_capture_places_cameras_inside_and_sums_effects(room, tmp_path, ca
     assert all(t["run"] + t["skipped"] == 2 for t in effects.values())
     assert effects["depth_noise"]["run"] == 2 and effects["depth_noise"]["changed"] > 0
     # the cameras stand inside the walls (placement over the floor), not on a ring outside
-    from genie_gl.sensors.placement import scene_poses
+    from genie_gl.placement.genetic import scene_poses
 
     for pose in scene_poses(scene, gg.load_sensor("realsense_d435"), 2, 0):
         assert 0 < pose[0, 3] < 6 and 0 < pose[1, 3] < 4 and 0 < pose[2, 3] < 3

@@ -19,11 +19,11 @@ PACKAGE = "genie_gl"
 
 # the stages in pipeline order (DESIGN.md): a module may import its own stage and those before it;
 # the benchmarks measure everything, the command line included
-STAGES = ("base", "layout", "scene", "sensors", "render", "capture", "cloud", "export", "view", "eval", "dataset", "studies",
+STAGES = ("base", "layout", "scene", "sensors", "lens", "effects", "motion", "placement", "render", "capture", "cloud", "export", "view", "eval", "dataset", "studies",
           "card", "commands", "cli", "bench")
 # the bottom of the package: the contracts every stage shares (top-level modules of genie_gl)
-BASE = ("errors", "outputs", "resources", "bounds", "checks", "options", "limits", "processes", "labels", "camera", "frame",
-        "triangles", "scene_options", "jit")
+BASE = ("errors", "outputs", "resources", "validation", "limits", "processes", "labels", "camera",
+        "frame", "triangles", "scene_options", "jit")
 # optional dependencies (extras, or used only for pictures) that a function may import when it needs them
 DEFERRABLE = ("matplotlib", "open3d", "ray", "pyrender", "OpenGL", "fast_simplification", "rosbags", "pye57",
               "laspy", "evo", "kiss_icp", "torch", "rerun", "rerun_cli")

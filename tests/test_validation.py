@@ -329,7 +329,7 @@ def test_pose_check_fast_path_decides_as_the_array_tests(monkeypatch):
     decided (and worded) exactly as the array tests alone decide it: rotations, and poses
     just inside and just outside each limit (scale, shear, mirror, last row, translation,
     NaN)."""
-    import genie_gl.checks as checks
+    import genie_gl.validation.arguments as checks
 
     rng = np.random.default_rng(7)
     poses = []

@@ -35,7 +35,7 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
     "projection": (["genie_gl/render/projection.py"],
                    ["*.projection.x_clip_coefficients__*", "*.projection.x_rigid_inverse__*"],
                    ["tests/render/test_analytic.py", "tests/render/test_hard_cases.py"]),
-    "lens": (["genie_gl/camera.py", "genie_gl/sensors/distortion.py"],
+    "lens": (["genie_gl/camera.py", "genie_gl/lens/distortion.py"],
              ["*.camera.x_tilt_matrix__*", "*.camera.x_distort_normalized__*", "*.camera.x__coefficients__*",
               "*.camera.x__radial__*", "*.camera.x__decentring__*", "*.camera.x_fisheye_theta_d__*",
               "*.camera.x__find_fold__*", "*.camera.x__max_off_axis__*", "*.camera.xǁCameraǁproject__*",
@@ -49,7 +49,7 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
              # the lens equations against cv2 and first principles, no GL: a few seconds in all
              # (the rendered lens tests cost minutes per mutant). The lens caches (_fold,
              # _directions, _rays, _lens_views) wrap undecorated bodies so that mutmut reaches them
-             ["tests/sensors/test_lens_truths.py", "tests/sensors/test_lens_inverse_hard.py",
+             ["tests/lens/test_lens_truths.py", "tests/lens/test_lens_inverse_hard.py",
               *(f"tests/sensors/test_sensors.py::{t}" for t in (
                   "test_distortion_maps_put_rays_where_cv2_projects_them",
                   "test_distortion_maps_stay_inside_the_wide_render", "test_numpy_lens_projection_equals_cv2",
@@ -65,9 +65,9 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
                       "tests/cloud/test_frame_chunks.py", "tests/cloud/test_unproject_contract.py"]),
     # the noise models' numbers (DepthNoise's cost_per_mpx is left out: an estimate the planner
     # ranks effects by, measured by `genie bench planning`, never a number in the data)
-    "noise": (["genie_gl/sensors/noise.py"],
+    "noise": (["genie_gl/effects/noise.py"],
               ["*.noise.xǁDepthNoiseǁ[!c]*", "*.noise.xǁRangeLimitsǁapply__*"],
-              ["tests/sensors/test_sensors.py", "tests/sensors/test_effects.py", "tests/sensors/test_fused_kernels.py"]),
+              ["tests/sensors/test_sensors.py", "tests/effects/test_effects.py", "tests/effects/test_fused_kernels.py"]),
     "labels": (["genie_gl/export/semantickitti.py", "genie_gl/export/ply.py", "genie_gl/export/pcd.py",
                 "genie_gl/export/npz.py"],
                ["*.semantickitti.x_pack_labels__*", "*.semantickitti.x_write__*", "*.semantickitti.x_read__*",
@@ -83,15 +83,15 @@ GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
     "merge": (["genie_gl/layout/merge.py"], ["*.merge.x_*"],  # the merge layer alone (a subset of "layout")
               ["tests/layout/test_merge_layer.py", "tests/layout/test_layout.py",
                "-k", "not shipped_strategies_generate"]),
-    "placement": (["genie_gl/sensors/placement.py"],
+    "placement": (["genie_gl/placement/genetic.py"],
                   # the coverage a placement is scored by; the GA's operators (selection, crossover,
                   # mutation rate) only change how good a search is, never a reported number: left out
                   ["*.placement.xǁCoverageProblemǁ__init____*", "*.placement.xǁCoverageProblemǁfitness*",
                    "*.placement.x_greedy_indices__*", "*.placement.x_greedy_placement__*"],
                   # (the bit sets against the cell-by-cell kernels, which fractional weights take; the
                   # free-floor rule for low mounts)
-                  ["tests/sensors/test_placement_fitness.py", "tests/sensors/test_placement_bits.py",
-                   "tests/sensors/test_placement_free_floor.py", "tests/sensors/test_sensors.py"]),
+                  ["tests/placement/test_placement_fitness.py", "tests/placement/test_placement_bits.py",
+                   "tests/placement/test_placement_free_floor.py", "tests/sensors/test_sensors.py"]),
 }
 # lines that only word an error or a log message: not numbers
 NOT_NUMBERS = [r"raise \w+Error\(", r"^\s*f?\"[^\"]*\"\)?$", r"log\.(info|warning|debug)\(", r"warnings\.warn\("]

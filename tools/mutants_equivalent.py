@@ -62,7 +62,7 @@ EQUIVALENT: list[tuple[str, str, str]] = [
      "a point exactly 1e-12 rad past the limit: measure zero"),
     ("*.camera.xǁCameraǁunproject__*", r"np\.asarray\(uv, (None)?\s*\)",
      "integer pixels promote to float64 in the next line's np.where with NaN: the same numbers"),
-    # -- lens: sensors/distortion.py
+    # -- lens: lens/distortion.py
     ("*.distortion.x__build_lens_views__*", r"max\(initial=None\)",
      "max(initial=None) over a non-empty image is its max"),
     ("*.distortion.x__build_lens_views__*", r"one = .*np\.where\(valid, x, 1\)|one = .*max\(initial=1\)|"
@@ -89,7 +89,7 @@ EQUIVALENT: list[tuple[str, str, str]] = [
      "D is float64 already (a calibration's coefficients)"),
     ("*.distortion.x_project__*", r"if \(len\(D\)\) or True",
      "distort_normalized without coefficients is the identity"),
-    # -- noise: sensors/noise.py
+    # -- noise: effects/noise.py
     ("*.noise.x*", r"drop\((out|frame), \((frame\.depth|z) >= 0\)",
      "the mask adds holes (depth 0) to a drop: they already have depth 0 and ids 0"),
     ("*.noise.x*", r"if \((lost|bad\.any\(\))\) or True else out",
@@ -109,7 +109,7 @@ EQUIVALENT: list[tuple[str, str, str]] = [
     ("*.noise.xǁDepthNoiseǁsteep_angles__*", r"np\.clip\(cos\[cand\], (None, 1\.0|0\.0, None|0\.0, 2\.0)\)",
      "bounds that cannot bind: candidates have cos < 0.5, and a back face (cos < 0) gives θ >= 90°, "
      "clamped to 85° by sigma either way"),
-    # -- placement: sensors/placement.py
+    # -- placement: placement/genetic.py
     ("*.placement.x*", r"bits = None",
      "the cell-by-cell kernels instead of the bit sets: the same sums bit for bit "
      "(test_bit_sets_equal_the_cell_by_cell_kernels)"),

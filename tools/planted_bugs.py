@@ -91,9 +91,9 @@ class Bug:
 RENDER = ("tests/render/test_analytic.py", "tests/render/test_hard_cases.py", "tests/render/test_reference.py",
           "tests/render/test_readback.py", "tests/capture/test_supersample.py")
 CLOUD = ("tests/cloud/test_unproject_kernel.py", "tests/export/test_cloud_export.py", "tests/cloud/test_frame_chunks.py")
-LENS = ("tests/sensors/test_sensors.py", "tests/sensors/test_lens_truths.py", "tests/bench/test_stability.py",
+LENS = ("tests/sensors/test_sensors.py", "tests/lens/test_lens_truths.py", "tests/bench/test_stability.py",
         "tests/render/test_analytic.py::test_distorted_render_puts_points_where_cv2_projects_them")
-NOISE = ("tests/sensors/test_sensors.py", "tests/sensors/test_effects.py", "tests/sensors/test_fused_kernels.py")
+NOISE = ("tests/sensors/test_sensors.py", "tests/effects/test_effects.py", "tests/effects/test_fused_kernels.py")
 LABELS = ("tests/export/test_cloud_export.py", "tests/export/test_export_limits.py", "tests/test_field_readers.py")
 LAYOUT = ("tests/layout",)
 
@@ -105,13 +105,13 @@ BUGS = [
         "genie_gl/cloud/kernels.py",
         "n += uint64(d[p + k] > 0)", "n += uint64(not d[p + k] <= 0)", CLOUD),
     Bug("c", "wide pinhole view behind a lens: its height computed from fx instead of fy",
-        "genie_gl/sensors/distortion.py",
+        "genie_gl/lens/distortion.py",
         "h = int(math.ceil(fy * hi_y + cy)) + 3", "h = int(math.ceil(fx * hi_y + cy)) + 3", LENS),
     Bug("d1", "stereo sigma grows with z instead of z^2 (the model's sigma(), noise.py)",
-        "genie_gl/sensors/noise.py",
+        "genie_gl/effects/noise.py",
         "return z * z * self.sigma_d_px(sensor)", "return z * self.sigma_d_px(sensor)", NOISE),
     Bug("d2", "stereo sigma grows with z instead of z^2 (the compiled pass that applies it)",
-        "genie_gl/sensors/kernels.py",
+        "genie_gl/effects/kernels.py",
         "noisy = z + draws[u] * (z * z * sigma_d / fb)", "noisy = z + draws[u] * (z * sigma_d / fb)", NOISE),
     Bug("e", "SemanticKITTI instance packed with << 15 instead of << 16",
         "genie_gl/export/semantickitti.py",
@@ -142,8 +142,8 @@ BUGS = [
     Bug("h", "layout label raster flipped (row 0 at the top instead of y0)",
         "genie_gl/layout/model.py",
         "return LabelRaster(labels, names", "return LabelRaster(labels[::-1], names",
-        ("tests/layout/test_layout.py", "tests/sensors/test_placement_fitness.py",
-         "tests/sensors/test_placement_free_floor.py")),
+        ("tests/layout/test_layout.py", "tests/placement/test_placement_fitness.py",
+         "tests/placement/test_placement_free_floor.py")),
 ]
 
 # Failing test functions that assert a truth computed independently of the code under test
@@ -170,11 +170,11 @@ INDEPENDENT = {
     "test_unprojection_matches_first_principles_for_every_lens": "K^-1 / cv2.undistortPoints in float64",
     "test_unprojection_drops_nan_depth_in_every_path": "holes counted by hand, points in float64 along each ray",
     "test_merge_counts_and_normals_agree_with_the_kernel_on_invalid_depths": "numpy's count of depth > 0",
-    # lens views (sensors/distortion.py)
+    # lens views (lens/distortion.py)
     "test_the_wide_view_holds_every_ray_one_pixel_inside_its_border": "cv2.undistortPoints rays, K from fx/fy",
     "test_distortion_maps_stay_inside_the_wide_render": "cv2.undistortPoints rays inside the view",
     "test_distortion_maps_put_rays_where_cv2_projects_them": "cv2.projectPoints",
-    # noise (sensors/noise.py, sensors/kernels.py)
+    # noise (effects/noise.py, effects/kernels.py)
     "test_sigma_models_against_the_papers_at_several_depths": "the papers' sigma(z) at 0.2-6 m, written out",
     "test_noise_sigma_on_a_flat_wall_matches_the_model": "the papers' sigma(z) at 0.5, 1, 2, 4 m, written out",
     "test_stereo_noise_grows_with_the_square_of_depth": "sigma(4 m) / sigma(1 m) = 16",

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..sensors.accuracy import AccuracySettings, write_accuracy
-from ..sensors.placement import CoverageProblem, genetic_placement, greedy_placement
+from ..placement.genetic import CoverageProblem, genetic_placement, greedy_placement
 from .accuracy_budget import pick
 from .accuracy_case import check_path, content_poses, make_case  # noqa: F401  (content_poses: public)
 from .accuracy_errors import compare, noise_check, pool

@@ -14,15 +14,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ..checks import read_poses
+from ..validation.arguments import read_poses
 from ..errors import ConfigError
 from ..layout import Layout, generate_layout
 from ..resources import resolve
 from ..scene import build_scene, usd
-from ..sensors import load_sensor, place_sensors
+from ..effects.profile import load_sensor
+from ..placement.genetic import place_sensors
 from ..sensors.pose import look_at
-from ..sensors.paths import make_trajectory, path_kind
-from ..sensors.rig import body_from_sensor
+from ..motion.paths import make_trajectory, path_kind
+from ..motion.rig import body_from_sensor
 from . import analytic
 from .knobs import Case
 

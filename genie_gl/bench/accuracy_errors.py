@@ -32,8 +32,8 @@ from scipy.spatial import cKDTree
 from ..capture.supersample import STEP
 from ..frame import Frame
 from ..sensors.camera import Sensor
-from ..sensors.distortion import project as lens_project
-from ..sensors.geometry import incidence_angle, pixel_rays
+from ..lens.distortion import project as lens_project
+from ..effects.geometry import incidence_angle, pixel_rays
 
 SAMPLING_PROBES = 20000
 

@@ -21,8 +21,8 @@ from ..errors import ConfigError
 from ..frame import Frame
 from ..render import Renderer, create_context
 from ..scene.materials import MaterialTable
-from ..sensors.geometry import pixel_rays, surface_normals
-from ..sensors.simulate import simulate
+from ..effects.geometry import pixel_rays, surface_normals
+from ..effects.simulate import simulate
 from . import analytic
 from .knobs import Case, Setting, exact_setting
 

@@ -17,9 +17,9 @@ import trimesh
 
 from ..scene.model import Mesh, Scene
 from ..sensors.camera import Sensor
-from ..sensors.effects import DepthNoise
-from ..sensors.shadow import StereoShadow
-from ..sensors.surface import Multipath
+from ..effects.registry import DepthNoise
+from ..effects.shadow import StereoShadow
+from ..effects.surface import Multipath
 
 WALL_ANGLE, WALL_Z = 0.3, 3.0
 FLOOR_Y = 0.8

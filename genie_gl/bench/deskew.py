@@ -31,10 +31,10 @@ from ..capture.scanning import scan
 from ..layout import generate_layout
 from ..outputs import atomic_write_text
 from ..scene import build_scene
-from ..sensors.motion import Motion
-from ..sensors.paths import make_trajectory
-from ..sensors.scanner_profile import load_scanner
-from ..sensors.scanner_rig import ScannerRig
+from ..motion.follow import Motion
+from ..motion.paths import make_trajectory
+from ..effects.scanner_profile import load_scanner
+from ..motion.scanner_rig import ScannerRig
 
 # a brisk walk with quick turns: 1.8 m/s, 120 deg/s (the skew of one 10 Hz scan: 18 cm, 12 deg)
 FAST = Motion(speed_mps=1.8, height_m=1.7, max_yaw_rate_rad_s=float(np.radians(120.0)), max_accel_mps2=1.5)

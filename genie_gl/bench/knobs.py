@@ -6,7 +6,7 @@ which changes the sensor rather than a setting), its levels, the value the refer
 change geometry) or against the exact setting (knobs that change how faithfully an effect
 is simulated), and what it needs to run. A knob that has nothing to act on (lens knobs on a
 pinhole sensor, an effect's knob on a sensor without that effect: the effects declare their
-knobs, :attr:`~genie_gl.sensors.effect.Effect.accuracy_knobs`) reports why and shows as
+knobs, :attr:`~genie_gl.effects.base.Effect.accuracy_knobs`) reports why and shows as
 unavailable; it is never faked.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..sensors.accuracy import AccuracySettings
-from ..sensors.effects import EFFECTS
+from ..effects.registry import EFFECTS
 from .analytic import DEFAULT_SEGMENTS
 
 

@@ -28,9 +28,9 @@ from ..layout import generate_layout
 from ..outputs import atomic_write_text
 from ..scene import build_scene
 from ..sensors.beams import scan_beams
-from ..sensors.paths import make_trajectory
-from ..sensors.scanner_profile import load_scanner
-from ..sensors.scanner_rig import load_scanner_rig
+from ..motion.paths import make_trajectory
+from ..effects.scanner_profile import load_scanner
+from ..motion.scanner_rig import load_scanner_rig
 from .scenes import bench_spec, to_scene
 
 HELIOS_PTS_S = 23_000      # HELIOS++ user run, points/s (as the issue cites it)

@@ -20,9 +20,9 @@ from ..labels import COLORS_RGB, name
 from ..layout import generate_layout
 from ..outputs import atomic_write_text
 from ..scene import build_scene
-from ..sensors.paths import make_trajectory
-from ..sensors.rig import load_rig
-from ..sensors.scanner_rig import ScannerRig, load_scanner_rig
+from ..motion.paths import make_trajectory
+from ..motion.rig import load_rig
+from ..motion.scanner_rig import ScannerRig, load_scanner_rig
 
 # Table 3, "# points in real dataset" (3DGENie §4.1.1), classes 0..9 in the label map's order
 TABLE3_REAL = (998_260, 14_303, 8_574, 8_933, 14_090, 70_972, 87_646, 1_400, 10_862, 9_955)

@@ -32,8 +32,8 @@ from ..layout import generate_layout, load_strategy
 from ..outputs import atomic_write_text
 from ..render import shared_context
 from ..scene import build_scene
-from ..sensors.paths import make_trajectory
-from ..sensors.rig import Rig, load_rig
+from ..motion.paths import make_trajectory
+from ..motion.rig import Rig, load_rig
 
 
 SCAN_POINTS = 100_000   # a spinning LiDAR's points per scan: the density KISS-ICP is tuned for

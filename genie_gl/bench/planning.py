@@ -43,12 +43,12 @@ import genie_gl as gg
 from ..capture import plan as make_plan
 from ..capture import through_lens
 from ..render import Renderer
-from ..render.projection import look_at
+from ..sensors.pose import look_at
 from ..resources import resolve
 from ..scene.model import Material
-from ..sensors.effects import DepthNoise
-from ..sensors.shadow import StereoShadow
-from ..sensors.simulate import simulate
+from ..effects.registry import DepthNoise
+from ..effects.shadow import StereoShadow
+from ..effects.simulate import simulate
 
 
 def _before(sensor):

@@ -22,9 +22,9 @@ from ..layout import generate_layout, load_strategy
 from ..outputs import atomic_write_text
 from ..render import shared_context
 from ..scene import build_scene
-from ..sensors import place_sensors
-from ..sensors.paths import make_trajectory
-from ..sensors.rig import load_rig
+from ..placement.genetic import place_sensors
+from ..motion.paths import make_trajectory
+from ..motion.rig import load_rig
 
 
 def check_arguments(args: argparse.Namespace) -> None:

@@ -12,7 +12,7 @@ from ..cloud import to_cloud
 from ..render import Renderer
 from ..scene.model import Mesh, Scene
 from ..sensors.camera import Sensor
-from ..sensors.distortion import lens_views, render_through_lens
+from ..lens.distortion import lens_views, render_through_lens
 
 
 @dataclass

@@ -3,7 +3,7 @@
 The renderer (:mod:`genie_gl.render`) draws pinhole views; here they meet the sensor's lens
 (:mod:`.lens`), the plan of what to draw and which effects to run (:mod:`.planner`), the
 accuracy settings (:mod:`.settings`, :mod:`.supersample`) and the sensor's effects
-(:func:`~genie_gl.sensors.simulate.simulate`): :func:`render` makes one frame through the
+(:func:`~genie_gl.effects.simulate.simulate`): :func:`render` makes one frame through the
 lens, :func:`capture` many, with their effects, on all cores. Cameras that move:
 :mod:`.trajectory` records a rig along a trajectory (its shots in time order, planned per
 sensor), :mod:`.mobile_map` gives those frames a mobile scanner's registration error.

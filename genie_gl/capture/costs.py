@@ -3,7 +3,7 @@
 Each frame made by :func:`~genie_gl.capture.capture` records its render's milliseconds
 (``meta["render_ms"]``, or ``meta["cost_ms"]`` per part) and, per sensor effect, whether it
 ran, why, its milliseconds and the pixels it changed (``meta["effects"]``, written by
-:func:`~genie_gl.sensors.simulate.simulate`). Manifests and benchmarks sum them here.
+:func:`~genie_gl.effects.simulate.simulate`). Manifests and benchmarks sum them here.
 """
 from __future__ import annotations
 

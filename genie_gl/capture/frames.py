@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import capture_arguments, check_pose, describe, expect
+from ..validation.arguments import capture_arguments, check_pose, describe, expect
 from ..errors import ConfigError
 from ..frame import Frame
 from ..limits import check_frames

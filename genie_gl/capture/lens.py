@@ -1,7 +1,7 @@
 """Rendering through a lens, composed around the renderer's pinhole views.
 
 The renderer renders pinhole views and knows no lens; a distorted sensor's image is made
-from its pinhole views by :func:`genie_gl.sensors.distortion.render_through_lens` (exact
+from its pinhole views by :func:`genie_gl.lens.distortion.render_through_lens` (exact
 resampling by default). :func:`through_lens` turns a pinhole render function into one that
 takes any sensor; :func:`silhouettes` renders objects alone through the lens.
 """
@@ -14,7 +14,7 @@ import numpy as np
 from ..frame import Frame
 from ..render.renderer import Renderer
 from ..sensors.camera import Sensor
-from ..sensors.distortion import render_through_lens
+from ..lens.distortion import render_through_lens
 
 RenderFn = Callable[..., Frame]
 

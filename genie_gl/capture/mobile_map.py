@@ -1,5 +1,5 @@
 """The frames of a mobile-scan map: a rig's recording along a trajectory with the registration
-error of a mobile scanner (:mod:`genie_gl.sensors.registration`) applied to every frame's pose.
+error of a mobile scanner (:mod:`genie_gl.motion.registration`) applied to every frame's pose.
 
 Each frame's ``world_from_camera`` becomes the *estimated* pose the scanner's registration
 would give it, so its points land where a real map would put them; ``meta`` keeps the true
@@ -15,8 +15,8 @@ from collections.abc import Iterable, Iterator
 import numpy as np
 
 from ..frame import Frame
-from ..sensors.registration import MID_RANGE_M, RegistrationError
-from ..sensors.trajectory import Trajectory
+from ..motion.registration import MID_RANGE_M, RegistrationError
+from ..motion.trajectory import Trajectory
 from .trajectory import Shot
 
 

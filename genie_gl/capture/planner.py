@@ -3,9 +3,9 @@
 ``plan(scene, sensor, poses)`` looks at every view before anything is rendered: which
 instances can be seen (inside the frustum, nearer than the far plane), how deep they lie,
 what they are made of and whether they are convex; then asks each of the sensor's effects
-whether the view calls for it (:meth:`~genie_gl.sensors.effect.Effect.plan`). An effect the
+whether the view calls for it (:meth:`~genie_gl.effects.base.Effect.plan`). An effect the
 view cannot call for is skipped with its reason; one that depends on what the frame shows is
-decided again on the rendered frame (:meth:`~genie_gl.sensors.effect.Effect.check`), where a
+decided again on the rendered frame (:meth:`~genie_gl.effects.base.Effect.check`), where a
 skip is taken only when running would change nothing (same bytes, same RNG stream).
 
 The far plane is the farthest depth any effect can still use (``range``'s max, the wrap reach
@@ -25,13 +25,13 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import capture_arguments
+from ..validation.arguments import capture_arguments
 from ..scene.convexity import is_convex
 from ..scene.materials import MaterialTable
 from ..scene.model import Mesh, Scene
 from ..sensors.camera import Sensor
-from ..sensors.distortion import lens_views
-from ..sensors.effect import Decision, View
+from ..lens.distortion import lens_views
+from ..effects.base import Decision, View
 
 # render cost model (llvmpipe, this class of host): fixed + per megapixel + per million triangles
 RENDER_MS_FIXED, RENDER_MS_PER_MPX, RENDER_MS_PER_MTRI = 2.0, 25.0, 60.0

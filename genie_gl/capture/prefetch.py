@@ -14,7 +14,7 @@ from .lens import through_lens
 
 
 class Prefetched:
-    """``render`` for :func:`~genie_gl.sensors.simulate.simulate` that serves each pose's
+    """``render`` for :func:`~genie_gl.effects.simulate.simulate` that serves each pose's
     main render from :meth:`Renderer.frames` (frame i+1 renders while the effects of frame i
     run); any other render (an effect's extra view, a different sensor) goes to
     :meth:`Renderer.render`, through the lens for a distorted sensor.

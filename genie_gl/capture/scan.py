@@ -3,7 +3,7 @@
 One scan is one bundle of rays (:func:`cast_beams`, the only caller of the ray engine
 here): the beams of one revolution, each firing from its own pose, plus the sub-rays of
 their footprints when the profile's ``beam_divergence`` runs. Each hit becomes an echo
-(:class:`~genie_gl.sensors.lidar_effect.Echoes`) with the surface's ids, incidence and
+(:class:`~genie_gl.effects.lidar_base.Echoes`) with the surface's ids, incidence and
 reflectance (its UsdPreviewSurface material); the effects the scene's plan keeps then map
 the echoes, and the echoes become the scan's points (:class:`Scan`).
 
@@ -18,8 +18,8 @@ from ..render.rays import RayHits, cast_rays
 from ..scene.materials import MaterialTable
 from ..scene.model import Scene
 from ..sensors.beams import Beams
-from ..sensors.effect import Decision
-from ..sensors.lidar_effect import Echoes, SceneMaterials
+from ..effects.base import Decision
+from ..effects.lidar_base import Echoes, SceneMaterials
 from ..sensors.scanner import Scanner
 from .scan_record import Scan
 

@@ -16,8 +16,8 @@ from ..scene.materials import MaterialTable
 from ..scene.model import Scene
 from ..sensors.beams import scan_beams, scan_starts
 from ..sensors.scanner import Scanner
-from ..sensors.scanner_rig import ScannerRig
-from ..sensors.trajectory import Trajectory
+from ..motion.scanner_rig import ScannerRig
+from ..motion.trajectory import Trajectory
 from .scan import plan_scan, take_scan
 from .scan_record import Scan
 

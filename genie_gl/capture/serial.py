@@ -12,8 +12,8 @@ from ..render.renderer import Renderer
 from ..scene.materials import MaterialTable
 from ..sensors.accuracy import AccuracySettings
 from ..sensors.camera import Sensor
-from ..sensors.distortion import lens_views
-from ..sensors.simulate import simulate
+from ..lens.distortion import lens_views
+from ..effects.simulate import simulate
 from .lens import through_lens
 from .planner import Plan
 from .prefetch import Prefetched

@@ -5,7 +5,7 @@ profile's ``accuracy:`` block, ``--accuracy FILE``, a caller's argument) to wher
 is read: the renderer its ``depth_precision`` and level of detail (``lod_px``, made into a
 :class:`~genie_gl.render.lod.LevelOfDetail` here), the lens its ``resample`` and ``oversample``,
 the supersampler its ``supersample``, the scene builder its ``tessellation``, and each effect
-the knobs it declares (:attr:`~genie_gl.sensors.effect.Effect.accuracy_knobs`), set here.
+the knobs it declares (:attr:`~genie_gl.effects.base.Effect.accuracy_knobs`), set here.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def settings_for(sensor: Sensor, accuracy: AccuracySettings | None = None) -> Ac
 
 def apply_to_sensor(sensor: Sensor, settings: AccuracySettings) -> Sensor:
     """``sensor`` with each effect's accuracy knobs set from ``settings`` (those not None),
-    as the effect declares them (:attr:`~genie_gl.sensors.effect.Effect.accuracy_knobs`:
+    as the effect declares them (:attr:`~genie_gl.effects.base.Effect.accuracy_knobs`:
     the stereo shadow's ``scale`` and ``method``, the ToF multipath's ``samples``, ...); a
     value takes the type of the parameter it sets."""
     effects = []

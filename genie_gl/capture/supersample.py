@@ -25,7 +25,7 @@ import numpy as np
 
 from ..frame import Frame
 from ..sensors.camera import Sensor
-from ..sensors.distortion import render_through_lens
+from ..lens.distortion import render_through_lens
 
 NO_RETURN_DEPTH = 1.0e9   # how far "no return" counts when a tie is broken by depth
 STEP = 0.01               # a relative jump between sorted depths that separates two surfaces
@@ -164,7 +164,7 @@ def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:
     resolution for the centre rays' depth, ``1/s²`` more pixels); ``s = 1`` returns ``render``.
 
     A distorted sensor resampled exactly (each pixel from its own ray's hit) is supersampled
-    through its lens: :func:`~genie_gl.sensors.distortion.render_through_lens` finds the
+    through its lens: :func:`~genie_gl.lens.distortion.render_through_lens` finds the
     returned function's ``lens`` attribute and renders the lens's image at ``s`` times its
     resolution (``s x s`` exact rays per pixel, symmetric about its centre ray), reduced as
     above (a reduced pinhole view would have no triangle per pixel to intersect)."""

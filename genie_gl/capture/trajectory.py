@@ -1,6 +1,6 @@
 """A rig along a trajectory: which sensor fires when and where, and its frames, in time order.
 
-Each rig sensor fires at its own rate (:meth:`~genie_gl.sensors.rig.RigSensor.times`) over
+Each rig sensor fires at its own rate (:meth:`~genie_gl.motion.rig.RigSensor.times`) over
 the trajectory's span; a *shot* is one such firing, with the body's pose interpolated at its
 time and the sensor's pose ``world_from_body(t) @ body_from_sensor``. :func:`record` renders
 the shots as ``gg.capture`` does (lens, plan, accuracy settings, effects) a window at a time
@@ -18,12 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import check_seed, expect
+from ..validation.arguments import check_seed, expect
 from ..frame import Frame
 from ..scene.model import Scene
-from ..sensors.registration import MID_RANGE_M
-from ..sensors.rig import Rig
-from ..sensors.trajectory import Trajectory
+from ..motion.registration import MID_RANGE_M
+from ..motion.rig import Rig
+from ..motion.trajectory import Trajectory
 from .frames import prepare
 from .planner import plan
 
@@ -161,7 +161,7 @@ class RecordingPlan:
 def plan_recording(scene, rig: Rig, trajectory: Trajectory, *, registration=None) -> RecordingPlan:
     """What recording ``rig`` along ``trajectory`` will do, frame by frame, before rendering:
     ``gg.plan`` of each sensor's shots, and ``registration`` (a
-    :class:`~genie_gl.sensors.registration.RegistrationError`) predicted at each shot."""
+    :class:`~genie_gl.motion.registration.RegistrationError`) predicted at each shot."""
     shots = schedule(rig, trajectory)
     plans = {}
     for k, s in enumerate(rig.sensors):

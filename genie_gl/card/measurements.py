@@ -31,7 +31,7 @@ import numpy as np
 from ..capture import capture, through_lens
 from ..render import Renderer, shared_context
 from ..sensors.camera import Sensor
-from ..sensors.noise import DepthNoise, RangeLimits
+from ..effects.noise import DepthNoise, RangeLimits
 from . import metrics, scenes
 from .references import METRICS, References
 

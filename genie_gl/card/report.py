@@ -16,7 +16,7 @@ from typing import Any, Iterable
 
 from ..errors import ConfigError, RenderError
 from ..sensors.camera import Sensor
-from ..sensors.profile import load_sensor
+from ..effects.profile import load_sensor
 from .captures import measure_captures
 from .measurements import CardSettings, Measurement, measure
 from .references import SYSTEMATIC, Figure, References, load_references, reference_path

@@ -21,9 +21,9 @@ from ..capture.scanning import scan
 from ..errors import ConfigError
 from ..resources import resolve
 from ..scene.model import Material, Scene
-from ..sensors.lidar_effects import RangeNoise
+from ..effects.lidar import RangeNoise
 from ..sensors.scanner import Scanner
-from ..sensors.scanner_profile import SUFFIX
+from ..effects.scanner_profile import SUFFIX
 
 ROOM_M = 30.0
 ROOM_HEIGHT_M = 30.0

@@ -14,7 +14,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from ..checks import expect
+from ..validation.arguments import expect
 from ..errors import ConfigError, LimitError
 from ..frame import Frame
 from ..jit import njit

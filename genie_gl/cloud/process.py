@@ -6,7 +6,7 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-from ..checks import expect, expect_sequence
+from ..validation.arguments import expect, expect_sequence
 from ..errors import ConfigError
 from ..frame import Frame
 from .pointcloud import PointCloud

@@ -1,7 +1,7 @@
 """``genie capture SCENE.usda --sensor PROFILE --cameras K --out DIR --format FMT``.
 
 Renders a USD scene (any stage) from K cameras placed inside it (mounted for the sensor's
-range, :func:`genie_gl.sensors.placement.scene_poses`) or from ``--poses FILE``, following the
+range, :func:`genie_gl.placement.genetic.scene_poses`) or from ``--poses FILE``, following the
 plan (:mod:`genie_gl.capture.planner`); warns about frames with nothing in range; merges the frames into
 one labelled cloud and exports it. The manifest sums, per effect, the frames it ran on, its
 milliseconds and the pixels it changed.
@@ -33,14 +33,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..capture import capture, effect_totals
     from ..capture import plan as make_plan
-    from ..checks import read_poses
+    from ..validation.arguments import read_poses
     from ..cloud import to_cloud
     from ..export import FORMATS, get_format
     from ..outputs import claim_folder
     from ..render.rasters import resolve_raster
     from ..scene.usd import read_usd
-    from ..sensors import load_sensor
-    from ..sensors.placement import scene_poses, sensor_range
+    from ..effects.profile import load_sensor
+    from ..placement.genetic import scene_poses, sensor_range
 
     if args.format not in FORMATS:
         raise ConfigError(f"--format {args.format!r}: unknown; expected one of {', '.join(FORMATS)}"

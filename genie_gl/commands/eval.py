@@ -19,7 +19,7 @@ import os
 import sys
 from pathlib import Path
 
-from ..bounds import MAX_SEED
+from ..validation.bounds import MAX_SEED
 from ..errors import ConfigError
 from ..limits import MAX_CAMERAS
 from . import count, counts

@@ -51,9 +51,9 @@ def scene_layout(scene):
 def run_recording(args: argparse.Namespace) -> int:
     from ..capture.trajectory import plan_recording
     from ..scene.usd import read_usd
-    from ..sensors.paths import make_trajectory, path_kind
-    from ..sensors.registration import registration_of
-    from ..sensors.rig import load_rig
+    from ..motion.paths import make_trajectory, path_kind
+    from ..motion.registration import registration_of
+    from ..motion.rig import load_rig
 
     rig = load_rig(args.rig)
     path = args.path or "aisles"
@@ -69,10 +69,10 @@ def run_recording(args: argparse.Namespace) -> int:
 
 
 def scene_sensor_poses(args: argparse.Namespace, step=lambda name: None):
-    from ..checks import read_poses
+    from ..validation.arguments import read_poses
     from ..scene.usd import read_usd
-    from ..sensors import load_sensor
-    from ..sensors.placement import scene_poses
+    from ..effects.profile import load_sensor
+    from ..placement.genetic import scene_poses
 
     sensor = load_sensor(args.sensor)
     given = read_poses(args.poses) if getattr(args, "poses", None) else None

@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     from ..card.captures import load_captures
     from ..card.pages import card_markdown, write_pages
     from ..card.references import load_references, reference_path
-    from ..sensors.profile import load_sensor
+    from ..effects.profile import load_sensor
 
     if args.frames < 2:
         raise ConfigError(f"--frames: the temporal metrics need at least 2 frames, got {args.frames}")
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
                              option="--pages")
     cards, refs = [], {}
     from ..card.scanner_card import scanner_card, scanner_card_markdown, scanner_profile_file
-    from ..sensors.scanner_profile import load_scanner
+    from ..effects.scanner_profile import load_scanner
 
     for name in names:
         if scanner_profile_file(name) is not None:   # a spinning scanner: its own card

@@ -31,8 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..sensors.scanner_profile import load_scanner
-    from ..sensors.scanner_rig import ScannerRig, load_scanner_rig
+    from ..effects.scanner_profile import load_scanner
+    from ..motion.scanner_rig import ScannerRig, load_scanner_rig
 
     if args.format not in FORMATS:
         raise ConfigError(f"--format {args.format!r}: expected one of {', '.join(FORMATS)}")
@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     from ..export.lidar_output import export_scans
     from ..layout import generate_layout
     from ..scene import build_scene
-    from ..sensors.paths import make_trajectory
+    from ..motion.paths import make_trajectory
 
     with stages(["layout", "scene", "trajectory", "scan", "export"], title="genie scan",
                 enabled=not args.no_progress) as step:

@@ -21,7 +21,7 @@ from ..errors import ConfigError, did_you_mean
 from ..export.registry import DATASET_FORMATS
 from ..labels import CLASSES
 from ..limits import MAX_CAMERAS, MAX_REGIONS, available_memory_bytes  # noqa: F401  (kept importable from here)
-from ..sensors import Sensor
+from ..sensors.camera import Sensor
 from ..sensors.accuracy import AccuracySettings, from_dict, load_accuracy
 from .modes.base import CAPTURE_MODES, DEFAULT_MODE, get_mode, mode_options, users_of
 

@@ -11,7 +11,7 @@ from .. import labels
 from ..capture import render
 from ..cloud import to_cloud
 from ..layout.picture import layout_image
-from ..render.projection import look_at
+from ..sensors.pose import look_at
 from ..sensors.camera import Sensor
 
 

@@ -27,7 +27,9 @@ from ..limits import MAX_REGIONS
 from ..render import shared_context
 from ..scene import build_scene
 from ..scene.model import Scene
-from ..sensors import Sensor, load_sensor, place_sensors
+from ..sensors.camera import Sensor
+from ..effects.profile import load_sensor
+from ..placement.genetic import place_sensors
 from ..sensors.accuracy import AccuracySettings
 from .config import DatasetConfig
 from .streams import SceneStreams

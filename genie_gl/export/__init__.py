@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..checks import expect, whole_number
+from ..validation.arguments import expect, whole_number
 from ..errors import ExportError
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError

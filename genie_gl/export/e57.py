@@ -27,7 +27,7 @@ import numpy as np
 from ..cloud.pointcloud import PointCloud
 from ..errors import ConfigError
 from ..outputs import check_replaceable, written
-from ..sensors.trajectory import quaternion_xyzw
+from ..motion.trajectory import quaternion_xyzw
 from .semantickitti_sequence import camera_points
 
 

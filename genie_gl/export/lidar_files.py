@@ -29,7 +29,7 @@ from ..capture.scan_record import Scan
 from ..cloud.scan_cloud import scans_cloud
 from ..errors import ExportError
 from ..outputs import check_replaceable, written
-from ..sensors.trajectory import quaternion_xyzw
+from ..motion.trajectory import quaternion_xyzw
 from .e57 import _guids, _pye57, content_guid
 from .las import SCALE_M, SOFTWARE, _laspy, las_is_ours
 

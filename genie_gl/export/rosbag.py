@@ -32,7 +32,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import ConfigError
-from ..sensors.trajectory import quaternion_xyzw
+from ..motion.trajectory import quaternion_xyzw
 from .semantickitti_sequence import camera_points
 
 DISTORTION = {"fisheye": "equidistant"}   # pinhole: plumb_bob (<= 5 coefficients) or rational_polynomial

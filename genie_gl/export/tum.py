@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import ExportError
 from ..outputs import atomic_write_bytes, atomic_write_text
-from ..sensors.trajectory import quaternion_xyzw
+from ..motion.trajectory import quaternion_xyzw
 
 DEPTH_SCALE = 5000.0
 MAX_DEPTH_M = 65535 / DEPTH_SCALE

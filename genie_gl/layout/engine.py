@@ -10,7 +10,7 @@ import numpy as np
 from .generators import Children, Parents
 from .merge import merge_tree, renumber
 from .model import ORIENTATIONS, Layout, Node, Region, RegionType, Tree
-from ..checks import check_seed, describe, whole_number
+from ..validation.arguments import check_seed, describe, whole_number
 from ..errors import ConfigError
 from ..limits import MAX_REGIONS, check_regions
 from .estimate import layout_estimate

@@ -66,4 +66,3 @@ def rigid_inverse(T: np.ndarray) -> np.ndarray:
 
 
 # camera poses belong to the sensors stage; re-exported here for the renderer's users
-from ..sensors.pose import look_at  # noqa: E402,F401

@@ -18,7 +18,7 @@ from typing import Any
 import moderngl
 import numpy as np
 
-from ..checks import check_pose, expect
+from ..validation.arguments import check_pose, expect
 from ..errors import ConfigError, LimitError, RenderError
 from ..limits import BYTES_PER_PIXEL, MAX_SIDE, check_frame_side, check_memory, memory_limit_bytes
 from ..frame import Frame

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import check_seed, expect
+from ..validation.arguments import check_seed, expect
 from ..errors import ConfigError, did_you_mean
 from ..layout.model import Layout, Region
 from ..scene_options import SceneOptions, scene_options

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import MAX_COORD_M
+from ..validation.arguments import MAX_COORD_M
 from ..errors import ConfigError
 
 log = logging.getLogger(__name__)

@@ -30,7 +30,7 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt
 
 from .. import __version__, labels
-from ..checks import MAX_COORD_M, expect, expect_path, whole_number
+from ..validation.arguments import MAX_COORD_M, expect, expect_path, whole_number
 from ..limits import MAX_INSTANCES, check_instances
 from ..errors import ConfigError
 from ..outputs import check_replaceable, written

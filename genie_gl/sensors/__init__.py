@@ -1,10 +1,8 @@
-"""Sensors: camera model, calibration I/O, profiles, effects and placement (paper §3.4.1)."""
+"""The sensor model: a camera with its lens coefficients, range, accuracy settings and
+effect list (:class:`Sensor`), OpenCV/ROS/Kalibr calibration I/O, and camera poses. Effects,
+lens, motion and placement are packages of their own (``genie_gl.effects``, ``.lens``,
+``.motion``, ``.placement``)."""
 from .calibration import Calibration, read_calibration, write_calibration
 from .camera import Sensor
-from .effects import EFFECTS, build_effects
-from .placement import place_sensors
-from .profile import load_sensor
-from .simulate import simulate
 
-__all__ = ["EFFECTS", "Calibration", "Sensor", "build_effects", "load_sensor", "place_sensors",
-           "read_calibration", "simulate", "write_calibration"]
+__all__ = ["Calibration", "Sensor", "read_calibration", "write_calibration"]

@@ -27,7 +27,7 @@ from typing import Any
 
 import yaml
 
-from ..checks import expect_path
+from ..validation.arguments import expect_path
 from ..errors import ConfigError, did_you_mean
 from ..outputs import atomic_write_text, check_replaceable
 

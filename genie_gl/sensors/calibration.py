@@ -24,7 +24,7 @@ import numpy as np
 import yaml
 
 from ..camera import MODELS
-from ..checks import expect, expect_path, whole_number
+from ..validation.arguments import expect, expect_path, whole_number
 from ..errors import ConfigError
 from ..outputs import check_replaceable
 from . import calibration_keys as keys

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import whole_number
+from ..validation.arguments import whole_number
 from ..errors import ConfigError, did_you_mean
 from .calibration_keys import lens_model, logger, matrix
 

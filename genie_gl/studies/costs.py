@@ -28,7 +28,7 @@ from ..capture import plan as make_plan
 from ..capture import through_lens
 from ..render import Renderer
 from ..resources import resolve
-from ..sensors.simulate import simulate
+from ..effects.simulate import simulate
 
 
 def _variants(sensor: Any) -> dict[str, Any]:

@@ -32,8 +32,8 @@ from ..errors import ConfigError
 from ..export import e57, las, npz, semantickitti
 from ..layout.model import Layout
 from ..scene.usd import read_usd
-from ..sensors import load_sensor
-from ..sensors.rig import load_rig
+from ..effects.profile import load_sensor
+from ..motion.rig import load_rig
 
 log = logging.getLogger(__name__)
 CLOUD_SUFFIXES = (".ply", ".npz", ".las", ".e57")

@@ -131,7 +131,7 @@ def test_the_analytic_truth_agrees_with_the_renderer(glctx_bench):
     from genie_gl.bench import analytic
     from genie_gl.render import Renderer
     from genie_gl.sensors.camera import Sensor
-    from genie_gl.sensors.geometry import pixel_rays
+    from genie_gl.effects.geometry import pixel_rays
 
     sensor = Sensor.pinhole(160, 120, 130.0, near_m=0.1, far_m=20.0)
     truth = analytic.truth(sensor, pixel_rays(sensor))
@@ -321,7 +321,7 @@ def test_the_level_of_detail_knob_reaches_the_renderer():
 
     from genie_gl.bench.accuracy_runner import Runner
     from genie_gl.bench.knobs import Case, Setting
-    from genie_gl.render.projection import look_at
+    from genie_gl.sensors.pose import look_at
     from genie_gl.sensors.accuracy import AccuracySettings
 
     scene = gg.Scene()

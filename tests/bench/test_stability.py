@@ -13,7 +13,7 @@ import genie_gl as gg
 from genie_gl.bench import stability as st
 from genie_gl.capture import through_lens
 from genie_gl.render import Renderer
-from genie_gl.sensors.distortion import lens_views, render_through_lens
+from genie_gl.lens.distortion import lens_views, render_through_lens
 
 pytestmark = pytest.mark.gl
 
@@ -189,7 +189,7 @@ cam1:
 
 
 def test_fisheye_calibration_round_trips_through_opencv_filestorage(tmp_path):
-    from genie_gl.sensors import Calibration, read_calibration, write_calibration
+    from genie_gl.sensors.calibration import Calibration, read_calibration, write_calibration
 
     K = np.array([[100.0, 0, 160], [0, 101, 120], [0, 0, 1]])
     path = write_calibration(Calibration(320, 240, K, np.array([0.1, 0.01, 0, 0]), model="fisheye"), tmp_path / "f.yml")
@@ -267,7 +267,7 @@ def test_resample_modes_never_blend_ids_and_exact_is_exact(glctx, mode):
 
 
 def test_subpixel_calibration_error_changes_the_image():
-    from genie_gl.sensors.miscalibration import CalibrationError
+    from genie_gl.effects.miscalibration import CalibrationError
 
     s = gg.Sensor.pinhole(80, 60, 70.0)
     u, v = np.meshgrid(np.arange(80.0), np.arange(60.0))
@@ -280,7 +280,7 @@ def test_subpixel_calibration_error_changes_the_image():
     eff = CalibrationError(sigma_f_px=0.0, sigma_c_px=0.0)
     K_true = s.K.copy()
     K_true[0, 2] += 0.3                               # 0.3 px: nearest resampling would hide it
-    from genie_gl.sensors.distortion import distort
+    from genie_gl.lens.distortion import distort
 
     out = distort(f, s, eff.maps(s, K_true), resample="bilinear")
     inner = np.s_[2:-2, 2:-2]
@@ -342,7 +342,7 @@ def test_usd_prim_with_zero_scale_is_dropped_and_counted_by_path(tmp_path):
 @pytest.mark.parametrize("lens", ["k1=+0.5 (pincushion)", "k1=-0.5 (barrel)", "fisheye 180°"])
 def test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel(lens):
     """k1 = +0.5 once sampled only 57 % distinct pixels of a same-focal render."""
-    from genie_gl.sensors.distortion import _plan
+    from genie_gl.lens.distortion import _plan
 
     cam = st.lens_sensor(lens)
     views = lens_views(cam)

@@ -6,18 +6,18 @@ import pytest
 import trimesh
 
 import genie_gl as gg
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 from genie_gl.scene.materials import MaterialTable
 from genie_gl.sensors.camera import Stereo
 from genie_gl.scene.model import Material
-from genie_gl.sensors import simulate
-from genie_gl.sensors.edges import EdgeDropout, FlyingPixels
-from genie_gl.sensors.effects import EFFECTS, DepthNoise, RangeLimits
-from genie_gl.sensors.miscalibration import CalibrationError
-from genie_gl.sensors.shadow import StereoShadow
-from genie_gl.sensors.specular import SpecularLoss
-from genie_gl.sensors.surface import IncidenceDropout, LateralNoise, Multipath
-from genie_gl.sensors.tof import Ambiguity, LowAlbedo, MixedPixels, TofMultipath, _ranges
+from genie_gl.effects.simulate import simulate
+from genie_gl.effects.edges import EdgeDropout, FlyingPixels
+from genie_gl.effects.registry import EFFECTS, DepthNoise, RangeLimits
+from genie_gl.effects.miscalibration import CalibrationError
+from genie_gl.effects.shadow import StereoShadow
+from genie_gl.effects.specular import SpecularLoss
+from genie_gl.effects.surface import IncidenceDropout, LateralNoise, Multipath
+from genie_gl.effects.tof import Ambiguity, LowAlbedo, MixedPixels, TofMultipath, _ranges
 
 W, H = 96, 72
 MATTE = Material((0.5, 0.5, 0.5), 0.0, 0.9)
@@ -100,7 +100,7 @@ def test_a_frame_check_skip_is_the_run_byte_for_byte_and_a_run_changes_pixels(na
 
 def test_every_effect_can_be_planned():
     """Every registered effect answers plan() on an empty view with a skip and a reason."""
-    from genie_gl.sensors.effect import View
+    from genie_gl.effects.base import View
 
     empty = View(gg.Sensor.pinhole(8, 8, 10.0), np.eye(4), np.zeros(0, np.uint32), 0.0, 0.0)
     for name, cls in EFFECTS.items():
@@ -253,8 +253,8 @@ def test_stereo_shadow_renders_the_second_view_only_for_an_edge():
 
 def test_edge_pixels_are_those_of_the_full_frame_step():
     """The compiled edge search finds the pixels and neighbours largest_step() does."""
-    from genie_gl.sensors import kernels
-    from genie_gl.sensors.edges import largest_step
+    from genie_gl.effects import kernels
+    from genie_gl.effects.edges import largest_step
 
     d = np.random.default_rng(0).choice([0.0, 1.0, 1.02, 2.0, 3.5], (60, 80)).astype(np.float32)
     step, other = largest_step(d)
@@ -266,7 +266,7 @@ def test_edge_pixels_are_those_of_the_full_frame_step():
 
 def test_nguyen_incidence_term_computed_only_where_it_applies_gives_the_same_sigma():
     """Angles are computed only where cos θ < 1/2 (θ > 60°); σ is the full computation's."""
-    from genie_gl.sensors.geometry import incidence_angle
+    from genie_gl.effects.geometry import incidence_angle
 
     rng = np.random.default_rng(0)
     d = rng.uniform(0.5, 4, (H, W)).astype(np.float32)

@@ -13,9 +13,9 @@ from genie_gl.capture.mobile_map import registration_rng, with_registration
 from genie_gl.capture.trajectory import record
 from genie_gl.cloud.fusion import fuse
 from genie_gl.cloud.unproject import unproject
-from genie_gl.sensors.paths import make_trajectory
-from genie_gl.sensors.registration import RegistrationError
-from genie_gl.sensors.rig import Rig, load_rig
+from genie_gl.motion.paths import make_trajectory
+from genie_gl.motion.registration import RegistrationError
+from genie_gl.motion.rig import Rig, load_rig
 
 pytestmark = pytest.mark.gl
 

@@ -167,7 +167,7 @@ def test_capture_applies_the_settings_given_or_the_profiles(glctx):
     from genie_gl.capture import capture
     from genie_gl.render import Renderer
     from genie_gl.sensors.accuracy import AccuracySettings
-    from genie_gl.sensors.shadow import StereoShadow
+    from genie_gl.effects.shadow import StereoShadow
 
     scene = _random_boxes(7)
     sensor = Sensor.pinhole(48, 36, 40.0, effects=(StereoShadow(baseline_m=0.1, scale=0.5),))
@@ -178,7 +178,7 @@ def test_capture_applies_the_settings_given_or_the_profiles(glctx):
     assert np.array_equal(f.depth, g.depth) and np.array_equal(f.instance, g.instance)
     # the same frame by hand: a 2x render reduced, a second view at a quarter of the scale
     by_hand = dataclasses.replace(sensor, effects=(StereoShadow(baseline_m=0.1, scale=0.25),))
-    from genie_gl.sensors.simulate import simulate
+    from genie_gl.effects.simulate import simulate
 
     with Renderer(scene, context=glctx) as r:
         h = simulate(by_hand, np.eye(4), render=supersampled(r.render, 2), rng=np.random.default_rng(0))

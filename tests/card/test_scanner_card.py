@@ -5,7 +5,7 @@ import pytest
 
 from genie_gl.card.scanner_card import measure, published_point_rate, noise_sigma, scanner_card
 from genie_gl.cli import main
-from genie_gl.sensors.scanner_profile import load_scanner
+from genie_gl.effects.scanner_profile import load_scanner
 
 
 def test_vlp16_card_point_rate_and_range_noise():

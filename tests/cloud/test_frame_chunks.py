@@ -4,7 +4,7 @@ import pytest
 
 import genie_gl as gg
 from genie_gl.cloud import choose_origin, chunks, frame_chunks, to_cloud
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 
 
 def ground_frames(shift=(0.0, 0.0, 0.0), n=5, colour=True, normals=True, lens="pinhole"):

@@ -156,7 +156,7 @@ def test_merge_counts_and_normals_agree_with_the_kernel_on_invalid_depths():
     arrays), the points and the normals alike."""
     import genie_gl as gg
     from genie_gl.cloud import to_cloud
-    from genie_gl.render.projection import look_at
+    from genie_gl.sensors.pose import look_at
 
     rng = np.random.default_rng(4)
     s = gg.Sensor.pinhole(150, 40, 100.0)

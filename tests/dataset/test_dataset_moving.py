@@ -62,7 +62,7 @@ def test_each_format_names_the_captures_it_takes(tmp_path, capsys):
     static = DatasetConfig.parse(dict(strategy="storage_area", out=str(tmp_path / "s")))
     from genie_gl.dataset.manifest import fingerprint
     from genie_gl.layout import load_strategy
-    from genie_gl.sensors import load_sensor
+    from genie_gl.effects.profile import load_sensor
 
     parts = fingerprint(static, load_strategy("storage_area"), load_sensor("realsense_d435"))["parts"]
     moving = {"capture", "rig", "path", "motion", "duration_s", "voxel_m", "registration"}

@@ -10,7 +10,7 @@ from genie_gl.dataset.modes.base import mode_options, users_of
 from genie_gl.errors import ConfigError
 from genie_gl.export.registry import DATASET_FORMATS
 from genie_gl.layout import load_strategy
-from genie_gl.sensors import load_sensor
+from genie_gl.effects.profile import load_sensor
 
 # the formats each capture wrote before the modes were objects (each format declared them)
 TAKEN = {"semantickitti": {"static", "mobile-map", "trajectory"}, "ply": {"static", "mobile-map"},

@@ -11,7 +11,7 @@ import genie_gl as gg
 from genie_gl.export import bop
 from genie_gl.capture import silhouettes
 from genie_gl.render import Renderer
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 
 
 def two_box_scene():

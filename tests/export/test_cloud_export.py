@@ -7,7 +7,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.cloud import chunks, keep_cloud, random_downsample, to_cloud, unproject, voxel_downsample
 from genie_gl.export import semantickitti
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 
 
 def plane_frame(pose, z=3.0, sensor=None):

@@ -16,8 +16,8 @@ from genie_gl.export.lidar_sequences import point_fields, write_kitti_sequence, 
 from genie_gl.export.pcd import write as write_pcd
 from genie_gl.export.ply import write as write_ply
 from genie_gl.sensors.beams import scan_beams
-from genie_gl.sensors.scanner_profile import load_scanner
-from genie_gl.sensors.trajectory import Trajectory, planar_poses
+from genie_gl.effects.scanner_profile import load_scanner
+from genie_gl.motion.trajectory import Trajectory, planar_poses
 
 HEIGHT = 1.5
 SPEED = 2.0   # m/s along x

@@ -109,7 +109,7 @@ def test_cloud_stride_is_an_option_of_rosbag_recordings_only(tmp_path):
     # a run without the option keeps the fingerprint it had (the option is fingerprinted only when given)
     from genie_gl.dataset.manifest import fingerprint
     from genie_gl.layout import load_strategy
-    from genie_gl.sensors import load_sensor
+    from genie_gl.effects.profile import load_sensor
 
     plain = DatasetConfig.parse(base | dict(format="rosbag", capture="trajectory"))
     parts = fingerprint(plain, load_strategy("storage_area"), load_sensor("ideal_pinhole"))["parts"]

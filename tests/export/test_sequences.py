@@ -8,8 +8,8 @@ import trimesh
 import genie_gl as gg
 from genie_gl.capture.trajectory import record, schedule
 from genie_gl.cloud.unproject import unproject
-from genie_gl.sensors.rig import Rig, RigSensor, body_from_sensor
-from genie_gl.sensors.trajectory import Trajectory, planar_poses
+from genie_gl.motion.rig import Rig, RigSensor, body_from_sensor
+from genie_gl.motion.trajectory import Trajectory, planar_poses
 
 pytestmark = pytest.mark.gl
 

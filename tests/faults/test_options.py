@@ -158,7 +158,7 @@ def test_plan_mount_places_cameras_at_that_height(files):
     plan = json.loads(run.out)
     assert len(plan["frames"]) == 3
     scene = gg.read_usd(files["usd"])
-    from genie_gl.sensors.placement import scene_poses
+    from genie_gl.placement.genetic import scene_poses
 
     poses = scene_poses(scene, gg.load_sensor("ideal_pinhole"), 3, 0, mount_height_m=1.7)
     floor = scene.bounds()[0][2]

@@ -7,7 +7,7 @@ import trimesh
 
 import genie_gl as gg
 from genie_gl.layout.model import Layout, Region, RegionType
-from genie_gl.sensors.placement import CoverageProblem, distinct, scene_poses
+from genie_gl.placement.genetic import CoverageProblem, distinct, scene_poses
 
 from .common import fault
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import genie_gl as gg
-from genie_gl.sensors.floor import free_floor
-from genie_gl.sensors.paths import make_trajectory
+from genie_gl.motion.floor import free_floor
+from genie_gl.motion.paths import make_trajectory
 
 from .common import fault
 

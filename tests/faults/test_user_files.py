@@ -207,7 +207,7 @@ def test_a_bop_scene_written_again_keeps_the_users_files(tmp_path):
     import genie_gl as gg
     from genie_gl.export import bop
     from genie_gl.render import Renderer
-    from genie_gl.render.projection import look_at
+    from genie_gl.sensors.pose import look_at
     from tests.export.test_bop import two_box_scene
 
     scene = two_box_scene()

@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 import genie_gl as gg
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 
 from .conftest import cast_boxes, interior, ray_dirs
 

@@ -10,7 +10,7 @@ import trimesh
 
 import genie_gl as gg
 from genie_gl.render import create_context
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 
 from .conftest import cast_boxes, interior
 

@@ -9,7 +9,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.render import Renderer
 from genie_gl.render.clusters import CLUSTER, prepare
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 
 pytestmark = pytest.mark.gl
 

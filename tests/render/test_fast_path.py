@@ -8,7 +8,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.errors import ConfigError
 from genie_gl.render import Renderer, create_context
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 from genie_gl.resources import resolve
 from tests.scenes import scene_of, sensor_640
 

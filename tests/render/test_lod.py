@@ -7,7 +7,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.errors import ConfigError
 from genie_gl.render import LevelOfDetail, Renderer
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 
 pytestmark = pytest.mark.gl
 

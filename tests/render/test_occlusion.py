@@ -9,7 +9,7 @@ import genie_gl as gg
 from genie_gl.render import Renderer
 from genie_gl.render.cull import BREAK_EVEN, PROBE_FRAMES
 from genie_gl.render.occlusion import EMPTY, DepthBound, hidden, triangle_depths, write
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 
 pytestmark = pytest.mark.gl
 

@@ -10,7 +10,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.errors import ConfigError
 from genie_gl.render import Renderer, raster
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 from genie_gl.resources import resolve
 from tests.scenes import scene_of, sensor_640
 

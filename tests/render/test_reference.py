@@ -5,7 +5,7 @@ import trimesh
 
 import genie_gl as gg
 from genie_gl.render import Renderer
-from genie_gl.render.projection import look_at
+from genie_gl.sensors.pose import look_at
 from genie_gl.render.reference import ReferenceRenderer
 
 from .conftest import interior

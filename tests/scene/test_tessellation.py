@@ -77,7 +77,7 @@ def test_the_rendered_depth_of_a_forklifts_wheels_approaches_the_fine_tessellati
     """Seen obliquely, the wheels' silhouettes and treads: the depth and ids at 8, 16, 32 and
     64 segments per circle come ever closer to those at 256."""
     from genie_gl.render import Renderer, create_context
-    from genie_gl.render.projection import look_at
+    from genie_gl.sensors.pose import look_at
 
     sensor = gg.Sensor.pinhole(160, 120, 200.0, near_m=0.1, far_m=20.0)
     pose = look_at([2.2, -1.4, 0.5], [0.6, -0.65, 0.25])   # the rear right wheel, 1.7 m away

@@ -47,7 +47,7 @@ def test_bad_settings_name_the_file_and_the_field(block, message, tmp_path):
 
 def test_a_profile_carries_its_accuracy_block_and_capture_settings_apply_to_effects(tmp_path):
     from genie_gl.resources import resolve
-    from genie_gl.sensors import load_sensor
+    from genie_gl.effects.profile import load_sensor
 
     src = resolve("realsense_d435", "sensors", (".yaml",))
     text = src.read_text().replace("calibration: realsense_d435.calib.yml",

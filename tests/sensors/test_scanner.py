@@ -9,9 +9,9 @@ import yaml
 from genie_gl.errors import ConfigError
 from genie_gl.resources import data_dir
 from genie_gl.sensors.beams import firing_times, scan_beams, scan_starts
-from genie_gl.sensors.scanner_profile import load_scanner
-from genie_gl.sensors.scanner_rig import load_scanner_rig
-from genie_gl.sensors.trajectory import Trajectory, planar_poses
+from genie_gl.effects.scanner_profile import load_scanner
+from genie_gl.motion.scanner_rig import load_scanner_rig
+from genie_gl.motion.trajectory import Trajectory, planar_poses
 
 VLP16_ELEVATION = [-15, 1, -13, 3, -11, 5, -9, 7, -7, 9, -5, 11, -3, 13, -1, 15]
 

@@ -11,9 +11,9 @@ import genie_gl as gg
 from genie_gl.bench.lidar import agreement, open3d_cast, open3d_caster, scene_beams
 from genie_gl.capture.scan import cast_beams
 from genie_gl.scene.model import Material, Scene
-from genie_gl.sensors.lidar_effects import BeamDivergence, RangeNoise
-from genie_gl.sensors.scanner_profile import load_scanner
-from genie_gl.sensors.trajectory import Trajectory, planar_poses
+from genie_gl.effects.lidar import BeamDivergence, RangeNoise
+from genie_gl.effects.scanner_profile import load_scanner
+from genie_gl.motion.trajectory import Trajectory, planar_poses
 
 ALBEDO = 0.6
 

@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 
 import genie_gl as gg
-from genie_gl.sensors import Calibration, read_calibration, simulate, write_calibration
+from genie_gl.sensors.calibration import Calibration, read_calibration, write_calibration
+from genie_gl.effects.simulate import simulate
 from genie_gl.sensors.camera import Stereo
-from genie_gl.sensors.distortion import distortion_maps, project
-from genie_gl.sensors.effects import DepthNoise, RangeLimits, build_effects
-from genie_gl.sensors.placement import CoverageProblem, genetic_placement, greedy_placement
+from genie_gl.lens.distortion import distortion_maps, project
+from genie_gl.effects.registry import DepthNoise, RangeLimits, build_effects
+from genie_gl.placement.genetic import CoverageProblem, genetic_placement, greedy_placement
 
 K = np.array([[600.0, 0, 320.0], [0, 610.0, 240.0], [0, 0, 1]])
 

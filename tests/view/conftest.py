@@ -3,7 +3,7 @@ standing cameras and a short recording."""
 import pytest
 
 from genie_gl.dataset import DatasetConfig, run_dataset
-from genie_gl.sensors import load_sensor
+from genie_gl.effects.profile import load_sensor
 
 SMALL_CALIB = """%YAML 1.2
 ---

@@ -14,8 +14,8 @@ from ...capture.mobile_map import registration_rng, with_registration
 from ...cloud import chunks, keep_cloud
 from ...cloud.balance import PAPER_REAL
 from ...cloud.fusion import fuse
-from ...sensors.placement import ceiling_of
-from ...sensors.registration import registration_of
+from ...placement.genetic import ceiling_of
+from ...motion.registration import registration_of
 from .base import Captured, register_mode, stamp
 from .moving import RigOnPath
 

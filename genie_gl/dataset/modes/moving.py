@@ -31,11 +31,11 @@ from ...outputs import atomic_write_text
 from ...render import shared_context
 from ...errors import ConfigError
 from ...resources import resolve
-from ...sensors import load_sensor
-from ...sensors.paths import PATHS, make_trajectory, path_kind, read_waypoints
-from ...sensors.rig import Rig, load_rig
-from ...sensors.scanner_rig import scanner_rig_file
-from ...sensors.trajectory import quaternion_xyzw
+from ...effects.profile import load_sensor
+from ...motion.paths import PATHS, make_trajectory, path_kind, read_waypoints
+from ...motion.rig import Rig, load_rig
+from ...motion.scanner_rig import scanner_rig_file
+from ...motion.trajectory import quaternion_xyzw
 from ..previews import write_recording_previews
 from ..recipe import make_scene
 from .base import Captured, CaptureMode, Estimate, stamp

@@ -1,7 +1,7 @@
 """A scanner rig along a trajectory: its raw scans (``--capture scans``) or the map fused from
 them (``--capture scan-map``).
 
-A scanner rig (``rigs/<name>.lidar.yml``: spinning heads, :mod:`genie_gl.sensors.scanner_rig`)
+A scanner rig (``rigs/<name>.lidar.yml``: spinning heads, :mod:`genie_gl.motion.scanner_rig`)
 is carried along the same trajectory as a camera rig (``--path``, ``--motion``,
 ``--duration-s``; the scene's own ``trajectory`` stream) and scans it head by head
 (:func:`genie_gl.capture.scanning.iter_scans`, each scan its own random stream from the
@@ -38,8 +38,8 @@ from ...export.lidar_output import SCAN_FORMATS
 from ...layout.estimate import layout_estimate
 from ...limits import BYTES_PER_NODE, check_disk, check_memory, check_regions, memory_limit_bytes
 from ...resources import resolve
-from ...sensors.paths import path_kind, read_waypoints
-from ...sensors.scanner_rig import SUFFIX, ScannerRig, load_scanner_rig, scanner_rig_file
+from ...motion.paths import path_kind, read_waypoints
+from ...motion.scanner_rig import SUFFIX, ScannerRig, load_scanner_rig, scanner_rig_file
 from ..recipe import make_scene
 from .base import Captured, CaptureMode, Estimate, register_mode, stamp
 from .moving import TRAJECTORY_FILE, trajectory_of, write_trajectory

@@ -12,7 +12,7 @@ from ...capture import effect_totals, frame_costs
 from ...export import get_format
 from ...layout.estimate import layout_estimate
 from ...limits import BYTES_PER_CLOUD_POINT, BYTES_PER_NODE, BYTES_PER_PIXEL
-from ...sensors.placement import ceiling_of, mount_for
+from ...placement.genetic import ceiling_of, mount_for
 from ..previews import write_previews
 from ..recipe import chunk, make
 from .base import Captured, CaptureMode, Estimate, register_mode, stamp
