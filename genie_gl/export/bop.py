@@ -12,7 +12,7 @@ Ground-truth objects are the instances of non-background classes (semantic id !=
 an image. ``obj_id`` is stable across scenes and runs: the built-in asset variants are numbered
 in catalogue order (1, 2, …); any other mesh gets 1000 + a hash of its name. Full silhouettes
 (``mask``, ``px_count_all``, ``bbox_obj``) come from renders of each object alone
-(:func:`genie_gl.capture.silhouettes`); without them only the visible parts are written.
+(:func:`genie_gl.capture.silhouettes`, rendered by the capture); without them only the visible parts are written.
 The scene folder is written under a temporary name and renamed when complete.
 """
 from __future__ import annotations
@@ -31,11 +31,9 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from ..capture.lens import silhouettes
 from ..errors import ConfigError, ExportError
 from ..frame import Frame
 from ..outputs import atomic_write_bytes, atomic_write_text, claim_folder, publish_folder
-from ..render.renderer import Renderer
 from ..scene.assets.library import SEMANTIC, VARIANTS
 from ..scene.model import Scene
 from .registry import DatasetFormat, register_format
@@ -278,10 +276,8 @@ def write_scene_files(scene: Scene, frames: Sequence[Frame], folder: str | os.Pa
 # --- the dataset format: DIR/train_pbr/NNNNNN per scene, models and camera at the root
 
 def _write_dataset_scene(data, folder: Path) -> None:
-    with Renderer(data.scene) as r:
-        full = [silhouettes(r, f.sensor, f.world_from_camera,
-                            np.unique(f.instance[(f.semantic != 0) & (f.depth > 0)]).tolist()) for f in data.frames]
-    data.extra["bop_meshes"] = write_scene_files(data.scene, data.frames, folder, full_masks=full)
+    # the full silhouettes were rendered by the capture (DatasetFormat.full_masks): export renders nothing
+    data.extra["bop_meshes"] = write_scene_files(data.scene, data.frames, folder, full_masks=data.extra["full_masks"])
 
 
 def _before_rename(data, out: Path) -> None:
@@ -289,6 +285,6 @@ def _before_rename(data, out: Path) -> None:
 
 
 DATASET = register_format(DatasetFormat(
-    "bop", "train_pbr", digits=6, chunks=False, dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
+    "bop", "train_pbr", digits=6, chunks=False, full_masks=True, dataset_outputs=("camera.json", "models"), write_scene=_write_dataset_scene, before_rename=_before_rename,
     bytes_per_point=0.0, bytes_per_pixel=4.0,   # 16-bit depth + RGB + masks, PNG-compressed
     description="BOP scene-wise RGB-D frames, masks, poses and object models"))

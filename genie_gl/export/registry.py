@@ -41,6 +41,7 @@ class DatasetFormat:
     digits: int = 4
     colour: bool = True                                           # render RGB (False: depth and ids only)
     chunks: bool = True                                           # needs the cleaned chunks
+    full_masks: bool = False                                      # needs each labelled instance's full silhouette
     write_scene: Callable[[SceneData, Path], None] | None = None  # the scene's files into a folder
     before_rename: Callable[[SceneData, Path], None] | None = None  # dataset files the scene needs (out dir)
     finish: Callable[[Path, Any, list[dict]], None] | None = None  # after every scene: (out, config, stats)

@@ -8,11 +8,14 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from ...capture import effect_totals, frame_costs
+import numpy as np
+
+from ...capture import effect_totals, frame_costs, silhouettes
 from ...export import get_format
 from ...layout.estimate import layout_estimate
 from ...limits import BYTES_PER_CLOUD_POINT, BYTES_PER_NODE, BYTES_PER_PIXEL
 from ...placement.genetic import ceiling_of, mount_for
+from ...render import Renderer
 from ..previews import write_previews
 from ..recipe import chunk, make
 from .base import Captured, CaptureMode, Estimate, register_mode, stamp
@@ -58,6 +61,7 @@ class StandingCameras(CaptureMode):
         made = make(inputs, streams, cameras=cfg.cameras, depth_only=not fmt.colour, stage=stage,
                     chunk_m=cfg.chunk_m if fmt.chunks else None, ahead=ahead)
         layout, scene, frames, clock = made.layout, made.scene, made.frames, dict(made.clock)
+        extra = {"full_masks": full_masks(scene, frames, cfg.raster)} if fmt.full_masks else {}
         stage("cloud")
         cut = chunk(cfg, frames, streams, chunks=fmt.chunks, tally=made.tally)
         stamp(clock, "cloud")
@@ -73,7 +77,15 @@ class StandingCameras(CaptureMode):
                         points=cut.points_total, shots=len(frames), info={"instances": len(scene.instances)},
                         costs=lambda: (frame_costs(frames), effect_totals(frames)),
                         previews=lambda folder, i: write_previews(folder, i, layout, frames, scene, cfg.raster),
-                        ahead_s=made.ahead_s, ahead_cpu_s=made.ahead_cpu_s)
+                        extra=extra, ahead_s=made.ahead_s, ahead_cpu_s=made.ahead_cpu_s)
+
+
+def full_masks(scene, frames, raster: str | None) -> list[dict[int, np.ndarray]]:
+    """Per frame, {instance id: (H, W) bool} the full silhouette of each labelled instance the
+    frame sees (each drawn alone, through the lens), for formats that write amodal masks."""
+    with Renderer(scene, raster=raster) as r:
+        return [silhouettes(r, f.sensor, f.world_from_camera,
+                            np.unique(f.instance[(f.semantic != 0) & (f.depth > 0)]).tolist()) for f in frames]
 
 
 STANDING = register_mode(StandingCameras())
