@@ -300,3 +300,25 @@ def cast_binned(hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray) -> tupl
     cast_cells(o2, one, dirs, ray_order, ray_start, cl_start, nodes[cl], cl_near, corners, rank, boxes, right,
                start, count, t, k)
     return t, k
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
+def hit_records(t, k, dirs, flat, slot_of, face_of, no_slot, out_d, out_slot, out_face, out_n):  # pragma: no cover
+    """Per ray the record of its hit: distance (0: none), slot (``no_slot``: none), face
+    (-1: none) and the unit normal of the face (float32, turned against the ray; 0: none),
+    from ``t`` (inf: none) and triangle numbers ``k`` (-1: none) of ``flat`` (n, 9)."""
+    for r in prange(len(t)):
+        j = k[r]
+        if j < 0:
+            out_d[r], out_slot[r], out_face[r] = 0.0, no_slot, -1
+            out_n[r, 0], out_n[r, 1], out_n[r, 2] = 0.0, 0.0, 0.0
+            continue
+        out_d[r], out_slot[r], out_face[r] = t[r], slot_of[j], face_of[j]
+        ux, uy, uz = flat[j, 3] - flat[j, 0], flat[j, 4] - flat[j, 1], flat[j, 5] - flat[j, 2]
+        vx, vy, vz = flat[j, 6] - flat[j, 0], flat[j, 7] - flat[j, 1], flat[j, 8] - flat[j, 2]
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        s = math.sqrt(nx * nx + ny * ny + nz * nz)
+        nx, ny, nz = nx / s, ny / s, nz / s
+        if nx * dirs[r, 0] + ny * dirs[r, 1] + nz * dirs[r, 2] > 0.0:
+            nx, ny, nz = -nx, -ny, -nz
+        out_n[r, 0], out_n[r, 1], out_n[r, 2] = nx, ny, nz

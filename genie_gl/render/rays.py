@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from ..scene.model import Scene
-from .bundles import cast_binned
+from .bundles import cast_binned, hit_records
 from .bvh import build_nodes, cast_all, triangle_boxes
 
 GRIDS = ("pinhole", "lens", "sphere", "azimuth_elevation", "list")   # how a bundle's rays lie on a 2-D grid
@@ -219,25 +219,12 @@ class RayCaster:
 
     def hits(self, t: np.ndarray, k: np.ndarray, d: np.ndarray) -> RayHits:
         """The record of distances ``t`` (inf: none) and triangle numbers ``k`` (-1: none) of
-        rays ``d``."""
-        hit = k >= 0
-        slot = np.where(hit, self.slot[np.maximum(k, 0)] if self.triangles else 0, len(self.ids) - 1)
-        face = np.where(hit, self.face[np.maximum(k, 0)] if self.triangles else 0, -1).astype(np.int64)
-        return RayHits(np.where(hit, t, 0.0), self.ids[slot], self.semantics[slot], face,
-                       self._normals(k, hit, d), hit)
-
-    def _normals(self, k: np.ndarray, hit: np.ndarray, d: np.ndarray) -> np.ndarray:
-        """(N, 3) float32 unit normals of the faces hit, turned against the rays."""
-        out = np.zeros((len(k), 3), np.float32)
-        if not hit.any():
-            return out
-        sel = np.flatnonzero(hit)
-        c = self.flat[k[sel]].reshape(-1, 3, 3)
-        n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-        n /= np.linalg.norm(n, axis=1, keepdims=True)
-        n[(n * d[sel]).sum(axis=1) > 0] *= -1
-        out[sel] = n
-        return out
+        rays ``d``: the normal is the face's, turned against the ray."""
+        n = len(t)
+        dist, slot, face = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64)
+        normal = np.empty((n, 3), np.float32)
+        hit_records(t, k, d, self.flat, self.slot, self.face, len(self.ids) - 1, dist, slot, face, normal)
+        return RayHits(dist, self.ids[slot], self.semantics[slot], face, normal, k >= 0)
 
 
 def _stamp(scene: Scene) -> tuple:
