@@ -2,27 +2,29 @@
 
 A spinning head's scan and a 360-degree panorama are bundles: rays from one origin, or from
 origins within a small ball (a head that moves during its sweep), in every direction. Rather
-than walking a hierarchy per ray (:mod:`genie_gl.render.bvh`), the rays are sorted into the
-cells of a grid of world azimuth (from +x towards +y, [-pi, pi)) and elevation (up from the
-x-y plane), spanning the rays' elevations, and every triangle into the cells its directions
-can reach; each ray is then tested against the triangles of its own cell only.
+than walking the whole hierarchy per ray (:mod:`genie_gl.render.bvh`), the rays are sorted
+into the cells of a grid of world azimuth (from +x towards +y, [-pi, pi)) and elevation (up
+from the x-y plane), spanning the rays' elevations, and the hierarchy's clusters (subtrees
+of at most :data:`CLUSTER` triangles) into the cells their boxes can reach; each ray then
+walks only the clusters of its own cell, nearest box first, and stops once a box lies
+beyond its nearest hit.
 
 Binning is conservative. Let ``c`` be the centre of the origins and ``r`` the radius of the
-ball around ``c`` that holds them all. A ray from ``o`` meeting triangle T at p has the
-direction of p - o = (p - c) - (o - c), the direction from ``c`` of a point of T grown by a
-ball of radius ``r``. Its azimuth and elevation are bounded from T's corners (each relative
-to ``c``): z within [min z - r, max z + r]; the distance from the z axis within [rho_lo,
-max rho + r], where rho_lo is the distance of the axis from T's footprint on the x-y plane
-less r; the azimuth within the smallest arc holding the corners' azimuths, widened by
-asin(r / rho_lo), or every azimuth when the footprint, grown by r, holds the axis (a
-triangle over a pole, around the origin, or near it). The arc may cross the seam at +-pi:
-its cells wrap. Every bound is widened by :data:`SLACK` for rounding.
+ball around ``c`` that holds them all. A ray from ``o`` meeting a triangle at p has the
+direction of p - o = (p - c) - (o - c), the direction from ``c`` of a point of the
+triangle's box grown by a ball of radius ``r``. Its azimuth and elevation are bounded from
+the box (relative to ``c``): z within [z_lo - r, z_hi + r]; the distance from the z axis
+within [rho_lo, rho_hi + r], rho_lo the distance of the axis from the box's footprint on
+the x-y plane less r; the azimuth within the smallest arc holding the footprint corners'
+azimuths, widened by asin(r / (rho_lo + r)), or every azimuth when the footprint, grown by
+r, holds the axis (a box over a pole, around the origin or next to it). The arc may cross
+the seam at +-pi: its cells wrap. Every bound is widened by :data:`SLACK` for rounding. A
+ray's distance to a hit is at least the box's distance from ``c`` less ``r``.
 
 The test is :func:`genie_gl.render.bvh.hit_triangle`, Woop, Benthin and Wald's watertight
-test in float64 with the same ray set-up, so a ray gets the same float64 distance from a
-triangle here as through the hierarchy, and no ray slips through an edge two triangles
-share. Within a cell the triangles run by their nearest possible distance (that of their
-box from ``c``, less ``r``), and a ray stops once that exceeds its nearest hit.
+test in float64, with the same ray set-up and the same slabs within a cluster, so a ray gets
+the same float64 distance from a triangle here as through the whole hierarchy, and no ray
+slips through an edge two triangles share.
 
 The tie rule (the same as :func:`genie_gl.render.rays.cast_rays`): the nearest hit wins;
 hits at the same float64 distance go to the triangle earlier in the scene's joined arrays,
