@@ -41,9 +41,9 @@ from ..jit import njit, prange
 from .bvh import STACK, TIE, _slab, hit_triangle
 
 SLACK = 1e-9          # radians added to every angular bound, and relative slack on lengths
-RAYS_PER_CELL = 4     # the grid is sized for about this many rays per cell
+RAYS_PER_CELL = 16    # the grid is sized for about this many rays per cell
 MAX_CELLS = 1 << 22   # cells at most
-CLUSTER = 64          # a cluster: a subtree of the hierarchy of at most this many triangles
+CLUSTER = 256         # a cluster: a subtree of the hierarchy of at most this many triangles
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
@@ -215,14 +215,17 @@ def cast_cells(origins, one_origin, dirs, ray_order, ray_start, cl_start, cl_nod
     """Every ray's nearest hit among the clusters of its cell into ``out_t`` (inf: none) and
     ``out_tri`` (the triangle's number in the joined arrays, -1: none); ties to the lower
     number. Rays of cell k are ``ray_order[ray_start[k]:ray_start[k + 1]]``, its clusters
-    ``cl_node[cl_start[k]:cl_start[k + 1]]`` (hierarchy nodes, nearest first). Cells go to
-    the threads in blocks of 16."""
+    ``cl_node[cl_start[k]:cl_start[k + 1]]`` (hierarchy nodes, nearest first); a ray walks
+    first the cluster where the cell's previous ray found its hit (the answer does not depend
+    on the order: the least (distance, number) of the triangles met wins). Cells go to the
+    threads in blocks of 16."""
     cells = len(ray_start) - 1
     blocks = (cells + 15) // 16
     for bl in prange(blocks):
         stack = np.empty(STACK, np.int64)
         stack_t = np.empty(STACK)
         for k in range(bl * 16, min(cells, bl * 16 + 16)):
+            prev = -1
             for j in range(ray_start[k], ray_start[k + 1]):
                 r = ray_order[j]
                 o = origins[0 if one_origin else r]
@@ -233,12 +236,23 @@ def cast_cells(origins, one_origin, dirs, ray_order, ray_start, cl_start, cl_nod
                 iy = 1.0 / dy if not fy else 0.0
                 iz = 1.0 / dz if not fz else 0.0
                 best, who = np.inf, np.int64(-1)
+                if prev >= 0:   # the cluster the cell's last ray hit first: a near bound early
+                    best, who = _walk(cl_node[prev], best, who, o[0], o[1], o[2], o[kx], o[ky], o[kz], kx, ky, kz,
+                                      sx, sy, sz, ix, iy, iz, fx, fy, fz, corners, rank, boxes, right, start,
+                                      count, stack, stack_t)
+                got = prev if who >= 0 else -1
                 for i in range(cl_start[k], cl_start[k + 1]):
                     if cl_near[i] > best:
                         break
+                    if i == prev:
+                        continue
+                    b0, w0 = best, who
                     best, who = _walk(cl_node[i], best, who, o[0], o[1], o[2], o[kx], o[ky], o[kz], kx, ky, kz,
                                       sx, sy, sz, ix, iy, iz, fx, fy, fz, corners, rank, boxes, right, start,
                                       count, stack, stack_t)
+                    if best != b0 or who != w0:
+                        got = i
+                prev = got
                 out_t[r] = best
                 out_tri[r] = who
 

@@ -7,6 +7,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.bench.lidar import agreement, open3d_cast, open3d_caster, scene_beams
 from genie_gl.capture.scan import cast_beams
+from genie_gl.render import bundles
 from genie_gl.render.rays import Rays, cast_bundle, cast_rays
 from genie_gl.sensors.scanner_profile import load_scanner
 
@@ -56,10 +57,12 @@ def _same(a, b):
     np.testing.assert_array_equal(a.normal, b.normal)
 
 
+@pytest.mark.parametrize("cluster", [1, bundles.CLUSTER])
 @pytest.mark.parametrize("profile", ["velodyne_vlp16", "ouster_os1_128"])
-def test_a_scan_equals_cast_rays_bit_for_bit(scene, profile):
+def test_a_scan_equals_cast_rays_bit_for_bit(scene, profile, cluster, monkeypatch):
     """A VLP-16's and an OS1-128's revolution 1.8 m above the middle, cast as one bundle,
     gives the hierarchy's answer ray for ray, and most beams hit."""
+    monkeypatch.setattr(bundles, "CLUSTER", cluster)
     beams = scene_beams(scene, load_scanner(profile))
     ours = cast_beams(scene, beams.origins, beams.directions)
     _same(ours, cast_rays(scene, beams.origins, beams.directions))
@@ -76,9 +79,11 @@ def test_a_panorama_with_its_poles_and_seam_equals_cast_rays(scene):
     assert ours.hit[: 360 * 81].all()   # every ray 10 degrees or more below the horizon meets the floor (or an object)
 
 
-def test_a_moving_head_equals_cast_rays(scene):
+@pytest.mark.parametrize("cluster", [1, bundles.CLUSTER])
+def test_a_moving_head_equals_cast_rays(scene, cluster, monkeypatch):
     """Origins spread over a 0.4 m ball (a head moving during its sweep), random
     directions: the widened bins keep every hit."""
+    monkeypatch.setattr(bundles, "CLUSTER", cluster)
     rng = np.random.default_rng(3)
     n = 20000
     o = np.array([1.0, 2.0, 1.2]) + rng.uniform(-0.23, 0.23, (n, 3))
@@ -118,10 +123,12 @@ def test_from_inside_a_box_and_a_sphere_the_analytic_distances():
     _same(hs, cast_rays(sphere, o, d))
 
 
-def test_rays_through_shared_edges_and_vertices_are_never_lost():
+@pytest.mark.parametrize("cluster", [1, bundles.CLUSTER])
+def test_rays_through_shared_edges_and_vertices_are_never_lost(monkeypatch, cluster):
     """A 20 x 20 grid of unit squares cut in triangles, from a point above it: rays to
     every interior vertex and edge midpoint all hit at the exact distance, the ties going
-    to the lower face as ``cast_rays`` sends them."""
+    to the lower face as ``cast_rays`` sends them (binned by leaves or by clusters)."""
+    monkeypatch.setattr(bundles, "CLUSTER", cluster)
     n = 20
     xs, ys = np.meshgrid(np.arange(n + 1.0), np.arange(n + 1.0))
     v = np.c_[xs.ravel() - 10, ys.ravel() - 10, np.zeros(xs.size)]
@@ -141,20 +148,29 @@ def test_rays_through_shared_edges_and_vertices_are_never_lost():
     _same(h, cast_rays(scene, origin, targets - origin))
 
 
-def test_triangles_over_the_seam_the_pole_and_next_to_the_origin():
-    """A triangle across azimuth +-pi, one over the pole, one 1 mm from the origin: rays
-    aimed at their insides hit them at the analytic distances, with the head still and
-    with its origins spread over 5 cm."""
+def _fine(corners):
+    """A triangle (3, 3) cut into 64."""
+    v, f = np.array(corners, float), np.array([[0, 1, 2]])
+    for _ in range(3):
+        v, f = trimesh.remesh.subdivide(v, f)
+    return gg.Mesh(v, f)
+
+
+@pytest.mark.parametrize("cluster", [1, bundles.CLUSTER])
+def test_triangles_over_the_seam_the_pole_and_next_to_the_origin(monkeypatch, cluster):
+    """A triangle across azimuth +-pi, one over the pole, one 1 mm from the origin (each cut
+    in 64, binned by the hierarchy's leaves or by its clusters): rays aimed at their insides
+    hit them at the analytic distances, with the head still and with its origins spread
+    over 5 cm."""
+    monkeypatch.setattr(bundles, "CLUSTER", cluster)
     scene = gg.Scene()
-    seam = scene.add(gg.Mesh(np.array([[-5.0, -1.0, -1.0], [-5.0, 1.0, -1.0], [-5.0, 0.0, 1.0]]), np.array([[0, 1, 2]])),
-                     np.eye(4))
-    pole = scene.add(gg.Mesh(np.array([[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.5, 3.0]]), np.array([[0, 1, 2]])),
-                     np.eye(4))
-    close = scene.add(gg.Mesh(np.array([[0.001, -0.5, -0.5], [0.001, 0.5, -0.5], [0.001, 0.0, 0.5]]),
-                              np.array([[0, 1, 2]])), np.eye(4))
+    seam = scene.add(_fine([[-5.0, -1.0, -1.0], [-5.0, 1.0, -1.0], [-5.0, 0.0, 1.0]]), np.eye(4))
+    pole = scene.add(_fine([[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.5, 3.0]]), np.eye(4))
+    close = scene.add(_fine([[0.001, -0.5, -0.5], [0.001, 0.5, -0.5], [0.001, 0.0, 0.5]]), np.eye(4))
     rng = np.random.default_rng(4)
-    targets = np.concatenate([rng.dirichlet([1, 1, 1], 3000) @ scene.meshes[scene.instances[k].mesh].vertices
-                              for k in range(3)])
+    corners = ([[-5.0, -1.0, -1.0], [-5.0, 1.0, -1.0], [-5.0, 0.0, 1.0]], [[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.5, 3.0]],
+               [[0.001, -0.5, -0.5], [0.001, 0.5, -0.5], [0.001, 0.0, 0.5]])
+    targets = np.concatenate([rng.dirichlet([1, 1, 1], 3000) @ np.array(c) for c in corners])
     want = np.repeat([seam, pole, close], 3000)
     for spread in (0.0, 0.05):
         o = rng.uniform(-spread / 2, spread / 2, (9000, 3))
