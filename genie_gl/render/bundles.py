@@ -291,11 +291,18 @@ def grid_for(dirs: np.ndarray) -> tuple[float, float, int, int]:
     return lo, hi, n_el, min(n_az, 16384)
 
 
-def cast_binned(hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def clusters(hierarchy: tuple) -> np.ndarray:
+    """(c,) int64 the hierarchy's cluster nodes of at most :data:`CLUSTER` triangles."""
+    right, count = hierarchy[3], hierarchy[5]
+    return clusters_of(right, count, CLUSTER) if len(right) else np.zeros(0, np.int64)
+
+
+def cast_binned(hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray,
+                nodes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(distance (n,) float64, inf: none; triangle (n,) int64, its number in the joined
     arrays, -1: none) of every ray; ``hierarchy`` (corners, rank, boxes, right, start,
     count) as :class:`genie_gl.render.rays.RayCaster` builds it, ``origins`` (3,) or (n, 3),
-    ``dirs`` (n, 3) unit. Exact, with the tie rule of this module's docstring."""
+    ``dirs`` (n, 3) unit, ``nodes`` its :func:`clusters` (made here when None). Exact, with the tie rule of this module's docstring."""
     corners, rank, boxes, right, start, count = hierarchy
     n = len(dirs)
     one = origins.ndim == 1
@@ -305,7 +312,7 @@ def cast_binned(hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray) -> tupl
     el0, el1, n_el, n_az = grid_for(dirs)
     el_scale = n_el / (el1 - el0)
     ray_order, ray_start = ray_cells(dirs, el0, el_scale, n_el, n_az)
-    nodes = clusters_of(right, count, CLUSTER) if len(right) else np.zeros(0, np.int64)
+    nodes = clusters(hierarchy) if nodes is None else nodes
     span = np.empty((len(nodes), 4), np.int64)
     near = np.empty(len(nodes))
     cluster_spans(boxes, nodes, c, r, el0, el1, el_scale, n_el, n_az, span, near)

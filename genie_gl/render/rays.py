@@ -22,7 +22,8 @@ from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from ..scene.model import Scene
-from .bundles import cast_binned, hit_records
+from . import bundles
+from .bundles import cast_binned, clusters, hit_records
 from .bvh import build_nodes, cast_all, triangle_boxes
 
 GRIDS = ("pinhole", "lens", "sphere", "azimuth_elevation", "list")   # how a bundle's rays lie on a 2-D grid
@@ -188,6 +189,7 @@ class RayCaster:
         self.triangles = len(tri)
         self._tri = tri
         self._hierarchy: tuple | None = None
+        self._clusters: tuple | None = None                 # (cluster size, cluster nodes)
         self._stamp = _stamp(scene)
 
     def hierarchy(self) -> tuple:
@@ -214,7 +216,10 @@ class RayCaster:
     def cast_bundle(self, rays: "Rays") -> RayHits:
         """The nearest hit of every ray of ``rays`` by :mod:`.bundles`' binned engine (see
         :func:`cast_bundle`)."""
-        t, k = cast_binned(self.hierarchy(), rays.origins, rays.directions)
+        h = self.hierarchy()
+        if self._clusters is None or self._clusters[0] != bundles.CLUSTER:
+            self._clusters = (bundles.CLUSTER, clusters(h))
+        t, k = cast_binned(h, rays.origins, rays.directions, self._clusters[1])
         return self.hits(t, k, rays.directions)
 
     def hits(self, t: np.ndarray, k: np.ndarray, d: np.ndarray) -> RayHits:
