@@ -305,6 +305,8 @@ def cast_binned(hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray,
     ``dirs`` (n, 3) unit, ``nodes`` its :func:`clusters` (made here when None). Exact, with the tie rule of this module's docstring."""
     corners, rank, boxes, right, start, count = hierarchy
     n = len(dirs)
+    if n == 0:
+        return np.empty(0), np.empty(0, np.int64)
     one = origins.ndim == 1
     o2 = np.ascontiguousarray(origins.reshape(-1, 3))
     c = o2[0].copy() if one else 0.5 * (o2.min(axis=0) + o2.max(axis=0))

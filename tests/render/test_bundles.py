@@ -195,3 +195,12 @@ def test_a_scan_agrees_with_open3d(scene):
     a = agreement(ours, open3d_cast(open3d_caster(scene, beams.origins[0]), beams.origins, beams.directions))
     assert a["id_agree"] >= 0.9999 and a["hit_agree"] >= 0.9999
     assert a["range_rel_p99"] <= 1e-6
+
+
+def test_an_empty_bundle_and_an_empty_scene():
+    """No rays: an empty record; no triangles: every ray misses (distance 0, face -1)."""
+    box = gg.Scene()
+    box.add(trimesh.creation.box((1, 1, 1)), np.eye(4))
+    assert len(cast_bundle(box, Rays(np.zeros(3), np.zeros((0, 3)))).distance) == 0
+    h = cast_bundle(gg.Scene(), Rays(np.zeros(3), [[1.0, 0, 0], [0, 0, -1.0]]))
+    assert not h.hit.any() and (h.face == -1).all() and (h.distance == 0).all()
