@@ -4,7 +4,8 @@ A spinning head's scan and a 360-degree panorama are bundles: rays from one orig
 origins within a small ball (a head that moves during its sweep), in every direction. Rather
 than walking the whole hierarchy per ray (:mod:`genie_gl.render.bvh`), the rays are sorted
 into the cells of a grid of world azimuth (from +x towards +y, [-pi, pi)) and elevation (up
-from the x-y plane), spanning the rays' elevations, and the hierarchy's clusters (subtrees
+from the x-y plane; rows uniform in its sine, a unit direction's z), spanning the rays'
+elevations, and the hierarchy's clusters (subtrees
 of at most :data:`CLUSTER` triangles) into the cells their boxes can reach; each ray then
 walks only the clusters of its own cell, nearest box first, and stops once a box lies
 beyond its nearest hit.
@@ -64,12 +65,13 @@ def _shear(dx, dy, dz):  # pragma: no cover - compiled
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
 def _ray_cells(dirs, el0, el_scale, n_el, n_az, out):  # pragma: no cover - compiled
-    """Each ray's cell (elevation row * n_az + azimuth column) into ``out`` (n,) int64."""
+    """Each ray's cell (elevation row * n_az + azimuth column) into ``out`` (n,) int64; rows
+    are uniform in the sine of elevation, the unit direction's z, from ``el0``."""
     az_scale = n_az / (2.0 * math.pi)
     for r in prange(len(dirs)):
         x, y, z = dirs[r, 0], dirs[r, 1], dirs[r, 2]
         a = int((math.atan2(y, x) + math.pi) * az_scale)
-        e = int((math.atan2(z, math.sqrt(x * x + y * y)) - el0) * el_scale)
+        e = int((z - el0) * el_scale)
         out[r] = min(max(e, 0), n_el - 1) * n_az + min(max(a, 0), n_az - 1)
 
 
@@ -126,7 +128,9 @@ def cluster_spans(boxes, nodes, c, r, el0, el1, el_scale, n_el, n_az, span, near
         else:
             e_hi = math.atan2(z_hi, rho_lo if z_hi >= 0.0 else rho_hi)
             e_lo = math.atan2(z_lo, rho_lo if z_lo <= 0.0 else rho_hi)
-        e_lo, e_hi = e_lo - SLACK, e_hi + SLACK
+        # rows are uniform in the sine of elevation (monotone on [-pi/2, pi/2])
+        e_lo = math.sin(max(e_lo - SLACK, -math.pi / 2)) - SLACK
+        e_hi = math.sin(min(e_hi + SLACK, math.pi / 2)) + SLACK
         if e_hi < el0 or e_lo > el1:
             span[i, 0], span[i, 1], span[i, 2], span[i, 3] = 1, 0, 0, -1
             continue
@@ -279,13 +283,12 @@ def clusters_of(right, count, size):  # pragma: no cover - compiled
 
 
 def grid_for(dirs: np.ndarray) -> tuple[float, float, int, int]:
-    """(lowest elevation, highest, rows, columns) of a grid for rays ``dirs`` (n, 3) unit:
-    spanning their elevations, about :data:`RAYS_PER_CELL` rays per cell over the band."""
+    """(lowest sine of elevation, highest, rows, columns) of a grid for rays ``dirs`` (n, 3)
+    unit: spanning their elevations, rows uniform in the sine, about :data:`RAYS_PER_CELL` rays per cell over the band."""
     z = dirs[:, 2]
-    lo = max(math.asin(max(float(z.min()), -1.0)) - 1e-6, -math.pi / 2)
-    hi = min(math.asin(min(float(z.max()), 1.0)) + 1e-6, math.pi / 2)
+    lo, hi = max(float(z.min()) - 1e-9, -1.0), min(float(z.max()) + 1e-9, 1.0)
     cells = min(max(len(dirs) // RAYS_PER_CELL, 1), MAX_CELLS)
-    band = hi - lo
+    band = max(math.asin(hi) - math.asin(lo), 1e-9)
     n_az = max(int(round(math.sqrt(cells * 2 * math.pi / band))), 1)
     n_el = max(min(cells // n_az, 4096), 1)
     return lo, hi, n_el, min(n_az, 16384)
