@@ -194,7 +194,7 @@ class RayCaster:
 
     def hierarchy(self) -> tuple:
         """(corners (n, 9) in leaf order, rank (n,) their triangle numbers, *nodes), built on
-        first use (a bundle cast needs none)."""
+        first use."""
         if self._hierarchy is None:
             lo, hi = triangle_boxes(self.vertices, self._tri)
             order, *nodes = build_nodes(lo, hi)
@@ -252,9 +252,9 @@ def _caster(scene: Scene) -> RayCaster:
 def cast_bundle(scene: Scene, rays: Rays) -> RayHits:
     """The nearest surface of ``scene`` along every ray of a coherent bundle, exact in float64.
 
-    The rays are binned on a grid of world azimuth and elevation (:mod:`.bundles`): fast for
-    a spinning head's scan or a panorama, rays from one origin or from origins within a
-    small ball; exact for any rays. The answer equals :func:`cast_rays`' bit for bit
+    The rays are binned on a grid of world azimuth and elevation (:mod:`.bundles`), each
+    walking only the hierarchy's clusters of its cell: made for a spinning head's scan or a
+    panorama, rays from one origin or from origins within a small ball; exact for any rays. The answer equals :func:`cast_rays`' bit for bit
     (distance, instance, face; the same tie rule).
 
     Parameters
@@ -280,7 +280,7 @@ def cast_rays(scene: Scene, origins: ArrayLike | Rays, directions: ArrayLike | N
         lives and keeps its instances).
     origins : (3,) one origin for every ray, or (N, 3); metres, world frame. Or a
         :class:`Rays` record (then no ``directions``): one on an ``azimuth_elevation`` grid
-        is cast by :func:`cast_bundle` (the same answer, faster).
+        is cast by :func:`cast_bundle` (the same answer).
     directions : (N, 3) or (3,); normalised here (a zero or non-finite one is refused).
 
     Returns
