@@ -9,7 +9,6 @@ from genie_gl.bench.lidar import agreement, open3d_cast, open3d_caster, scene_be
 from genie_gl.capture.scan import cast_beams
 from genie_gl.render import bundles
 from genie_gl.render.rays import Rays, cast_bundle, cast_rays
-from genie_gl.sensors.scanner_profile import load_scanner
 
 
 def _generated(seed=0):
@@ -63,7 +62,7 @@ def test_a_scan_equals_cast_rays_bit_for_bit(scene, profile, cluster, monkeypatc
     """A VLP-16's and an OS1-128's revolution 1.8 m above the middle, cast as one bundle,
     gives the hierarchy's answer ray for ray, and most beams hit."""
     monkeypatch.setattr(bundles, "CLUSTER", cluster)
-    beams = scene_beams(scene, load_scanner(profile))
+    beams = scene_beams(scene, gg.load_scanner(profile))
     ours = cast_beams(scene, beams.origins, beams.directions)
     _same(ours, cast_rays(scene, beams.origins, beams.directions))
     assert ours.hit.mean() > 0.5
@@ -190,7 +189,7 @@ def test_triangles_over_the_seam_the_pole_and_next_to_the_origin(monkeypatch, cl
 def test_a_scan_agrees_with_open3d(scene):
     """Open3D's RaycastingScene on the same OS1-128 beams: ids agree on >= 99.99 % of
     rays, the ranges' p99 relative difference <= 1e-6."""
-    beams = scene_beams(scene, load_scanner("ouster_os1_128"))
+    beams = scene_beams(scene, gg.load_scanner("ouster_os1_128"))
     ours = cast_beams(scene, beams.origins, beams.directions)
     a = agreement(ours, open3d_cast(open3d_caster(scene, beams.origins[0]), beams.origins, beams.directions))
     assert a["id_agree"] >= 0.9999 and a["hit_agree"] >= 0.9999
