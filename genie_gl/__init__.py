@@ -83,6 +83,7 @@ _EXPORTS: dict[str, str] = {
     "Rays": "genie_gl.render.rays",
     "RayHits": "genie_gl.render.rays",
     "cast_rays": "genie_gl.render.rays",
+    "cast_bundle": "genie_gl.render.rays",
     "render": "genie_gl.capture",
     "capture": "genie_gl.capture",
     "plan": "genie_gl.capture",

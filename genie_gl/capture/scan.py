@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..render.rays import RayHits, cast_rays
+from ..render.rays import RayHits, Rays, cast_bundle
 from ..scene.materials import MaterialTable
 from ..scene.model import Scene
 from ..sensors.beams import Beams
@@ -39,8 +39,10 @@ def plan_scan(scene: Scene, scanner: Scanner, table: MaterialTable | None = None
 
 
 def cast_beams(scene: Scene, origins: np.ndarray, directions: np.ndarray) -> RayHits:
-    """The exact nearest hit of every ray ((B, 3) float64 each): one bundle, one cast."""
-    return cast_rays(scene, origins, directions)
+    """The exact nearest hit of every ray ((B, 3) float64 each): one bundle, one cast,
+    binned on an azimuth-elevation grid around the head (the origins of one revolution lie
+    within a small ball), the same answer as :func:`~genie_gl.render.rays.cast_rays`."""
+    return cast_bundle(scene, Rays(origins, directions))
 
 
 def _echoes(hits: RayHits, directions: np.ndarray, parent: np.ndarray, table: MaterialTable,

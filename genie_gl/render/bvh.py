@@ -19,7 +19,9 @@ ray passes through.
 The tie rule: the nearest hit wins; hits at the same float64 distance go to the triangle
 with the lower index in the joined arrays (the scene's instance order, then the face order
 within the mesh). The answer therefore depends neither on the hierarchy's shape nor on the
-order its nodes are visited.
+order its nodes are visited: a box is passed over only when its entry lies beyond the nearest
+hit found by a factor :data:`TIE` (a hit on the box's face, at a tie, is never passed over
+because rounding put the entry a few units in the last place past it).
 """
 from __future__ import annotations
 
@@ -31,6 +33,8 @@ LEAF = 4              # triangles per leaf, at most
 BINS = 16             # bins of the surface area heuristic
 STACK = 256           # the traversal stack; deeper than this the build splits at the middle
 WIDEN = 1.0 + 2.0 * (3 * 2.0 ** -53) / (1 - 3 * 2.0 ** -53)   # Ize's far-distance factor for float64 slabs
+TIE = 1.0 + 2.0 ** -40   # a box is passed over only when it starts beyond the nearest hit by this factor:
+                         # its rounded entry may exceed the rounded distance of a hit on its face
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -226,7 +230,7 @@ def _cast_one(o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, s
     best, who = np.inf, np.int64(-1)
     if len(right) == 0:
         return best, who
-    t0 = _slab(boxes, 0, ox, oy, oz, ix, iy, iz, fx, fy, fz, best)
+    t0 = _slab(boxes, 0, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
     if t0 == np.inf:
         return best, who
     top = 1
@@ -234,7 +238,7 @@ def _cast_one(o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, s
     while top > 0:
         top -= 1
         i = stack[top]
-        if stack_t[top] > best:   # entered beyond the nearest hit found since it was pushed
+        if stack_t[top] > best * TIE:   # entered beyond the nearest hit found since it was pushed
             continue
         if right[i] < 0:
             for t in range(start[i], start[i] + count[i]):
@@ -243,8 +247,8 @@ def _cast_one(o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, s
                     best, who = h, rank[t]
             continue
         a, b = i + 1, right[i]
-        ta = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, best)
-        tb = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, best)
+        ta = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
+        tb = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
         if ta > tb:
             a, b, ta, tb = b, a, tb, ta
         if tb < np.inf:   # the farther child waits below the nearer one

@@ -22,6 +22,8 @@ from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from ..scene.model import Scene
+from . import bundles
+from .bundles import cast_binned, clusters, hit_records
 from .bvh import build_nodes, cast_all, triangle_boxes
 
 GRIDS = ("pinhole", "lens", "sphere", "azimuth_elevation", "list")   # how a bundle's rays lie on a 2-D grid
@@ -183,14 +185,22 @@ class RayCaster:
         self.face = np.concatenate(faces) if faces else np.zeros(0, np.int32)
         self.ids = np.array(ids + [0], np.uint32)          # per slot, and 0 after the last: no hit
         self.semantics = np.array(sems + [0], np.uint16)
-        lo, hi = triangle_boxes(self.vertices, tri)
-        order, *self.nodes = build_nodes(lo, hi)
-        self.rank = order                                   # sorted position -> triangle number
-        self.position = np.empty_like(self.rank)            # triangle number -> sorted position
-        self.position[self.rank] = np.arange(len(self.rank))
-        self.corners = np.ascontiguousarray(self.vertices[tri[order]].reshape(-1, 9))   # (n, 9) in leaf order
+        self.flat = np.ascontiguousarray(self.vertices[tri].reshape(-1, 9))   # (n, 9) in the joined order
         self.triangles = len(tri)
+        self._tri = tri
+        self._hierarchy: tuple | None = None
+        self._clusters: tuple | None = None                 # (cluster size, cluster nodes)
         self._stamp = _stamp(scene)
+
+    def hierarchy(self) -> tuple:
+        """(corners (n, 9) in leaf order, rank (n,) their triangle numbers, *nodes), built on
+        first use."""
+        if self._hierarchy is None:
+            lo, hi = triangle_boxes(self.vertices, self._tri)
+            order, *nodes = build_nodes(lo, hi)
+            corners = np.ascontiguousarray(self.flat[order])
+            self._hierarchy = (corners, order, *nodes)
+        return self._hierarchy
 
     def cast(self, origins: ArrayLike, directions: ArrayLike) -> RayHits:
         """The nearest hit of every ray (see :func:`cast_rays`)."""
@@ -200,25 +210,26 @@ class RayCaster:
         o2 = np.ascontiguousarray(o.reshape(-1, 3))
         t = np.empty(len(d))
         k = np.empty(len(d), np.int64)
-        cast_all(o2, one, d, self.corners, self.rank, *self.nodes, t, k)
-        hit = k >= 0
-        slot = np.where(hit, self.slot[np.maximum(k, 0)] if self.triangles else 0, len(self.ids) - 1)
-        face = np.where(hit, self.face[np.maximum(k, 0)] if self.triangles else 0, -1).astype(np.int64)
-        return RayHits(np.where(hit, t, 0.0), self.ids[slot], self.semantics[slot], face,
-                       self._normals(k, hit, d), hit)
+        cast_all(o2, one, d, *self.hierarchy(), t, k)
+        return self.hits(t, k, d)
 
-    def _normals(self, k: np.ndarray, hit: np.ndarray, d: np.ndarray) -> np.ndarray:
-        """(N, 3) float32 unit normals of the faces hit, turned against the rays."""
-        out = np.zeros((len(k), 3), np.float32)
-        if not hit.any():
-            return out
-        sel = np.flatnonzero(hit)
-        c = self.corners[self.position[k[sel]]].reshape(-1, 3, 3)
-        n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-        n /= np.linalg.norm(n, axis=1, keepdims=True)
-        n[(n * d[sel]).sum(axis=1) > 0] *= -1
-        out[sel] = n
-        return out
+    def cast_bundle(self, rays: "Rays") -> RayHits:
+        """The nearest hit of every ray of ``rays`` by :mod:`.bundles`' binned engine (see
+        :func:`cast_bundle`)."""
+        h = self.hierarchy()
+        if self._clusters is None or self._clusters[0] != bundles.CLUSTER:
+            self._clusters = (bundles.CLUSTER, clusters(h))
+        t, k = cast_binned(h, rays.origins, rays.directions, self._clusters[1])
+        return self.hits(t, k, rays.directions)
+
+    def hits(self, t: np.ndarray, k: np.ndarray, d: np.ndarray) -> RayHits:
+        """The record of distances ``t`` (inf: none) and triangle numbers ``k`` (-1: none) of
+        rays ``d``: the normal is the face's, turned against the ray."""
+        n = len(t)
+        dist, slot, face = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64)
+        normal = np.empty((n, 3), np.float32)
+        hit_records(t, k, d, self.flat, self.slot, self.face, len(self.ids) - 1, dist, slot, face, normal)
+        return RayHits(dist, self.ids[slot], self.semantics[slot], face, normal, k >= 0)
 
 
 def _stamp(scene: Scene) -> tuple:
@@ -230,14 +241,46 @@ def _stamp(scene: Scene) -> tuple:
 _casters: "weakref.WeakKeyDictionary[Scene, RayCaster]" = weakref.WeakKeyDictionary()
 
 
-def cast_rays(scene: Scene, origins: ArrayLike, directions: ArrayLike) -> RayHits:
+def _caster(scene: Scene) -> RayCaster:
+    """The scene's cached caster, made afresh when the scene changed."""
+    caster = _casters.get(scene)
+    if caster is None or caster._stamp != _stamp(scene):
+        caster = _casters[scene] = RayCaster(scene)
+    return caster
+
+
+def cast_bundle(scene: Scene, rays: Rays) -> RayHits:
+    """The nearest surface of ``scene`` along every ray of a coherent bundle, exact in float64.
+
+    The rays are binned on a grid of world azimuth and elevation (:mod:`.bundles`), each
+    walking only the hierarchy's clusters of its cell: made for a spinning head's scan or a
+    panorama, rays from one origin or from origins within a small ball; exact for any rays. The answer equals :func:`cast_rays`' bit for bit
+    (distance, instance, face; the same tie rule).
+
+    Parameters
+    ----------
+    scene : the scene.
+    rays : the bundle (:class:`Rays`, any grid).
+
+    Returns
+    -------
+    RayHits : as :func:`cast_rays`.
+    """
+    if not isinstance(rays, Rays):
+        raise ConfigError(f"cast_bundle: rays must be a Rays record, got {type(rays).__name__}")
+    return _caster(scene).cast_bundle(rays)
+
+
+def cast_rays(scene: Scene, origins: ArrayLike | Rays, directions: ArrayLike | None = None) -> RayHits:
     """The nearest surface of ``scene`` along every ray, exact in float64.
 
     Parameters
     ----------
     scene : the scene (its hierarchy is built on the first call and kept while the scene
         lives and keeps its instances).
-    origins : (3,) one origin for every ray, or (N, 3); metres, world frame.
+    origins : (3,) one origin for every ray, or (N, 3); metres, world frame. Or a
+        :class:`Rays` record (then no ``directions``): one on an ``azimuth_elevation`` grid
+        is cast by :func:`cast_bundle` (the same answer).
     directions : (N, 3) or (3,); normalised here (a zero or non-finite one is refused).
 
     Returns
@@ -247,7 +290,11 @@ def cast_rays(scene: Scene, origins: ArrayLike, directions: ArrayLike) -> RayHit
         hits at one float64 distance go to the instance earlier in ``scene.instances``, then
         the lower face. A hit must lie strictly in front of the origin (distance > 0).
     """
-    caster = _casters.get(scene)
-    if caster is None or caster._stamp != _stamp(scene):
-        caster = _casters[scene] = RayCaster(scene)
-    return caster.cast(origins, directions)
+    if isinstance(origins, Rays):
+        if directions is not None:
+            raise ConfigError("cast_rays: given a Rays record, pass no directions")
+        return cast_bundle(scene, origins) if origins.grid == "azimuth_elevation" else _caster(scene).cast(
+            origins.origins, origins.directions)
+    if directions is None:
+        raise ConfigError("cast_rays: directions are missing (or pass one Rays record)")
+    return _caster(scene).cast(origins, directions)

@@ -1,0 +1,352 @@
+"""Exact casting of a coherent bundle of rays binned on an azimuth-elevation grid (numba).
+
+A spinning head's scan and a 360-degree panorama are bundles: rays from one origin, or from
+origins within a small ball (a head that moves during its sweep), in every direction. Rather
+than walking the whole hierarchy per ray (:mod:`genie_gl.render.bvh`), the rays are sorted
+into the cells of a grid of world azimuth (from +x towards +y, [-pi, pi)) and elevation (up
+from the x-y plane; rows uniform in its sine, a unit direction's z), spanning the rays'
+elevations, and the hierarchy's clusters (subtrees
+of at most :data:`CLUSTER` triangles) into the cells their boxes can reach; each ray then
+walks only the clusters of its own cell, nearest box first, and stops once a box lies
+beyond its nearest hit.
+
+Binning is conservative. Let ``c`` be the centre of the origins and ``r`` the radius of the
+ball around ``c`` that holds them all. A ray from ``o`` meeting a triangle at p has the
+direction of p - o = (p - c) - (o - c), the direction from ``c`` of a point of the
+triangle's box grown by a ball of radius ``r``. Its azimuth and elevation are bounded from
+the box (relative to ``c``): z within [z_lo - r, z_hi + r]; the distance from the z axis
+within [rho_lo, rho_hi + r], rho_lo the distance of the axis from the box's footprint on
+the x-y plane less r; the azimuth within the smallest arc holding the footprint corners'
+azimuths, widened by asin(r / (rho_lo + r)), or every azimuth when the footprint, grown by
+r, holds the axis (a box over a pole, around the origin or next to it). The arc may cross
+the seam at +-pi: its cells wrap. Every bound is widened by :data:`SLACK` for rounding. A
+ray's distance to a hit is at least the box's distance from ``c`` less ``r``.
+
+The test is :func:`genie_gl.render.bvh.hit_triangle`, Woop, Benthin and Wald's watertight
+test in float64, with the same ray set-up and the same slabs within a cluster, so a ray gets
+the same float64 distance from a triangle here as through the whole hierarchy, and no ray
+slips through an edge two triangles share.
+
+The tie rule (the same as :func:`genie_gl.render.rays.cast_rays`): the nearest hit wins;
+hits at the same float64 distance go to the triangle earlier in the scene's joined arrays,
+that is the instance earlier in ``scene.instances``, then the lower face. The answer is
+therefore bit for bit the hierarchy's, whatever the grid.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..jit import njit, prange
+from .bvh import STACK, TIE, _slab, hit_triangle
+
+SLACK = 1e-9          # radians added to every angular bound, and relative slack on lengths
+RAYS_PER_CELL = 16    # the grid is sized for about this many rays per cell
+MAX_CELLS = 1 << 22   # cells at most
+CLUSTER = 256         # a cluster: a subtree of the hierarchy of at most this many triangles
+
+
+@njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _shear(dx, dy, dz):  # pragma: no cover - compiled
+    """The watertight test's ray set-up (kx, ky, kz, sx, sy, sz), as :mod:`.bvh` makes it."""
+    ax_, ay_, az_ = abs(dx), abs(dy), abs(dz)
+    kz = 0 if ax_ >= ay_ and ax_ >= az_ else (1 if ay_ >= az_ else 2)
+    kx = (kz + 1) % 3
+    ky = (kx + 1) % 3
+    dkz = dx if kz == 0 else (dy if kz == 1 else dz)
+    if dkz < 0.0:
+        kx, ky = ky, kx
+    dkx = dx if kx == 0 else (dy if kx == 1 else dz)
+    dky = dx if ky == 0 else (dy if ky == 1 else dz)
+    sz = 1.0 / dkz
+    return kx, ky, kz, dkx * sz, dky * sz, sz
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
+def _ray_cells(dirs, el0, el_scale, n_el, n_az, out):  # pragma: no cover - compiled
+    """Each ray's cell (elevation row * n_az + azimuth column) into ``out`` (n,) int64; rows
+    are uniform in the sine of elevation, the unit direction's z, from ``el0``."""
+    az_scale = n_az / (2.0 * math.pi)
+    for r in prange(len(dirs)):
+        x, y, z = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+        a = int((math.atan2(y, x) + math.pi) * az_scale)
+        e = int((z - el0) * el_scale)
+        out[r] = min(max(e, 0), n_el - 1) * n_az + min(max(a, 0), n_az - 1)
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _by_cell(cell, n_cells):  # pragma: no cover - compiled
+    """(order, start): the rays sorted by cell (a counting sort, stable) and each cell's
+    first position (n_cells + 1,)."""
+    start = np.zeros(n_cells + 1, np.int64)
+    for r in range(len(cell)):
+        start[cell[r] + 1] += 1
+    for k in range(n_cells):
+        start[k + 1] += start[k]
+    fill = start[:-1].copy()
+    order = np.empty(len(cell), np.int64)
+    for r in range(len(cell)):
+        order[fill[cell[r]]] = r
+        fill[cell[r]] += 1
+    return order, start
+
+
+def ray_cells(dirs: np.ndarray, el0: float, el_scale: float, n_el: int, n_az: int) -> tuple[np.ndarray, np.ndarray]:
+    """(order, start): rays ``dirs`` (n, 3) sorted by their cell of the grid, and where each
+    of the n_el * n_az cells starts in ``order`` ((n_el * n_az + 1,) int64)."""
+    cell = np.empty(len(dirs), np.int64)
+    _ray_cells(dirs, el0, el_scale, n_el, n_az, cell)
+    return _by_cell(cell, n_el * n_az)
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
+def cluster_spans(boxes, nodes, c, r, el0, el1, el_scale, n_el, n_az, span, near):  # pragma: no cover
+    """Per cluster (hierarchy node ``nodes[i]``, its box a row of ``boxes`` (m, 6) float32)
+    the cells it may cover, seen from origins within ``r`` of ``c`` (3,): ``span`` (n, 4)
+    int64 (first row, last row, first column, last column; columns may run past the grid
+    and wrap; first row > last row: none) and ``near`` (n,) float64, the least distance a
+    ray travels to reach the box."""
+    az_scale = n_az / (2.0 * math.pi)
+    for i in prange(len(nodes)):
+        b = nodes[i]
+        x0, x1 = np.float64(boxes[b, 0]) - c[0], np.float64(boxes[b, 3]) - c[0]
+        y0, y1 = np.float64(boxes[b, 1]) - c[1], np.float64(boxes[b, 4]) - c[1]
+        z0, z1 = np.float64(boxes[b, 2]) - c[2], np.float64(boxes[b, 5]) - c[2]
+        big = max(abs(x0), abs(x1), abs(y0), abs(y1), abs(z0), abs(z1))
+        rr = r * (1.0 + SLACK) + SLACK * big
+        gx, gy, gz = max(x0, 0.0, -x1), max(y0, 0.0, -y1), max(z0, 0.0, -z1)
+        near[i] = max(math.sqrt(gx * gx + gy * gy + gz * gz) * (1.0 - SLACK) - rr, 0.0)
+        # the footprint's (a rectangle's) distance from the z axis: 0 when it holds the axis
+        rho_lo = math.sqrt(gx * gx + gy * gy) * (1.0 - SLACK) - rr
+        fx, fy = max(abs(x0), abs(x1)), max(abs(y0), abs(y1))
+        rho_hi = math.sqrt(fx * fx + fy * fy) * (1.0 + SLACK) + rr
+        z_lo, z_hi = z0 - rr, z1 + rr
+        if rho_lo <= 0.0:
+            e_hi = math.pi / 2 if z_hi >= 0.0 else math.atan2(z_hi, rho_hi)
+            e_lo = -math.pi / 2 if z_lo <= 0.0 else math.atan2(z_lo, rho_hi)
+        else:
+            e_hi = math.atan2(z_hi, rho_lo if z_hi >= 0.0 else rho_hi)
+            e_lo = math.atan2(z_lo, rho_lo if z_lo <= 0.0 else rho_hi)
+        # rows are uniform in the sine of elevation (monotone on [-pi/2, pi/2])
+        e_lo = math.sin(max(e_lo - SLACK, -math.pi / 2)) - SLACK
+        e_hi = math.sin(min(e_hi + SLACK, math.pi / 2)) + SLACK
+        if e_hi < el0 or e_lo > el1:
+            span[i, 0], span[i, 1], span[i, 2], span[i, 3] = 1, 0, 0, -1
+            continue
+        span[i, 0] = min(max(int(math.floor((e_lo - el0) * el_scale)), 0), n_el - 1)
+        span[i, 1] = min(max(int(math.floor((e_hi - el0) * el_scale)), 0), n_el - 1)
+        if rho_lo <= 0.0:
+            span[i, 2], span[i, 3] = 0, n_az - 1
+            continue
+        # the footprint, grown by r, leaves the axis out: its corners' azimuths span less than pi
+        a0 = math.atan2(y0, x0)
+        lo, hi = 0.0, 0.0
+        for k in range(1, 4):
+            d = math.atan2(y1 if k >= 2 else y0, x1 if k % 2 == 1 else x0) - a0
+            d = d - 2 * math.pi if d > math.pi else (d + 2 * math.pi if d < -math.pi else d)
+            lo, hi = min(lo, d), max(hi, d)
+        grow = math.asin(min(rr / (rho_lo + rr), 1.0)) + SLACK
+        c0 = int(math.floor((a0 + lo - grow + math.pi) * az_scale))
+        c1 = int(math.floor((a0 + hi + grow + math.pi) * az_scale))
+        if c1 - c0 + 1 >= n_az:
+            c0, c1 = 0, n_az - 1
+        span[i, 2], span[i, 3] = c0, c1
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def cell_lists(order, span, near, n_az, n_cells):  # pragma: no cover - compiled
+    """Each cell's triangles in the order ``order`` (nearest first): (start (n_cells + 1,),
+    triangles, their near distances)."""
+    count = np.zeros(n_cells + 1, np.int64)
+    for t in range(len(span)):
+        for e in range(span[t, 0], span[t, 1] + 1):
+            for a in range(span[t, 2], span[t, 3] + 1):
+                count[e * n_az + (a % n_az) + 1] += 1
+    for i in range(n_cells):
+        count[i + 1] += count[i]
+    fill = count[:-1].copy()
+    tri = np.empty(count[-1], np.int64)
+    dist = np.empty(count[-1])
+    for t in order:
+        for e in range(span[t, 0], span[t, 1] + 1):
+            for a in range(span[t, 2], span[t, 3] + 1):
+                k = e * n_az + (a % n_az)
+                tri[fill[k]] = t
+                dist[fill[k]] = near[t]
+                fill[k] += 1
+    return count, tri, dist
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _walk(root, best, who, ox, oy, oz, okx, oky, okz, kx, ky, kz, sx, sy, sz, ix, iy, iz, fx, fy, fz,
+          corners, rank, boxes, right, start, count, stack, stack_t):  # pragma: no cover - compiled
+    """(best, who) after one ray's walk of the subtree at node ``root``, as
+    :func:`genie_gl.render.bvh._cast_one` walks the whole tree (the same slabs and test)."""
+    t0 = _slab(boxes, root, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
+    if t0 == np.inf:
+        return best, who
+    top = 1
+    stack[0], stack_t[0] = root, t0
+    while top > 0:
+        top -= 1
+        i = stack[top]
+        if stack_t[top] > best * TIE:
+            continue
+        if right[i] < 0:
+            for t in range(start[i], start[i] + count[i]):
+                h = hit_triangle(corners, t, okx, oky, okz, kx, ky, kz, sx, sy, sz)
+                if h < best or (h == best and h < np.inf and rank[t] < who):
+                    best, who = h, rank[t]
+            continue
+        a, b = i + 1, right[i]
+        ta = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
+        tb = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
+        if ta > tb:
+            a, b, ta, tb = b, a, tb, ta
+        if tb < np.inf:
+            stack[top], stack_t[top] = b, tb
+            top += 1
+        if ta < np.inf:
+            stack[top], stack_t[top] = a, ta
+            top += 1
+    return best, who
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
+def cast_cells(origins, one_origin, dirs, ray_order, ray_start, cl_start, cl_node, cl_near,
+               corners, rank, boxes, right, start, count, out_t, out_tri):  # pragma: no cover - compiled
+    """Every ray's nearest hit among the clusters of its cell into ``out_t`` (inf: none) and
+    ``out_tri`` (the triangle's number in the joined arrays, -1: none); ties to the lower
+    number. Rays of cell k are ``ray_order[ray_start[k]:ray_start[k + 1]]``, its clusters
+    ``cl_node[cl_start[k]:cl_start[k + 1]]`` (hierarchy nodes, nearest first); a ray walks
+    first the cluster where the cell's previous ray found its hit (the answer does not depend
+    on the order: the least (distance, number) of the triangles met wins). Cells go to the
+    threads in blocks of 16."""
+    cells = len(ray_start) - 1
+    blocks = (cells + 15) // 16
+    for bl in prange(blocks):
+        stack = np.empty(STACK, np.int64)
+        stack_t = np.empty(STACK)
+        for k in range(bl * 16, min(cells, bl * 16 + 16)):
+            prev = -1
+            for j in range(ray_start[k], ray_start[k + 1]):
+                r = ray_order[j]
+                o = origins[0 if one_origin else r]
+                dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+                kx, ky, kz, sx, sy, sz = _shear(dx, dy, dz)
+                fx, fy, fz = dx == 0.0, dy == 0.0, dz == 0.0
+                ix = 1.0 / dx if not fx else 0.0
+                iy = 1.0 / dy if not fy else 0.0
+                iz = 1.0 / dz if not fz else 0.0
+                best, who = np.inf, np.int64(-1)
+                if prev >= 0:   # the cluster the cell's last ray hit first: a near bound early
+                    best, who = _walk(cl_node[prev], best, who, o[0], o[1], o[2], o[kx], o[ky], o[kz], kx, ky, kz,
+                                      sx, sy, sz, ix, iy, iz, fx, fy, fz, corners, rank, boxes, right, start,
+                                      count, stack, stack_t)
+                got = prev if who >= 0 else -1
+                for i in range(cl_start[k], cl_start[k + 1]):
+                    if cl_near[i] > best:
+                        break
+                    if i == prev:
+                        continue
+                    b0, w0 = best, who
+                    best, who = _walk(cl_node[i], best, who, o[0], o[1], o[2], o[kx], o[ky], o[kz], kx, ky, kz,
+                                      sx, sy, sz, ix, iy, iz, fx, fy, fz, corners, rank, boxes, right, start,
+                                      count, stack, stack_t)
+                    if best != b0 or who != w0:
+                        got = i
+                prev = got
+                out_t[r] = best
+                out_tri[r] = who
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def clusters_of(right, count, size):  # pragma: no cover - compiled
+    """The hierarchy's nodes of at most ``size`` triangles whose parent holds more (the
+    clusters a bundle bins), in depth-first order."""
+    out = np.empty(len(right), np.int64)
+    n = 0
+    i = 0
+    while i < len(right):
+        if count[i] <= size or right[i] < 0:
+            out[n] = i
+            n += 1
+            # skip the subtree: the next node not below i is the one after its last descendant
+            j = i
+            while right[j] >= 0:
+                j = right[j]
+            i = j + 1
+            continue
+        i += 1
+    return out[:n].copy()
+
+
+def grid_for(dirs: np.ndarray) -> tuple[float, float, int, int]:
+    """(lowest sine of elevation, highest, rows, columns) of a grid for rays ``dirs`` (n, 3)
+    unit: spanning their elevations, rows uniform in the sine, about :data:`RAYS_PER_CELL` rays per cell over the band."""
+    z = dirs[:, 2]
+    lo, hi = max(float(z.min()) - 1e-9, -1.0), min(float(z.max()) + 1e-9, 1.0)
+    cells = min(max(len(dirs) // RAYS_PER_CELL, 1), MAX_CELLS)
+    band = max(math.asin(hi) - math.asin(lo), 1e-9)
+    n_az = max(int(round(math.sqrt(cells * 2 * math.pi / band))), 1)
+    n_el = max(min(cells // n_az, 4096), 1)
+    return lo, hi, n_el, min(n_az, 16384)
+
+
+def clusters(hierarchy: tuple) -> np.ndarray:
+    """(c,) int64 the hierarchy's cluster nodes of at most :data:`CLUSTER` triangles."""
+    right, count = hierarchy[3], hierarchy[5]
+    return clusters_of(right, count, CLUSTER) if len(right) else np.zeros(0, np.int64)
+
+
+def cast_binned(hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray,
+                nodes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(distance (n,) float64, inf: none; triangle (n,) int64, its number in the joined
+    arrays, -1: none) of every ray; ``hierarchy`` (corners, rank, boxes, right, start,
+    count) as :class:`genie_gl.render.rays.RayCaster` builds it, ``origins`` (3,) or (n, 3),
+    ``dirs`` (n, 3) unit, ``nodes`` its :func:`clusters` (made here when None). Exact, with the tie rule of this module's docstring."""
+    corners, rank, boxes, right, start, count = hierarchy
+    n = len(dirs)
+    if n == 0:
+        return np.empty(0), np.empty(0, np.int64)
+    one = origins.ndim == 1
+    o2 = np.ascontiguousarray(origins.reshape(-1, 3))
+    c = o2[0].copy() if one else 0.5 * (o2.min(axis=0) + o2.max(axis=0))
+    r = 0.0 if one else float(np.sqrt(((o2 - c) ** 2).sum(axis=1)).max())
+    el0, el1, n_el, n_az = grid_for(dirs)
+    el_scale = n_el / (el1 - el0)
+    ray_order, ray_start = ray_cells(dirs, el0, el_scale, n_el, n_az)
+    nodes = clusters(hierarchy) if nodes is None else nodes
+    span = np.empty((len(nodes), 4), np.int64)
+    near = np.empty(len(nodes))
+    cluster_spans(boxes, nodes, c, r, el0, el1, el_scale, n_el, n_az, span, near)
+    by_near = np.argsort(near, kind="stable")
+    cl_start, cl, cl_near = cell_lists(by_near, span, near, n_az, n_el * n_az)
+    t = np.empty(n)
+    k = np.empty(n, np.int64)
+    cast_cells(o2, one, dirs, ray_order, ray_start, cl_start, nodes[cl], cl_near, corners, rank, boxes, right,
+               start, count, t, k)
+    return t, k
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
+def hit_records(t, k, dirs, flat, slot_of, face_of, no_slot, out_d, out_slot, out_face, out_n):  # pragma: no cover
+    """Per ray the record of its hit: distance (0: none), slot (``no_slot``: none), face
+    (-1: none) and the unit normal of the face (float32, turned against the ray; 0: none),
+    from ``t`` (inf: none) and triangle numbers ``k`` (-1: none) of ``flat`` (n, 9)."""
+    for r in prange(len(t)):
+        j = k[r]
+        if j < 0:
+            out_d[r], out_slot[r], out_face[r] = 0.0, no_slot, -1
+            out_n[r, 0], out_n[r, 1], out_n[r, 2] = 0.0, 0.0, 0.0
+            continue
+        out_d[r], out_slot[r], out_face[r] = t[r], slot_of[j], face_of[j]
+        ux, uy, uz = flat[j, 3] - flat[j, 0], flat[j, 4] - flat[j, 1], flat[j, 5] - flat[j, 2]
+        vx, vy, vz = flat[j, 6] - flat[j, 0], flat[j, 7] - flat[j, 1], flat[j, 8] - flat[j, 2]
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        s = math.sqrt(nx * nx + ny * ny + nz * nz)
+        nx, ny, nz = nx / s, ny / s, nz / s
+        if nx * dirs[r, 0] + ny * dirs[r, 1] + nz * dirs[r, 2] > 0.0:
+            nx, ny, nz = -nx, -ny, -nz
+        out_n[r, 0], out_n[r, 1], out_n[r, 2] = nx, ny, nz
