@@ -16,7 +16,8 @@ NAMES = {
     "frame_cpu": "CPU of steady GL frames of a benchmark scene and the culling kernel's share",
     "lens_ids": "lens resampling modes against Open3D's ray caster: ids that agree, ms a frame",
     "lod_saving": "what level of detail saves (ms a frame) and costs (depth error, ids) per raster",
-    "occlusion_cost": "occlusion culling's cost and saving, the culler alone, llvmpipe's fixed cost",
+    "occlusion_cost": "occlusion culling's cost and saving, the culler alone, llvmpipe's fixed "
+    "cost",
     "skip_cost": "a capture whose planner skips an effect against the same capture without it",
     "stage_cpu": "CPU seconds per stage of steady dataset scenes, as a dataset worker makes them",
     "stage_parts": "least CPU per scene of build_scene, the capture planner and the cloud stage",

@@ -1,4 +1,5 @@
 """``python -m benchmarks NAME [ARGS]``: run one measuring script; ``--list`` lists them."""
+
 from __future__ import annotations
 
 import importlib
@@ -17,8 +18,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0 if argv else 2
     name, rest = argv[0], argv[1:]
     if name not in NAMES:
-        print(f"python -m benchmarks: unknown benchmark {name!r}; expected one of {', '.join(NAMES)}",
-              file=sys.stderr)
+        print(
+            f"python -m benchmarks: unknown benchmark {name!r}; expected one of {', '.join(NAMES)}",
+            file=sys.stderr,
+        )
         return 2
     importlib.import_module(f"benchmarks.{name}").main(rest)
     return 0

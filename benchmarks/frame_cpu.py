@@ -8,6 +8,7 @@ thread, Python)::
     perf record -F 1999 -g -o frame.data -- python -m benchmarks frame_cpu 1M 200
     perf report -i frame.data --no-children -g none --sort comm,dso
 """
+
 from __future__ import annotations
 
 import time
@@ -39,7 +40,7 @@ def run(scene_name: str = "1M", frames: int = 80) -> dict:
     try:
         r = Renderer(scene)
         for p in spec.poses[:4]:
-            r.render(sensor, p, depth_only=True)   # warm-up
+            r.render(sensor, p, depth_only=True)  # warm-up
         cull.clear()
         drawn = []
         c = time.process_time()
@@ -50,18 +51,27 @@ def run(scene_name: str = "1M", frames: int = 80) -> dict:
         r.release()
     finally:
         TriangleCuller.select = select
-    return {"scene": scene_name, "frames": frames, "ms_cpu": 1e3 * total / frames,
-            "cull_ms_cpu": 1e3 * float(np.mean(cull)) if cull else 0.0,
-            "cull_share": float(np.sum(cull) / total) if total > 0 else 0.0,
-            "drawn": float(np.mean(drawn)), "triangles": spec.triangles}
+    return {
+        "scene": scene_name,
+        "frames": frames,
+        "ms_cpu": 1e3 * total / frames,
+        "cull_ms_cpu": 1e3 * float(np.mean(cull)) if cull else 0.0,
+        "cull_share": float(np.sum(cull) / total) if total > 0 else 0.0,
+        "drawn": float(np.mean(drawn)),
+        "triangles": spec.triangles,
+    }
 
 
 def main(argv: list[str]) -> None:
     p = parser("frame_cpu", __doc__)
     scene_argument(p, "1M")
-    p.add_argument("frames", nargs="?", type=int, default=80, help="steady frames timed (default 80)")
+    p.add_argument(
+        "frames", nargs="?", type=int, default=80, help="steady frames timed (default 80)"
+    )
     a = p.parse_args(argv)
     print(header())
     r = run(a.scene, a.frames)
-    print(f"{r['scene']}: {r['ms_cpu']:.1f} ms of CPU per frame; culling {r['cull_ms_cpu']:.1f} ms "
-          f"({100 * r['cull_share']:.0f} %); {r['drawn']:,.0f} of {r['triangles']:,} triangles drawn")
+    print(
+        f"{r['scene']}: {r['ms_cpu']:.1f} ms of CPU per frame; culling {r['cull_ms_cpu']:.1f} ms "
+        f"({100 * r['cull_share']:.0f} %); {r['drawn']:,.0f} of {r['triangles']:,} triangles drawn"
+    )

@@ -10,6 +10,7 @@ median of 6 after a warm-up)::
 
     python -m benchmarks lens_ids [agreement|cost|both|resampling]
 """
+
 from __future__ import annotations
 
 import time
@@ -27,10 +28,20 @@ K = np.array([[535.9, 0, 342.3], [0, 535.9, 235.6], [0, 0, 1.0]])
 LENSES = {
     "plumb-bob (k1 -0.42)": gg.Sensor(640, 480, K, [-0.42, 0.2, 0.001, -0.0003, -0.05]),
     "rational": gg.Sensor(640, 480, K, [0.1, -0.05, 0.001, -0.002, 0.01, 0.02, 0.0, 0.0]),
-    "fisheye": gg.Sensor(640, 480, np.array([[230.0, 0, 320], [0, 230, 240], [0, 0, 1]]), [0.05, -0.01, 0.002, -0.0005],
-                         model="fisheye"),
-    "omnidirectional": gg.Sensor(640, 480, np.array([[300.0, 0, 320], [0, 300, 240], [0, 0, 1]]),
-                                 [0.9, -0.1, 0.02, 0.001, -0.001], model="omni"),
+    "fisheye": gg.Sensor(
+        640,
+        480,
+        np.array([[230.0, 0, 320], [0, 230, 240], [0, 0, 1]]),
+        [0.05, -0.01, 0.002, -0.0005],
+        model="fisheye",
+    ),
+    "omnidirectional": gg.Sensor(
+        640,
+        480,
+        np.array([[300.0, 0, 320], [0, 300, 240], [0, 0, 1]]),
+        [0.9, -0.1, 0.02, 0.001, -0.001],
+        model="omni",
+    ),
 }
 MODES = ("nearest", "bilinear", "plane", "exact")
 
@@ -41,9 +52,16 @@ def caster(scene):
     rc, ids = o3d.t.geometry.RaycastingScene(), {}
     for inst in scene.instances:
         m = scene.meshes[inst.mesh]
-        v = np.asarray(m.vertices, np.float64) @ inst.world_from_model[:3, :3].T + inst.world_from_model[:3, 3]
-        ids[rc.add_triangles(o3d.core.Tensor(v.astype(np.float32)),
-                             o3d.core.Tensor(np.asarray(m.faces, np.uint32)))] = inst.instance
+        v = (
+            np.asarray(m.vertices, np.float64) @ inst.world_from_model[:3, :3].T
+            + inst.world_from_model[:3, 3]
+        )
+        ids[
+            rc.add_triangles(
+                o3d.core.Tensor(v.astype(np.float32)),
+                o3d.core.Tensor(np.asarray(m.faces, np.uint32)),
+            )
+        ] = inst.instance
     return rc, ids
 
 
@@ -53,7 +71,9 @@ def cast(rc, ids, sensor, pose):
     d = sensor.directions().reshape(-1, 3)
     ok = np.isfinite(d[:, 0])
     dw = np.where(ok[:, None], d, 0.0) @ pose[:3, :3].T
-    hit = rc.cast_rays(o3d.core.Tensor(np.c_[np.broadcast_to(pose[:3, 3], dw.shape), dw].astype(np.float32)))
+    hit = rc.cast_rays(
+        o3d.core.Tensor(np.c_[np.broadcast_to(pose[:3, 3], dw.shape), dw].astype(np.float32))
+    )
     t = hit["t_hit"].numpy()
     inst = np.array([ids.get(int(g), 0) for g in hit["geometry_ids"].numpy()], np.uint32)
     z = t * d[:, 2]
@@ -81,8 +101,13 @@ def resampling(r, sensor, pose) -> dict[str, float]:
     return {m: float(np.median(cpu[m][1:])) for m in MODES}
 
 
-def run(what: str = "both", scene_name: str = "storage_area", poses: int = 2, lenses=None,
-        rounds: int = 5) -> dict[str, dict]:
+def run(
+    what: str = "both",
+    scene_name: str = "storage_area",
+    poses: int = 2,
+    lenses=None,
+    rounds: int = 5,
+) -> dict[str, dict]:
     """Per lens: ``agreement`` {mode: (share of pixels whose id is Open3D's, wrong pixels)},
     ``ms`` {mode: median ms a frame}, ``resampling_ms`` {mode: median CPU ms}, as ``what`` asks.
     ``scene_name``: a shipped strategy (seed 0) or a benchmark scene."""
@@ -105,13 +130,17 @@ def run(what: str = "both", scene_name: str = "storage_area", poses: int = 2, le
                 truth = [cast(rc, ids, s, p) for p in views]
                 agree = {}
                 for m in MODES:
-                    wrong = sum(int((render_through_lens(r.render, s, p, resample=m).instance != t).sum())
-                                for p, t in zip(views, truth))
+                    wrong = sum(
+                        int((render_through_lens(r.render, s, p, resample=m).instance != t).sum())
+                        for p, t in zip(views, truth)
+                    )
                     agree[m] = (1 - wrong / (len(views) * s.width * s.height), wrong)
                 out[name]["agreement"] = agree
             if what in ("cost", "both"):
                 for m in MODES:
-                    render_through_lens(r.render, s, views[0], resample=m)   # warm-up: compile, buffers
+                    render_through_lens(
+                        r.render, s, views[0], resample=m
+                    )  # warm-up: compile, buffers
                 ms: dict[str, list[float]] = {m: [] for m in MODES}
                 for k in range(rounds):
                     for j in range(len(MODES)):
@@ -126,8 +155,12 @@ def run(what: str = "both", scene_name: str = "storage_area", poses: int = 2, le
 
 def main(argv: list[str]) -> None:
     p = parser("lens_ids", __doc__)
-    p.add_argument("what", nargs="?", default="both", choices=("agreement", "cost", "both", "resampling"))
-    p.add_argument("--scene", default="storage_area", help="a shipped strategy or a benchmark scene")
+    p.add_argument(
+        "what", nargs="?", default="both", choices=("agreement", "cost", "both", "resampling")
+    )
+    p.add_argument(
+        "--scene", default="storage_area", help="a shipped strategy or a benchmark scene"
+    )
     p.add_argument("--poses", type=int, default=2)
     a = p.parse_args(argv)
     print(header())
@@ -135,9 +168,18 @@ def main(argv: list[str]) -> None:
         if "resampling_ms" in r:
             print(f"| {name} | " + " | ".join(f"{r['resampling_ms'][m]:.1f}" for m in MODES) + " |")
         if "agreement" in r:
-            print(f"| {name} | " + " | ".join(f"{m} {100 * share:.4f} % ({wrong} px)"
-                                             for m, (share, wrong) in r["agreement"].items()) + " |")
+            print(
+                f"| {name} | "
+                + " | ".join(
+                    f"{m} {100 * share:.4f} % ({wrong} px)"
+                    for m, (share, wrong) in r["agreement"].items()
+                )
+                + " |"
+            )
         if "ms" in r:
             med = r["ms"]
-            print(f"| {name} | " + " | ".join(f"{med[m]:.0f}" for m in MODES)
-                  + f" | {med['exact'] / med['nearest']:.2f} |")
+            print(
+                f"| {name} | "
+                + " | ".join(f"{med[m]:.0f}" for m in MODES)
+                + f" | {med['exact'] / med['nearest']:.2f} |"
+            )

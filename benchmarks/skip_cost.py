@@ -8,6 +8,7 @@ throughout::
     python -m benchmarks skip_cost fresh 40
     python -m benchmarks skip_cost same 40
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -28,7 +29,9 @@ def run(fresh: bool = True, calls: int = 12) -> dict:
     """{"with_ms_cpu", "without_ms_cpu", "ratio"}: median CPU ms of a call with the skipped
     effect and without it, and their ratio."""
     azure = gg.load_sensor(resolve("azure_kinect_nfov", "sensors", (".yaml",)))
-    without = dataclasses.replace(azure, effects=tuple(e for e in azure.effects if "multipath" not in e.name))
+    without = dataclasses.replace(
+        azure, effects=tuple(e for e in azure.effects if "multipath" not in e.name)
+    )
     pose = look_at([0.0, 0.0, 2.0], [0.0, 0.0, 0.0], up=(0, 1, 0))
     ball = trimesh.creation.icosphere(subdivisions=4, radius=0.5)
 
@@ -39,10 +42,14 @@ def run(fresh: bool = True, calls: int = 12) -> dict:
 
     shared = scene()
     for s in (azure, without):
-        gg.capture(shared, s, [pose], seed=0)   # warm-up: imports, kernels, GL, shaders
+        gg.capture(shared, s, [pose], seed=0)  # warm-up: imports, kernels, GL, shaders
     times: dict[str, list[float]] = {"with": [], "without": []}
     for k in range(calls):
-        order = (("with", azure), ("without", without)) if k % 2 else (("without", without), ("with", azure))
+        order = (
+            (("with", azure), ("without", without))
+            if k % 2
+            else (("without", without), ("with", azure))
+        )
         for name, s in order:
             sc = scene() if fresh else shared
             c = time.process_time()
@@ -59,5 +66,8 @@ def main(argv: list[str]) -> None:
     a = p.parse_args(argv)
     print(header())
     r = run(a.mode == "fresh", a.calls)
-    print(f"{'a new scene per call' if a.mode == 'fresh' else 'the same scene'}: with multipath (skipped) "
-          f"{r['with_ms_cpu']:.1f} ms of CPU, without {r['without_ms_cpu']:.1f} ms: {r['ratio']:.3f}x")
+    print(
+        f"{'a new scene per call' if a.mode == 'fresh' else 'the same scene'}: with multipath "
+        "(skipped) "
+        f"{r['with_ms_cpu']:.1f} ms of CPU, without {r['without_ms_cpu']:.1f} ms: {r['ratio']:.3f}x"
+    )

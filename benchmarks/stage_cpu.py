@@ -8,6 +8,7 @@ that a loaded machine blurs it less::
 
     python -m benchmarks stage_cpu 6
 """
+
 from __future__ import annotations
 
 import os
@@ -25,18 +26,31 @@ from .common import header, parser
 
 def run(steady: int = 6, cameras: int = 40, strategy: str = "assembly_line") -> dict[str, float]:
     """Median CPU seconds per steady scene of each stage, and ``total`` (the scene's CPU)."""
-    limit_threads(os.cpu_count() or 1)   # one worker: every core, as genie dataset --workers 1 gives it
+    limit_threads(
+        os.cpu_count() or 1
+    )  # one worker: every core, as genie dataset --workers 1 gives it
     with tempfile.TemporaryDirectory(prefix="genie-stage-cpu-") as out:
-        cfg = DatasetConfig(strategy=strategy, out=out, scenes=steady + 1, cameras=cameras, previews=0,
-                            sensor="ideal_pinhole")
+        cfg = DatasetConfig(
+            strategy=strategy,
+            out=out,
+            scenes=steady + 1,
+            cameras=cameras,
+            previews=0,
+            sensor="ideal_pinhole",
+        )
         inputs, _ = prepare(cfg)
         rows = []
         for i in range(steady + 1):
             marks: list[tuple[str, float]] = []
-            r = make_scene(cfg, inputs, i, stage=lambda name: marks.append((name, time.process_time())))
+            r = make_scene(
+                cfg, inputs, i, stage=lambda name: marks.append((name, time.process_time()))
+            )
             end = time.process_time()
-            cpu = {a[0]: (b[1] if b else end) - a[1] for a, b in zip(marks, marks[1:] + [None])
-                   if a[0] != "warm-up"}
+            cpu = {
+                a[0]: (b[1] if b else end) - a[1]
+                for a, b in zip(marks, marks[1:] + [None])
+                if a[0] != "warm-up"
+            }
             if i:
                 rows.append(cpu | {"total": r["cpu_s"]})
     return {k: statistics.median(r[k] for r in rows) for k in rows[0]}
@@ -49,4 +63,7 @@ def main(argv: list[str]) -> None:
     a = p.parse_args(argv)
     print(header())
     r = run(a.steady, a.cameras)
-    print(f"median CPU s per steady scene ({a.steady} scenes): " + ", ".join(f"{k} {v:.3f}" for k, v in r.items()))
+    print(
+        f"median CPU s per steady scene ({a.steady} scenes): "
+        + ", ".join(f"{k} {v:.3f}" for k, v in r.items())
+    )

@@ -7,6 +7,7 @@ least. Run it once per version to compare, the versions taking turns::
 
     python -m benchmarks stage_parts          # six scenes of 40 cameras
 """
+
 from __future__ import annotations
 
 import time
@@ -36,13 +37,21 @@ def least(fn, repeats: int) -> float:
 def run(scenes: int = 6, cameras: int = 40, repeats: int = 7) -> dict[str, float]:
     """{"build_scene", "plan", "cloud"}: least CPU seconds per scene, the mean over the scenes."""
     sensor = gg.load_sensor("ideal_pinhole")
-    layouts = [generate_layout(load_strategy("assembly_line"), rng=SceneStreams(0, i).rng("layout"))
-               for i in range(scenes)]
+    layouts = [
+        generate_layout(load_strategy("assembly_line"), rng=SceneStreams(0, i).rng("layout"))
+        for i in range(scenes)
+    ]
     for lay in layouts:  # every variant's mesh made once, as a worker's first scene makes them
         gg.build_scene(lay, rng=SceneStreams(0, 0).rng("scene"))
-    build = np.mean([least(lambda: gg.build_scene(lay, rng=SceneStreams(0, i).rng("scene")), repeats)
-                     for i, lay in enumerate(layouts)])
-    built = [gg.build_scene(lay, rng=SceneStreams(0, i).rng("scene")) for i, lay in enumerate(layouts)]
+    build = np.mean(
+        [
+            least(lambda: gg.build_scene(lay, rng=SceneStreams(0, i).rng("scene")), repeats)
+            for i, lay in enumerate(layouts)
+        ]
+    )
+    built = [
+        gg.build_scene(lay, rng=SceneStreams(0, i).rng("scene")) for i, lay in enumerate(layouts)
+    ]
     poses = [gg.place_sensors(lay, sensor, n=cameras, seed=i) for i, lay in enumerate(layouts)]
     planning = np.mean([least(lambda: plan(s, sensor, p), repeats) for s, p in zip(built, poses)])
     k = min(1, scenes - 1)
@@ -55,7 +64,11 @@ def run(scenes: int = 6, cameras: int = 40, repeats: int = 7) -> dict[str, float
             if keep_cloud(tile, min_points=2000, min_labelled_share=0.05)[0]:
                 counts += np.bincount(tile.semantic, minlength=len(counts))
 
-    return {"build_scene": float(build), "plan": float(planning), "cloud": least(cloud, repeats + 2)}
+    return {
+        "build_scene": float(build),
+        "plan": float(planning),
+        "cloud": least(cloud, repeats + 2),
+    }
 
 
 def main(argv: list[str]) -> None:

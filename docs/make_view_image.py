@@ -1,6 +1,7 @@
 """The picture of ``genie view``'s web viewer (``make docs-view-image``): the demo dataset's
 Rerun recording served on 127.0.0.1, opened in headless Chromium (the tests' driver,
 ``tests/view/browser.py``) and screenshotted once the 3-D view shows the scene's classes."""
+
 import sys
 import tempfile
 import time
@@ -21,14 +22,16 @@ with tempfile.TemporaryDirectory() as tmp:
     rrd = write_rrd(read_views(dataset), tmp / "view.rrd")
     served = serve(rrd, port=0, log_path=tmp / "rerun.log")
     try:
-        browser = Browser(served.url, tmp / "console.log", width=1600, height=1000, profile=tmp / "profile")
+        browser = Browser(
+            served.url, tmp / "console.log", width=1600, height=1000, profile=tmp / "profile"
+        )
         try:
             img, seen, deadline = None, 0, time.monotonic() + 300
             while time.monotonic() < deadline and seen < 3:
                 time.sleep(5)
                 img = browser.screenshot()
                 seen = classes_shown(img)
-            time.sleep(5)   # let the last frame settle
+            time.sleep(5)  # let the last frame settle
             img = browser.screenshot()
         finally:
             browser.close()

@@ -18,7 +18,8 @@ The public API, one name per pipeline stage (DESIGN.md)::
     shots = gg.record(scene, rig, path, seed=0)    # (Shot, Frame) in time order
 
     head  = gg.load_scanner("velodyne_vlp16")      # or gg.load_scanner_rig("navvis_wearable")
-    scans = gg.scan(scene, head, path, seed=0)     # one Scan per revolution, each firing from its pose
+    scans = gg.scan(scene, head, path, seed=0)     # one Scan per revolution, each firing from its
+    pose
     gg.export_scans(scans, "out/", format="kitti") # kitti, rosbag, las, e57, pcd, ply
 
 Names are imported lazily, so ``import genie_gl`` stays cheap and starts no GL.
@@ -29,6 +30,7 @@ of the same names exist (:mod:`genie_gl.render`, :mod:`genie_gl.capture`,
 when they are imported, so this package keeps its functions in front of them. Import from a
 stage with ``from genie_gl.render import Renderer``.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -120,7 +122,7 @@ class _Package(types.ModuleType):
 
     def __setattr__(self, name: str, value: Any) -> None:
         if name in _FUNCTIONS and isinstance(value, types.ModuleType):
-            return   # the import system binding the package genie_gl.<name>: keep the function
+            return  # the import system binding the package genie_gl.<name>: keep the function
         super().__setattr__(name, value)
 
 

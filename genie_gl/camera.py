@@ -29,6 +29,7 @@ The clip range is a property of the sensor: ``near_m`` is its minimum range (any
 gives no return, depth 0 and ids 0, never what lies behind it) and ``far_m`` its maximum;
 the renderer clips at ``clip_near_m``, far below the minimum range, and masks the rest.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -42,7 +43,7 @@ from .errors import ConfigError
 
 PINHOLE_LENGTHS = (0, 4, 5, 8, 12, 14)
 MODELS: dict[str, tuple[int, ...]] = {"pinhole": PINHOLE_LENGTHS, "fisheye": (0, 4), "omni": (1, 5)}
-NEAR_CLIP_RATIO = 1.0 / 1024   # the GL near plane, as a share of the sensor's minimum range
+NEAR_CLIP_RATIO = 1.0 / 1024  # the GL near plane, as a share of the sensor's minimum range
 MAX_OFF_AXIS = np.radians(89.9)  # rays beyond this are not represented (depth is z)
 MAX_SIDE_OVER_F = 1e5  # a side over 1e5 focal lengths spans 179.999 degrees through a pinhole
 
@@ -70,15 +71,21 @@ def _radial(r2: np.ndarray, k: np.ndarray) -> np.ndarray:
     return (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
 
 
-def _decentring(x: np.ndarray, y: np.ndarray, r2: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _decentring(
+    x: np.ndarray, y: np.ndarray, r2: np.ndarray, k: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The tangential and thin-prism shifts (p1, p2, s1..s4) of the point (x, y), r² = x² + y²."""
     _, _, p1, p2, _, _, _, _, s1, s2, s3, s4, _, _ = k
     r4 = r2 * r2
-    return (2 * p1 * x * y + p2 * (r2 + 2 * x * x) + s1 * r2 + s2 * r4,
-            p1 * (r2 + 2 * y * y) + 2 * p2 * x * y + s3 * r2 + s4 * r4)
+    return (
+        2 * p1 * x * y + p2 * (r2 + 2 * x * x) + s1 * r2 + s2 * r4,
+        p1 * (r2 + 2 * y * y) + 2 * p2 * x * y + s3 * r2 + s4 * r4,
+    )
 
 
-def distort_normalized(x: np.ndarray, y: np.ndarray, dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def distort_normalized(
+    x: np.ndarray, y: np.ndarray, dist: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """OpenCV's pinhole lens on normalised points (x, y) = (X/Z, Y/Z): the distorted (x', y')."""
     k = _coefficients(dist)
     r2 = x * x + y * y
@@ -108,7 +115,7 @@ def _find_fold(model: str, dist: bytes) -> float:
     """The off-axis limit of the lens: the radius r = tan θ (pinhole model) or the angle θ
     (fisheye) where its radial map stops increasing; past it rays are not imaged."""
     d = np.frombuffer(dist)
-    if model == "omni":   # the angle where the sphere's projection reaches the radtan fold
+    if model == "omni":  # the angle where the sphere's projection reaches the radtan fold
         r_fold = _fold("pinhole", np.ascontiguousarray(d[1:]).tobytes())
         t = np.linspace(0, MAX_OFF_AXIS, 200001)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -121,7 +128,7 @@ def _find_fold(model: str, dist: bytes) -> float:
         f = fisheye_theta_d(t, d)
         lim = np.pi
     elif model == "pinhole":
-        t = np.linspace(0, 60.0, 600001)   # r up to tan(89°)
+        t = np.linspace(0, 60.0, 600001)  # r up to tan(89°)
         f = t * _radial(t * t, _coefficients(d))
         lim = np.inf
     else:
@@ -169,17 +176,25 @@ class Camera:
         for side in ("width", "height"):
             whole_number(getattr(self, side), f"{who}: {side}", 1, 1_000_000)
         for f, side in ((K[0, 0], self.width), (K[1, 1], self.height)):
-            if side / f > MAX_SIDE_OVER_F:   # a pinhole image that wide spans 180 degrees (and more)
-                raise ConfigError(f"{who}: focal length {f:g} px for a {int(side)} px side: a field of view no lens "
-                                  f"renders; expected fx, fy >= {side / MAX_SIDE_OVER_F:g} px (a real lens has about "
-                                  "the image width)")
+            if side / f > MAX_SIDE_OVER_F:  # a pinhole image that wide spans 180 degrees (and more)
+                raise ConfigError(
+                    f"{who}: focal length {f:g} px for a {int(side)} px side: a field of view no "
+                    "lens "
+                    f"renders; expected fx, fy >= {side / MAX_SIDE_OVER_F:g} px (a real lens has "
+                    "about "
+                    "the image width)"
+                )
         if self.model not in MODELS:
-            raise ConfigError(f"{who}: unknown lens model {self.model!r}; known: {', '.join(MODELS)}")
+            raise ConfigError(
+                f"{who}: unknown lens model {self.model!r}; known: {', '.join(MODELS)}"
+            )
         d = np.asarray(self.dist, dtype=np.float64).ravel()
         if len(d) not in MODELS[self.model] or not np.all(np.isfinite(d)):
             n = ", ".join(str(n) for n in MODELS[self.model] if n)
-            raise ConfigError(f"{who}: the {self.model} lens distortion needs {n} finite coefficients, "
-                              f"got {len(d)}")
+            raise ConfigError(
+                f"{who}: the {self.model} lens distortion needs {n} finite coefficients, "
+                f"got {len(d)}"
+            )
         if not (0 < self.near_m < self.far_m and np.isfinite(self.far_m)):
             raise ConfigError(f"{who}: need 0 < near_m < far_m, got {self.near_m}, {self.far_m}")
         object.__setattr__(self, "K", K)
@@ -245,21 +260,25 @@ class Camera:
         with np.errstate(divide="ignore", invalid="ignore"):
             theta = np.arctan2(np.hypot(x, y), z)
             ok = theta < self.max_off_axis + 1e-12
-            if self.model == "omni":      # onto the unit sphere, seen from (0, 0, -ξ)
+            if self.model == "omni":  # onto the unit sphere, seen from (0, 0, -ξ)
                 norm = np.sqrt(x * x + y * y + z * z)
                 den = z / norm + self.dist[0]
                 ok &= den > 0
                 xd, yd = x / norm / den, y / norm / den
                 if np.any(self.dist[1:]):
                     xd, yd = distort_normalized(xd, yd, self.dist[1:])
-            elif self.model == "fisheye":   # the image direction of the point, scaled to θ_d
+            elif self.model == "fisheye":  # the image direction of the point, scaled to θ_d
                 r = np.hypot(x, y)
-                s = fisheye_theta_d(theta, self.dist) / np.where(r > 0, r, 1)   # θ_d = 0 on the axis
+                s = fisheye_theta_d(theta, self.dist) / np.where(r > 0, r, 1)  # θ_d = 0 on the axis
                 xd, yd = x * s, y * s
             else:
                 ok &= z > 0
-                xd, yd = distort_normalized(x / z, y / z, self.dist) if len(self.dist) else (x / z, y / z)
-            K = self.K   # (a point at z = 0 gives inf here, masked just below)
+                xd, yd = (
+                    distort_normalized(x / z, y / z, self.dist)
+                    if len(self.dist)
+                    else (x / z, y / z)
+                )
+            K = self.K  # (a point at z = 0 gives inf here, masked just below)
             uv = np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], 1)
         uv[~ok] = np.nan
         return uv
@@ -269,7 +288,7 @@ class Camera:
         """(N, 3) float64 unit camera-frame directions of pixels ``uv`` (N, 2); NaN where the
         lens has no ray (past its fold, or 90° or more off the axis)."""
         uv = np.asarray(uv, np.float64).reshape(-1, 2)
-        uv = np.where(np.isfinite(uv), uv, np.nan)   # an infinite pixel has no ray: NaN, quietly
+        uv = np.where(np.isfinite(uv), uv, np.nan)  # an infinite pixel has no ray: NaN, quietly
         K = self.K
         yd = (uv[:, 1] - K[1, 2]) / K[1, 1]
         xd = (uv[:, 0] - K[0, 2] - K[0, 1] * yd) / K[0, 0]
@@ -299,7 +318,9 @@ def _max_off_axis(model: str, dist: np.ndarray) -> float:
     return float(min(lim, MAX_OFF_AXIS))
 
 
-def _pinhole_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: float) -> tuple[np.ndarray, np.ndarray]:
+def _pinhole_inverse(
+    xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Solve distort_normalized(x, y) = (xd, yd); NaN where no root lies inside the fold.
 
     The start undoes the lens step by step: the sensor's tilt exactly (a homography), then,
@@ -319,14 +340,15 @@ def _pinhole_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: fl
         ux, uy = xs - dx, ys - dy
         rd = np.hypot(ux, uy)
         r = _increasing_inverse(lambda t: t * _radial(t * t, k), rd, min(r_max, 1e6))
-        s = r / np.where(rd > 0, rd, 1)   # (rd = 0: ux = uy = 0)
+        s = r / np.where(rd > 0, rd, 1)  # (rd = 0: ux = uy = 0)
         x, y = ux * s, uy * s
     x, y, ok = _newton(x, y, xd, yd, dist, r_max)
     return np.where(ok, x, np.nan), np.where(ok, y, np.nan)
 
 
 def _untilt(xd: np.ndarray, yd: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distorted point before the sensor's tilt (τx, τy = k[12:]): the tilt's homography inverted."""
+    """The distorted point before the sensor's tilt (τx, τy = k[12:]): the tilt's homography
+    inverted."""
     if not (k[12] or k[13]):
         return xd, yd
     return _homography(np.linalg.inv(tilt_matrix(k[12], k[13])), xd, yd)
@@ -343,8 +365,9 @@ def _increasing_inverse(f, target: np.ndarray, top: float) -> np.ndarray:
     return 0.5 * (lo + hi)
 
 
-def _newton(x: np.ndarray, y: np.ndarray, xd: np.ndarray, yd: np.ndarray, dist: np.ndarray,
-            r_max: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _newton(
+    x: np.ndarray, y: np.ndarray, xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, r_max: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Damped Newton steps (numerical Jacobian) from (x, y) towards distort_normalized = (xd, yd);
     (x, y, ok) with ok where the root reproduces the pixel inside the fold."""
     h = 1e-7
@@ -362,23 +385,32 @@ def _newton(x: np.ndarray, y: np.ndarray, xd: np.ndarray, yd: np.ndarray, dist: 
             sx = (j22 * ex - j12 * ey) / det
             sy = (-j21 * ex + j11 * ey) / det
             step = np.hypot(sx, sy)
-            cap = np.maximum(0.25 * np.hypot(x, y), 0.05)   # damped: never jump across the fold
+            cap = np.maximum(0.25 * np.hypot(x, y), 0.05)  # damped: never jump across the fold
             s = np.where(step > cap, cap / step, 1.0)
             x, y = x - s * sx, y - s * sy
         fx, fy = distort_normalized(x, y, dist)
         res = np.hypot(fx - xd, fy - yd)
-        ok = (res < 1e-9 * (1 + np.hypot(xd, yd))) & (np.hypot(x, y) < r_max) & np.isfinite(x) & np.isfinite(y)
+        ok = (
+            (res < 1e-9 * (1 + np.hypot(xd, yd)))
+            & (np.hypot(x, y) < r_max)
+            & np.isfinite(x)
+            & np.isfinite(y)
+        )
     return x, y, ok
 
 
-def _fisheye_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max: float) -> np.ndarray:
+def _fisheye_inverse(
+    xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max: float
+) -> np.ndarray:
     """Unit directions of the Kannala-Brandt lens: θ from θ_d by bisection on [0, θ_max]
     (the map is increasing there); 60 halvings leave θ_max / 2⁶⁰ < 3e-18 rad, double precision
     (a Newton step after them moves θ by ~1e-16 at most)."""
     td = np.hypot(xd, yd)
-    inside = td <= fisheye_theta_d(np.array(theta_max + 1e-12), dist)   # project's tolerance at the rim
+    inside = td <= fisheye_theta_d(
+        np.array(theta_max + 1e-12), dist
+    )  # project's tolerance at the rim
     theta = _increasing_inverse(lambda t: fisheye_theta_d(t, dist), td, theta_max)
-    c = np.sin(theta) / np.where(td > 0, td, 1)   # the centre pixel (td = 0): xd = yd = 0, the axis
+    c = np.sin(theta) / np.where(td > 0, td, 1)  # the centre pixel (td = 0): xd = yd = 0, the axis
     d = np.stack([xd * c, yd * c, np.cos(theta)], 1)
     d[~inside] = np.nan
     return d
@@ -404,7 +436,7 @@ def _omni_inverse(xd: np.ndarray, yd: np.ndarray, dist: np.ndarray, theta_max: f
 def _pixel_directions(key: tuple) -> np.ndarray:
     model, w, h, K, dist = key
     cam = Camera(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), model=model)
-    u, v = np.meshgrid(np.arange(w), np.arange(h))   # whole pixel numbers, exact in any dtype
+    u, v = np.meshgrid(np.arange(w), np.arange(h))  # whole pixel numbers, exact in any dtype
     d = cam.unproject(np.stack([u.ravel(), v.ravel()], 1)).reshape(h, w, 3)
     d.setflags(write=False)
     return d
@@ -414,11 +446,11 @@ def _pixel_rays(key: tuple) -> np.ndarray:
     model, w, h, K, dist = key
     if model == "pinhole" and not np.any(np.frombuffer(dist)):
         Km = np.frombuffer(K).reshape(3, 3)
-        u, v = np.meshgrid(np.arange(w), np.arange(h))   # whole pixel numbers, exact in any dtype
+        u, v = np.meshgrid(np.arange(w), np.arange(h))  # whole pixel numbers, exact in any dtype
         y = (v - Km[1, 2]) / Km[1, 1]
         xy = np.stack([(u - Km[0, 2] - Km[0, 1] * y) / Km[0, 0], y], -1)
     else:
-        d = _directions(key)   # z > 0 wherever there is a ray (at most 89.9° off the axis)
+        d = _directions(key)  # z > 0 wherever there is a ray (at most 89.9° off the axis)
         xy = d[..., :2] / d[..., 2:]
     xy.setflags(write=False)
     return xy

@@ -7,6 +7,7 @@ given is imported, and a command module imports the pipeline only when it runs, 
 the environment (the one place that does) and turns :class:`~genie_gl.errors.GenieError` into
 one clear line and exit code 2.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,14 +26,33 @@ from .errors import GenieError, os_error_message
 COMMANDS: dict[str, tuple[str, str]] = {
     "layout": ("genie_gl.commands.layout", "generate a region layout tree from a JSON strategy"),
     "scene": ("genie_gl.commands.scene", "build a 3D scene (USD) from a layout JSON"),
-    "capture": ("genie_gl.commands.capture", "render a scene from K placed cameras and export clouds"),
-    "scan": ("genie_gl.commands.scan", "scan a strategy's scene with a LiDAR scanner or rig along a trajectory"),
+    "capture": (
+        "genie_gl.commands.capture",
+        "render a scene from K placed cameras and export clouds",
+    ),
+    "scan": (
+        "genie_gl.commands.scan",
+        "scan a strategy's scene with a LiDAR scanner or rig along a trajectory",
+    ),
     "plan": ("genie_gl.commands.plan", "print which effects run where, and why, before rendering"),
     "dataset": ("genie_gl.commands.dataset", "run the whole pipeline for N scenes"),
-    "bench": ("genie_gl.commands.bench", "benchmarks: render | layout | accuracy | pipeline | stability | planning | sequence | odometry | cli"),
-    "report-card": ("genie_gl.commands.report_card", "a sensor profile against published measurements of the real device"),
-    "eval": ("genie_gl.commands.eval", "train and test segmentation models on datasets; protocols and studies"),
-    "view": ("genie_gl.commands.view", "a Rerun recording (.rrd) of a dataset, recording, capture or scene; --serve: web viewer"),
+    "bench": (
+        "genie_gl.commands.bench",
+        "benchmarks: render | layout | accuracy | pipeline | stability | planning | sequence | "
+        "odometry | cli",
+    ),
+    "report-card": (
+        "genie_gl.commands.report_card",
+        "a sensor profile against published measurements of the real device",
+    ),
+    "eval": (
+        "genie_gl.commands.eval",
+        "train and test segmentation models on datasets; protocols and studies",
+    ),
+    "view": (
+        "genie_gl.commands.view",
+        "a Rerun recording (.rrd) of a dataset, recording, capture or scene; --serve: web viewer",
+    ),
 }
 
 
@@ -66,17 +86,30 @@ def command_of(argv: list[str]) -> str | None:
 
 
 # the optional packages a command may need, by import name: (PyPI name, genie-gl extra)
-OPTIONAL = {"kiss_icp": ("kiss-icp", "bench"), "evo": ("evo", "bench"), "open3d": ("open3d", "bench"),
-            "pye57": ("pye57", "sequences"), "laspy": ("laspy", "sequences"), "rosbags": ("rosbags", "sequences"),
-            "fast_simplification": ("fast-simplification", "lod"), "ray": ("ray", "ray"), "torch": ("torch", "neural"),
-            "rerun": ("rerun-sdk", "view"), "rerun_cli": ("rerun-sdk", "view")}
+OPTIONAL = {
+    "kiss_icp": ("kiss-icp", "bench"),
+    "evo": ("evo", "bench"),
+    "open3d": ("open3d", "bench"),
+    "pye57": ("pye57", "sequences"),
+    "laspy": ("laspy", "sequences"),
+    "rosbags": ("rosbags", "sequences"),
+    "fast_simplification": ("fast-simplification", "lod"),
+    "ray": ("ray", "ray"),
+    "torch": ("torch", "neural"),
+    "rerun": ("rerun-sdk", "view"),
+    "rerun_cli": ("rerun-sdk", "view"),
+}
 
 
 def missing_package(name: str) -> str:
     """One line: which optional package is not installed, and how to install it."""
     top = name.split(".")[0]
     pypi, extra = OPTIONAL.get(top, (top, None))
-    how = f"pip install 'genie-gl[{extra}]' (or pip install {pypi})" if extra else f"pip install {pypi}"
+    how = (
+        f"pip install 'genie-gl[{extra}]' (or pip install {pypi})"
+        if extra
+        else f"pip install {pypi}"
+    )
     return f"needs the Python package {top!r}, which is not installed here; {how}"
 
 
@@ -113,23 +146,30 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as exc:  # argparse's one-line error (or --help, --version)
         return int(exc.code or 0)
     logging.basicConfig(
-        level=logging.WARNING - 10 * min(args.verbose, 2), format="%(levelname)s %(name)s: %(message)s"
+        level=logging.WARNING - 10 * min(args.verbose, 2),
+        format="%(levelname)s %(name)s: %(message)s",
     )
     if args.command is None:
         parser.print_help()
         return 2
     stopped: list[int] = []
 
-    def stop(signum: int, frame: object) -> None:   # SIGTERM as SIGINT: unwind, so pools stop their workers
+    def stop(
+        signum: int, frame: object
+    ) -> None:  # SIGTERM as SIGINT: unwind, so pools stop their workers
         stopped.append(signum)
         raise KeyboardInterrupt
 
-    def unraisable(info: Any) -> None:   # an interrupt inside a C callback (numba compiling) is no error
+    def unraisable(
+        info: Any,
+    ) -> None:  # an interrupt inside a C callback (numba compiling) is no error
         if not isinstance(info.exc_value, KeyboardInterrupt):
             sys.__unraisablehook__(info)
 
     main_thread = threading.current_thread() is threading.main_thread()
-    previous = {s: signal.signal(s, stop) for s in (signal.SIGTERM, signal.SIGINT)} if main_thread else {}
+    previous = (
+        {s: signal.signal(s, stop) for s in (signal.SIGTERM, signal.SIGINT)} if main_thread else {}
+    )
     sys.unraisablehook = unraisable
     try:
         backend = os.environ.get("GENIE_GL_BACKEND")
@@ -143,25 +183,39 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except ModuleNotFoundError as exc:
         if not exc.name or exc.name.split(".")[0] == "genie_gl":
-            raise   # a module of ours missing is a bug, not an input
+            raise  # a module of ours missing is a bug, not an input
         print(f"genie {args.command}: error: {missing_package(exc.name)}", file=sys.stderr)
         return 2
-    except OSError as exc:   # the file system said no (full, read-only, name too long, ...): one line
+    except (
+        OSError
+    ) as exc:  # the file system said no (full, read-only, name too long, ...): one line
         print(f"genie {args.command}: error: {os_error_message(exc)}", file=sys.stderr)
         return 2
     except MemoryError:
-        print(f"genie {args.command}: error: out of memory; use smaller inputs (fewer cameras, scenes or workers, "
-              "a smaller sensor) or lower the limits (--max-memory-gb where the command has it)", file=sys.stderr)
+        print(
+            f"genie {args.command}: error: out of memory; use smaller inputs (fewer cameras, "
+            "scenes or workers, "
+            "a smaller sensor) or lower the limits (--max-memory-gb where the command has it)",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         by = stopped[0] if stopped else signal.SIGINT
-        print(f"genie {args.command}: {stopped_message(args.command, by == signal.SIGTERM)}", file=sys.stderr)
+        print(
+            f"genie {args.command}: {stopped_message(args.command, by == signal.SIGTERM)}",
+            file=sys.stderr,
+        )
         return 128 + by
-    except Exception as exc:   # noqa: BLE001  (re-raised unless a signal caused it)
-        if not (stopped or interrupted(exc)):   # a library may turn the interrupt into an error of its own
+    except Exception as exc:  # noqa: BLE001  (re-raised unless a signal caused it)
+        if not (
+            stopped or interrupted(exc)
+        ):  # a library may turn the interrupt into an error of its own
             raise
         by = stopped[0] if stopped else signal.SIGINT
-        print(f"genie {args.command}: {stopped_message(args.command, by == signal.SIGTERM)}", file=sys.stderr)
+        print(
+            f"genie {args.command}: {stopped_message(args.command, by == signal.SIGTERM)}",
+            file=sys.stderr,
+        )
         return 128 + by
     finally:
         sys.unraisablehook = sys.__unraisablehook__

@@ -3,6 +3,7 @@
 Every message names what was wrong (file, key or field, value) and, where there is one,
 the fix. Catch :class:`GenieError` to catch them all.
 """
+
 from __future__ import annotations
 
 import difflib
@@ -42,7 +43,8 @@ def did_you_mean(value: str, choices: Iterable[str]) -> str:
 
 
 def json_path(loc: Iterable[object]) -> str:
-    """A validation error's location as a JSON path: ``("levels", 0, "args")`` -> ``$.levels[0].args``."""
+    """A validation error's location as a JSON path: ``("levels", 0, "args")`` ->
+    ``$.levels[0].args``."""
     out = "$"
     for part in loc:
         out += f"[{part}]" if isinstance(part, int) else f".{part}"
@@ -63,10 +65,13 @@ def os_error_message(exc: OSError) -> str:
     where = exc.filename or "a file"
     if exc.filename2:
         where = f"{exc.filename} -> {exc.filename2}"
-    fix = {errno.ENOSPC: "free space and run again; nothing half-written is left",
-           errno.EDQUOT: "free space and run again; nothing half-written is left",
-           errno.EFBIG: "beyond the file-size limit of this file system or process; nothing half-written is left",
-           errno.EROFS: "write somewhere else",
-           errno.EACCES: "write somewhere else, or give permission",
-           errno.ENAMETOOLONG: "use a shorter name"}.get(exc.errno or -1)
+    fix = {
+        errno.ENOSPC: "free space and run again; nothing half-written is left",
+        errno.EDQUOT: "free space and run again; nothing half-written is left",
+        errno.EFBIG: "beyond the file-size limit of this file system or process; nothing "
+        "half-written is left",
+        errno.EROFS: "write somewhere else",
+        errno.EACCES: "write somewhere else, or give permission",
+        errno.ENAMETOOLONG: "use a shorter name",
+    }.get(exc.errno or -1)
     return f"{where}: {exc.strerror or exc}" + (f" ({fix})" if fix else "")

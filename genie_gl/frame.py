@@ -1,4 +1,5 @@
 """The ``Frame``: what one camera sees at one pose. Renderers make them; effects map them."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -41,11 +42,16 @@ class Frame:
 
     def __post_init__(self) -> None:
         if not isinstance(self.sensor, Camera):
-            raise ValueError(f"Frame.sensor: expected a genie_gl Camera or Sensor, got {type(self.sensor).__name__}")
+            raise ValueError(
+                "Frame.sensor: expected a genie_gl Camera or Sensor, got "
+                f"{type(self.sensor).__name__}"
+            )
         H, W = self.sensor.height, self.sensor.width
-        checks = [("depth", self.depth, (H, W), np.float32),
-                  ("instance", self.instance, (H, W), np.uint32),
-                  ("semantic", self.semantic, (H, W), np.uint16)]
+        checks = [
+            ("depth", self.depth, (H, W), np.float32),
+            ("instance", self.instance, (H, W), np.uint32),
+            ("semantic", self.semantic, (H, W), np.uint16),
+        ]
         if self.rgb is not None:
             checks.append(("rgb", self.rgb, (H, W, 3), np.uint8))
         if self.normal is not None:
@@ -55,7 +61,8 @@ class Frame:
         for name, arr, shape, dtype in checks:
             if arr.shape != shape or arr.dtype != dtype:
                 raise ValueError(
-                    f"Frame.{name}: expected {shape} {np.dtype(dtype).name}, got {arr.shape} {arr.dtype}"
+                    f"Frame.{name}: expected {shape} {np.dtype(dtype).name}, got {arr.shape} "
+                    f"{arr.dtype}"
                 )
         pose = np.asarray(self.world_from_camera, dtype=np.float64)
         if pose.shape != (4, 4):

@@ -11,6 +11,7 @@ hashes the kernel's module and every module of the package it imports, directly 
 per module and process), so a change to any of them compiles the kernel afresh. Functions
 outside the package keep numba's own locators.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -36,7 +37,11 @@ def _imported(path: Path) -> list[Path]:
         for _ in range(len(dots) - 1):
             base = base.parent
         target = base.joinpath(*name.split(".")) if name else base
-        heads = [target] if name else [target / n.strip().split(" ")[0] for n in names.strip("()").split(",")]
+        heads = (
+            [target]
+            if name
+            else [target / n.strip().split(" ")[0] for n in names.strip("()").split(",")]
+        )
         for head in heads:
             for candidate in (head.with_suffix(".py"), head / "__init__.py"):
                 if candidate.is_file():
@@ -97,14 +102,25 @@ def _install() -> None:
     fails there, so the change is seen)."""
     try:
         classes = _numba("CacheImpl")._locator_classes
-        bases = [_numba(n) for n in ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator")]
+        bases = [
+            _numba(n)
+            for n in ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator")
+        ]
     except AttributeError as exc:
-        warnings.warn(f"genie_gl.jit: numba {numba.__version__}'s cache has no {exc.name!r}; compiled kernels "
-                      "are stamped by their own file only (clear __pycache__/*.nbi after changing a module a "
-                      "kernel imports)", RuntimeWarning, stacklevel=2)
+        warnings.warn(
+            f"genie_gl.jit: numba {numba.__version__}'s cache has no {exc.name!r}; compiled "
+            "kernels "
+            "are stamped by their own file only (clear __pycache__/*.nbi after changing a module a "
+            "kernel imports)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
         return
     if not installed():
-        classes[:0] = [type(f"Package{base.__name__.lstrip('_')}", (_ImportStamped, base), {}) for base in bases]
+        classes[:0] = [
+            type(f"Package{base.__name__.lstrip('_')}", (_ImportStamped, base), {})
+            for base in bases
+        ]
 
 
 _install()

@@ -16,6 +16,7 @@ Every command and API function that writes files goes through this module:
 - Every file is written to a temporary name in its folder and renamed into place
   (:func:`atomic_write_bytes`), so nothing half-written is ever visible.
 """
+
 from __future__ import annotations
 
 import json
@@ -45,7 +46,9 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
     """Write ``data`` to ``path`` through a temporary file in the same folder, then rename."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")  # one per writer: workers may write the same file
+    tmp = path.with_name(
+        f".{path.name}.{os.getpid()}.tmp"
+    )  # one per writer: workers may write the same file
     with written(path, tmp):
         with open(tmp, "wb") as fh:
             fh.write(data)
@@ -77,8 +80,13 @@ def _describe(path: Path) -> str:
     return "a folder" if path.is_dir() else "a file"
 
 
-def check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool], *, what: str,
-                      option: str | None = None) -> Path:
+def check_replaceable(
+    path: str | os.PathLike,
+    is_ours: Callable[[Path], bool],
+    *,
+    what: str,
+    option: str | None = None,
+) -> Path:
     """Refuse (:class:`ConfigError`) to write ``path`` when it exists and is not a file genie-gl
     wrote, as told by ``is_ours(path)`` (a stamp the writer puts in every file it writes).
 
@@ -92,8 +100,13 @@ def check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool], 
         raise ConfigError(f"{option + ' ' if option else ''}{os_error_message(exc)}") from None
 
 
-def _check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool], *, what: str,
-                       option: str | None = None) -> Path:
+def _check_replaceable(
+    path: str | os.PathLike,
+    is_ours: Callable[[Path], bool],
+    *,
+    what: str,
+    option: str | None = None,
+) -> Path:
     path = Path(path)
     where = f"{option} {path}" if option else str(path)
     if path.is_dir():
@@ -104,8 +117,10 @@ def _check_replaceable(path: str | os.PathLike, is_ours: Callable[[Path], bool],
         except Exception:  # an unreadable or foreign file is not ours
             ours = False
         if not ours:
-            raise ConfigError(f"{where}: already exists and was not written by genie-gl; it is left as it is "
-                              f"(remove or rename it, or write the {what} elsewhere)")
+            raise ConfigError(
+                f"{where}: already exists and was not written by genie-gl; it is left as it is "
+                f"(remove or rename it, or write the {what} elsewhere)"
+            )
     _check_parent_writable(path.parent, where)
     return path
 
@@ -114,9 +129,14 @@ def _check_parent_writable(folder: Path, where: str) -> None:
     """Refuse when nothing can be created in ``folder`` (or its nearest existing parent): a
     real probe, since permission bits say nothing of read-only or virtual file systems."""
     for p in (folder, *folder.parents):
-        if p.is_symlink() and not p.exists():   # dangling, or a loop: mkdir would say only "File exists"
-            raise ConfigError(f"{where}: {p} is a symbolic link that leads nowhere (to {os.readlink(p)!r}: missing, "
-                              "or a loop of links); point it at a folder or choose another")
+        if (
+            p.is_symlink() and not p.exists()
+        ):  # dangling, or a loop: mkdir would say only "File exists"
+            raise ConfigError(
+                f"{where}: {p} is a symbolic link that leads nowhere (to {os.readlink(p)!r}: "
+                "missing, "
+                "or a loop of links); point it at a folder or choose another"
+            )
         if p.exists():
             if not p.is_dir():
                 raise ConfigError(f"{where}: not writable ({p} is a file, not a folder)")
@@ -163,8 +183,10 @@ def read_manifest(folder: Path) -> dict[str, Any] | None:
     except (OSError, ValueError):
         data = None
     if not isinstance(data, dict) or "genie_gl" not in data or "command" not in data:
-        raise ConfigError(f"{folder}: holds a {MANIFEST} that genie-gl did not write; genie-gl needs that name "
-                          "for its own record and leaves yours as it is: choose another folder")
+        raise ConfigError(
+            f"{folder}: holds a {MANIFEST} that genie-gl did not write; genie-gl needs that name "
+            "for its own record and leaves yours as it is: choose another folder"
+        )
     return data
 
 
@@ -184,16 +206,22 @@ class OutputFolder:
     declared: frozenset[str]
     before: frozenset[str]
     previous: dict[str, Any] | None
-    made: bool                       # the folder did not exist before this run
+    made: bool  # the folder did not exist before this run
     _reserved: bool = field(default=False, repr=False)
 
     def owns(self, name: str) -> bool:
         """True when the top-level entry ``name`` is genie-gl's to replace or remove."""
         top = Path(name).parts[0]
-        return top in _ALWAYS_OURS or top in self.owned or top in self.declared or top not in self.before
+        return (
+            top in _ALWAYS_OURS
+            or top in self.owned
+            or top in self.declared
+            or top not in self.before
+        )
 
     def outputs(self) -> list[str]:
-        """Every top-level entry this folder's runs of ``command`` wrote, as the manifest lists them."""
+        """Every top-level entry this folder's runs of ``command`` wrote, as the manifest lists
+        them."""
         now = {p.name for p in self.path.iterdir()} if self.path.is_dir() else set()
         new = now - self.before
         mine = (set(self.owned) | set(self.declared) | new) & now
@@ -206,8 +234,14 @@ class OutputFolder:
         self.path.mkdir(parents=True, exist_ok=True)
         data = dict(record or self.previous or {})
         data.pop("writing", None)
-        data.update({"genie_gl": __version__, "command": self.command, "outputs": self.outputs(),
-                     "writing": sorted(set(self.declared) - _ALWAYS_OURS)})
+        data.update(
+            {
+                "genie_gl": __version__,
+                "command": self.command,
+                "outputs": self.outputs(),
+                "writing": sorted(set(self.declared) - _ALWAYS_OURS),
+            }
+        )
         atomic_write_text(self.path / MANIFEST, json.dumps(data, indent=1))
         self._reserved = True
 
@@ -227,7 +261,7 @@ class OutputFolder:
                     (self.path / name).unlink()
             try:
                 self.path.rmdir()
-            except OSError:   # something appeared meanwhile: leave it
+            except OSError:  # something appeared meanwhile: leave it
                 pass
             return
         if self.previous is None and not self._reserved:
@@ -247,7 +281,9 @@ class OutputFolder:
     def remove(self, name: str) -> None:
         """Remove the entry ``name`` (a file or a folder) if genie-gl wrote it; refuse otherwise."""
         if not self.owns(name):
-            raise ConfigError(f"{self.option} {self.path}: will not remove {name!r}: genie-gl did not write it")
+            raise ConfigError(
+                f"{self.option} {self.path}: will not remove {name!r}: genie-gl did not write it"
+            )
         p = self.path / name
         if p.is_dir() and not p.is_symlink():
             shutil.rmtree(p)
@@ -255,8 +291,14 @@ class OutputFolder:
             p.unlink()
 
 
-def claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] = (), *,
-                 option: str = "--out", reserve: bool = False) -> OutputFolder:
+def claim_folder(
+    path: str | os.PathLike,
+    command: str,
+    writes: Iterable[str] = (),
+    *,
+    option: str = "--out",
+    reserve: bool = False,
+) -> OutputFolder:
     """Claim ``path`` as the output folder of one run of ``command``, before any work.
 
     Parameters
@@ -281,8 +323,14 @@ def claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] = 
         raise ConfigError(f"{option} {os_error_message(exc)}") from None
 
 
-def _claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] = (), *,
-                  option: str = "--out", reserve: bool = False) -> OutputFolder:
+def _claim_folder(
+    path: str | os.PathLike,
+    command: str,
+    writes: Iterable[str] = (),
+    *,
+    option: str = "--out",
+    reserve: bool = False,
+) -> OutputFolder:
     """The claim itself (:func:`claim_folder`)."""
     folder = Path(path)
     where = f"{option} {folder}"
@@ -296,24 +344,30 @@ def _claim_folder(path: str | os.PathLike, command: str, writes: Iterable[str] =
     before = frozenset(p.name for p in folder.iterdir()) if not made else frozenset()
     previous = None if made else read_manifest(folder)
     if previous is not None and previous.get("command") != command:
-        raise ConfigError(f"{where}: holds the output of `genie {previous.get('command')}`; write the output of "
-                          f"`genie {command}` into another folder")
+        raise ConfigError(
+            f"{where}: holds the output of `genie {previous.get('command')}`; write the output of "
+            f"`genie {command}` into another folder"
+        )
     if previous is None:
         owned: frozenset[str] = frozenset()
-    elif isinstance(previous.get("outputs"), list):   # and what a run stopped half-way was writing
+    elif isinstance(previous.get("outputs"), list):  # and what a run stopped half-way was writing
         owned = frozenset(str(n) for n in previous["outputs"] + list(previous.get("writing") or []))
     else:  # a manifest of ours from before outputs were recorded: it vouches for the names we write
         owned = frozenset(n for n in writes if n in before)
     writes = list(writes)
-    for n in writes:   # a name joined to the folder stays inside it
+    for n in writes:  # a name joined to the folder stays inside it
         if not str(n) or Path(n).is_absolute() or ".." in Path(n).parts:
             raise ConfigError(f"{where}: will not write {str(n)!r}: a name outside the folder")
     declared = frozenset(Path(n).parts[0] for n in writes)
     taken = sorted(n for n in declared if n in before and n not in owned and n not in _ALWAYS_OURS)
     if taken:
-        shown = ", ".join(repr(n) for n in taken[:3]) + (f" and {len(taken) - 3} more" if len(taken) > 3 else "")
-        raise ConfigError(f"{where}: already holds {shown}, which genie-gl did not write; they are left as they "
-                          "are: choose another folder (or move them)")
+        shown = ", ".join(repr(n) for n in taken[:3]) + (
+            f" and {len(taken) - 3} more" if len(taken) > 3 else ""
+        )
+        raise ConfigError(
+            f"{where}: already holds {shown}, which genie-gl did not write; they are left as they "
+            "are: choose another folder (or move them)"
+        )
     out = OutputFolder(folder, command, option, owned, declared, before, previous, made)
     if reserve:
         out.reserve()
@@ -340,13 +394,18 @@ def remove_files(folder: str | os.PathLike, rels: Iterable[str]) -> None:
             if parent == folder.parent:
                 break
             try:
-                parent.rmdir()   # only when empty: a user's file keeps its folder
+                parent.rmdir()  # only when empty: a user's file keeps its folder
             except OSError:
                 break
 
 
-def publish_folder(tmp: str | os.PathLike, final: str | os.PathLike, *, previous: Iterable[str] | None = (),
-                   record: str | None = None) -> None:
+def publish_folder(
+    tmp: str | os.PathLike,
+    final: str | os.PathLike,
+    *,
+    previous: Iterable[str] | None = (),
+    record: str | None = None,
+) -> None:
     """Put the freshly written folder ``tmp`` in place as ``final``.
 
     A new ``final`` is ``tmp`` renamed. An existing one (an earlier run's) keeps what the user
@@ -361,12 +420,16 @@ def publish_folder(tmp: str | os.PathLike, final: str | os.PathLike, *, previous
         tmp.replace(final)
         return
     if final.is_symlink() or not final.is_dir():
-        raise ConfigError(f"{final}: expected a folder genie-gl wrote; it is left as it is (move it away)")
-    new = sorted(p.relative_to(tmp).as_posix() for p in tmp.rglob("*") if p.is_file() or p.is_symlink())
+        raise ConfigError(
+            f"{final}: expected a folder genie-gl wrote; it is left as it is (move it away)"
+        )
+    new = sorted(
+        p.relative_to(tmp).as_posix() for p in tmp.rglob("*") if p.is_file() or p.is_symlink()
+    )
     if record is not None and ((final / record).is_file() or (final / record).is_symlink()):
         (final / record).unlink()
     stale = [rel for rel in previous or () if rel not in set(new)]
-    for rel in stale:   # emptied folders of ours go, the folder itself stays
+    for rel in stale:  # emptied folders of ours go, the folder itself stays
         p = final / rel
         if _inside(rel) and (p.is_file() or p.is_symlink()):
             p.unlink()
@@ -381,6 +444,8 @@ def publish_folder(tmp: str | os.PathLike, final: str | os.PathLike, *, previous
         dst = final / rel
         dst.parent.mkdir(parents=True, exist_ok=True)
         if dst.is_dir() and not dst.is_symlink():
-            raise ConfigError(f"{dst}: a folder where genie-gl writes a file; it is left as it is (move it away)")
+            raise ConfigError(
+                f"{dst}: a folder where genie-gl writes a file; it is left as it is (move it away)"
+            )
         os.replace(tmp / rel, dst)
-    shutil.rmtree(tmp)   # empty folders only, now
+    shutil.rmtree(tmp)  # empty folders only, now

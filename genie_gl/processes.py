@@ -9,6 +9,7 @@ the workers must stop too: :func:`die_with_parent`, called first in every worker
 kernel to send the worker SIGKILL the moment its parent dies (Linux ``PR_SET_PDEATHSIG``;
 elsewhere nothing).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -37,7 +38,9 @@ def die_with_parent(parent: int | None = None) -> bool:
             return False
     except (OSError, AttributeError):
         return False
-    if os.getppid() == 1 or (parent is not None and os.getppid() != parent):   # it died before the request
+    if os.getppid() == 1 or (
+        parent is not None and os.getppid() != parent
+    ):  # it died before the request
         os._exit(1)
     return True
 
@@ -57,18 +60,24 @@ def pool_started(make: Callable[[], Any]) -> Iterator[Any]:
     lands in its main thread, which waits for the pool to be whole, terminates it and goes on
     unwinding (an interrupt that comes while the maker thread starts is held and raised once
     it has: one raised inside ``Thread.start`` would leave it making a pool no one ends)."""
-    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+    if (
+        not hasattr(signal, "pthread_sigmask")
+        or threading.current_thread() is not threading.main_thread()
+    ):
         with make() as pool:
             yield pool
         return
-    resource_tracker.ensure_running()   # it unblocks SIGINT once it has started its own process: start it first
+    # it unblocks SIGINT once it has started its own process: start it first
+    resource_tracker.ensure_running()
     box: dict[str, Any] = {}
-    done = threading.Event()   # waited on, not join(): a join interrupted by Ctrl-C can mark a live thread stopped
+    done = (
+        threading.Event()
+    )  # waited on, not join(): a join interrupted by Ctrl-C can mark a live thread stopped
 
     def run() -> None:
         try:
             box["pool"] = make()
-        except BaseException as exc:   # noqa: BLE001  (handed to the main thread as it is)
+        except BaseException as exc:  # noqa: BLE001  (handed to the main thread as it is)
             box["error"] = exc
         finally:
             done.set()
@@ -84,7 +93,7 @@ def pool_started(make: Callable[[], Any]) -> Iterator[Any]:
     # nothing started.)
     previous = {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
     old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:   # the thread inherits the blocked SIGINT; the main thread gets it back at once
+    try:  # the thread inherits the blocked SIGINT; the main thread gets it back at once
         maker.start()
     except BaseException:
         for sig, handler in previous.items():
@@ -95,14 +104,14 @@ def pool_started(make: Callable[[], Any]) -> Iterator[Any]:
     try:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-        for sig in held[:1]:   # the interrupt that came meanwhile, through the caller's handler
+        for sig in held[:1]:  # the interrupt that came meanwhile, through the caller's handler
             signal.raise_signal(sig)
         while not done.wait(0.05):
             pass
         if "error" in box:
             raise box["error"]
         yield box["pool"]
-    finally:   # an interrupt anywhere above: the pool is made whole, then ended
+    finally:  # an interrupt anywhere above: the pool is made whole, then ended
         done.wait()
         if "pool" in box:
             box["pool"].terminate()
@@ -124,8 +133,13 @@ def say_when_compiling(who: str) -> None:
         def on_start(self, ev: object) -> None:
             if not self.said:
                 self.said = True
-                print(f"{who}: compiling genie-gl's kernels (numba), a one-time cost of a minute or two on the first "
-                      "run; later runs load them from the cache", file=sys.stderr, flush=True)
+                print(
+                    f"{who}: compiling genie-gl's kernels (numba), a one-time cost of a minute or "
+                    "two on the first "
+                    "run; later runs load them from the cache",
+                    file=sys.stderr,
+                    flush=True,
+                )
 
         def on_end(self, ev: object) -> None:
             pass

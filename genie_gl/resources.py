@@ -3,6 +3,7 @@
 In a wheel they are packaged as ``genie_gl/_data/<kind>``; in a source checkout (editable
 install) they are the top-level folders of the repository. :func:`data_dir` finds either.
 """
+
 from __future__ import annotations
 
 import json
@@ -26,7 +27,9 @@ def data_dir(kind: str) -> Path:
     checkout = Path(__file__).resolve().parent.parent / kind
     if checkout.is_dir():
         return checkout
-    raise FileNotFoundError(f"genie-gl data folder '{kind}' not found (looked in {packaged} and {checkout})")
+    raise FileNotFoundError(
+        f"genie-gl data folder '{kind}' not found (looked in {packaged} and {checkout})"
+    )
 
 
 def resolve(name_or_path: str | Path, kind: str, suffixes: tuple[str, ...]) -> Path:
@@ -37,8 +40,11 @@ def resolve(name_or_path: str | Path, kind: str, suffixes: tuple[str, ...]) -> P
     shipped file of the same name.
     """
     if not isinstance(name_or_path, (str, os.PathLike)):
-        raise ConfigError(f"{kind[:-1]}: expected a file name or the name of a shipped {kind[:-1]} (str or path), got "
-                          f"{type(name_or_path).__name__} {name_or_path!r:.60}")
+        raise ConfigError(
+            f"{kind[:-1]}: expected a file name or the name of a shipped {kind[:-1]} (str or "
+            "path), got "
+            f"{type(name_or_path).__name__} {name_or_path!r:.60}"
+        )
     path = Path(name_or_path)
     if path.is_file():
         return path
@@ -53,9 +59,13 @@ def resolve(name_or_path: str | Path, kind: str, suffixes: tuple[str, ...]) -> P
                 return candidate
         raise ConfigError(
             f"{name_or_path}: no such file, and no shipped {kind[:-1]} of that name "
-            f"(shipped: {', '.join(names) or 'none'}){did_you_mean(path.stem, names)}")
-    hint = f"; the shipped {kind[:-1]} of that name is reached by its bare name '{path.stem}'" \
-        if path.stem in names else ""
+            f"(shipped: {', '.join(names) or 'none'}){did_you_mean(path.stem, names)}"
+        )
+    hint = (
+        f"; the shipped {kind[:-1]} of that name is reached by its bare name '{path.stem}'"
+        if path.stem in names
+        else ""
+    )
     raise ConfigError(f"{name_or_path}: no such file{hint}")
 
 
@@ -70,7 +80,9 @@ def read_text(path: str | Path, what: str) -> str:
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise ConfigError(f"{path}: not UTF-8 text at byte {exc.start}, expected a {what}") from None
+        raise ConfigError(
+            f"{path}: not UTF-8 text at byte {exc.start}, expected a {what}"
+        ) from None
 
 
 def read_json(path: str | Path, what: str) -> Any:
@@ -80,6 +92,8 @@ def read_json(path: str | Path, what: str) -> Any:
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ConfigError(f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+        raise ConfigError(
+            f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
+        ) from None
     except RecursionError:
         raise ConfigError(f"{path}: JSON nested too deeply to be a {what}") from None

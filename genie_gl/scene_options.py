@@ -5,6 +5,7 @@ of the wrong kind or out of range is one line naming the key and what was expect
 At the bottom of the package (no imports of the stages) so that the strategy loader can check
 the section it carries to the scene stage without importing that stage.
 """
+
 from __future__ import annotations
 
 from typing import Any, Optional, Union
@@ -52,8 +53,10 @@ class SceneOptions(_Strict):
 
     def asset_entries(self) -> dict[str, list[dict[str, Any]]]:
         """The ``assets`` option as {class: [{"path", "variant", "units", "up"}, ...]}."""
-        return {cls: [{"path": e} if isinstance(e, str) else e.model_dump() for e in entries]
-                for cls, entries in self.assets.items()}
+        return {
+            cls: [{"path": e} if isinstance(e, str) else e.model_dump() for e in entries]
+            for cls, entries in self.assets.items()
+        }
 
 
 def scene_options(options: Any, where: str = "scene") -> SceneOptions:
@@ -70,6 +73,8 @@ def scene_options(options: Any, where: str = "scene") -> SceneOptions:
         key = ".".join(str(p) for p in e["loc"])
         if e["type"] == "extra_forbidden":
             known = list(SceneOptions.model_fields)
-            raise ConfigError(f"{where}.{key}: unknown scene option{did_you_mean(str(e['loc'][-1]), known)} "
-                              f"(known: {', '.join(known)})") from None
+            raise ConfigError(
+                f"{where}.{key}: unknown scene option{did_you_mean(str(e['loc'][-1]), known)} "
+                f"(known: {', '.join(known)})"
+            ) from None
         raise ConfigError(f"{where}.{key}: {e['msg']} (got {e.get('input')!r:.60})") from None

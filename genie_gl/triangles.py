@@ -8,6 +8,7 @@ that draw (one more RG32UI target); per frame, what turns that pair into the tri
 vertices in the camera frame, in float64 (the frame's index buffer and the scene's
 vertices). Nothing here is made for a frame that does not ask.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -31,7 +32,9 @@ class SceneTriangles:
     @classmethod
     def build(cls, vertices: np.ndarray, faces: np.ndarray) -> "SceneTriangles":
         """The record of the meshes' concatenated ``vertices`` and ``faces``."""
-        return cls(np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.uint32))
+        return cls(
+            np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.uint32)
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,17 +76,25 @@ class PixelTriangles:
 
     def __post_init__(self) -> None:
         S = len(self.first)
-        checks = [("pixel", self.pixel, None, np.uint32), ("first", self.first, (S,), np.int64),
-                  ("count", self.count, (S,), np.int64), ("base_vertex", self.base_vertex, (S,), np.int64),
-                  ("backcull", self.backcull, (S,), np.bool_),
-                  ("camera_from_model", self.camera_from_model, (S, 3, 4), np.float64),
-                  ("indices", self.indices, None, np.uint32), ("instance", self.instance, (S,), np.uint32),
-                  ("semantic", self.semantic, (S,), np.uint16), ("mesh_first", self.mesh_first, (S,), np.int64),
-                  ("mesh_count", self.mesh_count, (S,), np.int64)]
+        checks = [
+            ("pixel", self.pixel, None, np.uint32),
+            ("first", self.first, (S,), np.int64),
+            ("count", self.count, (S,), np.int64),
+            ("base_vertex", self.base_vertex, (S,), np.int64),
+            ("backcull", self.backcull, (S,), np.bool_),
+            ("camera_from_model", self.camera_from_model, (S, 3, 4), np.float64),
+            ("indices", self.indices, None, np.uint32),
+            ("instance", self.instance, (S,), np.uint32),
+            ("semantic", self.semantic, (S,), np.uint16),
+            ("mesh_first", self.mesh_first, (S,), np.int64),
+            ("mesh_count", self.mesh_count, (S,), np.int64),
+        ]
         for name, arr, shape, dtype in checks:
             if arr.dtype != dtype or (shape is not None and arr.shape != shape):
-                raise ValueError(f"PixelTriangles.{name}: expected {shape or ''} {np.dtype(dtype).name}, "
-                                 f"got {arr.shape} {arr.dtype}")
+                raise ValueError(
+                    f"PixelTriangles.{name}: expected {shape or ''} {np.dtype(dtype).name}, "
+                    f"got {arr.shape} {arr.dtype}"
+                )
         if self.pixel.ndim != 3 or self.pixel.shape[2] != 2:
             raise ValueError(f"PixelTriangles.pixel: expected (H, W, 2), got {self.pixel.shape}")
 
@@ -95,6 +106,8 @@ class PixelTriangles:
             return None
         s = slot1 - 1
         at = 3 * (int(self.first[s]) + prim)
-        p = self.scene.vertices[self.base_vertex[s] + self.indices[at:at + 3].astype(np.int64)].astype(np.float64)
+        p = self.scene.vertices[
+            self.base_vertex[s] + self.indices[at : at + 3].astype(np.int64)
+        ].astype(np.float64)
         m = self.camera_from_model[s]
         return p @ m[:, :3].T + m[:, 3]

@@ -7,6 +7,7 @@ is repeatable and its time bounded), a per-example deadline and a bounded number
 a failure prints the seed that reproduces it (``@reproduce_failure``). ``mutants`` (set by
 ``make mutants``): fixed examples, fewer, no deadline (mutmut's tracing slows the code).
 """
+
 import functools
 import os
 import sys
@@ -17,10 +18,21 @@ from hypothesis import HealthCheck, settings
 
 from genie_gl.render.context import contexts_created, create_context, is_shared, live_contexts
 
-settings.register_profile("ci", derandomize=True, max_examples=40, deadline=timedelta(seconds=5),
-                          print_blob=True, suppress_health_check=[HealthCheck.too_slow])
-settings.register_profile("mutants", derandomize=True, max_examples=15, deadline=None,
-                          suppress_health_check=list(HealthCheck))
+settings.register_profile(
+    "ci",
+    derandomize=True,
+    max_examples=40,
+    deadline=timedelta(seconds=5),
+    print_blob=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile(
+    "mutants",
+    derandomize=True,
+    max_examples=15,
+    deadline=None,
+    suppress_health_check=list(HealthCheck),
+)
 settings.register_profile("dev", max_examples=500, deadline=timedelta(seconds=10), print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
@@ -64,7 +76,9 @@ def _gl_guard(request):
     marked ``gl`` starts no GL at all (non-GL stages never start GL)."""
     before, created = live_contexts(), contexts_created()
     for context in before:
-        assert context.error() == "GL_NO_ERROR", f"a GL error was pending before {request.node.nodeid}"
+        assert context.error() == "GL_NO_ERROR", (
+            f"a GL error was pending before {request.node.nodeid}"
+        )
     yield
     after = live_contexts()
     new = [c for c in after if all(c is not b for b in before)]
@@ -72,14 +86,18 @@ def _gl_guard(request):
     for context in after:
         context.reset()
     assert not errors, f"GL errors after the test: {errors}"
-    leaked = [c for c in new if not is_shared(c) and not any(c is v for v in request.node.funcargs.values())]
+    leaked = [
+        c
+        for c in new
+        if not is_shared(c) and not any(c is v for v in request.node.funcargs.values())
+    ]
     assert not leaked, f"the test left {len(leaked)} GL context(s) unreleased"
     if request.node.get_closest_marker("gl") is None:
         assert contexts_created() == created, "the test started GL: mark it gl (pytest.mark.gl)"
 
 
 # --- the fault-injection suite's counts (cases marked @pytest.mark.fault(kind=, guard=)) -------
-_FAULTS: list[tuple[str, str, str]] = []   # (kind, guard, outcome)
+_FAULTS: list[tuple[str, str, str]] = []  # (kind, guard, outcome)
 
 
 @pytest.fixture(autouse=True)
@@ -93,7 +111,9 @@ def _fault_case(request):
 
 def pytest_runtest_logreport(report):
     props = dict(report.user_properties)
-    if "fault" in props and (report.when == "call" or (report.when == "setup" and not report.passed)):
+    if "fault" in props and (
+        report.when == "call" or (report.when == "setup" and not report.passed)
+    ):
         kind, guard = props["fault"]
         _FAULTS.append((kind, guard, report.outcome))
 
@@ -105,13 +125,26 @@ def pytest_terminal_summary(terminalreporter):
     kinds = {}
     for kind, _, _ in ran:
         kinds[kind] = kinds.get(kind, 0) + 1
-    failed = {g: sum(1 for _, guard, o in ran if guard == g and o == "failed")
-              for g in ("loss", "traceback", "hang", "wrong")}
+    failed = {
+        g: sum(1 for _, guard, o in ran if guard == g and o == "failed")
+        for g in ("loss", "traceback", "hang", "wrong")
+    }
     cases = {g: sum(1 for _, guard, _ in ran if guard == g) for g in failed}
     skipped = len(_FAULTS) - len(ran)
     terminalreporter.write_sep("-", "fault injection")
-    terminalreporter.write_line(f"{len(ran)} cases run ({skipped} skipped): " +
-                                ", ".join(f"{k} {n}" for k, n in sorted(kinds.items())))
-    terminalreporter.write_line("failed: " + ", ".join(f"{failed[g]} {name} (of {cases[g]} guarded)" for g, name in
-                                (("loss", "losses"), ("traceback", "tracebacks"), ("hang", "hangs or out-of-memory"),
-                                 ("wrong", "silent wrongs"))))
+    terminalreporter.write_line(
+        f"{len(ran)} cases run ({skipped} skipped): "
+        + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items()))
+    )
+    terminalreporter.write_line(
+        "failed: "
+        + ", ".join(
+            f"{failed[g]} {name} (of {cases[g]} guarded)"
+            for g, name in (
+                ("loss", "losses"),
+                ("traceback", "tracebacks"),
+                ("hang", "hangs or out-of-memory"),
+                ("wrong", "silent wrongs"),
+            )
+        )
+    )

@@ -13,6 +13,7 @@
 
 The recipes are the tests' own: a test's expectations change only when this module does.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -42,8 +43,10 @@ def _floor(size_m: float, cells: int) -> Mesh:
     x, y = np.meshgrid(t, t, indexing="ij")
     v = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1).astype(np.float32)
     i = np.arange(cells)[:, None] * (cells + 1) + np.arange(cells)[None, :]
-    a, b, c, d = i, i + (cells + 1), i + (cells + 2), i + 1   # CCW seen from above
-    f = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+    a, b, c, d = i, i + (cells + 1), i + (cells + 2), i + 1  # CCW seen from above
+    f = np.concatenate(
+        [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
+    )
     return Mesh(v, f.astype(np.uint32), closed=False)
 
 
@@ -66,7 +69,9 @@ def views(n: int, *, rng: np.random.Generator, half_extent_m: float = 10.0) -> l
     return out
 
 
-def _placed(meshes: list[Mesh], mesh_of: list[int], T: list[np.ndarray], sem: list[int]) -> gg.Scene:
+def _placed(
+    meshes: list[Mesh], mesh_of: list[int], T: list[np.ndarray], sem: list[int]
+) -> gg.Scene:
     scene = gg.Scene()
     keys = [scene.add_mesh(m, name=f"mesh_{k:04d}") for k, m in enumerate(meshes)]
     for m, t, s in zip(mesh_of, T, sem):
@@ -94,7 +99,10 @@ def objects_scene(size: str = "100k", seed: int = 0) -> tuple[gg.Scene, list[np.
         yaw = rng.uniform(0, 2 * np.pi)
         pose[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
         zmin = float(mesh.vertices[:, 2].min())
-        pose[:3, 3] = [*rng.uniform(-10, 10, 2), -zmin + rng.choice([0.0, 0.0, rng.uniform(0.2, 1.5)])]
+        pose[:3, 3] = [
+            *rng.uniform(-10, 10, 2),
+            -zmin + rng.choice([0.0, 0.0, rng.uniform(0.2, 1.5)]),
+        ]
         meshes.append(mesh)
         mesh_of.append(len(meshes) - 1)
         T.append(pose)
@@ -123,7 +131,9 @@ def scene_of(size: str, seed: int = 0) -> tuple[gg.Scene, list[np.ndarray]]:
     return hall_scene(seed) if size == "hall" else objects_scene(size, seed)
 
 
-def content_views(scene: gg.Scene, n: int, *, distance_m: float = 4.0, height_m: float = 3.0) -> list[np.ndarray]:
+def content_views(
+    scene: gg.Scene, n: int, *, distance_m: float = 4.0, height_m: float = 3.0
+) -> list[np.ndarray]:
     """``n`` views aimed at the scene's labelled objects: their centres spread by farthest-point
     sampling from the one nearest the middle, each seen from ``distance_m`` further out and
     ``height_m`` above it."""
@@ -147,7 +157,11 @@ def content_views(scene: gg.Scene, n: int, *, distance_m: float = 4.0, height_m:
         away = t[:2] - mid[:2]
         angle = np.arctan2(away[1], away[0]) if np.linalg.norm(away) > 1e-6 else 0.0
         angle += 2 * np.pi * (k // len(chosen)) / max(1, -(-n // len(chosen)))
-        eye = [t[0] + distance_m * np.cos(angle), t[1] + distance_m * np.sin(angle), t[2] + height_m]
+        eye = [
+            t[0] + distance_m * np.cos(angle),
+            t[1] + distance_m * np.sin(angle),
+            t[2] + height_m,
+        ]
         out.append(look_at(eye, t))
     return out
 
@@ -155,10 +169,21 @@ def content_views(scene: gg.Scene, n: int, *, distance_m: float = 4.0, height_m:
 def strips_strategy(regions: int, levels: int, generator: str = "test_strips") -> dict:
     """A strategy of ``levels`` levels, each region cut into ``regions`` equal strips by
     ``generator`` (``"test_strips"``, array code, or ``"test_strips_per_region"``)."""
-    return {"name": f"strips_R{regions}_L{levels}", "root": {"width": 1000.0, "height": 1000.0, "type": "n"},
-            "region_types": {"n": {}, "leaf": {"final": True}},
-            "levels": [{"n": {"generator": generator, "args": {"n": regions},
-                              "children": {"strip": "n" if lvl < levels - 1 else "leaf"}}} for lvl in range(levels)]}
+    return {
+        "name": f"strips_R{regions}_L{levels}",
+        "root": {"width": 1000.0, "height": 1000.0, "type": "n"},
+        "region_types": {"n": {}, "leaf": {"final": True}},
+        "levels": [
+            {
+                "n": {
+                    "generator": generator,
+                    "args": {"n": regions},
+                    "children": {"strip": "n" if lvl < levels - 1 else "leaf"},
+                }
+            }
+            for lvl in range(levels)
+        ],
+    }
 
 
 def register_strips() -> None:
@@ -182,8 +207,16 @@ def register_strips() -> None:
             n, m = int(self.args["n"]), len(parents)
             w = np.repeat(parents.w / n, n)
             x = np.repeat(parents.x, n) + np.tile(np.arange(n), m) * w
-            return Children(np.repeat(np.arange(m), n), x, np.repeat(parents.y, n), w, np.repeat(parents.h, n),
-                            np.zeros(n * m, np.int32), np.full(n * m, -1, np.int8), [])
+            return Children(
+                np.repeat(np.arange(m), n),
+                x,
+                np.repeat(parents.y, n),
+                w,
+                np.repeat(parents.h, n),
+                np.zeros(n * m, np.int32),
+                np.full(n * m, -1, np.int8),
+                [],
+            )
 
     @register("test_strips_per_region")
     class StripsPerRegion(Strips):

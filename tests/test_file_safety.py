@@ -1,6 +1,7 @@
 """Write only what you create: every command and API function that writes keeps the user's
 files byte for byte, refuses (one line) a name it would have to take from them, and deletes
 nothing it did not write (genie_gl/outputs.py)."""
+
 import hashlib
 import json
 from pathlib import Path
@@ -12,8 +13,24 @@ import trimesh
 import genie_gl as gg
 from genie_gl.cli import main
 
-ONE_SCENE = ["assembly_line", "--scenes", "1", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "4000",
-             "--min-points", "500", "--no-progress", "--previews", "1", "--workers", "1"]
+ONE_SCENE = [
+    "assembly_line",
+    "--scenes",
+    "1",
+    "--cameras",
+    "2",
+    "--sensor",
+    "ideal_pinhole",
+    "--points",
+    "4000",
+    "--min-points",
+    "500",
+    "--no-progress",
+    "--previews",
+    "1",
+    "--workers",
+    "1",
+]
 
 
 def plant(folder: Path) -> dict[str, str]:
@@ -62,10 +79,13 @@ def scene_usd(tmp_path_factory) -> Path:
 
 # --- commands ------------------------------------------------------------------------------
 
+
 def test_layout_writes_beside_the_users_files_and_reruns(tmp_path, capsys):
     planted = plant(tmp_path)
     assert main(["layout", "assembly_line", "--seed", "0", "--out", str(tmp_path)]) == 0
-    assert main(["layout", "storage_area", "--seed", "1", "--out", str(tmp_path)]) == 0   # its own: replaced
+    assert (
+        main(["layout", "storage_area", "--seed", "1", "--out", str(tmp_path)]) == 0
+    )  # its own: replaced
     assert_intact(tmp_path, planted)
     m = json.loads((tmp_path / "manifest.json").read_text())
     assert m["command"] == "layout" and m["outputs"] == ["labels.npy", "layout.json", "layout.png"]
@@ -74,15 +94,22 @@ def test_layout_writes_beside_the_users_files_and_reruns(tmp_path, capsys):
 
 def test_layout_refuses_a_name_the_user_holds(tmp_path, capsys):
     (tmp_path / "layout.png").write_bytes(b"my picture")
-    one_line(["layout", "assembly_line", "--out", str(tmp_path)], capsys, "'layout.png'", "did not write")
+    one_line(
+        ["layout", "assembly_line", "--out", str(tmp_path)], capsys, "'layout.png'", "did not write"
+    )
     assert (tmp_path / "layout.png").read_bytes() == b"my picture"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["layout.png"]   # nothing written
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["layout.png"]  # nothing written
 
 
 def test_layout_refuses_a_foreign_manifest_and_another_commands_folder(tmp_path, capsys):
     (tmp_path / "a").mkdir()
     (tmp_path / "a" / "manifest.json").write_text('{"mine": 1}')
-    one_line(["layout", "assembly_line", "--out", str(tmp_path / "a")], capsys, "manifest.json", "did not write")
+    one_line(
+        ["layout", "assembly_line", "--out", str(tmp_path / "a")],
+        capsys,
+        "manifest.json",
+        "did not write",
+    )
     assert (tmp_path / "a" / "manifest.json").read_text() == '{"mine": 1}'
     assert main(["layout", "assembly_line", "--out", str(tmp_path / "b")]) == 0
     one_line(["capture", "x.usda", "--out", str(tmp_path / "b")], capsys, "genie layout")
@@ -102,10 +129,14 @@ def test_scene_replaces_only_its_own_usd_and_picture(tmp_path, capsys):
     layout = str(tmp_path / "lay" / "layout.json")
     out = tmp_path / "s.usda"
     assert main(["scene", layout, "--out", str(out), "--no-progress"]) == 0
-    assert main(["scene", layout, "--seed", "3", "--out", str(out), "--no-progress"]) == 0   # its own
+    assert (
+        main(["scene", layout, "--seed", "3", "--out", str(out), "--no-progress"]) == 0
+    )  # its own
     mine = tmp_path / "mine.usda"
     mine.write_text("#usda 1.0\n")
-    one_line(["scene", layout, "--out", str(mine), "--no-progress"], capsys, "not written by genie-gl")
+    one_line(
+        ["scene", layout, "--out", str(mine), "--no-progress"], capsys, "not written by genie-gl"
+    )
     assert mine.read_text() == "#usda 1.0\n"
     (tmp_path / "t.png").write_bytes(b"my png")
     one_line(["scene", layout, "--out", str(tmp_path / "t.usda"), "--no-progress"], capsys, "t.png")
@@ -115,22 +146,47 @@ def test_scene_replaces_only_its_own_usd_and_picture(tmp_path, capsys):
 @pytest.mark.gl
 def test_capture_writes_beside_the_users_files(tmp_path, capsys, scene_usd):
     planted = plant(tmp_path)
-    argv = ["capture", str(scene_usd), "--cameras", "2", "--format", "ply", "--out", str(tmp_path), "--no-progress"]
+    argv = [
+        "capture",
+        str(scene_usd),
+        "--cameras",
+        "2",
+        "--format",
+        "ply",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    ]
     assert main(argv) == 0
     assert main(argv) == 0
     assert_intact(tmp_path, planted)
     assert json.loads((tmp_path / "manifest.json").read_text())["outputs"] == ["cloud.ply"]
     (tmp_path / "u").mkdir()
     (tmp_path / "u" / "sequences").mkdir()
-    one_line(["capture", str(scene_usd), "--cameras", "2", "--format", "semantickitti", "--out",
-              str(tmp_path / "u"), "--no-progress"], capsys, "'sequences'")
+    one_line(
+        [
+            "capture",
+            str(scene_usd),
+            "--cameras",
+            "2",
+            "--format",
+            "semantickitti",
+            "--out",
+            str(tmp_path / "u"),
+            "--no-progress",
+        ],
+        capsys,
+        "'sequences'",
+    )
 
 
 @pytest.mark.gl
 def test_dataset_keeps_the_users_files_and_its_temporary_names(tmp_path, capsys):
     planted = plant(tmp_path)
     assert main(["dataset", *ONE_SCENE, "--out", str(tmp_path)]) == 0
-    assert main(["dataset", *ONE_SCENE, "--out", str(tmp_path)]) == 0   # the resume clears only its own
+    assert (
+        main(["dataset", *ONE_SCENE, "--out", str(tmp_path)]) == 0
+    )  # the resume clears only its own
     assert_intact(tmp_path, planted)
     m = json.loads((tmp_path / "manifest.json").read_text())
     assert {"scenes", "sequences", "genie-gl.yaml", "previews"} <= set(m["outputs"])
@@ -152,7 +208,12 @@ def test_dataset_refuses_a_folder_with_scenes_it_did_not_make(tmp_path, capsys):
 def test_dataset_refuses_fewer_scenes_than_it_holds(tmp_path, capsys):
     assert main(["dataset", *ONE_SCENE[:2], "2", *ONE_SCENE[3:], "--out", str(tmp_path)]) == 0
     before = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
-    one_line(["dataset", *ONE_SCENE, "--out", str(tmp_path)], capsys, "holds a dataset of 2 scenes", "--scenes 2")
+    one_line(
+        ["dataset", *ONE_SCENE, "--out", str(tmp_path)],
+        capsys,
+        "holds a dataset of 2 scenes",
+        "--scenes 2",
+    )
     assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == before
 
 
@@ -176,17 +237,27 @@ def test_a_benchmark_writes_beside_the_users_files(tmp_path, capsys):
 
 # --- the API ---------------------------------------------------------------------------------
 
+
 def _cloud() -> "gg.PointCloud":
     xyz = np.arange(30, dtype=np.float32).reshape(10, 3)
-    return gg.PointCloud(xyz=xyz, semantic=np.ones(10, np.uint16), instance=np.arange(10, dtype=np.uint32))
+    return gg.PointCloud(
+        xyz=xyz, semantic=np.ones(10, np.uint16), instance=np.arange(10, dtype=np.uint32)
+    )
 
 
-@pytest.mark.parametrize("fmt, name", [("ply", "cloud.ply"), ("pcd", "cloud.pcd"), ("npz", "cloud.npz"),
-                                       ("semantickitti", "sequences")])
+@pytest.mark.parametrize(
+    "fmt, name",
+    [
+        ("ply", "cloud.ply"),
+        ("pcd", "cloud.pcd"),
+        ("npz", "cloud.npz"),
+        ("semantickitti", "sequences"),
+    ],
+)
 def test_export_writes_beside_the_users_files_and_refuses_their_names(tmp_path, fmt, name):
     planted = plant(tmp_path)
     gg.export(_cloud(), tmp_path, format=fmt)
-    gg.export(_cloud(), tmp_path, format=fmt)              # its own file: replaced
+    gg.export(_cloud(), tmp_path, format=fmt)  # its own file: replaced
     assert_intact(tmp_path, planted)
     other = tmp_path / "other"
     (other / name).parent.mkdir(parents=True)
@@ -220,7 +291,7 @@ def test_single_file_writers_replace_only_their_own(tmp_path):
     }
     for name, write in writers.items():
         write(tmp_path / name)
-        write(tmp_path / name)                               # what it wrote: replaced
+        write(tmp_path / name)  # what it wrote: replaced
         mine = tmp_path / f"mine-{name}"
         mine.write_bytes(b"the user's own " + name.encode())
         with pytest.raises(gg.ConfigError, match="not written by genie-gl"):
@@ -243,7 +314,7 @@ def test_a_bag_replaces_only_its_own_folder(tmp_path):
     rig = Rig.single(gg.load_sensor("ideal_pinhole"), rate_hz=2.0)
     tr = make_trajectory(layout, scene, "aisles", seed=0, duration_s=1.0)
     bag = tmp_path / "bag"
-    for _ in range(2):                                      # its own bag: replaced
+    for _ in range(2):  # its own bag: replaced
         write_recording(rig, tr, record(scene, rig, tr, seed=0, depth_only=True), bag)
     assert sorted(p.name for p in bag.iterdir()) == ["bag.mcap", "metadata.yaml"]
     mine = tmp_path / "mine"

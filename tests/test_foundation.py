@@ -1,4 +1,5 @@
 """The shared data contracts: Scene, Sensor, Frame, resources, CLI wiring."""
+
 import numpy as np
 import pytest
 import trimesh

@@ -2,6 +2,7 @@
 catch: a GL error left pending, a context left unreleased, GL started by a test not marked
 ``gl``; and it resets the state a test leaves (run on a planted test file, with the suite's
 own conftest)."""
+
 import ctypes
 from pathlib import Path
 
@@ -10,7 +11,7 @@ import pytest
 pytest_plugins = ["pytester"]
 
 CONFTEST = Path(__file__).with_name("conftest.py")
-PLANTED = '''
+PLANTED = """
 import ctypes
 import moderngl
 import pytest
@@ -46,15 +47,17 @@ def test_finds_the_state_reset(gl):
 
 def test_without_gl():
     assert 1 + 1 == 2
-'''
+"""
 
 
 @pytest.mark.gl
 def test_the_guard_fails_errors_leaks_and_unmarked_gl_and_resets_state(pytester):
     pytester.makeconftest(CONFTEST.read_text())
     pytester.makepyfile(test_planted=PLANTED)
-    result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-p", "no:randomly", "-n", "0", "-q")
-    result.assert_outcomes(passed=6, errors=3)   # three bodies pass, their teardown fails
+    result = pytester.runpytest_subprocess(
+        "-p", "no:cacheprovider", "-p", "no:randomly", "-n", "0", "-q"
+    )
+    result.assert_outcomes(passed=6, errors=3)  # three bodies pass, their teardown fails
     out = result.stdout.str()
     assert "left 1 GL context(s) unreleased" in out
     assert "the test started GL: mark it gl" in out
@@ -66,14 +69,14 @@ def test_a_context_reports_and_clears_its_error_and_resets(gl):
     bind = gl.gl_function("glBindTexture", None, ctypes.c_uint, ctypes.c_uint)
     with gl.current():
         bind(0xFFFF, 0)
-    assert gl.error() == "GL_INVALID_ENUM" and gl.error() == "GL_NO_ERROR"   # read once, then clear
+    assert gl.error() == "GL_INVALID_ENUM" and gl.error() == "GL_NO_ERROR"  # read once, then clear
     get = gl.gl_function("glGetIntegerv", None, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))
     value = ctypes.c_int()
     with gl.current():
         gl.ctx.depth_func = ">"
-        get(0x0B74, ctypes.byref(value))      # GL_DEPTH_FUNC
-    assert value.value == 0x0204               # GL_GREATER
+        get(0x0B74, ctypes.byref(value))  # GL_DEPTH_FUNC
+    assert value.value == 0x0204  # GL_GREATER
     gl.reset()
     with gl.current():
         get(0x0B74, ctypes.byref(value))
-    assert value.value == 0x0201               # GL_LESS
+    assert value.value == 0x0201  # GL_LESS

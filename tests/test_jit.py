@@ -1,6 +1,7 @@
 """The package's kernel cache: fresh only while a kernel's module and every module of the
 package it imports are unchanged (a kernel compiles in the kernels it calls from other
 modules; numba's own stamp hashes only the file that defines it)."""
+
 import numba
 
 from genie_gl import jit
@@ -28,16 +29,20 @@ def test_the_stamp_follows_the_imported_modules_only(tmp_path, monkeypatch):
         return jit.source_stamp(tmp_path / "a.py")
 
     first = stamp()
-    assert jit.source_stamp(tmp_path / "a.py") == first     # once per module and process
-    (tmp_path / "e.py").write_text("y = 3\n")                # not imported: the kernel stays
+    assert jit.source_stamp(tmp_path / "a.py") == first  # once per module and process
+    (tmp_path / "e.py").write_text("y = 3\n")  # not imported: the kernel stays
     assert stamp() == first
-    for changed in ("d.py", "c.py", "sub/b.py"):             # imported, directly or not: compiled afresh
+    for changed in ("d.py", "c.py", "sub/b.py"):  # imported, directly or not: compiled afresh
         (tmp_path / changed).write_text((tmp_path / changed).read_text() + "# changed\n")
         assert stamp() != first
         first = stamp()
     outside = tmp_path.parent / "elsewhere.py"
     outside.write_text("def f():\n    return 1\n")
-    cls = next(c for c in numba.core.caching.CacheImpl._locator_classes if issubclass(c, jit._ImportStamped))
+    cls = next(
+        c
+        for c in numba.core.caching.CacheImpl._locator_classes
+        if issubclass(c, jit._ImportStamped)
+    )
     assert cls.from_function(lambda: 1, str(outside)) is None
 
 

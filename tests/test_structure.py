@@ -6,6 +6,7 @@ command, the pipeline until the command runs (so ``genie --help`` imports none o
 ``python tests/test_structure.py`` prints the summary (modules, arrows, circles, arrows back
 up, imports inside functions by kind).
 """
+
 from __future__ import annotations
 
 import ast
@@ -19,20 +20,67 @@ PACKAGE = "genie_gl"
 
 # the stages in pipeline order (DESIGN.md): a module may import its own stage and those before it;
 # the benchmarks measure everything, the command line included
-STAGES = ("base", "layout", "scene", "sensors", "lens", "effects", "motion", "placement", "render", "capture", "cloud", "export", "view", "eval", "dataset", "studies",
-          "card", "commands", "cli", "bench")
+STAGES = (
+    "base",
+    "layout",
+    "scene",
+    "sensors",
+    "lens",
+    "effects",
+    "motion",
+    "placement",
+    "render",
+    "capture",
+    "cloud",
+    "export",
+    "view",
+    "eval",
+    "dataset",
+    "studies",
+    "card",
+    "commands",
+    "cli",
+    "bench",
+)
 # the bottom of the package: the contracts every stage shares (top-level modules of genie_gl)
-BASE = ("errors", "outputs", "resources", "validation", "limits", "processes", "labels", "camera",
-        "frame", "triangles", "scene_options", "jit")
-# optional dependencies (extras, or used only for pictures) that a function may import when it needs them
-DEFERRABLE = ("matplotlib", "open3d", "ray", "pyrender", "OpenGL", "fast_simplification", "rosbags", "pye57",
-              "laspy", "evo", "kiss_icp", "torch", "rerun", "rerun_cli")
+BASE = (
+    "errors",
+    "outputs",
+    "resources",
+    "validation",
+    "limits",
+    "processes",
+    "labels",
+    "camera",
+    "frame",
+    "triangles",
+    "scene_options",
+    "jit",
+)
+# optional dependencies (extras, or used only for pictures) that a function may import when it needs
+# them
+DEFERRABLE = (
+    "matplotlib",
+    "open3d",
+    "ray",
+    "pyrender",
+    "OpenGL",
+    "fast_simplification",
+    "rosbags",
+    "pye57",
+    "laspy",
+    "evo",
+    "kiss_icp",
+    "torch",
+    "rerun",
+    "rerun_cli",
+)
 
 
 @dataclass(frozen=True)
 class Import:
-    source: str      # importing module, dotted
-    target: str      # imported module, dotted (ours) or the top-level name (third party)
+    source: str  # importing module, dotted
+    target: str  # imported module, dotted (ours) or the top-level name (third party)
     line: int
     in_function: bool
     ours: bool
@@ -59,6 +107,7 @@ def imports(root: Path = ROOT) -> list[Import]:
         return name
 
     for mod, (path, is_pkg) in mods.items():
+
         def visit(node: ast.AST, in_function: bool) -> None:
             for child in ast.iter_child_nodes(node):
                 if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
@@ -66,11 +115,22 @@ def imports(root: Path = ROOT) -> list[Import]:
                 if isinstance(child, (ast.Import, ast.ImportFrom)):
                     for target in _targets(mod, is_pkg, child, mods):
                         ours = target.split(".")[0] == PACKAGE
-                        out.append(Import(mod, known(target) if ours else target.split(".")[0], child.lineno,
-                                          in_function, ours))
+                        out.append(
+                            Import(
+                                mod,
+                                known(target) if ours else target.split(".")[0],
+                                child.lineno,
+                                in_function,
+                                ours,
+                            )
+                        )
                 else:
-                    visit(child, in_function or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef,
-                                                                   ast.Lambda)))
+                    visit(
+                        child,
+                        in_function
+                        or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)),
+                    )
+
         visit(ast.parse(path.read_text()), False)
     return out
 
@@ -80,7 +140,7 @@ def _targets(mod: str, is_pkg: bool, node: ast.Import | ast.ImportFrom, mods: di
         return [a.name for a in node.names]
     if node.level:
         base = mod.split(".") if is_pkg else mod.split(".")[:-1]
-        base = base[:len(base) - (node.level - 1)]
+        base = base[: len(base) - (node.level - 1)]
         where = ".".join(base + ([node.module] if node.module else []))
     else:
         where = node.module or ""
@@ -187,13 +247,18 @@ def test_no_import_circle():
 
 
 def test_no_arrow_back_up_the_pipeline():
-    bad = [f"{i.source}:{i.line} imports {i.target} ({stage(i.source)} -> {stage(i.target)})"
-           for i in upward(imports())]
+    bad = [
+        f"{i.source}:{i.line} imports {i.target} ({stage(i.source)} -> {stage(i.target)})"
+        for i in upward(imports())
+    ]
     assert bad == []
 
 
 def test_imports_inside_functions_only_defer_optional_dependencies():
-    bad = [f"{i.source}:{i.line} imports {i.target} inside a function" for i in deferred(imports())["other"]]
+    bad = [
+        f"{i.source}:{i.line} imports {i.target} inside a function"
+        for i in deferred(imports())["other"]
+    ]
     assert bad == []
 
 
@@ -205,11 +270,17 @@ def test_the_checker_sees_a_circle_an_arrow_up_and_a_deferred_import(tmp_path):
     (pkg / "__init__.py").write_text("")
     (pkg / "sensors" / "__init__.py").write_text("")
     (pkg / "render" / "__init__.py").write_text("")
-    (pkg / "sensors" / "a.py").write_text("from ..render import b\n")                # up: sensors -> render
-    (pkg / "render" / "b.py").write_text("def f():\n    from ..sensors import a\n")  # circle, deferred
+    (pkg / "sensors" / "a.py").write_text("from ..render import b\n")  # up: sensors -> render
+    (pkg / "render" / "b.py").write_text(
+        "def f():\n    from ..sensors import a\n"
+    )  # circle, deferred
     found = imports(tmp_path)
-    assert [(i.source, i.target) for i in upward(found)] == [("genie_gl.sensors.a", "genie_gl.render.b")]
-    assert [(i.source, i.target) for i in deferred(found)["other"]] == [("genie_gl.render.b", "genie_gl.sensors.a")]
+    assert [(i.source, i.target) for i in upward(found)] == [
+        ("genie_gl.sensors.a", "genie_gl.render.b")
+    ]
+    assert [(i.source, i.target) for i in deferred(found)["other"]] == [
+        ("genie_gl.render.b", "genie_gl.sensors.a")
+    ]
     mods = {m for m in modules(tmp_path)}
     edges = {m: set() for m in mods}
     for i in found:
@@ -221,10 +292,13 @@ def summary(root: Path = ROOT) -> str:
     found = imports(root)
     edges = graph(found, root)
     kinds = deferred(found)
-    lines = [f"modules: {len(modules(root))}, arrows between them: {sum(len(v) for v in edges.values())}",
-             f"import circles: {len(circles(edges))}",
-             f"arrows back up the pipeline: {len(upward(found))}",
-             "imports inside functions: " + ", ".join(f"{k} {len(v)}" for k, v in kinds.items())]
+    lines = [
+        f"modules: {len(modules(root))}, arrows between them: "
+        f"{sum(len(v) for v in edges.values())}",
+        f"import circles: {len(circles(edges))}",
+        f"arrows back up the pipeline: {len(upward(found))}",
+        "imports inside functions: " + ", ".join(f"{k} {len(v)}" for k, v in kinds.items()),
+    ]
     for k in ("optional", "other"):
         by = Counter(f"{i.source} -> {i.target}" for i in kinds[k])
         lines += [f"  {k}: {n} x {what}" for what, n in sorted(by.items())]
@@ -242,12 +316,19 @@ def test_every_help_imports_no_pipeline_module_and_no_numpy():
 
     from genie_gl.cli import COMMANDS
 
-    code = ("import contextlib, io, sys\nfrom genie_gl.cli import main\n"
-            "with contextlib.redirect_stdout(io.StringIO()):\n    main(sys.argv[1:] + ['--help'])\n"
-            "print(' '.join(m for m in sys.modules if m == 'numpy' or (m.startswith('genie_gl.') and "
-            "m.split('.')[1] not in ('cli', 'commands', *" + repr(BASE) + "))))")
+    code = (
+        "import contextlib, io, sys\nfrom genie_gl.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n    main(sys.argv[1:] + ['--help'])\n"
+        "print(' '.join(m for m in sys.modules if m == 'numpy' or (m.startswith('genie_gl.') and "
+        "m.split('.')[1] not in ('cli', 'commands', *" + repr(BASE) + "))))"
+    )
     for command in ["", *COMMANDS]:
-        r = subprocess.run([sys.executable, "-c", code, *command.split()], capture_output=True, text=True,
-                           cwd=ROOT, timeout=60)
+        r = subprocess.run(
+            [sys.executable, "-c", code, *command.split()],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+            timeout=60,
+        )
         assert r.returncode == 0, r.stderr[-500:]
         assert r.stdout.split() == [], f"genie {command} --help imports {r.stdout.split()}"

@@ -12,6 +12,7 @@ tests (tests/cloud/test_unproject_kernel.py: first principles in float64, NaN ho
 
     python tools/mutants.py --modules layout,labels --timeout 900
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,69 +33,162 @@ ROOT = Path(__file__).resolve().parents[1]
 GROUPS: dict[str, tuple[list[str], list[str], list[str]]] = {
     # group: (modules to mutate, the functions in them where a wrong number is silent
     #         (mutmut name globs), tests that must kill the mutants)
-    "projection": (["genie_gl/render/projection.py"],
-                   ["*.projection.x_clip_coefficients__*", "*.projection.x_rigid_inverse__*"],
-                   ["tests/render/test_analytic.py", "tests/render/test_hard_cases.py"]),
-    "lens": (["genie_gl/camera.py", "genie_gl/lens/distortion.py"],
-             ["*.camera.x_tilt_matrix__*", "*.camera.x_distort_normalized__*", "*.camera.x__coefficients__*",
-              "*.camera.x__radial__*", "*.camera.x__decentring__*", "*.camera.x_fisheye_theta_d__*",
-              "*.camera.x__find_fold__*", "*.camera.x__max_off_axis__*", "*.camera.xǁCameraǁproject__*",
-              "*.camera.xǁCameraǁunproject__*", "*.camera.xǁCameraǁdirections__*", "*.camera.xǁCameraǁrays__*",
-              "*.camera.x__pinhole_inverse__*", "*.camera.x__newton__*", "*.camera.x__untilt__*", "*.camera.x__homography__*",
-              "*.camera.x__increasing_inverse__*", "*.camera.x__fisheye_inverse__*", "*.camera.x__omni_inverse__*",
-              "*.camera.x__pixel_directions__*", "*.camera.x__pixel_rays__*",
-              "*.distortion.x_project__*", "*.distortion.x__view__*", "*.distortion.x__scale_min__*",
-              "*.distortion.x__build_lens_views__*", "*.distortion.x_lens_views__*",
-              "*.distortion.x_distortion_maps__*"],
-             # the lens equations against cv2 and first principles, no GL: a few seconds in all
-             # (the rendered lens tests cost minutes per mutant). The lens caches (_fold,
-             # _directions, _rays, _lens_views) wrap undecorated bodies so that mutmut reaches them
-             ["tests/lens/test_lens_truths.py", "tests/lens/test_lens_inverse_hard.py",
-              *(f"tests/sensors/test_sensors.py::{t}" for t in (
-                  "test_distortion_maps_put_rays_where_cv2_projects_them",
-                  "test_distortion_maps_stay_inside_the_wide_render", "test_numpy_lens_projection_equals_cv2",
-                  "test_strong_barrel_distortion_drops_what_the_model_folds",
-                  "test_project_without_distortion_is_the_pinhole_k")),
-              # (its hypothesis tests of the same lens maps against cv2 cost ~4 s per mutant)
-              *(f"tests/bench/test_stability.py::{t}" for t in (
-                  "test_lens_folds_are_dropped_not_wrapped",
-                  "test_cube_faces_for_a_wide_fisheye_and_one_view_for_a_narrow_lens",
-                  "test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel"))]),
-    "unprojection": (["genie_gl/cloud/unproject.py"], ["*.unproject.x_*"],
-                     ["tests/cloud/test_unproject_kernel.py", "tests/export/test_cloud_export.py",
-                      "tests/cloud/test_frame_chunks.py", "tests/cloud/test_unproject_contract.py"]),
+    "projection": (
+        ["genie_gl/render/projection.py"],
+        ["*.projection.x_clip_coefficients__*", "*.projection.x_rigid_inverse__*"],
+        ["tests/render/test_analytic.py", "tests/render/test_hard_cases.py"],
+    ),
+    "lens": (
+        ["genie_gl/camera.py", "genie_gl/lens/distortion.py"],
+        [
+            "*.camera.x_tilt_matrix__*",
+            "*.camera.x_distort_normalized__*",
+            "*.camera.x__coefficients__*",
+            "*.camera.x__radial__*",
+            "*.camera.x__decentring__*",
+            "*.camera.x_fisheye_theta_d__*",
+            "*.camera.x__find_fold__*",
+            "*.camera.x__max_off_axis__*",
+            "*.camera.xǁCameraǁproject__*",
+            "*.camera.xǁCameraǁunproject__*",
+            "*.camera.xǁCameraǁdirections__*",
+            "*.camera.xǁCameraǁrays__*",
+            "*.camera.x__pinhole_inverse__*",
+            "*.camera.x__newton__*",
+            "*.camera.x__untilt__*",
+            "*.camera.x__homography__*",
+            "*.camera.x__increasing_inverse__*",
+            "*.camera.x__fisheye_inverse__*",
+            "*.camera.x__omni_inverse__*",
+            "*.camera.x__pixel_directions__*",
+            "*.camera.x__pixel_rays__*",
+            "*.distortion.x_project__*",
+            "*.distortion.x__view__*",
+            "*.distortion.x__scale_min__*",
+            "*.distortion.x__build_lens_views__*",
+            "*.distortion.x_lens_views__*",
+            "*.distortion.x_distortion_maps__*",
+        ],
+        # the lens equations against cv2 and first principles, no GL: a few seconds in all
+        # (the rendered lens tests cost minutes per mutant). The lens caches (_fold,
+        # _directions, _rays, _lens_views) wrap undecorated bodies so that mutmut reaches them
+        [
+            "tests/lens/test_lens_truths.py",
+            "tests/lens/test_lens_inverse_hard.py",
+            *(
+                f"tests/sensors/test_sensors.py::{t}"
+                for t in (
+                    "test_distortion_maps_put_rays_where_cv2_projects_them",
+                    "test_distortion_maps_stay_inside_the_wide_render",
+                    "test_numpy_lens_projection_equals_cv2",
+                    "test_strong_barrel_distortion_drops_what_the_model_folds",
+                    "test_project_without_distortion_is_the_pinhole_k",
+                )
+            ),
+            # (its hypothesis tests of the same lens maps against cv2 cost ~4 s per mutant)
+            *(
+                f"tests/bench/test_stability.py::{t}"
+                for t in (
+                    "test_lens_folds_are_dropped_not_wrapped",
+                    "test_cube_faces_for_a_wide_fisheye_and_one_view_for_a_narrow_lens",
+                    "test_automatic_oversampling_gives_every_lens_pixel_its_own_view_pixel",
+                )
+            ),
+        ],
+    ),
+    "unprojection": (
+        ["genie_gl/cloud/unproject.py"],
+        ["*.unproject.x_*"],
+        [
+            "tests/cloud/test_unproject_kernel.py",
+            "tests/export/test_cloud_export.py",
+            "tests/cloud/test_frame_chunks.py",
+            "tests/cloud/test_unproject_contract.py",
+        ],
+    ),
     # the noise models' numbers (DepthNoise's cost_per_mpx is left out: an estimate the planner
     # ranks effects by, measured by `genie bench planning`, never a number in the data)
-    "noise": (["genie_gl/effects/noise.py"],
-              ["*.noise.xǁDepthNoiseǁ[!c]*", "*.noise.xǁRangeLimitsǁapply__*"],
-              ["tests/sensors/test_sensors.py", "tests/effects/test_effects.py", "tests/effects/test_fused_kernels.py"]),
-    "labels": (["genie_gl/export/semantickitti.py", "genie_gl/export/ply.py", "genie_gl/export/pcd.py",
-                "genie_gl/export/npz.py"],
-               ["*.semantickitti.x_pack_labels__*", "*.semantickitti.x_write__*", "*.semantickitti.x_read__*",
-                "*.semantickitti.x_encode_instances__*", "*.ply.x_*", "*.pcd.x_*", "*.npz.x_*"],
-               ["tests/export/test_cloud_export.py", "tests/export/test_export_limits.py"]),
-    "layout": (["genie_gl/layout/engine.py", "genie_gl/layout/generators.py", "genie_gl/layout/merge.py"],
-               # the merge layer (layout/merge.py since the rewrite; engine.merge is its node-list
-               # front), the grid generator and the rectangle cover of a mask
-               ["*.engine.x_merge__*", "*.merge.x_*", "*.generators.xǁGridǁgenerate__*",
-                "*.generators.x_rectangles__*"],
-               ["tests/layout/test_merge_layer.py", "tests/layout/test_layout.py",
-                "-k", "not shipped_strategies_generate"]),
-    "merge": (["genie_gl/layout/merge.py"], ["*.merge.x_*"],  # the merge layer alone (a subset of "layout")
-              ["tests/layout/test_merge_layer.py", "tests/layout/test_layout.py",
-               "-k", "not shipped_strategies_generate"]),
-    "placement": (["genie_gl/placement/genetic.py"],
-                  # the coverage a placement is scored by; the GA's operators (selection, crossover,
-                  # mutation rate) only change how good a search is, never a reported number: left out
-                  ["*.placement.xǁCoverageProblemǁ__init____*", "*.placement.xǁCoverageProblemǁfitness*",
-                   "*.placement.x_greedy_indices__*", "*.placement.x_greedy_placement__*"],
-                  # (the bit sets against the cell-by-cell kernels, which fractional weights take; the
-                  # free-floor rule for low mounts)
-                  ["tests/placement/test_placement_fitness.py", "tests/placement/test_placement_bits.py",
-                   "tests/placement/test_placement_free_floor.py", "tests/sensors/test_sensors.py"]),
+    "noise": (
+        ["genie_gl/effects/noise.py"],
+        ["*.noise.xǁDepthNoiseǁ[!c]*", "*.noise.xǁRangeLimitsǁapply__*"],
+        [
+            "tests/sensors/test_sensors.py",
+            "tests/effects/test_effects.py",
+            "tests/effects/test_fused_kernels.py",
+        ],
+    ),
+    "labels": (
+        [
+            "genie_gl/export/semantickitti.py",
+            "genie_gl/export/ply.py",
+            "genie_gl/export/pcd.py",
+            "genie_gl/export/npz.py",
+        ],
+        [
+            "*.semantickitti.x_pack_labels__*",
+            "*.semantickitti.x_write__*",
+            "*.semantickitti.x_read__*",
+            "*.semantickitti.x_encode_instances__*",
+            "*.ply.x_*",
+            "*.pcd.x_*",
+            "*.npz.x_*",
+        ],
+        ["tests/export/test_cloud_export.py", "tests/export/test_export_limits.py"],
+    ),
+    "layout": (
+        ["genie_gl/layout/engine.py", "genie_gl/layout/generators.py", "genie_gl/layout/merge.py"],
+        # the merge layer (layout/merge.py since the rewrite; engine.merge is its node-list
+        # front), the grid generator and the rectangle cover of a mask
+        [
+            "*.engine.x_merge__*",
+            "*.merge.x_*",
+            "*.generators.xǁGridǁgenerate__*",
+            "*.generators.x_rectangles__*",
+        ],
+        [
+            "tests/layout/test_merge_layer.py",
+            "tests/layout/test_layout.py",
+            "-k",
+            "not shipped_strategies_generate",
+        ],
+    ),
+    "merge": (
+        ["genie_gl/layout/merge.py"],
+        ["*.merge.x_*"],  # the merge layer alone (a subset of "layout")
+        [
+            "tests/layout/test_merge_layer.py",
+            "tests/layout/test_layout.py",
+            "-k",
+            "not shipped_strategies_generate",
+        ],
+    ),
+    "placement": (
+        ["genie_gl/placement/genetic.py"],
+        # the coverage a placement is scored by; the GA's operators (selection, crossover,
+        # mutation rate) only change how good a search is, never a reported number: left out
+        [
+            "*.placement.xǁCoverageProblemǁ__init____*",
+            "*.placement.xǁCoverageProblemǁfitness*",
+            "*.placement.x_greedy_indices__*",
+            "*.placement.x_greedy_placement__*",
+        ],
+        # (the bit sets against the cell-by-cell kernels, which fractional weights take; the
+        # free-floor rule for low mounts)
+        [
+            "tests/placement/test_placement_fitness.py",
+            "tests/placement/test_placement_bits.py",
+            "tests/placement/test_placement_free_floor.py",
+            "tests/sensors/test_sensors.py",
+        ],
+    ),
 }
 # lines that only word an error or a log message: not numbers
-NOT_NUMBERS = [r"raise \w+Error\(", r"^\s*f?\"[^\"]*\"\)?$", r"log\.(info|warning|debug)\(", r"warnings\.warn\("]
+NOT_NUMBERS = [
+    r"raise \w+Error\(",
+    r"^\s*f?\"[^\"]*\"\)?$",
+    r"log\.(info|warning|debug)\(",
+    r"warnings\.warn\(",
+]
 
 
 def toml_list(items: list[str]) -> str:
@@ -136,8 +230,13 @@ timeout_constant = {TIMEOUT_CONSTANT.get(group, 1.0)}
 
 
 def results(work: Path, env: dict) -> dict[str, str]:
-    out = subprocess.run([sys.executable, "-P", "-m", "mutmut", "results", "--all", "true"], cwd=work, env=env,
-                         capture_output=True, text=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-P", "-m", "mutmut", "results", "--all", "true"],
+        cwd=work,
+        env=env,
+        capture_output=True,
+        text=True,
+    ).stdout
     status = {}
     for line in out.splitlines():
         m = re.match(r"\s*([\w.]+__mutmut_\d+): (.+)$", line)
@@ -191,32 +290,46 @@ def recheck(work: Path, env: dict, status: dict[str, str], tests: list[str], bud
     import json
 
     stats_file = work / "mutants" / "mutmut-stats.json"
-    by_function = json.loads(stats_file.read_text())["tests_by_mangled_function_name"] if stats_file.exists() else {}
+    by_function = (
+        json.loads(stats_file.read_text())["tests_by_mangled_function_name"]
+        if stats_file.exists()
+        else {}
+    )
     todo = []
     # a "timeout" too: mutmut's wall-clock limit is 4x the clean tests' time, which a busy
     # machine can reach without any mutant hanging; rerun plainly, it stays a timeout only if
     # the tests run past the recheck's own alarm (300 s) again
     # and a "segfault" or "suspicious": a crash of the test process (pytest printing a mutant's
     # bad array can crash) says nothing about whether a test fails
-    for name in sorted(k for k, v in status.items() if v in ("survived", "no tests", "timeout", "segfault",
-                                                             "suspicious")):
+    for name in sorted(
+        k
+        for k, v in status.items()
+        if v in ("survived", "no tests", "timeout", "segfault", "suspicious")
+    ):
         attributed = sorted(by_function.get(name.rsplit("__mutmut_", 1)[0], []))
         todo.append((name, attributed))
     if not todo or budget <= 0:
         return
     job = work / "recheck.json"
     job.write_text(json.dumps({"mutants": todo, "selection": tests, "timeout": 300}))
-    proc = subprocess.Popen([sys.executable, "-P", "-c", RECHECK_WORKER, str(job)], cwd=work / "mutants", env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-P", "-c", RECHECK_WORKER, str(job)],
+        cwd=work / "mutants",
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        start_new_session=True,
+    )
     t = time.perf_counter()
     try:
         for line in proc.stdout:
             name, code = line.split()
-            if int(code) in (1, 3):        # a test failed (not a usage or collection error)
+            if int(code) in (1, 3):  # a test failed (not a usage or collection error)
                 status[name] = "killed"
             elif int(code) in (-14, -9, 142):  # SIGALRM: the mutant hangs the tests
                 status[name] = "timeout"
-            elif int(code) == 0:               # every test passed: it survives
+            elif int(code) == 0:  # every test passed: it survives
                 status[name] = "survived"
             if time.perf_counter() - t > budget:
                 break
@@ -226,17 +339,20 @@ def recheck(work: Path, env: dict, status: dict[str, str], tests: list[str], bud
         proc.wait()
 
 
-def run_group(group: str, timeout: float, children: int, recheck_s: float = 600,
-              report_only: bool = False) -> list[tuple[str, int, int, list[str]]]:
+def run_group(
+    group: str, timeout: float, children: int, recheck_s: float = 600, report_only: bool = False
+) -> list[tuple[str, int, int, list[str]]]:
     modules, functions, _ = GROUPS[group]
     work = ROOT / "build" / "mutants" / group
-    if report_only:     # the results of the last run in build/mutants/<group>, rechecked
+    if report_only:  # the results of the last run in build/mutants/<group>, rechecked
         timeout = 0
     else:
         prepare(group, work)
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH",)}
     env["PYTHONPATH"] = str(work / "mutants")
-    env["HYPOTHESIS_PROFILE"] = "mutants"   # fixed examples, no deadline (mutmut's tracing slows code)
+    env["HYPOTHESIS_PROFILE"] = (
+        "mutants"  # fixed examples, no deadline (mutmut's tracing slows code)
+    )
     t = time.perf_counter()
     finished = False
     for attempt in range(3):  # a first run can fail its setup (see below): again
@@ -246,9 +362,24 @@ def run_group(group: str, timeout: float, children: int, recheck_s: float = 600,
         with open(work / f"mutmut-run-{attempt}.log", "w") as log:
             # its own session: on the time bound, mutmut and every mutant it forked stop together
             # -P: keep the scratch root (its unmutated genie_gl/ and tests/ packages) off sys.path
-            proc = subprocess.Popen([sys.executable, "-P", "-m", "mutmut", "run", "--max-children", str(children),
-                                     *functions], cwd=work, env=env, stdin=subprocess.DEVNULL, stdout=log,
-                                    stderr=subprocess.STDOUT, start_new_session=True)
+            proc = subprocess.Popen(
+                [
+                    sys.executable,
+                    "-P",
+                    "-m",
+                    "mutmut",
+                    "run",
+                    "--max-children",
+                    str(children),
+                    *functions,
+                ],
+                cwd=work,
+                env=env,
+                stdin=subprocess.DEVNULL,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                start_new_session=True,
+            )
             try:
                 proc.wait(timeout=left)
             except subprocess.TimeoutExpired:
@@ -260,40 +391,70 @@ def run_group(group: str, timeout: float, children: int, recheck_s: float = 600,
         # a first run over a fresh copy could fail its stats run or see no test hit any mutant
         # (it imported the installed checkout: see prepare(), which now prevents it); kept as a
         # fallback: a second run over the generated mutants collects the stats properly
-        if not any(s in log_text for s in ("BadTestExecutionCommandsException", "failed to collect stats",
-                                           "could not find any test case for any mutant")):
+        if not any(
+            s in log_text
+            for s in (
+                "BadTestExecutionCommandsException",
+                "failed to collect stats",
+                "could not find any test case for any mutant",
+            )
+        ):
             finished = r.returncode == 0
             break
         # the failed run's partial test-to-function stats would hide tests from the retry
         for stale in (work / "mutants").glob("mutmut-stats*.json"):
             stale.unlink()
-    status = {k: v for k, v in results(work, env).items()
-              if any(fnmatch.fnmatch(k, f) for f in functions)}
+    status = {
+        k: v for k, v in results(work, env).items() if any(fnmatch.fnmatch(k, f) for f in functions)
+    }
     recheck(work, env, status, GROUPS[group][2], budget=recheck_s)
     rows = []
     for mod in modules:
         mine = {k: v for k, v in status.items() if module_of(k, modules) == mod}
         tested = {k: v for k, v in mine.items() if v not in ("not checked", "skipped")}
-        killed = [k for k, v in tested.items() if v in ("killed", "timeout", "caught by type check")]
-        survived = sorted(k for k, v in tested.items() if v not in ("killed", "timeout", "caught by type check"))
+        killed = [
+            k for k, v in tested.items() if v in ("killed", "timeout", "caught by type check")
+        ]
+        survived = sorted(
+            k for k, v in tested.items() if v not in ("killed", "timeout", "caught by type check")
+        )
         rows.append((mod, len(killed), len(tested), survived, len(mine) - len(tested)))
-    print(f"[{group}] {'done' if finished else f'stopped at the {timeout:.0f} s bound'} "
-          f"in {time.perf_counter() - t:.0f} s", flush=True)
+    print(
+        f"[{group}] {'done' if finished else f'stopped at the {timeout:.0f} s bound'} "
+        f"in {time.perf_counter() - t:.0f} s",
+        flush=True,
+    )
     for mod, k, n, surv, unchecked in rows:
         rate = f"{100 * k / n:5.1f} %" if n else "   - "
-        print(f"  {mod:40s} {k:4d} / {n:4d} killed  {rate}" + (f"  ({unchecked} not run)" if unchecked else ""))
+        print(
+            f"  {mod:40s} {k:4d} / {n:4d} killed  {rate}"
+            + (f"  ({unchecked} not run)" if unchecked else "")
+        )
     unclassified = 0
     for mod, k, n, surv, _ in rows:
         for name in surv:
             print(f"  survived: {name} ({status[name]})")
-            diff = subprocess.run([sys.executable, "-P", "-m", "mutmut", "show", name], cwd=work, env=env,
-                                  capture_output=True, text=True).stdout
-            lines = [line for line in diff.splitlines() if line[:1] in "+-" and line[:3] not in ("+++", "---")]
+            diff = subprocess.run(
+                [sys.executable, "-P", "-m", "mutmut", "show", name],
+                cwd=work,
+                env=env,
+                capture_output=True,
+                text=True,
+            ).stdout
+            lines = [
+                line
+                for line in diff.splitlines()
+                if line[:1] in "+-" and line[:3] not in ("+++", "---")
+            ]
             print("    " + "\n    ".join(lines))
             reason = classify(name, lines)
             unclassified += reason is None
-            print(f"    equivalent: {reason}" if reason else "    UNCLASSIFIED: a test should kill it, or a reason "
-                  "added to tools/mutants_equivalent.py")
+            print(
+                f"    equivalent: {reason}"
+                if reason
+                else "    UNCLASSIFIED: a test should kill it, or a reason "
+                "added to tools/mutants_equivalent.py"
+            )
     if unclassified:
         print(f"  {unclassified} survivor(s) unclassified")
     return rows
@@ -301,11 +462,22 @@ def run_group(group: str, timeout: float, children: int, recheck_s: float = 600,
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--modules", default="all", help=f"comma-separated groups: {', '.join(GROUPS)} (or all)")
-    p.add_argument("--timeout", type=float, default=1200, help="seconds per group (the machine is shared)")
+    p.add_argument(
+        "--modules", default="all", help=f"comma-separated groups: {', '.join(GROUPS)} (or all)"
+    )
+    p.add_argument(
+        "--timeout", type=float, default=1200, help="seconds per group (the machine is shared)"
+    )
     p.add_argument("--children", type=int, default=2, help="mutants run side by side")
-    p.add_argument("--report-only", action="store_true", help="no new run: report (and recheck) the last one")
-    p.add_argument("--recheck", type=float, default=600, help="seconds per group to rerun the tests on survivors")
+    p.add_argument(
+        "--report-only", action="store_true", help="no new run: report (and recheck) the last one"
+    )
+    p.add_argument(
+        "--recheck",
+        type=float,
+        default=600,
+        help="seconds per group to rerun the tests on survivors",
+    )
     a = p.parse_args(argv)
     groups = list(GROUPS) if a.modules == "all" else a.modules.split(",")
     unknown = [g for g in groups if g not in GROUPS]

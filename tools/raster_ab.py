@@ -6,6 +6,7 @@ time with one thread, wall time with more), and the ratio is of the sums.
 
     python tools/raster_ab.py 1M 2 5 HEAD~1      # scene, threads, rounds, revision
 """
+
 import importlib.util
 import subprocess
 import sys
@@ -26,9 +27,14 @@ ROOT = Path(__file__).resolve().parent.parent
 def kernel(coverage: str, frame: str, where: Path, name: str):
     """The frame kernel of one version (the two modules' sources) as a module of its own."""
     source = coverage + frame.replace("from __future__ import annotations\n", "")
-    source = source.replace("from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", "")
-    for old, new in (("from .clusters", "from genie_gl.render.clusters"), ("from .cull", "from genie_gl.render.cull"),
-                     ("from ..jit", "from genie_gl.jit")):
+    source = source.replace(
+        "from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", ""
+    )
+    for old, new in (
+        ("from .clusters", "from genie_gl.render.clusters"),
+        ("from .cull", "from genie_gl.render.cull"),
+        ("from ..jit", "from genie_gl.jit"),
+    ):
         source = source.replace(old, new)
     path = where / f"{name}.py"
     path.write_text(source)
@@ -39,10 +45,16 @@ def kernel(coverage: str, frame: str, where: Path, name: str):
 
 
 def at(rev: str, name: str) -> str:
-    got = subprocess.run(["git", "-C", str(ROOT), "show", f"{rev}:genie_gl/render/{name}"], capture_output=True,
-                         text=True)
+    got = subprocess.run(
+        ["git", "-C", str(ROOT), "show", f"{rev}:genie_gl/render/{name}"],
+        capture_output=True,
+        text=True,
+    )
     if got.returncode:
-        sys.exit(f"raster_ab.py: revision {rev!r}: no genie_gl/render/{name} there ({got.stderr.strip()})")
+        sys.exit(
+            f"raster_ab.py: revision {rev!r}: no genie_gl/render/{name} there "
+            f"({got.stderr.strip()})"
+        )
     return got.stdout
 
 
@@ -50,7 +62,10 @@ def main() -> None:
     try:
         size, threads, rounds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     except (IndexError, ValueError):
-        sys.exit("usage: python tools/raster_ab.py SCENE THREADS ROUNDS [REVISION]   (e.g. 1M 2 5 HEAD~1)")
+        sys.exit(
+            "usage: python tools/raster_ab.py SCENE THREADS ROUNDS [REVISION]   (e.g. 1M 2 5 "
+            "HEAD~1)"
+        )
     rev = sys.argv[4] if len(sys.argv) > 4 else "HEAD"
     numba.set_num_threads(threads)
     clock = time.process_time if threads == 1 else time.perf_counter
@@ -59,17 +74,23 @@ def main() -> None:
     r = Renderer(to_scene(spec), raster="cpu")
     own = raster._raster
     with tempfile.TemporaryDirectory() as tmp:
-        kernels = {rev: kernel(at(rev, "coverage.py"), at(rev, "raster.py"), Path(tmp), "ab_base"),
-                   "work tree": kernel((ROOT / "genie_gl/render/coverage.py").read_text(),
-                                       (ROOT / "genie_gl/render/raster.py").read_text(), Path(tmp), "ab_new")}
+        kernels = {
+            rev: kernel(at(rev, "coverage.py"), at(rev, "raster.py"), Path(tmp), "ab_base"),
+            "work tree": kernel(
+                (ROOT / "genie_gl/render/coverage.py").read_text(),
+                (ROOT / "genie_gl/render/raster.py").read_text(),
+                Path(tmp),
+                "ab_new",
+            ),
+        }
         best = {k: np.full(len(poses), np.inf) for k in kernels}
         try:
-            for f in kernels.values():   # compile
+            for f in kernels.values():  # compile
                 raster._raster = f
                 r.render(sensor, poses[0], depth_only=True)
             for k in range(rounds):
                 for i, p in enumerate(poses):
-                    for name, f in (kernels.items() if k % 2 else reversed(kernels.items())):
+                    for name, f in kernels.items() if k % 2 else reversed(kernels.items()):
                         raster._raster = f
                         t = clock()
                         r.render(sensor, p, depth_only=True)
@@ -77,8 +98,11 @@ def main() -> None:
         finally:
             raster._raster = own
     base, new = (1e3 * best[k].mean() for k in kernels)
-    print(f"{size}, {threads} thread(s), {rounds} rounds: {rev} {base:.2f} ms, work tree {new:.2f} ms a frame; "
-          f"work tree / {rev} {new / base:.3f}")
+    print(
+        f"{size}, {threads} thread(s), {rounds} rounds: {rev} {base:.2f} ms, work tree {new:.2f} "
+        "ms a frame; "
+        f"work tree / {rev} {new / base:.3f}"
+    )
 
 
 if __name__ == "__main__":

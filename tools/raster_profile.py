@@ -3,12 +3,15 @@ short after each of its stages in turn, one thread, CPU per frame over a benchma
 40 poses (best of ``repeats`` passes), and what each stage counts per frame.
 
     python tools/raster_profile.py 1M 3
-    python tools/raster_profile.py dataset 3     # a dataset scene (assembly line) and its 40 cameras
+    python tools/raster_profile.py dataset 3     # a dataset scene (assembly line) and its 40
+    cameras
 
 Each cut is the rasteriser's source (``coverage`` and ``raster`` as one module) with one line
-changed, loaded from a temporary file and put in place of the kernel; the differences between successive cuts are the stages'
+changed, loaded from a temporary file and put in place of the kernel; the differences between
+successive cuts are the stages'
 costs. Numba compiles each cut once (a minute or two on a first run).
 """
+
 import importlib.util
 import inspect
 import sys
@@ -24,14 +27,26 @@ from genie_gl.bench.scenes import bench_spec, to_scene
 from genie_gl.render import Renderer, coverage, raster
 
 CUTS = (
-    ("clusters: sphere, cone and occlusion tests, set-up, clear", "    tally[0] += 1\n", "    tally[0] += 1\n    return\n"),
-    ("+ vertices: transform, window coordinates, cells", "    for i in range(nf):\n        f = f0 + i\n",
-     "    for i in range(0):\n        f = f0 + i\n"),
-    ("+ faces: cell test, box, orientation, occlusion test; one-centre boxes tested at once",
-     "        rows = (vhi - vlo) <= (uhi - ulo)\n",
-     "        rows = (vhi - vlo) <= (uhi - ulo)\n        continue\n"),
-    ("+ edge set-up: edge functions, spans per line", "        for iw in range(int(w_lo), int(w_hi) + 1):",
-     "        for iw in range(int(w_lo), int(w_lo)):"),
+    (
+        "clusters: sphere, cone and occlusion tests, set-up, clear",
+        "    tally[0] += 1\n",
+        "    tally[0] += 1\n    return\n",
+    ),
+    (
+        "+ vertices: transform, window coordinates, cells",
+        "    for i in range(nf):\n        f = f0 + i\n",
+        "    for i in range(0):\n        f = f0 + i\n",
+    ),
+    (
+        "+ faces: cell test, box, orientation, occlusion test; one-centre boxes tested at once",
+        "        rows = (vhi - vlo) <= (uhi - ulo)\n",
+        "        rows = (vhi - vlo) <= (uhi - ulo)\n        continue\n",
+    ),
+    (
+        "+ edge set-up: edge functions, spans per line",
+        "        for iw in range(int(w_lo), int(w_hi) + 1):",
+        "        for iw in range(int(w_lo), int(w_lo)):",
+    ),
     ("+ pixels: exact tests, depth, occlusion tiles (the whole kernel)", None, None),
 )
 
@@ -41,9 +56,13 @@ def variant(source: str, old: str | None, new: str | None, where: Path, k: int):
     if old is not None:
         assert source.count(old) == 1, old
         source = source.replace(old, new)
-    source = source.replace("from .clusters", "from genie_gl.render.clusters").replace("from .cull", "from genie_gl.render.cull")
+    source = source.replace("from .clusters", "from genie_gl.render.clusters").replace(
+        "from .cull", "from genie_gl.render.cull"
+    )
     source = source.replace("from ..jit", "from genie_gl.jit")
-    source = source.replace("from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", "")
+    source = source.replace(
+        "from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", ""
+    )
     path = where / f"raster_cut{k}.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location(f"raster_cut{k}", path)
@@ -57,10 +76,13 @@ def dataset_scene():
     import genie_gl as gg
     from genie_gl.dataset.streams import SceneStreams
     from genie_gl.layout import generate_layout, load_strategy
+
     streams = SceneStreams(0, 1)
     layout = generate_layout(load_strategy("assembly_line"), rng=streams.rng("layout"))
     scene = gg.build_scene(layout, rng=streams.rng("scene"))
-    return scene, gg.place_sensors(layout, gg.load_sensor("ideal_pinhole"), n=40, seed=streams.placement_seed)
+    return scene, gg.place_sensors(
+        layout, gg.load_sensor("ideal_pinhole"), n=40, seed=streams.placement_seed
+    )
 
 
 def main() -> None:
@@ -73,15 +95,22 @@ def main() -> None:
         scene, poses = to_scene(spec), spec.poses
     sensor = sensor_640()
     K, W, H, near = sensor.K, sensor.width, sensor.height, float(sensor.clip_near_m)
-    source = inspect.getsource(coverage) + inspect.getsource(raster).replace("from __future__ import annotations\n", "")
+    source = inspect.getsource(coverage) + inspect.getsource(raster).replace(
+        "from __future__ import annotations\n", ""
+    )
     numba.set_num_threads(1)
     r = Renderer(scene, raster="cpu")
     kernel = raster._raster
-    print(f"scene {size}: {r.triangles:,} triangles, 640 x 480, one thread, CPU ms per frame (best of {repeats})")
+    print(
+        f"scene {size}: {r.triangles:,} triangles, 640 x 480, one thread, CPU ms per frame (best "
+        f"of {repeats})"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for k, (label, old, new) in enumerate(CUTS):
             raster._raster = variant(source, old, new, Path(tmp), k)._raster if old else kernel
-            cfm, slots, m, bc, eye = r._visible(poses[0], K, W, H, near, None)   # compile the cut as it is timed
+            cfm, slots, m, bc, eye = r._visible(
+                poses[0], K, W, H, near, None
+            )  # compile the cut as it is timed
             r._rasteriser.draw(slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, r._planes)
             best, counts = np.inf, np.zeros(8)
             for _ in range(repeats):
@@ -89,14 +118,20 @@ def main() -> None:
                 counts[:] = 0
                 for p in poses:
                     cfm, slots, m, bc, eye = r._visible(p, K, W, H, near, None)
-                    r._rasteriser.draw(slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, r._planes)
+                    r._rasteriser.draw(
+                        slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, r._planes
+                    )
                     counts += r._rasteriser.counts
                 best = min(best, (time.process_time() - c) / len(poses))
             print(f"  {1e3 * best:6.1f} ms  {label}")
     raster._raster = kernel
     c = counts / len(poses)
-    print(f"per frame: {c[0]:,.0f} clusters drawn, {c[1]:,.0f} faces with a pixel box, {c[2]:,.0f} of them hidden, "
-          f"{c[3]:,.0f} drawn, {c[4]:,.0f} pixel centres tested, {c[5]:,.0f} occlusion tiles refreshed")
+    print(
+        f"per frame: {c[0]:,.0f} clusters drawn, {c[1]:,.0f} faces with a pixel box, {c[2]:,.0f} "
+        "of them hidden, "
+        f"{c[3]:,.0f} drawn, {c[4]:,.0f} pixel centres tested, {c[5]:,.0f} occlusion tiles "
+        "refreshed"
+    )
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ scene's 40 poses: cycles of the cluster bounds (parallel), of the order and stri
 
     python tools/raster_threads.py 1M
 """
+
 import importlib.util
 import inspect
 import sys
@@ -20,7 +21,7 @@ from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
 from genie_gl.render import Renderer, coverage, raster
 
-CLOCK = '''from numba import types as _types
+CLOCK = """from numba import types as _types
 from numba.core import cgutils as _cgutils
 from numba.extending import intrinsic as _intrinsic
 from llvmlite import ir as _ir
@@ -34,21 +35,30 @@ def _cycles(typingctx):
         return builder.call(fn, [])
     return _types.int64(), codegen
 
-'''
+"""
 # (where, what to put before it): tally[0, 6] bounds, tally[0, 7] order and cut, tally[t, 4]
 # thread t's strip (clear and draw)
 MARKS = (
     ("    W = int(width)\n    H = int(height)\n", "    c0 = _cycles()\n"),
     ("    order = _nearest_first(alive, bounds, near)\n", "    c1 = _cycles()\n"),
     ("    tmin[:, :] = 0.0\n    dirty = np.zeros(tmin.shape, np.uint8)\n", "    c2 = _cycles()\n"),
-    ("        if len(out_depth) > 1:   # the strip's depth", "        tally[t, 4] = _cycles() - s0\n"),
+    (
+        "        if len(out_depth) > 1:   # the strip's depth",
+        "        tally[t, 4] = _cycles() - s0\n",
+    ),
 )
 
 
 def instrumented(where: Path):
-    source = inspect.getsource(coverage) + inspect.getsource(raster).replace("from __future__ import annotations\n", "")
-    source = source.replace("from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", "")
-    source = source.replace("from .clusters", "from genie_gl.render.clusters").replace("from .cull", "from genie_gl.render.cull")
+    source = inspect.getsource(coverage) + inspect.getsource(raster).replace(
+        "from __future__ import annotations\n", ""
+    )
+    source = source.replace(
+        "from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", ""
+    )
+    source = source.replace("from .clusters", "from genie_gl.render.clusters").replace(
+        "from .cull", "from genie_gl.render.cull"
+    )
     source = source.replace("from ..jit", "from genie_gl.jit")
     for old, before in MARKS:
         assert source.count(old) == 1, old
@@ -78,9 +88,12 @@ def main() -> None:
         raster._raster = instrumented(Path(tmp))
         try:
             numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
-            r.render(sensor, poses[0], depth_only=True)   # compile
-            print(f"scene {size}, {numba.get_num_threads()} threads, 640 x 480, depth and ids; per frame, "
-                  "millions of cycles, mean over the poses; three passes")
+            r.render(sensor, poses[0], depth_only=True)  # compile
+            print(
+                f"scene {size}, {numba.get_num_threads()} threads, 640 x 480, depth and ids; per "
+                "frame, "
+                "millions of cycles, mean over the poses; three passes"
+            )
             for _ in range(3):
                 acc, slow, wall = np.zeros(4), 0.0, 0.0
                 for p in poses:
@@ -91,8 +104,12 @@ def main() -> None:
                     acc += [tl[0, 6], tl[0, 7], tl[0, 4], tl[1, 4]]
                     slow += max(tl[0, 4], tl[1, 4])
                 a = acc / len(poses) / 1e6
-                print(f"  frame {1e3 * wall / len(poses):.1f} ms: bounds {a[0]:.2f}, order and cut {a[1]:.2f}, "
-                      f"strips {a[2]:.1f} / {a[3]:.1f}; slower strip / mean {slow / len(poses) / 1e6 / ((a[2] + a[3]) / 2):.3f}")
+                print(
+                    f"  frame {1e3 * wall / len(poses):.1f} ms: bounds {a[0]:.2f}, order and cut "
+                    f"{a[1]:.2f}, "
+                    f"strips {a[2]:.1f} / {a[3]:.1f}; slower strip / mean "
+                    f"{slow / len(poses) / 1e6 / ((a[2] + a[3]) / 2):.3f}"
+                )
         finally:
             raster._raster = kernel
 

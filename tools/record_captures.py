@@ -31,6 +31,7 @@ them to ``genie report-card`` the same way.
 
 Without pyrealsense2 installed the script exits with one line saying so.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -40,8 +41,11 @@ from pathlib import Path
 
 import numpy as np
 
-MISSING = ("record_captures: pyrealsense2 is not installed (pip install pyrealsense2); this script records from "
-           "Intel RealSense cameras; see its docstring for other cameras")
+MISSING = (
+    "record_captures: pyrealsense2 is not installed (pip install pyrealsense2); this script "
+    "records from "
+    "Intel RealSense cameras; see its docstring for other cameras"
+)
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -95,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         stream = profile.get_stream(rs.stream.depth).as_video_stream_profile()
         intr = stream.get_intrinsics()
         baseline_T = None
-        try:   # infrared 1 -> 2: the stereo pair's translation (the baseline)
+        try:  # infrared 1 -> 2: the stereo pair's translation (the baseline)
             ir1 = profile.get_stream(rs.stream.infrared, 1)
             ir2 = profile.get_stream(rs.stream.infrared, 2)
             baseline_T = list(ir1.get_extrinsics_to(ir2).translation)
@@ -111,19 +115,42 @@ def main(argv: list[str] | None = None) -> int:
     from genie_gl.sensors.calibration import Calibration, write_calibration
 
     if any(intr.coeffs) and "brown_conrady" != str(intr.model).split(".")[-1]:
-        print(f"record_captures: warning: the depth stream's lens model is {intr.model}, not OpenCV's plumb bob; "
-              "its coefficients are written as plumb bob", file=sys.stderr)
+        print(
+            f"record_captures: warning: the depth stream's lens model is {intr.model}, not "
+            "OpenCV's plumb bob; "
+            "its coefficients are written as plumb bob",
+            file=sys.stderr,
+        )
 
     K = np.array([[intr.fx, 0.0, intr.ppx], [0.0, intr.fy, intr.ppy], [0.0, 0.0, 1.0]])
     T = None if baseline_T is None else np.array(baseline_T, np.float64)
-    write_calibration(Calibration(intr.width, intr.height, K, np.array(intr.coeffs[:5], np.float64),
-                                  R=None if T is None else np.eye(3), T=T), out / "calibration.yml")
-    info = {"device": dev.get_info(rs.camera_info.name), "serial": dev.get_info(rs.camera_info.serial_number),
-            "firmware": dev.get_info(rs.camera_info.firmware_version), "width": intr.width,
-            "height": intr.height, "fps": args.fps, "depth_scale_m": scale, "frames": args.frames,
-            "distortion_model": str(intr.model)}
+    write_calibration(
+        Calibration(
+            intr.width,
+            intr.height,
+            K,
+            np.array(intr.coeffs[:5], np.float64),
+            R=None if T is None else np.eye(3),
+            T=T,
+        ),
+        out / "calibration.yml",
+    )
+    info = {
+        "device": dev.get_info(rs.camera_info.name),
+        "serial": dev.get_info(rs.camera_info.serial_number),
+        "firmware": dev.get_info(rs.camera_info.firmware_version),
+        "width": intr.width,
+        "height": intr.height,
+        "fps": args.fps,
+        "depth_scale_m": scale,
+        "frames": args.frames,
+        "distortion_model": str(intr.model),
+    }
     (out / "capture.json").write_text(json.dumps(info, indent=1) + "\n", encoding="utf-8")
-    print(f"record_captures: {args.frames} frames in {out}; depth unit {scale:g} m: pass --depth-scale {scale:g}")
+    print(
+        f"record_captures: {args.frames} frames in {out}; depth unit {scale:g} m: pass "
+        f"--depth-scale {scale:g}"
+    )
     return 0
 
 

@@ -18,9 +18,11 @@ are measured (:mod:`genie_gl.bench.accuracy_errors`) against a reference:
 Errors are measured with the effects that draw random numbers (noise) switched off, so they
 show the knobs and not the noise; the noise is checked on its own, as a distribution: the
 measured σ against the model's at several depths. Writes ``accuracy.json``, ``accuracy.png``
-and ``accuracy.md`` (the table in Markdown); ``--budget-mm`` / ``--budget-px`` also write ``accuracy.yaml``, the fastest
+and ``accuracy.md`` (the table in Markdown); ``--budget-mm`` / ``--budget-px`` also write
+``accuracy.yaml``, the fastest
 setting within the budget, as an ``accuracy:`` block that ``genie dataset --accuracy`` reads.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,22 +41,43 @@ from .accuracy_case import check_path, content_poses, make_case  # noqa: F401  (
 from .accuracy_errors import compare, noise_check, pool
 from .accuracy_plot import pareto, plot
 from .accuracy_runner import Runner, references, spread
-from .knobs import KNOBS, PLACEMENT_DEFAULT, PLACEMENT_LEVELS, Case, Knob, Setting, exact_setting, levels
+from .knobs import (
+    KNOBS,
+    PLACEMENT_DEFAULT,
+    PLACEMENT_LEVELS,
+    Case,
+    Knob,
+    Setting,
+    exact_setting,
+    levels,
+)
 
 PLACEMENT_CAMERAS = 12
 
 
 # -- the case -----------------------------------------------------------------------------------
 # -- the bench --------------------------------------------------------------------------------
-def row_for(runner: Runner, knob: Knob | None, value: Any, setting: Setting, mode: str, refs: dict) -> dict:
+def row_for(
+    runner: Runner, knob: Knob | None, value: Any, setting: Setting, mode: str, refs: dict
+) -> dict:
     runner.run(setting, (mode,))
-    parts = [compare(f, ref, runner.case.sensor) for f, ref in zip(runner.frames[(setting.key(), mode)], refs[mode])]
-    return {"knob": knob.name if knob else "budget", "title": knob.title if knob else "budget pick",
-            "level": knob.label(value) if knob else setting.accuracy.label(), "value": value,
-            "resolution": setting.resolution, "settings": setting.accuracy.to_dict(),
-            "is_default": setting.key() == Setting().key(),
-            "reference": {"analytic": "analytic truth", "exact": "exact setting"}[mode],
-            "available": True, "time_ms": runner.timings[setting.key()], "errors": pool(parts)}
+    parts = [
+        compare(f, ref, runner.case.sensor)
+        for f, ref in zip(runner.frames[(setting.key(), mode)], refs[mode])
+    ]
+    return {
+        "knob": knob.name if knob else "budget",
+        "title": knob.title if knob else "budget pick",
+        "level": knob.label(value) if knob else setting.accuracy.label(),
+        "value": value,
+        "resolution": setting.resolution,
+        "settings": setting.accuracy.to_dict(),
+        "is_default": setting.key() == Setting().key(),
+        "reference": {"analytic": "analytic truth", "exact": "exact setting"}[mode],
+        "available": True,
+        "time_ms": runner.timings[setting.key()],
+        "errors": pool(parts),
+    }
 
 
 def noise_rows(runner: Runner) -> list[dict]:
@@ -73,19 +96,32 @@ def placement_rows(case: Case, repeats: int, seed: int) -> list[dict]:
     """Coverage against seconds for the genetic placement's effort (strategy scenes only), for
     at least ``PLACEMENT_CAMERAS`` cameras (discs of 6 m, the placement's default)."""
     problem = CoverageProblem(case.layout, 6.0)
-    n = max(len(case.poses), PLACEMENT_CAMERAS)   # a few cameras leave a search nothing to find
+    n = max(len(case.poses), PLACEMENT_CAMERAS)  # a few cameras leave a search nothing to find
     rows = []
     for gens, popn in PLACEMENT_LEVELS:
         ts, cov = [], 0.0
         for _ in range(min(repeats, 3) + 1):
             t = time.perf_counter()
-            res = (greedy_placement(problem, n) if gens == 0 else
-                   genetic_placement(problem, n, rng=np.random.default_rng(seed), population=popn, generations=gens))
+            res = (
+                greedy_placement(problem, n)
+                if gens == 0
+                else genetic_placement(
+                    problem, n, rng=np.random.default_rng(seed), population=popn, generations=gens
+                )
+            )
             ts.append(time.perf_counter() - t)
             cov = res.coverage
-        rows.append({"generations": gens, "population": popn, "label": "greedy" if gens == 0 else f"{gens}x{popn}",
-                     "is_default": (gens, popn) == PLACEMENT_DEFAULT, "coverage_pct": 100.0 * cov,
-                     "cameras": n, "seconds": spread(ts[1:])})
+        rows.append(
+            {
+                "generations": gens,
+                "population": popn,
+                "label": "greedy" if gens == 0 else f"{gens}x{popn}",
+                "is_default": (gens, popn) == PLACEMENT_DEFAULT,
+                "coverage_pct": 100.0 * cov,
+                "cameras": n,
+                "seconds": spread(ts[1:]),
+            }
+        )
     return rows
 
 
@@ -101,8 +137,10 @@ def run(args: argparse.Namespace) -> int:
         names = [s.strip() for s in args.knobs.split(",") if s.strip()]
         unknown = [n for n in names if n not in {k.name for k in KNOBS}]
         if unknown:
-            raise ConfigError(f"--knobs: unknown {', '.join(unknown)}; expected some of "
-                              f"{', '.join(k.name for k in KNOBS)}")
+            raise ConfigError(
+                f"--knobs: unknown {', '.join(unknown)}; expected some of "
+                f"{', '.join(k.name for k in KNOBS)}"
+            )
         chosen = tuple(k for k in KNOBS if k.name in names)
     runner = Runner(case, args.repeats, args.seed)
     try:
@@ -123,20 +161,36 @@ def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner:
             continue
         mode = "analytic" if case.kind == "builtin" and knob.geometric else "exact"
         for value, label in levels(knob, case):
-            rows.append(row_for(runner, knob, value, knob.setting(value), mode, refs) | {"level": label})
+            rows.append(
+                row_for(runner, knob, value, knob.setting(value), mode, refs) | {"level": label}
+            )
     result: dict[str, Any] = {
-        "case": {"kind": case.kind, "source": case.source, "sensor": case.sensor.name,
-                 "effects": [e.name for e in case.sensor.effects], "cameras": len(case.poses),
-                 "repeats": args.repeats, "seed": args.seed,
-                 "size": [case.sensor.width, case.sensor.height],
-                 "reference": ("analytic truth for geometric knobs, the exact setting for effect knobs"
-                               if case.kind == "builtin" else "the exact setting: " + exact_setting(case).accuracy.label())},
-        "rows": rows, "noise": noise_rows(runner),
-        "placement": placement_rows(case, args.repeats, args.seed) if case.layout is not None else [],
+        "case": {
+            "kind": case.kind,
+            "source": case.source,
+            "sensor": case.sensor.name,
+            "effects": [e.name for e in case.sensor.effects],
+            "cameras": len(case.poses),
+            "repeats": args.repeats,
+            "seed": args.seed,
+            "size": [case.sensor.width, case.sensor.height],
+            "reference": (
+                "analytic truth for geometric knobs, the exact setting for effect knobs"
+                if case.kind == "builtin"
+                else "the exact setting: " + exact_setting(case).accuracy.label()
+            ),
+        },
+        "rows": rows,
+        "noise": noise_rows(runner),
+        "placement": placement_rows(case, args.repeats, args.seed)
+        if case.layout is not None
+        else [],
     }
     result["pareto"] = pareto(rows)
     if args.budget_mm is not None or args.budget_px is not None:
-        result["budget"] = pick(runner, rows, refs, args.budget_mm, args.budget_px, row_for, dataset_cannot())
+        result["budget"] = pick(
+            runner, rows, refs, args.budget_mm, args.budget_px, row_for, dataset_cannot()
+        )
     result["wall_s"] = time.perf_counter() - t0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -150,7 +204,9 @@ def _run(args: argparse.Namespace, case: Case, chosen: tuple[Knob, ...], runner:
     tmp.replace(out / "accuracy.md")
     if "budget" in result:
         b = result["budget"]
-        write_accuracy(out / "accuracy.yaml", AccuracySettings(**b["settings"]), comment=b["comment"])
+        write_accuracy(
+            out / "accuracy.yaml", AccuracySettings(**b["settings"]), comment=b["comment"]
+        )
         print(f"budget: {b['comment'].splitlines()[0]} -> {out / 'accuracy.yaml'}")
     print(f"wrote {out / 'accuracy.json'} and {out / 'accuracy.png'} ({result['wall_s']:.0f} s)")
     return 0
@@ -170,31 +226,53 @@ def _json(o: Any) -> Any:
 
 def markdown(result: dict) -> str:
     """The rows as a Markdown table (what ``accuracy.md`` holds, for a README or a report)."""
-    out = ["| knob | level | ms/frame (IQR) | render ms | effects ms | dz p99 mm | p2s mm | id % | sil % | "
-           "edge px | gap mm | reference |", "|" + " --- |" * 12]
+    out = [
+        "| knob | level | ms/frame (IQR) | render ms | effects ms | dz p99 mm | p2s mm | id % | "
+        "sil % | "
+        "edge px | gap mm | reference |",
+        "|" + " --- |" * 12,
+    ]
     for r in result["rows"]:
         if not r["available"]:
             out.append(f"| {r['title']} | — | unavailable: {r['reason']} |" + " |" * 9)
             continue
         t, e = r["time_ms"], r["errors"]
         eff = sum(v["median"] for k, v in t.items() if k.startswith("effect:") or k == "distortion")
-        out.append(f"| {r['title']} | {r['level']}{' (default)' if r['is_default'] else ''} | "
-                   f"{t['total']['median']:.0f} ({t['total']['iqr']:.0f}) | {t['render']['median']:.0f} | {eff:.0f} | "
-                   f"{e['depth_p99_mm']:.2f} | {e['p2s_mean_mm']:.2f} | {e['id_pct']:.2f} | {e['silhouette_pct']:.1f} | "
-                   f"{e['edge_px']:.3f} | {e['sampling_mm']:.2f} | {r['reference']} |")
+        out.append(
+            f"| {r['title']} | {r['level']}{' (default)' if r['is_default'] else ''} | "
+            f"{t['total']['median']:.0f} ({t['total']['iqr']:.0f}) | {t['render']['median']:.0f} | "
+            f"{eff:.0f} | "
+            f"{e['depth_p99_mm']:.2f} | {e['p2s_mean_mm']:.2f} | {e['id_pct']:.2f} | "
+            f"{e['silhouette_pct']:.1f} | "
+            f"{e['edge_px']:.3f} | {e['sampling_mm']:.2f} | {r['reference']} |"
+        )
     return "\n".join(out) + "\n"
 
 
 def print_table(result: dict) -> None:
     c = result["case"]
-    print(f"accuracy on {c['source']}, sensor {c['sensor']} {c['size'][0]}x{c['size'][1]} "
-          f"({', '.join(c['effects']) or 'no effects'}), {c['cameras']} cameras, {c['repeats']} repeats")
+    print(
+        f"accuracy on {c['source']}, sensor {c['sensor']} {c['size'][0]}x{c['size'][1]} "
+        f"({', '.join(c['effects']) or 'no effects'}), {c['cameras']} cameras, {c['repeats']} "
+        "repeats"
+    )
     print(f"reference: {c['reference']}; errors with noise off (noise checked below)")
-    parts = sorted({k for r in result["rows"] if r["available"] for k in r["time_ms"]
-                    if k.startswith("effect:") or k == "distortion"})
+    parts = sorted(
+        {
+            k
+            for r in result["rows"]
+            if r["available"]
+            for k in r["time_ms"]
+            if k.startswith("effect:") or k == "distortion"
+        }
+    )
     names = [k.split(":", 1)[-1][:9] for k in parts]
-    head = (f"{'knob':<30}{'level':>8}{'ms/frame':>9}{'IQR':>6}{'render':>7}" + "".join(f"{n:>10}" for n in names)
-            + f"{'unproj':>7}{'dz med':>7}{'dz p99':>7}{'p2s':>6}{'id %':>6}{'sil %':>6}{'edge px':>8}{'gap mm':>7}  ref")
+    head = (
+        f"{'knob':<30}{'level':>8}{'ms/frame':>9}{'IQR':>6}{'render':>7}"
+        + "".join(f"{n:>10}" for n in names)
+        + f"{'unproj':>7}{'dz med':>7}{'dz p99':>7}{'p2s':>6}{'id %':>6}{'sil %':>6}{'edge px':>8}"
+        f"{'gap mm':>7}  ref"
+    )
     print(head)
     print("-" * len(head))
     for r in result["rows"]:
@@ -204,19 +282,36 @@ def print_table(result: dict) -> None:
         t, e = r["time_ms"], r["errors"]
         mark = " *" if r["is_default"] else ""
         cells = "".join(f"{t[k]['median'] if k in t else 0.0:>10.1f}" for k in parts)
-        print(f"{r['title']:<30}{r['level'] + mark:>8}{t['total']['median']:>9.1f}{t['total']['iqr']:>6.1f}"
-              f"{t['render']['median']:>7.1f}{cells}{t['unprojection']['median']:>7.1f}"
-              f"{e['depth_median_mm']:>7.3f}{e['depth_p99_mm']:>7.2f}{e['p2s_mean_mm']:>6.2f}{e['id_pct']:>6.2f}"
-              f"{e['silhouette_pct']:>6.1f}{e['edge_px']:>8.3f}{e['sampling_mm']:>7.2f}  {r['reference']}")
-    print("(* default; ms: median per frame over repeats, IQR its spread, then the median ms of the render and "
-          "of each effect; dz: |depth error| mm where ids agree; "
-          "p2s: mean point-to-surface mm; id %: pixels whose instance differs; sil %: on silhouettes; "
-          "edge px: mean silhouette displacement; gap mm: median distance from the reference surface to the cloud)")
+        print(
+            f"{r['title']:<30}{r['level'] + mark:>8}{t['total']['median']:>9.1f}"
+            f"{t['total']['iqr']:>6.1f}"
+            f"{t['render']['median']:>7.1f}{cells}{t['unprojection']['median']:>7.1f}"
+            f"{e['depth_median_mm']:>7.3f}{e['depth_p99_mm']:>7.2f}{e['p2s_mean_mm']:>6.2f}"
+            f"{e['id_pct']:>6.2f}"
+            f"{e['silhouette_pct']:>6.1f}{e['edge_px']:>8.3f}{e['sampling_mm']:>7.2f}  "
+            f"{r['reference']}"
+        )
+    print(
+        "(* default; ms: median per frame over repeats, IQR its spread, then the median ms of the "
+        "render and "
+        "of each effect; dz: |depth error| mm where ids agree; "
+        "p2s: mean point-to-surface mm; id %: pixels whose instance differs; sil %: on "
+        "silhouettes; "
+        "edge px: mean silhouette displacement; gap mm: median distance from the reference surface "
+        "to the cloud)"
+    )
     for n in result["noise"]:
-        cells = ", ".join(f"z {b['z_m']:.2f} m: {b['measured_mm']:.2f} vs {b['model_mm']:.2f} mm" for b in n["bins"])
+        cells = ", ".join(
+            f"z {b['z_m']:.2f} m: {b['measured_mm']:.2f} vs {b['model_mm']:.2f} mm"
+            for b in n["bins"]
+        )
         print(f"noise {n['effect']} {n['model']}: measured σ vs model σ — {cells}")
     for p in result["placement"]:
-        print(f"placement {p['label']:>8} ({p['cameras']} cameras): coverage {p['coverage_pct']:.2f} % in "
-              f"{1e3 * p['seconds']['median']:.1f} ms (IQR {1e3 * p['seconds']['iqr']:.1f}){' *' if p['is_default'] else ''}")
+        print(
+            f"placement {p['label']:>8} ({p['cameras']} cameras): coverage {p['coverage_pct']:.2f} "
+            "% in "
+            f"{1e3 * p['seconds']['median']:.1f} ms (IQR {1e3 * p['seconds']['iqr']:.1f}"
+            f"){' *' if p['is_default'] else ''}"
+        )
     if "budget" in result:
         print(f"budget pick: {result['budget']['comment'].splitlines()[0]}")

@@ -6,6 +6,7 @@ labelled objects (:func:`content_poses`). A layout JSON, or a strategy JSON gene
 ``--seed``: the scene built with ``--seed`` and cameras placed over the layout. ``--poses``
 replaces the views with a file's.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -28,7 +29,9 @@ from . import analytic
 from .knobs import Case
 
 
-def content_poses(scene, n: int, *, distance_m: float = 4.0, height_m: float = 3.0) -> list[np.ndarray]:
+def content_poses(
+    scene, n: int, *, distance_m: float = 4.0, height_m: float = 3.0
+) -> list[np.ndarray]:
     """``n`` views of a scene with no layout, aimed at its objects: the centres of labelled
     instances (semantic > 0; all when none is) spread by farthest-point sampling from the one
     nearest the middle, each seen from ``distance_m`` further out and ``height_m`` above it."""
@@ -54,7 +57,11 @@ def content_poses(scene, n: int, *, distance_m: float = 4.0, height_m: float = 3
         out = t[:2] - mid[:2]
         angle = np.arctan2(out[1], out[0]) if np.linalg.norm(out) > 1e-6 else 0.0
         angle += 2 * np.pi * (k // len(chosen)) / max(1, -(-n // len(chosen)))
-        eye = [t[0] + distance_m * np.cos(angle), t[1] + distance_m * np.sin(angle), lo[2] + height_m + t[2] - lo[2]]
+        eye = [
+            t[0] + distance_m * np.cos(angle),
+            t[1] + distance_m * np.sin(angle),
+            lo[2] + height_m + t[2] - lo[2],
+        ]
         poses.append(look_at(eye, t))
     return poses
 
@@ -65,10 +72,14 @@ def check_path(args: argparse.Namespace) -> None:
     if not getattr(args, "path", None):
         return
     if args.scene is None or str(args.scene).lower().endswith((".usd", ".usda", ".usdc", ".usdz")):
-        raise ConfigError(f"--path {args.path}: frames along a trajectory need a strategy or layout --scene (its "
-                          "free floor); give one, or drop --path")
+        raise ConfigError(
+            f"--path {args.path}: frames along a trajectory need a strategy or layout --scene (its "
+            "free floor); give one, or drop --path"
+        )
     if args.poses:
-        raise ConfigError(f"--path {args.path}: the trajectory gives the poses; drop --poses {args.poses}")
+        raise ConfigError(
+            f"--path {args.path}: the trajectory gives the poses; drop --poses {args.poses}"
+        )
     path_kind(args.path)
 
 
@@ -82,45 +93,83 @@ def make_case(args: argparse.Namespace) -> Case:
     if args.scene is None:
         sensor = analytic.sensor() if args.sensor is None else load_sensor(args.sensor)
         poses = read_poses(args.poses) if args.poses else [np.eye(4)]
-        return Case("builtin", "built-in analytic scene (wall, floor, box, sphere)", sensor, poses,
-                    lambda t: analytic.scene(analytic.DEFAULT_SEGMENTS if t is None else t), tessellation_supported=True)
+        return Case(
+            "builtin",
+            "built-in analytic scene (wall, floor, box, sphere)",
+            sensor,
+            poses,
+            lambda t: analytic.scene(analytic.DEFAULT_SEGMENTS if t is None else t),
+            tessellation_supported=True,
+        )
     sensor = load_sensor(args.sensor or "ideal_pinhole")
     path = Path(args.scene)
     if not path.exists():
         path = Path(resolve(args.scene, "layouts", (".json",)))
     if path.suffix.lower() in (".usd", ".usda", ".usdc", ".usdz"):
-        supported = True   # read_usd tessellates implicit gprims with segments=
+        supported = True  # read_usd tessellates implicit gprims with segments=
 
         def usd_scene(t: int | None):
-            return usd.read_usd(path, segments=t) if (supported and t is not None) else usd.read_usd(path)
+            return (
+                usd.read_usd(path, segments=t)
+                if (supported and t is not None)
+                else usd.read_usd(path)
+            )
 
         scene0 = usd_scene(None)
         poses = read_poses(args.poses) if args.poses else content_poses(scene0, args.cameras)
-        return Case("usd", str(path), sensor, poses, _cached(usd_scene, scene0), tessellation_supported=supported)
+        return Case(
+            "usd",
+            str(path),
+            sensor,
+            poses,
+            _cached(usd_scene, scene0),
+            tessellation_supported=supported,
+        )
     if path.suffix.lower() != ".json":
-        raise ConfigError(f"--scene {path}: expected a USD stage (.usd/.usda/.usdc) or a layout / strategy JSON")
+        raise ConfigError(
+            f"--scene {path}: expected a USD stage (.usd/.usda/.usdc) or a layout / strategy JSON"
+        )
     data = json.loads(path.read_text())
-    layout = Layout.from_json(path) if isinstance(data, dict) and "nodes" in data else generate_layout(path, seed=args.seed)
-    supported = True   # build_scene tessellates curved assets with segments=
+    layout = (
+        Layout.from_json(path)
+        if isinstance(data, dict) and "nodes" in data
+        else generate_layout(path, seed=args.seed)
+    )
+    supported = True  # build_scene tessellates curved assets with segments=
 
     def built(t: int | None):
         if supported and t is not None:
             return build_scene(layout, seed=args.seed, segments=t)
         return build_scene(layout, seed=args.seed)
 
-    if getattr(args, "path", None):   # the sensor carried along a trajectory: n frames evenly in time
+    if getattr(
+        args, "path", None
+    ):  # the sensor carried along a trajectory: n frames evenly in time
         poses = path_poses(layout, built(None), sensor, args.path, args.cameras, seed=args.seed)
     else:
-        poses = read_poses(args.poses) if args.poses else place_sensors(layout, sensor, n=args.cameras, seed=args.seed)
-    return Case("strategy", str(path), sensor, poses, _cached(built, built(None)), layout=layout,
-                tessellation_supported=supported)
+        poses = (
+            read_poses(args.poses)
+            if args.poses
+            else place_sensors(layout, sensor, n=args.cameras, seed=args.seed)
+        )
+    return Case(
+        "strategy",
+        str(path),
+        sensor,
+        poses,
+        _cached(built, built(None)),
+        layout=layout,
+        tessellation_supported=supported,
+    )
 
 
 def path_poses(layout, scene, sensor, path: str, n: int, *, seed: int) -> list[np.ndarray]:
     """``n`` poses of ``sensor`` carried (level, tilted 10° down) along a trajectory of kind
     ``path`` (aisles, random or a waypoints file) on the scene's free floor, evenly in time."""
     kind = path_kind(path)
-    tr = make_trajectory(layout, scene, kind, seed=seed, waypoints=path if kind == "waypoints" else None)
+    tr = make_trajectory(
+        layout, scene, kind, seed=seed, waypoints=path if kind == "waypoints" else None
+    )
     body = tr.at(np.linspace(tr.start_s, tr.end_s, max(1, n)))
     return list(body @ body_from_sensor(pitch_rad=float(np.radians(10.0))))
 
@@ -132,4 +181,5 @@ def _cached(fn, first):
         if t not in memo:
             memo[t] = fn(t)
         return memo[t]
+
     return get

@@ -24,6 +24,7 @@ a plane, so a plane's depth is recovered exactly), else taken at the nearest pix
   a pixel at silhouettes whether it is finer or coarser).
 * ``valid_ratio``: valid pixels over the reference's.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -42,10 +43,14 @@ def project(sensor: Sensor, xy: np.ndarray) -> np.ndarray:
     """(N, 2) pixel coordinates of normalised rays ``xy`` (N, 2) through ``sensor``'s lens
     (the camera model's own forward map where it has one: every lens model)."""
     if callable(getattr(sensor, "project", None)):
-        return np.asarray(sensor.project(np.concatenate([xy, np.ones((len(xy), 1))], 1)), np.float64)[:, :2]
+        return np.asarray(
+            sensor.project(np.concatenate([xy, np.ones((len(xy), 1))], 1)), np.float64
+        )[:, :2]
     if sensor.is_pinhole:
         K = sensor.K
-        return np.stack([K[0, 0] * xy[:, 0] + K[0, 1] * xy[:, 1] + K[0, 2], K[1, 1] * xy[:, 1] + K[1, 2]], 1)
+        return np.stack(
+            [K[0, 0] * xy[:, 0] + K[0, 1] * xy[:, 1] + K[0, 2], K[1, 1] * xy[:, 1] + K[1, 2]], 1
+        )
     return lens_project(xy, sensor.K, sensor.dist)
 
 
@@ -61,13 +66,16 @@ def silhouettes(instance: np.ndarray) -> tuple[np.ndarray, int]:
     band = np.zeros((H, W), bool)
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
-            band |= p[1 + dy:1 + dy + H, 1 + dx:1 + dx + W] != instance
-    length = int((instance[:, 1:] != instance[:, :-1]).sum() + (instance[1:] != instance[:-1]).sum())
+            band |= p[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W] != instance
+    length = int(
+        (instance[:, 1:] != instance[:, :-1]).sum() + (instance[1:] != instance[:-1]).sum()
+    )
     return band, length
 
 
-def _interp_depth(ref: dict, u: np.ndarray, v: np.ndarray, iu: np.ndarray, iv: np.ndarray,
-                  with_mask: bool = False):
+def _interp_depth(
+    ref: dict, u: np.ndarray, v: np.ndarray, iu: np.ndarray, iv: np.ndarray, with_mask: bool = False
+):
     """Reference depth at (u, v): bilinear in 1/z over one surface, else the nearest pixel's
     (and, ``with_mask``, where it was one surface)."""
     D, I = ref["depth"], ref["instance"]
@@ -80,7 +88,7 @@ def _interp_depth(ref: dict, u: np.ndarray, v: np.ndarray, iu: np.ndarray, iv: n
     zs = [D[q].astype(np.float64) for q in quad]
     one = np.ones_like(fu, bool)
     z_lo, z_hi = np.minimum.reduce(zs), np.maximum.reduce(zs)
-    one &= z_hi <= z_lo * (1 + STEP)        # one surface: no depth step between the four
+    one &= z_hi <= z_lo * (1 + STEP)  # one surface: no depth step between the four
     for i, z in zip(ids, zs):
         one &= (i == I[iv, iu]) & (z > 0)
     w = [(1 - fu) * (1 - fv), fu * (1 - fv), (1 - fu) * fv, fu * fv]
@@ -106,8 +114,12 @@ def surface_probes(ref: dict, ref_sensor: Sensor, n: int = 0) -> np.ndarray:
     v0 = np.minimum(np.floor(v).astype(np.intp), H - 2)
     R = pixel_rays(ref_sensor)
     fu, fv = (u - u0)[:, None], (v - v0)[:, None]
-    xy = ((1 - fu) * (1 - fv) * R[v0, u0] + fu * (1 - fv) * R[v0, u0 + 1] + (1 - fu) * fv * R[v0 + 1, u0]
-          + fu * fv * R[v0 + 1, u0 + 1])
+    xy = (
+        (1 - fu) * (1 - fv) * R[v0, u0]
+        + fu * (1 - fv) * R[v0, u0 + 1]
+        + (1 - fu) * fv * R[v0 + 1, u0]
+        + fu * fv * R[v0 + 1, u0 + 1]
+    )
     pts = np.concatenate([xy, np.ones((n, 1))], 1) * zi[:, None]
     return pts[ok & np.isfinite(pts).all(1)]
 
@@ -146,8 +158,14 @@ def compare(frame: Frame, ref: dict, ref_sensor: Sensor) -> dict:
         rr = pixel_rays(ref_sensor).reshape(-1, 2)
         uv = project(frame.sensor, rr)
         fu, fvv = np.rint(uv[:, 0]), np.rint(uv[:, 1])
-        ins = np.isfinite(fu) & np.isfinite(fvv) & (fu >= 0) & (fu < frame.sensor.width) & (fvv >= 0) \
+        ins = (
+            np.isfinite(fu)
+            & np.isfinite(fvv)
+            & (fu >= 0)
+            & (fu < frame.sensor.width)
+            & (fvv >= 0)
             & (fvv < frame.sensor.height)
+        )
         fu = np.where(ins, fu, 0).astype(np.intp)
         fvv = np.where(ins, fvv, 0).astype(np.intp)
         fi = np.where(ins, frame.instance[fvv, fu], 0).reshape(H, W)
@@ -178,14 +196,21 @@ def compare(frame: Frame, ref: dict, ref_sensor: Sensor) -> dict:
         return float(np.percentile(a, q)) if a.size else 0.0
 
     return {
-        "depth_median_mm": pct(adz, 50), "depth_p99_mm": pct(adz, 99),
-        "p2s_mean_mm": float(p2s.mean()) if p2s.size else 0.0, "p2s_p99_mm": pct(p2s, 99),
-        "id_pct": 100.0 * miss_i.sum() / n_union, "semantic_pct": 100.0 * miss_s.sum() / n_union,
+        "depth_median_mm": pct(adz, 50),
+        "depth_p99_mm": pct(adz, 99),
+        "p2s_mean_mm": float(p2s.mean()) if p2s.size else 0.0,
+        "p2s_p99_mm": pct(p2s, 99),
+        "id_pct": 100.0 * miss_i.sum() / n_union,
+        "semantic_pct": 100.0 * miss_s.sum() / n_union,
         "silhouette_pct": 100.0 * (miss_i & band).sum() / n_band,
         "edge_px": float(miss_i.sum() / max(length, 1)),
         "sampling_mm": pct(gap, 50),
-        "valid_ratio": float(valid.sum() / max(int(rvalid.sum()), 1) * (ref_sensor.width * ref_sensor.height)
-                             / (frame.sensor.width * frame.sensor.height)),
+        "valid_ratio": float(
+            valid.sum()
+            / max(int(rvalid.sum()), 1)
+            * (ref_sensor.width * ref_sensor.height)
+            / (frame.sensor.width * frame.sensor.height)
+        ),
         "points": int(valid.sum()),
     }
 
@@ -197,7 +222,9 @@ def pool(parts: list[dict]) -> dict:
     return out
 
 
-def noise_check(effect, frames: list[Frame], *, rng: np.random.Generator, bins: int = 4) -> list[dict]:
+def noise_check(
+    effect, frames: list[Frame], *, rng: np.random.Generator, bins: int = 4
+) -> list[dict]:
     """The measured σ of ``effect`` (a depth-noise model with ``sigma``) against the model's, in
     ``bins`` depth bins of equal pixel count over ``frames`` (ideal frames with normals).
 
@@ -222,6 +249,12 @@ def noise_check(effect, frames: list[Frame], *, rng: np.random.Generator, bins: 
         sel = (z >= edges[k]) & ((z < edges[k + 1]) if k < bins - 1 else (z <= edges[k + 1]))
         if sel.sum() < 50:
             continue
-        out.append({"z_m": float(np.median(z[sel])), "measured_mm": 1e3 * float(np.std(r[sel])),
-                    "model_mm": 1e3 * float(np.sqrt(np.mean(m[sel] ** 2))), "pixels": int(sel.sum())})
+        out.append(
+            {
+                "z_m": float(np.median(z[sel])),
+                "measured_mm": 1e3 * float(np.std(r[sel])),
+                "model_mm": 1e3 * float(np.sqrt(np.mean(m[sel] ** 2))),
+                "pixels": int(sel.sum()),
+            }
+        )
     return out

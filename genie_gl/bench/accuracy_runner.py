@@ -1,4 +1,5 @@
 """Running settings on a case: side-by-side timing, error frames, the cached exact reference."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -75,9 +76,13 @@ class Runner:
             if self._gl is None and raster == "gl":
                 self._gl = create_context(None)
             scene = self.case.scene_for(acc.tessellation)
-            self._renderers[key] = Renderer(scene, context=self._gl if raster == "gl" else None,
-                                            depth_precision=acc.depth_precision, lod=level_of_detail(acc),
-                                            raster=raster)
+            self._renderers[key] = Renderer(
+                scene,
+                context=self._gl if raster == "gl" else None,
+                depth_precision=acc.depth_precision,
+                lod=level_of_detail(acc),
+                raster=raster,
+            )
             self._materials[key] = _materials(scene)
         return self._renderers[key]
 
@@ -106,9 +111,14 @@ class Runner:
     def side_by_side(self, todo: list[Setting]) -> list[dict]:
         """Per setting, the median and IQR of each part's ms per frame, timed in turns."""
         jobs = [(s, self._render_fn(s), self._sensor(s, None)) for s in todo]
-        bar = tqdm(total=len(jobs) * (self.repeats + 1), desc="timing settings in turns", unit="pass",
-                   disable=None, leave=False)
-        for s, render, sensor in jobs:              # warm-up: shaders, buffers, caches
+        bar = tqdm(
+            total=len(jobs) * (self.repeats + 1),
+            desc="timing settings in turns",
+            unit="pass",
+            disable=None,
+            leave=False,
+        )
+        for s, render, sensor in jobs:  # warm-up: shaders, buffers, caches
             self._pass(render, sensor, s.accuracy)
             bar.update()
         per: dict = {s.key(): [] for s in todo}
@@ -142,6 +152,7 @@ class Runner:
 
             def render(s, p, **kw):  # noqa: E306 - the reference's normals, for point-to-surface
                 return base(s, p, **{**kw, "normals": True})
+
             if hasattr(base, "lens"):
                 render.lens = lambda s, p, **kw: base.lens(s, p, **{**kw, "normals": True})
         clock: dict[str, float] = defaultdict(float)
@@ -153,7 +164,13 @@ class Runner:
         for i, pose in enumerate(self.case.poses):
             clock.clear()
             t0 = time.perf_counter()
-            f = simulate(timed, np.asarray(pose, np.float64), render=render, rng=pose_rng(self.seed, i), **options)
+            f = simulate(
+                timed,
+                np.asarray(pose, np.float64),
+                render=render,
+                rng=pose_rng(self.seed, i),
+                **options,
+            )
             t1 = time.perf_counter()
             unproject(f)
             t2 = time.perf_counter()
@@ -171,7 +188,8 @@ class Runner:
         return frames, dict(costs)
 
     def run(self, setting: Setting, modes: tuple[str, ...], timed: bool = True) -> None:
-        """Time ``setting`` (unless done, or not ``timed``) and make its error frames for each mode."""
+        """Time ``setting`` (unless done, or not ``timed``) and make its error frames for each
+        mode."""
         if timed:
             self.time_many([setting])
         key = setting.key()
@@ -182,7 +200,9 @@ class Runner:
             sensor = self._sensor(setting, "exact" if m == "reference" else m)
             frames, _ = self._pass(render, sensor, setting.accuracy)
             if m == "reference":
-                ideal, _ = self._pass(render, without(sensor, lambda e: True), setting.accuracy, normals=True)
+                ideal, _ = self._pass(
+                    render, without(sensor, lambda e: True), setting.accuracy, normals=True
+                )
                 frames = list(zip(frames, ideal))
             self.frames[(key, m)] = frames
 
@@ -197,7 +217,9 @@ class _WithMaterials:
 
     def __init__(self, fn, materials) -> None:
         self.fn, self.materials = fn, materials
-        if hasattr(fn, "lens"):   # a supersampled render: the exact lens mode supersamples through the lens
+        if hasattr(
+            fn, "lens"
+        ):  # a supersampled render: the exact lens mode supersamples through the lens
             self.lens = fn.lens
 
     def __call__(self, *a, **kw):
@@ -238,8 +260,23 @@ def cache_key(case: Case, setting: Setting, seed: int) -> str:
     else:
         h.update(Path(case.source).read_bytes())
     s = case.sensor
-    h.update(repr((s.width, s.height, s.K.tobytes(), s.dist.tobytes(), s.near_m, s.far_m, s.effects,
-                   _sensor_fields(s), seed, setting.key(), __version__)).encode())
+    h.update(
+        repr(
+            (
+                s.width,
+                s.height,
+                s.K.tobytes(),
+                s.dist.tobytes(),
+                s.near_m,
+                s.far_m,
+                s.effects,
+                _sensor_fields(s),
+                seed,
+                setting.key(),
+                __version__,
+            )
+        ).encode()
+    )
     for pose in case.poses:
         h.update(np.asarray(pose, np.float64).tobytes())
     return h.hexdigest()[:20]
@@ -247,9 +284,13 @@ def cache_key(case: Case, setting: Setting, seed: int) -> str:
 
 def _sensor_fields(s) -> list[tuple[str, str]]:
     """The sensor's fields beside the camera and its effects, those set, as text."""
-    fields = {"stereo": None if s.stereo is None else (s.stereo.baseline_m, s.stereo.R, s.stereo.T),
-              "accuracy": s.accuracy, "calibration": s.calibration, "profile": s.profile,
-              "reprojection_error_px": s.reprojection_error_px}
+    fields = {
+        "stereo": None if s.stereo is None else (s.stereo.baseline_m, s.stereo.R, s.stereo.T),
+        "accuracy": s.accuracy,
+        "calibration": s.calibration,
+        "profile": s.profile,
+        "reprojection_error_px": s.reprojection_error_px,
+    }
     return sorted((k, str(v)) for k, v in fields.items() if v is not None)
 
 
@@ -266,8 +307,15 @@ def references(runner: Runner, cache: Path | None = None) -> dict[str, list[dict
             pairs = []
             for i, pose in enumerate(case.poses):
                 f = Frame(z[f"depth{i}"], z[f"instance{i}"], z[f"semantic{i}"], None, sensor, pose)
-                ideal = Frame(z[f"idepth{i}"], z[f"iinstance{i}"], z[f"isemantic{i}"], None, sensor, pose,
-                              z[f"inormal{i}"])
+                ideal = Frame(
+                    z[f"idepth{i}"],
+                    z[f"iinstance{i}"],
+                    z[f"isemantic{i}"],
+                    None,
+                    sensor,
+                    pose,
+                    z[f"inormal{i}"],
+                )
                 pairs.append((f, ideal))
         runner.frames[(exact.key(), "reference")] = pairs
         log.info("reference read from %s", path)
@@ -276,22 +324,37 @@ def references(runner: Runner, cache: Path | None = None) -> dict[str, list[dict
         if path is not None:
             arrays = {}
             for i, (f, ideal) in enumerate(runner.frames[(exact.key(), "reference")]):
-                arrays |= {f"depth{i}": f.depth, f"instance{i}": f.instance, f"semantic{i}": f.semantic,
-                           f"idepth{i}": ideal.depth, f"iinstance{i}": ideal.instance,
-                           f"isemantic{i}": ideal.semantic,
-                           f"inormal{i}": surface_normals(ideal).astype(np.float32)}
+                arrays |= {
+                    f"depth{i}": f.depth,
+                    f"instance{i}": f.instance,
+                    f"semantic{i}": f.semantic,
+                    f"idepth{i}": ideal.depth,
+                    f"iinstance{i}": ideal.instance,
+                    f"isemantic{i}": ideal.semantic,
+                    f"inormal{i}": surface_normals(ideal).astype(np.float32),
+                }
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = path.with_name(f".{path.stem}.tmp.npz")
             np.savez_compressed(tmp, **arrays)
             tmp.replace(path)
-    refs = {"exact": [{"depth": f.depth, "instance": f.instance, "semantic": f.semantic,
-                       "normal": surface_normals(ideal).astype(np.float32)}   # as cached
-                      for f, ideal in runner.frames[(exact.key(), "reference")]]}
+    refs = {
+        "exact": [
+            {
+                "depth": f.depth,
+                "instance": f.instance,
+                "semantic": f.semantic,
+                "normal": surface_normals(ideal).astype(np.float32),
+            }  # as cached
+            for f, ideal in runner.frames[(exact.key(), "reference")]
+        ]
+    }
     if case.kind == "builtin":
         rays = pixel_rays(case.sensor)
         refs["analytic"] = []
         for pose in case.poses:
             if not np.allclose(pose, np.eye(4)):
-                raise ConfigError("the built-in case's analytic truth is for the identity pose: give no --poses")
+                raise ConfigError(
+                    "the built-in case's analytic truth is for the identity pose: give no --poses"
+                )
             refs["analytic"].append(analytic.truth(case.sensor, rays))
     return refs

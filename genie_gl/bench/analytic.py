@@ -10,6 +10,7 @@ has a known rational lens (Azure-Kinect-like) so the lens knobs have something t
 :func:`truth` gives, for every pixel's ray, the depth, instance, semantic id and unit normal
 of the nearest primitive: the reference of the rows whose knobs change geometry.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,7 +28,7 @@ BOX_LO, BOX_HI = np.array([-0.7, -0.3, 1.4]), np.array([-0.2, 0.3, 1.8])
 SPHERE_C, SPHERE_R = np.array([0.45, 0.0, 2.0]), 0.3
 # instance -> semantic: wall and floor are background (0), the box 1, the sphere 2
 IDS = {"wall": (1, 0), "floor": (2, 0), "box": (3, 1), "sphere": (4, 2)}
-EXTENT = 6.0    # half size of the wall and floor quads
+EXTENT = 6.0  # half size of the wall and floor quads
 DEFAULT_SEGMENTS = 32
 RATIONAL = [0.5, 0.2, 0.0, 0.0, 0.01, 0.6, 0.3, 0.05]
 
@@ -41,9 +42,16 @@ def sensor():
     """The built-in camera: 640 x 480, f = 525 px, rational lens, stereo shadow (75 mm),
     multipath (1 cm) and Nguyen et al.'s depth noise."""
     base = Sensor.pinhole(640, 480, 525.0)
-    return Sensor(width=640, height=480, K=base.K, dist=np.array(RATIONAL), near_m=0.1, far_m=20.0,
-                  name="builtin-rational",
-                  effects=(StereoShadow(baseline_m=0.075), Multipath(bias_m=0.01), DepthNoise()))
+    return Sensor(
+        width=640,
+        height=480,
+        K=base.K,
+        dist=np.array(RATIONAL),
+        near_m=0.1,
+        far_m=20.0,
+        name="builtin-rational",
+        effects=(StereoShadow(baseline_m=0.075), Multipath(bias_m=0.01), DepthNoise()),
+    )
 
 
 def scene(segments: int = DEFAULT_SEGMENTS):
@@ -56,7 +64,12 @@ def scene(segments: int = DEFAULT_SEGMENTS):
     quad = np.array([[0, 1, 2], [0, 2, 3]])
     corners = [p0 + EXTENT * (sa * a + sb * b) for sa, sb in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
     s.add(Mesh(np.array(corners), quad), instance=IDS["wall"][0], semantic=IDS["wall"][1])
-    floor = [[-EXTENT, FLOOR_Y, 0.1], [EXTENT, FLOOR_Y, 0.1], [EXTENT, FLOOR_Y, 8.0], [-EXTENT, FLOOR_Y, 8.0]]
+    floor = [
+        [-EXTENT, FLOOR_Y, 0.1],
+        [EXTENT, FLOOR_Y, 0.1],
+        [EXTENT, FLOOR_Y, 8.0],
+        [-EXTENT, FLOOR_Y, 8.0],
+    ]
     s.add(Mesh(np.array(floor), quad), instance=IDS["floor"][0], semantic=IDS["floor"][1])
     box = trimesh.creation.box(BOX_HI - BOX_LO)
     s.add(box, (BOX_LO + BOX_HI) / 2, instance=IDS["box"][0], semantic=IDS["box"][1])
@@ -94,7 +107,7 @@ def truth(sensor_, rays: np.ndarray) -> dict[str, np.ndarray]:
         t = FLOOR_Y / d[:, 1]
         inside = (np.abs(d[:, 0] * t) <= EXTENT) & (t >= 0.1) & (t <= 8.0)
         take(np.where(inside & (d[:, 1] > 0), t, np.inf), 2, np.array([0.0, -1.0, 0.0]))
-        t0, t1 = (BOX_LO / d), (BOX_HI / d)        # slabs (the camera sits outside the box)
+        t0, t1 = (BOX_LO / d), (BOX_HI / d)  # slabs (the camera sits outside the box)
         tmin = np.nanmax(np.minimum(t0, t1), 1)
         tmax = np.nanmin(np.maximum(t0, t1), 1)
         hit = tmax >= tmin
@@ -104,7 +117,7 @@ def truth(sensor_, rays: np.ndarray) -> dict[str, np.ndarray]:
         take(np.where(hit, tmin, np.inf), 3, nb)
         bq = d @ SPHERE_C
         dd = (d * d).sum(1)
-        disc = bq * bq - dd * (SPHERE_C @ SPHERE_C - SPHERE_R ** 2)
+        disc = bq * bq - dd * (SPHERE_C @ SPHERE_C - SPHERE_R**2)
         t = (bq - np.sqrt(np.maximum(disc, 0))) / dd
         ns = (d * t[:, None] - SPHERE_C) / SPHERE_R
         take(np.where(disc >= 0, t, np.inf), 4, ns)
@@ -112,5 +125,9 @@ def truth(sensor_, rays: np.ndarray) -> dict[str, np.ndarray]:
     inst = np.array([0] + [IDS[k][0] for k in names[1:]], np.uint32)[idx]
     sem = np.array([0] + [IDS[k][1] for k in names[1:]], np.uint16)[idx]
     depth = np.where(np.isfinite(z), z, 0.0)
-    return {"depth": depth.reshape(H, W), "instance": inst.reshape(H, W), "semantic": sem.reshape(H, W),
-            "normal": normal.reshape(H, W, 3)}
+    return {
+        "depth": depth.reshape(H, W),
+        "instance": inst.reshape(H, W),
+        "semantic": sem.reshape(H, W),
+        "normal": normal.reshape(H, W, 3),
+    }

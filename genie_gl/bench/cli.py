@@ -6,6 +6,7 @@ interpreter's own start (``python -c pass``). ``--against DIR`` times the packag
 checkout (``DIR/genie_gl``, put first on ``PYTHONPATH``) in turns with this one, so a change
 is measured side by side under the same load. Goal: every line within 0.3 s.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -31,8 +32,13 @@ def command_lines() -> list[list[str]]:
 
 def _time(args: list[str], env: dict[str, str]) -> float:
     t = time.perf_counter()
-    subprocess.run([sys.executable, *args], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                   check=False)
+    subprocess.run(
+        [sys.executable, *args],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        check=False,
+    )
     return time.perf_counter() - t
 
 
@@ -44,22 +50,27 @@ def measure(repeats: int, against: str | None = None) -> dict:
     times: dict[str, dict[str, list[float]]] = {k: {} for k in envs}
     start: dict[str, list[float]] = {k: [] for k in envs}
     for _ in range(repeats):
-        for key, env in envs.items():   # in turns: a busy spell falls on both alike
+        for key, env in envs.items():  # in turns: a busy spell falls on both alike
             start[key].append(_time(["-c", "pass"], env))
             for line in command_lines():
                 times[key].setdefault(" ".join(["genie", *line, "--help"]), []).append(
-                    _time(["-m", "genie_gl.cli", *line, "--help"], env))
+                    _time(["-m", "genie_gl.cli", *line, "--help"], env)
+                )
     out = {"repeats": repeats, "goal_s": GOAL_S, "against": against}
     for key in envs:
-        out[key] = {"python_start_s": statistics.median(start[key]),
-                    "median_s": {k: statistics.median(v) for k, v in times[key].items()}}
+        out[key] = {
+            "python_start_s": statistics.median(start[key]),
+            "median_s": {k: statistics.median(v) for k, v in times[key].items()},
+        }
     return out
 
 
 def run(args: argparse.Namespace) -> int:
     result = measure(args.repeats, getattr(args, "against", None))
     lines = list(result["this"]["median_s"])
-    head = f"{'command line':<40}{'this s':>9}" + (f"{'against s':>11}{'ratio':>8}" if result["against"] else "")
+    head = f"{'command line':<40}{'this s':>9}" + (
+        f"{'against s':>11}{'ratio':>8}" if result["against"] else ""
+    )
     print(head)
     for line in lines:
         t = result["this"]["median_s"][line]
@@ -68,10 +79,14 @@ def run(args: argparse.Namespace) -> int:
             a = result["against"]["median_s"][line]
             row += f"{a:>11.3f}{a / t:>8.1f}"
         print(row + ("" if t <= GOAL_S else "  over the goal"))
-    print(f"{'python -c pass':<40}{result['this']['python_start_s']:>9.3f}"
-          + (f"{result['against']['python_start_s']:>11.3f}" if result["against"] else ""))
+    print(
+        f"{'python -c pass':<40}{result['this']['python_start_s']:>9.3f}"
+        + (f"{result['against']['python_start_s']:>11.3f}" if result["against"] else "")
+    )
     worst = max(result["this"]["median_s"].values())
-    print(f"slowest: {worst:.3f} s (goal {GOAL_S} s), median of {args.repeats} fresh processes each")
+    print(
+        f"slowest: {worst:.3f} s (goal {GOAL_S} s), median of {args.repeats} fresh processes each"
+    )
     out = Path(args.out)
     atomic_write_text(out / "cli.json", json.dumps(result, indent=1))
     return 0 if worst <= GOAL_S else 1

@@ -9,6 +9,7 @@ pinhole sensor, an effect's knob on a sensor without that effect: the effects de
 knobs, :attr:`~genie_gl.effects.base.Effect.accuracy_knobs`) reports why and shows as
 unavailable; it is never faked.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -55,6 +56,7 @@ def _lens(case: Case) -> str | None:
 def _effect_knob(knob: str) -> Callable[[Case], str | None]:
     """What a knob an effect declares (:attr:`Effect.accuracy_knobs`) needs: an effect of the
     sensor that takes it and on which it acts (:meth:`Effect.knob_unused`)."""
+
     def need(case: Case) -> str | None:
         effs = _takers(case.sensor, knob)
         if not effs:
@@ -62,6 +64,7 @@ def _effect_knob(knob: str) -> Callable[[Case], str | None]:
             return f"{case.sensor.name} has no {' or '.join(owners)} effect"
         unused = [why for e in effs if (why := e.knob_unused(knob, case.sensor)) is not None]
         return unused[0] if len(unused) == len(effs) else None
+
     return need
 
 
@@ -73,8 +76,10 @@ def _takers(sensor, knob: str) -> list:
 def _tessellation(case: Case) -> str | None:
     if case.tessellation_supported:
         return None
-    return {"usd": "this build's USD reader takes no segments= (not landed)",
-            "strategy": "this build's scene builder takes no segments= (not landed)"}.get(case.kind, "not supported")
+    return {
+        "usd": "this build's USD reader takes no segments= (not landed)",
+        "strategy": "this build's scene builder takes no segments= (not landed)",
+    }.get(case.kind, "not supported")
 
 
 def _always(case: Case) -> str | None:
@@ -85,7 +90,7 @@ def _always(case: Case) -> str | None:
 class Knob:
     name: str
     title: str
-    field: str | None                 # AccuracySettings field; None: the resolution
+    field: str | None  # AccuracySettings field; None: the resolution
     levels: tuple
     exact: Any
     geometric: bool
@@ -112,18 +117,61 @@ class Knob:
 KNOBS: tuple[Knob, ...] = (
     Knob("resolution", "resolution (x sensor)", None, (0.5, 1.0, 2.0), 1.0, True),
     Knob("supersample", "edge supersampling", "supersample", (1, 2, 4), 4, True),
-    Knob("resample", "lens resampling", "resample", ("nearest", "bilinear", "plane", "exact"), "exact", True,
-         _lens),
+    Knob(
+        "resample",
+        "lens resampling",
+        "resample",
+        ("nearest", "bilinear", "plane", "exact"),
+        "exact",
+        True,
+        _lens,
+    ),
     Knob("oversample", "wide-render oversampling", "oversample", (1.0, 1.5, 2.0), 2.0, True, _lens),
-    Knob("depth_precision", "depth precision (GL)", "depth_precision", ("depth24", "reversed_z", "float32"),
-         "float32", True),
+    Knob(
+        "depth_precision",
+        "depth precision (GL)",
+        "depth_precision",
+        ("depth24", "reversed_z", "float32"),
+        "float32",
+        True,
+    ),
     Knob("raster", "rasteriser", "raster", ("gl", "cpu"), "cpu", True),
-    Knob("shadow_scale", "second-view scale", "shadow_scale", (0.25, 0.5, 1.0), 2.0, False, _effect_knob("shadow_scale")),
-    Knob("tessellation", "tessellation (segments/circle)", "tessellation", (8, 16, 32, 64), 128, True,
-         _tessellation),
-    Knob("multipath_samples", "multipath samples", "multipath_samples", (8, 16, 32, 64), 128, False,
-         _effect_knob("multipath_samples")),
-    Knob("lod", "level of detail (below px across)", "lod_px", (16.0, 48.0, 128.0), None, True, unit=" px"),
+    Knob(
+        "shadow_scale",
+        "second-view scale",
+        "shadow_scale",
+        (0.25, 0.5, 1.0),
+        2.0,
+        False,
+        _effect_knob("shadow_scale"),
+    ),
+    Knob(
+        "tessellation",
+        "tessellation (segments/circle)",
+        "tessellation",
+        (8, 16, 32, 64),
+        128,
+        True,
+        _tessellation,
+    ),
+    Knob(
+        "multipath_samples",
+        "multipath samples",
+        "multipath_samples",
+        (8, 16, 32, 64),
+        128,
+        False,
+        _effect_knob("multipath_samples"),
+    ),
+    Knob(
+        "lod",
+        "level of detail (below px across)",
+        "lod_px",
+        (16.0, 48.0, 128.0),
+        None,
+        True,
+        unit=" px",
+    ),
 )
 KNOB = {k.name: k for k in KNOBS}
 
@@ -135,7 +183,7 @@ def own_value(knob: Knob, case: Case) -> Any:
     if d is not None:
         return d
     takers = [] if knob.field is None else _takers(case.sensor, knob.field)
-    if takers:   # the first effect's own parameter
+    if takers:  # the first effect's own parameter
         return getattr(takers[0], takers[0].accuracy_knobs[knob.field])
     if knob.name == "tessellation" and case.kind == "builtin":
         return DEFAULT_SEGMENTS

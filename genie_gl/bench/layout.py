@@ -1,6 +1,7 @@
 """``genie bench layout``: the paper's Table 7 — a dummy generator of branching factor R over
 L levels; time, nodes, nodes/s, a least-squares fit of time ∝ N, a plot, and a shipped
 strategy end to end."""
+
 from __future__ import annotations
 
 import argparse
@@ -15,10 +16,21 @@ from ..layout.generators import Children
 
 
 def _strategy(R: int, L: int, generator: str = "strips") -> dict:
-    return {"name": f"dummy_R{R}_L{L}", "root": {"width": 1000.0, "height": 1000.0, "type": "n"},
-            "region_types": {"n": {}, "leaf": {"final": True}},
-            "levels": [{"n": {"generator": generator, "args": {"n": R},
-                              "children": {"strip": "n" if lvl < L - 1 else "leaf"}}} for lvl in range(L)]}
+    return {
+        "name": f"dummy_R{R}_L{L}",
+        "root": {"width": 1000.0, "height": 1000.0, "type": "n"},
+        "region_types": {"n": {}, "leaf": {"final": True}},
+        "levels": [
+            {
+                "n": {
+                    "generator": generator,
+                    "args": {"n": R},
+                    "children": {"strip": "n" if lvl < L - 1 else "leaf"},
+                }
+            }
+            for lvl in range(L)
+        ],
+    }
 
 
 def _register() -> None:
@@ -40,8 +52,16 @@ def _register() -> None:
             n, m = int(self.args["n"]), len(parents)
             w = np.repeat(parents.w / n, n)
             x = np.repeat(parents.x, n) + np.tile(np.arange(n), m) * w
-            return Children(np.repeat(np.arange(m), n), x, np.repeat(parents.y, n), w, np.repeat(parents.h, n),
-                            np.zeros(n * m, np.int32), np.full(n * m, -1, np.int8), [])
+            return Children(
+                np.repeat(np.arange(m), n),
+                x,
+                np.repeat(parents.y, n),
+                w,
+                np.repeat(parents.h, n),
+                np.zeros(n * m, np.int32),
+                np.full(n * m, -1, np.int8),
+                [],
+            )
 
     @register("strips_per_region")
     class StripsPerRegion(Strips):
@@ -57,7 +77,10 @@ def _merge_cost(repeats: int) -> dict:
     s = _strategy(10, 5)
     s["region_types"]["leaf2"] = {"final": True}
     s["levels"][-1]["n"]["children"]["strip"] = {"sequential": ["leaf", "leaf", "leaf2"]}
-    without, with_merge = parse_strategy(s), parse_strategy({**s, "levels": s["levels"] + ["merge"]})
+    without, with_merge = (
+        parse_strategy(s),
+        parse_strategy({**s, "levels": s["levels"] + ["merge"]}),
+    )
     t_without = t_with = np.inf
     for _ in range(repeats):
         for strat in (without, with_merge):
@@ -68,9 +91,16 @@ def _merge_cost(repeats: int) -> dict:
                 t_without, before = min(t_without, dt), len(layout.leaf_indices())
             else:
                 t_with, after = min(t_with, dt), len(layout.leaf_indices())
-    print(f"merge layer, R=10 L=5 ({before:,} leaves -> {after:,}): {1e3 * t_with:.0f} ms with it, "
-          f"{1e3 * t_without:.0f} ms without (x{t_with / t_without:.2f})")
-    return {"leaves_before": before, "leaves_after": after, "ms_with": 1e3 * t_with, "ms_without": 1e3 * t_without}
+    print(
+        f"merge layer, R=10 L=5 ({before:,} leaves -> {after:,}): {1e3 * t_with:.0f} ms with it, "
+        f"{1e3 * t_without:.0f} ms without (x{t_with / t_without:.2f})"
+    )
+    return {
+        "leaves_before": before,
+        "leaves_after": after,
+        "ms_with": 1e3 * t_with,
+        "ms_without": 1e3 * t_without,
+    }
 
 
 def run(args: argparse.Namespace) -> int:
@@ -85,18 +115,31 @@ def run(args: argparse.Namespace) -> int:
             t = time.perf_counter()
             layout = generate_layout(strat, seed=0)
             best = min(best, time.perf_counter() - t)
-        rows.append({"R": R, "L": L, "nodes": len(layout), "ms": 1e3 * best, "nodes_per_s": len(layout) / best})
+        rows.append(
+            {
+                "R": R,
+                "L": L,
+                "nodes": len(layout),
+                "ms": 1e3 * best,
+                "nodes_per_s": len(layout) / best,
+            }
+        )
         print(f"{R:>3} {L:>2} {len(layout):>9,} {1e3 * best:>9.1f} {len(layout) / best:>11,.0f}")
     n = np.array([r["nodes"] for r in rows], float)
     t = np.array([r["ms"] for r in rows])
     k = float((n @ t) / (n @ n))
     r2 = 1 - ((t - k * n) ** 2).sum() / ((t - t.mean()) ** 2).sum()
-    print(f"fit: time = {k * 1e3:.3f} us x N (R^2 = {r2:.4f}); paper: 122 k nodes/s (R=20, L=4: 1313 ms)")
+    print(
+        f"fit: time = {k * 1e3:.3f} us x N (R^2 = {r2:.4f}); paper: 122 k nodes/s (R=20, L=4: 1313 "
+        "ms)"
+    )
     t0 = time.perf_counter()
     slow = generate_layout(parse_strategy(_strategy(20, 4, "strips_per_region")), seed=0)
     loop_s = time.perf_counter() - t0
-    print(f"R=20, L=4 with a per-region generator (no array code): {1e3 * loop_s:.0f} ms, "
-          f"{len(slow) / loop_s:,.0f} nodes/s")
+    print(
+        f"R=20, L=4 with a per-region generator (no array code): {1e3 * loop_s:.0f} ms, "
+        f"{len(slow) / loop_s:,.0f} nodes/s"
+    )
     merge = _merge_cost(args.repeats)
     t0 = time.perf_counter()
     for _ in range(5):
@@ -105,9 +148,19 @@ def run(args: argparse.Namespace) -> int:
     print(f"shipped assembly_line strategy: {real_ms:.1f} ms per layout")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "layout.json").write_text(json.dumps({"rows": rows, "us_per_node": k * 1e3, "r2": r2,
-                                                 "assembly_line_ms": real_ms, "merge_layer": merge,
-                                                 "per_region_nodes_per_s": len(slow) / loop_s}, indent=1))
+    (out / "layout.json").write_text(
+        json.dumps(
+            {
+                "rows": rows,
+                "us_per_node": k * 1e3,
+                "r2": r2,
+                "assembly_line_ms": real_ms,
+                "merge_layer": merge,
+                "per_region_nodes_per_s": len(slow) / loop_s,
+            },
+            indent=1,
+        )
+    )
     import matplotlib
 
     matplotlib.use("Agg")

@@ -12,6 +12,7 @@ their agreement, and a walk of the two-head wearable in points per second.
    effects: seconds per second of walk and points per second (beside HELIOS++'s published
    ~23 k points/s user run, and the VLP-16's 289,344 beams/s per head).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,7 +34,7 @@ from ..effects.scanner_profile import load_scanner
 from ..motion.scanner_rig import load_scanner_rig
 from .scenes import bench_spec, to_scene
 
-HELIOS_PTS_S = 23_000      # HELIOS++ user run, points/s (as the issue cites it)
+HELIOS_PTS_S = 23_000  # HELIOS++ user run, points/s (as the issue cites it)
 HEAD_HEIGHT_M = 1.8
 
 
@@ -48,13 +49,19 @@ def open3d_caster(scene, origin=(0.0, 0.0, 0.0)):
     ids = {}
     for inst in scene.instances:
         m = scene.meshes[inst.mesh]
-        v = np.asarray(m.vertices, np.float64) @ inst.world_from_model[:3, :3].T + (inst.world_from_model[:3, 3] - origin)
-        g = rc.add_triangles(o3d.core.Tensor(v.astype(np.float32)), o3d.core.Tensor(np.asarray(m.faces, np.uint32)))
+        v = np.asarray(m.vertices, np.float64) @ inst.world_from_model[:3, :3].T + (
+            inst.world_from_model[:3, 3] - origin
+        )
+        g = rc.add_triangles(
+            o3d.core.Tensor(v.astype(np.float32)), o3d.core.Tensor(np.asarray(m.faces, np.uint32))
+        )
         ids[g] = inst.instance
     return rc, ids, origin
 
 
-def open3d_cast(caster, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def open3d_cast(
+    caster, origins: np.ndarray, directions: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(distance (0: none), instance) along each ray, by Open3D."""
     import open3d as o3d
 
@@ -76,10 +83,13 @@ def agreement(ours, theirs) -> dict:
     d, inst = theirs
     both = ours.hit & (d > 0)
     rel = np.abs(ours.distance[both] - d[both]) / d[both]
-    return {"rays": int(len(d)), "hit_agree": float(np.mean(ours.hit == (d > 0))),
-            "id_agree": float(np.mean(np.where(ours.hit, ours.instance, 0) == inst)),
-            "range_rel_p99": float(np.quantile(rel, 0.99)) if rel.size else 0.0,
-            "range_rel_max": float(rel.max()) if rel.size else 0.0}
+    return {
+        "rays": int(len(d)),
+        "hit_agree": float(np.mean(ours.hit == (d > 0))),
+        "id_agree": float(np.mean(np.where(ours.hit, ours.instance, 0) == inst)),
+        "range_rel_p99": float(np.quantile(rel, 0.99)) if rel.size else 0.0,
+        "range_rel_max": float(rel.max()) if rel.size else 0.0,
+    }
 
 
 def scene_beams(scene, scanner):
@@ -93,14 +103,14 @@ def scene_beams(scene, scanner):
 def cast_row(scene, scene_name: str, scanner, repeats: int) -> dict:
     beams = scene_beams(scene, scanner)
     t = time.perf_counter()
-    ours = cast_beams(scene, beams.origins, beams.directions)        # builds the engine's hierarchy
+    ours = cast_beams(scene, beams.origins, beams.directions)  # builds the engine's hierarchy
     build_ours = time.perf_counter() - t
     t = time.perf_counter()
     caster = open3d_caster(scene, beams.origins[0])
     theirs = open3d_cast(caster, beams.origins, beams.directions)
     build_o3d = time.perf_counter() - t
     best_ours = best_o3d = np.inf
-    for _ in range(repeats):   # in turns, so both see the same load
+    for _ in range(repeats):  # in turns, so both see the same load
         t = time.perf_counter()
         ours = cast_beams(scene, beams.origins, beams.directions)
         best_ours = min(best_ours, time.perf_counter() - t)
@@ -108,10 +118,18 @@ def cast_row(scene, scene_name: str, scanner, repeats: int) -> dict:
         theirs = open3d_cast(caster, beams.origins, beams.directions)
         best_o3d = min(best_o3d, time.perf_counter() - t)
     n = len(beams)
-    return {"scene": scene_name, "scanner": scanner.name, "beams": n, "genie_gl_s": best_ours, "open3d_s": best_o3d,
-            "genie_gl_beams_s": n / best_ours, "open3d_beams_s": n / best_o3d, "ratio": best_o3d / best_ours,
-            "first_cast_s": {"genie_gl": build_ours, "open3d_build_and_cast": build_o3d},
-            "agreement": agreement(ours, theirs)}
+    return {
+        "scene": scene_name,
+        "scanner": scanner.name,
+        "beams": n,
+        "genie_gl_s": best_ours,
+        "open3d_s": best_o3d,
+        "genie_gl_beams_s": n / best_ours,
+        "open3d_beams_s": n / best_o3d,
+        "ratio": best_o3d / best_ours,
+        "first_cast_s": {"genie_gl": build_ours, "open3d_build_and_cast": build_o3d},
+        "agreement": agreement(ours, theirs),
+    }
 
 
 def walk_row(rig_name: str, seconds: float, seed: int) -> dict:
@@ -119,16 +137,25 @@ def walk_row(rig_name: str, seconds: float, seed: int) -> dict:
     layout = generate_layout("assembly_line", seed=seed)
     scene = build_scene(layout, seed=seed)
     path = make_trajectory(layout, scene, "aisles", seed=seed, motion="person", duration_s=seconds)
-    scan(scene, rig, path, seed=seed, scans=1)   # warm: the engine's hierarchy and compiled kernels
+    scan(scene, rig, path, seed=seed, scans=1)  # warm: the engine's hierarchy and compiled kernels
     t = time.perf_counter()
     scans = scan(scene, rig, path, seed=seed)
     wall = time.perf_counter() - t
     points = int(sum(len(s) for s in scans))
     walk = path.duration_s
-    return {"rig": rig.name, "heads": len(rig.heads), "walk_s": walk, "scans": len(scans), "points": points,
-            "wall_s": wall, "s_per_s_of_walk": wall / walk, "points_per_s_made": points / wall,
-            "points_per_s_of_walk": points / walk, "helios_pts_s": HELIOS_PTS_S,
-            "vs_helios": points / wall / HELIOS_PTS_S}
+    return {
+        "rig": rig.name,
+        "heads": len(rig.heads),
+        "walk_s": walk,
+        "scans": len(scans),
+        "points": points,
+        "wall_s": wall,
+        "s_per_s_of_walk": wall / walk,
+        "points_per_s_made": points / wall,
+        "points_per_s_of_walk": points / walk,
+        "helios_pts_s": HELIOS_PTS_S,
+        "vs_helios": points / wall / HELIOS_PTS_S,
+    }
 
 
 def run(args: argparse.Namespace) -> int:
@@ -141,18 +168,39 @@ def run(args: argparse.Namespace) -> int:
             row = cast_row(scene, name, load_scanner(profile), args.repeats)
             rows.append(row)
             a = row["agreement"]
-            print(f"{name:>4} {row['scanner']:<16} {row['beams']:>8,} beams  genie-gl {row['genie_gl_beams_s']:>12,.0f}/s"
-                  f"  Open3D {row['open3d_beams_s']:>12,.0f}/s  x{row['ratio']:.2f}  ids {a['id_agree']:.5%}"
-                  f"  range p99 {a['range_rel_p99']:.1e}")
+            print(
+                f"{name:>4} {row['scanner']:<16} {row['beams']:>8,} beams  genie-gl "
+                f"{row['genie_gl_beams_s']:>12,.0f}/s"
+                f"  Open3D {row['open3d_beams_s']:>12,.0f}/s  x{row['ratio']:.2f}  ids "
+                f"{a['id_agree']:.5%}"
+                f"  range p99 {a['range_rel_p99']:.1e}"
+            )
     walk = walk_row(args.rig, args.walk, args.seed) if args.walk > 0 else None
     if walk:
-        print(f"walk {walk['rig']}: {walk['walk_s']:.1f} s, {walk['scans']} scans, {walk['points']:,} points in "
-              f"{walk['wall_s']:.1f} s ({walk['s_per_s_of_walk']:.2f} s per s of walk; {walk['points_per_s_made']:,.0f} "
-              f"points/s made, HELIOS++ ~{HELIOS_PTS_S:,}/s)")
-    result = {"load_avg_1_5_15": load, "cpus": os.cpu_count(), "casts": rows, "walk": walk,
-              "command": "genie bench lidar " + " ".join(f"--{k.replace('_', '-')} {v}" for k, v in
-                                                         (("scenes", ",".join(args.scenes)), ("scanners", args.scanners),
-                                                          ("repeats", args.repeats), ("rig", args.rig),
-                                                          ("walk", args.walk), ("seed", args.seed)))}
+        print(
+            f"walk {walk['rig']}: {walk['walk_s']:.1f} s, {walk['scans']} scans, {walk['points']:,}"
+            " points in "
+            f"{walk['wall_s']:.1f} s ({walk['s_per_s_of_walk']:.2f} s per s of walk; "
+            f"{walk['points_per_s_made']:,.0f} "
+            f"points/s made, HELIOS++ ~{HELIOS_PTS_S:,}/s)"
+        )
+    result = {
+        "load_avg_1_5_15": load,
+        "cpus": os.cpu_count(),
+        "casts": rows,
+        "walk": walk,
+        "command": "genie bench lidar "
+        + " ".join(
+            f"--{k.replace('_', '-')} {v}"
+            for k, v in (
+                ("scenes", ",".join(args.scenes)),
+                ("scanners", args.scanners),
+                ("repeats", args.repeats),
+                ("rig", args.rig),
+                ("walk", args.walk),
+                ("seed", args.seed),
+            )
+        ),
+    }
     atomic_write_text(out / "lidar.json", json.dumps(result, indent=1))
     return 0

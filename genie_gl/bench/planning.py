@@ -27,6 +27,7 @@ cores, since a busy machine stretches a single-threaded effect's wall time more 
 render spread over every core). Goals: D435 at <= 2x the ideal render, Azure with
 multipath at <= 3x.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -55,24 +56,32 @@ def _before(sensor):
     """``sensor`` as the pipeline ran before planning: the stereo shadow's second view rendered
     on every frame (method "render", ``second_view="always"``); with ``simulate(plan=None,
     decide=False)``: every effect on every frame, nothing culled."""
-    effects = tuple(dataclasses.replace(e, method="render", second_view="always") if isinstance(e, StereoShadow)
-                    else e for e in sensor.effects)
+    effects = tuple(
+        dataclasses.replace(e, method="render", second_view="always")
+        if isinstance(e, StereoShadow)
+        else e
+        for e in sensor.effects
+    )
     return dataclasses.replace(sensor, effects=effects)
 
 
 def _reference(sensor):
     """``sensor`` with its fused effects computing the reference way (``fused=False``: numpy's
     draws before the compiled noise pass; the shadow's mask, then ``drop``): the same bytes."""
-    effects = tuple(dataclasses.replace(e, fused=False) if isinstance(e, (DepthNoise, StereoShadow)) else e
-                    for e in sensor.effects)
+    effects = tuple(
+        dataclasses.replace(e, fused=False) if isinstance(e, (DepthNoise, StereoShadow)) else e
+        for e in sensor.effects
+    )
     return dataclasses.replace(sensor, effects=effects)
 
 
 def _rendered_shadow(sensor):
     """``sensor`` with its stereo shadow's second view rendered (method "render": the default
     before the scanline method)."""
-    effects = tuple(dataclasses.replace(e, method="render") if isinstance(e, StereoShadow) else e
-                    for e in sensor.effects)
+    effects = tuple(
+        dataclasses.replace(e, method="render") if isinstance(e, StereoShadow) else e
+        for e in sensor.effects
+    )
     return dataclasses.replace(sensor, effects=effects)
 
 
@@ -94,15 +103,29 @@ def _shadow_agreement(sensor, poses, r) -> dict | None:
     for pose in poses:
         f = lens_render(ideal, pose).replace(sensor=sensor)
         valid = f.depth > 0
-        gone = {m: valid & (dataclasses.replace(eff, method=m, scale=sc).apply(
-            f, rng=None, render_depth=depth2).depth == 0) for m, sc in (("scanline", 1.0), ("render", 1.0))}
-        gone["half"] = valid & (dataclasses.replace(eff, method="render", scale=0.5).apply(
-            f, rng=None, render_depth=depth2).depth == 0)
+        gone = {
+            m: valid
+            & (
+                dataclasses.replace(eff, method=m, scale=sc)
+                .apply(f, rng=None, render_depth=depth2)
+                .depth
+                == 0
+            )
+            for m, sc in (("scanline", 1.0), ("render", 1.0))
+        }
+        gone["half"] = valid & (
+            dataclasses.replace(eff, method="render", scale=0.5)
+            .apply(f, rng=None, render_depth=depth2)
+            .depth
+            == 0
+        )
         n = max(int(valid.sum()), 1)
         scan.append(100.0 * (1 - (gone["scanline"] != gone["render"]).sum() / n))
         half.append(100.0 * (1 - (gone["half"] != gone["render"]).sum() / n))
-    return {"scanline_vs_full_render_pct": [round(min(scan), 2), round(max(scan), 2)],
-            "half_render_vs_full_render_pct": [round(min(half), 2), round(max(half), 2)]}
+    return {
+        "scanline_vs_full_render_pct": [round(min(scan), 2), round(max(scan), 2)],
+        "half_render_vs_full_render_pct": [round(min(half), 2), round(max(half), 2)],
+    }
 
 
 def _time(fn) -> tuple[float, float, object]:
@@ -123,42 +146,134 @@ def _rows(label, scene, sensor, poses, rounds):
     effect_ms: dict = {}
     with Renderer(scene) as r:
         lens_render = through_lens(r.render)
-        for k, pose in enumerate(poses):   # warm: compiled kernels, caches, GL objects
-            a, b = (simulate(s, pose, render=lens_render, rng=np.random.default_rng(k), materials=p.materials,
-                             plan=p.frames[k]) for s in (sensor, reference))
-            if any(getattr(a, n).tobytes() != getattr(b, n).tobytes() for n in ("depth", "instance", "semantic")):
-                raise AssertionError(f"{label}: the fused effects differ from their reference on view {k}")
-            simulate(before, pose, render=lens_render, rng=np.random.default_rng(k), materials=p.materials,
-                     decide=False)
+        for k, pose in enumerate(poses):  # warm: compiled kernels, caches, GL objects
+            a, b = (
+                simulate(
+                    s,
+                    pose,
+                    render=lens_render,
+                    rng=np.random.default_rng(k),
+                    materials=p.materials,
+                    plan=p.frames[k],
+                )
+                for s in (sensor, reference)
+            )
+            if any(
+                getattr(a, n).tobytes() != getattr(b, n).tobytes()
+                for n in ("depth", "instance", "semantic")
+            ):
+                raise AssertionError(
+                    f"{label}: the fused effects differ from their reference on view {k}"
+                )
+            simulate(
+                before,
+                pose,
+                render=lens_render,
+                rng=np.random.default_rng(k),
+                materials=p.materials,
+                decide=False,
+            )
         for _ in range(rounds):
             for k, pose in enumerate(poses):
-                _add(ms, cpu, "ideal", _time(lambda: simulate(ideal_sensor, pose, render=lens_render,
-                                                          rng=np.random.default_rng(k))))
-                _add(ms, cpu, "before", _time(lambda: simulate(before, pose, render=lens_render,
-                                                           rng=np.random.default_rng(k), materials=p.materials,
-                                                           decide=False)))
-                _add(ms, cpu, "reference", _time(lambda: simulate(reference, pose, render=lens_render,
-                                                              rng=np.random.default_rng(k),
-                                                              materials=p.materials, plan=p.frames[k])))
-                _add(ms, cpu, "rendered", _time(lambda: simulate(rendered, pose, render=lens_render,
-                                                             rng=np.random.default_rng(k),
-                                                             materials=p.materials, plan=p.frames[k])), effect_ms)
-                _add(ms, cpu, "planned", _time(lambda: simulate(sensor, pose, render=lens_render,
-                                                            rng=np.random.default_rng(k),
-                                                            materials=p.materials, plan=p.frames[k])), effect_ms)
+                _add(
+                    ms,
+                    cpu,
+                    "ideal",
+                    _time(
+                        lambda: simulate(
+                            ideal_sensor, pose, render=lens_render, rng=np.random.default_rng(k)
+                        )
+                    ),
+                )
+                _add(
+                    ms,
+                    cpu,
+                    "before",
+                    _time(
+                        lambda: simulate(
+                            before,
+                            pose,
+                            render=lens_render,
+                            rng=np.random.default_rng(k),
+                            materials=p.materials,
+                            decide=False,
+                        )
+                    ),
+                )
+                _add(
+                    ms,
+                    cpu,
+                    "reference",
+                    _time(
+                        lambda: simulate(
+                            reference,
+                            pose,
+                            render=lens_render,
+                            rng=np.random.default_rng(k),
+                            materials=p.materials,
+                            plan=p.frames[k],
+                        )
+                    ),
+                )
+                _add(
+                    ms,
+                    cpu,
+                    "rendered",
+                    _time(
+                        lambda: simulate(
+                            rendered,
+                            pose,
+                            render=lens_render,
+                            rng=np.random.default_rng(k),
+                            materials=p.materials,
+                            plan=p.frames[k],
+                        )
+                    ),
+                    effect_ms,
+                )
+                _add(
+                    ms,
+                    cpu,
+                    "planned",
+                    _time(
+                        lambda: simulate(
+                            sensor,
+                            pose,
+                            render=lens_render,
+                            rng=np.random.default_rng(k),
+                            materials=p.materials,
+                            plan=p.frames[k],
+                        )
+                    ),
+                    effect_ms,
+                )
         agreement = _shadow_agreement(sensor, poses, r)
-        last = simulate(sensor, poses[0], render=lens_render, rng=np.random.default_rng(0), materials=p.materials,
-                        plan=p.frames[0])
+        last = simulate(
+            sensor,
+            poses[0],
+            render=lens_render,
+            rng=np.random.default_rng(0),
+            materials=p.materials,
+            plan=p.frames[0],
+        )
     ideal, ideal_cpu = np.array(ms["ideal"]), np.array(cpu["ideal"])
-    row = {"case": label, "ideal_ms": round(float(np.median(ideal)), 1),
-           "ideal_cpu_ms": round(float(np.median(ideal_cpu)), 1)}
+    row = {
+        "case": label,
+        "ideal_ms": round(float(np.median(ideal)), 1),
+        "ideal_cpu_ms": round(float(np.median(ideal_cpu)), 1),
+    }
     # what a skipped effect costs, as a share of the ideal render (goal: under 5 %)
-    row["skipped_share"] = {e["name"]: round(e["ms"] / float(np.median(ideal)), 4)
-                            for e in last.meta["effects"] if not e["run"]}
+    row["skipped_share"] = {
+        e["name"]: round(e["ms"] / float(np.median(ideal)), 4)
+        for e in last.meta["effects"]
+        if not e["run"]
+    }
     if agreement is not None:
         row["shadow_agreement"] = agreement
-    row["effect_ms"] = {key: {name: round(float(np.median(v)), 2) for name, v in per.items()}
-                        for key, per in effect_ms.items()}
+    row["effect_ms"] = {
+        key: {name: round(float(np.median(v)), 2) for name, v in per.items()}
+        for key, per in effect_ms.items()
+    }
     for key in ("before", "reference", "rendered", "planned"):
         row[f"{key}_ms"] = round(float(np.median(ms[key])), 1)
         row[f"{key}_x"] = round(float(np.median(np.array(ms[key]) / ideal)), 2)
@@ -171,7 +286,7 @@ def _add(ms, cpu, key, timed, effects=None) -> None:
     cpu[key].append(timed[1])
     meta = getattr(timed[2], "meta", None) or {}
     if effects is not None:
-        for e in meta.get("effects", []):   # what simulate recorded per effect
+        for e in meta.get("effects", []):  # what simulate recorded per effect
             effects.setdefault(key, {}).setdefault(e["name"], []).append(e["ms"])
 
 
@@ -185,39 +300,67 @@ def run(args: argparse.Namespace) -> int:
         rows.append(_rows(f"{name}, assembly line", scene, sensor, poses, args.rounds))
         print(rows[-1], flush=True)
     sphere = gg.Scene()
-    sphere.add(trimesh.creation.icosphere(subdivisions=4, radius=0.5), np.eye(4), semantic=1,
-               material=Material((0.5, 0.5, 0.5), 0.0, 0.9))
+    sphere.add(
+        trimesh.creation.icosphere(subdivisions=4, radius=0.5),
+        np.eye(4),
+        semantic=1,
+        material=Material((0.5, 0.5, 0.5), 0.0, 0.9),
+    )
     azure = gg.load_sensor(resolve("azure_kinect_nfov", "sensors", (".yaml",)))
     pose = look_at([0.0, 0.0, 2.0], [0.0, 0.0, 0.0], up=(0, 1, 0))
-    rows.append(_rows("azure_kinect_nfov, matte convex sphere", sphere, azure, [pose] * 2, args.rounds))
+    rows.append(
+        _rows("azure_kinect_nfov, matte convex sphere", sphere, azure, [pose] * 2, args.rounds)
+    )
     print(rows[-1], flush=True)
-    print(f"\n{'case':<42} {'ideal ms':>9} {'before':>14} {'planned, ref.':>14} {'shadow rendered':>16}"
-          f" {'planned':>14}   skipped effects (share of the render)")
+    print(
+        f"\n{'case':<42} {'ideal ms':>9} {'before':>14} {'planned, ref.':>14} "
+        f"{'shadow rendered':>16}"
+        f" {'planned':>14}   skipped effects (share of the render)"
+    )
     for r in rows:
         skipped = ", ".join(f"{k} {100 * v:.1f} %" for k, v in r["skipped_share"].items()) or "-"
-        print(f"{r['case']:<42} {r['ideal_ms']:>9.1f} {r['before_ms']:>7.1f} ({r['before_x']:>4.2f}x)"
-              f" {r['reference_ms']:>7.1f} ({r['reference_x']:>4.2f}x)"
-              f" {r['rendered_ms']:>9.1f} ({r['rendered_x']:>4.2f}x)"
-              f" {r['planned_ms']:>7.1f} ({r['planned_x']:>4.2f}x)   {skipped}")
+        print(
+            f"{r['case']:<42} {r['ideal_ms']:>9.1f} {r['before_ms']:>7.1f} ({r['before_x']:>4.2f}x)"
+            f" {r['reference_ms']:>7.1f} ({r['reference_x']:>4.2f}x)"
+            f" {r['rendered_ms']:>9.1f} ({r['rendered_x']:>4.2f}x)"
+            f" {r['planned_ms']:>7.1f} ({r['planned_x']:>4.2f}x)   {skipped}"
+        )
     print("\nms per effect where it ran or was checked (median), planned vs shadow rendered:")
     for r in rows:
         per = r["effect_ms"]
-        print(f"{r['case']:<42} " + ", ".join(f"{n} {per['planned'][n]:.2f} vs {per['rendered'].get(n, 0.0):.2f}"
-                                              for n in per.get("planned", {})))
+        print(
+            f"{r['case']:<42} "
+            + ", ".join(
+                f"{n} {per['planned'][n]:.2f} vs {per['rendered'].get(n, 0.0):.2f}"
+                for n in per.get("planned", {})
+            )
+        )
     for r in rows:
         a = r.get("shadow_agreement")
         if a:
             lo, hi = a["scanline_vs_full_render_pct"]
             lo2, hi2 = a["half_render_vs_full_render_pct"]
-            print(f"{r['case']:<42} stereo shadow, share of returns agreeing with a full-resolution second view:"
-                  f" scanline {lo:.2f}-{hi:.2f} %, half-resolution render (the render method's default)"
-                  f" {lo2:.2f}-{hi2:.2f} %")
-    print("\nCPU time of the process (every renderer thread included), as multiples of the ideal's:")
+            print(
+                f"{r['case']:<42} stereo shadow, share of returns agreeing with a full-resolution "
+                "second view:"
+                f" scanline {lo:.2f}-{hi:.2f} %, half-resolution render (the render method's "
+                "default)"
+                f" {lo2:.2f}-{hi2:.2f} %"
+            )
+    print(
+        "\nCPU time of the process (every renderer thread included), as multiples of the ideal's:"
+    )
     for r in rows:
-        print(f"{r['case']:<42} {r['ideal_cpu_ms']:>6.1f} ms {r['before_cpu_x']:>13.2f}x {r['reference_cpu_x']:>13.2f}x"
-              f" {r['rendered_cpu_x']:>15.2f}x {r['planned_cpu_x']:>13.2f}x")
+        print(
+            f"{r['case']:<42} {r['ideal_cpu_ms']:>6.1f} ms {r['before_cpu_x']:>13.2f}x "
+            f"{r['reference_cpu_x']:>13.2f}x"
+            f" {r['rendered_cpu_x']:>15.2f}x {r['planned_cpu_x']:>13.2f}x"
+        )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "planning.json").write_text(json.dumps({"rows": rows, "goals": {"realsense_d435": 2.0,
-                                                                           "azure_kinect_nfov": 3.0}}, indent=1))
+    (out / "planning.json").write_text(
+        json.dumps(
+            {"rows": rows, "goals": {"realsense_d435": 2.0, "azure_kinect_nfov": 3.0}}, indent=1
+        )
+    )
     return 0

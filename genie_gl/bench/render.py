@@ -24,6 +24,7 @@ Reported per tool: the minimum and median over the repeats. Ratio columns say wh
 divide. A peer that is not installed is listed as skipped with its install command. Writes
 ``render.json`` under ``--out``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -49,7 +50,13 @@ CAMERAS = (24, 40)
 
 
 def sensor_640():
-    return Sensor(640, 480, np.array([[525.0, 0, 319.5], [0, 525.0, 239.5], [0, 0, 1]]), near_m=0.1, far_m=100.0)
+    return Sensor(
+        640,
+        480,
+        np.array([[525.0, 0, 319.5], [0, 525.0, 239.5], [0, 0, 1]]),
+        near_m=0.1,
+        far_m=100.0,
+    )
 
 
 def bench_scene(size: str, seed: int = 0):
@@ -58,7 +65,10 @@ def bench_scene(size: str, seed: int = 0):
     return to_scene(spec), list(spec.poses[:4])
 
 
-PEERS = {"pyrender": ("pyrender", "pip install pyrender"), "Open3D": ("open3d", "pip install open3d")}
+PEERS = {
+    "pyrender": ("pyrender", "pip install pyrender"),
+    "Open3D": ("open3d", "pip install open3d"),
+}
 
 
 class _Ours:
@@ -129,7 +139,8 @@ class _Open3D:
         K[0, 2] += 0.5  # Open3D puts pixel centres at +0.5
         K[1, 2] += 0.5
         rays = o3d.t.geometry.RaycastingScene.create_rays_pinhole(
-            o3d.core.Tensor(K), o3d.core.Tensor(np.linalg.inv(pose)), sensor.width, sensor.height)
+            o3d.core.Tensor(K), o3d.core.Tensor(np.linalg.inv(pose)), sensor.width, sensor.height
+        )
         ans = self.rc.cast_rays(rays)
         ans["t_hit"].numpy()
         ans["geometry_ids"].numpy()
@@ -142,8 +153,13 @@ class _Open3D:
         self.rc = None
 
 
-TOOLS = {"genie-gl": _Ours, "genie-gl-exact": _OursExact, "genie-gl-gl": _OursGL, "Open3D": _Open3D,
-         "pyrender": _Pyrender}
+TOOLS = {
+    "genie-gl": _Ours,
+    "genie-gl-exact": _OursExact,
+    "genie-gl-gl": _OursGL,
+    "Open3D": _Open3D,
+    "pyrender": _Pyrender,
+}
 OURS = ("genie-gl", "genie-gl-exact", "genie-gl-gl")
 
 
@@ -176,7 +192,7 @@ def _measure(args) -> dict:
     """One tool on one scene in this (fresh) process: build, 39 more frames, peak memory."""
     name, scene_name = args
     spec = bench_spec(scene_name)
-    scene = to_scene(spec) if name == "pyrender" else None   # pyrender's build starts from our Scene
+    scene = to_scene(spec) if name == "pyrender" else None  # pyrender's build starts from our Scene
     sensor = sensor_640()
     poses = list(spec.poses)
     gc.collect()
@@ -189,16 +205,23 @@ def _measure(args) -> dict:
     marks = {}
     t1, c1 = time.perf_counter(), time.process_time()
     done = 1
-    for n in CAMERAS:   # frames 1 .. n - 1, going on from where the last count stopped
+    for n in CAMERAS:  # frames 1 .. n - 1, going on from where the last count stopped
         tool.frames(sensor, poses[done:n])
         marks[n] = time.perf_counter() - t1
         done = n
     frames_cpu = time.process_time() - c1
-    out = {"tool": name, "scene": scene_name, "build_s": build, "build_cpu_s": build_cpu,
-           "steady_ms": 1e3 * marks[CAMERAS[-1]] / (CAMERAS[-1] - 1),
-           "steady_cpu_ms": 1e3 * frames_cpu / (CAMERAS[-1] - 1),
-           **{f"cameras_{n}_s": build + marks[n] for n in CAMERAS},
-           "peak_rss_mib": peak_rss_mib(), "rss_before_mib": before, "triangles": spec.triangles}
+    out = {
+        "tool": name,
+        "scene": scene_name,
+        "build_s": build,
+        "build_cpu_s": build_cpu,
+        "steady_ms": 1e3 * marks[CAMERAS[-1]] / (CAMERAS[-1] - 1),
+        "steady_cpu_ms": 1e3 * frames_cpu / (CAMERAS[-1] - 1),
+        **{f"cameras_{n}_s": build + marks[n] for n in CAMERAS},
+        "peak_rss_mib": peak_rss_mib(),
+        "rss_before_mib": before,
+        "triangles": spec.triangles,
+    }
     if name in OURS:
         r = tool.r
         r.render(sensor, poses[0], depth_only=True)
@@ -233,8 +256,11 @@ def whole_machine(name: str, scene_name: str, frames: int) -> dict:
     with ctx.Pool(n) as pool:
         parts = pool.map(_worker, [(name, scene_name, barrier, frames, 1)] * n)
     manager.shutdown()
-    return {"processes": n, "fps": float(sum(f / t for f, t, _ in parts)),
-            "peak_rss_mib": float(max(m for _, _, m in parts))}
+    return {
+        "processes": n,
+        "fps": float(sum(f / t for f, t, _ in parts)),
+        "peak_rss_mib": float(max(m for _, _, m in parts)),
+    }
 
 
 def _fresh(name: str, scene_name: str) -> dict:
@@ -252,9 +278,13 @@ def _warm() -> None:
             pool.apply(_measure, ((tool, "100k"),))
 
 
-METRICS = (("build_s", "build s", 1.0), ("steady_ms", "steady ms/frame", 1.0),
-           ("cameras_24_s", "24 cams s", 1.0), ("cameras_40_s", "40 cams s", 1.0),
-           ("peak_rss_mib", "peak MiB", 1.0))
+METRICS = (
+    ("build_s", "build s", 1.0),
+    ("steady_ms", "steady ms/frame", 1.0),
+    ("cameras_24_s", "24 cams s", 1.0),
+    ("cameras_40_s", "40 cams s", 1.0),
+    ("peak_rss_mib", "peak MiB", 1.0),
+)
 
 
 def summarise(runs: list[dict]) -> dict:
@@ -281,31 +311,46 @@ def _print(table: dict, whole: dict) -> None:
         ours = tools.get("genie-gl")
         tri = next(iter(tools.values()))["triangles"]
         drawn = f", {ours['triangles_drawn_pose0']:,} drawn at pose 0" if ours else ""
-        print(f"\nscene {scene}: {tri:,} triangles{drawn}; 640x480, depth + instance ids; min (median) of "
-              f"{next(iter(tools.values()))['n']} fresh processes per tool")
+        print(
+            f"\nscene {scene}: {tri:,} triangles{drawn}; 640x480, depth + instance ids; min "
+            "(median) of "
+            f"{next(iter(tools.values()))['n']} fresh processes per tool"
+        )
         print(f"  {'tool':<13}" + "".join(f"{label:>22}" for _, label, _ in METRICS))
         for tool, row in tools.items():
-            cells = "".join(f"{row[k]['min']:>12.3g} ({row[k]['median']:.3g})" for k, _, _ in METRICS)
+            cells = "".join(
+                f"{row[k]['min']:>12.3g} ({row[k]['median']:.3g})" for k, _, _ in METRICS
+            )
             print(f"  {tool:<13}{cells}")
         for mine in (t for t in OURS if t in tools):
             for tool, row in tools.items():
                 if tool in OURS:
                     continue
                 ratios = [row[k]["median"] / tools[mine][k]["median"] for k, _, _ in METRICS]
-                print(f"  {tool + ' / ' + mine:<10}" + "".join(f"{x:>22.2f}" for x in ratios) + "   (medians)")
+                print(
+                    f"  {tool + ' / ' + mine:<10}"
+                    + "".join(f"{x:>22.2f}" for x in ratios)
+                    + "   (medians)"
+                )
         for tool, w in whole.get(scene, {}).items():
-            print(f"  whole machine {tool}: {w['fps']:.1f} frames/s with {w['processes']} processes, "
-                  f"peak {w['peak_rss_mib']:.0f} MiB per process")
+            print(
+                f"  whole machine {tool}: {w['fps']:.1f} frames/s with {w['processes']} processes, "
+                f"peak {w['peak_rss_mib']:.0f} MiB per process"
+            )
 
 
 def _listed(value, known, option: str) -> list[str]:
     """The names of ``value`` (a list from the command line or a comma-separated string from
     a caller), each one of ``known`` (a ConfigError in the option's words otherwise)."""
-    parts = [v.strip() for v in (value.split(",") if isinstance(value, str) else value) if v.strip()]
+    parts = [
+        v.strip() for v in (value.split(",") if isinstance(value, str) else value) if v.strip()
+    ]
     for name in parts or [""]:
         if name not in known:
-            raise ConfigError(f"genie bench render {option}: unknown name {name!r}{did_you_mean(name, known)}; "
-                              f"expected some of {', '.join(known)}")
+            raise ConfigError(
+                f"genie bench render {option}: unknown name {name!r}{did_you_mean(name, known)}; "
+                f"expected some of {', '.join(known)}"
+            )
     return parts
 
 
@@ -316,29 +361,48 @@ def run(args: argparse.Namespace) -> int:
     skipped = {t: f"not installed: {PEERS[t][1]}" for t in tools if not available(t)}
     tools = [t for t in tools if t not in skipped]
     load = os.getloadavg()
-    print("genie bench render: compiling (or loading) the kernels once in a throw-away process "
-          "(the first run on a machine takes about a minute) ...", flush=True)
+    print(
+        "genie bench render: compiling (or loading) the kernels once in a throw-away process "
+        "(the first run on a machine takes about a minute) ...",
+        flush=True,
+    )
     _warm()
     runs = []
     total, done = len(scenes) * args.repeats * len(tools), 0
     for scene in scenes:
         for k in range(args.repeats):
-            turn = tools[k % len(tools):] + tools[:k % len(tools)]   # who goes first rotates
+            turn = tools[k % len(tools) :] + tools[: k % len(tools)]  # who goes first rotates
             for tool in turn:
                 done += 1
-                print(f"  [{done}/{total}] scene {scene}, {tool}, turn {k + 1} of {args.repeats}: a fresh process "
-                      "builds the scene and renders its 40 poses ...", flush=True)
+                print(
+                    f"  [{done}/{total}] scene {scene}, {tool}, turn {k + 1} of {args.repeats}: a "
+                    "fresh process "
+                    "builds the scene and renders its 40 poses ...",
+                    flush=True,
+                )
                 runs.append(_fresh(tool, scene))
     whole: dict = {}
     if args.whole_machine:
         for scene in scenes:
-            print(f"  scene {scene}: each tool on the whole machine ({args.frames} frames per process) ...", flush=True)
+            print(
+                f"  scene {scene}: each tool on the whole machine ({args.frames} frames per "
+                "process) ...",
+                flush=True,
+            )
             whole[scene] = {t: whole_machine(t, scene, args.frames) for t in tools}
     table = summarise(runs)
-    results = {"machine": {"cpus": os.cpu_count(), "load_before": load, "load_after": os.getloadavg()},
-               "runs": runs, "table": table, "whole_machine": whole, "skipped": skipped}
+    results = {
+        "machine": {"cpus": os.cpu_count(), "load_before": load, "load_after": os.getloadavg()},
+        "runs": runs,
+        "table": table,
+        "whole_machine": whole,
+        "skipped": skipped,
+    }
     _print(table, whole)
-    print(f"\nload average before {load[0]:.1f}, after {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)")
+    print(
+        f"\nload average before {load[0]:.1f}, after {os.getloadavg()[0]:.1f} ({os.cpu_count()} "
+        "cores)"
+    )
     for name, why in skipped.items():
         print(f"  skipped {name}: {why}")
     atomic_write_text(out_dir / "render.json", json.dumps(results, indent=2))

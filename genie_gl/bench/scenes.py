@@ -16,6 +16,7 @@ meshes in memory -> first frame.
 Poses look from 1.2 to 7 m high across the area towards its middle; ``poses(n)`` gives ``n``
 distinct ones, the same for every tool.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -47,7 +48,8 @@ class SceneSpec:
     Attributes
     ----------
     name : str, one of :data:`SIZES`.
-    meshes : list of (vertices (V, 3) float32, faces (F, 3) uint32, closed bool), model frame, metres.
+    meshes : list of (vertices (V, 3) float32, faces (F, 3) uint32, closed bool), model frame,
+    metres.
     mesh_of : (N,) int64, the mesh each instance places.
     world_from_model : (N, 4, 4) float64.
     semantic : (N,) int64, class ids.
@@ -75,8 +77,10 @@ def _floor(size_m: float, cells: int) -> tuple[np.ndarray, np.ndarray, bool]:
     x, y = np.meshgrid(t, t, indexing="ij")
     v = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], axis=1).astype(np.float32)
     i = np.arange(cells)[:, None] * (cells + 1) + np.arange(cells)[None, :]
-    a, b, c, d = i, i + (cells + 1), i + (cells + 2), i + 1   # CCW seen from above
-    f = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+    a, b, c, d = i, i + (cells + 1), i + (cells + 2), i + 1  # CCW seen from above
+    f = np.concatenate(
+        [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
+    )
     return v, f.astype(np.uint32), False
 
 
@@ -103,7 +107,10 @@ def _objects_scene(name: str, rng: np.random.Generator) -> tuple[list, list, lis
         yaw = rng.uniform(0, 2 * np.pi)
         pose[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
         zmin = float(mesh[0][:, 2].min())
-        pose[:3, 3] = [*rng.uniform(-10, 10, 2), -zmin + rng.choice([0.0, 0.0, rng.uniform(0.2, 1.5)])]
+        pose[:3, 3] = [
+            *rng.uniform(-10, 10, 2),
+            -zmin + rng.choice([0.0, 0.0, rng.uniform(0.2, 1.5)]),
+        ]
         meshes.append(mesh)
         mesh_of.append(len(meshes) - 1)
         T.append(pose)
@@ -112,7 +119,7 @@ def _objects_scene(name: str, rng: np.random.Generator) -> tuple[list, list, lis
 
 
 def _hall(rng: np.random.Generator) -> tuple[list, list, list, list]:
-    ball = trimesh.creation.icosphere(6, radius=0.5)   # 81,920 triangles
+    ball = trimesh.creation.icosphere(6, radius=0.5)  # 81,920 triangles
     meshes = [_floor(24.0, 4), _arrays(ball, np.ones(3))]
     mesh_of, T, sem = [0], [np.eye(4)], [0]
     gx, gy = np.meshgrid(np.linspace(-9.5, 9.5, 12), np.linspace(-9.5, 9.5, 10), indexing="ij")
@@ -153,20 +160,35 @@ def _generated(seed: int) -> SceneSpec:
     centre[:2] = bounds[:, :2].mean(axis=0)
     ps = poses(40, rng=np.random.default_rng(seed), half_extent_m=0.6 * half)
     ps[:, :2, 3] += centre[:2]
-    return SceneSpec("generated", meshes, np.array([index[i.mesh] for i in inst]),
-                     np.stack([i.world_from_model for i in inst]), np.array([i.semantic for i in inst]), ps, scene)
+    return SceneSpec(
+        "generated",
+        meshes,
+        np.array([index[i.mesh] for i in inst]),
+        np.stack([i.world_from_model for i in inst]),
+        np.array([i.semantic for i in inst]),
+        ps,
+        scene,
+    )
 
 
 def bench_spec(name: str, seed: int = 0) -> SceneSpec:
     """The benchmark scene ``name`` (one of :data:`SIZES`) with 40 poses."""
     if name not in SIZES:
-        raise ConfigError(f"benchmark scene {name!r} is unknown; expected one of {', '.join(SIZES)}")
+        raise ConfigError(
+            f"benchmark scene {name!r} is unknown; expected one of {', '.join(SIZES)}"
+        )
     if name == "generated":
         return _generated(seed)
     rng = np.random.default_rng(seed)
     meshes, mesh_of, T, sem = _hall(rng) if name == "hall" else _objects_scene(name, rng)
-    return SceneSpec(name, meshes, np.array(mesh_of), np.stack(T), np.array(sem),
-                     poses(40, rng=np.random.default_rng(seed + 1)))
+    return SceneSpec(
+        name,
+        meshes,
+        np.array(mesh_of),
+        np.stack(T),
+        np.array(sem),
+        poses(40, rng=np.random.default_rng(seed + 1)),
+    )
 
 
 def to_scene(spec: SceneSpec):
@@ -174,7 +196,10 @@ def to_scene(spec: SceneSpec):
     if spec.scene is not None:
         return spec.scene
     scene = Scene()
-    keys = [scene.add_mesh(Mesh(v, f, closed=c), name=f"mesh_{k:04d}") for k, (v, f, c) in enumerate(spec.meshes)]
+    keys = [
+        scene.add_mesh(Mesh(v, f, closed=c), name=f"mesh_{k:04d}")
+        for k, (v, f, c) in enumerate(spec.meshes)
+    ]
     for m, T, s in zip(spec.mesh_of, spec.world_from_model, spec.semantic):
         scene.add(keys[m], T, semantic=int(s))
     return scene

@@ -9,6 +9,7 @@ dataset does; and, to tell what the views cost from what recording costs, the tr
 poses captured standing, one ``gg.capture`` call per sensor. Wall and CPU seconds, best of
 ``--repeat``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -28,23 +29,27 @@ from ..motion.rig import load_rig
 
 
 def check_arguments(args: argparse.Namespace) -> None:
-    """The rig and the strategy read before the output folder is claimed (``genie bench`` calls it)."""
+    """The rig and the strategy read before the output folder is claimed (``genie bench`` calls
+    it)."""
     load_rig(args.rig)
     load_strategy(args.strategy)
 
 
 def run(args: argparse.Namespace) -> int:
-    rig = load_rig(args.rig)   # a bad rig file is refused before the scene is built
+    rig = load_rig(args.rig)  # a bad rig file is refused before the scene is built
     layout = generate_layout(args.strategy, seed=args.seed)
     scene = build_scene(layout, seed=args.seed)
     tr = make_trajectory(layout, scene, "aisles", seed=args.seed, duration_s=args.duration_s)
     shots = schedule(rig, tr)
     per = [sum(s.sensor == k for s in shots) for k in range(len(rig))]
-    standing = [place_sensors(layout, s.sensor, n=n, seed=args.seed, method="greedy") for s, n in zip(rig.sensors, per)]
+    standing = [
+        place_sensors(layout, s.sensor, n=n, seed=args.seed, method="greedy")
+        for s, n in zip(rig.sensors, per)
+    ]
     ctx = shared_context()
     same = [[sh.world_from_camera for sh in shots if sh.sensor == k] for k in range(len(rig))]
     best = {"trajectory": float("inf"), "standing": float("inf"), "same_poses": float("inf")}
-    cpu = dict(best)   # CPU seconds of the process, all threads
+    cpu = dict(best)  # CPU seconds of the process, all threads
     for _ in range(max(1, args.repeat)):
         t, c = time.perf_counter(), time.process_time()
         n = sum(1 for _ in record(scene, rig, tr, seed=args.seed, depth_only=True, context=ctx))
@@ -60,19 +65,33 @@ def run(args: argparse.Namespace) -> int:
             capture(scene, s.sensor, poses, seed=args.seed, workers=1, depth_only=True, context=ctx)
         best["same_poses"] = min(best["same_poses"], time.perf_counter() - t)
         cpu["same_poses"] = min(cpu["same_poses"], time.process_time() - c)
-    result = {"strategy": args.strategy, "rig": rig.name, "frames": n, "duration_s": tr.duration_s,
-              "trajectory_s": best["trajectory"], "standing_s": best["standing"],
-              "trajectory_fps": n / best["trajectory"], "standing_fps": n / best["standing"],
-              "ratio": best["trajectory"] / best["standing"],
-              "trajectory_cpu_s": cpu["trajectory"], "standing_cpu_s": cpu["standing"],
-              "cpu_ratio": cpu["trajectory"] / cpu["standing"],
-              "same_poses_s": best["same_poses"], "same_poses_cpu_s": cpu["same_poses"],
-              "cpu_ratio_same_poses": cpu["trajectory"] / cpu["same_poses"]}
+    result = {
+        "strategy": args.strategy,
+        "rig": rig.name,
+        "frames": n,
+        "duration_s": tr.duration_s,
+        "trajectory_s": best["trajectory"],
+        "standing_s": best["standing"],
+        "trajectory_fps": n / best["trajectory"],
+        "standing_fps": n / best["standing"],
+        "ratio": best["trajectory"] / best["standing"],
+        "trajectory_cpu_s": cpu["trajectory"],
+        "standing_cpu_s": cpu["standing"],
+        "cpu_ratio": cpu["trajectory"] / cpu["standing"],
+        "same_poses_s": best["same_poses"],
+        "same_poses_cpu_s": cpu["same_poses"],
+        "cpu_ratio_same_poses": cpu["trajectory"] / cpu["same_poses"],
+    }
     atomic_write_text(Path(args.out) / "sequence.json", json.dumps(result, indent=1))
-    print(f"{n} frames of {rig.name} ({len(rig)} sensors) on {args.strategy}: along a {tr.duration_s:.1f} s "
-          f"trajectory {result['trajectory_fps']:.1f} frames/s, standing {result['standing_fps']:.1f} frames/s "
-          f"(trajectory / standing time = {result['ratio']:.2f}; CPU time {result['cpu_ratio']:.2f}: "
-          f"{result['trajectory_cpu_s']:.1f} s against {result['standing_cpu_s']:.1f} s); the trajectory's own poses "
-          f"standing, one call per sensor: {n / best['same_poses']:.1f} frames/s, CPU time ratio "
-          f"{result['cpu_ratio_same_poses']:.2f}")
+    print(
+        f"{n} frames of {rig.name} ({len(rig)} sensors) on {args.strategy}: along a "
+        f"{tr.duration_s:.1f} s "
+        f"trajectory {result['trajectory_fps']:.1f} frames/s, standing {result['standing_fps']:.1f}"
+        " frames/s "
+        f"(trajectory / standing time = {result['ratio']:.2f}; CPU time {result['cpu_ratio']:.2f}: "
+        f"{result['trajectory_cpu_s']:.1f} s against {result['standing_cpu_s']:.1f} s); the "
+        "trajectory's own poses "
+        f"standing, one call per sensor: {n / best['same_poses']:.1f} frames/s, CPU time ratio "
+        f"{result['cpu_ratio_same_poses']:.2f}"
+    )
     return 0

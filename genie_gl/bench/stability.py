@@ -6,6 +6,7 @@ which pixel) and reports the worst error it measured beside the tolerance it mus
 test suite runs the same cases (``tests/bench/test_stability.py``); a case over its tolerance
 fails the command (exit 1).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -68,12 +69,16 @@ def far_near(context=None) -> list[Row]:
     core = interior(want_id == 2) | interior(want_id == 1)
     wrong = int((f.instance[core] != want_id[core]).sum())
     err = rel_error(f.depth, want_z, core) if wrong == 0 else float("inf")
-    return [Row("far/near 1e7 (2 mm plate, 9 km wall)", 1e-6, err, "rel depth", f"{wrong} ids wrong")]
+    return [
+        Row("far/near 1e7 (2 mm plate, 9 km wall)", 1e-6, err, "rel depth", f"{wrong} ids wrong")
+    ]
 
 
 def _translated(scene: Scene, shift: np.ndarray) -> Scene:
     out = Scene(meshes=dict(scene.meshes))
-    out.instances = [replace(i, world_from_model=shift @ i.world_from_model) for i in scene.instances]
+    out.instances = [
+        replace(i, world_from_model=shift @ i.world_from_model) for i in scene.instances
+    ]
     return out
 
 
@@ -110,24 +115,49 @@ def translation_rows(offsets=(1e3, 1e5, 1e7), size=(640, 480), context=None) -> 
         with renderer(_translated(scene, shift), context) as r:
             f1 = r.render(s, shift @ pose)
         both = (f0.depth > 0) & (f1.depth > 0)
-        wrong = int((f0.instance != f1.instance).sum()) + int(((f0.depth > 0) != (f1.depth > 0)).sum())
+        wrong = int((f0.instance != f1.instance).sum()) + int(
+            ((f0.depth > 0) != (f1.depth > 0)).sum()
+        )
         rel = np.zeros(f0.depth.shape)
         rel[both] = np.abs(f1.depth[both].astype(np.float64) - f0.depth[both]) / f0.depth[both]
         tag = f"translated by {off:.0e} m ({size[0]}x{size[1]} generated scene)"
-        note = f"{wrong} ids/returns differ; {int((rel > 0).sum())} of {int(both.sum())} pixels differ at all"
-        rows.append(Row(f"{tag}: depth, incidence < {GRAZING_DEG:.0f}°", 1e-6,
-                        float(rel[both & steep].max()) if wrong == 0 else float("inf"), "rel depth", note))
-        rows.append(Row(f"{tag}: depth, every pixel, x cos(incidence)", 1e-6,
-                        float((rel * cos)[both].max()) if wrong == 0 else float("inf"), "rel depth",
-                        f"worst unweighted {float(rel.max()):.1e}"))
+        note = (
+            f"{wrong} ids/returns differ; {int((rel > 0).sum())} of {int(both.sum())} pixels "
+            "differ at all"
+        )
+        rows.append(
+            Row(
+                f"{tag}: depth, incidence < {GRAZING_DEG:.0f}°",
+                1e-6,
+                float(rel[both & steep].max()) if wrong == 0 else float("inf"),
+                "rel depth",
+                note,
+            )
+        )
+        rows.append(
+            Row(
+                f"{tag}: depth, every pixel, x cos(incidence)",
+                1e-6,
+                float((rel * cos)[both].max()) if wrong == 0 else float("inf"),
+                "rel depth",
+                f"worst unweighted {float(rel.max()):.1e}",
+            )
+        )
         c1 = to_cloud([f1]).world_xyz - shift[:3, 3]
         if len(c0) != len(c1):
             rows.append(Row(f"{tag}: cloud made absolute", 1e-4, float("inf"), "m"))
             continue
         gap = np.abs(c1 - c0).max(1)
         sel = steep[f0.depth > 0]
-        rows.append(Row(f"{tag}: cloud made absolute, incidence < {GRAZING_DEG:.0f}°", 1e-4,
-                        float(gap[sel].max()), "m", f"worst at any incidence {float(gap.max()) * 1e3:.3f} mm"))
+        rows.append(
+            Row(
+                f"{tag}: cloud made absolute, incidence < {GRAZING_DEG:.0f}°",
+                1e-4,
+                float(gap[sel].max()),
+                "m",
+                f"worst at any incidence {float(gap.max()) * 1e3:.3f} mm",
+            )
+        )
     return rows
 
 
@@ -142,26 +172,34 @@ def grazing(context=None) -> list[Row]:
     """A floor seen at 89.9° incidence at the image centre."""
     s = Sensor.pinhole(128, 96, 110.0, far_m=1e5)
     tilt = np.radians(89.9)
-    a = np.pi / 2 - tilt                       # camera pitched down by a (x right, y down, z fwd)
+    a = np.pi / 2 - tilt  # camera pitched down by a (x right, y down, z fwd)
     R = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
     pose = np.eye(4)
-    pose[:3, :3] = R.T                         # world_from_camera; world = camera frame at rest
+    pose[:3, :3] = R.T  # world_from_camera; world = camera frame at rest
     h = 1.0
     scene = Scene()
     scene.add(quad([[-4e3, h, -10.0], [4e3, h, -10.0], [4e3, h, 2e4], [-4e3, h, 2e4]]), instance=3)
     with renderer(scene, context) as r:
         f = r.render(s, pose)
-    n_cam = R @ np.array([0, 1.0, 0])          # plane y = h (world) in the camera frame
+    n_cam = R @ np.array([0, 1.0, 0])  # plane y = h (world) in the camera frame
     p0_cam = R @ np.array([0, h, 0])
     want = plane_depth(s, n_cam, p0_cam)
-    d = np.nan_to_num(s.directions()) @ R      # world rays
+    d = np.nan_to_num(s.directions()) @ R  # world rays
     with np.errstate(divide="ignore", invalid="ignore"):
         t = h / d[..., 1]
     inside = (t > 0) & (np.abs(t * d[..., 0]) < 4e3) & (t * d[..., 2] < 2e4) & (want < 1e5)
     core = interior(inside, 2)
     wrong = int((f.instance[core] != 3).sum())
     err = rel_error(f.depth, want, core) if wrong == 0 else float("inf")
-    return [Row("grazing 89.9° floor", 1e-5, err, "rel depth", f"{wrong} ids wrong; centre ray at {h / np.cos(tilt):.0f} m")]
+    return [
+        Row(
+            "grazing 89.9° floor",
+            1e-5,
+            err,
+            "rel depth",
+            f"{wrong} ids wrong; centre ray at {h / np.cos(tilt):.0f} m",
+        )
+    ]
 
 
 @case
@@ -170,16 +208,19 @@ def lenses(context=None) -> list[Row]:
     return [r for name in LENSES for r in lens_rows(name, context)]
 
 
-# -- near, inside, on, empty, broken ------------------------------------------------------------------
+# -- near, inside, on, empty, broken
+# ------------------------------------------------------------------
 @case
 def near_range(context=None) -> list[Row]:
     """A plate nearer than the minimum range: no return there (not the wall behind it)."""
     rows = []
-    for label, s in (("pinhole", Sensor.pinhole(128, 96, 110.0, near_m=0.05)),
-                     ("k1=-0.5 lens", replace(lens_sensor("k1=-0.5 (barrel)", 128, 96), near_m=0.05))):
+    for label, s in (
+        ("pinhole", Sensor.pinhole(128, 96, 110.0, near_m=0.05)),
+        ("k1=-0.5 lens", replace(lens_sensor("k1=-0.5 (barrel)", 128, 96), near_m=0.05)),
+    ):
         scene = Scene()
         scene.add(facing_quad(2.0, -5, 5, -5, 5), instance=1)
-        scene.add(facing_quad(0.02, -0.1, 0.0, -0.1, 0.1), instance=2)   # the left half, 2 cm away
+        scene.add(facing_quad(0.02, -0.1, 0.0, -0.1, 0.1), instance=2)  # the left half, 2 cm away
         with renderer(scene, context) as r:
             f = through_lens(r.render)(s, np.eye(4))
         x = np.nan_to_num(s.rays()[..., 0], nan=np.inf)
@@ -189,8 +230,15 @@ def near_range(context=None) -> list[Row]:
         want_z = np.where(plate, 0.0, plane_depth(s, np.array([0, 0, 1.0]), np.array([0, 0, 2.0])))
         wrong = int((f.instance[core] != np.where(plate, 0, 1)[core]).sum())
         wrong += int(((f.depth > 0) != (want_z > 0))[core].sum())
-        rows.append(Row(f"surface nearer than the minimum range ({label})", 0, wrong, "pixels wrong",
-                        "2 cm plate, 5 cm minimum range: depth 0 and id 0"))
+        rows.append(
+            Row(
+                f"surface nearer than the minimum range ({label})",
+                0,
+                wrong,
+                "pixels wrong",
+                "2 cm plate, 5 cm minimum range: depth 0 and id 0",
+            )
+        )
     return rows
 
 
@@ -208,11 +256,18 @@ def inside_and_on(context=None) -> list[Row]:
     e = pose[:3, 3]
     with np.errstate(divide="ignore"):
         t = np.where(d > 0, (2.0 - e) / d, (-2.0 - e) / d)
-    t = t.min(-1)                              # the first wall a ray leaves the box through
+    t = t.min(-1)  # the first wall a ray leaves the box through
     want = t * np.nan_to_num(s.directions())[..., 2]
     ids_ok = f.instance == 7
-    rows.append(Row("camera inside a closed box", 1e-5, rel_error(f.depth, want, interior(ids_ok, 1))
-                    if ids_ok.all() else float("inf"), "rel depth", f"{int((~ids_ok).sum())} pixels without the box"))
+    rows.append(
+        Row(
+            "camera inside a closed box",
+            1e-5,
+            rel_error(f.depth, want, interior(ids_ok, 1)) if ids_ok.all() else float("inf"),
+            "rel depth",
+            f"{int((~ids_ok).sum())} pixels without the box",
+        )
+    )
     # 0.1 mm above a floor, looking 5° down at a wall 3 m ahead that reaches 1 m below the
     # floor: the floor under the camera is nearer than the range (no return), and a near
     # plane that clipped it away would show the wall through it
@@ -237,8 +292,16 @@ def inside_and_on(context=None) -> list[Row]:
     core = interior(want_id == 5, 1) | interior(want_id == 0, 1) | interior(want_id == 4, 1)
     wrong = int((f.instance != want_id)[core].sum())
     err = rel_error(f.depth, want, core & (want > 0)) if wrong == 0 else float("inf")
-    rows.append(Row("camera 0.1 mm above a floor (on a surface)", 1e-5, err, "rel depth",
-                    f"{wrong} ids wrong; {int((floor_first & (want == 0)).sum())} floor pixels nearer than the range"))
+    rows.append(
+        Row(
+            "camera 0.1 mm above a floor (on a surface)",
+            1e-5,
+            err,
+            "rel depth",
+            f"{wrong} ids wrong; {int((floor_first & (want == 0)).sum())} floor pixels nearer than "
+            "the range",
+        )
+    )
     return rows
 
 
@@ -249,9 +312,27 @@ def empty_and_broken(context=None) -> list[Row]:
     s = Sensor.pinhole(64, 48, 50.0)
     with renderer(Scene(), context) as r:
         f = r.render(s, np.eye(4))
-    rows.append(Row("empty scene", 0, int((f.depth != 0).sum() + (f.instance != 0).sum()), "pixels not empty"))
-    v = np.array([[-1, -1, 2], [1, -1, 2], [1, 1, 2], [-1, 1, 2],
-                  [np.nan, 0, 2], [np.inf, 1, 2], [0.5, 0.5, 1.0], [0.5, 0.5, 1.0]], float)
+    rows.append(
+        Row(
+            "empty scene",
+            0,
+            int((f.depth != 0).sum() + (f.instance != 0).sum()),
+            "pixels not empty",
+        )
+    )
+    v = np.array(
+        [
+            [-1, -1, 2],
+            [1, -1, 2],
+            [1, 1, 2],
+            [-1, 1, 2],
+            [np.nan, 0, 2],
+            [np.inf, 1, 2],
+            [0.5, 0.5, 1.0],
+            [0.5, 0.5, 1.0],
+        ],
+        float,
+    )
     faces = np.array([[0, 1, 2], [0, 2, 3], [4, 0, 1], [5, 1, 2], [6, 7, 0], [6, 6, 6]])
     scene = Scene()
     scene.add(Mesh(v, faces), instance=9)
@@ -263,9 +344,21 @@ def empty_and_broken(context=None) -> list[Row]:
     outside = interior((np.abs(x) > 1) | (np.abs(y) > 1), 1)
     wrong = int((f.instance[square] != 9).sum() + (f.instance[outside] != 0).sum())
     counts = abs(rep["faces_nonfinite"] - 2) + abs(rep["faces_zero_area"] - 2)
-    err = rel_error(f.depth, np.full(f.depth.shape, 2.0), square) if wrong + counts == 0 else float("inf")
-    rows.append(Row("NaN/Inf/zero-area faces skipped and counted", 1e-6, err, "rel depth",
-                    f"report: {rep['faces_nonfinite']} non-finite, {rep['faces_zero_area']} zero-area faces"))
+    err = (
+        rel_error(f.depth, np.full(f.depth.shape, 2.0), square)
+        if wrong + counts == 0
+        else float("inf")
+    )
+    rows.append(
+        Row(
+            "NaN/Inf/zero-area faces skipped and counted",
+            1e-6,
+            err,
+            "rel depth",
+            f"report: {rep['faces_nonfinite']} non-finite, {rep['faces_zero_area']} zero-area "
+            "faces",
+        )
+    )
     scene = Scene()
     bad = 0
     try:
@@ -274,20 +367,29 @@ def empty_and_broken(context=None) -> list[Row]:
     except ConfigError as exc:
         msg = str(exc)
         bad += int("\n" in msg or "/World/Hidden" not in msg or "zero scale" not in msg)
-    scene.add(facing_quad(2, -1, 1, -1, 1), np.diag([1.0, 1, 0, 1]), name="/World/Flat", degenerate="drop")
+    scene.add(
+        facing_quad(2, -1, 1, -1, 1), np.diag([1.0, 1, 0, 1]), name="/World/Flat", degenerate="drop"
+    )
     scene.add(facing_quad(2, -1, 1, -1, 1), instance=3)
     bad += abs(scene.report()["dropped_instances"] - 1)
     with renderer(scene, context) as r:
         f = r.render(s, np.eye(4))
     bad += int((f.instance[square] != 3).sum())
-    rows.append(Row("zero / singular scale: refused naming the prim, or dropped and counted", 0, bad, "failures"))
+    rows.append(
+        Row(
+            "zero / singular scale: refused naming the prim, or dropped and counted",
+            0,
+            bad,
+            "failures",
+        )
+    )
     return rows
 
 
 @case
 def many_instances(context=None) -> list[Row]:
     """2^16 + 1 instances, each on its own 2x2 pixel block: every id where it belongs."""
-    n = 2 ** 16 + 1
+    n = 2**16 + 1
     cols = 257
     rows_ = -(-n // cols)
     W, H = 2 * cols, 2 * rows_
@@ -295,7 +397,7 @@ def many_instances(context=None) -> list[Row]:
     z = 10.0
     scene = Scene()
     key = scene.add_mesh(facing_quad(z, 0, 1, 0, 1), "cell")
-    px = z / s.fx                              # one pixel at the plane
+    px = z / s.fx  # one pixel at the plane
     for k in range(n):
         i, j = divmod(k, cols)
         T = np.eye(4)
@@ -311,8 +413,16 @@ def many_instances(context=None) -> list[Row]:
     wrong = int((f.instance != want).sum())
     cloud = to_cloud([f])
     lost = n - len(np.unique(cloud.instance))
-    return [Row(f"2^16 + 1 = {n} instances", 0, wrong + lost, "pixels wrong",
-                f"largest id {int(f.instance.max())}, {len(np.unique(cloud.instance))} ids in the cloud")]
+    return [
+        Row(
+            f"2^16 + 1 = {n} instances",
+            0,
+            wrong + lost,
+            "pixels wrong",
+            f"largest id {int(f.instance.max())}, {len(np.unique(cloud.instance))} ids in the "
+            "cloud",
+        )
+    ]
 
 
 @case
@@ -323,28 +433,40 @@ def wide_site(context=None) -> list[Row]:
     frames_pose, walls = [], []
     for k, x0 in enumerate((0.0, 10_000.0, 20_000.0)):
         wall_x = x0 + 5.0 + 0.123456 * k
-        scene.add(quad([[wall_x, -20, -20], [wall_x, 20, -20], [wall_x, 20, 20], [wall_x, -20, 20]]), instance=k + 1)
+        scene.add(
+            quad([[wall_x, -20, -20], [wall_x, 20, -20], [wall_x, 20, 20], [wall_x, -20, 20]]),
+            instance=k + 1,
+        )
         frames_pose.append(look_at([x0, 0.0, 1.0], [x0 + 10.0, 0.3, 1.2]))
         walls.append(wall_x)
     with renderer(scene, context) as r:
         frames = [r.render(s, p) for p in frames_pose]
     rows = []
-    for precision, tol in (("float64", 1e-4), ("float32", 2 ** -24 * 12_000)):
+    for precision, tol in (("float64", 1e-4), ("float32", 2**-24 * 12_000)):
         cloud = to_cloud(frames, precision=precision)
         xyz = cloud.world_xyz
         want = np.array(walls)[cloud.camera]
-        rows.append(Row(f"20 km wide site: cloud ({precision} xyz) made absolute", tol,
-                        float(np.abs(xyz[:, 0] - want).max()), "m",
-                        "float32 keeps |xyz|·2^-24 from the origin" if precision == "float32" else ""))
+        rows.append(
+            Row(
+                f"20 km wide site: cloud ({precision} xyz) made absolute",
+                tol,
+                float(np.abs(xyz[:, 0] - want).max()),
+                "m",
+                "float32 keeps |xyz|·2^-24 from the origin" if precision == "float32" else "",
+            )
+        )
     return rows
 
 
-# -- the command ---------------------------------------------------------------------------------------
+# -- the command
+# ---------------------------------------------------------------------------------------
 def run_cases(names=None, context=None) -> list[Row]:
     unknown = [n for n in names or () if n not in CASES]
     if unknown:
-        raise ConfigError(f"--case {unknown[0]!r}: unknown{did_you_mean(unknown[0], CASES)}; expected some of "
-                          f"{', '.join(sorted(CASES))}")
+        raise ConfigError(
+            f"--case {unknown[0]!r}: unknown{did_you_mean(unknown[0], CASES)}; expected some of "
+            f"{', '.join(sorted(CASES))}"
+        )
     rows = []
     for name in names or CASES:
         t0 = time.perf_counter()
@@ -356,11 +478,15 @@ def run_cases(names=None, context=None) -> list[Row]:
 
 def table(rows: list[Row]) -> str:
     w = max(len(r.case) for r in rows)
-    lines = [f"{'case':<{w}}  {'tolerance':>10}  {'worst error':>12}  {'unit':<14}  status  note",
-             "-" * (w + 60)]
+    lines = [
+        f"{'case':<{w}}  {'tolerance':>10}  {'worst error':>12}  {'unit':<14}  status  note",
+        "-" * (w + 60),
+    ]
     for r in rows:
-        lines.append(f"{r.case:<{w}}  {r.tolerance:>10.3g}  {r.worst:>12.3g}  {r.unit:<14}  "
-                     f"{'ok' if r.ok else 'FAIL':<6}  {r.note}")
+        lines.append(
+            f"{r.case:<{w}}  {r.tolerance:>10.3g}  {r.worst:>12.3g}  {r.unit:<14}  "
+            f"{'ok' if r.ok else 'FAIL':<6}  {r.note}"
+        )
     return "\n".join(lines)
 
 
@@ -373,5 +499,8 @@ def run(args: argparse.Namespace) -> int:
     tmp.write_text(json.dumps([dict(asdict(r), ok=r.ok) for r in rows], indent=1, default=float))
     tmp.replace(out / "stability.json")
     failed = [r.case for r in rows if not r.ok]
-    print(f"{len(rows) - len(failed)} of {len(rows)} cases within tolerance; table in {out / 'stability.json'}")
+    print(
+        f"{len(rows) - len(failed)} of {len(rows)} cases within tolerance; table in "
+        f"{out / 'stability.json'}"
+    )
     return 1 if failed else 0

@@ -1,6 +1,7 @@
 """Scenes and cameras with closed-form answers for ``genie bench stability``: planes, discs,
 lenses against OpenCV's own projection (``cv2.projectPoints``, ``cv2.fisheye.projectPoints``,
 ``cv2.omnidir.projectPoints``)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -53,8 +54,9 @@ def plane_depth(cam: Sensor, n: np.ndarray, p0: np.ndarray) -> np.ndarray:
 def interior(mask: np.ndarray, k: int = 1) -> np.ndarray:
     """Pixels of ``mask`` whose (2k+1)² neighbourhood is all in the mask (away from edges)."""
     m = mask.astype(np.uint8)
-    return cv2.erode(m, np.ones((2 * k + 1, 2 * k + 1), np.uint8), borderType=cv2.BORDER_CONSTANT,
-                     borderValue=0).astype(bool)
+    return cv2.erode(
+        m, np.ones((2 * k + 1, 2 * k + 1), np.uint8), borderType=cv2.BORDER_CONSTANT, borderValue=0
+    ).astype(bool)
 
 
 def renderer(scene: Scene, context):
@@ -72,7 +74,9 @@ LENSES: dict[str, dict] = {
     "k1=-0.5 (barrel)": dict(dist=[-0.5, 0, 0, 0, 0]),
     "k1=+0.5 (pincushion)": dict(dist=[0.5, 0, 0, 0, 0]),
     "rational (8)": dict(dist=[3.1306, 2.3249, 8.1e-5, -5.1e-5, 0.1304, 3.4587, 3.3501, 0.6629]),
-    "tilted (14)": dict(dist=[0.1, -0.05, 0.001, -0.002, 0.01, 0, 0, 0, 0.001, 0, -0.001, 0, 0.01, -0.02]),
+    "tilted (14)": dict(
+        dist=[0.1, -0.05, 0.001, -0.002, 0.01, 0, 0, 0, 0.001, 0, -0.001, 0, 0.01, -0.02]
+    ),
     "fisheye 180°": dict(dist=[0.0, 0.0, 0.0, 0.0], model="fisheye"),
     "omni ξ=0.9 (Mei)": dict(dist=[0.9, -0.2, 0.05, 0.001, -0.002], model="omni"),
 }
@@ -80,7 +84,7 @@ LENSES: dict[str, dict] = {
 
 def lens_sensor(name: str, width: int = 320, height: int = 240) -> Sensor:
     spec = LENSES[name]
-    if spec.get("model") == "fisheye":   # equidistant: the image circle's rim is 90° off axis
+    if spec.get("model") == "fisheye":  # equidistant: the image circle's rim is 90° off axis
         f = (min(width, height) / 2 - 2) / (np.pi / 2)
         K = [[f, 0, (width - 1) / 2 + 0.3], [0, f, (height - 1) / 2 - 0.2], [0, 0, 1]]
         return Sensor(width, height, K, spec["dist"], model="fisheye", name=name)
@@ -88,7 +92,11 @@ def lens_sensor(name: str, width: int = 320, height: int = 240) -> Sensor:
         f = 0.5 * width
         K = [[f, 0, (width - 1) / 2 + 0.3], [0, f + 1, (height - 1) / 2 - 0.2], [0, 0, 1]]
         return Sensor(width, height, K, spec["dist"], model="omni", name=name)
-    K = [[0.9 * width, 0, (width - 1) / 2 + 0.3], [0, 0.9 * width + 5, (height - 1) / 2 - 0.2], [0, 0, 1]]
+    K = [
+        [0.9 * width, 0, (width - 1) / 2 + 0.3],
+        [0, 0.9 * width + 5, (height - 1) / 2 - 0.2],
+        [0, 0, 1],
+    ]
     return Sensor(width, height, K, spec["dist"], name=name)
 
 
@@ -96,10 +104,13 @@ def opencv_project(cam: Sensor, points: np.ndarray) -> np.ndarray:
     """(N, 2) pixels of camera-frame points by OpenCV's own projection."""
     pts = np.asarray(points, np.float64).reshape(-1, 1, 3)
     if cam.model == "fisheye":
-        return cv2.fisheye.projectPoints(pts, np.zeros((3, 1)), np.zeros((3, 1)), cam.K, cam.dist)[0].reshape(-1, 2)
-    if cam.model == "omni":   # opencv-contrib's cv2.omnidir (Mei's unified model)
-        return cv2.omnidir.projectPoints(pts, np.zeros(3), np.zeros(3), cam.K, float(cam.dist[0]),
-                                         cam.dist[1:].reshape(1, 4))[0].reshape(-1, 2)
+        return cv2.fisheye.projectPoints(pts, np.zeros((3, 1)), np.zeros((3, 1)), cam.K, cam.dist)[
+            0
+        ].reshape(-1, 2)
+    if cam.model == "omni":  # opencv-contrib's cv2.omnidir (Mei's unified model)
+        return cv2.omnidir.projectPoints(
+            pts, np.zeros(3), np.zeros(3), cam.K, float(cam.dist[0]), cam.dist[1:].reshape(1, 4)
+        )[0].reshape(-1, 2)
     return cv2.projectPoints(pts, np.zeros(3), np.zeros(3), cam.K, cam.dist)[0].reshape(-1, 2)
 
 
@@ -120,7 +131,7 @@ def marker_scene(cam: Sensor, dist_m: float = 2.0, radius_px: float = 7.0, grid=
     margin = radius_px * 2.2
     us = np.linspace(margin, W - 1 - margin, grid[0])
     vs = np.linspace(margin, H - 1 - margin, grid[1])
-    if cam.model == "fisheye":   # keep inside the image circle
+    if cam.model == "fisheye":  # keep inside the image circle
         uu, vv = np.meshgrid(us, vs)
         r = np.hypot(uu - cam.cx, vv - cam.cy)
         pix = np.stack([uu[r < min(W, H) / 2 - margin], vv[r < min(W, H) / 2 - margin]], 1)
@@ -168,16 +179,20 @@ def marker_truth(cam: Sensor, c, e1, e2, rad, n: int = 161) -> np.ndarray:
     uv = opencv_project(cam, P.reshape(-1, 3)).reshape(n, n, 2)
     du, dv = np.gradient(uv, axis=1), np.gradient(uv, axis=0)
     area = np.abs(du[..., 0] * dv[..., 1] - du[..., 1] * dv[..., 0])
-    inside = S ** 2 + T ** 2 <= rad ** 2
+    inside = S**2 + T**2 <= rad**2
     w = area * inside
     return (uv * w[..., None]).sum((0, 1)) / w.sum()
 
 
-def lens_rows(name: str, context=None, resample: str = "exact", oversample: float | None = None) -> list[Row]:
+def lens_rows(
+    name: str, context=None, resample: str = "exact", oversample: float | None = None
+) -> list[Row]:
     cam = lens_sensor(name)
     rows = []
     err, n = lens_map_error(cam)
-    rows.append(Row(f"{name}: every pixel's ray vs OpenCV", 0.1, err, "px", f"{n} pixels with a ray"))
+    rows.append(
+        Row(f"{name}: every pixel's ray vs OpenCV", 0.1, err, "px", f"{n} pixels with a ray")
+    )
     if name.startswith("tilted"):
         return rows
     scene, markers = marker_scene(cam)
@@ -192,12 +207,24 @@ def lens_rows(name: str, context=None, resample: str = "exact", oversample: floa
             continue
         vv, uu = np.nonzero(mask)
         worst = max(worst, float(np.hypot(u.mean() - uu.mean(), v.mean() - vv.mean())))
-        quant = max(quant, float(np.hypot(*(np.array([uu.mean(), vv.mean()]) - marker_truth(cam, c, e1, e2, rad)))))
+        quant = max(
+            quant,
+            float(
+                np.hypot(*(np.array([uu.mean(), vv.mean()]) - marker_truth(cam, c, e1, e2, rad)))
+            ),
+        )
     # an id is its nearest view pixel's: within half a view pixel, 0.5 / scale lens pixels
     scale = min(m.scale_min for m in lens_views(cam, oversample=oversample))
-    rows.append(Row(f"{name}: marker centroids vs a ray caster through the lens", 0.5 / scale, worst, "px",
-                    f"{len(markers)} discs, corners included; {scale:.2f} view px per lens px at least; "
-                    f"the pixel grid alone moves a centroid {quant:.2f} px from OpenCV's"))
+    rows.append(
+        Row(
+            f"{name}: marker centroids vs a ray caster through the lens",
+            0.5 / scale,
+            worst,
+            "px",
+            f"{len(markers)} discs, corners included; {scale:.2f} view px per lens px at least; "
+            f"the pixel grid alone moves a centroid {quant:.2f} px from OpenCV's",
+        )
+    )
     # a tilted plane through the lens: depth along every ray, and the cloud on the plane
     n_cam = np.array([0.3, -0.4, -1.0])
     n_cam /= np.linalg.norm(n_cam)
@@ -214,10 +241,24 @@ def lens_rows(name: str, context=None, resample: str = "exact", oversample: floa
     want = plane_depth(cam, n_cam, p0)
     valid = f.depth > 0
     missing = int(((want > 0) & np.isfinite(cam.directions()).all(-1) & ~valid).sum())
-    rows.append(Row(f"{name}: planar depth through the lens", 1e-5, rel_error(f.depth, want, valid), "rel depth",
-                    f"{int(valid.sum())} pixels, {missing} without a return"))
+    rows.append(
+        Row(
+            f"{name}: planar depth through the lens",
+            1e-5,
+            rel_error(f.depth, want, valid),
+            "rel depth",
+            f"{int(valid.sum())} pixels, {missing} without a return",
+        )
+    )
     cloud = to_cloud([f])
     dist = np.abs((cloud.world_xyz - p0) @ n_cam) / np.linalg.norm(cloud.world_xyz, axis=1)
-    rows.append(Row(f"{name}: cloud of the plane on the plane", 1e-5, float(dist.max()), "rel distance",
-                    "unprojected through the inverse lens"))
+    rows.append(
+        Row(
+            f"{name}: cloud of the plane on the plane",
+            1e-5,
+            float(dist.max()),
+            "rel distance",
+            "unprojected through the inverse lens",
+        )
+    )
     return rows

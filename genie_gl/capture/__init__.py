@@ -8,6 +8,7 @@ lens, :func:`capture` many, with their effects, on all cores. Cameras that move:
 :mod:`.trajectory` records a rig along a trajectory (its shots in time order, planned per
 sensor), :mod:`.mobile_map` gives those frames a mobile scanner's registration error.
 """
+
 from .costs import add_totals, effect_totals, frame_cost, frame_costs
 from .frames import capture, render
 from .lens import silhouettes, through_lens
@@ -16,6 +17,22 @@ from .serial import pose_rng
 from .settings import apply_to_sensor, settings_for
 from .supersample import supersampled
 
-__all__ = ["EffectPlan", "FramePlan", "Plan", "add_totals", "apply_to_sensor", "capture", "effect_totals",
-           "far_plane", "frame_cost", "frame_costs", "plan", "pose_rng", "render", "settings_for",
-           "silhouettes", "supersampled", "through_lens"]
+__all__ = [
+    "EffectPlan",
+    "FramePlan",
+    "Plan",
+    "add_totals",
+    "apply_to_sensor",
+    "capture",
+    "effect_totals",
+    "far_plane",
+    "frame_cost",
+    "frame_costs",
+    "plan",
+    "pose_rng",
+    "render",
+    "settings_for",
+    "silhouettes",
+    "supersampled",
+    "through_lens",
+]

@@ -5,6 +5,7 @@ Each frame made by :func:`~genie_gl.capture.capture` records its render's millis
 ran, why, its milliseconds and the pixels it changed (``meta["effects"]``, written by
 :func:`~genie_gl.effects.simulate.simulate`). Manifests and benchmarks sum them here.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable
@@ -19,7 +20,11 @@ def frame_cost(meta: dict[str, Any]) -> dict[str, float]:
     renderer's ``render_ms`` otherwise."""
     cost = dict(meta.get("cost_ms") or {})
     for e in meta.get("effects") or []:
-        if isinstance(e, dict) and "ms" in e and f"effect:{e.get('name')}" not in (meta.get("cost_ms") or {}):
+        if (
+            isinstance(e, dict)
+            and "ms" in e
+            and f"effect:{e.get('name')}" not in (meta.get("cost_ms") or {})
+        ):
             key = f"effect:{e.get('name')}"
             cost[key] = cost.get(key, 0.0) + float(e["ms"])
     if "render" not in cost:
@@ -44,12 +49,23 @@ def effect_totals(frames: Iterable[Frame]) -> dict[str, dict[str, Any]]:
     out: dict[str, dict[str, Any]] = {}
     for f in frames:
         for e in (f.meta or {}).get("effects", []):
-            add_totals(out, {e["name"]: {"run": int(e["run"]), "skipped": int(not e["run"]), "ms": e["ms"],
-                                         "changed": e["changed"]}})
+            add_totals(
+                out,
+                {
+                    e["name"]: {
+                        "run": int(e["run"]),
+                        "skipped": int(not e["run"]),
+                        "ms": e["ms"],
+                        "changed": e["changed"],
+                    }
+                },
+            )
     return out
 
 
-def add_totals(into: dict[str, dict[str, Any]], more: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+def add_totals(
+    into: dict[str, dict[str, Any]], more: dict[str, dict[str, Any]]
+) -> dict[str, dict[str, Any]]:
     """Sum ``more`` (as :func:`effect_totals` gives) into ``into``; returns ``into``."""
     for name, t in more.items():
         acc = into.setdefault(name, {"run": 0, "skipped": 0, "ms": 0.0, "changed": 0})

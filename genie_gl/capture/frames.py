@@ -6,6 +6,7 @@ them into the sensor's image, the supersampler renders edges finer, the plan cul
 cannot be seen and skips effects the view cannot call for, and ``simulate`` runs the
 sensor's effects, each frame with its own generator.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -37,9 +38,17 @@ from .settings import apply_to_sensor, level_of_detail, settings_for
 log = logging.getLogger(__name__)
 
 
-def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | None = None,
-           depth_only: bool = False, normals: bool = False, depth_precision: str = "float32",
-           raster: str | None = None) -> Frame:
+def render(
+    scene: Scene,
+    sensor: Sensor,
+    pose: np.ndarray,
+    *,
+    backend: str | None = None,
+    depth_only: bool = False,
+    normals: bool = False,
+    depth_precision: str = "float32",
+    raster: str | None = None,
+) -> Frame:
     """One frame of ``scene`` seen by ``sensor`` at ``pose`` (world_from_camera), through the
     sensor's lens, without its effects (:func:`capture` applies them).
 
@@ -56,11 +65,22 @@ def render(scene: Scene, sensor: Sensor, pose: np.ndarray, *, backend: str | Non
         return through_lens(r.render)(sensor, pose, depth_only=depth_only, normals=normals)
 
 
-def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: int,
-            workers: int | None = 1, backend: str | None = None, depth_only: bool = False,
-            depth_precision: str = "float32", plan: Plan | bool | None = True,
-            accuracy: AccuracySettings | None = None, context: GLContext | None = None,
-            on_frame: Callable[[Frame], None] | None = None, raster: str | None = None) -> list[Frame]:
+def capture(
+    scene: Scene,
+    sensor: Sensor,
+    poses: Sequence[np.ndarray],
+    *,
+    seed: int,
+    workers: int | None = 1,
+    backend: str | None = None,
+    depth_only: bool = False,
+    depth_precision: str = "float32",
+    plan: Plan | bool | None = True,
+    accuracy: AccuracySettings | None = None,
+    context: GLContext | None = None,
+    on_frame: Callable[[Frame], None] | None = None,
+    raster: str | None = None,
+) -> list[Frame]:
     """Render ``poses`` and apply ``sensor``'s effects; frame i's noise depends on (seed, i) only.
 
     Parameters
@@ -92,17 +112,42 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
     """
     scene, sensor, poses, seed = capture_arguments(scene, sensor, poses, seed, Scene, Sensor)
     if on_frame is not None and not callable(on_frame):
-        raise ConfigError(f"capture: on_frame: expected a function taking a Frame (or None), got {describe(on_frame)}")
-    check_frames(len(poses), sensor.width, sensor.height, "capture")   # every frame is returned: all in memory
-    prep = prepare(scene, sensor, poses, accuracy=accuracy, depth_precision=depth_precision, plan=plan, raster=raster)
+        raise ConfigError(
+            "capture: on_frame: expected a function taking a Frame (or None), got "
+            f"{describe(on_frame)}"
+        )
+    check_frames(
+        len(poses), sensor.width, sensor.height, "capture"
+    )  # every frame is returned: all in memory
+    prep = prepare(
+        scene,
+        sensor,
+        poses,
+        accuracy=accuracy,
+        depth_precision=depth_precision,
+        plan=plan,
+        raster=raster,
+    )
     n = len(prep.poses)
     workers = os.cpu_count() or 1 if workers is None else max(1, int(workers))
     workers = min(workers, n)
     if workers <= 1:
         with prep.renderer(scene, backend=backend, context=context) as r:
             return _said_if_empty(prep.frames(r, seed, depth_only, on_frame=on_frame), prep.sensor)
-    frames = capture_in_workers(scene, prep.sensor, prep.poses, seed, workers, backend, prep.accuracy, depth_only,
-                                prep.depth_precision, prep.plan, prep.materials, prep.raster)
+    frames = capture_in_workers(
+        scene,
+        prep.sensor,
+        prep.poses,
+        seed,
+        workers,
+        backend,
+        prep.accuracy,
+        depth_only,
+        prep.depth_precision,
+        prep.plan,
+        prep.materials,
+        prep.raster,
+    )
     if on_frame is not None:
         for f in frames:
             on_frame(f)
@@ -112,15 +157,25 @@ def capture(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, seed: 
 def _said_if_empty(frames: list[Frame], sensor: Sensor) -> list[Frame]:
     """``frames``, with a warning when not one of them has a return."""
     if frames and not any(bool((f.depth > 0).any()) for f in frames):
-        log.warning("capture: no point captured: none of the %d frames of sensor %s (%dx%d px, range %g-%g m) has a "
-                    "return", len(frames), sensor.name, sensor.width, sensor.height, sensor.near_m, sensor.far_m)
+        log.warning(
+            "capture: no point captured: none of the %d frames of sensor %s (%dx%d px, range %g-%g "
+            "m) has a "
+            "return",
+            len(frames),
+            sensor.name,
+            sensor.width,
+            sensor.height,
+            sensor.near_m,
+            sensor.far_m,
+        )
     return frames
 
 
 @dataclass(frozen=True, eq=False)
 class Prepared:
     """What :func:`capture` settles before it renders: the sensor with its accuracy knobs
-    set, the settings, the depth precision, the raster ("cpu" or "gl"), the poses ((4, 4) float64 world_from_camera), the
+    set, the settings, the depth precision, the raster ("cpu" or "gl"), the poses ((4, 4) float64
+    world_from_camera), the
     plan of those poses (None: no plan) and the material table the effects read. A caller
     that renders the poses in parts (a recording, window by window) prepares once and hands
     :meth:`frames` one renderer and each part's :meth:`part`."""
@@ -135,35 +190,67 @@ class Prepared:
 
     @property
     def renderer_key(self) -> tuple:
-        """Captures with equal keys can share one :class:`Renderer` (raster, depth precision, level of detail)."""
+        """Captures with equal keys can share one :class:`Renderer` (raster, depth precision, level
+        of detail)."""
         return self.raster, self.depth_precision, self.accuracy.lod_px
 
-    def renderer(self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None) -> Renderer:
+    def renderer(
+        self, scene: Scene, *, backend: str | None = None, context: GLContext | None = None
+    ) -> Renderer:
         """A renderer of ``scene`` as these settings ask (raster, depth precision, level of
         detail); ``context`` is used by the GL raster only."""
-        return Renderer(scene, backend=backend, depth_precision=self.depth_precision,
-                        context=context if self.raster == "gl" else None, lod=level_of_detail(self.accuracy),
-                        raster=self.raster)
+        return Renderer(
+            scene,
+            backend=backend,
+            depth_precision=self.depth_precision,
+            context=context if self.raster == "gl" else None,
+            lod=level_of_detail(self.accuracy),
+            raster=self.raster,
+        )
 
     def part(self, start: int, stop: int) -> "Prepared":
         """Poses ``start:stop`` as a capture of their own (the plan's frames renumbered from 0)."""
         sub = None
         if self.plan is not None:
-            frames = [dataclasses.replace(f, index=i) for i, f in enumerate(self.plan.frames[start:stop])]
+            frames = [
+                dataclasses.replace(f, index=i) for i, f in enumerate(self.plan.frames[start:stop])
+            ]
             sub = Plan(self.plan.sensor, frames, self.plan.materials)
         return dataclasses.replace(self, poses=self.poses[start:stop], plan=sub)
 
-    def frames(self, renderer: Renderer, seed: int, depth_only: bool = False,
-               on_frame: Callable[[Frame], None] | None = None) -> list[Frame]:
+    def frames(
+        self,
+        renderer: Renderer,
+        seed: int,
+        depth_only: bool = False,
+        on_frame: Callable[[Frame], None] | None = None,
+    ) -> list[Frame]:
         """Every pose's frame, rendered with ``renderer`` in this process; frame i's noise from
         (seed, i); ``on_frame(frame)`` as each is made."""
-        return capture_serial(renderer, self.sensor, self.poses, seed, range(len(self.poses)), self.accuracy,
-                              depth_only, self.plan, self.materials, on_frame)
+        return capture_serial(
+            renderer,
+            self.sensor,
+            self.poses,
+            seed,
+            range(len(self.poses)),
+            self.accuracy,
+            depth_only,
+            self.plan,
+            self.materials,
+            on_frame,
+        )
 
 
-def prepare(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *, accuracy: AccuracySettings | None = None,
-            depth_precision: str = "float32", plan: Plan | bool | None = True,
-            raster: str | None = None) -> Prepared:
+def prepare(
+    scene: Scene,
+    sensor: Sensor,
+    poses: Sequence[np.ndarray],
+    *,
+    accuracy: AccuracySettings | None = None,
+    depth_precision: str = "float32",
+    plan: Plan | bool | None = True,
+    raster: str | None = None,
+) -> Prepared:
     """Settle a capture of ``poses`` (``gg.capture``'s arguments of the same names): the
     settings, the sensor they set, the plan (warning of frames with nothing in range) and the
     materials."""

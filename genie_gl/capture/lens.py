@@ -5,6 +5,7 @@ from its pinhole views by :func:`genie_gl.lens.distortion.render_through_lens` (
 resampling by default). :func:`through_lens` turns a pinhole render function into one that
 takes any sensor; :func:`silhouettes` renders objects alone through the lens.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
@@ -24,13 +25,16 @@ def through_lens(render: RenderFn) -> RenderFn:
     view, e.g. :meth:`Renderer.render`) made to render any sensor, a distorted one through
     its lens (its pinhole views resampled, exact by default); a pinhole sensor is rendered
     by ``render`` itself."""
+
     def lens_render(sensor: Sensor, pose: np.ndarray, **kw) -> Frame:
         return render_through_lens(render, sensor, pose, **kw)
 
     return lens_render
 
 
-def silhouettes(renderer: Renderer, sensor: Sensor, pose: np.ndarray, ids: Sequence[int]) -> dict[int, np.ndarray]:
+def silhouettes(
+    renderer: Renderer, sensor: Sensor, pose: np.ndarray, ids: Sequence[int]
+) -> dict[int, np.ndarray]:
     """Full (unoccluded) silhouette of each instance in ``ids`` as ``sensor`` sees it at
     ``pose``: one render of the instance alone, through the lens for a distorted sensor.
     Returns {id: (H, W) bool}."""

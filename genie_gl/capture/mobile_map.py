@@ -8,6 +8,7 @@ pose (``true_world_from_camera``) and the predicted misplacement at mid range
 (:func:`genie_gl.cloud.fusion.fuse`): voxel-reduced to a mobile scanner's density, then cut
 into chunks as the paper's real data was.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
@@ -22,11 +23,16 @@ from .trajectory import Shot
 
 def registration_rng(seed: int) -> np.random.Generator:
     """The generator of a recording's error path (independent of every frame's noise)."""
-    return np.random.default_rng(np.random.SeedSequence([int(seed), 0x7265_6769]))   # "regi"
+    return np.random.default_rng(np.random.SeedSequence([int(seed), 0x7265_6769]))  # "regi"
 
 
-def with_registration(recording: Iterable[tuple[Shot, Frame]], trajectory: Trajectory,
-                      model: RegistrationError | None, *, rng: np.random.Generator) -> Iterator[tuple[Shot, Frame]]:
+def with_registration(
+    recording: Iterable[tuple[Shot, Frame]],
+    trajectory: Trajectory,
+    model: RegistrationError | None,
+    *,
+    rng: np.random.Generator,
+) -> Iterator[tuple[Shot, Frame]]:
     """The recording with each frame moved to its estimated pose (``model`` None: unchanged
     poses, the true pose still recorded)."""
     path = None if model is None else model.sample(trajectory.length_m, rng=rng)

@@ -17,6 +17,7 @@ what a real sensor reports there, belong to the camera model).
 Costs are estimates in milliseconds: the render from the scene's triangles and the image
 size, each effect from its ``cost_ms_per_mpx``; a dataset run's predicted time sums them.
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -35,7 +36,7 @@ from ..effects.base import Decision, View
 
 # render cost model (llvmpipe, this class of host): fixed + per megapixel + per million triangles
 RENDER_MS_FIXED, RENDER_MS_PER_MPX, RENDER_MS_PER_MTRI = 2.0, 25.0, 60.0
-MARGIN_REL, MARGIN_M = 0.05, 0.1     # far plane margin beyond the effects' reach
+MARGIN_REL, MARGIN_M = 0.05, 0.1  # far plane margin beyond the effects' reach
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,12 @@ class EffectPlan:
     cost_ms: float
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "run": self.run, "reason": self.reason, "cost_ms": round(self.cost_ms, 2)}
+        return {
+            "name": self.name,
+            "run": self.run,
+            "reason": self.reason,
+            "cost_ms": round(self.cost_ms, 2),
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,12 +63,12 @@ class FramePlan:
 
     index: int
     effects: list[EffectPlan]
-    drawn: np.ndarray            # instance ids to draw (not culled by range)
-    culled_range: np.ndarray     # ids wholly beyond the far plane
-    culled_frustum: np.ndarray   # ids outside the view (the renderer culls these itself)
+    drawn: np.ndarray  # instance ids to draw (not culled by range)
+    culled_range: np.ndarray  # ids wholly beyond the far plane
+    culled_frustum: np.ndarray  # ids outside the view (the renderer culls these itself)
     far_m: float
     render_ms: float
-    reason: str = ""             # why the frame is empty, when it is
+    reason: str = ""  # why the frame is empty, when it is
 
     @property
     def empty(self) -> bool:
@@ -71,18 +77,29 @@ class FramePlan:
 
     @property
     def decisions(self) -> list[Decision | None]:
-        """Per effect of the sensor, in order: the plan's decision, or None (decide on the frame)."""
-        return [None if e.run is None else Decision(e.run, e.reason, e.cost_ms) for e in self.effects]
+        """Per effect of the sensor, in order: the plan's decision, or None (decide on the
+        frame)."""
+        return [
+            None if e.run is None else Decision(e.run, e.reason, e.cost_ms) for e in self.effects
+        ]
 
     @property
     def cost_ms(self) -> float:
         return self.render_ms + sum(e.cost_ms for e in self.effects if e.run is not False)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"frame": self.index, "far_m": round(self.far_m, 3), "empty": self.empty, "reason": self.reason,
-                "drawn": len(self.drawn), "culled_range": self.culled_range.tolist(),
-                "culled_frustum": self.culled_frustum.tolist(), "render_ms": round(self.render_ms, 2),
-                "cost_ms": round(self.cost_ms, 2), "effects": [e.to_dict() for e in self.effects]}
+        return {
+            "frame": self.index,
+            "far_m": round(self.far_m, 3),
+            "empty": self.empty,
+            "reason": self.reason,
+            "drawn": len(self.drawn),
+            "culled_range": self.culled_range.tolist(),
+            "culled_frustum": self.culled_frustum.tolist(),
+            "render_ms": round(self.render_ms, 2),
+            "cost_ms": round(self.cost_ms, 2),
+            "effects": [e.to_dict() for e in self.effects],
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,20 +120,29 @@ class Plan:
         return [f.index for f in self.frames if f.empty]
 
     def to_dict(self) -> dict[str, Any]:
-        return {"sensor": self.sensor, "frames": [f.to_dict() for f in self.frames],
-                "predicted_s": round(self.predicted_s, 3), "empty_frames": self.empty_frames}
+        return {
+            "sensor": self.sensor,
+            "frames": [f.to_dict() for f in self.frames],
+            "predicted_s": round(self.predicted_s, 3),
+            "empty_frames": self.empty_frames,
+        }
 
     def summary(self) -> str:
-        """A table: one row per effect with how many frames run it, skip it, or decide on the frame."""
-        lines = [f"plan for {self.sensor}: {len(self.frames)} frames, "
-                 f"{len(self.empty_frames)} with nothing in range; predicted {self.predicted_s:.2f} s"]
+        """A table: one row per effect with how many frames run it, skip it, or decide on the
+        frame."""
+        lines = [
+            f"plan for {self.sensor}: {len(self.frames)} frames, "
+            f"{len(self.empty_frames)} with nothing in range; predicted {self.predicted_s:.2f} s"
+        ]
         names = [e.name for e in self.frames[0].effects] if self.frames else []
         for k, name in enumerate(names):
             runs = sum(f.effects[k].run is True for f in self.frames)
             skips = [f.effects[k] for f in self.frames if f.effects[k].run is False]
             later = sum(f.effects[k].run is None for f in self.frames)
             why = f"  (skip: {skips[0].reason})" if skips else ""
-            lines.append(f"  {name:<18} run {runs:>4}  skip {len(skips):>4}  on frame {later:>4}{why}")
+            lines.append(
+                f"  {name:<18} run {runs:>4}  skip {len(skips):>4}  on frame {later:>4}{why}"
+            )
         return "\n".join(lines)
 
 
@@ -184,8 +210,13 @@ def _frustum(sensor: Sensor) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(m.rotation, _side_planes(m.render_sensor)) for m in lens_views(sensor)]
 
 
-def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
-         materials: MaterialTable | None = None) -> Plan:
+def plan(
+    scene: Scene,
+    sensor: Sensor,
+    poses: Sequence[np.ndarray],
+    *,
+    materials: MaterialTable | None = None,
+) -> Plan:
     """Decide, per pose (world_from_camera), what is drawn and which effects run, and why."""
     scene, sensor, poses, _ = capture_arguments(scene, sensor, poses, 0, Scene, Sensor, "plan")
     ids, centres, radii = _spheres(scene)
@@ -208,27 +239,36 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
     for k, pose in enumerate(poses):
         pose = np.asarray(pose, dtype=np.float64)
         R, t = pose[:3, :3], pose[:3, 3]
-        c = (centres - t) @ R              # camera-frame centres
+        c = (centres - t) @ R  # camera-frame centres
         ok = radii >= 0
         in_front = (c[:, 2] + radii >= near) if len(views) == 1 else np.ones(len(c), bool)
         sides = np.zeros(len(c), bool)
-        for rot, normals in views:   # in view when inside any of the lens's pinhole views
-            cv = c @ rot                        # view-frame centres (camera_from_view = rot)
+        for rot, normals in views:  # in view when inside any of the lens's pinhole views
+            cv = c @ rot  # view-frame centres (camera_from_view = rot)
             sides |= (cv @ normals.T >= -radii[:, None]).all(axis=1) & (cv[:, 2] + radii > 0)
         beyond = ok & (c[:, 2] - radii > far)
         seen = ok & in_front & sides & ~beyond
         z_lo = np.maximum(c[seen, 2] - radii[seen], near)
         z_hi = np.minimum(c[seen, 2] + radii[seen], far)
         r_hi = np.linalg.norm(c[seen], axis=1) + radii[seen]
-        convex = np.zeros(int(seen.sum()), bool)   # unknown (False) unless one object is seen
+        convex = np.zeros(int(seen.sum()), bool)  # unknown (False) unless one object is seen
         if wants_convex and len(convex) == 1:
             key = str(mesh_of[seen][0])
             if key not in convex_mesh:
                 convex_mesh[key] = _is_convex(scene.meshes[key])
             convex[0] = convex_mesh[key]
-        view = View(sensor, pose, ids[seen], float(z_lo.min()) if seen.any() else 0.0,
-                    float(z_hi.max()) if seen.any() else 0.0, float(r_hi.max()) if seen.any() else 0.0,
-                    convex, reflective[seen], transparent[seen], albedo[seen])
+        view = View(
+            sensor,
+            pose,
+            ids[seen],
+            float(z_lo.min()) if seen.any() else 0.0,
+            float(z_hi.max()) if seen.any() else 0.0,
+            float(r_hi.max()) if seen.any() else 0.0,
+            convex,
+            reflective[seen],
+            transparent[seen],
+            albedo[seen],
+        )
         effects = []
         for eff in sensor.effects:
             d = eff.plan(view)
@@ -237,9 +277,30 @@ def plan(scene: Scene, sensor: Sensor, poses: Sequence[np.ndarray], *,
                 effects.append(EffectPlan(eff.name, None, "decided on the rendered frame", cost))
             else:
                 effects.append(EffectPlan(eff.name, d.run, d.reason, cost if d.run else 0.0))
-        reason = "" if seen.any() else (
-            f"nothing within {far:.2f} m in view" if (ok & in_front & sides).any() else "nothing in view")
-        render_ms = RENDER_MS_FIXED + RENDER_MS_PER_MPX * mpx + RENDER_MS_PER_MTRI * tri_of[seen].sum() / 1e6
-        frames.append(FramePlan(k, effects, ids[ok & ~beyond], ids[beyond], ids[ok & ~beyond & ~(in_front & sides)],
-                                far, render_ms, reason))
+        reason = (
+            ""
+            if seen.any()
+            else (
+                f"nothing within {far:.2f} m in view"
+                if (ok & in_front & sides).any()
+                else "nothing in view"
+            )
+        )
+        render_ms = (
+            RENDER_MS_FIXED
+            + RENDER_MS_PER_MPX * mpx
+            + RENDER_MS_PER_MTRI * tri_of[seen].sum() / 1e6
+        )
+        frames.append(
+            FramePlan(
+                k,
+                effects,
+                ids[ok & ~beyond],
+                ids[beyond],
+                ids[ok & ~beyond & ~(in_front & sides)],
+                far,
+                render_ms,
+                reason,
+            )
+        )
     return Plan(sensor.name, frames, table)

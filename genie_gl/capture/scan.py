@@ -10,6 +10,7 @@ the echoes, and the echoes become the scan's points (:class:`Scan`).
 Randomness: each scan draws from its own generator, made from (seed, head, scan index), so
 a scan is the same whichever worker makes it and whichever scans are made before it.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -32,7 +33,9 @@ def scene_materials(table: MaterialTable) -> SceneMaterials:
     return SceneMaterials(n, shiny, float(alb.min()), float(alb.max()))
 
 
-def plan_scan(scene: Scene, scanner: Scanner, table: MaterialTable | None = None) -> dict[str, Decision]:
+def plan_scan(
+    scene: Scene, scanner: Scanner, table: MaterialTable | None = None
+) -> dict[str, Decision]:
     """Per effect of ``scanner``, whether it runs on ``scene`` and why."""
     mats = scene_materials(MaterialTable.from_scene(scene) if table is None else table)
     return {e.name: e.plan(mats, scanner) for e in scanner.effects}
@@ -45,8 +48,13 @@ def cast_beams(scene: Scene, origins: np.ndarray, directions: np.ndarray) -> Ray
     return cast_bundle(scene, Rays(origins, directions))
 
 
-def _echoes(hits: RayHits, directions: np.ndarray, parent: np.ndarray, table: MaterialTable,
-            max_range_m: float) -> Echoes:
+def _echoes(
+    hits: RayHits,
+    directions: np.ndarray,
+    parent: np.ndarray,
+    table: MaterialTable,
+    max_range_m: float,
+) -> Echoes:
     """An echo per ray that hits within range (``parent``: each ray's beam)."""
     keep = hits.hit & (hits.distance <= max_range_m)
     idx = np.flatnonzero(keep)
@@ -56,14 +64,35 @@ def _echoes(hits: RayHits, directions: np.ndarray, parent: np.ndarray, table: Ma
     rows = table.rows(inst)
     refl = table.albedo[rows]
     m = len(idx)
-    return Echoes(parent[idx].astype(np.int64), hits.distance[idx], inst, hits.semantic[idx], n, cos, refl,
-                  table.metallic[rows], table.roughness[rows], refl * cos, np.ones(m, np.uint8), np.ones(m, np.uint8))
+    return Echoes(
+        parent[idx].astype(np.int64),
+        hits.distance[idx],
+        inst,
+        hits.semantic[idx],
+        n,
+        cos,
+        refl,
+        table.metallic[rows],
+        table.roughness[rows],
+        refl * cos,
+        np.ones(m, np.uint8),
+        np.ones(m, np.uint8),
+    )
 
 
-def take_scan(scene: Scene, scanner: Scanner, beams: Beams, *, rng: np.random.Generator,
-              table: MaterialTable | None = None, plan: dict[str, Decision] | None = None,
-              head: str = "head", head_index: int = 0) -> Scan:
-    """The scan of ``beams``: cast, echoes, the effects ``plan`` runs (default: the scene's plan)."""
+def take_scan(
+    scene: Scene,
+    scanner: Scanner,
+    beams: Beams,
+    *,
+    rng: np.random.Generator,
+    table: MaterialTable | None = None,
+    plan: dict[str, Decision] | None = None,
+    head: str = "head",
+    head_index: int = 0,
+) -> Scan:
+    """The scan of ``beams``: cast, echoes, the effects ``plan`` runs (default: the scene's
+    plan)."""
     table = MaterialTable.from_scene(scene) if table is None else table
     plan = plan_scan(scene, scanner, table) if plan is None else plan
     running = [e for e in scanner.effects if plan.get(e.name, Decision(True, "")).run]
@@ -78,7 +107,9 @@ def take_scan(scene: Scene, scanner: Scanner, beams: Beams, *, rng: np.random.Ge
         hits = cast_beams(scene, origins, dirs)
         parent = np.repeat(np.arange(len(beams)), k)
         sub = _echoes(hits, dirs, parent, table, scanner.max_range_m)
-        weight = np.tile(footprint.pattern(scanner)[1], len(beams))[hits.hit & (hits.distance <= scanner.max_range_m)]
+        weight = np.tile(footprint.pattern(scanner)[1], len(beams))[
+            hits.hit & (hits.distance <= scanner.max_range_m)
+        ]
         echoes = footprint.combine(sub, weight, scanner)
     for effect in running:
         if not effect.casts_subrays and len(echoes):
@@ -86,8 +117,26 @@ def take_scan(scene: Scene, scanner: Scanner, beams: Beams, *, rng: np.random.Ge
     b = echoes.beam
     world = beams.origins[b] + beams.directions[b] * echoes.range_m[:, None]
     sensor = beams.sensor_origins[b] + beams.sensor_directions[b] * echoes.range_m[:, None]
-    return Scan(head, head_index, scanner, beams.index, beams.start_s, world, sensor, echoes.range_m,
-                np.clip(echoes.intensity, 0.0, 1.0).astype(np.float32), beams.ring[b], beams.channel[b],
-                beams.column[b], beams.time_s[b], beams.azimuth_rad[b], echoes.return_number, echoes.returns,
-                echoes.semantic, echoes.instance, beams.firing_poses, len(beams),
-                {name: (d.run, d.reason) for name, d in plan.items()})
+    return Scan(
+        head,
+        head_index,
+        scanner,
+        beams.index,
+        beams.start_s,
+        world,
+        sensor,
+        echoes.range_m,
+        np.clip(echoes.intensity, 0.0, 1.0).astype(np.float32),
+        beams.ring[b],
+        beams.channel[b],
+        beams.column[b],
+        beams.time_s[b],
+        beams.azimuth_rad[b],
+        echoes.return_number,
+        echoes.returns,
+        echoes.semantic,
+        echoes.instance,
+        beams.firing_poses,
+        len(beams),
+        {name: (d.run, d.reason) for name, d in plan.items()},
+    )

@@ -1,5 +1,6 @@
 """The ``Scan`` record: the points of one revolution of one head, with the scanner's fields
 (what :mod:`.scan` makes and the cloud and export stages read)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

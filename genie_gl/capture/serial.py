@@ -1,4 +1,5 @@
 """The frames of a capture made in this process, one renderer, pose by pose."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -25,10 +26,18 @@ def pose_rng(seed: int, index: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed), int(index)]))
 
 
-def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarray], seed: int,
-                   indices: Sequence[int], accuracy: AccuracySettings, depth_only: bool = False,
-                   plan: Plan | None = None, materials: MaterialTable | None = None,
-                   on_frame: Callable[[Frame], None] | None = None) -> list[Frame]:
+def capture_serial(
+    renderer: Renderer,
+    sensor: Sensor,
+    poses: Sequence[np.ndarray],
+    seed: int,
+    indices: Sequence[int],
+    accuracy: AccuracySettings,
+    depth_only: bool = False,
+    plan: Plan | None = None,
+    materials: MaterialTable | None = None,
+    on_frame: Callable[[Frame], None] | None = None,
+) -> list[Frame]:
     """The frames ``indices`` of a capture, in this process, with ``renderer``: poses[k] is
     pose ``indices[k]`` of the capture (its generator and its frame plan). ``accuracy``: the
     supersampling, lens resampling and oversampling (the renderer carries its depth
@@ -41,28 +50,39 @@ def capture_serial(renderer: Renderer, sensor: Sensor, poses: Sequence[np.ndarra
         view = sensor
     else:  # the pinhole view the lens is resampled from, with what its resampling needs
         views = lens_views(sensor, oversample=accuracy.oversample)
-        view = views[0].render_sensor if len(views) == 1 else sensor   # cube faces: no prefetch
+        view = views[0].render_sensor if len(views) == 1 else sensor  # cube faces: no prefetch
         resample = accuracy.resample
         triangles = resample == "exact"
         normals = (normals or resample == "plane") and not triangles
     frame_plans = None if plan is None else [plan.frames[i] for i in indices]
     only = None
-    if frame_plans is not None:   # the plan's culling and far plane, as simulate asks for them
+    if frame_plans is not None:  # the plan's culling and far plane, as simulate asks for them
         only = [f.drawn for f in frame_plans]
         far = frame_plans[0].far_m if frame_plans else view.far_m
         if far < view.far_m:
             view = dataclasses.replace(view, far_m=far)
-    if accuracy.supersample > 1:   # every render through the supersampler
-        draw = supersampled(functools.partial(through_lens(renderer.render), depth_only=depth_only),
-                            accuracy.supersample)
+    if accuracy.supersample > 1:  # every render through the supersampler
+        draw = supersampled(
+            functools.partial(through_lens(renderer.render), depth_only=depth_only),
+            accuracy.supersample,
+        )
     else:
         draw = Prefetched(renderer, view, poses, depth_only, normals, only, triangles)
     # a sensor without effects never draws: its frames need no generator (~0.1 ms each to make)
     frames = []
     for k, i in enumerate(indices):
-        frames.append(simulate(sensor, poses[k], render=draw, rng=pose_rng(seed, i) if sensor.effects else None,
-                               materials=materials, plan=None if frame_plans is None else frame_plans[k],
-                               resample=accuracy.resample, oversample=accuracy.oversample))
+        frames.append(
+            simulate(
+                sensor,
+                poses[k],
+                render=draw,
+                rng=pose_rng(seed, i) if sensor.effects else None,
+                materials=materials,
+                plan=None if frame_plans is None else frame_plans[k],
+                resample=accuracy.resample,
+                oversample=accuracy.oversample,
+            )
+        )
         if on_frame is not None:
             on_frame(frames[-1])
     return frames

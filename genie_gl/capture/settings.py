@@ -7,6 +7,7 @@ is read: the renderer its ``depth_precision`` and level of detail (``lod_px``, m
 the supersampler its ``supersample``, the scene builder its ``tessellation``, and each effect
 the knobs it declares (:attr:`~genie_gl.effects.base.Effect.accuracy_knobs`), set here.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -31,8 +32,11 @@ def apply_to_sensor(sensor: Sensor, settings: AccuracySettings) -> Sensor:
     value takes the type of the parameter it sets."""
     effects = []
     for eff in sensor.effects:
-        changes = {param: type(getattr(eff, param))(value) for knob, param in eff.accuracy_knobs.items()
-                   if (value := getattr(settings, knob)) is not None}
+        changes = {
+            param: type(getattr(eff, param))(value)
+            for knob, param in eff.accuracy_knobs.items()
+            if (value := getattr(settings, knob)) is not None
+        }
         effects.append(dataclasses.replace(eff, **changes) if changes else eff)
     return dataclasses.replace(sensor, effects=tuple(effects))
 

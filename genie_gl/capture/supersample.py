@@ -2,7 +2,8 @@
 
 Each output pixel takes the ``s x s`` samples of its block in the high-resolution render and
 keeps the **majority instance** among them (no return counts as a candidate too; a tie goes
-to the id of the pixel's centre ray, else to the nearer surface). Its depth is the harmonic mean of that instance's samples — exact on
+to the id of the pixel's centre ray, else to the nearer surface). Its depth is the harmonic mean of
+that instance's samples — exact on
 a plane, since 1/z is affine in the pixel position and the samples sit symmetrically about
 the pixel centre — and its semantic id, normal and colour come from the same samples. So a
 pixel's id is always one of its own samples' ids: no id that is not in the scene, no
@@ -15,6 +16,7 @@ The high-resolution camera puts the block's samples symmetrically about the low-
 pixel centre: ``f' = s·f``, ``c' = s·(c + 0.5) − 0.5`` (pixel centres at integer
 coordinates, DESIGN.md).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -27,8 +29,8 @@ from ..frame import Frame
 from ..sensors.camera import Sensor
 from ..lens.distortion import render_through_lens
 
-NO_RETURN_DEPTH = 1.0e9   # how far "no return" counts when a tie is broken by depth
-STEP = 0.01               # a relative jump between sorted depths that separates two surfaces
+NO_RETURN_DEPTH = 1.0e9  # how far "no return" counts when a tie is broken by depth
+STEP = 0.01  # a relative jump between sorted depths that separates two surfaces
 
 
 def supersample_sensor(sensor: Sensor, s: int) -> Sensor:
@@ -61,10 +63,17 @@ def _run_lengths(a: np.ndarray) -> np.ndarray:
     n, k = a.shape
     cols = np.arange(k)
     first = np.ones((n, 1), bool)
-    start = np.maximum.accumulate(np.where(np.concatenate([first, a[:, 1:] != a[:, :-1]], 1), cols, 0), axis=1)
+    start = np.maximum.accumulate(
+        np.where(np.concatenate([first, a[:, 1:] != a[:, :-1]], 1), cols, 0), axis=1
+    )
     r = a[:, ::-1]
-    end = k - 1 - np.maximum.accumulate(np.where(np.concatenate([first, r[:, 1:] != r[:, :-1]], 1), cols, 0),
-                                        axis=1)[:, ::-1]
+    end = (
+        k
+        - 1
+        - np.maximum.accumulate(
+            np.where(np.concatenate([first, r[:, 1:] != r[:, :-1]], 1), cols, 0), axis=1
+        )[:, ::-1]
+    )
     return end - start + 1
 
 
@@ -79,7 +88,7 @@ def majority(ids: np.ndarray, depth: np.ndarray, prefer: np.ndarray | None = Non
     count = _run_lengths(a).astype(np.float64)
     z = np.take_along_axis(depth, order, 1).astype(np.float64)
     z = np.where(z > 0, z, NO_RETURN_DEPTH)
-    score = count * (8 * NO_RETURN_DEPTH) - z          # most samples, then nearest
+    score = count * (8 * NO_RETURN_DEPTH) - z  # most samples, then nearest
     if prefer is not None:
         score += (a == np.asarray(prefer)[:, None]) * (4 * NO_RETURN_DEPTH)
     best = np.argmax(score, axis=1)
@@ -114,7 +123,7 @@ def reduce(hi: Frame, sensor: Sensor, s: int, centre: Frame | None = None) -> Fr
     gives the depth and normal wherever its instance is the one the block keeps: the exact
     depth on the centre ray, where an average over a block would round a crease."""
     H, W = sensor.height, sensor.width
-    instance = np.ascontiguousarray(hi.instance[::s, ::s])     # each block's first sample
+    instance = np.ascontiguousarray(hi.instance[::s, ::s])  # each block's first sample
     semantic = np.ascontiguousarray(hi.semantic[::s, ::s])
     d = hi.depth
     inv = np.zeros_like(d)
@@ -144,16 +153,22 @@ def reduce(hi: Frame, sensor: Sensor, s: int, centre: Frame | None = None) -> Fr
         semantic.ravel()[mixed] = _blocks(hi.semantic, s)[mixed][rows, pick]
         if normal is not None:
             normal[mixed] = (_blocks(hi.normal, s)[mixed] * same[..., None]).sum(1)
-    if centre is not None:   # the centre ray's own depth wherever it saw the instance kept
+    if centre is not None:  # the centre ray's own depth wherever it saw the instance kept
         keep = ((centre.instance == instance) & (centre.depth > 0)).ravel()
         depth.ravel()[keep] = centre.depth.ravel()[keep]
         if normal is not None and centre.normal is not None:
             normal[keep] = centre.normal.reshape(-1, 3)[keep]
     if normal is not None:
         norm = np.linalg.norm(normal, axis=1, keepdims=True)
-        normal = np.where(norm > 0, normal / np.maximum(norm, 1e-30), 0.0).astype(np.float32).reshape(H, W, 3)
+        normal = (
+            np.where(norm > 0, normal / np.maximum(norm, 1e-30), 0.0)
+            .astype(np.float32)
+            .reshape(H, W, 3)
+        )
         normal[instance == 0] = 0
-    rgb = None if hi.rgb is None else cv2.resize(hi.rgb, (W, H), interpolation=cv2.INTER_AREA)  # colour is no label
+    rgb = (
+        None if hi.rgb is None else cv2.resize(hi.rgb, (W, H), interpolation=cv2.INTER_AREA)
+    )  # colour is no label
     meta = {**(hi.meta or {}), "supersample": s}
     return Frame(depth, instance, semantic, rgb, sensor, hi.world_from_camera, normal, meta)
 
@@ -177,7 +192,12 @@ def supersampled(render: Callable[..., Frame], s: int) -> Callable[..., Frame]:
 
     def lens(sensor: Sensor, pose: np.ndarray, **kw) -> Frame:
         centre = render_through_lens(render, sensor, pose, **{**kw, "depth_only": True})
-        return reduce(render_through_lens(render, supersample_sensor(sensor, s), pose, **kw), sensor, s, centre)
+        return reduce(
+            render_through_lens(render, supersample_sensor(sensor, s), pose, **kw),
+            sensor,
+            s,
+            centre,
+        )
 
     wrapped.lens = lens
     return wrapped

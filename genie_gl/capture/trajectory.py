@@ -10,6 +10,7 @@ precision and level of detail the rig's sensors ask for) and each sensor's shots
 once, for the whole recording. A shot's noise comes from ``(seed, sensor, window)``
 and its place in the window: the same seed gives the same frames, bit for bit.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterator
@@ -27,7 +28,7 @@ from ..motion.trajectory import Trajectory
 from .frames import prepare
 from .planner import plan
 
-WINDOW = 48   # shots of one sensor rendered per capture call (a window of the recording)
+WINDOW = 48  # shots of one sensor rendered per capture call (a window of the recording)
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,8 +62,10 @@ def schedule(rig: Rig, trajectory: Trajectory) -> list[Shot]:
     times = np.array([r[0] for r in rows])
     body = trajectory.at(times)
     dist = trajectory.distance_at(times)
-    return [Shot(i, t, k, j, body[i], body[i] @ rig.sensors[k].body_from_sensor, float(dist[i]))
-            for i, (t, k, j) in enumerate(rows)]
+    return [
+        Shot(i, t, k, j, body[i], body[i] @ rig.sensors[k].body_from_sensor, float(dist[i]))
+        for i, (t, k, j) in enumerate(rows)
+    ]
 
 
 def window_seed(seed: int, sensor: int, window: int) -> int:
@@ -70,12 +73,23 @@ def window_seed(seed: int, sensor: int, window: int) -> int:
     return int(np.random.SeedSequence([int(seed), int(sensor), int(window)]).generate_state(1)[0])
 
 
-def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bool = False, accuracy=None,
-           context=None, shots: list[Shot] | None = None, raster: str | None = None) -> Iterator[tuple[Shot, Frame]]:
+def record(
+    scene,
+    rig: Rig,
+    trajectory: Trajectory,
+    *,
+    seed: int,
+    depth_only: bool = False,
+    accuracy=None,
+    context=None,
+    shots: list[Shot] | None = None,
+    raster: str | None = None,
+) -> Iterator[tuple[Shot, Frame]]:
     """Yield (shot, frame) for every shot of ``rig`` along ``trajectory`` over ``scene``, in
     time order; each frame's ``meta`` gains ``time_s``, ``rig_sensor`` and ``shot``.
 
-    ``depth_only``, ``accuracy``, ``context`` and ``raster`` are ``gg.capture``'s; ``shots`` a subset of
+    ``depth_only``, ``accuracy``, ``context`` and ``raster`` are ``gg.capture``'s; ``shots`` a
+    subset of
     :func:`schedule` (default: all). The arguments are checked when it is called, before the
     first frame is asked for.
     """
@@ -83,20 +97,48 @@ def record(scene, rig: Rig, trajectory: Trajectory, *, seed: int, depth_only: bo
     expect(rig, Rig, "record: rig")
     expect(trajectory, Trajectory, "record: trajectory")
     seed = check_seed(seed, "record: seed")
-    return _recorded(scene, rig, trajectory, seed, depth_only, accuracy, context,
-                     schedule(rig, trajectory) if shots is None else shots, raster)
+    return _recorded(
+        scene,
+        rig,
+        trajectory,
+        seed,
+        depth_only,
+        accuracy,
+        context,
+        schedule(rig, trajectory) if shots is None else shots,
+        raster,
+    )
 
 
-def _recorded(scene, rig: Rig, trajectory: Trajectory, seed: int, depth_only: bool, accuracy, context,
-              shots: list[Shot], raster: str | None = None) -> Iterator[tuple[Shot, Frame]]:
+def _recorded(
+    scene,
+    rig: Rig,
+    trajectory: Trajectory,
+    seed: int,
+    depth_only: bool,
+    accuracy,
+    context,
+    shots: list[Shot],
+    raster: str | None = None,
+) -> Iterator[tuple[Shot, Frame]]:
     mine = [[sh for sh in shots if sh.sensor == k] for k in range(len(rig))]
     # settled once per sensor for the whole recording: its settings and the plan of all its shots
-    prep = [prepare(scene, s.sensor, [sh.world_from_camera for sh in mine[k]], accuracy=accuracy, raster=raster)
-            if mine[k] else None
-            for k, s in enumerate(rig.sensors)]
-    done = [0] * len(rig)          # each sensor's shots rendered so far
+    prep = [
+        prepare(
+            scene,
+            s.sensor,
+            [sh.world_from_camera for sh in mine[k]],
+            accuracy=accuracy,
+            raster=raster,
+        )
+        if mine[k]
+        else None
+        for k, s in enumerate(rig.sensors)
+    ]
+    done = [0] * len(rig)  # each sensor's shots rendered so far
     with ExitStack() as stack:
-        renderers: dict = {}       # one per renderer key (depth precision, level of detail): the scene uploaded once
+        # one per renderer key (depth precision, level of detail): the scene uploaded once
+        renderers: dict = {}
         start = window = 0
         while start < len(shots):
             # a window: the next shots up to WINDOW of the busiest sensor
@@ -111,10 +153,14 @@ def _recorded(scene, rig: Rig, trajectory: Trajectory, seed: int, depth_only: bo
                     continue
                 p = prep[k]
                 if p.renderer_key not in renderers:
-                    renderers[p.renderer_key] = stack.enter_context(p.renderer(scene, context=context))
+                    renderers[p.renderer_key] = stack.enter_context(
+                        p.renderer(scene, context=context)
+                    )
                 part = p.part(done[k], done[k] + int(seen[k]))
-                got = part.frames(renderers[p.renderer_key], window_seed(seed, k, window), depth_only)
-                for sh, f in zip(mine[k][done[k]:done[k] + int(seen[k])], got):
+                got = part.frames(
+                    renderers[p.renderer_key], window_seed(seed, k, window), depth_only
+                )
+                for sh, f in zip(mine[k][done[k] : done[k] + int(seen[k])], got):
                     meta = dict(f.meta or {})
                     meta.update(time_s=sh.time_s, rig_sensor=s.name, shot=sh.index)
                     frames[sh.index] = f.replace(meta=meta)
@@ -140,19 +186,28 @@ class RecordingPlan:
         return sum(p.predicted_s for p in self.plans.values())
 
     def summary(self) -> str:
-        lines = [f"recording: {len(self.shots)} shots of {len(self.plans)} sensors; predicted {self.predicted_s:.2f} s"]
+        lines = [
+            f"recording: {len(self.shots)} shots of {len(self.plans)} sensors; predicted "
+            f"{self.predicted_s:.2f} s"
+        ]
         for name, p in self.plans.items():
             lines += ["  " + line for line in f"[{name}] {p.summary()}".splitlines()]
         if self.registration_sigma_m is not None and len(self.registration_sigma_m):
             s = self.registration_sigma_m
-            lines.append(f"  registration error (predicted, at 3 m range): {1e3 * s[0]:.1f} mm at the start, "
-                         f"{1e3 * s[-1]:.1f} mm after {self.shots[-1].distance_m:.0f} m")
+            lines.append(
+                f"  registration error (predicted, at 3 m range): {1e3 * s[0]:.1f} mm at the "
+                "start, "
+                f"{1e3 * s[-1]:.1f} mm after {self.shots[-1].distance_m:.0f} m"
+            )
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        out = {"shots": len(self.shots), "predicted_s": round(self.predicted_s, 3),
-               "sensors": {k: p.to_dict() for k, p in self.plans.items()},
-               "times_s": [round(s.time_s, 6) for s in self.shots]}
+        out = {
+            "shots": len(self.shots),
+            "predicted_s": round(self.predicted_s, 3),
+            "sensors": {k: p.to_dict() for k, p in self.plans.items()},
+            "times_s": [round(s.time_s, 6) for s in self.shots],
+        }
         if self.registration_sigma_m is not None:
             out["registration_sigma_m"] = [round(float(v), 6) for v in self.registration_sigma_m]
         return out

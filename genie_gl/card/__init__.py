@@ -6,7 +6,8 @@ published measurements of the real device.
 * :mod:`.scenes` — the standard test scenes (walls, a step, thin bars, material panels);
 * :mod:`.references` — ``sensors/<name>.reference.yml``: published figures with sources;
 * :mod:`.measurements` — the scenes rendered through a profile and measured;
-* :mod:`.report` — :func:`report_card` (``gg.report_card``): the measurements judged against the published figures;
+* :mod:`.report` — :func:`report_card` (``gg.report_card``): the measurements judged against the
+published figures;
 * :mod:`.captures` — a user's own depth captures of a wall, measured the same way;
 * :mod:`.pages` — the Markdown pages and PNG curves under ``docs/sensors/``.
 

@@ -14,6 +14,7 @@ The input is what any depth camera's tools can save:
 
 ``tools/record_captures.py`` records such a folder with a RealSense camera.
 """
+
 from __future__ import annotations
 
 import os
@@ -53,19 +54,26 @@ class Captures:
 
 
 def _read_png(path: Path, scale: float) -> np.ndarray:
-
     try:
         with Image.open(path) as im:
             a = np.array(im)
     except OSError as exc:
         raise ConfigError(f"{path}: not a readable PNG ({exc})") from None
     if a.ndim != 2 or a.dtype != np.uint16:
-        raise ConfigError(f"{path}: expected a single-channel 16-bit depth PNG, got {a.dtype} with shape {a.shape}")
+        raise ConfigError(
+            f"{path}: expected a single-channel 16-bit depth PNG, got {a.dtype} with shape "
+            f"{a.shape}"
+        )
     return (a.astype(np.float64) * scale).astype(np.float32)
 
 
-def load_captures(folder: str | os.PathLike, calibration: str | os.PathLike, distance_m: float, *,
-                  depth_scale: float = 0.001) -> Captures:
+def load_captures(
+    folder: str | os.PathLike,
+    calibration: str | os.PathLike,
+    distance_m: float,
+    *,
+    depth_scale: float = 0.001,
+) -> Captures:
     """Read a folder of depth PNGs and the calibration beside them (see the module docstring);
     every problem is one :class:`~genie_gl.errors.ConfigError` naming the file."""
 
@@ -73,24 +81,33 @@ def load_captures(folder: str | os.PathLike, calibration: str | os.PathLike, dis
     if not d.is_dir():
         raise ConfigError(f"{folder}: not a folder of depth PNGs")
     if not (np.isfinite(distance_m) and distance_m > 0):
-        raise ConfigError(f"--wall-distance: expected the wall's distance in metres (> 0), got {distance_m}")
+        raise ConfigError(
+            f"--wall-distance: expected the wall's distance in metres (> 0), got {distance_m}"
+        )
     if not (np.isfinite(depth_scale) and depth_scale > 0):
         raise ConfigError(f"--depth-scale: expected metres per depth unit (> 0), got {depth_scale}")
     files = sorted({p for pat in PATTERNS for p in d.glob(pat)})
     if len(files) < 2:
-        raise ConfigError(f"{folder}: found {len(files)} depth PNG(s); the temporal metrics need at least 2 frames")
+        raise ConfigError(
+            f"{folder}: found {len(files)} depth PNG(s); the temporal metrics need at least 2 "
+            "frames"
+        )
     calib = read_calibration(calibration)
     cam = Camera(calib.width, calib.height, calib.K, calib.dist, model=calib.model)
     frames = []
     for f in files:
         z = _read_png(f, float(depth_scale))
         if z.shape != (calib.height, calib.width):
-            raise ConfigError(f"{f}: image is {z.shape[1]}x{z.shape[0]}, the calibration {calibration} is "
-                              f"{calib.width}x{calib.height}; expected the same size")
+            raise ConfigError(
+                f"{f}: image is {z.shape[1]}x{z.shape[0]}, the calibration {calibration} is "
+                f"{calib.width}x{calib.height}; expected the same size"
+            )
         frames.append(z)
     stack = np.stack(frames)
     if not (stack > 0).any():
-        raise ConfigError(f"{folder}: every depth pixel of every frame is 0 (no return); nothing to measure")
+        raise ConfigError(
+            f"{folder}: every depth pixel of every frame is 0 (no return); nothing to measure"
+        )
     return Captures(stack, cam, float(distance_m), calib.baseline_m, str(d))
 
 
@@ -101,5 +118,13 @@ def measure_captures(captures: Captures, *, roi_fraction: float) -> list:
     cam = captures.camera
     rays = np.asarray(cam.rays(), np.float64)
     roi = central_roi(cam.width, cam.height, roi_fraction)
-    return wall_measurements(captures.depth, rays, roi, distance_m=captures.distance_m, angle_deg=0.0,
-                             focal_px=float(cam.fx), truth_m=captures.distance_m, baseline_m=captures.baseline_m)
+    return wall_measurements(
+        captures.depth,
+        rays,
+        roi,
+        distance_m=captures.distance_m,
+        angle_deg=0.0,
+        focal_px=float(cam.fx),
+        truth_m=captures.distance_m,
+        baseline_m=captures.baseline_m,
+    )

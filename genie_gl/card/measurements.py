@@ -19,6 +19,7 @@ distance a reference figure names, and both ends of its distance range inside th
 * bars at ``bars_distances_m`` and panels at ``panels_distances_m``: fill per bar and per
   material (truth masks from one ideal render of the scene).
 """
+
 from __future__ import annotations
 
 import logging
@@ -37,8 +38,8 @@ from .references import METRICS, References
 
 log = logging.getLogger(__name__)
 
-EDGE_BAND_PX = 3          # flying pixels and edge fill are counted this close to the step
-EDGE_CLEAR_PX = 10        # the step's noise is measured this far from its edge
+EDGE_BAND_PX = 3  # flying pixels and edge fill are counted this close to the step
+EDGE_CLEAR_PX = 10  # the step's noise is measured this far from its edge
 FLYING_SIGMAS = 4.0
 FLYING_FLOOR_M = 0.002
 PANEL_ERODE_PX = 2
@@ -64,7 +65,10 @@ class CardSettings:
 
     def __post_init__(self) -> None:
         if self.frames < 2:
-            raise ValueError(f"CardSettings.frames: need at least 2 frames for the temporal metrics, got {self.frames}")
+            raise ValueError(
+                "CardSettings.frames: need at least 2 frames for the temporal metrics, got "
+                f"{self.frames}"
+            )
 
 
 @dataclass(frozen=True)
@@ -117,22 +121,38 @@ class _Bench:
 
     def frames(self, ts: scenes.TestScene) -> tuple[np.ndarray, np.ndarray]:
         """(depth stack (N, H, W) float32, ideal instance map (H, W) uint32) of a scene."""
-        seed = int(np.random.SeedSequence([self.settings.seed, self.scene_index]).generate_state(1)[0])
+        seed = int(
+            np.random.SeedSequence([self.settings.seed, self.scene_index]).generate_state(1)[0]
+        )
         self.scene_index += 1
-        frames = capture(ts.scene, self.sensor, [ts.pose] * self.settings.frames, seed=seed,
-                            context=self.context)
+        frames = capture(
+            ts.scene, self.sensor, [ts.pose] * self.settings.frames, seed=seed, context=self.context
+        )
         with Renderer(ts.scene, context=self.context) as r:
             ideal = through_lens(r.render)(self.sensor, ts.pose, depth_only=True)
         return np.stack([f.depth for f in frames]), ideal.instance
 
 
-def _m(metric: str, ts: scenes.TestScene, value: float, frames: int, part: str | None = None) -> Measurement:
-    return Measurement(metric, METRICS[metric][0], ts.distance_m, ts.angle_deg, part, float(value), frames)
+def _m(
+    metric: str, ts: scenes.TestScene, value: float, frames: int, part: str | None = None
+) -> Measurement:
+    return Measurement(
+        metric, METRICS[metric][0], ts.distance_m, ts.angle_deg, part, float(value), frames
+    )
 
 
-def wall_measurements(stack: np.ndarray, rays_xy: np.ndarray, roi: tuple[slice, slice], *, distance_m: float,
-                      angle_deg: float, focal_px: float, truth_m: np.ndarray | float,
-                      baseline_m: float | None = None, banding: bool = False) -> list[Measurement]:
+def wall_measurements(
+    stack: np.ndarray,
+    rays_xy: np.ndarray,
+    roi: tuple[slice, slice],
+    *,
+    distance_m: float,
+    angle_deg: float,
+    focal_px: float,
+    truth_m: np.ndarray | float,
+    baseline_m: float | None = None,
+    banding: bool = False,
+) -> list[Measurement]:
     """The wall metrics of depth frames ``stack`` (N, H, W, metres) of a flat target whose
     plane crosses the optical axis at ``distance_m``, turned by ``angle_deg``: the depth
     quality tool's metrics per frame (averaged), the temporal ones over the frames, and with
@@ -147,16 +167,24 @@ def wall_measurements(stack: np.ndarray, rays_xy: np.ndarray, roi: tuple[slice, 
     stats = []
     for z in stack:
         try:
-            stats.append(metrics.plane_stats(z, rays_xy, roi=roi, ground_truth_m=d, baseline_m=baseline_m,
-                                             focal_px=focal_px))
+            stats.append(
+                metrics.plane_stats(
+                    z, rays_xy, roi=roi, ground_truth_m=d, baseline_m=baseline_m, focal_px=focal_px
+                )
+            )
         except ValueError:
             pass
     if stats:
         rms = float(np.mean([s.plane_fit_rms_mm for s in stats]))
-        out += [m("z_accuracy_pct", np.mean([s.z_accuracy_pct for s in stats]), len(stats)),
-                m("plane_fit_rms_mm", rms, len(stats)), m("plane_fit_rms_pct", rms / (10.0 * d), len(stats))]
+        out += [
+            m("z_accuracy_pct", np.mean([s.z_accuracy_pct for s in stats]), len(stats)),
+            m("plane_fit_rms_mm", rms, len(stats)),
+            m("plane_fit_rms_pct", rms / (10.0 * d), len(stats)),
+        ]
         if baseline_m is not None:
-            out.append(m("subpixel_rms_px", np.mean([s.subpixel_rms_px for s in stats]), len(stats)))
+            out.append(
+                m("subpixel_rms_px", np.mean([s.subpixel_rms_px for s in stats]), len(stats))
+            )
     inside = np.zeros(stack.shape[1:], bool)
     inside[roi] = True
     try:
@@ -164,8 +192,12 @@ def wall_measurements(stack: np.ndarray, rays_xy: np.ndarray, roi: tuple[slice, 
     except ValueError:
         t = None
     if t is not None:
-        out += [m("temporal_noise_mm", t.noise_rms_mm), m("temporal_noise_pct", t.noise_rms_mm / (10.0 * d)),
-                m("bias_mm", t.bias_mm), m("bias_pct", t.bias_mm / (10.0 * d))]
+        out += [
+            m("temporal_noise_mm", t.noise_rms_mm),
+            m("temporal_noise_pct", t.noise_rms_mm / (10.0 * d)),
+            m("bias_mm", t.bias_mm),
+            m("bias_pct", t.bias_mm / (10.0 * d)),
+        ]
     if banding and baseline_m is not None:
         z = stack[:, inside].astype(np.float64)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -179,9 +211,17 @@ def wall_measurements(stack: np.ndarray, rays_xy: np.ndarray, roi: tuple[slice, 
 def _wall(bench: _Bench, ts: scenes.TestScene, banding: bool) -> list[Measurement]:
     stack, _ = bench.frames(ts)
     truth = ts.planes[scenes.WALL_ID].depth_along(bench.rays)
-    return wall_measurements(stack, bench.rays, bench.roi, distance_m=ts.distance_m, angle_deg=ts.angle_deg,
-                             focal_px=float(bench.sensor.fx), truth_m=truth, baseline_m=bench.baseline,
-                             banding=banding)
+    return wall_measurements(
+        stack,
+        bench.rays,
+        bench.roi,
+        distance_m=ts.distance_m,
+        angle_deg=ts.angle_deg,
+        focal_px=float(bench.sensor.fx),
+        truth_m=truth,
+        baseline_m=bench.baseline,
+        banding=banding,
+    )
 
 
 def _dilate_cols(mask: np.ndarray, px: int) -> np.ndarray:
@@ -221,7 +261,7 @@ def _step(bench: _Bench, ts: scenes.TestScene) -> list[Measurement]:
     truth = np.where(near_id, near, far)
     out = [_m("edge_fill_pct", ts, np.mean([metrics.fill_rate(z, mask=band) for z in stack]), n)]
     tol = []
-    for surface in (near_id, ~near_id):   # each surface's own noise: stereo noise grows as z squared
+    for surface in (near_id, ~near_id):  # each surface's own noise: stereo noise grows as z squared
         try:
             sigma = metrics.temporal_stats(stack, clear & surface, truth).noise_rms_mm / 1000.0
         except ValueError:
@@ -233,7 +273,10 @@ def _step(bench: _Bench, ts: scenes.TestScene) -> list[Measurement]:
         out.append(_m("flying_pixel_pct", ts, 100.0 * sum(c for c, _ in counts) / valid, n))
     r = np.flatnonzero(rows & near_id.any(axis=1))
     cols_with_edge = np.flatnonzero(edge.any(axis=0))
-    cols = slice(max(0, int(cols_with_edge.min()) - 20), min(near_id.shape[1], int(cols_with_edge.max()) + 21))
+    cols = slice(
+        max(0, int(cols_with_edge.min()) - 20),
+        min(near_id.shape[1], int(cols_with_edge.max()) + 21),
+    )
     split = d + scenes.STEP_M / 2
     pos = np.stack([metrics.edge_positions(z, r, cols, split) for z in stack])
     lat = metrics.lateral_noise_px(pos)
@@ -251,24 +294,46 @@ def _parts(bench: _Bench, ts: scenes.TestScene) -> list[Measurement]:
         if ts.kind == "panels":
             mask = _erode(mask, PANEL_ERODE_PX)
         if not mask.any():
-            log.info("report card: %s at %.2f m covers no pixel centre; not measured", name, ts.distance_m)
+            log.info(
+                "report card: %s at %.2f m covers no pixel centre; not measured",
+                name,
+                ts.distance_m,
+            )
             continue
         if ts.kind == "bars":
             zb = ts.planes[iid].depth_along(bench.rays)
-            hit = [((z > 0) & (np.abs(z - zb) < scenes.BAR_GAP_M / 2) & mask).sum() / mask.sum() for z in stack]
+            hit = [
+                ((z > 0) & (np.abs(z - zb) < scenes.BAR_GAP_M / 2) & mask).sum() / mask.sum()
+                for z in stack
+            ]
             out.append(_m("bar_fill_pct", ts, 100.0 * float(np.mean(hit)), n, name))
         else:
-            out.append(_m("panel_fill_pct", ts, np.mean([metrics.fill_rate(z, mask=mask) for z in stack]), n, name))
+            out.append(
+                _m(
+                    "panel_fill_pct",
+                    ts,
+                    np.mean([metrics.fill_rate(z, mask=mask) for z in stack]),
+                    n,
+                    name,
+                )
+            )
     return out
 
 
-def _distances(grid: Iterable[float], lo: float, hi: float, extra: Iterable[float] = ()) -> list[float]:
+def _distances(
+    grid: Iterable[float], lo: float, hi: float, extra: Iterable[float] = ()
+) -> list[float]:
     inside = [float(d) for d in grid if lo - 1e-9 <= d <= hi + 1e-9]
     return sorted(set(inside) | {float(d) for d in extra})
 
 
-def measure(sensor: Sensor, settings: CardSettings | None = None, *, references: References | None = None,
-            context: Any = None) -> list[Measurement]:
+def measure(
+    sensor: Sensor,
+    settings: CardSettings | None = None,
+    *,
+    references: References | None = None,
+    context: Any = None,
+) -> list[Measurement]:
     """Every measurement of the card for ``sensor`` (see the module docstring). ``context``:
     a GL context to render in (None: this process's shared one)."""
     settings = settings or CardSettings()
@@ -276,16 +341,23 @@ def measure(sensor: Sensor, settings: CardSettings | None = None, *, references:
     bench = _Bench(sensor, settings, ctx)
     lo, hi = sensor_range(sensor)
     want: dict[tuple[str, float], set[float]] = {}
-    for f in (references.figures if references is not None else ()):
-        ends = [f.distance_m] if f.distance_m is not None else [max(f.distance_range_m[0], lo),
-                                                                 min(f.distance_range_m[1], hi)]
-        want.setdefault((f.scene, f.angle_deg), set()).update(d for d in ends if math.isfinite(d) and d > 0)
+    for f in references.figures if references is not None else ():
+        ends = (
+            [f.distance_m]
+            if f.distance_m is not None
+            else [max(f.distance_range_m[0], lo), min(f.distance_range_m[1], hi)]
+        )
+        want.setdefault((f.scene, f.angle_deg), set()).update(
+            d for d in ends if math.isfinite(d) and d > 0
+        )
     out: list[Measurement] = []
     for d in _distances(settings.distances_m, lo, hi, want.get(("wall", 0.0), ())):
         out += _wall(bench, scenes.wall(d, 0.0), banding=False)
     for a in sorted(set(settings.angles_deg) | {a for (s, a) in want if s == "wall" and a > 0}):
         for d in _distances(settings.angle_distances_m, lo, hi, want.get(("wall", a), ())):
-            out += _wall(bench, scenes.wall(d, a), banding=abs(a - settings.banding_angle_deg) < 1e-9)
+            out += _wall(
+                bench, scenes.wall(d, a), banding=abs(a - settings.banding_angle_deg) < 1e-9
+            )
     for d in _distances(settings.step_distances_m, lo, hi, want.get(("step", 0.0), ())):
         out += _step(bench, scenes.step(d))
     for d in _distances(settings.bars_distances_m, lo, hi, want.get(("bars", 0.0), ())):
@@ -295,4 +367,11 @@ def measure(sensor: Sensor, settings: CardSettings | None = None, *, references:
     return out
 
 
-__all__ = ["CardSettings", "Measurement", "measure", "sensor_range", "stereo_baseline", "wall_measurements"]
+__all__ = [
+    "CardSettings",
+    "Measurement",
+    "measure",
+    "sensor_range",
+    "stereo_baseline",
+    "wall_measurements",
+]

@@ -35,14 +35,15 @@ row, and its spread over frames), and
 
 Units: depth images in metres (0 = no return), results in the units their names carry.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-ROI_FRACTION = 0.4       # the depth quality tool's default ROI (40 % of width and of height)
-TRIM_DIVISOR = 200       # n // 200 points dropped at each end (0.5 %)
+ROI_FRACTION = 0.4  # the depth quality tool's default ROI (40 % of width and of height)
+TRIM_DIVISOR = 200  # n // 200 points dropped at each end (0.5 %)
 
 
 def central_roi(width: int, height: int, fraction: float = ROI_FRACTION) -> tuple[slice, slice]:
@@ -52,8 +53,10 @@ def central_roi(width: int, height: int, fraction: float = ROI_FRACTION) -> tupl
         raise ValueError(f"central_roi: fraction must be in (0, 1], got {fraction}")
     f = np.float32(fraction)
     lo, hi = np.float32(0.5) - np.float32(0.5) * f, np.float32(0.5) + np.float32(0.5) * f
-    return (slice(int(np.float32(height) * lo), int(np.float32(height) * hi)),
-            slice(int(np.float32(width) * lo), int(np.float32(width) * hi)))
+    return (
+        slice(int(np.float32(height) * lo), int(np.float32(height) * hi)),
+        slice(int(np.float32(width) * lo), int(np.float32(width) * hi)),
+    )
 
 
 def pinhole_rays(K: np.ndarray, width: int, height: int) -> np.ndarray:
@@ -133,8 +136,9 @@ def fit_plane(pts: np.ndarray) -> Plane:
     return Plane(n, float(-(n @ c)))
 
 
-def fill_rate(depth: np.ndarray, roi: tuple[slice, slice] | None = None,
-              mask: np.ndarray | None = None) -> float:
+def fill_rate(
+    depth: np.ndarray, roi: tuple[slice, slice] | None = None, mask: np.ndarray | None = None
+) -> float:
     """Percentage of valid (non-zero, finite) pixels among those of ``roi`` (and ``mask``,
     a (H, W) bool array, when given); NaN when the region holds no pixel."""
     z = np.asarray(depth)
@@ -174,9 +178,16 @@ class PlaneStats:
     distance_mm: float
 
 
-def plane_stats(depth: np.ndarray, rays_xy: np.ndarray, *, roi: tuple[slice, slice],
-                ground_truth_m: float | None = None, baseline_m: float | None = None,
-                focal_px: float | None = None, axis_xy: tuple[float, float] = (0.0, 0.0)) -> PlaneStats:
+def plane_stats(
+    depth: np.ndarray,
+    rays_xy: np.ndarray,
+    *,
+    roi: tuple[slice, slice],
+    ground_truth_m: float | None = None,
+    baseline_m: float | None = None,
+    focal_px: float | None = None,
+    axis_xy: tuple[float, float] = (0.0, 0.0),
+) -> PlaneStats:
     """The metrics of :class:`PlaneStats` for a depth image (H, W) in metres whose pixels'
     rays are ``rays_xy`` (H, W, 2); ``axis_xy`` is the optical axis's ray (the principal
     point's: (0, 0) for an untilted lens). Raises ValueError when the ROI holds fewer than
@@ -192,7 +203,7 @@ def plane_stats(depth: np.ndarray, rays_xy: np.ndarray, *, roi: tuple[slice, sli
     plane = fit_plane(pts)
     order = np.argsort(pts[:, 2], kind="stable")
     cut = len(pts) // TRIM_DIVISOR
-    kept = pts[order[cut:len(pts) - cut]]
+    kept = pts[order[cut : len(pts) - cut]]
     dist = plane.distance(kept)
     rms_mm = float(np.sqrt(np.mean(dist * dist))) * 1000.0
     pivot = float(plane.depth_along(np.asarray(axis_xy, np.float64)))
@@ -234,8 +245,9 @@ class TemporalStats:
     bias_rms_mm: float | None
 
 
-def temporal_stats(stack: np.ndarray, mask: np.ndarray | None = None,
-                   truth_m: np.ndarray | float | None = None) -> TemporalStats:
+def temporal_stats(
+    stack: np.ndarray, mask: np.ndarray | None = None, truth_m: np.ndarray | float | None = None
+) -> TemporalStats:
     """:class:`TemporalStats` of depth frames ``stack`` (N, H, W) in metres, N >= 2, over the
     pixels in ``mask`` (H, W) valid in every frame; ``truth_m`` is the ground-truth depth per
     pixel (H, W) or one number. Raises ValueError when no pixel is valid in every frame."""
@@ -256,12 +268,25 @@ def temporal_stats(stack: np.ndarray, mask: np.ndarray | None = None,
         t = np.broadcast_to(np.asarray(truth_m, np.float64), ok.shape)[ok]
         e = px.mean(axis=0) - t
         bias, bias_rms = float(np.median(e)) * 1000.0, float(np.sqrt(np.mean(e * e))) * 1000.0
-    return TemporalStats(n, len(s), float(np.sqrt(var.mean())) * 1000.0, float(np.median(sd)) * 1000.0,
-                         float(np.percentile(sd, 95)) * 1000.0, bias, bias_rms)
+    return TemporalStats(
+        n,
+        len(s),
+        float(np.sqrt(var.mean())) * 1000.0,
+        float(np.median(sd)) * 1000.0,
+        float(np.percentile(sd, 95)) * 1000.0,
+        bias,
+        bias_rms,
+    )
 
 
-def flying_pixels(depth: np.ndarray, near_m: np.ndarray, far_m: np.ndarray, band: np.ndarray,
-                  tolerance_near_m: float, tolerance_far_m: float | None = None) -> tuple[int, int]:
+def flying_pixels(
+    depth: np.ndarray,
+    near_m: np.ndarray,
+    far_m: np.ndarray,
+    band: np.ndarray,
+    tolerance_near_m: float,
+    tolerance_far_m: float | None = None,
+) -> tuple[int, int]:
     """Flying pixels at a depth edge: (count, valid) over the pixels of ``band`` (H, W bool,
     the pixels near the edge), where a valid pixel flies when its depth lies farther than
     ``tolerance_near_m`` from the near surface and farther than ``tolerance_far_m`` (default:

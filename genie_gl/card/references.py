@@ -37,6 +37,7 @@ and the card shows the figure as ``by construction``, not counted. A figure of a
 
 Unknown keys, metrics, sources or bounds are refused with the file and the key named.
 """
+
 from __future__ import annotations
 
 import os
@@ -54,23 +55,47 @@ from ..resources import data_dir, read_text
 METRICS: dict[str, tuple[str, str, str]] = {
     "fill_rate_pct": ("wall", "%", "valid pixels in the central ROI (Intel DQT)"),
     "z_accuracy_pct": ("wall", "%", "signed median depth error as % of the distance (Intel DQT)"),
-    "plane_fit_rms_mm": ("wall", "mm", "RMS distance to the fitted plane, spatial noise (Intel DQT)"),
+    "plane_fit_rms_mm": (
+        "wall",
+        "mm",
+        "RMS distance to the fitted plane, spatial noise (Intel DQT)",
+    ),
     "plane_fit_rms_pct": ("wall", "%", "plane-fit RMS as % of the distance"),
     "subpixel_rms_px": ("wall", "px", "RMS disparity error against the fitted plane (Intel DQT)"),
-    "temporal_noise_mm": ("wall", "mm", "RMS over pixels of each pixel's std over frames (random error)"),
+    "temporal_noise_mm": (
+        "wall",
+        "mm",
+        "RMS over pixels of each pixel's std over frames (random error)",
+    ),
     "temporal_noise_pct": ("wall", "%", "temporal noise as % of the distance"),
     "bias_mm": ("wall", "mm", "median over pixels of temporal mean - truth (systematic error)"),
     "bias_pct": ("wall", "%", "systematic error as % of the distance"),
-    "flying_pixel_pct": ("step", "%", "valid pixels within 3 px of a depth step lying on neither surface"),
-    "lateral_noise_px": ("step", "px", "std over frames of the step edge's position, RMS over rows"),
+    "flying_pixel_pct": (
+        "step",
+        "%",
+        "valid pixels within 3 px of a depth step lying on neither surface",
+    ),
+    "lateral_noise_px": (
+        "step",
+        "px",
+        "std over frames of the step edge's position, RMS over rows",
+    ),
     "edge_fill_pct": ("step", "%", "valid pixels within 3 px of the step edge"),
     "bar_fill_pct": ("bars", "%", "pixels of a thin bar returning the bar's depth"),
     "panel_fill_pct": ("panels", "%", "valid pixels on a panel of one material"),
-    "banding_occupied": ("wall", "bins", "of 64 sub-pixel disparity bins, how many hold pixels (stereo)"),
-    "banding_peak_ratio": ("wall", "x", "fullest sub-pixel disparity bin over the mean bin (stereo)"),
+    "banding_occupied": (
+        "wall",
+        "bins",
+        "of 64 sub-pixel disparity bins, how many hold pixels (stereo)",
+    ),
+    "banding_peak_ratio": (
+        "wall",
+        "x",
+        "fullest sub-pixel disparity bin over the mean bin (stereo)",
+    ),
 }
 BOUNDS = ("max", "min", "max_abs", "value")
-SYSTEMATIC = ("bias_mm", "bias_pct", "z_accuracy_pct")   # metrics of a systematic (mean) depth error
+SYSTEMATIC = ("bias_mm", "bias_pct", "z_accuracy_pct")  # metrics of a systematic (mean) depth error
 VERIFICATION = ("read", "secondary", "unverified")
 
 
@@ -106,10 +131,19 @@ class FigureSpec(_Strict):
     def _conditions(self) -> "FigureSpec":
         if (self.distance_m is None) == (self.distance_range_m is None):
             raise ValueError("give exactly one of distance_m or distance_range_m")
-        if self.distance_range_m is not None and not 0 < self.distance_range_m[0] <= self.distance_range_m[1]:
-            raise ValueError(f"distance_range_m must be [low, high] with 0 < low <= high, got {self.distance_range_m}")
+        if (
+            self.distance_range_m is not None
+            and not 0 < self.distance_range_m[0] <= self.distance_range_m[1]
+        ):
+            raise ValueError(
+                "distance_range_m must be [low, high] with 0 < low <= high, got "
+                f"{self.distance_range_m}"
+            )
         if self.bound == "value" and (self.tolerance is None or not self.tolerance_from):
-            raise ValueError("bound 'value' needs tolerance and tolerance_from (the source's spread it comes from)")
+            raise ValueError(
+                "bound 'value' needs tolerance and tolerance_from (the source's spread it comes "
+                "from)"
+            )
         return self
 
 
@@ -206,9 +240,15 @@ def load_references(path_or_name: str | os.PathLike) -> References:
     if not p.is_file():
         shipped = reference_path(str(path_or_name))
         if not shipped.is_file():
-            names = sorted(x.name[: -len(".reference.yml")] for x in data_dir("sensors").glob("*.reference.yml"))
-            raise ConfigError(f"{path_or_name}: no such reference file, and no shipped sensor of that name with "
-                              f"one (shipped: {', '.join(names) or 'none'}){did_you_mean(str(path_or_name), names)}")
+            names = sorted(
+                x.name[: -len(".reference.yml")]
+                for x in data_dir("sensors").glob("*.reference.yml")
+            )
+            raise ConfigError(
+                f"{path_or_name}: no such reference file, and no shipped sensor of that name with "
+                f"one (shipped: {', '.join(names) or 'none'}"
+                f"){did_you_mean(str(path_or_name), names)}"
+            )
         p = shipped
     text = read_text(p, "reference file (YAML)")
     try:
@@ -218,7 +258,6 @@ def load_references(path_or_name: str | os.PathLike) -> References:
     return parse_references(data, str(p))
 
 
-
 def parse_references(data: object, source: str = "<dict>") -> References:
     """Validate parsed reference data; errors name ``source`` and the key's path."""
     try:
@@ -226,20 +265,46 @@ def parse_references(data: object, source: str = "<dict>") -> References:
     except ValidationError as exc:
         e = exc.errors()[0]
         raise ConfigError(f"{source}: {json_path(tuple(e['loc']))}: {e['msg']}") from None
-    sources = {k: Source(k, s.citation, s.where, s.url, s.verification, s.note) for k, s in spec.sources.items()}
+    sources = {
+        k: Source(k, s.citation, s.where, s.url, s.verification, s.note)
+        for k, s in spec.sources.items()
+    }
     figures = []
     for i, f in enumerate(spec.figures):
         where = f"{source}: $.figures[{i}]"
         if f.metric not in METRICS:
-            raise ConfigError(f"{where}.metric: unknown metric {f.metric!r}{did_you_mean(f.metric, METRICS)} "
-                              f"(known: {', '.join(METRICS)})")
+            raise ConfigError(
+                f"{where}.metric: unknown metric {f.metric!r}{did_you_mean(f.metric, METRICS)} "
+                f"(known: {', '.join(METRICS)})"
+            )
         if f.source not in sources:
-            raise ConfigError(f"{where}.source: {f.source!r} is not in $.sources{did_you_mean(f.source, sources)}")
+            raise ConfigError(
+                f"{where}.source: {f.source!r} is not in $.sources{did_you_mean(f.source, sources)}"
+            )
         scene = METRICS[f.metric][0]
         if scene in ("bars", "panels") and not f.part:
-            raise ConfigError(f"{where}.part: {f.metric} needs the part it is about (a bar such as 'bar_10mm', or a "
-                              "panel material such as 'dark_15')")
-        figures.append(Figure(f.metric, scene, f.bound, float(f.value), sources[f.source], f.quote, f.distance_m,
-                              f.distance_range_m, float(f.angle_deg), f.part, float(f.per_m), f.tolerance,
-                              f.tolerance_from, f.note, f.profile_parameter))
+            raise ConfigError(
+                f"{where}.part: {f.metric} needs the part it is about (a bar such as 'bar_10mm', "
+                "or a "
+                "panel material such as 'dark_15')"
+            )
+        figures.append(
+            Figure(
+                f.metric,
+                scene,
+                f.bound,
+                float(f.value),
+                sources[f.source],
+                f.quote,
+                f.distance_m,
+                f.distance_range_m,
+                float(f.angle_deg),
+                f.part,
+                float(f.per_m),
+                f.tolerance,
+                f.tolerance_from,
+                f.note,
+                f.profile_parameter,
+            )
+        )
     return References(source, spec.sensor, sources, tuple(figures))

@@ -8,6 +8,7 @@ never counted, because the profile could not have failed them: ``by construction
 names the profile parameter taken from its own sentence) and ``not modelled`` (a systematic
 error the profile has no effect for: its measured bias is the noise's, not a model's).
 """
+
 from __future__ import annotations
 
 import math
@@ -21,7 +22,7 @@ from .captures import measure_captures
 from .measurements import CardSettings, Measurement, measure
 from .references import SYSTEMATIC, Figure, References, load_references, reference_path
 
-UNCOUNTED = ("by construction", "not modelled")   # verdicts shown beside a figure, never counted
+UNCOUNTED = ("by construction", "not modelled")  # verdicts shown beside a figure, never counted
 
 
 @dataclass(frozen=True)
@@ -34,7 +35,7 @@ class Judgement:
     ours: float | None
     limit: float | None
     verdict: str
-    why: str | None = None      # for a verdict in UNCOUNTED: the reason
+    why: str | None = None  # for a verdict in UNCOUNTED: the reason
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,7 @@ class ReportCard:
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dictionary of the card (floats as they are; NaN as None)."""
+
         def clean(v: Any) -> Any:
             if isinstance(v, float):
                 return None if not math.isfinite(v) else v
@@ -85,15 +87,38 @@ class ReportCard:
         comps = []
         for c in self.comparisons:
             f = c.figure
-            comps.append({"metric": f.metric, "scene": f.scene, "bound": f.bound, "value": f.value, "per_m": f.per_m,
-                          "tolerance": f.tolerance, "distance_m": f.distance_m,
-                          "distance_range_m": f.distance_range_m, "angle_deg": f.angle_deg, "part": f.part,
-                          "source": f.source.key, "verification": f.source.verification, "quote": f.quote,
-                          "sim": asdict(c.sim), "captures": None if c.captures is None else asdict(c.captures)})
-        return clean({"sensor": self.sensor, "profile": self.profile, "settings": asdict(self.settings),
-                      "references": self.references, "counts": self.counts(), "comparisons": comps,
-                      "measurements": [asdict(m) for m in self.measurements],
-                      "captures": [asdict(m) for m in self.captures], "capture_source": self.capture_source})
+            comps.append(
+                {
+                    "metric": f.metric,
+                    "scene": f.scene,
+                    "bound": f.bound,
+                    "value": f.value,
+                    "per_m": f.per_m,
+                    "tolerance": f.tolerance,
+                    "distance_m": f.distance_m,
+                    "distance_range_m": f.distance_range_m,
+                    "angle_deg": f.angle_deg,
+                    "part": f.part,
+                    "source": f.source.key,
+                    "verification": f.source.verification,
+                    "quote": f.quote,
+                    "sim": asdict(c.sim),
+                    "captures": None if c.captures is None else asdict(c.captures),
+                }
+            )
+        return clean(
+            {
+                "sensor": self.sensor,
+                "profile": self.profile,
+                "settings": asdict(self.settings),
+                "references": self.references,
+                "counts": self.counts(),
+                "comparisons": comps,
+                "measurements": [asdict(m) for m in self.measurements],
+                "captures": [asdict(m) for m in self.captures],
+                "capture_source": self.capture_source,
+            }
+        )
 
 
 # -- judging ---------------------------------------------------------------------------------
@@ -103,12 +128,21 @@ def judge(figure: Figure, measured: Iterable[Measurement]) -> Judgement:
     worst: tuple[float, Measurement] | None = None
     ok = True
     for m in measured:
-        if (m.metric != figure.metric or m.part != figure.part or abs(m.angle_deg - figure.angle_deg) > 1e-9
-                or not figure.covers(m.distance_m) or not math.isfinite(m.value)):
+        if (
+            m.metric != figure.metric
+            or m.part != figure.part
+            or abs(m.angle_deg - figure.angle_deg) > 1e-9
+            or not figure.covers(m.distance_m)
+            or not math.isfinite(m.value)
+        ):
             continue
         lim = figure.limit(m.distance_m)
-        excess = {"max": m.value - lim, "min": lim - m.value, "max_abs": abs(m.value) - lim,
-                  "value": abs(m.value - lim) - float(figure.tolerance or 0.0)}[figure.bound]
+        excess = {
+            "max": m.value - lim,
+            "min": lim - m.value,
+            "max_abs": abs(m.value) - lim,
+            "value": abs(m.value - lim) - float(figure.tolerance or 0.0),
+        }[figure.bound]
         ok &= figure.judge(m.value, m.distance_m)
         if worst is None or excess > worst[0]:
             worst = (excess, m)
@@ -126,27 +160,47 @@ def profile_value(sensor: Sensor, parameter: str, where: str) -> Any:
         if e.name == effect and name in {f.name for f in fields(e)}:
             return getattr(e, name)
     have = ", ".join(e.name for e in sensor.effects) or "none"
-    raise ConfigError(f"{where}: profile_parameter {parameter!r}: the profile {sensor.name} has no such effect "
-                      f"parameter (its effects: {have})")
+    raise ConfigError(
+        f"{where}: profile_parameter {parameter!r}: the profile {sensor.name} has no such effect "
+        f"parameter (its effects: {have})"
+    )
 
 
-def qualify(figure: Figure, j: Judgement, sensor: Sensor, where: str = "reference file") -> Judgement:
+def qualify(
+    figure: Figure, j: Judgement, sensor: Sensor, where: str = "reference file"
+) -> Judgement:
     """The judgement of the simulated profile, made ``by construction`` or ``not modelled``
     where the profile could not have failed the figure (see the module's docstring)."""
     if figure.profile_parameter:
         value = profile_value(sensor, figure.profile_parameter, where)
-        return replace(j, verdict="by construction",
-                       why=f"the profile's {figure.profile_parameter} = {value:g} comes from this figure's own "
-                           f"sentence ({figure.source.key})")
-    if figure.metric in SYSTEMATIC and not any(getattr(e, "systematic_error", False) for e in sensor.effects):
-        return replace(j, verdict="not modelled",
-                       why="no effect of the profile moves the mean depth: its bias is the noise's, not a model's")
+        return replace(
+            j,
+            verdict="by construction",
+            why=f"the profile's {figure.profile_parameter} = {value:g} comes from this figure's "
+            "own "
+            f"sentence ({figure.source.key})",
+        )
+    if figure.metric in SYSTEMATIC and not any(
+        getattr(e, "systematic_error", False) for e in sensor.effects
+    ):
+        return replace(
+            j,
+            verdict="not modelled",
+            why="no effect of the profile moves the mean depth: its bias is the noise's, not a "
+            "model's",
+        )
     return j
 
 
-def report_card(sensor: Sensor | str, *, settings: CardSettings | None = None, seed: int | None = None,
-                references: References | str | None = "shipped", captures: Any = None,
-                context: Any = None) -> ReportCard:
+def report_card(
+    sensor: Sensor | str,
+    *,
+    settings: CardSettings | None = None,
+    seed: int | None = None,
+    references: References | str | None = "shipped",
+    captures: Any = None,
+    context: Any = None,
+) -> ReportCard:
     """The report card of ``sensor`` (a :class:`~genie_gl.Sensor` or a profile name/path).
 
     Parameters
@@ -173,21 +227,45 @@ def report_card(sensor: Sensor | str, *, settings: CardSettings | None = None, s
     else:
         refs = load_references(references)
     if refs is not None and refs.sensor != sensor.name:
-        raise ConfigError(f"{refs.path}: $.sensor is {refs.sensor!r}, but the profile is {sensor.name!r}")
+        raise ConfigError(
+            f"{refs.path}: $.sensor is {refs.sensor!r}, but the profile is {sensor.name!r}"
+        )
     sim = measure(sensor, settings, references=refs, context=context)
     if not sim:
-        raise RenderError(f"report card: nothing of {sensor.name} could be measured (every test scene came "
-                          "back without a return)")
+        raise RenderError(
+            f"report card: nothing of {sensor.name} could be measured (every test scene came "
+            "back without a return)"
+        )
     yours: list[Measurement] = []
     if captures is not None:
-
         yours = measure_captures(captures, roi_fraction=settings.roi_fraction)
-    comps = tuple(Comparison(f, qualify(f, judge(f, sim), sensor, refs.path if refs is not None else ""),
-                             judge(f, yours) if captures is not None else None)
-                  for f in (refs.figures if refs is not None else ()))
-    return ReportCard(sensor.name, str(sensor.profile or sensor.calibration or ""), settings,
-                      tuple(sim), None if refs is None else refs.path, comps, tuple(yours),
-                      None if captures is None else captures.source)
+    comps = tuple(
+        Comparison(
+            f,
+            qualify(f, judge(f, sim), sensor, refs.path if refs is not None else ""),
+            judge(f, yours) if captures is not None else None,
+        )
+        for f in (refs.figures if refs is not None else ())
+    )
+    return ReportCard(
+        sensor.name,
+        str(sensor.profile or sensor.calibration or ""),
+        settings,
+        tuple(sim),
+        None if refs is None else refs.path,
+        comps,
+        tuple(yours),
+        None if captures is None else captures.source,
+    )
 
 
-__all__ = ["CardSettings", "Comparison", "Judgement", "Measurement", "ReportCard", "judge", "qualify", "report_card"]
+__all__ = [
+    "CardSettings",
+    "Comparison",
+    "Judgement",
+    "Measurement",
+    "ReportCard",
+    "judge",
+    "qualify",
+    "report_card",
+]

@@ -18,6 +18,7 @@ z forward, metres), so each surface's depth along any pixel's ray has a closed f
 The wall, step and panels are large quads (no back-face culling: they are open meshes); the
 bars are boxes. Instance ids: the wall 1, the step's panel 2, bars and panels 10 + k.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -28,11 +29,11 @@ from ..scene.model import Material, Mesh, Scene
 from .metrics import Plane
 
 MATTE = Material(diffuse_color=(0.8, 0.8, 0.8), metallic=0.0, roughness=1.0)
-STEP_M = 0.5                      # the step's depth jump, m
+STEP_M = 0.5  # the step's depth jump, m
 BAR_WIDTHS_MM = (2.0, 5.0, 10.0, 20.0, 40.0)
-BAR_GAP_M = 0.5                   # bars stand this far in front of the wall
-BAR_SPAN = 0.6                    # bars spread over this fraction of the view's width
-PANEL_SPAN = 0.7                  # panels cover this fraction of the view's width
+BAR_GAP_M = 0.5  # bars stand this far in front of the wall
+BAR_SPAN = 0.6  # bars spread over this fraction of the view's width
+PANEL_SPAN = 0.7  # panels cover this fraction of the view's width
 PANEL_MATERIALS: dict[str, Material] = {
     "white": MATTE,
     "dark_15": Material(diffuse_color=(0.15, 0.15, 0.15), metallic=0.0, roughness=1.0),
@@ -81,13 +82,19 @@ def _wall_plane(distance_m: float, angle_deg: float) -> tuple[Plane, np.ndarray,
     """The wall's plane (normal away from the camera) and two unit axes spanning it."""
     a = np.radians(angle_deg)
     n = np.array([np.sin(a), 0.0, np.cos(a)])
-    return Plane(n, float(-distance_m * np.cos(a))), np.array([np.cos(a), 0.0, -np.sin(a)]), np.array([0.0, 1.0, 0.0])
+    return (
+        Plane(n, float(-distance_m * np.cos(a))),
+        np.array([np.cos(a), 0.0, -np.sin(a)]),
+        np.array([0.0, 1.0, 0.0]),
+    )
 
 
 def _wall_mesh(distance_m: float, angle_deg: float, half: float) -> Mesh:
     _, ax, ay = _wall_plane(distance_m, angle_deg)
     c = np.array([0.0, 0.0, distance_m])
-    return _quad([c + half * (sx * ax + sy * ay) for sx, sy in [(-1, -1), (1, -1), (1, 1), (-1, 1)]])
+    return _quad(
+        [c + half * (sx * ax + sy * ay) for sx, sy in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
+    )
 
 
 def _half_extent(distance_m: float, angle_deg: float) -> float:
@@ -100,9 +107,19 @@ def wall(distance_m: float, angle_deg: float = 0.0) -> TestScene:
     ``angle_deg`` (0-80) about the vertical axis."""
     _check(distance_m, angle_deg)
     s = Scene()
-    s.add(_wall_mesh(distance_m, angle_deg, _half_extent(distance_m, angle_deg)), instance=WALL_ID,
-          material=MATTE, name="wall")
-    return TestScene("wall", float(distance_m), float(angle_deg), s, {WALL_ID: _wall_plane(distance_m, angle_deg)[0]})
+    s.add(
+        _wall_mesh(distance_m, angle_deg, _half_extent(distance_m, angle_deg)),
+        instance=WALL_ID,
+        material=MATTE,
+        name="wall",
+    )
+    return TestScene(
+        "wall",
+        float(distance_m),
+        float(angle_deg),
+        s,
+        {WALL_ID: _wall_plane(distance_m, angle_deg)[0]},
+    )
 
 
 def step(distance_m: float) -> TestScene:
@@ -113,13 +130,19 @@ def step(distance_m: float) -> TestScene:
     s = Scene()
     s.add(_wall_mesh(back, 0.0, half), instance=WALL_ID, material=MATTE, name="wall")
     z = distance_m
-    s.add(_quad([[-half, -half, z], [0.0, -half, z], [0.0, half, z], [-half, half, z]]), instance=PANEL_ID,
-          material=MATTE, name="step")
+    s.add(
+        _quad([[-half, -half, z], [0.0, -half, z], [0.0, half, z], [-half, half, z]]),
+        instance=PANEL_ID,
+        material=MATTE,
+        name="step",
+    )
     planes = {WALL_ID: _wall_plane(back, 0.0)[0], PANEL_ID: _wall_plane(distance_m, 0.0)[0]}
     return TestScene("step", float(distance_m), 0.0, s, planes)
 
 
-def bars(distance_m: float, x_half_tan: float, widths_mm: tuple[float, ...] = BAR_WIDTHS_MM) -> TestScene:
+def bars(
+    distance_m: float, x_half_tan: float, widths_mm: tuple[float, ...] = BAR_WIDTHS_MM
+) -> TestScene:
     """Vertical bars (square section of their width) whose front faces stand at
     ``distance_m``, spread over ``BAR_SPAN`` of a view whose half-width subtends
     ``x_half_tan`` (tan of half the horizontal field), ``BAR_GAP_M`` in front of a wall."""
@@ -135,10 +158,35 @@ def bars(distance_m: float, x_half_tan: float, widths_mm: tuple[float, ...] = BA
         w = w_mm / 1000.0
         lo = np.array([x - w / 2, -half, distance_m])
         hi = np.array([x + w / 2, half, distance_m + w])
-        v = np.array([[lo[0], lo[1], lo[2]], [hi[0], lo[1], lo[2]], [hi[0], hi[1], lo[2]], [lo[0], hi[1], lo[2]],
-                      [lo[0], lo[1], hi[2]], [hi[0], lo[1], hi[2]], [hi[0], hi[1], hi[2]], [lo[0], hi[1], hi[2]]])
-        f = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4], [3, 7, 6], [3, 6, 2],
-                      [0, 4, 7], [0, 7, 3], [1, 2, 6], [1, 6, 5]], dtype=np.uint32)
+        v = np.array(
+            [
+                [lo[0], lo[1], lo[2]],
+                [hi[0], lo[1], lo[2]],
+                [hi[0], hi[1], lo[2]],
+                [lo[0], hi[1], lo[2]],
+                [lo[0], lo[1], hi[2]],
+                [hi[0], lo[1], hi[2]],
+                [hi[0], hi[1], hi[2]],
+                [lo[0], hi[1], hi[2]],
+            ]
+        )
+        f = np.array(
+            [
+                [0, 2, 1],
+                [0, 3, 2],
+                [4, 5, 6],
+                [4, 6, 7],
+                [0, 1, 5],
+                [0, 5, 4],
+                [3, 7, 6],
+                [3, 6, 2],
+                [0, 4, 7],
+                [0, 7, 3],
+                [1, 2, 6],
+                [1, 6, 5],
+            ],
+            dtype=np.uint32,
+        )
         iid = FIRST_PART_ID + k
         s.add(Mesh(v, f, closed=True), instance=iid, material=MATTE, name=f"bar_{w_mm:g}mm")
         planes[iid] = _wall_plane(distance_m, 0.0)[0]
@@ -146,7 +194,9 @@ def bars(distance_m: float, x_half_tan: float, widths_mm: tuple[float, ...] = BA
     return TestScene("bars", float(distance_m), 0.0, s, planes, parts)
 
 
-def panels(distance_m: float, x_half_tan: float, materials: dict[str, Material] | None = None) -> TestScene:
+def panels(
+    distance_m: float, x_half_tan: float, materials: dict[str, Material] | None = None
+) -> TestScene:
     """Square panels of ``materials`` (default :data:`PANEL_MATERIALS`) side by side, 1 mm in
     front of a matte wall at ``distance_m + 0.001``, over ``PANEL_SPAN`` of the view's width."""
     _check(distance_m, 0.0)
@@ -163,7 +213,12 @@ def panels(distance_m: float, x_half_tan: float, materials: dict[str, Material] 
         x1, h = x0 + width * 0.9, width * 0.45
         iid = FIRST_PART_ID + k
         z = distance_m
-        s.add(_quad([[x0, -h, z], [x1, -h, z], [x1, h, z], [x0, h, z]]), instance=iid, material=mat, name=name)
+        s.add(
+            _quad([[x0, -h, z], [x1, -h, z], [x1, h, z], [x0, h, z]]),
+            instance=iid,
+            material=mat,
+            name=name,
+        )
         planes[iid] = _wall_plane(distance_m, 0.0)[0]
         parts[iid] = name
     return TestScene("panels", float(distance_m), 0.0, s, planes, parts)

@@ -18,6 +18,7 @@ its points the target asks for:
 Everything but the last step is arithmetic on counts; the draws come from an explicit
 Generator, so the same seed gives the same points.
 """
+
 from __future__ import annotations
 
 import json
@@ -31,11 +32,31 @@ from ..errors import ConfigError, did_you_mean
 from .pointcloud import PointCloud
 
 # Table 3, synthetic column: points per class id (DESIGN.md label map)
-PAPER: dict[int, int] = {0: 4_931_280, 1: 254_597, 2: 2_797_079, 3: 4_131_134, 4: 2_531, 5: 5_096_091,
-                         6: 2_270_590, 7: 56_680, 8: 70_289, 9: 239_697}
+PAPER: dict[int, int] = {
+    0: 4_931_280,
+    1: 254_597,
+    2: 2_797_079,
+    3: 4_131_134,
+    4: 2_531,
+    5: 5_096_091,
+    6: 2_270_590,
+    7: 56_680,
+    8: 70_289,
+    9: 239_697,
+}
 # Table 3, real column (the NavVis VLX 2 scans: a mobile scanner's chunks of 25 000 points)
-PAPER_REAL: dict[int, int] = {0: 998_260, 1: 14_303, 2: 8_574, 3: 8_933, 4: 14_090, 5: 70_972, 6: 87_646, 7: 1_400,
-                              8: 10_862, 9: 9_955}
+PAPER_REAL: dict[int, int] = {
+    0: 998_260,
+    1: 14_303,
+    2: 8_574,
+    3: 8_933,
+    4: 14_090,
+    5: 70_972,
+    6: 87_646,
+    7: 1_400,
+    8: 10_862,
+    9: 9_955,
+}
 RARE = 0.02  # a class whose target share is at most this may fall short (it gives what it has)
 
 
@@ -63,12 +84,16 @@ def load_target(spec: str, names: Mapping[int, str]) -> dict[int, float]:
         try:
             raw = json.loads(Path(spec).read_text())
         except OSError as exc:
-            raise ConfigError(f"--class-balance {spec}: cannot read the file ({exc.strerror}); "
-                              "expected 'paper' or a JSON file {class: share}") from None
+            raise ConfigError(
+                f"--class-balance {spec}: cannot read the file ({exc.strerror}); "
+                "expected 'paper' or a JSON file {class: share}"
+            ) from None
         except json.JSONDecodeError as exc:
             raise ConfigError(f"{spec}: invalid JSON at line {exc.lineno}: {exc.msg}") from None
         if not isinstance(raw, dict) or not raw:
-            raise ConfigError(f"{spec}: expected an object {{class name or id: share}}, got {raw!r:.60}")
+            raise ConfigError(
+                f"{spec}: expected an object {{class name or id: share}}, got {raw!r:.60}"
+            )
     norm = {n.lower().replace(" ", "_"): k for k, n in names.items()}
     out: dict[int, float] = {}
     for key, value in raw.items():
@@ -78,10 +103,19 @@ def load_target(spec: str, names: Mapping[int, str]) -> dict[int, float]:
         elif k.lower().replace(" ", "_") in norm:
             cid = norm[k.lower().replace(" ", "_")]
         else:
-            raise ConfigError(f"{source}: class {key!r} is not in the label map"
-                              f"{did_you_mean(k, list(norm))} (known: {', '.join(norm)})")
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or not np.isfinite(value) or value < 0:
-            raise ConfigError(f"{source}: {key}: expected a share or a point count >= 0, got {value!r}")
+            raise ConfigError(
+                f"{source}: class {key!r} is not in the label map"
+                f"{did_you_mean(k, list(norm))} (known: {', '.join(norm)})"
+            )
+        if (
+            not isinstance(value, (int, float))
+            or isinstance(value, bool)
+            or not np.isfinite(value)
+            or value < 0
+        ):
+            raise ConfigError(
+                f"{source}: {key}: expected a share or a point count >= 0, got {value!r}"
+            )
         out[cid] = out.get(cid, 0.0) + float(value)
     total = sum(out.values())
     if total <= 0:
@@ -89,7 +123,9 @@ def load_target(spec: str, names: Mapping[int, str]) -> dict[int, float]:
     return {k: v / total for k, v in sorted(out.items())}
 
 
-def _largest_total(available: np.ndarray, p: np.ndarray, rare: float, required: np.ndarray | None = None) -> float:
+def _largest_total(
+    available: np.ndarray, p: np.ndarray, rare: float, required: np.ndarray | None = None
+) -> float:
     """The largest N whose target counts p_c·N every class above the ``rare`` share can give
     (rare classes give what they have; a class without points is left out, unless it is
     ``required``: then N is 0)."""
@@ -114,12 +150,20 @@ def _spread(counts: np.ndarray, want: np.ndarray) -> np.ndarray:
     frac = exact - q
     for c in np.flatnonzero(rest > 0):
         order = np.lexsort((np.arange(len(frac)), -frac[:, c]))
-        q[order[:rest[c]], c] += 1
+        q[order[: rest[c]], c] += 1
     return np.minimum(q, counts)
 
 
-def plan(counts: np.ndarray, target: np.ndarray | None, *, rng: np.random.Generator, rare: float = RARE,
-         budget: int | None = None, min_points: int = 1, background: int = 0) -> Plan:
+def plan(
+    counts: np.ndarray,
+    target: np.ndarray | None,
+    *,
+    rng: np.random.Generator,
+    rare: float = RARE,
+    budget: int | None = None,
+    min_points: int = 1,
+    background: int = 0,
+) -> Plan:
     """How many points of each class each chunk keeps.
 
     Parameters
@@ -169,8 +213,15 @@ def plan(counts: np.ndarray, target: np.ndarray | None, *, rng: np.random.Genera
     return best
 
 
-def _plan(counts: np.ndarray, target: np.ndarray | None, rare: float, budget: int | None, min_points: int,
-          background: int, required: np.ndarray | None = None) -> Plan:
+def _plan(
+    counts: np.ndarray,
+    target: np.ndarray | None,
+    rare: float,
+    budget: int | None,
+    min_points: int,
+    background: int,
+    required: np.ndarray | None = None,
+) -> Plan:
     n_chunks, n_cls = counts.shape
     keep = counts.sum(1) > 0
     short: dict[int, str] = {}
@@ -188,9 +239,12 @@ def _plan(counts: np.ndarray, target: np.ndarray | None, rare: float, budget: in
             first = first or (total_n, avail)
             short = {}
             for k in np.flatnonzero((p > 0) & (avail < p * total_n - 0.5)).tolist():
-                short[k] = ("no points in the chunks kept" if avail[k] == 0 else
-                            f"{int(avail[k])} points in the data, {p[k] * total_n:.0f} wanted "
-                            f"({100 * avail[k] / max(total_n, 1):.2f} % of {100 * p[k]:.2f} %)")
+                short[k] = (
+                    "no points in the chunks kept"
+                    if avail[k] == 0
+                    else f"{int(avail[k])} points in the data, {p[k] * total_n:.0f} wanted "
+                    f"({100 * avail[k] / max(total_n, 1):.2f} % of {100 * p[k]:.2f} %)"
+                )
         if budget is not None and want.sum() > budget:
             want = np.floor(want * (budget / want.sum()))
         quota = _spread(c, want.astype(np.int64))
@@ -205,10 +259,16 @@ def _plan(counts: np.ndarray, target: np.ndarray | None, rare: float, budget: in
         total0, avail0 = first
         p = np.asarray(target, np.float64)
         use = (p > rare) & (avail0 > 0)
-        lim = int(np.flatnonzero(use)[np.argmin(avail0[use] / p[use])]) if use.any() else int(np.argmax(p))
-        short[lim] = (f"{int(avail0[lim])} points in the data limit the balanced total to {total0:.0f} "
-                      f"({100 * p[lim]:.2f} % of it), too few for any chunk to keep min_points {min_points} "
-                      "with a labelled point: nothing kept (more scenes or cameras, or a lower --min-points)")
+        lim = (
+            int(np.flatnonzero(use)[np.argmin(avail0[use] / p[use])])
+            if use.any()
+            else int(np.argmax(p))
+        )
+        short[lim] = (
+            f"{int(avail0[lim])} points in the data limit the balanced total to {total0:.0f} "
+            f"({100 * p[lim]:.2f} % of it), too few for any chunk to keep min_points {min_points} "
+            "with a labelled point: nothing kept (more scenes or cameras, or a lower --min-points)"
+        )
     return Plan(quota, keep, total_n, short)
 
 
@@ -222,9 +282,15 @@ def sample(semantic: np.ndarray, quota: np.ndarray, *, rng: np.random.Generator)
     return np.sort(np.concatenate(out)) if out else np.zeros(0, np.int64)
 
 
-def balance_chunks(chunks: list[tuple[tuple[int, int], PointCloud]], target: Mapping[int, float] | None, *,
-                   rng: np.random.Generator, budget: int | None = None, rare: float = RARE,
-                   min_points: int = 1) -> tuple[list[tuple[tuple[int, int], PointCloud]], Plan]:
+def balance_chunks(
+    chunks: list[tuple[tuple[int, int], PointCloud]],
+    target: Mapping[int, float] | None,
+    *,
+    rng: np.random.Generator,
+    budget: int | None = None,
+    rare: float = RARE,
+    min_points: int = 1,
+) -> tuple[list[tuple[tuple[int, int], PointCloud]], Plan]:
     """The chunks sub-sampled towards ``target`` ({class id: share}) and capped at
     ``budget`` points, with the plan that chose them."""
     counts = _counts([t for _, t in chunks])
@@ -243,9 +309,12 @@ def save_chunks(path: Path, chunks: list[tuple[tuple[int, int], PointCloud]], in
     temporary name, then renamed)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     clouds = [t for _, t in chunks]
-    arrays = {"keys": np.array([k for k, _ in chunks], np.int64).reshape(-1, 2),
-              "ends": np.cumsum([len(t) for t in clouds]).astype(np.int64),
-              "counts": _counts(clouds), "info": np.frombuffer(json.dumps(info).encode(), np.uint8)}
+    arrays = {
+        "keys": np.array([k for k, _ in chunks], np.int64).reshape(-1, 2),
+        "ends": np.cumsum([len(t) for t in clouds]).astype(np.int64),
+        "counts": _counts(clouds),
+        "info": np.frombuffer(json.dumps(info).encode(), np.uint8),
+    }
     if clouds:
         merged = PointCloud.concatenate(clouds)
         for f in ("xyz", "semantic", "instance", "origin", "rgb", "normal", "camera"):
@@ -258,7 +327,11 @@ def save_chunks(path: Path, chunks: list[tuple[tuple[int, int], PointCloud]], in
 
 def _counts(clouds: list[PointCloud]) -> np.ndarray:
     n = max([int(t.semantic.max(initial=0)) + 1 for t in clouds] + [len(PAPER)])
-    return np.stack([np.bincount(t.semantic, minlength=n) for t in clouds]) if clouds else np.zeros((0, n), np.int64)
+    return (
+        np.stack([np.bincount(t.semantic, minlength=n) for t in clouds])
+        if clouds
+        else np.zeros((0, n), np.int64)
+    )
 
 
 def load_chunks(path: Path) -> tuple[list[tuple[tuple[int, int], PointCloud]], dict]:
@@ -268,22 +341,37 @@ def load_chunks(path: Path) -> tuple[list[tuple[tuple[int, int], PointCloud]], d
         ends = z["ends"]
         if len(ends) == 0:
             return [], info
-        f = {k: z[k] for k in ("xyz", "semantic", "instance", "origin", "rgb", "normal", "camera") if k in z}
+        f = {
+            k: z[k]
+            for k in ("xyz", "semantic", "instance", "origin", "rgb", "normal", "camera")
+            if k in z
+        }
         merged = PointCloud(**f)
         starts = np.r_[0, ends[:-1]]
-        return [((int(k[0]), int(k[1])), merged.select(slice(a, b))) for k, a, b in zip(z["keys"], starts, ends)], info
+        return [
+            ((int(k[0]), int(k[1])), merged.select(slice(a, b)))
+            for k, a, b in zip(z["keys"], starts, ends)
+        ], info
 
 
-def plan_dataset(caches: list[Path], target: Mapping[int, float] | None, *, rng: np.random.Generator,
-                 budget: int | None = None, rare: float = RARE,
-                 min_points: int = 1) -> list[tuple[np.ndarray, np.ndarray, dict]]:
+def plan_dataset(
+    caches: list[Path],
+    target: Mapping[int, float] | None,
+    *,
+    rng: np.random.Generator,
+    budget: int | None = None,
+    rare: float = RARE,
+    min_points: int = 1,
+) -> list[tuple[np.ndarray, np.ndarray, dict]]:
     """One :func:`plan` over every scene's chunks (read from their caches' counts, in scene
     order); returns per scene (quota, keep, report)."""
     per_scene = []
     for c in caches:
         if not Path(c).is_file():
-            raise ConfigError(f"{c}: the unbalanced chunks of this scene are gone, and balancing needs every "
-                              "scene's; make the dataset again into an empty folder")
+            raise ConfigError(
+                f"{c}: the unbalanced chunks of this scene are gone, and balancing needs every "
+                "scene's; make the dataset again into an empty folder"
+            )
         with np.load(c) as z:
             per_scene.append(z["counts"])
     n_cls = max([m.shape[1] for m in per_scene] + [max(target or {0: 0}) + 1])
@@ -299,29 +387,52 @@ def plan_dataset(caches: list[Path], target: Mapping[int, float] | None, *, rng:
     for m in per_scene:
         b = a + len(m)
         q, k = pl.quota[a:b], pl.keep[a:b]
-        out.append((q, k, {"before": {str(c): int(v) for c, v in enumerate(counts[a:b].sum(0)) if v},
-                           "after": {str(c): int(v) for c, v in enumerate(q.sum(0)) if v},
-                           "chunks_dropped": int((~k).sum()), "short": short}))
+        out.append(
+            (
+                q,
+                k,
+                {
+                    "before": {str(c): int(v) for c, v in enumerate(counts[a:b].sum(0)) if v},
+                    "after": {str(c): int(v) for c, v in enumerate(q.sum(0)) if v},
+                    "chunks_dropped": int((~k).sum()),
+                    "short": short,
+                },
+            )
+        )
         a = b
     return out
 
 
-def apply_plan(chunks: list[tuple[tuple[int, int], PointCloud]], quota: np.ndarray, keep: np.ndarray, *,
-               rng: np.random.Generator) -> list[tuple[tuple[int, int], PointCloud]]:
+def apply_plan(
+    chunks: list[tuple[tuple[int, int], PointCloud]],
+    quota: np.ndarray,
+    keep: np.ndarray,
+    *,
+    rng: np.random.Generator,
+) -> list[tuple[tuple[int, int], PointCloud]]:
     """The kept chunks, each sub-sampled to its row of ``quota`` (drawn with ``rng``)."""
-    return [(key, tile.select(sample(tile.semantic, q, rng=rng)))
-            for (key, tile), q, k in zip(chunks, quota, keep) if k]
+    return [
+        (key, tile.select(sample(tile.semantic, q, rng=rng)))
+        for (key, tile), q, k in zip(chunks, quota, keep)
+        if k
+    ]
 
 
-def summary(class_points: Mapping[int, int], target: Mapping[int, float] | None,
-            short: Mapping[str, str], names: Mapping[int, str]) -> dict:
+def summary(
+    class_points: Mapping[int, int],
+    target: Mapping[int, float] | None,
+    short: Mapping[str, str],
+    names: Mapping[int, str],
+) -> dict:
     """Reached next to target, per class name, and the classes that fell short, and why."""
     total = sum(class_points.values()) or 1
     ids = sorted(set(class_points) | set(target or {}))
     rows = {}
     for k in ids:
         rows[names.get(k, f"class_{k}")] = {
-            "points": int(class_points.get(k, 0)), "reached_pct": round(100 * class_points.get(k, 0) / total, 3),
-            "target_pct": None if target is None else round(100 * target.get(k, 0.0), 3)}
+            "points": int(class_points.get(k, 0)),
+            "reached_pct": round(100 * class_points.get(k, 0) / total, 3),
+            "target_pct": None if target is None else round(100 * target.get(k, 0.0), 3),
+        }
     reasons = {names.get(int(k), f"class_{k}"): why for k, why in short.items()}
     return {"classes": rows, "short": reasons, "points": int(sum(class_points.values()))}

@@ -6,8 +6,10 @@ kept only when its voxel (``voxel_m``, the map's density) holds none yet: the fi
 of each voxel, in frame order, then pixel order. Voxels are marked in a bit set over the
 scene's bounds, so a map of any number of frames costs one bit per voxel of the hall and its
 kept points; a compiled pass per frame tests and marks each point's voxel in pixel order
-(linear in the frame's points, no sort). The map is then cut into chunks like any cloud (:func:`.process.chunks`).
+(linear in the frame's points, no sort). The map is then cut into chunks like any cloud
+(:func:`.process.chunks`).
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable
@@ -22,8 +24,8 @@ from ..limits import check_memory, memory_limit_bytes
 from .pointcloud import PointCloud
 from .unproject import unproject
 
-MAX_VOXELS = 2**34   # a bit set larger than 2 GB: the voxel is too small for the hall
-MAX_FRAMES = 65535   # PointCloud.camera is uint16
+MAX_VOXELS = 2**34  # a bit set larger than 2 GB: the voxel is too small for the hall
+MAX_FRAMES = 65535  # PointCloud.camera is uint16
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -64,12 +66,23 @@ class VoxelMap:
             raise ConfigError(f"map voxel: expected > 0 m, got {voxel_m}")
         self.lo = np.asarray(bounds[0], np.float64)
         extent = np.asarray(bounds[1], np.float64) - self.lo
-        cells = [max(1.0, float(np.ceil(x / voxel_m))) for x in extent]   # floats: no int64 overflow
+        cells = [max(1.0, float(np.ceil(x / voxel_m))) for x in extent]  # floats: no int64 overflow
         voxels = float(np.prod(cells))
-        where = f"map voxel {voxel_m:g} m over the {np.round(extent, 1).tolist()} m scene ({voxels:.3g} voxels)"
+        where = (
+            f"map voxel {voxel_m:g} m over the {np.round(extent, 1).tolist()} m scene ({voxels:.3g}"
+            " voxels)"
+        )
         if voxels > MAX_VOXELS:
-            raise LimitError(f"{where}: above the limit of {MAX_VOXELS:.3g} voxels; use a larger voxel")
-        check_memory(voxels / 8, memory_limit_bytes(), f"{where}, one bit each", "use a larger voxel", option=None)
+            raise LimitError(
+                f"{where}: above the limit of {MAX_VOXELS:.3g} voxels; use a larger voxel"
+            )
+        check_memory(
+            voxels / 8,
+            memory_limit_bytes(),
+            f"{where}, one bit each",
+            "use a larger voxel",
+            option=None,
+        )
         self.dims = np.array(cells, np.int64)
         self.voxel_m, self.origin = float(voxel_m), np.asarray(origin, np.float64)
         self.bits = np.zeros((int(np.prod(self.dims)) + 7) // 8, np.uint8)
@@ -82,12 +95,16 @@ class VoxelMap:
         """Fuse ``frame`` (at its ``world_from_camera``); returns how many points it added."""
         expect(frame, Frame, f"fuse: frames[{self.frames}]")
         if self.frames >= MAX_FRAMES:
-            raise ConfigError(f"a mobile-scan map holds at most {MAX_FRAMES} frames; use a shorter trajectory or "
-                              "lower frame rates")
+            raise ConfigError(
+                f"a mobile-scan map holds at most {MAX_FRAMES} frames; use a shorter trajectory or "
+                "lower frame rates"
+            )
         c = unproject(frame, origin=self.origin, camera_index=self.frames)
         self.frames += 1
         self.seen += len(c)
-        take, outside = _first_in_voxel(c.xyz, self.origin - self.lo, self.voxel_m, self.dims, self.bits)
+        take, outside = _first_in_voxel(
+            c.xyz, self.origin - self.lo, self.voxel_m, self.dims, self.bits
+        )
         self.dropped += int(outside)
         if len(take):
             self.parts.append(c.select(take))
@@ -96,14 +113,23 @@ class VoxelMap:
     def cloud(self) -> PointCloud:
         """The map so far (empty: a ConfigError, as an empty result is)."""
         if not self.parts:
-            raise ConfigError("the mobile-scan map is empty: no frame saw anything inside the scene")
+            raise ConfigError(
+                "the mobile-scan map is empty: no frame saw anything inside the scene"
+            )
         keep = ("xyz", "semantic", "instance", "rgb", "camera")
-        parts = [PointCloud(**{k: getattr(p, k) for k in keep}, origin=p.origin) for p in self.parts]
+        parts = [
+            PointCloud(**{k: getattr(p, k) for k in keep}, origin=p.origin) for p in self.parts
+        ]
         return PointCloud.concatenate(parts)
 
 
-def fuse(frames: Iterable[Frame], *, bounds: np.ndarray, voxel_m: float = 0.02,
-         origin: np.ndarray | None = None) -> PointCloud:
+def fuse(
+    frames: Iterable[Frame],
+    *,
+    bounds: np.ndarray,
+    voxel_m: float = 0.02,
+    origin: np.ndarray | None = None,
+) -> PointCloud:
     """The frames' points fused in the world frame, one per ``voxel_m`` voxel (the first seen),
     within ``bounds`` (2, 3); ``camera`` is each point's frame index."""
     given = bounds
@@ -112,8 +138,11 @@ def fuse(frames: Iterable[Frame], *, bounds: np.ndarray, voxel_m: float = 0.02,
     except (TypeError, ValueError):
         bounds = np.zeros(0)
     if bounds.shape != (2, 3) or not np.isfinite(bounds).all() or not (bounds[1] > bounds[0]).all():
-        raise ConfigError(f"fuse: bounds: expected a (2, 3) box [[xmin, ymin, zmin], [xmax, ymax, zmax]] of finite "
-                          f"numbers, max above min, got {given!r:.80}")
+        raise ConfigError(
+            "fuse: bounds: expected a (2, 3) box [[xmin, ymin, zmin], [xmax, ymax, zmax]] of "
+            "finite "
+            f"numbers, max above min, got {given!r:.80}"
+        )
     origin = np.round(bounds.mean(0) / 100.0) * 100.0 + 0.0 if origin is None else origin
     m = VoxelMap(bounds, voxel_m, origin)
     for f in frames:

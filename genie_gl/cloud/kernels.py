@@ -17,6 +17,7 @@ as 64-pixel masks (one vector compare each); a word with few runs is written run
 dropout) pixel by pixel with branch-free compaction. Both paths evaluate the same float32
 expression in the same order, so they write identical bits.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -33,6 +34,7 @@ MAX_RUNS = 2  # a 64-pixel word with more runs of valid pixels than this is writ
 def _valid64(typingctx, row, start):  # pragma: no cover - compiled
     """Bit k set where 0 < row[start + k] < inf (ordered: NaN is not valid, nor is +Inf: no
     return), k < 64: two vector compares (row float32, contiguous, start + 64 <= len)."""
+
     def codegen(context, builder, signature, args):
         a, s = args
         data = context.make_array(signature.args[0])(context, builder, a).data
@@ -41,6 +43,7 @@ def _valid64(typingctx, row, start):  # pragma: no cover - compiled
         above = builder.fcmp_ordered(">", vec, ir.Constant(vty, [0.0] * 64))
         below = builder.fcmp_ordered("<", vec, ir.Constant(vty, [float("inf")] * 64))
         return builder.bitcast(builder.and_(above, below), ir.IntType(64))
+
     return types.uint64(row, start), codegen
 
 
@@ -53,8 +56,10 @@ def has_return(x):  # pragma: no cover - compiled
 @intrinsic
 def _ctz(typingctx, x):  # pragma: no cover - compiled
     """Trailing zero bits of a uint64 (64 for 0)."""
+
     def codegen(context, builder, signature, args):
         return builder.cttz(args[0], ir.Constant(ir.IntType(1), 0))
+
     return types.uint64(x), codegen
 
 
@@ -62,6 +67,7 @@ def _ctz(typingctx, x):  # pragma: no cover - compiled
 def _popcount(typingctx, x):  # pragma: no cover - compiled
     def codegen(context, builder, signature, args):
         return builder.ctpop(args[0])
+
     return types.uint64(x), codegen
 
 
@@ -70,6 +76,7 @@ def _copy4(typingctx, dst, dst_start, src, src_start):  # pragma: no cover - com
     """dst[dst_start:dst_start + 4] = src[src_start:src_start + 4] as one unaligned 16-byte
     move (float32 arrays, contiguous): one load and one store for a point's x, y, z (and a
     fourth float the next point overwrites)."""
+
     def codegen(context, builder, signature, args):
         a, o, b, s = args
         vty = ir.VectorType(ir.FloatType(), 4)
@@ -78,6 +85,7 @@ def _copy4(typingctx, dst, dst_start, src, src_start):  # pragma: no cover - com
         v = builder.load(builder.bitcast(sptr, vty.as_pointer()), align=4)
         builder.store(v, builder.bitcast(dptr, vty.as_pointer()), align=4)
         return context.get_dummy_value()
+
     return types.void(dst, dst_start, src, src_start), codegen
 
 
@@ -149,13 +157,26 @@ def _make(separable: bool, colour: bool):
     """
 
     @njit(cache=True, nogil=True, boundscheck=False)
-    def unproject(depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out,
-                  rgb_out):  # pragma: no cover - compiled
+    def unproject(
+        depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out, rgb_out
+    ):  # pragma: no cover - compiled
         H, W = depth.shape
         d, tx, ty = depth.reshape(-1), tx.reshape(-1), ty.reshape(-1)
         cs = uint64(rgb.shape[2])  # channels of the colour source: 3, or 4 (RGBA as read back)
-        bufs = (d, tx, ty, semantic.reshape(-1), instance.reshape(-1), rgb.reshape(-1), cs,
-                xyz.reshape(-1), sem_out, inst_out, rgb_out.reshape(-1), np.empty(3 * W + 1, np.float32))
+        bufs = (
+            d,
+            tx,
+            ty,
+            semantic.reshape(-1),
+            instance.reshape(-1),
+            rgb.reshape(-1),
+            cs,
+            xyz.reshape(-1),
+            sem_out,
+            inst_out,
+            rgb_out.reshape(-1),
+            np.empty(3 * W + 1, np.float32),
+        )
         n = 0
         for v in range(H):
             row = v * W
@@ -171,7 +192,9 @@ def _make(separable: bool, colour: bool):
                 if b != ~uint64(0) and b != 0 and _popcount(b & ~(b << uint64(1))) > MAX_RUNS:
                     if dense or s1 != c:
                         if s1 > s0:
-                            n = _write(separable, colour, dense, row + s0, row + s1, xs + s0, n, bufs, pose)
+                            n = _write(
+                                separable, colour, dense, row + s0, row + s1, xs + s0, n, bufs, pose
+                            )
                         s0, dense = c, False
                     s1 = c + 64
                     continue
@@ -181,7 +204,9 @@ def _make(separable: bool, colour: bool):
                     e = s + (int64(_ctz(r)) if r != 0 else 64 - s)
                     if not dense or s1 != c + s:
                         if s1 > s0:
-                            n = _write(separable, colour, dense, row + s0, row + s1, xs + s0, n, bufs, pose)
+                            n = _write(
+                                separable, colour, dense, row + s0, row + s1, xs + s0, n, bufs, pose
+                            )
                         s0, dense = c + s, True
                     s1 = c + e
                     if e == 64:
@@ -212,8 +237,11 @@ def unproject(depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out,
     used: RGBA as read back needs no copy) or (0, 0, 3) for none; all C-contiguous;
     xyz (n + 2, 3) float32, sem_out, inst_out (n + 1,), rgb_out (n + 1, 3) or (0, 3).
     """
-    return int(_KERNELS[tx.shape[0] == 1, rgb.shape[0] > 0](depth, tx, ty, M, semantic, instance, rgb, xyz,
-                                                             sem_out, inst_out, rgb_out))
+    return int(
+        _KERNELS[tx.shape[0] == 1, rgb.shape[0] > 0](
+            depth, tx, ty, M, semantic, instance, rgb, xyz, sem_out, inst_out, rgb_out
+        )
+    )
 
 
 @njit(nogil=True, boundscheck=False, inline="always")
@@ -221,13 +249,20 @@ def _frame_rows(depth, tx, ty, size):  # pragma: no cover - compiled
     """A frame's flat arrays and one row's buffers for :func:`_row_points`:
     (H, W, d, tx, ty, 1 / size, (px, py, pz, ka, kb))."""
     H, W = depth.shape
-    rows = (np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.float32), np.empty(W, np.int64),
-            np.empty(W, np.int64))
+    rows = (
+        np.empty(W, np.float32),
+        np.empty(W, np.float32),
+        np.empty(W, np.float32),
+        np.empty(W, np.int64),
+        np.empty(W, np.int64),
+    )
     return H, W, depth.reshape(-1), tx.reshape(-1), ty.reshape(-1), 1.0 / size, rows
 
 
 @njit(nogil=True, boundscheck=False, inline="always")
-def _row_points(separable, v, W, d, tx, ty, M, inv, rows, with_z=True):  # pragma: no cover - compiled
+def _row_points(
+    separable, v, W, d, tx, ty, M, inv, rows, with_z=True
+):  # pragma: no cover - compiled
     """World points (px, py, pz; the expression and order of :func:`_write`, so the same
     bits) and tile indices (ka, kb) of every pixel of row v, valid or not, into ``rows``:
     dense loops that vectorise (a strided read of a written cloud would cost more).
@@ -289,8 +324,9 @@ def _make_tilers(separable: bool):
         return outside
 
     @njit(cache=True, nogil=True, boundscheck=False)
-    def pick(depth, tx, ty, M, size, i0, j0, tile, seen, start, picked, taken, src, dst,
-             xyz):  # pragma: no cover - compiled
+    def pick(
+        depth, tx, ty, M, size, i0, j0, tile, seen, start, picked, taken, src, dst, xyz
+    ):  # pragma: no cover - compiled
         """Pick the frame's chosen points by their rank in their tile, frames visited in
         order; returns how many. tile (I, J): the output tile of grid tile (i0 + a, j0 + b),
         -1 for none; seen (T,): points of each tile met so far; start (T,): where the tile's

@@ -1,4 +1,5 @@
 """The ``PointCloud``: labelled points as a structure of arrays (DESIGN.md)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
@@ -48,11 +49,24 @@ class PointCloud:
 
     def __post_init__(self) -> None:
         n = len(self.xyz)
-        object.__setattr__(self, "origin", np.zeros(3) if self.origin is None else np.asarray(self.origin, np.float64))
-        checks = {"xyz": ((n, 3), np.float32), "semantic": ((n,), np.uint16), "instance": ((n,), np.uint32),
-                  "rgb": ((n, 3), np.uint8), "normal": ((n, 3), np.float32), "camera": ((n,), np.uint16),
-                  "intensity": ((n,), np.float32), "ring": ((n,), np.uint16), "time": ((n,), np.float64),
-                  "return_number": ((n,), np.uint8), "returns": ((n,), np.uint8)}
+        object.__setattr__(
+            self,
+            "origin",
+            np.zeros(3) if self.origin is None else np.asarray(self.origin, np.float64),
+        )
+        checks = {
+            "xyz": ((n, 3), np.float32),
+            "semantic": ((n,), np.uint16),
+            "instance": ((n,), np.uint32),
+            "rgb": ((n, 3), np.uint8),
+            "normal": ((n, 3), np.float32),
+            "camera": ((n,), np.uint16),
+            "intensity": ((n,), np.float32),
+            "ring": ((n,), np.uint16),
+            "time": ((n,), np.float64),
+            "return_number": ((n,), np.uint8),
+            "returns": ((n,), np.uint8),
+        }
         for name, (shape, dtype) in checks.items():
             a = getattr(self, name)
             if a is None:
@@ -60,7 +74,10 @@ class PointCloud:
             if name == "xyz" and a.dtype == np.float64:
                 dtype = np.float64
             if a.shape != shape or a.dtype != dtype:
-                raise ValueError(f"PointCloud.{name}: expected {shape} {np.dtype(dtype).name}, got {a.shape} {a.dtype}")
+                raise ValueError(
+                    f"PointCloud.{name}: expected {shape} {np.dtype(dtype).name}, got {a.shape} "
+                    f"{a.dtype}"
+                )
 
     def __len__(self) -> int:
         return len(self.xyz)
@@ -84,13 +101,16 @@ class PointCloud:
 
     def select(self, index: Any) -> "PointCloud":
         """The points at ``index`` (boolean mask or integer indices)."""
-        kw = {f.name: (getattr(self, f.name)[index] if getattr(self, f.name) is not None else None)
-              for f in fields(self) if f.name != "origin"}
+        kw = {
+            f.name: (getattr(self, f.name)[index] if getattr(self, f.name) is not None else None)
+            for f in fields(self)
+            if f.name != "origin"
+        }
         return PointCloud(origin=self.origin, **kw)
 
     def with_origin(self, origin: np.ndarray) -> "PointCloud":
         origin = np.asarray(origin, np.float64)
-        xyz = ((self.xyz.astype(np.float64) + (self.origin - origin))).astype(self.xyz.dtype)
+        xyz = (self.xyz.astype(np.float64) + (self.origin - origin)).astype(self.xyz.dtype)
         return replace(self, xyz=xyz, origin=origin)
 
     @staticmethod

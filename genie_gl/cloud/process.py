@@ -1,4 +1,5 @@
 """Merging, down-sampling, chunking and cleaning of clouds (paper §3.4.2)."""
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -15,8 +16,7 @@ from .tally import MAX_TILES, WINDOW, FrameTally, frame_inputs, tally_frames, to
 from .unproject import rotate, unproject_into, world_normals
 
 
-
-ORIGIN_GRID_M = 100.0   # the cloud's origin is the cameras' mean snapped to this grid
+ORIGIN_GRID_M = 100.0  # the cloud's origin is the cameras' mean snapped to this grid
 
 
 def choose_origin(frames: Sequence[Frame]) -> np.ndarray:
@@ -34,7 +34,9 @@ def origin_of(poses: Sequence[np.ndarray]) -> np.ndarray:
     centres = np.array([np.asarray(p, np.float64)[:3, 3] for p in poses])
     if len(centres) == 0:
         return np.zeros(3)
-    return np.round(centres.mean(0) / ORIGIN_GRID_M) * ORIGIN_GRID_M + 0.0   # + 0.0: no -0.0 in headers
+    return (
+        np.round(centres.mean(0) / ORIGIN_GRID_M) * ORIGIN_GRID_M + 0.0
+    )  # + 0.0: no -0.0 in headers
 
 
 def voxel_downsample(cloud: PointCloud, voxel_m: float) -> PointCloud:
@@ -54,9 +56,15 @@ def random_downsample(cloud: PointCloud, n: int, *, rng: np.random.Generator) ->
     return cloud.select(np.sort(rng.choice(len(cloud), n, replace=False)))
 
 
-def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_points: int | None = None,
-             rng: np.random.Generator | None = None, origin: np.ndarray | None = None,
-             precision: str = "float32") -> PointCloud:
+def to_cloud(
+    frames: Sequence[Frame],
+    *,
+    voxel_m: float | None = None,
+    max_points: int | None = None,
+    rng: np.random.Generator | None = None,
+    origin: np.ndarray | None = None,
+    precision: str = "float32",
+) -> PointCloud:
     """Merge frames into one world-frame cloud with semantic, instance, colour, normal, camera.
 
     Every frame is unprojected straight into its slice of the merged arrays (no per-frame
@@ -90,13 +98,20 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
         # frame k's writes past its points land on frame k+1's first slots, which it then fills
         at = origin if wide is None else np.round(f.world_from_camera[:3, 3])
         unproject_into(f, at, xyz[a:], sem[a:], inst[a:], None if rgb is None else rgb[a:], n=b - a)
-        if wide is not None:   # small float32 offsets from the camera, made float64 here
+        if wide is not None:  # small float32 offsets from the camera, made float64 here
             wide[a:b] = xyz[a:b].astype(np.float64) + (at - origin)
         if with_normal:
             normal[a:b] = world_normals(f)
     camera = np.repeat(np.arange(len(frames), dtype=np.uint16), counts)
-    cloud = PointCloud(xyz[:n] if wide is None else wide, sem[:n], inst[:n], origin,
-                       None if rgb is None else rgb[:n], normal, camera)
+    cloud = PointCloud(
+        xyz[:n] if wide is None else wide,
+        sem[:n],
+        inst[:n],
+        origin,
+        None if rgb is None else rgb[:n],
+        normal,
+        camera,
+    )
     if voxel_m:
         cloud = voxel_downsample(cloud, voxel_m)
     if max_points is not None:
@@ -104,8 +119,14 @@ def to_cloud(frames: Sequence[Frame], *, voxel_m: float | None = None, max_point
     return cloud
 
 
-def chunks(cloud: PointCloud, size_m: float, *, min_points: int = 1, max_points: int | None = None,
-           rng: np.random.Generator | None = None) -> list[tuple[tuple[int, int], PointCloud]]:
+def chunks(
+    cloud: PointCloud,
+    size_m: float,
+    *,
+    min_points: int = 1,
+    max_points: int | None = None,
+    rng: np.random.Generator | None = None,
+) -> list[tuple[tuple[int, int], PointCloud]]:
     """Crop the cloud into square (x, y) tiles of ``size_m``; returns ((i, j), tile) pairs in
     (i, j) order, each tile's points in their original order.
 
@@ -129,8 +150,13 @@ def chunks(cloud: PointCloud, size_m: float, *, min_points: int = 1, max_points:
     return out
 
 
-def keep_cloud(cloud: PointCloud, *, min_points: int = 1000, min_labelled_share: float = 0.05,
-               background: int = 0) -> tuple[bool, str]:
+def keep_cloud(
+    cloud: PointCloud,
+    *,
+    min_points: int = 1000,
+    min_labelled_share: float = 0.05,
+    background: int = 0,
+) -> tuple[bool, str]:
     """The paper's cleaning: drop clouds with too few points, too small a labelled share, or
     background only. Returns (keep, reason)."""
     if len(cloud) < min_points:
@@ -143,10 +169,16 @@ def keep_cloud(cloud: PointCloud, *, min_points: int = 1000, min_labelled_share:
     return True, "ok"
 
 
-def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1, max_points: int | None = None,
-                 rng: np.random.Generator | None = None,
-                 origin: np.ndarray | None = None,
-                 tally: FrameTally | None = None) -> tuple[list[tuple[tuple[int, int], PointCloud]], int]:
+def frame_chunks(
+    frames: Sequence[Frame],
+    size_m: float,
+    *,
+    min_points: int = 1,
+    max_points: int | None = None,
+    rng: np.random.Generator | None = None,
+    origin: np.ndarray | None = None,
+    tally: FrameTally | None = None,
+) -> tuple[list[tuple[tuple[int, int], PointCloud]], int]:
     """``chunks(to_cloud(frames), ...)`` without the merged cloud: the same tiles with the
     same points, drawn the same way; returns (tiles, number of points of the merged cloud).
 
@@ -181,7 +213,12 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
         tallies = tally_frames(frames, inputs, origin, size, threads=numba.get_num_threads())
     per_tile: dict[tuple[int, int], int] = {}
     windows: list[tuple[int, int, np.ndarray] | None] = []
-    for window, i0, j0, counts in tallies:   # summed in frame order: the same integers however counted
+    for (
+        window,
+        i0,
+        j0,
+        counts,
+    ) in tallies:  # summed in frame order: the same integers however counted
         windows.append(window)
         for a, b in zip(*np.nonzero(counts)):
             key = (int(i0 + a), int(j0 + b))
@@ -220,7 +257,11 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     m_all = int(ends[-1])
     with_rgb = all(f.rgb is not None for f in frames)
     with_normal = all(f.normal is not None for f in frames)
-    out_xyz, out_sem, out_inst = np.empty((m_all, 3), np.float32), np.empty(m_all, np.uint16), np.empty(m_all, np.uint32)
+    out_xyz, out_sem, out_inst = (
+        np.empty((m_all, 3), np.float32),
+        np.empty(m_all, np.uint16),
+        np.empty(m_all, np.uint32),
+    )
     out_rgb = np.empty((m_all, 3), np.uint8) if with_rgb else None
     out_normal = np.empty((m_all, 3), np.float32) if with_normal else None
     out_camera = np.empty(m_all, np.uint16)
@@ -230,21 +271,54 @@ def frame_chunks(frames: Sequence[Frame], size_m: float, *, min_points: int = 1,
     next_q_a = np.array(next_q, np.int64)
     end_q = np.where(next_q_a >= 0, next_q_a + max_points if max_points is not None else 0, -1)
     start_a = np.array(start, np.int64)
-    picked = None   # the chosen ranks as a mask over every down-sampled tile's points, if a frame has no runs
+    # the chosen ranks as a mask over every down-sampled tile's points, if a frame has no runs
+    picked = None
     if any(w is None for w in windows):
         picked = np.zeros(offset, bool)
         for t in np.flatnonzero(start_a >= 0).tolist():
-            picked[start_a[t] + ranks[next_q_a[t]:end_q[t]]] = True
+            picked[start_a[t] + ranks[next_q_a[t] : end_q[t]]] = True
     cap = max(f.depth.size for f in frames)
     src, dst = np.empty(cap, np.int64), np.empty(cap, np.int64)
     # pass 2: write the chosen points, gather their labels by pixel
-    for k, (f, (depth, tx, ty, M, (_, pick, _), (_, pick_runs)), window) in enumerate(zip(frames, inputs, windows)):
-        if window is None:   # no runs: every pixel's tile computed again
-            m = pick(depth, tx, ty, M, size, I0, J0, grid, seen, start_a, picked, taken, src, dst, out_xyz)
+    for k, (f, (depth, tx, ty, M, (_, pick, _), (_, pick_runs)), window) in enumerate(
+        zip(frames, inputs, windows)
+    ):
+        if window is None:  # no runs: every pixel's tile computed again
+            m = pick(
+                depth,
+                tx,
+                ty,
+                M,
+                size,
+                I0,
+                J0,
+                grid,
+                seen,
+                start_a,
+                picked,
+                taken,
+                src,
+                dst,
+                out_xyz,
+            )
         else:
             i0, j0, runs = window
-            m = pick_runs(runs, depth, tx, ty, M, _window_tiles(grid, i0 - I0, j0 - J0), seen, next_q_a, end_q,
-                          ranks, taken, src, dst, out_xyz)
+            m = pick_runs(
+                runs,
+                depth,
+                tx,
+                ty,
+                M,
+                _window_tiles(grid, i0 - I0, j0 - J0),
+                seen,
+                next_q_a,
+                end_q,
+                ranks,
+                taken,
+                src,
+                dst,
+                out_xyz,
+            )
         s, d = src[:m], dst[:m]
         # labels gathered by flat pixel index (C order, as the kernel numbers pixels)
         out_sem[d], out_inst[d], out_camera[d] = np.take(f.semantic, s), np.take(f.instance, s), k
@@ -267,5 +341,5 @@ def _window_tiles(grid: np.ndarray, a0: int, b0: int) -> np.ndarray:
     A, B = grid.shape
     a_lo, a_hi, b_lo, b_hi = max(0, -a0), min(WINDOW, A - a0), max(0, -b0), min(WINDOW, B - b0)
     if a_lo < a_hi and b_lo < b_hi:
-        out[a_lo:a_hi, b_lo:b_hi] = grid[a0 + a_lo:a0 + a_hi, b0 + b_lo:b0 + b_hi]
+        out[a_lo:a_hi, b_lo:b_hi] = grid[a0 + a_lo : a0 + a_hi, b0 + b_lo : b0 + b_hi]
     return out.reshape(-1)

@@ -8,6 +8,7 @@ Three frames, as the field's tools want them:
 - ``deskewed``: in the scanner's frame at the scan's start, the motion undone with the true
   poses (what KITTI odometry scans hold).
 """
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -34,8 +35,17 @@ def scan_cloud(scan: Scan, frame: str = "raw", *, origin: np.ndarray | None = No
     else:
         origin = np.zeros(3)
         xyz = (scan.sensor_xyz if frame == "raw" else scan.deskewed_xyz()).astype(np.float32)
-    return PointCloud(xyz, scan.semantic, scan.instance, origin, intensity=scan.intensity, ring=scan.ring,
-                      time=scan.time_s, return_number=scan.return_number, returns=scan.returns)
+    return PointCloud(
+        xyz,
+        scan.semantic,
+        scan.instance,
+        origin,
+        intensity=scan.intensity,
+        ring=scan.ring,
+        time=scan.time_s,
+        return_number=scan.return_number,
+        returns=scan.returns,
+    )
 
 
 def scans_cloud(scans: Sequence[Scan], *, origin: np.ndarray | None = None) -> PointCloud:

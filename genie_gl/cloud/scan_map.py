@@ -1,6 +1,7 @@
 """A mobile map from scans: fused in the world, thinned to a voxel, cut into the paper's
 chunks of 25,000 points (3DGENie §4.1.1: "each scene is cropped into smaller chunks, and
 then random down-sampling to 25,000 points is performed on each")."""
+
 from __future__ import annotations
 
 from collections.abc import Sequence
@@ -15,8 +16,14 @@ from .scan_cloud import scans_cloud
 CHUNK_POINTS = 25_000
 
 
-def scan_map(scans: Sequence[Scan], *, voxel_m: float | None = 0.02, chunk_m: float = 6.0,
-             points: int = CHUNK_POINTS, rng: np.random.Generator) -> list[tuple[tuple[int, int], PointCloud]]:
+def scan_map(
+    scans: Sequence[Scan],
+    *,
+    voxel_m: float | None = 0.02,
+    chunk_m: float = 6.0,
+    points: int = CHUNK_POINTS,
+    rng: np.random.Generator,
+) -> list[tuple[tuple[int, int], PointCloud]]:
     """The scans' map cut into square (x, y) chunks of ``chunk_m`` holding at least ``points``
     points, each randomly down-sampled to exactly ``points`` (fewer: left out)."""
     cloud = scans_cloud(scans)

@@ -8,6 +8,7 @@ as the capture makes it), and :func:`frame_chunks` takes its counts when they ar
 same frames, origin and tile size. The kernels release the GIL; the counts are integers
 summed in frame order, so they are the same on any number of threads.
 """
+
 from __future__ import annotations
 
 import sys
@@ -36,13 +37,21 @@ def frame_inputs(f: Frame, origin: np.ndarray) -> tuple:
     ``origin`` and the kernels for its kind of ray table."""
     tx, ty = rays(f.sensor)
     separable = tx.shape[0] == 1
-    return (np.ascontiguousarray(f.depth, np.float32), tx, ty, _pose_rows(f, origin), kernels.TILERS[separable],
-            RUNNERS[separable])
+    return (
+        np.ascontiguousarray(f.depth, np.float32),
+        tx,
+        ty,
+        _pose_rows(f, origin),
+        kernels.TILERS[separable],
+        RUNNERS[separable],
+    )
 
 
 def too_small(size_m: float, extent_x_m: float, extent_y_m: float) -> ValueError:
-    return ValueError(f"frame_chunks: tiles of {size_m} m are too small for the frames' extent "
-                      f"({extent_x_m:.0f} x {extent_y_m:.0f} m)")
+    return ValueError(
+        f"frame_chunks: tiles of {size_m} m are too small for the frames' extent "
+        f"({extent_x_m:.0f} x {extent_y_m:.0f} m)"
+    )
 
 
 def tally_frame(f: Frame, args: tuple, origin: np.ndarray, size: float, room: np.ndarray) -> Tally:
@@ -50,7 +59,9 @@ def tally_frame(f: Frame, args: tuple, origin: np.ndarray, size: float, room: np
     camera, its runs written to ``room`` and copied out (None: it reached beyond the window,
     or had more runs than ``room`` holds; then counted over its exact extent)."""
     depth, tx, ty, M, (count, _, extent), (count_runs, _) = args
-    i0, j0 = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(np.int64) - WINDOW // 2
+    i0, j0 = (np.floor((f.world_from_camera[:2, 3] - origin[:2]) / size)).astype(
+        np.int64
+    ) - WINDOW // 2
     counts = np.zeros((WINDOW, WINDOW), np.int64)
     outside, n_runs = count_runs(depth, tx, ty, M, size, i0, j0, counts, room)
     window = (int(i0), int(j0), room[:n_runs].copy()) if n_runs >= 0 and not outside else None
@@ -68,8 +79,13 @@ def room_for(pixels: int) -> np.ndarray:
     return np.empty((pixels // RUN_ROOM + 1, 4), np.int32)
 
 
-def tally_frames(frames: Sequence[Frame], inputs: Sequence[tuple], origin: np.ndarray, size: float,
-                 threads: int = 1) -> list[Tally]:
+def tally_frames(
+    frames: Sequence[Frame],
+    inputs: Sequence[tuple],
+    origin: np.ndarray,
+    size: float,
+    threads: int = 1,
+) -> list[Tally]:
     """:func:`tally_frame` of every frame, on ``threads`` threads (each with its own room)."""
     pixels = max(f.depth.size for f in frames)
     threads = max(1, min(len(frames), int(threads)))
@@ -138,7 +154,9 @@ class FrameTally:
         self.frames: list[Frame] = []
         self._inputs: list[tuple] = []
         self._futures: list[Future] = []
-        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix="frame-tally")
+        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(
+            1, thread_name_prefix="frame-tally"
+        )
         self._room: np.ndarray | None = None
         _hold_switch_interval(True)
 
@@ -159,8 +177,12 @@ class FrameTally:
     def matches(self, frames: Sequence[Frame], origin: np.ndarray, size: float) -> bool:
         """Whether these counts are of ``frames`` (the same objects, in order), ``origin`` and
         tile size ``size``."""
-        return (float(size) == self.size and np.array_equal(np.asarray(origin, np.float64), self.origin)
-                and len(frames) == len(self.frames) and all(a is b for a, b in zip(frames, self.frames)))
+        return (
+            float(size) == self.size
+            and np.array_equal(np.asarray(origin, np.float64), self.origin)
+            and len(frames) == len(self.frames)
+            and all(a is b for a, b in zip(frames, self.frames))
+        )
 
     def results(self) -> tuple[list[tuple], list[Tally]]:
         """(every frame's inputs, every frame's counts), once all are counted; closes the tally."""

@@ -17,6 +17,7 @@ A frame whose points reach beyond its window, or that has more runs than the roo
 has no runs; pass 2 takes the recomputing kernel (:data:`~genie_gl.cloud.kernels.TILERS`)
 for it.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -56,7 +57,7 @@ def _make_runners(separable: bool):
             _row_points(separable, v, W, d, tx, ty, M, inv, rows, False)
             row = v * W
             a, b, inside, run = np.int64(0), np.int64(0), False, 0  # the current tile, its count
-            first = last = 0   # the current tile's first and last valid pixel in the row
+            first = last = 0  # the current tile's first and last valid pixel in the row
             for u in range(W):
                 if not has_return(d[row + u]):
                     continue
@@ -77,8 +78,9 @@ def _make_runners(separable: bool):
         return outside, nr
 
     @njit(cache=True, nogil=True, boundscheck=False)
-    def pick(runs, depth, tx, ty, M, tile, seen, next_q, end_q, chosen, taken, src, dst,
-             xyz):  # pragma: no cover - compiled
+    def pick(
+        runs, depth, tx, ty, M, tile, seen, next_q, end_q, chosen, taken, src, dst, xyz
+    ):  # pragma: no cover - compiled
         """The kernels' ``pick`` from pass 1's runs. tile (codes,): the output tile of each
         run's tile code (-1 for none); seen (T,): points of each tile met so far; chosen:
         the down-sampled tiles' chosen ranks, each tile's sorted, tile t's ahead of
@@ -100,17 +102,17 @@ def _make_runners(separable: bool):
             r = seen[t]
             seen[t] = r + n
             q, q1 = next_q[t], end_q[t]
-            if q >= 0:   # ranks before r: passed by another pass (a frame picked without runs)
+            if q >= 0:  # ranks before r: passed by another pass (a frame picked without runs)
                 while q < q1 and chosen[q] < r:
                     q += 1
-                if q >= q1 or chosen[q] >= r + n:   # none of the run's points chosen
+                if q >= q1 or chosen[q] >= r + n:  # none of the run's points chosen
                     next_q[t] = q
                     continue
             holes = p1 - p0 != n
             o = taken[t]
-            p = p0 - 1   # the pixel of rank j of the run (when the run has holes)
+            p = p0 - 1  # the pixel of rank j of the run (when the run has holes)
             j = np.int64(-1)
-            i = np.int64(0)   # the next rank in the run to take
+            i = np.int64(0)  # the next rank in the run to take
             while True:
                 if q >= 0:
                     if q >= q1 or chosen[q] >= r + n:
@@ -119,7 +121,7 @@ def _make_runners(separable: bool):
                     q += 1
                 elif i >= n:
                     break
-                if holes:   # walk to the run's i-th valid pixel
+                if holes:  # walk to the run's i-th valid pixel
                     while j < i:
                         p += 1
                         if has_return(d[p]):

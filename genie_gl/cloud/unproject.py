@@ -6,6 +6,7 @@ a distorted (or skewed) camera reads a ray table computed once per camera model,
 every pixel the camera-frame direction with z = 1 of its undistorted ray: the inverse of the
 frame's lens (:meth:`genie_gl.camera.Camera.rays`), never K alone.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -54,7 +55,8 @@ def rays(sensor: Camera) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _pose_rows(frame: Frame, origin: np.ndarray) -> np.ndarray:
-    """(3, 4) float32 [R | t - origin]: the difference taken in float64, so far scenes stay exact."""
+    """(3, 4) float32 [R | t - origin]: the difference taken in float64, so far scenes stay
+    exact."""
     M = frame.world_from_camera[:3].copy()
     M[:, 3] -= origin
     return M.astype(np.float32)
@@ -81,8 +83,16 @@ def _colour_source(rgb: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(rgb)
 
 
-def unproject_into(frame: Frame, origin: np.ndarray, xyz: np.ndarray, semantic: np.ndarray,
-                   instance: np.ndarray, rgb: np.ndarray | None = None, *, n: int | None = None) -> int:
+def unproject_into(
+    frame: Frame,
+    origin: np.ndarray,
+    xyz: np.ndarray,
+    semantic: np.ndarray,
+    instance: np.ndarray,
+    rgb: np.ndarray | None = None,
+    *,
+    n: int | None = None,
+) -> int:
     """Write ``frame``'s valid points (and colours, when ``rgb`` is given) into the given
     arrays, in pixel order; returns their number n. The outputs need room for n + 1 points
     and xyz for n + 2 (the kernel's branch-free compaction writes past the last point; see
@@ -90,15 +100,29 @@ def unproject_into(frame: Frame, origin: np.ndarray, xyz: np.ndarray, semantic: 
     caller knows it; the room is checked either way, before anything is written."""
     colour = rgb is not None and frame.rgb is not None
     n = kernels.count_valid(frame.depth) if n is None else n
-    room = min(xyz.shape[0] - 1, semantic.shape[0], instance.shape[0], rgb.shape[0] if colour else n + 1)
+    room = min(
+        xyz.shape[0] - 1, semantic.shape[0], instance.shape[0], rgb.shape[0] if colour else n + 1
+    )
     if room < n + 1 or xyz.ndim != 2 or xyz.shape[1] != 3:
-        raise ValueError(f"unproject_into: {n} points need xyz (>= {n + 2}, 3) and labels (>= {n + 1},); "
-                         f"got xyz {xyz.shape}, semantic {semantic.shape}, instance {instance.shape}")
+        raise ValueError(
+            f"unproject_into: {n} points need xyz (>= {n + 2}, 3) and labels (>= {n + 1},); "
+            f"got xyz {xyz.shape}, semantic {semantic.shape}, instance {instance.shape}"
+        )
     tx, ty = rays(frame.sensor)
     c = np.ascontiguousarray
-    return kernels.unproject(c(frame.depth), tx, ty, _pose_rows(frame, origin), c(frame.semantic), c(frame.instance),
-                             _colour_source(frame.rgb) if colour else NO_RGB, xyz, semantic, instance,
-                             rgb if colour else NO_RGB_OUT)
+    return kernels.unproject(
+        c(frame.depth),
+        tx,
+        ty,
+        _pose_rows(frame, origin),
+        c(frame.semantic),
+        c(frame.instance),
+        _colour_source(frame.rgb) if colour else NO_RGB,
+        xyz,
+        semantic,
+        instance,
+        rgb if colour else NO_RGB_OUT,
+    )
 
 
 def world_normals(frame: Frame) -> np.ndarray:
@@ -110,11 +134,16 @@ def rotate(v: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """(n, 3) float32 vectors turned by the pose's rotation, element by element in float32
     (a matrix product's rounding can depend on how many rows it is given)."""
     R = pose.astype(np.float32)  # only its rotation block R[:3, :3] is read
-    return np.stack([v[:, 0] * R[r, 0] + v[:, 1] * R[r, 1] + v[:, 2] * R[r, 2] for r in range(3)], 1)
+    return np.stack(
+        [v[:, 0] * R[r, 0] + v[:, 1] * R[r, 1] + v[:, 2] * R[r, 2] for r in range(3)], 1
+    )
 
 
-def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: int | None = None) -> PointCloud:
-    """The world-frame points of ``frame``'s valid pixels (0 < depth < inf), relative to ``origin``."""
+def unproject(
+    frame: Frame, *, origin: np.ndarray | None = None, camera_index: int | None = None
+) -> PointCloud:
+    """The world-frame points of ``frame``'s valid pixels (0 < depth < inf), relative to
+    ``origin``."""
     origin = np.zeros(3) if origin is None else np.asarray(origin, np.float64)
     n = kernels.count_valid(frame.depth)
     xyz = np.empty((n + 2, 3), np.float32)
@@ -123,4 +152,6 @@ def unproject(frame: Frame, *, origin: np.ndarray | None = None, camera_index: i
     unproject_into(frame, origin, xyz, sem, inst, rgb, n=n)
     normal = None if frame.normal is None else world_normals(frame)
     camera = None if camera_index is None else np.full(n, camera_index, np.uint16)
-    return PointCloud(xyz[:n], sem[:n], inst[:n], origin, None if rgb is None else rgb[:n], normal, camera)
+    return PointCloud(
+        xyz[:n], sem[:n], inst[:n], origin, None if rgb is None else rgb[:n], normal, camera
+    )

@@ -1,6 +1,7 @@
 """The ``genie`` subcommands, one module each with ``add_arguments(parser)`` and
 ``run(args) -> int`` (registered in :data:`genie_gl.cli.COMMANDS`). They sit above every
 stage, so a command may use any of them; the stages never import a command."""
+
 from __future__ import annotations
 
 from contextlib import contextmanager
@@ -22,8 +23,14 @@ def stages(steps: list[str], *, title: str = "genie", enabled: bool = True):
     step: step("render"); ...``."""
     from tqdm import tqdm
 
-    # shown on a terminal only (tqdm: disable=None), so a log or a pipe gets the one-line error alone
-    bar = tqdm(total=len(steps), unit="stage", disable=True if not enabled else None, bar_format="{desc} [{elapsed}]")
+    # shown on a terminal only (tqdm: disable=None), so a log or a pipe gets the one-line error
+    # alone
+    bar = tqdm(
+        total=len(steps),
+        unit="stage",
+        disable=True if not enabled else None,
+        bar_format="{desc} [{elapsed}]",
+    )
     bar.set_description(title)
     seen: list[str] = []
 

@@ -1,4 +1,5 @@
 """``genie scene LAYOUT_JSON --seed S --out SCENE.usda``: a USD scene plus an overview picture."""
+
 from __future__ import annotations
 
 import argparse
@@ -26,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     if out.suffix not in (".usda", ".usdc", ".usd"):
         raise ConfigError(f"--out {out}: expected a .usda, .usdc or .usd file name")
 
-    check_replaceable(out, written_by_genie, what="USD scene", option="--out")   # before any work
+    check_replaceable(out, written_by_genie, what="USD scene", option="--out")  # before any work
     if not args.no_picture:
         check_replaceable(out.with_suffix(".png"), png_is_ours, what="PNG picture", option="--out")
     layout = Layout.from_json(args.layout)

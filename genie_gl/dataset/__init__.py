@@ -3,6 +3,7 @@
 cameras, a recording along a trajectory, a mobile-scan map, each registered) from its own
 random streams (:class:`SceneStreams`); the run, its configuration, the manifest and lock,
 the executors, previews and report each in their own module."""
+
 from __future__ import annotations
 
 from .config import DatasetConfig
@@ -11,4 +12,12 @@ from .recipe import RunInputs, load_inputs
 from .run import run_dataset, run_scene, scene_dir
 from .streams import SceneStreams
 
-__all__ = ["DatasetConfig", "RunInputs", "SceneStreams", "load_inputs", "run_dataset", "run_scene", "scene_dir"]
+__all__ = [
+    "DatasetConfig",
+    "RunInputs",
+    "SceneStreams",
+    "load_inputs",
+    "run_dataset",
+    "run_scene",
+    "scene_dir",
+]

@@ -22,6 +22,7 @@ helper's own seconds and CPU seconds for them come with the parts (``ahead_s`` a
 the work and where it ran. A helper that dies is reported once and the worker makes the
 remaining scenes itself.
 """
+
 from __future__ import annotations
 
 import gc
@@ -63,7 +64,7 @@ def _compiler_free() -> bool:
 
 def _start(parent: int, inputs, seed: int, cameras: int) -> None:
     die_with_parent(parent)
-    if not _compiler_free():   # the worker is told (the pool breaks) and makes the scenes itself
+    if not _compiler_free():  # the worker is told (the pool breaks) and makes the scenes itself
         raise RuntimeError("forked while another thread of the worker held numba's compiler lock")
     # Ctrl-C and SIGTERM reach the whole process group: the worker unwinds and ends the helper
     # (its pool's shutdown), which goes with it, not on its own, and says nothing
@@ -110,14 +111,22 @@ class Ahead:
     def __init__(self, inputs, seed: int, cameras: int, upcoming: Callable[[int], int | None]):
         self._upcoming = upcoming
         self._jobs: dict[int, Future] = {}
-        self._meshes: dict[str, Mesh] = {}   # content digest -> the first copy received
+        self._meshes: dict[str, Mesh] = {}  # content digest -> the first copy received
         self._pool: ProcessPoolExecutor | None = None
         try:
-            with warnings.catch_warnings():   # (Python >= 3.12 warns of any fork in a process with threads)
-                warnings.filterwarnings("ignore", r".*use of fork\(\) may lead to deadlocks", DeprecationWarning)
-                self._pool = ProcessPoolExecutor(1, mp_context=mp.get_context("fork"), initializer=_start,
-                                                 initargs=(os.getpid(), inputs, int(seed), int(cameras)))
-                self._pool.submit(_warm)   # forks the helper
+            with (
+                warnings.catch_warnings()
+            ):  # (Python >= 3.12 warns of any fork in a process with threads)
+                warnings.filterwarnings(
+                    "ignore", r".*use of fork\(\) may lead to deadlocks", DeprecationWarning
+                )
+                self._pool = ProcessPoolExecutor(
+                    1,
+                    mp_context=mp.get_context("fork"),
+                    initializer=_start,
+                    initargs=(os.getpid(), inputs, int(seed), int(cameras)),
+                )
+                self._pool.submit(_warm)  # forks the helper
         except (RuntimeError, OSError) as exc:
             self._broken(exc)
 
@@ -132,7 +141,7 @@ class Ahead:
 
     def take(self, index: int) -> Parts | None:
         """Scene ``index``'s parts; None if they were not asked for or the helper died."""
-        for stale in [i for i in self._jobs if i < index]:   # asked for, then found made: not needed
+        for stale in [i for i in self._jobs if i < index]:  # asked for, then found made: not needed
             self._jobs.pop(stale).cancel()
         nxt = self._upcoming(index)
         if nxt is not None:
@@ -151,8 +160,11 @@ class Ahead:
         return parts
 
     def _broken(self, exc: BaseException) -> None:
-        log.warning("the helper process making scenes ahead stopped (%s); this worker makes the rest itself",
-                    str(exc) or type(exc).__name__)
+        log.warning(
+            "the helper process making scenes ahead stopped (%s); this worker makes the rest "
+            "itself",
+            str(exc) or type(exc).__name__,
+        )
         self.close()
 
     def close(self) -> None:

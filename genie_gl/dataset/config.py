@@ -5,6 +5,7 @@ take; every field is validated here (numbers finite and in range, names known) s
 run below it never sees a bad value. A mistake is one line naming the field (or option) and
 what was expected, raised as :class:`~genie_gl.errors.ConfigError`.
 """
+
 from __future__ import annotations
 
 import math
@@ -13,8 +14,15 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Literal, Optional
 
 import numpy as np
-from pydantic import (BaseModel, ConfigDict, Field, ValidationError, field_serializer, field_validator,
-                      model_validator)
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_serializer,
+    field_validator,
+    model_validator,
+)
 
 from ..cloud.balance import load_target
 from ..errors import ConfigError, did_you_mean
@@ -26,15 +34,40 @@ from ..sensors.accuracy import AccuracySettings, from_dict, load_accuracy
 from .modes.base import CAPTURE_MODES, DEFAULT_MODE, get_mode, mode_options, users_of
 
 # the CLI spelling of each field, for messages
-OPTION = {"strategy": "STRATEGY", "scenes": "--scenes", "cameras": "--cameras", "sensor": "--sensor",
-          "format": "--format", "out": "--out", "workers": "--workers", "seed": "--seed", "points": "--points",
-          "chunk_m": "--chunk-m", "min_points": "--min-points", "min_labelled_share": "--min-labelled-share",
-          "previews": "--previews", "executor": "--executor", "address": "--address", "split": "--split",
-          "max_nodes": "--max-nodes", "max_memory_gb": "--max-memory-gb", "max_disk_gb": "--max-disk-gb",
-          "accuracy": "--accuracy", "class_balance": "--class-balance", "points_budget": "--points-budget",
-          "mount_m": "--mount", "capture": "--capture", "rig": "--rig", "path": "--path", "motion": "--motion",
-          "duration_s": "--duration-s", "voxel_m": "--voxel-m", "registration": "--registration", "raster": "--raster",
-          "cloud_stride": "--cloud-stride"}
+OPTION = {
+    "strategy": "STRATEGY",
+    "scenes": "--scenes",
+    "cameras": "--cameras",
+    "sensor": "--sensor",
+    "format": "--format",
+    "out": "--out",
+    "workers": "--workers",
+    "seed": "--seed",
+    "points": "--points",
+    "chunk_m": "--chunk-m",
+    "min_points": "--min-points",
+    "min_labelled_share": "--min-labelled-share",
+    "previews": "--previews",
+    "executor": "--executor",
+    "address": "--address",
+    "split": "--split",
+    "max_nodes": "--max-nodes",
+    "max_memory_gb": "--max-memory-gb",
+    "max_disk_gb": "--max-disk-gb",
+    "accuracy": "--accuracy",
+    "class_balance": "--class-balance",
+    "points_budget": "--points-budget",
+    "mount_m": "--mount",
+    "capture": "--capture",
+    "rig": "--rig",
+    "path": "--path",
+    "motion": "--motion",
+    "duration_s": "--duration-s",
+    "voxel_m": "--voxel-m",
+    "registration": "--registration",
+    "raster": "--raster",
+    "cloud_stride": "--cloud-stride",
+}
 
 
 @dataclass(frozen=True)
@@ -61,7 +94,9 @@ class AccuracyFile:
 class DatasetConfig(BaseModel):
     """Inputs of a dataset run (the CLI's options; see ``genie dataset --help``)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, arbitrary_types_allowed=True)
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, allow_inf_nan=False, arbitrary_types_allowed=True
+    )
 
     strategy: str = Field(min_length=1)
     out: str = Field(min_length=1)
@@ -82,15 +117,18 @@ class DatasetConfig(BaseModel):
     max_nodes: int = Field(MAX_REGIONS, ge=1)
     max_memory_gb: Optional[float] = Field(None, gt=0)
     max_disk_gb: Optional[float] = Field(None, gt=0)
-    accuracy: Optional[AccuracyFile] = None   # --accuracy FILE (accuracy_option())
-    # curation (genie_gl.dataset.curation): {"name": "paper" or a file, "target": {class id: share}};
+    accuracy: Optional[AccuracyFile] = None  # --accuracy FILE (accuracy_option())
+    # curation (genie_gl.dataset.curation): {"name": "paper" or a file, "target": {class id:
+    # share}};
     # given as the name, the target is read here, so the fingerprint holds the shares
     class_balance: Optional[dict[str, Any]] = None
     points_budget: Optional[int] = Field(None, ge=1)
-    mount_m: Optional[float] = Field(None, gt=0, le=1e4)   # camera height above the floor; None: from the range
+    mount_m: Optional[float] = Field(
+        None, gt=0, le=1e4
+    )  # camera height above the floor; None: from the range
     # the capture mode (genie_gl.dataset.modes): its name; the options below it are the modes'
     capture: str = DEFAULT_MODE
-    rig: Optional[str] = None                 # a rig file or shipped name; None: --sensor alone
+    rig: Optional[str] = None  # a rig file or shipped name; None: --sensor alone
     path: str = Field("aisles", min_length=1)  # aisles, random, or a waypoints file
     motion: Literal["person", "robot"] = "person"
     duration_s: float = Field(20.0, gt=0, le=3600)
@@ -106,14 +144,20 @@ class DatasetConfig(BaseModel):
     @classmethod
     def _known_format(cls, v: str) -> str:
         if v not in DATASET_FORMATS:
-            raise ValueError(f"unknown; expected one of {', '.join(DATASET_FORMATS)}{did_you_mean(v, DATASET_FORMATS)}")
+            raise ValueError(
+                f"unknown; expected one of {', '.join(DATASET_FORMATS)}"
+                f"{did_you_mean(v, DATASET_FORMATS)}"
+            )
         return v
 
     @field_validator("capture")
     @classmethod
     def _known_capture(cls, v: str) -> str:
         if v not in CAPTURE_MODES:
-            raise ValueError(f"unknown; expected one of {', '.join(CAPTURE_MODES)}{did_you_mean(v, CAPTURE_MODES)}")
+            raise ValueError(
+                f"unknown; expected one of {', '.join(CAPTURE_MODES)}"
+                f"{did_you_mean(v, CAPTURE_MODES)}"
+            )
         return v
 
     @field_validator("accuracy", mode="before")
@@ -143,36 +187,76 @@ class DatasetConfig(BaseModel):
         if not mode.takes(fmt):
             takes = sorted(n for n, f in DATASET_FORMATS.items() if mode.takes(f))
             modes = [n for n, m in CAPTURE_MODES.items() if m.takes(fmt)]
-            raise ConfigError(f"--format {self.format} takes --capture {' or '.join(modes)}, not "
-                              f"{self.capture}; --capture {self.capture} writes {', '.join(takes)}")
+            raise ConfigError(
+                f"--format {self.format} takes --capture {' or '.join(modes)}, not "
+                f"{self.capture}; --capture {self.capture} writes {', '.join(takes)}"
+            )
         if (self.class_balance or self.points_budget) and not mode.curates(fmt):
-            modes = [n for n, m in CAPTURE_MODES.items() if any(m.curates(f) for f in DATASET_FORMATS.values())]
-            raise ConfigError(f"--class-balance and --points-budget sub-sample point clouds; --format "
-                              f"{self.format} with --capture {self.capture} writes images or recordings: use a "
-                              f"point-cloud format with --capture {' or '.join(modes)}")
+            modes = [
+                n
+                for n, m in CAPTURE_MODES.items()
+                if any(m.curates(f) for f in DATASET_FORMATS.values())
+            ]
+            raise ConfigError(
+                f"--class-balance and --points-budget sub-sample point clouds; --format "
+                f"{self.format} with --capture {self.capture} writes images or recordings: use a "
+                f"point-cloud format with --capture {' or '.join(modes)}"
+            )
         self._used_options()
         mode.check(self)
         if self.cloud_stride not in (None, 1) and self.format != "rosbag":
-            raise ConfigError(f"--cloud-stride {self.cloud_stride}: thins the point clouds of a ROS 2 bag; --format "
-                              f"{self.format} does not use it (use --format rosbag)")
+            raise ConfigError(
+                f"--cloud-stride {self.cloud_stride}: thins the point clouds of a ROS 2 bag; "
+                "--format "
+                f"{self.format} does not use it (use --format rosbag)"
+            )
         return self
 
     def _used_options(self) -> None:
-        """Refuse an option the capture does not use (given, and not its default), never ignore it."""
+        """Refuse an option the capture does not use (given, and not its default), never ignore
+        it."""
         options, mode = mode_options(), get_mode(self.capture)
-        given = [k for k in self.model_fields_set
-                 if k in options and getattr(self, k) is not None and getattr(self, k) != type(self).model_fields[k].default]
+        given = [
+            k
+            for k in self.model_fields_set
+            if k in options
+            and getattr(self, k) is not None
+            and getattr(self, k) != type(self).model_fields[k].default
+        ]
         for k in sorted(given, key=options.index):
             if k not in mode.options:
-                raise ConfigError(f"{OPTION[k]} {getattr(self, k)!r:.40}: --capture {self.capture} does not use it; it "
-                                  f"is for --capture {' or '.join(users_of(k))}")
+                raise ConfigError(
+                    f"{OPTION[k]} {getattr(self, k)!r:.40}: --capture {self.capture} does not use "
+                    "it; it "
+                    f"is for --capture {' or '.join(users_of(k))}"
+                )
 
     # the fields that decide the bytes written: resuming with any other value is refused
-    FINGERPRINTED: ClassVar[tuple[str, ...]] = ("format", "seed", "cameras", "points", "chunk_m", "min_points",
-                                                "min_labelled_share", "split", "accuracy", "class_balance",
-                                                "points_budget", "mount_m", "capture", "rig", "path", "motion",
-                                                "duration_s", "voxel_m", "registration", "raster", "cloud_stride")
-    # of these, "capture" and the modes' own options enter only as the mode says (genie_gl.dataset.modes)
+    FINGERPRINTED: ClassVar[tuple[str, ...]] = (
+        "format",
+        "seed",
+        "cameras",
+        "points",
+        "chunk_m",
+        "min_points",
+        "min_labelled_share",
+        "split",
+        "accuracy",
+        "class_balance",
+        "points_budget",
+        "mount_m",
+        "capture",
+        "rig",
+        "path",
+        "motion",
+        "duration_s",
+        "voxel_m",
+        "registration",
+        "raster",
+        "cloud_stride",
+    )
+    # of these, "capture" and the modes' own options enter only as the mode says
+    # (genie_gl.dataset.modes)
 
     @classmethod
     def parse(cls, data: dict[str, Any], source: str = "dataset configuration") -> "DatasetConfig":
@@ -188,7 +272,9 @@ class DatasetConfig(BaseModel):
             name = OPTION.get(str(e["loc"][0]) if e["loc"] else "", field)
             msg = e["msg"].removeprefix("Value error, ")
             got = e.get("input")
-            raise ConfigError(f"{source + ': ' if source else ''}{name} {got!r:.60}: {msg}") from None
+            raise ConfigError(
+                f"{source + ': ' if source else ''}{name} {got!r:.60}: {msg}"
+            ) from None
         except TypeError as exc:
             raise ConfigError(f"{source}: {exc}") from None
 
@@ -199,17 +285,30 @@ def resolve_target(spec: Any) -> dict[str, Any] | None:
     (a manifest's inputs)."""
     if spec is None or spec == "":
         return None
-    if isinstance(spec, dict) and set(spec) == {"name", "target"} and isinstance(spec["target"], dict):
+    if (
+        isinstance(spec, dict)
+        and set(spec) == {"name", "target"}
+        and isinstance(spec["target"], dict)
+    ):
         try:
             target = {str(int(k)): float(v) for k, v in spec["target"].items()}
         except (TypeError, ValueError):
-            raise ConfigError(f"--class-balance target {spec['target']!r:.60}: expected {{class id: share}}") from None
+            raise ConfigError(
+                f"--class-balance target {spec['target']!r:.60}: expected {{class id: share}}"
+            ) from None
         if not target or min(target.values()) < 0 or not np.isclose(sum(target.values()), 1.0):
-            raise ConfigError(f"--class-balance target {spec['target']!r:.60}: expected shares >= 0 summing to 1")
+            raise ConfigError(
+                f"--class-balance target {spec['target']!r:.60}: expected shares >= 0 summing to 1"
+            )
         return {"name": str(spec["name"]), "target": target}
     if not isinstance(spec, (str, os.PathLike)):
-        raise ConfigError(f"--class-balance {spec!r:.60}: expected 'paper' or a JSON file {{class: share}}")
-    return {"name": str(spec), "target": {str(k): v for k, v in load_target(str(spec), CLASSES).items()}}
+        raise ConfigError(
+            f"--class-balance {spec!r:.60}: expected 'paper' or a JSON file {{class: share}}"
+        )
+    return {
+        "name": str(spec),
+        "target": {str(k): v for k, v in load_target(str(spec), CLASSES).items()},
+    }
 
 
 def parse_split(text: str) -> tuple[float, float, float]:
@@ -219,7 +318,9 @@ def parse_split(text: str) -> tuple[float, float, float]:
     except ValueError:
         parts = ()
     if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
-        raise ConfigError(f"--split {text!r}: expected three shares TRAIN,VALID,TEST such as 0.8,0.1,0.1")
+        raise ConfigError(
+            f"--split {text!r}: expected three shares TRAIN,VALID,TEST such as 0.8,0.1,0.1"
+        )
     return parts  # type: ignore[return-value]
 
 
@@ -237,5 +338,7 @@ def accuracy_used(cfg: DatasetConfig, sensor: Sensor) -> dict[str, Any]:
     (the --accuracy file, the sensor profile's accuracy: block, or the defaults)."""
     if cfg.accuracy is not None:
         return {"source": cfg.accuracy.file, "settings": cfg.accuracy.settings.to_dict()}
-    return {"source": "sensor profile" if sensor.accuracy else "defaults",
-            "settings": (sensor.accuracy or AccuracySettings()).to_dict()}
+    return {
+        "source": "sensor profile" if sensor.accuracy else "defaults",
+        "settings": (sensor.accuracy or AccuracySettings()).to_dict(),
+    }

@@ -12,6 +12,7 @@ the same seed gives the same bytes whatever ``--workers``. The options are field
 read where the configuration is checked), both fingerprinted, so a resume with other ones is
 refused.
 """
+
 from __future__ import annotations
 
 import json
@@ -60,20 +61,23 @@ def finish(cfg, *, verify: bool = False) -> list[int]:
     out, fmt = Path(cfg.out), get_format(cfg.format)
     for stale in (out / ".balance").glob("*.tmp.npz"):  # a cache a killed run left half-written
         stale.unlink()
-    todo = [i for i in range(cfg.scenes) if scene_complete(fmt.scene_dir(out, i), verify=verify) is None]
+    todo = [
+        i for i in range(cfg.scenes) if scene_complete(fmt.scene_dir(out, i), verify=verify) is None
+    ]
     if not todo:  # a re-run of a finished dataset needs no plan (nor the caches)
         return []
     caches = [cache_path(cfg, i) for i in range(cfg.scenes)]
     rng = np.random.default_rng(np.random.SeedSequence([int(cfg.seed), BALANCE_SEED]))
-    plans = plan_dataset(caches, target(cfg), rng=rng, budget=cfg.points_budget, min_points=cfg.min_points)
+    plans = plan_dataset(
+        caches, target(cfg), rng=rng, budget=cfg.points_budget, min_points=cfg.min_points
+    )
     written = []
     for i, (cache, (quota, keep, report)) in enumerate(zip(caches, plans)):
         if i not in todo:
             continue
         final = fmt.scene_dir(out, i)
         chunks, info = load_chunks(cache)
-        kept = apply_plan(chunks, quota, keep,
-                          rng=SceneStreams(cfg.seed, i).rng("balance"))
+        kept = apply_plan(chunks, quota, keep, rng=SceneStreams(cfg.seed, i).rng("balance"))
         layout = Layout.from_dict(info.pop("layout"))
         for stale in final.parent.glob(f".tmp-{final.name}-*"):
             shutil.rmtree(stale, ignore_errors=True)
@@ -85,8 +89,13 @@ def finish(cfg, *, verify: bool = False) -> list[int]:
         counts = np.zeros(65536, np.int64)
         for _, tile in kept:
             np.add.at(counts, tile.semantic, 1)
-        stats = {"scene": i, **info, "chunks": len(kept),
-                 "class_points": {str(k): int(v) for k, v in enumerate(counts) if v}, "balance": report}
+        stats = {
+            "scene": i,
+            **info,
+            "chunks": len(kept),
+            "class_points": {str(k): int(v) for k, v in enumerate(counts) if v},
+            "balance": report,
+        }
         stats["files"] = record_files(tmp)
         (tmp / RECORD).write_text(json.dumps(stats, indent=1, sort_keys=True))
         if fmt.before_rename is not None:
@@ -112,6 +121,8 @@ def manifest(cfg, stats: list[dict]) -> dict[str, Any]:
         for k, v in st["class_points"].items():
             points[int(k)] = points.get(int(k), 0) + v
     entry = summary(points, target(cfg), short(stats) or {}, CLASSES)
-    entry["draws"] = (f"chunks a budget keeps: SeedSequence([seed, {BALANCE_SEED:#x}]); points: "
-                      f"{SceneStreams.describe()['balance']}")
+    entry["draws"] = (
+        f"chunks a budget keeps: SeedSequence([seed, {BALANCE_SEED:#x}]); points: "
+        f"{SceneStreams.describe()['balance']}"
+    )
     return {"class_balance": entry}

@@ -4,6 +4,7 @@ scene depends only on (seed, index), so every executor writes the same bytes.
 Every process warms up once, before the first scene it makes (:mod:`.warmup`); each result
 says which process made it (``worker``), its place among that process's scenes (``nth``, 0 for
 the first) and, on the first, the warm-up's seconds (``warmup_s``)."""
+
 from __future__ import annotations
 
 import gc
@@ -53,21 +54,33 @@ def _made(r: dict) -> dict:
     return r
 
 
-def make_scene(cfg: DatasetConfig, inputs: RunInputs, index: int, *, verify: bool = False,
-               stage=None, ahead: Ahead | None = None) -> dict[str, Any]:
+def make_scene(
+    cfg: DatasetConfig,
+    inputs: RunInputs,
+    index: int,
+    *,
+    verify: bool = False,
+    stage=None,
+    ahead: Ahead | None = None,
+) -> dict[str, Any]:
     """:func:`~genie_gl.dataset.scene.run_scene` with this process's warm-up and bookkeeping
     (``ahead``: a helper process making scenes' first stages, :mod:`.ahead`)."""
+
     def prepare() -> None:
         if stage is not None and not _PROCESS.get("warm"):
             stage("warm-up")  # the bar shows the worker's warm-up as a stage of its first scene
         _prepare(cfg, inputs)
 
-    return _made(run_scene(cfg, index, inputs=inputs, verify=verify, stage=stage, prepare=prepare, ahead=ahead))
+    return _made(
+        run_scene(
+            cfg, index, inputs=inputs, verify=verify, stage=stage, prepare=prepare, ahead=ahead
+        )
+    )
 
 
 def _worker(job: tuple) -> dict:
     cfg, inputs, index, verify, backend, status = job if len(job) == 6 else (*job, None)
-    set_default_backend(backend)   # the parent's choice (a spawned worker starts without it)
+    set_default_backend(backend)  # the parent's choice (a spawned worker starts without it)
     say_when_compiling(f"genie dataset (worker {os.getpid()})")
     limit_threads((os.cpu_count() or 1) // max(1, int(cfg.workers)))
 
@@ -85,7 +98,8 @@ def _worker(job: tuple) -> dict:
 def _ahead(cfg: DatasetConfig, inputs: RunInputs) -> Ahead | None:
     """A helper process making the layout, scene and placement of this process's scenes one
     scene ahead (:mod:`.ahead`; forked now, before the warm-up, it makes the second scene to
-    make while this process makes the first), where it can gain: a mode that allows it (standing cameras), two scenes
+    make while this process makes the first), where it can gain: a mode that allows it (standing
+    cameras), two scenes
     or more to make, a core to spare, no asset registered in this process only. None
     otherwise."""
     if not get_mode(cfg.capture).made_ahead or not spare_core() or ASSETS.registered():
@@ -108,8 +122,9 @@ def _describe(status) -> str:
     return ", ".join(f"scene {i}: {name}" for i, name in items)
 
 
-def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
-               verify: bool = False) -> list[dict[str, Any]]:
+def map_scenes(
+    cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True, verify: bool = False
+) -> list[dict[str, Any]]:
     """Run every scene of ``cfg`` with the run's ``inputs`` (finished ones are checked and
     skipped); returns their stats.
     The progress bar names the scene and stage being worked on (this process) or the scenes
@@ -127,7 +142,10 @@ def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
 
             ray.init(address=cfg.address, ignore_reinit_error=True, log_to_driver=False)
             remote = ray.remote(_worker)  # stages are not reported back from the cluster
-            pending = [remote.remote((cfg, inputs, i, verify, default_backend())) for i in range(cfg.scenes)]
+            pending = [
+                remote.remote((cfg, inputs, i, verify, default_backend()))
+                for i in range(cfg.scenes)
+            ]
             bar.set_postfix_str(f"{len(pending)} scenes on Ray")
             while pending:
                 ready, pending = ray.wait(pending, num_returns=1)
@@ -136,10 +154,20 @@ def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
             try:
                 with _ahead(cfg, inputs) or nullcontext() as ahead:
                     for i in range(cfg.scenes):
-                        done(make_scene(cfg, inputs, i, verify=verify, ahead=ahead,
-                                        stage=lambda name, i=i: bar.set_postfix_str(f"scene {i}: {name}",
-                                                                                    refresh=True)))
-            finally:   # this process goes on (the Python API): its objects back in the collector's sight
+                        done(
+                            make_scene(
+                                cfg,
+                                inputs,
+                                i,
+                                verify=verify,
+                                ahead=ahead,
+                                stage=lambda name, i=i: bar.set_postfix_str(
+                                    f"scene {i}: {name}", refresh=True
+                                ),
+                            )
+                        )
+            # this process goes on (the Python API): its objects back in the collector's sight
+            finally:
                 if _PROCESS.pop("frozen", False):
                     gc.unfreeze()
         else:
@@ -147,11 +175,20 @@ def map_scenes(cfg: DatasetConfig, inputs: RunInputs, *, progress: bool = True,
             ctx = mp.get_context("spawn")
             # the stages under way are shown through a manager's dict: a server process of its
             # own, started only when there is a bar to show them on
-            with ctx.Manager() if progress else nullcontext() as manager, \
-                    ctx.Pool(n, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
-                status = manager.dict() if manager is not None else None  # scene -> its worker's stage
-                it = pool.imap_unordered(_worker, [(cfg, inputs, i, verify, default_backend(), status)
-                                                   for i in range(cfg.scenes)])
+            with (
+                ctx.Manager() if progress else nullcontext() as manager,
+                ctx.Pool(n, initializer=die_with_parent, initargs=(os.getpid(),)) as pool,
+            ):
+                status = (
+                    manager.dict() if manager is not None else None
+                )  # scene -> its worker's stage
+                it = pool.imap_unordered(
+                    _worker,
+                    [
+                        (cfg, inputs, i, verify, default_backend(), status)
+                        for i in range(cfg.scenes)
+                    ],
+                )
                 left = cfg.scenes
                 while left:
                     try:

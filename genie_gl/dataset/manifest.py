@@ -11,6 +11,7 @@ output folder, and the record of each finished scene's files.
   before the folder is renamed into place; a scene whose files are missing or of another size
   (``verify=True``: another hash) is made again.
 """
+
 from __future__ import annotations
 
 import fcntl
@@ -56,20 +57,22 @@ def fingerprint(cfg: DatasetConfig, strategy, sensor) -> dict[str, Any]:
     parts: dict[str, Any] = {"genie_gl": __version__}
     for role, path in input_files(strategy, sensor).items():
         parts[role] = _file_hash(path) if Path(path).is_file() else f"missing: {path}"
-    values = cfg.model_dump()   # plain values (the --accuracy record as its {"file", "settings"})
+    values = cfg.model_dump()  # plain values (the --accuracy record as its {"file", "settings"})
     mode, options = get_mode(cfg.capture), mode_options()
     for k in DatasetConfig.FINGERPRINTED:
         v = values[k]
-        if v is None:  # an option not asked for (--class-balance, ...): the fingerprint of a run without it
+        if (
+            v is None
+        ):  # an option not asked for (--class-balance, ...): the fingerprint of a run without it
             continue
-        if k == "raster" and v == "gl":   # datasets made before the choice existed were drawn by GL
+        if k == "raster" and v == "gl":  # datasets made before the choice existed were drawn by GL
             continue
-        if k == "capture" and not mode.fingerprints_mode:   # standing cameras: as before other modes
+        if k == "capture" and not mode.fingerprints_mode:  # standing cameras: as before other modes
             continue
-        if k in options and k not in mode.options:   # an option this capture does not use
+        if k in options and k not in mode.options:  # an option this capture does not use
             continue
         parts[k] = list(v) if isinstance(v, tuple) else v
-    for role, path in mode.input_files(cfg).items():   # a rig's files, a waypoints file
+    for role, path in mode.input_files(cfg).items():  # a rig's files, a waypoints file
         parts[role] = _file_hash(path)
     blob = json.dumps(parts, sort_keys=True).encode()
     return {"sha256": hashlib.sha256(blob).hexdigest(), "parts": parts}
@@ -86,25 +89,39 @@ def check_resume(out: Path, fp: dict[str, Any], scenes: int | None = None) -> di
         old = json.loads(path.read_text())
         old_fp = old["fingerprint"]
     except (OSError, ValueError, KeyError, TypeError):
-        raise ConfigError(f"--out {out}: manifest.json is not a genie-gl dataset manifest (or predates "
-                          "fingerprints); use another --out") from None
+        raise ConfigError(
+            f"--out {out}: manifest.json is not a genie-gl dataset manifest (or predates "
+            "fingerprints); use another --out"
+        ) from None
     if old_fp.get("sha256") == fp["sha256"]:
         before = (old.get("inputs") or {}).get("scenes")
         if scenes is not None and isinstance(before, int) and before > scenes:
-            raise ConfigError(f"--out {out}: holds a dataset of {before} scenes; --scenes {scenes} would leave scenes "
-                              f"{scenes}..{before - 1} in it: give --scenes {before} (or more), or another --out")
+            raise ConfigError(
+                f"--out {out}: holds a dataset of {before} scenes; --scenes {scenes} would leave "
+                "scenes "
+                f"{scenes}..{before - 1} in it: give --scenes {before} (or more), or another --out"
+            )
         return old
-    if not old.get("runs") and not any((out / str(name)).exists() for name in old.get("outputs") or []):
-        return None   # an earlier attempt that was refused or stopped before it made anything: start afresh
+    if not old.get("runs") and not any(
+        (out / str(name)).exists() for name in old.get("outputs") or []
+    ):
+        # an earlier attempt that was refused or stopped before it made anything: start afresh
+        return None
     a, b = old_fp.get("parts", {}), fp["parts"]
     changed = [k for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
-    shown = ", ".join(f"{k} {a.get(k)!r:.20} -> {b.get(k)!r:.20}" if k in DatasetConfig.FINGERPRINTED or k == "genie_gl"
-                      else f"{k} (file content)" for k in changed[:4])
-    raise ConfigError(f"--out {out}: holds a dataset made from other inputs ({shown}); resume with the same "
-                      "inputs, or choose another --out")
+    shown = ", ".join(
+        f"{k} {a.get(k)!r:.20} -> {b.get(k)!r:.20}"
+        if k in DatasetConfig.FINGERPRINTED or k == "genie_gl"
+        else f"{k} (file content)"
+        for k in changed[:4]
+    )
+    raise ConfigError(
+        f"--out {out}: holds a dataset made from other inputs ({shown}); resume with the same "
+        "inputs, or choose another --out"
+    )
 
 
-_HELD: "weakref.WeakSet[OutputLock]" = weakref.WeakSet()   # the locks this process holds
+_HELD: "weakref.WeakSet[OutputLock]" = weakref.WeakSet()  # the locks this process holds
 
 
 def _drop_held_in_child() -> None:
@@ -139,8 +156,10 @@ class OutputLock:
             who = self.fh.read().strip() or "another process"
             self.fh.close()
             self.fh = None
-            raise ConfigError(f"--out {self.path.parent}: another genie dataset run ({who}) is writing there; "
-                              "wait for it, or choose another --out") from None
+            raise ConfigError(
+                f"--out {self.path.parent}: another genie dataset run ({who}) is writing there; "
+                "wait for it, or choose another --out"
+            ) from None
         self.fh.seek(0)
         self.fh.truncate()
         self.fh.write(f"pid {os.getpid()} on {os.uname().nodename}\n")
@@ -162,8 +181,11 @@ class OutputLock:
 
 def record_files(folder: Path) -> dict[str, list]:
     """{relative path: [size, sha256]} of every file under ``folder`` (the record excepted)."""
-    return {str(p.relative_to(folder)): [p.stat().st_size, _file_hash(p)]
-            for p in sorted(folder.rglob("*")) if p.is_file() and p.name != RECORD}
+    return {
+        str(p.relative_to(folder)): [p.stat().st_size, _file_hash(p)]
+        for p in sorted(folder.rglob("*"))
+        if p.is_file() and p.name != RECORD
+    }
 
 
 def recorded_files(folder: Path) -> list[str]:

@@ -1,5 +1,6 @@
 """Preview pictures of a dataset scene, readable on their own: each has a title, a legend of
 the classes shown, axes in metres (top view) or a depth colour bar in metres (cameras)."""
+
 from __future__ import annotations
 
 import os
@@ -18,17 +19,33 @@ from ..sensors.camera import Sensor
 def _legend(ax, ids) -> None:
     from matplotlib.patches import Patch
 
-    handles = [Patch(facecolor=np.array(labels.color(k)) / 255, edgecolor="0.35", linewidth=0.6,
-                     label=f"{k} {labels.name(k)}") for k in sorted(ids)]
+    handles = [
+        Patch(
+            facecolor=np.array(labels.color(k)) / 255,
+            edgecolor="0.35",
+            linewidth=0.6,
+            label=f"{k} {labels.name(k)}",
+        )
+        for k in sorted(ids)
+    ]
     if handles:
-        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False,
-                  title="class", title_fontsize=8)
+        ax.legend(
+            handles=handles,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            fontsize=7,
+            frameon=False,
+            title="class",
+            title_fontsize=8,
+        )
 
 
 def _save(fig, path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")   # the temporary name every writer of ours uses
+    tmp = path.with_name(
+        f".{path.stem}.{os.getpid()}.tmp.png"
+    )  # the temporary name every writer of ours uses
     fig.savefig(tmp, dpi=100, metadata={"Software": None})
     plt.close(fig)
     tmp.replace(path)
@@ -47,7 +64,9 @@ def camera_picture(frame, title: str, path: Path) -> None:
     fig, axes = plt.subplots(1, panels, figsize=(4.2 * panels + 1.6, 3.6))
     v = d[valid]
     lo, hi = (float(np.percentile(v, 1)), float(np.percentile(v, 99))) if v.size else (0.0, 1.0)
-    im = axes[0].imshow(np.where(valid, d, np.nan), cmap="viridis", vmin=lo, vmax=max(hi, lo + 1e-3))
+    im = axes[0].imshow(
+        np.where(valid, d, np.nan), cmap="viridis", vmin=lo, vmax=max(hi, lo + 1e-3)
+    )
     fig.colorbar(im, ax=axes[0], fraction=0.046, pad=0.02, label="depth (m); blank: no return")
     axes[0].set_title("depth")
     pal = labels.palette()
@@ -115,10 +134,23 @@ def layout_picture(layout, title: str, path: Path, *, path_xy: np.ndarray | None
     ax.set_title(title)
     used = sorted({r.type for r in layout.leaves()})
     # swatches outlined: a near-white region type (empty floor) stays visible on the white legend
-    ax.legend(handles=[Patch(facecolor=np.array(layout.region_types[t].color) / 255, edgecolor="0.35", linewidth=0.6,
-                             label=t) for t in used],
-              loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False, title="region type",
-              title_fontsize=8)
+    ax.legend(
+        handles=[
+            Patch(
+                facecolor=np.array(layout.region_types[t].color) / 255,
+                edgecolor="0.35",
+                linewidth=0.6,
+                label=t,
+            )
+            for t in used
+        ],
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        fontsize=7,
+        frameon=False,
+        title="region type",
+        title_fontsize=8,
+    )
     fig.tight_layout()
     _save(fig, path)
 
@@ -130,13 +162,19 @@ def overview_pose(bounds):
 
 
 def overview_picture(scene, layout, title: str, path: Path, raster: str | None = None) -> None:
-    """The scene rendered from above one corner of the hall (by ``raster``: the dataset's), with a title."""
+    """The scene rendered from above one corner of the hall (by ``raster``: the dataset's), with a
+    title."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    frame = render(scene, Sensor.pinhole(1024, 640, 620.0, far_m=1e3), overview_pose(layout.bounds), raster=raster)
+    frame = render(
+        scene,
+        Sensor.pinhole(1024, 640, 620.0, far_m=1e3),
+        overview_pose(layout.bounds),
+        raster=raster,
+    )
     fig, ax = plt.subplots(figsize=(10.24, 6.9))
     ax.imshow(frame.rgb)
     ax.set_axis_off()
@@ -145,38 +183,82 @@ def overview_picture(scene, layout, title: str, path: Path, raster: str | None =
     _save(fig, path)
 
 
-def write_previews(folder: Path, index: int, layout, frames, scene=None, raster: str | None = None) -> None:
+def write_previews(
+    folder: Path, index: int, layout, frames, scene=None, raster: str | None = None
+) -> None:
     folder.mkdir(parents=True, exist_ok=True)
-    layout_picture(layout, f"scene {index}: layout ({len(layout.leaves())} regions)",
-                   folder / f"scene_{index:04d}_layout.png")
+    layout_picture(
+        layout,
+        f"scene {index}: layout ({len(layout.leaves())} regions)",
+        folder / f"scene_{index:04d}_layout.png",
+    )
     for c, f in enumerate(frames[:2]):
-        camera_picture(f, f"scene {index}, camera {c}", folder / f"scene_{index:04d}_cam{c:02d}.png")
+        camera_picture(
+            f, f"scene {index}, camera {c}", folder / f"scene_{index:04d}_cam{c:02d}.png"
+        )
     if scene is not None:
-        overview_picture(scene, layout, f"scene {index}: {len(scene.instances)} objects, rendered from above a corner",
-                         folder / f"scene_{index:04d}_overview.png", raster)
+        overview_picture(
+            scene,
+            layout,
+            f"scene {index}: {len(scene.instances)} objects, rendered from above a corner",
+            folder / f"scene_{index:04d}_overview.png",
+            raster,
+        )
     cloud = to_cloud(frames)
-    cloud_top_picture(cloud, layout.bounds, f"scene {index}: merged cloud from above ({len(cloud):,} points)",
-                      folder / f"scene_{index:04d}_cloud_top.png")
+    cloud_top_picture(
+        cloud,
+        layout.bounds,
+        f"scene {index}: merged cloud from above ({len(cloud):,} points)",
+        folder / f"scene_{index:04d}_cloud_top.png",
+    )
 
 
-def write_recording_previews(folder: Path, index: int, layout, frames, trajectory, map_cloud=None, scene=None,
-                             raster: str | None = None) -> None:
+def write_recording_previews(
+    folder: Path,
+    index: int,
+    layout,
+    frames,
+    trajectory,
+    map_cloud=None,
+    scene=None,
+    raster: str | None = None,
+) -> None:
     """The pictures of a scene captured along a trajectory: the path on the layout, a frame or
     two, the scene from above, and the fused map from above (a mobile-scan map) or the frames'
     points (a recording)."""
     folder.mkdir(parents=True, exist_ok=True)
-    layout_picture(layout, f"scene {index}: trajectory, {trajectory.length_m:.0f} m in {trajectory.duration_s:.0f} s",
-                   folder / f"scene_{index:04d}_path.png", path_xy=trajectory.positions[:, :2])
+    layout_picture(
+        layout,
+        f"scene {index}: trajectory, {trajectory.length_m:.0f} m in {trajectory.duration_s:.0f} s",
+        folder / f"scene_{index:04d}_path.png",
+        path_xy=trajectory.positions[:, :2],
+    )
     for c, f in enumerate(frames[:2]):
-        camera_picture(f, f"scene {index}, frame {c} ({(f.meta or {}).get('rig_sensor', '')})",
-                       folder / f"scene_{index:04d}_cam{c:02d}.png")
+        camera_picture(
+            f,
+            f"scene {index}, frame {c} ({(f.meta or {}).get('rig_sensor', '')})",
+            folder / f"scene_{index:04d}_cam{c:02d}.png",
+        )
     if scene is not None:
-        overview_picture(scene, layout, f"scene {index}: {len(scene.instances)} objects, rendered from above a corner",
-                         folder / f"scene_{index:04d}_overview.png", raster)
+        overview_picture(
+            scene,
+            layout,
+            f"scene {index}: {len(scene.instances)} objects, rendered from above a corner",
+            folder / f"scene_{index:04d}_overview.png",
+            raster,
+        )
     if map_cloud is not None:
-        cloud_top_picture(map_cloud, layout.bounds, f"scene {index}: fused mobile-scan map from above "
-                          f"({len(map_cloud):,} points)", folder / f"scene_{index:04d}_map_top.png")
+        cloud_top_picture(
+            map_cloud,
+            layout.bounds,
+            f"scene {index}: fused mobile-scan map from above ({len(map_cloud):,} points)",
+            folder / f"scene_{index:04d}_map_top.png",
+        )
     elif frames:
         cloud = to_cloud(frames)
-        cloud_top_picture(cloud, layout.bounds, f"scene {index}: {len(frames)} frames' points from above",
-                          folder / f"scene_{index:04d}_cloud_top.png")
+        cloud_top_picture(
+            cloud,
+            layout.bounds,
+            f"scene {index}: {len(frames)} frames' points from above",
+            folder / f"scene_{index:04d}_cloud_top.png",
+        )

@@ -7,6 +7,7 @@ warm-up fills exactly the caches the scenes use. What every scene of a run share
 once, where the run starts (:func:`load_inputs`: the strategy, the sensor, the accuracy
 settings), and handed down frozen, to worker processes too.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -36,7 +37,9 @@ from .streams import SceneStreams
 
 # the stages of a scene, in order (the progress bar names them; stats time them)
 STAGES = ("layout", "scene", "placement", "capture", "cloud", "export")
-PARTS = STAGES[:3]   # the stages before the capture (:func:`make_parts`; :mod:`.ahead` makes them ahead)
+PARTS = STAGES[
+    :3
+]  # the stages before the capture (:func:`make_parts`; :mod:`.ahead` makes them ahead)
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +70,13 @@ def load_inputs(cfg: DatasetConfig) -> RunInputs:
     accuracy = settings_for(sensor, None if cfg.accuracy is None else cfg.accuracy.settings)
     if cfg.raster is not None:
         accuracy = dataclasses.replace(accuracy, raster=cfg.raster)
-    return RunInputs(load_strategy(cfg.strategy), sensor, accuracy, max_regions=cfg.max_nodes, mount_m=cfg.mount_m)
+    return RunInputs(
+        load_strategy(cfg.strategy),
+        sensor,
+        accuracy,
+        max_regions=cfg.max_nodes,
+        mount_m=cfg.mount_m,
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,13 +118,20 @@ class PartsAhead(Protocol):
         """Scene ``index``'s parts, or None when they were not made there."""
 
 
-def make_parts(inputs: RunInputs, streams: SceneStreams, cameras: int | None, *,
-               stage: Callable[[str], None] = lambda name: None) -> Parts:
+def make_parts(
+    inputs: RunInputs,
+    streams: SceneStreams,
+    cameras: int | None,
+    *,
+    stage: Callable[[str], None] = lambda name: None,
+) -> Parts:
     """The layout, scene and placement of ``cameras`` standing cameras (None: no placement)
     of the scene of ``streams``; ``stage(name)`` as each stage starts."""
     cpu, t = time.process_time(), [time.perf_counter()]
     stage("layout")
-    layout = generate_layout(inputs.strategy, rng=streams.rng("layout"), max_regions=inputs.max_regions)
+    layout = generate_layout(
+        inputs.strategy, rng=streams.rng("layout"), max_regions=inputs.max_regions
+    )
     t.append(time.perf_counter())
     stage("scene")
     scene = build_scene(layout, rng=streams.rng("scene"), segments=inputs.accuracy.tessellation)
@@ -123,15 +139,27 @@ def make_parts(inputs: RunInputs, streams: SceneStreams, cameras: int | None, *,
     poses = None
     if cameras is not None:
         stage("placement")
-        poses = place_sensors(layout, inputs.sensor, n=cameras, seed=streams.placement_seed,
-                              mount_height_m=inputs.mount_m)
+        poses = place_sensors(
+            layout,
+            inputs.sensor,
+            n=cameras,
+            seed=streams.placement_seed,
+            mount_height_m=inputs.mount_m,
+        )
         t.append(time.perf_counter())
-    return Parts(streams.index, layout, scene, poses, {k: b - a for k, a, b in zip(PARTS, t, t[1:])},
-                 time.process_time() - cpu)
+    return Parts(
+        streams.index,
+        layout,
+        scene,
+        poses,
+        {k: b - a for k, a, b in zip(PARTS, t, t[1:])},
+        time.process_time() - cpu,
+    )
 
 
-def make_scene(inputs: RunInputs, streams: SceneStreams, *,
-               stage: Callable[[str], None] = lambda name: None) -> tuple[Layout, Scene, dict[str, float]]:
+def make_scene(
+    inputs: RunInputs, streams: SceneStreams, *, stage: Callable[[str], None] = lambda name: None
+) -> tuple[Layout, Scene, dict[str, float]]:
     """The layout and scene of ``streams`` and the clock (``"start"``, ``"layout"``,
     ``"scene"``); ``stage(name)`` as each stage starts. Standing and moving captures alike."""
     clock = {"start": time.perf_counter()}
@@ -143,9 +171,16 @@ def make_scene(inputs: RunInputs, streams: SceneStreams, *,
     return parts.layout, parts.scene, clock
 
 
-def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: bool,
-         stage: Callable[[str], None] = lambda name: None, chunk_m: float | None = None,
-         ahead: PartsAhead | None = None) -> MadeScene:
+def make(
+    inputs: RunInputs,
+    streams: SceneStreams,
+    *,
+    cameras: int,
+    depth_only: bool,
+    stage: Callable[[str], None] = lambda name: None,
+    chunk_m: float | None = None,
+    ahead: PartsAhead | None = None,
+) -> MadeScene:
     """The scene of ``streams`` up to its frames, taken by ``cameras`` standing cameras;
     ``stage(name)`` as each stage starts. ``depth_only``: render no colour (for formats that
     store none). ``chunk_m``: the tile size the cloud stage will cut (None: no tiles); each
@@ -171,18 +206,38 @@ def make(inputs: RunInputs, streams: SceneStreams, *, cameras: int, depth_only: 
     stage("capture")
     # (a thread of its own only where this process may use another core: one of two workers
     # on two cores counts the frames in the cloud stage instead)
-    tally = FrameTally(chunk_m, origin_of(poses)) if chunk_m is not None and poses and spare_core() else None
+    tally = (
+        FrameTally(chunk_m, origin_of(poses))
+        if chunk_m is not None and poses and spare_core()
+        else None
+    )
     try:
-        frames = capture(scene, inputs.sensor, poses, seed=streams.capture_seed, workers=1, depth_only=depth_only,
-                         accuracy=inputs.accuracy, context=shared_context() if inputs.accuracy.raster == "gl" else None,
-                         on_frame=None if tally is None else tally.add)
+        frames = capture(
+            scene,
+            inputs.sensor,
+            poses,
+            seed=streams.capture_seed,
+            workers=1,
+            depth_only=depth_only,
+            accuracy=inputs.accuracy,
+            context=shared_context() if inputs.accuracy.raster == "gl" else None,
+            on_frame=None if tally is None else tally.add,
+        )
     except BaseException:
         if tally is not None:
             tally.close()
         raise
     clock["capture"] = time.perf_counter()
-    return MadeScene(layout, scene, poses, frames, clock, tally,
-                     None if ahead is None else dict(parts.stages_s), 0.0 if ahead is None else parts.cpu_s)
+    return MadeScene(
+        layout,
+        scene,
+        poses,
+        frames,
+        clock,
+        tally,
+        None if ahead is None else dict(parts.stages_s),
+        0.0 if ahead is None else parts.cpu_s,
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,8 +250,14 @@ class Chunks:
     counts: np.ndarray
 
 
-def chunk(cfg: DatasetConfig, frames: list[Frame], streams: SceneStreams, *, chunks: bool,
-          tally: FrameTally | None = None) -> Chunks:
+def chunk(
+    cfg: DatasetConfig,
+    frames: list[Frame],
+    streams: SceneStreams,
+    *,
+    chunks: bool,
+    tally: FrameTally | None = None,
+) -> Chunks:
     """The cloud stage: the frames' points cut into ``cfg.chunk_m`` tiles of at most
     ``cfg.points`` points, those the cleaning rules keep (``chunks`` False: no tiles, for
     formats of images; the counts only). ``tally``: the frames' points per tile counted
@@ -206,13 +267,16 @@ def chunk(cfg: DatasetConfig, frames: list[Frame], streams: SceneStreams, *, chu
         # the chunks straight from the frames: the merged cloud (~12 M points at 40 cameras)
         # is built only for a preview that shows it
         try:
-            tiles, points_total = frame_chunks(frames, cfg.chunk_m, max_points=cfg.points,
-                                               rng=streams.rng("cloud"), tally=tally)
+            tiles, points_total = frame_chunks(
+                frames, cfg.chunk_m, max_points=cfg.points, rng=streams.rng("cloud"), tally=tally
+            )
         finally:
             if tally is not None:
                 tally.close()
         for key, tile in tiles:
-            if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]:
+            if keep_cloud(
+                tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share
+            )[0]:
                 kept.append((key, tile))
                 counts += np.bincount(tile.semantic, minlength=len(counts))
     else:

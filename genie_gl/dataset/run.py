@@ -7,7 +7,8 @@ files recorded (size, SHA-256) in its ``stats.json``, the dataset-level files it
 leaves no half-written scene and a re-run makes exactly the missing or damaged ones. Layout
 of ``--out DIR``::
 
-    DIR/manifest.json                 inputs and their fingerprint, seeds, versions, every run's timings
+    DIR/manifest.json                 inputs and their fingerprint, seeds, versions, every run's
+    timings
     DIR/histogram.{txt,json,png}      points per class (the paper's Table 3)
     DIR/previews/                     layout, depth/label images, top-down cloud
     DIR/scenes/NNNN/                  ply, pcd, npz: cloud_XXX.<ext> per chunk; semantickitti: the
@@ -19,6 +20,7 @@ of ``--out DIR``::
                                       before balancing (one plan needs them all; kept so a
                                       re-run resumes): see genie_gl/dataset/curation.py
 """
+
 from __future__ import annotations
 
 import errno
@@ -57,9 +59,11 @@ SCENE_RECORDS = 1000  # a run's manifest record lists the timings of at most thi
 def _check_registered_assets(cfg: dict[str, Any] | DatasetConfig) -> None:
     get = cfg.get if isinstance(cfg, dict) else lambda k, d=None: getattr(cfg, k, d)
     if ASSETS.registered() and (get("executor", "process") == "ray" or get("workers", 1) > 1):
-        raise ConfigError(f"assets registered with register_asset ({ASSETS.registered()}) stay in this "
-                          "process and worker processes would not see them; list them in the strategy's "
-                          "scene.assets, or use one worker")
+        raise ConfigError(
+            f"assets registered with register_asset ({ASSETS.registered()}) stay in this "
+            "process and worker processes would not see them; list them in the strategy's "
+            "scene.assets, or use one worker"
+        )
 
 
 #: the temporary name of a file being written (``.<name>.<pid>.tmp``, ``.tmp.png``, ``.tmp.npz``)
@@ -83,7 +87,7 @@ def prepare(cfg: DatasetConfig) -> tuple[RunInputs, dict]:
     inputs = load_inputs(cfg)
     strategy, sensor = inputs.strategy, inputs.sensor
     mode = get_mode(cfg.capture)
-    mode.prepare(cfg, inputs)   # placement can work, a waypoints file reads
+    mode.prepare(cfg, inputs)  # placement can work, a waypoints file reads
     fmt = get_format(cfg.format)
     claim_output(cfg, fmt)
     mode.check_limits(cfg, strategy, sensor, Path(cfg.out))
@@ -108,12 +112,14 @@ def _clear_leftovers(folder: OutputFolder, fmt) -> None:
         if entry.is_file() and entry.name.endswith(".tmp") and entry.name.startswith("."):
             base = entry.name[1:].split(".", 1)[0]
             if any(n.startswith(base) for n in (*folder.declared, "manifest")):
-                entry.unlink()   # .<name>.<pid>.tmp of an atomic write of one of our files
+                entry.unlink()  # .<name>.<pid>.tmp of an atomic write of one of our files
             continue
         if not folder.owns(entry.name) or entry.is_symlink() or not entry.is_dir():
             continue
-        for p in entry.rglob(".*.tmp*"):   # only the temporary names genie-gl's writers use: a user's
-            if p.is_file() and TEMPORARY.fullmatch(p.name):   # draft.tmp, even in our folders, stays
+        for p in entry.rglob(
+            ".*.tmp*"
+        ):  # only the temporary names genie-gl's writers use: a user's
+            if p.is_file() and TEMPORARY.fullmatch(p.name):  # draft.tmp, even in our folders, stays
                 p.unlink()
 
 
@@ -130,15 +136,20 @@ def _write_manifest(folder: OutputFolder, manifest: dict) -> None:
     atomic_write_text(folder.path / "manifest.json", json.dumps(manifest, indent=1))
 
 
-def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, verify: bool = False,
-                on_start: Callable[[], None] | None = None) -> dict[str, Any]:
+def run_dataset(
+    cfg: DatasetConfig | dict[str, Any],
+    *,
+    progress: bool = True,
+    verify: bool = False,
+    on_start: Callable[[], None] | None = None,
+) -> dict[str, Any]:
     """Make every missing (or damaged) scene of the dataset described by ``cfg``; ``on_start()``
     is called once every check has passed, before the first scene."""
     _check_registered_assets(cfg)
     if isinstance(cfg, dict):
         cfg = DatasetConfig.parse(cfg)
     inputs, fp = prepare(cfg)
-    if cfg.raster is None:   # settled once, recorded in the manifest: a resume keeps it
+    if cfg.raster is None:  # settled once, recorded in the manifest: a resume keeps it
         raster = inputs.accuracy.raster or recorded_raster(Path(cfg.out)) or default_raster()
         cfg = cfg.model_copy(update={"raster": raster})
         inputs, fp = prepare(cfg)
@@ -150,61 +161,101 @@ def run_dataset(cfg: DatasetConfig | dict[str, Any], *, progress: bool = True, v
         old = check_resume(out, fp, cfg.scenes)
         runs = list(old.get("runs", [])) if old else []
         manifest = {
-            "genie_gl": __version__, "python": platform.python_version(), "command": "dataset",
+            "genie_gl": __version__,
+            "python": platform.python_version(),
+            "command": "dataset",
             "fingerprint": fp,
             "inputs": {k: v for k, v in cfg.model_dump().items() if k != "out"},
             "scene_seeds": SceneStreams.describe(),
             "runs": runs,
         }
         manifest["outputs"] = sorted(set(folder.owned) | set(folder.declared))
-        atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1))  # before any scene: a later
-        _clear_leftovers(folder, fmt)                  # resume knows the inputs, and what is its own
+        atomic_write_text(
+            out / "manifest.json", json.dumps(manifest, indent=1)
+        )  # before any scene: a later
+        _clear_leftovers(folder, fmt)  # resume knows the inputs, and what is its own
         if on_start is not None:
             on_start()
         try:
             _run(cfg, inputs, folder, fmt, manifest, runs, progress=progress, verify=verify)
         except OSError as exc:
             if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
-                raise ConfigError(f"--out {out}: disk full or file too large while writing "
-                                  f"({exc.filename or 'a scene'}: {exc.strerror}); finished scenes are kept: free "
-                                  "space and run the same command again") from None
+                raise ConfigError(
+                    f"--out {out}: disk full or file too large while writing "
+                    f"({exc.filename or 'a scene'}: {exc.strerror}); finished scenes are kept: "
+                    "free "
+                    "space and run the same command again"
+                ) from None
             raise
     return manifest
 
 
-def _run(cfg: DatasetConfig, inputs: RunInputs, folder: OutputFolder, fmt, manifest: dict, runs: list, *,
-         progress: bool, verify: bool) -> None:
+def _run(
+    cfg: DatasetConfig,
+    inputs: RunInputs,
+    folder: OutputFolder,
+    fmt,
+    manifest: dict,
+    runs: list,
+    *,
+    progress: bool,
+    verify: bool,
+) -> None:
     """Make the scenes, then the dataset-level files and the manifest (filled in place)."""
     out = folder.path
     started = time.time()
     t0 = time.perf_counter()
     results = map_scenes(cfg, inputs, progress=progress, verify=verify)
-    balanced = curation.finish(cfg, verify=verify) if curation.active(cfg) else None  # one plan over every scene
+    balanced = (
+        curation.finish(cfg, verify=verify) if curation.active(cfg) else None
+    )  # one plan over every scene
     elapsed = time.perf_counter() - t0
     stats = [scene_complete(fmt.scene_dir(out, i)) for i in range(cfg.scenes)]
     missing = [i for i, s in enumerate(stats) if s is None]
     if missing:
-        raise ConfigError(f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)")
+        raise ConfigError(
+            f"--out {out}: scenes {missing[:5]} are incomplete after the run (disk full?)"
+        )
     mode = get_mode(cfg.capture)
     finish = mode.finish(fmt)
     if finish is not None:
         finish(out, cfg, stats)
-    hist = histogram(out, stats, curation.target(cfg), curation.short(stats), reference=mode.reference())
+    hist = histogram(
+        out, stats, curation.target(cfg), curation.short(stats), reference=mode.reference()
+    )
     made = [r for r in results if not r.get("skipped")]
-    n_made = len(made) if balanced is None else len(balanced)  # balanced: the scenes written by this run
+    n_made = (
+        len(made) if balanced is None else len(balanced)
+    )  # balanced: the scenes written by this run
     stage_t: dict[str, float] = {}
     for r in made:
         for k, v in r.get("timings_s", {}).items():
             stage_t[k] = stage_t.get(k, 0.0) + v
-    manifest["runs"] = runs + [{
-        "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
-        "scenes_made": n_made, "scenes_skipped": cfg.scenes - n_made, "workers": cfg.workers,
-        "executor": cfg.executor, "wall_s": elapsed, "stage_s_total": stage_t, "effects": _effects_total(made),
-        "cost": dataset_cost(made), "warmup_s": [r["warmup_s"] for r in made if "warmup_s" in r],
-        "scene_s": [{"scene": r.get("scene"), "worker": r.get("worker"), "nth": r.get("nth"),
-                     "stages": r.get("timings_s", {}), "cpu_s": r.get("cpu_s"),
-                     **({"ahead_s": r["ahead_s"]} if "ahead_s" in r else {})}
-                    for r in sorted(made, key=lambda r: r.get("scene", -1))[:SCENE_RECORDS]]}]
+    manifest["runs"] = runs + [
+        {
+            "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(started)),
+            "scenes_made": n_made,
+            "scenes_skipped": cfg.scenes - n_made,
+            "workers": cfg.workers,
+            "executor": cfg.executor,
+            "wall_s": elapsed,
+            "stage_s_total": stage_t,
+            "effects": _effects_total(made),
+            "cost": dataset_cost(made),
+            "warmup_s": [r["warmup_s"] for r in made if "warmup_s" in r],
+            "scene_s": [
+                {
+                    "scene": r.get("scene"),
+                    "worker": r.get("worker"),
+                    "nth": r.get("nth"),
+                    "stages": r.get("timings_s", {}),
+                    "cpu_s": r.get("cpu_s"),
+                    **({"ahead_s": r["ahead_s"]} if "ahead_s" in r else {}),
+                }
+                for r in sorted(made, key=lambda r: r.get("scene", -1))[:SCENE_RECORDS]
+            ],
+        }
+    ]
     manifest["cost"], manifest["accuracy"] = dataset_cost(made), accuracy_used(cfg, inputs.sensor)
     manifest["scenes_made"], manifest["scenes_skipped"] = n_made, cfg.scenes - n_made
     manifest["wall_s"], manifest["stage_s_total"], manifest["class_points"] = elapsed, stage_t, hist
@@ -225,9 +276,15 @@ def _check_not_empty(cfg: DatasetConfig, stats: list[dict]) -> None:
     totals = class_totals(stats)
     where = f"--out {cfg.out}: the {cfg.scenes} scene(s) of {cfg.strategy}"
     if not sum(totals.values()):
-        raise ConfigError(f"{where} hold no point: every chunk has fewer than --min-points {cfg.min_points} points or "
-                          f"a labelled share under --min-labelled-share {cfg.min_labelled_share:g} (or no camera saw "
-                          "anything); lower them, or check the sensor and --mount")
+        raise ConfigError(
+            f"{where} hold no point: every chunk has fewer than --min-points {cfg.min_points} "
+            "points or "
+            f"a labelled share under --min-labelled-share {cfg.min_labelled_share:g} (or no camera "
+            "saw "
+            "anything); lower them, or check the sensor and --mount"
+        )
     if not sum(v for k, v in totals.items() if k != 0):
-        raise ConfigError(f"{where} hold nothing labelled: every point is background (class 0); the strategy's "
-                          "regions may be too small for its assets (see the warnings above)")
+        raise ConfigError(
+            f"{where} hold nothing labelled: every point is background (class 0); the strategy's "
+            "regions may be too small for its assets (see the warnings above)"
+        )

@@ -18,6 +18,7 @@ The throw-away scene draws from its own streams and fills only caches that the s
 anyway (the GL context, shaders, kernels, ray tables, tessellated assets): every scene still
 depends only on (seed, index), byte for byte.
 """
+
 from __future__ import annotations
 
 import tempfile
@@ -51,8 +52,13 @@ def _throw_away(cfg: DatasetConfig, inputs: RunInputs):
     streams = SceneStreams(WARM_SEED, 0)
     # (the culling kernels load only if a view of this scene draws enough faces to cull: the
     # assembly line's views never do, so its scenes never load them)
-    made = make(inputs, streams, cameras=min(WARM_CAMERAS, cfg.cameras), depth_only=not fmt.colour,
-                chunk_m=cfg.chunk_m if fmt.chunks else None)
+    made = make(
+        inputs,
+        streams,
+        cameras=min(WARM_CAMERAS, cfg.cameras),
+        depth_only=not fmt.colour,
+        chunk_m=cfg.chunk_m if fmt.chunks else None,
+    )
     frames = made.frames
     if frames:  # every frame of a scene is held until its clouds are made: map their memory now
         f = frames[0]
@@ -61,14 +67,23 @@ def _throw_away(cfg: DatasetConfig, inputs: RunInputs):
     return made
 
 
-def compile_kernels(strategy: str = "assembly_line", sensor: str = "realsense_d435",
-                    format: str = "semantickitti") -> float:
+def compile_kernels(
+    strategy: str = "assembly_line", sensor: str = "realsense_d435", format: str = "semantickitti"
+) -> float:
     """Compile and cache the kernels a dataset run of this recipe loads: the warm-up, and the
     previews of its throw-away scene drawn into a temporary folder (removed), in this process;
     nothing else written but numba's cache. Returns seconds."""
     t0 = time.perf_counter()
-    cfg = DatasetConfig.parse({"strategy": strategy, "sensor": sensor, "format": format, "out": ".",
-                               "scenes": 1, "cameras": WARM_CAMERAS})
+    cfg = DatasetConfig.parse(
+        {
+            "strategy": strategy,
+            "sensor": sensor,
+            "format": format,
+            "out": ".",
+            "scenes": 1,
+            "cameras": WARM_CAMERAS,
+        }
+    )
     made = _throw_away(cfg, load_inputs(cfg))
     with tempfile.TemporaryDirectory() as tmp:
         write_previews(Path(tmp), 0, made.layout, made.frames, made.scene)

@@ -16,6 +16,7 @@ An effect answers three questions:
   run (draws of fixed size, e.g. calibration_error's four normals); by default nothing, which
   is right for effects whose draws scale with the pixels they touch (none when none).
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -152,7 +153,9 @@ def drop(frame: Frame, mask: np.ndarray, depth: np.ndarray | None = None) -> Fra
     if normal is not None and mask.any():
         normal = normal.copy()
         normal[mask] = 0
-    return frame.replace(depth=d.astype(np.float32, copy=False), instance=inst, semantic=sem, normal=normal)
+    return frame.replace(
+        depth=d.astype(np.float32, copy=False), instance=inst, semantic=sem, normal=normal
+    )
 
 
 def drop_compiled(frame: Frame, mask: np.ndarray) -> Frame:

@@ -7,6 +7,7 @@
   is dropped when the valid depths of its 3x3 neighbourhood span more than ``span_m``
   (0.8 m by default; the figure used for the Azure Kinect here, a parameter to tune).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -40,8 +41,8 @@ def largest_step(depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     vp = np.pad(valid, 1)
     H, W = z.shape
     for dy, dx in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-        zn = zp[1 + dy:1 + dy + H, 1 + dx:1 + dx + W]
-        ok = valid & vp[1 + dy:1 + dy + H, 1 + dx:1 + dx + W]
+        zn = zp[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W]
+        ok = valid & vp[1 + dy : 1 + dy + H, 1 + dx : 1 + dx + W]
         d = np.where(ok, zn - z, 0.0)
         larger = np.abs(d) > np.abs(step)
         step = np.where(larger, d, step)
@@ -112,8 +113,10 @@ class EdgeDropout(Effect):
         z = frame.depth
         valid = z > 0
         kernel = np.ones((3, 3), np.uint8)
-        hi = cv2.dilate(z, kernel, borderType=cv2.BORDER_REPLICATE)            # 0 = no return
-        lo = cv2.erode(np.where(valid, z, np.float32(np.inf)), kernel, borderType=cv2.BORDER_REPLICATE)
+        hi = cv2.dilate(z, kernel, borderType=cv2.BORDER_REPLICATE)  # 0 = no return
+        lo = cv2.erode(
+            np.where(valid, z, np.float32(np.inf)), kernel, borderType=cv2.BORDER_REPLICATE
+        )
         gone = valid & (hi.astype(np.float64) - lo > self.span_m)
         out = drop(frame, gone) if gone.any() else frame
         return record(out, self.name, dropped=int(gone.sum()))

@@ -3,6 +3,7 @@
 All arrays are in the camera frame (OpenCV: x right, y down, z forward) and indexed like the
 frame's buffers (row v, column u). Pure numpy (the lens maps of :mod:`genie_gl.camera`): no GL.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -42,7 +43,9 @@ def _separable_rays(key: tuple) -> tuple[np.ndarray, np.ndarray]:
 @lru_cache(maxsize=16)
 def _safe_rays(key: tuple) -> np.ndarray:
     model, w, h, K, dist = key
-    xy = np.nan_to_num(Camera(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), model=model).rays())
+    xy = np.nan_to_num(
+        Camera(w, h, np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), model=model).rays()
+    )
     xy.setflags(write=False)
     return xy
 
@@ -85,7 +88,7 @@ def surface_normals(frame: Frame) -> np.ndarray:
     du = P[1:-1, 2:] - P[1:-1, :-2]
     dv = P[2:, 1:-1] - P[:-2, 1:-1]
     c = np.cross(du, dv)
-    ok = (valid[1:-1, 2:] & valid[1:-1, :-2] & valid[2:, 1:-1] & valid[:-2, 1:-1] & valid[1:-1, 1:-1])
+    ok = valid[1:-1, 2:] & valid[1:-1, :-2] & valid[2:, 1:-1] & valid[:-2, 1:-1] & valid[1:-1, 1:-1]
     length = np.linalg.norm(c, axis=-1)
     ok &= length > 0
     c[ok] /= length[ok, None]

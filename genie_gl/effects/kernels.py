@@ -8,6 +8,7 @@ drawn inside the loop from the Generator itself (the ``*_rng`` kernels: numba's
 and the generator's state afterwards are the same as ``rng.standard_normal(n)`` gives, about
 three times faster, with no (n,) array in between; tests check it value for value).
 """
+
 from __future__ import annotations
 
 import math
@@ -241,7 +242,9 @@ def _yat(Y, v, u):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def specular_lost(depth, ids, code_by_id, X, Y, normal, cos_glare, drop_clear=False):  # pragma: no cover
+def specular_lost(
+    depth, ids, code_by_id, X, Y, normal, cos_glare, drop_clear=False
+):  # pragma: no cover
     """Returns lost on shiny surfaces: bare metal (code bit 1) always, other shiny pixels (bit
     0) where cos θ > ``cos_glare``, θ from ``normal`` ((H, W, 3); an empty array: the depth
     image's central differences, none beside a hole or the border); with ``drop_clear``,
@@ -279,7 +282,11 @@ def specular_lost(depth, ids, code_by_id, X, Y, normal, cos_glare, drop_clear=Fa
                 continue
             x, y = _xat(X, v, u), _yat(Y, v, u)
             if have_normal:
-                nx, ny, nz = np.float64(normal[v, u, 0]), np.float64(normal[v, u, 1]), np.float64(normal[v, u, 2])
+                nx, ny, nz = (
+                    np.float64(normal[v, u, 0]),
+                    np.float64(normal[v, u, 1]),
+                    np.float64(normal[v, u, 2]),
+                )
             else:
                 if u == 0 or v == 0 or u == W - 1 or v == H - 1:
                     continue

@@ -21,6 +21,7 @@
 Every effect here but ``range_noise`` is deterministic; ``range_noise`` draws one normal per
 echo it touches from ``rng``.
 """
+
 from __future__ import annotations
 
 import math
@@ -54,7 +55,11 @@ class RangeNoise(LidarEffect):
         if self.resolution_m:
             r = np.round(r / self.resolution_m) * self.resolution_m
         keep = r > 0
-        return replace(echoes, range_m=r).select(keep) if not keep.all() else replace(echoes, range_m=r)
+        return (
+            replace(echoes, range_m=r).select(keep)
+            if not keep.all()
+            else replace(echoes, range_m=r)
+        )
 
 
 @dataclass(frozen=True)
@@ -88,11 +93,18 @@ class Dropout(LidarEffect):
         return super().plan(scene, scanner)
 
     def apply(self, echoes: Echoes, scanner: Any, *, rng: np.random.Generator) -> Echoes:
-        ref_range = float(scanner.max_range_m if self.reference_range_m is None else self.reference_range_m)
-        power = np.clip(echoes.reflectance * echoes.cos_incidence / self.reference_reflectance, 0.0, None)
+        ref_range = float(
+            scanner.max_range_m if self.reference_range_m is None else self.reference_range_m
+        )
+        power = np.clip(
+            echoes.reflectance * echoes.cos_incidence / self.reference_reflectance, 0.0, None
+        )
         weak = echoes.range_m > ref_range * np.sqrt(power)
-        mirror = (echoes.metallic >= 0.5) & (echoes.roughness <= self.metal_max_roughness) \
+        mirror = (
+            (echoes.metallic >= 0.5)
+            & (echoes.roughness <= self.metal_max_roughness)
             & (echoes.cos_incidence < math.cos(math.radians(self.metal_lobe_deg)))
+        )
         grazing = echoes.cos_incidence < math.cos(math.radians(self.grazing_deg))
         lost = weak | mirror | grazing
         return echoes.select(~lost) if lost.any() else echoes
@@ -107,10 +119,16 @@ class BeamDivergence(LidarEffect):
     separation_m: float = 1.0
 
     def half_angle(self, scanner: Any) -> float:
-        full = self.divergence_mrad * 1e-3 if self.divergence_mrad is not None else scanner.beam_divergence_rad
+        full = (
+            self.divergence_mrad * 1e-3
+            if self.divergence_mrad is not None
+            else scanner.beam_divergence_rad
+        )
         if full is None:
-            raise ConfigError(f"{scanner.profile or scanner.name}: beam_divergence: the profile gives no "
-                              "beam_divergence_mrad; set divergence_mrad on the effect")
+            raise ConfigError(
+                f"{scanner.profile or scanner.name}: beam_divergence: the profile gives no "
+                "beam_divergence_mrad; set divergence_mrad on the effect"
+            )
         return 0.5 * float(full)
 
     def plan(self, scene: SceneMaterials, scanner: Any) -> Decision:
@@ -134,14 +152,16 @@ class BeamDivergence(LidarEffect):
         """(B*K, 3) float64 unit directions of each beam's sub-rays, beam-major."""
         offs, _ = self.pattern(scanner)
         d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-        up = np.where(np.abs(d[:, 2:3]) < 0.9, np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]]))
+        up = np.where(
+            np.abs(d[:, 2:3]) < 0.9, np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]])
+        )
         u = np.cross(d, up)
         u /= np.linalg.norm(u, axis=1, keepdims=True)
         v = np.cross(d, u)
         t = np.tan(offs)
         out = d[:, None, :] + t[None, :, 0:1] * u[:, None, :] + t[None, :, 1:2] * v[:, None, :]
         out /= np.linalg.norm(out, axis=2, keepdims=True)
-        out[:, 0] = d   # the centre is the beam itself, bit for bit
+        out[:, 0] = d  # the centre is the beam itself, bit for bit
         return out.reshape(-1, 3)
 
     def combine(self, sub: Echoes, weight: np.ndarray, scanner: Any) -> Echoes:
@@ -151,14 +171,19 @@ class BeamDivergence(LidarEffect):
             return sub
         _, w_all = self.pattern(scanner)
         order = np.lexsort((sub.range_m, sub.beam))
-        sub, weight = replace(sub, **{f.name: getattr(sub, f.name)[order] for f in fields(sub)}), weight[order]
+        sub, weight = (
+            replace(sub, **{f.name: getattr(sub, f.name)[order] for f in fields(sub)}),
+            weight[order],
+        )
         strength = weight * (sub.intensity + 1e-9)
-        new = np.r_[True, (sub.beam[1:] != sub.beam[:-1]) | (np.diff(sub.range_m) >= self.separation_m)]
+        new = np.r_[
+            True, (sub.beam[1:] != sub.beam[:-1]) | (np.diff(sub.range_m) >= self.separation_m)
+        ]
         starts = np.flatnonzero(new)
         g_strength = np.add.reduceat(strength, starts)
         g_range = np.add.reduceat(strength * sub.range_m, starts) / g_strength
         group = np.cumsum(new) - 1
-        best = np.lexsort((-strength, group))                       # per group, its strongest row first
+        best = np.lexsort((-strength, group))  # per group, its strongest row first
         rep = best[np.r_[True, group[best][1:] != group[best][:-1]]]
         g_beam = sub.beam[starts]
         last = np.r_[g_beam[1:] != g_beam[:-1], True]
@@ -179,39 +204,60 @@ class BeamDivergence(LidarEffect):
             chosen = np.union1d(np.flatnonzero(last), strongest(last))
         rows = rep[chosen]
         out = replace(sub, **{f.name: getattr(sub, f.name)[rows] for f in fields(sub)})
-        return replace(out, range_m=g_range[chosen], intensity=g_strength[chosen] / w_all.sum()).renumbered()
+        return replace(
+            out, range_m=g_range[chosen], intensity=g_strength[chosen] / w_all.sum()
+        ).renumbered()
 
     def apply(self, echoes: Echoes, scanner: Any, *, rng: np.random.Generator) -> Echoes:
-        return echoes   # its work is done around the cast (subrays, combine)
+        return echoes  # its work is done around the cast (subrays, combine)
 
 
-LIDAR_EFFECTS: dict[str, type[LidarEffect]] = {c.name: c for c in (RangeNoise, BlindZone, Dropout, BeamDivergence)}
+LIDAR_EFFECTS: dict[str, type[LidarEffect]] = {
+    c.name: c for c in (RangeNoise, BlindZone, Dropout, BeamDivergence)
+}
 
 
 def build_lidar_effects(specs: list[Any], where: str) -> tuple[LidarEffect, ...]:
     """Effects from a profile's ``effects:`` list of ``{type: name, ...params}``."""
     if not isinstance(specs, (list, tuple)):
-        raise ConfigError(f"{where}: effects: expected a list of {{type: name, ...}}, got {specs!r:.60}")
+        raise ConfigError(
+            f"{where}: effects: expected a list of {{type: name, ...}}, got {specs!r:.60}"
+        )
     out = []
     for i, spec in enumerate(specs):
         if not isinstance(spec, dict) or "type" not in spec:
-            raise ConfigError(f"{where}: effects[{i}]: expected a mapping with a 'type', got {spec!r:.60}")
+            raise ConfigError(
+                f"{where}: effects[{i}]: expected a mapping with a 'type', got {spec!r:.60}"
+            )
         kind = spec["type"]
         cls = LIDAR_EFFECTS.get(kind)
         if cls is None:
-            raise ConfigError(f"{where}: effects[{i}].type {kind!r}: unknown LiDAR effect"
-                              f"{did_you_mean(str(kind), LIDAR_EFFECTS)}; expected one of {', '.join(LIDAR_EFFECTS)}")
+            raise ConfigError(
+                f"{where}: effects[{i}].type {kind!r}: unknown LiDAR effect"
+                f"{did_you_mean(str(kind), LIDAR_EFFECTS)}; expected one of "
+                f"{', '.join(LIDAR_EFFECTS)}"
+            )
         known = [f.name for f in fields(cls)]
         params = {k: v for k, v in spec.items() if k != "type"}
         for k, v in params.items():
             if k not in known:
-                raise ConfigError(f"{where}: effects[{i}].{k}: not a parameter of {kind}{did_you_mean(k, known)} "
-                                  f"(its parameters: {', '.join(known) or 'none'})")
-            if isinstance(v, bool) or (v is not None and not isinstance(v, (int, float))) \
-                    or (v is not None and (not math.isfinite(v) or v < 0)):
-                raise ConfigError(f"{where}: effects[{i}].{k}: expected a number >= 0, got {v!r:.40}")
+                raise ConfigError(
+                    f"{where}: effects[{i}].{k}: not a parameter of {kind}{did_you_mean(k, known)} "
+                    f"(its parameters: {', '.join(known) or 'none'})"
+                )
+            if (
+                isinstance(v, bool)
+                or (v is not None and not isinstance(v, (int, float)))
+                or (v is not None and (not math.isfinite(v) or v < 0))
+            ):
+                raise ConfigError(
+                    f"{where}: effects[{i}].{k}: expected a number >= 0, got {v!r:.40}"
+                )
             if k == "rings" and (not isinstance(v, int) or v > 4):
-                raise ConfigError(f"{where}: effects[{i}].rings: expected a whole number of rings 0-4, got {v!r:.40}")
+                raise ConfigError(
+                    f"{where}: effects[{i}].rings: expected a whole number of rings 0-4, got "
+                    f"{v!r:.40}"
+                )
         if kind in [type(e).name for e in out]:
             raise ConfigError(f"{where}: effects[{i}]: {kind} is listed twice")
         out.append(cls(**params))

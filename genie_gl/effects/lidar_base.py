@@ -11,6 +11,7 @@ and draws nothing, so the scan's bytes are those of a profile without it.
 Only one effect casts more than the beams: a beam's footprint (``beam_divergence``) asks for
 sub-rays through :meth:`LidarEffect.subrays`, cast in the same bundle as the beams.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
@@ -67,12 +68,18 @@ class Echoes:
             return self
         order = np.lexsort((self.range_m, self.beam))
         if np.any(order != np.arange(len(order))):
-            return replace(self, **{f.name: getattr(self, f.name)[order] for f in fields(self)}).renumbered()
+            return replace(
+                self, **{f.name: getattr(self, f.name)[order] for f in fields(self)}
+            ).renumbered()
         first = np.r_[True, self.beam[1:] != self.beam[:-1]]
         starts = np.flatnonzero(first)
         counts = np.diff(np.r_[starts, len(self.beam)])
         number = np.arange(len(self.beam)) - np.repeat(starts, counts) + 1
-        return replace(self, return_number=number.astype(np.uint8), returns=np.repeat(counts, counts).astype(np.uint8))
+        return replace(
+            self,
+            return_number=number.astype(np.uint8),
+            returns=np.repeat(counts, counts).astype(np.uint8),
+        )
 
 
 @dataclass(frozen=True)
@@ -108,4 +115,8 @@ class LidarEffect:
         return Decision(True, "runs on every echo")
 
     def params(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in fields(self)} if hasattr(self, "__dataclass_fields__") else {}
+        return (
+            {f.name: getattr(self, f.name) for f in fields(self)}
+            if hasattr(self, "__dataclass_fields__")
+            else {}
+        )

@@ -17,6 +17,7 @@ true ray recomputed from the plane of the surface it hits when the frame has nor
 interpolated between same-instance neighbours (:mod:`.distortion`), so a shift of a fraction
 of a pixel changes the depth image; ids are never blended.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -41,53 +42,78 @@ class CalibrationError(Effect):
 
     name: ClassVar[str] = "calibration_error"
     draws: ClassVar[bool] = True
-    needs_normals: ClassVar[bool] = True   # the exact resampling: depth from each surface's plane
+    needs_normals: ClassVar[bool] = True  # the exact resampling: depth from each surface's plane
     cost_ms_per_mpx: ClassVar[float] = 60.0
     sigma_f_px: float = 1.0
     sigma_c_px: float = 0.5
 
     def __post_init__(self) -> None:
         if self.sigma_f_px < 0 or self.sigma_c_px < 0:
-            raise ConfigError(f"calibration_error: sigmas must be >= 0, got sigma_f_px={self.sigma_f_px}, "
-                              f"sigma_c_px={self.sigma_c_px}")
+            raise ConfigError(
+                f"calibration_error: sigmas must be >= 0, got sigma_f_px={self.sigma_f_px}, "
+                f"sigma_c_px={self.sigma_c_px}"
+            )
 
     def plan(self, view: View) -> Decision | None:
         if self.sigma_f_px == 0 and self.sigma_c_px == 0:
             return Decision(False, "sigma_f_px = sigma_c_px = 0: the true K is the calibrated one")
         if view.empty:
             return Decision(False, "nothing in range or view")
-        return Decision(True, "the camera's true K differs from the calibrated one: every ray moves")
+        return Decision(
+            True, "the camera's true K differs from the calibrated one: every ray moves"
+        )
 
     def skip(self, frame: Frame, rng: np.random.Generator) -> None:
-        rng.standard_normal(4)   # a run's one draw per frame
+        rng.standard_normal(4)  # a run's one draw per frame
 
     def true_K(self, sensor: Sensor, rng: np.random.Generator) -> np.ndarray:
         """(3, 3) float64: the camera's true K, drawn (four standard normals, fx fy cx cy)."""
-        d = rng.standard_normal(4) * [self.sigma_f_px, self.sigma_f_px, self.sigma_c_px, self.sigma_c_px]
+        d = rng.standard_normal(4) * [
+            self.sigma_f_px,
+            self.sigma_f_px,
+            self.sigma_c_px,
+            self.sigma_c_px,
+        ]
         K = sensor.K.copy()
         K[0, 0] += d[0]
         K[1, 1] += d[1]
         K[0, 2] += d[2]
         K[1, 2] += d[3]
         if K[0, 0] <= 0 or K[1, 1] <= 0:
-            raise ConfigError(f"calibration_error: sigma_f_px={self.sigma_f_px} drew a focal length <= 0")
+            raise ConfigError(
+                f"calibration_error: sigma_f_px={self.sigma_f_px} drew a focal length <= 0"
+            )
         return K
 
     def maps(self, sensor: Sensor, K_true: np.ndarray) -> DistortionMaps:
         """Where each pixel of the true camera samples the frame rendered with ``sensor.K``."""
         W, H = sensor.width, sensor.height
         u, v = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
-        true = replace(sensor, K=K_true)           # the same lens with the true intrinsics
+        true = replace(sensor, K=K_true)  # the same lens with the true intrinsics
         d = true.unproject(np.stack([u.ravel(), v.ravel()], 1))
-        uv = sensor.project(d)                     # where the calibrated render holds that ray
+        uv = sensor.project(d)  # where the calibrated render holds that ray
         mx, my = uv[:, 0].reshape(H, W), uv[:, 1].reshape(H, W)
         with np.errstate(invalid="ignore"):
-            valid = (np.isfinite(mx) & np.isfinite(my) & (mx > -0.5) & (mx < W - 0.5)
-                     & (my > -0.5) & (my < H - 0.5))
+            valid = (
+                np.isfinite(mx)
+                & np.isfinite(my)
+                & (mx > -0.5)
+                & (mx < W - 0.5)
+                & (my > -0.5)
+                & (my < H - 0.5)
+            )
             rx, ry = (d[:, 0] / d[:, 2]).reshape(H, W), (d[:, 1] / d[:, 2]).reshape(H, W)
         mx, my = np.where(valid, mx, -1), np.where(valid, my, -1)
-        return DistortionMaps(sensor, mx.astype(np.float32), my.astype(np.float32), valid, None,
-                              np.where(valid, rx, 0.0), np.where(valid, ry, 0.0), None)
+        return DistortionMaps(
+            sensor,
+            mx.astype(np.float32),
+            my.astype(np.float32),
+            valid,
+            None,
+            np.where(valid, rx, 0.0),
+            np.where(valid, ry, 0.0),
+            None,
+        )
 
     def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         K_true = self.true_K(frame.sensor, rng)

@@ -14,6 +14,7 @@ Published models offered by name (``depth_noise`` ``model:``):
 * ``tof_linear`` — σ_z = a + b·max(z − z0, 0) (Azure Kinect evaluation: 0.5 mm + 1 mm/m
   beyond 0.5 m).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -42,8 +43,11 @@ class RangeLimits(Effect):
         if view.empty:
             return Decision(False, "nothing in range or view")
         if view.z_min >= self.min_m and view.z_max <= self.max_m:
-            return Decision(False, f"everything in view lies at {view.z_min:.2f}-{view.z_max:.2f} m, "
-                                   f"inside [{self.min_m}, {self.max_m}] m")
+            return Decision(
+                False,
+                f"everything in view lies at {view.z_min:.2f}-{view.z_max:.2f} m, "
+                f"inside [{self.min_m}, {self.max_m}] m",
+            )
         return None
 
     def check(self, frame: Frame, **needs: Any) -> str | None:
@@ -63,8 +67,8 @@ class RangeLimits(Effect):
         return drop(frame, (z > 0) & ((z < self.min_m) | (z > self.max_m)))
 
 
-DEFAULT_BASELINE_M = 0.05   # stereo model without a baseline in the profile or calibration
-DEFAULT_SIGMA_D_PX = 0.08   # stereo model without σ_d in the profile or a calibration RMS
+DEFAULT_BASELINE_M = 0.05  # stereo model without a baseline in the profile or calibration
+DEFAULT_SIGMA_D_PX = 0.08  # stereo model without σ_d in the profile or a calibration RMS
 
 
 @dataclass
@@ -102,8 +106,10 @@ class DepthNoise(Effect):
 
     def __post_init__(self) -> None:
         if self.model not in ("kinect_nguyen2012", "stereo", "tof_linear"):
-            raise ConfigError(f"depth_noise.model: unknown model {self.model!r}; expected "
-                              "kinect_nguyen2012, stereo or tof_linear")
+            raise ConfigError(
+                f"depth_noise.model: unknown model {self.model!r}; expected "
+                "kinect_nguyen2012, stereo or tof_linear"
+            )
 
     def cost_per_mpx(self, sensor: Any) -> float:
         """The compiled models (stereo, tof_linear: ~2.6 ms at 848 x 480 in bench planning)
@@ -136,8 +142,13 @@ class DepthNoise(Effect):
         rms = getattr(sensor, "reprojection_error_px", None)
         return DEFAULT_SIGMA_D_PX if rms is None else float(rms)
 
-    def sigma(self, z: np.ndarray, f_px: float | None = None, theta: np.ndarray | None = None,
-              sensor: Sensor | None = None) -> np.ndarray:
+    def sigma(
+        self,
+        z: np.ndarray,
+        f_px: float | None = None,
+        theta: np.ndarray | None = None,
+        sensor: Sensor | None = None,
+    ) -> np.ndarray:
         """σ_z in metres at depths ``z`` (m) and incidence angles ``theta`` (rad, optional);
         ``f_px`` (the focal length in pixels) and ``sensor`` (its calibration) are read by the
         stereo model only."""
@@ -146,12 +157,14 @@ class DepthNoise(Effect):
             if self.incidence and theta is not None:
                 t = np.minimum(theta, np.radians(85.0))  # past the measured range the term diverges
                 steep = t > np.pi / 3
-                extra = 0.0001 / np.sqrt(np.maximum(z, 1e-6)) * t ** 2 / (np.pi / 2 - t) ** 2
+                extra = 0.0001 / np.sqrt(np.maximum(z, 1e-6)) * t**2 / (np.pi / 2 - t) ** 2
                 s = s + np.where(steep, extra, 0.0)
             return s
         if self.model == "stereo":
             if f_px is None:
-                raise ValueError("DepthNoise.sigma: the stereo model needs f_px, the focal length in pixels")
+                raise ValueError(
+                    "DepthNoise.sigma: the stereo model needs f_px, the focal length in pixels"
+                )
             return z * z * self.sigma_d_px(sensor) / (f_px * self.baseline(sensor))
         return self.a_m + self.b * np.maximum(z - self.z0_m, 0.0)
 
@@ -165,7 +178,7 @@ class DepthNoise(Effect):
         d = view_directions(frame.sensor)[valid]
         cos = -(n[:, 0] * d[:, 0] + n[:, 1] * d[:, 1] + n[:, 2] * d[:, 2])
         theta = np.zeros(len(cos))
-        cand = (cos < 0.5 + 1e-9) & (n != 0).any(axis=1)     # θ > 60° only where cos θ < 1/2
+        cand = (cos < 0.5 + 1e-9) & (n != 0).any(axis=1)  # θ > 60° only where cos θ < 1/2
         theta[cand] = np.arccos(np.clip(cos[cand], 0.0, 1.0))
         return theta
 
@@ -174,10 +187,17 @@ class DepthNoise(Effect):
         one per return, row-major): what the fused pass computes, draw for draw."""
         draws = rng.standard_normal(int(np.count_nonzero(frame.depth > 0)))
         if self.model == "stereo":
-            depth, lost = kernels.stereo_noise(frame.depth, draws, frame.sensor.fx * self.baseline(frame.sensor),
-                                               self.sigma_d_px(frame.sensor), float(self.subpixel_step))
+            depth, lost = kernels.stereo_noise(
+                frame.depth,
+                draws,
+                frame.sensor.fx * self.baseline(frame.sensor),
+                self.sigma_d_px(frame.sensor),
+                float(self.subpixel_step),
+            )
         else:
-            depth, lost = kernels.linear_noise(frame.depth, draws, float(self.a_m), float(self.b), float(self.z0_m))
+            depth, lost = kernels.linear_noise(
+                frame.depth, draws, float(self.a_m), float(self.b), float(self.z0_m)
+            )
         return self._noisy(frame, depth, lost, int(np.count_nonzero(depth != frame.depth)))
 
     def _noisy(self, frame: Frame, depth: np.ndarray, lost: int, changed: int) -> Frame:
@@ -190,16 +210,18 @@ class DepthNoise(Effect):
     def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         if not self.fused and self.model in ("stereo", "tof_linear"):
             return self.apply_reference(frame, rng=rng)
-        if self.model == "stereo":   # one compiled pass drawing from rng: the draws as below
+        if self.model == "stereo":  # one compiled pass drawing from rng: the draws as below
             fb = frame.sensor.fx * self.baseline(frame.sensor)
-            depth, lost, changed = kernels.stereo_noise_rng(frame.depth, rng, fb, self.sigma_d_px(frame.sensor),
-                                                            float(self.subpixel_step))
+            depth, lost, changed = kernels.stereo_noise_rng(
+                frame.depth, rng, fb, self.sigma_d_px(frame.sensor), float(self.subpixel_step)
+            )
             return self._noisy(frame, depth, lost, changed)
         if self.model == "tof_linear":
-            depth, lost, changed = kernels.linear_noise_rng(frame.depth, rng, float(self.a_m), float(self.b),
-                                                            float(self.z0_m))
+            depth, lost, changed = kernels.linear_noise_rng(
+                frame.depth, rng, float(self.a_m), float(self.b), float(self.z0_m)
+            )
             return self._noisy(frame, depth, lost, changed)
-        z = frame.depth.astype(np.float64)   # kinect_nguyen2012: neither f nor the sensor enters σ
+        z = frame.depth.astype(np.float64)  # kinect_nguyen2012: neither f nor the sensor enters σ
         valid = z > 0
         noisy = z.copy()
         zv = z[valid]

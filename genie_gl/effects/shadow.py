@@ -36,6 +36,7 @@ half-resolution render the render method uses by default agrees with the full-re
 on 98.4-99.85 % (``genie bench planning`` prints both; tests/effects/test_scanline_shadow.py:
 analytic strip widths, a post narrower than its shadow, agreement on a cluttered scene).
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -53,7 +54,7 @@ from .base import Effect, drop, drop_compiled, record
 from .geometry import pixel_rays
 
 METHODS = ("auto", "scanline", "render")
-SCANLINE_MS_PER_MPX = 5.0   # the planner's estimate of the scanline method (cost_per_mpx)
+SCANLINE_MS_PER_MPX = 5.0  # the planner's estimate of the scanline method (cost_per_mpx)
 
 
 @dataclass
@@ -97,12 +98,18 @@ class StereoShadow(Effect):
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
-            raise ConfigError(f"stereo_shadow.method: expected {' | '.join(METHODS)}, got {self.method!r}")
+            raise ConfigError(
+                f"stereo_shadow.method: expected {' | '.join(METHODS)}, got {self.method!r}"
+            )
         if self.second_view not in ("needed", "always"):
-            raise ConfigError(f"stereo_shadow.second_view: expected needed | always, got {self.second_view!r}")
+            raise ConfigError(
+                f"stereo_shadow.second_view: expected needed | always, got {self.second_view!r}"
+            )
         a = np.asarray(self.axis, dtype=np.float64)
         if a.shape != (3,) or not np.isfinite(a).all() or np.linalg.norm(a) == 0:
-            raise ConfigError(f"stereo_shadow.axis: expected a non-zero 3-vector, got {self.axis!r}")
+            raise ConfigError(
+                f"stereo_shadow.axis: expected a non-zero 3-vector, got {self.axis!r}"
+            )
         if not 0 < self.scale <= 4:
             raise ConfigError(f"stereo_shadow.scale: expected 0 < scale <= 4, got {self.scale}")
         if self.baseline_m is not None and not self.baseline_m > 0:
@@ -117,12 +124,18 @@ class StereoShadow(Effect):
             out[:3, :3] = stereo.R
             out[:3, 3] = stereo.T
             return out
-        b = self.baseline_m if self.baseline_m is not None else (None if stereo is None else stereo.baseline_m)
+        b = (
+            self.baseline_m
+            if self.baseline_m is not None
+            else (None if stereo is None else stereo.baseline_m)
+        )
         if b is None:
-            raise ConfigError(f"stereo_shadow on sensor {sensor.name!r}: no baseline; give the effect "
-                              "baseline_m, or a calibration with a stereo T")
+            raise ConfigError(
+                f"stereo_shadow on sensor {sensor.name!r}: no baseline; give the effect "
+                "baseline_m, or a calibration with a stereo T"
+            )
         a = np.asarray(self.axis, dtype=np.float64)
-        out[:3, 3] = -float(b) * a / np.linalg.norm(a)   # X2 = X1 − C2, C2 = b·axis
+        out[:3, 3] = -float(b) * a / np.linalg.norm(a)  # X2 = X1 − C2, C2 = b·axis
         return out
 
     def scanline_shift(self, sensor: Sensor) -> float | None:
@@ -138,24 +151,33 @@ class StereoShadow(Effect):
         return float(sensor.fx * t[0])
 
     def resolved_method(self, sensor: Sensor) -> str:
-        """"scanline" or "render": what ``method`` amounts to for ``sensor``."""
+        """ "scanline" or "render": what ``method`` amounts to for ``sensor``."""
         if self.method == "render":
             return "render"
         if self.scanline_shift(sensor) is not None:
             return "scanline"
         if self.method == "scanline":
-            raise ConfigError(f"stereo_shadow.method: scanline needs a rectified pair (R = I, T along x) "
-                              f"and an undistorted pinhole sensor; {sensor.name!r} is not one (use render)")
+            raise ConfigError(
+                f"stereo_shadow.method: scanline needs a rectified pair (R = I, T along x) "
+                f"and an undistorted pinhole sensor; {sensor.name!r} is not one (use render)"
+            )
         return "render"
 
     def cost_per_mpx(self, sensor: Sensor) -> float:
         """The render method's estimate, or the scanline's (measured at 848 x 480 on the
         llvmpipe host: about 1.6 ms for the pass and 0.3 ms for the drop)."""
-        return SCANLINE_MS_PER_MPX if self.resolved_method(sensor) == "scanline" else float(self.cost_ms_per_mpx)
+        return (
+            SCANLINE_MS_PER_MPX
+            if self.resolved_method(sensor) == "scanline"
+            else float(self.cost_ms_per_mpx)
+        )
 
     def knob_unused(self, knob: str, sensor: Sensor) -> str | None:
         if knob == "shadow_scale" and self.resolved_method(sensor) == "scanline":
-            return f"{sensor.name}'s stereo shadow is drawn by scanline: no second view to scale (shadow: render)"
+            return (
+                f"{sensor.name}'s stereo shadow is drawn by scanline: no second view to scale "
+                "(shadow: render)"
+            )
         return None
 
     def view_sensor(self, sensor: Sensor) -> Sensor:
@@ -169,9 +191,11 @@ class StereoShadow(Effect):
         K = base.K.copy()
         K[0, :] *= sx
         K[1, :] *= sy
-        K[0, 2] = (base.cx + 0.5) * sx - 0.5   # pixel centres at integers at both sizes
+        K[0, 2] = (base.cx + 0.5) * sx - 0.5  # pixel centres at integers at both sizes
         K[1, 2] = (base.cy + 0.5) * sy - 0.5
-        return Sensor(w, h, K, near_m=base.near_m, far_m=base.far_m, name=f"{sensor.name}-second-view")
+        return Sensor(
+            w, h, K, near_m=base.near_m, far_m=base.far_m, name=f"{sensor.name}-second-view"
+        )
 
     def casts_shadow(self, frame: Frame) -> bool:
         """True when some depth edge can hide a point from the second view (module docstring);
@@ -180,29 +204,55 @@ class StereoShadow(Effect):
             return True
         b = float(np.linalg.norm(self.second_from_first(frame.sensor)[:3, 3]))
         fb = max(frame.sensor.fx, frame.sensor.fy) * b
-        return bool(kernels.casts_shadow(frame.depth, fb, float(self.tolerance_m), float(self.tolerance_rel)))
+        return bool(
+            kernels.casts_shadow(
+                frame.depth, fb, float(self.tolerance_m), float(self.tolerance_rel)
+            )
+        )
 
     def apply(self, frame: Frame, *, rng: np.random.Generator, render_depth=None, **needs) -> Frame:
         if self.resolved_method(frame.sensor) == "scanline":
             return self.apply_scanline(frame)
         if render_depth is None:
-            raise ConfigError("stereo_shadow needs a renderer: run it through simulate()/capture(), "
-                              "or pass render_depth=(sensor, pose) -> depth")
+            raise ConfigError(
+                "stereo_shadow needs a renderer: run it through simulate()/capture(), "
+                "or pass render_depth=(sensor, pose) -> depth"
+            )
         valid = frame.depth > 0
         if not valid.any():
             return frame
         second = self.second_from_first(frame.sensor)
         view = self.view_sensor(frame.sensor)
         rendered = self.casts_shadow(frame)
-        depth2 = (render_depth(view, frame.world_from_camera @ np.linalg.inv(second)) if rendered
-                  else np.zeros((1, 1), np.float32))
+        depth2 = (
+            render_depth(view, frame.world_from_camera @ np.linalg.inv(second))
+            if rendered
+            else np.zeros((1, 1), np.float32)
+        )
         gone, occluded, outside = kernels.shadow_mask(
-            frame.depth, pixel_rays(frame.sensor), np.ascontiguousarray(second[:3, :3]),
-            np.ascontiguousarray(second[:3, 3]), view.K, view.width, view.height, float(view.near_m), depth2,
-            rendered, float(self.tolerance_m), float(self.tolerance_rel))
+            frame.depth,
+            pixel_rays(frame.sensor),
+            np.ascontiguousarray(second[:3, :3]),
+            np.ascontiguousarray(second[:3, 3]),
+            view.K,
+            view.width,
+            view.height,
+            float(view.near_m),
+            depth2,
+            rendered,
+            float(self.tolerance_m),
+            float(self.tolerance_rel),
+        )
         out = self._drop(frame, gone) if occluded + outside else frame
-        return record(out, self.name, occluded=int(occluded), outside=int(outside),
-                      second_view=rendered, method="render", changed=int(occluded + outside))
+        return record(
+            out,
+            self.name,
+            occluded=int(occluded),
+            outside=int(outside),
+            second_view=rendered,
+            method="render",
+            changed=int(occluded + outside),
+        )
 
     def _drop(self, frame: Frame, gone: np.ndarray) -> Frame:
         return drop_compiled(frame, gone) if self.fused else drop(frame, gone)
@@ -210,7 +260,18 @@ class StereoShadow(Effect):
     def apply_scanline(self, frame: Frame) -> Frame:
         """The scanline method: the second view from the depth image (no render)."""
         gone, occluded, outside = kernels.scanline_shadow(
-            frame.depth, float(self.scanline_shift(frame.sensor)), float(self.tolerance_m), float(self.tolerance_rel))
+            frame.depth,
+            float(self.scanline_shift(frame.sensor)),
+            float(self.tolerance_m),
+            float(self.tolerance_rel),
+        )
         out = self._drop(frame, gone) if occluded + outside else frame
-        return record(out, self.name, occluded=int(occluded), outside=int(outside), second_view=False,
-                      method="scanline", changed=int(occluded + outside))
+        return record(
+            out,
+            self.name,
+            occluded=int(occluded),
+            outside=int(outside),
+            second_view=False,
+            method="scanline",
+            changed=int(occluded + outside),
+        )

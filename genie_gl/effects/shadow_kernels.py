@@ -3,6 +3,7 @@ the second view (:func:`shadow_mask`, and :func:`casts_shadow`, which
 says whether a second view is worth rendering), and the scanline method's row-by-row second
 view of a rectified pair (:func:`scanline_shadow`). :mod:`.kernels` re-exports them.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,13 +28,18 @@ def casts_shadow(depth, fb, tol_m, tol_rel):  # pragma: no cover - compiled
                 if n <= 0:
                     continue
                 near, far = min(z, n), max(z, n)
-                if far - near > 0.5 * (tol_m + tol_rel * near) and fb * (1.0 / near - 1.0 / far) >= 0.5:
+                if (
+                    far - near > 0.5 * (tol_m + tol_rel * near)
+                    and fb * (1.0 / near - 1.0 / far) >= 0.5
+                ):
                     return True
     return False
 
 
 @njit(cache=True, nogil=True)
-def shadow_mask(depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_rel):  # pragma: no cover
+def shadow_mask(
+    depth, xy, R, t, K, w2, h2, near2, depth2, rendered, tol_m, tol_rel
+):  # pragma: no cover
     """Which returns the second view cannot see: (gone (H, W) bool, occluded, outside).
 
     Every valid pixel's point (depth · (x, y, 1)) goes to the second view (X2 = R·X + t), is
@@ -92,8 +98,9 @@ def scanline_shadow(depth: np.ndarray, shift: float, tol_m: float, tol_rel: floa
     depth = np.ascontiguousarray(depth, dtype=np.float32)
     if shift <= 0:
         return _scanline_right(depth, float(shift), float(tol_m), float(tol_rel))
-    gone, occluded, outside = _scanline_right(np.ascontiguousarray(depth[:, ::-1]), -float(shift), float(tol_m),
-                                              float(tol_rel))
+    gone, occluded, outside = _scanline_right(
+        np.ascontiguousarray(depth[:, ::-1]), -float(shift), float(tol_m), float(tol_rel)
+    )
     return np.ascontiguousarray(gone[:, ::-1]), occluded, outside
 
 
@@ -117,7 +124,7 @@ def _scanline_right(depth, shift, tol_m, tol_rel):  # pragma: no cover - compile
     occluded = 0
     outside = 0
     for v in range(H):
-        for u in range(W):                 # one vectorised pass: 1/z, x2, the column looked up
+        for u in range(W):  # one vectorised pass: 1/z, x2, the column looked up
             z = np.float64(depth[v, u])
             i = 1.0 / z if z > 0 else 0.0
             x = u + shift * i
@@ -126,11 +133,11 @@ def _scanline_right(depth, shift, tol_m, tol_rel):  # pragma: no cover - compile
             c = np.rint(x)
             col[u] = int(c) if (z > 0 and c >= 0 and c < W) else -1
             ib[u] = 0.0
-        last = -1                          # fut[u] = max(col[:u])
+        last = -1  # fut[u] = max(col[:u])
         for u in range(W):
             fut[u] = last
             last = max(last, col[u])
-        drawn = W                          # the leftmost column drawn in this row
+        drawn = W  # the leftmost column drawn in this row
         has_prev = False
         prev_i = 0.0
         prev_x = 0.0
@@ -138,7 +145,9 @@ def _scanline_right(depth, shift, tol_m, tol_rel):  # pragma: no cover - compile
         for u in range(W - 1, -1, -1):
             iz = izr[u]
             if iz == 0.0:
-                if has_prev and fut[u] >= prev_x - 0.5:   # the predecessor's half pixel towards the hole
+                if (
+                    has_prev and fut[u] >= prev_x - 0.5
+                ):  # the predecessor's half pixel towards the hole
                     drawn = _draw(ib, prev_x - 0.5, prev_x, prev_x, prev_i, 0.0, drawn)
                 has_prev = False
                 continue
@@ -154,17 +163,27 @@ def _scanline_right(depth, shift, tol_m, tol_rel):  # pragma: no cover - compile
             if not has_prev or fut[u] >= min(x, prev_x) or reach >= prev_x - 0.5 or c >= drawn:
                 z = np.float64(depth[v, u])
                 linked = has_prev and abs(prev_z - z) <= tol_m + tol_rel * min(prev_z, z)
-                if has_prev and not linked and reach >= prev_x - 0.5:   # the predecessor's half pixel
+                if (
+                    has_prev and not linked and reach >= prev_x - 0.5
+                ):  # the predecessor's half pixel
                     drawn = _draw(ib, prev_x - 0.5, prev_x, prev_x, prev_i, 0.0, drawn)
                 if c >= drawn and ib[c] > iz:
                     seen = 1.0 / ib[c]
                     if z > seen + (tol_m + tol_rel * seen):
                         gone[v, u] = True
                         occluded += 1
-                if linked:                 # the surface between the two, after the look-up
+                if linked:  # the surface between the two, after the look-up
                     if fut[u] >= min(x, prev_x):
-                        drawn = _draw(ib, min(x, prev_x), max(x, prev_x), x, iz, (prev_i - iz) / (prev_x - x), drawn)
-                elif fut[u] >= x:          # its own half pixel towards the predecessor
+                        drawn = _draw(
+                            ib,
+                            min(x, prev_x),
+                            max(x, prev_x),
+                            x,
+                            iz,
+                            (prev_i - iz) / (prev_x - x),
+                            drawn,
+                        )
+                elif fut[u] >= x:  # its own half pixel towards the predecessor
                     drawn = _draw(ib, x, x + 0.5, x, iz, 0.0, drawn)
                 prev_z = z
             else:

@@ -13,7 +13,8 @@ effects that declare ``needs_materials`` get ``materials=`` (a
 :class:`~genie_gl.scene.materials.MaterialTable`). With no effects and no distortion the
 result is ``render(sensor, pose)`` itself, bit for bit, and no RNG draw is made.
 
-With a frame plan (:mod:`genie_gl.capture.planner`) the frame follows it: only the instances it draws
+With a frame plan (:mod:`genie_gl.capture.planner`) the frame follows it: only the instances it
+draws
 are drawn, the far plane is its ``far_m``, an effect it skips is skipped. Every effect not
 skipped by the plan is asked again on the frame (:meth:`Effect.check`); a skip never changes
 the output or the RNG stream (:meth:`Effect.skip` draws what a run would have). Each frame's
@@ -21,6 +22,7 @@ the output or the RNG stream (:meth:`Effect.skip` draws what a run would have). 
 ``changed`` (pixels whose depth or instance id the effect changed: what the effect recorded
 as ``meta[name]["changed"]`` when it counts them itself, else a comparison of the frames).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -49,9 +51,18 @@ def _changed(a: Frame, b: Frame) -> int:
     return int(changed(a.depth, b.depth, a.instance, b.instance))
 
 
-def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.random.Generator | None,
-             resample: str = "exact", oversample: float | None = None, materials: Any = None,
-             plan: Any = None, decide: bool = True) -> Frame:
+def simulate(
+    sensor: Sensor,
+    pose: np.ndarray,
+    *,
+    render: RenderFn,
+    rng: np.random.Generator | None,
+    resample: str = "exact",
+    oversample: float | None = None,
+    materials: Any = None,
+    plan: Any = None,
+    decide: bool = True,
+) -> Frame:
     """Render ``sensor`` at ``pose`` (world_from_camera) and apply its effects in order,
     each drawing from ``rng`` (None only for a sensor without effects).
 
@@ -67,19 +78,29 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
 
     def restricted(fn: Callable[..., Frame]) -> Callable[..., Frame]:
         """``fn`` drawing only what the plan draws, no farther than its far plane."""
-        def draw(view: Sensor, view_pose: np.ndarray, exclude: Sequence[int] = (), **kw: Any) -> Frame:
+
+        def draw(
+            view: Sensor, view_pose: np.ndarray, exclude: Sequence[int] = (), **kw: Any
+        ) -> Frame:
             ids = only
             if len(exclude):
-                ids = np.setdiff1d(materials.ids if ids is None else ids, np.asarray(exclude, np.uint32))
+                ids = np.setdiff1d(
+                    materials.ids if ids is None else ids, np.asarray(exclude, np.uint32)
+                )
             if ids is not None:
                 kw["only"] = ids
             if far is not None and far < view.far_m:
-                return fn(dataclasses.replace(view, far_m=far), view_pose, **kw).replace(sensor=view)
+                return fn(dataclasses.replace(view, far_m=far), view_pose, **kw).replace(
+                    sensor=view
+                )
             return fn(view, view_pose, **kw)
+
         return draw
 
     draw = restricted(render)
-    if hasattr(render, "lens"):   # a supersampled render: the exact lens mode supersamples through the lens
+    if hasattr(
+        render, "lens"
+    ):  # a supersampled render: the exact lens mode supersamples through the lens
         draw.lens = restricted(render.lens)
 
     normals = any(eff.needs_normals for eff in sensor.effects)
@@ -87,11 +108,16 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
     if sensor.is_pinhole:
         frame = draw(sensor, pose, **kw)
     else:
-        frame = render_through_lens(draw, sensor, pose, resample=resample, oversample=oversample, **kw)
+        frame = render_through_lens(
+            draw, sensor, pose, resample=resample, oversample=oversample, **kw
+        )
     if not sensor.effects:
         return frame
     if rng is None:
-        raise ConfigError(f"simulate: sensor {sensor.name!r} has effects: they need an rng (numpy.random.Generator)")
+        raise ConfigError(
+            f"simulate: sensor {sensor.name!r} has effects: they need an rng "
+            "(numpy.random.Generator)"
+        )
 
     def render_depth(view: Sensor, view_pose: np.ndarray) -> np.ndarray:
         return draw(view, view_pose, depth_only=True).depth
@@ -107,7 +133,7 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
         if eff.needs_render:
             needs.update(render_depth=render_depth, render_frame=render_frame)
         if eff.needs_materials:
-            if materials is None:   # no scene table: every surface is the default material
+            if materials is None:  # no scene table: every surface is the default material
                 materials = MaterialTable.empty()
             needs["materials"] = materials
         reason = decided.reason if decided is not None else None
@@ -122,14 +148,21 @@ def simulate(sensor: Sensor, pose: np.ndarray, *, render: RenderFn, rng: np.rand
             frame = eff.apply(frame, rng=rng, **needs) if needs else eff.apply(frame, rng=rng)
             rec = (frame.meta or {}).get(eff.name)
             if isinstance(rec, dict) and rec is not mine and "changed" in rec:
-                changed = int(rec["changed"])     # the effect counted what it changed
+                changed = int(rec["changed"])  # the effect counted what it changed
             else:
                 changed = _changed(before, frame)
         else:
             eff.skip(frame, rng)
             changed = 0
-        log.append({"name": eff.name, "run": bool(run), "reason": reason or "", "changed": changed,
-                    "ms": round(1e3 * (time.perf_counter() - t0), 3)})
+        log.append(
+            {
+                "name": eff.name,
+                "run": bool(run),
+                "reason": reason or "",
+                "changed": changed,
+                "ms": round(1e3 * (time.perf_counter() - t0), 3),
+            }
+        )
     meta = {**(frame.meta or {}), "effects": log}
     if plan is not None and plan.empty:
         meta["empty"] = plan.reason

@@ -12,6 +12,7 @@ active stereo pair matches what lies behind it (``transparent: behind``).
 Figures are engineering ones [U: no datasheet gives them; vendors' application notes on
 shiny and transparent objects describe the behaviour, not thresholds].
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -36,16 +37,20 @@ class SpecularLoss(Effect):
     name: ClassVar[str] = "specular_loss"
     needs_materials: ClassVar[bool] = True
     needs_render: ClassVar[bool] = True
-    cost_ms_per_mpx: ClassVar[float] = 4.0    # one pass, ~1.5 ms at 848 x 480 (bench planning)
+    cost_ms_per_mpx: ClassVar[float] = 4.0  # one pass, ~1.5 ms at 848 x 480 (bench planning)
     glare_deg: float = 8.0
     metal_min_roughness: float = 0.25
     transparent: str = "drop"
 
     def __post_init__(self) -> None:
         if self.transparent not in TRANSPARENT:
-            raise ConfigError(f"specular_loss.transparent: expected drop or behind, got {self.transparent!r}")
+            raise ConfigError(
+                f"specular_loss.transparent: expected drop or behind, got {self.transparent!r}"
+            )
         if not 0 <= self.glare_deg < 90:
-            raise ConfigError(f"specular_loss.glare_deg: expected 0 <= angle < 90, got {self.glare_deg}")
+            raise ConfigError(
+                f"specular_loss.glare_deg: expected 0 <= angle < 90, got {self.glare_deg}"
+            )
 
     def plan(self, view: View) -> Decision | None:
         if view.empty:
@@ -61,10 +66,16 @@ class SpecularLoss(Effect):
         if memo is not None and memo[0] is materials:
             return memo[1]
         m = materials
-        code = (((m.metallic >= 0.5) | (m.roughness <= 0.3)).astype(np.uint8)
-                | (((m.metallic >= 0.5) & (m.roughness < self.metal_min_roughness)) << 1).astype(np.uint8)
-                | ((m.opacity < 0.5) << 2).astype(np.uint8))
-        by_id = m.per_pixel(code, np.arange(int(m.ids[-1]) + 2 if len(m.ids) else 1, dtype=np.uint32))
+        code = (
+            ((m.metallic >= 0.5) | (m.roughness <= 0.3)).astype(np.uint8)
+            | (((m.metallic >= 0.5) & (m.roughness < self.metal_min_roughness)) << 1).astype(
+                np.uint8
+            )
+            | ((m.opacity < 0.5) << 2).astype(np.uint8)
+        )
+        by_id = m.per_pixel(
+            code, np.arange(int(m.ids[-1]) + 2 if len(m.ids) else 1, dtype=np.uint32)
+        )
         by_id = np.ascontiguousarray(by_id, np.uint8)
         self.__dict__["_memo"] = (materials, by_id)
         return by_id
@@ -81,17 +92,32 @@ class SpecularLoss(Effect):
             return "no shiny or clear surface visible"
         return None
 
-    def apply(self, frame: Frame, *, rng: np.random.Generator, materials: Any = None,
-              render_frame: Any = None, **needs: Any) -> Frame:
+    def apply(
+        self,
+        frame: Frame,
+        *,
+        rng: np.random.Generator,
+        materials: Any = None,
+        render_frame: Any = None,
+        **needs: Any,
+    ) -> Frame:
         if materials is None:
-            raise ConfigError("specular_loss needs the scene's materials: run it through simulate()/capture()")
+            raise ConfigError(
+                "specular_loss needs the scene's materials: run it through simulate()/capture()"
+            )
         # one pass: each pixel's code from its instance, incidence only on the shiny ones;
         # clear ones dropped too unless the pair sees what lies behind them
         normal = frame.normal if frame.normal is not None else np.zeros((0, 0, 3), np.float32)
         behind_glass = self.transparent == "behind" and render_frame is not None
         lost, n_lost, n_clear = kernels.specular_lost(
-            frame.depth, frame.instance, self._codes(materials), *pixel_rays_xy(frame.sensor), normal,
-            float(np.cos(np.radians(self.glare_deg))), not behind_glass)
+            frame.depth,
+            frame.instance,
+            self._codes(materials),
+            *pixel_rays_xy(frame.sensor),
+            normal,
+            float(np.cos(np.radians(self.glare_deg))),
+            not behind_glass,
+        )
         if not (behind_glass and n_clear):
             out = drop_compiled(frame, lost) if n_lost else frame
             return record(out, self.name, dropped=int(n_lost), behind=0, changed=int(n_lost))

@@ -9,6 +9,7 @@ them (``needs_normals``); a frame without normals gets normals estimated from it
 * ``multipath`` — off unless listed: ToF light that bounces off a second surface before
   returning lengthens the measured path, so concave corners read too far.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -58,11 +59,14 @@ class LateralNoise(Effect):
 
     def __post_init__(self) -> None:
         if self.model not in ("nguyen2012", "constant"):
-            raise ConfigError(f"lateral_noise.model: unknown model {self.model!r}; "
-                              "expected nguyen2012 or constant")
+            raise ConfigError(
+                f"lateral_noise.model: unknown model {self.model!r}; "
+                "expected nguyen2012 or constant"
+            )
         if not 0 <= self.max_angle_deg < 90:
-            raise ConfigError(f"lateral_noise.max_angle_deg: expected 0 <= angle < 90, "
-                              f"got {self.max_angle_deg}")
+            raise ConfigError(
+                f"lateral_noise.max_angle_deg: expected 0 <= angle < 90, got {self.max_angle_deg}"
+            )
 
     def plan(self, view: View) -> Decision | None:
         if view.empty:
@@ -87,7 +91,7 @@ class LateralNoise(Effect):
 
     def apply(self, frame: Frame, *, rng: np.random.Generator) -> Frame:
         H, W = frame.depth.shape
-        s = self.sigma(incidence_angle(frame))          # 0 rad (σ_L(0)) where no return
+        s = self.sigma(incidence_angle(frame))  # 0 rad (σ_L(0)) where no return
         su = np.arange(W, dtype=np.float64)[None, :] + rng.standard_normal((H, W)) * s
         sv = np.arange(H, dtype=np.float64)[:, None] + rng.standard_normal((H, W)) * s
         np.clip(su, 0, W - 1, out=su)
@@ -97,7 +101,7 @@ class LateralNoise(Effect):
         z, ids = frame.depth.ravel(), frame.instance.ravel()
         depth = z[near].astype(np.float64)
         if W > 1 and H > 1:  # bilinear where the four neighbours are one surface
-            u0 = np.minimum(su.astype(np.intp), W - 2)     # su >= 0: truncation is floor
+            u0 = np.minimum(su.astype(np.intp), W - 2)  # su >= 0: truncation is floor
             v0 = np.minimum(sv.astype(np.intp), H - 2)
             fu, fv = su - u0, sv - v0
             base = v0 * W + u0
@@ -106,15 +110,29 @@ class LateralNoise(Effect):
             i00, i01, i10, i11 = (ids[c] for c in corners)
             lo = np.minimum(np.minimum(z00, z01), np.minimum(z10, z11)).astype(np.float64)
             hi = np.maximum(np.maximum(z00, z01), np.maximum(z10, z11))
-            one = ((lo > 0) & (i00 == i01) & (i00 == i10) & (i00 == i11)
-                   & (hi - lo <= self.continuity_rel * lo))
-            bil = (z00 * (1 - fu) * (1 - fv) + z01 * fu * (1 - fv)
-                   + z10 * (1 - fu) * fv + z11 * fu * fv)
+            one = (
+                (lo > 0)
+                & (i00 == i01)
+                & (i00 == i10)
+                & (i00 == i11)
+                & (hi - lo <= self.continuity_rel * lo)
+            )
+            bil = (
+                z00 * (1 - fu) * (1 - fv)
+                + z01 * fu * (1 - fv)
+                + z10 * (1 - fu) * fv
+                + z11 * fu * fv
+            )
             depth = np.where(one, bil, depth)
-        normal = None if frame.normal is None else frame.normal.reshape(-1, 3)[near].reshape(H, W, 3)
-        return frame.replace(depth=depth.astype(np.float32), instance=ids[near].reshape(H, W),
-                             semantic=frame.semantic.ravel()[near].reshape(H, W),
-                             normal=normal)
+        normal = (
+            None if frame.normal is None else frame.normal.reshape(-1, 3)[near].reshape(H, W, 3)
+        )
+        return frame.replace(
+            depth=depth.astype(np.float32),
+            instance=ids[near].reshape(H, W),
+            semantic=frame.semantic.ravel()[near].reshape(H, W),
+            normal=normal,
+        )
 
 
 @dataclass
@@ -128,8 +146,10 @@ class IncidenceDropout(Effect):
 
     def __post_init__(self) -> None:
         if not 0 < self.max_angle_deg <= 90:
-            raise ConfigError(f"incidence_dropout.max_angle_deg: expected 0 < angle <= 90, "
-                              f"got {self.max_angle_deg}")
+            raise ConfigError(
+                f"incidence_dropout.max_angle_deg: expected 0 < angle <= 90, "
+                f"got {self.max_angle_deg}"
+            )
 
     def check(self, frame: Frame, **needs: Any) -> str | None:
         if not (frame.depth > 0).any():
@@ -139,7 +159,9 @@ class IncidenceDropout(Effect):
             d = view_directions(frame.sensor)
             n = frame.normal
             cos = -(n[..., 0] * d[..., 0] + n[..., 1] * d[..., 1] + n[..., 2] * d[..., 2])
-            if not ((frame.depth > 0) & (cos < np.cos(np.radians(self.max_angle_deg)) + 1e-6)).any():
+            if not (
+                (frame.depth > 0) & (cos < np.cos(np.radians(self.max_angle_deg)) + 1e-6)
+            ).any():
                 return f"no surface beyond {self.max_angle_deg}° incidence"
         return None
 
@@ -185,7 +207,9 @@ class Multipath(Effect):
             return Decision(False, "nothing in range or view")
         if len(view.ids) == 1 and bool(view.convex[0]):
             return Decision(False, "one convex object in view: no concave corner")
-        return Decision(True, f"{len(view.ids)} objects in view, or one not convex: concave corners possible")
+        return Decision(
+            True, f"{len(view.ids)} objects in view, or one not convex: concave corners possible"
+        )
 
     def share(self, frame: Frame) -> np.ndarray:
         """(H, W) float64: share of the 16 neighbours that face each pixel (0 where no return)."""

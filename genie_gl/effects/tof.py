@@ -32,6 +32,7 @@ phasors. Everything here mixes in that phase domain, at the profile's modulation
   albedo/r² ≥ ref_albedo/ref_range_m², the device's stated operating point (Azure Kinect: 15 %
   reflectivity at the NFOV range limit).
 """
+
 from __future__ import annotations
 
 from collections.abc import Mapping
@@ -65,8 +66,9 @@ def _with_range(frame: Frame, r_new: np.ndarray, r_old: np.ndarray, where: np.nd
 
 
 @njit(cache=True, nogil=True)
-def _phasor(px, py, pz, nx, ny, nz, rp, Q, NQ, rq, flux, rho, kd, ks, shine, cut, refl, k,
-            min_d):  # pragma: no cover - compiled
+def _phasor(
+    px, py, pz, nx, ny, nz, rp, Q, NQ, rq, flux, rho, kd, ks, shine, cut, refl, k, min_d
+):  # pragma: no cover - compiled
     """Indirect phasor (re, im) of the surface point P (normal n, range rp) relative to its
     direct return, summed over the lights Q (normals NQ, ranges rq; see the module docstring)."""
     cos_in = -(px * nx + py * ny + pz * nz) / rp
@@ -98,8 +100,9 @@ def _phasor(px, py, pz, nx, ny, nz, rp, Q, NQ, rq, flux, rho, kd, ks, shine, cut
 
 
 @njit(cache=True, nogil=True)
-def _multipath(depth, xy, normal, ids, stride, Q, NQ, rq, flux, rho, kd, ks, shine, cut, refl, k,
-               min_d):  # pragma: no cover - compiled
+def _multipath(
+    depth, xy, normal, ids, stride, Q, NQ, rq, flux, rho, kd, ks, shine, cut, refl, k, min_d
+):  # pragma: no cover - compiled
     """New depth (H, W) float32 with every pixel's range grown by its indirect light, and the
     number of pixels moved. One receiver per ``stride`` block (its centre) is shared by the
     block's pixels on its surface (same id, depth within 2 %, normals within ~18°); the others
@@ -119,25 +122,69 @@ def _multipath(depth, xy, normal, ids, stride, Q, NQ, rq, flux, rho, kd, ks, shi
             x, y = xy[v, u, 0], xy[v, u, 1]
             ray = np.sqrt(1.0 + x * x + y * y)
             rp = z * ray
-            nx, ny, nz = np.float64(normal[v, u, 0]), np.float64(normal[v, u, 1]), np.float64(normal[v, u, 2])
+            nx, ny, nz = (
+                np.float64(normal[v, u, 0]),
+                np.float64(normal[v, u, 1]),
+                np.float64(normal[v, u, 2]),
+            )
             gv, gu = v // stride, u // stride
             cv, cu = min(gv * stride + half, H - 1), min(gu * stride + half, W - 1)
             zc = np.float64(depth[cv, cu])
-            same = (zc > 0 and ids[cv, cu] == ids[v, u] and abs(z - zc) <= 0.02 * zc
-                    and nx * normal[cv, cu, 0] + ny * normal[cv, cu, 1] + nz * normal[cv, cu, 2] >= 0.95)
+            same = (
+                zc > 0
+                and ids[cv, cu] == ids[v, u]
+                and abs(z - zc) <= 0.02 * zc
+                and nx * normal[cv, cu, 0] + ny * normal[cv, cu, 1] + nz * normal[cv, cu, 2] >= 0.95
+            )
             if same:
                 dr = centre[gv, gu]
                 if np.isnan(dr):
                     xc, yc = xy[cv, cu, 0], xy[cv, cu, 1]
-                    sr, si = _phasor(xc * zc, yc * zc, zc, np.float64(normal[cv, cu, 0]),
-                                     np.float64(normal[cv, cu, 1]), np.float64(normal[cv, cu, 2]),
-                                     zc * np.sqrt(1.0 + xc * xc + yc * yc), Q, NQ, rq, flux, rho, kd, ks,
-                                     shine, cut, refl, k, min_d)
+                    sr, si = _phasor(
+                        xc * zc,
+                        yc * zc,
+                        zc,
+                        np.float64(normal[cv, cu, 0]),
+                        np.float64(normal[cv, cu, 1]),
+                        np.float64(normal[cv, cu, 2]),
+                        zc * np.sqrt(1.0 + xc * xc + yc * yc),
+                        Q,
+                        NQ,
+                        rq,
+                        flux,
+                        rho,
+                        kd,
+                        ks,
+                        shine,
+                        cut,
+                        refl,
+                        k,
+                        min_d,
+                    )
                     dr = np.arctan2(si, 1.0 + sr) * inv2k
                     centre[gv, gu] = dr
             else:
-                sr, si = _phasor(x * z, y * z, z, nx, ny, nz, rp, Q, NQ, rq, flux, rho, kd, ks, shine, cut,
-                                 refl, k, min_d)
+                sr, si = _phasor(
+                    x * z,
+                    y * z,
+                    z,
+                    nx,
+                    ny,
+                    nz,
+                    rp,
+                    Q,
+                    NQ,
+                    rq,
+                    flux,
+                    rho,
+                    kd,
+                    ks,
+                    shine,
+                    cut,
+                    refl,
+                    k,
+                    min_d,
+                )
                 dr = np.arctan2(si, 1.0 + sr) * inv2k
             if dr != 0.0:
                 new = np.float32(z * ((rp + dr) / rp))
@@ -165,7 +212,9 @@ class TofMultipath(Effect):
     """
 
     name: ClassVar[str] = "tof_multipath"
-    systematic_error: ClassVar[bool] = True   # indirect light lengthens the range of a wall near a floor
+    systematic_error: ClassVar[bool] = (
+        True  # indirect light lengthens the range of a wall near a floor
+    )
     needs_normals: ClassVar[bool] = True
     needs_materials: ClassVar[bool] = True
     needs_convexity: ClassVar[bool] = True
@@ -178,7 +227,9 @@ class TofMultipath(Effect):
 
     def __post_init__(self) -> None:
         if not self.frequency_mhz > 0:
-            raise ConfigError(f"tof_multipath.frequency_mhz: expected > 0, got {self.frequency_mhz}")
+            raise ConfigError(
+                f"tof_multipath.frequency_mhz: expected > 0, got {self.frequency_mhz}"
+            )
         if int(self.samples) < 1:
             raise ConfigError(f"tof_multipath.samples: expected >= 1, got {self.samples}")
         if int(self.stride) < 1:
@@ -188,16 +239,24 @@ class TofMultipath(Effect):
         if view.empty:
             return Decision(False, "nothing in range or view")
         if len(view.ids) == 1 and bool(view.convex[0]):
-            return Decision(False, "one convex object in view: no surface faces another, no second bounce")
-        what = "reflective material" if view.reflective.any() else "surfaces that may face each other"
-        return Decision(True, f"{what} in range ({len(view.ids)} objects): a second bounce can reach the sensor")
+            return Decision(
+                False, "one convex object in view: no surface faces another, no second bounce"
+            )
+        what = (
+            "reflective material" if view.reflective.any() else "surfaces that may face each other"
+        )
+        return Decision(
+            True, f"{what} in range ({len(view.ids)} objects): a second bounce can reach the sensor"
+        )
 
     def lights(self, valid: np.ndarray) -> tuple[np.ndarray, float]:
         """Flat pixel indices of the virtual point lights (centres of a stratified grid, valid
         pixels only) and the pixels each stands for."""
         H, W = valid.shape
         cell = max(1, int(np.ceil(np.sqrt(H * W / int(self.samples)))))
-        v, u = np.meshgrid(np.arange(cell // 2, H, cell), np.arange(cell // 2, W, cell), indexing="ij")
+        v, u = np.meshgrid(
+            np.arange(cell // 2, H, cell), np.arange(cell // 2, W, cell), indexing="ij"
+        )
         idx = (v * W + u).ravel()
         return idx[valid.ravel()[idx]], float(cell * cell)
 
@@ -212,29 +271,52 @@ class TofMultipath(Effect):
         x, y = xy.reshape(-1, 2)[vpl].T
         Q = np.stack([x * z, y * z, z], 1)
         rq = np.linalg.norm(Q, axis=1)
-        nq = (frame.normal.reshape(-1, 3)[vpl].astype(np.float64) if frame.normal is not None
-              else surface_normals(frame).reshape(-1, 3)[vpl])
+        nq = (
+            frame.normal.reshape(-1, 3)[vpl].astype(np.float64)
+            if frame.normal is not None
+            else surface_normals(frame).reshape(-1, 3)[vpl]
+        )
         rows = materials.rows(frame.instance.ravel()[vpl])
         rho = materials.albedo[rows]
         metal = materials.metallic[rows]
         rough = np.maximum(materials.roughness[rows], 0.05)
         kd = 1.0 - metal
         ks = 0.04 + (rho - 0.04) * metal
-        shine = 2.0 / rough ** 4 - 2.0
+        shine = 2.0 / rough**4 - 2.0
         cut = np.exp(np.log(1e-4) / np.maximum(shine, 1e-6))
         incoming = Q / rq[:, None]
         refl = incoming - 2.0 * (incoming * nq).sum(1)[:, None] * nq
         f = frame.sensor.fx
         flux = (z / rq) ** 2 * cell / (f * f)
         k = 2 * np.pi * self.frequency_mhz * 1e6 / C_M_PER_S
-        normal = frame.normal if frame.normal is not None else surface_normals(frame).astype(np.float32)
-        return _multipath(frame.depth, xy, normal, frame.instance, int(self.stride), np.ascontiguousarray(Q),
-                          np.ascontiguousarray(nq), rq, flux, rho, kd, ks, shine, cut, np.ascontiguousarray(refl), k,
-                          float(self.min_distance_m))
+        normal = (
+            frame.normal if frame.normal is not None else surface_normals(frame).astype(np.float32)
+        )
+        return _multipath(
+            frame.depth,
+            xy,
+            normal,
+            frame.instance,
+            int(self.stride),
+            np.ascontiguousarray(Q),
+            np.ascontiguousarray(nq),
+            rq,
+            flux,
+            rho,
+            kd,
+            ks,
+            shine,
+            cut,
+            np.ascontiguousarray(refl),
+            k,
+            float(self.min_distance_m),
+        )
 
     def apply(self, frame: Frame, *, rng: np.random.Generator, materials: Any = None) -> Frame:
         if materials is None:
-            raise ConfigError("tof_multipath needs the scene's materials: run it through simulate()/capture()")
+            raise ConfigError(
+                "tof_multipath needs the scene's materials: run it through simulate()/capture()"
+            )
         depth, moved = self.multipath_depth(frame, materials)
         if moved == 0:
             return record(frame, self.name, moved=0)
@@ -254,8 +336,10 @@ class MixedPixels(Effect):
 
     def __post_init__(self) -> None:
         if not self.jump_m > 0 or not self.frequency_mhz > 0:
-            raise ConfigError(f"mixed_pixels: jump_m and frequency_mhz must be > 0 "
-                              f"(got {self.jump_m}, {self.frequency_mhz})")
+            raise ConfigError(
+                f"mixed_pixels: jump_m and frequency_mhz must be > 0 "
+                f"(got {self.jump_m}, {self.frequency_mhz})"
+            )
 
     def check(self, frame: Frame, **needs: Any) -> str | None:
         if kernels.has_step(frame.depth, float(self.jump_m)):
@@ -268,8 +352,11 @@ class MixedPixels(Effect):
         if edge.size == 0:
             return record(frame, self.name, mixed=0)
         r = _ranges(frame).ravel()
-        rho = (np.full(r.shape, 0.5) if materials is None
-               else materials.albedo[materials.rows(frame.instance.ravel())])
+        rho = (
+            np.full(r.shape, 0.5)
+            if materials is None
+            else materials.albedo[materials.rows(frame.instance.ravel())]
+        )
         k = 2 * np.pi * self.frequency_mhz * 1e6 / C_M_PER_S
         a_self = alpha * rho[edge] / r[edge] ** 2
         a_nb = (1 - alpha) * rho[nb] / r[nb] ** 2
@@ -300,7 +387,9 @@ class Ambiguity(Effect):
         if view.empty:
             return Decision(False, "nothing in range or view")
         if view.r_max <= self.ambiguity_m:
-            return Decision(False, f"everything in view lies within the {self.ambiguity_m} m ambiguity range")
+            return Decision(
+                False, f"everything in view lies within the {self.ambiguity_m} m ambiguity range"
+            )
         return None
 
     def check(self, frame: Frame, **needs: Any) -> str | None:
@@ -336,26 +425,35 @@ class LowAlbedo(Effect):
 
     def __post_init__(self) -> None:
         if not (0 < self.ref_albedo <= 1 and self.ref_range_m > 0):
-            raise ConfigError(f"low_albedo: need 0 < ref_albedo <= 1 and ref_range_m > 0 "
-                              f"(got {self.ref_albedo}, {self.ref_range_m})")
+            raise ConfigError(
+                f"low_albedo: need 0 < ref_albedo <= 1 and ref_range_m > 0 "
+                f"(got {self.ref_albedo}, {self.ref_range_m})"
+            )
 
     @property
     def threshold(self) -> float:
-        return self.ref_albedo / self.ref_range_m ** 2
+        return self.ref_albedo / self.ref_range_m**2
 
     def plan(self, view: View) -> Decision | None:
         if view.empty:
             return Decision(False, "nothing in range or view")
         worst = float(view.albedo.min()) / max(view.r_max, 1e-9) ** 2
         if worst >= self.threshold:
-            return Decision(False, f"darkest surface in view (albedo {view.albedo.min():.2f}) still returns "
-                                   f"at {view.r_max:.2f} m")
+            return Decision(
+                False,
+                f"darkest surface in view (albedo {view.albedo.min():.2f}) still returns "
+                f"at {view.r_max:.2f} m",
+            )
         return None
 
     def apply(self, frame: Frame, *, rng: np.random.Generator, materials: Any = None) -> Frame:
         if materials is None:
-            raise ConfigError("low_albedo needs the scene's materials: run it through simulate()/capture()")
+            raise ConfigError(
+                "low_albedo needs the scene's materials: run it through simulate()/capture()"
+            )
         albedo = materials.per_pixel(materials.albedo, frame.instance)
-        lost, n = kernels.dim_returns(frame.depth, pixel_rays(frame.sensor), albedo, float(self.threshold))
+        lost, n = kernels.dim_returns(
+            frame.depth, pixel_rays(frame.sensor), albedo, float(self.threshold)
+        )
         out = drop(frame, lost) if n else frame
         return record(out, self.name, dropped=int(n))

@@ -12,6 +12,7 @@ same seed the same bytes.
 :class:`HeightModel` is the same classifier on the height above the floor alone;
 :class:`MajorityModel` predicts the most common training class everywhere.
 """
+
 from __future__ import annotations
 
 import logging
@@ -33,24 +34,35 @@ log = logging.getLogger(__name__)
 class BoostParams:
     """LightGBM settings of the classical model (defaults measured in docs/eval.md)."""
 
-    max_points: int = 150_000       # training points after the class-balanced sub-sample
-    balance: float = 0.5            # point weight (n_c) ** -balance
-    rounds: int = 200               # at most; early stopping usually ends sooner
-    early_stop: int = 15            # rounds without a better validation loss
+    max_points: int = 150_000  # training points after the class-balanced sub-sample
+    balance: float = 0.5  # point weight (n_c) ** -balance
+    rounds: int = 200  # at most; early stopping usually ends sooner
+    early_stop: int = 15  # rounds without a better validation loss
     learning_rate: float = 0.15
     num_leaves: int = 31
     min_data_in_leaf: int = 40
     feature_fraction: float = 0.8
     bagging_fraction: float = 0.8
     max_bin: int = 63
-    validation: float = 0.15        # share of the training groups (scenes) held out for early stopping
+    validation: float = 0.15  # share of the training groups (scenes) held out for early stopping
 
     def lgb(self, n_classes: int, seed: int, threads: int) -> dict[str, Any]:
-        return {"objective": "multiclass", "num_class": n_classes, "learning_rate": self.learning_rate,
-                "num_leaves": self.num_leaves, "min_data_in_leaf": self.min_data_in_leaf,
-                "feature_fraction": self.feature_fraction, "bagging_fraction": self.bagging_fraction,
-                "bagging_freq": 1, "max_bin": self.max_bin, "seed": seed, "deterministic": True,
-                "force_col_wise": True, "num_threads": max(1, threads), "verbose": -1}
+        return {
+            "objective": "multiclass",
+            "num_class": n_classes,
+            "learning_rate": self.learning_rate,
+            "num_leaves": self.num_leaves,
+            "min_data_in_leaf": self.min_data_in_leaf,
+            "feature_fraction": self.feature_fraction,
+            "bagging_fraction": self.bagging_fraction,
+            "bagging_freq": 1,
+            "max_bin": self.max_bin,
+            "seed": seed,
+            "deterministic": True,
+            "force_col_wise": True,
+            "num_threads": max(1, threads),
+            "verbose": -1,
+        }
 
 
 def balanced_sample(labels: np.ndarray, max_points: int, *, rng: np.random.Generator) -> np.ndarray:
@@ -102,7 +114,7 @@ class ClassicalModel:
 
     n_classes: int
     params: BoostParams = field(default_factory=BoostParams)
-    columns: tuple[int, ...] | None = None   # feature columns used (None: all)
+    columns: tuple[int, ...] | None = None  # feature columns used (None: all)
     booster: Any = None
     rounds_used: int = 0
     trained_classes: tuple[int, ...] = ()
@@ -112,15 +124,26 @@ class ClassicalModel:
     def _x(self, x: np.ndarray) -> np.ndarray:
         return x if self.columns is None else x[:, list(self.columns)]
 
-    def fit(self, data: PointTable, *, rng: np.random.Generator, threads: int = 1,
-            init: "ClassicalModel | None" = None, progress: bool = False) -> "ClassicalModel":
+    def fit(
+        self,
+        data: PointTable,
+        *,
+        rng: np.random.Generator,
+        threads: int = 1,
+        init: "ClassicalModel | None" = None,
+        progress: bool = False,
+    ) -> "ClassicalModel":
         """Train on ``data`` (its features, classes and scene groups); ``init``: a trained model
         to go on boosting from (fine-tuning)."""
         x, y, groups = data.features, data.labels.astype(np.int64), data.groups
         seed = int(rng.integers(2**31 - 1))
         held = split_groups(groups, self.params.validation, rng=rng)
         tr = balanced_sample(np.where(held, -1, y), self.params.max_points, rng=rng)
-        va = balanced_sample(np.where(held, y, -1), max(1, self.params.max_points // 4), rng=rng) if held.any() else None
+        va = (
+            balanced_sample(np.where(held, y, -1), max(1, self.params.max_points // 4), rng=rng)
+            if held.any()
+            else None
+        )
         self.trained_classes = tuple(int(c) for c in np.unique(y[y >= 0]))
 
         def weights(lab: np.ndarray) -> np.ndarray:
@@ -131,11 +154,18 @@ class ClassicalModel:
             return (w / w.mean()).astype(np.float32)
 
         xt = self._x(x[tr])
-        dtrain = lgb.Dataset(xt, label=y[tr], weight=weights(y[tr]), free_raw_data=True,
-                             params={"max_bin": self.params.max_bin, "verbose": -1})
+        dtrain = lgb.Dataset(
+            xt,
+            label=y[tr],
+            weight=weights(y[tr]),
+            free_raw_data=True,
+            params={"max_bin": self.params.max_bin, "verbose": -1},
+        )
         sets, callbacks = [dtrain], []
         if va is not None and len(va):
-            sets.append(lgb.Dataset(self._x(x[va]), label=y[va], weight=weights(y[va]), reference=dtrain))
+            sets.append(
+                lgb.Dataset(self._x(x[va]), label=y[va], weight=weights(y[va]), reference=dtrain)
+            )
             callbacks.append(lgb.early_stopping(self.params.early_stop, verbose=False))
         bar = None
         if progress:
@@ -143,11 +173,17 @@ class ClassicalModel:
 
             def tick(env: Any) -> None:
                 bar.update()
+
             callbacks.append(tick)
         try:
-            self.booster = lgb.train(self.params.lgb(self.n_classes, seed, threads), dtrain,
-                                     num_boost_round=self.params.rounds, valid_sets=sets[1:] or None,
-                                     callbacks=callbacks, init_model=init.booster if init is not None else None)
+            self.booster = lgb.train(
+                self.params.lgb(self.n_classes, seed, threads),
+                dtrain,
+                num_boost_round=self.params.rounds,
+                valid_sets=sets[1:] or None,
+                callbacks=callbacks,
+                init_model=init.booster if init is not None else None,
+            )
         finally:
             if bar is not None:
                 bar.close()
@@ -163,8 +199,10 @@ class ClassicalModel:
         out = np.empty(len(x), np.int16)
         it = self.booster.best_iteration or None
         for i in range(0, len(x), batch):
-            p = self.booster.predict(self._x(x[i:i + batch]), num_iteration=it, num_threads=max(1, threads))
-            out[i:i + batch] = p.argmax(1)
+            p = self.booster.predict(
+                self._x(x[i : i + batch]), num_iteration=it, num_threads=max(1, threads)
+            )
+            out[i : i + batch] = p.argmax(1)
         return out
 
 
@@ -189,8 +227,15 @@ class MajorityModel:
 
     name = "majority"
 
-    def fit(self, data: PointTable, *, rng: np.random.Generator, threads: int = 1, init: Any = None,
-            progress: bool = False) -> "MajorityModel":
+    def fit(
+        self,
+        data: PointTable,
+        *,
+        rng: np.random.Generator,
+        threads: int = 1,
+        init: Any = None,
+        progress: bool = False,
+    ) -> "MajorityModel":
         y = data.labels
         counts = np.bincount(y[y >= 0].astype(np.int64), minlength=self.n_classes)
         self.majority = int(counts.argmax())

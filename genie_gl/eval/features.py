@@ -14,6 +14,7 @@ features depend on its own scan only, in any order and with any worker count.
 
 The normal's x and y are left out: they say which way an object is turned, not what it is.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -36,10 +37,19 @@ log = logging.getLogger(__name__)
 
 SCALES: tuple[int, ...] = (10, 20, 50)
 COLUMN_CELLS_M: tuple[float, ...] = (0.5, 1.5)
-EIGEN = ("linearity", "planarity", "scattering", "verticality", "normal_z", "length", "surface", "volume",
-         "curvature")
-_PGEOF_COLUMNS = (0, 1, 2, 3, 6, 7, 8, 9, 10)   # pgeof's 11 columns, less normal_x, normal_y
-VERSION = 1   # bump when a feature changes: the on-disk cache keys on it
+EIGEN = (
+    "linearity",
+    "planarity",
+    "scattering",
+    "verticality",
+    "normal_z",
+    "length",
+    "surface",
+    "volume",
+    "curvature",
+)
+_PGEOF_COLUMNS = (0, 1, 2, 3, 6, 7, 8, 9, 10)  # pgeof's 11 columns, less normal_x, normal_y
+VERSION = 1  # bump when a feature changes: the on-disk cache keys on it
 
 
 def names(scales: Sequence[int] = SCALES, cells: Sequence[float] = COLUMN_CELLS_M) -> list[str]:
@@ -47,7 +57,9 @@ def names(scales: Sequence[int] = SCALES, cells: Sequence[float] = COLUMN_CELLS_
     out = [f"{e}_k{k}" for k in scales for e in EIGEN]
     out += [f"log_r_k{k}" for k in scales]
     out += ["height", "height_above_neighbours", "neighbour_z_std"]
-    out += [f"{f}_{c:g}m" for c in cells for f in ("column_top", "below_column_top", "column_log_count")]
+    out += [
+        f"{f}_{c:g}m" for c in cells for f in ("column_top", "below_column_top", "column_log_count")
+    ]
     return out
 
 
@@ -66,8 +78,12 @@ def _columns(xy: np.ndarray, height: np.ndarray, cell: float) -> np.ndarray:
     return np.stack([t, t - height, np.log1p(count[inverse]).astype(np.float32)], 1)
 
 
-def scan_features(xyz: np.ndarray, height: np.ndarray, scales: Sequence[int] = SCALES,
-                  cells: Sequence[float] = COLUMN_CELLS_M) -> np.ndarray:
+def scan_features(
+    xyz: np.ndarray,
+    height: np.ndarray,
+    scales: Sequence[int] = SCALES,
+    cells: Sequence[float] = COLUMN_CELLS_M,
+) -> np.ndarray:
     """Features of one scan.
 
     Parameters
@@ -86,16 +102,18 @@ def scan_features(xyz: np.ndarray, height: np.ndarray, scales: Sequence[int] = S
     k_max = int(max(scales))
     k = min(k_max, n)
     nn, d2 = pgeof.knn_search(xyz, xyz, k)
-    if k < k_max:   # a scan smaller than the largest neighbourhood: repeat its farthest neighbour
+    if k < k_max:  # a scan smaller than the largest neighbourhood: repeat its farthest neighbour
         nn = np.concatenate([nn, np.repeat(nn[:, -1:], k_max - k, 1)], 1)
         d2 = np.concatenate([d2, np.repeat(d2[:, -1:], k_max - k, 1)], 1)
     ptr = np.arange(0, n * k_max + 1, k_max, dtype=np.uint32)
-    eig = pgeof.compute_features_multiscale(xyz, np.ascontiguousarray(nn.ravel(), np.uint32), ptr, list(scales))
+    eig = pgeof.compute_features_multiscale(
+        xyz, np.ascontiguousarray(nn.ravel(), np.uint32), ptr, list(scales)
+    )
     eig = eig[:, :, _PGEOF_COLUMNS]
     eig[:, :, 4] = np.abs(eig[:, :, 4])
     cols = [eig.reshape(n, -1)]
     cols.append(np.stack([0.5 * np.log(d2[:, kk - 1] + 1e-8) for kk in scales], 1))
-    hn = height[nn]   # (N, k_max)
+    hn = height[nn]  # (N, k_max)
     cols.append(np.stack([height, height - hn.mean(1), hn.std(1)], 1))
     for c in cells:
         cols.append(_columns(xyz[:, :2], height, c))
@@ -121,13 +139,21 @@ def _key(scan: Scan, scales: Sequence[int], cells: Sequence[float]) -> str:
     """The cache name of a scan's features: a hash of everything they depend on (the points
     as read, with their pose, calibration, origin and floor: :attr:`Scan.digest`), the
     settings and the code's version; never of a file's name, size or time."""
-    text = json.dumps([_code_version(), [int(k) for k in scales], [float(c) for c in cells], scan.digest])
+    text = json.dumps(
+        [_code_version(), [int(k) for k in scales], [float(c) for c in cells], scan.digest]
+    )
     return hashlib.sha256(text.encode()).hexdigest()[:40]
 
 
-def scans_features(scans: Sequence[Scan], *, workers: int = 1, cache: str | os.PathLike | None = None,
-                   scales: Sequence[int] = SCALES, cells: Sequence[float] = COLUMN_CELLS_M,
-                   progress: bool = False) -> np.ndarray:
+def scans_features(
+    scans: Sequence[Scan],
+    *,
+    workers: int = 1,
+    cache: str | os.PathLike | None = None,
+    scales: Sequence[int] = SCALES,
+    cells: Sequence[float] = COLUMN_CELLS_M,
+    progress: bool = False,
+) -> np.ndarray:
     """Features of every point of ``scans``, in order: (sum of N, F) float32.
 
     ``workers`` processes share the scans (the result does not depend on it); with ``cache``,
@@ -145,7 +171,7 @@ def scans_features(scans: Sequence[Scan], *, workers: int = 1, cache: str | os.P
             if paths[i].exists():
                 try:
                     arr = np.load(paths[i], allow_pickle=False)
-                except (OSError, ValueError, EOFError):   # a damaged cache file: computed again
+                except (OSError, ValueError, EOFError):  # a damaged cache file: computed again
                     arr = None
                 if arr is not None and arr.shape == (len(scan), width) and arr.dtype == np.float32:
                     parts[i] = arr
@@ -155,8 +181,11 @@ def scans_features(scans: Sequence[Scan], *, workers: int = 1, cache: str | os.P
     if progress and todo:
         bar = tqdm(total=len(todo), desc="features", unit="scan", leave=False)
     jobs = [(scans[i].xyz, scans[i].height, tuple(scales), tuple(cells)) for i in todo]
-    results = (ProcessPoolExecutor(workers).map(_one, jobs, chunksize=max(1, len(jobs) // (8 * workers)))
-               if workers > 1 and len(jobs) > 1 else map(_one, jobs))
+    results = (
+        ProcessPoolExecutor(workers).map(_one, jobs, chunksize=max(1, len(jobs) // (8 * workers)))
+        if workers > 1 and len(jobs) > 1
+        else map(_one, jobs)
+    )
     for i, arr in zip(todo, results):
         parts[i] = arr
         if paths[i] is not None:
@@ -188,8 +217,15 @@ class PointTable:
         Index of each point's scene (sequence or scene folder) among ``scans``' scenes.
     """
 
-    def __init__(self, scans: Sequence[Scan], *, class_map: np.ndarray | None = None, workers: int = 1,
-                 cache: str | os.PathLike | None = None, progress: bool = False) -> None:
+    def __init__(
+        self,
+        scans: Sequence[Scan],
+        *,
+        class_map: np.ndarray | None = None,
+        workers: int = 1,
+        cache: str | os.PathLike | None = None,
+        progress: bool = False,
+    ) -> None:
         self.scans = list(scans)
         lab = np.concatenate([s.label for s in self.scans]) if self.scans else np.zeros(0, np.int16)
         if class_map is not None:
@@ -197,7 +233,9 @@ class PointTable:
         self.labels = lab
         keys = [group_of(s) for s in self.scans]
         ids = {k: i for i, k in enumerate(dict.fromkeys(keys))}
-        self.groups = np.repeat(np.array([ids[k] for k in keys], np.int32), [len(s) for s in self.scans])
+        self.groups = np.repeat(
+            np.array([ids[k] for k in keys], np.int32), [len(s) for s in self.scans]
+        )
         self._features: np.ndarray | None = None
         self._opts = {"workers": workers, "cache": cache, "progress": progress}
 

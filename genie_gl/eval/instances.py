@@ -16,6 +16,7 @@ Stuff (:data:`.panoptic.STUFF`) gets instance 0. Ids are 1, 2, ... per scan, uni
 classes, below 2**16 (SemanticKITTI's labels hold 16 bits); DBSCAN is deterministic, so the
 same classes give the same ids.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
@@ -31,8 +32,8 @@ from .panoptic import STUFF, PanopticCounts, panoptic_scores, stuff_free
 MAX_ID = 0xFFFF
 
 
-EPS_GRID_M = (0.05, 0.1, 0.2, 0.3)   # the radii :func:`tune` tries
-TUNE_SCANS = 16                       # training scans :func:`tune` looks at (evenly spread)
+EPS_GRID_M = (0.05, 0.1, 0.2, 0.3)  # the radii :func:`tune` tries
+TUNE_SCANS = 16  # training scans :func:`tune` looks at (evenly spread)
 
 
 @dataclass(frozen=True)
@@ -46,8 +47,14 @@ class ClusterParams:
     eps_by_class: tuple[tuple[int, float], ...] = ()
 
     def __post_init__(self) -> None:
-        if not self.eps_m > 0 or self.min_samples < 1 or any(not e > 0 for _, e in self.eps_by_class):
-            raise ConfigError(f"cluster settings: radii > 0 and min_samples >= 1 expected, got {self}")
+        if (
+            not self.eps_m > 0
+            or self.min_samples < 1
+            or any(not e > 0 for _, e in self.eps_by_class)
+        ):
+            raise ConfigError(
+                f"cluster settings: radii > 0 and min_samples >= 1 expected, got {self}"
+            )
 
     def eps(self, c: int) -> float:
         return dict(self.eps_by_class).get(int(c), self.eps_m)
@@ -64,8 +71,12 @@ def _dbscan(xyz: np.ndarray, eps_m: float, min_samples: int) -> np.ndarray:
     return lab.astype(np.int64)
 
 
-def cluster(xyz: np.ndarray, sem: np.ndarray, params: ClusterParams = ClusterParams(),
-            stuff: Iterable[int] = STUFF) -> np.ndarray:
+def cluster(
+    xyz: np.ndarray,
+    sem: np.ndarray,
+    params: ClusterParams = ClusterParams(),
+    stuff: Iterable[int] = STUFF,
+) -> np.ndarray:
     """Instance ids of one scan's points.
 
     Parameters
@@ -81,7 +92,9 @@ def cluster(xyz: np.ndarray, sem: np.ndarray, params: ClusterParams = ClusterPar
     xyz = np.asarray(xyz, np.float64)
     sem = np.asarray(sem).astype(np.int64)
     if xyz.shape != (len(sem), 3):
-        raise ConfigError(f"cluster: (N, 3) points for N classes expected, got {xyz.shape} and {sem.shape}")
+        raise ConfigError(
+            f"cluster: (N, 3) points for N classes expected, got {xyz.shape} and {sem.shape}"
+        )
     out = np.zeros(len(sem), np.uint32)
     stuff = set(int(s) for s in stuff)
     next_id = 1
@@ -91,7 +104,9 @@ def cluster(xyz: np.ndarray, sem: np.ndarray, params: ClusterParams = ClusterPar
         idx = np.flatnonzero(sem == c)
         lab = _dbscan(xyz[idx], params.eps(int(c)), params.min_samples)
         uniq, lab = np.unique(lab, return_inverse=True)
-        out[idx] = np.minimum(next_id + lab, MAX_ID)   # beyond 65535 clusters in a scan the last share an id
+        out[idx] = np.minimum(
+            next_id + lab, MAX_ID
+        )  # beyond 65535 clusters in a scan the last share an id
         next_id = min(next_id + len(uniq), MAX_ID)
     return out
 
@@ -105,8 +120,13 @@ def one_per_class(sem: np.ndarray, stuff: Iterable[int] = STUFF) -> np.ndarray:
     return out
 
 
-def scan_instances(xyz: Sequence[np.ndarray], sem: Sequence[np.ndarray], method: str = "cluster",
-                   params: ClusterParams = ClusterParams(), stuff: Iterable[int] = STUFF) -> list[np.ndarray]:
+def scan_instances(
+    xyz: Sequence[np.ndarray],
+    sem: Sequence[np.ndarray],
+    method: str = "cluster",
+    params: ClusterParams = ClusterParams(),
+    stuff: Iterable[int] = STUFF,
+) -> list[np.ndarray]:
     """Instance ids of each scan (``method``: ``cluster`` or ``one_per_class``)."""
     if method == "cluster":
         return [cluster(x, s, params, stuff) for x, s in zip(xyz, sem, strict=True)]
@@ -115,16 +135,25 @@ def scan_instances(xyz: Sequence[np.ndarray], sem: Sequence[np.ndarray], method:
     raise ConfigError(f"instances: unknown method {method!r} (cluster or one_per_class)")
 
 
-def tune(xyz: Sequence[np.ndarray], sem: Sequence[np.ndarray], inst: Sequence[np.ndarray], n_classes: int, *,
-         grid: Sequence[float] = EPS_GRID_M, min_samples: int = 4, max_scans: int = TUNE_SCANS,
-         stuff: Iterable[int] = STUFF) -> ClusterParams:
+def tune(
+    xyz: Sequence[np.ndarray],
+    sem: Sequence[np.ndarray],
+    inst: Sequence[np.ndarray],
+    n_classes: int,
+    *,
+    grid: Sequence[float] = EPS_GRID_M,
+    min_samples: int = 4,
+    max_scans: int = TUNE_SCANS,
+    stuff: Iterable[int] = STUFF,
+) -> ClusterParams:
     """DBSCAN's radius per thing class: of ``grid``, the one whose clusters of the true classes
     reach the best PQ on (at most ``max_scans``, evenly spread) training scans; ties go to the
     smaller radius, a class with no segment keeps the middle of the grid.
 
     Parameters
     ----------
-    xyz, sem, inst : one (N_i, 3) / (N_i,) / (N_i,) array per scan: points (m), true classes, true ids
+    xyz, sem, inst : one (N_i, 3) / (N_i,) / (N_i,) array per scan: points (m), true classes, true
+    ids
     """
     if not len(xyz):
         raise ConfigError("cluster tuning: no training scan")
@@ -143,5 +172,8 @@ def tune(xyz: Sequence[np.ndarray], sem: Sequence[np.ndarray], inst: Sequence[np
         for c in things:
             if c not in best or scores.pq[c] > best[c][0]:
                 best[c] = (float(scores.pq[c]), float(eps))
-    return ClusterParams(eps_m=float(grid[len(grid) // 2]), min_samples=min_samples,
-                         eps_by_class=tuple((c, e) for c, (_, e) in sorted(best.items())))
+    return ClusterParams(
+        eps_m=float(grid[len(grid) // 2]),
+        min_samples=min_samples,
+        eps_by_class=tuple((c, e) for c, (_, e) in sorted(best.items())),
+    )

@@ -16,6 +16,7 @@ them is (or ``ignore``: left out of training and scoring)::
 A raw id found in the data that the map does not cover is refused with the file and the id,
 as is a name the map gives that is neither ours nor theirs (with "did you mean").
 """
+
 from __future__ import annotations
 
 import os
@@ -30,10 +31,10 @@ import yaml
 from .. import labels as ours
 from ..errors import ConfigError, did_you_mean
 
-IGNORE = -1          # a point left out of training and scoring
-UNMAPPED = -2        # a raw id the map does not cover (an error when it occurs)
+IGNORE = -1  # a point left out of training and scoring
+UNMAPPED = -2  # a raw id the map does not cover (an error when it occurs)
 IGNORE_NAMES = ("ignore", "unlabeled", "unlabelled", "none")
-RAW_IDS = 1 << 16    # SemanticKITTI's semantic label is the lower 16 bits
+RAW_IDS = 1 << 16  # SemanticKITTI's semantic label is the lower 16 bits
 
 
 @dataclass(frozen=True)
@@ -64,11 +65,20 @@ class LabelMap:
         bad = out == UNMAPPED
         if bad.any():
             ids, counts = np.unique(raw[bad], return_counts=True)
-            others = f" (and {len(ids) - 1} other unmapped ids: {', '.join(str(int(i)) for i in ids[1:6])}" \
-                     f"{' ...' if len(ids) > 6 else ''})" if len(ids) > 1 else ""
-            raise ConfigError(f"{where}: label {int(ids[0])} (on {int(counts[0])} of {raw.size} points) is outside the "
-                              f"label map ({self.source}: ids {self.ids_text()}){others}; fix the labels, or give a "
-                              "--label-map file that maps it (their id: our class, or ignore)")
+            others = (
+                f" (and {len(ids) - 1} other unmapped ids: "
+                f"{', '.join(str(int(i)) for i in ids[1:6])}"
+                f"{' ...' if len(ids) > 6 else ''})"
+                if len(ids) > 1
+                else ""
+            )
+            raise ConfigError(
+                f"{where}: label {int(ids[0])} (on {int(counts[0])} of {raw.size} points) is "
+                "outside the "
+                f"label map ({self.source}: ids {self.ids_text()}){others}; fix the labels, or "
+                "give a "
+                "--label-map file that maps it (their id: our class, or ignore)"
+            )
         return out.astype(np.int16)
 
     def ids_text(self, most: int = 12) -> str:
@@ -88,15 +98,19 @@ class LabelMap:
     def inverse(self) -> np.ndarray:
         """(C,) uint32: for each of our classes, the smallest raw id mapped to it (0 if none):
         what a prediction is written as in the dataset's own ids."""
-        raw = np.flatnonzero(self.lut >= 0)           # increasing raw ids
+        raw = np.flatnonzero(self.lut >= 0)  # increasing raw ids
         classes, first = np.unique(self.lut[raw], return_index=True)
         inv = np.zeros(int(classes.max()) + 1 if classes.size else 1, np.uint32)
         inv[classes] = raw[first]
         return inv
 
 
-def identity(extra: Mapping[int, str] | None = None, *, only: Mapping[int, str] | None = None,
-             source: str = "genie-gl's own classes") -> LabelMap:
+def identity(
+    extra: Mapping[int, str] | None = None,
+    *,
+    only: Mapping[int, str] | None = None,
+    source: str = "genie-gl's own classes",
+) -> LabelMap:
     """genie-gl's own ids: every id maps to itself (ids above 9 are a strategy's own).
 
     ``only``: the ids a set's label-map yaml names (``labels``); every other raw id is then
@@ -130,8 +144,10 @@ def our_class(value: Any, where: str) -> int:
     cid = ours.class_id(text)
     if cid is None:
         names = [n.replace(" ", "_") for n in ours.CLASSES.values()] + list(IGNORE_NAMES[:1])
-        raise ConfigError(f"{where}: unknown class {value!r}{did_you_mean(text.replace(' ', '_'), names)}; "
-                          f"expected one of {', '.join(names)} or a class id")
+        raise ConfigError(
+            f"{where}: unknown class {value!r}{did_you_mean(text.replace(' ', '_'), names)}; "
+            f"expected one of {', '.join(names)} or a class id"
+        )
     return cid
 
 
@@ -150,19 +166,33 @@ def load(path: str | os.PathLike, their_labels: Mapping[int, str] | None = None)
     except OSError as exc:
         raise ConfigError(f"--label-map {path}: cannot read ({exc.strerror})") from None
     except UnicodeDecodeError as exc:
-        raise ConfigError(f"--label-map {path}: not a text file (byte {exc.start} is not UTF-8); expected a YAML/JSON "
-                          "label map {map: {their class: our class}}") from None
+        raise ConfigError(
+            f"--label-map {path}: not a text file (byte {exc.start} is not UTF-8); expected a "
+            "YAML/JSON "
+            "label map {map: {their class: our class}}"
+        ) from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"--label-map {path}: not YAML/JSON ({str(exc).splitlines()[0]})") from None
+        raise ConfigError(
+            f"--label-map {path}: not YAML/JSON ({str(exc).splitlines()[0]})"
+        ) from None
     if not isinstance(data, dict) or not isinstance(data.get("map"), dict) or not data["map"]:
-        raise ConfigError(f"--label-map {path}: expected a mapping with a non-empty 'map: {{their class: our class}}'")
+        raise ConfigError(
+            f"--label-map {path}: expected a mapping with a non-empty 'map: {{their class: our "
+            "class}'"
+        )
     unknown = set(data) - {"map", "default"}
     if unknown:
         key = sorted(unknown)[0]
-        raise ConfigError(f"--label-map {path}: unknown key {key!r}{did_you_mean(key, ['map', 'default'])}")
+        raise ConfigError(
+            f"--label-map {path}: unknown key {key!r}{did_you_mean(key, ['map', 'default'])}"
+        )
     by_name = {str(v).strip().lower(): int(k) for k, v in (their_labels or {}).items()}
     default = data.get("default", "error")
-    fill = UNMAPPED if str(default).strip().lower() == "error" else our_class(default, f"--label-map {path}: default")
+    fill = (
+        UNMAPPED
+        if str(default).strip().lower() == "error"
+        else our_class(default, f"--label-map {path}: default")
+    )
     lut = np.full(RAW_IDS, fill, np.int32)
     names: dict[int, str] = {}
     for key, value in data["map"].items():
@@ -174,8 +204,10 @@ def load(path: str | os.PathLike, their_labels: Mapping[int, str] | None = None)
         elif str(key).strip().lower() in by_name:
             raw = by_name[str(key).strip().lower()]
         else:
-            raise ConfigError(f"{where}: {key!r} is neither a raw id nor a class of the dataset's yaml"
-                              f"{did_you_mean(str(key).lower(), by_name)}")
+            raise ConfigError(
+                f"{where}: {key!r} is neither a raw id nor a class of the dataset's yaml"
+                f"{did_you_mean(str(key).lower(), by_name)}"
+            )
         if not 0 <= raw < RAW_IDS:
             raise ConfigError(f"{where}: raw id {raw} outside 0..{RAW_IDS - 1}")
         c = our_class(value, where)
@@ -192,5 +224,7 @@ def check_same_classes(a: Mapping[int, str], a_src: str, b: Mapping[int, str], b
     for k in sorted(set(a) & set(b)):
         na, nb = str(a[k]).strip().lower(), str(b[k]).strip().lower()
         if na.replace("_", " ") != nb.replace("_", " "):
-            raise ConfigError(f"mismatched label maps: {a_src} names class {k} {a[k]!r}, {b_src} names it "
-                              f"{b[k]!r}; give a --label-map file that maps one set's classes to the other's")
+            raise ConfigError(
+                f"mismatched label maps: {a_src} names class {k} {a[k]!r}, {b_src} names it "
+                f"{b[k]!r}; give a --label-map file that maps one set's classes to the other's"
+            )

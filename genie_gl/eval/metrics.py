@@ -12,6 +12,7 @@ A figure over several seeds is a :class:`Spread` (mean, sample standard deviatio
 Two figures are compared by :func:`compare`: a difference of means no larger than the sum of
 their standard deviations is "within spread", never a gain or a loss.
 """
+
 from __future__ import annotations
 
 import math
@@ -43,9 +44,13 @@ def confusion(truth: np.ndarray, pred: np.ndarray, n_classes: int) -> np.ndarray
     keep = truth >= 0
     truth, pred = truth[keep], pred[keep]
     if truth.size and (truth.max() >= n_classes or pred.min() < 0 or pred.max() >= n_classes):
-        raise ConfigError(f"confusion: class ids must lie in 0..{n_classes - 1} "
-                          f"(got truth {int(truth.max())}, predictions {int(pred.min())}..{int(pred.max())})")
-    return np.bincount(truth * n_classes + pred, minlength=n_classes * n_classes).reshape(n_classes, n_classes)
+        raise ConfigError(
+            f"confusion: class ids must lie in 0..{n_classes - 1} "
+            f"(got truth {int(truth.max())}, predictions {int(pred.min())}..{int(pred.max())})"
+        )
+    return np.bincount(truth * n_classes + pred, minlength=n_classes * n_classes).reshape(
+        n_classes, n_classes
+    )
 
 
 @dataclass(frozen=True)
@@ -74,11 +79,15 @@ class Scores:
 
     def as_dict(self, names: dict[int, str] | None = None) -> dict:
         name = (lambda c: names.get(c, f"class_{c}")) if names else (lambda c: f"class_{c}")
-        return {"miou": self.miou, "macc": self.macc, "oa": self.oa,
-                "classes": [int(c) for c in self.classes],
-                "iou": {name(int(c)): float(self.iou[c]) for c in self.classes},
-                "acc": {name(int(c)): float(self.acc[c]) for c in self.classes},
-                "confusion": self.confusion.tolist()}
+        return {
+            "miou": self.miou,
+            "macc": self.macc,
+            "oa": self.oa,
+            "classes": [int(c) for c in self.classes],
+            "iou": {name(int(c)): float(self.iou[c]) for c in self.classes},
+            "acc": {name(int(c)): float(self.acc[c]) for c in self.classes},
+            "confusion": self.confusion.tolist(),
+        }
 
 
 def scores(conf: np.ndarray, classes: Sequence[int] | None = None) -> Scores:
@@ -105,11 +114,22 @@ def scores(conf: np.ndarray, classes: Sequence[int] | None = None) -> Scores:
     iou = np.full(len(conf), np.nan)
     acc = np.full(len(conf), np.nan)
     union = true_n + pred_n - tp
-    iou[classes] = np.divide(tp[classes], union[classes], out=np.zeros(len(classes)), where=union[classes] > 0)
-    acc[classes] = np.divide(tp[classes], true_n[classes], out=np.zeros(len(classes)), where=true_n[classes] > 0)
+    iou[classes] = np.divide(
+        tp[classes], union[classes], out=np.zeros(len(classes)), where=union[classes] > 0
+    )
+    acc[classes] = np.divide(
+        tp[classes], true_n[classes], out=np.zeros(len(classes)), where=true_n[classes] > 0
+    )
     total = conf.sum()
-    return Scores(confusion=conf, classes=classes, iou=iou, acc=acc, miou=float(iou[classes].mean()),
-                  macc=float(acc[classes].mean()), oa=float(tp.sum() / total) if total else 0.0)
+    return Scores(
+        confusion=conf,
+        classes=classes,
+        iou=iou,
+        acc=acc,
+        miou=float(iou[classes].mean()),
+        macc=float(acc[classes].mean()),
+        oa=float(tp.sum() / total) if total else 0.0,
+    )
 
 
 @dataclass(frozen=True)
@@ -132,7 +152,9 @@ class Spread:
         if finite.size == 0:
             return cls(math.nan, math.nan, math.nan, math.nan, tuple(v.tolist()))
         std = float(finite.std(ddof=1)) if finite.size > 1 else 0.0
-        return cls(float(finite.mean()), std, float(finite.min()), float(finite.max()), tuple(v.tolist()))
+        return cls(
+            float(finite.mean()), std, float(finite.min()), float(finite.max()), tuple(v.tolist())
+        )
 
     def text(self, digits: int = 3) -> str:
         """``0.441 ± 0.012``."""
@@ -141,7 +163,13 @@ class Spread:
         return f"{self.mean:.{digits}f} ± {self.std:.{digits}f}"
 
     def as_dict(self) -> dict:
-        return {"mean": self.mean, "std": self.std, "min": self.lo, "max": self.hi, "values": list(self.values)}
+        return {
+            "mean": self.mean,
+            "std": self.std,
+            "min": self.lo,
+            "max": self.hi,
+            "values": list(self.values),
+        }
 
 
 def compare(a: Spread, b: Spread) -> tuple[float, float, str]:
@@ -166,13 +194,18 @@ def delta_text(a: Spread, b: Spread, digits: int = 3) -> str:
 
 
 def summarise(runs: Sequence[Scores]) -> dict:
-    """Per-seed scores into spreads: ``{"miou": Spread, "macc", "oa", "iou": {c: Spread}, "acc": {...},
+    """Per-seed scores into spreads: ``{"miou": Spread, "macc", "oa", "iou": {c: Spread}, "acc":
+    {...},
     "confusion": (C, C) summed over the runs}``; the classes are those evaluated in any run."""
     if not runs:
         raise ConfigError("no run to summarise")
     classes = sorted({int(c) for r in runs for c in r.classes})
-    return {"miou": Spread.of([r.miou for r in runs]), "macc": Spread.of([r.macc for r in runs]),
-            "oa": Spread.of([r.oa for r in runs]), "classes": classes,
-            "iou": {c: Spread.of([r.iou[c] for r in runs]) for c in classes},
-            "acc": {c: Spread.of([r.acc[c] for r in runs]) for c in classes},
-            "confusion": np.sum([r.confusion for r in runs], axis=0)}
+    return {
+        "miou": Spread.of([r.miou for r in runs]),
+        "macc": Spread.of([r.macc for r in runs]),
+        "oa": Spread.of([r.oa for r in runs]),
+        "classes": classes,
+        "iou": {c: Spread.of([r.iou[c] for r in runs]) for c in classes},
+        "acc": {c: Spread.of([r.acc[c] for r in runs]) for c in classes},
+        "confusion": np.sum([r.confusion for r in runs], axis=0),
+    }

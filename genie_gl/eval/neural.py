@@ -13,6 +13,7 @@ the weights with the lowest loss on the validation scenes kept (the paper's "bes
 Weights, tiles and batches come from the seed; with the same thread count the same seed gives
 the same bytes.
 """
+
 from __future__ import annotations
 
 import logging
@@ -51,12 +52,16 @@ def _torch():
     try:
         import torch
     except ImportError:
-        raise ConfigError("the neural model needs PyTorch: pip install 'genie-gl[neural]' "
-                          "(the CPU build, torch==2.13.0)") from None
+        raise ConfigError(
+            "the neural model needs PyTorch: pip install 'genie-gl[neural]' "
+            "(the CPU build, torch==2.13.0)"
+        ) from None
     return torch
 
 
-def tiles(xy: np.ndarray, tile_m: float, max_points: int, *, rng: np.random.Generator) -> list[np.ndarray]:
+def tiles(
+    xy: np.ndarray, tile_m: float, max_points: int, *, rng: np.random.Generator
+) -> list[np.ndarray]:
     """Point indices of the tiles of one scan: a grid of ``tile_m`` squares anchored at the
     scan's minimum, a crowded tile split into random subsets of at most ``max_points``."""
     ij = np.floor((xy - xy.min(0)) / tile_m).astype(np.int64)
@@ -80,11 +85,15 @@ def _net(torch: Any, width: int, n_classes: int) -> Any:
     class Edge(nn.Module):
         def __init__(self, cin: int, cout: int) -> None:
             super().__init__()
-            self.mlp = nn.Sequential(nn.Linear(2 * cin, cout), nn.LeakyReLU(0.2), nn.Linear(cout, cout),
-                                     nn.LeakyReLU(0.2))
+            self.mlp = nn.Sequential(
+                nn.Linear(2 * cin, cout),
+                nn.LeakyReLU(0.2),
+                nn.Linear(cout, cout),
+                nn.LeakyReLU(0.2),
+            )
 
         def forward(self, f, nbr):
-            fj = f[nbr]                                   # (N, k, C)
+            fj = f[nbr]  # (N, k, C)
             fi = f.unsqueeze(1).expand_as(fj)
             return self.mlp(torch.cat([fi, fj - fi], -1)).amax(1)
 
@@ -94,8 +103,13 @@ def _net(torch: Any, width: int, n_classes: int) -> Any:
             w = width
             self.e1, self.e2, self.e3 = Edge(3, w), Edge(w, w), Edge(w, 2 * w)
             self.point = nn.Sequential(nn.Linear(4 * w, 4 * w), nn.LeakyReLU(0.2))
-            self.head = nn.Sequential(nn.Linear(8 * w, 4 * w), nn.LeakyReLU(0.2), nn.Linear(4 * w, 2 * w),
-                                      nn.LeakyReLU(0.2), nn.Linear(2 * w, n_classes))
+            self.head = nn.Sequential(
+                nn.Linear(8 * w, 4 * w),
+                nn.LeakyReLU(0.2),
+                nn.Linear(4 * w, 2 * w),
+                nn.LeakyReLU(0.2),
+                nn.Linear(2 * w, n_classes),
+            )
 
         def forward(self, x, nbr, tile, n_tiles):
             f1 = self.e1(x, nbr)
@@ -103,7 +117,9 @@ def _net(torch: Any, width: int, n_classes: int) -> Any:
             f3 = self.e3(f2, nbr)
             p = self.point(torch.cat([f1, f2, f3], 1))
             ctx = torch.full((n_tiles, p.shape[1]), -1e9, dtype=p.dtype)
-            ctx = ctx.scatter_reduce(0, tile.unsqueeze(1).expand_as(p), p, "amax", include_self=True)
+            ctx = ctx.scatter_reduce(
+                0, tile.unsqueeze(1).expand_as(p), p, "amax", include_self=True
+            )
             return self.head(torch.cat([p, ctx[tile]], 1))
 
     return Net()
@@ -111,13 +127,15 @@ def _net(torch: Any, width: int, n_classes: int) -> Any:
 
 @dataclass
 class _Tile:
-    x: np.ndarray      # (n, 3) float32: dx, dy, height
-    nbr: np.ndarray    # (n, k) int64, tile-local
-    y: np.ndarray      # (n,) int64
+    x: np.ndarray  # (n, 3) float32: dx, dy, height
+    nbr: np.ndarray  # (n, k) int64, tile-local
+    y: np.ndarray  # (n,) int64
     index: np.ndarray  # (n,) int64 into the table's points
 
 
-def _make_tiles(data: PointTable, which: np.ndarray | None, p: NeuralParams, *, rng: np.random.Generator) -> list[_Tile]:
+def _make_tiles(
+    data: PointTable, which: np.ndarray | None, p: NeuralParams, *, rng: np.random.Generator
+) -> list[_Tile]:
     out, start = [], 0
     for scan in data.scans:
         n = len(scan)
@@ -135,7 +153,9 @@ def _make_tiles(data: PointTable, which: np.ndarray | None, p: NeuralParams, *, 
             c = (xy.min(0) + xy.max(0)) / 2
             x = np.column_stack([xy - c, h[idx]]).astype(np.float32)
             k = min(p.k, len(idx))
-            nbr, _ = pgeof.knn_search(np.ascontiguousarray(scan.xyz[idx]), np.ascontiguousarray(scan.xyz[idx]), k)
+            nbr, _ = pgeof.knn_search(
+                np.ascontiguousarray(scan.xyz[idx]), np.ascontiguousarray(scan.xyz[idx]), k
+            )
             nbr = nbr.astype(np.int64)
             if k < p.k:
                 nbr = np.concatenate([nbr, np.repeat(nbr[:, -1:], p.k - k, 1)], 1)
@@ -156,8 +176,12 @@ def _batch(torch: Any, batch: list[_Tile], angle: np.ndarray | None = None):
         tile_ids.append(np.full(len(x), t, np.int64))
         ys.append(tile.y)
         off += len(x)
-    return (torch.from_numpy(np.concatenate(xs)), torch.from_numpy(np.concatenate(nbrs)),
-            torch.from_numpy(np.concatenate(tile_ids)), torch.from_numpy(np.concatenate(ys)))
+    return (
+        torch.from_numpy(np.concatenate(xs)),
+        torch.from_numpy(np.concatenate(nbrs)),
+        torch.from_numpy(np.concatenate(tile_ids)),
+        torch.from_numpy(np.concatenate(ys)),
+    )
 
 
 @dataclass
@@ -172,14 +196,23 @@ class NeuralModel:
 
     name = "neural"
 
-    def fit(self, data: PointTable, *, rng: np.random.Generator, threads: int = 1,
-            init: "NeuralModel | None" = None, progress: bool = False) -> "NeuralModel":
+    def fit(
+        self,
+        data: PointTable,
+        *,
+        rng: np.random.Generator,
+        threads: int = 1,
+        init: "NeuralModel | None" = None,
+        progress: bool = False,
+    ) -> "NeuralModel":
         """Train on ``data`` (its scans and classes); ``init``: a trained model to start from."""
         torch = _torch()
         torch.set_num_threads(max(1, threads))
         p = self.params
         gen = torch.Generator().manual_seed(int(rng.integers(2**62)))
-        torch.manual_seed(int(rng.integers(2**62)))   # parameter initialisation draws from the default generator
+        torch.manual_seed(
+            int(rng.integers(2**62))
+        )  # parameter initialisation draws from the default generator
         net = _net(torch, p.width, self.n_classes)
         if init is not None:
             net.load_state_dict(init.state)
@@ -187,10 +220,16 @@ class NeuralModel:
         self.trained_classes = tuple(int(c) for c in np.unique(y[y >= 0]))
         held = split_groups(data.groups, p.validation, rng=rng)
         train_tiles = [t for t in _make_tiles(data, ~held & (y >= 0), p, rng=rng) if len(t.y)]
-        val_tiles = [t for t in _make_tiles(data, held & (y >= 0), p, rng=rng) if len(t.y)] if held.any() else []
+        val_tiles = (
+            [t for t in _make_tiles(data, held & (y >= 0), p, rng=rng) if len(t.y)]
+            if held.any()
+            else []
+        )
         if not train_tiles:
             raise ConfigError("training set: no labelled point for the neural model")
-        counts = np.bincount(y[y >= 0].astype(np.int64), minlength=self.n_classes).astype(np.float64)
+        counts = np.bincount(y[y >= 0].astype(np.int64), minlength=self.n_classes).astype(
+            np.float64
+        )
         w = np.where(counts > 0, np.maximum(counts, 1) ** -p.balance, 0.0)
         w = w / w[counts > 0].mean()
         loss_fn = torch.nn.CrossEntropyLoss(weight=torch.tensor(w, dtype=torch.float32))
@@ -216,7 +255,10 @@ class NeuralModel:
             if val_tiles and ((step + 1) % p.validate_every == 0 or step + 1 == p.steps):
                 v = self._loss(torch, net, val_tiles, loss_fn)
                 if v < best:
-                    best, best_state = v, {k: t.detach().clone() for k, t in net.state_dict().items()}
+                    best, best_state = (
+                        v,
+                        {k: t.detach().clone() for k, t in net.state_dict().items()},
+                    )
                     self.rounds_used = step + 1
         if bar is not None:
             bar.close()
@@ -230,7 +272,7 @@ class NeuralModel:
         total, n = 0.0, 0
         with torch.no_grad():
             for i in range(0, len(val_tiles), 16):
-                batch = val_tiles[i:i + 16]
+                batch = val_tiles[i : i + 16]
                 x, nbr, tile, yy = _batch(torch, batch)
                 total += float(loss_fn(net(x, nbr, tile, len(batch)), yy)) * len(yy)
                 n += len(yy)
@@ -249,7 +291,7 @@ class NeuralModel:
         all_tiles = _make_tiles(data, None, self.params, rng=np.random.default_rng(0))
         with torch.no_grad():
             for i in range(0, len(all_tiles), 16):
-                batch = all_tiles[i:i + 16]
+                batch = all_tiles[i : i + 16]
                 x, nbr, tile, _ = _batch(torch, batch)
                 pred = net(x, nbr, tile, len(batch)).argmax(1).numpy().astype(np.int16)
                 out[np.concatenate([t.index for t in batch])] = pred

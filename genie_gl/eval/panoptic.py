@@ -26,6 +26,7 @@ each wall an id of their own, which this evaluation does not score).
 Points whose ground truth is unlabelled (class -1) are left out, as the API leaves out its
 ignored classes' points.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,8 +40,8 @@ from ..errors import ConfigError
 from .data import _PLY_TYPES, EvalSet
 from .metrics import Spread
 
-STUFF: tuple[int, ...] = (0,)      # background
-MIN_POINTS = 50                    # evaluate_panoptic.py's --min_inst_points default
+STUFF: tuple[int, ...] = (0,)  # background
+MIN_POINTS = 50  # evaluate_panoptic.py's --min_inst_points default
 _OFFSET = np.int64(2) ** 32
 
 
@@ -69,8 +70,14 @@ class PanopticCounts:
         self.fp = np.zeros(self.n_classes, np.int64)
         self.fn = np.zeros(self.n_classes, np.int64)
 
-    def add(self, truth_sem: np.ndarray, truth_inst: np.ndarray, pred_sem: np.ndarray, pred_inst: np.ndarray,
-            classes: Sequence[int]) -> None:
+    def add(
+        self,
+        truth_sem: np.ndarray,
+        truth_inst: np.ndarray,
+        pred_sem: np.ndarray,
+        pred_inst: np.ndarray,
+        classes: Sequence[int],
+    ) -> None:
         """Add one scan.
 
         Parameters
@@ -85,10 +92,13 @@ class PanopticCounts:
         ts, ti = np.asarray(truth_sem).astype(np.int64), np.asarray(truth_inst).astype(np.int64)
         ps, pi = np.asarray(pred_sem).astype(np.int64), np.asarray(pred_inst).astype(np.int64)
         if not (ts.shape == ti.shape == ps.shape == pi.shape) or ts.ndim != 1:
-            raise ConfigError(f"panoptic: per-point arrays of one length expected, got {ts.shape}, {ti.shape}, "
-                              f"{ps.shape}, {pi.shape}")
+            raise ConfigError(
+                f"panoptic: per-point arrays of one length expected, got {ts.shape}, {ti.shape}, "
+                f"{ps.shape}, {pi.shape}"
+            )
         classes = np.asarray(list(classes), np.int64)
-        # the API drops the points whose truth is an ignored class (here: unlabelled, or a class not evaluated)
+        # the API drops the points whose truth is an ignored class (here: unlabelled, or a class not
+        # evaluated)
         keep = np.isin(ts, classes)
         ts, ti, ps, pi = ts[keep], ti[keep] + 1, ps[keep], pi[keep] + 1
         for c in classes:
@@ -147,6 +157,7 @@ class PanopticScores:
 
         def num(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
+
         out: dict = {k: num(getattr(self, k)) for k in self.OVERALL}
         out["things"] = [name(int(c)) for c in self.things]
         for k in ("pq", "sq", "rq"):
@@ -158,11 +169,15 @@ def _mean(x: np.ndarray) -> float:
     return float(x.mean()) if x.size else math.nan
 
 
-def panoptic_scores(counts: PanopticCounts, classes: Sequence[int], semantic_iou: np.ndarray,
-                    stuff: Iterable[int] = STUFF) -> PanopticScores:
+def panoptic_scores(
+    counts: PanopticCounts,
+    classes: Sequence[int],
+    semantic_iou: np.ndarray,
+    stuff: Iterable[int] = STUFF,
+) -> PanopticScores:
     """The figures of :class:`PanopticScores` from summed counts; ``semantic_iou`` (C,) is the
     run's per-class IoU (:func:`.metrics.scores`), for PQ†."""
-    eps = 1e-15   # as the API: 0/0 -> 0
+    eps = 1e-15  # as the API: 0/0 -> 0
     classes = np.asarray(sorted(int(c) for c in classes), np.int64)
     if classes.size == 0:
         raise ConfigError("panoptic: no evaluated class")
@@ -175,10 +190,23 @@ def panoptic_scores(counts: PanopticCounts, classes: Sequence[int], semantic_iou
     is_stuff = np.isin(classes, np.asarray(list(stuff), np.int64))
     th, st = classes[~is_stuff], classes[is_stuff]
     dagger = np.concatenate([pq_all[th], np.asarray(semantic_iou, np.float64)[st]])
-    return PanopticScores(classes=classes, things=th, pq=pq, sq=sq, rq=rq, PQ=_mean(pq_all[classes]),
-                          SQ=_mean(sq_all[classes]), RQ=_mean(rq_all[classes]), PQ_dagger=_mean(dagger),
-                          PQ_th=_mean(pq_all[th]), SQ_th=_mean(sq_all[th]), RQ_th=_mean(rq_all[th]),
-                          PQ_st=_mean(pq_all[st]), SQ_st=_mean(sq_all[st]), RQ_st=_mean(rq_all[st]))
+    return PanopticScores(
+        classes=classes,
+        things=th,
+        pq=pq,
+        sq=sq,
+        rq=rq,
+        PQ=_mean(pq_all[classes]),
+        SQ=_mean(sq_all[classes]),
+        RQ=_mean(rq_all[classes]),
+        PQ_dagger=_mean(dagger),
+        PQ_th=_mean(pq_all[th]),
+        SQ_th=_mean(sq_all[th]),
+        RQ_th=_mean(rq_all[th]),
+        PQ_st=_mean(pq_all[st]),
+        SQ_st=_mean(sq_all[st]),
+        RQ_st=_mean(rq_all[st]),
+    )
 
 
 def summarise(runs: Sequence[PanopticScores]) -> dict:
@@ -216,7 +244,9 @@ def _ply_property(path: Path, name: str) -> np.ndarray | None:
             fields.append((parts[2], _PLY_TYPES[parts[1]]))
     if name not in (f for f, _ in fields):
         return None
-    return np.frombuffer(raw, dtype=np.dtype(fields), count=n, offset=end + len(b"end_header\n"))[name]
+    return np.frombuffer(raw, dtype=np.dtype(fields), count=n, offset=end + len(b"end_header\n"))[
+        name
+    ]
 
 
 def truth_instances(test: EvalSet) -> list[np.ndarray]:
@@ -240,9 +270,18 @@ def truth_instances(test: EvalSet) -> list[np.ndarray]:
     return out
 
 
-def evaluate_scans(truth: Sequence[np.ndarray], truth_inst: Sequence[np.ndarray], pred: Sequence[np.ndarray],
-                   pred_inst: Sequence[np.ndarray], classes: Sequence[int], semantic_iou: np.ndarray,
-                   n_classes: int, *, stuff: Iterable[int] = STUFF, min_points: int = MIN_POINTS) -> PanopticScores:
+def evaluate_scans(
+    truth: Sequence[np.ndarray],
+    truth_inst: Sequence[np.ndarray],
+    pred: Sequence[np.ndarray],
+    pred_inst: Sequence[np.ndarray],
+    classes: Sequence[int],
+    semantic_iou: np.ndarray,
+    n_classes: int,
+    *,
+    stuff: Iterable[int] = STUFF,
+    min_points: int = MIN_POINTS,
+) -> PanopticScores:
     """Panoptic scores of a test set, scan by scan (each list holds one (N_i,) array per scan);
     stuff instance ids are taken as 0 on both sides (see the module's docstring)."""
     counts = PanopticCounts(n_classes, min_points)

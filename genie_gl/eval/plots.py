@@ -1,6 +1,7 @@
 """Pictures of evaluation results (matplotlib, Agg): the confusion matrix as a heat map,
 per-class IoU bars with their spread, a transfer matrix, and the mixing curve (the paper's
 Fig. 6: mIoU and mAcc against the synthetic share)."""
+
 from __future__ import annotations
 
 import os
@@ -38,7 +39,9 @@ def _save(fig, path: str | os.PathLike) -> Path:
     return path
 
 
-def confusion_png(conf: np.ndarray, names: Mapping[int, str], path: str | os.PathLike, *, title: str = "") -> Path:
+def confusion_png(
+    conf: np.ndarray, names: Mapping[int, str], path: str | os.PathLike, *, title: str = ""
+) -> Path:
     """Row-normalised confusion matrix (true class in rows) over the classes that occur."""
     plt = _plt()
     conf = np.asarray(conf, np.float64)
@@ -51,8 +54,15 @@ def confusion_png(conf: np.ndarray, names: Mapping[int, str], path: str | os.Pat
     for i in range(len(keep)):
         for j in range(len(keep)):
             if norm[i, j] >= 0.005:
-                ax.text(j, i, f"{norm[i, j]:.2f}", ha="center", va="center", fontsize=7,
-                        color="white" if norm[i, j] > 0.6 else "black")
+                ax.text(
+                    j,
+                    i,
+                    f"{norm[i, j]:.2f}",
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    color="white" if norm[i, j] > 0.6 else "black",
+                )
     ax.set_xticks(range(len(keep)), labels, rotation=45, ha="right")
     ax.set_yticks(range(len(keep)), labels)
     ax.set_xlabel("predicted")
@@ -62,8 +72,14 @@ def confusion_png(conf: np.ndarray, names: Mapping[int, str], path: str | os.Pat
     return _save(fig, path)
 
 
-def iou_bars_png(summaries: Mapping[str, dict], names: Mapping[int, str], path: str | os.PathLike, *,
-                 title: str = "", metric: str = "iou") -> Path:
+def iou_bars_png(
+    summaries: Mapping[str, dict],
+    names: Mapping[int, str],
+    path: str | os.PathLike,
+    *,
+    title: str = "",
+    metric: str = "iou",
+) -> Path:
     """Per-class bars (mean) with error bars (std over seeds), one bar group per class."""
     plt = _plt()
     classes = sorted({c for s in summaries.values() for c in s[metric]})
@@ -73,8 +89,17 @@ def iou_bars_png(summaries: Mapping[str, dict], names: Mapping[int, str], path: 
         mean = [s[metric][c].mean if c in s[metric] else np.nan for c in classes]
         std = [s[metric][c].std if c in s[metric] else 0 for c in classes]
         x = np.arange(len(classes)) + (i - (len(summaries) - 1) / 2) * width
-        ax.bar(x, mean, width, yerr=std, capsize=2, label=f"{label} (m{metric.upper()} {s['m' + metric].text()})")
-    ax.set_xticks(range(len(classes)), [names.get(c, f"class_{c}") for c in classes], rotation=30, ha="right")
+        ax.bar(
+            x,
+            mean,
+            width,
+            yerr=std,
+            capsize=2,
+            label=f"{label} (m{metric.upper()} {s['m' + metric].text()})",
+        )
+    ax.set_xticks(
+        range(len(classes)), [names.get(c, f"class_{c}") for c in classes], rotation=30, ha="right"
+    )
     ax.set_ylabel(metric.upper() if metric == "iou" else "Acc")
     ax.set_ylim(0, 1)
     ax.set_title(title, fontsize=9)
@@ -83,8 +108,16 @@ def iou_bars_png(summaries: Mapping[str, dict], names: Mapping[int, str], path: 
     return _save(fig, path)
 
 
-def matrix_png(cells: Sequence[Sequence[Spread]], rows: Sequence[str], cols: Sequence[str],
-               path: str | os.PathLike, *, title: str = "", xlabel: str = "test", ylabel: str = "train") -> Path:
+def matrix_png(
+    cells: Sequence[Sequence[Spread]],
+    rows: Sequence[str],
+    cols: Sequence[str],
+    path: str | os.PathLike,
+    *,
+    title: str = "",
+    xlabel: str = "test",
+    ylabel: str = "train",
+) -> Path:
     """A transfer matrix: mIoU mean ± std in each cell."""
     plt = _plt()
     m = np.array([[c.mean for c in r] for r in cells], np.float64)
@@ -92,8 +125,15 @@ def matrix_png(cells: Sequence[Sequence[Spread]], rows: Sequence[str], cols: Seq
     im = ax.imshow(m, cmap="viridis", vmin=0, vmax=max(0.01, float(np.nanmax(m))))
     for i, r in enumerate(cells):
         for j, c in enumerate(r):
-            ax.text(j, i, f"{c.mean:.3f}\n± {c.std:.3f}", ha="center", va="center", fontsize=8,
-                    color="white" if c.mean < 0.6 * np.nanmax(m) else "black")
+            ax.text(
+                j,
+                i,
+                f"{c.mean:.3f}\n± {c.std:.3f}",
+                ha="center",
+                va="center",
+                fontsize=8,
+                color="white" if c.mean < 0.6 * np.nanmax(m) else "black",
+            )
     ax.set_xticks(range(len(cols)), cols, rotation=20, ha="right")
     ax.set_yticks(range(len(rows)), rows)
     ax.set_xlabel(xlabel)
@@ -103,8 +143,15 @@ def matrix_png(cells: Sequence[Sequence[Spread]], rows: Sequence[str], cols: Seq
     return _save(fig, path)
 
 
-def curve_png(x: Sequence[float], series: Mapping[str, Sequence[Spread]], path: str | os.PathLike, *,
-              title: str = "", xlabel: str = "synthetic share (%)", ylabel: str = "") -> Path:
+def curve_png(
+    x: Sequence[float],
+    series: Mapping[str, Sequence[Spread]],
+    path: str | os.PathLike,
+    *,
+    title: str = "",
+    xlabel: str = "synthetic share (%)",
+    ylabel: str = "",
+) -> Path:
     """Lines with a band of ± std (the paper's Fig. 6 style mixing curve)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5.5, 3.4))
@@ -121,8 +168,14 @@ def curve_png(x: Sequence[float], series: Mapping[str, Sequence[Spread]], path: 
     return _save(fig, path)
 
 
-def delta_bars_png(labels: Sequence[str], deltas: Sequence[tuple[float, float]], costs_ms: Sequence[float | None],
-                   path: str | os.PathLike, *, title: str = "") -> Path:
+def delta_bars_png(
+    labels: Sequence[str],
+    deltas: Sequence[tuple[float, float]],
+    costs_ms: Sequence[float | None],
+    path: str | os.PathLike,
+    *,
+    title: str = "",
+) -> Path:
     """ΔmIoU with its spread per effect, beside the effect's ms per frame."""
     plt = _plt()
     fig, (a, b) = plt.subplots(1, 2, figsize=(8.5, 0.9 + 0.45 * len(labels)), sharey=True)

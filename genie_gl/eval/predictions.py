@@ -11,6 +11,7 @@ Each file is ``uint32`` little-endian, one per point in the scan's order, ``(ins
 class`` (the instance half 0 when no instance ids are given), written to a temporary name and
 renamed.
 """
+
 from __future__ import annotations
 
 import os
@@ -26,13 +27,17 @@ from .data import EvalSet
 def label_path(out: Path, key: str, fmt: str) -> Path:
     """Where the prediction of the scan at ``key`` goes under ``out``."""
     parts = key.split("/")
-    if fmt == "semantickitti":   # sequences/NN/NNNNNN
+    if fmt == "semantickitti":  # sequences/NN/NNNNNN
         return out / parts[0] / parts[1] / "predictions" / f"{parts[2]}.label"
     return out / "/".join(parts[:-1]) / f"{parts[-1]}.label"
 
 
-def write(test: EvalSet, pred: np.ndarray, out: str | os.PathLike,
-          instances: Sequence[np.ndarray] | None = None) -> list[Path]:
+def write(
+    test: EvalSet,
+    pred: np.ndarray,
+    out: str | os.PathLike,
+    instances: Sequence[np.ndarray] | None = None,
+) -> list[Path]:
     """Write ``pred`` ((test.n_points,) our class ids, scans in order) as ``.label`` files,
     with ``instances`` (one (N_i,) array of ids below 2**16 per scan) in the upper half.
 
@@ -41,10 +46,12 @@ def write(test: EvalSet, pred: np.ndarray, out: str | os.PathLike,
     out = Path(out)
     inverse = test.label_map.inverse()
     if pred.size and int(pred.max()) >= len(inverse):
-        inverse = np.concatenate([inverse, np.arange(len(inverse), int(pred.max()) + 1, dtype=np.uint32)])
+        inverse = np.concatenate(
+            [inverse, np.arange(len(inverse), int(pred.max()) + 1, dtype=np.uint32)]
+        )
     paths, start = [], 0
     for i, scan in enumerate(test.scans):
-        p = pred[start:start + len(scan)]
+        p = pred[start : start + len(scan)]
         start += len(scan)
         raw = inverse[p.astype(np.int64)].astype("<u4")
         if instances is not None:

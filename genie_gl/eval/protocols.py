@@ -16,6 +16,7 @@ out of the synthetic data).
 
 Synthetic scans are added whole, in an order drawn from the seed, until the share is reached.
 """
+
 from __future__ import annotations
 
 import logging
@@ -36,7 +37,7 @@ log = logging.getLogger(__name__)
 
 PRESETS = ("mix", "finetune", "scarce")
 RATIOS = tuple(r / 10 for r in range(10))
-SCARCE_CLASSES = (1, 2, 9)   # pallet, rack, small load carrier
+SCARCE_CLASSES = (1, 2, 9)  # pallet, rack, small load carrier
 
 
 def scarce_map(n_classes: int = 10) -> dict[int, int]:
@@ -44,7 +45,9 @@ def scarce_map(n_classes: int = 10) -> dict[int, int]:
     return {c: (c if c in SCARCE_CLASSES else 0) for c in range(n_classes)}
 
 
-def synthetic_share(real: EvalSet, synthetic: Sequence[EvalSet], ratio: float, *, rng: np.random.Generator) -> list:
+def synthetic_share(
+    real: EvalSet, synthetic: Sequence[EvalSet], ratio: float, *, rng: np.random.Generator
+) -> list:
     """Synthetic scans, whole, in a random order, until they are ``ratio`` of real + synthetic
     points (the last scan taken when it brings the share nearer)."""
     if ratio <= 0:
@@ -61,56 +64,130 @@ def synthetic_share(real: EvalSet, synthetic: Sequence[EvalSet], ratio: float, *
         chosen.append(pool[i])
         n += size
     if n < want * 0.95:
-        log.warning("mix %.0f %%: only %d synthetic points for %d wanted (the share reached is %.1f %%)",
-                    100 * ratio, n, int(want), 100 * n / (n + real.n_points))
+        log.warning(
+            "mix %.0f %%: only %d synthetic points for %d wanted (the share reached is %.1f %%)",
+            100 * ratio,
+            n,
+            int(want),
+            100 * n / (n + real.n_points),
+        )
     return chosen
 
 
-def mix(target_train: str | EvalSet, target_test: str | EvalSet, synthetic: Sequence[str | EvalSet], *,
-        out: str | os.PathLike, model: str = "classical", seeds: Sequence[int] = (0, 1, 2),
-        ratios: Sequence[float] = RATIOS, scarce: bool = False, workers: int = 1,
-        label_map: str | os.PathLike | None = None, cache: str | os.PathLike | None = None,
-        progress: bool = False, params: Any = None) -> dict:
+def mix(
+    target_train: str | EvalSet,
+    target_test: str | EvalSet,
+    synthetic: Sequence[str | EvalSet],
+    *,
+    out: str | os.PathLike,
+    model: str = "classical",
+    seeds: Sequence[int] = (0, 1, 2),
+    ratios: Sequence[float] = RATIOS,
+    scarce: bool = False,
+    workers: int = 1,
+    label_map: str | os.PathLike | None = None,
+    cache: str | os.PathLike | None = None,
+    progress: bool = False,
+    params: Any = None,
+) -> dict:
     """Experiment 1 (``scarce``: §4.4.3) on a target; returns {ratio: EvalResult} and writes
     ``out/ratio_XX/`` and the curve."""
-    real = target_train if isinstance(target_train, EvalSet) else read_set(target_train, label_map=label_map)
-    test = target_test if isinstance(target_test, EvalSet) else read_set(target_test, label_map=label_map)
+    real = (
+        target_train
+        if isinstance(target_train, EvalSet)
+        else read_set(target_train, label_map=label_map)
+    )
+    test = (
+        target_test
+        if isinstance(target_test, EvalSet)
+        else read_set(target_test, label_map=label_map)
+    )
     syn = [s if isinstance(s, EvalSet) else read_set(s) for s in synthetic]
-    class_map = scarce_map(max(10, max(s.max_class() for s in [real, test, *syn]) + 1)) if scarce else None
+    class_map = (
+        scarce_map(max(10, max(s.max_class() for s in [real, test, *syn]) + 1)) if scarce else None
+    )
     eval_classes = SCARCE_CLASSES if scarce else None
     results: dict[float, list[EvalResult]] = {}
     for ratio in ratios:
         per_seed = []
         for seed in seeds:
-            chosen = synthetic_share(real, syn, ratio, rng=np.random.default_rng([seed, int(round(ratio * 100))]))
-            train = [real] + ([replace(syn[0], scans=tuple(chosen), spec=f"synthetic {ratio:.0%}")] if chosen else [])
-            per_seed.append(evaluate(train, [test], model=model, seeds=[seed], workers=workers, cache=cache,
-                                     progress=progress, class_map=class_map, eval_classes=eval_classes,
-                                     params=params, out=Path(out) / f"ratio_{int(round(ratio * 100)):02d}" / f"seed{seed}",
-                                     pictures=False))
+            chosen = synthetic_share(
+                real, syn, ratio, rng=np.random.default_rng([seed, int(round(ratio * 100))])
+            )
+            train = [real] + (
+                [replace(syn[0], scans=tuple(chosen), spec=f"synthetic {ratio:.0%}")]
+                if chosen
+                else []
+            )
+            per_seed.append(
+                evaluate(
+                    train,
+                    [test],
+                    model=model,
+                    seeds=[seed],
+                    workers=workers,
+                    cache=cache,
+                    progress=progress,
+                    class_map=class_map,
+                    eval_classes=eval_classes,
+                    params=params,
+                    out=Path(out) / f"ratio_{int(round(ratio * 100)):02d}" / f"seed{seed}",
+                    pictures=False,
+                )
+            )
         results[ratio] = per_seed
     return {"ratios": list(ratios), "results": results, "summary": curve(results)}
 
 
 def curve(results: dict[float, list[EvalResult]]) -> dict[str, list[Spread]]:
     """mIoU and mAcc spreads per ratio (one EvalResult per seed)."""
-    return {"mIoU": [Spread.of([r.tests[0].runs[0].miou for r in rs]) for rs in results.values()],
-            "mAcc": [Spread.of([r.tests[0].runs[0].macc for r in rs]) for rs in results.values()]}
+    return {
+        "mIoU": [Spread.of([r.tests[0].runs[0].miou for r in rs]) for rs in results.values()],
+        "mAcc": [Spread.of([r.tests[0].runs[0].macc for r in rs]) for rs in results.values()],
+    }
 
 
-def finetune(target_train: str | EvalSet, target_test: str | EvalSet, synthetic: Sequence[str | EvalSet], *,
-             out: str | os.PathLike, model: str = "classical", seeds: Sequence[int] = (0, 1, 2), workers: int = 1,
-             label_map: str | os.PathLike | None = None, cache: str | os.PathLike | None = None,
-             progress: bool = False, params: Any = None, scarce: bool = False) -> dict[str, EvalResult]:
+def finetune(
+    target_train: str | EvalSet,
+    target_test: str | EvalSet,
+    synthetic: Sequence[str | EvalSet],
+    *,
+    out: str | os.PathLike,
+    model: str = "classical",
+    seeds: Sequence[int] = (0, 1, 2),
+    workers: int = 1,
+    label_map: str | os.PathLike | None = None,
+    cache: str | os.PathLike | None = None,
+    progress: bool = False,
+    params: Any = None,
+    scarce: bool = False,
+) -> dict[str, EvalResult]:
     """Experiment 2: {"target only", "synthetic only", "synthetic then target"} results."""
-    real = target_train if isinstance(target_train, EvalSet) else read_set(target_train, label_map=label_map)
-    test = target_test if isinstance(target_test, EvalSet) else read_set(target_test, label_map=label_map)
+    real = (
+        target_train
+        if isinstance(target_train, EvalSet)
+        else read_set(target_train, label_map=label_map)
+    )
+    test = (
+        target_test
+        if isinstance(target_test, EvalSet)
+        else read_set(target_test, label_map=label_map)
+    )
     syn = [s if isinstance(s, EvalSet) else read_set(s) for s in synthetic]
     n_classes = max(10, max(s.max_class() for s in [real, test, *syn]) + 1)
     class_map = scarce_map(n_classes) if scarce else None
     eval_classes = SCARCE_CLASSES if scarce else None
-    kw = dict(model=model, seeds=seeds, workers=workers, cache=cache, progress=progress, class_map=class_map,
-              eval_classes=eval_classes, params=params, pictures=False)
+    kw = dict(
+        model=model,
+        seeds=seeds,
+        workers=workers,
+        cache=cache,
+        progress=progress,
+        class_map=class_map,
+        eval_classes=eval_classes,
+        params=params,
+        pictures=False,
+    )
     out = Path(out)
     real_only = evaluate([real], [test], out=out / "target_only", **kw)
     syn_only = evaluate(syn, [test], out=out / "synthetic_only", **kw)
@@ -119,7 +196,9 @@ def finetune(target_train: str | EvalSet, target_test: str | EvalSet, synthetic:
         lut = np.arange(n_classes, dtype=np.int16)
         for a, b in class_map.items():
             lut[a] = b
-    syn_pts = PointTable([s for ss in syn for s in ss.scans], class_map=lut, workers=workers, cache=cache)
+    syn_pts = PointTable(
+        [s for ss in syn for s in ss.scans], class_map=lut, workers=workers, cache=cache
+    )
     pretrained: dict[int, Any] = {}
 
     def init(seed: int) -> Any:

@@ -33,6 +33,7 @@ count give the same bytes. Prediction covers every point: crops are centred on t
 predicted the fewest times (the original's "possibility"), in a fixed order, and each point's
 class is the argmax of its summed probabilities.
 """
+
 from __future__ import annotations
 
 import logging
@@ -72,36 +73,53 @@ class RandLAParams:
     val_crops: int = 16
 
     def __post_init__(self) -> None:
-        if self.points < self.ratio ** len(self.widths) * 2 or self.k < 2 or self.ratio < 2 or not self.widths:
-            raise ConfigError(f"RandLA settings: points must leave >= 2 points at the last level "
-                              f"(points >= 2 * ratio ** layers) and k, ratio >= 2; got {self}")
+        if (
+            self.points < self.ratio ** len(self.widths) * 2
+            or self.k < 2
+            or self.ratio < 2
+            or not self.widths
+        ):
+            raise ConfigError(
+                f"RandLA settings: points must leave >= 2 points at the last level "
+                f"(points >= 2 * ratio ** layers) and k, ratio >= 2; got {self}"
+            )
 
 
 @dataclass
 class _Crop:
-    xyz: list[np.ndarray]     # per level (N_l, 3) float32, centred
-    nbr: list[np.ndarray]     # per level (N_l, k) int64
-    up: list[np.ndarray]      # per level l < L: (N_l,) int64 into level l + 1
-    x: np.ndarray             # (N, 3) float32 input: dx, dy, height
-    y: np.ndarray             # (N,) int64 labels (-1 unlabelled)
-    index: np.ndarray         # (N,) int64 into the scan's points
+    xyz: list[np.ndarray]  # per level (N_l, 3) float32, centred
+    nbr: list[np.ndarray]  # per level (N_l, k) int64
+    up: list[np.ndarray]  # per level l < L: (N_l,) int64 into level l + 1
+    x: np.ndarray  # (N, 3) float32 input: dx, dy, height
+    y: np.ndarray  # (N,) int64 labels (-1 unlabelled)
+    index: np.ndarray  # (N,) int64 into the scan's points
 
 
-def crop(xyz: np.ndarray, height: np.ndarray, labels: np.ndarray, tree: cKDTree, centre: int, p: RandLAParams,
-         *, rng: np.random.Generator) -> _Crop:
+def crop(
+    xyz: np.ndarray,
+    height: np.ndarray,
+    labels: np.ndarray,
+    tree: cKDTree,
+    centre: int,
+    p: RandLAParams,
+    *,
+    rng: np.random.Generator,
+) -> _Crop:
     """The sample around point ``centre`` of one scan: its ``p.points`` nearest points in a
     random order, with each level's neighbours and the nearest point of the next level."""
     n = min(p.points, len(xyz))
     _, idx = tree.query(xyz[centre], k=n)
     idx = np.atleast_1d(idx).astype(np.int64)
-    if n < p.points:   # a small scan: repeats of its own points, as the original pads
+    if n < p.points:  # a small scan: repeats of its own points, as the original pads
         idx = np.concatenate([idx, rng.choice(idx, p.points - n)])
     idx = idx[rng.permutation(p.points)]
     pts = (xyz[idx] - xyz[centre]).astype(np.float32)
     levels, nbrs, ups = [pts], [], []
     for _ in p.widths:
         cur = levels[-1]
-        nbrs.append(cKDTree(cur).query(cur, k=min(p.k, len(cur)))[1].astype(np.int64).reshape(len(cur), -1))
+        nbrs.append(
+            cKDTree(cur).query(cur, k=min(p.k, len(cur)))[1].astype(np.int64).reshape(len(cur), -1)
+        )
         nxt = cur[: len(cur) // p.ratio]
         ups.append(cKDTree(nxt).query(cur, k=1)[1].astype(np.int64))
         levels.append(nxt)
@@ -112,21 +130,24 @@ def crop(xyz: np.ndarray, height: np.ndarray, labels: np.ndarray, tree: cKDTree,
 def _stack(torch: Any, crops: list[_Crop]) -> dict:
     """A batch of crops as tensors (B, ...)."""
     t = torch.from_numpy
-    return {"x": t(np.stack([c.x for c in crops])), "y": t(np.stack([c.y for c in crops])),
-            "xyz": [t(np.stack([c.xyz[l] for c in crops])) for l in range(len(crops[0].xyz))],
-            "nbr": [t(np.stack([c.nbr[l] for c in crops])) for l in range(len(crops[0].nbr))],
-            "up": [t(np.stack([c.up[l] for c in crops])) for l in range(len(crops[0].up))]}
+    return {
+        "x": t(np.stack([c.x for c in crops])),
+        "y": t(np.stack([c.y for c in crops])),
+        "xyz": [t(np.stack([c.xyz[l] for c in crops])) for l in range(len(crops[0].xyz))],
+        "nbr": [t(np.stack([c.nbr[l] for c in crops])) for l in range(len(crops[0].nbr))],
+        "up": [t(np.stack([c.up[l] for c in crops])) for l in range(len(crops[0].up))],
+    }
 
 
 def _net(torch: Any, p: RandLAParams, n_classes: int) -> Any:
     nn = torch.nn
 
-    def gather(f, idx):   # f (B, N, C), idx (B, M, K) -> (B, M, K, C)
+    def gather(f, idx):  # f (B, N, C), idx (B, M, K) -> (B, M, K, C)
         b, m, k = idx.shape
         flat = idx.reshape(b, m * k, 1).expand(-1, -1, f.shape[-1])
         return torch.gather(f, 1, flat).reshape(b, m, k, f.shape[-1])
 
-    class MLP(nn.Module):   # shared: Linear + BatchNorm + LeakyReLU on the last axis
+    class MLP(nn.Module):  # shared: Linear + BatchNorm + LeakyReLU on the last axis
         def __init__(self, cin: int, cout: int, act: bool = True) -> None:
             super().__init__()
             self.lin, self.bn, self.act = nn.Linear(cin, cout), nn.BatchNorm1d(cout), act
@@ -141,10 +162,10 @@ def _net(torch: Any, p: RandLAParams, n_classes: int) -> Any:
             super().__init__()
             self.score, self.mlp = nn.Linear(cin, cin, bias=False), MLP(cin, cout)
 
-        def forward(self, f):   # (B, N, K, C) -> (B, N, cout)
+        def forward(self, f):  # (B, N, K, C) -> (B, N, cout)
             return self.mlp((torch.softmax(self.score(f), dim=2) * f).sum(2))
 
-    class Block(nn.Module):   # the dilated residual block
+    class Block(nn.Module):  # the dilated residual block
         def __init__(self, cin: int, d: int) -> None:
             super().__init__()
             h = max(d // 2, 1)
@@ -153,7 +174,7 @@ def _net(torch: Any, p: RandLAParams, n_classes: int) -> Any:
             self.mlp2, self.short = MLP(d, 2 * d, act=False), MLP(cin, 2 * d, act=False)
 
         def forward(self, f, xyz, nbr):
-            pk = gather(xyz, nbr)                                     # (B, N, K, 3)
+            pk = gather(xyz, nbr)  # (B, N, K, 3)
             pi = xyz.unsqueeze(2).expand_as(pk)
             rel = pi - pk
             r = self.pos1(torch.cat([pi, pk, rel, rel.norm(dim=-1, keepdim=True)], -1))
@@ -179,7 +200,9 @@ def _net(torch: Any, p: RandLAParams, n_classes: int) -> Any:
                 cout = 2 * w[max(lvl - 1, 0)]
                 self.dec.append(MLP(cin + 2 * w[lvl], cout))
                 cin = cout
-            self.head = nn.Sequential(MLP(cin, 64), MLP(64, 32), nn.Dropout(0.5), nn.Linear(32, n_classes))
+            self.head = nn.Sequential(
+                MLP(cin, 64), MLP(64, 32), nn.Dropout(0.5), nn.Linear(32, n_classes)
+            )
 
         def forward(self, b):
             f = self.fc0(b["x"])
@@ -188,12 +211,12 @@ def _net(torch: Any, p: RandLAParams, n_classes: int) -> Any:
                 f = blk(f, b["xyz"][lvl], b["nbr"][lvl])
                 skips.append(f)
                 m = b["xyz"][lvl + 1].shape[1]
-                f = gather(f, b["nbr"][lvl][:, :m]).amax(2)          # random sampling + max-pool
+                f = gather(f, b["nbr"][lvl][:, :m]).amax(2)  # random sampling + max-pool
             f = self.mid(f)
             for j, lvl in enumerate(reversed(range(len(self.enc)))):
                 up = torch.gather(f, 1, b["up"][lvl].unsqueeze(-1).expand(-1, -1, f.shape[-1]))
                 f = self.dec[j](torch.cat([up, skips[lvl]], -1))
-            return self.head(f)                                        # (B, N, classes)
+            return self.head(f)  # (B, N, classes)
 
     return Net()
 
@@ -234,13 +257,22 @@ class RandLAModel:
 
     name = "randla"
 
-    def fit(self, data: PointTable, *, rng: np.random.Generator, threads: int = 1,
-            init: "RandLAModel | None" = None, progress: bool = False) -> "RandLAModel":
+    def fit(
+        self,
+        data: PointTable,
+        *,
+        rng: np.random.Generator,
+        threads: int = 1,
+        init: "RandLAModel | None" = None,
+        progress: bool = False,
+    ) -> "RandLAModel":
         """Train on ``data`` (its scans and classes); ``init``: a trained model to start from."""
         torch = _torch()
         torch.set_num_threads(max(1, threads))
         p = self.params
-        torch.manual_seed(int(rng.integers(2**62)))   # initial weights and dropout draw from torch's CPU generator
+        torch.manual_seed(
+            int(rng.integers(2**62))
+        )  # initial weights and dropout draw from torch's CPU generator
         net = _net(torch, p, self.n_classes)
         if init is not None:
             net.load_state_dict(init.state)
@@ -251,11 +283,19 @@ class RandLAModel:
         if not train.items:
             raise ConfigError("training set: no labelled point for RandLA-Net")
         val = _Scans(data, held & (y >= 0)) if held.any() else None
-        val_crops = val.crops(p.val_crops, p, rng=np.random.default_rng(int(rng.integers(2**62)))) if val else []
-        counts = np.bincount(y[y >= 0].astype(np.int64), minlength=self.n_classes).astype(np.float64)
+        val_crops = (
+            val.crops(p.val_crops, p, rng=np.random.default_rng(int(rng.integers(2**62))))
+            if val
+            else []
+        )
+        counts = np.bincount(y[y >= 0].astype(np.int64), minlength=self.n_classes).astype(
+            np.float64
+        )
         w = np.where(counts > 0, np.maximum(counts, 1) ** -p.balance, 0.0)
         w = w / w[counts > 0].mean()
-        loss_fn = torch.nn.CrossEntropyLoss(weight=torch.tensor(w, dtype=torch.float32), ignore_index=-1)
+        loss_fn = torch.nn.CrossEntropyLoss(
+            weight=torch.tensor(w, dtype=torch.float32), ignore_index=-1
+        )
         opt = torch.optim.Adam(net.parameters(), lr=p.learning_rate)
         sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, p.steps)
         per_epoch = max(1.0, float(train.weights.sum()) / (p.batch * p.points))
@@ -279,11 +319,23 @@ class RandLAModel:
             if (step + 1) % p.validate_every == 0 or step + 1 == p.steps:
                 miou = self._score(torch, net, val_crops) if val_crops else float("nan")
                 n = (step % p.validate_every) + 1
-                self.curve.append({"step": step + 1, "epoch": (step + 1) / per_epoch,
-                                   "seconds": time.perf_counter() - t0, "train_loss": loss_sum / n,
-                                   "val_miou": miou, "load": os.getloadavg()[0]})
+                self.curve.append(
+                    {
+                        "step": step + 1,
+                        "epoch": (step + 1) / per_epoch,
+                        "seconds": time.perf_counter() - t0,
+                        "train_loss": loss_sum / n,
+                        "val_miou": miou,
+                        "load": os.getloadavg()[0],
+                    }
+                )
                 loss_sum = 0.0
-                log.info("randla step %d: loss %.3f, validation mIoU %.3f", step + 1, self.curve[-1]["train_loss"], miou)
+                log.info(
+                    "randla step %d: loss %.3f, validation mIoU %.3f",
+                    step + 1,
+                    self.curve[-1]["train_loss"],
+                    miou,
+                )
                 if not val_crops or miou > best:
                     best = miou
                     best_state = {k: t.detach().clone() for k, t in net.state_dict().items()}
@@ -299,7 +351,7 @@ class RandLAModel:
         conf = np.zeros((self.n_classes, self.n_classes), np.int64)
         with torch.no_grad():
             for i in range(0, len(crops), 4):
-                part = crops[i:i + 4]
+                part = crops[i : i + 4]
                 pred = net(_stack(torch, part)).argmax(-1).numpy()
                 for c, pr in zip(part, pred):
                     conf += confusion(c.y, pr, self.n_classes)
@@ -333,6 +385,6 @@ class RandLAModel:
                     pr = torch.softmax(net(_stack(torch, [c]))[0], -1).numpy()
                     np.add.at(prob, c.index, pr)
                     seen[c.index] += 1
-                out[start:start + n] = prob.argmax(1)
+                out[start : start + n] = prob.argmax(1)
                 start += n
         return out

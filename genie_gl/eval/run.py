@@ -7,13 +7,15 @@ them (:mod:`.metrics`). The figures over the seeds are reported with their sprea
 folder::
 
     OUT/metrics.json        per seed and summarised (mean, std, min, max): mIoU, mAcc, OA, per
-                            class IoU and Acc, confusion matrices; the same bytes for the same inputs
+                            class IoU and Acc, confusion matrices; the same bytes for the same
+                            inputs
     OUT/timings.json        seconds of each step, and a neural model's learning curves (not in
                             metrics.json: they vary run to run)
     OUT/report.md           the tables
     OUT/predictions/seed<S>/<test>/...   the .label files (class and instance id)
     OUT/<test>.confusion.png, OUT/<test>.iou.png
 """
+
 from __future__ import annotations
 
 import json
@@ -58,7 +60,10 @@ def make_model(name: str, n_classes: int, params: Any = None) -> Any:
         return NeuralModel(n_classes, params or NeuralParams())
     if name == "randla":
         return RandLAModel(n_classes, params or RandLAParams())
-    raise ConfigError(f"--model {name!r}: unknown{did_you_mean(name, MODELS)}; expected one of {', '.join(MODELS)}")
+    raise ConfigError(
+        f"--model {name!r}: unknown{did_you_mean(name, MODELS)}; expected one of "
+        f"{', '.join(MODELS)}"
+    )
 
 
 @dataclass(frozen=True)
@@ -69,9 +74,11 @@ class TestResult:
     name: str
     runs: tuple[metrics.Scores, ...]
     summary: dict
-    unseen: tuple[int, ...]          # test classes no training point had
+    unseen: tuple[int, ...]  # test classes no training point had
     n_points: int
-    panoptic: dict = field(default_factory=dict)   # {"model" | "one per class": summary, "true classes": summary}
+    panoptic: dict = field(
+        default_factory=dict
+    )  # {"model" | "one per class": summary, "true classes": summary}
 
 
 @dataclass(frozen=True)
@@ -85,7 +92,7 @@ class EvalResult:
     names: dict[int, str]
     n_train_points: int
     rounds: tuple[int, ...] = ()
-    cluster: Any = None              # the instance model's settings (instances.ClusterParams)
+    cluster: Any = None  # the instance model's settings (instances.ClusterParams)
     timings: dict = field(default_factory=dict)
     out: Path | None = None
 
@@ -97,23 +104,52 @@ class EvalResult:
 
     def as_dict(self) -> dict:
         def spread_dict(summary: dict) -> dict:
-            return {"miou": summary["miou"].as_dict(), "macc": summary["macc"].as_dict(),
-                    "oa": summary["oa"].as_dict(),
-                    "iou": {self.names.get(c, f"class_{c}"): s.as_dict() for c, s in summary["iou"].items()},
-                    "acc": {self.names.get(c, f"class_{c}"): s.as_dict() for c, s in summary["acc"].items()},
-                    "confusion_summed": summary["confusion"].tolist()}
-        return {"model": self.model, "seeds": list(self.seeds), "train": list(self.train),
-                "n_train_points": self.n_train_points, "rounds": list(self.rounds),
-                "cluster": None if self.cluster is None else
-                {"min_samples": self.cluster.min_samples, "eps_m": self.cluster.eps_m,
-                 "eps_m_by_class": {self.names.get(c, f"class_{c}"): e for c, e in self.cluster.eps_by_class}},
-                "classes": {str(k): v for k, v in sorted(self.names.items())},
-                "tests": [{"spec": t.spec, "name": t.name, "points": t.n_points,
-                           "unseen_classes": [self.names.get(c, f"class_{c}") for c in t.unseen],
-                           "summary": spread_dict(t.summary),
-                           "panoptic": {k: panoptic.spread_dict(v, self.names) for k, v in t.panoptic.items()},
-                           "runs": [dict(seed=s, **r.as_dict(self.names)) for s, r in zip(self.seeds, t.runs)]}
-                          for t in self.tests]}
+            return {
+                "miou": summary["miou"].as_dict(),
+                "macc": summary["macc"].as_dict(),
+                "oa": summary["oa"].as_dict(),
+                "iou": {
+                    self.names.get(c, f"class_{c}"): s.as_dict() for c, s in summary["iou"].items()
+                },
+                "acc": {
+                    self.names.get(c, f"class_{c}"): s.as_dict() for c, s in summary["acc"].items()
+                },
+                "confusion_summed": summary["confusion"].tolist(),
+            }
+
+        return {
+            "model": self.model,
+            "seeds": list(self.seeds),
+            "train": list(self.train),
+            "n_train_points": self.n_train_points,
+            "rounds": list(self.rounds),
+            "cluster": None
+            if self.cluster is None
+            else {
+                "min_samples": self.cluster.min_samples,
+                "eps_m": self.cluster.eps_m,
+                "eps_m_by_class": {
+                    self.names.get(c, f"class_{c}"): e for c, e in self.cluster.eps_by_class
+                },
+            },
+            "classes": {str(k): v for k, v in sorted(self.names.items())},
+            "tests": [
+                {
+                    "spec": t.spec,
+                    "name": t.name,
+                    "points": t.n_points,
+                    "unseen_classes": [self.names.get(c, f"class_{c}") for c in t.unseen],
+                    "summary": spread_dict(t.summary),
+                    "panoptic": {
+                        k: panoptic.spread_dict(v, self.names) for k, v in t.panoptic.items()
+                    },
+                    "runs": [
+                        dict(seed=s, **r.as_dict(self.names)) for s, r in zip(self.seeds, t.runs)
+                    ],
+                }
+                for t in self.tests
+            ],
+        }
 
 
 def _per_scan(values: np.ndarray, test: EvalSet) -> list[np.ndarray]:
@@ -123,8 +159,13 @@ def _per_scan(values: np.ndarray, test: EvalSet) -> list[np.ndarray]:
 
 
 def set_name(spec: str) -> str:
-    """A file-name-safe short name of a dataset spec (``out/x/storage:test`` -> ``storage-test``)."""
-    root, _, part = str(spec).rstrip("/").partition(":") if not Path(str(spec)).exists() else (str(spec), "", "")
+    """A file-name-safe short name of a dataset spec (``out/x/storage:test`` ->
+    ``storage-test``)."""
+    root, _, part = (
+        str(spec).rstrip("/").partition(":")
+        if not Path(str(spec)).exists()
+        else (str(spec), "", "")
+    )
     name = Path(root).name + (f"-{part}" if part else "")
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name) or "set"
 
@@ -147,13 +188,26 @@ def _versions() -> dict[str, str]:
     return out
 
 
-def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | os.PathLike | EvalSet], *,
-             model: str = "classical", seeds: Sequence[int] = (0, 1, 2), out: str | os.PathLike | None = None,
-             workers: int = 1, label_map: str | os.PathLike | None = None, cache: str | os.PathLike | None = None,
-             progress: bool = False, class_map: dict[int, int] | None = None,
-             eval_classes: Sequence[int] | None = None, params: Any = None, init: Any = None,
-             write_predictions: bool = True, pictures: bool = True, allow_overlap: bool = False,
-             cluster: instances.ClusterParams | None = None) -> EvalResult:
+def evaluate(
+    train: Sequence[str | os.PathLike | EvalSet],
+    test: Sequence[str | os.PathLike | EvalSet],
+    *,
+    model: str = "classical",
+    seeds: Sequence[int] = (0, 1, 2),
+    out: str | os.PathLike | None = None,
+    workers: int = 1,
+    label_map: str | os.PathLike | None = None,
+    cache: str | os.PathLike | None = None,
+    progress: bool = False,
+    class_map: dict[int, int] | None = None,
+    eval_classes: Sequence[int] | None = None,
+    params: Any = None,
+    init: Any = None,
+    write_predictions: bool = True,
+    pictures: bool = True,
+    allow_overlap: bool = False,
+    cluster: instances.ClusterParams | None = None,
+) -> EvalResult:
     """Train ``model`` on ``train`` and test it on each of ``test``, once per seed.
 
     Parameters
@@ -195,28 +249,47 @@ def evaluate(train: Sequence[str | os.PathLike | EvalSet], test: Sequence[str | 
     if not test:
         raise ConfigError("--test: at least one dataset")
     if model not in MODELS:
-        make_model(model, 10)   # the one-line refusal, before anything is read
+        make_model(model, 10)  # the one-line refusal, before anything is read
     t0 = time.perf_counter()
     folder = None
     writes = ["metrics.json", "timings.json", "report.md", "predictions"]
     if out is not None and cache is not None and _inside(cache, out):
         writes.append(Path(os.path.relpath(Path(cache).resolve(), Path(out).resolve())).parts[0])
-    if out is not None:   # claimed before any work: only what genie eval writes is ever replaced
+    if out is not None:  # claimed before any work: only what genie eval writes is ever replaced
         folder = claim_folder(out, "eval", writes)
     train_sets = [_as_set(x, label_map) for x in train]
     test_sets = [_as_set(x, label_map) for x in test]
     if not allow_overlap:
         check_disjoint(train_sets, test_sets)
-    if folder is not None:   # the inputs are read and sound: from here on this run writes
+    if folder is not None:  # the inputs are read and sound: from here on this run writes
         folder.reserve()
     begun: list[str] = []
     try:
-        return _evaluate(train_sets, test_sets, model=model, seeds=seeds, out=out, workers=workers,
-                         label_map=label_map, cache=cache, progress=progress, class_map=class_map,
-                         eval_classes=eval_classes, params=params, init=init, write_predictions=write_predictions,
-                         pictures=pictures, cluster=cluster, folder=folder, begun=begun, t0=t0)
+        return _evaluate(
+            train_sets,
+            test_sets,
+            model=model,
+            seeds=seeds,
+            out=out,
+            workers=workers,
+            label_map=label_map,
+            cache=cache,
+            progress=progress,
+            class_map=class_map,
+            eval_classes=eval_classes,
+            params=params,
+            init=init,
+            write_predictions=write_predictions,
+            pictures=pictures,
+            cluster=cluster,
+            folder=folder,
+            begun=begun,
+            t0=t0,
+        )
     except BaseException:
-        if folder is not None:   # a failed run leaves no partial output and a manifest of what exists
+        if (
+            folder is not None
+        ):  # a failed run leaves no partial output and a manifest of what exists
             folder.abandon(begun)
         raise
 
@@ -239,24 +312,53 @@ def check_disjoint(train_sets: Sequence[EvalSet], test_sets: Sequence[EvalSet]) 
         both = [(s, b) for s, b in both if b is not None]
         if both:
             s, (spec, path) = both[0]
-            how = "the same file" if os.path.realpath(path) == os.path.realpath(s.path) else f"the same points as {path}"
-            raise ConfigError(f"--test {ts.spec}: {len(both)} of its {len(ts.scans)} scans are training scans too "
-                              f"(--train {spec}; e.g. {s.path}: {how}); a score on training data says nothing of new "
-                              "data: test on other scans (DIR:test, another set), or allow it with --allow-overlap")
+            how = (
+                "the same file"
+                if os.path.realpath(path) == os.path.realpath(s.path)
+                else f"the same points as {path}"
+            )
+            raise ConfigError(
+                f"--test {ts.spec}: {len(both)} of its {len(ts.scans)} scans are training scans "
+                "too "
+                f"(--train {spec}; e.g. {s.path}: {how}); a score on training data says nothing of "
+                "new "
+                "data: test on other scans (DIR:test, another set), or allow it with "
+                "--allow-overlap"
+            )
 
 
-def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str, seeds: tuple[int, ...],
-              out: str | os.PathLike | None, workers: int, label_map: str | os.PathLike | None,
-              cache: str | os.PathLike | None, progress: bool, class_map: dict[int, int] | None,
-              eval_classes: Sequence[int] | None, params: Any, init: Any, write_predictions: bool, pictures: bool,
-              cluster: instances.ClusterParams | None, folder: Any, begun: list[str], t0: float) -> EvalResult:
-    """:func:`evaluate` once its inputs are read; ``begun`` collects the outputs it starts writing."""
+def _evaluate(
+    train_sets: list[EvalSet],
+    test_sets: list[EvalSet],
+    *,
+    model: str,
+    seeds: tuple[int, ...],
+    out: str | os.PathLike | None,
+    workers: int,
+    label_map: str | os.PathLike | None,
+    cache: str | os.PathLike | None,
+    progress: bool,
+    class_map: dict[int, int] | None,
+    eval_classes: Sequence[int] | None,
+    params: Any,
+    init: Any,
+    write_predictions: bool,
+    pictures: bool,
+    cluster: instances.ClusterParams | None,
+    folder: Any,
+    begun: list[str],
+    t0: float,
+) -> EvalResult:
+    """:func:`evaluate` once its inputs are read; ``begun`` collects the outputs it starts
+    writing."""
     everything = train_sets + test_sets
     names = dict(label_names.CLASSES)
     named_by: dict[int, str] = {}
-    for s in everything:   # every set against the names the sets before it gave
+    for s in everything:  # every set against the names the sets before it gave
         for k in set(names) & set(s.names):
-            check_same_classes({k: names[k]}, named_by.get(k, "genie-gl's classes"), {k: s.names[k]}, s.spec)
+            check_same_classes(
+                {k: names[k]}, named_by.get(k, "genie-gl's classes"), {k: s.names[k]}, s.spec
+            )
         for k, v in s.names.items():
             named_by.setdefault(k, s.spec)
             names[k] = v
@@ -273,8 +375,10 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
         raise ConfigError(f"--train {', '.join(s.spec for s in train_sets)}: no labelled point")
     seen = set(np.unique(train_pts.labels[train_pts.labels >= 0]).tolist())
     test_pts = [PointTable(list(s.scans), class_map=lut, **opts) for s in test_sets]
-    for labels in [train_pts.labels] + [tp.labels for tp in test_pts]:   # a class no map names (a PLY
-        for c in np.unique(labels[labels >= 0]).tolist():                 # set's own id): named by its id
+    for labels in [train_pts.labels] + [
+        tp.labels for tp in test_pts
+    ]:  # a class no map names (a PLY
+        for c in np.unique(labels[labels >= 0]).tolist():  # set's own id): named by its id
             names.setdefault(int(c), f"class {c}")
     t_read = time.perf_counter() - t0
     needs_features = model not in ("majority", "neural", "randla")
@@ -290,21 +394,31 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
     t_pan = time.perf_counter()
     if cluster is None:
         train_scans = [sc for ts in train_sets for sc in ts.scans]
-        cluster = instances.tune([sc.xyz for sc in train_scans],
-                                 np.split(train_pts.labels, np.cumsum([len(sc) for sc in train_scans])[:-1]),
-                                 [i for ts in train_sets for i in panoptic.truth_instances(ts)], n_classes)
+        cluster = instances.tune(
+            [sc.xyz for sc in train_scans],
+            np.split(train_pts.labels, np.cumsum([len(sc) for sc in train_scans])[:-1]),
+            [i for ts in train_sets for i in panoptic.truth_instances(ts)],
+            n_classes,
+        )
     truth = [_per_scan(tp.labels, ts) for ts, tp in zip(test_sets, test_pts)]
     truth_inst = [panoptic.truth_instances(ts) for ts in test_sets]
     xyz = [[s.xyz for s in ts.scans] for ts in test_sets]
     upper_inst = [instances.scan_instances(x, t, params=cluster) for x, t in zip(xyz, truth)]
-    pan_runs: list[dict[str, list]] = [{"model": [], "one per class": [], "true classes": []} for _ in test_sets]
+    pan_runs: list[dict[str, list]] = [
+        {"model": [], "one per class": [], "true classes": []} for _ in test_sets
+    ]
     t_panoptic = time.perf_counter() - t_pan
     rounds, t_train, t_pred, curves = [], [], [], []
     for seed in seeds:
         m = make_model(model, n_classes, params)
         t2 = time.perf_counter()
-        m.fit(train_pts, rng=np.random.default_rng(seed), threads=workers,
-              init=init(seed) if init is not None else None, progress=progress)
+        m.fit(
+            train_pts,
+            rng=np.random.default_rng(seed),
+            threads=workers,
+            init=init(seed) if init is not None else None,
+            progress=progress,
+        )
         t_train.append(time.perf_counter() - t2)
         rounds.append(int(getattr(m, "rounds_used", 0)))
         curves.append(list(getattr(m, "curve", [])))
@@ -318,36 +432,77 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
             t4 = time.perf_counter()
             pred_scans = _per_scan(pred, ts)
             inst = instances.scan_instances(xyz[j], pred_scans, params=cluster)
-            for key, (ps, pi) in {"model": (pred_scans, inst),
-                                  "one per class": (pred_scans, instances.scan_instances(xyz[j], pred_scans,
-                                                                                         "one_per_class")),
-                                  "true classes": (truth[j], upper_inst[j])}.items():
-                pan_runs[j][key].append(panoptic.evaluate_scans(truth[j], truth_inst[j], ps, pi, sc.classes,
-                                                                sc.iou if key != "true classes" else
-                                                                np.where(np.isnan(sc.iou), np.nan, 1.0), n_classes))
+            for key, (ps, pi) in {
+                "model": (pred_scans, inst),
+                "one per class": (
+                    pred_scans,
+                    instances.scan_instances(xyz[j], pred_scans, "one_per_class"),
+                ),
+                "true classes": (truth[j], upper_inst[j]),
+            }.items():
+                pan_runs[j][key].append(
+                    panoptic.evaluate_scans(
+                        truth[j],
+                        truth_inst[j],
+                        ps,
+                        pi,
+                        sc.classes,
+                        sc.iou
+                        if key != "true classes"
+                        else np.where(np.isnan(sc.iou), np.nan, 1.0),
+                        n_classes,
+                    )
+                )
             t_panoptic += time.perf_counter() - t4
             if out_p is not None and write_predictions:
-                if "predictions" not in begun:   # a previous run's predictions go as a whole
+                if "predictions" not in begun:  # a previous run's predictions go as a whole
                     begun.append("predictions")
                     if folder is not None:
                         folder.remove("predictions")
-                predictions.write(ts, pred, out_p / "predictions" / f"seed{seed}" / set_name(ts.spec), inst)
+                predictions.write(
+                    ts, pred, out_p / "predictions" / f"seed{seed}" / set_name(ts.spec), inst
+                )
     tests = []
     for ts, tp, r, pr in zip(test_sets, test_pts, runs, pan_runs):
         present = set(np.unique(tp.labels[tp.labels >= 0]).tolist())
         unseen = tuple(sorted(present - seen))
         if unseen:
-            log.warning("%s: test classes never seen in training: %s (scored, IoU 0 unless predicted)", ts.spec,
-                        ", ".join(names.get(c, str(c)) for c in unseen))
-        tests.append(TestResult(spec=ts.spec, name=set_name(ts.spec), runs=tuple(r),
-                                summary=metrics.summarise(r), unseen=unseen, n_points=len(tp),
-                                panoptic={k: panoptic.summarise(v) for k, v in pr.items()}))
-    result = EvalResult(model=model, seeds=seeds, train=tuple(s.spec for s in train_sets), tests=tuple(tests),
-                        names=names, n_train_points=len(train_pts), rounds=tuple(rounds), cluster=cluster,
-                        timings={"read_s": t_read, "features_s": t_features, "train_s": t_train,
-                                 "predict_s": t_pred, "panoptic_s": t_panoptic, "total_s": time.perf_counter() - t0,
-                                 **({"learning_curves": curves} if any(curves) else {})},
-                        out=out_p)
+            log.warning(
+                "%s: test classes never seen in training: %s (scored, IoU 0 unless predicted)",
+                ts.spec,
+                ", ".join(names.get(c, str(c)) for c in unseen),
+            )
+        tests.append(
+            TestResult(
+                spec=ts.spec,
+                name=set_name(ts.spec),
+                runs=tuple(r),
+                summary=metrics.summarise(r),
+                unseen=unseen,
+                n_points=len(tp),
+                panoptic={k: panoptic.summarise(v) for k, v in pr.items()},
+            )
+        )
+    result = EvalResult(
+        model=model,
+        seeds=seeds,
+        train=tuple(s.spec for s in train_sets),
+        tests=tuple(tests),
+        names=names,
+        n_train_points=len(train_pts),
+        rounds=tuple(rounds),
+        cluster=cluster,
+        timings={
+            "read_s": t_read,
+            "features_s": t_features,
+            "train_s": t_train,
+            "predict_s": t_pred,
+            "panoptic_s": t_panoptic,
+            "total_s": time.perf_counter() - t0,
+            **({"learning_curves": curves} if any(curves) else {}),
+        },
+        out=out_p,
+    )
     if out_p is not None and folder is not None:
         begun.extend(["metrics.json", "timings.json", "report.md"])
         _write_json(out_p / "metrics.json", result.as_dict())
@@ -355,11 +510,29 @@ def _evaluate(train_sets: list[EvalSet], test_sets: list[EvalSet], *, model: str
         atomic_write_text(out_p / "report.md", result_markdown(result))
         if pictures:
             for t in result.tests:
-                confusion_png(t.summary["confusion"], names, out_p / f"{t.name}.confusion.png",
-                              title=f"{model} on {t.name} (summed over {len(seeds)} seeds)")
-                iou_bars_png({model: t.summary}, names, out_p / f"{t.name}.iou.png", title=f"IoU per class, {t.name}")
-        folder.finish({"inputs": {"train": list(result.train), "test": [t.spec for t in result.tests],
-                                  "model": model, "seeds": list(seeds), "label_map": str(label_map) if label_map else None,
-                                  "params": repr(params) if params is not None else "defaults"},
-                       "versions": _versions()})
+                confusion_png(
+                    t.summary["confusion"],
+                    names,
+                    out_p / f"{t.name}.confusion.png",
+                    title=f"{model} on {t.name} (summed over {len(seeds)} seeds)",
+                )
+                iou_bars_png(
+                    {model: t.summary},
+                    names,
+                    out_p / f"{t.name}.iou.png",
+                    title=f"IoU per class, {t.name}",
+                )
+        folder.finish(
+            {
+                "inputs": {
+                    "train": list(result.train),
+                    "test": [t.spec for t in result.tests],
+                    "model": model,
+                    "seeds": list(seeds),
+                    "label_map": str(label_map) if label_map else None,
+                    "params": repr(params) if params is not None else "defaults",
+                },
+                "versions": _versions(),
+            }
+        )
     return result

@@ -11,6 +11,7 @@ semantic class id (a scalar field every E57 viewer shows), and ``<file>.labels.n
 the file holds per scan ``semantic_K`` (uint16) and ``instance_K`` (uint32), K the scan's
 index, in the scan's point order.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -35,7 +36,9 @@ def _pye57():
     try:
         import pye57
     except ImportError as exc:
-        raise ConfigError(f"--format e57 needs the pye57 package: pip install 'genie-gl[sequences]' ({exc})") from None
+        raise ConfigError(
+            f"--format e57 needs the pye57 package: pip install 'genie-gl[sequences]' ({exc})"
+        ) from None
     return pye57
 
 
@@ -75,7 +78,9 @@ class E57Writer:
     def __init__(self, path: str | os.PathLike, key: uuid.UUID) -> None:
         self.path = Path(path)
         labels = self.path.with_name(self.path.name + ".labels.npz")
-        check_replaceable(self.path, lambda p: labels_are_ours(labels), what="E57")   # a user's file stays as it is
+        check_replaceable(
+            self.path, lambda p: labels_are_ours(labels), what="E57"
+        )  # a user's file stays as it is
         check_replaceable(labels, labels_are_ours, what="E57 labels")
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
@@ -85,18 +90,37 @@ class E57Writer:
         self.labels: dict[str, np.ndarray] = {}
         self.n = 0
 
-    def add(self, xyz: np.ndarray, semantic: np.ndarray, instance: np.ndarray, world_from_scan: np.ndarray, *,
-            rgb: np.ndarray | None = None, name: str | None = None) -> None:
+    def add(
+        self,
+        xyz: np.ndarray,
+        semantic: np.ndarray,
+        instance: np.ndarray,
+        world_from_scan: np.ndarray,
+        *,
+        rgb: np.ndarray | None = None,
+        name: str | None = None,
+    ) -> None:
         xyz = np.asarray(xyz, np.float64)
-        data = {"cartesianX": np.ascontiguousarray(xyz[:, 0]), "cartesianY": np.ascontiguousarray(xyz[:, 1]),
-                "cartesianZ": np.ascontiguousarray(xyz[:, 2]), "intensity": semantic.astype(np.float32),
-                "cartesianInvalidState": np.zeros(len(xyz), np.int8)}
+        data = {
+            "cartesianX": np.ascontiguousarray(xyz[:, 0]),
+            "cartesianY": np.ascontiguousarray(xyz[:, 1]),
+            "cartesianZ": np.ascontiguousarray(xyz[:, 2]),
+            "intensity": semantic.astype(np.float32),
+            "cartesianInvalidState": np.zeros(len(xyz), np.int8),
+        }
         if rgb is not None:
-            data.update(colorRed=np.ascontiguousarray(rgb[:, 0]), colorGreen=np.ascontiguousarray(rgb[:, 1]),
-                        colorBlue=np.ascontiguousarray(rgb[:, 2]))
+            data.update(
+                colorRed=np.ascontiguousarray(rgb[:, 0]),
+                colorGreen=np.ascontiguousarray(rgb[:, 1]),
+                colorBlue=np.ascontiguousarray(rgb[:, 2]),
+            )
         with _guids(self.key, f"scan {self.n}"):
-            self.e57.write_scan_raw(data, name=name or f"scan {self.n}", rotation=_quat_wxyz(world_from_scan[:3, :3]),
-                                    translation=np.asarray(world_from_scan[:3, 3], np.float64))
+            self.e57.write_scan_raw(
+                data,
+                name=name or f"scan {self.n}",
+                rotation=_quat_wxyz(world_from_scan[:3, :3]),
+                translation=np.asarray(world_from_scan[:3, 3], np.float64),
+            )
         self.labels[f"semantic_{self.n}"] = semantic.astype(np.uint16)
         self.labels[f"instance_{self.n}"] = instance.astype(np.uint32)
         self.n += 1
@@ -116,7 +140,7 @@ class E57Writer:
         """Drop what was written so far (nothing half-written is left)."""
         try:
             self.e57.close()
-        except Exception:   # pye57 may refuse to close a file it failed to write
+        except Exception:  # pye57 may refuse to close a file it failed to write
             pass
         self.tmp.unlink(missing_ok=True)
 
@@ -146,7 +170,9 @@ def cloud_pose(cloud: PointCloud) -> np.ndarray:
 
 def write(clouds: list[PointCloud], path: str | os.PathLike) -> Path:
     """``clouds`` as the scans of one E57 file (each posed at its origin)."""
-    with e57_writer(path, content_guid(*(a for c in clouds for a in (c.xyz, c.semantic, c.instance)))) as w:
+    with e57_writer(
+        path, content_guid(*(a for c in clouds for a in (c.xyz, c.semantic, c.instance)))
+    ) as w:
         for k, c in enumerate(clouds):
             w.add(c.xyz, c.semantic, c.instance, cloud_pose(c), rgb=c.rgb, name=f"chunk {k}")
         return w.close()
@@ -161,22 +187,47 @@ def read(path: str | os.PathLike) -> list[PointCloud]:
     for k in range(e.scan_count):
         d = e.read_scan_raw(k)
         h = e.get_header(k)
-        xyz = np.stack([d["cartesianX"], d["cartesianY"], d["cartesianZ"]], 1) @ np.asarray(h.rotation_matrix).T
-        rgb = np.stack([d["colorRed"], d["colorGreen"], d["colorBlue"]], 1).astype(np.uint8) if "colorRed" in d else None
-        out.append(PointCloud(xyz.astype(np.float32), labels[f"semantic_{k}"], labels[f"instance_{k}"],
-                              np.asarray(h.translation, np.float64), rgb))
+        xyz = (
+            np.stack([d["cartesianX"], d["cartesianY"], d["cartesianZ"]], 1)
+            @ np.asarray(h.rotation_matrix).T
+        )
+        rgb = (
+            np.stack([d["colorRed"], d["colorGreen"], d["colorBlue"]], 1).astype(np.uint8)
+            if "colorRed" in d
+            else None
+        )
+        out.append(
+            PointCloud(
+                xyz.astype(np.float32),
+                labels[f"semantic_{k}"],
+                labels[f"instance_{k}"],
+                np.asarray(h.translation, np.float64),
+                rgb,
+            )
+        )
     return out
 
 
 def write_recording(rig, trajectory, recording, path: str | os.PathLike) -> Path:
     """A recording ((Shot, Frame) pairs) as one E57 file, a scan per shot in its optical frame."""
-    key = content_guid(*(a for shot, frame in recording
-                         for a in (shot.world_from_camera, frame.depth, frame.instance)))
+    key = content_guid(
+        *(
+            a
+            for shot, frame in recording
+            for a in (shot.world_from_camera, frame.depth, frame.instance)
+        )
+    )
     with e57_writer(path, key) as w:
         for shot, frame in recording:
             c = camera_points(frame)
-            w.add(c.xyz, c.semantic, c.instance, shot.world_from_camera, rgb=c.rgb,
-                  name=f"{rig.sensors[shot.sensor].name} {shot.time_s - trajectory.start_s:.6f}")
+            w.add(
+                c.xyz,
+                c.semantic,
+                c.instance,
+                shot.world_from_camera,
+                rgb=c.rgb,
+                name=f"{rig.sensors[shot.sensor].name} {shot.time_s - trajectory.start_s:.6f}",
+            )
         return w.close()
 
 
@@ -188,13 +239,23 @@ def _write_sequence(data, folder: Path) -> None:
     write_recording(data.rig, data.trajectory, data.recording, folder / "recording.e57")
 
 
-def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object) -> Path:
+def _write_cloud(
+    cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object
+) -> Path:
     return write([cloud], Path(out_dir) / f"{name}.e57")
 
 
 from .registry import DatasetFormat, register_format  # noqa: E402
 
-DATASET = register_format(DatasetFormat(
-    "e57", "scenes", write_scene=_write_scene, write_cloud=_write_cloud, write_sequence=_write_sequence,
-    cloud_outputs=lambda name: (f"{name}.e57", f"{name}.e57.labels.npz"),
-    description="E57 (ASTM E2807) scans with their poses; labels in intensity and a .labels.npz beside"))
+DATASET = register_format(
+    DatasetFormat(
+        "e57",
+        "scenes",
+        write_scene=_write_scene,
+        write_cloud=_write_cloud,
+        write_sequence=_write_sequence,
+        cloud_outputs=lambda name: (f"{name}.e57", f"{name}.e57.labels.npz"),
+        description="E57 (ASTM E2807) scans with their poses; labels in intensity and a "
+        ".labels.npz beside",
+    )
+)

@@ -9,6 +9,7 @@ and §8): what mobile-scan maps are handed on in.
 - ``gps_time``: the second it was seen on the recording's clock, when a time per frame is
   known (a mobile-scan map), else 0; red/green/blue (16 bits: 8-bit colour x 257) when known.
 """
+
 from __future__ import annotations
 
 import os
@@ -21,29 +22,40 @@ from ..errors import ConfigError, ExportError
 from ..outputs import check_replaceable, written
 
 SCALE_M = 1e-4
-SOFTWARE = "genie-gl"   # the header's generating software of the files written here
+SOFTWARE = "genie-gl"  # the header's generating software of the files written here
 
 
 def _laspy():
     try:
         import laspy
     except ImportError as exc:
-        raise ConfigError(f"--format las needs the laspy package: pip install 'genie-gl[sequences]' ({exc})") from None
+        raise ConfigError(
+            f"--format las needs the laspy package: pip install 'genie-gl[sequences]' ({exc})"
+        ) from None
     return laspy
 
 
-def write(cloud: PointCloud, path: str | os.PathLike, *, frame_times_s: np.ndarray | None = None) -> Path:
+def write(
+    cloud: PointCloud, path: str | os.PathLike, *, frame_times_s: np.ndarray | None = None
+) -> Path:
     """``cloud`` as one LAS 1.4 file; ``frame_times_s[k]``: the time of frame k (gps_time)."""
     laspy = _laspy()
-    path = check_replaceable(path, las_is_ours, what="LAS point cloud")   # a user's file stays as it is
+    path = check_replaceable(
+        path, las_is_ours, what="LAS point cloud"
+    )  # a user's file stays as it is
     if len(cloud) and int(cloud.semantic.max()) > 255:
-        raise ExportError(f"LAS classification holds ids 0-255, got semantic id {int(cloud.semantic.max())}")
+        raise ExportError(
+            f"LAS classification holds ids 0-255, got semantic id {int(cloud.semantic.max())}"
+        )
     header = laspy.LasHeader(point_format=7 if cloud.rgb is not None else 6, version="1.4")
-    header.generating_software = SOFTWARE   # how a later run knows the file as its own
+    header.generating_software = SOFTWARE  # how a later run knows the file as its own
     header.scales = np.full(3, SCALE_M)
     header.offsets = np.asarray(cloud.origin, np.float64)
-    header.add_extra_dim(laspy.ExtraBytesParams(name="instance_id", type=np.uint32,
-                                                description="genie-gl instance id"))
+    header.add_extra_dim(
+        laspy.ExtraBytesParams(
+            name="instance_id", type=np.uint32, description="genie-gl instance id"
+        )
+    )
     las = laspy.LasData(header)
     world = cloud.world_xyz
     las.x, las.y, las.z = world[:, 0], world[:, 1], world[:, 2]
@@ -74,13 +86,25 @@ def read(path: str | os.PathLike) -> PointCloud:
     """A LAS file written here, back as a PointCloud (origin = the header's offsets)."""
     las = _laspy().read(str(path))
     origin = np.asarray(las.header.offsets, np.float64)
-    xyz = np.stack([np.asarray(las.x) - origin[0], np.asarray(las.y) - origin[1], np.asarray(las.z) - origin[2]], 1)
+    xyz = np.stack(
+        [
+            np.asarray(las.x) - origin[0],
+            np.asarray(las.y) - origin[1],
+            np.asarray(las.z) - origin[2],
+        ],
+        1,
+    )
     rgb = None
     if "red" in las.point_format.dimension_names:
         rgb = (np.stack([las.red, las.green, las.blue], 1) // 257).astype(np.uint8)
-    return PointCloud(xyz.astype(np.float32), np.asarray(las.classification, np.uint16),
-                      np.asarray(las.instance_id, np.uint32), origin, rgb,
-                      camera=np.asarray(las.point_source_id, np.uint16))
+    return PointCloud(
+        xyz.astype(np.float32),
+        np.asarray(las.classification, np.uint16),
+        np.asarray(las.instance_id, np.uint32),
+        origin,
+        rgb,
+        camera=np.asarray(las.point_source_id, np.uint16),
+    )
 
 
 def _write_scene(data, folder: Path) -> None:
@@ -90,12 +114,22 @@ def _write_scene(data, folder: Path) -> None:
         write(tile, folder / f"cloud_{j:03d}.las", frame_times_s=times)
 
 
-def _write_cloud(cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object) -> Path:
+def _write_cloud(
+    cloud: PointCloud, out_dir: str | os.PathLike, *, name: str = "cloud", **_: object
+) -> Path:
     return write(cloud, Path(out_dir) / f"{name}.las")
 
 
 from .registry import DatasetFormat, file_output, register_format  # noqa: E402
 
-DATASET = register_format(DatasetFormat(
-    "las", "scenes", write_scene=_write_scene, write_cloud=_write_cloud, cloud_outputs=file_output("las"),
-    description="LAS 1.4 (format 6/7): semantic id in classification, instance id in extra bytes"))
+DATASET = register_format(
+    DatasetFormat(
+        "las",
+        "scenes",
+        write_scene=_write_scene,
+        write_cloud=_write_cloud,
+        cloud_outputs=file_output("las"),
+        description="LAS 1.4 (format 6/7): semantic id in classification, instance id in extra "
+        "bytes",
+    )
+)

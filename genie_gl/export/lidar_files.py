@@ -16,6 +16,7 @@ pose the head's at the scan start and its points in that frame (deskewed), with
 own reader gives back the coordinates, rows, columns and intensity; the time stamps and
 returns are read with libE57Format itself.
 """
+
 from __future__ import annotations
 
 import os
@@ -33,7 +34,7 @@ from ..motion.trajectory import quaternion_xyzw
 from .e57 import _guids, _pye57, content_guid
 from .las import SCALE_M, SOFTWARE, _laspy, las_is_ours
 
-SCAN_ANGLE_DEG = 0.006   # LAS 1.4 scan angle: degrees per count
+SCAN_ANGLE_DEG = 0.006  # LAS 1.4 scan angle: degrees per count
 
 
 def write_scans_las(scans: Sequence[Scan], path: str | os.PathLike) -> Path:
@@ -46,13 +47,21 @@ def write_scans_las(scans: Sequence[Scan], path: str | os.PathLike) -> Path:
     path = check_replaceable(path, las_is_ours, what="LAS point cloud")
     cloud = scans_cloud(scans)
     if len(cloud) and int(cloud.semantic.max()) > 255:
-        raise ExportError(f"LAS classification holds ids 0-255, got semantic id {int(cloud.semantic.max())}")
+        raise ExportError(
+            f"LAS classification holds ids 0-255, got semantic id {int(cloud.semantic.max())}"
+        )
     header = laspy.LasHeader(point_format=6, version="1.4")
     header.generating_software = SOFTWARE
     header.scales = np.full(3, SCALE_M)
     header.offsets = np.asarray(cloud.origin, np.float64)
-    header.add_extra_dim(laspy.ExtraBytesParams(name="ring", type=np.uint16, description="beam ring"))
-    header.add_extra_dim(laspy.ExtraBytesParams(name="instance_id", type=np.uint32, description="genie-gl instance id"))
+    header.add_extra_dim(
+        laspy.ExtraBytesParams(name="ring", type=np.uint16, description="beam ring")
+    )
+    header.add_extra_dim(
+        laspy.ExtraBytesParams(
+            name="instance_id", type=np.uint32, description="genie-gl instance id"
+        )
+    )
     las = laspy.LasData(header)
     world = cloud.world_xyz
     las.x, las.y, las.z = world[:, 0], world[:, 1], world[:, 2]
@@ -79,7 +88,7 @@ def write_scans_e57(scans: Sequence[Scan], path: str | os.PathLike) -> Path:
     pye57 = _pye57()
     if not scans or not sum(len(s) for s in scans):
         raise ExportError(f"{path}: no point in the scans; nothing was written")
-    path = check_replaceable(path, lambda p: False, what="E57")   # never over a file of the user's
+    path = check_replaceable(path, lambda p: False, what="E57")  # never over a file of the user's
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.e57")
     path.parent.mkdir(parents=True, exist_ok=True)
     key = content_guid(*[a for s in scans for a in (s.world_xyz, s.time_s)])
@@ -99,7 +108,10 @@ def _scan_node(lib, f, data3d, s: Scan, k: int, key) -> None:
     node = lib.StructureNode(f)
     node.set("guid", lib.StringNode(f, "{%s}" % uuid.uuid5(key, f"scan.{k}")))
     node.set("name", lib.StringNode(f, f"{s.head} {s.index}"))
-    node.set("description", lib.StringNode(f, f"genie-gl scan of {s.scanner.name}, start {s.start_s:.9f} s"))
+    node.set(
+        "description",
+        lib.StringNode(f, f"genie-gl scan of {s.scanner.name}, start {s.start_s:.9f} s"),
+    )
     pose = lib.StructureNode(f)
     q = _quat_wxyz(s.start_pose[:3, :3])
     rot, tr = lib.StructureNode(f), lib.StructureNode(f)
@@ -111,12 +123,18 @@ def _scan_node(lib, f, data3d, s: Scan, k: int, key) -> None:
     pose.set("translation", tr)
     node.set("pose", pose)
     ring = s.ring.astype(np.uint16)
-    col = s.column.astype(np.uint16)   # columns per revolution stay far below 65536 (VLP-16: 1809)
+    col = s.column.astype(np.uint16)  # columns per revolution stay far below 65536 (VLP-16: 1809)
     ret = (s.return_number - 1).astype(np.uint8)
     count = s.returns.astype(np.uint8)
     bounds = lib.StructureNode(f)
-    for name, v in (("rowMinimum", 0), ("rowMaximum", int(ring.max(initial=0))), ("columnMinimum", 0),
-                    ("columnMaximum", int(col.max(initial=0))), ("returnMinimum", 0), ("returnMaximum", int(ret.max(initial=0)))):
+    for name, v in (
+        ("rowMinimum", 0),
+        ("rowMaximum", int(ring.max(initial=0))),
+        ("columnMinimum", 0),
+        ("columnMaximum", int(col.max(initial=0))),
+        ("returnMinimum", 0),
+        ("returnMaximum", int(ret.max(initial=0))),
+    ):
         bounds.set(name, lib.IntegerNode(f, v))
     node.set("indexBounds", bounds)
     limits = lib.StructureNode(f)
@@ -126,9 +144,17 @@ def _scan_node(lib, f, data3d, s: Scan, k: int, key) -> None:
     proto = lib.StructureNode(f)
     xyz = s.deskewed_xyz()
     big = 1e4
-    arrays = {"cartesianX": xyz[:, 0].copy(), "cartesianY": xyz[:, 1].copy(), "cartesianZ": xyz[:, 2].copy(),
-              "intensity": s.intensity.astype(np.float32), "rowIndex": ring, "columnIndex": col,
-              "returnIndex": ret, "returnCount": count, "timeStamp": s.time_s.copy()}
+    arrays = {
+        "cartesianX": xyz[:, 0].copy(),
+        "cartesianY": xyz[:, 1].copy(),
+        "cartesianZ": xyz[:, 2].copy(),
+        "intensity": s.intensity.astype(np.float32),
+        "rowIndex": ring,
+        "columnIndex": col,
+        "returnIndex": ret,
+        "returnCount": count,
+        "timeStamp": s.time_s.copy(),
+    }
     proto.set("cartesianX", lib.FloatNode(f, 0.0, lib.E57_DOUBLE, -big, big))
     proto.set("cartesianY", lib.FloatNode(f, 0.0, lib.E57_DOUBLE, -big, big))
     proto.set("cartesianZ", lib.FloatNode(f, 0.0, lib.E57_DOUBLE, -big, big))

@@ -9,6 +9,7 @@
 - ``pcd`` / ``ply``: ``<head>/NNNNNN.pcd|ply``, each scan raw (as the driver gives it) with
   intensity, ring, time and returns.
 """
+
 from __future__ import annotations
 
 import os
@@ -33,16 +34,21 @@ def _kitti(scans: Sequence[Scan], out: Path) -> list[Path]:
         raise ExportError("SemanticKITTI sequences are two digits: at most 100 heads")
     paths = []
     for k in heads:
-        paths += write_kitti_sequence([s for s in scans if s.head_index == k], out / "sequences" / f"{k:02d}")
+        paths += write_kitti_sequence(
+            [s for s in scans if s.head_index == k], out / "sequences" / f"{k:02d}"
+        )
     sem = np.concatenate([s.semantic for s in scans])
     counts = dict(zip(*np.unique(sem, return_counts=True)))
-    atomic_write_text(out / "genie-gl.yaml", label_map_yaml(counts, {"train": heads, "valid": [], "test": []}))
+    atomic_write_text(
+        out / "genie-gl.yaml", label_map_yaml(counts, {"train": heads, "valid": [], "test": []})
+    )
     return paths
 
 
 def _per_scan(ext: str, write: Callable) -> Callable[[Sequence[Scan], Path], list[Path]]:
     def go(scans: Sequence[Scan], out: Path) -> list[Path]:
         return [write(scan_cloud(s, "raw"), out / s.head / f"{s.index:06d}.{ext}") for s in scans]
+
     return go
 
 
@@ -56,20 +62,35 @@ SCAN_FORMATS: dict[str, tuple[Callable[[Sequence[Scan], Path], list[Path]], tupl
 }
 
 
-def export_scans(scans: Sequence[Scan], out_dir: str | os.PathLike, format: str = "kitti") -> list[Path]:
+def export_scans(
+    scans: Sequence[Scan], out_dir: str | os.PathLike, format: str = "kitti"
+) -> list[Path]:
     """Write ``scans`` under ``out_dir`` in ``format`` (one of :data:`SCAN_FORMATS`); returns
     the files written. The user's own files in ``out_dir`` are kept; ``manifest.json``
     records what genie-gl wrote."""
     if format not in SCAN_FORMATS:
-        raise ConfigError(f"scan format {format!r}: unknown{did_you_mean(format, SCAN_FORMATS)}; expected one of "
-                          f"{', '.join(SCAN_FORMATS)}")
+        raise ConfigError(
+            f"scan format {format!r}: unknown{did_you_mean(format, SCAN_FORMATS)}; expected one of "
+            f"{', '.join(SCAN_FORMATS)}"
+        )
     if not scans or not sum(len(s) for s in scans):
         raise ExportError(f"export to {out_dir}: the scans hold no point; nothing was written")
     write, names = SCAN_FORMATS[format]
     heads = sorted({s.head for s in scans})
-    folder = claim_folder(out_dir, "scan", names + (tuple(heads) if format in ("pcd", "ply") else ()),
-                          option="out_dir", reserve=True)
+    folder = claim_folder(
+        out_dir,
+        "scan",
+        names + (tuple(heads) if format in ("pcd", "ply") else ()),
+        option="out_dir",
+        reserve=True,
+    )
     paths = write(scans, folder.path)
-    folder.finish({"format": format, "scans": len(scans), "points": int(sum(len(s) for s in scans)),
-                   "heads": {h: sorted({s.scanner.name for s in scans if s.head == h}) for h in heads}})
+    folder.finish(
+        {
+            "format": format,
+            "scans": len(scans),
+            "points": int(sum(len(s) for s in scans)),
+            "heads": {h: sorted({s.scanner.name for s in scans if s.head == h}) for h in heads},
+        }
+    )
     return paths

@@ -25,6 +25,7 @@ stamped with the scan's start, the recording clock's 0 at 1 ns):
 
 Points are raw (as a driver publishes a moving head's scan) in firing order.
 """
+
 from __future__ import annotations
 
 import os
@@ -49,11 +50,15 @@ def _one_head(scans: Sequence[Scan], what: str) -> None:
     if not scans:
         raise ExportError(f"{what}: no scan to write")
     if len({s.head for s in scans}) != 1:
-        raise ExportError(f"{what}: one head per sequence (got {', '.join(sorted({s.head for s in scans}))}); "
-                          "write each head's scans on their own")
+        raise ExportError(
+            f"{what}: one head per sequence (got {', '.join(sorted({s.head for s in scans}))}); "
+            "write each head's scans on their own"
+        )
 
 
-def write_kitti_sequence(scans: Sequence[Scan], seq_dir: str | os.PathLike, *, deskew: bool = True) -> list[Path]:
+def write_kitti_sequence(
+    scans: Sequence[Scan], seq_dir: str | os.PathLike, *, deskew: bool = True
+) -> list[Path]:
     """One head's scans as SemanticKITTI sequence folder ``seq_dir``; returns the .bin paths."""
     _one_head(scans, "SemanticKITTI sequence")
     seq = Path(seq_dir)
@@ -66,7 +71,9 @@ def write_kitti_sequence(scans: Sequence[Scan], seq_dir: str | os.PathLike, *, d
     eye = _fmt(np.eye(4)[:3].ravel())
     atomic_write_text(seq / "poses.txt", "".join(p + "\n" for p in poses))
     atomic_write_text(seq / "times.txt", "".join(f"{s.start_s:.9e}\n" for s in scans))
-    atomic_write_text(seq / "calib.txt", "".join(f"{k}: {eye}\n" for k in ("P0", "P1", "P2", "P3", "Tr")))
+    atomic_write_text(
+        seq / "calib.txt", "".join(f"{k}: {eye}\n" for k in ("P0", "P1", "P2", "P3", "Tr"))
+    )
     atomic_write_text(seq / "world_pose.txt", _fmt(first[:3].ravel()) + "\n")
     return paths
 
@@ -77,15 +84,42 @@ def point_fields(scan: Scan, style: str) -> tuple[np.ndarray, list[tuple[str, in
     xyz = scan.sensor_xyz.astype("<f4")
     refl = np.round(scan.intensity.astype(np.float64) * 100.0)
     if style == "velodyne":
-        dt = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("intensity", "<f4"), ("ring", "<u2"), ("pad", "<u2"),
-              ("time", "<f4")]
+        dt = [
+            ("x", "<f4"),
+            ("y", "<f4"),
+            ("z", "<f4"),
+            ("intensity", "<f4"),
+            ("ring", "<u2"),
+            ("pad", "<u2"),
+            ("time", "<f4"),
+        ]
         codes = {"x": 7, "y": 7, "z": 7, "intensity": 7, "ring": 4, "time": 7}
         rec = np.zeros(len(scan), dt)
         rec["intensity"], rec["ring"], rec["time"] = refl, scan.ring, scan.time_s
     elif style == "ouster":
-        dt = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("intensity", "<f4"), ("t", "<u4"), ("reflectivity", "<u2"),
-              ("ring", "<u2"), ("ambient", "<u2"), ("pad", "<u2"), ("range", "<u4")]
-        codes = {"x": 7, "y": 7, "z": 7, "intensity": 7, "t": 6, "reflectivity": 4, "ring": 4, "ambient": 4, "range": 6}
+        dt = [
+            ("x", "<f4"),
+            ("y", "<f4"),
+            ("z", "<f4"),
+            ("intensity", "<f4"),
+            ("t", "<u4"),
+            ("reflectivity", "<u2"),
+            ("ring", "<u2"),
+            ("ambient", "<u2"),
+            ("pad", "<u2"),
+            ("range", "<u4"),
+        ]
+        codes = {
+            "x": 7,
+            "y": 7,
+            "z": 7,
+            "intensity": 7,
+            "t": 6,
+            "reflectivity": 4,
+            "ring": 4,
+            "ambient": 4,
+            "range": 6,
+        }
         rec = np.zeros(len(scan), dt)
         rec["intensity"], rec["reflectivity"], rec["ring"] = refl, refl, scan.ring
         rec["t"] = np.round(scan.time_s * 1e9).astype(np.uint32)
@@ -97,7 +131,9 @@ def point_fields(scan: Scan, style: str) -> tuple[np.ndarray, list[tuple[str, in
     return rec, fields
 
 
-def write_scan_bag(scans: Sequence[Scan], bag_dir: str | os.PathLike, *, style: str | None = None) -> Path:
+def write_scan_bag(
+    scans: Sequence[Scan], bag_dir: str | os.PathLike, *, style: str | None = None
+) -> Path:
     """The scans (any heads, any order: written in time order) as an MCAP bag in ``bag_dir``;
     ``style``: the point fields (default: each head's own, a generic head's velodyne)."""
     if not scans:
@@ -105,8 +141,11 @@ def write_scan_bag(scans: Sequence[Scan], bag_dir: str | os.PathLike, *, style: 
     Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime, writer, ts = _modules()
     bag_dir = Path(bag_dir)
     if bag_dir.exists() and not bag_is_ours(bag_dir):
-        raise ConfigError(f"{bag_dir}: already exists and was not written by genie-gl; it is left as it is (remove "
-                          "or rename it, or write the ROS 2 bag elsewhere)")
+        raise ConfigError(
+            f"{bag_dir}: already exists and was not written by genie-gl; it is left as it is "
+            "(remove "
+            "or rename it, or write the ROS 2 bag elsewhere)"
+        )
     tmp_root = bag_dir.parent / f".{bag_dir.name}.{os.getpid()}.tmp"
     shutil.rmtree(tmp_root, ignore_errors=True)
     tmp_root.mkdir(parents=True)
@@ -114,26 +153,36 @@ def write_scan_bag(scans: Sequence[Scan], bag_dir: str | os.PathLike, *, style: 
     F = ts.types["sensor_msgs/msg/PointField"]
     t0 = min(s.start_s for s in scans)
     try:
-        with writer(tmp_root / bag_dir.name, True) as w:   # zstd chunks, as the camera bags
+        with writer(tmp_root / bag_dir.name, True) as w:  # zstd chunks, as the camera bags
             w.set_custom_data(STAMP_KEY, __version__)
             tf = w.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=ts)
             topics = {}
             for s in sorted(scans, key=lambda s: (s.start_s, s.head_index)):
                 t = int(round((s.start_s - t0) * 1e9)) + 1
                 if s.head not in topics:
-                    topics[s.head] = w.add_connection(f"/{s.head}/points", "sensor_msgs/msg/PointCloud2", typestore=ts)
-                msg = ts.types["tf2_msgs/msg/TFMessage"](transforms=[m.transform(t, MAP, s.head, s.start_pose)])
+                    topics[s.head] = w.add_connection(
+                        f"/{s.head}/points", "sensor_msgs/msg/PointCloud2", typestore=ts
+                    )
+                msg = ts.types["tf2_msgs/msg/TFMessage"](
+                    transforms=[m.transform(t, MAP, s.head, s.start_pose)]
+                )
                 w.write(tf, t, ts.serialize_cdr(msg, "tf2_msgs/msg/TFMessage"))
                 kind = style or (s.scanner.style if s.scanner.style in STYLES else "velodyne")
                 rec, fields = point_fields(s, kind)
                 cloud = ts.types["sensor_msgs/msg/PointCloud2"](
-                    header=m.header(t, s.head), height=1, width=len(rec),
-                    fields=[F(name=n, offset=o, datatype=c, count=1) for n, o, c in fields], is_bigendian=False,
-                    point_step=rec.itemsize, row_step=rec.itemsize * len(rec), data=rec.view(np.uint8).reshape(-1),
-                    is_dense=True)
+                    header=m.header(t, s.head),
+                    height=1,
+                    width=len(rec),
+                    fields=[F(name=n, offset=o, datatype=c, count=1) for n, o, c in fields],
+                    is_bigendian=False,
+                    point_step=rec.itemsize,
+                    row_step=rec.itemsize * len(rec),
+                    data=rec.view(np.uint8).reshape(-1),
+                    is_dense=True,
+                )
                 w.write(topics[s.head], t, ts.serialize_cdr(cloud, "sensor_msgs/msg/PointCloud2"))
         if bag_dir.exists():
-            shutil.rmtree(bag_dir)   # a bag genie-gl wrote (checked above)
+            shutil.rmtree(bag_dir)  # a bag genie-gl wrote (checked above)
         (tmp_root / bag_dir.name).rename(bag_dir)
     finally:
         shutil.rmtree(tmp_root, ignore_errors=True)

@@ -15,6 +15,7 @@ x forward, y left, z up, like KITTI's Velodyne), so the body plays the "velodyne
 - ``times.txt``: seconds since the trajectory's start; ``world_pose.txt``: the body's pose
   at the first scan in the world (3x4), so ``world = world_pose · Tr⁻¹ · pose_i · Tr · p``.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -30,8 +31,16 @@ from ..errors import ExportError
 from ..outputs import atomic_write_bytes, atomic_write_text, publish_folder, remove_files
 from . import semantickitti
 from .registry import register_format
-from .semantickitti import (MAX_SEQUENCES, _fmt, _link, encode_instances, label_map_yaml, pack_labels,
-                            sequence_files, split_sequences)
+from .semantickitti import (
+    MAX_SEQUENCES,
+    _fmt,
+    _link,
+    encode_instances,
+    label_map_yaml,
+    pack_labels,
+    sequence_files,
+    split_sequences,
+)
 
 
 def groups(rig) -> list[list[int]]:
@@ -53,7 +62,7 @@ def calib_text(rig, members: list[int]) -> str:
     lines = []
     for j in range(4):
         s = rig.sensors[members[min(j, len(members) - 1)]]
-        T = np.linalg.inv(s.body_from_sensor) @ B0                      # camera j from camera 0
+        T = np.linalg.inv(s.body_from_sensor) @ B0  # camera j from camera 0
         lines.append(f"P{j}: {_fmt((s.sensor.K @ T[:3]).ravel())}")
     lines.append(f"Tr: {_fmt(np.linalg.inv(B0)[:3].ravel())}")
     return "".join(line + "\n" for line in lines)
@@ -86,12 +95,16 @@ def write_recording(rig, trajectory, recording: Iterable, folder: str | os.PathL
         atomic_write_bytes(dirs[g] / "velodyne" / f"{j:06d}.bin", scan.tobytes())
         atomic_write_bytes(dirs[g] / "labels" / f"{j:06d}.label", pack_labels(sem, ids).tobytes())
         if table is not None:
-            atomic_write_text(dirs[g] / "instance_maps" / f"{j:06d}.txt",
-                              "".join(f"{i + 1} {int(v)}\n" for i, v in enumerate(table)))
+            atomic_write_text(
+                dirs[g] / "instance_maps" / f"{j:06d}.txt",
+                "".join(f"{i + 1} {int(v)}\n" for i, v in enumerate(table)),
+            )
         cam0 = shot0.world_from_body @ rig.sensors[gs[g][0]].body_from_sensor
         if first[g] is None:
             first[g] = cam0
-            atomic_write_text(dirs[g] / "world_pose.txt", _fmt(shot0.world_from_body[:3].ravel()) + "\n")
+            atomic_write_text(
+                dirs[g] / "world_pose.txt", _fmt(shot0.world_from_body[:3].ravel()) + "\n"
+            )
         poses[g].append(_fmt((np.linalg.inv(first[g]) @ cam0)[:3].ravel()))
         times[g].append(f"{shot0.time_s - trajectory.start_s:.9e}")
 
@@ -108,8 +121,10 @@ def write_recording(rig, trajectory, recording: Iterable, folder: str | os.PathL
         flush(g)
     for g, members in enumerate(gs):
         if not poses[g]:
-            raise ExportError(f"SemanticKITTI sequence {g:02d}: the trajectory is shorter than one frame of "
-                              f"sensor {rig.sensors[members[0]].name!r}")
+            raise ExportError(
+                f"SemanticKITTI sequence {g:02d}: the trajectory is shorter than one frame of "
+                f"sensor {rig.sensors[members[0]].name!r}"
+            )
         atomic_write_text(dirs[g] / "poses.txt", "".join(p + "\n" for p in poses[g]))
         atomic_write_text(dirs[g] / "times.txt", "".join(t + "\n" for t in times[g]))
         atomic_write_text(dirs[g] / "calib.txt", calib_text(rig, members))
@@ -120,14 +135,23 @@ def write_scene(data, folder: Path) -> None:
     write_recording(data.rig, data.trajectory, data.recording, folder)
 
 
-def assemble(out: str | os.PathLike, scene_dirs: list[Path], *, counts=None, split=(0.8, 0.1, 0.1)) -> dict[int, list[int]]:
+def assemble(
+    out: str | os.PathLike, scene_dirs: list[Path], *, counts=None, split=(0.8, 0.1, 0.1)
+) -> dict[int, list[int]]:
     """``sequences/NN`` from every scene's group folders in order (hard links), and the label
     map; returns {sequence: [scene]}. More than 100 sequences is refused (two digits)."""
-    src = [(i, d) for i, scene in enumerate(scene_dirs) for d in sorted(Path(scene).iterdir())
-           if d.is_dir() and d.name.isdigit() and len(d.name) == 2]
+    src = [
+        (i, d)
+        for i, scene in enumerate(scene_dirs)
+        for d in sorted(Path(scene).iterdir())
+        if d.is_dir() and d.name.isdigit() and len(d.name) == 2
+    ]
     if len(src) > MAX_SEQUENCES:
-        raise ExportError(f"SemanticKITTI holds {MAX_SEQUENCES} sequences (two digits); this dataset's recordings "
-                          f"make {len(src)}: use fewer scenes, or --format tum or rosbag")
+        raise ExportError(
+            f"SemanticKITTI holds {MAX_SEQUENCES} sequences (two digits); this dataset's "
+            "recordings "
+            f"make {len(src)}: use fewer scenes, or --format tum or rosbag"
+        )
     root = Path(out) / "sequences"
     root.mkdir(parents=True, exist_ok=True)
     made: dict[int, list[int]] = {}
@@ -138,12 +162,21 @@ def assemble(out: str | os.PathLike, scene_dirs: list[Path], *, counts=None, spl
             if f.is_file():
                 (tmp / f.relative_to(d)).parent.mkdir(parents=True, exist_ok=True)
                 _link(f, tmp / f.relative_to(d))
-        publish_folder(tmp, root / f"{q:02d}", previous=sequence_files(root / f"{q:02d}"))   # a user's files stay
+        publish_folder(
+            tmp, root / f"{q:02d}", previous=sequence_files(root / f"{q:02d}")
+        )  # a user's files stay
         made[q] = [i]
-    for old in root.iterdir():   # sequences of an earlier run that made more: genie-gl's files go
-        if old.name.isdigit() and int(old.name) not in made and old.is_dir() and not old.is_symlink():
+    for old in root.iterdir():  # sequences of an earlier run that made more: genie-gl's files go
+        if (
+            old.name.isdigit()
+            and int(old.name) not in made
+            and old.is_dir()
+            and not old.is_symlink()
+        ):
             remove_files(old, sequence_files(old))
-    atomic_write_text(Path(out) / "genie-gl.yaml", label_map_yaml(counts, split_sequences(len(made), split)))
+    atomic_write_text(
+        Path(out) / "genie-gl.yaml", label_map_yaml(counts, split_sequences(len(made), split))
+    )
     return made
 
 
@@ -153,11 +186,19 @@ def _finish(out: Path, cfg, stats: list[dict]) -> None:
     for s in stats:
         for k, v in s["class_points"].items():
             counts[int(k)] = counts.get(int(k), 0) + int(v)
-    made = assemble(out, [DATASET.scene_dir(out, i) for i in range(len(stats))], counts=counts, split=tuple(cfg.split))
+    made = assemble(
+        out,
+        [DATASET.scene_dir(out, i) for i in range(len(stats))],
+        counts=counts,
+        split=tuple(cfg.split),
+    )
     for s in stats:
         s["sequence"] = min(q for q, members in made.items() if s["scene"] in members)
 
 
 # the SemanticKITTI format takes recordings too: its registration, with the sequence writer
-DATASET = register_format(dataclasses.replace(semantickitti.DATASET, write_sequence=write_scene,
-                                              finish_recordings=_finish))
+DATASET = register_format(
+    dataclasses.replace(
+        semantickitti.DATASET, write_sequence=write_scene, finish_recordings=_finish
+    )
+)

@@ -10,6 +10,7 @@
 - ``semantic/T.png`` and ``instance/T.png``: 16-bit class and instance ids per pixel (this
   project's addition; an instance id above 65535 is refused).
 """
+
 from __future__ import annotations
 
 import os
@@ -58,7 +59,10 @@ def write_recording(rig, trajectory, recording, folder: str | os.PathLike) -> li
         _png(d / "depth" / f"{t}.png", depth_png(frame.depth))
         _png(d / "semantic" / f"{t}.png", frame.semantic)
         if frame.instance.size and int(frame.instance.max()) > 0xFFFF:
-            raise ExportError(f"TUM instance PNGs hold 16-bit ids; frame {t} of {s.name} has {int(frame.instance.max())}")
+            raise ExportError(
+                f"TUM instance PNGs hold 16-bit ids; frame {t} of {s.name} has "
+                f"{int(frame.instance.max())}"
+            )
         _png(d / "instance" / f"{t}.png", frame.instance.astype(np.uint16))
         r["rgb"].append(f"{t} rgb/{t}.png")
         r["depth"].append(f"{t} depth/{t}.png")
@@ -69,12 +73,18 @@ def write_recording(rig, trajectory, recording, folder: str | os.PathLike) -> li
     out = []
     for k, r in sorted(rows.items()):
         d = folder / rig.sensors[k].name
-        head = f"# genie-gl TUM RGB-D sequence: rig sensor {rig.sensors[k].name}\n# timestamp filename\n"
+        head = (
+            f"# genie-gl TUM RGB-D sequence: rig sensor {rig.sensors[k].name}\n# timestamp "
+            "filename\n"
+        )
         atomic_write_text(d / "rgb.txt", head + "".join(x + "\n" for x in r["rgb"]))
         atomic_write_text(d / "depth.txt", head + "".join(x + "\n" for x in r["depth"]))
         atomic_write_text(d / "associations.txt", "".join(x + "\n" for x in r["assoc"]))
-        atomic_write_text(d / "groundtruth.txt", "# ground truth trajectory (optical frame, world)\n"
-                          "# timestamp tx ty tz qx qy qz qw\n" + "".join(x + "\n" for x in r["gt"]))
+        atomic_write_text(
+            d / "groundtruth.txt",
+            "# ground truth trajectory (optical frame, world)\n"
+            "# timestamp tx ty tz qx qy qz qw\n" + "".join(x + "\n" for x in r["gt"]),
+        )
         out.append(d)
     return out
 
@@ -85,6 +95,14 @@ def _write_scene(data, folder: Path) -> None:
 
 from .registry import DatasetFormat, register_format  # noqa: E402
 
-DATASET = register_format(DatasetFormat(
-    "tum", "scenes", colour=True, chunks=False, write_sequence=_write_scene,
-    description="TUM RGB-D sequences per rig sensor (rgb/, depth/ x5000, associations, groundtruth)"))
+DATASET = register_format(
+    DatasetFormat(
+        "tum",
+        "scenes",
+        colour=True,
+        chunks=False,
+        write_sequence=_write_scene,
+        description="TUM RGB-D sequences per rig sensor (rgb/, depth/ x5000, associations, "
+        "groundtruth)",
+    )
+)

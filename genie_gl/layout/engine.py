@@ -1,5 +1,6 @@
 """The layout engine: paper Algorithm 1 (levels, merge) and Algorithm 2 (breadth-first
 expansion with a generator looked up per region type), driven by one explicit Generator."""
+
 from __future__ import annotations
 
 import logging
@@ -19,8 +20,13 @@ from .strategy import Rule, Strategy, load_strategy, parse_strategy
 log = logging.getLogger(__name__)
 
 
-def generate_layout(strategy: Strategy | str | Path | dict, seed: int = 0, *,
-                    rng: np.random.Generator | None = None, max_regions: int = MAX_REGIONS) -> Layout:
+def generate_layout(
+    strategy: Strategy | str | Path | dict,
+    seed: int = 0,
+    *,
+    rng: np.random.Generator | None = None,
+    max_regions: int = MAX_REGIONS,
+) -> Layout:
     """Generate a layout tree from a strategy (object, file path or shipped name).
 
     Algorithm 2 a level at a time: the leaves of each region type that the level has a rule
@@ -36,14 +42,23 @@ def generate_layout(strategy: Strategy | str | Path | dict, seed: int = 0, *,
     strat = as_strategy(strategy)
     seed = check_seed(seed)
     max_regions = whole_number(max_regions, "generate_layout: max_regions", 1)
-    check_regions(layout_estimate(strat)[1], max_regions, str(strat.source),
-                  option="--max-nodes (max_regions= in the API)")
+    check_regions(
+        layout_estimate(strat)[1],
+        max_regions,
+        str(strat.source),
+        option="--max-nodes (max_regions= in the API)",
+    )
     rng = np.random.default_rng(seed) if rng is None else rng
     names = tuple(strat.region_types)
     r = strat.root
-    tree = Tree(*(np.array([v], np.float64) for v in (r.x, r.y, r.width, r.height)),
-                np.array([names.index(r.type)], np.int32), np.array([ORIENTATIONS.index(r.orientation)], np.int8),
-                np.zeros(1, np.int32), np.full(1, -1, np.int32), names)
+    tree = Tree(
+        *(np.array([v], np.float64) for v in (r.x, r.y, r.width, r.height)),
+        np.array([names.index(r.type)], np.int32),
+        np.array([ORIENTATIONS.index(r.orientation)], np.int8),
+        np.zeros(1, np.int32),
+        np.full(1, -1, np.int32),
+        names,
+    )
     reports: list[dict] = []
     merges: list[dict] = []
     for li, level in enumerate(strat.levels):
@@ -66,12 +81,21 @@ def as_strategy(strategy: Strategy | str | Path | dict) -> Strategy:
         return parse_strategy(strategy, "strategy (dict)")
     if isinstance(strategy, (str, Path)):
         return load_strategy(strategy)
-    raise ConfigError(f"strategy: expected a Strategy, a strategy file, a shipped name or its JSON as a dict, "
-                      f"got {describe(strategy)}")
+    raise ConfigError(
+        f"strategy: expected a Strategy, a strategy file, a shipped name or its JSON as a dict, "
+        f"got {describe(strategy)}"
+    )
 
 
-def _expand_level(tree: Tree, level: dict[str, Rule], types: dict[str, RegionType],
-                  li: int, reports: list[dict], *, rng: np.random.Generator) -> Tree:
+def _expand_level(
+    tree: Tree,
+    level: dict[str, Rule],
+    types: dict[str, RegionType],
+    li: int,
+    reports: list[dict],
+    *,
+    rng: np.random.Generator,
+) -> Tree:
     names = tree.type_names
     leaves = np.flatnonzero(tree.n_children() == 0)
     parts = []
@@ -81,24 +105,40 @@ def _expand_level(tree: Tree, level: dict[str, Rule], types: dict[str, RegionTyp
         sel = leaves[tree.type[leaves] == names.index(tname)]
         if len(sel) == 0:
             continue
-        kids = rule.generator.generate_batch(Parents(tree.x[sel], tree.y[sel], tree.w[sel], tree.h[sel],
-                                                     tree.orient[sel], tname), rng=rng)
+        kids = rule.generator.generate_batch(
+            Parents(tree.x[sel], tree.y[sel], tree.w[sel], tree.h[sel], tree.orient[sel], tname),
+            rng=rng,
+        )
         for k, rep in kids.reports:
             if rep.get("placed", 0) < rep.get("requested", 0):
                 reports.append({"level": li, "region": int(sel[k]), **rep})
-                log.info("level %d: %s placed %d of %d rooms", li, rule.generator_name, rep["placed"], rep["requested"])
+                log.info(
+                    "level %d: %s placed %d of %d rooms",
+                    li,
+                    rule.generator_name,
+                    rep["placed"],
+                    rep["requested"],
+                )
         parts.append(_assign(tree, sel, kids, rule, rng=rng))
     if not parts:
         return tree
     new = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     order = np.argsort(new["parent"], kind="stable")  # children grouped by parent: breadth-first
     new = {k: v[order] for k, v in new.items()}
-    return Tree(*(np.concatenate([getattr(tree, k), new[k]]) for k in ("x", "y", "w", "h", "type", "orient")),
-                np.concatenate([tree.depth, tree.depth[new["parent"]] + 1]),
-                np.concatenate([tree.parent, new["parent"].astype(np.int32)]), names)
+    return Tree(
+        *(
+            np.concatenate([getattr(tree, k), new[k]])
+            for k in ("x", "y", "w", "h", "type", "orient")
+        ),
+        np.concatenate([tree.depth, tree.depth[new["parent"]] + 1]),
+        np.concatenate([tree.parent, new["parent"].astype(np.int32)]),
+        names,
+    )
 
 
-def _assign(tree: Tree, sel: np.ndarray, kids: Children, rule: Rule, *, rng: np.random.Generator) -> dict[str, np.ndarray]:
+def _assign(
+    tree: Tree, sel: np.ndarray, kids: Children, rule: Rule, *, rng: np.random.Generator
+) -> dict[str, np.ndarray]:
     """Region types and orientations of a batch's children; children whose slot has no type
     provider are dropped."""
     names = tree.type_names

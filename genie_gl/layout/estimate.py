@@ -21,6 +21,7 @@ made by the per-region loop (``generate``) as :data:`~.generators.LOOP_COST` (th
 ratio of their times, ``genie bench layout``), plus each generator's own work (overlap
 tests, walk steps).
 """
+
 from __future__ import annotations
 
 from .strategy import Strategy
@@ -36,7 +37,7 @@ def layout_estimate(strategy: Strategy) -> tuple[int, int]:
     leaves = {strategy.root.type: 1.0}
     nodes, work = 1.0, 1.0
     for level in strategy.levels:
-        if not isinstance(level, dict):   # "merge" only joins regions
+        if not isinstance(level, dict):  # "merge" only joins regions
             continue
         gained: dict[str, float] = {}
         split: set[str] = set()
@@ -52,7 +53,7 @@ def layout_estimate(strategy: Strategy) -> tuple[int, int]:
                 gained[t] = gained.get(t, 0.0) + made
             if gen.always_splits(set(rule.children)):
                 split.add(tname)
-        for t in split:   # every parent of these types got a child: none is a leaf any more
+        for t in split:  # every parent of these types got a child: none is a leaf any more
             leaves[t] = 0.0
         for t, n in gained.items():
             leaves[t] = min(leaves.get(t, 0.0) + n, nodes)

@@ -10,6 +10,7 @@ The strategy maps each slot a generator produces (``cell``, ``line``, ``path`` â
 region-type provider. Sizes are metres; a child's orientation is decided by the strategy's
 orientation provider (generators suggest one: the direction of a line, the parent's own).
 """
+
 from __future__ import annotations
 
 import math
@@ -56,8 +57,14 @@ class Parents:
         return len(self.x)
 
     def region(self, i: int) -> Region:
-        return Region(float(self.x[i]), float(self.y[i]), float(self.w[i]), float(self.h[i]), self.type,
-                      ORIENTATIONS[self.orient[i]])
+        return Region(
+            float(self.x[i]),
+            float(self.y[i]),
+            float(self.w[i]),
+            float(self.h[i]),
+            self.type,
+            ORIENTATIONS[self.orient[i]],
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,8 +114,17 @@ class Generator:
         for i in range(len(parents)):
             self.report = None
             for c in self.generate(parents.region(i), rng=rng):
-                rows.append((i, c.x, c.y, c.w, c.h, slot_index[c.slot],
-                             -1 if c.orientation is None else ORIENTATIONS.index(c.orientation)))
+                rows.append(
+                    (
+                        i,
+                        c.x,
+                        c.y,
+                        c.w,
+                        c.h,
+                        slot_index[c.slot],
+                        -1 if c.orientation is None else ORIENTATIONS.index(c.orientation),
+                    )
+                )
             if self.report:
                 reports.append((i, self.report))
         cols = list(zip(*rows)) if rows else [()] * 7
@@ -163,34 +179,61 @@ def get_generator(name: str, where: str) -> type[Generator]:
     try:
         return GENERATORS[name]
     except KeyError:
-        raise ConfigError(f"{where}: unknown generator {name!r}{did_you_mean(name, GENERATORS)} "
-                          f"(known: {', '.join(sorted(GENERATORS))})") from None
+        raise ConfigError(
+            f"{where}: unknown generator {name!r}{did_you_mean(name, GENERATORS)} "
+            f"(known: {', '.join(sorted(GENERATORS))})"
+        ) from None
 
 
-def _range(value: Any, where: str, name: str, positive: bool = True, whole: bool = False) -> tuple[float, float]:
+def _range(
+    value: Any, where: str, name: str, positive: bool = True, whole: bool = False
+) -> tuple[float, float]:
     lo, hi = (value, value) if np.isscalar(value) else tuple(value)
-    if any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in (lo, hi)):
-        raise ConfigError(f"{where}.{name}: expected {'whole numbers' if whole else 'finite numbers'} or a range "
-                          f"[min, max] of them, got {value!r}")
+    if any(
+        isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+        for v in (lo, hi)
+    ):
+        raise ConfigError(
+            f"{where}.{name}: expected {'whole numbers' if whole else 'finite numbers'} or a range "
+            f"[min, max] of them, got {value!r}"
+        )
     if whole and (float(lo) != int(lo) or float(hi) != int(hi)):
         raise ConfigError(f"{where}.{name}: expected whole numbers, got {value!r}")
     if positive and (lo <= 0 or hi < lo):
-        raise ConfigError(f"{where}.{name}: expected a positive size or a range [min, max] with "
-                          f"0 < min <= max, got {value!r}")
+        raise ConfigError(
+            f"{where}.{name}: expected a positive size or a range [min, max] with "
+            f"0 < min <= max, got {value!r}"
+        )
     if not positive and (lo < 0 or hi < lo):
-        raise ConfigError(f"{where}.{name}: expected a value >= 0 or a range [min, max], got {value!r}")
+        raise ConfigError(
+            f"{where}.{name}: expected a value >= 0 or a range [min, max], got {value!r}"
+        )
     return float(lo), float(hi)
 
 
-def _number(args: dict, key: str, default: float, where: str, *, lo: float = 0.0, lo_open: bool = False,
-            whole: bool = False) -> float:
+def _number(
+    args: dict,
+    key: str,
+    default: float,
+    where: str,
+    *,
+    lo: float = 0.0,
+    lo_open: bool = False,
+    whole: bool = False,
+) -> float:
     """A generator argument that is one finite number (>= lo, or > lo), whole where it counts."""
     v = args.get(key, default)
-    ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) and \
-        (v > lo if lo_open else v >= lo)
+    ok = (
+        not isinstance(v, bool)
+        and isinstance(v, (int, float))
+        and math.isfinite(v)
+        and (v > lo if lo_open else v >= lo)
+    )
     if not ok or (whole and float(v) != int(v)):
         kind = "a whole number" if whole else "a finite number"
-        raise ConfigError(f"{where}.args.{key}: expected {kind} {'>' if lo_open else '>='} {lo:g}, got {v!r:.40}")
+        raise ConfigError(
+            f"{where}.args.{key}: expected {kind} {'>' if lo_open else '>='} {lo:g}, got {v!r:.40}"
+        )
     return float(v)
 
 
@@ -210,33 +253,49 @@ class Grid(Generator):
     region (``leftover: "empty"``) or spread between cells (``"spread"``)."""
 
     slots = ("cell", "empty")
-    arguments = ('aisle', 'aisle_every', 'cell', 'leftover', 'spacing')
+    arguments = ("aisle", "aisle_every", "cell", "leftover", "spacing")
 
     def check(self, where: str) -> None:
         cell = self.args.get("cell")
-        if not isinstance(cell, (list, tuple)) or len(cell) != 2 or \
-                not all(not isinstance(c, bool) and isinstance(c, (int, float)) and math.isfinite(c) and c > 0
-                        for c in cell):
-            raise ConfigError(f"{where}.args.cell: expected [width, height], finite numbers > 0 in metres, "
-                              f"got {cell!r}")
+        if (
+            not isinstance(cell, (list, tuple))
+            or len(cell) != 2
+            or not all(
+                not isinstance(c, bool)
+                and isinstance(c, (int, float))
+                and math.isfinite(c)
+                and c > 0
+                for c in cell
+            )
+        ):
+            raise ConfigError(
+                f"{where}.args.cell: expected [width, height], finite numbers > 0 in metres, "
+                f"got {cell!r}"
+            )
         for k in ("spacing", "aisle"):
             _number(self.args, k, 0.0, where)
         _number(self.args, "aisle_every", 0, where, whole=True)
         if self.args.get("leftover", "empty") not in ("empty", "spread"):
-            raise ConfigError(f"{where}.args.leftover: expected 'empty' or 'spread', got {self.args['leftover']!r}")
+            raise ConfigError(
+                f"{where}.args.leftover: expected 'empty' or 'spread', got "
+                f"{self.args['leftover']!r}"
+            )
 
     def check_fits(self, width: float, height: float, where: str) -> None:
         cell = self.args.get("cell")
         if isinstance(cell, list) and len(cell) == 2:
             cw, ch = sorted(float(c) for c in cell)
             if ch > max(width, height) or cw > min(width, height):
-                raise ConfigError(f"{where}.args.cell: a {cell[0]} x {cell[1]} m cell is larger than its parent "
-                                  f"({width} x {height} m)")
+                raise ConfigError(
+                    f"{where}.args.cell: a {cell[0]} x {cell[1]} m cell is larger than its parent "
+                    f"({width} x {height} m)"
+                )
 
     def _per_parent(self, w: float, h: float) -> float:
         cw, ch = map(float, self.args["cell"])
         sp = float(self.args.get("spacing", 0.0))
-        # cells across times rows along (aisles only remove rows), either way round, plus 2 leftovers
+        # cells across times rows along (aisles only remove rows), either way round, plus 2
+        # leftovers
         fit = lambda a, c: math.floor((a + sp + EPS) / (c + sp))  # noqa: E731
         return max(fit(w, cw) * fit(h, ch), fit(h, cw) * fit(w, ch)) + 2
 
@@ -246,13 +305,13 @@ class Grid(Generator):
         return min(parents * self._per_parent(w, h), area * (1 + 1e-9) / (cw * ch) + 2 * parents)
 
     def always_splits(self, slots: set[str]) -> bool:
-        return {"cell", "empty"} <= slots   # cells, or one "empty" child when none fits
+        return {"cell", "empty"} <= slots  # cells, or one "empty" child when none fits
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         cw, ch = map(float, self.args["cell"])
         sp = float(self.args.get("spacing", 0.0))
         aisle, every = float(self.args.get("aisle", 0.0)), int(self.args.get("aisle_every", 0))
-        swap = _along(parent)       # cell "height" runs along the parent's orientation
+        swap = _along(parent)  # cell "height" runs along the parent's orientation
         W, H = (parent.h, parent.w) if swap else (parent.w, parent.h)
         nx = int((W + sp + EPS) // (cw + sp))
         rows, y, r = [], 0.0, 0
@@ -281,9 +340,12 @@ class Grid(Generator):
                 rest.append((used_w, 0.0, W - used_w, H))
             if H - used_h > EPS:
                 rest.append((0.0, used_h, used_w, H - used_h))
-            for (x, y, w, h) in rest:
-                out.append(Child(parent.x + y, parent.y + x, h, w, "empty") if swap
-                           else Child(parent.x + x, parent.y + y, w, h, "empty"))
+            for x, y, w, h in rest:
+                out.append(
+                    Child(parent.x + y, parent.y + x, h, w, "empty")
+                    if swap
+                    else Child(parent.x + x, parent.y + y, w, h, "empty")
+                )
         return out
 
 
@@ -295,7 +357,7 @@ class AssemblyLine(Generator):
     ``direction``: "horizontal", "vertical" or "random" (line along x or y)."""
 
     slots = ("line", "material", "path", "rest")
-    arguments = ('direction', 'line_width', 'material_width', 'path_spacing', 'path_width', 'paths')
+    arguments = ("direction", "line_width", "material_width", "path_spacing", "path_width", "paths")
 
     def check(self, where: str) -> None:
         a = self.args
@@ -305,20 +367,26 @@ class AssemblyLine(Generator):
         if "paths" in a:
             _range(a["paths"], f"{where}.args", "paths", positive=False, whole=True)
         if a.get("direction", "random") not in ("horizontal", "vertical", "random"):
-            raise ConfigError(f"{where}.args.direction: expected horizontal, vertical or random, got {a['direction']!r}")
+            raise ConfigError(
+                f"{where}.args.direction: expected horizontal, vertical or random, got "
+                f"{a['direction']!r}"
+            )
 
     def check_fits(self, width: float, height: float, where: str) -> None:
         lw = self.args.get("line_width", 0)
         lw = max(lw) if isinstance(lw, list) else float(lw)
         if lw > max(width, height):
-            raise ConfigError(f"{where}.args.line_width: a {lw} m line does not fit its parent ({width} x {height} m)")
+            raise ConfigError(
+                f"{where}.args.line_width: a {lw} m line does not fit its parent ({width} x "
+                f"{height} m)"
+            )
 
     def max_children(self, w: float, h: float, parents: float, area: float) -> float:
         # per path a strip and a leftover band; the line, two material strips and their bands
         return parents * (2 * _range(self.args.get("paths", [1, 2]), "", "paths", False)[1] + 8)
 
     def always_splits(self, slots: set[str]) -> bool:
-        return {"line", "rest"} <= slots   # the line, or one "rest" child when it does not fit
+        return {"line", "rest"} <= slots  # the line, or one "rest" child when it does not fit
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
@@ -326,7 +394,7 @@ class AssemblyLine(Generator):
         if direction == "random":
             direction = "horizontal" if rng.random() < 0.5 else "vertical"
         horiz = direction == "horizontal"
-        span = parent.h if horiz else parent.w          # across the line
+        span = parent.h if horiz else parent.w  # across the line
         line_w = _draw(_range(a.get("line_width", 4.0), "", "line_width"), rng=rng)
         mat_w = _draw(_range(a.get("material_width", 0.0), "", "material_width", False), rng=rng)
         lo, hi = _range(a.get("paths", [1, 2]), "", "paths", False)
@@ -339,7 +407,7 @@ class AssemblyLine(Generator):
         core = line_w + 2 * mat_w
         side = [(w, g) for w, g in zip(widths, gaps)]
         below = side[: (n_paths + 1) // 2]
-        above = side[(n_paths + 1) // 2:]
+        above = side[(n_paths + 1) // 2 :]
         need = core + sum(w + g for w, g in side)
         while need > span + EPS and (below or above):  # drop paths that do not fit
             (above if len(above) >= len(below) and above else below).pop()
@@ -378,7 +446,9 @@ class AssemblyLine(Generator):
         return out
 
     @staticmethod
-    def _band(parent: Region, horiz: bool, s0: float, w: float, slot: str, orient: str | None) -> Child:
+    def _band(
+        parent: Region, horiz: bool, s0: float, w: float, slot: str, orient: str | None
+    ) -> Child:
         if horiz:
             return Child(parent.x, parent.y + s0, parent.w, w, slot, orient)
         return Child(parent.x + s0, parent.y, w, parent.h, slot, orient)
@@ -391,7 +461,7 @@ class RandomRooms(Generator):
     placed (never loops forever)."""
 
     slots = ("room",)
-    arguments = ('attempts', 'count', 'gap', 'height', 'width')
+    arguments = ("attempts", "count", "gap", "height", "width")
 
     def check(self, where: str) -> None:
         a = self.args
@@ -410,13 +480,16 @@ class RandomRooms(Generator):
         return parents * n * n * float(self.args.get("attempts", 50)) / 2 / 10
 
     def always_splits(self, slots: set[str]) -> bool:
-        return "room" in slots   # at least one room is asked for, and the first always fits
+        return "room" in slots  # at least one room is asked for, and the first always fits
 
     def generate(self, parent: Region, *, rng: np.random.Generator) -> list[Child]:
         a = self.args
         lo, hi = _range(a.get("count", [1, 1]), "", "count")
         want = int(rng.integers(int(lo), int(hi) + 1))
-        wr, hr = _range(a.get("width", 1.0), "", "width"), _range(a.get("height", 1.0), "", "height")
+        wr, hr = (
+            _range(a.get("width", 1.0), "", "width"),
+            _range(a.get("height", 1.0), "", "height"),
+        )
         gap, attempts = float(a.get("gap", 0.0)), int(a.get("attempts", 50))
         placed: list[Child] = []
         for _ in range(want):
@@ -438,7 +511,7 @@ class DrunkardWalk(Generator):
     into rectangles (maximal row runs merged downwards): irregular rooms."""
 
     slots = ("room",)
-    arguments = ('block', 'steps')
+    arguments = ("block", "steps")
 
     CHUNK = 1 << 20  # steps drawn at a time (the same stream as one draw: memory stays small)
 
@@ -470,8 +543,10 @@ class DrunkardWalk(Generator):
                 j = min(max(j + dj[step], 0), nx - 1)
             left -= min(left, self.CHUNK)
         grid[i, j] = True
-        return [Child(parent.x + c0 * b, parent.y + r0 * b, (c1 - c0) * b, (r1 - r0) * b, "room")
-                for r0, r1, c0, c1 in rectangles(grid)]
+        return [
+            Child(parent.x + c0 * b, parent.y + r0 * b, (c1 - c0) * b, (r1 - r0) * b, "room")
+            for r0, r1, c0, c1 in rectangles(grid)
+        ]
 
 
 def rectangles(mask: np.ndarray) -> list[tuple[int, int, int, int]]:

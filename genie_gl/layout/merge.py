@@ -14,6 +14,7 @@ over the layout's :class:`~.model.Tree`; only groups whose parts came from diffe
 walk the tree. Each merged region is recorded for the layout's ``meta``: its node, its
 parts' rectangles and its parts' former parents.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,8 +32,11 @@ def _pass(x, y, w, h, key_t, along_x: bool, tol: float, origin: np.ndarray):
     k1 = np.round(cpos / tol).astype(np.int64)
     k2 = np.round(csize / tol).astype(np.int64)
     order = np.lexsort((pos, k2, k1, key_t))
-    same = (key_t[order][1:] == key_t[order][:-1]) & (k1[order][1:] == k1[order][:-1]) \
+    same = (
+        (key_t[order][1:] == key_t[order][:-1])
+        & (k1[order][1:] == k1[order][:-1])
         & (k2[order][1:] == k2[order][:-1])
+    )
     touch = np.abs(pos[order][:-1] + size[order][:-1] - pos[order][1:]) <= tol
     o = origin[order]
     joined = same & touch & ((o[1:] < 0) | (o[1:] != o[:-1]))  # pieces of one cut leaf never rejoin
@@ -56,7 +60,9 @@ def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M, origin: np.nda
     """
     x, y, w, h = (np.asarray(a, np.float64).copy() for a in (x, y, w, h))
     key = np.asarray(key, np.int64)
-    origin = np.full(len(x), -1, np.int64) if origin is None else np.asarray(origin, np.int64).copy()
+    origin = (
+        np.full(len(x), -1, np.int64) if origin is None else np.asarray(origin, np.int64).copy()
+    )
     group = np.arange(len(x))
     changed, along_x, idle = True, False, 0  # columns first, then rows, until neither joins
     while len(x) > 1 and idle < 2:
@@ -85,7 +91,9 @@ def merge_leaves(x, y, w, h, key: np.ndarray, tol: float = TOL_M, origin: np.nda
     return group, x, y, w, h
 
 
-def _common_ancestors(parent: np.ndarray, depth: np.ndarray, g: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+def _common_ancestors(
+    parent: np.ndarray, depth: np.ndarray, g: np.ndarray, nodes: np.ndarray
+) -> np.ndarray:
     """For each group (``g``: (m,) group labels, sorted), the deepest node that is an
     ancestor of (or one of) its ``nodes``: all groups at once, a level at a time. Returns
     one node per distinct label, in label order."""
@@ -112,8 +120,10 @@ def _endpoints_inside(lo, size, clo, csize, key, tol: float) -> tuple[list[int],
     near, far, c0, c1 = q(lo), q(lo + size), q(clo), q(clo + csize)
     cmin = min(near.min(), far.min())
     span = max(near.max(), far.max()) - cmin + 1
-    _, rank = np.unique(np.r_[key * span + near - cmin, key * span + far - cmin], return_inverse=True)
-    rank_near, rank_far = rank[:len(lo)], rank[len(lo):]
+    _, rank = np.unique(
+        np.r_[key * span + near - cmin, key * span + far - cmin], return_inverse=True
+    )
+    rank_near, rank_far = rank[: len(lo)], rank[len(lo) :]
     emin = c0.min()
     Q = c1.max() - emin + 3
     out_i, out_c = [], []
@@ -134,7 +144,9 @@ def _endpoints_inside(lo, size, clo, csize, key, tol: float) -> tuple[list[int],
     return out_i, out_c
 
 
-def _strip_cuts(tree: Tree, leaves: np.ndarray, key: np.ndarray, tol: float) -> tuple[Tree, np.ndarray]:
+def _strip_cuts(
+    tree: Tree, leaves: np.ndarray, key: np.ndarray, tol: float
+) -> tuple[Tree, np.ndarray]:
     """``l_shape: strip``: every leaf that borders a leaf of its key along part of an edge is
     cut where the other's edge ends. Returns the tree with the pieces (a cut leaf keeps its
     first piece; the others are appended as its siblings) and each node's origin (the cut
@@ -152,7 +164,9 @@ def _strip_cuts(tree: Tree, leaves: np.ndarray, key: np.ndarray, tol: float) -> 
         node = int(leaves[i])
         xs = [x[i], *sorted(cx), x[i] + w[i]]
         ys = [y[i], *sorted(cy), y[i] + h[i]]
-        pieces = [(x0, y0, x1 - x0, y1 - y0) for y0, y1 in zip(ys, ys[1:]) for x0, x1 in zip(xs, xs[1:])]
+        pieces = [
+            (x0, y0, x1 - x0, y1 - y0) for y0, y1 in zip(ys, ys[1:]) for x0, x1 in zip(xs, xs[1:])
+        ]
         origin[node] = node
         rect["x"][node], rect["y"][node], rect["w"][node], rect["h"][node] = pieces[0]
         extra += [(node, *p) for p in pieces[1:]]
@@ -160,14 +174,20 @@ def _strip_cuts(tree: Tree, leaves: np.ndarray, key: np.ndarray, tol: float) -> 
         return tree, origin
     src = np.array([e[0] for e in extra], np.int64)
     cat = lambda a, b: np.concatenate([a, np.asarray(b, a.dtype)])  # noqa: E731
-    out = Tree(*(cat(rect[k], [e[1 + c] for e in extra]) for c, k in enumerate(("x", "y", "w", "h"))),
-               cat(tree.type, tree.type[src]), cat(tree.orient, tree.orient[src]), cat(tree.depth, tree.depth[src]),
-               cat(tree.parent, tree.parent[src]), tree.type_names)
+    out = Tree(
+        *(cat(rect[k], [e[1 + c] for e in extra]) for c, k in enumerate(("x", "y", "w", "h"))),
+        cat(tree.type, tree.type[src]),
+        cat(tree.orient, tree.orient[src]),
+        cat(tree.depth, tree.depth[src]),
+        cat(tree.parent, tree.parent[src]),
+        tree.type_names,
+    )
     return out, np.concatenate([origin, src])
 
 
-def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep",
-               level: int = -1) -> tuple[Tree, dict | None, np.ndarray]:
+def merge_tree(
+    tree: Tree, tol: float = TOL_M, l_shape: str = "keep", level: int = -1
+) -> tuple[Tree, dict | None, np.ndarray]:
     """The merge layer over a whole tree: returns the new tree (breadth-first, siblings
     consecutive), the level's record (None when nothing merged; see :func:`records`), and
     each old node's new index (a part's is its merged region's; -1 for a removed region).
@@ -183,8 +203,9 @@ def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep",
         leaves = np.flatnonzero(tree.n_children() == 0)
         key = tree.type[leaves].astype(np.int64) * 4 + tree.orient[leaves]
     n = len(tree)
-    group, gx, gy, gw, gh = merge_leaves(tree.x[leaves], tree.y[leaves], tree.w[leaves], tree.h[leaves], key, tol,
-                                         origin[leaves])
+    group, gx, gy, gw, gh = merge_leaves(
+        tree.x[leaves], tree.y[leaves], tree.w[leaves], tree.h[leaves], key, tol, origin[leaves]
+    )
     sizes = np.bincount(group, minlength=len(gx))
     if np.all(sizes == 1) and n == n0:
         return tree, None, np.arange(n)
@@ -196,7 +217,12 @@ def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep",
     starts = np.searchsorted(group[order], np.arange(len(gx)))
     rep = leaves[order[starts]]
     multi = np.flatnonzero(sizes > 1)
-    x[rep[multi]], y[rep[multi]], w[rep[multi]], h[rep[multi]] = gx[multi], gy[multi], gw[multi], gh[multi]
+    x[rep[multi]], y[rep[multi]], w[rep[multi]], h[rep[multi]] = (
+        gx[multi],
+        gy[multi],
+        gw[multi],
+        gh[multi],
+    )
     absorbed = leaves[rep[group] != leaves]
     keep[absorbed] = False
     lp = parent[leaves][order]  # by group
@@ -210,7 +236,9 @@ def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep",
     # region's parts (breadth-first) and their former parents
     in_multi = sizes[group[order]] > 1
     m_nodes, m_groups = leaves[order][in_multi], group[order][in_multi]
-    pk = np.unique(m_groups.astype(np.int64) * (n + 1) + tree.parent[m_nodes])  # (group, parent) pairs
+    pk = np.unique(
+        m_groups.astype(np.int64) * (n + 1) + tree.parent[m_nodes]
+    )  # (group, parent) pairs
     pairs = np.stack([pk // (n + 1), pk % (n + 1)], 1)
     # regions whose children all merged away go too (their area is in the merged regions)
     had_kids = tree.n_children() > 0
@@ -233,13 +261,27 @@ def merge_tree(tree: Tree, tol: float = TOL_M, l_shape: str = "keep",
     old = np.empty(pos, np.int64)
     old[new_index[keep]] = np.flatnonzero(keep)
     new_parent = np.where(old == 0, -1, new_index[parent[old]]).astype(np.int32)
-    out = Tree(x[old], y[old], w[old], h[old], tree.type[old], tree.orient[old], depth[old].astype(np.int32),
-               new_parent, tree.type_names)
-    record = {"level": level, "nodes": new_index[rep[multi]].tolist(),
-              "part_counts": sizes[multi].tolist(),
-              "parts": np.stack([tree.x[m_nodes], tree.y[m_nodes], tree.w[m_nodes], tree.h[m_nodes]], 1).ravel().tolist(),
-              "parent_counts": np.bincount(pairs[:, 0], minlength=len(gx))[multi].tolist(),
-              "parents": pairs[:, 1].tolist()}
+    out = Tree(
+        x[old],
+        y[old],
+        w[old],
+        h[old],
+        tree.type[old],
+        tree.orient[old],
+        depth[old].astype(np.int32),
+        new_parent,
+        tree.type_names,
+    )
+    record = {
+        "level": level,
+        "nodes": new_index[rep[multi]].tolist(),
+        "part_counts": sizes[multi].tolist(),
+        "parts": np.stack([tree.x[m_nodes], tree.y[m_nodes], tree.w[m_nodes], tree.h[m_nodes]], 1)
+        .ravel()
+        .tolist(),
+        "parent_counts": np.bincount(pairs[:, 0], minlength=len(gx))[multi].tolist(),
+        "parents": pairs[:, 1].tolist(),
+    }
     new_index[absorbed] = new_index[rep[group[np.searchsorted(leaves, absorbed)]]]
     return out, record, new_index[:n0]
 
@@ -258,8 +300,13 @@ def records(merges: list[dict]) -> list[dict]:
     for m in merges:
         p, q = 0, 0
         for node, k, j in zip(m["nodes"], m["part_counts"], m["parent_counts"]):
-            out.append({"level": m["level"], "node": node,
-                        "parts": [m["parts"][4 * i:4 * i + 4] for i in range(p, p + k)],
-                        "parents": m["parents"][q:q + j]})
+            out.append(
+                {
+                    "level": m["level"],
+                    "node": node,
+                    "parts": [m["parts"][4 * i : 4 * i + 4] for i in range(p, p + k)],
+                    "parents": m["parents"][q : q + j],
+                }
+            )
             p, q = p + k, q + j
     return out

@@ -1,4 +1,5 @@
 """Regions, region types and the layout tree (DESIGN.md ``Layout``)."""
+
 from __future__ import annotations
 
 import json
@@ -20,6 +21,7 @@ def _is_layout_json(path: Path) -> bool:
     """True when ``path`` is a layout JSON genie-gl wrote (its ``format`` field)."""
     data = json.loads(path.read_text())
     return isinstance(data, dict) and str(data.get("format", "")).startswith("genie-gl layout")
+
 
 ORIENTATIONS = ("up", "right", "down", "left")
 # unit vector each orientation points to (world x, y): up = +y, right = +x
@@ -70,12 +72,18 @@ class Region:
         return (self.x + self.w / 2, self.y + self.h / 2)
 
     def contains(self, other: "Region", tol: float = 1e-9) -> bool:
-        return (other.x >= self.x - tol and other.y >= self.y - tol
-                and other.x + other.w <= self.x + self.w + tol and other.y + other.h <= self.y + self.h + tol)
+        return (
+            other.x >= self.x - tol
+            and other.y >= self.y - tol
+            and other.x + other.w <= self.x + self.w + tol
+            and other.y + other.h <= self.y + self.h + tol
+        )
 
     def overlaps(self, other: "Region", tol: float = 1e-9) -> bool:
-        return (min(self.x + self.w, other.x + other.w) - max(self.x, other.x) > tol
-                and min(self.y + self.h, other.y + other.h) - max(self.y, other.y) > tol)
+        return (
+            min(self.x + self.w, other.x + other.w) - max(self.x, other.x) > tol
+            and min(self.y + self.h, other.y + other.h) - max(self.y, other.y) > tol
+        )
 
 
 @dataclass
@@ -128,21 +136,39 @@ class Tree:
     def from_nodes(nodes: list[Node], type_names: tuple[str, ...]) -> "Tree":
         index = {t: i for i, t in enumerate(type_names)}
         f = lambda k, dt: np.array([getattr(n.region, k) for n in nodes], dt)  # noqa: E731
-        return Tree(f("x", np.float64), f("y", np.float64), f("w", np.float64), f("h", np.float64),
-                    np.array([index[n.region.type] for n in nodes], np.int32),
-                    np.array([ORIENTATIONS.index(n.region.orientation) for n in nodes], np.int8),
-                    np.array([n.depth for n in nodes], np.int32), np.array([n.parent for n in nodes], np.int32),
-                    type_names)
+        return Tree(
+            f("x", np.float64),
+            f("y", np.float64),
+            f("w", np.float64),
+            f("h", np.float64),
+            np.array([index[n.region.type] for n in nodes], np.int32),
+            np.array([ORIENTATIONS.index(n.region.orientation) for n in nodes], np.int8),
+            np.array([n.depth for n in nodes], np.int32),
+            np.array([n.parent for n in nodes], np.int32),
+            type_names,
+        )
 
     def n_children(self) -> np.ndarray:
-        return np.bincount(self.parent[1:], minlength=len(self)) if len(self) > 1 else np.zeros(len(self), np.int64)
+        return (
+            np.bincount(self.parent[1:], minlength=len(self))
+            if len(self) > 1
+            else np.zeros(len(self), np.int64)
+        )
 
     def region(self, i: int) -> Region:
-        return Region(float(self.x[i]), float(self.y[i]), float(self.w[i]), float(self.h[i]),
-                      self.type_names[self.type[i]], ORIENTATIONS[self.orient[i]])
+        return Region(
+            float(self.x[i]),
+            float(self.y[i]),
+            float(self.w[i]),
+            float(self.h[i]),
+            self.type_names[self.type[i]],
+            ORIENTATIONS[self.orient[i]],
+        )
 
     def to_nodes(self) -> list[Node]:
-        nodes = [Node(self.region(i), int(self.depth[i]), int(self.parent[i])) for i in range(len(self))]
+        nodes = [
+            Node(self.region(i), int(self.depth[i]), int(self.parent[i])) for i in range(len(self))
+        ]
         for i, p in enumerate(self.parent.tolist()):
             if p >= 0:
                 nodes[p].children.append(i)
@@ -163,7 +189,12 @@ class Layout:
     meta : dict (strategy name, seed, reports from generators).
     """
 
-    def __init__(self, nodes: "list[Node] | Tree", region_types: dict[str, RegionType], meta: dict | None = None):
+    def __init__(
+        self,
+        nodes: "list[Node] | Tree",
+        region_types: dict[str, RegionType],
+        meta: dict | None = None,
+    ):
         if len(nodes) == 0:
             raise ConfigError("a layout needs a root region")
         self.region_types = dict(region_types)
@@ -171,7 +202,9 @@ class Layout:
         if isinstance(nodes, Tree):
             self.tree = nodes
         else:
-            names = tuple(self.region_types) + tuple(sorted({n.region.type for n in nodes} - set(self.region_types)))
+            names = tuple(self.region_types) + tuple(
+                sorted({n.region.type for n in nodes} - set(self.region_types))
+            )
             self.tree = Tree.from_nodes(nodes, names)
         self._nodes: list[Node] | None = None
 
@@ -209,8 +242,13 @@ class Layout:
         return len(self.tree)
 
     @classmethod
-    def from_regions(cls, regions: list[Region], region_types: dict[str, RegionType],
-                     bounds: tuple[float, float, float, float], root_type: str = "root") -> "Layout":
+    def from_regions(
+        cls,
+        regions: list[Region],
+        region_types: dict[str, RegionType],
+        bounds: tuple[float, float, float, float],
+        root_type: str = "root",
+    ) -> "Layout":
         """A flat layout: a root covering ``bounds`` with ``regions`` as its children."""
         types = dict(region_types)
         types.setdefault(root_type, RegionType(root_type))
@@ -226,7 +264,10 @@ class Layout:
         if resolution_m <= 0:
             raise ConfigError(f"label raster: resolution_m must be > 0, got {resolution_m}")
         x0, y0, w, h = self.bounds
-        W, H = max(1, int(np.ceil(w / resolution_m - 1e-9))), max(1, int(np.ceil(h / resolution_m - 1e-9)))
+        W, H = (
+            max(1, int(np.ceil(w / resolution_m - 1e-9))),
+            max(1, int(np.ceil(h / resolution_m - 1e-9))),
+        )
         names = sorted(self.region_types)
         index = {n: i for i, n in enumerate(names)}
         labels = np.full((H, W), -1, np.int32)
@@ -236,7 +277,7 @@ class Layout:
             c1 = int(np.ceil((r.x + r.w - x0) / resolution_m - 0.5 - 1e-9))
             r0 = int(np.ceil((r.y - y0) / resolution_m - 0.5 - 1e-9))
             r1 = int(np.ceil((r.y + r.h - y0) / resolution_m - 0.5 - 1e-9))
-            labels[max(r0, 0):max(r1, 0), max(c0, 0):max(c1, 0)] = index[r.type]
+            labels[max(r0, 0) : max(r1, 0), max(c0, 0) : max(c1, 0)] = index[r.type]
         return LabelRaster(labels, names, (x0, y0), float(resolution_m))
 
     # -- JSON -----------------------------------------------------------------------------
@@ -244,9 +285,19 @@ class Layout:
         return {
             "format": LAYOUT_FORMAT,
             "meta": self.meta,
-            "region_types": {k: {**asdict(v), "color": list(v.color)} for k, v in sorted(self.region_types.items())},
-            "nodes": [{"region": asdict(n.region), "depth": n.depth, "parent": n.parent,
-                       "children": n.children} for n in self.nodes],
+            "region_types": {
+                k: {**asdict(v), "color": list(v.color)}
+                for k, v in sorted(self.region_types.items())
+            },
+            "nodes": [
+                {
+                    "region": asdict(n.region),
+                    "depth": n.depth,
+                    "parent": n.parent,
+                    "children": n.children,
+                }
+                for n in self.nodes
+            ],
         }
 
     def to_json(self, path: str | os.PathLike) -> None:
@@ -283,7 +334,10 @@ def _known(d: Any, keys: tuple[str, ...], where: str, what: str) -> dict:
         raise ConfigError(f"{where}: expected {what} (a JSON object), got {type(d).__name__}")
     for k in d:
         if k not in keys:
-            raise ConfigError(f"{where}.{k}: not a field of {what}{did_you_mean(k, keys)} (fields: {', '.join(keys)})")
+            raise ConfigError(
+                f"{where}.{k}: not a field of {what}{did_you_mean(k, keys)} (fields: "
+                f"{', '.join(keys)})"
+            )
     return d
 
 
@@ -294,7 +348,9 @@ def _parse_layout(data: Any, source: str) -> tuple[dict[str, RegionType], list[N
         raise ConfigError(f"{source}: $.format: {data['format']!r}, expected {LAYOUT_FORMAT!r}")
     for k in ("region_types", "nodes"):
         if k not in data:
-            raise ConfigError(f"{source}: $.{k}: missing; not a genie-gl layout JSON (genie layout writes one)")
+            raise ConfigError(
+                f"{source}: $.{k}: missing; not a genie-gl layout JSON (genie layout writes one)"
+            )
     types: dict[str, RegionType] = {}
     if not isinstance(data["region_types"], dict) or not data["region_types"]:
         raise ConfigError(f"{source}: $.region_types: expected a JSON object of region types")
@@ -302,8 +358,11 @@ def _parse_layout(data: Any, source: str) -> tuple[dict[str, RegionType], list[N
         where = f"{source}: $.region_types.{name}"
         v = _known(v, _TYPE_KEYS, where, "a region type")
         color = v.get("color", (200, 200, 200))
-        if not (isinstance(color, list) and len(color) == 3
-                and all(isinstance(c, int) and 0 <= c <= 255 for c in color)):
+        if not (
+            isinstance(color, list)
+            and len(color) == 3
+            and all(isinstance(c, int) and 0 <= c <= 255 for c in color)
+        ):
             raise ConfigError(f"{where}.color: expected [r, g, b] (0-255), got {color!r:.40}")
         try:
             types[name] = RegionType(**{**v, "name": name, "color": tuple(color)})
@@ -311,7 +370,9 @@ def _parse_layout(data: Any, source: str) -> tuple[dict[str, RegionType], list[N
             raise ConfigError(f"{where}: {exc}") from None
     raw = data["nodes"]
     if not isinstance(raw, list) or not raw:
-        raise ConfigError(f"{source}: $.nodes: expected a non-empty list of nodes, got {type(raw).__name__}")
+        raise ConfigError(
+            f"{source}: $.nodes: expected a non-empty list of nodes, got {type(raw).__name__}"
+        )
     nodes: list[Node] = []
     kids: list[list[int]] = [[] for _ in raw]
     for i, n in enumerate(raw):
@@ -320,32 +381,62 @@ def _parse_layout(data: Any, source: str) -> tuple[dict[str, RegionType], list[N
         r = _known(n.get("region"), _REGION_KEYS, f"{where}.region", "a region")
         for k in ("x", "y", "w", "h"):
             v = r.get(k)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v) or \
-                    (k in ("w", "h") and v <= 0) or abs(v) > 1e9:
-                raise ConfigError(f"{where}.region.{k}: expected a finite number{' > 0' if k in 'wh' else ''} "
-                                  f"(metres), got {v!r:.40}")
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, (int, float))
+                or not np.isfinite(v)
+                or (k in ("w", "h") and v <= 0)
+                or abs(v) > 1e9
+            ):
+                raise ConfigError(
+                    f"{where}.region.{k}: expected a finite number{' > 0' if k in 'wh' else ''} "
+                    f"(metres), got {v!r:.40}"
+                )
         t = r.get("type")
         if t not in types:
-            raise ConfigError(f"{where}.region.type: {t!r} is not declared in $.region_types"
-                              f"{did_you_mean(str(t), types)}")
+            raise ConfigError(
+                f"{where}.region.type: {t!r} is not declared in $.region_types"
+                f"{did_you_mean(str(t), types)}"
+            )
         o = r.get("orientation", "up")
         if o not in ORIENTATIONS:
-            raise ConfigError(f"{where}.region.orientation: {o!r}, expected one of {', '.join(ORIENTATIONS)}"
-                              f"{did_you_mean(str(o), ORIENTATIONS)}")
+            raise ConfigError(
+                f"{where}.region.orientation: {o!r}, expected one of {', '.join(ORIENTATIONS)}"
+                f"{did_you_mean(str(o), ORIENTATIONS)}"
+            )
         p = n.get("parent")
-        if isinstance(p, bool) or not isinstance(p, int) or (i == 0 and p != -1) or (i > 0 and not 0 <= p < i):
-            raise ConfigError(f"{where}.parent: {p!r}; expected " + ("-1 (node 0 is the root)" if i == 0 else
-                              f"the index of an earlier node (0..{i - 1}): parents come before their children"))
+        if (
+            isinstance(p, bool)
+            or not isinstance(p, int)
+            or (i == 0 and p != -1)
+            or (i > 0 and not 0 <= p < i)
+        ):
+            raise ConfigError(
+                f"{where}.parent: {p!r}; expected "
+                + (
+                    "-1 (node 0 is the root)"
+                    if i == 0
+                    else f"the index of an earlier node (0..{i - 1}): parents come before their "
+                    "children"
+                )
+            )
         depth = 0 if i == 0 else nodes[p].depth + 1
         if n.get("depth", depth) != depth:
-            raise ConfigError(f"{where}.depth: {n['depth']!r}, expected {depth} (its parent's depth + 1)")
+            raise ConfigError(
+                f"{where}.depth: {n['depth']!r}, expected {depth} (its parent's depth + 1)"
+            )
         if p >= 0:
             kids[p].append(i)
-        nodes.append(Node(Region(float(r["x"]), float(r["y"]), float(r["w"]), float(r["h"]), t, o), depth, p))
+        nodes.append(
+            Node(Region(float(r["x"]), float(r["y"]), float(r["w"]), float(r["h"]), t, o), depth, p)
+        )
     for i, n in enumerate(raw):
         if "children" in n and n["children"] != kids[i]:
-            raise ConfigError(f"{source}: $.nodes[{i}].children: {n['children']!r:.60} disagrees with the nodes whose "
-                              f"parent is {i} ({kids[i]!r:.60})")
+            raise ConfigError(
+                f"{source}: $.nodes[{i}].children: {n['children']!r:.60} disagrees with the nodes "
+                "whose "
+                f"parent is {i} ({kids[i]!r:.60})"
+            )
         nodes[i].children = kids[i]
     meta = data.get("meta", {})
     if not isinstance(meta, dict):

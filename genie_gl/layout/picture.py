@@ -1,4 +1,5 @@
 """Pictures of layouts: leaves coloured by region type, orientation ticks and a legend."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -36,7 +37,11 @@ def layout_image(layout: Layout, px_per_m: float | None = None, legend: bool = T
     if legend:
         for i, t in enumerate(used):
             y = 8 + 20 * i
-            d.rectangle([W + 8, y, W + 22, y + 14], fill=tuple(layout.region_types[t].color), outline=(0, 0, 0))
+            d.rectangle(
+                [W + 8, y, W + 22, y + 14],
+                fill=tuple(layout.region_types[t].color),
+                outline=(0, 0, 0),
+            )
             d.text((W + 28, y + 1), t, fill=(0, 0, 0))
     return img
 

@@ -12,6 +12,7 @@ Orientation providers: ``"inherit"`` (the parent's; also the paper's ``AUTO``), 
 line, else inherit), ``{"random": [...]}``, and ``{"face": ["path", ...]}`` — towards the
 nearest sibling of one of those types.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -29,23 +30,32 @@ class TypeProvider:
             self.kind, self.values, self.p = "constant", [spec], None
             return
         if not isinstance(spec, dict) or len(spec) != 1:
-            raise ConfigError(f"{where}: expected a type name or one of {{'random': [...]}}, "
-                              f"{{'stochastic': {{...}}}}, {{'sequential': [...]}}; got {spec!r}")
-        (kind, val), = spec.items()
+            raise ConfigError(
+                f"{where}: expected a type name or one of {{'random': [...]}}, "
+                f"{{'stochastic': {{...}}}}, {{'sequential': [...]}}; got {spec!r}"
+            )
+        ((kind, val),) = spec.items()
         if kind in ("random", "sequential"):
             if not isinstance(val, list) or not val or not all(isinstance(v, str) for v in val):
-                raise ConfigError(f"{where}.{kind}: expected a non-empty list of type names, got {val!r}")
+                raise ConfigError(
+                    f"{where}.{kind}: expected a non-empty list of type names, got {val!r}"
+                )
             self.kind, self.values, self.p = kind, list(val), None
         elif kind == "stochastic":
             if not isinstance(val, dict) or not val or any(float(p) < 0 for p in val.values()):
-                raise ConfigError(f"{where}.stochastic: expected {{type: probability >= 0}}, got {val!r}")
+                raise ConfigError(
+                    f"{where}.stochastic: expected {{type: probability >= 0}}, got {val!r}"
+                )
             total = sum(float(p) for p in val.values())
             if total <= 0:
                 raise ConfigError(f"{where}.stochastic: probabilities sum to 0")
             self.kind, self.values = kind, list(val)
             self.p = np.array([float(p) / total for p in val.values()])
         else:
-            raise ConfigError(f"{where}: unknown type provider {kind!r}; expected random, stochastic or sequential")
+            raise ConfigError(
+                f"{where}: unknown type provider {kind!r}; expected random, stochastic or "
+                "sequential"
+            )
 
     def types(self) -> list[str]:
         return list(self.values)
@@ -86,20 +96,27 @@ class OrientationProvider:
             self.kind, self.values = "suggested", []
         elif isinstance(spec, str):
             if spec not in ORIENTATIONS:
-                raise ConfigError(f"{where}: orientation {spec!r} is unknown; expected inherit, suggested, "
-                                  f"{', '.join(ORIENTATIONS)}, {{'random': [...]}} or {{'face': [types]}}")
+                raise ConfigError(
+                    f"{where}: orientation {spec!r} is unknown; expected inherit, suggested, "
+                    f"{', '.join(ORIENTATIONS)}, {{'random': [...]}} or {{'face': [types]}}"
+                )
             self.kind, self.values = "fixed", [spec]
         elif isinstance(spec, dict) and len(spec) == 1 and next(iter(spec)) in ("random", "face"):
-            (kind, val), = spec.items()
+            ((kind, val),) = spec.items()
             if not isinstance(val, list) or not val:
                 raise ConfigError(f"{where}.{kind}: expected a non-empty list, got {val!r}")
             if kind == "random" and any(v not in ORIENTATIONS for v in val):
-                raise ConfigError(f"{where}.random: orientations must be among {', '.join(ORIENTATIONS)}, got {val!r}")
+                raise ConfigError(
+                    f"{where}.random: orientations must be among {', '.join(ORIENTATIONS)}, got "
+                    f"{val!r}"
+                )
             self.kind, self.values = kind, list(val)
         else:
             raise ConfigError(f"{where}: cannot read orientation provider {spec!r}")
 
-    def choose_index(self, parent_orient: np.ndarray, suggested: np.ndarray, rng: np.random.Generator) -> np.ndarray | None:
+    def choose_index(
+        self, parent_orient: np.ndarray, suggested: np.ndarray, rng: np.random.Generator
+    ) -> np.ndarray | None:
         """Array form of :meth:`choose` for many children at once (indices into ORIENTATIONS;
         ``suggested`` is -1 where the generator proposes none); None for ``face``, which
         needs each parent's children together."""
@@ -115,8 +132,13 @@ class OrientationProvider:
             return idx[rng.integers(0, len(self.values), n)] if n else np.zeros(0, np.int8)
         return None
 
-    def choose(self, parent: Region, children: list[Region], suggested: list[str | None],
-               rng: np.random.Generator) -> list[str]:
+    def choose(
+        self,
+        parent: Region,
+        children: list[Region],
+        suggested: list[str | None],
+        rng: np.random.Generator,
+    ) -> list[str]:
         n = len(children)
         if self.kind == "inherit":
             return [parent.orientation] * n

@@ -6,10 +6,12 @@ A strategy::
       "name": "assembly_line",
       "root": {"width": 60, "height": 30, "type": "hall", "orientation": "up"},
       "region_types": {"hall": {"color": "#e0e0e0"},
-                       "car": {"final": true, "color": "#d04040", "semantic": 3, "asset_group": "car"}},
+                       "car": {"final": true, "color": "#d04040", "semantic": 3, "asset_group":
+                       "car"}},
       "levels": [
         {"hall": {"generator": "assembly_line", "args": {...},
-                  "children": {"line": "line", "path": {"sequential": ["forklift_lane", "str_lane"]}},
+                  "children": {"line": "line", "path": {"sequential": ["forklift_lane",
+                  "str_lane"]}},
                   "orientation": "suggested"}},
         "merge"
       ],
@@ -19,6 +21,7 @@ A strategy::
 Levels run broad to detailed (paper Algorithm 1); each maps region types to a rule (a
 generator, its ``args``, a type provider per slot, an orientation provider) or is ``"merge"``.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,7 +43,9 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
-Span = Union[float, tuple[float, float]]  # a value, or a range [min, max] drawn from the scene's Generator
+Span = Union[
+    float, tuple[float, float]
+]  # a value, or a range [min, max] drawn from the scene's Generator
 Count = Union[int, tuple[int, int]]
 
 
@@ -68,7 +73,9 @@ class FillSpec(_Strict):
             return v
         lo, hi = (v, v) if isinstance(v, (int, float)) else v
         if lo < 0 or hi < lo:
-            raise ValueError(f"expected a value >= 0 or a range [min, max] with 0 <= min <= max, got {v!r}")
+            raise ValueError(
+                f"expected a value >= 0 or a range [min, max] with 0 <= min <= max, got {v!r}"
+            )
         return v
 
     @field_validator("count")
@@ -78,7 +85,9 @@ class FillSpec(_Strict):
             return v
         lo, hi = (v, v) if isinstance(v, int) else v
         if lo < 1 or hi < lo:
-            raise ValueError(f"expected a count >= 1 or a range [min, max] with 1 <= min <= max, got {v!r}")
+            raise ValueError(
+                f"expected a count >= 1 or a range [min, max] with 1 <= min <= max, got {v!r}"
+            )
         return v
 
     @field_validator("load")
@@ -87,7 +96,9 @@ class FillSpec(_Strict):
         if v is None:
             return v
         if not v or any(p < 0 for p in v.values()) or sum(v.values()) <= 0:
-            raise ValueError(f"expected {{class or 'empty': weight >= 0}} with a positive sum, got {v!r}")
+            raise ValueError(
+                f"expected {{class or 'empty': weight >= 0}} with a positive sum, got {v!r}"
+            )
         return v
 
 
@@ -169,10 +180,14 @@ def _color(value: Any, where: str) -> tuple[int, int, int]:
         s = value.lstrip("#")
         if len(s) == 6:
             try:
-                return tuple(int(s[i:i + 2], 16) for i in (0, 2, 4))  # type: ignore[return-value]
+                return tuple(int(s[i : i + 2], 16) for i in (0, 2, 4))  # type: ignore[return-value]
             except ValueError:
                 pass
-    elif isinstance(value, list) and len(value) == 3 and all(isinstance(c, int) and 0 <= c <= 255 for c in value):
+    elif (
+        isinstance(value, list)
+        and len(value) == 3
+        and all(isinstance(c, int) and 0 <= c <= 255 for c in value)
+    ):
         return tuple(value)  # type: ignore[return-value]
     raise ConfigError(f"{where}: expected a colour '#rrggbb' or [r, g, b] (0-255), got {value!r}")
 
@@ -199,12 +214,11 @@ def _model_at(loc: tuple) -> type[BaseModel]:
     return StrategySpec
 
 
-
 def non_finite(data: Any, loc: tuple = ()) -> tuple | None:
     """The JSON path (as a tuple) of the first number in ``data`` that is not finite (JSON's
     ``Infinity``, ``-Infinity``, ``NaN``), or None."""
     stack = [(data, loc)]
-    while stack:   # depth-first without recursion: a deeply nested file cannot overflow the stack
+    while stack:  # depth-first without recursion: a deeply nested file cannot overflow the stack
         value, at = stack.pop()
         if isinstance(value, float) and not math.isfinite(value):
             return at
@@ -225,7 +239,9 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
         value = data
         for part in bad:
             value = value[part]
-        raise ConfigError(f"{source}: {json_path(bad)}: {value} is not a finite number; expected a finite number")
+        raise ConfigError(
+            f"{source}: {json_path(bad)}: {value} is not a finite number; expected a finite number"
+        )
     try:
         spec = StrategySpec.model_validate(data)
     except ValidationError as exc:
@@ -236,21 +252,37 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
         loc = tuple(p for p in e["loc"] if p not in ("literal['merge']", "dict[str,RuleSpec]"))
         if e["type"] == "extra_forbidden":
             known = tuple(_model_at(loc[:-1]).model_fields)
-            raise ConfigError(f"{source}: {json_path(loc)}: unknown key{did_you_mean(str(loc[-1]), known)} (known here: "
-                              f"{', '.join(known)})") from None
+            raise ConfigError(
+                f"{source}: {json_path(loc)}: unknown key{did_you_mean(str(loc[-1]), known)} "
+                "(known here: "
+                f"{', '.join(known)})"
+            ) from None
         if len(loc) == 2 and loc[0] == "levels" and isinstance(e.get("input"), str):
-            raise ConfigError(f"{source}: {json_path(loc)}: {e['input']!r:.40}: expected \"merge\" or a level (an object "
-                              f"of rules){did_you_mean(e['input'], ['merge'])}") from None
-        raise ConfigError(f"{source}: {json_path(loc)}: {e['msg']} (got {e.get('input')!r:.80})") from None
+            raise ConfigError(
+                f'{source}: {json_path(loc)}: {e["input"]!r:.40}: expected "merge" or a level (an '
+                "object "
+                f"of rules){did_you_mean(e['input'], ['merge'])}"
+            ) from None
+        raise ConfigError(
+            f"{source}: {json_path(loc)}: {e['msg']} (got {e.get('input')!r:.80})"
+        ) from None
     types = {}
     for name, t in spec.region_types.items():
-        types[name] = RegionType(name, t.final, _color(t.color, f"{source}: $.region_types.{name}.color"),
-                                 t.semantic, t.asset_group, None if t.fill is None else _fill(t.fill, source, name))
+        types[name] = RegionType(
+            name,
+            t.final,
+            _color(t.color, f"{source}: $.region_types.{name}.color"),
+            t.semantic,
+            t.asset_group,
+            None if t.fill is None else _fill(t.fill, source, name),
+        )
 
     def known(name: str, where: str) -> None:
         if name not in types:
-            raise ConfigError(f"{source}: {where}: region type {name!r} is not declared in "
-                              f"$.region_types{did_you_mean(name, types)}")
+            raise ConfigError(
+                f"{source}: {where}: region type {name!r} is not declared in "
+                f"$.region_types{did_you_mean(name, types)}"
+            )
 
     known(spec.root.type, "$.root.type")
     levels: list[Union[str, dict[str, Rule]]] = []
@@ -259,31 +291,52 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
             levels.append("merge")
             continue
         if not level:
-            raise ConfigError(f"{source}: $.levels[{i}]: empty level; give at least one rule or \"merge\"")
+            raise ConfigError(
+                f'{source}: $.levels[{i}]: empty level; give at least one rule or "merge"'
+            )
         rules = {}
         for tname, rule in level.items():
             where = f"$.levels[{i}].{tname}"
             known(tname, where)
             if types[tname].final:
-                raise ConfigError(f"{source}: {where}: region type {tname!r} is final and cannot have a generator")
+                raise ConfigError(
+                    f"{source}: {where}: region type {tname!r} is final and cannot have a generator"
+                )
             cls = get_generator(rule.generator, f"{source}: {where}.generator")
-            unknown = sorted(set(rule.args) - set(cls.arguments)) if cls.arguments is not None else []
+            unknown = (
+                sorted(set(rule.args) - set(cls.arguments)) if cls.arguments is not None else []
+            )
             if unknown:
-                raise ConfigError(f"{source}: {where}.args.{unknown[0]}: not an argument of {rule.generator}"
-                                  f"{did_you_mean(unknown[0], cls.arguments)} (it takes: {', '.join(cls.arguments)})")
+                raise ConfigError(
+                    f"{source}: {where}.args.{unknown[0]}: not an argument of {rule.generator}"
+                    f"{did_you_mean(unknown[0], cls.arguments)} (it takes: "
+                    f"{', '.join(cls.arguments)})"
+                )
             try:
                 gen = cls(**rule.args)
                 gen.check(f"{source}: {where}")
             except ConfigError:
                 raise
-            except (TypeError, ValueError, KeyError, IndexError, OverflowError) as exc:  # an argument of the wrong kind
-                raise ConfigError(f"{source}: {where}.args{_culprit(cls, rule.args, where)}: {rule.generator} cannot use "
-                                  f"this value ({type(exc).__name__}: {exc})") from None
+            except (
+                TypeError,
+                ValueError,
+                KeyError,
+                IndexError,
+                OverflowError,
+            ) as exc:  # an argument of the wrong kind
+                raise ConfigError(
+                    f"{source}: {where}.args{_culprit(cls, rule.args, where)}: {rule.generator} "
+                    "cannot use "
+                    f"this value ({type(exc).__name__}: {exc})"
+                ) from None
             providers = {}
             for slot, pspec in rule.children.items():
                 if cls.slots and slot not in cls.slots:
-                    raise ConfigError(f"{source}: {where}.children.{slot}: generator {rule.generator!r} makes no "
-                                      f"slot {slot!r}{did_you_mean(slot, cls.slots)} (slots: {', '.join(cls.slots)})")
+                    raise ConfigError(
+                        f"{source}: {where}.children.{slot}: generator {rule.generator!r} makes no "
+                        f"slot {slot!r}{did_you_mean(slot, cls.slots)} (slots: "
+                        f"{', '.join(cls.slots)})"
+                    )
                 tp = TypeProvider(pspec, f"{source}: {where}.children.{slot}")
                 for t in tp.types():
                     known(t, f"{where}.children.{slot}")
@@ -296,7 +349,7 @@ def parse_strategy(data: Any, source: str = "<dict>") -> Strategy:
                 gen.check_fits(spec.root.width, spec.root.height, f"{source}: {where}")
             rules[tname] = Rule(gen, rule.generator, providers, orient)
         levels.append(rules)
-    scene_options(spec.scene, f"{source}: $.scene")   # checked here, typed where it is used
+    scene_options(spec.scene, f"{source}: $.scene")  # checked here, typed where it is used
     return Strategy(spec.name, spec.root, types, levels, spec.scene, source, spec.merge.l_shape)
 
 
@@ -335,4 +388,11 @@ def _anchor_assets(data: Any, base: Path) -> Any:
     return {**data, "scene": {**scene, "assets": fixed}}
 
 
-__all__ = ["GENERATORS", "ORIENTATIONS", "Strategy", "json_schema", "load_strategy", "parse_strategy"]
+__all__ = [
+    "GENERATORS",
+    "ORIENTATIONS",
+    "Strategy",
+    "json_schema",
+    "load_strategy",
+    "parse_strategy",
+]

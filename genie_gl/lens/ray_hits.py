@@ -21,6 +21,7 @@ hidden at every pixel centre) is not tried: these are the sub-pixel triangles;
 ``oversample`` (finer views) shrinks them. Everywhere else the result is the ray caster's
 (tests/lens/test_ray_hits.py compares with Open3D's).
 """
+
 from __future__ import annotations
 
 import math
@@ -29,8 +30,8 @@ import numpy as np
 
 from ..jit import njit
 
-STATS = ("rays", "candidates", "tested", "missed")   # what resample_rays counts, in this order
-TILE = 4   # view pixels per side of a tile of the triangles' index
+STATS = ("rays", "candidates", "tested", "missed")  # what resample_rays counts, in this order
+TILE = 4  # view pixels per side of a tile of the triangles' index
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
@@ -109,13 +110,22 @@ def _shown(pixel, first, count, base, cfm, indices, vertices):  # pragma: no cov
     for r in range(rows):
         s = slot[r]
         t0 = 3 * (first[s] + prim[r])
-        _corners(verts, r, cfm[s], vertices, base[s] + np.int64(indices[t0]), base[s] + np.int64(indices[t0 + 1]),
-                 base[s] + np.int64(indices[t0 + 2]))
+        _corners(
+            verts,
+            r,
+            cfm[s],
+            vertices,
+            base[s] + np.int64(indices[t0]),
+            base[s] + np.int64(indices[t0 + 1]),
+            base[s] + np.int64(indices[t0 + 2]),
+        )
     return pix, slot[:rows].copy(), verts
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _candidates(shown_slot, mesh_first, mesh_count, base, backcull, cfm, faces, vertices):  # pragma: no cover
+def _candidates(
+    shown_slot, mesh_first, mesh_count, base, backcull, cfm, faces, vertices
+):  # pragma: no cover
     """The view's candidate triangles: every face of the mesh of every slot in
     ``shown_slot``. Returns per row its slot, whether it may be hit (False: a back face of a
     mesh drawn with back-face culling) and its camera-frame corners (T, 9)."""
@@ -136,8 +146,15 @@ def _candidates(shown_slot, mesh_first, mesh_count, base, backcull, cfm, faces, 
         for p in range(mesh_count[s]):
             r = at[s] + p
             f = mesh_first[s] + p
-            _corners(verts, r, cfm[s], vertices, base[s] + np.int64(faces[f, 0]), base[s] + np.int64(faces[f, 1]),
-                     base[s] + np.int64(faces[f, 2]))
+            _corners(
+                verts,
+                r,
+                cfm[s],
+                vertices,
+                base[s] + np.int64(faces[f, 0]),
+                base[s] + np.int64(faces[f, 1]),
+                base[s] + np.int64(faces[f, 2]),
+            )
             slot[r] = s
             if backcull[s]:
                 front[r] = _faces_camera(verts[r])
@@ -154,7 +171,7 @@ def _tiles(verts, front, K, vw, vh, zmin):  # pragma: no cover - compiled
     T = verts.shape[0]
     ntx, nty = (vw + TILE - 1) // TILE + 1, (vh + TILE - 1) // TILE + 1
     box = np.empty((T, 5), np.float64)
-    edges = np.zeros((T, 9), np.float64)   # 2D edge functions (view pixels), all >= 0 inside
+    edges = np.zeros((T, 9), np.float64)  # 2D edge functions (view pixels), all >= 0 inside
     uv = np.empty(6, np.float64)
     span = np.empty((T, 4), np.int64)
     start = np.zeros(ntx * nty + 1, np.int64)
@@ -168,7 +185,7 @@ def _tiles(verts, front, K, vw, vh, zmin):  # pragma: no cover - compiled
                 u, v = fx * x / z + sk * y / z + cx, fy * y / z + cy
                 uv[2 * c], uv[2 * c + 1] = u, v
                 u0, u1, v0, v1 = min(u0, u), max(u1, u), min(v0, v), max(v1, v)
-            n = (c + 1) % 3   # where the edge to the next corner crosses z = zmin
+            n = (c + 1) % 3  # where the edge to the next corner crosses z = zmin
             xn, yn, zn = verts[r, 3 * n], verts[r, 3 * n + 1], verts[r, 3 * n + 2]
             if (z - zmin) * (zn - zmin) < 0.0:
                 a = (zmin - z) / (zn - z)
@@ -178,7 +195,11 @@ def _tiles(verts, front, K, vw, vh, zmin):  # pragma: no cover - compiled
         if inside == 3:
             # the projected triangle's edge functions a u + b v + c, inside >= 0 (scaled to
             # pixels of distance, widened by 1e-6 px beyond rounding): a pre-test only
-            sign = 1.0 if (uv[2] - uv[0]) * (uv[5] - uv[1]) - (uv[3] - uv[1]) * (uv[4] - uv[0]) > 0.0 else -1.0
+            sign = (
+                1.0
+                if (uv[2] - uv[0]) * (uv[5] - uv[1]) - (uv[3] - uv[1]) * (uv[4] - uv[0]) > 0.0
+                else -1.0
+            )
             for c in range(3):
                 n = (c + 1) % 3
                 ea, eb = -(uv[2 * n + 1] - uv[2 * c + 1]) * sign, (uv[2 * n] - uv[2 * c]) * sign
@@ -189,11 +210,17 @@ def _tiles(verts, front, K, vw, vh, zmin):  # pragma: no cover - compiled
                 edges[r, 3 * c + 1] = eb
                 u, v = uv[2 * c], uv[2 * c + 1]
                 edges[r, 3 * c + 2] = -(ea * u + eb * v) + 1e-6 + 1e-9 * (abs(u) + abs(v))
-        pad = 1e-6 + 1e-9 * (abs(u0) + abs(u1) + abs(v0) + abs(v1))   # beyond float64 rounding
+        pad = 1e-6 + 1e-9 * (abs(u0) + abs(u1) + abs(v0) + abs(v1))  # beyond float64 rounding
         box[r, 0], box[r, 1], box[r, 2], box[r, 3] = u0 - pad, u1 + pad, v0 - pad, v1 + pad
         box[r, 4] = min(verts[r, 2], min(verts[r, 5], verts[r, 8]))
-        if (inside == 0 or not front[r] or box[r, 1] < -1.0 or box[r, 0] > vw + 1.0 or box[r, 3] < -1.0
-                or box[r, 2] > vh + 1.0):   # nearer than the near plane, a culled back face, or off the view
+        if (
+            inside == 0
+            or not front[r]
+            or box[r, 1] < -1.0
+            or box[r, 0] > vw + 1.0
+            or box[r, 3] < -1.0
+            or box[r, 2] > vh + 1.0
+        ):  # nearer than the near plane, a culled back face, or off the view
             span[r, 0], span[r, 1], span[r, 2], span[r, 3] = 1, 0, 1, 0
             continue
         tx0 = int(min(max(math.floor(max(box[r, 0], -1.0) / TILE), 0), ntx - 1))
@@ -208,7 +235,7 @@ def _tiles(verts, front, K, vw, vh, zmin):  # pragma: no cover - compiled
         start[t + 1] += start[t]
     fill = start[:-1].copy()
     rows = np.empty(start[-1], np.int32)
-    for r in np.argsort(box[:, 4]):   # each tile's list nearest first
+    for r in np.argsort(box[:, 4]):  # each tile's list nearest first
         if span[r, 0] > span[r, 1]:
             continue
         for ty in range(span[r, 2], span[r, 3] + 1):
@@ -220,9 +247,41 @@ def _tiles(verts, front, K, vw, vh, zmin):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
-                  pixel, first, count, base, backcull, cfm, indices, mesh_first, mesh_count, faces, vertices,
-                  inst_of, sem_of, rgb, out_depth, out_inst, out_sem, out_rgb, out_normal, stats):  # pragma: no cover
+def resample_rays(
+    sel,
+    mx,
+    my,
+    dx,
+    dy,
+    zs,
+    K,
+    vw,
+    vh,
+    zmin,
+    near,
+    far,
+    R,
+    pixel,
+    first,
+    count,
+    base,
+    backcull,
+    cfm,
+    indices,
+    mesh_first,
+    mesh_count,
+    faces,
+    vertices,
+    inst_of,
+    sem_of,
+    rgb,
+    out_depth,
+    out_inst,
+    out_sem,
+    out_rgb,
+    out_normal,
+    stats,
+):  # pragma: no cover
     """Write the samples of one view into the lens image, each from its own ray.
 
     sel (N,) int64: output pixel of each sample; mx, my (N,) float64: where its ray crosses
@@ -240,9 +299,13 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
     normals = out_normal.shape[0] > 0
     scale = zs.shape[0] > 0
     pix, pslot, pverts = _shown(pixel, first, count, base, cfm, indices, vertices)
-    slot, front, verts = _candidates(np.unique(pslot), mesh_first, mesh_count, base, backcull, cfm, faces, vertices)
+    slot, front, verts = _candidates(
+        np.unique(pslot), mesh_first, mesh_count, base, backcull, cfm, faces, vertices
+    )
     box, edges, start, rows, ntx, nty = _tiles(verts, front, K, vw, vh, zmin)
-    around = np.empty(4, np.int64)   # the triangle each of the 4 nearest view pixels shows (-1: none)
+    around = np.empty(
+        4, np.int64
+    )  # the triangle each of the 4 nearest view pixels shows (-1: none)
     best_v = np.empty(9, np.float64)
     tested = missed = 0
     for i in range(sel.shape[0]):
@@ -251,7 +314,9 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
         x0, y0 = int(math.floor(px)), int(math.floor(py))
         for c in range(4):
             xx, yy = x0 + (c & 1), y0 + (c >> 1)
-            around[c] = pix[yy * vw + xx] if 0 <= xx < vw and 0 <= yy < vh else -1   # a row of pverts
+            around[c] = (
+                pix[yy * vw + xx] if 0 <= xx < vw and 0 <= yy < vh else -1
+            )  # a row of pverts
         # the nearest view pixel's triangle first: most rays hit it, and then only what is
         # nearer than that hit is tried
         best, bslot = np.inf, -1
@@ -262,18 +327,22 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
             if best < np.inf:
                 bslot = pslot[near_r]
                 best_v[:] = pverts[near_r]
-        tile = (min(max(int(math.floor(py / TILE)), 0), nty - 1) * ntx
-                + min(max(int(math.floor(px / TILE)), 0), ntx - 1))
+        tile = min(max(int(math.floor(py / TILE)), 0), nty - 1) * ntx + min(
+            max(int(math.floor(px / TILE)), 0), ntx - 1
+        )
         for e in range(start[tile], start[tile + 1]):
             r = rows[e]
-            if box[r, 4] >= best:   # this one and all after it lie beyond the hit
+            if box[r, 4] >= best:  # this one and all after it lie beyond the hit
                 break
             if px < box[r, 0] or px > box[r, 1] or py < box[r, 2] or py > box[r, 3]:
                 continue
-            if (edges[r, 0] * px + edges[r, 1] * py + edges[r, 2] < 0.0
-                    or edges[r, 3] * px + edges[r, 4] * py + edges[r, 5] < 0.0
-                    or edges[r, 6] * px + edges[r, 7] * py + edges[r, 8] < 0.0):
-                continue   # outside the projected triangle (zeros, always passed, where it is clipped)
+            if (
+                edges[r, 0] * px + edges[r, 1] * py + edges[r, 2] < 0.0
+                or edges[r, 3] * px + edges[r, 4] * py + edges[r, 5] < 0.0
+                or edges[r, 6] * px + edges[r, 7] * py + edges[r, 8] < 0.0
+            ):
+                # outside the projected triangle (zeros, always passed, where it is clipped)
+                continue
             tested += 1
             t = _hit(verts, r, ray_x, ray_y, zmin)
             if t < best:
@@ -289,7 +358,7 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
         out_depth[o] = z
         out_inst[o] = inst_of[bslot]
         out_sem[o] = sem_of[bslot]
-        if colour:   # the colour of the nearest of the 4 view pixels that shows this instance
+        if colour:  # the colour of the nearest of the 4 view pixels that shows this instance
             j, dj = -1, np.inf
             for c in range(4):
                 xx, yy = x0 + (c & 1), y0 + (c >> 1)
@@ -297,8 +366,9 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
                 if around[c] >= 0 and inst_of[pslot[around[c]]] == inst_of[bslot] and d2 < dj:
                     j, dj = yy * vw + xx, d2
             if j < 0:
-                j = (min(max(int(math.floor(py + 0.5)), 0), vh - 1) * vw
-                     + min(max(int(math.floor(px + 0.5)), 0), vw - 1))
+                j = min(max(int(math.floor(py + 0.5)), 0), vh - 1) * vw + min(
+                    max(int(math.floor(px + 0.5)), 0), vw - 1
+                )
             out_rgb[o, 0] = rgb[j, 0]
             out_rgb[o, 1] = rgb[j, 1]
             out_rgb[o, 2] = rgb[j, 2]
@@ -309,7 +379,9 @@ def resample_rays(sel, mx, my, dx, dy, zs, K, vw, vh, zmin, near, far, R,
             nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
             norm = math.sqrt(nx * nx + ny * ny + nz * nz)
             if norm > 0.0:
-                sign = -1.0 / norm if nx * ray_x + ny * ray_y + nz > 0.0 else 1.0 / norm   # facing the camera
+                sign = (
+                    -1.0 / norm if nx * ray_x + ny * ray_y + nz > 0.0 else 1.0 / norm
+                )  # facing the camera
                 nx, ny, nz = nx * sign, ny * sign, nz * sign
                 out_normal[o, 0] = R[0, 0] * nx + R[0, 1] * ny + R[0, 2] * nz
                 out_normal[o, 1] = R[1, 0] * nx + R[1, 1] * ny + R[1, 2] * nz

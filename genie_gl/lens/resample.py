@@ -7,6 +7,7 @@ sensor's range, and write the output buffers. :mod:`.distortion` prepares the pe
 once per camera model; this kernel runs per frame. (The exact mode, each pixel's own ray
 intersected with the view's triangles, is :mod:`.ray_hits`.)
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -18,8 +19,33 @@ MODES = {"nearest": NEAREST, "bilinear": BILINEAR, "plane": PLANE}
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def resample_view(mode, sel, flat, f00, ax, ay, px, py, dx, dy, zs, width, near, far, R,
-                  depth, inst, sem, rgb, normal, out_depth, out_inst, out_sem, out_rgb, out_normal):  # pragma: no cover
+def resample_view(
+    mode,
+    sel,
+    flat,
+    f00,
+    ax,
+    ay,
+    px,
+    py,
+    dx,
+    dy,
+    zs,
+    width,
+    near,
+    far,
+    R,
+    depth,
+    inst,
+    sem,
+    rgb,
+    normal,
+    out_depth,
+    out_inst,
+    out_sem,
+    out_rgb,
+    out_normal,
+):  # pragma: no cover
     """Write the samples of one view into the lens image.
 
     mode : NEAREST, BILINEAR or PLANE. sel (N,) int64: output pixel of each sample; flat (N,)
@@ -46,14 +72,26 @@ def resample_view(mode, sel, flat, f00, ax, ay, px, py, dx, dy, zs, width, near,
             c1, c2 = c0 + 1, c0 + width
             c3 = c2 + 1
             z0, z1, z2, z3 = depth[c0], depth[c1], depth[c2], depth[c3]
-            if (z0 > 0 and z1 > 0 and z2 > 0 and z3 > 0 and inst[c0] == ident and inst[c1] == ident
-                    and inst[c2] == ident and inst[c3] == ident):
+            if (
+                z0 > 0
+                and z1 > 0
+                and z2 > 0
+                and z3 > 0
+                and inst[c0] == ident
+                and inst[c1] == ident
+                and inst[c2] == ident
+                and inst[c3] == ident
+            ):
                 a, b = ax[i], ay[i]
                 # 1/z is affine in a pinhole image across a plane: interpolate it, not z
-                w = ((1 - a) * (1 - b) / z0 + a * (1 - b) / z1 + (1 - a) * b / z2 + a * b / z3)
+                w = (1 - a) * (1 - b) / z0 + a * (1 - b) / z1 + (1 - a) * b / z2 + a * b / z3
                 z = 1.0 / w
         elif mode == PLANE and normals:
-            n0, n1, n2 = np.float64(normal[j, 0]), np.float64(normal[j, 1]), np.float64(normal[j, 2])
+            n0, n1, n2 = (
+                np.float64(normal[j, 0]),
+                np.float64(normal[j, 1]),
+                np.float64(normal[j, 2]),
+            )
             nd = n0 * dx[i] + n1 * dy[i] + n2
             if abs(nd) > 1e-6:
                 t = zn * (n0 * px[i] + n1 * py[i] + n2) / nd

@@ -14,6 +14,7 @@
 The body is level, facing where it goes (its x axis along the path), its origin
 ``height_m`` above the floor.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
@@ -24,8 +25,8 @@ from ..errors import ConfigError, did_you_mean
 from .floor import FreeFloor
 from .trajectory import Trajectory, planar_poses
 
-MIN_ARC_M = 0.05      # tighter than this, a corner is turned on the spot
-PIVOT_DEG = 150.0     # a corner turning more than this is turned on the spot (a U-turn)
+MIN_ARC_M = 0.05  # tighter than this, a corner is turned on the spot
+PIVOT_DEG = 150.0  # a corner turning more than this is turned on the spot (a U-turn)
 
 
 @dataclass(frozen=True)
@@ -51,8 +52,13 @@ class Motion:
 # slowly so the scan stays registered; a warehouse robot drives about 0.8 m/s, turns 45°/s
 MOTIONS: dict[str, Motion] = {
     "person": Motion(),
-    "robot": Motion(speed_mps=0.8, height_m=1.2, max_yaw_rate_rad_s=float(np.radians(45.0)), max_accel_mps2=0.5,
-                    body_radius_m=0.45),
+    "robot": Motion(
+        speed_mps=0.8,
+        height_m=1.2,
+        max_yaw_rate_rad_s=float(np.radians(45.0)),
+        max_accel_mps2=0.5,
+        body_radius_m=0.45,
+    ),
 }
 
 
@@ -63,8 +69,10 @@ def motion_of(spec: "str | Motion") -> Motion:
     try:
         return MOTIONS[spec]
     except (KeyError, TypeError):
-        raise ConfigError(f"motion {spec!r}: unknown{did_you_mean(str(spec), MOTIONS)}; expected one of "
-                          f"{', '.join(MOTIONS)}") from None
+        raise ConfigError(
+            f"motion {spec!r}: unknown{did_you_mean(str(spec), MOTIONS)}; expected one of "
+            f"{', '.join(MOTIONS)}"
+        ) from None
 
 
 def straighten(floor: FreeFloor, legs: list[np.ndarray]) -> np.ndarray:
@@ -94,7 +102,7 @@ def _arc_fits(floor: FreeFloor, corner, d_in, d_out, r, turn, tangent) -> np.nda
     free floor."""
     a = corner - tangent * d_in
     side = np.sign(turn)
-    normal = side * np.array([-d_in[1], d_in[0]])         # towards the arc's centre
+    normal = side * np.array([-d_in[1], d_in[0]])  # towards the arc's centre
     centre = a + r * normal
     yaw_in = np.arctan2(d_in[1], d_in[0])
     n = max(3, int(np.ceil(abs(turn) * r / (0.25 * floor.resolution_m))) + 1)
@@ -105,12 +113,17 @@ def _arc_fits(floor: FreeFloor, corner, d_in, d_out, r, turn, tangent) -> np.nda
     return np.column_stack([pts, yaw])
 
 
-def follow(floor: FreeFloor, legs: list[np.ndarray], motion: Motion, *, meta: dict | None = None) -> Trajectory:
-    """The trajectory of a body with ``motion`` along a route's ``legs`` ((k, 2) each) on ``floor``."""
+def follow(
+    floor: FreeFloor, legs: list[np.ndarray], motion: Motion, *, meta: dict | None = None
+) -> Trajectory:
+    """The trajectory of a body with ``motion`` along a route's ``legs`` ((k, 2) each) on
+    ``floor``."""
     corners = straighten(floor, legs)
     if len(corners) < 2:
-        raise ConfigError("trajectory: the route has no length (one free point); use a longer route or a "
-                          "larger free floor")
+        raise ConfigError(
+            "trajectory: the route has no length (one free point); use a longer route or a "
+            "larger free floor"
+        )
     d = np.diff(corners, axis=0)
     seg = np.linalg.norm(d, axis=1)
     d = d / seg[:, None]
@@ -141,8 +154,12 @@ def follow(floor: FreeFloor, legs: list[np.ndarray], motion: Motion, *, meta: di
         kind, arc, t_in = fillets[k]
         if kind == "arc":
             r = t_in / np.tan(abs(arc[-1, 2] - arc[0, 2]) / 2)
-            xs.append(np.column_stack([arc, np.full(len(arc), min(motion.speed_mps, motion.max_yaw_rate_rad_s * r))]))
-        elif kind == "pivot":   # a turn on the spot: at rest, facing the new way
+            xs.append(
+                np.column_stack(
+                    [arc, np.full(len(arc), min(motion.speed_mps, motion.max_yaw_rate_rad_s * r))]
+                )
+            )
+        elif kind == "pivot":  # a turn on the spot: at rest, facing the new way
             xs.append(np.array([[*corners[k], yaw, 0.0]]))
         a = corners[k] + t_in * d[k]
         b = corners[k + 1] - fillets[k + 1][2] * d[k]
@@ -150,7 +167,10 @@ def follow(floor: FreeFloor, legs: list[np.ndarray], motion: Motion, *, meta: di
         s = np.linspace(0.0, 1.0, n)[:, None]
         line = a * (1 - s) + b * s
         v = np.full(n, motion.speed_mps)
-        if fillets[k + 1][0] in ("pivot", "end"):   # at rest before turning on the spot, and at the end
+        if fillets[k + 1][0] in (
+            "pivot",
+            "end",
+        ):  # at rest before turning on the spot, and at the end
             v[-1] = 0.0
         xs.append(np.column_stack([line, np.full(n, yaw), v]))
     S = np.concatenate(xs)
@@ -171,19 +191,29 @@ def follow(floor: FreeFloor, legs: list[np.ndarray], motion: Motion, *, meta: di
     xy, yaw, v = S[:, :2], S[:, 2], S[:, 3].copy()
     ds = np.linalg.norm(np.diff(xy, axis=0), axis=1)
     a2 = 2.0 * motion.max_accel_mps2
-    for i in range(1, len(v)):                 # accelerate no faster than max_accel
+    for i in range(1, len(v)):  # accelerate no faster than max_accel
         v[i] = min(v[i], np.sqrt(v[i - 1] ** 2 + a2 * ds[i - 1]))
-    for i in range(len(v) - 2, -1, -1):        # and brake no harder
+    for i in range(len(v) - 2, -1, -1):  # and brake no harder
         v[i] = min(v[i], np.sqrt(v[i + 1] ** 2 + a2 * ds[i]))
     mean_v = 0.5 * (v[1:] + v[:-1])
     with np.errstate(divide="ignore", invalid="ignore"):
         dt = np.where(ds > 0, ds / mean_v, 0.0)
     dt = np.maximum(dt, np.abs(np.diff(yaw)) / motion.max_yaw_rate_rad_s)
     if not np.all(np.isfinite(dt)):
-        raise ConfigError("trajectory: a step of the route could not be timed (a zero speed while moving)")
+        raise ConfigError(
+            "trajectory: a step of the route could not be timed (a zero speed while moving)"
+        )
     times = np.r_[0.0, np.cumsum(dt)]
     keep = np.r_[True, dt > 0]
-    info = {"speed_mps": motion.speed_mps, "height_m": motion.height_m,
-            "max_yaw_rate_rad_s": motion.max_yaw_rate_rad_s, "max_accel_mps2": motion.max_accel_mps2,
-            "body_radius_m": motion.body_radius_m, "length_m": float(ds.sum()), "corners": len(corners)}
-    return Trajectory(times[keep], planar_poses(xy[keep], yaw[keep], motion.height_m), {**(meta or {}), **info})
+    info = {
+        "speed_mps": motion.speed_mps,
+        "height_m": motion.height_m,
+        "max_yaw_rate_rad_s": motion.max_yaw_rate_rad_s,
+        "max_accel_mps2": motion.max_accel_mps2,
+        "body_radius_m": motion.body_radius_m,
+        "length_m": float(ds.sum()),
+        "corners": len(corners),
+    }
+    return Trajectory(
+        times[keep], planar_poses(xy[keep], yaw[keep], motion.height_m), {**(meta or {}), **info}
+    )

@@ -17,6 +17,7 @@ arcs at lower speed where space is short; a turn on the spot when nothing else f
 speed limited by the arcs and by the acceleration, and the times integrated. Every sample
 lies on free floor, so the body never comes nearer than its radius to an asset.
 """
+
 from __future__ import annotations
 
 import json
@@ -40,6 +41,7 @@ PATHS = ("aisles", "random", "waypoints")
 
 # -- routes -----------------------------------------------------------------------------------
 
+
 class _Router:
     """Shortest paths over one free floor's graph."""
 
@@ -47,7 +49,7 @@ class _Router:
         self.floor = floor
         self.G, self.index = floor.graph()
         rows, cols = np.nonzero(floor.free)
-        self.xy = floor.centres(rows, cols)        # node -> cell centre
+        self.xy = floor.centres(rows, cols)  # node -> cell centre
         self.near = floor.near_m[rows, cols]
         self.clear = floor.clearance_m[rows, cols]
 
@@ -67,11 +69,18 @@ class _Router:
 
 
 def _length(legs: list[np.ndarray]) -> float:
-    return float(sum(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum() for xy in legs if len(xy) > 1))
+    return float(
+        sum(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum() for xy in legs if len(xy) > 1)
+    )
 
 
-def aisle_route(floor: FreeFloor, *, rng: np.random.Generator, spacing_m: float = 3.0,
-                length_m: float | None = None) -> list[np.ndarray]:
+def aisle_route(
+    floor: FreeFloor,
+    *,
+    rng: np.random.Generator,
+    spacing_m: float = 3.0,
+    length_m: float | None = None,
+) -> list[np.ndarray]:
     """The legs ((k, 2) each) of a route covering the aisles (see the module's docstring)."""
     r = _Router(floor)
     k = max(1, int(round(spacing_m / floor.resolution_m)))
@@ -96,7 +105,9 @@ def aisle_route(floor: FreeFloor, *, rng: np.random.Generator, spacing_m: float 
             d = np.linalg.norm(r.xy[targets][:, None] - chunk[None], axis=2).min(1)
             near |= d <= cover
         left &= ~near
-        if not left.any() or (length_m is not None and _length([r.xy[g] for g in legs]) >= length_m):
+        if not left.any() or (
+            length_m is not None and _length([r.xy[g] for g in legs]) >= length_m
+        ):
             break
         dist, pred = r.from_node(current)
         reach = np.where(left, dist[targets], np.inf)
@@ -108,8 +119,13 @@ def aisle_route(floor: FreeFloor, *, rng: np.random.Generator, spacing_m: float 
     return [r.xy[g] for g in legs if len(g) > 1] or [r.xy[legs[0]]]
 
 
-def random_route(floor: FreeFloor, *, rng: np.random.Generator, length_m: float = 60.0,
-                 leg_m: tuple[float, float] = (3.0, 12.0)) -> list[np.ndarray]:
+def random_route(
+    floor: FreeFloor,
+    *,
+    rng: np.random.Generator,
+    length_m: float = 60.0,
+    leg_m: tuple[float, float] = (3.0, 12.0),
+) -> list[np.ndarray]:
     """The legs of a random walk of at least ``length_m`` (or as far as the floor allows)."""
     r = _Router(floor)
     current = int(rng.integers(len(r.xy)))
@@ -137,7 +153,9 @@ def read_waypoints(path: str | os.PathLike) -> np.ndarray:
         except (ValueError, TypeError) as exc:
             raise ConfigError(f"{path}: not a JSON list of [x, y] pairs ({exc})") from None
         if pts.ndim != 2 or pts.shape[1] != 2:
-            raise ConfigError(f"{path}: expected a JSON list of [x, y] pairs, got shape {pts.shape}")
+            raise ConfigError(
+                f"{path}: expected a JSON list of [x, y] pairs, got shape {pts.shape}"
+            )
     else:
         rows = []
         for n, line in enumerate(text.splitlines(), 1):
@@ -147,7 +165,9 @@ def read_waypoints(path: str | os.PathLike) -> np.ndarray:
             try:
                 x, y = (float(v) for v in line)
             except ValueError:
-                raise ConfigError(f"{path}:{n}: expected two numbers 'x y' (metres), got {' '.join(line)!r}") from None
+                raise ConfigError(
+                    f"{path}:{n}: expected two numbers 'x y' (metres), got {' '.join(line)!r}"
+                ) from None
             rows.append((x, y))
         pts = np.array(rows, np.float64).reshape(-1, 2)
     return check_waypoints(pts, str(path))
@@ -156,17 +176,27 @@ def read_waypoints(path: str | os.PathLike) -> np.ndarray:
 def check_waypoints(pts: np.ndarray, source: str) -> np.ndarray:
     """``pts`` (n, 2) when they are at least two waypoints, all finite; one line naming the
     first NaN or infinite one (1-based) otherwise."""
-    bad = np.flatnonzero(~np.isfinite(pts).all(axis=1)) if pts.ndim == 2 and pts.shape[1:] == (2,) else []
+    bad = (
+        np.flatnonzero(~np.isfinite(pts).all(axis=1))
+        if pts.ndim == 2 and pts.shape[1:] == (2,)
+        else []
+    )
     if len(bad):
         k = int(bad[0])
-        raise ConfigError(f"{source}: waypoint {k + 1} ({pts[k, 0]:g}, {pts[k, 1]:g}) is not a finite point; "
-                          f"expected x y in metres ({len(bad)} of the {len(pts)} waypoints are NaN or infinite)")
+        raise ConfigError(
+            f"{source}: waypoint {k + 1} ({pts[k, 0]:g}, {pts[k, 1]:g}) is not a finite point; "
+            f"expected x y in metres ({len(bad)} of the {len(pts)} waypoints are NaN or infinite)"
+        )
     if pts.ndim != 2 or pts.shape[1:] != (2,) or len(pts) < 2:
-        raise ConfigError(f"{source}: expected at least two waypoints (x y in metres), got {len(pts)}")
+        raise ConfigError(
+            f"{source}: expected at least two waypoints (x y in metres), got {len(pts)}"
+        )
     return pts
 
 
-def waypoint_route(floor: FreeFloor, waypoints: np.ndarray, *, source: str = "waypoints") -> list[np.ndarray]:
+def waypoint_route(
+    floor: FreeFloor, waypoints: np.ndarray, *, source: str = "waypoints"
+) -> list[np.ndarray]:
     """The legs of a route through ``waypoints`` (each on free floor) by shortest paths."""
     r = _Router(floor)
     wp = np.asarray(waypoints, np.float64)
@@ -174,15 +204,20 @@ def waypoint_route(floor: FreeFloor, waypoints: np.ndarray, *, source: str = "wa
     for k in np.flatnonzero(~ok)[:1]:
         d = np.linalg.norm(r.xy - wp[k], axis=1)
         near = r.xy[int(np.argmin(d))]
-        raise ConfigError(f"{source}: waypoint {k + 1} ({wp[k, 0]:g}, {wp[k, 1]:g}) is not free floor (outside the "
-                          f"hall, or within {floor.body_radius_m:g} m of an asset); the nearest free point is "
-                          f"({near[0]:.2f}, {near[1]:.2f})")
+        raise ConfigError(
+            f"{source}: waypoint {k + 1} ({wp[k, 0]:g}, {wp[k, 1]:g}) is not free floor (outside "
+            "the "
+            f"hall, or within {floor.body_radius_m:g} m of an asset); the nearest free point is "
+            f"({near[0]:.2f}, {near[1]:.2f})"
+        )
     nodes = [r.node(p) for p in wp]
     legs = []
     for k, (a, b) in enumerate(zip(nodes, nodes[1:])):
         dist, pred = r.from_node(a)
         if not np.isfinite(dist[b]):
-            raise ConfigError(f"{source}: no way on the free floor from waypoint {k + 1} to waypoint {k + 2}")
+            raise ConfigError(
+                f"{source}: no way on the free floor from waypoint {k + 1} to waypoint {k + 2}"
+            )
         legs.append(r.xy[_Router.walk(pred, b)])
     # the exact first and last points: each lies in its cell, so the step to its centre is free
     legs[0] = np.concatenate([wp[:1], legs[0]])
@@ -197,12 +232,21 @@ def path_kind(path: str | os.PathLike, option: str = "--path") -> str:
         return str(path)
     if os.path.isfile(path):
         return "waypoints"
-    raise ConfigError(f"{option} {str(path)!r}: expected aisles, random or a waypoints file (no such file)"
-                      f"{did_you_mean(str(path), PATHS[:2])}")
+    raise ConfigError(
+        f"{option} {str(path)!r}: expected aisles, random or a waypoints file (no such file)"
+        f"{did_you_mean(str(path), PATHS[:2])}"
+    )
 
 
-def route(floor: FreeFloor, path: str = "aisles", *, rng: np.random.Generator, waypoints=None,
-          length_m: float | None = None, spacing_m: float = 3.0) -> list[np.ndarray]:
+def route(
+    floor: FreeFloor,
+    path: str = "aisles",
+    *,
+    rng: np.random.Generator,
+    waypoints=None,
+    length_m: float | None = None,
+    spacing_m: float = 3.0,
+) -> list[np.ndarray]:
     """The legs ((k, 2) each, shortest paths over free cells) of a route of kind ``path`` (one
     of PATHS) on ``floor``; ``waypoints``: an (n, 2) array or a file (``waypoints`` only)."""
     if path == "aisles":
@@ -211,7 +255,9 @@ def route(floor: FreeFloor, path: str = "aisles", *, rng: np.random.Generator, w
         return random_route(floor, rng=rng, length_m=60.0 if length_m is None else length_m)
     if path == "waypoints":
         if waypoints is None:
-            raise ConfigError("path 'waypoints' needs waypoints: a file ('x y' per line) or an (n, 2) array")
+            raise ConfigError(
+                "path 'waypoints' needs waypoints: a file ('x y' per line) or an (n, 2) array"
+            )
         source = "waypoints"
         if isinstance(waypoints, (str, os.PathLike)):
             source, waypoints = str(waypoints), read_waypoints(waypoints)
@@ -220,13 +266,26 @@ def route(floor: FreeFloor, path: str = "aisles", *, rng: np.random.Generator, w
         except (TypeError, ValueError):
             raise ConfigError(f"{source}: expected an (n, 2) array of waypoints (metres)") from None
         return waypoint_route(floor, check_waypoints(pts, source), source=source)
-    raise ConfigError(f"path {path!r}: unknown{did_you_mean(str(path), PATHS)}; expected one of {', '.join(PATHS)} "
-                      "(waypoints: give the file)")
+    raise ConfigError(
+        f"path {path!r}: unknown{did_you_mean(str(path), PATHS)}; expected one of "
+        f"{', '.join(PATHS)} "
+        "(waypoints: give the file)"
+    )
 
 
-def make_trajectory(layout, scene=None, path: str = "aisles", *, seed: int = 0, motion: "str | Motion" = "person",
-                    waypoints=None, length_m: float | None = None, duration_s: float | None = None,
-                    spacing_m: float = 3.0, floor: FreeFloor | None = None) -> Trajectory:
+def make_trajectory(
+    layout,
+    scene=None,
+    path: str = "aisles",
+    *,
+    seed: int = 0,
+    motion: "str | Motion" = "person",
+    waypoints=None,
+    length_m: float | None = None,
+    duration_s: float | None = None,
+    spacing_m: float = 3.0,
+    floor: FreeFloor | None = None,
+) -> Trajectory:
     """A trajectory on the free floor of ``layout`` (and of ``scene``'s assets, when given).
 
     Parameters
@@ -246,19 +305,29 @@ def make_trajectory(layout, scene=None, path: str = "aisles", *, seed: int = 0, 
         expect(scene, Scene, "make_trajectory: scene")
     seed = check_seed(seed, "make_trajectory: seed")
     if duration_s is not None:
-        duration_s = finite_number(duration_s, "make_trajectory: duration_s", 0.0, MAX_DURATION_S, lo_open=True)
+        duration_s = finite_number(
+            duration_s, "make_trajectory: duration_s", 0.0, MAX_DURATION_S, lo_open=True
+        )
     if length_m is not None:
         length_m = finite_number(length_m, "make_trajectory: length_m", 0.0, 1e6, lo_open=True)
     m = motion_of(motion)
     if floor is None:
         floor = free_floor(layout, scene, body_radius_m=m.body_radius_m)
     elif floor.body_radius_m < m.body_radius_m:
-        raise ConfigError(f"trajectory: the free floor keeps {floor.body_radius_m:g} m from assets, the motion "
-                          f"needs {m.body_radius_m:g} m")
+        raise ConfigError(
+            f"trajectory: the free floor keeps {floor.body_radius_m:g} m from assets, the motion "
+            f"needs {m.body_radius_m:g} m"
+        )
     if length_m is not None and not length_m > 0:
         raise ConfigError(f"trajectory: length_m must be > 0, got {length_m}")
-    legs = route(floor, path, rng=np.random.default_rng(seed), waypoints=waypoints, length_m=length_m,
-                 spacing_m=spacing_m)
+    legs = route(
+        floor,
+        path,
+        rng=np.random.default_rng(seed),
+        waypoints=waypoints,
+        length_m=length_m,
+        spacing_m=spacing_m,
+    )
     traj = follow(floor, legs, m, meta={"path": path, "seed": int(seed)})
     if duration_s is not None:
         if not duration_s > 0:
@@ -269,8 +338,9 @@ def make_trajectory(layout, scene=None, path: str = "aisles", *, seed: int = 0, 
     return traj
 
 
-def _lasting(floor: FreeFloor, legs: list[np.ndarray], motion: Motion, once: Trajectory,
-             duration_s: float) -> Trajectory:
+def _lasting(
+    floor: FreeFloor, legs: list[np.ndarray], motion: Motion, once: Trajectory, duration_s: float
+) -> Trajectory:
     """The route walked there and back (and there again, ...) until it lasts ``duration_s``:
     a route shorter than the time asked for is patrolled, not cut short (the meta's ``laps``
     counts the walks along it)."""

@@ -19,6 +19,7 @@ class, whose maker quotes a few millimetres to a centimetre of absolute accuracy
 translation drift, 0.1 mrad/√m heading drift, 0.02 mrad/√m tilt drift, 3 mm and 0.3 mrad
 residual per 20 m pass.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
@@ -28,7 +29,9 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import ConfigError, did_you_mean
 
-MID_RANGE_M = 3.0   # the range at which a frame's predicted misplacement is reported (plans, frame meta)
+MID_RANGE_M = (
+    3.0  # the range at which a frame's predicted misplacement is reported (plans, frame meta)
+)
 
 
 @dataclass(frozen=True)
@@ -46,26 +49,33 @@ class RegistrationError:
     def __post_init__(self) -> None:
         for k, v in asdict(self).items():
             if not (np.isfinite(v) and v >= 0) or (k == "pass_length_m" and v <= 0):
-                raise ConfigError(f"registration: {k} must be a number >= 0 (pass_length_m > 0), got {v!r}")
+                raise ConfigError(
+                    f"registration: {k} must be a number >= 0 (pass_length_m > 0), got {v!r}"
+                )
 
     def sigma_m(self, distance_m, range_m) -> np.ndarray:
         """Predicted RMS misplacement (m, per axis summed over three) of a point ``range_m`` from
         the sensor in a frame taken after walking ``distance_m``."""
         s, r = np.asarray(distance_m, np.float64), np.asarray(range_m, np.float64)
-        rot2 = (self.drift_yaw_rad_per_sqrt_m ** 2 + 2 * self.drift_tilt_rad_per_sqrt_m ** 2) * s \
-            + 3 * self.pass_sigma_rad ** 2
-        return np.sqrt(3 * self.drift_m_per_sqrt_m ** 2 * s + 3 * self.pass_sigma_m ** 2 + rot2 * r ** 2)
+        rot2 = (
+            self.drift_yaw_rad_per_sqrt_m**2 + 2 * self.drift_tilt_rad_per_sqrt_m**2
+        ) * s + 3 * self.pass_sigma_rad**2
+        return np.sqrt(3 * self.drift_m_per_sqrt_m**2 * s + 3 * self.pass_sigma_m**2 + rot2 * r**2)
 
     def sample(self, length_m: float, *, rng: np.random.Generator) -> "ErrorPath":
         """One realisation of the error along a path of ``length_m`` (knots every metre)."""
         n = int(np.ceil(max(length_m, 0.0))) + 2
         knots = np.arange(n, dtype=np.float64)
-        steps = rng.normal(size=(n - 1, 6)) * np.array([self.drift_m_per_sqrt_m] * 3
-                                                       + [self.drift_tilt_rad_per_sqrt_m] * 2
-                                                       + [self.drift_yaw_rad_per_sqrt_m])
+        steps = rng.normal(size=(n - 1, 6)) * np.array(
+            [self.drift_m_per_sqrt_m] * 3
+            + [self.drift_tilt_rad_per_sqrt_m] * 2
+            + [self.drift_yaw_rad_per_sqrt_m]
+        )
         drift = np.vstack([np.zeros(6), np.cumsum(steps, axis=0)])
         passes = int(np.ceil(knots[-1] / self.pass_length_m)) + 1
-        offsets = rng.normal(size=(passes, 6)) * np.array([self.pass_sigma_m] * 3 + [self.pass_sigma_rad] * 3)
+        offsets = rng.normal(size=(passes, 6)) * np.array(
+            [self.pass_sigma_m] * 3 + [self.pass_sigma_rad] * 3
+        )
         return ErrorPath(knots, drift, offsets, self.pass_length_m)
 
 
@@ -85,7 +95,9 @@ class ErrorPath:
         k = min(int(distance_m // self.pass_length_m), len(self.offsets) - 1)
         return d + self.offsets[k]
 
-    def apply(self, world_from_camera: np.ndarray, world_from_body: np.ndarray, distance_m: float) -> np.ndarray:
+    def apply(
+        self, world_from_camera: np.ndarray, world_from_body: np.ndarray, distance_m: float
+    ) -> np.ndarray:
         """(4, 4) the estimated pose of a camera at ``world_from_camera`` (the body at
         ``world_from_body``) after walking ``distance_m``."""
         e = self.error(distance_m)
@@ -103,5 +115,7 @@ def registration_of(name: str) -> RegistrationError | None:
     try:
         return REGISTRATIONS[name]
     except KeyError:
-        raise ConfigError(f"--registration {name!r}: unknown{did_you_mean(name, REGISTRATIONS)}; expected one of "
-                          f"{', '.join(REGISTRATIONS)}") from None
+        raise ConfigError(
+            f"--registration {name!r}: unknown{did_you_mean(name, REGISTRATIONS)}; expected one of "
+            f"{', '.join(REGISTRATIONS)}"
+        ) from None

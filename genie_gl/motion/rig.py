@@ -21,6 +21,7 @@ A rig file (YAML; shipped ones in ``rigs/``, found by bare name)::
 The three angles turn a REP 103 "link" frame (x along the optical axis) as ROS's fixed-axis
 roll, pitch, yaw do (``Rz(yaw) Ry(pitch) Rx(roll)``, positive pitch tilting the axis down).
 """
+
 from __future__ import annotations
 
 import os
@@ -42,12 +43,23 @@ LINK_FROM_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0
 NAME = re.compile(r"^[a-z0-9_]{1,40}$")
 
 
-def body_from_sensor(position_m=(0.0, 0.0, 0.0), *, yaw_rad: float = 0.0, pitch_rad: float = 0.0,
-                     roll_rad: float = 0.0) -> np.ndarray:
+def body_from_sensor(
+    position_m=(0.0, 0.0, 0.0),
+    *,
+    yaw_rad: float = 0.0,
+    pitch_rad: float = 0.0,
+    roll_rad: float = 0.0,
+) -> np.ndarray:
     """(4, 4) float64 pose of an OpenCV sensor on the body: at ``position_m`` (body frame),
     its link frame turned by ``Rz(yaw) Ry(pitch) Rx(roll)``."""
-    cy, sy, cp, sp, cr, sr = (np.cos(yaw_rad), np.sin(yaw_rad), np.cos(pitch_rad), np.sin(pitch_rad),
-                              np.cos(roll_rad), np.sin(roll_rad))
+    cy, sy, cp, sp, cr, sr = (
+        np.cos(yaw_rad),
+        np.sin(yaw_rad),
+        np.cos(pitch_rad),
+        np.sin(pitch_rad),
+        np.cos(roll_rad),
+        np.sin(roll_rad),
+    )
     rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
     ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
     rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
@@ -74,18 +86,31 @@ class RigSensor:
 
     def __post_init__(self) -> None:
         T = np.asarray(self.body_from_sensor, np.float64)
-        if T.shape != (4, 4) or not np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-9) \
-                or not np.allclose(T[3], [0, 0, 0, 1]) or np.linalg.det(T[:3, :3]) < 0:
-            raise ConfigError(f"rig sensor {self.name!r}: body_from_sensor must be a rigid (4, 4) transform")
+        if (
+            T.shape != (4, 4)
+            or not np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-9)
+            or not np.allclose(T[3], [0, 0, 0, 1])
+            or np.linalg.det(T[:3, :3]) < 0
+        ):
+            raise ConfigError(
+                f"rig sensor {self.name!r}: body_from_sensor must be a rigid (4, 4) transform"
+            )
         if not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
             raise ConfigError(f"rig sensor {self.name!r}: rate_hz must be > 0, got {self.rate_hz}")
         if not 0 <= self.offset_s < 1 / self.rate_hz:
-            raise ConfigError(f"rig sensor {self.name!r}: offset_s must lie in [0, 1/rate_hz), got {self.offset_s}")
+            raise ConfigError(
+                f"rig sensor {self.name!r}: offset_s must lie in [0, 1/rate_hz), got "
+                f"{self.offset_s}"
+            )
         object.__setattr__(self, "body_from_sensor", T)
 
     def times(self, t0: float, t1: float) -> np.ndarray:
         """(n,) float64 frame times in [t0, t1] (s): t0 + offset_s + k / rate_hz."""
-        n = int(np.floor((t1 - t0 - self.offset_s) * self.rate_hz + 1e-9)) + 1 if t1 >= t0 + self.offset_s else 0
+        n = (
+            int(np.floor((t1 - t0 - self.offset_s) * self.rate_hz + 1e-9)) + 1
+            if t1 >= t0 + self.offset_s
+            else 0
+        )
         return t0 + self.offset_s + np.arange(n, dtype=np.float64) / self.rate_hz
 
 
@@ -103,16 +128,28 @@ class Rig:
         names = [s.name for s in self.sensors]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
-            raise ConfigError(f"rig {self.name!r}: sensor names must be unique ({', '.join(dup)} repeated)")
+            raise ConfigError(
+                f"rig {self.name!r}: sensor names must be unique ({', '.join(dup)} repeated)"
+            )
 
     def __len__(self) -> int:
         return len(self.sensors)
 
     @classmethod
-    def single(cls, sensor: Sensor, *, rate_hz: float = 10.0, pitch_rad: float = 0.0, name: str | None = None) -> "Rig":
+    def single(
+        cls,
+        sensor: Sensor,
+        *,
+        rate_hz: float = 10.0,
+        pitch_rad: float = 0.0,
+        name: str | None = None,
+    ) -> "Rig":
         """One sensor at the body's origin looking forward, tilted down by ``pitch_rad``."""
         label = re.sub(r"[^a-z0-9_]", "_", sensor.name.lower())[:40] or "sensor"
-        return cls(name or label, (RigSensor(label, sensor, body_from_sensor(pitch_rad=pitch_rad), rate_hz),))
+        return cls(
+            name or label,
+            (RigSensor(label, sensor, body_from_sensor(pitch_rad=pitch_rad), rate_hz),),
+        )
 
 
 class _SensorSpec(BaseModel):
@@ -153,8 +190,10 @@ def load_rig(name_or_path: str | os.PathLike) -> Rig:
         where = ".".join(str(p) for p in e["loc"]) or "?"
         if e["type"] == "extra_forbidden":
             known = list((_SensorSpec if len(e["loc"]) > 1 else _RigSpec).model_fields)
-            raise ConfigError(f"{path}: {where}: unknown field{did_you_mean(str(e['loc'][-1]), known)}; "
-                              f"expected {', '.join(known)}") from None
+            raise ConfigError(
+                f"{path}: {where}: unknown field{did_you_mean(str(e['loc'][-1]), known)}; "
+                f"expected {', '.join(known)}"
+            ) from None
         raise ConfigError(f"{path}: {where} {e.get('input')!r:.60}: {e['msg']}") from None
     sensors = []
     for k, s in enumerate(spec.sensors):
@@ -164,8 +203,15 @@ def load_rig(name_or_path: str | os.PathLike) -> Rig:
         except ConfigError as exc:
             raise ConfigError(f"{path}: sensors.{k}.profile: {exc}") from None
         if s.offset_s >= 1 / s.rate_hz:
-            raise ConfigError(f"{path}: sensors.{k}.offset_s {s.offset_s}: must be below 1/rate_hz = {1 / s.rate_hz:g} s")
-        T = body_from_sensor(s.position_m, yaw_rad=np.radians(s.yaw_deg), pitch_rad=np.radians(s.pitch_deg),
-                             roll_rad=np.radians(s.roll_deg))
+            raise ConfigError(
+                f"{path}: sensors.{k}.offset_s {s.offset_s}: must be below 1/rate_hz = "
+                f"{1 / s.rate_hz:g} s"
+            )
+        T = body_from_sensor(
+            s.position_m,
+            yaw_rad=np.radians(s.yaw_deg),
+            pitch_rad=np.radians(s.pitch_deg),
+            roll_rad=np.radians(s.roll_deg),
+        )
         sensors.append(RigSensor(s.name, sensor, T, float(s.rate_hz), float(s.offset_s)))
     return Rig(spec.name or Path(path).stem, tuple(sensors))

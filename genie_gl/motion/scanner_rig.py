@@ -20,6 +20,7 @@ A rig file (``rigs/<name>.lidar.yml``; a path for a user's own)::
         roll_deg: 0
         offset_s: 0                    # its first scan's start after the trajectory's (s)
 """
+
 from __future__ import annotations
 
 import os
@@ -39,14 +40,28 @@ from ..effects.scanner_profile import load_scanner
 SUFFIX = ".lidar.yml"
 
 
-def body_from_head(position_m=(0.0, 0.0, 0.0), *, yaw_rad: float = 0.0, pitch_rad: float = 0.0,
-                   roll_rad: float = 0.0) -> np.ndarray:
+def body_from_head(
+    position_m=(0.0, 0.0, 0.0),
+    *,
+    yaw_rad: float = 0.0,
+    pitch_rad: float = 0.0,
+    roll_rad: float = 0.0,
+) -> np.ndarray:
     """(4, 4) float64 pose of a REP 103 head on the body: ``Rz(yaw) Ry(pitch) Rx(roll)``."""
-    cy, sy, cp, sp, cr, sr = (np.cos(yaw_rad), np.sin(yaw_rad), np.cos(pitch_rad), np.sin(pitch_rad),
-                              np.cos(roll_rad), np.sin(roll_rad))
+    cy, sy, cp, sp, cr, sr = (
+        np.cos(yaw_rad),
+        np.sin(yaw_rad),
+        np.cos(pitch_rad),
+        np.sin(pitch_rad),
+        np.cos(roll_rad),
+        np.sin(roll_rad),
+    )
     out = np.eye(4)
-    out[:3, :3] = (np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]]) @ np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-                   @ np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]]))
+    out[:3, :3] = (
+        np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+        @ np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+        @ np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    )
     out[:3, 3] = np.asarray(position_m, np.float64)
     return out
 
@@ -63,9 +78,14 @@ class Head:
 
     def __post_init__(self) -> None:
         T = np.asarray(self.body_from_scanner, np.float64)
-        if T.shape != (4, 4) or not np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-9) \
-                or np.linalg.det(T[:3, :3]) < 0:
-            raise ConfigError(f"scanner head {self.name!r}: body_from_scanner must be a rigid (4, 4) transform")
+        if (
+            T.shape != (4, 4)
+            or not np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-9)
+            or np.linalg.det(T[:3, :3]) < 0
+        ):
+            raise ConfigError(
+                f"scanner head {self.name!r}: body_from_scanner must be a rigid (4, 4) transform"
+            )
         object.__setattr__(self, "body_from_scanner", T)
 
 
@@ -130,21 +150,31 @@ def load_scanner_rig(name_or_path: str | os.PathLike) -> ScannerRig:
         where = ".".join(str(p) for p in e["loc"]) or "?"
         if e["type"] == "extra_forbidden":
             known = list((_HeadSpec if len(e["loc"]) > 1 else _RigSpec).model_fields)
-            raise ConfigError(f"{path}: {where}: unknown field{did_you_mean(str(e['loc'][-1]), known)}; "
-                              f"expected {', '.join(known)}") from None
+            raise ConfigError(
+                f"{path}: {where}: unknown field{did_you_mean(str(e['loc'][-1]), known)}; "
+                f"expected {', '.join(known)}"
+            ) from None
         raise ConfigError(f"{path}: {where} {e.get('input')!r:.60}: {e['msg']}") from None
     heads = []
     for k, h in enumerate(spec.heads):
         beside = path.parent / h.profile
         try:
-            scanner = load_scanner(beside if beside.is_file() else h.profile, rate_hz=h.rate_hz, returns=h.returns)
+            scanner = load_scanner(
+                beside if beside.is_file() else h.profile, rate_hz=h.rate_hz, returns=h.returns
+            )
         except ConfigError as exc:
             raise ConfigError(f"{path}: heads.{k}.profile: {exc}") from None
         if h.offset_s >= scanner.scan_period_s:
-            raise ConfigError(f"{path}: heads.{k}.offset_s {h.offset_s}: must be below one scan period "
-                              f"({scanner.scan_period_s:g} s)")
-        T = body_from_head(h.position_m, yaw_rad=np.radians(h.yaw_deg), pitch_rad=np.radians(h.pitch_deg),
-                           roll_rad=np.radians(h.roll_deg))
+            raise ConfigError(
+                f"{path}: heads.{k}.offset_s {h.offset_s}: must be below one scan period "
+                f"({scanner.scan_period_s:g} s)"
+            )
+        T = body_from_head(
+            h.position_m,
+            yaw_rad=np.radians(h.yaw_deg),
+            pitch_rad=np.radians(h.pitch_deg),
+            roll_rad=np.radians(h.roll_deg),
+        )
         heads.append(Head(h.name, scanner, T, float(h.offset_s)))
     return ScannerRig(spec.name or Path(path).name.removesuffix(SUFFIX), tuple(heads))
 

@@ -6,6 +6,7 @@ samples the pose is interpolated, the position linearly and the rotation by sler
 sensor firing at any rate finds its pose. The makers on the layout's free floor are in
 :mod:`.paths`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -36,13 +37,19 @@ class Trajectory:
         t = np.asarray(self.times_s, np.float64)
         T = np.asarray(self.world_from_body, np.float64)
         if t.ndim != 1 or len(t) < 2:
-            raise ConfigError(f"trajectory: needs at least two samples, got times of shape {t.shape}")
+            raise ConfigError(
+                f"trajectory: needs at least two samples, got times of shape {t.shape}"
+            )
         if T.shape != (len(t), 4, 4):
-            raise ConfigError(f"trajectory: world_from_body must be ({len(t)}, 4, 4), got {T.shape}")
+            raise ConfigError(
+                f"trajectory: world_from_body must be ({len(t)}, 4, 4), got {T.shape}"
+            )
         if not (np.all(np.isfinite(t)) and np.all(np.diff(t) > 0)):
             raise ConfigError("trajectory: times must be finite and strictly increasing")
         R = T[:, :3, :3]
-        if not np.allclose(R @ np.transpose(R, (0, 2, 1)), np.eye(3), atol=1e-6) or not np.all(np.isfinite(T)):
+        if not np.allclose(R @ np.transpose(R, (0, 2, 1)), np.eye(3), atol=1e-6) or not np.all(
+            np.isfinite(T)
+        ):
             raise ConfigError("trajectory: every world_from_body must be a rigid transform")
         object.__setattr__(self, "times_s", t)
         object.__setattr__(self, "world_from_body", T)
@@ -84,16 +91,21 @@ class Trajectory:
         t = np.atleast_1d(np.asarray(times_s, np.float64))
         lo, hi = self.start_s, self.end_s
         if t.size and (t.min() < lo - 1e-9 or t.max() > hi + 1e-9):
-            raise ConfigError(f"trajectory: times {t.min():g}..{t.max():g} s lie outside its span {lo:g}..{hi:g} s")
+            raise ConfigError(
+                f"trajectory: times {t.min():g}..{t.max():g} s lie outside its span {lo:g}..{hi:g} "
+                "s"
+            )
         t = np.clip(t, lo, hi)
         out = np.zeros((len(t), 4, 4))
         out[:, 3, 3] = 1.0
         for k in range(3):
             out[:, k, 3] = np.interp(t, self.times_s, self.positions[:, k])
-        out[:, :3, :3] = Slerp(self.times_s, Rotation.from_matrix(self.world_from_body[:, :3, :3]))(t).as_matrix()
+        out[:, :3, :3] = Slerp(self.times_s, Rotation.from_matrix(self.world_from_body[:, :3, :3]))(
+            t
+        ).as_matrix()
         exact = np.searchsorted(self.times_s, t)
         hit = (exact < len(self.times_s)) & (self.times_s[np.minimum(exact, len(self) - 1)] == t)
-        out[hit] = self.world_from_body[exact[hit]]   # a sample's own pose, bit for bit
+        out[hit] = self.world_from_body[exact[hit]]  # a sample's own pose, bit for bit
         return out
 
     def yaw_rates(self) -> np.ndarray:

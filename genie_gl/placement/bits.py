@@ -6,10 +6,12 @@ Each candidate's disc is a bit set over the weighted cells (64 cells a word); a 
 union is the OR of its discs, and its weight ``sum_k w_k * popcount(union & class_k)`` over the
 distinct weights ``w_k``. With whole-number weights (and a total below 2**53) every partial
 sum is an exact integer in float64, so this equals, bit for bit, the cell-by-cell sums of
-:func:`genie_gl.placement.disc_kernels.union_weights` and :func:`~genie_gl.placement.disc_kernels.greedy`
+:func:`genie_gl.placement.disc_kernels.union_weights` and
+:func:`~genie_gl.placement.disc_kernels.greedy`
 (which add weights in another order): the search takes the same path. Other weights keep
 those kernels.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,6 +27,7 @@ from .disc_kernels import breed
 def _popcount(typingctx, x):  # pragma: no cover - compiled
     def codegen(context, builder, signature, args):
         return builder.ctpop(args[0])
+
     return types.uint64(types.uint64), codegen
 
 
@@ -89,7 +92,9 @@ def greedy(n, bits, classes, class_w):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def evolve(rng, pop, fit, generations, m, mutation, bits, classes, class_w, total):  # pragma: no cover
+def evolve(
+    rng, pop, fit, generations, m, mutation, bits, classes, class_w, total
+):  # pragma: no cover
     """``generations`` generations of :func:`~genie_gl.placement.genetic.genetic_placement`
     compiled whole, fitness as :meth:`DiscBits.fitnesses` / ``total``: each generation's five
     draws from ``rng`` in their order (numba's Generator draws numpy's numbers, call by call),
@@ -121,17 +126,23 @@ class DiscBits:
         self.classes = np.zeros((len(values), words), np.uint64)
         for k, v in enumerate(values):
             j = np.flatnonzero(weight == v)
-            np.bitwise_or.at(self.classes[k], j >> 6, np.left_shift(np.uint64(1), (j & 63).astype(np.uint64)))
+            np.bitwise_or.at(
+                self.classes[k], j >> 6, np.left_shift(np.uint64(1), (j & 63).astype(np.uint64))
+            )
 
     @staticmethod
     def of(indptr: np.ndarray, indices: np.ndarray, weight: np.ndarray) -> "DiscBits | None":
         w = np.asarray(weight, np.float64)
-        if len(w) == 0 or not (np.all(np.isfinite(w)) and np.all(w == np.round(w)) and w.sum() < 2.0**52):
+        if len(w) == 0 or not (
+            np.all(np.isfinite(w)) and np.all(w == np.round(w)) and w.sum() < 2.0**52
+        ):
             return None
         return DiscBits(indptr, indices, w)
 
     def fitnesses(self, population: np.ndarray) -> np.ndarray:
-        return union_weights(np.ascontiguousarray(population, np.int64), self.bits, self.classes, self.class_w)
+        return union_weights(
+            np.ascontiguousarray(population, np.int64), self.bits, self.classes, self.class_w
+        )
 
     def greedy(self, n: int) -> np.ndarray:
         return greedy(int(n), self.bits, self.classes, self.class_w)

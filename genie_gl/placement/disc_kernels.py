@@ -6,6 +6,7 @@ candidates x cells distance matrix. A fitness evaluation stamps the cells of a c
 discs with a fresh mark (no clearing between evaluations) and sums the weight of the cells it
 marks first: O(covered cells), not O(candidates x cells).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,7 +20,8 @@ def disc_cells(cx, cy, index, x0, y0, res, radius):  # pragma: no cover - compil
     centre lies within ``radius`` of the candidate).
 
     cx, cy : (C,) candidate centres; index : (H, W) int64, compact index of each raster cell
-    (-1: weight 0, left out); cell (r, c) has its centre at (x0 + (c + 0.5)·res, y0 + (r + 0.5)·res).
+    (-1: weight 0, left out); cell (r, c) has its centre at (x0 + (c + 0.5)·res, y0 + (r +
+    0.5)·res).
     """
     H, W = index.shape
     C = cx.shape[0]

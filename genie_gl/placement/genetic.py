@@ -22,6 +22,7 @@ allows (the widest footprint), the disc radius the horizontal reach of that top 
 sensor whose range cannot reach the floor from any mount between ``min_mount_m`` and the
 ceiling is refused with a one-line error, unless the caller gives ``mount_height_m``.
 """
+
 from __future__ import annotations
 
 import logging
@@ -43,12 +44,12 @@ from ..sensors.pose import look_at
 log = logging.getLogger(__name__)
 
 FITNESS = ("circle", "visibility")
-DEFAULT_MOUNT_M = 3.5      # above people and vehicles, below a typical hall's lights
-DEFAULT_RADIUS_M = 6.0     # a sensor without a range: the disc of the paper's placement
-MIN_MOUNT_M = 2.0          # lowest mount out of people's and forklifts' way [U: a site rule of thumb]
-LOW_MOUNT_M = 1.5          # a camera mounted lower stands on free floor (it would sit inside furniture)
-FREE_MARGIN_M = 0.25       # ... this far from any furnished region
-DEFAULT_CEILING_M = 5.0    # hall height when the layout gives none (the scene stage's wall height)
+DEFAULT_MOUNT_M = 3.5  # above people and vehicles, below a typical hall's lights
+DEFAULT_RADIUS_M = 6.0  # a sensor without a range: the disc of the paper's placement
+MIN_MOUNT_M = 2.0  # lowest mount out of people's and forklifts' way [U: a site rule of thumb]
+LOW_MOUNT_M = 1.5  # a camera mounted lower stands on free floor (it would sit inside furniture)
+FREE_MARGIN_M = 0.25  # ... this far from any furnished region
+DEFAULT_CEILING_M = 5.0  # hall height when the layout gives none (the scene stage's wall height)
 CEILING_CLEARANCE_M = 0.2  # a camera hangs this far below the ceiling at most
 
 
@@ -84,8 +85,14 @@ def ceiling_of(options: dict | None) -> float:
     return float(opts.wall_height_m) if opts.walls else DEFAULT_CEILING_M
 
 
-def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: float = MIN_MOUNT_M,
-              mount_height_m: float | None = None, radius_m: float | None = None) -> Mount:
+def mount_for(
+    sensor,
+    *,
+    ceiling_m: float = DEFAULT_CEILING_M,
+    min_mount_m: float = MIN_MOUNT_M,
+    mount_height_m: float | None = None,
+    radius_m: float | None = None,
+) -> Mount:
     """Mount height, tilt and disc radius that keep what ``sensor`` covers within its range.
 
     Raises ConfigError (one line) when no mount in [min_mount_m, ceiling_m] lets the range
@@ -93,25 +100,33 @@ def mount_for(sensor, *, ceiling_m: float = DEFAULT_CEILING_M, min_mount_m: floa
     """
     rng = sensor_range(sensor)
     if rng is None:
-        h = DEFAULT_MOUNT_M if mount_height_m is None else \
-            finite_number(mount_height_m, "placement: mount_height_m", 0.0, 1e4, lo_open=True)
+        h = (
+            DEFAULT_MOUNT_M
+            if mount_height_m is None
+            else finite_number(mount_height_m, "placement: mount_height_m", 0.0, 1e4, lo_open=True)
+        )
         return Mount(h, None, DEFAULT_RADIUS_M if radius_m is None else float(radius_m))
     lo, hi = rng
     half_v = float(np.arctan2(sensor.height / 2, sensor.fy))
     reach = 0.95 * hi
-    fit = reach * np.cos(half_v)           # straight down, the top edge meets the floor at `reach`
+    fit = reach * np.cos(half_v)  # straight down, the top edge meets the floor at `reach`
     if mount_height_m is None:
         h = min(DEFAULT_MOUNT_M, float(ceiling_m) - CEILING_CLEARANCE_M, 0.85 * fit)
         if h < min_mount_m:
             raise ConfigError(
-                f"placement: sensor {sensor.name!r} (range {lo:g}-{hi:g} m, {np.degrees(2 * half_v):.1f}° "
+                f"placement: sensor {sensor.name!r} (range {lo:g}-{hi:g} m, "
+                f"{np.degrees(2 * half_v):.1f}° "
                 f"vertical field) cannot see the floor from any mount between {min_mount_m:g} and "
-                f"{ceiling_m:g} m (it needs a mount below {fit:.2f} m); give a mount height: --mount M (genie "
-                f"capture, plan, dataset), mount_height_m= in the API")
+                f"{ceiling_m:g} m (it needs a mount below {fit:.2f} m); give a mount height: "
+                "--mount M (genie "
+                f"capture, plan, dataset), mount_height_m= in the API"
+            )
     else:
         h = finite_number(mount_height_m, "placement: mount_height_m", 0.0, 1e4, lo_open=True)
         if h > fit:
-            log.warning("placement: at %.2f m the floor lies beyond %s's %.2f m range", h, sensor.name, hi)
+            log.warning(
+                "placement: at %.2f m the floor lies beyond %s's %.2f m range", h, sensor.name, hi
+            )
     # the least tilt whose top edge meets the floor within reach (90°: straight down)
     top = np.arcsin(min(1.0, h / reach))
     pitch = float(min(np.pi / 2, half_v + top))
@@ -132,36 +147,60 @@ class Placement:
 class CoverageProblem:
     """Weighted coverage of a label raster by discs at candidate positions."""
 
-    def __init__(self, layout: Layout, radius_m: float, resolution_m: float = 0.5, step_m: float = 1.0,
-                 weights: dict[str, float] | None = None, free_floor: bool = False) -> None:
+    def __init__(
+        self,
+        layout: Layout,
+        radius_m: float,
+        resolution_m: float = 0.5,
+        step_m: float = 1.0,
+        weights: dict[str, float] | None = None,
+        free_floor: bool = False,
+    ) -> None:
         if radius_m <= 0:
             raise ConfigError(f"placement: radius_m must be > 0, got {radius_m}")
         r = layout.label_raster(resolution_m)
         types = r.type_names
-        w_type = np.array([(weights or {}).get(t, 0.0 if layout.region_types[t].asset_group is None else 1.0)
-                           for t in types] + [0.0])
-        self.weight = w_type[r.labels].ravel()            # label -1 -> last entry, 0
+        w_type = np.array(
+            [
+                (weights or {}).get(t, 0.0 if layout.region_types[t].asset_group is None else 1.0)
+                for t in types
+            ]
+            + [0.0]
+        )
+        self.weight = w_type[r.labels].ravel()  # label -1 -> last entry, 0
         H, W = r.labels.shape
         x0, y0 = r.origin_xy
-        self.px = np.stack(np.meshgrid(x0 + (np.arange(W) + 0.5) * resolution_m,
-                                       y0 + (np.arange(H) + 0.5) * resolution_m), -1).reshape(-1, 2)
+        self.px = np.stack(
+            np.meshgrid(
+                x0 + (np.arange(W) + 0.5) * resolution_m, y0 + (np.arange(H) + 0.5) * resolution_m
+            ),
+            -1,
+        ).reshape(-1, 2)
         bx, by, bw, bh = layout.bounds
         cx = np.arange(bx + step_m / 2, bx + bw, step_m)
         cy = np.arange(by + step_m / 2, by + bh, step_m)
         self.candidates = np.stack(np.meshgrid(cx, cy), -1).reshape(-1, 2)
-        if free_floor:  # a low mount stands where nothing is furnished (not inside a rack or a stack)
+        if (
+            free_floor
+        ):  # a low mount stands where nothing is furnished (not inside a rack or a stack)
             free = outside_rects(self.candidates, furnished_rects(layout), FREE_MARGIN_M)
             if free.any():
                 self.candidates = self.candidates[free]
         keep = self.weight > 0
         self.px, self.weight = self.px[keep], self.weight[keep]
         self.shape, self.origin_xy, self.resolution_m = (H, W), (x0, y0), float(resolution_m)
-        self.cell = np.full(H * W, -1, np.int64)        # raster cell (row-major) -> weighted index
+        self.cell = np.full(H * W, -1, np.int64)  # raster cell (row-major) -> weighted index
         self.cell[np.flatnonzero(keep)] = np.arange(int(keep.sum()))
         # which weighted cells each candidate's disc covers, as a sparse matrix (CSR)
-        self.indptr, self.indices = coverage.disc_cells(self.candidates[:, 0].copy(), self.candidates[:, 1].copy(),
-                                                        self.cell.reshape(H, W), float(x0), float(y0),
-                                                        float(resolution_m), float(radius_m))
+        self.indptr, self.indices = coverage.disc_cells(
+            self.candidates[:, 0].copy(),
+            self.candidates[:, 1].copy(),
+            self.cell.reshape(H, W),
+            float(x0),
+            float(y0),
+            float(resolution_m),
+            float(radius_m),
+        )
         self.total = float(self.weight.sum()) or 1.0
         self._stamp, self._mark = np.zeros(len(self.weight), np.int64), 0
         self._bits: tuple | None = None  # (indices they were made from, DiscBits or None)
@@ -177,7 +216,9 @@ class CoverageProblem:
     def set_cover(self, cover: np.ndarray) -> None:
         """Replace what each candidate covers by a dense (candidates, weighted cells) matrix."""
         rows, cols = np.nonzero(cover)
-        self.indptr = np.r_[0, np.cumsum(np.bincount(rows, minlength=len(self.candidates)))].astype(np.int64)
+        self.indptr = np.r_[0, np.cumsum(np.bincount(rows, minlength=len(self.candidates)))].astype(
+            np.int64
+        )
         self.indices = cols.astype(np.int64)
         self._bits = None
 
@@ -193,8 +234,14 @@ class CoverageProblem:
         bits = self.disc_bits()
         if bits is not None:
             return bits.fitnesses(population) / self.total
-        w, self._mark = coverage.union_weights(np.ascontiguousarray(population, np.int64), self.indptr,
-                                               self.indices, self.weight, self._stamp, self._mark)
+        w, self._mark = coverage.union_weights(
+            np.ascontiguousarray(population, np.int64),
+            self.indptr,
+            self.indices,
+            self.weight,
+            self._stamp,
+            self._mark,
+        )
         return w / self.total
 
     def fitness(self, chrom: np.ndarray) -> float:
@@ -216,9 +263,20 @@ class VisibilityProblem(CoverageProblem):
     size : (width, height) bound of the low-resolution render, pixels.
     """
 
-    def __init__(self, layout: Layout, radius_m: float, *, render, sensor=None, mount_height_m: float = 3.5,
-                 size: tuple[int, int] = (80, 60), resolution_m: float = 0.5, step_m: float = 1.0,
-                 weights: dict[str, float] | None = None, pitch_rad: float | None = None) -> None:
+    def __init__(
+        self,
+        layout: Layout,
+        radius_m: float,
+        *,
+        render,
+        sensor=None,
+        mount_height_m: float = 3.5,
+        size: tuple[int, int] = (80, 60),
+        resolution_m: float = 0.5,
+        step_m: float = 1.0,
+        weights: dict[str, float] | None = None,
+        pitch_rad: float | None = None,
+    ) -> None:
         super().__init__(layout, radius_m, resolution_m, step_m, weights)
         self.disc = self.cover
         self.view = low_resolution(sensor, size)
@@ -233,7 +291,7 @@ class VisibilityProblem(CoverageProblem):
         """Weighted-cell indices hit by the returns of ``depth`` (the view's) taken at ``pose``."""
         v, u = np.nonzero(depth > 0)
         z = depth[v, u].astype(np.float64)
-        x, y = self.view.rays()[v, u].T   # the camera model's pixel rays (genie_gl.camera)
+        x, y = self.view.rays()[v, u].T  # the camera model's pixel rays (genie_gl.camera)
         world = np.stack([x * z, y * z, z], 1) @ pose[:3, :3].T + pose[:3, 3]
         H, W = self.shape
         col = np.floor((world[:, 0] - self.origin_xy[0]) / self.resolution_m).astype(np.intp)
@@ -257,11 +315,21 @@ def low_resolution(sensor, size: tuple[int, int]):
     K[1, :] *= h / sensor.height
     K[0, 2] = (sensor.cx + 0.5) * w / sensor.width - 0.5
     K[1, 2] = (sensor.cy + 0.5) * h / sensor.height - 0.5
-    return Sensor(w, h, K, near_m=sensor.near_m, far_m=sensor.far_m, name=f"{sensor.name}-placement")
+    return Sensor(
+        w, h, K, near_m=sensor.near_m, far_m=sensor.far_m, name=f"{sensor.name}-placement"
+    )
 
 
-def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Generator, population: int = 32,
-                      generations: int = 150, mutation: float = 0.05, seed_greedy: bool = True) -> Placement:
+def genetic_placement(
+    problem: CoverageProblem,
+    n: int,
+    *,
+    rng: np.random.Generator,
+    population: int = 32,
+    generations: int = 150,
+    mutation: float = 0.05,
+    seed_greedy: bool = True,
+) -> Placement:
     """Maximise covered weight with ``n`` discs; tournament selection, uniform crossover,
     point mutation and one elite. ``seed_greedy`` puts the greedy solution in the first
     population, so the result is never worse than the greedy baseline."""
@@ -275,9 +343,21 @@ def genetic_placement(problem: CoverageProblem, n: int, *, rng: np.random.Genera
     history = [float(fit.max())]
     pop = np.ascontiguousarray(pop, np.int64)
     bits = problem.disc_bits() if type(problem) is CoverageProblem else None
-    if bits is not None and generations > 0:   # the generations compiled whole: the same draws, the same result
-        pop, fit, best = evolve(rng, pop, fit, int(generations), m, float(mutation), bits.bits, bits.classes,
-                                bits.class_w, float(problem.total))
+    if (
+        bits is not None and generations > 0
+    ):  # the generations compiled whole: the same draws, the same result
+        pop, fit, best = evolve(
+            rng,
+            pop,
+            fit,
+            int(generations),
+            m,
+            float(mutation),
+            bits.bits,
+            bits.classes,
+            bits.class_w,
+            float(problem.total),
+        )
         history += best.tolist()
         generations = 0
     for _ in range(generations):
@@ -307,10 +387,13 @@ def distinct(problem: CoverageProblem, chosen: np.ndarray) -> np.ndarray:
         return chosen
     kept = chosen[np.sort(first)]
     used = kept.tolist()
-    d = np.min(np.linalg.norm(problem.candidates[:, None, :] - problem.candidates[None, kept, :], axis=2), axis=1)
+    d = np.min(
+        np.linalg.norm(problem.candidates[:, None, :] - problem.candidates[None, kept, :], axis=2),
+        axis=1,
+    )
     d[used] = -1.0
     for i in repeats:
-        if len(used) >= m:   # every candidate used
+        if len(used) >= m:  # every candidate used
             break
         k = int(np.argmax(d))
         chosen[i] = k
@@ -340,8 +423,13 @@ def random_placement(problem: CoverageProblem, n: int, *, rng: np.random.Generat
     return Placement(problem.candidates[chosen], problem.fitness(chosen))
 
 
-def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: float,
-                       mount_height_m: float, pitch_rad: float | None = None) -> list[np.ndarray]:
+def poses_from_centres(
+    problem: CoverageProblem,
+    centres: np.ndarray,
+    radius_m: float,
+    mount_height_m: float,
+    pitch_rad: float | None = None,
+) -> list[np.ndarray]:
     """world_from_camera poses: above each centre, turned towards the weighted centroid it
     covers; tilted down to it, or by ``pitch_rad`` below the horizon when given. A centre
     given again (more cameras than candidate positions) is turned by a share of the full
@@ -352,36 +440,53 @@ def poses_from_centres(problem: CoverageProblem, centres: np.ndarray, radius_m: 
         repeat = seen.get((float(c[0]), float(c[1])), 0)
         seen[(float(c[0]), float(c[1]))] = repeat + 1
         if repeat:
-            turn = 2 * np.pi * repeat / max(2, int(np.sum(np.all(np.asarray(centres) == c, axis=1))))
-        inside = ((problem.px - c) ** 2).sum(1) <= radius_m ** 2
+            turn = (
+                2 * np.pi * repeat / max(2, int(np.sum(np.all(np.asarray(centres) == c, axis=1))))
+            )
+        inside = ((problem.px - c) ** 2).sum(1) <= radius_m**2
         if inside.any():
-            target = (problem.px[inside] * problem.weight[inside, None]).sum(0) / problem.weight[inside].sum()
+            target = (problem.px[inside] * problem.weight[inside, None]).sum(0) / problem.weight[
+                inside
+            ].sum()
         else:
             target = c
         d = target - c
         if np.linalg.norm(d) < 0.3 * radius_m:  # nothing to turn to: look outwards at half radius
             d = np.array([1.0, 0.0]) if np.linalg.norm(d) < 1e-9 else d / np.linalg.norm(d)
             target = c + 0.5 * radius_m * d
-        if repeat:   # the same view, turned about the vertical by a share of the circle
+        if repeat:  # the same view, turned about the vertical by a share of the circle
             d = target - c
             cs, sn = np.cos(turn), np.sin(turn)
             target = c + np.array([cs * d[0] - sn * d[1], sn * d[0] + cs * d[1]])
         if pitch_rad is not None:
             d = target - c
             d = d / max(float(np.linalg.norm(d)), 1e-12)
-            if pitch_rad >= np.pi / 2 - 1e-9:   # straight down: keep the yaw through the up vector
-                poses.append(look_at([c[0], c[1], mount_height_m], [c[0], c[1], 0.0], up=(d[0], d[1], 0.0)))
+            if pitch_rad >= np.pi / 2 - 1e-9:  # straight down: keep the yaw through the up vector
+                poses.append(
+                    look_at([c[0], c[1], mount_height_m], [c[0], c[1], 0.0], up=(d[0], d[1], 0.0))
+                )
                 continue
             target = c + d * mount_height_m / np.tan(pitch_rad)
         poses.append(look_at([c[0], c[1], mount_height_m], [target[0], target[1], 0.0]))
     return poses
 
 
-def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, radius_m: float | None = None,
-                  mount_height_m: float | None = None, method: str = "genetic",
-                  weights: dict[str, float] | None = None, fitness: str = "circle", render=None,
-                  visibility_size: tuple[int, int] = (80, 60), ceiling_m: float | None = None,
-                  min_mount_m: float = MIN_MOUNT_M) -> list[np.ndarray]:
+def place_sensors(
+    layout: Layout,
+    sensor=None,
+    n: int = 8,
+    seed: int = 0,
+    *,
+    radius_m: float | None = None,
+    mount_height_m: float | None = None,
+    method: str = "genetic",
+    weights: dict[str, float] | None = None,
+    fitness: str = "circle",
+    render=None,
+    visibility_size: tuple[int, int] = (80, 60),
+    ceiling_m: float | None = None,
+    min_mount_m: float = MIN_MOUNT_M,
+) -> list[np.ndarray]:
     """Place ``n`` cameras over ``layout``; returns (4, 4) float64 world_from_camera poses.
 
     Mount height, tilt and disc radius come from the sensor's range (:func:`mount_for`, under
@@ -398,20 +503,38 @@ def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, rad
         expect(sensor, Sensor, "place_sensors: sensor")
     n = whole_number(n, "place_sensors: n", 1, MAX_CAMERAS)
     seed = check_seed(seed, "place_sensors: seed")
-    mount = mount_for(sensor, ceiling_m=layout_ceiling(layout) if ceiling_m is None else float(ceiling_m),
-                      min_mount_m=min_mount_m, mount_height_m=mount_height_m, radius_m=radius_m)
+    mount = mount_for(
+        sensor,
+        ceiling_m=layout_ceiling(layout) if ceiling_m is None else float(ceiling_m),
+        min_mount_m=min_mount_m,
+        mount_height_m=mount_height_m,
+        radius_m=radius_m,
+    )
     radius_m, mount_height_m = mount.radius_m, mount.height_m
     if fitness == "circle":
-        problem = CoverageProblem(layout, radius_m, weights=weights, free_floor=mount_height_m < LOW_MOUNT_M)
+        problem = CoverageProblem(
+            layout, radius_m, weights=weights, free_floor=mount_height_m < LOW_MOUNT_M
+        )
     elif fitness == "visibility":
         if render is None:
-            raise ConfigError("placement fitness 'visibility' needs render=, e.g. Renderer(scene).render")
-        problem = VisibilityProblem(layout, radius_m, render=render, sensor=sensor,
-                                    mount_height_m=mount_height_m, size=visibility_size, weights=weights,
-                                    pitch_rad=mount.pitch_rad)
+            raise ConfigError(
+                "placement fitness 'visibility' needs render=, e.g. Renderer(scene).render"
+            )
+        problem = VisibilityProblem(
+            layout,
+            radius_m,
+            render=render,
+            sensor=sensor,
+            mount_height_m=mount_height_m,
+            size=visibility_size,
+            weights=weights,
+            pitch_rad=mount.pitch_rad,
+        )
     else:
-        raise ConfigError(f"placement fitness {fitness!r} is unknown{did_you_mean(fitness, FITNESS)}; "
-                          f"expected {' or '.join(FITNESS)}")
+        raise ConfigError(
+            f"placement fitness {fitness!r} is unknown{did_you_mean(fitness, FITNESS)}; "
+            f"expected {' or '.join(FITNESS)}"
+        )
     rng = np.random.default_rng(seed)
     if method == "genetic":
         result = genetic_placement(problem, n, rng=rng)
@@ -420,12 +543,21 @@ def place_sensors(layout: Layout, sensor=None, n: int = 8, seed: int = 0, *, rad
     elif method == "random":
         result = random_placement(problem, n, rng=rng)
     else:
-        raise ConfigError(f"placement method {method!r} is unknown; expected genetic, greedy or random")
+        raise ConfigError(
+            f"placement method {method!r} is unknown; expected genetic, greedy or random"
+        )
     return poses_from_centres(problem, result.centres, radius_m, mount_height_m, mount.pitch_rad)
 
 
-def scene_poses(scene, sensor, n: int, seed: int = 0, *, mount_height_m: float | None = None,
-                margin_m: float = 0.3) -> list[np.ndarray]:
+def scene_poses(
+    scene,
+    sensor,
+    n: int,
+    seed: int = 0,
+    *,
+    mount_height_m: float | None = None,
+    margin_m: float = 0.3,
+) -> list[np.ndarray]:
     """Poses for a scene without its layout (e.g. a USD stage): placement over its floor (the
     bounding box's footprint, ``margin_m`` inside the walls), under its height as the ceiling,
     mounted for the sensor's range (:func:`mount_for`) — never outside the hall."""
@@ -435,15 +567,20 @@ def scene_poses(scene, sensor, n: int, seed: int = 0, *, mount_height_m: float |
     w, h = float(hi[0] - lo[0]), float(hi[1] - lo[1])
     m = min(margin_m, 0.25 * w, 0.25 * h)
     floor = Region(float(lo[0]) + m, float(lo[1]) + m, w - 2 * m, h - 2 * m, type="floor")
-    layout = Layout.from_regions([floor], {"floor": RegionType("floor", asset_group="floor")},
-                                 (float(lo[0]), float(lo[1]), w, h))
+    layout = Layout.from_regions(
+        [floor],
+        {"floor": RegionType("floor", asset_group="floor")},
+        (float(lo[0]), float(lo[1]), w, h),
+    )
     height = float(hi[2] - lo[2])
     ceiling = height if height > MIN_MOUNT_M + 0.5 else DEFAULT_CEILING_M
     step = max(0.25, min(1.0, min(w, h) / 4))
     mount = mount_for(sensor, ceiling_m=ceiling, mount_height_m=mount_height_m)
     problem = CoverageProblem(layout, mount.radius_m, resolution_m=step / 2, step_m=step)
     result = genetic_placement(problem, n, rng=np.random.default_rng(seed), generations=40)
-    poses = poses_from_centres(problem, result.centres, mount.radius_m, mount.height_m, mount.pitch_rad)
-    for p in poses:      # the floor of a foreign stage need not lie at z = 0
+    poses = poses_from_centres(
+        problem, result.centres, mount.radius_m, mount.height_m, mount.pitch_rad
+    )
+    for p in poses:  # the floor of a foreign stage need not lie at z = 0
         p[2, 3] += float(lo[2])
     return poses

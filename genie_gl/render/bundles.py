@@ -32,6 +32,7 @@ hits at the same float64 distance go to the triangle earlier in the scene's join
 that is the instance earlier in ``scene.instances``, then the lower face. The answer is
 therefore bit for bit the hierarchy's, whatever the grid.
 """
+
 from __future__ import annotations
 
 import math
@@ -41,10 +42,10 @@ import numpy as np
 from ..jit import njit, prange
 from .bvh import STACK, TIE, _slab, hit_triangle
 
-SLACK = 1e-9          # radians added to every angular bound, and relative slack on lengths
-RAYS_PER_CELL = 16    # the grid is sized for about this many rays per cell
-MAX_CELLS = 1 << 22   # cells at most
-CLUSTER = 256         # a cluster: a subtree of the hierarchy of at most this many triangles
+SLACK = 1e-9  # radians added to every angular bound, and relative slack on lengths
+RAYS_PER_CELL = 16  # the grid is sized for about this many rays per cell
+MAX_CELLS = 1 << 22  # cells at most
+CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles
 
 
 @njit(cache=True, nogil=True, boundscheck=False, inline="always")
@@ -92,7 +93,9 @@ def _by_cell(cell, n_cells):  # pragma: no cover - compiled
     return order, start
 
 
-def ray_cells(dirs: np.ndarray, el0: float, el_scale: float, n_el: int, n_az: int) -> tuple[np.ndarray, np.ndarray]:
+def ray_cells(
+    dirs: np.ndarray, el0: float, el_scale: float, n_el: int, n_az: int
+) -> tuple[np.ndarray, np.ndarray]:
     """(order, start): rays ``dirs`` (n, 3) sorted by their cell of the grid, and where each
     of the n_el * n_az cells starts in ``order`` ((n_el * n_az + 1,) int64)."""
     cell = np.empty(len(dirs), np.int64)
@@ -101,7 +104,9 @@ def ray_cells(dirs: np.ndarray, el0: float, el_scale: float, n_el: int, n_az: in
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
-def cluster_spans(boxes, nodes, c, r, el0, el1, el_scale, n_el, n_az, span, near):  # pragma: no cover
+def cluster_spans(
+    boxes, nodes, c, r, el0, el1, el_scale, n_el, n_az, span, near
+):  # pragma: no cover
     """Per cluster (hierarchy node ``nodes[i]``, its box a row of ``boxes`` (m, 6) float32)
     the cells it may cover, seen from origins within ``r`` of ``c`` (3,): ``span`` (n, 4)
     int64 (first row, last row, first column, last column; columns may run past the grid
@@ -179,8 +184,37 @@ def cell_lists(order, span, near, n_az, n_cells):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _walk(root, best, who, ox, oy, oz, okx, oky, okz, kx, ky, kz, sx, sy, sz, ix, iy, iz, fx, fy, fz,
-          corners, rank, boxes, right, start, count, stack, stack_t):  # pragma: no cover - compiled
+def _walk(
+    root,
+    best,
+    who,
+    ox,
+    oy,
+    oz,
+    okx,
+    oky,
+    okz,
+    kx,
+    ky,
+    kz,
+    sx,
+    sy,
+    sz,
+    ix,
+    iy,
+    iz,
+    fx,
+    fy,
+    fz,
+    corners,
+    rank,
+    boxes,
+    right,
+    start,
+    count,
+    stack,
+    stack_t,
+):  # pragma: no cover - compiled
     """(best, who) after one ray's walk of the subtree at node ``root``, as
     :func:`genie_gl.render.bvh._cast_one` walks the whole tree (the same slabs and test)."""
     t0 = _slab(boxes, root, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
@@ -214,8 +248,24 @@ def _walk(root, best, who, ox, oy, oz, okx, oky, okz, kx, ky, kz, sx, sy, sz, ix
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
-def cast_cells(origins, one_origin, dirs, ray_order, ray_start, cl_start, cl_node, cl_near,
-               corners, rank, boxes, right, start, count, out_t, out_tri):  # pragma: no cover - compiled
+def cast_cells(
+    origins,
+    one_origin,
+    dirs,
+    ray_order,
+    ray_start,
+    cl_start,
+    cl_node,
+    cl_near,
+    corners,
+    rank,
+    boxes,
+    right,
+    start,
+    count,
+    out_t,
+    out_tri,
+):  # pragma: no cover - compiled
     """Every ray's nearest hit among the clusters of its cell into ``out_t`` (inf: none) and
     ``out_tri`` (the triangle's number in the joined arrays, -1: none); ties to the lower
     number. Rays of cell k are ``ray_order[ray_start[k]:ray_start[k + 1]]``, its clusters
@@ -240,10 +290,38 @@ def cast_cells(origins, one_origin, dirs, ray_order, ray_start, cl_start, cl_nod
                 iy = 1.0 / dy if not fy else 0.0
                 iz = 1.0 / dz if not fz else 0.0
                 best, who = np.inf, np.int64(-1)
-                if prev >= 0:   # the cluster the cell's last ray hit first: a near bound early
-                    best, who = _walk(cl_node[prev], best, who, o[0], o[1], o[2], o[kx], o[ky], o[kz], kx, ky, kz,
-                                      sx, sy, sz, ix, iy, iz, fx, fy, fz, corners, rank, boxes, right, start,
-                                      count, stack, stack_t)
+                if prev >= 0:  # the cluster the cell's last ray hit first: a near bound early
+                    best, who = _walk(
+                        cl_node[prev],
+                        best,
+                        who,
+                        o[0],
+                        o[1],
+                        o[2],
+                        o[kx],
+                        o[ky],
+                        o[kz],
+                        kx,
+                        ky,
+                        kz,
+                        sx,
+                        sy,
+                        sz,
+                        ix,
+                        iy,
+                        iz,
+                        fx,
+                        fy,
+                        fz,
+                        corners,
+                        rank,
+                        boxes,
+                        right,
+                        start,
+                        count,
+                        stack,
+                        stack_t,
+                    )
                 got = prev if who >= 0 else -1
                 for i in range(cl_start[k], cl_start[k + 1]):
                     if cl_near[i] > best:
@@ -251,9 +329,37 @@ def cast_cells(origins, one_origin, dirs, ray_order, ray_start, cl_start, cl_nod
                     if i == prev:
                         continue
                     b0, w0 = best, who
-                    best, who = _walk(cl_node[i], best, who, o[0], o[1], o[2], o[kx], o[ky], o[kz], kx, ky, kz,
-                                      sx, sy, sz, ix, iy, iz, fx, fy, fz, corners, rank, boxes, right, start,
-                                      count, stack, stack_t)
+                    best, who = _walk(
+                        cl_node[i],
+                        best,
+                        who,
+                        o[0],
+                        o[1],
+                        o[2],
+                        o[kx],
+                        o[ky],
+                        o[kz],
+                        kx,
+                        ky,
+                        kz,
+                        sx,
+                        sy,
+                        sz,
+                        ix,
+                        iy,
+                        iz,
+                        fx,
+                        fy,
+                        fz,
+                        corners,
+                        rank,
+                        boxes,
+                        right,
+                        start,
+                        count,
+                        stack,
+                        stack_t,
+                    )
                     if best != b0 or who != w0:
                         got = i
                 prev = got
@@ -284,7 +390,8 @@ def clusters_of(right, count, size):  # pragma: no cover - compiled
 
 def grid_for(dirs: np.ndarray) -> tuple[float, float, int, int]:
     """(lowest sine of elevation, highest, rows, columns) of a grid for rays ``dirs`` (n, 3)
-    unit: spanning their elevations, rows uniform in the sine, about :data:`RAYS_PER_CELL` rays per cell over the band."""
+    unit: spanning their elevations, rows uniform in the sine, about :data:`RAYS_PER_CELL` rays per
+    cell over the band."""
     z = dirs[:, 2]
     lo, hi = max(float(z.min()) - 1e-9, -1.0), min(float(z.max()) + 1e-9, 1.0)
     cells = min(max(len(dirs) // RAYS_PER_CELL, 1), MAX_CELLS)
@@ -300,12 +407,14 @@ def clusters(hierarchy: tuple) -> np.ndarray:
     return clusters_of(right, count, CLUSTER) if len(right) else np.zeros(0, np.int64)
 
 
-def cast_binned(hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray,
-                nodes: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def cast_binned(
+    hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray, nodes: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """(distance (n,) float64, inf: none; triangle (n,) int64, its number in the joined
     arrays, -1: none) of every ray; ``hierarchy`` (corners, rank, boxes, right, start,
     count) as :class:`genie_gl.render.rays.RayCaster` builds it, ``origins`` (3,) or (n, 3),
-    ``dirs`` (n, 3) unit, ``nodes`` its :func:`clusters` (made here when None). Exact, with the tie rule of this module's docstring."""
+    ``dirs`` (n, 3) unit, ``nodes`` its :func:`clusters` (made here when None). Exact, with the tie
+    rule of this module's docstring."""
     corners, rank, boxes, right, start, count = hierarchy
     n = len(dirs)
     if n == 0:
@@ -325,13 +434,31 @@ def cast_binned(hierarchy: tuple, origins: np.ndarray, dirs: np.ndarray,
     cl_start, cl, cl_near = cell_lists(by_near, span, near, n_az, n_el * n_az)
     t = np.empty(n)
     k = np.empty(n, np.int64)
-    cast_cells(o2, one, dirs, ray_order, ray_start, cl_start, nodes[cl], cl_near, corners, rank, boxes, right,
-               start, count, t, k)
+    cast_cells(
+        o2,
+        one,
+        dirs,
+        ray_order,
+        ray_start,
+        cl_start,
+        nodes[cl],
+        cl_near,
+        corners,
+        rank,
+        boxes,
+        right,
+        start,
+        count,
+        t,
+        k,
+    )
     return t, k
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
-def hit_records(t, k, dirs, flat, slot_of, face_of, no_slot, out_d, out_slot, out_face, out_n):  # pragma: no cover
+def hit_records(
+    t, k, dirs, flat, slot_of, face_of, no_slot, out_d, out_slot, out_face, out_n
+):  # pragma: no cover
     """Per ray the record of its hit: distance (0: none), slot (``no_slot``: none), face
     (-1: none) and the unit normal of the face (float32, turned against the ray; 0: none),
     from ``t`` (inf: none) and triangle numbers ``k`` (-1: none) of ``flat`` (n, 9)."""

@@ -23,18 +23,23 @@ order its nodes are visited: a box is passed over only when its entry lies beyon
 hit found by a factor :data:`TIE` (a hit on the box's face, at a tie, is never passed over
 because rounding put the entry a few units in the last place past it).
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 from ..jit import njit, prange
 
-LEAF = 4              # triangles per leaf, at most
-BINS = 16             # bins of the surface area heuristic
-STACK = 256           # the traversal stack; deeper than this the build splits at the middle
-WIDEN = 1.0 + 2.0 * (3 * 2.0 ** -53) / (1 - 3 * 2.0 ** -53)   # Ize's far-distance factor for float64 slabs
-TIE = 1.0 + 2.0 ** -40   # a box is passed over only when it starts beyond the nearest hit by this factor:
-                         # its rounded entry may exceed the rounded distance of a hit on its face
+LEAF = 4  # triangles per leaf, at most
+BINS = 16  # bins of the surface area heuristic
+STACK = 256  # the traversal stack; deeper than this the build splits at the middle
+WIDEN = 1.0 + 2.0 * (3 * 2.0**-53) / (
+    1 - 3 * 2.0**-53
+)  # Ize's far-distance factor for float64 slabs
+TIE = (
+    1.0 + 2.0**-40
+)  # a box is passed over only when it starts beyond the nearest hit by this factor:
+# its rounded entry may exceed the rounded distance of a hit on its face
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -79,7 +84,7 @@ def build_nodes(tri_lo, tri_hi):  # pragma: no cover - compiled
         lo, hi, parent, depth = st_lo[top], st_hi[top], st_parent[top], st_depth[top]
         node = m
         m += 1
-        if parent >= 0:   # the second child of ``parent`` (its first follows it directly)
+        if parent >= 0:  # the second child of ``parent`` (its first follows it directly)
             right[parent] = node
         start[node] = lo
         count[node] = hi - lo
@@ -138,7 +143,7 @@ def build_nodes(tri_lo, tri_hi):  # pragma: no cover - compiled
                 if cost < best and seen < hi - lo:
                     best, cut = cost, k
             if cut > 0:
-                i, j = lo, hi - 1   # the triangles of bins below ``cut`` first
+                i, j = lo, hi - 1  # the triangles of bins below ``cut`` first
                 while i <= j:
                     if min(int((cen[order[i], axis] - c_lo[axis]) * scale), BINS - 1) < cut:
                         i += 1
@@ -149,7 +154,12 @@ def build_nodes(tri_lo, tri_hi):  # pragma: no cover - compiled
                     split = i
         # pushed second child first: the first child is built next, right after its parent
         st_lo[top], st_hi[top], st_parent[top], st_depth[top] = split, hi, node, depth + 1
-        st_lo[top + 1], st_hi[top + 1], st_parent[top + 1], st_depth[top + 1] = lo, split, -1, depth + 1
+        st_lo[top + 1], st_hi[top + 1], st_parent[top + 1], st_depth[top + 1] = (
+            lo,
+            split,
+            -1,
+            depth + 1,
+        )
         top += 2
     boxes = np.empty((m, 6), np.float32)
     for i in range(m):
@@ -206,7 +216,9 @@ def hit_triangle(corners, t, ox, oy, oz, kx, ky, kz, sx, sy, sz):  # pragma: no 
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _cast_one(o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, stack_t):  # pragma: no cover
+def _cast_one(
+    o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, stack_t
+):  # pragma: no cover
     """(distance, triangle number) of the nearest hit of one ray from ``o`` (3,) (inf, -1:
     none); ``corners`` (n, 9) the triangles in leaf order, ``rank`` their numbers in the
     joined arrays, ``stack`` and ``stack_t`` scratch. Ties: the lower triangle number."""
@@ -238,7 +250,7 @@ def _cast_one(o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, s
     while top > 0:
         top -= 1
         i = stack[top]
-        if stack_t[top] > best * TIE:   # entered beyond the nearest hit found since it was pushed
+        if stack_t[top] > best * TIE:  # entered beyond the nearest hit found since it was pushed
             continue
         if right[i] < 0:
             for t in range(start[i], start[i] + count[i]):
@@ -251,7 +263,7 @@ def _cast_one(o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, s
         tb = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
         if ta > tb:
             a, b, ta, tb = b, a, tb, ta
-        if tb < np.inf:   # the farther child waits below the nearer one
+        if tb < np.inf:  # the farther child waits below the nearer one
             stack[top], stack_t[top] = b, tb
             top += 1
         if ta < np.inf:
@@ -261,7 +273,9 @@ def _cast_one(o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, s
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
-def cast_all(origins, one_origin, dirs, corners, rank, boxes, right, start, count, out_t, out_tri):  # pragma: no cover
+def cast_all(
+    origins, one_origin, dirs, corners, rank, boxes, right, start, count, out_t, out_tri
+):  # pragma: no cover
     """Every ray's nearest hit into ``out_t`` (n,) float64 (inf: none) and ``out_tri`` (n,)
     int64 (the triangle's number in the joined arrays, -1: none). ``origins`` (n, 3), or
     (1, 3) with ``one_origin``. Rays go to the threads in blocks of 256."""
@@ -271,13 +285,25 @@ def cast_all(origins, one_origin, dirs, corners, rank, boxes, right, start, coun
         stack = np.empty(STACK, np.int64)
         stack_t = np.empty(STACK)
         for r in range(b * 256, min(n, (b + 1) * 256)):
-            t, k = _cast_one(origins[0 if one_origin else r], dirs[r, 0], dirs[r, 1], dirs[r, 2], corners, rank,
-                             boxes, right, start, count, stack, stack_t)
+            t, k = _cast_one(
+                origins[0 if one_origin else r],
+                dirs[r, 0],
+                dirs[r, 1],
+                dirs[r, 2],
+                corners,
+                rank,
+                boxes,
+                right,
+                start,
+                count,
+                stack,
+                stack_t,
+            )
             out_t[r] = t
             out_tri[r] = k
 
 
 def triangle_boxes(verts: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(n, 3) float64 lows and highs of triangles ``tris`` (n, 3 vertex rows of ``verts``)."""
-    c = verts[tris]   # (n, 3, 3)
+    c = verts[tris]  # (n, 3, 3)
     return c.min(axis=1), c.max(axis=1)

@@ -13,6 +13,7 @@ One compiled pass per mesh (numba, cached on disk), linear in its faces:
 A mesh placed by many instances is prepared once (the renderer keys this by mesh), so the
 cost of a scene's upload grows with its meshes, not with its instances.
 """
+
 from __future__ import annotations
 
 import logging
@@ -89,8 +90,16 @@ def _keep_and_codes(v, faces):
         if not finite:
             state[f] = 0
             continue
-        e1x, e1y, e1z = np.float64(v[b, 0]) - v[a, 0], np.float64(v[b, 1]) - v[a, 1], np.float64(v[b, 2]) - v[a, 2]
-        e2x, e2y, e2z = np.float64(v[c, 0]) - v[a, 0], np.float64(v[c, 1]) - v[a, 1], np.float64(v[c, 2]) - v[a, 2]
+        e1x, e1y, e1z = (
+            np.float64(v[b, 0]) - v[a, 0],
+            np.float64(v[b, 1]) - v[a, 1],
+            np.float64(v[b, 2]) - v[a, 2],
+        )
+        e2x, e2y, e2z = (
+            np.float64(v[c, 0]) - v[a, 0],
+            np.float64(v[c, 1]) - v[a, 1],
+            np.float64(v[c, 2]) - v[a, 2],
+        )
         nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
         if not (nx * nx + ny * ny + nz * nz > 0):
             state[f] = 1
@@ -209,18 +218,30 @@ def _build(v, faces, order, cluster):
         ax = ay = az = 0.0
         for i in range(c * cluster, min(m, (c + 1) * cluster)):
             a, b, d = out_f[i, 0], out_f[i, 1], out_f[i, 2]
-            e1 = (np.float64(out_v[b, 0]) - out_v[a, 0], np.float64(out_v[b, 1]) - out_v[a, 1],
-                  np.float64(out_v[b, 2]) - out_v[a, 2])
-            e2 = (np.float64(out_v[d, 0]) - out_v[a, 0], np.float64(out_v[d, 1]) - out_v[a, 1],
-                  np.float64(out_v[d, 2]) - out_v[a, 2])
-            e3 = (np.float64(out_v[d, 0]) - out_v[b, 0], np.float64(out_v[d, 1]) - out_v[b, 1],
-                  np.float64(out_v[d, 2]) - out_v[b, 2])
+            e1 = (
+                np.float64(out_v[b, 0]) - out_v[a, 0],
+                np.float64(out_v[b, 1]) - out_v[a, 1],
+                np.float64(out_v[b, 2]) - out_v[a, 2],
+            )
+            e2 = (
+                np.float64(out_v[d, 0]) - out_v[a, 0],
+                np.float64(out_v[d, 1]) - out_v[a, 1],
+                np.float64(out_v[d, 2]) - out_v[a, 2],
+            )
+            e3 = (
+                np.float64(out_v[d, 0]) - out_v[b, 0],
+                np.float64(out_v[d, 1]) - out_v[b, 1],
+                np.float64(out_v[d, 2]) - out_v[b, 2],
+            )
             nx = e1[1] * e2[2] - e1[2] * e2[1]
             ny = e1[2] * e2[0] - e1[0] * e2[2]
             nz = e1[0] * e2[1] - e1[1] * e2[0]
             area2 = math.sqrt(nx * nx + ny * ny + nz * nz)
-            p = (math.sqrt(e1[0] ** 2 + e1[1] ** 2 + e1[2] ** 2) + math.sqrt(e2[0] ** 2 + e2[1] ** 2 + e2[2] ** 2)
-                 + math.sqrt(e3[0] ** 2 + e3[1] ** 2 + e3[2] ** 2))
+            p = (
+                math.sqrt(e1[0] ** 2 + e1[1] ** 2 + e1[2] ** 2)
+                + math.sqrt(e2[0] ** 2 + e2[1] ** 2 + e2[2] ** 2)
+                + math.sqrt(e3[0] ** 2 + e3[1] ** 2 + e3[2] ** 2)
+            )
             thick[c] = min(thick[c], area2 / p)
             perim[c] = min(perim[c], p)
             ax += nx / area2
@@ -232,12 +253,20 @@ def _build(v, faces, order, cluster):
             lo_cos = 1.0
             for i in range(c * cluster, min(m, (c + 1) * cluster)):
                 a, b, d = out_f[i, 0], out_f[i, 1], out_f[i, 2]
-                e1x, e1y, e1z = (np.float64(out_v[b, 0]) - out_v[a, 0], np.float64(out_v[b, 1]) - out_v[a, 1],
-                                 np.float64(out_v[b, 2]) - out_v[a, 2])
-                e2x, e2y, e2z = (np.float64(out_v[d, 0]) - out_v[a, 0], np.float64(out_v[d, 1]) - out_v[a, 1],
-                                 np.float64(out_v[d, 2]) - out_v[a, 2])
+                e1x, e1y, e1z = (
+                    np.float64(out_v[b, 0]) - out_v[a, 0],
+                    np.float64(out_v[b, 1]) - out_v[a, 1],
+                    np.float64(out_v[b, 2]) - out_v[a, 2],
+                )
+                e2x, e2y, e2z = (
+                    np.float64(out_v[d, 0]) - out_v[a, 0],
+                    np.float64(out_v[d, 1]) - out_v[a, 1],
+                    np.float64(out_v[d, 2]) - out_v[a, 2],
+                )
                 nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
-                lo_cos = min(lo_cos, (nx * ax + ny * ay + nz * az) / math.sqrt(nx * nx + ny * ny + nz * nz))
+                lo_cos = min(
+                    lo_cos, (nx * ax + ny * ay + nz * az) / math.sqrt(nx * nx + ny * ny + nz * nz)
+                )
             if lo_cos > 1e-3:  # narrower than a half-space: usable as a cone
                 axis[c, 0], axis[c, 1], axis[c, 2] = ax, ay, az
                 # widen by a little for the rounding of the normals above
@@ -257,7 +286,20 @@ def _build(v, faces, order, cluster):
             for k in range(3):
                 d2 += (out_v[q, k] - (box[0, k] + box[1, k]) / 2) ** 2
             mesh_r = max(mesh_r, d2)
-    return out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim, box, math.sqrt(mesh_r)
+    return (
+        out_v,
+        out_f,
+        centre,
+        radius,
+        vrange,
+        axis,
+        cos_a,
+        sin_a,
+        thick,
+        perim,
+        box,
+        math.sqrt(mesh_r),
+    )
 
 
 def prepare(mesh: Mesh, name: str) -> Clusters:
@@ -268,8 +310,31 @@ def prepare(mesh: Mesh, name: str) -> Clusters:
     order = _radix_order(codes, state)
     nonfinite, degenerate = int(dropped[0]), int(dropped[1])
     if nonfinite or degenerate:
-        log.warning("mesh %r: skipped %d of %d faces (%d with NaN/Inf vertices, %d degenerate)",
-                    name, nonfinite + degenerate, len(f), nonfinite, degenerate)
-    out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim, box, mesh_r = _build(v, f, order, CLUSTER)
-    return Clusters(out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim, box[0], box[1],
-                    float(mesh_r), nonfinite, degenerate)
+        log.warning(
+            "mesh %r: skipped %d of %d faces (%d with NaN/Inf vertices, %d degenerate)",
+            name,
+            nonfinite + degenerate,
+            len(f),
+            nonfinite,
+            degenerate,
+        )
+    out_v, out_f, centre, radius, vrange, axis, cos_a, sin_a, thick, perim, box, mesh_r = _build(
+        v, f, order, CLUSTER
+    )
+    return Clusters(
+        out_v,
+        out_f,
+        centre,
+        radius,
+        vrange,
+        axis,
+        cos_a,
+        sin_a,
+        thick,
+        perim,
+        box[0],
+        box[1],
+        float(mesh_r),
+        nonfinite,
+        degenerate,
+    )

@@ -19,6 +19,7 @@ parent started EGL) and the next is tried; a named one raises. When nothing star
 worker pools spawn, and hand their workers the backend chosen here
 (:func:`default_backend`).
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -40,8 +41,8 @@ APT_HINT = "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libosme
 
 _default_backend: str | None = None  # set once by the CLI from GENIE_GL_BACKEND
 
-_LIVE: dict[int, "GLContext"] = {}          # contexts created in this process, not yet released
-_CREATED = [0]                                # how many this process has created
+_LIVE: dict[int, "GLContext"] = {}  # contexts created in this process, not yet released
+_CREATED = [0]  # how many this process has created
 
 GL_LOWER_LEFT = 0x8CA1
 GL_ZERO_TO_ONE = 0x935F
@@ -111,7 +112,8 @@ class GLContext:
         if self._subpixel_bits is None:
             value = ctypes.c_int(0)
             self.gl_function("glGetIntegerv", None, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))(
-                GL_SUBPIXEL_BITS, ctypes.byref(value))
+                GL_SUBPIXEL_BITS, ctypes.byref(value)
+            )
             self._subpixel_bits = max(4, value.value)
         return self._subpixel_bits
 
@@ -128,7 +130,9 @@ def set_default_backend(backend: str | None) -> None:
     ``GENIE_GL_BACKEND`` here; worker pools pass their parent's to their workers)."""
     global _default_backend
     if backend is not None and backend not in BACKENDS:
-        raise ConfigError(f"GENIE_GL_BACKEND={backend!r} is unknown; expected one of {', '.join(BACKENDS)}")
+        raise ConfigError(
+            f"GENIE_GL_BACKEND={backend!r} is unknown; expected one of {', '.join(BACKENDS)}"
+        )
     _default_backend = backend or None
 
 
@@ -147,7 +151,9 @@ def create_context(backend: str | None = None, *, device_index: int = 0) -> GLCo
     """
     backend = backend or _default_backend
     if backend is not None and backend not in BACKENDS:
-        raise ConfigError(f"GL backend {backend!r} is unknown; expected one of {', '.join(BACKENDS)}")
+        raise ConfigError(
+            f"GL backend {backend!r} is unknown; expected one of {', '.join(BACKENDS)}"
+        )
     tried: list[str] = []
     for name in [backend] if backend else list(BACKENDS):
         platform = PLATFORMS[name]()
@@ -160,7 +166,10 @@ def create_context(backend: str | None = None, *, device_index: int = 0) -> GLCo
         try:
             ctx = platform.start(device_index)
         except Exception as exc:  # each platform fails in its own way; report them all
-            tried.append(f"{name}: {type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else ''}")
+            tried.append(
+                f"{name}: {type(exc).__name__}: "
+                f"{str(exc).strip().splitlines()[0] if str(exc).strip() else ''}"
+            )
             continue
         gl = GLContext(ctx, platform, ctx.info["GL_RENDERER"])
         _LIVE[id(gl)] = gl

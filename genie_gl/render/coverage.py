@@ -15,6 +15,7 @@ tells the frame which clusters can be skipped.
   occlusion tiles (:func:`_hidden`, :func:`_refresh`) skipping what lies behind what is
   already drawn, and the depth test with its tie rule (:func:`_write`).
 """
+
 from __future__ import annotations
 
 import math
@@ -26,7 +27,7 @@ from .clusters import CLUSTER
 from .cull import _cone_drops, shares_cell, sphere_in_view
 
 SHIFT = 3
-TILE = 1 << SHIFT           # pixels: the side of an occlusion tile
+TILE = 1 << SHIFT  # pixels: the side of an occlusion tile
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -42,11 +43,11 @@ def _clip_box(ax, ay, az, bx, by, bz, cx_, cy_, cz, near, proj, box):
         j = (i + 1) % 3
         x0, y0, z0 = px[i], py[i], pz[i]
         x1, y1, z1 = px[j], py[j], pz[j]
-        if z0 >= near:    # the vertex itself
+        if z0 >= near:  # the vertex itself
             u = (fx * x0 + s * y0) / z0 + cx
             v = fy * y0 / z0 + cy
             umin, umax, vmin, vmax = min(umin, u), max(umax, u), min(vmin, v), max(vmax, v)
-        if (z0 >= near) != (z1 >= near):    # where the edge crosses the near plane
+        if (z0 >= near) != (z1 >= near):  # where the edge crosses the near plane
             t = (near - z0) / (z1 - z0)
             x, y = x0 + t * (x1 - x0), y0 + t * (y1 - y0)
             u = (fx * x + s * y) / near + cx
@@ -107,7 +108,7 @@ def _line(ex_, ey_, ez_, sg, ifx, ify, s, cx, cy, rows, extent):
     A = sg * ex_ * ifx
     B = sg * (ey_ - ex_ * s * ifx) * ify
     C = sg * ez_ - A * cx - B * cy
-    a_, b_ = (A, B) if rows else (B, A)   # the scanned coordinate's coefficient, the line's
+    a_, b_ = (A, B) if rows else (B, A)  # the scanned coordinate's coefficient, the line's
     if a_ != 0.0:
         ia = -1.0 / a_
         P, Q = C * ia, b_ * ia
@@ -133,7 +134,9 @@ def _clip(d, P, Q, iw, lo, hi, whole):
     return lo, hi, whole
 
 
-@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"nnan", "ninf", "nsz"})
+@njit(
+    cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"nnan", "ninf", "nsz"}
+)
 def _project(m, X, Y, Z, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v):
     """Camera-frame vertices ``v0 .. v0 + nv``, their window coordinates, and per axis the
     cell (k, k + 1) between pixel centres that holds each with a margin (a vertex near a
@@ -143,10 +146,10 @@ def _project(m, X, Y, Z, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, 
     loop runs in vector registers: the coordinates come as three arrays, ``X``, ``Y``, ``Z``)."""
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     last_u, last_v = width - 1.0, height - 1.0
-    m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]   # in registers: the stores below
-    m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]   # cannot be proven not to alias m
+    m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]  # in registers: the stores below
+    m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]  # cannot be proven not to alias m
     m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
-    Xs, Ys, Zs = X[v0:v0 + nv], Y[v0:v0 + nv], Z[v0:v0 + nv]
+    Xs, Ys, Zs = X[v0 : v0 + nv], Y[v0 : v0 + nv], Z[v0 : v0 + nv]
     for w in range(nv):
         px, py, pz = np.float64(Xs[w]), np.float64(Ys[w]), np.float64(Zs[w])
         x = m00 * px + m01 * py + m02 * pz + m03
@@ -173,8 +176,32 @@ def _project(m, X, Y, Z, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, 
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _bound_cluster(q, k, c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c_thick, c_perim, slot, cbase,
-                   backcull, cfm, eye, det, proj, planes, near, width, height, cull, out):
+def _bound_cluster(
+    q,
+    k,
+    c_lo,
+    c_hi,
+    c_centre,
+    c_radius,
+    c_axis,
+    c_cos,
+    c_sin,
+    c_thick,
+    c_perim,
+    slot,
+    cbase,
+    backcull,
+    cfm,
+    eye,
+    det,
+    proj,
+    planes,
+    near,
+    width,
+    height,
+    cull,
+    out,
+):
     """Whether cluster k of visible instance q may show: False when its sphere is outside the
     frustum, when every face is back-facing (back-face-culled instances: the culler's cone
     bound, which holds for the GPU's float32 rounding and so for float64), or when its box is
@@ -192,9 +219,30 @@ def _bound_cluster(q, k, c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c
     ex, ey, ez, rad, sc, rmag, tmag, inside = sphere_in_view(m, c_centre, c_radius, cl, planes)
     if not inside:
         return False
-    if backcull[q] and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
-                                   c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near, 2.0 ** -8,
-                                   width, height):
+    if backcull[q] and _cone_drops(
+        m,
+        det[q],
+        eye[q],
+        c_centre[cl],
+        c_radius[cl],
+        c_axis[cl],
+        c_cos[cl],
+        c_sin[cl],
+        c_thick[cl],
+        c_perim[cl],
+        ez,
+        ex,
+        ey,
+        rad,
+        sc,
+        rmag,
+        tmag,
+        proj,
+        near,
+        2.0**-8,
+        width,
+        height,
+    ):
         return False
     zlo = ez - rad
     if zlo <= near:
@@ -212,7 +260,7 @@ def _bound_cluster(q, k, c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c
             u = (fx * x + s * y) / z + cx
             v = fy * y / z + cy
             bu_lo, bu_hi, bv_lo, bv_hi = min(bu_lo, u), max(bu_hi, u), min(bv_lo, v), max(bv_hi, v)
-    if zb_lo <= near:   # the sphere reaches no nearer than the near plane; its box does
+    if zb_lo <= near:  # the sphere reaches no nearer than the near plane; its box does
         return True
     out[0] = max(np.floor(bu_lo) - 1.0, 0.0)
     out[1] = min(np.ceil(bu_hi) + 1.0, last_u)
@@ -223,9 +271,47 @@ def _bound_cluster(q, k, c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, vbase, fbase, nfaces, cbase,
-                  backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmax, dirty, wx, wy, wz, wu, wv,
-                  keys_u, keys_v, live, box, tally, cull):
+def _draw_cluster(
+    q,
+    k,
+    col_lo,
+    col_hi,
+    bound,
+    X,
+    Y,
+    Z,
+    faces,
+    c_vrange,
+    slot,
+    vbase,
+    fbase,
+    nfaces,
+    cbase,
+    backcull,
+    cfm,
+    proj,
+    near,
+    width,
+    height,
+    xs,
+    ys,
+    sys_,
+    zb,
+    who,
+    tmax,
+    dirty,
+    wx,
+    wy,
+    wz,
+    wu,
+    wv,
+    keys_u,
+    keys_v,
+    live,
+    box,
+    tally,
+    cull,
+):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi, unless every
     tile of its box there (``bound``: :func:`_bound_cluster`'s) lies nearer than it; counts
     into ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
@@ -255,11 +341,13 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
     # pixel centres that holds the vertex with a margin (a vertex near a centre, or behind the
     # near plane, gets a key of its own): a triangle whose vertices share a cell on either
     # axis holds no pixel centre
-    _project(m, X, Y, Z, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v)
+    _project(
+        m, X, Y, Z, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v
+    )
     key0 = np.int64(sl) << np.int64(32)
     inear = 1.0 / near
     ifx, ify = 1.0 / fx, 1.0 / fy
-    du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1     # the box of the pixels this cluster tested
+    du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1  # the box of the pixels this cluster tested
     # the faces whose vertices do not share a cell, listed without a branch per face (most
     # faces of a large scene are smaller than a pixel and go here)
     nl = 0
@@ -302,9 +390,9 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
         cx_, cy_ = wx[c], wy[c]
         # edge functions (A x B)·d, (B x C)·d, (C x A)·d
         e1x, e1y, e1z = by_ * cz - bz * cy_, bz * cx_ - bx_ * cz, bx_ * cy_ - by_ * cx_
-        vol = ax_ * e1x + ay_ * e1y + az * e1z        # A·(B x C): twice the signed volume
+        vol = ax_ * e1x + ay_ * e1y + az * e1z  # A·(B x C): twice the signed volume
         if vol == 0.0:
-            continue                                   # its plane holds the eye: edge-on
+            continue  # its plane holds the eye: edge-on
         # front faces are clockwise on screen (v down): A·(B x C) < 0 seen from outside
         if bc and vol > 0.0:
             continue
@@ -315,7 +403,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
         tally[3] += 1
         e0x, e0y, e0z = ay_ * bz - az * by_, az * bx_ - ax_ * bz, ax_ * by_ - ay_ * bx_
         e2x, e2y, e2z = cy_ * az - cz * ay_, cz * ax_ - cx_ * az, cx_ * ay_ - cy_ * ax_
-        nx, ny, nz = e0x + e1x + e2x, e0y + e1y + e2y, e0z + e1z + e2z   # (B - A) x (C - A)
+        nx, ny, nz = e0x + e1x + e2x, e0y + e1y + e2y, e0z + e1z + e2z  # (B - A) x (C - A)
         sg = 1.0 if vol > 0.0 else -1.0
         ivol = 1.0 / vol
         key = key0 | np.int64(f)
@@ -326,10 +414,18 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
             yn = ys[iv]
             xn = xs[iu] - sys_[iv]
             tally[4] += 1
-            if ((sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0) & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
-                    & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0)):
+            if (
+                (sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0)
+                & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
+                & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0)
+            ):
                 _write(zb, who, dirty, iu, iv, Wi, (nx * xn + (ny * yn + nz)) * ivol, key, inear)
-                du_lo, du_hi, dv_lo, dv_hi = min(du_lo, iu), max(du_hi, iu), min(dv_lo, iv), max(dv_hi, iv)
+                du_lo, du_hi, dv_lo, dv_hi = (
+                    min(du_lo, iu),
+                    max(du_hi, iu),
+                    min(dv_lo, iv),
+                    max(dv_hi, iv),
+                )
             continue
         # per edge, sg E = A u + B v + C in pixel coordinates. The box is scanned along its
         # longer side, line by line (rows: v fixed; columns: u fixed): on a line w the edge's
@@ -360,17 +456,29 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, X, Y, Z, faces, c_vrange, slot, v
             tally[4] += i_hi - i_lo + 1
             # the box of what this cluster may have written (the dirty tiles in it are refreshed)
             if rows:
-                du_lo, du_hi, dv_lo, dv_hi = min(du_lo, i_lo), max(du_hi, i_hi), min(dv_lo, iw), max(dv_hi, iw)
+                du_lo, du_hi, dv_lo, dv_hi = (
+                    min(du_lo, i_lo),
+                    max(du_hi, i_hi),
+                    min(dv_lo, iw),
+                    max(dv_hi, iw),
+                )
             else:
-                du_lo, du_hi, dv_lo, dv_hi = min(du_lo, iw), max(du_hi, iw), min(dv_lo, i_lo), max(dv_hi, i_hi)
+                du_lo, du_hi, dv_lo, dv_hi = (
+                    min(du_lo, iw),
+                    max(du_hi, iw),
+                    min(dv_lo, i_lo),
+                    max(dv_hi, i_hi),
+                )
             for ix in range(i_lo, i_hi + 1):
                 iu, iv = (ix, iw) if rows else (iw, ix)
                 yn = ys[iv]
                 xn = xs[iu] - sys_[iv]
                 if not (in_lo < ix < in_hi):
-                    inside = ((sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0)
-                              & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
-                              & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0))
+                    inside = (
+                        (sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0)
+                        & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
+                        & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0)
+                    )
                     if not inside:
                         continue
                 _write(zb, who, dirty, iu, iv, Wi, (nx * xn + (ny * yn + nz)) * ivol, key, inear)

@@ -23,7 +23,8 @@ the GPU cannot draw it into a pixel:
 The error bound covers what separates this float64 test from the GPU's float32 vertex
 transform and its sub-pixel snapping: ``snap_px`` (twice the rasteriser's snapping step,
 2^-GL_SUBPIXEL_BITS pixel: 1/256 on llvmpipe; 1/16, GL's least, when not given) plus a
-relative term scaled by the size of the numbers involved. A triangle the GPU would rasterise is therefore never dropped, and the culled render is the
+relative term scaled by the size of the numbers involved. A triangle the GPU would rasterise is
+therefore never dropped, and the culled render is the
 unculled render bit for bit (tests compare both on generated and benchmark scenes, and on
 triangles whose edges pass within 1/500 pixel of pixel centres, which a bound of 1/4096 pixel
 fails on llvmpipe: the bound is a wide margin over what the GPU's rounding moves).
@@ -32,6 +33,7 @@ Memory grows with what is drawn, not with the scene's instances: per cluster in 
 and a 128-bit mask, per thread the window coordinates of one cluster's vertices, and the
 kept indices.
 """
+
 from __future__ import annotations
 
 import math
@@ -47,7 +49,7 @@ from .occlusion import ROUND, UNBOUNDED, DepthBound, cluster_depth, hidden, tria
 # cores from llvmpipe's rasteriser threads), and the TBB found here is refused with a warning
 numba.config.THREADING_LAYER_PRIORITY = ["workqueue", "omp", "tbb"]
 
-REL_EPS = 1e-6          # relative error bound of the float32 eye coordinates (~16 ulp)
+REL_EPS = 1e-6  # relative error bound of the float32 eye coordinates (~16 ulp)
 PARALLEL_FACES = 200_000  # below this many faces in view, one thread culls a frame
 # occlusion culling costs 0.2-0.3 us of CPU per triangle it tests (one thread) and saves
 # 0.2-0.45 us of llvmpipe's per triangle it drops (docs/real-size-scenes.md): it pays when it
@@ -55,13 +57,35 @@ PARALLEL_FACES = 200_000  # below this many faces in view, one thread culls a fr
 # many frames without
 BREAK_EVEN = 0.8
 PROBE_FRAMES = 16
-SCAN_LINES = 64         # a triangle whose box spans more lines both ways is kept without a scan
+SCAN_LINES = 64  # a triangle whose box spans more lines both ways is kept without a scan
 _MASK_WORDS = CLUSTER // 64
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
-def _cone_drops(m, det, eye, cc, cr, ax, cos_a, sin_a, thick, perim, ez, ex, ey, rad, sc, rmag, tmag, proj, near,
-                snap, width, height):
+def _cone_drops(
+    m,
+    det,
+    eye,
+    cc,
+    cr,
+    ax,
+    cos_a,
+    sin_a,
+    thick,
+    perim,
+    ez,
+    ex,
+    ey,
+    rad,
+    sc,
+    rmag,
+    tmag,
+    proj,
+    near,
+    snap,
+    width,
+    height,
+):
     """True when every face of the cluster is back-facing beyond the error bound: its screen
     area (twice) fx fy det 2A d / (z0 z1 z2) exceeds what moving each vertex by the largest
     error bound e can change (2 e · perimeter + 4 e²), for every face (see the module doc)."""
@@ -76,8 +100,8 @@ def _cone_drops(m, det, eye, cc, cr, ax, cos_a, sin_a, thick, perim, ez, ex, ey,
         return False
     cos_b = (ax[0] * dx + ax[1] * dy + ax[2] * dz) / dist
     sin_b = math.sqrt(max(0.0, 1.0 - cos_b * cos_b))
-    cos_ab = cos_a * cos_b - sin_a * sin_b       # cos(alpha + beta): the least-facing face's
-    dmin = dist * cos_ab - cr                     # the eye's least distance behind a face plane
+    cos_ab = cos_a * cos_b - sin_a * sin_b  # cos(alpha + beta): the least-facing face's
+    dmin = dist * cos_ab - cr  # the eye's least distance behind a face plane
     if cos_b <= 0.0 or cos_ab <= 0.0 or dmin <= 0.0:
         return False
     fx, s, fy = proj[0], proj[1], proj[3]
@@ -86,24 +110,34 @@ def _cone_drops(m, det, eye, cc, cr, ax, cos_a, sin_a, thick, perim, ez, ex, ey,
     for r in range(3):
         for c in range(3):
             frob += m[r, c] * m[r, c]
-    jac = math.sqrt(frob * (fx * fx + s * s + fy * fy + (fx * rx + abs(s) * ry) ** 2 + (fy * ry) ** 2)) / zmin
+    jac = (
+        math.sqrt(
+            frob * (fx * fx + s * s + fy * fy + (fx * rx + abs(s) * ry) ** 2 + (fy * ry) ** 2)
+        )
+        / zmin
+    )
     pmag = math.sqrt(3.0) * (math.sqrt(cc[0] ** 2 + cc[1] ** 2 + cc[2] ** 2) + cr)
     err = REL_EPS * (tmag + 3 * rmag * pmag)
-    e = snap + (fx + abs(s) + fy) * err * (1 + rx + ry) / zmin + ROUND * (
-        fx * rx + abs(s) * ry + abs(proj[2]) + fy * ry + abs(proj[4]) + width + height)
+    e = (
+        snap
+        + (fx + abs(s) + fy) * err * (1 + rx + ry) / zmin
+        + ROUND * (fx * rx + abs(s) * ry + abs(proj[2]) + fy * ry + abs(proj[4]) + width + height)
+    )
     area = fx * fy * det * thick * dmin / (zmax * zmax * zmax)
     return area > 2.0 * math.sqrt(2.0) * e * jac + (4 * e * e + 1e-9) / perim
 
 
-@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True, inline="always")
+@njit(
+    cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True, inline="always"
+)
 def _span(pu, pv, qu, qv, length, sg, at, lo, hi, rows):
     """Narrow [lo, hi] to where, on the line ``at`` (a row v = at when ``rows``, else a column
     u = at), points lie within e of the inner side of edge p->q (sg: the triangle's winding;
     ``length``: the edge's length times e)."""
-    if rows:   # sg E(u, at) = c - d u >= -length
+    if rows:  # sg E(u, at) = c - d u >= -length
         d = sg * (qv - pv)
         c = sg * ((qu - pu) * (at - pv) + (qv - pv) * pu)
-    else:      # sg E(at, v) = c - d v >= -length
+    else:  # sg E(at, v) = c - d v >= -length
         d = -sg * (qu - pu)
         c = sg * (-(qu - pu) * pv - (qv - pv) * (at - pu))
     if d > 0:
@@ -145,8 +179,9 @@ def _centre_near(ua, va, ub, vb, uc, vc, e, sg, ulo, uhi, vlo, vhi):
 def shares_cell(keys_u, keys_v, a, b, c):
     """Whether vertices a, b and c lie in one cell between pixel centres on either axis (their
     keys, one per axis, equal): then their triangle holds no pixel centre. Branch-free."""
-    return (((keys_u[a] == keys_u[b]) & (keys_u[b] == keys_u[c]))
-            | ((keys_v[a] == keys_v[b]) & (keys_v[b] == keys_v[c])))
+    return ((keys_u[a] == keys_u[b]) & (keys_u[b] == keys_u[c])) | (
+        (keys_v[a] == keys_v[b]) & (keys_v[b] == keys_v[c])
+    )
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
@@ -176,9 +211,51 @@ def sphere_in_view(m, c_centre, c_radius, cl, planes):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
-def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
-             slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det, usc, proj, planes, near_keep, snap, width,
-             height, masks, jobface, wu, wv, wz, we, wr, keys_u, keys_v, occ, zb, tiles, dirty, tally):
+def _cluster(
+    j,
+    q,
+    k,
+    vertices,
+    faces,
+    c_centre,
+    c_radius,
+    c_vrange,
+    c_axis,
+    c_cos,
+    c_sin,
+    c_thick,
+    c_perim,
+    slot,
+    vbase,
+    fbase,
+    nfaces,
+    cbase,
+    backcull,
+    cfm,
+    eye,
+    det,
+    usc,
+    proj,
+    planes,
+    near_keep,
+    snap,
+    width,
+    height,
+    masks,
+    jobface,
+    wu,
+    wv,
+    wz,
+    we,
+    wr,
+    keys_u,
+    keys_v,
+    occ,
+    zb,
+    tiles,
+    dirty,
+    tally,
+):
     """Job j (cluster k of visible instance q): sets the bits of its faces that may change a
     pixel in ``masks[j]`` and returns their number. With ``occ``, also drops what lies behind
     the depth bound ``zb`` and writes there what it keeps (:mod:`genie_gl.render.occlusion`)."""
@@ -198,9 +275,30 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
     ex, ey, ez, rad, sc, rmag, tmag, inside = sphere_in_view(m, c_centre, c_radius, cl, planes)
     if not inside:
         return 0
-    if bc and _cone_drops(m, det[q], eye[q], c_centre[cl], c_radius[cl], c_axis[cl], c_cos[cl], c_sin[cl],
-                          c_thick[cl], c_perim[cl], ez, ex, ey, rad, sc, rmag, tmag, proj, near_keep, snap, width,
-                          height):
+    if bc and _cone_drops(
+        m,
+        det[q],
+        eye[q],
+        c_centre[cl],
+        c_radius[cl],
+        c_axis[cl],
+        c_cos[cl],
+        c_sin[cl],
+        c_thick[cl],
+        c_perim[cl],
+        ez,
+        ex,
+        ey,
+        rad,
+        sc,
+        rmag,
+        tmag,
+        proj,
+        near_keep,
+        snap,
+        width,
+        height,
+    ):
         return 0
     if occ and ez - rad > near_keep:
         # the whole cluster behind what is already certainly drawn: nothing of it is seen
@@ -212,21 +310,67 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
         rx, ry = (abs(ex) + rad) / zmin, (abs(ey) + rad) / zmin
         pmag = math.sqrt(3.0) * (math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) + c_radius[cl])
         cerr = REL_EPS * (tmag + 3 * rmag * pmag)
-        e_pos = scale * cerr * (1 + rx + ry) / zmin + ROUND * (fx * rx + abs(s) * ry + abs(cx) + fy * ry + abs(cy)
-                                                             + width + height)
-        q_hi = cluster_depth(ex, ey, ez, rad, near_keep, dist, c_radius[cl], c_cos[cl], c_sin[cl], cos_b,
-                             c_thick[cl], usc[q], proj, cerr, e_pos, snap, width, height)
+        e_pos = scale * cerr * (1 + rx + ry) / zmin + ROUND * (
+            fx * rx + abs(s) * ry + abs(cx) + fy * ry + abs(cy) + width + height
+        )
+        q_hi = cluster_depth(
+            ex,
+            ey,
+            ez,
+            rad,
+            near_keep,
+            dist,
+            c_radius[cl],
+            c_cos[cl],
+            c_sin[cl],
+            cos_b,
+            c_thick[cl],
+            usc[q],
+            proj,
+            cerr,
+            e_pos,
+            snap,
+            width,
+            height,
+        )
         tally[0] += 1
         if q_hi < UNBOUNDED:
             tally[1] += 1
-            ulo = max(math.floor(fx * min((ex - rad) / zmin, (ex - rad) / (ez + rad))
-                                 + min(s * (ey - rad) / zmin, s * (ey - rad) / (ez + rad),
-                                       s * (ey + rad) / zmin, s * (ey + rad) / (ez + rad)) + cx) - 1.0, 0.0)
-            uhi = min(math.ceil(fx * max((ex + rad) / zmin, (ex + rad) / (ez + rad))
-                                + max(s * (ey - rad) / zmin, s * (ey - rad) / (ez + rad),
-                                      s * (ey + rad) / zmin, s * (ey + rad) / (ez + rad)) + cx) + 1.0, width - 1.0)
-            vlo = max(math.floor(fy * min((ey - rad) / zmin, (ey - rad) / (ez + rad)) + cy) - 1.0, 0.0)
-            vhi = min(math.ceil(fy * max((ey + rad) / zmin, (ey + rad) / (ez + rad)) + cy) + 1.0, height - 1.0)
+            ulo = max(
+                math.floor(
+                    fx * min((ex - rad) / zmin, (ex - rad) / (ez + rad))
+                    + min(
+                        s * (ey - rad) / zmin,
+                        s * (ey - rad) / (ez + rad),
+                        s * (ey + rad) / zmin,
+                        s * (ey + rad) / (ez + rad),
+                    )
+                    + cx
+                )
+                - 1.0,
+                0.0,
+            )
+            uhi = min(
+                math.ceil(
+                    fx * max((ex + rad) / zmin, (ex + rad) / (ez + rad))
+                    + max(
+                        s * (ey - rad) / zmin,
+                        s * (ey - rad) / (ez + rad),
+                        s * (ey + rad) / zmin,
+                        s * (ey + rad) / (ez + rad),
+                    )
+                    + cx
+                )
+                + 1.0,
+                width - 1.0,
+            )
+            vlo = max(
+                math.floor(fy * min((ey - rad) / zmin, (ey - rad) / (ez + rad)) + cy) - 1.0, 0.0
+            )
+            vhi = min(
+                math.ceil(fy * max((ey + rad) / zmin, (ey + rad) / (ez + rad)) + cy) + 1.0,
+                height - 1.0,
+            )
             if ulo > uhi or vlo > vhi or hidden(zb, tiles, dirty, ulo, uhi, vlo, vhi, q_hi):
                 tally[2] += 1
                 return 0
@@ -250,7 +394,11 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
         u = fx * x * iz + s * y * iz + cx
         v = fy * y * iz + cy
         err = REL_EPS * (tmag + 3 * rmag * (abs(px) + abs(py) + abs(pz)))
-        e = snap + scale * err * (1 + (abs(x) + abs(y)) * iz) * iz + ROUND * (abs(u) + abs(v) + width + height)
+        e = (
+            snap
+            + scale * err * (1 + (abs(x) + abs(y)) * iz) * iz
+            + ROUND * (abs(u) + abs(v) + width + height)
+        )
         wz[w], wu[w], wv[w], we[w], wr[w] = z, u, v, e, err
         own = -2.0 - w
         hi_u, hi_v = math.floor(u + e), math.floor(v + e)
@@ -265,7 +413,7 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
     for i in range(nf):
         f = f0 + i
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
-        if shares_cell(keys_u, keys_v, a, b, c):   # one branch, mostly taken
+        if shares_cell(keys_u, keys_v, a, b, c):  # one branch, mostly taken
             continue
         keep = True
         if wz[a] > near_keep and wz[b] > near_keep and wz[c] > near_keep:
@@ -287,8 +435,9 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
                 if bc:
                     keep = area2 <= flip
                 if keep and abs(area2) > 1e-12:
-                    keep = _centre_near(ua, va, ub, vb_, uc, vc, e, 1.0 if area2 > 0 else -1.0,
-                                        ulo, uhi, vlo, vhi)
+                    keep = _centre_near(
+                        ua, va, ub, vb_, uc, vc, e, 1.0 if area2 > 0 else -1.0, ulo, uhi, vlo, vhi
+                    )
                 if keep and occ:
                     # the bounds only where they can matter: a triangle may be hidden only
                     # if it is behind the buffer even at its vertices' nearest depth (q_hi
@@ -297,19 +446,37 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
                     q_top = max(1.0 / wz[a], max(1.0 / wz[b], 1.0 / wz[c]))
                     may_hide = hidden(zb, tiles, dirty, ulo, uhi, vlo, vhi, q_top)
                     ew = e * 1.001
-                    may_write = ((not bc or area2 < -flip)
-                                 and math.ceil(min(ua, min(ub, uc)) + ew) <= math.floor(max(ua, max(ub, uc)) - ew)
-                                 and math.ceil(min(va, min(vb_, vc)) + ew) <= math.floor(max(va, max(vb_, vc)) - ew))
+                    may_write = (
+                        (not bc or area2 < -flip)
+                        and math.ceil(min(ua, min(ub, uc)) + ew)
+                        <= math.floor(max(ua, max(ub, uc)) - ew)
+                        and math.ceil(min(va, min(vb_, vc)) + ew)
+                        <= math.floor(max(va, max(vb_, vc)) - ew)
+                    )
                     tally[3] += 1
                     if may_hide or may_write:
-                        q_lo, q_hi = triangle_depths(ua, va, wz[a], ub, vb_, wz[b], uc, vc, wz[c],
-                                                     max(wr[a], max(wr[b], wr[c])), e - snap, snap, width, height)
+                        q_lo, q_hi = triangle_depths(
+                            ua,
+                            va,
+                            wz[a],
+                            ub,
+                            vb_,
+                            wz[b],
+                            uc,
+                            vc,
+                            wz[c],
+                            max(wr[a], max(wr[b], wr[c])),
+                            e - snap,
+                            snap,
+                            width,
+                            height,
+                        )
                         if q_hi < UNBOUNDED:
                             tally[4] += 1
                         if may_hide and hidden(zb, tiles, dirty, ulo, uhi, vlo, vhi, q_hi):
                             keep = False
                             tally[5] += 1
-                        elif may_write and q_lo > 0.0:   # certainly drawn: an occluder
+                        elif may_write and q_lo > 0.0:  # certainly drawn: an occluder
                             tally[6] += 1
                             write(zb, dirty, ua, va, ub, vb_, uc, vc, e, 1.0 / q_lo)
         if keep:
@@ -319,9 +486,39 @@ def _cluster(j, q, k, vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_c
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy", fastmath=True)
-def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
-            slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, usc, proj, planes, near, snap, width,
-            height, chunks, counts, masks, jobface):
+def _select(
+    vertices,
+    faces,
+    c_centre,
+    c_radius,
+    c_vrange,
+    c_axis,
+    c_cos,
+    c_sin,
+    c_thick,
+    c_perim,
+    slot,
+    vbase,
+    fbase,
+    nfaces,
+    cbase,
+    job0,
+    backcull,
+    cfm,
+    eye,
+    det,
+    usc,
+    proj,
+    planes,
+    near,
+    snap,
+    width,
+    height,
+    chunks,
+    counts,
+    masks,
+    jobface,
+):
     """Per job (a cluster of a visible instance; the jobs of instance q are job0[q]..job0[q+1]):
     the faces that may cover a pixel centre, as a bit mask, and their number."""
     near_keep = near * (1.0 + 1e-6) + 1e-9
@@ -334,22 +531,101 @@ def _select(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin,
         j_lo, j_hi = ch * per_chunk, min(njobs, (ch + 1) * per_chunk)
         if j_lo >= j_hi:
             continue
-        wu, wv, wz, we = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+        wu, wv, wz, we = (
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+        )
         wr, keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         q = np.searchsorted(job0, j_lo, side="right") - 1
         for j in range(j_lo, j_hi):
             while job0[q + 1] <= j:
                 q += 1
-            counts[j] = _cluster(j, q, j - job0[q], vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos,
-                                 c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det,
-                                 usc, proj, planes, near_keep, snap, width, height, masks, jobface, wu, wv, wz, we, wr,
-                                 keys_u, keys_v, False, none, none, no_dirty, no_tally)
+            counts[j] = _cluster(
+                j,
+                q,
+                j - job0[q],
+                vertices,
+                faces,
+                c_centre,
+                c_radius,
+                c_vrange,
+                c_axis,
+                c_cos,
+                c_sin,
+                c_thick,
+                c_perim,
+                slot,
+                vbase,
+                fbase,
+                nfaces,
+                cbase,
+                backcull,
+                cfm,
+                eye,
+                det,
+                usc,
+                proj,
+                planes,
+                near_keep,
+                snap,
+                width,
+                height,
+                masks,
+                jobface,
+                wu,
+                wv,
+                wz,
+                we,
+                wr,
+                keys_u,
+                keys_v,
+                False,
+                none,
+                none,
+                no_dirty,
+                no_tally,
+            )
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
-def _select_nearest_first(vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
-                          slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, usc, proj, planes, near,
-                          snap, width, height, counts, masks, jobface, zb, tiles, dirty, tally):
+def _select_nearest_first(
+    vertices,
+    faces,
+    c_centre,
+    c_radius,
+    c_vrange,
+    c_axis,
+    c_cos,
+    c_sin,
+    c_thick,
+    c_perim,
+    slot,
+    vbase,
+    fbase,
+    nfaces,
+    cbase,
+    job0,
+    backcull,
+    cfm,
+    eye,
+    det,
+    usc,
+    proj,
+    planes,
+    near,
+    snap,
+    width,
+    height,
+    counts,
+    masks,
+    jobface,
+    zb,
+    tiles,
+    dirty,
+    tally,
+):
     """:func:`_select` with occlusion culling, one thread: the jobs in order of their
     spheres' nearest depth, each tested against (and then written into) the depth bound."""
     near_keep = near * (1.0 + 1e-6) + 1e-9
@@ -369,14 +645,60 @@ def _select_nearest_first(vertices, faces, c_centre, c_radius, c_vrange, c_axis,
         for c in range(3):
             sc = max(sc, math.sqrt(m[0, c] ** 2 + m[1, c] ** 2 + m[2, c] ** 2))
         key[j] = ez - c_radius[cl] * sc
-    wu, wv, wz, we = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
+    wu, wv, wz, we = (
+        np.empty(3 * CLUSTER),
+        np.empty(3 * CLUSTER),
+        np.empty(3 * CLUSTER),
+        np.empty(3 * CLUSTER),
+    )
     wr, keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
     for j in np.argsort(key):
         q = owner[j]
-        counts[j] = _cluster(j, q, j - job0[q], vertices, faces, c_centre, c_radius, c_vrange, c_axis, c_cos,
-                             c_sin, c_thick, c_perim, slot, vbase, fbase, nfaces, cbase, backcull, cfm, eye, det,
-                             usc, proj, planes, near_keep, snap, width, height, masks, jobface, wu, wv, wz, we, wr,
-                             keys_u, keys_v, True, zb, tiles, dirty, tally)
+        counts[j] = _cluster(
+            j,
+            q,
+            j - job0[q],
+            vertices,
+            faces,
+            c_centre,
+            c_radius,
+            c_vrange,
+            c_axis,
+            c_cos,
+            c_sin,
+            c_thick,
+            c_perim,
+            slot,
+            vbase,
+            fbase,
+            nfaces,
+            cbase,
+            backcull,
+            cfm,
+            eye,
+            det,
+            usc,
+            proj,
+            planes,
+            near_keep,
+            snap,
+            width,
+            height,
+            masks,
+            jobface,
+            wu,
+            wv,
+            wz,
+            we,
+            wr,
+            keys_u,
+            keys_v,
+            True,
+            zb,
+            tiles,
+            dirty,
+            tally,
+        )
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -407,10 +729,24 @@ class TriangleCuller:
     faces, vertices and clusters at its ``*base`` offsets), and buffers reused from frame to
     frame that grow with what is drawn."""
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, mesh_vbase: np.ndarray, mesh_fbase: np.ndarray,
-                 mesh_nfaces: np.ndarray, mesh_cbase: np.ndarray, centre: np.ndarray, radius: np.ndarray,
-                 vrange: np.ndarray, axis: np.ndarray, cos_a: np.ndarray, sin_a: np.ndarray, thickness: np.ndarray,
-                 perimeter: np.ndarray, snap_px: float = 2.0 ** -4) -> None:
+    def __init__(
+        self,
+        vertices: np.ndarray,
+        faces: np.ndarray,
+        mesh_vbase: np.ndarray,
+        mesh_fbase: np.ndarray,
+        mesh_nfaces: np.ndarray,
+        mesh_cbase: np.ndarray,
+        centre: np.ndarray,
+        radius: np.ndarray,
+        vrange: np.ndarray,
+        axis: np.ndarray,
+        cos_a: np.ndarray,
+        sin_a: np.ndarray,
+        thickness: np.ndarray,
+        perimeter: np.ndarray,
+        snap_px: float = 2.0**-4,
+    ) -> None:
         self.vertices, self.faces = vertices, faces
         self.snap_px = float(snap_px)
         self.mesh_vbase, self.mesh_fbase = mesh_vbase, mesh_fbase
@@ -421,13 +757,25 @@ class TriangleCuller:
         # the last occlusion pass: clusters tested against the depth bound, those with a
         # bounded depth, those dropped; triangles tested, bounded, dropped, written as occluders
         self.tally = np.zeros(8, np.int64)
-        self.occluded = False   # whether the last frame was occlusion-culled
+        self.occluded = False  # whether the last frame was occlusion-culled
         self.break_even = BREAK_EVEN
-        self._wait = 0          # frames until occlusion culling is tried again
+        self._wait = 0  # frames until occlusion culling is tried again
 
-    def select(self, slots: np.ndarray, mesh: np.ndarray, backcull: np.ndarray, cfm: np.ndarray, eye: np.ndarray,
-               det: np.ndarray, K: np.ndarray, width: int, height: int, near: float,
-               planes: np.ndarray, occlusion: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def select(
+        self,
+        slots: np.ndarray,
+        mesh: np.ndarray,
+        backcull: np.ndarray,
+        cfm: np.ndarray,
+        eye: np.ndarray,
+        det: np.ndarray,
+        K: np.ndarray,
+        width: int,
+        height: int,
+        near: float,
+        planes: np.ndarray,
+        occlusion: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Indices of the kept faces of instances ``slots`` (rows of ``cfm``, (N, 3, 4)
         camera_from_model), whose meshes are ``mesh``; those flagged in ``backcull`` are drawn
         with back-face culling; ``eye`` (Q, 3) is the camera centre in each one's model frame
@@ -447,10 +795,28 @@ class TriangleCuller:
         counts = np.empty(njobs, np.int64)
         masks = np.empty((njobs, _MASK_WORDS), np.uint64)
         jobface = np.empty(njobs, np.int64)
-        args = (self.vertices, self.faces, *self.clusters, slots.astype(np.int64), self.mesh_vbase[mesh],
-                self.mesh_fbase[mesh], nf, self.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
-                np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64),
-                uniform_scale(cfm[slots]), proj, planes, float(near), self.snap_px, float(width), float(height))
+        args = (
+            self.vertices,
+            self.faces,
+            *self.clusters,
+            slots.astype(np.int64),
+            self.mesh_vbase[mesh],
+            self.mesh_fbase[mesh],
+            nf,
+            self.mesh_cbase[mesh],
+            job0,
+            np.ascontiguousarray(backcull),
+            cfm,
+            np.ascontiguousarray(eye, np.float64),
+            np.ascontiguousarray(det, np.float64),
+            uniform_scale(cfm[slots]),
+            proj,
+            planes,
+            float(near),
+            self.snap_px,
+            float(width),
+            float(height),
+        )
         # threads only for big frames: a parallel launch costs a wake-up of every thread,
         # milliseconds when the machine is busy
         threads = numba.get_num_threads()
@@ -468,7 +834,9 @@ class TriangleCuller:
                     depth = self._depth = DepthBound(width, height)
                 depth.clear()
                 self.tally[:] = 0
-                _select_nearest_first(*args, counts, masks, jobface, depth.z, depth.tiles, depth.dirty, self.tally)
+                _select_nearest_first(
+                    *args, counts, masks, jobface, depth.z, depth.tiles, depth.dirty, self.tally
+                )
                 pays = self.tally[5] >= self.break_even * max(int(self.tally[3]), 1)
                 self._wait = 0 if pays else PROBE_FRAMES
             else:
@@ -477,7 +845,7 @@ class TriangleCuller:
             starts = np.zeros(njobs + 1, np.int64)
             np.cumsum(3 * counts, out=starts[1:])
             total = int(starts[-1])
-            if len(self._out) < total:   # grows with what is drawn, by half again at a time
+            if len(self._out) < total:  # grows with what is drawn, by half again at a time
                 self._out = np.empty(max(total, len(self._out) * 3 // 2), np.uint32)
             _emit(self.faces, masks, counts, jobface, starts, self._out)
         finally:

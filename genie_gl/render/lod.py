@@ -11,6 +11,7 @@ The copy is drawn with the instance's ids (and with back-face culling only when 
 its copy are both closed), so only depth and silhouettes move, by about the geometric error of
 the decimation as seen from the camera.
 """
+
 from __future__ import annotations
 
 import logging
@@ -42,11 +43,17 @@ class LevelOfDetail:
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.below_px) and self.below_px > 0):
-            raise ConfigError(f"LevelOfDetail below_px: expected a number of pixels > 0, got {self.below_px!r}")
+            raise ConfigError(
+                f"LevelOfDetail below_px: expected a number of pixels > 0, got {self.below_px!r}"
+            )
         if not 0.0 < float(self.keep) < 1.0:
-            raise ConfigError(f"LevelOfDetail keep: expected a fraction of faces in (0, 1), got {self.keep!r}")
+            raise ConfigError(
+                f"LevelOfDetail keep: expected a fraction of faces in (0, 1), got {self.keep!r}"
+            )
         if int(self.min_faces) < 4:
-            raise ConfigError(f"LevelOfDetail min_faces: expected at least 4, got {self.min_faces!r}")
+            raise ConfigError(
+                f"LevelOfDetail min_faces: expected at least 4, got {self.min_faces!r}"
+            )
 
 
 def simplified(mesh: Mesh, lod: LevelOfDetail) -> Mesh | None:
@@ -56,18 +63,24 @@ def simplified(mesh: Mesh, lod: LevelOfDetail) -> Mesh | None:
         return None
     try:
         import fast_simplification
-    except ImportError as exc:   # an extra: pip install "genie-gl[lod]"
-        raise ConfigError("level of detail needs fast-simplification: pip install fast-simplification") from exc
+    except ImportError as exc:  # an extra: pip install "genie-gl[lod]"
+        raise ConfigError(
+            "level of detail needs fast-simplification: pip install fast-simplification"
+        ) from exc
     v = np.asarray(mesh.vertices, np.float32)
     f = np.asarray(mesh.faces, np.int64)
     finite = np.isfinite(v).all(axis=1)
-    if not finite.all():   # decimation of NaN vertices is undefined: simplify the rest
+    if not finite.all():  # decimation of NaN vertices is undefined: simplify the rest
         f = f[finite[f].all(axis=1)]
     points, faces = fast_simplification.simplify(v, f, target_reduction=1.0 - float(lod.keep))
     if len(faces) < 4 or len(faces) >= len(f):
         return None
     faces = np.asarray(faces, np.int64)
-    return Mesh(np.asarray(points, np.float32), faces.astype(np.uint32), closed=mesh.closed and _closed(faces))
+    return Mesh(
+        np.asarray(points, np.float32),
+        faces.astype(np.uint32),
+        closed=mesh.closed and _closed(faces),
+    )
 
 
 def _closed(faces: np.ndarray) -> bool:
@@ -81,8 +94,13 @@ def _closed(faces: np.ndarray) -> bool:
     return bool(np.array_equal(key, np.sort(b * n + a)))
 
 
-def choose(lod: LevelOfDetail | None, has_copy: np.ndarray, centre_z: np.ndarray, radius: np.ndarray,
-           K: np.ndarray) -> np.ndarray:
+def choose(
+    lod: LevelOfDetail | None,
+    has_copy: np.ndarray,
+    centre_z: np.ndarray,
+    radius: np.ndarray,
+    K: np.ndarray,
+) -> np.ndarray:
     """(Q,) bool: which of the visible instances (their meshes' ``has_copy``, camera-frame
     depth of their bounding spheres' centres ``centre_z`` in m, radii in m) draw the copy."""
     if lod is None or not has_copy.any():

@@ -1,4 +1,5 @@
 """Frame memory: a frame's output arrays as views into recycled blocks (see :class:`_Pool`)."""
+
 from __future__ import annotations
 
 import ctypes
@@ -53,8 +54,11 @@ _POOL = _Pool()
 
 
 @functools.lru_cache(maxsize=64)
-def _parts(H: int, W: int, color: bool, normals: bool, triangles: bool = False) -> tuple[tuple, tuple[int, ...]]:
-    """A frame's arrays (name, dtype, shape, bytes) and their sizes in its block, 64-byte aligned."""
+def _parts(
+    H: int, W: int, color: bool, normals: bool, triangles: bool = False
+) -> tuple[tuple, tuple[int, ...]]:
+    """A frame's arrays (name, dtype, shape, bytes) and their sizes in its block, 64-byte
+    aligned."""
     parts = [("depth", np.float32, (H, W)), ("instance", np.uint32, (H, W))]
     if triangles:
         parts.append(("primitive", np.uint32, (H, W, 2)))
@@ -63,17 +67,21 @@ def _parts(H: int, W: int, color: bool, normals: bool, triangles: bool = False) 
     if color:
         parts.append(("rgba", np.uint8, (H, W, 4)))
     parts.append(("semantic", np.uint16, (H, W)))
-    parts = [(name, dt, shape, math.prod(shape) * np.dtype(dt).itemsize) for name, dt, shape in parts]
+    parts = [
+        (name, dt, shape, math.prod(shape) * np.dtype(dt).itemsize) for name, dt, shape in parts
+    ]
     return tuple(parts), tuple(-(-n // 64) * 64 for *_, n in parts)
 
 
-def frame_buffers(H: int, W: int, color: bool, normals: bool, triangles: bool = False) -> dict[str, np.ndarray]:
+def frame_buffers(
+    H: int, W: int, color: bool, normals: bool, triangles: bool = False
+) -> dict[str, np.ndarray]:
     """A frame's output arrays as views into one block of recycled memory (see :class:`_Pool`)."""
     parts, sizes = _parts(H, W, color, normals, triangles)
     block = _POOL.lend(sum(sizes))
     out, at = {}, 0
     for (name, dt, shape, n), b in zip(parts, sizes):
-        out[name] = block[at:at + n].view(dt).reshape(shape)
+        out[name] = block[at : at + n].view(dt).reshape(shape)
         at += b
     return out
 

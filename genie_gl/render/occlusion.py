@@ -28,6 +28,7 @@ The buffer holds eye z (float32, rounded up), per tile of 8 x 8 pixels its maxim
 when a write has lowered a pixel of it); "nothing drawn" is a large finite value (the kernels
 are compiled with fast-math, which assumes no infinities).
 """
+
 from __future__ import annotations
 
 import math
@@ -36,13 +37,13 @@ import numpy as np
 
 from ..jit import njit
 
-TILE = 8                    # pixels per tile side
-EMPTY = np.float32(1e30)    # eye z of a pixel with nothing certainly drawn yet
-UNBOUNDED = 1e300           # a q bound that says "no bound": never dropped, never written
-EPS32 = 2.0 ** -24          # float32 unit roundoff
-ROUND = 16 * EPS32          # window coordinates' own rounding, per px of |u| + |v| + W + H
-THIN = 10.0                 # a cluster's faces must be this many position errors thick on screen
-_GROW = np.float32(1 + 2.0 ** -20)
+TILE = 8  # pixels per tile side
+EMPTY = np.float32(1e30)  # eye z of a pixel with nothing certainly drawn yet
+UNBOUNDED = 1e300  # a q bound that says "no bound": never dropped, never written
+EPS32 = 2.0**-24  # float32 unit roundoff
+ROUND = 16 * EPS32  # window coordinates' own rounding, per px of |u| + |v| + W + H
+THIN = 10.0  # a cluster's faces must be this many position errors thick on screen
+_GROW = np.float32(1 + 2.0**-20)
 
 
 class DepthBound:
@@ -93,7 +94,7 @@ def triangle_depths(ua, va, za, ub, vb, zb, uc, vc, zc, err, e, snap, width, hei
     dq1, dq2 = qb - qa, qc - qa
     g = abs(dq1 * dv2 - dq2 * dv1) / det + abs(du1 * dq2 - du2 * dq1) / det
     length = max(l1, max(l2, l3))
-    inv = (l1 + l2 + l3 - length + 4 * e) / (det - flip)   # the two shorter edges span it
+    inv = (l1 + l2 + l3 - length + 4 * e) / (det - flip)  # the two shorter edges span it
     cond = (abs(du1 * dv2) + abs(du2 * dv1)) / det
     return _bounds(qmin, qmax, g, rho, e, inv, length, cond, snap, width, height)
 
@@ -116,8 +117,26 @@ def _bounds(qmin, qmax, g, rho, e, inv, length, cond, snap, width, height):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def cluster_depth(ex, ey, ez, rad, near, dist, cr, cos_a, sin_a, cos_b, thick, sc, proj, err, e, snap, width,
-                  height):
+def cluster_depth(
+    ex,
+    ey,
+    ez,
+    rad,
+    near,
+    dist,
+    cr,
+    cos_a,
+    sin_a,
+    cos_b,
+    thick,
+    sc,
+    proj,
+    err,
+    e,
+    snap,
+    width,
+    height,
+):
     """An upper bound of the 1/z the GPU writes anywhere with any face of a cluster, before its
     vertices are transformed; UNBOUNDED when none follows. The cluster: its bounding sphere in
     the eye frame (centre ``ex, ey, ez``, radius ``rad``), in its model frame the eye's distance
@@ -130,14 +149,14 @@ def cluster_depth(ex, ey, ez, rad, near, dist, cr, cos_a, sin_a, cos_b, thick, s
         return UNBOUNDED
     sin_b = math.sqrt(max(0.0, 1.0 - cos_b * cos_b))
     cos_ab = cos_a * cos_b - sin_a * sin_b
-    dmin = dist * cos_ab - cr          # the eye's least distance to a face's plane (model)
+    dmin = dist * cos_ab - cr  # the eye's least distance to a face's plane (model)
     if cos_ab <= 0.0 or dmin <= 0.0:
         return UNBOUNDED
     fx, s, fy = proj[0], proj[1], proj[3]
     f_lo = min(fx, fy) - abs(s)
     if f_lo <= 0.0:
         return UNBOUNDED
-    c_lo = dmin * sc                   # in the eye frame (m)
+    c_lo = dmin * sc  # in the eye frame (m)
     # on screen 1/z = (n . ray) / c over a face's plane at distance c from the eye
     g = (1.0 / fx + 1.0 / fy + abs(s) / (fx * fy)) / c_lo
     # each face's least altitude on screen: its altitude, foreshortened by at most
@@ -148,12 +167,24 @@ def cluster_depth(ex, ey, ez, rad, near, dist, cr, cos_a, sin_a, cos_b, thick, s
         return UNBOUNDED
     qmax = 1.0 / zmin
     spread = 1 + (abs(ex) + rad) / zmin + (abs(ey) + rad) / zmin
-    length = 4 * rad * (max(fx, fy) + abs(s)) * spread / zmin   # the sphere's extent on screen (L1)
+    length = 4 * rad * (max(fx, fy) + abs(s)) * spread / zmin  # the sphere's extent on screen (L1)
     # a face of least altitude h and longest edge L (L2): twice its area is at least h L, what
     # moving its vertices by e takes from it at most 3 sqrt 2 e L + 8 e^2 < h L / 2, and its
-    # two shorter edges sum to at most 2 sqrt 2 L (L1): inv <= (2 sqrt 2 L + 4 e) / (h L / 2) < 7 / h
-    return _bounds(1.0 / (ez + rad), qmax, g, err * qmax + 4 * EPS32, e, 7.0 / h, length, 2 * length / h, snap,
-                   width, height)[1]
+    # two shorter edges sum to at most 2 sqrt 2 L (L1): inv <= (2 sqrt 2 L + 4 e) / (h L / 2) < 7 /
+    # h
+    return _bounds(
+        1.0 / (ez + rad),
+        qmax,
+        g,
+        err * qmax + 4 * EPS32,
+        e,
+        7.0 / h,
+        length,
+        2 * length / h,
+        snap,
+        width,
+        height,
+    )[1]
 
 
 @njit(cache=True, nogil=True, boundscheck=False)

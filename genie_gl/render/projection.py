@@ -3,6 +3,7 @@
 All in float64; the renderer casts to float32 only after composing transforms relative to
 the camera.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -38,13 +39,15 @@ def frustum_planes(K: np.ndarray, width: int, height: int, near: float) -> np.nd
     y_top, y_bot = (-1.5 - cy) / fy, (height + 0.5 - cy) / fy
     skew = abs(s) * max(abs(y_top), abs(y_bot)) / fx
     x_lo, x_hi = (-1.5 - cx) / fx - skew, (width + 0.5 - cx) / fx + skew
-    planes = np.array([
-        [0.0, 0.0, 1.0, -near],
-        [1.0, 0.0, -x_lo, 0.0],
-        [-1.0, 0.0, x_hi, 0.0],
-        [0.0, 1.0, -y_top, 0.0],
-        [0.0, -1.0, y_bot, 0.0],
-    ])
+    planes = np.array(
+        [
+            [0.0, 0.0, 1.0, -near],
+            [1.0, 0.0, -x_lo, 0.0],
+            [-1.0, 0.0, x_hi, 0.0],
+            [0.0, 1.0, -y_top, 0.0],
+            [0.0, -1.0, y_bot, 0.0],
+        ]
+    )
     planes[1:] /= np.linalg.norm(planes[1:, :3], axis=1, keepdims=True)
     return planes
 

@@ -28,6 +28,7 @@ no read-back. Sub-pixel triangles, most of a scene of millions, cost a box test 
 This module runs a frame (which clusters may show, nearest first, which thread draws which
 columns) and fills the frame's arrays; :mod:`genie_gl.render.coverage` draws one cluster.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,7 +40,7 @@ from ..jit import njit, prange
 from .clusters import CLUSTER
 from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster
 
-PARALLEL_FACES = 5_000      # below this many faces in view, one thread draws a frame
+PARALLEL_FACES = 5_000  # below this many faces in view, one thread draws a frame
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -77,12 +78,54 @@ def _nearest_first(alive, bounds, near):
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
-def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_cos, c_sin, c_thick, c_perim,
-            slot, vbase, fbase, nfaces, cbase, job0, backcull, cfm, eye, det, proj, planes, near, width, height,
-            T, zb, who, tmin, tally, cull, ids, sems, near_m, far_m, out_depth, out_instance, out_semantic):
+def _raster(
+    X,
+    Y,
+    Z,
+    faces,
+    c_lo,
+    c_hi,
+    c_centre,
+    c_radius,
+    c_vrange,
+    c_axis,
+    c_cos,
+    c_sin,
+    c_thick,
+    c_perim,
+    slot,
+    vbase,
+    fbase,
+    nfaces,
+    cbase,
+    job0,
+    backcull,
+    cfm,
+    eye,
+    det,
+    proj,
+    planes,
+    near,
+    width,
+    height,
+    T,
+    zb,
+    who,
+    tmin,
+    tally,
+    cull,
+    ids,
+    sems,
+    near_m,
+    far_m,
+    out_depth,
+    out_instance,
+    out_semantic,
+):
     """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
     nearest first into ``zb`` (float64 1 / z, 0 where nothing) and ``who`` (slot << 32 |
-    face where ``zb`` holds a hit; not cleared, so anything elsewhere), H x W flattened, with T threads: thread t draws the columns of
+    face where ``zb`` holds a hit; not cleared, so anything elsewhere), H x W flattened, with T
+    threads: thread t draws the columns of
     strip t, the strips cut where the clusters' centres split evenly (whole tiles), so each
     thread's occlusion tiles see every occluder of its strip and no pixel is written by two."""
     W = int(width)
@@ -106,9 +149,32 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
     alive = np.zeros(njobs, np.bool_)
     for j in prange(njobs):
         q = whose[j]
-        alive[j] = _bound_cluster(q, j - job0[q], c_lo, c_hi, c_centre, c_radius, c_axis, c_cos, c_sin, c_thick,
-                                  c_perim, slot, cbase, backcull, cfm, eye, det, proj, planes, near, width, height,
-                                  cull, bounds[j])
+        alive[j] = _bound_cluster(
+            q,
+            j - job0[q],
+            c_lo,
+            c_hi,
+            c_centre,
+            c_radius,
+            c_axis,
+            c_cos,
+            c_sin,
+            c_thick,
+            c_perim,
+            slot,
+            cbase,
+            backcull,
+            cfm,
+            eye,
+            det,
+            proj,
+            planes,
+            near,
+            width,
+            height,
+            cull,
+            bounds[j],
+        )
     order = _nearest_first(alive, bounds, near)
     # strips: T runs of whole tiles, cut at the quantiles of the clusters' box centres (a
     # count per column: the k-th centre's column is where the running count passes k)
@@ -133,8 +199,10 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
         if cut[t] >= cut[t + 1]:
             continue
         col_lo, col_hi = float(cut[t]), float(cut[t + 1] - 1)
-        for r in range(H):   # each thread clears its strip (``who`` is read only where ``zb`` holds a hit)
-            zb[r * W + cut[t]:r * W + cut[t + 1]] = 0.0
+        for r in range(
+            H
+        ):  # each thread clears its strip (``who`` is read only where ``zb`` holds a hit)
+            zb[r * W + cut[t] : r * W + cut[t + 1]] = 0.0
         wx, wy, wz = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
         wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
         keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
@@ -144,10 +212,48 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
             if bounds[j, 1] < col_lo or bounds[j, 0] > col_hi:
                 continue
             q = whose[j]
-            _draw_cluster(q, j - job0[q], col_lo, col_hi, bounds[j], X, Y, Z, faces, c_vrange, slot, vbase, fbase,
-                          nfaces, cbase, backcull, cfm, proj, near, width, height, xs, ys, sys_, zb, who, tmin,
-                          dirty, wx, wy, wz, wu, wv, keys_u, keys_v, live, box, tally[t], cull)
-        if len(out_depth) > 1:   # the strip's depth and ids at once (as :func:`_shade` makes them)
+            _draw_cluster(
+                q,
+                j - job0[q],
+                col_lo,
+                col_hi,
+                bounds[j],
+                X,
+                Y,
+                Z,
+                faces,
+                c_vrange,
+                slot,
+                vbase,
+                fbase,
+                nfaces,
+                cbase,
+                backcull,
+                cfm,
+                proj,
+                near,
+                width,
+                height,
+                xs,
+                ys,
+                sys_,
+                zb,
+                who,
+                tmin,
+                dirty,
+                wx,
+                wy,
+                wz,
+                wu,
+                wv,
+                keys_u,
+                keys_v,
+                live,
+                box,
+                tally[t],
+                cull,
+            )
+        if len(out_depth) > 1:  # the strip's depth and ids at once (as :func:`_shade` makes them)
             for r in range(H):
                 for p in range(r * W + cut[t], r * W + cut[t + 1]):
                     d = zb[p]
@@ -166,13 +272,40 @@ def _raster(X, Y, Z, faces, c_lo, c_hi, c_centre, c_radius, c_vrange, c_axis, c_
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def _vertex(vertices, vi, m, r):
     """Row r of camera_from_model ``m`` applied to vertex ``vi`` (float64)."""
-    return (m[r, 0] * np.float64(vertices[vi, 0]) + m[r, 1] * np.float64(vertices[vi, 1])
-            + m[r, 2] * np.float64(vertices[vi, 2]) + m[r, 3])
+    return (
+        m[r, 0] * np.float64(vertices[vi, 0])
+        + m[r, 1] * np.float64(vertices[vi, 1])
+        + m[r, 2] * np.float64(vertices[vi, 2])
+        + m[r, 3]
+    )
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
-def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face0, proj, near_m, far_m, width,
-           out_depth, out_instance, out_semantic, out_rgb, out_normal, out_tri, want_rgb, want_normal, want_tri):
+def _shade(
+    depth,
+    hit,
+    vertices,
+    faces,
+    fvbase,
+    cfm,
+    ids,
+    sems,
+    color,
+    slot_face0,
+    proj,
+    near_m,
+    far_m,
+    width,
+    out_depth,
+    out_instance,
+    out_semantic,
+    out_rgb,
+    out_normal,
+    out_tri,
+    want_rgb,
+    want_normal,
+    want_tri,
+):
     """The frame's targets from the drawn buffers, row by row in parallel: z in [near_m,
     far_m] (else no return), instance and semantic ids, and on request the face normal
     (camera frame, towards the eye), the colour (the instance's, Lambert with a head light,
@@ -194,7 +327,9 @@ def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face
                     out_tri[p, 1] = 0
                 else:
                     out_tri[p, 0] = np.uint32((h >> np.int64(32)) + 1)
-                    out_tri[p, 1] = np.uint32((h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)])
+                    out_tri[p, 1] = np.uint32(
+                        (h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)]
+                    )
             if h < 0 or z < near_m or z > far_m:
                 out_depth[p] = 0.0
                 out_instance[p] = 0
@@ -215,10 +350,26 @@ def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face
             if h != last:
                 f = h & np.int64(0xFFFFFFFF)
                 m = cfm[sl]
-                va, vb, vc = fvbase[f] + faces[f, 0], fvbase[f] + faces[f, 1], fvbase[f] + faces[f, 2]
-                ax, ay, az = _vertex(vertices, va, m, 0), _vertex(vertices, va, m, 1), _vertex(vertices, va, m, 2)
-                bx, by, bz = _vertex(vertices, vb, m, 0) - ax, _vertex(vertices, vb, m, 1) - ay, _vertex(vertices, vb, m, 2) - az
-                wx, wy, wz = _vertex(vertices, vc, m, 0) - ax, _vertex(vertices, vc, m, 1) - ay, _vertex(vertices, vc, m, 2) - az
+                va, vb, vc = (
+                    fvbase[f] + faces[f, 0],
+                    fvbase[f] + faces[f, 1],
+                    fvbase[f] + faces[f, 2],
+                )
+                ax, ay, az = (
+                    _vertex(vertices, va, m, 0),
+                    _vertex(vertices, va, m, 1),
+                    _vertex(vertices, va, m, 2),
+                )
+                bx, by, bz = (
+                    _vertex(vertices, vb, m, 0) - ax,
+                    _vertex(vertices, vb, m, 1) - ay,
+                    _vertex(vertices, vb, m, 2) - az,
+                )
+                wx, wy, wz = (
+                    _vertex(vertices, vc, m, 0) - ax,
+                    _vertex(vertices, vc, m, 1) - ay,
+                    _vertex(vertices, vc, m, 2) - az,
+                )
                 ux, uy, uz = by * wz - bz * wy, bz * wx - bx * wz, bx * wy - by * wx
                 nl = math.sqrt(ux * ux + uy * uy + uz * uz)
                 if nl > 0.0:
@@ -241,7 +392,9 @@ def _shade(depth, hit, vertices, faces, fvbase, cfm, ids, sems, color, slot_face
             if want_rgb:
                 lam = max(-(nx * vx + ny * vy + nz * vz), 0.0)
                 for k in range(3):
-                    out_rgb[p, k] = np.uint8(min(255.0, np.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5)))
+                    out_rgb[p, k] = np.uint8(
+                        min(255.0, np.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5))
+                    )
                 out_rgb[p, 3] = 255
 
 
@@ -269,24 +422,47 @@ class Rasteriser:
         self._buffers: tuple | None = None
         self._face_vbase: np.ndarray | None = None
         self.tally = np.zeros((64, 8), np.int64)
-        self.xyz = tuple(np.ascontiguousarray(culler.vertices[:, a]) for a in range(3))   # float32, per axis
-        self.boxes = _cluster_boxes(culler.vertices, culler.clusters[2], culler.mesh_vbase, culler.mesh_cbase,
-                                    -(-culler.mesh_nfaces // CLUSTER))
-        self.counts = np.zeros(8, np.int64)   # the last frame's tally (see _draw_cluster)
+        self.xyz = tuple(
+            np.ascontiguousarray(culler.vertices[:, a]) for a in range(3)
+        )  # float32, per axis
+        self.boxes = _cluster_boxes(
+            culler.vertices,
+            culler.clusters[2],
+            culler.mesh_vbase,
+            culler.mesh_cbase,
+            -(-culler.mesh_nfaces // CLUSTER),
+        )
+        self.counts = np.zeros(8, np.int64)  # the last frame's tally (see _draw_cluster)
 
-    def face_vbase(self, mesh_vbase: np.ndarray, mesh_fbase: np.ndarray, mesh_nfaces: np.ndarray) -> np.ndarray:
+    def face_vbase(
+        self, mesh_vbase: np.ndarray, mesh_fbase: np.ndarray, mesh_nfaces: np.ndarray
+    ) -> np.ndarray:
         """(F,) int64: per face of the joined arrays, the first vertex row of its mesh."""
         if self._face_vbase is None:
             out = np.zeros(len(self.culler.faces), np.int64)
             for vb, fb, nf in zip(mesh_vbase, mesh_fbase, mesh_nfaces):
-                out[fb:fb + nf] = vb
+                out[fb : fb + nf] = vb
             self._face_vbase = out
         return self._face_vbase
 
-    def draw(self, slots: np.ndarray, mesh: np.ndarray, backcull: np.ndarray, cfm: np.ndarray, eye: np.ndarray,
-             det: np.ndarray, K: np.ndarray, width: int, height: int, near: float,
-             planes: np.ndarray, cull: bool = True, ids_out: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(inverse depth, hit): per pixel (H*W) 1 / z of the nearest hit (float64, 0: nothing) at or beyond
+    def draw(
+        self,
+        slots: np.ndarray,
+        mesh: np.ndarray,
+        backcull: np.ndarray,
+        cfm: np.ndarray,
+        eye: np.ndarray,
+        det: np.ndarray,
+        K: np.ndarray,
+        width: int,
+        height: int,
+        near: float,
+        planes: np.ndarray,
+        cull: bool = True,
+        ids_out: tuple | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(inverse depth, hit): per pixel (H*W) 1 / z of the nearest hit (float64, 0: nothing) at
+        or beyond
         ``near`` and its (slot << 32 | face) where the inverse depth is not 0; arguments as
         :meth:`genie_gl.render.cull.TriangleCuller.select`; ``cull=False`` tests every face
         against every pixel centre of its box (the reference, slow). ``ids_out``: (ids,
@@ -306,11 +482,34 @@ class Rasteriser:
         if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
             buf = self._buffers = (np.empty(npx), np.empty(npx, np.int64), np.empty(tiles))
         depth, hit, tmin = buf
-        _raster(*self.xyz, c.faces, *self.boxes, *c.clusters, slots.astype(np.int64), c.mesh_vbase[mesh], c.mesh_fbase[mesh],
-                nf, c.mesh_cbase[mesh], job0, np.ascontiguousarray(backcull), cfm,
-                np.ascontiguousarray(eye, np.float64), np.ascontiguousarray(det, np.float64), proj, planes,
-                float(near), float(width), float(height), T, depth, hit, tmin, self.tally[:T], bool(cull),
-                *self._ids_out(ids_out))
+        _raster(
+            *self.xyz,
+            c.faces,
+            *self.boxes,
+            *c.clusters,
+            slots.astype(np.int64),
+            c.mesh_vbase[mesh],
+            c.mesh_fbase[mesh],
+            nf,
+            c.mesh_cbase[mesh],
+            job0,
+            np.ascontiguousarray(backcull),
+            cfm,
+            np.ascontiguousarray(eye, np.float64),
+            np.ascontiguousarray(det, np.float64),
+            proj,
+            planes,
+            float(near),
+            float(width),
+            float(height),
+            T,
+            depth,
+            hit,
+            tmin,
+            self.tally[:T],
+            bool(cull),
+            *self._ids_out(ids_out),
+        )
         self.counts = self.tally[:T].sum(axis=0)
         return depth, hit
 
@@ -318,15 +517,40 @@ class Rasteriser:
     def _ids_out(ids_out: tuple | None) -> tuple:
         """:func:`_raster`'s last seven arguments (one-element arrays: no strip shading)."""
         if ids_out is None:
-            return (np.zeros(1, np.uint32), np.zeros(1, np.uint32), 0.0, 0.0, np.zeros(1, np.float32),
-                    np.zeros(1, np.uint32), np.zeros(1, np.uint16))
+            return (
+                np.zeros(1, np.uint32),
+                np.zeros(1, np.uint32),
+                0.0,
+                0.0,
+                np.zeros(1, np.float32),
+                np.zeros(1, np.uint32),
+                np.zeros(1, np.uint16),
+            )
         ids, sems, near_m, far_m, out = ids_out
-        return (ids, sems, float(near_m), float(far_m), out["depth"].reshape(-1), out["instance"].reshape(-1),
-                out["semantic"].reshape(-1))
+        return (
+            ids,
+            sems,
+            float(near_m),
+            float(far_m),
+            out["depth"].reshape(-1),
+            out["instance"].reshape(-1),
+            out["semantic"].reshape(-1),
+        )
 
-    def shade(self, depth: np.ndarray | None, hit: np.ndarray | None, cfm: np.ndarray, ids: np.ndarray,
-              semantic: np.ndarray, color: np.ndarray, slot_face0: np.ndarray, K: np.ndarray, near_m: float,
-              far_m: float, out: dict[str, np.ndarray]) -> None:
+    def shade(
+        self,
+        depth: np.ndarray | None,
+        hit: np.ndarray | None,
+        cfm: np.ndarray,
+        ids: np.ndarray,
+        semantic: np.ndarray,
+        color: np.ndarray,
+        slot_face0: np.ndarray,
+        K: np.ndarray,
+        near_m: float,
+        far_m: float,
+        out: dict[str, np.ndarray],
+    ) -> None:
         """Fill a frame's arrays ``out`` (:func:`genie_gl.render.memory.frame_buffers`) from
         :meth:`draw`'s buffers (None: nothing drawn); per slot its ids, RGB colour (uint8) and
         first face in the joined arrays (``slot_face0``)."""
@@ -338,10 +562,28 @@ class Rasteriser:
         c = self.culler
         want_rgb, want_normal, want_tri = "rgba" in out, "normal" in out, "primitive" in out
         none32 = np.zeros((1, 4), np.uint8)
-        _shade(depth, hit, c.vertices, c.faces, self._face_vbase, cfm, ids, semantic, color, slot_face0,
-               np.array([K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], dtype=np.float64), float(near_m), float(far_m),
-               W, out["depth"].reshape(-1), out["instance"].reshape(-1), out["semantic"].reshape(-1),
-               out["rgba"].reshape(-1, 4) if want_rgb else none32,
-               out["normal"].reshape(-1, 3) if want_normal else np.zeros((1, 3), np.float32),
-               out["primitive"].reshape(-1, 2) if want_tri else np.zeros((1, 2), np.uint32),
-               want_rgb, want_normal, want_tri)
+        _shade(
+            depth,
+            hit,
+            c.vertices,
+            c.faces,
+            self._face_vbase,
+            cfm,
+            ids,
+            semantic,
+            color,
+            slot_face0,
+            np.array([K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], dtype=np.float64),
+            float(near_m),
+            float(far_m),
+            W,
+            out["depth"].reshape(-1),
+            out["instance"].reshape(-1),
+            out["semantic"].reshape(-1),
+            out["rgba"].reshape(-1, 4) if want_rgb else none32,
+            out["normal"].reshape(-1, 3) if want_normal else np.zeros((1, 3), np.float32),
+            out["primitive"].reshape(-1, 2) if want_tri else np.zeros((1, 2), np.uint32),
+            want_rgb,
+            want_normal,
+            want_tri,
+        )

@@ -13,6 +13,7 @@ an NVIDIA device node (``/dev/nvidia0``), or a DRM render node whose driver is n
 virtual one (``vgem``, ``vkms``: no rasteriser behind them). A machine without these draws
 with llvmpipe whatever the OpenGL library says.
 """
+
 from __future__ import annotations
 
 import functools
@@ -22,7 +23,7 @@ from pathlib import Path
 from ..errors import ConfigError, did_you_mean
 from ..sensors.accuracy import RASTER as RASTERS
 
-VIRTUAL_DRIVERS = ("vgem", "vkms")   # DRM drivers with no rasteriser behind them
+VIRTUAL_DRIVERS = ("vgem", "vkms")  # DRM drivers with no rasteriser behind them
 
 
 @functools.lru_cache(maxsize=1)
@@ -55,8 +56,10 @@ def check_raster(value: str | None, where: str) -> str | None:
     else one ConfigError naming ``where``."""
     if value is None or value in RASTERS:
         return value
-    raise ConfigError(f"{where}: raster {value!r} is unknown; expected {' or '.join(RASTERS)}"
-                      f"{did_you_mean(str(value), RASTERS)}")
+    raise ConfigError(
+        f"{where}: raster {value!r} is unknown; expected {' or '.join(RASTERS)}"
+        f"{did_you_mean(str(value), RASTERS)}"
+    )
 
 
 def resolve_raster(value: str | None, where: str = "raster") -> str:

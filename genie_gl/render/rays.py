@@ -11,6 +11,7 @@ return", as a depth of 0), instance 0, semantic 0, face -1 and a zero normal.
 >>> hits = gg.cast_rays(scene, np.zeros(3), [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 >>> hits.distance, hits.instance
 """
+
 from __future__ import annotations
 
 import weakref
@@ -26,7 +27,13 @@ from . import bundles
 from .bundles import cast_binned, clusters, hit_records
 from .bvh import build_nodes, cast_all, triangle_boxes
 
-GRIDS = ("pinhole", "lens", "sphere", "azimuth_elevation", "list")   # how a bundle's rays lie on a 2-D grid
+GRIDS = (
+    "pinhole",
+    "lens",
+    "sphere",
+    "azimuth_elevation",
+    "list",
+)  # how a bundle's rays lie on a 2-D grid
 
 
 def _unit(directions: Any, what: str) -> np.ndarray:
@@ -38,7 +45,10 @@ def _unit(directions: Any, what: str) -> np.ndarray:
     n = np.sqrt((d * d).sum(axis=1))
     bad = ~np.isfinite(n) | (n == 0)
     if bad.any():
-        raise ConfigError(f"{what}: direction {int(np.argmax(bad))} is zero or not finite; every ray needs a direction")
+        raise ConfigError(
+            f"{what}: direction {int(np.argmax(bad))} is zero or not finite; every ray needs a "
+            "direction"
+        )
     return d / n[:, None]
 
 
@@ -88,9 +98,16 @@ class Rays:
             if self.shape is not None:
                 raise ConfigError("Rays: a plain list of rays has no grid shape (shape=None)")
         else:
-            if self.shape is None or len(self.shape) != 2 or int(self.shape[0]) * int(self.shape[1]) != len(d):
-                raise ConfigError(f"Rays: a {self.grid} grid needs shape (rows, cols) with rows * cols == {len(d)}, "
-                                  f"got {self.shape}")
+            if (
+                self.shape is None
+                or len(self.shape) != 2
+                or int(self.shape[0]) * int(self.shape[1]) != len(d)
+            ):
+                raise ConfigError(
+                    f"Rays: a {self.grid} grid needs shape (rows, cols) with rows * cols == "
+                    f"{len(d)}, "
+                    f"got {self.shape}"
+                )
             object.__setattr__(self, "shape", (int(self.shape[0]), int(self.shape[1])))
         for name, dtype in (("ring", np.uint16), ("time", np.float64)):
             v = getattr(self, name)
@@ -104,8 +121,13 @@ class Rays:
         return len(self.directions)
 
     @classmethod
-    def azimuth_elevation(cls, origin: ArrayLike, azimuth_rad: ArrayLike, elevation_rad: ArrayLike,
-                          world_from_sensor: ArrayLike | None = None) -> "Rays":
+    def azimuth_elevation(
+        cls,
+        origin: ArrayLike,
+        azimuth_rad: ArrayLike,
+        elevation_rad: ArrayLike,
+        world_from_sensor: ArrayLike | None = None,
+    ) -> "Rays":
         """The grid of every elevation (rows) by every azimuth (columns): x forward, y left, z
         up in the sensor frame (azimuth from x towards y, elevation up from the x-y plane),
         turned into the world by ``world_from_sensor`` (4, 4; its translation is ignored:
@@ -113,8 +135,14 @@ class Rays:
         az = np.asarray(azimuth_rad, np.float64).reshape(-1)
         el = np.asarray(elevation_rad, np.float64).reshape(-1)
         ce = np.cos(el)[:, None]
-        d = np.stack([ce * np.cos(az)[None, :], ce * np.sin(az)[None, :],
-                      np.broadcast_to(np.sin(el)[:, None], (len(el), len(az)))], axis=-1).reshape(-1, 3)
+        d = np.stack(
+            [
+                ce * np.cos(az)[None, :],
+                ce * np.sin(az)[None, :],
+                np.broadcast_to(np.sin(el)[:, None], (len(el), len(az))),
+            ],
+            axis=-1,
+        ).reshape(-1, 3)
         if world_from_sensor is not None:
             d = d @ np.asarray(world_from_sensor, np.float64)[:3, :3].T
         return cls(np.asarray(origin, np.float64), d, "azimuth_elevation", (len(el), len(az)))
@@ -145,12 +173,20 @@ class RayHits:
 
     def __post_init__(self) -> None:
         n = len(self.distance)
-        for name, dtype, shape in (("distance", np.float64, (n,)), ("instance", np.uint32, (n,)),
-                                   ("semantic", np.uint16, (n,)), ("face", np.int64, (n,)),
-                                   ("normal", np.float32, (n, 3)), ("hit", np.bool_, (n,))):
+        for name, dtype, shape in (
+            ("distance", np.float64, (n,)),
+            ("instance", np.uint32, (n,)),
+            ("semantic", np.uint16, (n,)),
+            ("face", np.int64, (n,)),
+            ("normal", np.float32, (n, 3)),
+            ("hit", np.bool_, (n,)),
+        ):
             v = getattr(self, name)
             if v.dtype != dtype or v.shape != shape:
-                raise ConfigError(f"RayHits.{name}: expected {np.dtype(dtype).name} {shape}, got {v.dtype} {v.shape}")
+                raise ConfigError(
+                    f"RayHits.{name}: expected {np.dtype(dtype).name} {shape}, got {v.dtype} "
+                    f"{v.shape}"
+                )
 
 
 class RayCaster:
@@ -170,7 +206,9 @@ class RayCaster:
             T = np.asarray(inst.world_from_model, np.float64)
             v = m.vertices.astype(np.float64) @ T[:3, :3].T + T[:3, 3]
             f = m.faces.astype(np.int64)
-            ok = np.isfinite(v).all(axis=1)[f].all(axis=1)   # faces with a non-finite corner are not drawn
+            ok = (
+                np.isfinite(v).all(axis=1)[f].all(axis=1)
+            )  # faces with a non-finite corner are not drawn
             verts.append(v)
             tris.append(f[ok] + base)
             slots.append(np.full(int(ok.sum()), s, np.int32))
@@ -179,17 +217,19 @@ class RayCaster:
             sems.append(inst.semantic)
             base += len(v)
         self.vertices = np.ascontiguousarray(np.concatenate(verts) if verts else np.zeros((0, 3)))
-        self.vertices[~np.isfinite(self.vertices)] = 0.0   # rows no kept face uses
+        self.vertices[~np.isfinite(self.vertices)] = 0.0  # rows no kept face uses
         tri = np.concatenate(tris) if tris else np.zeros((0, 3), np.int64)
         self.slot = np.concatenate(slots) if slots else np.zeros(0, np.int32)
         self.face = np.concatenate(faces) if faces else np.zeros(0, np.int32)
-        self.ids = np.array(ids + [0], np.uint32)          # per slot, and 0 after the last: no hit
+        self.ids = np.array(ids + [0], np.uint32)  # per slot, and 0 after the last: no hit
         self.semantics = np.array(sems + [0], np.uint16)
-        self.flat = np.ascontiguousarray(self.vertices[tri].reshape(-1, 9))   # (n, 9) in the joined order
+        self.flat = np.ascontiguousarray(
+            self.vertices[tri].reshape(-1, 9)
+        )  # (n, 9) in the joined order
         self.triangles = len(tri)
         self._tri = tri
         self._hierarchy: tuple | None = None
-        self._clusters: tuple | None = None                 # (cluster size, cluster nodes)
+        self._clusters: tuple | None = None  # (cluster size, cluster nodes)
         self._stamp = _stamp(scene)
 
     def hierarchy(self) -> tuple:
@@ -228,14 +268,20 @@ class RayCaster:
         n = len(t)
         dist, slot, face = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64)
         normal = np.empty((n, 3), np.float32)
-        hit_records(t, k, d, self.flat, self.slot, self.face, len(self.ids) - 1, dist, slot, face, normal)
+        hit_records(
+            t, k, d, self.flat, self.slot, self.face, len(self.ids) - 1, dist, slot, face, normal
+        )
         return RayHits(dist, self.ids[slot], self.semantics[slot], face, normal, k >= 0)
 
 
 def _stamp(scene: Scene) -> tuple:
     """What tells a cached caster its scene changed: the number of instances and meshes and
     the identity of the last instance."""
-    return len(scene.instances), len(scene.meshes), id(scene.instances[-1]) if scene.instances else 0
+    return (
+        len(scene.instances),
+        len(scene.meshes),
+        id(scene.instances[-1]) if scene.instances else 0,
+    )
 
 
 _casters: "weakref.WeakKeyDictionary[Scene, RayCaster]" = weakref.WeakKeyDictionary()
@@ -254,7 +300,8 @@ def cast_bundle(scene: Scene, rays: Rays) -> RayHits:
 
     The rays are binned on a grid of world azimuth and elevation (:mod:`.bundles`), each
     walking only the hierarchy's clusters of its cell: made for a spinning head's scan or a
-    panorama, rays from one origin or from origins within a small ball; exact for any rays. The answer equals :func:`cast_rays`' bit for bit
+    panorama, rays from one origin or from origins within a small ball; exact for any rays. The
+    answer equals :func:`cast_rays`' bit for bit
     (distance, instance, face; the same tie rule).
 
     Parameters
@@ -271,7 +318,9 @@ def cast_bundle(scene: Scene, rays: Rays) -> RayHits:
     return _caster(scene).cast_bundle(rays)
 
 
-def cast_rays(scene: Scene, origins: ArrayLike | Rays, directions: ArrayLike | None = None) -> RayHits:
+def cast_rays(
+    scene: Scene, origins: ArrayLike | Rays, directions: ArrayLike | None = None
+) -> RayHits:
     """The nearest surface of ``scene`` along every ray, exact in float64.
 
     Parameters
@@ -293,8 +342,11 @@ def cast_rays(scene: Scene, origins: ArrayLike | Rays, directions: ArrayLike | N
     if isinstance(origins, Rays):
         if directions is not None:
             raise ConfigError("cast_rays: given a Rays record, pass no directions")
-        return cast_bundle(scene, origins) if origins.grid == "azimuth_elevation" else _caster(scene).cast(
-            origins.origins, origins.directions)
+        return (
+            cast_bundle(scene, origins)
+            if origins.grid == "azimuth_elevation"
+            else _caster(scene).cast(origins.origins, origins.directions)
+        )
     if directions is None:
         raise ConfigError("cast_rays: directions are missing (or pass one Rays record)")
     return _caster(scene).cast(origins, directions)

@@ -11,6 +11,7 @@ the packed pixels are split into the frame's arrays and the sensor's range is ap
 The frames are the same bit for bit as the three-target layout (``Renderer(...,
 targets="separate")``, kept for the comparison: tests/render/test_readback.py).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,7 +20,9 @@ from ..jit import njit
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _unpack(bits, lut, depth, instance, semantic, with_depth, half, far):  # pragma: no cover - compiled
+def _unpack(
+    bits, lut, depth, instance, semantic, with_depth, half, far
+):  # pragma: no cover - compiled
     """Split packed (depth bits, instance) pixels into ``depth`` (when ``with_depth``),
     ``instance`` and ``semantic`` (``lut[instance]``). With ``with_depth``, a pixel with depth
     beyond ``far`` or within ``|z - half| < half`` (0 < z < near, in float32 as numpy computes
@@ -32,7 +35,7 @@ def _unpack(bits, lut, depth, instance, semantic, with_depth, half, far):  # pra
     z_of = bits.view(np.float32)
     n = instance.shape[0]
     emptied = 0
-    if lut[0] != 0:   # a table with an id 0 (not a scene's): one pass, an emptied pixel's class 0
+    if lut[0] != 0:  # a table with an id 0 (not a scene's): one pass, an emptied pixel's class 0
         for p in range(n):
             i = bits[2 * p + 1]
             bad = False
@@ -61,7 +64,9 @@ def _unpack(bits, lut, depth, instance, semantic, with_depth, half, far):  # pra
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def _unpack_sorted(bits, ids, sems, depth, instance, semantic, with_depth, half, far):  # pragma: no cover
+def _unpack_sorted(
+    bits, ids, sems, depth, instance, semantic, with_depth, half, far
+):  # pragma: no cover
     """:func:`_unpack` for ids too large for a table: each new id looked up in sorted ``ids``."""
     z_of = bits.view(np.float32)
     last, last_sem = np.uint32(0), np.uint16(0)
@@ -105,14 +110,28 @@ def semantic_table(ids: np.ndarray, semantic: np.ndarray) -> tuple[np.ndarray, .
     return ids_sorted, sems
 
 
-def unpack(packed: np.ndarray, table: tuple[np.ndarray, np.ndarray], depth: np.ndarray | None,
-           instance: np.ndarray, semantic: np.ndarray, near_m: float = 0.0, far_m: float = np.inf) -> int:
+def unpack(
+    packed: np.ndarray,
+    table: tuple[np.ndarray, np.ndarray],
+    depth: np.ndarray | None,
+    instance: np.ndarray,
+    semantic: np.ndarray,
+    near_m: float = 0.0,
+    far_m: float = np.inf,
+) -> int:
     """Fill ``instance``, ``semantic`` and (unless None) ``depth`` from ``packed`` (H, W, 2)
     uint32 as read back; with ``depth``, pixels outside the range (near_m, far_m] are emptied.
     Returns the number of pixels emptied."""
     with_depth = depth is not None
     d = depth.reshape(-1) if with_depth else np.zeros(1, np.float32)
-    args = (d, instance.reshape(-1), semantic.reshape(-1), with_depth, np.float32(0.5 * near_m), np.float32(far_m))
+    args = (
+        d,
+        instance.reshape(-1),
+        semantic.reshape(-1),
+        with_depth,
+        np.float32(0.5 * near_m),
+        np.float32(far_m),
+    )
     if len(table) == 1:
         return int(_unpack(packed.reshape(-1), table[0], *args))
     return int(_unpack_sorted(packed.reshape(-1), *table, *args))

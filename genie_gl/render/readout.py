@@ -8,6 +8,7 @@ range applied, window depth turned into metres for the GL depth modes, and the
 :class:`~genie_gl.frame.Frame` made. It works on the renderer's state (its context, targets,
 semantic table and options); :meth:`Renderer._draw` makes the ``job`` it reads.
 """
+
 from __future__ import annotations
 
 import time
@@ -25,7 +26,8 @@ _BYTES = {"f1": 1, "u2": 2, "u4": 4, "f4": 4}
 
 
 class Readout:
-    """The renderer's read-back methods (a mix-in of :class:`~genie_gl.render.renderer.Renderer`)."""
+    """The renderer's read-back methods (a mix-in of
+    :class:`~genie_gl.render.renderer.Renderer`)."""
 
     def _reads(self, job: dict) -> list[tuple[int, int, str, str]]:
         """(attachment, components, dtype, name) of every read of a frame; attachment -1 is
@@ -37,7 +39,10 @@ class Readout:
             reads.append((0, 2, "u4", "packed"))
             at = 1
         else:
-            reads += ([(0, 1, "f4", "depth")] if linear else []) + [(1, 1, "u4", "instance"), (2, 1, "u2", "semantic")]
+            reads += ([(0, 1, "f4", "depth")] if linear else []) + [
+                (1, 1, "u4", "instance"),
+                (2, 1, "u2", "semantic"),
+            ]
             at = 3
         if color:  # RGBA is read as stored (a 3-component read converts: 7x slower)
             reads.append((at, 4, "f1", "rgba"))
@@ -102,7 +107,13 @@ class Readout:
         """The CPU half of a read-back (after :meth:`_fetch`): the packed pixels unpacked, the
         sensor's range applied, depth in metres; the Frame."""
         t_unpack = time.perf_counter()
-        sensor, color, normals, out, t2 = job["sensor"], job["color"], job["normals"], job.pop("out"), job["t2"]
+        sensor, color, normals, out, t2 = (
+            job["sensor"],
+            job["color"],
+            job["normals"],
+            job.pop("out"),
+            job["t2"],
+        )
         linear = self.depth_precision == "float32"
         want_triangles = job["pixel_triangles"] is not None
         depth, instance, semantic = out["depth"], out["instance"], out["semantic"]
@@ -110,8 +121,15 @@ class Readout:
         normal = out["normal"] if normals else None
         emptied = 0
         if self._packed:  # ids, semantic ids and (linear) depth with the range applied, in one pass
-            emptied = unpack(out["packed"], self._semantics, depth if linear else None, instance, semantic,
-                             sensor.near_m, sensor.far_m)
+            emptied = unpack(
+                out["packed"],
+                self._semantics,
+                depth if linear else None,
+                instance,
+                semantic,
+                sensor.near_m,
+                sensor.far_m,
+            )
         if not linear:
             self._linearise(depth, instance, sensor)
         t3 = time.perf_counter()
@@ -137,14 +155,36 @@ class Readout:
                 if normal is not None:
                     normal[beyond] = 0
         t0, t1 = job["t0"], job["t1"]
-        self.stats = {"cull_s": t1 - t0, "draw_s": t2 - job["t_issue"], "readback_s": job["fetch_s"] + (t3 - t_unpack),
-                      "instances_drawn": job["drawn"],
-                      "triangles_drawn": job["triangles"], "instances_simplified": job["simplified"],
-                      "occlusion_culled": job["occluded"]}
-        tri = (PixelTriangles(out["primitive"], *job["pixel_triangles"], self._triangle_scene(),
-                              self._clip_near(sensor)) if want_triangles else None)
-        return Frame(depth, instance, semantic, rgb, sensor, job["pose"], normal,
-                     {"render_ms": 1e3 * (time.perf_counter() - t0)}, tri)
+        self.stats = {
+            "cull_s": t1 - t0,
+            "draw_s": t2 - job["t_issue"],
+            "readback_s": job["fetch_s"] + (t3 - t_unpack),
+            "instances_drawn": job["drawn"],
+            "triangles_drawn": job["triangles"],
+            "instances_simplified": job["simplified"],
+            "occlusion_culled": job["occluded"],
+        }
+        tri = (
+            PixelTriangles(
+                out["primitive"],
+                *job["pixel_triangles"],
+                self._triangle_scene(),
+                self._clip_near(sensor),
+            )
+            if want_triangles
+            else None
+        )
+        return Frame(
+            depth,
+            instance,
+            semantic,
+            rgb,
+            sensor,
+            job["pose"],
+            normal,
+            {"render_ms": 1e3 * (time.perf_counter() - t0)},
+            tri,
+        )
 
     def _linearise(self, depth: np.ndarray, instance: np.ndarray, sensor: Sensor) -> None:
         """Window depth read back into ``depth`` -> z in metres (0 where no instance)."""

@@ -6,6 +6,7 @@ multisamples and returns one sample's depth, millimetres off), with the conversi
 needs: the OpenGL camera frame (y up, z backward) and pixel centres at +0.5 (pass cx + 0.5,
 cy + 0.5 to its IntrinsicsCamera).
 """
+
 from __future__ import annotations
 
 import os
@@ -36,6 +37,7 @@ class ReferenceRenderer:
         # pyrender chooses its platform from this variable at import: the only way to ask.
         os.environ.setdefault("PYOPENGL_PLATFORM", platform)
         import pyrender  # noqa: PLC0415
+
         self._pyrender = pyrender
         self.scene = pyrender.Scene(bg_color=[0, 0, 0, 0], ambient_light=[1.0, 1.0, 1.0])
         self.seg_map: dict[Any, tuple[int, int, int]] = {}
@@ -43,7 +45,9 @@ class ReferenceRenderer:
         cache: dict[str, Any] = {}
         for inst in scene.instances:
             if inst.instance >= 1 << 24:
-                raise ValueError(f"reference renderer: instance id {inst.instance} needs more than 24 bits")
+                raise ValueError(
+                    f"reference renderer: instance id {inst.instance} needs more than 24 bits"
+                )
             mesh = cache.get(inst.mesh)
             if mesh is None:
                 m = scene.meshes[inst.mesh]
@@ -60,27 +64,45 @@ class ReferenceRenderer:
         """Depth (pyrender's linearised depth buffer), instance and semantic; no colour. A
         pinhole camera only: a sensor with a lens is refused (``gg.render`` renders it)."""
         if not sensor.is_pinhole:
-            raise ConfigError(f"reference renderer: sensor {getattr(sensor, 'name', '')!r} has lens distortion ({sensor.model} model); "
-                              "it renders ideal pinhole cameras only (gg.render / Renderer.render render the lens)")
+            raise ConfigError(
+                f"reference renderer: sensor {getattr(sensor, 'name', '')!r} has lens distortion "
+                f"({sensor.model} model); "
+                "it renders ideal pinhole cameras only (gg.render / Renderer.render render the "
+                "lens)"
+            )
         pr = self._pyrender
         if self._size != (sensor.width, sensor.height):
             self.release()
             self._renderer = pr.OffscreenRenderer(sensor.width, sensor.height)
             self._size = (sensor.width, sensor.height)
-        cam = pr.IntrinsicsCamera(sensor.fx, sensor.fy, sensor.cx + 0.5, sensor.cy + 0.5,
-                                  znear=sensor.near_m, zfar=sensor.far_m)
+        cam = pr.IntrinsicsCamera(
+            sensor.fx,
+            sensor.fy,
+            sensor.cx + 0.5,
+            sensor.cy + 0.5,
+            znear=sensor.near_m,
+            zfar=sensor.far_m,
+        )
         if self._cam_node is not None:
             self.scene.remove_node(self._cam_node)
         self._cam_node = self.scene.add(cam, pose=np.asarray(pose, float) @ GL_FROM_CV)
-        color, depth = self._renderer.render(self.scene, flags=pr.RenderFlags.SEG, seg_node_map=self.seg_map)
+        color, depth = self._renderer.render(
+            self.scene, flags=pr.RenderFlags.SEG, seg_node_map=self.seg_map
+        )
         c = color.astype(np.uint32)
         instance = c[..., 0] | (c[..., 1] << 8) | (c[..., 2] << 16)
         lut_keys = np.array(sorted(self.semantic_of), dtype=np.uint32)
         lut_vals = np.array([self.semantic_of[k] for k in lut_keys], dtype=np.uint16)
         semantic = lut_vals[np.searchsorted(lut_keys, instance).clip(0, len(lut_keys) - 1)]
         semantic[instance == 0] = 0
-        return Frame(np.ascontiguousarray(depth, dtype=np.float32), instance.astype(np.uint32),
-                     semantic.astype(np.uint16), None, sensor, np.asarray(pose, float))
+        return Frame(
+            np.ascontiguousarray(depth, dtype=np.float32),
+            instance.astype(np.uint32),
+            semantic.astype(np.uint16),
+            None,
+            sensor,
+            np.asarray(pose, float),
+        )
 
     def release(self) -> None:
         """Free pyrender's GL objects and its context, but not the EGL display.
@@ -95,7 +117,10 @@ class ReferenceRenderer:
         platform = r._platform
         platform.make_current()
         r._renderer.delete()
-        display, context = getattr(platform, "_egl_display", None), getattr(platform, "_egl_context", None)
+        display, context = (
+            getattr(platform, "_egl_display", None),
+            getattr(platform, "_egl_context", None),
+        )
         if display is None:  # another platform (OSMesa): nothing shared to protect
             platform.delete_context()
         else:

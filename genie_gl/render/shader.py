@@ -3,6 +3,7 @@
 Driver errors keep pointing at the right line: a ``#line`` directive follows the injected
 defines. A failed build raises :class:`~genie_gl.errors.ShaderError` naming the file.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable
@@ -22,8 +23,9 @@ def _with_defines(source: str, defines: Iterable[str]) -> str:
     return "\n".join([lines[0], *inject, "#line 2", *lines[1:]]) + "\n"
 
 
-def load_program(ctx: moderngl.Context, name: str, defines: Iterable[str] = (),
-                 cache: dict | None = None) -> moderngl.Program:
+def load_program(
+    ctx: moderngl.Context, name: str, defines: Iterable[str] = (), cache: dict | None = None
+) -> moderngl.Program:
     """Build ``shaders/<name>.vert`` + ``shaders/<name>.frag`` with ``defines``.
 
     ``cache`` (a dict owned by the caller, one per context) keeps one program per (name,

@@ -1,4 +1,5 @@
 """How many cores a process's rendering uses: llvmpipe's rasteriser threads and numba's."""
+
 from __future__ import annotations
 
 import os

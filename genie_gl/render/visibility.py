@@ -1,6 +1,7 @@
 """Which instances a frame draws, in one compiled pass over them (no numpy call per step:
 at a few hundred instances the calls' overhead, not the arithmetic, was the cost), and the
 renderer's methods that ask it (:class:`Visibility`, for both rasters)."""
+
 from __future__ import annotations
 
 from collections.abc import Collection
@@ -61,8 +62,12 @@ def eyes(model_from_world, slots, eye_world, lo, hi, mesh, closed):
         m = mesh[q]
         inside = True
         for i in range(3):
-            e = (model_from_world[s, i, 0] * eye_world[0] + model_from_world[s, i, 1] * eye_world[1]
-                 + model_from_world[s, i, 2] * eye_world[2] + model_from_world[s, i, 3] * eye_world[3])
+            e = (
+                model_from_world[s, i, 0] * eye_world[0]
+                + model_from_world[s, i, 1] * eye_world[1]
+                + model_from_world[s, i, 2] * eye_world[2]
+                + model_from_world[s, i, 3] * eye_world[3]
+            )
             eye[q, i] = e
             pad = 1e-6 * (1.0 + abs(hi[m, i] - lo[m, i]))
             inside &= (e >= lo[m, i] - pad) & (e <= hi[m, i] + pad)
@@ -74,8 +79,15 @@ class Visibility:
     """The renderer's per-frame choice of instances (a mix-in of
     :class:`~genie_gl.render.renderer.Renderer`, used by the GL and the exact raster alike)."""
 
-    def _visible(self, pose: np.ndarray, K: np.ndarray, W: int, H: int, near: float,
-                 only: Collection[int] | None) -> tuple | None:
+    def _visible(
+        self,
+        pose: np.ndarray,
+        K: np.ndarray,
+        W: int,
+        H: int,
+        near: float,
+        only: Collection[int] | None,
+    ) -> tuple | None:
         """The instances a frame draws, nothing in Python per instance: (camera_from_model of
         every slot (N, 3, 4), the visible slots, the mesh each draws (its simplified copy with
         level of detail), back-face culling per visible slot, the eye in each one's model
@@ -91,7 +103,9 @@ class Visibility:
         mesh = self._mesh
         planes = frustum_planes(K, W, H, near)
         centre_z, radii = np.empty(n), np.empty(n)
-        visible = in_view(cfm, mesh, self._centre, self._radius, self._scale, planes, centre_z, radii)
+        visible = in_view(
+            cfm, mesh, self._centre, self._radius, self._scale, planes, centre_z, radii
+        )
         if only is not None:
             visible &= self._among(only)
         slots = np.flatnonzero(visible)
@@ -103,8 +117,15 @@ class Visibility:
             m = np.where(small, self._copy_of[m], m)
             self._lod_drawn = int(small.sum())
         # camera inside the (slightly grown) box of a closed mesh: draw both faces to see the inside
-        eye, backcull = eyes(self._model_from_world, slots, np.ascontiguousarray(pose[:, 3], np.float64), self._lo,
-                             self._hi, m, self._closed)
+        eye, backcull = eyes(
+            self._model_from_world,
+            slots,
+            np.ascontiguousarray(pose[:, 3], np.float64),
+            self._lo,
+            self._hi,
+            m,
+            self._closed,
+        )
         self._planes = planes
         return cfm, slots, m, backcull, eye
 
@@ -115,9 +136,12 @@ class Visibility:
         except (TypeError, ValueError):
             want = np.zeros((0, 0))
         if want.ndim != 1 or (want.size and want.dtype.kind not in "iu"):
-            raise ConfigError(f"Renderer: only: expected a collection of instance ids (integers), got {only!r:.60}")
+            raise ConfigError(
+                "Renderer: only: expected a collection of instance ids (integers), got "
+                f"{only!r:.60}"
+            )
         want = want.astype(np.int64)
-        if self._id_order is None:   # an id used twice
+        if self._id_order is None:  # an id used twice
             return np.isin(self._ids, want)
         ids = self._ids[self._id_order]
         at = np.minimum(np.searchsorted(ids, want), max(len(ids) - 1, 0))

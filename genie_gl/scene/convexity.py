@@ -18,6 +18,7 @@ may say convex: the planner then keeps the effect, which costs time, never a wro
 :func:`is_convex` keeps its answer per mesh object (a ``Mesh`` never changes), so a scene
 planned again, or a mesh placed in many scenes, is analysed once.
 """
+
 from __future__ import annotations
 
 import math
@@ -28,11 +29,11 @@ import numpy as np
 from ..jit import njit
 from .model import Mesh
 
-PLANAR = 1e-5       # trimesh's tol.planar: local convexity threshold, relative to the mesh's size
-ZERO_AREA = 1e-12   # trimesh's tol.zero: faces of less area take no part in the local test
+PLANAR = 1e-5  # trimesh's tol.planar: local convexity threshold, relative to the mesh's size
+ZERO_AREA = 1e-12  # trimesh's tol.zero: faces of less area take no part in the local test
 
 _CACHE: "weakref.WeakKeyDictionary[Mesh, bool]" = weakref.WeakKeyDictionary()
-_BY_CONTENT: dict[str, bool] = {}   # by Mesh.digest(): the same geometry in a new Mesh (a new scene)
+_BY_CONTENT: dict[str, bool] = {}  # by Mesh.digest(): the same geometry in a new Mesh (a new scene)
 _BY_CONTENT_MAX = 4096
 
 
@@ -113,8 +114,11 @@ def _closed_convex(v, f, planar, zero_area):
                 for k in range(3):
                     if f[across, k] != a and f[across, k] != b:
                         far = f[across, k]
-                p = ((v[far, 0] - v[a, 0]) * unit[t, 0] + (v[far, 1] - v[a, 1]) * unit[t, 1]
-                     + (v[far, 2] - v[a, 2]) * unit[t, 2])
+                p = (
+                    (v[far, 0] - v[a, 0]) * unit[t, 0]
+                    + (v[far, 1] - v[a, 1]) * unit[t, 1]
+                    + (v[far, 2] - v[a, 2]) * unit[t, 2]
+                )
                 worst = max(worst, p)
                 pairs += 1
     root = _find(parent, 0)
@@ -151,7 +155,7 @@ def is_convex(mesh: Mesh) -> bool:
         return len(mesh.faces) <= 1
     known = _CACHE.get(mesh)
     if known is None:
-        digest = mesh.digest()   # ~0.1 ms against ~2 ms for the test of a 5,120-face sphere
+        digest = mesh.digest()  # ~0.1 ms against ~2 ms for the test of a 5,120-face sphere
         known = _BY_CONTENT.get(digest)
         if known is None:
             known = convex_arrays(mesh.vertices, mesh.faces)

@@ -14,6 +14,7 @@ sensors see) is taken to equal the visible one.
 Per-pixel materials cost nothing unless an effect asks: :class:`MaterialTable` holds one row
 per instance, and an effect looks its frame's instance-id buffer up in it.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,9 +40,14 @@ class MaterialKind:
         # per input after the colour (metallic, roughness, opacity, ior): what draw() gives
         # when its range holds one value (lo + 0 * u, rounded: the same for every draw u in
         # [0, 1)), else None; worked out once, not per instance
-        object.__setattr__(self, "_fixed", tuple(
-            round(float(r[0] + 0.0), 4) if r[0] == r[1] and math.isfinite(r[0]) else None
-            for r in (self.metallic, self.roughness, self.opacity, self.ior)))
+        object.__setattr__(
+            self,
+            "_fixed",
+            tuple(
+                round(float(r[0] + 0.0), 4) if r[0] == r[1] and math.isfinite(r[0]) else None
+                for r in (self.metallic, self.roughness, self.opacity, self.ior)
+            ),
+        )
 
     def draw(self, rng: np.random.Generator) -> Material:
         """One material within the ranges (6 uniform draws, always, whatever the ranges).
@@ -50,15 +56,26 @@ class MaterialKind:
         clip(...)`` then ``np.round(col, 4)``, i.e. ``rint(x * 1e4) / 1e4``), so the same bits:
         it runs once per instance."""
         u0, u1, u2, u3, u4, u5 = rng.random(6).tolist()
-        t = min(max(u0 + 0.1 * (u1 - 0.5), 0.0), 1.0)   # one shade for all channels keeps the hue
+        t = min(max(u0 + 0.1 * (u1 - 0.5), 0.0), 1.0)  # one shade for all channels keeps the hue
         lo, hi = self.diffuse_lo, self.diffuse_hi
-        col = (round((lo[0] + (hi[0] - lo[0]) * t) * 10000.0) / 10000.0,
-               round((lo[1] + (hi[1] - lo[1]) * t) * 10000.0) / 10000.0,
-               round((lo[2] + (hi[2] - lo[2]) * t) * 10000.0) / 10000.0)
+        col = (
+            round((lo[0] + (hi[0] - lo[0]) * t) * 10000.0) / 10000.0,
+            round((lo[1] + (hi[1] - lo[1]) * t) * 10000.0) / 10000.0,
+            round((lo[2] + (hi[2] - lo[2]) * t) * 10000.0) / 10000.0,
+        )
         fixed = self._fixed
-        return Material(col, *[f if f is not None else round(float(r[0] + (r[1] - r[0]) * u), 4)
-                               for f, r, u in ((fixed[0], self.metallic, u2), (fixed[1], self.roughness, u3),
-                                               (fixed[2], self.opacity, u4), (fixed[3], self.ior, u5))])
+        return Material(
+            col,
+            *[
+                f if f is not None else round(float(r[0] + (r[1] - r[0]) * u), 4)
+                for f, r, u in (
+                    (fixed[0], self.metallic, u2),
+                    (fixed[1], self.roughness, u3),
+                    (fixed[2], self.opacity, u4),
+                    (fixed[3], self.ior, u5),
+                )
+            ],
+        )
 
 
 KINDS: dict[str, MaterialKind] = {
@@ -72,21 +89,44 @@ KINDS: dict[str, MaterialKind] = {
     "galvanised": MaterialKind((0.55, 0.56, 0.56), (0.70, 0.71, 0.71), (1.0, 1.0), (0.35, 0.6)),
     "wood": MaterialKind((0.35, 0.25, 0.15), (0.60, 0.45, 0.30), (0.0, 0.0), (0.7, 0.9)),
     "cardboard": MaterialKind((0.40, 0.30, 0.18), (0.60, 0.48, 0.32), (0.0, 0.0), (0.8, 0.95)),
-    "plastic": MaterialKind((0.05, 0.20, 0.45), (0.20, 0.45, 0.80), (0.0, 0.0), (0.4, 0.7), ior=(1.46, 1.55)),
+    "plastic": MaterialKind(
+        (0.05, 0.20, 0.45), (0.20, 0.45, 0.80), (0.0, 0.0), (0.4, 0.7), ior=(1.46, 1.55)
+    ),
     "concrete": MaterialKind((0.30, 0.30, 0.28), (0.50, 0.50, 0.47), (0.0, 0.0), (0.8, 0.95)),
     "matte_paint": MaterialKind((0.65, 0.65, 0.62), (0.85, 0.85, 0.82), (0.0, 0.0), (0.85, 1.0)),
     # safety glass (1.52) or polycarbonate (1.58) guards: clear, smooth
-    "glass": MaterialKind((0.85, 0.88, 0.88), (0.95, 0.97, 0.97), (0.0, 0.0), (0.02, 0.08),
-                          opacity=(0.05, 0.15), ior=(1.52, 1.58)),
+    "glass": MaterialKind(
+        (0.85, 0.88, 0.88),
+        (0.95, 0.97, 0.97),
+        (0.0, 0.0),
+        (0.02, 0.08),
+        opacity=(0.05, 0.15),
+        ior=(1.52, 1.58),
+    ),
 }
 
 # asset class (catalogue and background) -> material kind
 CLASS_KIND: dict[str, str] = {
-    "pallet": "wood", "rack": "painted_steel", "car": "car_paint", "jack": "painted_orange",
-    "forklift": "painted_yellow", "dolly": "galvanised", "klt": "plastic", "stillage": "galvanised",
-    "cabinet": "painted_steel", "conveyor": "bare_metal", "machine": "bare_metal", "roller": "bare_metal",
-    "box": "cardboard", "cardboard": "cardboard", "guard": "glass", "crate": "plastic", "tote": "plastic",
-    "floor": "concrete", "wall": "matte_paint", "column": "concrete",
+    "pallet": "wood",
+    "rack": "painted_steel",
+    "car": "car_paint",
+    "jack": "painted_orange",
+    "forklift": "painted_yellow",
+    "dolly": "galvanised",
+    "klt": "plastic",
+    "stillage": "galvanised",
+    "cabinet": "painted_steel",
+    "conveyor": "bare_metal",
+    "machine": "bare_metal",
+    "roller": "bare_metal",
+    "box": "cardboard",
+    "cardboard": "cardboard",
+    "guard": "glass",
+    "crate": "plastic",
+    "tote": "plastic",
+    "floor": "concrete",
+    "wall": "matte_paint",
+    "column": "concrete",
 }
 
 
@@ -117,10 +157,14 @@ class MaterialTable:
     def from_scene(cls, scene: Scene) -> "MaterialTable":
         insts = sorted(scene.instances, key=lambda i: i.instance)
         mats = [i.material or DEFAULT_MATERIAL for i in insts] + [DEFAULT_MATERIAL]
-        return cls(np.array([i.instance for i in insts], dtype=np.uint32),
-                   np.array([m.albedo for m in mats]), np.array([m.metallic for m in mats]),
-                   np.array([m.roughness for m in mats]), np.array([m.opacity for m in mats]),
-                   np.array([m.ior for m in mats]))
+        return cls(
+            np.array([i.instance for i in insts], dtype=np.uint32),
+            np.array([m.albedo for m in mats]),
+            np.array([m.metallic for m in mats]),
+            np.array([m.roughness for m in mats]),
+            np.array([m.opacity for m in mats]),
+            np.array([m.ior for m in mats]),
+        )
 
     @classmethod
     def empty(cls) -> "MaterialTable":
@@ -132,7 +176,7 @@ class MaterialTable:
         instance = np.asarray(instance)
         if len(self.ids) == 0:
             return np.full(instance.shape, -1, np.intp)
-        if int(self.ids[-1]) < (1 << 20):   # small ids (the usual case): one gather from a table
+        if int(self.ids[-1]) < (1 << 20):  # small ids (the usual case): one gather from a table
             lut = self._lut()
             return lut[np.minimum(instance, len(lut) - 1)]
         k = np.searchsorted(self.ids, instance)
@@ -152,7 +196,9 @@ class MaterialTable:
     def _lut(self) -> np.ndarray:
         lut = self.__dict__.get("_lut_cache")
         if lut is None:
-            lut = np.full(int(self.ids[-1]) + 2, -1, np.intp)   # the last entry: ids beyond the table
+            lut = np.full(
+                int(self.ids[-1]) + 2, -1, np.intp
+            )  # the last entry: ids beyond the table
             lut[self.ids] = np.arange(len(self.ids))
             object.__setattr__(self, "_lut_cache", lut)
         return lut

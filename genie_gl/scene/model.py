@@ -12,6 +12,7 @@ with an error naming the instance (or dropped and counted, ``degenerate="drop"``
 with non-finite vertices or zero area are counted by :meth:`Scene.report` (the renderer
 skips them).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -28,8 +29,8 @@ from ..errors import ConfigError
 
 log = logging.getLogger(__name__)
 
-_FLOAT32X7 = struct.Struct("=7f")   # a material's seven inputs as float32
-RECENTRE_RATIO = 4.0   # vertices whose centre lies farther than this many radii out are recentred
+_FLOAT32X7 = struct.Struct("=7f")  # a material's seven inputs as float32
+RECENTRE_RATIO = 4.0  # vertices whose centre lies farther than this many radii out are recentred
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,7 +59,9 @@ class Mesh:
 
     def __post_init__(self) -> None:
         given = np.asarray(self.vertices)
-        origin = np.zeros(3) if self.origin is None else np.asarray(self.origin, np.float64).reshape(3)
+        origin = (
+            np.zeros(3) if self.origin is None else np.asarray(self.origin, np.float64).reshape(3)
+        )
         if given.ndim == 2 and given.shape[1] == 3 and len(given) and self.origin is None:
             v64 = given.astype(np.float64)
             finite = np.isfinite(v64).all(axis=1)
@@ -66,8 +69,11 @@ class Mesh:
                 lo, hi = v64[finite].min(axis=0), v64[finite].max(axis=0)
                 far = float(max(np.abs(lo).max(), np.abs(hi).max()))
                 if far > MAX_COORD_M:
-                    raise ConfigError(f"mesh vertices: a coordinate of {far:.3g} m, beyond {MAX_COORD_M:g} m (absurd "
-                                      "coordinates; check the file's units)")
+                    raise ConfigError(
+                        f"mesh vertices: a coordinate of {far:.3g} m, beyond {MAX_COORD_M:g} m "
+                        "(absurd "
+                        "coordinates; check the file's units)"
+                    )
                 centre, radius = (lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2
                 if np.linalg.norm(centre) > max(RECENTRE_RATIO * radius, 1.0):
                     origin = np.round(centre, 3)
@@ -156,13 +162,23 @@ class Material:
         # pack to float32 and back rounds all seven as np.float32 does (a C cast); anything it
         # cannot take (a string, a wrong length, an overflow) goes the slow way, to its message.
         try:
-            *c, metallic, roughness, opacity, ior = _FLOAT32X7.unpack(_FLOAT32X7.pack(
-                *self.diffuse_color, self.metallic, self.roughness, self.opacity, self.ior))
+            *c, metallic, roughness, opacity, ior = _FLOAT32X7.unpack(
+                _FLOAT32X7.pack(
+                    *self.diffuse_color, self.metallic, self.roughness, self.opacity, self.ior
+                )
+            )
         except (struct.error, OverflowError, TypeError):
             self._check_slowly()
             return
-        if (0.0 <= c[0] <= 1.0 and 0.0 <= c[1] <= 1.0 and 0.0 <= c[2] <= 1.0 and 0.0 <= metallic <= 1.0
-                and 0.0 <= roughness <= 1.0 and 0.0 <= opacity <= 1.0 and 1.0 <= float(self.ior) <= 5.0):
+        if (
+            0.0 <= c[0] <= 1.0
+            and 0.0 <= c[1] <= 1.0
+            and 0.0 <= c[2] <= 1.0
+            and 0.0 <= metallic <= 1.0
+            and 0.0 <= roughness <= 1.0
+            and 0.0 <= opacity <= 1.0
+            and 1.0 <= float(self.ior) <= 5.0
+        ):
             object.__setattr__(self, "diffuse_color", tuple(c))
             object.__setattr__(self, "metallic", metallic)
             object.__setattr__(self, "roughness", roughness)
@@ -175,7 +191,9 @@ class Material:
         """Each value on its own: rounded to float32 and checked, the first bad one named."""
         c = tuple(float(np.float32(x)) for x in self.diffuse_color)
         if len(c) != 3 or not all(0.0 <= x <= 1.0 for x in c):
-            raise ConfigError(f"material diffuse_color: expected 3 values in [0, 1], got {self.diffuse_color!r}")
+            raise ConfigError(
+                f"material diffuse_color: expected 3 values in [0, 1], got {self.diffuse_color!r}"
+            )
         for name in ("metallic", "roughness", "opacity"):
             v = float(np.float32(getattr(self, name)))
             if not 0.0 <= v <= 1.0:
@@ -232,12 +250,22 @@ def _as_transform(transform: Any, check: bool = True) -> np.ndarray:
         m[:3, 3] = t
         t = m
     if t.shape != (4, 4):
-        raise ConfigError(f"transform: expected a (4, 4) matrix or a (3,) translation, got {t.shape}")
+        raise ConfigError(
+            f"transform: expected a (4, 4) matrix or a (3,) translation, got {t.shape}"
+        )
     if check and not np.all(np.isfinite(t)):
         raise ConfigError("transform: contains NaN or Inf")
     x, y, z = t[:3, 3].tolist()
-    if (abs(x) > MAX_COORD_M or abs(y) > MAX_COORD_M or abs(z) > MAX_COORD_M) and x == x and y == y and z == z:
-        raise ConfigError(f"transform: translation {t[:3, 3].tolist()} m is beyond {MAX_COORD_M:g} m (absurd coordinates)")
+    if (
+        (abs(x) > MAX_COORD_M or abs(y) > MAX_COORD_M or abs(z) > MAX_COORD_M)
+        and x == x
+        and y == y
+        and z == z
+    ):
+        raise ConfigError(
+            f"transform: translation {t[:3, 3].tolist()} m is beyond {MAX_COORD_M:g} m (absurd "
+            "coordinates)"
+        )
     return t
 
 
@@ -250,12 +278,19 @@ def degenerate_reason(t: np.ndarray) -> str | None:
         return "its transform contains NaN or Inf"
     if abs(last[0]) + abs(last[1]) + abs(last[2]) + abs(last[3] - 1) > 1e-12:
         return f"its transform's last row is {last}, expected [0, 0, 0, 1]"
-    scale = [math.sqrt(a * a + d * d + g * g), math.sqrt(b * b + e * e + h * h), math.sqrt(c * c + f * f + i * i)]
+    scale = [
+        math.sqrt(a * a + d * d + g * g),
+        math.sqrt(b * b + e * e + h * h),
+        math.sqrt(c * c + f * f + i * i),
+    ]
     if min(scale) == 0:
         return f"its transform has a zero scale ({[round(v, 6) for v in scale]})"
     det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
     if abs(det) <= 1e-12 * scale[0] * scale[1] * scale[2]:
-        return f"its transform is singular (it flattens the mesh; scale {[round(v, 6) for v in scale]})"
+        return (
+            "its transform is singular (it flattens the mesh; scale "
+            f"{[round(v, 6) for v in scale]})"
+        )
     return None
 
 
@@ -314,7 +349,9 @@ class Scene:
     metadata: dict[str, Any] = field(default_factory=dict)
     _digests: dict[str, str] = field(default_factory=dict, repr=False)
     _ids: set[int] | None = field(default=None, repr=False)
-    _max_id: int = field(default=0, repr=False)   # the largest of ``_ids``: the next free id is one more
+    _max_id: int = field(
+        default=0, repr=False
+    )  # the largest of ``_ids``: the next free id is one more
     dropped: list[str] = field(default_factory=list, repr=False)
 
     def add_mesh(self, mesh: Any, name: str | None = None) -> str:
@@ -359,12 +396,16 @@ class Scene:
             raise ConfigError(f"scene.add: no mesh named {key!r} in the scene")
         t = _as_transform(transform, check=False)
         if (why := degenerate_reason(t)) is not None:
-            who = where or name or (f"instance {instance}" if instance is not None else f"mesh {key}")
+            who = (
+                where or name or (f"instance {instance}" if instance is not None else f"mesh {key}")
+            )
             if degenerate == "drop":
                 self.dropped.append(f"{who}: {why}")
                 log.warning("scene: dropped %s: %s", who, why)
                 return 0
-            raise ConfigError(f"scene.add: {who!r}: {why}; fix or remove it (or add it with degenerate='drop')")
+            raise ConfigError(
+                f"scene.add: {who!r}: {why}; fix or remove it (or add it with degenerate='drop')"
+            )
         origin = self.meshes[key].origin
         transform = t if not (origin[0] or origin[1] or origin[2]) else t @ _translation(origin)
         used = self._used_ids
@@ -378,7 +419,9 @@ class Scene:
         if not 0 <= sem < 2**16:
             raise ConfigError(f"scene.add: semantic id must be in 0..65535, got {semantic}")
         if material is not None and not isinstance(material, Material):
-            raise ConfigError(f"scene.add: material must be a genie_gl.Material, got {type(material).__name__}")
+            raise ConfigError(
+                f"scene.add: material must be a genie_gl.Material, got {type(material).__name__}"
+            )
         col = _palette(iid) if color is None else tuple(map(int, color[:3]))
         self.instances.append(Instance(key, transform, sem, iid, col, name, material))  # type: ignore[arg-type]
         used.add(iid)
@@ -396,10 +439,15 @@ class Scene:
             uses[inst.mesh] = uses.get(inst.mesh, 0) + 1
         nonfinite = sum(int(per_mesh[k][0].sum()) * n for k, n in uses.items())
         zero_area = sum(int(per_mesh[k][1].sum()) * n for k, n in uses.items())
-        return {"instances": len(self.instances), "meshes": len(self.meshes),
-                "triangles": sum(len(self.meshes[k].faces) * n for k, n in uses.items()),
-                "dropped_instances": len(self.dropped), "dropped": list(self.dropped),
-                "faces_nonfinite": nonfinite, "faces_zero_area": zero_area}
+        return {
+            "instances": len(self.instances),
+            "meshes": len(self.meshes),
+            "triangles": sum(len(self.meshes[k].faces) * n for k, n in uses.items()),
+            "dropped_instances": len(self.dropped),
+            "dropped": list(self.dropped),
+            "faces_nonfinite": nonfinite,
+            "faces_zero_area": zero_area,
+        }
 
     @property
     def _used_ids(self) -> set[int]:

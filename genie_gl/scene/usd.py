@@ -18,6 +18,7 @@ UsdPreviewSurface inputs of each prim (a prim without one gets no material, read
 as :data:`~genie_gl.scene.model.DEFAULT_MATERIAL`, UsdPreviewSurface's own defaults; how many
 prims had none is ``scene.metadata["prims_without_material"]``).
 """
+
 from __future__ import annotations
 
 import errno
@@ -72,18 +73,30 @@ def _write_stage(scene: Scene, tmp: Path, path: Path) -> None:
         stage = Usd.Stage.CreateNew(str(tmp))
         _fill_stage(scene, stage)
         ok = stage.GetRootLayer().Save()
-    except Tf.ErrorException as exc:  # USD reports a failed write (a full disk ...) as its own error
-        why = re.search(r"Error occurred writing file: ([^'\n]*)", str(exc)) or re.search(r" : '([^\n]*)'", str(exc))
+    except (
+        Tf.ErrorException
+    ) as exc:  # USD reports a failed write (a full disk ...) as its own error
+        why = re.search(r"Error occurred writing file: ([^'\n]*)", str(exc)) or re.search(
+            r" : '([^\n]*)'", str(exc)
+        )
         text = why.group(1) if why else "USD could not write the file"
-        code = next((e for e in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES)
-                     if os.strerror(e) in text), errno.EIO)
+        code = next(
+            (
+                e
+                for e in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES)
+                if os.strerror(e) in text
+            ),
+            errno.EIO,
+        )
         raise OSError(code, text, str(path)) from None
     if not ok:
         raise OSError(errno.EIO, "USD could not save the stage", str(path))
 
 
 def _fill_stage(scene: Scene, stage: Usd.Stage) -> None:
-    stage.GetRootLayer().customLayerData = {"genie_gl": __version__}   # how a later write knows it is ours
+    stage.GetRootLayer().customLayerData = {
+        "genie_gl": __version__
+    }  # how a later write knows it is ours
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     world = UsdGeom.Xform.Define(stage, "/World")
@@ -119,25 +132,38 @@ def _fill_stage(scene: Scene, stage: Usd.Stage) -> None:
         prim.SetInstanceable(True)
         label = labels.name(inst.semantic)
         prim.AddAppliedSchema("SemanticsAPI:Semantics")
-        prim.CreateAttribute("semantic:Semantics:params:semanticType", Sdf.ValueTypeNames.String).Set("class")
-        prim.CreateAttribute("semantic:Semantics:params:semanticData", Sdf.ValueTypeNames.String).Set(label)
+        prim.CreateAttribute(
+            "semantic:Semantics:params:semanticType", Sdf.ValueTypeNames.String
+        ).Set("class")
+        prim.CreateAttribute(
+            "semantic:Semantics:params:semanticData", Sdf.ValueTypeNames.String
+        ).Set(label)
         prim.AddAppliedSchema("SemanticsLabelsAPI:class")
         prim.CreateAttribute("semantics:labels:class", Sdf.ValueTypeNames.TokenArray).Set([label])
         prim.CreateAttribute("genie:semanticId", Sdf.ValueTypeNames.Int).Set(int(inst.semantic))
         prim.CreateAttribute("genie:instanceId", Sdf.ValueTypeNames.UInt).Set(int(inst.instance))
-        pv = UsdGeom.PrimvarsAPI(prim).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
-                                                     UsdGeom.Tokens.constant)
+        pv = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(
+            "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant
+        )
         pv.Set([Gf.Vec3f(*(c / 255.0 for c in inst.color))])
         if inst.material is not None:
             mat = materials.get(inst.material)
             if mat is None:
                 mat = materials[inst.material] = _define_material(
-                    stage, looks.GetPath().AppendChild(f"Material_{len(materials):04d}"), inst.material)
+                    stage,
+                    looks.GetPath().AppendChild(f"Material_{len(materials):04d}"),
+                    inst.material,
+                )
             UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat)
 
 
-GPRIMS = {"Sphere": UsdGeom.Sphere, "Cube": UsdGeom.Cube, "Cylinder": UsdGeom.Cylinder,
-          "Cone": UsdGeom.Cone, "Capsule": UsdGeom.Capsule}
+GPRIMS = {
+    "Sphere": UsdGeom.Sphere,
+    "Cube": UsdGeom.Cube,
+    "Cylinder": UsdGeom.Cylinder,
+    "Cone": UsdGeom.Cone,
+    "Capsule": UsdGeom.Capsule,
+}
 
 
 def _gprim(prim: Usd.Prim) -> tuple[str, dict]:
@@ -166,8 +192,13 @@ def _define_material(stage: Usd.Stage, path: Sdf.Path, m: Material) -> UsdShade.
     return mat
 
 
-_INPUTS = {"diffuseColor": "diffuse_color", "metallic": "metallic", "roughness": "roughness",
-           "opacity": "opacity", "ior": "ior"}
+_INPUTS = {
+    "diffuseColor": "diffuse_color",
+    "metallic": "metallic",
+    "roughness": "roughness",
+    "opacity": "opacity",
+    "ior": "ior",
+}
 
 
 def _material(prim: Usd.Prim) -> Material | None:
@@ -192,7 +223,9 @@ def _material(prim: Usd.Prim) -> Material | None:
         value = attrs[0].Get()
         if value is None:
             continue
-        values[field] = tuple(float(c) for c in value) if usd_name == "diffuseColor" else float(value)
+        values[field] = (
+            tuple(float(c) for c in value) if usd_name == "diffuseColor" else float(value)
+        )
     try:
         return Material(**values)
     except ConfigError as exc:
@@ -229,14 +262,20 @@ def _triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
     faces, start = [], 0
     for c in counts:
         if c >= 3:
-            idx = indices[start:start + c]
+            idx = indices[start : start + c]
             faces.extend([idx[0], idx[k], idx[k + 1]] for k in range(1, c - 1))
         start += c
     return np.array(faces, dtype=np.int64).reshape(-1, 3)
 
 
-def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
-             up_axis: str | None = None, segments: int = 32, max_instances: int = MAX_INSTANCES) -> Scene:
+def read_usd(
+    path: str | os.PathLike,
+    *,
+    meters_per_unit: float | None = None,
+    up_axis: str | None = None,
+    segments: int = 32,
+    max_instances: int = MAX_INSTANCES,
+) -> Scene:
     """Read any USD stage into a Scene (world Z up, metres).
 
     ``meters_per_unit`` and ``up_axis`` ("y" or "z") override the stage's ``metersPerUnit``
@@ -248,7 +287,9 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     """
     path = expect_path(path, "read_usd: path")
     if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or segments < 3:
-        raise ConfigError(f"read_usd: segments must be an integer >= 3 (segments per circle), got {segments!r}")
+        raise ConfigError(
+            f"read_usd: segments must be an integer >= 3 (segments per circle), got {segments!r}"
+        )
     max_instances = whole_number(max_instances, "read_usd: max_instances", 1)
     if not path.is_file():
         raise ConfigError(f"{path}: no such USD file")
@@ -257,16 +298,28 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     except Tf.ErrorException as exc:
         m = re.search(r" : '([^\n]*)", str(exc))  # the first of USD's "Error in ... : 'why'"
         why = m.group(1).rstrip("'") if m else str(exc).strip()
-        raise ConfigError(f"{path}: USD could not open the stage ({why}); expected a USD layer") from None
+        raise ConfigError(
+            f"{path}: USD could not open the stage ({why}); expected a USD layer"
+        ) from None
     if stage is None:
         raise ConfigError(f"{path}: USD could not open the stage")
-    mpu = UsdGeom.GetStageMetersPerUnit(stage) if meters_per_unit is None else float(meters_per_unit)
+    mpu = (
+        UsdGeom.GetStageMetersPerUnit(stage) if meters_per_unit is None else float(meters_per_unit)
+    )
     if not (np.isfinite(mpu) and 0 < mpu <= 1e6):
-        raise ConfigError(f"{path}: metersPerUnit {mpu}: expected a number > 0 (1 = metres, 0.01 = centimetres)")
+        raise ConfigError(
+            f"{path}: metersPerUnit {mpu}: expected a number > 0 (1 = metres, 0.01 = centimetres)"
+        )
     up = UsdGeom.GetStageUpAxis(stage) if up_axis is None else str(up_axis).upper()
-    if up not in (UsdGeom.Tokens.y, UsdGeom.Tokens.z):   # USD knows these two; another is not read as Z
-        raise ConfigError(f"{path}: upAxis {up!r}: a USD stage is Y or Z up; fix the stage's upAxis (or read it with "
-                          "up_axis='y' or 'z')")
+    if up not in (
+        UsdGeom.Tokens.y,
+        UsdGeom.Tokens.z,
+    ):  # USD knows these two; another is not read as Z
+        raise ConfigError(
+            f"{path}: upAxis {up!r}: a USD stage is Y or Z up; fix the stage's upAxis (or read it "
+            "with "
+            "up_axis='y' or 'z')"
+        )
     fix = np.eye(4) * mpu
     fix[3, 3] = 1.0
     if up == UsdGeom.Tokens.y:  # Y up -> Z up: +90 deg about x
@@ -282,7 +335,9 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
         k = str(src.GetPath())
         if k not in keys and not mesh_prim.IsA(UsdGeom.Mesh):
             kind, params = _gprim(mesh_prim)
-            keys[k] = scene.add_mesh(tessellate(kind, int(segments), **params), name=_ident(src.GetName(), "mesh"))
+            keys[k] = scene.add_mesh(
+                tessellate(kind, int(segments), **params), name=_ident(src.GetName(), "mesh")
+            )
         if k not in keys:
             m = UsdGeom.Mesh(mesh_prim)
             pts = m.GetPointsAttr().Get()
@@ -293,12 +348,23 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             if not np.all(np.isfinite(v)):
                 raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()} has NaN or Inf points")
             if np.abs(v).max(initial=0.0) * mpu > MAX_COORD_M:
-                raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()}: a point {np.abs(v).max():.3g} units from its "
-                                  f"origin, beyond {MAX_COORD_M:g} m (absurd coordinates; check the stage's units)")
+                raise ConfigError(
+                    f"{path}: mesh {mesh_prim.GetPath()}: a point {np.abs(v).max():.3g} units from "
+                    "its "
+                    f"origin, beyond {MAX_COORD_M:g} m (absurd coordinates; check the stage's "
+                    "units)"
+                )
             counts, idx = np.asarray(counts, np.int64), np.asarray(idx, np.int64)
-            if (counts < 0).any() or counts.sum() != len(idx) or (len(idx) and (idx.min() < 0 or idx.max() >= len(v))):
-                raise ConfigError(f"{path}: mesh {mesh_prim.GetPath()}: faceVertexCounts (sum {int(counts.sum())}) and "
-                                  f"faceVertexIndices ({len(idx)} indices into {len(v)} points) do not agree")
+            if (
+                (counts < 0).any()
+                or counts.sum() != len(idx)
+                or (len(idx) and (idx.min() < 0 or idx.max() >= len(v)))
+            ):
+                raise ConfigError(
+                    f"{path}: mesh {mesh_prim.GetPath()}: faceVertexCounts (sum {int(counts.sum())}"
+                    ") and "
+                    f"faceVertexIndices ({len(idx)} indices into {len(v)} points) do not agree"
+                )
             faces = _triangulate(counts, idx)
             keys[k] = scene.add_mesh(Mesh(v, faces), name=_ident(src.GetName(), "mesh"))
         return keys[k]
@@ -306,7 +372,9 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
     authored: dict[int, str] = {}  # genie:instanceId -> the prim that authored it
     missing = [0]
 
-    looks: dict[str, tuple] = {}   # a point instancer's prototype prim -> (labels, material), read once
+    looks: dict[
+        str, tuple
+    ] = {}  # a point instancer's prototype prim -> (labels, material), read once
 
     def place(key: str, world: np.ndarray, prim: Usd.Prim, name: str, shared: bool = False) -> None:
         if shared:
@@ -323,8 +391,11 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             if prim.IsInstanceProxy():
                 where = str(owner.GetPrimInPrototype().GetPath()) if owner else where
             if authored.setdefault(inst, where) != where and not prim.IsInstanceProxy():
-                raise ConfigError(f"{path}: genie:instanceId {inst} is authored on both {authored[inst]} and {where}; "
-                                  "expected one id per object")
+                raise ConfigError(
+                    f"{path}: genie:instanceId {inst} is authored on both {authored[inst]} and "
+                    f"{where}; "
+                    "expected one id per object"
+                )
         if inst is None or inst in taken:
             while next_id[0] in taken:
                 next_id[0] += 1
@@ -333,8 +404,16 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             material = _material(prim)
         # a prim with a zero or singular scale (a common way to hide one) is dropped and
         # counted in Scene.report(), named by its path
-        if scene.add(key, fix @ world, semantic=sem or 0, instance=inst, name=name,
-                     degenerate="drop", where=str(prim.GetPath()), material=material):
+        if scene.add(
+            key,
+            fix @ world,
+            semantic=sem or 0,
+            instance=inst,
+            name=name,
+            degenerate="drop",
+            where=str(prim.GetPath()),
+            material=material,
+        ):
             taken.add(inst)
             missing[0] += material is None
 
@@ -350,37 +429,60 @@ def read_usd(path: str | os.PathLike, *, meters_per_unit: float | None = None,
             key = mesh_key(prim)
             if key is not None:
                 world = np.array(cache.GetLocalToWorldTransform(prim)).T
-                place(key, world, prim, prim.GetParent().GetName() if prim.IsInstanceProxy() else prim.GetName())
+                place(
+                    key,
+                    world,
+                    prim,
+                    prim.GetParent().GetName() if prim.IsInstanceProxy() else prim.GetName(),
+                )
         elif prim.IsA(UsdGeom.PointInstancer):
             pi = UsdGeom.PointInstancer(prim)
             ids = np.asarray(pi.GetProtoIndicesAttr().Get() or [], np.int64)
             targets = pi.GetPrototypesRel().GetTargets()
             if len(ids) and (ids.min() < 0 or ids.max() >= len(targets)):
-                raise ConfigError(f"{path}: point instancer {prim.GetPath()}: protoIndices up to {int(ids.max())} for "
-                                  f"{len(targets)} prototypes")
+                raise ConfigError(
+                    f"{path}: point instancer {prim.GetPath()}: protoIndices up to {int(ids.max())}"
+                    " for "
+                    f"{len(targets)} prototypes"
+                )
             # every prototype's meshes relative to its root, once (not once per instance)
             parts = []
             for t in targets:
                 proto = stage.GetPrimAtPath(t)
                 inv = np.linalg.inv(np.array(cache.GetLocalToWorldTransform(proto)).T)
-                parts.append([(sub, inv @ np.array(cache.GetLocalToWorldTransform(sub)).T)
-                              for sub in Usd.PrimRange(proto) if is_geometry(sub)])
+                parts.append(
+                    [
+                        (sub, inv @ np.array(cache.GetLocalToWorldTransform(sub)).T)
+                        for sub in Usd.PrimRange(proto)
+                        if is_geometry(sub)
+                    ]
+                )
             count = int(sum(len(parts[k]) for k in ids)) if len(ids) else 0
-            check_instances(len(scene.instances) + count, max_instances, f"{path}: point instancer {prim.GetPath()}")
+            check_instances(
+                len(scene.instances) + count,
+                max_instances,
+                f"{path}: point instancer {prim.GetPath()}",
+            )
             xf = pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default())
             base = np.array(cache.GetLocalToWorldTransform(prim)).T
             for j, (pidx, m) in enumerate(zip(ids.tolist(), xf)):
                 world = base @ np.array(m).T
                 for sub, rel in parts[pidx]:
                     key = mesh_key(sub)
-                    if key is not None:   # mesh relative to its prototype root, then the instance, then the instancer
+                    if (
+                        key is not None
+                    ):  # mesh relative to its prototype root, then the instance, then the instancer
                         place(key, world @ rel, sub, f"{prim.GetName()}_{j}", shared=True)
     if not scene.instances:
         raise ConfigError(f"{path}: the stage holds no mesh")
     scene.metadata["prims_without_material"] = missing[0]
     if missing[0]:
-        log.info("%s: %d of %d prims have no UsdPreviewSurface material (read as the default)",
-                 path, missing[0], len(scene.instances))
+        log.info(
+            "%s: %d of %d prims have no UsdPreviewSurface material (read as the default)",
+            path,
+            missing[0],
+            len(scene.instances),
+        )
     return scene
 
 

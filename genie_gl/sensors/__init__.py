@@ -2,6 +2,7 @@
 effect list (:class:`Sensor`), OpenCV/ROS/Kalibr calibration I/O, and camera poses. Effects,
 lens, motion and placement are packages of their own (``genie_gl.effects``, ``.lens``,
 ``.motion``, ``.placement``)."""
+
 from .calibration import Calibration, read_calibration, write_calibration
 from .camera import Sensor
 

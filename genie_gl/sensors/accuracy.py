@@ -17,6 +17,7 @@ second-view scale, each asset's segment count, the multipath model's neighbourho
 The settings are part of a sensor profile (``Sensor.accuracy``), so they live in the sensors
 stage; the capture stage applies them (:mod:`genie_gl.capture.settings`).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -34,13 +35,24 @@ from ..outputs import atomic_write_text, check_replaceable
 RESAMPLE = ("nearest", "bilinear", "plane", "exact")
 SHADOW = ("scanline", "render")
 DEPTH_PRECISION = ("float32", "depth24", "reversed_z")
-RASTER = ("cpu", "gl")   # the rasterisers (genie_gl.render.rasters; sensors cannot import render)
+RASTER = ("cpu", "gl")  # the rasterisers (genie_gl.render.rasters; sensors cannot import render)
 SUPERSAMPLE = (1, 2, 4)
 
 
 #: the fields of a sensor profile (``profile.py`` reads them; an accuracy file may be a profile)
-PROFILE_KEYS = ("name", "calibration", "camera", "effects", "near_m", "far_m", "accuracy", "baseline_m",
-                "description", "source")
+PROFILE_KEYS = (
+    "name",
+    "calibration",
+    "camera",
+    "effects",
+    "near_m",
+    "far_m",
+    "accuracy",
+    "baseline_m",
+    "description",
+    "source",
+)
+
 
 @dataclass(frozen=True)
 class AccuracySettings:
@@ -104,7 +116,11 @@ class AccuracySettings:
     def changed(self) -> dict[str, Any]:
         """Only the fields that differ from the defaults."""
         base = AccuracySettings()
-        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) != getattr(base, f.name)}
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if getattr(self, f.name) != getattr(base, f.name)
+        }
 
     def label(self) -> str:
         """A short name: ``default`` or ``supersample=2, resample=nearest``."""
@@ -114,20 +130,34 @@ class AccuracySettings:
 
 def check(s: AccuracySettings, where: str) -> None:
     """Raise ConfigError naming ``where`` and the field when a value is out of range."""
-    def bad(name: str, expected: str) -> ConfigError:
-        return ConfigError(f"{where}: accuracy.{name}: expected {expected}, got {getattr(s, name)!r}")
 
-    if not isinstance(s.supersample, int) or isinstance(s.supersample, bool) or s.supersample not in SUPERSAMPLE:
+    def bad(name: str, expected: str) -> ConfigError:
+        return ConfigError(
+            f"{where}: accuracy.{name}: expected {expected}, got {getattr(s, name)!r}"
+        )
+
+    if (
+        not isinstance(s.supersample, int)
+        or isinstance(s.supersample, bool)
+        or s.supersample not in SUPERSAMPLE
+    ):
         raise bad("supersample", "1, 2 or 4")
     if s.resample not in RESAMPLE:
         raise bad("resample", " | ".join(RESAMPLE) + did_you_mean(s.resample, RESAMPLE))
     if s.depth_precision == "exact":
-        raise ConfigError(f"{where}: accuracy.depth_precision: 'exact' is the CPU rasteriser: write raster: cpu "
-                          "(depth_precision names the GL raster's depth buffers: " + " | ".join(DEPTH_PRECISION) + ")")
+        raise ConfigError(
+            f"{where}: accuracy.depth_precision: 'exact' is the CPU rasteriser: write raster: cpu "
+            "(depth_precision names the GL raster's depth buffers: "
+            + " | ".join(DEPTH_PRECISION)
+            + ")"
+        )
     if s.raster is not None and s.raster not in RASTER:
         raise bad("raster", " | ".join(RASTER) + " or null" + did_you_mean(str(s.raster), RASTER))
     if s.depth_precision not in DEPTH_PRECISION:
-        raise bad("depth_precision", " | ".join(DEPTH_PRECISION) + did_you_mean(s.depth_precision, DEPTH_PRECISION))
+        raise bad(
+            "depth_precision",
+            " | ".join(DEPTH_PRECISION) + did_you_mean(s.depth_precision, DEPTH_PRECISION),
+        )
     if s.oversample is not None and not (_number(s.oversample) and 0.25 <= s.oversample <= 8):
         raise bad("oversample", "a number in [0.25, 8] or null")
     if s.shadow_scale is not None and not (_number(s.shadow_scale) and 0 < s.shadow_scale <= 4):
@@ -151,16 +181,22 @@ def from_dict(data: Any, where: str) -> AccuracySettings:
     if data is None:
         return AccuracySettings()
     if not isinstance(data, dict):
-        raise ConfigError(f"{where}: accuracy: expected a mapping of settings, got {type(data).__name__}")
+        raise ConfigError(
+            f"{where}: accuracy: expected a mapping of settings, got {type(data).__name__}"
+        )
     names = [f.name for f in fields(AccuracySettings)]
     for key in data:
         if key not in names:
-            raise ConfigError(f"{where}: accuracy.{key}: unknown setting{did_you_mean(key, names)}; "
-                              f"expected some of {', '.join(names)}")
+            raise ConfigError(
+                f"{where}: accuracy.{key}: unknown setting{did_you_mean(key, names)}; "
+                f"expected some of {', '.join(names)}"
+            )
     try:
         return AccuracySettings(**data)
     except ConfigError as exc:
-        raise ConfigError(str(exc).replace("accuracy: accuracy.", f"{where}: accuracy.", 1)) from None
+        raise ConfigError(
+            str(exc).replace("accuracy: accuracy.", f"{where}: accuracy.", 1)
+        ) from None
 
 
 def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
@@ -168,31 +204,40 @@ def load_accuracy(path: str | os.PathLike) -> AccuracySettings:
     ``genie bench accuracy --budget-mm`` wrote), or the bare mapping."""
     p = expect_path(path, "accuracy")
     try:
-        data = yaml.safe_load(p.read_text())   # JSON is YAML
+        data = yaml.safe_load(p.read_text())  # JSON is YAML
     except OSError as exc:
         raise ConfigError(f"{p}: cannot read accuracy settings ({exc.strerror})") from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"{p}: not valid YAML or JSON ({str(exc).splitlines()[0]})") from None
     if isinstance(data, dict) and "accuracy" in data:
-        for key in data:   # a profile's other fields may stand beside the block
+        for key in data:  # a profile's other fields may stand beside the block
             if key not in PROFILE_KEYS:
-                raise ConfigError(f"{p}: {key}: not a field of an accuracy file or sensor profile"
-                                  f"{did_you_mean(str(key), PROFILE_KEYS)} (expected an accuracy: block)")
+                raise ConfigError(
+                    f"{p}: {key}: not a field of an accuracy file or sensor profile"
+                    f"{did_you_mean(str(key), PROFILE_KEYS)} (expected an accuracy: block)"
+                )
         data = data["accuracy"]
     elif isinstance(data, dict):
         names = [f.name for f in fields(AccuracySettings)]
         for key in data:
             if key not in names:
-                raise ConfigError(f"{p}: {key}: unknown{did_you_mean(str(key), [*names, 'accuracy'])}; expected an "
-                                  f"accuracy: block, or its settings ({', '.join(names)})")
+                raise ConfigError(
+                    f"{p}: {key}: unknown{did_you_mean(str(key), [*names, 'accuracy'])}; expected "
+                    "an "
+                    f"accuracy: block, or its settings ({', '.join(names)})"
+                )
     return from_dict(data, str(p))
 
 
-def write_accuracy(path: str | os.PathLike, settings: AccuracySettings, *, comment: str = "") -> Path:
+def write_accuracy(
+    path: str | os.PathLike, settings: AccuracySettings, *, comment: str = ""
+) -> Path:
     """Write ``settings`` as a YAML file with an ``accuracy:`` block (write, then rename)."""
     p = check_replaceable(path, _written_by_genie, what="accuracy settings")
     head = "".join(f"# {line}\n" for line in [*comment.splitlines(), STAMP])
-    return atomic_write_text(p, head + yaml.safe_dump({"accuracy": settings.to_dict()}, sort_keys=False))
+    return atomic_write_text(
+        p, head + yaml.safe_dump({"accuracy": settings.to_dict()}, sort_keys=False)
+    )
 
 
 STAMP = "written by genie-gl"

@@ -10,6 +10,7 @@ channel at its own time within the firing), so a
 scan written in the scanner's frame is skewed as a real driver's is, and each point's time
 lets a deskewer undo it.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -19,7 +20,7 @@ import numpy as np
 
 from .scanner import Scanner
 
-PoseAt = Callable[[np.ndarray], np.ndarray]   # (n,) times (s) -> (n, 4, 4) world_from_scanner
+PoseAt = Callable[[np.ndarray], np.ndarray]  # (n,) times (s) -> (n, 4, 4) world_from_scanner
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,8 +75,14 @@ def firing_times(scanner: Scanner, start_s: float, clock_start_s: float = 0.0) -
     return clock_start_s + np.arange(j0, j1, dtype=np.float64) * period
 
 
-def scan_beams(scanner: Scanner, pose_at: PoseAt | np.ndarray, start_s: float, *, index: int = 0,
-               clock_start_s: float = 0.0) -> Beams:
+def scan_beams(
+    scanner: Scanner,
+    pose_at: PoseAt | np.ndarray,
+    start_s: float,
+    *,
+    index: int = 0,
+    clock_start_s: float = 0.0,
+) -> Beams:
     """The beams of the scan starting at ``start_s`` (s, recording clock); ``pose_at`` is a
     fixed (4, 4) world_from_scanner or a function of time giving one per firing."""
     t_fire = firing_times(scanner, start_s, clock_start_s)
@@ -84,15 +91,20 @@ def scan_beams(scanner: Scanner, pose_at: PoseAt | np.ndarray, start_s: float, *
         poses = np.asarray(pose_at(t_fire), np.float64)
     else:
         poses = np.broadcast_to(np.asarray(pose_at, np.float64), (F, 4, 4)).copy()
-    t = t_fire[:, None] + scanner.channel_time_s[None, :]                      # (F, C) absolute
-    head = scanner.start_azimuth_rad - scanner.spin * 2 * np.pi * scanner.rate_hz * (t - clock_start_s)
+    t = t_fire[:, None] + scanner.channel_time_s[None, :]  # (F, C) absolute
+    head = scanner.start_azimuth_rad - scanner.spin * 2 * np.pi * scanner.rate_hz * (
+        t - clock_start_s
+    )
     az = head - scanner.azimuth_offset_rad[None, :]
     el = np.broadcast_to(scanner.elevation_rad[None, :], (F, C))
     ce = np.cos(el)
     d = np.stack([ce * np.cos(az), ce * np.sin(az), np.sin(el)], -1).reshape(-1, 3)
     o = np.zeros((F * C, 3))
     if scanner.beam_origin_m:
-        o[:, 0], o[:, 1] = (scanner.beam_origin_m * np.cos(head)).ravel(), (scanner.beam_origin_m * np.sin(head)).ravel()
+        o[:, 0], o[:, 1] = (
+            (scanner.beam_origin_m * np.cos(head)).ravel(),
+            (scanner.beam_origin_m * np.sin(head)).ravel(),
+        )
     firing = np.repeat(np.arange(F), C)
     if callable(pose_at) and np.any(scanner.channel_time_s):
         # each beam from the pose at its own time (a Velodyne's lasers fire 2.304 us apart), so a
@@ -105,11 +117,26 @@ def scan_beams(scanner: Scanner, pose_at: PoseAt | np.ndarray, start_s: float, *
     world_d /= np.linalg.norm(world_d, axis=1, keepdims=True)
     world_o = np.einsum("bij,bj->bi", R, o) + T
     wrapped = np.angle(np.exp(1j * az)).ravel()
-    return Beams(world_o, world_d, o, d, np.tile(np.arange(C, dtype=np.uint16), F), np.tile(scanner.ring, F),
-                 firing.astype(np.uint32), firing, (t - start_s).ravel(), wrapped, poses, float(start_s), int(index))
+    return Beams(
+        world_o,
+        world_d,
+        o,
+        d,
+        np.tile(np.arange(C, dtype=np.uint16), F),
+        np.tile(scanner.ring, F),
+        firing.astype(np.uint32),
+        firing,
+        (t - start_s).ravel(),
+        wrapped,
+        poses,
+        float(start_s),
+        int(index),
+    )
 
 
-def scan_starts(scanner: Scanner, start_s: float, end_s: float, offset_s: float = 0.0) -> np.ndarray:
+def scan_starts(
+    scanner: Scanner, start_s: float, end_s: float, offset_s: float = 0.0
+) -> np.ndarray:
     """(n,) float64 start times of the whole scans within [start_s, end_s] (s)."""
     T = scanner.scan_period_s
     n = int(np.floor((end_s - start_s - offset_s) / T + 1e-9))

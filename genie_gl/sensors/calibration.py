@@ -12,6 +12,7 @@ the image size, with a malformed or non-finite matrix, a focal length not above 
 0, or a lens model genie-gl does not know is refused with one line naming the file and the
 field, never read as another model.
 """
+
 from __future__ import annotations
 
 import os
@@ -31,7 +32,14 @@ from . import calibration_keys as keys
 from .calibration_keys import Fields, is_matrix, is_number, lens_model, matrix
 from .kalibr import is_camchain, read_camchain
 
-__all__ = ["Calibration", "camera_index", "is_calibration", "lens_model", "read_calibration", "write_calibration"]
+__all__ = [
+    "Calibration",
+    "camera_index",
+    "is_calibration",
+    "lens_model",
+    "read_calibration",
+    "write_calibration",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,10 +71,13 @@ def camera_index(camera: Any, where: str) -> int | None:
     if isinstance(camera, (int, np.integer)) and not isinstance(camera, bool) and camera >= 0:
         return int(camera)
     for prefix in ("cam", "camera", ""):
-        rest = text[len(prefix):] if text.startswith(prefix) else None
+        rest = text[len(prefix) :] if text.startswith(prefix) else None
         if rest is not None and rest.isdigit():
             return int(rest)
-    raise ConfigError(f"{where}: camera {camera!r}: expected a camera's index (0, 1, ...) or name (cam0, cam1, ...)")
+    raise ConfigError(
+        f"{where}: camera {camera!r}: expected a camera's index (0, 1, ...) or name (cam0, cam1, "
+        "...)"
+    )
 
 
 def is_calibration(data: Any) -> bool:
@@ -77,8 +88,10 @@ def is_calibration(data: Any) -> bool:
     if is_camchain(data):
         return True
     f = Fields(data, "")
-    return any(f.find(names)[0] is not None for names in
-               (keys.K_NAMES, tuple(n + "1" for n in keys.STEREO_K), keys.FX))
+    return any(
+        f.find(names)[0] is not None
+        for names in (keys.K_NAMES, tuple(n + "1" for n in keys.STEREO_K), keys.FX)
+    )
 
 
 def _read_data(path: Path) -> dict:
@@ -91,7 +104,9 @@ def _read_data(path: Path) -> dict:
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
     if not isinstance(data, dict):
-        raise ConfigError(f"{path}: expected a mapping of calibration fields, got {type(data).__name__}")
+        raise ConfigError(
+            f"{path}: expected a mapping of calibration fields, got {type(data).__name__}"
+        )
     return data
 
 
@@ -117,13 +132,16 @@ def read_calibration(path: str | os.PathLike, *, camera: int | str | None = None
 
 
 def _find_k(f: Fields, path: Path, index: int) -> tuple[str, np.ndarray]:
-    names = keys.K_NAMES + tuple(n + "1" for n in keys.STEREO_K) if index == 0 else \
-        tuple(f"{n}{index + 1}" for n in keys.STEREO_K)
+    names = (
+        keys.K_NAMES + tuple(n + "1" for n in keys.STEREO_K)
+        if index == 0
+        else tuple(f"{n}{index + 1}" for n in keys.STEREO_K)
+    )
     k_key, K = f.find(names, is_matrix(0))
     if K is not None and np.size(K if not isinstance(K, dict) else K.get("data", ())) == 4:
-        fx, fy, cx, cy = matrix(K, f"{path}: {k_key}", (4,))   # [fu, fv, pu, pv]
+        fx, fy, cx, cy = matrix(K, f"{path}: {k_key}", (4,))  # [fu, fv, pu, pv]
         K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]
-    if K is None and index == 0:   # K as numbers (vendors' tools)
+    if K is None and index == 0:  # K as numbers (vendors' tools)
         parts = [f.find(n, is_number) for n in (keys.FX, keys.FY, keys.CX, keys.CY)]
         if all(k is not None for k, _ in parts):
             k_key = "/".join(k for k, _ in parts)
@@ -131,35 +149,52 @@ def _find_k(f: Fields, path: Path, index: int) -> tuple[str, np.ndarray]:
             K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]
     if K is None:
         if index > 0:
-            raise ConfigError(f"{path}: camera {index}: no camera matrix for it (M{index + 1}, K{index + 1} or "
-                              f"cameraMatrix{index + 1}; the file's first camera is camera 0)")
-        raise ConfigError(f"{path}: missing field camera_matrix (K): no camera matrix under any of the names "
-                          f"calibration programs use (camera_matrix, Camera_Matrix, cameraMatrix, K, M1, intrinsics; "
-                          f"or fx, fy, cx, cy){f.near(keys.K_NAMES)}")
+            raise ConfigError(
+                f"{path}: camera {index}: no camera matrix for it (M{index + 1}, K{index + 1} or "
+                f"cameraMatrix{index + 1}; the file's first camera is camera 0)"
+            )
+        raise ConfigError(
+            f"{path}: missing field camera_matrix (K): no camera matrix under any of the names "
+            "calibration programs use (camera_matrix, Camera_Matrix, cameraMatrix, K, M1, "
+            "intrinsics; "
+            f"or fx, fy, cx, cy){f.near(keys.K_NAMES)}"
+        )
     K = matrix(K, f"{path}: {k_key}", (3, 3))
     if not K[0, 0] > 0 or not K[1, 1] > 0:
-        raise ConfigError(f"{path}: {k_key}: fx and fy must be > 0, got {K[0, 0]:g} and {K[1, 1]:g}")
+        raise ConfigError(
+            f"{path}: {k_key}: fx and fy must be > 0, got {K[0, 0]:g} and {K[1, 1]:g}"
+        )
     if not np.array_equal(K[2], [0, 0, 1]) or K[1, 0] != 0:
-        raise ConfigError(f"{path}: {k_key}: not a camera matrix (expected [[fx, s, cx], [0, fy, cy], [0, 0, 1]], "
-                          f"got rows {K[1].tolist()} and {K[2].tolist()})")
+        raise ConfigError(
+            f"{path}: {k_key}: not a camera matrix (expected [[fx, s, cx], [0, fy, cy], [0, 0, "
+            "1]], "
+            f"got rows {K[1].tolist()} and {K[2].tolist()})"
+        )
     return k_key, K
 
 
 def _find_dist(f: Fields, path: Path, index: int) -> tuple[str | None, np.ndarray]:
-    names = keys.D_NAMES + tuple(n + "1" for n in keys.STEREO_D) if index == 0 else \
-        tuple(f"{n}{index + 1}" for n in keys.STEREO_D)
+    names = (
+        keys.D_NAMES + tuple(n + "1" for n in keys.STEREO_D)
+        if index == 0
+        else tuple(f"{n}{index + 1}" for n in keys.STEREO_D)
+    )
     d_key, D = f.find(names, is_matrix(0))
     if D is not None:
         return d_key, matrix(D, f"{path}: {d_key}").ravel()
     found = [f.find((n,), is_number) for n in keys.D_SCALARS] if index == 0 else []
-    if any(k is not None for k, _ in found):   # k1 k2 p1 p2 [k3 ...]: up to the last one given
+    if any(k is not None for k, _ in found):  # k1 k2 p1 p2 [k3 ...]: up to the last one given
         last = max(i for i, (k, _) in enumerate(found) if k is not None)
         n = next(c for c in MODELS["pinhole"] if c > last)
-        values = [0.0 if v is None else float(v) for _, v in found[:last + 1]] + [0.0] * (n - last - 1)
+        values = [0.0 if v is None else float(v) for _, v in found[: last + 1]] + [0.0] * (
+            n - last - 1
+        )
         return "k1/k2/p1/p2", matrix(values, f"{path}: k1/k2/p1/p2")
     near = f.near(keys.D_NAMES)
     if near:
-        keys.logger.warning("%s: no distortion coefficients read, so none are applied%s", path, near)
+        keys.logger.warning(
+            "%s: no distortion coefficients read, so none are applied%s", path, near
+        )
     return None, np.zeros(0)
 
 
@@ -169,18 +204,25 @@ def _find_size(f: Fields, path: Path) -> tuple[int, int]:
     if W is None or H is None:
         s_key, size = f.find(keys.SIZE_NAMES, is_matrix(2))
         if size is None:
-            raise ConfigError(f"{path}: missing field image_width/image_height (the image size; also read as "
-                              f"image_Width/image_Height, imageSize or resolution [width, height])"
-                              f"{f.near(keys.W_NAMES + keys.H_NAMES + keys.SIZE_NAMES)}")
+            raise ConfigError(
+                f"{path}: missing field image_width/image_height (the image size; also read as "
+                f"image_Width/image_Height, imageSize or resolution [width, height])"
+                f"{f.near(keys.W_NAMES + keys.H_NAMES + keys.SIZE_NAMES)}"
+            )
         w_key = h_key = s_key
         W, H = (v.item() if isinstance(v, np.generic) else v for v in np.asarray(size).ravel())
-    return (whole_number(W, f"{path}: {w_key}", 1, 1_000_000), whole_number(H, f"{path}: {h_key}", 1, 1_000_000))
+    return (
+        whole_number(W, f"{path}: {w_key}", 1, 1_000_000),
+        whole_number(H, f"{path}: {h_key}", 1, 1_000_000),
+    )
 
 
 def _find_model(f: Fields, path: Path, d_key: str | None, dist: np.ndarray) -> str:
     m_key, name = f.find(keys.MODEL_NAMES, lambda v: isinstance(v, str) and v.strip() != "")
-    if name is None:   # Kalibr-like files say camera_model; OpenCV's tutorial says fisheye_model: 1
-        m_key, name = f.find(("cameramodel",), lambda v: isinstance(v, str) and v.strip().lower() in keys.LENS_NAMES)
+    if name is None:  # Kalibr-like files say camera_model; OpenCV's tutorial says fisheye_model: 1
+        m_key, name = f.find(
+            ("cameramodel",), lambda v: isinstance(v, str) and v.strip().lower() in keys.LENS_NAMES
+        )
     if name is None:
         fe_key, fisheye = f.find(keys.FISHEYE_NAMES, lambda v: is_number(v) or isinstance(v, bool))
         if fisheye:
@@ -188,7 +230,9 @@ def _find_model(f: Fields, path: Path, d_key: str | None, dist: np.ndarray) -> s
     if name is not None:
         return lens_model(name, len(dist), f"{path}: {m_key}")
     if len(dist) not in MODELS["pinhole"]:
-        raise ConfigError(f"{path}: {d_key}: expected 4, 5, 8, 12 or 14 coefficients, got {len(dist)}")
+        raise ConfigError(
+            f"{path}: {d_key}: expected 4, 5, 8, 12 or 14 coefficients, got {len(dist)}"
+        )
     return "pinhole"
 
 
@@ -227,7 +271,9 @@ def write_calibration(calib: Calibration, path: str | os.PathLike) -> Path:
     """Write OpenCV FileStorage YAML (.yml/.yaml) or XML (.xml) with OpenCV's key names. An
     existing file is replaced only when genie-gl wrote it (a comment says so)."""
     expect(calib, Calibration, "write_calibration: calib")
-    path = check_replaceable(expect_path(path, "write_calibration: path"), _written_by_genie, what="calibration")
+    path = check_replaceable(
+        expect_path(path, "write_calibration: path"), _written_by_genie, what="calibration"
+    )
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     fs = cv2.FileStorage(str(tmp), cv2.FILE_STORAGE_WRITE)
     fs.writeComment(STAMP)

@@ -10,6 +10,7 @@ ROS ``camera_info`` (``camera_matrix: {rows, cols, data}``), vendors' tools (``f
 and ``-`` ignored (:func:`norm`), and every other key is left unread (listed once at debug
 level). A needed field that is absent or malformed is refused by name.
 """
+
 from __future__ import annotations
 
 import difflib
@@ -33,31 +34,69 @@ def norm(key: Any) -> str:
 
 
 # the names of each field, as :func:`norm` writes them, in the order they are looked for
-K_NAMES = ("cameramatrix", "k", "intrinsicmatrix", "cameraintrinsics", "intrinsics", "intrinsic", "mtx", "m")
-D_NAMES = ("distortioncoefficients", "distortioncoeffs", "distcoeffs", "distcoeff", "distortion", "dist", "d",
-           "coeffs", "distortioncoefficents")   # the last as some camera_info files spell it
-# the cameras of a stereo file: OpenCV's stereo programs number them 1 and 2 (M1, D1, cameraMatrix2 ...)
+K_NAMES = (
+    "cameramatrix",
+    "k",
+    "intrinsicmatrix",
+    "cameraintrinsics",
+    "intrinsics",
+    "intrinsic",
+    "mtx",
+    "m",
+)
+D_NAMES = (
+    "distortioncoefficients",
+    "distortioncoeffs",
+    "distcoeffs",
+    "distcoeff",
+    "distortion",
+    "dist",
+    "d",
+    "coeffs",
+    "distortioncoefficents",
+)  # the last as some camera_info files spell it
+# the cameras of a stereo file: OpenCV's stereo programs number them 1 and 2 (M1, D1, cameraMatrix2
+# ...)
 STEREO_K = ("m", "k", "cameramatrix", "intrinsicmatrix")
 STEREO_D = ("d", "distcoeffs", "distortioncoefficients", "distortion")
 W_NAMES = ("imagewidth", "width", "imgwidth")
 H_NAMES = ("imageheight", "height", "imgheight")
-SIZE_NAMES = ("imagesize", "resolution", "imgsize", "size")   # [width, height]
-ERR_NAMES = ("avgreprojectionerror", "reprojectionerror", "meanreprojectionerror", "rms", "rmserror",
-             "reprojerror")
+SIZE_NAMES = ("imagesize", "resolution", "imgsize", "size")  # [width, height]
+ERR_NAMES = (
+    "avgreprojectionerror",
+    "reprojectionerror",
+    "meanreprojectionerror",
+    "rms",
+    "rmserror",
+    "reprojerror",
+)
 MODEL_NAMES = ("distortionmodel", "lensmodel", "distortiontype")
-FISHEYE_NAMES = ("fisheyemodel", "usefisheye", "isfisheye", "fisheye")   # OpenCV's tutorial: fisheye_model 0/1
+FISHEYE_NAMES = (
+    "fisheyemodel",
+    "usefisheye",
+    "isfisheye",
+    "fisheye",
+)  # OpenCV's tutorial: fisheye_model 0/1
 # a K given as numbers, as vendors' tools write it
 FX, FY = ("fx", "fu", "focallengthx"), ("fy", "fv", "focallengthy")
 CX, CY = ("cx", "ppx", "u0", "pu", "principalpointx"), ("cy", "ppy", "v0", "pv", "principalpointy")
-D_SCALARS = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")   # OpenCV's order
+D_SCALARS = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")  # OpenCV's order
 
 # lens model names as ROS, OpenCV programs and Kalibr write them -> (genie-gl model, counts)
 LENS_NAMES: dict[str, tuple[str, tuple[int, ...]]] = {
-    "plumb_bob": ("pinhole", (4, 5)), "radtan": ("pinhole", (4, 5)), "radial-tangential": ("pinhole", (4, 5)),
-    "rational_polynomial": ("pinhole", (8, 12, 14)), "opencv": ("pinhole", MODELS["pinhole"]),
-    "pinhole": ("pinhole", MODELS["pinhole"]), "none": ("pinhole", (0,)),
-    "equidistant": ("fisheye", (4,)), "fisheye": ("fisheye", (4,)), "kannala_brandt": ("fisheye", (4,)),
-    "kannala-brandt": ("fisheye", (4,)), "omni": ("omni", (5,)), "mei": ("omni", (5,)),
+    "plumb_bob": ("pinhole", (4, 5)),
+    "radtan": ("pinhole", (4, 5)),
+    "radial-tangential": ("pinhole", (4, 5)),
+    "rational_polynomial": ("pinhole", (8, 12, 14)),
+    "opencv": ("pinhole", MODELS["pinhole"]),
+    "pinhole": ("pinhole", MODELS["pinhole"]),
+    "none": ("pinhole", (0,)),
+    "equidistant": ("fisheye", (4,)),
+    "fisheye": ("fisheye", (4,)),
+    "kannala_brandt": ("fisheye", (4,)),
+    "kannala-brandt": ("fisheye", (4,)),
+    "omni": ("omni", (5,)),
+    "mei": ("omni", (5,)),
 }
 
 
@@ -66,10 +105,15 @@ def lens_model(name: Any, n: int, where: str) -> str:
     name, or a count the model does not have, is refused by name."""
     key = str(name).strip().lower()
     if key not in LENS_NAMES:
-        raise ConfigError(f"{where}: unknown lens model {name!r}; genie-gl reads {', '.join(sorted(LENS_NAMES))}")
+        raise ConfigError(
+            f"{where}: unknown lens model {name!r}; genie-gl reads {', '.join(sorted(LENS_NAMES))}"
+        )
     model, counts = LENS_NAMES[key]
     if n not in counts and not (n == 0 and key != "none"):
-        raise ConfigError(f"{where}: lens model {name!r} takes {' or '.join(map(str, counts))} coefficients, got {n}")
+        raise ConfigError(
+            f"{where}: lens model {name!r} takes {' or '.join(map(str, counts))} coefficients, got "
+            f"{n}"
+        )
     return model
 
 
@@ -102,7 +146,7 @@ def _node(node: Any) -> Any:
     if node.isMap():
         try:
             m = node.mat()
-        except cv2.error:   # a map that is not an opencv-matrix
+        except cv2.error:  # a map that is not an opencv-matrix
             m = None
         return m if m is not None else {k: _node(node.getNode(k)) for k in node.keys()}
     if node.isSeq():
@@ -121,7 +165,9 @@ def read_filestorage(path: Any) -> dict:
     try:
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except cv2.error as exc:
-        raise ConfigError(f"{path}: OpenCV cannot read this file ({str(exc).strip().splitlines()[-1][:120]})") from None
+        raise ConfigError(
+            f"{path}: OpenCV cannot read this file ({str(exc).strip().splitlines()[-1][:120]})"
+        ) from None
     if not fs.isOpened():
         raise ConfigError(f"{path}: OpenCV cannot read this file")
     try:
@@ -147,7 +193,11 @@ class Fields:
         accepts); (None, None) when there is none."""
         for n in names:
             key = self.keys.get(n)
-            if key is not None and self.data[key] is not None and (accept is None or accept(self.data[key])):
+            if (
+                key is not None
+                and self.data[key] is not None
+                and (accept is None or accept(self.data[key]))
+            ):
                 self.read.add(key)
                 return key, self.data[key]
         return None, None
@@ -167,12 +217,15 @@ class Fields:
     def log_unread(self) -> None:
         left = self.unread()
         if left:
-            logger.debug("%s: fields not read (genie-gl needs none of them): %s", self.where, ", ".join(left))
+            logger.debug(
+                "%s: fields not read (genie-gl needs none of them): %s", self.where, ", ".join(left)
+            )
 
 
 def is_matrix(n: int):
     """An ``accept`` for :meth:`Fields.find`: a value of ``n`` numbers (a matrix, a list, or
     ROS's ``{rows, cols, data}``), not a scalar nor a string."""
+
     def accept(value: Any) -> bool:
         if isinstance(value, dict):
             return "data" in value
@@ -182,6 +235,7 @@ def is_matrix(n: int):
             return np.size(np.asarray(value, dtype=object)) == n if n else np.size(value) > 0
         except (TypeError, ValueError):
             return False
+
     return accept
 
 

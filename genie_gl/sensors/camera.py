@@ -3,6 +3,7 @@
 Conventions (DESIGN.md): OpenCV camera frame (x right, y down, z forward); pixel (u, v) has
 its centre at integer coordinates, as ``cv2.projectPoints`` has it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -37,7 +38,9 @@ class Stereo:
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.baseline_m) and self.baseline_m > 0):
-            raise ConfigError(f"stereo baseline_m: expected a number > 0 (metres), got {self.baseline_m!r}")
+            raise ConfigError(
+                f"stereo baseline_m: expected a number > 0 (metres), got {self.baseline_m!r}"
+            )
         if self.T is not None:
             object.__setattr__(self, "T", np.array(self.T, dtype=np.float64).reshape(3))
             R = np.eye(3) if self.R is None else np.array(self.R, dtype=np.float64).reshape(3, 3)
@@ -85,11 +88,21 @@ class Sensor(Camera):
     @property
     def files(self) -> dict[str, str]:
         """The files the sensor was read from: ``profile`` and ``calibration``, those known."""
-        return {k: v for k, v in (("profile", self.profile), ("calibration", self.calibration)) if v}
+        return {
+            k: v for k, v in (("profile", self.profile), ("calibration", self.calibration)) if v
+        }
 
     @classmethod
-    def pinhole(cls, width: int, height: int, fx: float, fy: float | None = None,
-                cx: float | None = None, cy: float | None = None, **kw: Any) -> "Sensor":
+    def pinhole(
+        cls,
+        width: int,
+        height: int,
+        fx: float,
+        fy: float | None = None,
+        cx: float | None = None,
+        cy: float | None = None,
+        **kw: Any,
+    ) -> "Sensor":
         """An ideal pinhole sensor; cx, cy default to the image centre ((W-1)/2, (H-1)/2)."""
         fy = fx if fy is None else fy
         cx = (width - 1) / 2 if cx is None else cx
@@ -99,8 +112,15 @@ class Sensor(Camera):
     @classmethod
     def from_camera(cls, camera: Camera, **kw: Any) -> "Sensor":
         """An ideal sensor (no effects) with ``camera``'s model; ``kw`` sets Sensor fields."""
-        base = dict(width=camera.width, height=camera.height, K=camera.K, dist=camera.dist,
-                    near_m=camera.near_m, far_m=camera.far_m, model=camera.model)
+        base = dict(
+            width=camera.width,
+            height=camera.height,
+            K=camera.K,
+            dist=camera.dist,
+            near_m=camera.near_m,
+            far_m=camera.far_m,
+            model=camera.model,
+        )
         base.update(kw)
         return cls(**base)
 
@@ -110,4 +130,6 @@ class Sensor(Camera):
         ROS camera_info or Kalibr camchain; see :mod:`.calibration`); ``camera``: which
         camera of a file of several (an index, or a name such as ``cam1``)."""
         calib = read_calibration(path, camera=camera)
-        return cls(calib.width, calib.height, calib.K, calib.dist, name=Path(path).stem, model=calib.model)
+        return cls(
+            calib.width, calib.height, calib.K, calib.dist, name=Path(path).stem, model=calib.model
+        )

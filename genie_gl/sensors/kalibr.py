@@ -6,6 +6,7 @@ genie-gl reads ``camera_model: pinhole`` with ``radtan``, ``equidistant`` or ``n
 distortion, and ``camera_model: omni`` with ``radtan`` or ``none``; any camera of the chain
 by name or index. Other keys (``rostopic``, ``cam_overlaps``, ``T_cam_imu``, ...) are not read.
 """
+
 from __future__ import annotations
 
 import re
@@ -27,16 +28,24 @@ def is_camchain(data: Any) -> bool:
 
 
 def _chosen(data: dict, path: Path, camera: Any) -> tuple[str, int]:
-    cams = sorted((int(m.group(1)), k) for k in data if (m := CAM.match(str(k))) and isinstance(data[k], dict))
+    cams = sorted(
+        (int(m.group(1)), k) for k in data if (m := CAM.match(str(k))) and isinstance(data[k], dict)
+    )
     names = [k for _, k in cams]
     if camera is None:
         return "cam0", 0
-    name = f"cam{camera}" if isinstance(camera, (int, np.integer)) and not isinstance(camera, bool) else str(camera)
+    name = (
+        f"cam{camera}"
+        if isinstance(camera, (int, np.integer)) and not isinstance(camera, bool)
+        else str(camera)
+    )
     if name.isdigit():
         name = f"cam{name}"
     if name not in names:
-        raise ConfigError(f"{path}: camera {camera!r}: not in this camchain{did_you_mean(name, names)} "
-                          f"(its cameras: {', '.join(names)})")
+        raise ConfigError(
+            f"{path}: camera {camera!r}: not in this camchain{did_you_mean(name, names)} "
+            f"(its cameras: {', '.join(names)})"
+        )
     return name, int(CAM.match(name).group(1))
 
 
@@ -63,9 +72,12 @@ def read_camchain(data: dict, path: Path, camera: Any = None) -> dict[str, Any]:
     where = f"{path}: {name}"
     kind = str(cam.get("camera_model", "pinhole"))
     if kind not in ("pinhole", "omni"):
-        raise ConfigError(f"{where}: camera_model {kind!r} is not supported (genie-gl reads Kalibr 'pinhole' "
-                          "cameras with 'radtan', 'equidistant' or 'none' distortion, and 'omni' with 'radtan' or "
-                          "'none')")
+        raise ConfigError(
+            f"{where}: camera_model {kind!r} is not supported (genie-gl reads Kalibr 'pinhole' "
+            "cameras with 'radtan', 'equidistant' or 'none' distortion, and 'omni' with 'radtan' "
+            "or "
+            "'none')"
+        )
     for key in ("intrinsics", "resolution"):
         if key not in cam:
             raise ConfigError(f"{where}: missing field {key}")
@@ -78,21 +90,40 @@ def read_camchain(data: dict, path: Path, camera: Any = None) -> dict[str, Any]:
     if not fu > 0 or not fv > 0:
         raise ConfigError(f"{where}: intrinsics: fu and fv must be > 0, got {fu:g} and {fv:g}")
     if np.size(cam["resolution"]) != 2 or isinstance(cam["resolution"], (str, dict)):
-        raise ConfigError(f"{where}: resolution: expected [width, height], got {cam['resolution']!r:.60}")
+        raise ConfigError(
+            f"{where}: resolution: expected [width, height], got {cam['resolution']!r:.60}"
+        )
     W, H = (whole_number(v, f"{where}: resolution", 1, 1_000_000) for v in cam["resolution"])
     coeffs = cam.get("distortion_coeffs")
-    dist = np.zeros(0) if coeffs is None or np.size(coeffs) == 0 else \
-        matrix(coeffs, f"{where}: distortion_coeffs").ravel()
+    dist = (
+        np.zeros(0)
+        if coeffs is None or np.size(coeffs) == 0
+        else matrix(coeffs, f"{where}: distortion_coeffs").ravel()
+    )
     model = lens_model(cam.get("distortion_model", "none"), len(dist), f"{where}: distortion_model")
     if kind == "omni":
         if model != "pinhole":
-            raise ConfigError(f"{where}: an omni camera takes 'radtan' or 'none' distortion, got "
-                              f"{cam.get('distortion_model')!r}")
+            raise ConfigError(
+                f"{where}: an omni camera takes 'radtan' or 'none' distortion, got "
+                f"{cam.get('distortion_model')!r}"
+            )
         dist = np.concatenate([[values[0]], dist if len(dist) else np.zeros(4)])
         model = "omni"
     K = np.array([[fu, 0, pu], [0, fv, pv], [0, 0, 1.0]])
     R, T = _extrinsics(data, path, k)
-    logger.debug("%s: read %s of the camchain's %s", path, name,
-                 ", ".join(str(c) for c in data if CAM.match(str(c))))
-    return {"width": W, "height": H, "K": K, "dist": dist, "reprojection_error": None, "R": R, "T": T,
-            "model": model}
+    logger.debug(
+        "%s: read %s of the camchain's %s",
+        path,
+        name,
+        ", ".join(str(c) for c in data if CAM.match(str(c))),
+    )
+    return {
+        "width": W,
+        "height": H,
+        "K": K,
+        "dist": dist,
+        "reprojection_error": None,
+        "R": R,
+        "T": T,
+        "model": model,
+    }

@@ -1,4 +1,5 @@
 """Camera poses (world_from_camera, OpenCV camera frame): pure numpy, no GL."""
+
 from __future__ import annotations
 
 import numpy as np

@@ -22,6 +22,7 @@ lowest beam; ouster-ros's ring is the row, 0 the top beam (LIDAR.md §9.1, §9.3
 Profiles are YAML files (``sensors/<name>.yaml`` with ``kind: scanner``), read by
 :mod:`.scanner_profile`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -95,11 +96,15 @@ class Scanner:
         where = self.profile or f"scanner {self.name!r}"
         e = np.asarray(self.elevation_rad, np.float64).reshape(-1)
         if e.size == 0:
-            raise ConfigError(f"{where}: elevation_deg: a scanner needs at least one channel, got none")
+            raise ConfigError(
+                f"{where}: elevation_deg: a scanner needs at least one channel, got none"
+            )
         if not np.all(np.isfinite(e)) or np.any(np.abs(e) > np.pi / 2):
             bad = int(np.flatnonzero(~np.isfinite(e) | (np.abs(e) > np.pi / 2))[0])
-            raise ConfigError(f"{where}: elevation_deg[{bad}]: expected a finite angle in [-90, 90] degrees, "
-                              f"got {np.degrees(e[bad])}")
+            raise ConfigError(
+                f"{where}: elevation_deg[{bad}]: expected a finite angle in [-90, 90] degrees, "
+                f"got {np.degrees(e[bad])}"
+            )
         a = np.broadcast_to(np.asarray(self.azimuth_offset_rad, np.float64), e.shape).copy()
         t = np.broadcast_to(np.asarray(self.channel_time_s, np.float64), e.shape).copy()
         if not np.all(np.isfinite(a)):
@@ -108,27 +113,42 @@ class Scanner:
             raise ConfigError(f"{where}: channel_time_us: expected finite times >= 0")
         if np.any(np.diff(t) < 0):
             bad = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
-            raise ConfigError(f"{where}: channel_time_us[{bad}]: firing times out of order ({t[bad] * 1e6:g} us "
-                              f"after {t[bad - 1] * 1e6:g} us); list the channels in firing order")
+            raise ConfigError(
+                f"{where}: channel_time_us[{bad}]: firing times out of order ({t[bad] * 1e6:g} us "
+                f"after {t[bad - 1] * 1e6:g} us); list the channels in firing order"
+            )
         for name in ("rate_hz", "firing_period_s"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise ConfigError(f"{where}: {name}: expected a number > 0, got {v!r}")
         if t[-1] >= self.firing_period_s:
-            raise ConfigError(f"{where}: channel_time_us: the last channel fires at {t[-1] * 1e6:g} us, not within "
-                              f"the firing period {self.firing_period_s * 1e6:g} us")
+            raise ConfigError(
+                f"{where}: channel_time_us: the last channel fires at {t[-1] * 1e6:g} us, not "
+                "within "
+                f"the firing period {self.firing_period_s * 1e6:g} us"
+            )
         if self.firing_period_s * self.rate_hz > 0.5:
-            raise ConfigError(f"{where}: fewer than two firings per revolution at {self.rate_hz} Hz; "
-                              "expected a shorter firing period")
+            raise ConfigError(
+                f"{where}: fewer than two firings per revolution at {self.rate_hz} Hz; "
+                "expected a shorter firing period"
+            )
         if not (np.isfinite(self.fov_deg) and 0 < self.fov_deg <= 360):
-            raise ConfigError(f"{where}: fov_deg: expected a field of view in (0, 360] degrees, got {self.fov_deg}")
+            raise ConfigError(
+                f"{where}: fov_deg: expected a field of view in (0, 360] degrees, got "
+                f"{self.fov_deg}"
+            )
         if not (0 <= self.min_range_m < self.max_range_m and np.isfinite(self.max_range_m)):
-            raise ConfigError(f"{where}: range_m: expected 0 <= min < max (finite), got {self.min_range_m}, "
-                              f"{self.max_range_m}")
+            raise ConfigError(
+                f"{where}: range_m: expected 0 <= min < max (finite), got {self.min_range_m}, "
+                f"{self.max_range_m}"
+            )
         checks = (("returns", RETURN_MODES), ("ring_order", RING_ORDERS), ("style", STYLES))
         for name, allowed in checks:
             if getattr(self, name) not in allowed:
-                raise ConfigError(f"{where}: {name}: expected one of {', '.join(allowed)}, got {getattr(self, name)!r}")
+                raise ConfigError(
+                    f"{where}: {name}: expected one of {', '.join(allowed)}, got "
+                    f"{getattr(self, name)!r}"
+                )
         if self.spin not in (1, -1):
             raise ConfigError(f"{where}: spin: expected clockwise or counterclockwise")
         object.__setattr__(self, "elevation_rad", e)
@@ -146,7 +166,9 @@ class Scanner:
         if self.ring_order == "row":
             return np.arange(self.channels, dtype=np.uint16)
         ring = np.empty(self.channels, np.uint16)
-        ring[np.argsort(self.elevation_rad, kind="stable")] = np.arange(self.channels, dtype=np.uint16)
+        ring[np.argsort(self.elevation_rad, kind="stable")] = np.arange(
+            self.channels, dtype=np.uint16
+        )
         return ring
 
     @property
@@ -177,12 +199,24 @@ class Scanner:
 
     def summary(self) -> dict[str, Any]:
         """The profile's figures, for manifests and report cards."""
-        return {"name": self.name, "channels": self.channels, "rate_hz": self.rate_hz,
-                "firing_period_us": self.firing_period_s * 1e6,
-                "azimuth_step_deg": float(np.degrees(self.azimuth_step_rad)),
-                "elevation_deg": [float(np.degrees(self.elevation_rad.min())), float(np.degrees(self.elevation_rad.max()))],
-                "fov_deg": self.fov_deg, "range_m": [self.min_range_m, self.max_range_m],
-                "range_accuracy_m": self.range_accuracy_m, "returns": self.returns,
-                "points_per_second": self.points_per_second,
-                "beam_divergence_mrad": None if self.beam_divergence_rad is None else self.beam_divergence_rad * 1e3,
-                "effects": [e.name for e in self.effects], "sources": dict(self.sources)}
+        return {
+            "name": self.name,
+            "channels": self.channels,
+            "rate_hz": self.rate_hz,
+            "firing_period_us": self.firing_period_s * 1e6,
+            "azimuth_step_deg": float(np.degrees(self.azimuth_step_rad)),
+            "elevation_deg": [
+                float(np.degrees(self.elevation_rad.min())),
+                float(np.degrees(self.elevation_rad.max())),
+            ],
+            "fov_deg": self.fov_deg,
+            "range_m": [self.min_range_m, self.max_range_m],
+            "range_accuracy_m": self.range_accuracy_m,
+            "returns": self.returns,
+            "points_per_second": self.points_per_second,
+            "beam_divergence_mrad": None
+            if self.beam_divergence_rad is None
+            else self.beam_divergence_rad * 1e3,
+            "effects": [e.name for e in self.effects],
+            "sources": dict(self.sources),
+        }

@@ -12,6 +12,7 @@ plan leaves out of every frame is *skipped*, with the planner's reason. The idea
 effect) and the full profile are timed the same way, turn about with the effects. The machine's
 load average is recorded before and after (timings are only comparable at a similar load).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -40,8 +41,14 @@ def _variants(sensor: Any) -> dict[str, Any]:
     return out
 
 
-def time_effects(profile: str = "realsense_d435", strategy: str = "assembly_line", *, frames: int = 8,
-                 repeats: int = 5, seed: int = 0) -> dict:
+def time_effects(
+    profile: str = "realsense_d435",
+    strategy: str = "assembly_line",
+    *,
+    frames: int = 8,
+    repeats: int = 5,
+    seed: int = 0,
+) -> dict:
     """Per effect of ``profile``: frames run and skipped, the median ms of a run, the ms per
     frame (skips count 0), the skip reasons; the ideal render's and the full profile's ms per
     frame; the load average before and after. See the module's docstring."""
@@ -54,36 +61,66 @@ def time_effects(profile: str = "realsense_d435", strategy: str = "assembly_line
     poses = list(gg.place_sensors(layout, sensor, n=frames, seed=seed))
     variants = _variants(sensor)
     plans = {k: make_plan(scene, s, poses) for k, s in variants.items()}
-    # per variant, per frame: a list over repeats of (total ms, {effect: ms or None when skipped}, reasons)
-    runs: dict[str, list[list[tuple[float, dict, dict]]]] = {k: [[] for _ in poses] for k in variants}
+    # per variant, per frame: a list over repeats of (total ms, {effect: ms or None when skipped},
+    # reasons)
+    runs: dict[str, list[list[tuple[float, dict, dict]]]] = {
+        k: [[] for _ in poses] for k in variants
+    }
     t_start = time.perf_counter()
     with Renderer(scene) as r:
         lens_render = through_lens(r.render)
-        for k, pose in enumerate(poses):   # warm: compiled kernels, GL objects
-            simulate(sensor, pose, render=lens_render, rng=np.random.default_rng(k), materials=plans["(full profile)"].materials,
-                     plan=plans["(full profile)"].frames[k])
+        for k, pose in enumerate(poses):  # warm: compiled kernels, GL objects
+            simulate(
+                sensor,
+                pose,
+                render=lens_render,
+                rng=np.random.default_rng(k),
+                materials=plans["(full profile)"].materials,
+                plan=plans["(full profile)"].frames[k],
+            )
         for _ in range(repeats):
             for k, pose in enumerate(poses):
-                for name, s in variants.items():   # turn about, frame by frame
+                for name, s in variants.items():  # turn about, frame by frame
                     p = plans[name]
                     t = time.perf_counter()
-                    f = simulate(s, pose, render=lens_render, rng=np.random.default_rng(k) if s.effects else None,
-                                 materials=p.materials, plan=p.frames[k])
+                    f = simulate(
+                        s,
+                        pose,
+                        render=lens_render,
+                        rng=np.random.default_rng(k) if s.effects else None,
+                        materials=p.materials,
+                        plan=p.frames[k],
+                    )
                     total = 1e3 * (time.perf_counter() - t)
                     log = (f.meta or {}).get("effects", [])
-                    runs[name][k].append((total, {e["name"]: (e["ms"] if e["run"] else None) for e in log},
-                                          {e["name"]: e["reason"] for e in log if not e["run"]}))
-    out: dict = {"profile": profile, "strategy": strategy, "seed": seed, "frames": len(poses), "repeats": repeats,
-                 "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "load_before": round(load0[0], 2),
-                 "load_after": round(os.getloadavg()[0], 2), "seconds": round(time.perf_counter() - t_start, 1),
-                 "effects": {}}
+                    runs[name][k].append(
+                        (
+                            total,
+                            {e["name"]: (e["ms"] if e["run"] else None) for e in log},
+                            {e["name"]: e["reason"] for e in log if not e["run"]},
+                        )
+                    )
+    out: dict = {
+        "profile": profile,
+        "strategy": strategy,
+        "seed": seed,
+        "frames": len(poses),
+        "repeats": repeats,
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "load_before": round(load0[0], 2),
+        "load_after": round(os.getloadavg()[0], 2),
+        "seconds": round(time.perf_counter() - t_start, 1),
+        "effects": {},
+    }
     for name in ("(ideal render)", "(full profile)"):
-        out[name] = round(statistics.fmean(statistics.median(r[0] for r in per) for per in runs[name]), 2)
+        out[name] = round(
+            statistics.fmean(statistics.median(r[0] for r in per) for per in runs[name]), 2
+        )
     for e in sensor.effects:
         ran, skipped, medians, reasons = 0, 0, [], {}
         for per in runs[e.name]:
             ms = [r[1].get(e.name) for r in per]
-            if any(m is None for m in ms):   # a frame the plan or the frame leaves the effect out of
+            if any(m is None for m in ms):  # a frame the plan or the frame leaves the effect out of
                 skipped += 1
                 for r in per:
                     if e.name in r[2]:
@@ -91,10 +128,13 @@ def time_effects(profile: str = "realsense_d435", strategy: str = "assembly_line
                 continue
             ran += 1
             medians.append(statistics.median(ms))
-        out["effects"][e.name] = {"ran_frames": ran, "skipped_frames": skipped,
-                                  "median_ms_when_run": round(statistics.median(medians), 3) if medians else None,
-                                  "ms_per_frame": round(sum(medians) / len(poses), 3),
-                                  "skip_reasons": sorted(reasons, key=lambda k: -reasons[k])}
+        out["effects"][e.name] = {
+            "ran_frames": ran,
+            "skipped_frames": skipped,
+            "median_ms_when_run": round(statistics.median(medians), 3) if medians else None,
+            "ms_per_frame": round(sum(medians) / len(poses), 3),
+            "skip_reasons": sorted(reasons, key=lambda k: -reasons[k]),
+        }
     return out
 
 
@@ -115,14 +155,26 @@ def cost_text(entry: dict | None) -> str:
 
 def costs_markdown(result: dict, command: str) -> str:
     """The timing run as a table, with its date, load and command."""
-    rows = ["| effect | frames run | frames skipped | median ms when run | ms per frame (skips count 0) |",
-            "| --- | ---: | ---: | ---: | --- |"]
+    rows = [
+        "| effect | frames run | frames skipped | median ms when run | ms per frame (skips count "
+        "0) |",
+        "| --- | ---: | ---: | ---: | --- |",
+    ]
     for name, e in result["effects"].items():
         med = f"{e['median_ms_when_run']:.2f}" if e["median_ms_when_run"] is not None else "—"
-        rows.append(f"| {name} | {e['ran_frames']} | {e['skipped_frames']} | {med} | {cost_text(e)} |")
-    return (f"## What each {result['profile']} effect costs, timed alone\n\nMeasured {result['date']}, load average "
-            f"{result['load_before']:.1f} before and {result['load_after']:.1f} after (2 cores); {result['frames']} "
-            f"frames of one {result['strategy']} scene (seed {result['seed']}), each variant {result['repeats']} times "
-            f"turn about, the median per frame. Ideal render {result['(ideal render)']:.1f} ms per frame, the full "
-            f"profile {result['(full profile)']:.1f} ms. Reproduce: `{command}`.\n\n" + "\n".join(rows) + "\n")
-
+        rows.append(
+            f"| {name} | {e['ran_frames']} | {e['skipped_frames']} | {med} | {cost_text(e)} |"
+        )
+    return (
+        f"## What each {result['profile']} effect costs, timed alone\n\nMeasured {result['date']}, "
+        "load average "
+        f"{result['load_before']:.1f} before and {result['load_after']:.1f} after (2 cores); "
+        f"{result['frames']} "
+        f"frames of one {result['strategy']} scene (seed {result['seed']}), each variant "
+        f"{result['repeats']} times "
+        f"turn about, the median per frame. Ideal render {result['(ideal render)']:.1f} ms per "
+        "frame, the full "
+        f"profile {result['(full profile)']:.1f} ms. Reproduce: `{command}`.\n\n"
+        + "\n".join(rows)
+        + "\n"
+    )

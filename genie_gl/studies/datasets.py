@@ -1,4 +1,5 @@
-"""The datasets a study trains and tests on, each made once with :func:`genie_gl.dataset.run_dataset`
+"""The datasets a study trains and tests on, each made once with
+:func:`genie_gl.dataset.run_dataset`
 and kept in a cache folder (``out/eval-cache/datasets`` by default) for every study that needs it.
 
 A dataset is a :class:`DataSpec`: a strategy, a sensor (a shipped profile, or a variant of one
@@ -8,6 +9,7 @@ folder, and ``run_dataset``'s resume makes only what is missing (a finished data
 fraction of a second). Training sets use seed 0, held-out test sets seed 1000 (target-domain
 training sets 2000): no test scene is ever a training scene.
 """
+
 from __future__ import annotations
 
 import json
@@ -31,8 +33,8 @@ TARGET_SEED = 2000
 STRATEGIES = ("assembly_line", "storage_area", "logistics_lane")
 SENSORS = ("ideal_pinhole", "realsense_d435", "azure_kinect_nfov")
 PROFILE = "realsense_d435"
-TARGET = ("storage_area", "azure_kinect_nfov")   # the stand-in target of the presets
-SECONDS_PER_CAMERA = 0.35   # a 16-camera scene ~5.5 s on 2 loaded cores (measured, docs/eval.md)
+TARGET = ("storage_area", "azure_kinect_nfov")  # the stand-in target of the presets
+SECONDS_PER_CAMERA = 0.35  # a 16-camera scene ~5.5 s on 2 loaded cores (measured, docs/eval.md)
 
 
 @dataclass(frozen=True)
@@ -59,7 +61,9 @@ class DataSpec:
 
     @property
     def name(self) -> str:
-        base = f"{Path(self.strategy).stem}.{self.sensor}.s{self.seed}.n{self.scenes}.c{self.cameras}"
+        base = (
+            f"{Path(self.strategy).stem}.{self.sensor}.s{self.seed}.n{self.scenes}.c{self.cameras}"
+        )
         return base + (f".balance-{self.balance}" if self.balance else "")
 
     def folder(self, cache: str | os.PathLike) -> Path:
@@ -77,7 +81,8 @@ def profile_effects(profile: str) -> list[str]:
 
 def sensor_file(sensor: str, cache: str | os.PathLike) -> str:
     """The ``--sensor`` argument for ``sensor``: a shipped name, or a variant profile written
-    into ``cache/profiles`` (the shipped profile less one effect, its calibration by absolute path)."""
+    into ``cache/profiles`` (the shipped profile less one effect, its calibration by absolute
+    path)."""
     if "-no-" not in sensor:
         return sensor
     base, effect = sensor.split("-no-", 1)
@@ -88,12 +93,19 @@ def sensor_file(sensor: str, cache: str | os.PathLike) -> str:
     effects = data.get("effects") or []
     kept = [e for e in effects if str(e.get("type")) != effect]
     if len(kept) == len(effects):
-        raise ConfigError(f"sensor variant {sensor!r}: {base} has no effect {effect!r} "
-                          f"(it has {', '.join(str(e.get('type')) for e in effects)})")
-    data.update(name=sensor, effects=kept, calibration=str((src.parent / data["calibration"]).resolve()))
+        raise ConfigError(
+            f"sensor variant {sensor!r}: {base} has no effect {effect!r} "
+            f"(it has {', '.join(str(e.get('type')) for e in effects)})"
+        )
+    data.update(
+        name=sensor, effects=kept, calibration=str((src.parent / data["calibration"]).resolve())
+    )
     out = Path(cache) / "profiles" / f"{sensor}.yaml"
     out.parent.mkdir(parents=True, exist_ok=True)
-    text = f"# {base} without its {effect} effect (made by genie eval for a study)\n" + yaml.safe_dump(data, sort_keys=False)
+    text = (
+        f"# {base} without its {effect} effect (made by genie eval for a study)\n"
+        + yaml.safe_dump(data, sort_keys=False)
+    )
     if not out.exists() or out.read_text() != text:
         tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
         tmp.write_text(text)
@@ -110,11 +122,14 @@ def is_complete(spec: DataSpec, cache: str | os.PathLike) -> bool:
         data = json.loads(m.read_text())
     except ValueError:
         return False
-    return (spec.folder(cache) / "sequences").is_dir() and \
-        int(data.get("scenes_made", 0)) + int(data.get("scenes_skipped", 0)) >= spec.scenes
+    return (spec.folder(cache) / "sequences").is_dir() and int(data.get("scenes_made", 0)) + int(
+        data.get("scenes_skipped", 0)
+    ) >= spec.scenes
 
 
-def ensure(spec: DataSpec, cache: str | os.PathLike, *, workers: int = 1, progress: bool = True) -> Path:
+def ensure(
+    spec: DataSpec, cache: str | os.PathLike, *, workers: int = 1, progress: bool = True
+) -> Path:
     """Make the dataset if it is not complete in the cache (a complete one is used as it is);
     returns its folder."""
     folder = spec.folder(cache)
@@ -122,9 +137,17 @@ def ensure(spec: DataSpec, cache: str | os.PathLike, *, workers: int = 1, progre
         # made once, used as made: a profile or strategy edited since then (their fingerprint in
         # the manifest) does not remake it; remove the folder to remake it with today's inputs
         return folder
-    cfg = {"strategy": spec.strategy, "scenes": spec.scenes, "cameras": spec.cameras,
-           "sensor": sensor_file(spec.sensor, cache), "format": "semantickitti", "out": str(folder),
-           "workers": workers, "seed": spec.seed, "previews": 0}
+    cfg = {
+        "strategy": spec.strategy,
+        "scenes": spec.scenes,
+        "cameras": spec.cameras,
+        "sensor": sensor_file(spec.sensor, cache),
+        "format": "semantickitti",
+        "out": str(folder),
+        "workers": workers,
+        "seed": spec.seed,
+        "previews": 0,
+    }
     if spec.balance:
         cfg["class_balance"] = spec.balance
     log.info("dataset %s", spec.name)
@@ -136,7 +159,9 @@ def test_spec(strategy: str, sensor: str, scenes: int, cameras: int = 16) -> Dat
     return DataSpec(strategy, sensor, TEST_SEED, scenes, cameras)
 
 
-def train_spec(strategy: str, sensor: str, scenes: int, cameras: int = 16, balance: str | None = None) -> DataSpec:
+def train_spec(
+    strategy: str, sensor: str, scenes: int, cameras: int = 16, balance: str | None = None
+) -> DataSpec:
     return DataSpec(strategy, sensor, TRAIN_SEED, scenes, cameras, balance)
 
 
@@ -153,5 +178,10 @@ def data_cost(spec: DataSpec, cache: str | os.PathLike) -> dict[str, Any]:
             for k, v in (cost.get(block) or {}).items():
                 parts[block][k] = parts[block].get(k, 0.0) + float(v.get("total_ms", 0.0))
     per = max(frames, 1)
-    return {"frames": frames, **{b: {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in d.items()}
-                                 for b, d in parts.items()}}
+    return {
+        "frames": frames,
+        **{
+            b: {k: {"total_ms": v, "per_frame_ms": v / per} for k, v in d.items()}
+            for b, d in parts.items()
+        },
+    }

@@ -15,6 +15,7 @@
   column the ``accuracy`` study then shows (from ``OUT/costs.json``).
 - ``mix``: the ``mix`` preset on the stand-in target (storage area seen by an Azure Kinect).
 """
+
 from __future__ import annotations
 
 import json
@@ -35,12 +36,19 @@ from .datasets import PROFILE, SENSORS, STRATEGIES, TARGET, DataSpec
 
 log = logging.getLogger(__name__)
 
-SECONDS_PER_TRAINING = {"classical": 120.0, "height": 30.0, "majority": 5.0, "neural": 400.0, "randla": 900.0}
+SECONDS_PER_TRAINING = {
+    "classical": 120.0,
+    "height": 30.0,
+    "majority": 5.0,
+    "neural": 400.0,
+    "randla": 900.0,
+}
 
 
 @dataclass(frozen=True)
 class Training:
-    """One :func:`evaluate` call of a study: a name (its folder under ``OUT/runs``), datasets, a model."""
+    """One :func:`evaluate` call of a study: a name (its folder under ``OUT/runs``), datasets, a
+    model."""
 
     name: str
     train: tuple[DataSpec, ...]
@@ -66,7 +74,9 @@ class Context:
         return ds.test_spec(strategy, sensor, self.test_scenes, self.cameras)
 
     def target_train(self) -> DataSpec:
-        return DataSpec(TARGET[0], TARGET[1], ds.TARGET_SEED, max(2, self.test_scenes - 1), self.cameras)
+        return DataSpec(
+            TARGET[0], TARGET[1], ds.TARGET_SEED, max(2, self.test_scenes - 1), self.cameras
+        )
 
 
 def _plan(study: str, c: Context) -> list[Training]:
@@ -85,42 +95,76 @@ def _plan(study: str, c: Context) -> list[Training]:
         return [Training(f"sensor-{s}", (c.train("assembly_line", s),), tests) for s in SENSORS]
     if study == "accuracy":
         test = (c.test("assembly_line", d435),)
-        runs = [Training(f"accuracy-no-{e}", (c.train("assembly_line", f"{d435}-no-{e}"),), test)
-                for e in ds.profile_effects(d435)]
+        runs = [
+            Training(f"accuracy-no-{e}", (c.train("assembly_line", f"{d435}-no-{e}"),), test)
+            for e in ds.profile_effects(d435)
+        ]
         # the full profile and the ideal sensor: the sensor study's trainings (shared)
-        runs += [Training(f"sensor-{s}", (c.train("assembly_line", s),),
-                          tuple(c.test("assembly_line", x) for x in SENSORS)) for s in (d435, "ideal_pinhole")]
+        runs += [
+            Training(
+                f"sensor-{s}",
+                (c.train("assembly_line", s),),
+                tuple(c.test("assembly_line", x) for x in SENSORS),
+            )
+            for s in (d435, "ideal_pinhole")
+        ]
         return runs
     if study == "balance":
         test = (c.test("assembly_line", d435),)
-        return [Training(f"sensor-{d435}", (c.train("assembly_line", d435),),
-                         tuple(c.test("assembly_line", s) for s in SENSORS)),
-                Training("balance-paper", (c.train("assembly_line", d435, "paper"),), test)]
+        return [
+            Training(
+                f"sensor-{d435}",
+                (c.train("assembly_line", d435),),
+                tuple(c.test("assembly_line", s) for s in SENSORS),
+            ),
+            Training("balance-paper", (c.train("assembly_line", d435, "paper"),), test),
+        ]
     if study == "models":
-        return [Training(f"sensor-{d435}", (c.train("assembly_line", d435),),
-                         tuple(c.test("assembly_line", s) for s in SENSORS)),
-                Training("models-neural", (c.train("assembly_line", d435),), (c.test("assembly_line", d435),),
-                         "neural"),
-                Training("models-randla", (c.train("assembly_line", d435),), (c.test("assembly_line", d435),),
-                         "randla")]
+        return [
+            Training(
+                f"sensor-{d435}",
+                (c.train("assembly_line", d435),),
+                tuple(c.test("assembly_line", s) for s in SENSORS),
+            ),
+            Training(
+                "models-neural",
+                (c.train("assembly_line", d435),),
+                (c.test("assembly_line", d435),),
+                "neural",
+            ),
+            Training(
+                "models-randla",
+                (c.train("assembly_line", d435),),
+                (c.test("assembly_line", d435),),
+                "randla",
+            ),
+        ]
     raise ConfigError(f"--study {study!r}: unknown")
 
 
 def _mix_specs(c: Context) -> tuple[DataSpec, DataSpec, list[DataSpec]]:
-    return (c.target_train(), DataSpec(TARGET[0], TARGET[1], ds.TEST_SEED, c.test_scenes, c.cameras),
-            [c.train(s, PROFILE) for s in STRATEGIES if s != TARGET[0]])
+    return (
+        c.target_train(),
+        DataSpec(TARGET[0], TARGET[1], ds.TEST_SEED, c.test_scenes, c.cameras),
+        [c.train(s, PROFILE) for s in STRATEGIES if s != TARGET[0]],
+    )
 
 
-def estimate(trainings: Sequence[Training], data: Sequence[DataSpec], c: Context, extra_trainings: int = 0) -> str:
+def estimate(
+    trainings: Sequence[Training], data: Sequence[DataSpec], c: Context, extra_trainings: int = 0
+) -> str:
     """A time estimate before a study starts: datasets to make, trainings to run."""
     todo = [d for d in dict.fromkeys(data) if not ds.is_complete(d, c.cache)]
     data_s = sum(d.estimate_s() for d in todo)
     runs = [t for t in trainings if not _done(t, c)]
     train_s = sum(SECONDS_PER_TRAINING.get(t.model, 120.0) * len(c.seeds) for t in runs)
     train_s += extra_trainings * SECONDS_PER_TRAINING["classical"]
-    return (f"{len(todo)} datasets to make ({sum(d.scenes for d in todo)} scenes, ~{data_s / 60:.0f} min), "
-            f"{len(runs) * len(c.seeds) + extra_trainings} trainings (~{train_s / 60:.0f} min): "
-            f"~{(data_s + train_s) / 60:.0f} min on 2 cores")
+    return (
+        f"{len(todo)} datasets to make ({sum(d.scenes for d in todo)} scenes, ~{data_s / 60:.0f} "
+        "min), "
+        f"{len(runs) * len(c.seeds) + extra_trainings} trainings (~{train_s / 60:.0f} min): "
+        f"~{(data_s + train_s) / 60:.0f} min on 2 cores"
+    )
 
 
 def _done(t: Training, c: Context) -> bool:
@@ -154,43 +198,76 @@ def run_training(t: Training, c: Context) -> dict:
         return json.loads((path / "metrics.json").read_text())
     path.mkdir(parents=True, exist_ok=True)
     (path / ".training-pid").write_text(str(os.getpid()))
-    folders = [str(ds.ensure(d, c.cache, workers=c.workers, progress=c.progress)) for d in t.train + t.test]
-    log.info("training %s (%s) on %s", t.name, t.model, ", ".join(folders[:len(t.train)]))
+    folders = [
+        str(ds.ensure(d, c.cache, workers=c.workers, progress=c.progress)) for d in t.train + t.test
+    ]
+    log.info("training %s (%s) on %s", t.name, t.model, ", ".join(folders[: len(t.train)]))
     t0 = time.perf_counter()
-    evaluate(folders[:len(t.train)], folders[len(t.train):], model=t.model, seeds=c.seeds, out=path,
-             workers=c.workers, cache=c.cache / "features", progress=c.progress)
+    evaluate(
+        folders[: len(t.train)],
+        folders[len(t.train) :],
+        model=t.model,
+        seeds=c.seeds,
+        out=path,
+        workers=c.workers,
+        cache=c.cache / "features",
+        progress=c.progress,
+    )
     log.info("%s: %.0f s", t.name, time.perf_counter() - t0)
     return json.loads((path / "metrics.json").read_text())
 
 
 def _costs_study(c: Context, confirm: bool) -> str:
-    head = (f"study costs: each {PROFILE} effect timed alone on {c.cameras} frames, 5 times "
-            f"(~{c.cameras * 6 * 5 * 0.1 / 60:.0f}-{c.cameras * 6 * 5 * 0.5 / 60:.0f} min on 2 cores)")
+    head = (
+        f"study costs: each {PROFILE} effect timed alone on {c.cameras} frames, 5 times "
+        f"(~{c.cameras * 6 * 5 * 0.1 / 60:.0f}-{c.cameras * 6 * 5 * 0.5 / 60:.0f} min on 2 cores)"
+    )
     print(head, flush=True)
     if not confirm:
         return head + "\n(run again with --yes to start)"
     folder = claim_folder(c.out, "eval-study", reserve=True)
     for name in ("costs.md", "costs.json"):
         if (c.out / name).exists() and not folder.owns(name):
-            raise ConfigError(f"--out {c.out}: already holds {name}, which genie-gl did not write; choose another folder")
+            raise ConfigError(
+                f"--out {c.out}: already holds {name}, which genie-gl did not write; choose "
+                "another folder"
+            )
     result = time_effects(PROFILE, "assembly_line", frames=c.cameras, repeats=5, seed=ds.TRAIN_SEED)
-    text = costs_markdown(result, f"genie eval --study costs --cameras {c.cameras} --out {c.out} --yes")
+    text = costs_markdown(
+        result, f"genie eval --study costs --cameras {c.cameras} --out {c.out} --yes"
+    )
     atomic_write_text(c.out / "costs.json", json.dumps(result, indent=1) + "\n")
     atomic_write_text(c.out / "costs.md", text)
     folder.finish({"study": "costs", "cameras": c.cameras})
     return text
 
 
-def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 1, 2), scenes: int = 10,
-              test_scenes: int = 4, cameras: int = 16, workers: int = 1, progress: bool = True,
-              confirm: bool = True) -> str:
+def run_study(
+    study: str,
+    *,
+    out: Path,
+    cache: Path,
+    seeds: Sequence[int] = (0, 1, 2),
+    scenes: int = 10,
+    test_scenes: int = 4,
+    cameras: int = 16,
+    workers: int = 1,
+    progress: bool = True,
+    confirm: bool = True,
+) -> str:
     """Run ``study`` (or ``all``); returns the markdown it wrote to ``out/<study>.md``."""
     if scenes < 1 or test_scenes < 1 or cameras < 1:
         raise ConfigError("--scenes, --test-scenes and --cameras must be >= 1")
-    c = Context(Path(out), Path(cache), tuple(seeds), scenes, test_scenes, cameras, workers, progress)
+    c = Context(
+        Path(out), Path(cache), tuple(seeds), scenes, test_scenes, cameras, workers, progress
+    )
     if study == "costs":
         return _costs_study(c, confirm)
-    names = ["strategy", "sensor", "accuracy", "balance", "models", "mix"] if study == "all" else [study]
+    names = (
+        ["strategy", "sensor", "accuracy", "balance", "models", "mix"]
+        if study == "all"
+        else [study]
+    )
     trainings: list[Training] = []
     data: list[DataSpec] = []
     extra = 0
@@ -211,7 +288,10 @@ def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 
     folder = claim_folder(c.out, "eval-study", reserve=True)
     for n in names:
         if (c.out / f"{n}.md").exists() and not folder.owns(f"{n}.md"):
-            raise ConfigError(f"--out {c.out}: already holds {n}.md, which genie-gl did not write; choose another folder")
+            raise ConfigError(
+                f"--out {c.out}: already holds {n}.md, which genie-gl did not write; choose "
+                "another folder"
+            )
     parts = []
     for n in names:
         if n == "mix":
@@ -220,6 +300,14 @@ def run_study(study: str, *, out: Path, cache: Path, seeds: Sequence[int] = (0, 
             results = {t.name: (t, run_training(t, c)) for t in _plan(n, c)}
             parts.append(getattr(report, f"{n}_study")(c, results))
         atomic_write_text(c.out / f"{n}.md", parts[-1])
-        folder.finish({"study": n, "seeds": list(c.seeds), "scenes": c.scenes, "test_scenes": c.test_scenes,
-                       "cameras": c.cameras, "cache": str(c.cache)})
+        folder.finish(
+            {
+                "study": n,
+                "seeds": list(c.seeds),
+                "scenes": c.scenes,
+                "test_scenes": c.test_scenes,
+                "cameras": c.cameras,
+                "cache": str(c.cache),
+            }
+        )
     return "\n".join(parts)

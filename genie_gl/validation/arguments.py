@@ -14,6 +14,7 @@ so ``gg.capture(..., seed=-1)`` and ``genie capture --seed -1`` say the same thi
 - :data:`MAX_COORD_M`: coordinates beyond it (1e9 m, a million kilometres) are refused as
   absurd; float64 still resolves 0.1 um there, so every real site fits far inside.
 """
+
 from __future__ import annotations
 
 import json
@@ -50,7 +51,11 @@ def describe(value: Any) -> str:
     if isinstance(value, np.ndarray):
         return f"a numpy array of shape {value.shape}"
     if isinstance(value, (str, bytes, int, float, Path)) or value is None:
-        return f"{kind} {str(value)[:60]!r}" if isinstance(value, (str, Path)) else f"{kind} {value!r:.60}"
+        return (
+            f"{kind} {str(value)[:60]!r}"
+            if isinstance(value, (str, Path))
+            else f"{kind} {value!r:.60}"
+        )
     if isinstance(value, (list, tuple, dict)):
         return f"a {kind} of {len(value)}"
     return f"a {kind}"
@@ -69,8 +74,14 @@ def check_seed(seed: Any, where: str = "seed") -> int:
     return whole_number(seed, where, 0, MAX_SEED)
 
 
-def finite_number(value: Any, where: str, lo: float | None = None, hi: float | None = None, *,
-                  lo_open: bool = False) -> float:
+def finite_number(
+    value: Any,
+    where: str,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+) -> float:
     """``value`` as a finite float in [lo, hi] (``lo_open``: (lo, hi]); a ConfigError otherwise."""
     why = number_problem(value, lo, hi, lo_open=lo_open)
     if why:
@@ -98,8 +109,10 @@ def expect_path(value: Any, where: str) -> Path:
 def expect_sequence(values: Any, cls: type, where: str) -> list:
     """``values`` as a non-empty list of ``cls``; one ``cls`` or anything else is refused."""
     if isinstance(values, cls):
-        raise ConfigError(f"{where}: expected a list of {cls.__name__}s, got one {cls.__name__}: pass a list "
-                          f"of it")
+        raise ConfigError(
+            f"{where}: expected a list of {cls.__name__}s, got one {cls.__name__}: pass a list "
+            f"of it"
+        )
     if isinstance(values, (str, bytes, dict)) or not hasattr(values, "__iter__"):
         raise ConfigError(f"{where}: expected a list of {cls.__name__}s, got {describe(values)}")
     out = list(values)
@@ -115,7 +128,9 @@ def check_pose(pose: Any, where: str = "pose") -> np.ndarray:
     try:
         T = np.asarray(pose, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ConfigError(f"{where}: expected a (4, 4) matrix of numbers, got {pose!r:.60}") from None
+        raise ConfigError(
+            f"{where}: expected a (4, 4) matrix of numbers, got {pose!r:.60}"
+        ) from None
     if T.shape == (4, 4) and _plainly_rigid(T):
         return T
     if T.shape != (4, 4):
@@ -125,12 +140,17 @@ def check_pose(pose: Any, where: str = "pose") -> np.ndarray:
     if np.abs(T[:3, 3]).max() > MAX_COORD_M:
         raise ConfigError(f"{where}: translation {T[:3, 3].tolist()} m is beyond {MAX_COORD_M:g} m")
     if not np.allclose(T[3], [0, 0, 0, 1], atol=1e-12):
-        raise ConfigError(f"{where}: last row {T[3].tolist()}, expected [0, 0, 0, 1] (a rigid transform)")
+        raise ConfigError(
+            f"{where}: last row {T[3].tolist()}, expected [0, 0, 0, 1] (a rigid transform)"
+        )
     R = T[:3, :3]
     err = float(np.abs(R.T @ R - np.eye(3)).max())
     if err > ROTATION_TOL or np.linalg.det(R) < 0:
-        raise ConfigError(f"{where}: not a rotation (|RᵀR - I| = {err:.3g}, det {np.linalg.det(R):.3g}); a camera pose "
-                          "has no scale, shear or mirror")
+        raise ConfigError(
+            f"{where}: not a rotation (|RᵀR - I| = {err:.3g}, det {np.linalg.det(R):.3g}); a "
+            "camera pose "
+            "has no scale, shear or mirror"
+        )
     return T
 
 
@@ -147,8 +167,14 @@ def _plainly_rigid(T: np.ndarray) -> bool:
     # np.allclose(T[3], [0, 0, 0, 1], atol=1e-12): |T[3] - row| <= 1e-12 + 1e-5 * |row|
     if abs(p) > 1e-12 or abs(q) > 1e-12 or abs(r) > 1e-12 or abs(s - 1.0) > 1e-12 + 1e-5:
         return False
-    err = max(abs(a * a + d * d + g * g - 1.0), abs(b * b + e * e + h * h - 1.0), abs(c * c + f * f + i * i - 1.0),
-              abs(a * b + d * e + g * h), abs(a * c + d * f + g * i), abs(b * c + e * f + h * i))
+    err = max(
+        abs(a * a + d * d + g * g - 1.0),
+        abs(b * b + e * e + h * h - 1.0),
+        abs(c * c + f * f + i * i - 1.0),
+        abs(a * b + d * e + g * h),
+        abs(a * c + d * f + g * i),
+        abs(b * c + e * f + h * i),
+    )
     det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
     return err <= ROTATION_TOL / 2 and det > 0
 
@@ -157,10 +183,14 @@ def check_poses(poses: Any, where: str = "poses") -> list[np.ndarray]:
     """``poses`` (a list of 4x4 world_from_camera, or a (K, 4, 4) array) as checked float64
     matrices; one bare (4, 4) pose, an empty list or anything else is refused by name."""
     if isinstance(poses, (str, bytes, dict, Path)) or not hasattr(poses, "__len__"):
-        raise ConfigError(f"{where}: expected a list of (4, 4) world_from_camera poses, got {describe(poses)}")
+        raise ConfigError(
+            f"{where}: expected a list of (4, 4) world_from_camera poses, got {describe(poses)}"
+        )
     shape = np.shape(poses) if not isinstance(poses, (list, tuple)) or len(poses) else (0,)
     if shape == (4, 4):
-        raise ConfigError(f"{where}: expected a list of (4, 4) poses, got one (4, 4) matrix; pass [pose]")
+        raise ConfigError(
+            f"{where}: expected a list of (4, 4) poses, got one (4, 4) matrix; pass [pose]"
+        )
     if len(poses) == 0:
         raise ConfigError(f"{where}: expected at least one pose, got none")
     return [check_pose(p, f"{where}[{i}]") for i, p in enumerate(poses)]
@@ -170,19 +200,34 @@ def read_poses(path: str | Path) -> list[np.ndarray]:
     """Poses from a .npy (K, 4, 4) array or a JSON list of 4x4 matrices."""
     path = Path(path)
     try:
-        data = np.load(path) if path.suffix == ".npy" else np.array(json.loads(path.read_text()), dtype=np.float64)
+        data = (
+            np.load(path)
+            if path.suffix == ".npy"
+            else np.array(json.loads(path.read_text()), dtype=np.float64)
+        )
     except RecursionError:
-        raise ConfigError(f"{path}: JSON nested too deeply; expected .npy (K, 4, 4) or JSON [[4x4], ...]") from None
+        raise ConfigError(
+            f"{path}: JSON nested too deeply; expected .npy (K, 4, 4) or JSON [[4x4], ...]"
+        ) from None
     except (OSError, ValueError, TypeError) as exc:
-        raise ConfigError(f"{path}: cannot read poses ({exc}); expected .npy (K, 4, 4) or JSON [[4x4], ...]") from None
+        raise ConfigError(
+            f"{path}: cannot read poses ({exc}); expected .npy (K, 4, 4) or JSON [[4x4], ...]"
+        ) from None
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 3 or data.shape[1:] != (4, 4) or not np.isfinite(data).all():
         raise ConfigError(f"{path}: poses: expected K finite 4x4 matrices, got shape {data.shape}")
     return list(data)
 
 
-def capture_arguments(scene: Any, sensor: Any, poses: Any, seed: Any, scene_cls: type, sensor_cls: type,
-                      call: str = "capture") -> tuple[Any, Any, list[np.ndarray], int]:
+def capture_arguments(
+    scene: Any,
+    sensor: Any,
+    poses: Any,
+    seed: Any,
+    scene_cls: type,
+    sensor_cls: type,
+    call: str = "capture",
+) -> tuple[Any, Any, list[np.ndarray], int]:
     """The arguments of ``capture`` and ``plan`` checked (the stages' classes passed in, so this
     module stays at the bottom of the package): a Scene, a Sensor, a list of rigid poses, a seed."""
     expect(scene, scene_cls, f"{call}: scene")

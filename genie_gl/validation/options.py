@@ -1,7 +1,9 @@
 """The option types of the ``genie`` command line (argparse ``type=``): whole numbers, seeds,
 positive numbers, lists of them, names out of a set. They say what was expected in the words
-of :mod:`genie_gl.validation.arguments`, so ``genie capture --seed -1`` and ``gg.capture(..., seed=-1)`` say
+of :mod:`genie_gl.validation.arguments`, so ``genie capture --seed -1`` and ``gg.capture(...,
+seed=-1)`` say
 the same thing."""
+
 from __future__ import annotations
 
 import argparse
@@ -21,12 +23,15 @@ def _number(text: str) -> int | float | str:
 
 
 def count(lo: int = 1, hi: int = 10**6):
-    """argparse type of a whole number in [lo, hi] (the words of :func:`genie_gl.validation.arguments.whole_number`)."""
+    """argparse type of a whole number in [lo, hi] (the words of
+    :func:`genie_gl.validation.arguments.whole_number`)."""
+
     def parse(text: str) -> int:
         why = whole_problem(_number(text), lo, hi)
         if why:
             raise argparse.ArgumentTypeError(why)
         return int(text)
+
     return parse
 
 
@@ -37,32 +42,42 @@ def counts(lo: int = 1, hi: int = 10**6):
     def parse(text: str) -> list[int]:
         parts = [p.strip() for p in str(text).split(",") if p.strip()]
         if not parts:
-            raise argparse.ArgumentTypeError(f"expected whole numbers separated by commas, got {text!r}")
+            raise argparse.ArgumentTypeError(
+                f"expected whole numbers separated by commas, got {text!r}"
+            )
         return [one(p) for p in parts]
+
     return parse
 
 
 def names(known):
     """argparse type of comma-separated names out of ``known`` -> list of str (did-you-mean)."""
+
     def parse(text: str) -> list[str]:
         parts = [p.strip() for p in str(text).split(",") if p.strip()]
         for p in parts or [""]:
             if p not in known:
-                raise argparse.ArgumentTypeError(f"{p!r} is unknown{did_you_mean(p, known)}; expected some of "
-                                                 f"{', '.join(known)}")
+                raise argparse.ArgumentTypeError(
+                    f"{p!r} is unknown{did_you_mean(p, known)}; expected some of {', '.join(known)}"
+                )
         return parts
+
     return parse
 
 
-#: argparse type of a seed: a whole number in 0..2**63-1, as :func:`genie_gl.validation.arguments.check_seed`
+# : argparse type of a seed: a whole number in 0..2**63-1, as
+# :func:`genie_gl.validation.arguments.check_seed`
 seed = count(0, MAX_SEED)
 
 
 def positive(hi: float = 1e6):
-    """argparse type of a finite number in (0, hi] (the words of :func:`genie_gl.validation.arguments.finite_number`)."""
+    """argparse type of a finite number in (0, hi] (the words of
+    :func:`genie_gl.validation.arguments.finite_number`)."""
+
     def parse(text: str) -> float:
         why = number_problem(_number(text), 0.0, hi, lo_open=True)
         if why:
             raise argparse.ArgumentTypeError(why)
         return float(text)
+
     return parse

@@ -9,6 +9,7 @@ web viewer hosted locally for it.
 
 Reads only exported files (:mod:`.folders`); imports nothing above ``export``.
 """
+
 from __future__ import annotations
 
 import os
@@ -28,8 +29,15 @@ def default_rrd(path: str | os.PathLike) -> Path:
     return p / "view.rrd" if p.is_dir() else p.with_suffix(".rrd")
 
 
-def view(path: str | os.PathLike, out: str | os.PathLike | None = None, *, serve_web: bool = False,
-         bind: str = LOOPBACK, port: int = WEB_PORT, max_points: int = MAX_POINTS) -> Path | Served:
+def view(
+    path: str | os.PathLike,
+    out: str | os.PathLike | None = None,
+    *,
+    serve_web: bool = False,
+    bind: str = LOOPBACK,
+    port: int = WEB_PORT,
+    max_points: int = MAX_POINTS,
+) -> Path | Served:
     """Write the Rerun recording of ``path`` (a dataset, scene, recording or capture folder,
     or a USD scene) to ``out`` (default :func:`default_rrd`); with ``serve_web``, host the
     web viewer for it on ``bind:port`` and return the running :class:`Served` (call its

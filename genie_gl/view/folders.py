@@ -18,6 +18,7 @@ Scene folders, as the exporters write them (``docs/formats.md``):
   (x 5000), ``semantic/`` and ``instance/`` 16-bit PNGs; the intrinsics come from the
   dataset's sensor or rig, named in its ``manifest.json``.
 """
+
 from __future__ import annotations
 
 import json
@@ -96,22 +97,32 @@ def read_views(path: str | Path) -> list[SceneView]:
     nothing genie view can show."""
     p = Path(path)
     if not p.exists():
-        raise ConfigError(f"{p}: no such file or folder; expected a dataset folder, a scene or capture folder of "
-                          "one, or a USD scene")
+        raise ConfigError(
+            f"{p}: no such file or folder; expected a dataset folder, a scene or capture folder of "
+            "one, or a USD scene"
+        )
     if p.is_file():
         if p.suffix.lower() in USD_SUFFIXES:
             return [_usd_view(p)]
         if p.suffix.lower() in CLOUD_SUFFIXES:
             return [_cloud_file_view(p, p.stem)]
-        raise ConfigError(f"{p}: not a folder or a USD scene ({', '.join(USD_SUFFIXES)}) or a cloud "
-                          f"({', '.join(CLOUD_SUFFIXES)})")
+        raise ConfigError(
+            f"{p}: not a folder or a USD scene ({', '.join(USD_SUFFIXES)}) or a cloud "
+            f"({', '.join(CLOUD_SUFFIXES)})"
+        )
     if (p / "scenes").is_dir():
         scenes = sorted(d for d in (p / "scenes").iterdir() if d.is_dir() and d.name.isdigit())
         if not scenes:
-            raise ConfigError(f"{p / 'scenes'}: holds no scene folder (NNNN); is the dataset finished?")
+            raise ConfigError(
+                f"{p / 'scenes'}: holds no scene folder (NNNN); is the dataset finished?"
+            )
         manifest = _manifest(p)
         return [_scene_view(d, f"scene_{d.name}", manifest) for d in scenes]
-    views = [_scene_view(p, f"scene_{p.name}" if p.name.isdigit() else p.name, _manifest(p.parent.parent))]
+    views = [
+        _scene_view(
+            p, f"scene_{p.name}" if p.name.isdigit() else p.name, _manifest(p.parent.parent)
+        )
+    ]
     return views
 
 
@@ -132,12 +143,18 @@ def _scene_view(folder: Path, name: str, manifest: dict) -> SceneView:
     parts = []
     if (folder / "velodyne").is_dir():
         parts.append(_static_scans(folder))
-    for g in sorted(d for d in folder.iterdir() if d.is_dir() and d.name.isdigit() and len(d.name) == 2):
+    for g in sorted(
+        d for d in folder.iterdir() if d.is_dir() and d.name.isdigit() and len(d.name) == 2
+    ):
         if (g / "world_pose.txt").is_file():
             parts.append(_group_scans(g, view))
-    for d in sorted(d for d in folder.iterdir() if d.is_dir() and (d / "groundtruth.txt").is_file()):
+    for d in sorted(
+        d for d in folder.iterdir() if d.is_dir() and (d / "groundtruth.txt").is_file()
+    ):
         _tum_sensor(d, view, manifest)
-    clouds = sorted(f for f in folder.iterdir() if f.is_file() and f.suffix.lower() in CLOUD_SUFFIXES)
+    clouds = sorted(
+        f for f in folder.iterdir() if f.is_file() and f.suffix.lower() in CLOUD_SUFFIXES
+    )
     for f in clouds:
         c = _cloud_file_view(f, name)
         parts.append((c.xyz, c.semantic, c.instance))
@@ -146,9 +163,12 @@ def _scene_view(folder: Path, name: str, manifest: dict) -> SceneView:
         view.semantic = np.concatenate([p[1] for p in parts]).astype(np.uint16)
         view.instance = np.concatenate([p[2] for p in parts]).astype(np.uint32)
     if not len(view.xyz) and not view.shots and view.world_from_body is None:
-        raise ConfigError(f"{folder}: holds nothing genie view can show (no scans velodyne/ or GG/, no TUM sensor "
-                          f"folder, no cloud file {'/'.join(CLOUD_SUFFIXES)}, no trajectory.txt); expected a "
-                          "dataset folder, a scene or capture folder of one, or a USD scene")
+        raise ConfigError(
+            f"{folder}: holds nothing genie view can show (no scans velodyne/ or GG/, no TUM "
+            "sensor "
+            f"folder, no cloud file {'/'.join(CLOUD_SUFFIXES)}, no trajectory.txt); expected a "
+            "dataset folder, a scene or capture folder of one, or a USD scene"
+        )
     view.shots.sort(key=lambda s: (s.time_s if s.time_s is not None else -1.0, s.camera))
     return view
 
@@ -177,7 +197,9 @@ def read_tum_poses(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """(times (n,) s, poses (n, 4, 4)) of a TUM file ``t tx ty tz qx qy qz qw``."""
     rows = np.loadtxt(path, comments="#", ndmin=2)
     if rows.shape[1] != 8:
-        raise ConfigError(f"{path}: expected 8 numbers a line (t tx ty tz qx qy qz qw), got {rows.shape[1]}")
+        raise ConfigError(
+            f"{path}: expected 8 numbers a line (t tx ty tz qx qy qz qw), got {rows.shape[1]}"
+        )
     poses = np.tile(np.eye(4), (len(rows), 1, 1))
     poses[:, :3, :3] = _rotation(rows[:, 4:8])
     poses[:, :3, 3] = rows[:, 1:4]
@@ -188,9 +210,14 @@ def _rotation(q: np.ndarray) -> np.ndarray:
     """(n, 3, 3) rotations of (n, 4) unit quaternions x, y, z, w."""
     q = q / np.linalg.norm(q, axis=1, keepdims=True)
     x, y, z, w = q.T
-    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-                     np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-                     np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)], 1)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        1,
+    )
 
 
 def _static_scans(folder: Path):
@@ -205,7 +232,8 @@ def _static_scans(folder: Path):
 
 
 def split_projection(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """K (3, 3) and the rigid (4, 4) camera_from_reference of ``P = K [R|t]`` (RQ of P's left 3x3)."""
+    """K (3, 3) and the rigid (4, 4) camera_from_reference of ``P = K [R|t]`` (RQ of P's left
+    3x3)."""
     M = P[:, :3]
     # RQ through QR of the row-reversed transpose
     flip = np.eye(3)[::-1]
@@ -245,8 +273,15 @@ def _group_scans(g: Path, view: SceneView):
         cam0 = world_from_cam0_first @ pose
         for j, (K, cam_from_cam0) in enumerate(cams):
             size = (int(round(2 * K[0, 2] + 1)), int(round(2 * K[1, 2] + 1)))
-            view.shots.append(Shot(f"group_{g.name}_cam{j}", float(times[i]), cam0 @ np.linalg.inv(cam_from_cam0),
-                                   K, size))
+            view.shots.append(
+                Shot(
+                    f"group_{g.name}_cam{j}",
+                    float(times[i]),
+                    cam0 @ np.linalg.inv(cam_from_cam0),
+                    K,
+                    size,
+                )
+            )
     return np.concatenate(xyz), np.concatenate(sem), np.concatenate(inst)
 
 
@@ -278,7 +313,9 @@ def _tum_sensor(d: Path, view: SceneView, manifest: dict) -> None:
         stamp = f"{t:.6f}.png"
         shot = Shot(d.name, float(t), pose, K, size)
         if (d / "depth" / stamp).is_file():
-            shot.depth = (_png(d / "depth" / stamp).astype(np.float64) / TUM_DEPTH_SCALE).astype(np.float32)
+            shot.depth = (_png(d / "depth" / stamp).astype(np.float64) / TUM_DEPTH_SCALE).astype(
+                np.float32
+            )
             if K is None:
                 shot.size = shot.depth.shape[::-1]
         if (d / "semantic" / stamp).is_file():
@@ -297,18 +334,39 @@ def _cloud_file_view(f: Path, name: str) -> SceneView:
         c = las.read(f)
     elif suffix == ".e57":
         cs = e57.read(f)
-        return SceneView(name, np.concatenate([c.world_xyz for c in cs]),
-                         np.concatenate([c.semantic for c in cs]), np.concatenate([c.instance for c in cs]))
+        return SceneView(
+            name,
+            np.concatenate([c.world_xyz for c in cs]),
+            np.concatenate([c.semantic for c in cs]),
+            np.concatenate([c.instance for c in cs]),
+        )
     elif suffix == ".ply":
         return _ply_view(f, name)
     else:
-        raise ConfigError(f"{f}: genie view reads clouds as .ply, .npz, .las or .e57 (capture with one of them)")
+        raise ConfigError(
+            f"{f}: genie view reads clouds as .ply, .npz, .las or .e57 (capture with one of them)"
+        )
     return SceneView(name, c.world_xyz, c.semantic, c.instance)
 
 
-PLY_TYPES = {"float": "<f4", "float32": "<f4", "double": "<f8", "float64": "<f8", "uchar": "u1", "uint8": "u1",
-             "char": "i1", "int8": "i1", "ushort": "<u2", "uint16": "<u2", "short": "<i2", "int16": "<i2",
-             "uint": "<u4", "uint32": "<u4", "int": "<i4", "int32": "<i4"}
+PLY_TYPES = {
+    "float": "<f4",
+    "float32": "<f4",
+    "double": "<f8",
+    "float64": "<f8",
+    "uchar": "u1",
+    "uint8": "u1",
+    "char": "i1",
+    "int8": "i1",
+    "ushort": "<u2",
+    "uint16": "<u2",
+    "short": "<i2",
+    "int16": "<i2",
+    "uint": "<u4",
+    "uint32": "<u4",
+    "int": "<i4",
+    "int32": "<i4",
+}
 
 
 def _ply_view(f: Path, name: str) -> SceneView:
@@ -332,14 +390,20 @@ def _ply_view(f: Path, name: str) -> SceneView:
         elif w[:1] == ["property"] and len(w) == 3 and w[1] in PLY_TYPES:
             fields.append((w[2], PLY_TYPES[w[1]]))
     if fmt != "binary_little_endian" or not {"x", "y", "z"} <= {n for n, _ in fields}:
-        raise ConfigError(f"{f}: genie view reads binary little-endian PLY vertices with x, y, z (as genie-gl "
-                          "writes them)")
+        raise ConfigError(
+            f"{f}: genie view reads binary little-endian PLY vertices with x, y, z (as genie-gl "
+            "writes them)"
+        )
     v = np.frombuffer(raw, np.dtype(fields), count, end + len("end_header\n"))
     names = v.dtype.names
     xyz = np.stack([v["x"], v["y"], v["z"]], 1).astype(np.float64) + origin
     zeros = np.zeros(len(xyz))
-    return SceneView(name, xyz, np.asarray(v["semantic"] if "semantic" in names else zeros, np.uint16),
-                     np.asarray(v["instance"] if "instance" in names else zeros, np.uint32))
+    return SceneView(
+        name,
+        xyz,
+        np.asarray(v["semantic"] if "semantic" in names else zeros, np.uint16),
+        np.asarray(v["instance"] if "instance" in names else zeros, np.uint32),
+    )
 
 
 def _usd_view(path: Path) -> SceneView:
@@ -349,7 +413,9 @@ def _usd_view(path: Path) -> SceneView:
         m = scene.meshes[inst.mesh]
         T = inst.world_from_model
         v = (m.vertices.astype(np.float64) @ T[:3, :3].T + T[:3, 3]).astype(np.float32)
-        view.meshes.append((v, np.asarray(m.faces, np.uint32), int(inst.semantic), int(inst.instance)))
+        view.meshes.append(
+            (v, np.asarray(m.faces, np.uint32), int(inst.semantic), int(inst.instance))
+        )
     if not view.meshes:
         raise ConfigError(f"{path}: the USD stage holds no mesh to show")
     return view

@@ -17,6 +17,7 @@ Entities, per scene ``S`` (``scene_0000``, or the folder's name):
 Points beyond ``max_points`` per scene are thinned with a fixed stride (every k-th point, k
 the smallest that fits), so the same files give the same recording.
 """
+
 from __future__ import annotations
 
 import os
@@ -33,30 +34,44 @@ from .folders import SceneView
 TIMELINE = "time"
 APPLICATION = "genie-gl"
 MAX_POINTS = 2_000_000
-POINT_RADIUS = -2.0   # negative: in screen points (Rerun's convention), so sparse clouds stay visible
+POINT_RADIUS = (
+    -2.0
+)  # negative: in screen points (Rerun's convention), so sparse clouds stay visible
 
 
 def _rerun():
     try:
         import rerun as rr
     except ImportError as exc:
-        raise ConfigError(f"genie view needs the rerun-sdk package: pip install 'genie-gl[view]' ({exc})") from None
+        raise ConfigError(
+            f"genie view needs the rerun-sdk package: pip install 'genie-gl[view]' ({exc})"
+        ) from None
     return rr
 
 
 def annotation_context(rr):
     """The paper's classes (:mod:`genie_gl.labels`): id, name and the previews' colour."""
-    return rr.AnnotationContext([rr.AnnotationInfo(id=k, label=labels.name(k), color=labels.color(k))
-                                 for k in sorted(labels.CLASSES)])
+    return rr.AnnotationContext(
+        [
+            rr.AnnotationInfo(id=k, label=labels.name(k), color=labels.color(k))
+            for k in sorted(labels.CLASSES)
+        ]
+    )
 
 
 def instance_colors(instance: np.ndarray) -> np.ndarray:
     """(N, 3) uint8 colours of instance ids: a fixed hash per id (0, none: grey)."""
     ids = np.asarray(instance, np.uint64)
     h = (ids * np.uint64(2654435761)) & np.uint64(0xFFFFFF)
-    rgb = np.stack([(h >> np.uint64(16)) & np.uint64(255), (h >> np.uint64(8)) & np.uint64(255),
-                    h & np.uint64(255)], -1).astype(np.uint8)
-    rgb = (rgb // 2 + 96).astype(np.uint8)   # neither black nor white
+    rgb = np.stack(
+        [
+            (h >> np.uint64(16)) & np.uint64(255),
+            (h >> np.uint64(8)) & np.uint64(255),
+            h & np.uint64(255),
+        ],
+        -1,
+    ).astype(np.uint8)
+    rgb = (rgb // 2 + 96).astype(np.uint8)  # neither black nor white
     rgb[ids == 0] = (128, 128, 128)
     return rgb
 
@@ -66,7 +81,9 @@ def stride(n: int, max_points: int) -> int:
     return max(1, -(-n // max(1, max_points)))
 
 
-def write_rrd(views: list[SceneView], path: str | os.PathLike, *, max_points: int = MAX_POINTS) -> Path:
+def write_rrd(
+    views: list[SceneView], path: str | os.PathLike, *, max_points: int = MAX_POINTS
+) -> Path:
     """Write ``views`` as a Rerun recording at ``path`` (a temporary file, renamed when whole);
     returns the path."""
     rr = _rerun()
@@ -76,13 +93,16 @@ def write_rrd(views: list[SceneView], path: str | os.PathLike, *, max_points: in
     if path.suffix != ".rrd":
         raise ConfigError(f"{path}: a Rerun recording is named *.rrd")
     if path.exists() and not rrd_is_ours(path):
-        raise ConfigError(f"{path}: already exists and was not written by genie-gl; it is left as it is (remove or "
-                          "rename it, or give --out another path)")
+        raise ConfigError(
+            f"{path}: already exists and was not written by genie-gl; it is left as it is (remove "
+            "or "
+            "rename it, or give --out another path)"
+        )
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     rec_id = uuid.uuid5(uuid.NAMESPACE_URL, "genie-gl:" + ",".join(v.name for v in views))
     rec = rr.RecordingStream(APPLICATION, recording_id=rec_id, send_properties=False)
-    rec.set_log_time_enabled(False)   # the data's own clock only ("time"), not the writer's
+    rec.set_log_time_enabled(False)  # the data's own clock only ("time"), not the writer's
     rec.set_log_tick_enabled(False)
     try:
         rec.save(tmp)
@@ -111,7 +131,9 @@ def _eye(v: SceneView):
     w, h = max(hi[0] - lo[0], 1.0), max(hi[1] - lo[1], 1.0)
     mid = (lo + hi) / 2
     eye = [lo[0] - 0.15 * w, lo[1] - 0.35 * h, hi[2] + 0.45 * max(w, h)]
-    return rrb.archetypes.EyeControls3D(position=eye, look_target=[mid[0], mid[1], lo[2]], eye_up=[0, 0, 1])
+    return rrb.archetypes.EyeControls3D(
+        position=eye, look_target=[mid[0], mid[1], lo[2]], eye_up=[0, 0, 1]
+    )
 
 
 def blueprint(views: list[SceneView]):
@@ -124,17 +146,28 @@ def blueprint(views: list[SceneView]):
         root = f"{v.name}/world"
         eye = _eye(v)
         views3d = rrb.Tabs(
-            rrb.Spatial3DView(origin=root, contents=["$origin/**", "-$origin/cloud/instance"], name="classes",
-                              eye_controls=eye),
-            rrb.Spatial3DView(origin=root, contents=["$origin/**", "-$origin/cloud/class"], name="instances",
-                              eye_controls=eye))
+            rrb.Spatial3DView(
+                origin=root,
+                contents=["$origin/**", "-$origin/cloud/instance"],
+                name="classes",
+                eye_controls=eye,
+            ),
+            rrb.Spatial3DView(
+                origin=root,
+                contents=["$origin/**", "-$origin/cloud/class"],
+                name="instances",
+                eye_controls=eye,
+            ),
+        )
         side = []
         if v.layout is not None:
             side.append(rrb.Spatial2DView(origin=f"{v.name}/layout", name="layout"))
         cams = sorted({s.camera for s in v.shots if s.K is not None})
         if cams:
             side.append(rrb.Spatial2DView(origin=f"{root}/cameras/{cams[0]}/image", name=cams[0]))
-        part = rrb.Horizontal(views3d, rrb.Vertical(*side), column_shares=[3, 1]) if side else views3d
+        part = (
+            rrb.Horizontal(views3d, rrb.Vertical(*side), column_shares=[3, 1]) if side else views3d
+        )
         tabs.append(rrb.Horizontal(part, name=v.name) if side else part)
     return rrb.Blueprint(rrb.Tabs(*tabs) if len(tabs) > 1 else tabs[0], collapse_panels=False)
 
@@ -159,17 +192,35 @@ def _log_scene(rr, rec, v: SceneView, max_points: int) -> None:
     if len(v.xyz):
         k = stride(len(v.xyz), max_points)
         xyz = v.xyz[::k].astype(np.float32)
-        rec.log(f"{root}/world/cloud/class", rr.Points3D(xyz, class_ids=v.semantic[::k], radii=POINT_RADIUS), static=True)
+        rec.log(
+            f"{root}/world/cloud/class",
+            rr.Points3D(xyz, class_ids=v.semantic[::k], radii=POINT_RADIUS),
+            static=True,
+        )
         inst = v.instance[::k]
-        rec.log(f"{root}/world/cloud/instance", rr.Points3D(xyz, colors=instance_colors(inst), radii=POINT_RADIUS),
-                rr.AnyValues(instance_id=inst.astype(np.uint32)), static=True)
+        rec.log(
+            f"{root}/world/cloud/instance",
+            rr.Points3D(xyz, colors=instance_colors(inst), radii=POINT_RADIUS),
+            rr.AnyValues(instance_id=inst.astype(np.uint32)),
+            static=True,
+        )
     for n, (verts, faces, sem, inst) in enumerate(v.meshes):
-        rec.log(f"{root}/world/meshes/{n:05d}", rr.Mesh3D(vertex_positions=verts, triangle_indices=faces,
-                                                          class_ids=np.full(len(verts), sem, np.uint16)),
-                rr.AnyValues(instance_id=[inst]), static=True)
+        rec.log(
+            f"{root}/world/meshes/{n:05d}",
+            rr.Mesh3D(
+                vertex_positions=verts,
+                triangle_indices=faces,
+                class_ids=np.full(len(verts), sem, np.uint16),
+            ),
+            rr.AnyValues(instance_id=[inst]),
+            static=True,
+        )
     if v.world_from_body is not None:
-        rec.log(f"{root}/world/trajectory", rr.LineStrips3D([v.world_from_body[:, :3, 3]], colors=[(20, 20, 20)]),
-                static=True)
+        rec.log(
+            f"{root}/world/trajectory",
+            rr.LineStrips3D([v.world_from_body[:, :3, 3]], colors=[(20, 20, 20)]),
+            static=True,
+        )
         for t, T in zip(v.times_s, v.world_from_body):
             rec.set_time(TIMELINE, duration=float(t))
             rec.log(f"{root}/world/body", _transform(rr, T), rr.TransformAxes3D(0.5))
@@ -180,9 +231,16 @@ def _log_scene(rr, rec, v: SceneView, max_points: int) -> None:
             rec.set_time(TIMELINE, duration=float(s.time_s))
         rec.log(cam, _transform(rr, s.world_from_camera), static=static)
         if s.K is not None:
-            rec.log(f"{cam}/image", rr.Pinhole(image_from_camera=s.K, resolution=list(s.size),
-                                               camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.3),
-                    static=static)
+            rec.log(
+                f"{cam}/image",
+                rr.Pinhole(
+                    image_from_camera=s.K,
+                    resolution=list(s.size),
+                    camera_xyz=rr.ViewCoordinates.RDF,
+                    image_plane_distance=0.3,
+                ),
+                static=static,
+            )
         if s.depth is not None:
             rec.log(f"{cam}/image/depth", rr.DepthImage(s.depth, meter=1.0), static=static)
         if s.semantic is not None:

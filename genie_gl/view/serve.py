@@ -6,6 +6,7 @@ It listens on the loopback address unless told otherwise, so on a headless box t
 opens the printed URL in a browser on the same machine or through an SSH tunnel
 (``ssh -L PORT:127.0.0.1:PORT host``).
 """
+
 from __future__ import annotations
 
 import ipaddress
@@ -29,8 +30,9 @@ def rerun_executable() -> Path:
     try:
         import rerun_cli
     except ImportError as exc:
-        raise ConfigError(f"genie view --serve needs the rerun-sdk package: pip install 'genie-gl[view]' ({exc})") \
-            from None
+        raise ConfigError(
+            f"genie view --serve needs the rerun-sdk package: pip install 'genie-gl[view]' ({exc})"
+        ) from None
     exe = Path(rerun_cli.__file__).parent / "rerun"
     if not exe.is_file():
         raise ConfigError(f"{exe}: the rerun-sdk wheel's viewer is missing; reinstall rerun-sdk")
@@ -50,8 +52,10 @@ def check_bind(bind: str) -> str:
     try:
         return str(ipaddress.ip_address(bind))
     except ValueError:
-        raise ConfigError(f"--bind {bind!r}: expected an IP address such as 127.0.0.1 (this machine only) or "
-                          "0.0.0.0 (every interface)") from None
+        raise ConfigError(
+            f"--bind {bind!r}: expected an IP address such as 127.0.0.1 (this machine only) or "
+            "0.0.0.0 (every interface)"
+        ) from None
 
 
 @dataclass
@@ -74,8 +78,15 @@ class Served:
                 self.process.wait()
 
 
-def serve(rrd: str | os.PathLike, *, bind: str = LOOPBACK, port: int = WEB_PORT, grpc_port: int | None = None,
-          timeout_s: float = 60.0, log_path: str | os.PathLike | None = None) -> Served:
+def serve(
+    rrd: str | os.PathLike,
+    *,
+    bind: str = LOOPBACK,
+    port: int = WEB_PORT,
+    grpc_port: int | None = None,
+    timeout_s: float = 60.0,
+    log_path: str | os.PathLike | None = None,
+) -> Served:
     """Host Rerun's web viewer on ``bind:port`` showing recording ``rrd``; returns once the
     page answers (a :class:`ConfigError` with the viewer's output if it does not)."""
     rrd = Path(rrd)
@@ -89,11 +100,23 @@ def serve(rrd: str | os.PathLike, *, bind: str = LOOPBACK, port: int = WEB_PORT,
     reach_host = f"[{reach}]" if ":" in reach else reach
     port = port or free_port(bind)
     grpc_port = grpc_port or free_port(bind)
-    cmd = [str(rerun_executable()), "--web-viewer", "--bind", bind, "--web-viewer-port", str(port),
-           "--port", str(grpc_port), "--hide-welcome-screen", str(rrd)]
+    cmd = [
+        str(rerun_executable()),
+        "--web-viewer",
+        "--bind",
+        bind,
+        "--web-viewer-port",
+        str(port),
+        "--port",
+        str(grpc_port),
+        "--hide-welcome-screen",
+        str(rrd),
+    ]
     log = open(log_path, "wb") if log_path else subprocess.DEVNULL
     try:
-        process = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        process = subprocess.Popen(
+            cmd, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL
+        )
     finally:
         if log_path:
             log.close()
@@ -103,8 +126,11 @@ def serve(rrd: str | os.PathLike, *, bind: str = LOOPBACK, port: int = WEB_PORT,
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         if process.poll() is not None:
-            raise ConfigError(f"the rerun web viewer stopped at once (exit {process.returncode}); is port {port} or "
-                              f"{grpc_port} on {bind} in use? ({' '.join(cmd)})")
+            raise ConfigError(
+                f"the rerun web viewer stopped at once (exit {process.returncode}); is port {port} "
+                "or "
+                f"{grpc_port} on {bind} in use? ({' '.join(cmd)})"
+            )
         try:
             with urllib.request.urlopen(f"http://{reach_host}:{port}/", timeout=2) as r:
                 if r.status == 200:
@@ -112,4 +138,6 @@ def serve(rrd: str | os.PathLike, *, bind: str = LOOPBACK, port: int = WEB_PORT,
         except OSError:
             time.sleep(0.2)
     served.stop()
-    raise ConfigError(f"the rerun web viewer did not answer on {host}:{port} within {timeout_s:g} s")
+    raise ConfigError(
+        f"the rerun web viewer did not answer on {host}:{port} within {timeout_s:g} s"
+    )

@@ -1,4 +1,5 @@
 """``genie bench accuracy`` end to end on a small sensor: rows, references, plot, budget."""
+
 import json
 
 import numpy as np
@@ -17,19 +18,39 @@ def small_profile(tmp_path_factory):
 
     d = tmp_path_factory.mktemp("sensor")
     K = np.array([[130.0, 0, 79.5], [0, 130.0, 59.5], [0, 0, 1]])
-    write_calibration(Calibration(160, 120, K, np.array([0.5, 0.2, 0, 0, 0.01, 0.6, 0.3, 0.05])), d / "small.yml")
+    write_calibration(
+        Calibration(160, 120, K, np.array([0.5, 0.2, 0, 0, 0.01, 0.6, 0.3, 0.05])), d / "small.yml"
+    )
     (d / "small.yaml").write_text(
         "name: small\ncalibration: small.yml\nbaseline_m: 0.075\neffects:\n"
-        "  - type: stereo_shadow\n  - type: multipath\n  - type: depth_noise\n    model: kinect_nguyen2012\n")
+        "  - type: stereo_shadow\n  - type: multipath\n  - type: depth_noise\n    model: "
+        "kinect_nguyen2012\n"
+    )
     return d / "small.yaml"
 
 
 @pytest.fixture(scope="module")
 def run(small_profile, tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
-    assert main(["bench", "accuracy", "--sensor", str(small_profile), "--repeats", "2", "--budget-mm", "1",
-                 "--knobs", "resolution,supersample,depth_precision,shadow_scale,tessellation,multipath_samples",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "bench",
+                "accuracy",
+                "--sensor",
+                str(small_profile),
+                "--repeats",
+                "2",
+                "--budget-mm",
+                "1",
+                "--knobs",
+                "resolution,supersample,depth_precision,shadow_scale,tessellation,multipath_samples",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     return out, json.loads((out / "accuracy.json").read_text())
 
 
@@ -40,10 +61,21 @@ def by_knob(result, name):
 def test_every_knob_has_three_levels_with_time_spread_and_errors_or_says_why_not(run):
     _, result = run
     assert result["case"]["kind"] == "builtin" and result["case"]["repeats"] == 2
-    for name in ("resolution", "supersample", "depth_precision", "shadow_scale", "tessellation", "multipath_samples"):
+    for name in (
+        "resolution",
+        "supersample",
+        "depth_precision",
+        "shadow_scale",
+        "tessellation",
+        "multipath_samples",
+    ):
         rows = by_knob(result, name)
         if not rows[0]["available"]:
-            assert len(rows) == 1 and "not landed" in rows[0]["reason"] or "has no" in rows[0]["reason"]
+            assert (
+                len(rows) == 1
+                and "not landed" in rows[0]["reason"]
+                or "has no" in rows[0]["reason"]
+            )
             continue
         assert len(rows) >= 3
         assert sum(r["is_default"] for r in rows) == 1, name
@@ -51,17 +83,26 @@ def test_every_knob_has_three_levels_with_time_spread_and_errors_or_says_why_not
             t = r["time_ms"]
             assert t["total"]["median"] > 0 and t["total"]["iqr"] >= 0
             assert {"render", "unprojection", "effect:stereo_shadow"} <= set(t)
-            assert r["reference"] == ("analytic truth" if name in ("resolution", "supersample", "tessellation",
-                                                                    "depth_precision") else "exact setting")
-            assert set(r["errors"]) >= {"depth_median_mm", "depth_p99_mm", "p2s_mean_mm", "id_pct",
-                                        "silhouette_pct", "edge_px"}
+            assert r["reference"] == (
+                "analytic truth"
+                if name in ("resolution", "supersample", "tessellation", "depth_precision")
+                else "exact setting"
+            )
+            assert set(r["errors"]) >= {
+                "depth_median_mm",
+                "depth_p99_mm",
+                "p2s_mean_mm",
+                "id_pct",
+                "silhouette_pct",
+                "edge_px",
+            }
 
 
 def test_the_shadow_scale_and_the_tessellation_change_the_result_towards_the_reference(run):
     _, result = run
     shadow = {r["value"]: r["errors"] for r in by_knob(result, "shadow_scale")}
     coarse, fine = shadow[0.25], shadow[1.0]
-    assert coarse["silhouette_pct"] > fine["silhouette_pct"] > 0       # 2x is the reference
+    assert coarse["silhouette_pct"] > fine["silhouette_pct"] > 0  # 2x is the reference
     tess = {r["value"]: r["errors"] for r in by_knob(result, "tessellation")}
     # a sphere of 8 segments lies far off the analytic sphere, of 64 close to it
     assert tess[8]["p2s_p99_mm"] > 4 * tess[64]["p2s_p99_mm"]
@@ -74,7 +115,7 @@ def test_the_noise_is_checked_as_a_distribution_against_its_model(run):
     assert noise["effect"] == "depth_noise" and len(noise["bins"]) >= 3
     z = [b["z_m"] for b in noise["bins"]]
     assert z == sorted(z)
-    for b in noise["bins"]:   # thousands of pixels per bin: σ within 10 % of the model's
+    for b in noise["bins"]:  # thousands of pixels per bin: σ within 10 % of the model's
         assert b["measured_mm"] == pytest.approx(b["model_mm"], rel=0.1)
 
 
@@ -91,11 +132,13 @@ def test_the_plot_and_the_pareto_front(run):
         for ref, front in fronts.items():
             assert front
             same = [o for o in avail if o["reference"] == ref]
-            for i in front:   # no row is both faster and more exact than a row of the front
+            for i in front:  # no row is both faster and more exact than a row of the front
                 r = result["rows"][i]
                 assert r["reference"] == ref
                 t, e = r["time_ms"]["total"]["median"], r["errors"][metric]
-                assert not any(o["time_ms"]["total"]["median"] < t and o["errors"][metric] < e for o in same)
+                assert not any(
+                    o["time_ms"]["total"]["median"] < t and o["errors"][metric] < e for o in same
+                )
 
 
 def test_the_budget_writes_a_setting_that_genie_dataset_uses(run, tmp_path):
@@ -108,9 +151,34 @@ def test_the_budget_writes_a_setting_that_genie_dataset_uses(run, tmp_path):
     if b["within"]:
         assert b["row"]["errors"]["depth_p99_mm"] <= 1.0
     ds = tmp_path / "ds"
-    assert main(["dataset", "assembly_line", "--scenes", "1", "--cameras", "1", "--sensor", "ideal_pinhole",
-                 "--points", "4000", "--min-points", "500", "--no-progress", "--previews", "0", "--workers", "1",
-                 "--accuracy", str(out / "accuracy.yaml"), "--out", str(ds)]) == 0
+    assert (
+        main(
+            [
+                "dataset",
+                "assembly_line",
+                "--scenes",
+                "1",
+                "--cameras",
+                "1",
+                "--sensor",
+                "ideal_pinhole",
+                "--points",
+                "4000",
+                "--min-points",
+                "500",
+                "--no-progress",
+                "--previews",
+                "0",
+                "--workers",
+                "1",
+                "--accuracy",
+                str(out / "accuracy.yaml"),
+                "--out",
+                str(ds),
+            ]
+        )
+        == 0
+    )
     m = json.loads((ds / "manifest.json").read_text())
     assert m["accuracy"] == {"source": str(out / "accuracy.yaml"), "settings": settings.to_dict()}
     cost = m["cost"]
@@ -122,7 +190,9 @@ def test_the_budget_writes_a_setting_that_genie_dataset_uses(run, tmp_path):
 def test_bad_arguments_fail_with_one_line(tmp_path, capsys):
     assert main(["bench", "accuracy", "--knobs", "supersampel", "--out", str(tmp_path)]) == 2
     assert "--knobs: unknown supersampel" in capsys.readouterr().err
-    assert main(["bench", "accuracy", "--scene", str(tmp_path / "x.obj"), "--out", str(tmp_path)]) == 2
+    assert (
+        main(["bench", "accuracy", "--scene", str(tmp_path / "x.obj"), "--out", str(tmp_path)]) == 2
+    )
 
 
 def test_the_analytic_truth_agrees_with_the_renderer(glctx_bench):
@@ -172,21 +242,40 @@ def test_placement_effort_buys_coverage_and_costs_seconds():
     assert sum(r["is_default"] for r in rows) == 1
     cov = [r["coverage_pct"] for r in rows]
     assert all(0 < c <= 100 for c in cov)
-    assert cov[-1] >= cov[0]            # the genetic search starts from the greedy solution
+    assert cov[-1] >= cov[0]  # the genetic search starts from the greedy solution
     # each level is timed (which costs more is the benchmark's to show, not a test's: compiled,
     # the longest search takes ~2 ms, and a busy machine can turn two such samples around)
     assert all(np.isfinite(r["seconds"]["median"]) and r["seconds"]["median"] > 0 for r in rows)
 
 
-def test_the_exact_reference_is_cached_and_a_second_run_measures_the_same_errors(run, small_profile):
+def test_the_exact_reference_is_cached_and_a_second_run_measures_the_same_errors(
+    run, small_profile
+):
     out, result = run
     (cached,) = (out / "cache").glob("reference-*.npz")
     stamp = cached.stat().st_mtime_ns
-    assert main(["bench", "accuracy", "--sensor", str(small_profile), "--repeats", "1", "--knobs", "shadow_scale",
-                 "--out", str(out)]) == 0
-    assert cached.stat().st_mtime_ns == stamp           # read, not rendered again
+    assert (
+        main(
+            [
+                "bench",
+                "accuracy",
+                "--sensor",
+                str(small_profile),
+                "--repeats",
+                "1",
+                "--knobs",
+                "shadow_scale",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    assert cached.stat().st_mtime_ns == stamp  # read, not rendered again
     again = json.loads((out / "accuracy.json").read_text())
-    assert [r["errors"] for r in by_knob(again, "shadow_scale")] == [r["errors"] for r in by_knob(result, "shadow_scale")]
+    assert [r["errors"] for r in by_knob(again, "shadow_scale")] == [
+        r["errors"] for r in by_knob(result, "shadow_scale")
+    ]
 
 
 def test_resolution_pays_off_in_a_finer_sampling_of_the_surfaces(run):
@@ -217,9 +306,27 @@ def test_a_usd_stage_with_views_from_a_poses_file(small_usd, small_profile, tmp_
 
     poses = content_poses(gg.read_usd(small_usd), 2)
     (tmp_path / "poses.json").write_text(json.dumps([p.tolist() for p in poses]))
-    assert main(["bench", "accuracy", "--scene", str(small_usd), "--sensor", str(small_profile),
-                 "--poses", str(tmp_path / "poses.json"), "--knobs", "supersample,shadow_scale,tessellation",
-                 "--repeats", "1", "--out", str(tmp_path / "o")]) == 0
+    assert (
+        main(
+            [
+                "bench",
+                "accuracy",
+                "--scene",
+                str(small_usd),
+                "--sensor",
+                str(small_profile),
+                "--poses",
+                str(tmp_path / "poses.json"),
+                "--knobs",
+                "supersample,shadow_scale,tessellation",
+                "--repeats",
+                "1",
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 0
+    )
     result = json.loads((tmp_path / "o" / "accuracy.json").read_text())
     assert result["case"]["kind"] == "usd" and result["case"]["cameras"] == 2
     rows = [r for r in result["rows"] if r["available"]]
@@ -234,17 +341,50 @@ def test_a_usd_stage_with_views_from_a_poses_file(small_usd, small_profile, tmp_
     # pixel's centre ray already has its 4 x 4 block's majority label, so x1 labels as x4 does
     assert x1["errors"]["id_pct"] == pytest.approx(x4["errors"]["id_pct"], abs=0.05)
     (tmp_path / "bad.json").write_text("[[1, 2]]")
-    assert main(["bench", "accuracy", "--scene", str(small_usd), "--poses", str(tmp_path / "bad.json"),
-                 "--out", str(tmp_path / "o")]) == 2
+    assert (
+        main(
+            [
+                "bench",
+                "accuracy",
+                "--scene",
+                str(small_usd),
+                "--poses",
+                str(tmp_path / "bad.json"),
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 2
+    )
 
 
 def test_a_layout_json_built_with_the_seed_and_placement_effort(small_profile, tmp_path):
     from genie_gl.layout import generate_layout
 
     generate_layout("layouts/logistics_lane.json", seed=3).to_json(tmp_path / "layout.json")
-    assert main(["bench", "accuracy", "--scene", str(tmp_path / "layout.json"), "--sensor", str(small_profile),
-                 "--cameras", "2", "--knobs", "shadow_scale", "--repeats", "1", "--budget-px", "0.5",
-                 "--out", str(tmp_path / "o")]) == 0
+    assert (
+        main(
+            [
+                "bench",
+                "accuracy",
+                "--scene",
+                str(tmp_path / "layout.json"),
+                "--sensor",
+                str(small_profile),
+                "--cameras",
+                "2",
+                "--knobs",
+                "shadow_scale",
+                "--repeats",
+                "1",
+                "--budget-px",
+                "0.5",
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 0
+    )
     result = json.loads((tmp_path / "o" / "accuracy.json").read_text())
     assert result["case"]["kind"] == "strategy" and len(result["placement"]) == 4
     b = result["budget"]
@@ -261,15 +401,32 @@ def test_the_budget_combines_each_knobs_fastest_level_within_it_and_keeps_it_onl
 
     def row(knob, value, ms, p99, edge):
         acc = AccuracySettings(**{knob: value})
-        return {"knob": knob, "title": knob, "level": str(value), "value": value, "available": True,
-                "settings": acc.to_dict(), "reference": "exact setting",
-                "time_ms": {"total": {"median": ms, "iqr": 0.0}},
-                "errors": {"depth_p99_mm": p99, "edge_px": edge}}
+        return {
+            "knob": knob,
+            "title": knob,
+            "level": str(value),
+            "value": value,
+            "available": True,
+            "settings": acc.to_dict(),
+            "reference": "exact setting",
+            "time_ms": {"total": {"median": ms, "iqr": 0.0}},
+            "errors": {"depth_p99_mm": p99, "edge_px": edge},
+        }
 
-    rows = [row("resample", "nearest", 70, 0.8, 0.2), row("resample", "exact", 100, 0.5, 0.1),
-            row("shadow_scale", 0.25, 80, 0.9, 0.3), row("shadow_scale", 1.0, 120, 0.1, 0.05),
-            {"knob": "resolution", "available": True, "value": 0.5, "settings": {},
-             "time_ms": {"total": {"median": 1.0, "iqr": 0}}, "errors": {"depth_p99_mm": 0.0, "edge_px": 0.0}}]
+    rows = [
+        row("resample", "nearest", 70, 0.8, 0.2),
+        row("resample", "exact", 100, 0.5, 0.1),
+        row("shadow_scale", 0.25, 80, 0.9, 0.3),
+        row("shadow_scale", 1.0, 120, 0.1, 0.05),
+        {
+            "knob": "resolution",
+            "available": True,
+            "value": 0.5,
+            "settings": {},
+            "time_ms": {"total": {"median": 1.0, "iqr": 0}},
+            "errors": {"depth_p99_mm": 0.0, "edge_px": 0.0},
+        },
+    ]
 
     class Runner:
         timings: dict = {}
@@ -278,13 +435,22 @@ def test_the_budget_combines_each_knobs_fastest_level_within_it_and_keeps_it_onl
             self.combined_ms, self.combined_p99 = combined_ms, combined_p99
 
         def side_by_side(self, settings):
-            return [{"total": {"median": 70.0, "iqr": 0}}, {"total": {"median": self.combined_ms, "iqr": 0}}]
+            return [
+                {"total": {"median": 70.0, "iqr": 0}},
+                {"total": {"median": self.combined_ms, "iqr": 0}},
+            ]
 
     def row_for(runner, knob, value, setting, mode, refs):
-        assert isinstance(setting, Setting) and setting.accuracy == AccuracySettings(resample="nearest", shadow_scale=0.25)
-        return {"settings": setting.accuracy.to_dict(), "reference": "exact setting", "level": "combined",
-                "time_ms": runner.timings[setting.key()],
-                "errors": {"depth_p99_mm": runner.combined_p99, "edge_px": 0.3}}
+        assert isinstance(setting, Setting) and setting.accuracy == AccuracySettings(
+            resample="nearest", shadow_scale=0.25
+        )
+        return {
+            "settings": setting.accuracy.to_dict(),
+            "reference": "exact setting",
+            "level": "combined",
+            "time_ms": runner.timings[setting.key()],
+            "errors": {"depth_p99_mm": runner.combined_p99, "edge_px": 0.3},
+        }
 
     # within 1 mm: nearest resampling (70 ms) and shadow 1/4 (80 ms) are each the fastest of their
     # knob; the resolution row (1 ms, exact) is never picked: it changes the sensor, not a setting
@@ -307,7 +473,10 @@ def test_a_time_within_half_the_fastest_rows_spread_is_a_tie_won_by_the_more_exa
     from genie_gl.bench.accuracy_budget import fastest
 
     def row(ms, iqr, p99):
-        return {"time_ms": {"total": {"median": ms, "iqr": iqr}}, "errors": {"depth_p99_mm": p99, "edge_px": 0.1}}
+        return {
+            "time_ms": {"total": {"median": ms, "iqr": iqr}},
+            "errors": {"depth_p99_mm": p99, "edge_px": 0.1},
+        }
 
     quick, close, slow = row(100, 20, 0.9), row(108, 3, 0.2), row(150, 1, 0.0)
     assert fastest([quick, close, slow]) is close
@@ -327,7 +496,9 @@ def test_the_level_of_detail_knob_reaches_the_renderer():
     scene = gg.Scene()
     T = np.eye(4)
     T[:3, 3] = [0.0, 0.0, 30.0]
-    scene.add(trimesh.creation.icosphere(5, radius=0.3), T, semantic=3)   # 20,480 faces, ~7 px across
+    scene.add(
+        trimesh.creation.icosphere(5, radius=0.3), T, semantic=3
+    )  # 20,480 faces, ~7 px across
     sensor = gg.Sensor.pinhole(160, 120, 130.0)
     case = Case("builtin", "sphere", sensor, [look_at(np.zeros(3), T[:3, 3])], lambda t: scene)
     runner = Runner(case, 1, 0)
@@ -352,4 +523,6 @@ def test_the_accuracy_bench_can_take_its_frames_along_a_path():
     assert len(poses) == 5
     heights = [p[2, 3] for p in poses]
     np.testing.assert_allclose(heights, 1.7)
-    np.testing.assert_allclose([np.degrees(np.arcsin(-p[2, 2])) for p in poses], 10.0)   # optical axis 10 deg down
+    np.testing.assert_allclose(
+        [np.degrees(np.arcsin(-p[2, 2])) for p in poses], 10.0
+    )  # optical axis 10 deg down

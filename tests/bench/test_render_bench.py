@@ -1,5 +1,6 @@
 """``genie bench render`` times the frames users get: the benchmark's frames equal
 ``gg.capture``'s and the renderer's own, byte for byte."""
+
 import numpy as np
 import pytest
 
@@ -19,9 +20,9 @@ def assert_same_frames(a, b):
 def test_api_path_and_benchmark_path_give_the_same_frames():
     scene, poses = scene_of("100k")
     sensor = sensor_640()
-    timed = bench_frames(scene, sensor, poses[:2])                 # what genie bench render times
+    timed = bench_frames(scene, sensor, poses[:2])  # what genie bench render times
     api = capture(scene, sensor, poses[:2], seed=0, depth_only=True)  # what users call
-    with Renderer(scene, raster=None) as r:   # the machine's default raster, as the two above
+    with Renderer(scene, raster=None) as r:  # the machine's default raster, as the two above
         direct = [r.render(sensor, p, depth_only=True) for p in poses[:2]]
     for a, b, c in zip(timed, api, direct):
         assert_same_frames(a, b)

@@ -1,6 +1,7 @@
 """Each measuring script of ``benchmarks/`` run on a small case: it still reaches what it
 measures, and its figures say what they should (a setting that is off costs nothing, culling
 draws no more than it was given, each stage takes some time)."""
+
 import subprocess
 import sys
 from pathlib import Path
@@ -9,18 +10,36 @@ import numpy as np
 import pytest
 
 import benchmarks
-from benchmarks import frame_cpu, lens_ids, lod_saving, occlusion_cost, skip_cost, stage_cpu, stage_parts
+from benchmarks import (
+    frame_cpu,
+    lens_ids,
+    lod_saving,
+    occlusion_cost,
+    skip_cost,
+    stage_cpu,
+    stage_parts,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_the_runner_lists_every_benchmark_module_and_refuses_an_unknown_one():
-    modules = {p.stem for p in (ROOT / "benchmarks").glob("*.py")} - {"__init__", "__main__", "common"}
+    modules = {p.stem for p in (ROOT / "benchmarks").glob("*.py")} - {
+        "__init__",
+        "__main__",
+        "common",
+    }
     assert set(benchmarks.NAMES) == modules
-    run = subprocess.run([sys.executable, "-m", "benchmarks", "--list"], cwd=ROOT, capture_output=True, text=True)
+    run = subprocess.run(
+        [sys.executable, "-m", "benchmarks", "--list"], cwd=ROOT, capture_output=True, text=True
+    )
     assert run.returncode == 0 and all(name in run.stdout for name in modules)
-    bad = subprocess.run([sys.executable, "-m", "benchmarks", "lod_savings"], cwd=ROOT, capture_output=True,
-                         text=True)
+    bad = subprocess.run(
+        [sys.executable, "-m", "benchmarks", "lod_savings"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
     assert bad.returncode == 2 and "unknown benchmark 'lod_savings'" in bad.stderr
 
 
@@ -64,7 +83,10 @@ def test_lens_ids_agree_with_open3d_and_time_every_mode():
     r = lens_ids.run("both", "100k", poses=1, lenses=[name], rounds=1)[name]
     assert set(r["agreement"]) == set(r["ms"]) == set(lens_ids.MODES)
     # the exact mode casts each pixel's own ray: it agrees with Open3D at least as well as nearest
-    assert r["agreement"]["exact"][0] > 0.999 and r["agreement"]["exact"][1] <= r["agreement"]["nearest"][1]
+    assert (
+        r["agreement"]["exact"][0] > 0.999
+        and r["agreement"]["exact"][1] <= r["agreement"]["nearest"][1]
+    )
     assert all(v > 0 for v in r["ms"].values())
 
 

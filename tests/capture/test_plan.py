@@ -1,6 +1,7 @@
 """The planner: per effect, a frame where it is skipped (the same bytes and RNG stream as a
 run) and one where it runs and changes pixels; culling; ToF multipath on convex and concave
 scenes."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -27,7 +28,9 @@ METAL = Material((0.6, 0.6, 0.6), 1.0, 0.2)
 def frame(depth, normal=(0.0, 0.0, -1.0), instance=None):
     s = gg.Sensor.pinhole(depth.shape[1], depth.shape[0], 80.0)
     d = depth.astype(np.float32)
-    inst = np.where(d > 0, 1, 0).astype(np.uint32) if instance is None else instance.astype(np.uint32)
+    inst = (
+        np.where(d > 0, 1, 0).astype(np.uint32) if instance is None else instance.astype(np.uint32)
+    )
     n = np.broadcast_to(np.asarray(normal, np.float32), d.shape + (3,)).copy()
     n[d == 0] = 0
     return gg.Frame(d, inst, (inst > 0).astype(np.uint16), None, s, np.eye(4), n)
@@ -53,10 +56,17 @@ def table(*materials):
 
 def simulated(eff, f, materials=None, seed=0):
     """(simulate's frame and record, the forced run's frame, both generators after)."""
-    sensor = gg.Sensor(f.sensor.width, f.sensor.height, f.sensor.K, effects=(eff,), stereo=Stereo(0.05))
+    sensor = gg.Sensor(
+        f.sensor.width, f.sensor.height, f.sensor.K, effects=(eff,), stereo=Stereo(0.05)
+    )
     rng_a, rng_b = np.random.default_rng(seed), np.random.default_rng(seed)
-    out = simulate(sensor, np.eye(4), render=lambda s, p, **kw: f.replace(sensor=s), rng=rng_a,
-                   materials=materials)
+    out = simulate(
+        sensor,
+        np.eye(4),
+        render=lambda s, p, **kw: f.replace(sensor=s),
+        rng=rng_a,
+        materials=materials,
+    )
     needs = {"materials": materials} if eff.needs_materials else {}
     forced = eff.apply(f.replace(sensor=sensor), rng=rng_b, **needs)
     return out, out.meta["effects"][0], forced, rng_a, rng_b
@@ -72,9 +82,12 @@ CASES = {
     "depth_noise": (DepthNoise(model="tof_linear"), plane(0.0), plane(2.0), None),
     "flying_pixels": (FlyingPixels(), plane(2.0), step(1.0, 2.0), None),
     "edge_dropout": (EdgeDropout(span_m=0.8), step(1.0, 1.5), step(1.0, 2.0), None),
-    "incidence_dropout": (IncidenceDropout(max_angle_deg=75.0),
-                          plane(2.0, normal=(np.sin(0.7), 0, -np.cos(0.7))),
-                          plane(2.0, normal=(np.sin(1.4), 0, -np.cos(1.4))), None),
+    "incidence_dropout": (
+        IncidenceDropout(max_angle_deg=75.0),
+        plane(2.0, normal=(np.sin(0.7), 0, -np.cos(0.7))),
+        plane(2.0, normal=(np.sin(1.4), 0, -np.cos(1.4))),
+        None,
+    ),
     "mixed_pixels": (MixedPixels(), plane(2.0), step(1.0, 2.0), table(MATTE, MATTE)),
     "ambiguity": (Ambiguity(ambiguity_m=3.0), plane(2.0), plane(4.0), None),
     "specular_loss": (SpecularLoss(), plane(2.0), plane(2.0), None),
@@ -86,15 +99,17 @@ def test_a_frame_check_skip_is_the_run_byte_for_byte_and_a_run_changes_pixels(na
     eff, quiet, busy, materials = CASES[name]
     quiet_mat = busy_mat = materials
     if name == "specular_loss":
-        quiet_mat, busy_mat = table(MATTE), table(METAL)     # matte: skipped; mirror-angle metal: runs
+        quiet_mat, busy_mat = table(MATTE), table(METAL)  # matte: skipped; mirror-angle metal: runs
     out, rec, forced, rng_a, rng_b = simulated(eff, quiet, quiet_mat)
     assert rec["run"] is False and rec["reason"] and rec["changed"] == 0
     assert same(out, forced)
-    assert rng_a.bit_generator.state == rng_b.bit_generator.state      # the same RNG stream
+    assert rng_a.bit_generator.state == rng_b.bit_generator.state  # the same RNG stream
     out, rec, forced, rng_a, rng_b = simulated(eff, busy, busy_mat)
     assert rec["run"] is True and rec["changed"] > 0 and same(out, forced)
     # what the effect counted itself (or simulate compared) is the pixels that differ
-    assert rec["changed"] == int(((busy.depth != out.depth) | (busy.instance != out.instance)).sum())
+    assert rec["changed"] == int(
+        ((busy.depth != out.depth) | (busy.instance != out.instance)).sum()
+    )
     assert rng_a.bit_generator.state == rng_b.bit_generator.state
 
 
@@ -111,16 +126,26 @@ def test_every_effect_can_be_planned():
 
 # -- with the renderer ---------------------------------------------------------------------------
 
+
 def tof(*effects):
     return gg.Sensor.pinhole(W, H, 70.0, effects=effects, name="tof-test")
 
 
 def sphere_scene(material=MATTE, far_one=False):
     s = gg.Scene()
-    s.add(trimesh.creation.icosphere(subdivisions=3, radius=0.5), np.eye(4), semantic=1, material=material)
+    s.add(
+        trimesh.creation.icosphere(subdivisions=3, radius=0.5),
+        np.eye(4),
+        semantic=1,
+        material=material,
+    )
     if far_one:  # wholly beyond the range: culled
-        s.add(trimesh.creation.icosphere(subdivisions=2, radius=0.5), [0.0, 0.0, -30.0], semantic=2,
-              material=material)
+        s.add(
+            trimesh.creation.icosphere(subdivisions=2, radius=0.5),
+            [0.0, 0.0, -30.0],
+            semantic=2,
+            material=material,
+        )
     return s
 
 
@@ -144,15 +169,17 @@ def captured(scene, sensor, pose, seed=3):
 
 @pytest.mark.gl
 def test_multipath_skipped_on_a_matte_convex_object_and_the_frame_is_identical():
-    sensor = tof(RangeLimits(min_m=0.5, max_m=4.0), TofMultipath(samples=64), DepthNoise(model="tof_linear"))
+    sensor = tof(
+        RangeLimits(min_m=0.5, max_m=4.0), TofMultipath(samples=64), DepthNoise(model="tof_linear")
+    )
     scene = sphere_scene()
     p = gg.plan(scene, sensor, [SPHERE_POSE])
     decided = {e.name: e for e in p.frames[0].effects}
     assert decided["tof_multipath"].run is False and "convex" in decided["tof_multipath"].reason
-    assert decided["range"].run is False          # the sphere lies at 1.5-2.5 m, inside [0.5, 4]
+    assert decided["range"].run is False  # the sphere lies at 1.5-2.5 m, inside [0.5, 4]
     planned, unplanned = captured(scene, sensor, SPHERE_POSE)
     assert (planned.depth > 0).sum() > 500
-    assert same(planned, unplanned)               # skipping == running, noise after it included
+    assert same(planned, unplanned)  # skipping == running, noise after it included
     ran = {e["name"]: e for e in unplanned.meta["effects"]}
     assert ran["tof_multipath"]["run"] is True and ran["tof_multipath"]["changed"] == 0
     assert {e["name"]: e["run"] for e in planned.meta["effects"]}["tof_multipath"] is False
@@ -169,21 +196,27 @@ def test_multipath_in_a_metallic_inner_corner_pushes_depth_away_never_closer():
     valid = ideal.depth > 0
     assert np.array_equal(out.depth > 0, valid)
     delta = out.depth.astype(np.float64) - ideal.depth
-    assert (delta[valid] >= 0).all()                         # never closer
-    assert (delta > 1e-4).sum() > 0.05 * valid.sum()         # a visible share moves away
+    assert (delta[valid] >= 0).all()  # never closer
+    assert (delta > 1e-4).sum() > 0.05 * valid.sum()  # a visible share moves away
     rec = out.meta["effects"][0]
     assert rec["run"] and rec["changed"] == int((delta != 0).sum())
     # the bias is largest where the plates meet (the shortest second bounce), nothing far off
     u_mid = W // 2
-    assert delta[:, u_mid - 3:u_mid + 4].max() > delta[:, :5].max()
+    assert delta[:, u_mid - 3 : u_mid + 4].max() > delta[:, :5].max()
 
 
 @pytest.mark.gl
 def test_plan_level_skips_keep_output_and_rng_stream():
     """calibration_error with zero sigmas and a constant lateral noise of 0 px are skipped by
     the plan; they still draw what they would, so the noise after them is the same."""
-    sensor = tof(CalibrationError(sigma_f_px=0.0, sigma_c_px=0.0), LateralNoise(model="constant", sigma_px=0.0),
-                 LowAlbedo(), SpecularLoss(), Multipath(), DepthNoise(model="tof_linear"))
+    sensor = tof(
+        CalibrationError(sigma_f_px=0.0, sigma_c_px=0.0),
+        LateralNoise(model="constant", sigma_px=0.0),
+        LowAlbedo(),
+        SpecularLoss(),
+        Multipath(),
+        DepthNoise(model="tof_linear"),
+    )
     scene = sphere_scene()
     p = gg.plan(scene, sensor, [SPHERE_POSE]).frames[0]
     assert [e.run for e in p.effects] == [False, False, False, False, False, None]
@@ -197,7 +230,7 @@ def test_plan_level_skips_keep_output_and_rng_stream():
 def test_low_albedo_and_specular_loss_run_where_the_scene_calls_for_them():
     dark = Material((0.02, 0.02, 0.02), 0.0, 0.9)
     eff = LowAlbedo(ref_albedo=0.15, ref_range_m=4.65)
-    cut = 4.65 * np.sqrt(dark.albedo / 0.15)       # 1.70 m: the sphere spans 1.5-2.0 m of range
+    cut = 4.65 * np.sqrt(dark.albedo / 0.15)  # 1.70 m: the sphere spans 1.5-2.0 m of range
     sensor = tof(eff)
     p = gg.plan(sphere_scene(dark), sensor, [SPHERE_POSE]).frames[0]
     assert p.effects[0].run is None
@@ -217,7 +250,7 @@ def test_low_albedo_and_specular_loss_run_where_the_scene_calls_for_them():
 def test_range_culling_and_empty_frames():
     sensor = tof(RangeLimits(min_m=0.5, max_m=4.0))
     scene = sphere_scene(far_one=True)
-    pose = look_at([0.0, 0.0, 2.0], [0.0, 0.0, -30.0], up=(0, 1, 0))   # both spheres in line
+    pose = look_at([0.0, 0.0, 2.0], [0.0, 0.0, -30.0], up=(0, 1, 0))  # both spheres in line
     p = gg.plan(scene, sensor, [pose, look_at([0.0, 0.0, 2.0], [0.0, 0.0, 10.0], up=(0, 1, 0))])
     far_id = scene.instances[1].instance
     assert p.frames[0].culled_range.tolist() == [far_id]
@@ -243,12 +276,17 @@ def test_stereo_shadow_renders_the_second_view_only_for_an_edge():
         def casts_shadow(self, frame):
             return True
 
-    for scene, rendered in ((flat, False), (boxed, True)):   # the render method (scanline renders nothing)
-        out = gg.capture(scene, tof(StereoShadow(baseline_m=0.05, method="render")), [pose], seed=0)[0]
+    for scene, rendered in (
+        (flat, False),
+        (boxed, True),
+    ):  # the render method (scanline renders nothing)
+        out = gg.capture(
+            scene, tof(StereoShadow(baseline_m=0.05, method="render")), [pose], seed=0
+        )[0]
         forced = gg.capture(scene, tof(Always(baseline_m=0.05, method="render")), [pose], seed=0)[0]
         assert out.meta["stereo_shadow"]["second_view"] is rendered
         assert same(out, forced)
-        assert out.meta["effects"][0]["changed"] > 0     # the border band, and the strip
+        assert out.meta["effects"][0]["changed"] > 0  # the border band, and the strip
 
 
 def test_edge_pixels_are_those_of_the_full_frame_step():
@@ -275,21 +313,33 @@ def test_nguyen_incidence_term_computed_only_where_it_applies_gives_the_same_sig
     n[..., 2] = -np.abs(n[..., 2])
     n = (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype(np.float32)
     n[d == 0] = 0
-    f = gg.Frame(d, (d > 0).astype(np.uint32), (d > 0).astype(np.uint16), None, gg.Sensor.pinhole(W, H, 60.0),
-                 np.eye(4), n)
+    f = gg.Frame(
+        d,
+        (d > 0).astype(np.uint32),
+        (d > 0).astype(np.uint16),
+        None,
+        gg.Sensor.pinhole(W, H, 60.0),
+        np.eye(4),
+        n,
+    )
     eff, valid = DepthNoise(model="kinect_nguyen2012"), d > 0
     full = incidence_angle(f)[valid]
     assert (full > np.pi / 3).sum() > 100
-    np.testing.assert_array_equal(eff.sigma(d[valid].astype(float), 60.0, DepthNoise.steep_angles(f, valid)),
-                                  eff.sigma(d[valid].astype(float), 60.0, full))
+    np.testing.assert_array_equal(
+        eff.sigma(d[valid].astype(float), 60.0, DepthNoise.steep_angles(f, valid)),
+        eff.sigma(d[valid].astype(float), 60.0, full),
+    )
 
 
 def test_instance_spheres_follow_each_transform():
     """A box's bounding sphere moved, turned and scaled by each instance's transform: centre
     T @ (box centre), radius the half diagonal times the largest column scale."""
     from genie_gl.capture.planner import _spheres
+
     scene = gg.Scene()
-    key = scene.add_mesh(trimesh.creation.box(extents=(2.0, 1.0, 0.5)).apply_translation((1.0, 0.0, 0.25)))
+    key = scene.add_mesh(
+        trimesh.creation.box(extents=(2.0, 1.0, 0.5)).apply_translation((1.0, 0.0, 0.25))
+    )
     rng = np.random.default_rng(3)
     want = []
     for k in range(25):
@@ -299,9 +349,17 @@ def test_instance_spheres_follow_each_transform():
         T[:3, :3] = T[:3, :3] * s
         T[:3, 3] = rng.uniform(-20, 20, 3)
         scene.add(key, T, instance=100 + 2 * k)
-        want.append((100 + 2 * k, T[:3, :3] @ [1.0, 0.0, 0.25] + T[:3, 3], np.sqrt(2.0**2 + 1 + 0.25) / 2 * s.max()))
+        want.append(
+            (
+                100 + 2 * k,
+                T[:3, :3] @ [1.0, 0.0, 0.25] + T[:3, 3],
+                np.sqrt(2.0**2 + 1 + 0.25) / 2 * s.max(),
+            )
+        )
     ids, centres, radii = _spheres(scene)
     assert ids.tolist() == [w[0] for w in want]
-    assert np.allclose(centres, [w[1] for w in want], atol=1e-9) and np.allclose(radii, [w[2] for w in want], atol=1e-9)
+    assert np.allclose(centres, [w[1] for w in want], atol=1e-9) and np.allclose(
+        radii, [w[2] for w in want], atol=1e-9
+    )
     empty = _spheres(gg.Scene())
     assert [a.shape for a in empty] == [(0,), (0, 3), (0,)]

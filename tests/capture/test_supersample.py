@@ -1,4 +1,5 @@
 """Edge supersampling: ids are never blended, planes keep their exact depth."""
+
 import numpy as np
 import pytest
 
@@ -59,9 +60,13 @@ def _random_boxes(seed):
     scene = Scene()
     scene.add(trimesh.creation.box((8, 8, 0.02)), [0, 0, 4.0], semantic=9, instance=1000)
     for k in range(30):
-        size = rng.uniform(0.01, 0.3, 3)          # some thinner than a pixel
-        scene.add(trimesh.creation.box(size), [*rng.uniform(-1, 1, 2), rng.uniform(1.5, 3.5)],
-                  semantic=int(rng.integers(1, 8)), instance=int(rng.integers(1, 2**31)))
+        size = rng.uniform(0.01, 0.3, 3)  # some thinner than a pixel
+        scene.add(
+            trimesh.creation.box(size),
+            [*rng.uniform(-1, 1, 2), rng.uniform(1.5, 3.5)],
+            semantic=int(rng.integers(1, 8)),
+            instance=int(rng.integers(1, 2**31)),
+        )
     return scene
 
 
@@ -95,8 +100,12 @@ def test_supersampling_never_produces_an_id_not_in_the_scene(glctx, s):
     top = np.where(own, zb, -np.inf).max(-1)
     rest = (f.instance > 0) & ~on_centre
     assert rest.any()
-    assert (f.depth[rest] >= lo[rest] * (1 - 1e-6)).all() and (f.depth[rest] <= top[rest] * (1 + 1e-6)).all()
-    assert (f.instance != hi.instance[s // 2::s, s // 2::s]).any() or s == 1   # the reduction did something
+    assert (f.depth[rest] >= lo[rest] * (1 - 1e-6)).all() and (
+        f.depth[rest] <= top[rest] * (1 + 1e-6)
+    ).all()
+    assert (
+        f.instance != hi.instance[s // 2 :: s, s // 2 :: s]
+    ).any() or s == 1  # the reduction did something
 
 
 @pytest.mark.gl
@@ -174,14 +183,18 @@ def test_capture_applies_the_settings_given_or_the_profiles(glctx):
     acc = AccuracySettings(supersample=2, shadow_scale=0.25)
     (f,) = capture(scene, sensor, [np.eye(4)], seed=0, accuracy=acc, raster="gl")
     assert f.meta["supersample"] == 2
-    (g,) = capture(scene, dataclasses.replace(sensor, accuracy=acc), [np.eye(4)], seed=0, raster="gl")
+    (g,) = capture(
+        scene, dataclasses.replace(sensor, accuracy=acc), [np.eye(4)], seed=0, raster="gl"
+    )
     assert np.array_equal(f.depth, g.depth) and np.array_equal(f.instance, g.instance)
     # the same frame by hand: a 2x render reduced, a second view at a quarter of the scale
     by_hand = dataclasses.replace(sensor, effects=(StereoShadow(baseline_m=0.1, scale=0.25),))
     from genie_gl.effects.simulate import simulate
 
     with Renderer(scene, context=glctx) as r:
-        h = simulate(by_hand, np.eye(4), render=supersampled(r.render, 2), rng=np.random.default_rng(0))
+        h = simulate(
+            by_hand, np.eye(4), render=supersampled(r.render, 2), rng=np.random.default_rng(0)
+        )
     assert np.array_equal(f.depth, h.depth) and np.array_equal(f.instance, h.instance)
     (plain,) = capture(scene, sensor, [np.eye(4)], seed=0)
     assert "supersample" not in plain.meta and not np.array_equal(plain.instance, f.instance)

@@ -1,6 +1,7 @@
 """A user's own captures: depth PNGs and a calibration file read, measured like the simulated
 walls (recovering noise put into them), bad input refused in one line; the command's
 argument errors; the RealSense recording script without its device package. No GL."""
+
 import importlib.util
 import sys
 from pathlib import Path
@@ -26,8 +27,17 @@ def write_frames(folder, frames_mm):
 
 def calibration(path, T=None):
     K = np.array([[F, 0, (W - 1) / 2], [0, F, (H - 1) / 2], [0, 0, 1]])
-    return write_calibration(Calibration(W, H, K, np.zeros(5), R=None if T is None else np.eye(3),
-                                         T=None if T is None else np.array(T)), path)
+    return write_calibration(
+        Calibration(
+            W,
+            H,
+            K,
+            np.zeros(5),
+            R=None if T is None else np.eye(3),
+            T=None if T is None else np.array(T),
+        ),
+        path,
+    )
 
 
 def test_captures_of_a_noisy_wall_recover_its_noise_and_offset(tmp_path):
@@ -35,7 +45,7 @@ def test_captures_of_a_noisy_wall_recover_its_noise_and_offset(tmp_path):
     rounding adds 1/12 mm^2 of variance (uniform on one unit)."""
     rng = np.random.default_rng(5)
     frames = [np.round(1206.0 + 3.0 * rng.standard_normal((H, W))) for _ in range(6)]
-    frames[0][:10, :] = 0                                # holes, outside the central ROI
+    frames[0][:10, :] = 0  # holes, outside the central ROI
     write_frames(tmp_path / "cap", frames)
     cap = load_captures(tmp_path / "cap", calibration(tmp_path / "c.yml", T=[-0.05, 0, 0]), 1.2)
     assert cap.depth.shape == (6, H, W) and cap.baseline_m == pytest.approx(0.05)
@@ -47,7 +57,7 @@ def test_captures_of_a_noisy_wall_recover_its_noise_and_offset(tmp_path):
     assert out["z_accuracy_pct"] == pytest.approx(100 * 0.006 / 1.2, abs=0.02)
     assert out["fill_rate_pct"] == 100.0
     # the sub-pixel RMS from the calibration's baseline: sigma_d = sigma_z f B / z^2, trimmed
-    assert 0.8 * 0.003 * F * 0.05 / 1.2 ** 2 < out["subpixel_rms_px"] < 0.003 * F * 0.05 / 1.2 ** 2
+    assert 0.8 * 0.003 * F * 0.05 / 1.2**2 < out["subpixel_rms_px"] < 0.003 * F * 0.05 / 1.2**2
 
 
 def test_bad_captures_are_one_line_naming_the_file(tmp_path):
@@ -56,7 +66,9 @@ def test_bad_captures_are_one_line_naming_the_file(tmp_path):
     with pytest.raises(ConfigError, match="found 1 depth PNG"):
         load_captures(tmp_path / "one", calib, 1.0)
     write_frames(tmp_path / "size", [np.full((H, W + 2), 1000.0)] * 2)
-    with pytest.raises(ConfigError, match=r"depth_0000.png: image is 322x240, the calibration .* is 320x240"):
+    with pytest.raises(
+        ConfigError, match=r"depth_0000.png: image is 322x240, the calibration .* is 320x240"
+    ):
         load_captures(tmp_path / "size", calib, 1.0)
     (tmp_path / "rgb").mkdir()
     for i in range(2):
@@ -86,30 +98,49 @@ def test_report_card_command_leaves_the_users_files_alone(tmp_path, capsys):
     """A page name taken by a file genie-gl did not write is refused before anything renders."""
     (tmp_path / "docs").mkdir()
     (tmp_path / "docs" / "index.md").write_text("my notes")
-    assert cli.main(["report-card", "--sensor", "ideal_pinhole", "--pages", str(tmp_path / "docs")]) == 2
+    assert (
+        cli.main(["report-card", "--sensor", "ideal_pinhole", "--pages", str(tmp_path / "docs")])
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert "already holds 'index.md', which genie-gl did not write" in err and "\n" not in err
     assert (tmp_path / "docs" / "index.md").read_text() == "my notes"
     assert sorted(p.name for p in (tmp_path / "docs").iterdir()) == ["index.md"]
-    assert cli.main(["report-card", "--sensor", "ideal_pinhole", "--out", str(tmp_path / "a"),
-                     "--pages", str(tmp_path / "a")]) == 2
+    assert (
+        cli.main(
+            [
+                "report-card",
+                "--sensor",
+                "ideal_pinhole",
+                "--out",
+                str(tmp_path / "a"),
+                "--pages",
+                str(tmp_path / "a"),
+            ]
+        )
+        == 2
+    )
     assert "two different folders" in capsys.readouterr().err
 
 
 def load_script():
-    spec = importlib.util.spec_from_file_location("record_captures", ROOT / "tools" / "record_captures.py")
+    spec = importlib.util.spec_from_file_location(
+        "record_captures", ROOT / "tools" / "record_captures.py"
+    )
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
-def test_recording_script_imports_without_its_device_package_and_says_so(tmp_path, monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, "pyrealsense2", None)          # as if not installed
-    mod = load_script()                                             # the module imports cleanly
+def test_recording_script_imports_without_its_device_package_and_says_so(
+    tmp_path, monkeypatch, capsys
+):
+    monkeypatch.setitem(sys.modules, "pyrealsense2", None)  # as if not installed
+    mod = load_script()  # the module imports cleanly
     assert mod.main(["--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip()
     assert err == mod.MISSING and "pip install pyrealsense2" in err
-    assert not (tmp_path / "x").exists()                             # nothing half-written
+    assert not (tmp_path / "x").exists()  # nothing half-written
     mod.write_png16(tmp_path / "d.png", np.array([[0, 1500], [65535, 7]], np.uint16))
     back = np.array(Image.open(tmp_path / "d.png"))
     assert back.dtype == np.uint16 and back.tolist() == [[0, 1500], [65535, 7]]

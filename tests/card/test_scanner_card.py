@@ -1,6 +1,7 @@
 """A scanner's report card: the point rate measured from the firings equals the VLP-16's
 published 289,344 points/s (single return, 10 Hz), and the range noise measured on a flat wall
 is the profile's sigma."""
+
 import pytest
 
 from genie_gl.card.scanner_card import measure, published_point_rate, noise_sigma, scanner_card
@@ -14,7 +15,9 @@ def test_vlp16_card_point_rate_and_range_noise():
     # the datasheet's figure, from the model: 16 lasers x the whole firings of 55.296 us in a second
     assert published_point_rate(vlp) == 289_344
     assert m["point_rate_per_s"] == published_point_rate(vlp)
-    assert m["points_returned_per_s"] >= 0.99 * m["point_rate_per_s"]   # a closed room: every beam hits
+    assert (
+        m["points_returned_per_s"] >= 0.99 * m["point_rate_per_s"]
+    )  # a closed room: every beam hits
     # sigma 15 mm with 2 mm steps on ~9,600 wall points: within 4 % (the standard error is ~0.7 %)
     assert m["wall_points"] > 5000
     assert m["range_noise_sigma_m"] == pytest.approx(noise_sigma(vlp), rel=0.04)
@@ -26,7 +29,7 @@ def test_a_card_without_noise_measures_none_and_the_cli_prints_it(capsys):
     from dataclasses import replace
 
     quiet = replace(load_scanner("ouster_os1_64"), effects=())
-    assert measure(quiet)["range_noise_sigma_m"] < 1e-9   # the wall's exact range, to rounding
+    assert measure(quiet)["range_noise_sigma_m"] < 1e-9  # the wall's exact range, to rounding
     assert main(["report-card", "--sensor", "ouster_os1_64"]) == 0
     out = capsys.readouterr().out
     assert "| point rate, single return (pts/s) | 655360 | 655360 |" in out

@@ -1,4 +1,5 @@
 """Class-balanced curation (cloud/balance.py): exact quotas, short classes, budget, seeding."""
+
 import json
 
 import numpy as np
@@ -16,11 +17,15 @@ def _cloud(counts: dict[int, int], seed: int = 0) -> PointCloud:
     sem = np.concatenate([np.full(n, c, np.uint16) for c, n in counts.items()])
     sem = np.random.default_rng(seed).permutation(sem)
     n = len(sem)
-    return PointCloud(np.random.default_rng(seed).random((n, 3)).astype(np.float32), sem, np.arange(n, dtype=np.uint32))
+    return PointCloud(
+        np.random.default_rng(seed).random((n, 3)).astype(np.float32),
+        sem,
+        np.arange(n, dtype=np.uint32),
+    )
 
 
 def test_plan_reaches_the_target_exactly_when_every_class_has_enough():
-    counts = np.array([[800, 100, 100], [400, 300, 300]])      # background, pallet, rack
+    counts = np.array([[800, 100, 100], [400, 300, 300]])  # background, pallet, rack
     p = plan(counts, np.array([0.5, 0.25, 0.25]), rng=RNG())
     # rack and pallet hold 400 each: N = 1600, background 800 of its 1200
     assert p.quota.sum(0).tolist() == [800, 400, 400]
@@ -33,7 +38,7 @@ def test_a_rare_class_is_short_within_the_tolerance_and_named():
     counts = np.array([[5000, 3000, 10]])
     p = plan(counts, np.array([0.6, 0.39, 0.01]), rng=RNG(), rare=0.02)
     got = p.quota.sum(0)
-    assert got[2] == 10                                       # all it has
+    assert got[2] == 10  # all it has
     share = got / got.sum()
     assert abs(share[0] - 0.6) < 0.02 and abs(share[1] - 0.39) < 0.02
     assert list(p.short) == [2] and "10 points in the data" in p.short[2]
@@ -44,10 +49,13 @@ def test_a_rare_class_is_short_within_the_tolerance_and_named():
 
 def test_a_plan_that_keeps_nothing_names_the_class_that_limits_it():
     # rack holds 30 points: N = 30 / 0.25 = 120, 60 per chunk, below min_points 100 in both
-    counts = np.array([[900, 15, 15], [900, 15, 15]])            # background, pallet, rack
+    counts = np.array([[900, 15, 15], [900, 15, 15]])  # background, pallet, rack
     p = plan(counts, np.array([0.5, 0.25, 0.25]), rng=RNG(), min_points=100)
     assert not p.keep.any() and p.quota.sum() == 0
-    assert list(p.short) == [1] and "30 points in the data limit the balanced total to 120" in p.short[1]
+    assert (
+        list(p.short) == [1]
+        and "30 points in the data limit the balanced total to 120" in p.short[1]
+    )
     assert "min_points 100" in p.short[1]
 
 
@@ -59,10 +67,10 @@ def test_budget_caps_and_small_or_background_only_chunks_are_dropped():
 
 
 def test_a_budget_keeps_whole_chunks_rather_than_thinning_them_all():
-    counts = np.tile([1000, 2000], (12, 1))                 # 12 chunks of 3000 points
+    counts = np.tile([1000, 2000], (12, 1))  # 12 chunks of 3000 points
     target = np.array([0.25, 0.75])
     p = plan(counts, target, rng=RNG(), budget=10_000, min_points=2000)
-    assert p.keep.sum() == 4                                 # 4 x 3000 is the fewest that reach 10 000
+    assert p.keep.sum() == 4  # 4 x 3000 is the fewest that reach 10 000
     assert 9990 <= p.quota.sum() <= 10_000 and p.quota[p.keep].sum(1).min() >= 2000
     np.testing.assert_allclose(p.quota.sum(0) / p.quota.sum(), target, atol=1e-3)
     # the chunks kept are drawn: another seed keeps others, the same seed the same
@@ -79,13 +87,16 @@ def test_sample_takes_the_quota_of_each_class_without_repeats():
 
 
 def test_balance_chunks_is_seeded_and_hits_the_counts():
-    chunks = [((0, 0), _cloud({0: 3000, 1: 500, 2: 800}, 1)), ((0, 1), _cloud({0: 1000, 2: 900}, 2))]
+    chunks = [
+        ((0, 0), _cloud({0: 3000, 1: 500, 2: 800}, 1)),
+        ((0, 1), _cloud({0: 1000, 2: 900}, 2)),
+    ]
     target = {0: 0.5, 1: 0.2, 2: 0.3}
     a, pa = balance_chunks(chunks, target, rng=np.random.default_rng(7))
     b, _ = balance_chunks(chunks, target, rng=np.random.default_rng(7))
     assert all(np.array_equal(x.instance, y.instance) for (_, x), (_, y) in zip(a, b))
     got = np.bincount(np.concatenate([t.semantic for _, t in a]), minlength=3)
-    assert got.tolist() == [1250, 500, 750]                   # pallet's 500 sets N = 2500
+    assert got.tolist() == [1250, 500, 750]  # pallet's 500 sets N = 2500
 
 
 def test_targets_from_paper_and_from_a_file(tmp_path):

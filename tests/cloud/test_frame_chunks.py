@@ -1,4 +1,6 @@
-"""frame_chunks: the dataset's chunks straight from the frames, equal to chunking the merged cloud."""
+"""frame_chunks: the dataset's chunks straight from the frames, equal to chunking the merged
+cloud."""
+
 import numpy as np
 import pytest
 
@@ -24,7 +26,9 @@ def ground_frames(shift=(0.0, 0.0, 0.0), n=5, colour=True, normals=True, lens="p
         ids = rng.integers(0, 5, d.shape)
         rgb = rng.integers(0, 256, (64, 96, 3)).astype(np.uint8) if colour else None
         normal = rng.normal(size=(64, 96, 3)).astype(np.float32) if normals else None
-        frames.append(gg.Frame(d, ids.astype(np.uint32) + 100, ids.astype(np.uint16), rgb, s, pose, normal))
+        frames.append(
+            gg.Frame(d, ids.astype(np.uint32) + 100, ids.astype(np.uint16), rgb, s, pose, normal)
+        )
     return frames
 
 
@@ -132,7 +136,7 @@ def test_frames_counted_as_they_come_give_the_tiles_of_frames_counted_at_once(mo
     real = tally.results
     monkeypatch.setattr(tally, "results", lambda: counted.append(1) or real())
     a, total_a = frame_chunks(frames, 1.0, rng=np.random.default_rng(4), tally=tally, **kw)
-    assert counted == [1]   # its counts were taken
+    assert counted == [1]  # its counts were taken
     with pytest.raises(RuntimeError, match="closed"):
         tally.add(frames[0])
     threads = numba.get_num_threads()
@@ -157,8 +161,12 @@ def test_a_tally_of_other_frames_origin_or_tiles_is_not_taken():
     frames = ground_frames(n=4)
     origin = origin_of([f.world_from_camera for f in frames])
     want, _ = frame_chunks(frames, 4.0, max_points=50, rng=np.random.default_rng(1))
-    cases = [(frames[:3], origin, 4.0), ([f.replace(depth=f.depth.copy()) for f in frames], origin, 4.0),
-             (frames, origin + [100.0, 0, 0], 4.0), (frames, origin, 2.0)]
+    cases = [
+        (frames[:3], origin, 4.0),
+        ([f.replace(depth=f.depth.copy()) for f in frames], origin, 4.0),
+        (frames, origin + [100.0, 0, 0], 4.0),
+        (frames, origin, 2.0),
+    ]
     for handed, o, size in cases:
         tally = FrameTally(size, o)
         for f in handed:
@@ -166,7 +174,7 @@ def test_a_tally_of_other_frames_origin_or_tiles_is_not_taken():
         assert not tally.matches(frames, origin, 4.0)
         got, _ = frame_chunks(frames, 4.0, max_points=50, rng=np.random.default_rng(1), tally=tally)
         assert_same_tiles(want, got)
-        with pytest.raises(RuntimeError, match="closed"):   # closed by frame_chunks all the same
+        with pytest.raises(RuntimeError, match="closed"):  # closed by frame_chunks all the same
             tally.add(frames[0])
 
 
@@ -192,12 +200,14 @@ def test_a_tally_shortens_the_switch_interval_only_while_it_counts():
     a, b = FrameTally(4.0, np.zeros(3)), FrameTally(4.0, np.zeros(3))
     assert sys.getswitchinterval() == SWITCH_INTERVAL_S
     a.close()
-    a.close()   # closing twice counts once
-    assert sys.getswitchinterval() == SWITCH_INTERVAL_S   # b still counts
+    a.close()  # closing twice counts once
+    assert sys.getswitchinterval() == SWITCH_INTERVAL_S  # b still counts
     b.close()
     assert sys.getswitchinterval() == before
 
 
 def test_a_tally_that_is_not_one_is_a_clear_error():
-    with pytest.raises(gg.ConfigError, match="frame_chunks: tally: expected a FrameTally, got a list of 0"):
+    with pytest.raises(
+        gg.ConfigError, match="frame_chunks: tally: expected a FrameTally, got a list of 0"
+    ):
         frame_chunks(ground_frames(n=1), 4.0, max_points=10, rng=np.random.default_rng(0), tally=[])

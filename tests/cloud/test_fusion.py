@@ -1,5 +1,6 @@
 """The mobile-scan map's voxel pass: the first point of each voxel, in order, across frames,
 against a plain Python dictionary of voxels; points outside the grid counted, not kept."""
+
 import numpy as np
 
 from genie_gl.cloud.fusion import _first_in_voxel
@@ -33,5 +34,9 @@ def test_each_voxel_keeps_its_first_point_across_frames_and_outside_points_are_c
     assert [g[0].tolist() for g in got] == kept
     assert [int(g[1]) for g in got] == outside and sum(outside) > 0
     # every voxel some point reached is marked, and no other
-    assert int(np.unpackbits(bits, bitorder="little").sum()) == sum(len(k) for k in kept) < int(dims.prod()) + 1
-    assert len(got[-1][0]) < len(got[0][0])   # later frames find most voxels taken
+    assert (
+        int(np.unpackbits(bits, bitorder="little").sum())
+        == sum(len(k) for k in kept)
+        < int(dims.prod()) + 1
+    )
+    assert len(got[-1][0]) < len(got[0][0])  # later frames find most voxels taken

@@ -2,6 +2,7 @@
 promise, colour read from views of every layout (in place only inside memory the view's owner
 holds), the float32 pose, and the room checks of ``unproject_into`` (nothing written on
 failure)."""
+
 import numpy as np
 import pytest
 
@@ -17,8 +18,14 @@ def frame(rng, *, rgb=None, pose=None, sensor=None):
     d = rng.uniform(0.5, 30.0, (H, W)).astype(np.float32)
     d[rng.random(d.shape) < 0.25] = 0
     ids = rng.integers(1, 2**16, d.shape)
-    return gg.Frame(d, ids.astype(np.uint32), ids.astype(np.uint16), rgb,
-                    sensor or gg.Sensor.pinhole(W, H, 80.0), np.eye(4) if pose is None else pose)
+    return gg.Frame(
+        d,
+        ids.astype(np.uint32),
+        ids.astype(np.uint16),
+        rgb,
+        sensor or gg.Sensor.pinhole(W, H, 80.0),
+        np.eye(4) if pose is None else pose,
+    )
 
 
 def skew_free_camera(**kw):
@@ -71,8 +78,12 @@ def test_unproject_writes_the_float32_expression_of_the_float32_pose():
     ref = np.stack([d * (M[r, 0] * x + (M[r, 1] * y + M[r, 2])) + M[r, 3] for r in range(3)], 1)
     assert ref.dtype == np.float32
     np.testing.assert_array_equal(c.xyz, ref)
-    truth = (np.stack([x, y, np.ones_like(x)], 1).astype(np.float64) * d[:, None].astype(np.float64)) \
-        @ pose[:3, :3].T + pose[:3, 3] - origin
+    truth = (
+        (np.stack([x, y, np.ones_like(x)], 1).astype(np.float64) * d[:, None].astype(np.float64))
+        @ pose[:3, :3].T
+        + pose[:3, 3]
+        - origin
+    )
     np.testing.assert_allclose(c.xyz, truth, rtol=0, atol=1e-4)
     np.testing.assert_array_equal(c.origin, origin)
 
@@ -109,12 +120,19 @@ def test_colour_of_an_rgba_read_back_is_a_read_only_view_of_the_block():
     rgba = rng.integers(0, 256, (H, W, 4)).astype(np.uint8)
     out = _colour_source(rgba[..., :3])
     # named first: a failure message must not print an array that points at foreign memory
-    dtype, shape, shared, writeable = out.dtype, out.shape, np.shares_memory(out, rgba), out.flags.writeable
+    dtype, shape, shared, writeable = (
+        out.dtype,
+        out.shape,
+        np.shares_memory(out, rgba),
+        out.flags.writeable,
+    )
     assert dtype == np.uint8 and shape == (H, W, 4) and shared and not writeable
     np.testing.assert_array_equal(out, rgba)
 
 
-@pytest.mark.parametrize("layout", ["columns_reversed", "slice_of_a_wider_rgb", "slice_of_a_wider_rgba"])
+@pytest.mark.parametrize(
+    "layout", ["columns_reversed", "slice_of_a_wider_rgb", "slice_of_a_wider_rgba"]
+)
 def test_colour_from_views_of_any_layout(layout):
     """Colour views the kernel cannot read in place (negative strides, a window of a wider
     image) are copied: the points carry the colours of their pixels."""
@@ -122,9 +140,9 @@ def test_colour_from_views_of_any_layout(layout):
     if layout == "columns_reversed":
         rgb = rng.integers(0, 256, (H, W, 3)).astype(np.uint8)[:, ::-1]
     elif layout == "slice_of_a_wider_rgb":
-        rgb = rng.integers(0, 256, (H, W + 9, 3)).astype(np.uint8)[:, 4:4 + W]
+        rgb = rng.integers(0, 256, (H, W + 9, 3)).astype(np.uint8)[:, 4 : 4 + W]
     else:
-        rgb = rng.integers(0, 256, (H, W + 9, 4)).astype(np.uint8)[:, 4:4 + W, :3]
+        rgb = rng.integers(0, 256, (H, W + 9, 4)).astype(np.uint8)[:, 4 : 4 + W, :3]
     assert not rgb.flags.c_contiguous
     f = frame(rng, rgb=rgb)
     c = unproject(f)
@@ -133,7 +151,11 @@ def test_colour_from_views_of_any_layout(layout):
 
 
 def buffers(n, *, short=None, colour=True):
-    xyz = np.full((n + 2, 4) if short == "xyz_width" else (n + 1 if short == "xyz" else n + 2, 3), 7.0, np.float32)
+    xyz = np.full(
+        (n + 2, 4) if short == "xyz_width" else (n + 1 if short == "xyz" else n + 2, 3),
+        7.0,
+        np.float32,
+    )
     sem = np.full(n if short == "semantic" else n + 1, 7, np.uint16)
     inst = np.full(n if short == "instance" else n + 1, 7, np.uint32)
     rgb = np.full((n if short == "rgb" else n + 1, 3), 7, np.uint8) if colour else None

@@ -1,6 +1,7 @@
 """The frame-to-points kernel against a plain numpy evaluation of the same float32 expression:
 the run-by-run (vectorised) and the pixel-by-pixel paths must write the same bits, whatever
 the pattern of valid pixels."""
+
 import numpy as np
 import pytest
 
@@ -23,7 +24,9 @@ def first_principles(depth, tx, ty, M):
     H, W = depth.shape
     d = depth.astype(np.float64)
     ok = np.isfinite(d) & (np.nan_to_num(d, nan=-1.0) > 0)
-    rays = np.stack([np.broadcast_to(tx, (H, W)), np.broadcast_to(ty, (H, W)), np.ones((H, W))], -1)[ok]
+    rays = np.stack(
+        [np.broadcast_to(tx, (H, W)), np.broadcast_to(ty, (H, W)), np.ones((H, W))], -1
+    )[ok]
     Md = M.astype(np.float64)
     return (rays.astype(np.float64) * d[ok][:, None]) @ Md[:, :3].T + Md[:, 3]
 
@@ -36,7 +39,7 @@ def patterned_depth(rng, H, W, pattern):
         for v in range(H):
             for _ in range(rng.integers(0, 6)):
                 a = rng.integers(0, W)
-                d[v, a:a + rng.integers(1, 150)] = 0
+                d[v, a : a + rng.integers(1, 150)] = 0
     elif pattern == "nan_scattered":  # NaN, negative and zero holes in words of many runs
         r = rng.random((H, W))
         d[r < 0.2] = np.nan
@@ -54,7 +57,9 @@ def patterned_depth(rng, H, W, pattern):
 
 
 @pytest.mark.parametrize("W", [5, 64, 200, 640, 848])
-@pytest.mark.parametrize("pattern", ["full", "scattered", "runs", "empty", "mixed", "nan_scattered"])
+@pytest.mark.parametrize(
+    "pattern", ["full", "scattered", "runs", "empty", "mixed", "nan_scattered"]
+)
 @pytest.mark.parametrize("separable", [True, False])
 def test_kernel_writes_exactly_the_reference_points(W, pattern, separable):
     rng = np.random.default_rng(W * 7 + len(pattern))
@@ -94,13 +99,13 @@ def test_unprojection_drops_nan_depth_in_every_path(separable):
     last whole 64-pixel word. The kernel gets room for every pixel, so a NaN counted as a
     return shows as a wrong count, not as a write past the buffer; the truth is pixel by pixel
     in float64: the finite positive depths, each scaled along its ray (x, y, 1)."""
-    H, W = 4, 200                                    # 3 whole words and a tail of 8 per row
+    H, W = 4, 200  # 3 whole words and a tail of 8 per row
     rng = np.random.default_rng(11)
     d = rng.uniform(0.5, 9.0, (H, W)).astype(np.float32)
-    d[0, 1::2] = np.nan                              # every other pixel: words of 32 runs
-    d[1, 64:128] = np.nan                            # a whole word of NaN between dense runs
-    d[1, 3:60:7] = np.nan                            # and scattered ones before it
-    d[2, 192::2] = np.nan                            # the tail, pixel by pixel
+    d[0, 1::2] = np.nan  # every other pixel: words of 32 runs
+    d[1, 64:128] = np.nan  # a whole word of NaN between dense runs
+    d[1, 3:60:7] = np.nan  # and scattered ones before it
+    d[2, 192::2] = np.nan  # the tail, pixel by pixel
     d[3, ::3] = np.nan
     d[3, 1::9] = -1.5
     d[3, 2::11] = 0.0
@@ -118,11 +123,22 @@ def test_unprojection_drops_nan_depth_in_every_path(separable):
     xyz = np.full((H * W + 2, 3), np.nan, np.float32)
     so, io = np.zeros(H * W + 1, np.uint16), np.zeros(H * W + 1, np.uint32)
     ids = np.arange(H * W, dtype=np.uint32).reshape(H, W)
-    n = kernels.unproject(d, tx, ty, M, ids.astype(np.uint16), ids, np.zeros((0, 0, 3), np.uint8), xyz, so, io,
-                          np.zeros((0, 3), np.uint8))
+    n = kernels.unproject(
+        d,
+        tx,
+        ty,
+        M,
+        ids.astype(np.uint16),
+        ids,
+        np.zeros((0, 0, 3), np.uint8),
+        xyz,
+        so,
+        io,
+        np.zeros((0, 3), np.uint8),
+    )
     assert n == int(ok.sum())
     assert kernels.count_valid(d) == int(ok.sum())
-    np.testing.assert_array_equal(io[:n], ids[ok])   # exactly the finite positive pixels, in order
+    np.testing.assert_array_equal(io[:n], ids[ok])  # exactly the finite positive pixels, in order
     v, u = np.nonzero(ok)
     x = (u - 99.5) / 150.0
     y = (v - 1.5) / 150.0
@@ -169,8 +185,17 @@ def test_merge_counts_and_normals_agree_with_the_kernel_on_invalid_depths():
         normal = np.zeros((40, 150, 3), np.float32)
         normal[..., 2] = -1.0  # facing the camera
         ids = np.full(d.shape, k + 1)
-        frames.append(gg.Frame(d, ids.astype(np.uint32), ids.astype(np.uint16), None, s,
-                               look_at(eye, [0.0, 0.0, 0.0]), normal))
+        frames.append(
+            gg.Frame(
+                d,
+                ids.astype(np.uint32),
+                ids.astype(np.uint16),
+                None,
+                s,
+                look_at(eye, [0.0, 0.0, 0.0]),
+                normal,
+            )
+        )
     assert kernels.count_valid(frames[0].depth) == int((frames[0].depth > 0).sum())
     c = to_cloud(frames)
     valid = [f.depth > 0 for f in frames]
@@ -179,7 +204,9 @@ def test_merge_counts_and_normals_agree_with_the_kernel_on_invalid_depths():
         m = c.camera == k
         assert (c.instance[m] == k + 1).all() and np.isfinite(c.xyz[m]).all()
         toward = f.world_from_camera[:3, :3] @ [0.0, 0.0, -1.0]
-        np.testing.assert_allclose(c.normal[m], np.broadcast_to(toward, (int(m.sum()), 3)), atol=1e-6)
+        np.testing.assert_allclose(
+            c.normal[m], np.broadcast_to(toward, (int(m.sum()), 3)), atol=1e-6
+        )
 
 
 def test_unproject_into_checks_the_room_before_writing():
@@ -190,9 +217,17 @@ def test_unproject_into_checks_the_room_before_writing():
     d = np.ones((8, 70), np.float32)
     f = gg.Frame(d, np.ones(d.shape, np.uint32), np.ones(d.shape, np.uint16), None, s, np.eye(4))
     n = d.size
-    ok = np.full((n + 2, 3), 7.0, np.float32), np.zeros(n + 1, np.uint16), np.zeros(n + 1, np.uint32)
+    ok = (
+        np.full((n + 2, 3), 7.0, np.float32),
+        np.zeros(n + 1, np.uint16),
+        np.zeros(n + 1, np.uint32),
+    )
     assert unproject_into(f, np.zeros(3), *ok) == n
-    short = np.full((n + 1, 3), 7.0, np.float32), np.zeros(n + 1, np.uint16), np.zeros(n + 1, np.uint32)
+    short = (
+        np.full((n + 1, 3), 7.0, np.float32),
+        np.zeros(n + 1, np.uint16),
+        np.zeros(n + 1, np.uint32),
+    )
     with pytest.raises(ValueError, match=f"{n} points need xyz"):
         unproject_into(f, np.zeros(3), *short)
     assert (short[0] == 7.0).all()  # nothing written

@@ -1,4 +1,5 @@
 """The dataset pipeline end to end: determinism across workers, resuming, bad input."""
+
 import functools
 import hashlib
 import signal
@@ -13,14 +14,29 @@ from genie_gl.cli import main
 from genie_gl.dataset.scene import STAGES
 
 pytestmark = pytest.mark.gl
-ARGS = ["assembly_line", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "4000",
-        "--min-points", "500", "--no-progress", "--previews", "1"]
+ARGS = [
+    "assembly_line",
+    "--cameras",
+    "2",
+    "--sensor",
+    "ideal_pinhole",
+    "--points",
+    "4000",
+    "--min-points",
+    "500",
+    "--no-progress",
+    "--previews",
+    "1",
+]
 
 
 def digest(root: Path) -> dict[str, str]:
     """Hash of every data file (manifest.json holds timings, so it is left out)."""
-    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file() and p.name != "manifest.json"}
+    return {
+        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and p.name != "manifest.json"
+    }
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +66,9 @@ def public_api_scene(index: int, seed: int = 0):
     return layout, semantic_of, cloud
 
 
-def assert_scenes_are_what_the_public_api_makes(root: Path, points: tuple[int, int] = (500, 4000)) -> None:
+def assert_scenes_are_what_the_public_api_makes(
+    root: Path, points: tuple[int, int] = (500, 4000)
+) -> None:
     """An independent check of a dataset's content (not only a comparison between runs): each
     scene's layout is the one generate_layout makes from the documented seed; every exported
     point is a point its cameras see, at the same place to 10 µm, with that point's labels, and
@@ -87,34 +105,59 @@ def test_one_and_two_workers_give_the_same_bytes(reference, tmp_path):
     assert a == b
     assert_scenes_are_what_the_public_api_makes(tmp_path)
     assert any(k.startswith("sequences/01/velodyne/") for k in a)
-    for name in ("histogram.txt", "histogram.png", "previews/scene_0000_layout.png",
-                 "previews/scene_0000_cam00.png", "previews/scene_0000_cloud_top.png"):
+    for name in (
+        "histogram.txt",
+        "histogram.png",
+        "previews/scene_0000_layout.png",
+        "previews/scene_0000_cam00.png",
+        "previews/scene_0000_cloud_top.png",
+    ):
         assert name in a
     import json
+
     m = json.loads((tmp_path / "manifest.json").read_text())
     assert m["inputs"]["seed"] == 0 and m["scenes_made"] == 2 and "genie_gl" in m
     # 2 scenes for shares 0.8, 0.1, 0.1: both in train, none in two splits, and the run says so
     import yaml
+
     split = yaml.safe_load((tmp_path / "genie-gl.yaml").read_text())["split"]
     assert split == {"train": [0, 1], "valid": [], "test": []}
     assert len(m["notes"]) == 1 and "valid and test get none, the rest is in train" in m["notes"][0]
     # each worker warmed up once, before its first scene, and says so apart from the scenes
     run = m["runs"][-1]
     workers = {s["worker"] for s in run["scene_s"]}
-    assert [s["scene"] for s in run["scene_s"]] == [0, 1] and len(run["warmup_s"]) == len(workers) >= 1
+    assert [s["scene"] for s in run["scene_s"]] == [0, 1] and len(run["warmup_s"]) == len(
+        workers
+    ) >= 1
     assert all(w > 0 for w in run["warmup_s"]) and sorted(s["nth"] for s in run["scene_s"]) == (
-        [0, 0] if len(workers) == 2 else [0, 1])
+        [0, 0] if len(workers) == 2 else [0, 1]
+    )
     assert all(set(s["stages"]) == set(STAGES) and s["cpu_s"] > 0 for s in run["scene_s"])
 
 
 def test_a_killed_run_resumes_to_the_same_bytes(reference, tmp_path):
     """Killed just after its first scene is whole (dataset/ tests kill at random moments too)."""
-    cmd = [sys.executable, "-m", "genie_gl.cli", "dataset", *ARGS, "--scenes", "2", "--workers", "1",
-           "--out", str(tmp_path)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "genie_gl.cli",
+        "dataset",
+        *ARGS,
+        "--scenes",
+        "2",
+        "--workers",
+        "1",
+        "--out",
+        str(tmp_path),
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
-    while not (tmp_path / "scenes" / "0000").exists() and time.time() < deadline and proc.poll() is None:
-        time.sleep(0.002)   # a 2-camera scene whose parts were made ahead takes ~30 ms
+    while (
+        not (tmp_path / "scenes" / "0000").exists()
+        and time.time() < deadline
+        and proc.poll() is None
+    ):
+        time.sleep(0.002)  # a 2-camera scene whose parts were made ahead takes ~30 ms
     proc.send_signal(signal.SIGKILL)  # mid-way through scene 1
     proc.wait()
     assert not (tmp_path / "scenes" / "0001").exists()
@@ -125,12 +168,18 @@ def test_a_killed_run_resumes_to_the_same_bytes(reference, tmp_path):
     assert_scenes_are_what_the_public_api_makes(tmp_path)
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["dataset", "layouts/missing.json", "--out", "OUT"], "missing.json: no such file"),
-    (["dataset", "assembly_line", "--format", "lass", "--out", "OUT"], "--format 'lass': unknown; expected one of semantickitti, ply, pcd, npz, bop, e57, las"),
-    (["dataset", "assembly_line", "--out", "/proc/genie-out"], "not writable"),
-    (["dataset", "assembly_line", "--sensor", "nope", "--out", "OUT"], "no shipped sensor"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["dataset", "layouts/missing.json", "--out", "OUT"], "missing.json: no such file"),
+        (
+            ["dataset", "assembly_line", "--format", "lass", "--out", "OUT"],
+            "--format 'lass': unknown; expected one of semantickitti, ply, pcd, npz, bop, e57, las",
+        ),
+        (["dataset", "assembly_line", "--out", "/proc/genie-out"], "not writable"),
+        (["dataset", "assembly_line", "--sensor", "nope", "--out", "OUT"], "no shipped sensor"),
+    ],
+)
 def test_bad_input_fails_fast_with_one_line(argv, message, tmp_path, capsys):
     argv = [a.replace("OUT", str(tmp_path / "o")) for a in argv]
     t = time.perf_counter()
@@ -142,7 +191,10 @@ def test_bad_input_fails_fast_with_one_line(argv, message, tmp_path, capsys):
 
 def test_ray_executor_gives_the_same_bytes(reference, tmp_path):
     import ray  # noqa: F401  (installed by the test extra: fails rather than skips)
-    assert main(["dataset", *ARGS, "--scenes", "2", "--executor", "ray", "--out", str(tmp_path)]) == 0
+
+    assert (
+        main(["dataset", *ARGS, "--scenes", "2", "--executor", "ray", "--out", str(tmp_path)]) == 0
+    )
     assert digest(tmp_path) == digest(reference)
 
 
@@ -152,7 +204,23 @@ def test_bop_format_writes_scenes_that_bop_readers_load(tmp_path):
     import cv2
     import numpy as np
 
-    assert main(["dataset", *ARGS, "--scenes", "1", "--workers", "1", "--format", "bop", "--out", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "dataset",
+                *ARGS,
+                "--scenes",
+                "1",
+                "--workers",
+                "1",
+                "--format",
+                "bop",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     scene = tmp_path / "train_pbr" / "000000"
     gt = json.loads((scene / "scene_gt.json").read_text())
     info = json.loads((scene / "scene_gt_info.json").read_text())
@@ -166,8 +234,12 @@ def test_bop_format_writes_scenes_that_bop_readers_load(tmp_path):
         rgb = cv2.imread(str(scene / "rgb" / f"{int(im):06d}.png"), cv2.IMREAD_UNCHANGED)
         assert d.dtype == np.uint16 and d.max() > 0 and rgb.shape == d.shape + (3,)
         for k, inf in enumerate(info[im]):
-            full = cv2.imread(str(scene / "mask" / f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_UNCHANGED)
-            vis = cv2.imread(str(scene / "mask_visib" / f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_UNCHANGED)
+            full = cv2.imread(
+                str(scene / "mask" / f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_UNCHANGED
+            )
+            vis = cv2.imread(
+                str(scene / "mask_visib" / f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_UNCHANGED
+            )
             assert ((vis == 255) <= (full == 255)).all() and 0 < inf["visib_fract"] <= 1
     assert (scene / "stats.json").exists() and (tmp_path / "camera.json").exists()
 
@@ -183,12 +255,20 @@ def test_a_scene_counts_its_frames_beside_the_capture_only_with_a_core_to_spare(
     from genie_gl.dataset.recipe import chunk, load_inputs, make
     from genie_gl.dataset.streams import SceneStreams
 
-    cfg = DatasetConfig(strategy="assembly_line", out="unused", scenes=1, cameras=3, sensor="ideal_pinhole",
-                        previews=0)
+    cfg = DatasetConfig(
+        strategy="assembly_line",
+        out="unused",
+        scenes=1,
+        cameras=3,
+        sensor="ideal_pinhole",
+        previews=0,
+    )
     inputs = load_inputs(cfg)
     taken = []
     real = process.FrameTally.results
-    monkeypatch.setattr(process.FrameTally, "results", lambda self: taken.append(len(self.frames)) or real(self))
+    monkeypatch.setattr(
+        process.FrameTally, "results", lambda self: taken.append(len(self.frames)) or real(self)
+    )
     threads = numba.get_num_threads()
     try:
         numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
@@ -198,7 +278,10 @@ def test_a_scene_counts_its_frames_beside_the_capture_only_with_a_core_to_spare(
         assert taken == [3]
         without = chunk(cfg, made.frames, SceneStreams(0, 0), chunks=True)
         numba.set_num_threads(1)
-        assert make(inputs, SceneStreams(0, 0), cameras=3, depth_only=True, chunk_m=cfg.chunk_m).tally is None
+        assert (
+            make(inputs, SceneStreams(0, 0), cameras=3, depth_only=True, chunk_m=cfg.chunk_m).tally
+            is None
+        )
     finally:
         numba.set_num_threads(threads)
     assert with_tally.points_total == without.points_total > 0

@@ -2,6 +2,7 @@
 as pasted (alone, in a fresh interpreter, in an empty folder), every ``genie`` command line
 of their shell blocks parses with the CLI's own parser, and every file they link to is in the
 repository."""
+
 import os
 import re
 import shlex
@@ -32,8 +33,9 @@ def command_lines() -> list[tuple[Path, str]]:
     for page, text in TEXT.items():
         for line in re.findall(r"`(genie [^`]+)`", text.replace("\n", " ")):
             words = line.split()
-            if " --" in line and not any(w in ("...", "…") or "[" in w or re.fullmatch(r"[A-Z][A-Z_]+", w)
-                                         for w in words):   # no ellipsis, no placeholder
+            if " --" in line and not any(
+                w in ("...", "…") or "[" in w or re.fullmatch(r"[A-Z][A-Z_]+", w) for w in words
+            ):  # no ellipsis, no placeholder
                 out.append((page, " ".join(line.split())))
     return out
 
@@ -47,22 +49,32 @@ def test_the_pages_have_blocks_and_command_lines():
 
 
 @pytest.mark.gl
-@pytest.mark.parametrize("index", range(len(BLOCKS)), ids=[f"{p.name}-{i}" for i, (p, _) in enumerate(BLOCKS)])
+@pytest.mark.parametrize(
+    "index", range(len(BLOCKS)), ids=[f"{p.name}-{i}" for i, (p, _) in enumerate(BLOCKS)]
+)
 def test_every_python_block_runs_as_pasted(index, tmp_path):
     page, block = BLOCKS[index]
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    r = subprocess.run([sys.executable, "-c", block], cwd=tmp_path, env=env, capture_output=True,
-                       text=True, timeout=240)
+    r = subprocess.run(
+        [sys.executable, "-c", block],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     assert r.returncode == 0, f"{page.name} block:\n{block}\n{r.stderr[-2000:]}"
 
 
-@pytest.mark.parametrize("index", range(len(LINES)), ids=[f"{p.name}-{i}" for i, (p, _) in enumerate(LINES)])
+@pytest.mark.parametrize(
+    "index", range(len(LINES)), ids=[f"{p.name}-{i}" for i, (p, _) in enumerate(LINES)]
+)
 def test_every_genie_command_line_parses(index):
     page, line = LINES[index]
     argv = shlex.split(line)[1:]
     try:
         build_parser(command_of(argv)).parse_args(argv)
-    except SystemExit as exc:   # --help (status 0), or the parser's one-line error
+    except SystemExit as exc:  # --help (status 0), or the parser's one-line error
         if exc.code:
             pytest.fail(f"{page.name}: `{line}` does not parse (exit {exc.code})")
 

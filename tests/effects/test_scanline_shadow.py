@@ -1,6 +1,7 @@
 """The stereo shadow of a rectified pair drawn row by row from the depth image (method
 "scanline"): analytic strip widths, a post narrower than its shadow, the second view on
 either side, and agreement with the rendered second view (method "render")."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -52,11 +53,11 @@ def test_a_box_casts_a_strip_of_the_analytic_width_and_matches_the_render():
     rows = np.flatnonzero((ideal.depth == np.float32(Z_POST)).any(1))[5:-5]
     for v in rows:
         left = np.flatnonzero(ideal.depth[v] == np.float32(Z_POST))[0]
-        assert abs(gone[v, left - 40:left].sum() - strip) <= 1.0
-        assert abs(gone[v, :40].sum() - band) <= 1.0           # outside the second view
-        assert not gone[v, left:].any()                          # the box and the wall right of it
+        assert abs(gone[v, left - 40 : left].sum() - strip) <= 1.0
+        assert abs(gone[v, :40].sum() - band) <= 1.0  # outside the second view
+        assert not gone[v, left:].any()  # the box and the wall right of it
     assert rec["occluded"] + rec["outside"] == gone.sum() == rec["changed"]
-    assert np.array_equal(gone, res["render"][1])                # the rendered second view agrees
+    assert np.array_equal(gone, res["render"][1])  # the rendered second view agrees
 
 
 def test_a_post_narrower_than_its_shadow_hides_only_its_own_width():
@@ -65,7 +66,7 @@ def test_a_post_narrower_than_its_shadow_hides_only_its_own_width():
     is 2 mm deep: the side a deeper one turns to the second view, which the first view cannot
     see, widens the rendered strip by a fraction of a pixel; the scanline knows only what the
     first view sees.)"""
-    scene = wall_and(((0.02, 0.6, 0.002), (0.0013, 0, Z_POST + 0.001)))   # no edge on a pixel centre
+    scene = wall_and(((0.02, 0.6, 0.002), (0.0013, 0, Z_POST + 0.001)))  # no edge on a pixel centre
     res = shadows(scene)
     ideal, gone, _ = res["scanline"]
     shift = F * B * (1 / Z_POST - 1 / Z_WALL)
@@ -74,8 +75,8 @@ def test_a_post_narrower_than_its_shadow_hides_only_its_own_width():
         post = np.flatnonzero(ideal.depth[v] == np.float32(Z_POST))
         hidden = np.flatnonzero(gone[v, 40:]) + 40
         assert abs(len(hidden) - len(post)) <= 1
-        assert abs(post[0] - hidden[0] - shift) <= 1.0           # the strip lies one shift left
-        assert hidden[-1] < post[0] - 1                          # and wall is seen between
+        assert abs(post[0] - hidden[0] - shift) <= 1.0  # the strip lies one shift left
+        assert hidden[-1] < post[0] - 1  # and wall is seen between
     assert np.array_equal(gone, res["render"][1])
 
 
@@ -89,8 +90,8 @@ def test_the_second_view_on_the_left_hides_the_strip_right_of_an_edge():
     strip = F * b * (1 / Z_POST - 1 / Z_WALL)
     for v in np.flatnonzero((ideal.depth == np.float32(Z_POST)).any(1))[5:-5]:
         right = np.flatnonzero(ideal.depth[v] == np.float32(Z_POST))[-1]
-        assert abs(gone[v, right + 1:right + 41].sum() - strip) <= 1.0
-        assert not gone[v, :right + 1][40:].any()
+        assert abs(gone[v, right + 1 : right + 41].sum() - strip) <= 1.0
+        assert not gone[v, : right + 1][40:].any()
     assert np.array_equal(gone, res["render"][1])
 
 
@@ -111,7 +112,9 @@ def test_scanline_agrees_with_the_rendered_second_view_on_a_cluttered_scene():
         ideal = r.render(s, np.eye(4))
         for method, scale in (("scanline", 0.5), ("render", 1.0), ("render", 0.5)):
             eff = StereoShadow(baseline_m=0.05, method=method, scale=scale)
-            f = eff.apply(ideal, rng=None, render_depth=lambda v, p: r.render(v, p, depth_only=True).depth)
+            f = eff.apply(
+                ideal, rng=None, render_depth=lambda v, p: r.render(v, p, depth_only=True).depth
+            )
             gone[method, scale] = (ideal.depth > 0) & (f.depth == 0)
     valid = (ideal.depth > 0).sum()
     differ = (gone["scanline", 0.5] != gone["render", 1.0]).sum()
@@ -129,16 +132,27 @@ def test_the_fused_drop_equals_the_mask_then_drop():
     normal[..., 2] = -1
     f = gg.Frame(d, inst, inst.astype(np.uint16), None, s, np.eye(4), normal)
     eff = StereoShadow(baseline_m=0.1)
-    out = eff.apply(f, rng=None)                     # no renderer needed
-    gone, occluded, outside = kernels.scanline_shadow(d, -100.0 * 0.1, eff.tolerance_m, eff.tolerance_rel)
+    out = eff.apply(f, rng=None)  # no renderer needed
+    gone, occluded, outside = kernels.scanline_shadow(
+        d, -100.0 * 0.1, eff.tolerance_m, eff.tolerance_rel
+    )
     ref = drop(f, gone)
     # 5 px hidden left of the block (100·0.1·(1/1 − 1/2)) in its 20 rows; a 5 px band outside
     assert occluded == 20 * 5 and outside == 39 * 5
-    for a, b in ((out.depth, ref.depth), (out.instance, ref.instance), (out.semantic, ref.semantic),
-                 (out.normal, ref.normal)):
+    for a, b in (
+        (out.depth, ref.depth),
+        (out.instance, ref.instance),
+        (out.semantic, ref.semantic),
+        (out.normal, ref.normal),
+    ):
         assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
-    assert out.meta["stereo_shadow"] == {"occluded": occluded, "outside": outside, "second_view": False,
-                                         "method": "scanline", "changed": occluded + outside}
+    assert out.meta["stereo_shadow"] == {
+        "occluded": occluded,
+        "outside": outside,
+        "second_view": False,
+        "method": "scanline",
+        "changed": occluded + outside,
+    }
 
 
 def test_the_method_follows_the_pair_and_the_lens():
@@ -146,7 +160,10 @@ def test_the_method_follows_the_pair_and_the_lens():
     assert StereoShadow().resolved_method(pinhole) == "scanline"
     assert StereoShadow(method="render").resolved_method(pinhole) == "render"
     # a calibration with a rotation or a vertical offset: not rectified, so rendered
-    for R, T in ((np.diag([1.0, 1.0, 1.0]) + np.eye(3, k=1) * 1e-3, [-0.05, 0, 0]), (np.eye(3), [-0.05, 0.001, 0])):
+    for R, T in (
+        (np.diag([1.0, 1.0, 1.0]) + np.eye(3, k=1) * 1e-3, [-0.05, 0, 0]),
+        (np.eye(3), [-0.05, 0.001, 0]),
+    ):
         tilted = gg.Sensor.pinhole(64, 48, 50.0, stereo=Stereo.from_extrinsics(R, T))
         assert StereoShadow().resolved_method(tilted) == "render"
         with pytest.raises(gg.ConfigError, match="scanline needs a rectified pair"):

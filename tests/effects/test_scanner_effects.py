@@ -1,13 +1,19 @@
 """LiDAR effects on echoes with known answers: noise of the stated sigma, the blind zone, the
 dropouts' thresholds, and the footprint's echoes per return mode."""
+
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from genie_gl.effects.lidar_base import Echoes, SceneMaterials
-from genie_gl.effects.lidar import (BeamDivergence, BlindZone, Dropout, RangeNoise,
-                                    build_lidar_effects)
+from genie_gl.effects.lidar import (
+    BeamDivergence,
+    BlindZone,
+    Dropout,
+    RangeNoise,
+    build_lidar_effects,
+)
 from genie_gl.effects.scanner_profile import load_scanner
 
 SCENE = SceneMaterials(instances=3, shiny_metal=1, min_albedo=0.1, max_albedo=0.8)
@@ -17,9 +23,20 @@ def echoes(r, *, refl=0.5, cos=1.0, metallic=0.0, roughness=0.6, beam=None):
     r = np.asarray(r, np.float64)
     n = len(r)
     f = lambda v: np.broadcast_to(np.asarray(v, np.float64), (n,)).copy()  # noqa: E731
-    return Echoes(np.arange(n) if beam is None else np.asarray(beam, np.int64), r, np.arange(1, n + 1, dtype=np.uint32),
-                  np.ones(n, np.uint16), np.tile([0.0, 0.0, 1.0], (n, 1)), f(cos), f(refl), f(metallic), f(roughness),
-                  f(refl) * f(cos), np.ones(n, np.uint8), np.ones(n, np.uint8))
+    return Echoes(
+        np.arange(n) if beam is None else np.asarray(beam, np.int64),
+        r,
+        np.arange(1, n + 1, dtype=np.uint32),
+        np.ones(n, np.uint16),
+        np.tile([0.0, 0.0, 1.0], (n, 1)),
+        f(cos),
+        f(refl),
+        f(metallic),
+        f(roughness),
+        f(refl) * f(cos),
+        np.ones(n, np.uint8),
+        np.ones(n, np.uint8),
+    )
 
 
 @pytest.fixture(scope="module")
@@ -35,13 +52,13 @@ def test_range_noise_has_its_sigma_and_step_and_is_the_seeds(vlp16):
     assert np.array_equal(a.range_m, b.range_m)
     assert np.std(a.range_m - 10.0) == pytest.approx(np.hypot(0.015, 0.002 / np.sqrt(12)), rel=0.03)
     np.testing.assert_allclose(a.range_m / 0.002, np.round(a.range_m / 0.002), atol=1e-6)
-    assert not RangeNoise().plan(SCENE, vlp16).run   # nothing to do: skipped
+    assert not RangeNoise().plan(SCENE, vlp16).run  # nothing to do: skipped
 
 
 def test_blind_zone_drops_the_near_echoes(vlp16):
     e = echoes([0.3, 0.89, 0.9, 5.0])
     out = BlindZone().apply(e, vlp16, rng=np.random.default_rng(0))
-    np.testing.assert_array_equal(out.range_m, [0.9, 5.0])     # the profile's 0.9 m
+    np.testing.assert_array_equal(out.range_m, [0.9, 5.0])  # the profile's 0.9 m
     assert BlindZone(min_m=0.0).plan(SCENE, vlp16).run is False
 
 
@@ -52,7 +69,9 @@ def test_dropouts_follow_received_power_metal_lobe_and_grazing(vlp16):
     np.testing.assert_array_equal(out.range_m, [40.0, 42.0])
     # a mirror-smooth metal returns only within 15 deg of its normal
     cos = np.cos(np.radians([5.0, 14.0, 16.0, 40.0]))
-    out = fx.apply(echoes([5.0] * 4, cos=cos, metallic=1.0, roughness=0.1), vlp16, rng=np.random.default_rng(0))
+    out = fx.apply(
+        echoes([5.0] * 4, cos=cos, metallic=1.0, roughness=0.1), vlp16, rng=np.random.default_rng(0)
+    )
     assert len(out) == 2
     # grazing beyond 85 deg gives nothing, whatever the surface
     cos = np.cos(np.radians([80.0, 86.0]))
@@ -68,15 +87,21 @@ def _footprint(vlp16, mode, ranges):
     return fx.combine(sub, w[: len(ranges)], s), w
 
 
-@pytest.mark.parametrize("mode, expect", [("strongest", [5.0]), ("last", [8.0]), ("dual", [5.0, 8.0])])
+@pytest.mark.parametrize(
+    "mode, expect", [("strongest", [5.0]), ("last", [8.0]), ("dual", [5.0, 8.0])]
+)
 def test_a_footprint_across_an_edge_gives_the_modes_echoes(vlp16, mode, expect):
     # the centre and 3 of the 6 outer sub-rays on a near face at 5 m, the other 3 on a wall at 8 m
     out, w = _footprint(vlp16, mode, [5.0, 5.0, 5.0, 5.0, 8.0, 8.0, 8.0])
     np.testing.assert_allclose(out.range_m, expect)
-    assert list(out.return_number) == list(range(1, len(expect) + 1)) and set(out.returns) == {len(expect)}
+    assert list(out.return_number) == list(range(1, len(expect) + 1)) and set(out.returns) == {
+        len(expect)
+    }
     # intensity: the share of the beam's energy on that surface times its reflectivity
     near = w[:4].sum() / w.sum() * 0.5
-    assert out.intensity[0] == pytest.approx(near if expect[0] == 5.0 else w[4:].sum() / w.sum() * 0.5)
+    assert out.intensity[0] == pytest.approx(
+        near if expect[0] == 5.0 else w[4:].sum() / w.sum() * 0.5
+    )
 
 
 def test_surfaces_nearer_than_the_separation_blend_into_a_mixed_pixel(vlp16):
@@ -91,7 +116,7 @@ def test_subrays_span_the_cone_and_keep_the_beam(vlp16):
     sub = fx.subrays(d, vlp16).reshape(2, 7, 3)
     np.testing.assert_array_equal(sub[:, 0], d)
     ang = np.arccos(np.clip(np.einsum("bkj,bj->bk", sub[:, 1:], d), -1, 1))
-    np.testing.assert_allclose(ang, 1.5e-3, rtol=1e-6)     # half of the 3.0 mrad cone
+    np.testing.assert_allclose(ang, 1.5e-3, rtol=1e-6)  # half of the 3.0 mrad cone
 
 
 def test_effect_lists_are_strict():

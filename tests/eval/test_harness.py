@@ -1,5 +1,6 @@
 """The harness end to end on tiny toy sets (seconds): scores equal semantic-kitti-api's
 ``iouEval`` on the written ``.label`` files, and planted bugs move the scores as they must."""
+
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,10 @@ FAST = BoostParams(max_points=20_000, rounds=40, early_stop=10)
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
     root = tmp_path_factory.mktemp("toy")
-    return {"train": make_set(root / "train", scenes=4, seed=0), "test": make_set(root / "test", scenes=2, seed=1)}
+    return {
+        "train": make_set(root / "train", scenes=4, seed=0),
+        "test": make_set(root / "test", scenes=2, seed=1),
+    }
 
 
 def _run(toy, tmp_path, **kw):
@@ -45,12 +49,20 @@ def test_scores_equal_semantic_kitti_api_on_the_written_label_files(toy, tmp_pat
             gt.open_scan(str(b))
             gt.open_label(str(b.parent.parent / "labels" / (b.stem + ".label")))
             pr.open_scan(str(b))
-            pr.open_label(str(pred_root / "sequences" / b.parent.parent.name / "predictions" / (b.stem + ".label")))
+            pr.open_label(
+                str(
+                    pred_root
+                    / "sequences"
+                    / b.parent.parent.name
+                    / "predictions"
+                    / (b.stem + ".label")
+                )
+            )
             ev.addBatch(pr.sem_label.astype(np.int64), gt.sem_label.astype(np.int64))
         miou, iou = ev.getIoU()
         assert_allclose(ours.miou, miou, rtol=1e-12)
         assert_allclose(ours.iou[present], iou[present], rtol=1e-12)
-        assert (ev.get_confusion().T == ours.confusion).all()   # the API's rows are predictions
+        assert (ev.get_confusion().T == ours.confusion).all()  # the API's rows are predictions
         assert 0.5 < ours.miou < 1.0
 
 
@@ -59,7 +71,9 @@ def test_a_good_model_beats_the_baselines_on_the_toy(toy, tmp_path):
     height = _run(toy, tmp_path / "b", model="height").tests[0].runs[0].miou
     majority = _run(toy, tmp_path / "c", model="majority").tests[0].runs[0]
     assert good > 0.85
-    assert majority.miou == pytest.approx(majority.iou[0] / len(majority.classes))   # background everywhere
+    assert majority.miou == pytest.approx(
+        majority.iou[0] / len(majority.classes)
+    )  # background everywhere
     assert good > height > majority.miou
 
 
@@ -68,7 +82,7 @@ def test_planted_label_permutation_in_the_test_set_is_caught(toy, tmp_path):
 
     bad = tmp_path / "permuted"
     shutil.copytree(toy["test"], bad)
-    relabel(bad, {1: 2, 2: 1})   # pallet <-> rack
+    relabel(bad, {1: 2, 2: 1})  # pallet <-> rack
     good = _run(toy, tmp_path / "a").tests[0].runs[0]
     planted = _run(toy, tmp_path / "b", test=bad).tests[0].runs[0]
     assert planted.iou[1] < 0.1 and planted.iou[2] < 0.1
@@ -80,9 +94,9 @@ def test_planted_off_by_one_class_is_caught_and_the_unseen_class_reported(toy, t
 
     bad = tmp_path / "shifted"
     shutil.copytree(toy["test"], bad)
-    relabel(bad, {9: 10, 2: 3, 1: 2, 0: 1})   # every class id one up (applied in this order)
+    relabel(bad, {9: 10, 2: 3, 1: 2, 0: 1})  # every class id one up (applied in this order)
     cfg = yaml.safe_load((bad / "genie-gl.yaml").read_text())
-    cfg["labels"][10] = "shifted"   # a set's yaml names its ids: an id it does not name is refused
+    cfg["labels"][10] = "shifted"  # a set's yaml names its ids: an id it does not name is refused
     (bad / "genie-gl.yaml").write_text(yaml.safe_dump(cfg))
     res = _run(toy, tmp_path / "b", test=bad)
     run = res.tests[0].runs[0]
@@ -118,10 +132,15 @@ def test_same_seed_same_bytes_and_one_or_two_workers_agree(toy, tmp_path):
         assert files
         for f in files:
             assert (o / f.relative_to(outs[0])).read_bytes() == f.read_bytes()
-    _run(toy, tmp_path / "r9", seeds=[4])   # another seed: another sub-sample and bagging, other trees
+    _run(
+        toy, tmp_path / "r9", seeds=[4]
+    )  # another seed: another sub-sample and bagging, other trees
     other = tmp_path / "r9" / "out" / "predictions" / "seed4"
     first = outs[0] / "predictions" / "seed3"
-    assert any((other / f.relative_to(first)).read_bytes() != f.read_bytes() for f in first.rglob("*.label"))
+    assert any(
+        (other / f.relative_to(first)).read_bytes() != f.read_bytes()
+        for f in first.rglob("*.label")
+    )
 
 
 @pytest.mark.parametrize("fmt", ["ply", "npz"])

@@ -1,5 +1,6 @@
 """The paper's metrics on hand-made confusion matrices (values worked out by hand), the
 spread over seeds and the rule that a difference within its spread is no gain."""
+
 import math
 
 import numpy as np
@@ -20,9 +21,7 @@ def test_confusion_counts_pairs_and_leaves_out_unlabelled():
 
 def test_scores_of_a_hand_made_matrix():
     # rows = truth, columns = prediction
-    conf = np.array([[50, 10, 0],
-                     [5, 20, 5],
-                     [0, 0, 10]])
+    conf = np.array([[50, 10, 0], [5, 20, 5], [0, 0, 10]])
     s = scores(conf)
     # class 0: TP 50, FN 10, FP 5 -> IoU 50/65, Acc 50/60
     # class 1: TP 20, FN 10, FP 10 -> IoU 20/40, Acc 20/30
@@ -35,13 +34,17 @@ def test_scores_of_a_hand_made_matrix():
 
 
 def test_absent_class_is_not_averaged_but_its_false_positives_count():
-    conf = np.array([[8, 0, 2],    # class 2 has no true point: 2 false positives
-                     [0, 10, 0],
-                     [0, 0, 0]])
+    conf = np.array(
+        [
+            [8, 0, 2],  # class 2 has no true point: 2 false positives
+            [0, 10, 0],
+            [0, 0, 0],
+        ]
+    )
     s = scores(conf)
     assert s.classes.tolist() == [0, 1]
     assert math.isnan(s.iou[2])
-    assert_allclose(s.iou[0], 8 / 10)       # the 2 points predicted as class 2 are class 0's misses
+    assert_allclose(s.iou[0], 8 / 10)  # the 2 points predicted as class 2 are class 0's misses
     assert_allclose(s.miou, (0.8 + 1.0) / 2)
     assert_allclose(s.oa, 18 / 20)
 
@@ -86,7 +89,11 @@ def test_a_difference_within_its_spread_is_not_a_gain():
 
 
 def test_summarise_sums_confusions_and_spreads_per_class():
-    runs = [scores(np.array([[9, 1], [1, 9]])), scores(np.array([[8, 2], [2, 8]])), scores(np.array([[10, 0], [0, 10]]))]
+    runs = [
+        scores(np.array([[9, 1], [1, 9]])),
+        scores(np.array([[8, 2], [2, 8]])),
+        scores(np.array([[10, 0], [0, 10]])),
+    ]
     s = summarise(runs)
     assert s["confusion"].tolist() == [[27, 3], [3, 27]]
     assert_allclose(s["iou"][0].values, [9 / 11, 8 / 12, 1.0])

@@ -1,6 +1,7 @@
 """Panoptic quality: our figures equal semantic-kitti-api's ``PanopticEval`` (and the summary
 ``evaluate_panoptic.py`` makes of it) on the written ``.label`` files; the worked example of
 Kirillov et al. that the API ships; the instance model and its baselines."""
+
 from pathlib import Path
 
 import numpy as np
@@ -19,10 +20,19 @@ FAST = BoostParams(max_points=20_000, rounds=40, early_stop=10)
 def _he_example():
     """The API's own example (eval_np.py's __main__, after He et al.): classes ignore, grass,
     sky, person, dog; (pred class, pred id, true class, true id, points)."""
-    parts = [(0, 0, 0, 0, 50), (1, 0, 1, 0, 40), (2, 0, 1, 0, 10), (2, 0, 2, 0, 40), (1, 0, 2, 0, 10),
-             (3, 35, 4, 22, 50), (3, 8, 3, 33, 150), (3, 8, 3, 42, 50), (3, 95, 3, 11, 100)]
+    parts = [
+        (0, 0, 0, 0, 50),
+        (1, 0, 1, 0, 40),
+        (2, 0, 1, 0, 10),
+        (2, 0, 2, 0, 40),
+        (1, 0, 2, 0, 10),
+        (3, 35, 4, 22, 50),
+        (3, 8, 3, 33, 150),
+        (3, 8, 3, 42, 50),
+        (3, 95, 3, 11, 100),
+    ]
     cols = [np.concatenate([np.full(n, p[i]) for *p, n in parts]) for i in range(4)]
-    return cols   # pred_sem, pred_inst, truth_sem, truth_inst
+    return cols  # pred_sem, pred_inst, truth_sem, truth_inst
 
 
 def test_the_apis_worked_example():
@@ -49,7 +59,9 @@ def test_small_segments_are_no_false_positive_but_still_a_match():
     # the 10 points' true id 0 is a segment of its own (10 points): unmatched but below min_points
     assert (c.tp[1], c.fp[1], c.fn[1]) == (2, 0, 0)
     c2 = PanopticCounts(2, min_points=5)
-    c2.add(ts, np.full(50, 3), ps, pi, [1])   # one 50-point truth: 40/50 matched, 10-point segment a FP
+    c2.add(
+        ts, np.full(50, 3), ps, pi, [1]
+    )  # one 50-point truth: 40/50 matched, 10-point segment a FP
     assert (c2.tp[1], c2.fp[1], c2.fn[1]) == (1, 1, 0)
     assert c2.iou[1] == pytest.approx(0.8)
 
@@ -57,7 +69,10 @@ def test_small_segments_are_no_false_positive_but_still_a_match():
 @pytest.fixture(scope="module")
 def toy(tmp_path_factory):
     root = tmp_path_factory.mktemp("toyp")
-    return {"train": make_set(root / "train", scenes=4, seed=0), "test": make_set(root / "test", scenes=2, seed=1)}
+    return {
+        "train": make_set(root / "train", scenes=4, seed=0),
+        "test": make_set(root / "test", scenes=2, seed=1),
+    }
 
 
 def _api(res, toy, pred_root, *, zero_stuff: bool, floor_ids=None):
@@ -68,7 +83,9 @@ def _api(res, toy, pred_root, *, zero_stuff: bool, floor_ids=None):
     run = res.tests[0].runs[0]
     n_classes = run.confusion.shape[0]
     present = run.classes.tolist()
-    ev = PanopticEval(n_classes, None, [c for c in range(n_classes) if c not in present], min_points=MIN_POINTS)
+    ev = PanopticEval(
+        n_classes, None, [c for c in range(n_classes) if c not in present], min_points=MIN_POINTS
+    )
     colors = {k: [0, 0, 0] for k in range(20)}
     scans = sorted(Path(toy).glob("sequences/*/velodyne/*.bin"))
     assert scans
@@ -77,20 +94,39 @@ def _api(res, toy, pred_root, *, zero_stuff: bool, floor_ids=None):
         gt.open_scan(str(b))
         gt.open_label(str(b.parent.parent / "labels" / (b.stem + ".label")))
         pr.open_scan(str(b))
-        pr.open_label(str(pred_root / "sequences" / b.parent.parent.name / "predictions" / (b.stem + ".label")))
+        pr.open_label(
+            str(
+                pred_root / "sequences" / b.parent.parent.name / "predictions" / (b.stem + ".label")
+            )
+        )
         gi = gt.inst_label.astype(np.int64)
         if zero_stuff:
             gi[np.isin(gt.sem_label, STUFF)] = 0
-        ev.addBatch(pr.sem_label.astype(np.int64), pr.inst_label.astype(np.int64), gt.sem_label.astype(np.int64), gi)
+        ev.addBatch(
+            pr.sem_label.astype(np.int64),
+            pr.inst_label.astype(np.int64),
+            gt.sem_label.astype(np.int64),
+            gi,
+        )
     PQ, SQ, RQ, pq, sq, rq = ev.getPQ()
     _, iou = ev.getSemIoU()
     things = [c for c in present if c not in STUFF]
     stuff = [c for c in present if c in STUFF]
-    return {"PQ": PQ, "SQ": SQ, "RQ": RQ, "pq": pq, "sq": sq, "rq": rq, "present": present,
-            # evaluate_panoptic.py's summary over its things and stuff lists
-            "PQ_dagger": np.mean([pq[c] for c in things] + [iou[c] for c in stuff]),
-            "PQ_th": np.mean([pq[c] for c in things]), "SQ_th": np.mean([sq[c] for c in things]),
-            "RQ_th": np.mean([rq[c] for c in things]), "PQ_st": np.mean([pq[c] for c in stuff])}
+    return {
+        "PQ": PQ,
+        "SQ": SQ,
+        "RQ": RQ,
+        "pq": pq,
+        "sq": sq,
+        "rq": rq,
+        "present": present,
+        # evaluate_panoptic.py's summary over its things and stuff lists
+        "PQ_dagger": np.mean([pq[c] for c in things] + [iou[c] for c in stuff]),
+        "PQ_th": np.mean([pq[c] for c in things]),
+        "SQ_th": np.mean([sq[c] for c in things]),
+        "RQ_th": np.mean([rq[c] for c in things]),
+        "PQ_st": np.mean([pq[c] for c in stuff]),
+    }
 
 
 def _ours(res) -> dict:
@@ -98,9 +134,11 @@ def _ours(res) -> dict:
 
 
 def test_panoptic_equals_semantic_kitti_api_on_the_written_label_files(toy, tmp_path):
-    res = evaluate([toy["train"]], [toy["test"]], seeds=[0], out=tmp_path / "out", params=FAST, pictures=False)
+    res = evaluate(
+        [toy["train"]], [toy["test"]], seeds=[0], out=tmp_path / "out", params=FAST, pictures=False
+    )
     pred_root = tmp_path / "out" / "predictions" / "seed0" / "test"
-    api = _api(res, toy["test"], pred_root, zero_stuff=False)   # the toy's floor carries instance 0
+    api = _api(res, toy["test"], pred_root, zero_stuff=False)  # the toy's floor carries instance 0
     ours = _ours(res)
     for k in ("PQ", "SQ", "RQ", "PQ_dagger", "PQ_th", "SQ_th", "RQ_th", "PQ_st"):
         assert ours[k].mean == pytest.approx(float(api[k]), abs=1e-6), k
@@ -116,7 +154,7 @@ def test_panoptic_equals_semantic_kitti_api_on_the_written_label_files(toy, tmp_
     floor, upper = res.tests[0].panoptic["one per class"], res.tests[0].panoptic["true classes"]
     assert floor["PQ_th"].mean < ours["PQ_th"].mean - 0.5
     assert abs(upper["PQ_th"].mean - ours["PQ_th"].mean) < 0.1
-    assert res.cluster is not None and res.cluster.eps_by_class   # tuned on the training scans
+    assert res.cluster is not None and res.cluster.eps_by_class  # tuned on the training scans
 
 
 def test_stuff_ids_in_the_truth_are_not_scored(toy, tmp_path):
@@ -133,13 +171,15 @@ def test_stuff_ids_in_the_truth_are_not_scored(toy, tmp_path):
         ids = np.where(np.arange(len(floor)) % 2 == 0, 500, 501).astype("<u4")
         raw[floor] = (ids << 16) | (raw[floor] & 0xFFFF)
         raw.tofile(f)
-    res = evaluate([toy["train"]], [split], seeds=[0], out=tmp_path / "out", params=FAST, pictures=False)
+    res = evaluate(
+        [toy["train"]], [split], seeds=[0], out=tmp_path / "out", params=FAST, pictures=False
+    )
     pred_root = tmp_path / "out" / "predictions" / "seed0" / "split"
     api = _api(res, split, pred_root, zero_stuff=True)
     assert _ours(res)["PQ"].mean == pytest.approx(float(api["PQ"]), abs=1e-6)
     assert _ours(res)["pq"][0].mean == pytest.approx(float(api["pq"][0]), abs=1e-6)
     raw_api = _api(res, split, pred_root, zero_stuff=False)
-    assert raw_api["pq"][0] < api["pq"][0] - 0.3   # two 50 %-segments: no match at all
+    assert raw_api["pq"][0] < api["pq"][0] - 0.3  # two 50 %-segments: no match at all
 
 
 def test_cluster_separates_boxes_and_leaves_stuff_at_zero():
@@ -166,16 +206,21 @@ def test_report_names_the_classes_left_out_and_the_points_predicted_as_them(toy,
     shutil.copytree(toy["test"], no_klt)
     for f in sorted(no_klt.glob("sequences/*/labels/*.label")):
         raw = np.fromfile(f, dtype="<u4")
-        raw[(raw & 0xFFFF) == 9] = 1   # the small load carriers' points become pallet
+        raw[(raw & 0xFFFF) == 9] = 1  # the small load carriers' points become pallet
         raw.tofile(f)
-    res = evaluate([toy["train"]], [no_klt], seeds=[0, 1], out=tmp_path / "out", params=FAST, pictures=False)
+    res = evaluate(
+        [toy["train"]], [no_klt], seeds=[0, 1], out=tmp_path / "out", params=FAST, pictures=False
+    )
     report = (tmp_path / "out" / "report.md").read_text()
     counted = []
     for seed in (0, 1):
         files = sorted((tmp_path / "out" / "predictions" / f"seed{seed}").rglob("*.label"))
         counted.append(int(sum(((np.fromfile(f, "<u4") & 0xFFFF) == 9).sum() for f in files)))
-    assert counted[0] > 100   # the model still finds its boxes: predicted as a class the test lacks
+    assert counted[0] > 100  # the model still finds its boxes: predicted as a class the test lacks
     line = next(x for x in report.splitlines() if x.startswith("Left out of the means"))
-    assert f"small load carrier ({counted[0]:,}, {counted[1]:,} points predicted as it, seeds 0, 1)" in line
+    assert (
+        f"small load carrier ({counted[0]:,}, {counted[1]:,} points predicted as it, seeds 0, 1)"
+        in line
+    )
     assert "car (0, 0 points predicted as it" in line
     assert "pallet" not in line and 9 not in res.tests[0].summary["classes"]

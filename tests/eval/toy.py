@@ -3,6 +3,7 @@ floor (class 0) with tall racks (2), low flat pallets (1) and small boxes (9) st
 their surfaces sampled at random and written with genie-gl's own exporters, so the tests read
 them back through the same code as a real dataset. Each box is an instance of its own (ids 1,
 2, ...); the floor, stuff, carries instance 0 as SemanticKITTI's stuff does."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -16,7 +17,9 @@ from genie_gl.export import npz, ply, semantickitti
 BOXES = {2: (1.0, 0.4, 2.0), 1: (1.2, 0.8, 0.15), 9: (0.4, 0.3, 0.3)}
 
 
-def _box_surface(centre: np.ndarray, size: tuple[float, float, float], n: int, rng: np.random.Generator) -> np.ndarray:
+def _box_surface(
+    centre: np.ndarray, size: tuple[float, float, float], n: int, rng: np.random.Generator
+) -> np.ndarray:
     """n points on the five visible faces of a box standing on the floor."""
     sx, sy, sz = size
     areas = np.array([sx * sy, sx * sz, sx * sz, sy * sz, sy * sz])
@@ -56,8 +59,15 @@ def scene_cloud(rng: np.random.Generator, *, size_m: float = 8.0, points: int = 
     return PointCloud(xyz=xyz.astype(np.float32), semantic=sem, instance=np.concatenate(ids))
 
 
-def make_set(root: Path, *, scenes: int = 4, seed: int = 0, fmt: str = "semantickitti",
-             scans_per_scene: int = 1, points: int = 6000) -> Path:
+def make_set(
+    root: Path,
+    *,
+    scenes: int = 4,
+    seed: int = 0,
+    fmt: str = "semantickitti",
+    scans_per_scene: int = 1,
+    points: int = 6000,
+) -> Path:
     """A toy dataset in genie-gl's layout: ``sequences/NN`` (one per scene) with ``genie-gl.yaml``,
     or ``scenes/NNNN/cloud_XXX.ply|npz``."""
     rng = np.random.default_rng(seed)
@@ -75,8 +85,11 @@ def make_set(root: Path, *, scenes: int = 4, seed: int = 0, fmt: str = "semantic
             else:
                 npz.write(cloud, root / "scenes" / f"{s:04d}" / f"cloud_{j:03d}.npz")
     if fmt == "semantickitti":
-        (root / "genie-gl.yaml").write_text(semantickitti.label_map_yaml(
-            counts, {"train": list(range(scenes)), "valid": [], "test": list(range(scenes))}))
+        (root / "genie-gl.yaml").write_text(
+            semantickitti.label_map_yaml(
+                counts, {"train": list(range(scenes)), "valid": [], "test": list(range(scenes))}
+            )
+        )
     return root
 
 

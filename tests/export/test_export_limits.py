@@ -1,5 +1,6 @@
 """SemanticKITTI label words at their limits, the instance renumbering table and the sequence
 bounds, and the PLY instance width, each against values written out by hand (FORMATS.md)."""
+
 import numpy as np
 import pytest
 import yaml
@@ -10,18 +11,26 @@ from genie_gl.export import semantickitti
 
 def cloud(sem, inst, origin=(0.0, 0.0, 0.0)):
     n = len(sem)
-    return gg.PointCloud(np.arange(3 * n, dtype=np.float32).reshape(n, 3), np.asarray(sem, np.uint16),
-                         np.asarray(inst, np.uint32), np.array(origin))
+    return gg.PointCloud(
+        np.arange(3 * n, dtype=np.float32).reshape(n, 3),
+        np.asarray(sem, np.uint16),
+        np.asarray(inst, np.uint32),
+        np.array(origin),
+    )
 
 
 def test_label_words_at_the_16_bit_limits():
     # both halves full, the top bit of each half alone, and the empty word
-    words = semantickitti.pack_labels(np.array([65535, 0, 32768, 0]), np.array([65535, 32768, 0, 0]))
+    words = semantickitti.pack_labels(
+        np.array([65535, 0, 32768, 0]), np.array([65535, 32768, 0, 0])
+    )
     assert words.dtype == np.dtype("<u4")
     assert words.tolist() == [0xFFFFFFFF, 0x80000000, 0x00008000, 0]
     assert words.tobytes() == bytes([255] * 4 + [0, 0, 0, 0x80] + [0, 0x80, 0, 0] + [0] * 4)
     # int64 input whose ids fit: the same words (no sign or width carried over)
-    assert semantickitti.pack_labels(np.array([7], np.int64), np.array([3], np.int64)).tolist() == [3 * 65536 + 7]
+    assert semantickitti.pack_labels(np.array([7], np.int64), np.array([3], np.int64)).tolist() == [
+        3 * 65536 + 7
+    ]
     # an empty scan: no words, no error
     assert semantickitti.pack_labels(np.zeros(0, np.uint16), np.zeros(0, np.uint32)).shape == (0,)
     # one past the limit, in either half: refused, naming the half
@@ -84,21 +93,32 @@ def test_sequence_bounds_poses_times_and_the_label_map(tmp_path):
         with pytest.raises(gg.GenieError, match=f"sequence {bad}: folders are two digits, 00-99"):
             semantickitti.write(cloud([1], [1]), tmp_path, sequence=bad)
     assert not (tmp_path / "sequences").exists()
-    b = semantickitti.write(cloud([1, 2, 2, 0], [0, 0, 0, 0], origin=(5.0, -6.0, 7.0)), tmp_path,
-                            sequence=99, frame=2, time_s=0.25)
+    b = semantickitti.write(
+        cloud([1, 2, 2, 0], [0, 0, 0, 0], origin=(5.0, -6.0, 7.0)),
+        tmp_path,
+        sequence=99,
+        frame=2,
+        time_s=0.25,
+    )
     assert b == tmp_path / "sequences" / "99" / "velodyne" / "000002.bin"
     seq = tmp_path / "sequences" / "99"
     # frame 2 written first: lines 0 and 1 are left empty for their scans, line 2 is this one
     poses = (seq / "poses.txt").read_text().split("\n")
     assert poses[:2] == ["", ""] and poses[3:] == [""]
-    np.testing.assert_array_equal(np.array(poses[2].split(), float), [1, 0, 0, 5, 0, 1, 0, -6, 0, 0, 1, 7])
+    np.testing.assert_array_equal(
+        np.array(poses[2].split(), float), [1, 0, 0, 5, 0, 1, 0, -6, 0, 0, 1, 7]
+    )
     assert (seq / "times.txt").read_text().split("\n") == ["", "", "2.500000e-01", ""]
     semantickitti.write(cloud([1], [0]), tmp_path, sequence=99, frame=0)
     assert (seq / "times.txt").read_text().split("\n") == ["0.000000e+00", "", "2.500000e-01", ""]
     # the label map: written by the first scan (its class shares), kept by the later ones
     cfg = yaml.safe_load((tmp_path / "genie-gl.yaml").read_text())
     assert cfg["content"][2] == 0.5 and cfg["content"][1] == 0.25 and cfg["content"][0] == 0.25
-    assert cfg["split"] == {"train": [99], "valid": [], "test": []}   # one sequence: in one split only
+    assert cfg["split"] == {
+        "train": [99],
+        "valid": [],
+        "test": [],
+    }  # one sequence: in one split only
 
 
 def test_ply_instance_field_is_int32_up_to_its_limit_then_uint32(tmp_path):
@@ -109,6 +129,6 @@ def test_ply_instance_field_is_int32_up_to_its_limit_then_uint32(tmp_path):
         data = plyfile.PlyData.read(str(gg.export(c, tmp_path, format="ply")))["vertex"].data
         return data.dtype["instance"].str, data["instance"].tolist()
 
-    assert instance_field([0, 2**31 - 1]) == ("<i4", [0, 2**31 - 1])          # the largest int32: int
-    assert instance_field([2**31, 7]) == ("<u4", [2**31, 7])                   # one past it: uint
+    assert instance_field([0, 2**31 - 1]) == ("<i4", [0, 2**31 - 1])  # the largest int32: int
+    assert instance_field([2**31, 7]) == ("<u4", [2**31, 7])  # one past it: uint
     assert instance_field([2**32 - 1]) == ("<u4", [2**32 - 1])

@@ -1,5 +1,6 @@
 """``genie scan`` and ``gg.export_scans``: a bad scanner file is one line and writes nothing;
 a short walk of the wearable comes out as a SemanticKITTI dataset per head and a ROS bag."""
+
 import subprocess
 import sys
 from pathlib import Path
@@ -15,22 +16,42 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def genie(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "genie_gl.cli", *args], cwd=cwd, capture_output=True, text=True,
-                          env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "genie_gl.cli", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"},
+        timeout=600,
+    )
 
 
-@pytest.mark.parametrize("change, field", [
-    ({"elevation_deg": [float("nan")] * 16}, "elevation_deg[0]"),
-    ({"channel_time_us": [0.0, 3.0, 2.0] + [4.0] * 13}, "channel_time_us[2]"),
-])
+@pytest.mark.parametrize(
+    "change, field",
+    [
+        ({"elevation_deg": [float("nan")] * 16}, "elevation_deg[0]"),
+        ({"channel_time_us": [0.0, 3.0, 2.0] + [4.0] * 13}, "channel_time_us[2]"),
+    ],
+)
 # (every mistake of the list is refused by the loader: tests/sensors/test_scanner.py)
-def test_a_bad_scanner_file_on_the_command_line_is_one_line_and_nothing_is_written(tmp_path, change, field):
+def test_a_bad_scanner_file_on_the_command_line_is_one_line_and_nothing_is_written(
+    tmp_path, change, field
+):
     data = yaml.safe_load((data_dir("sensors") / "velodyne_vlp16.lidar.yml").read_text())
     data.update(change)
     bad = tmp_path / "bad.lidar.yml"
     bad.write_text(yaml.safe_dump(data))
     out = tmp_path / "out"
-    r = genie("scan", "storage_area", "--scanner", str(bad), "--out", str(out), "--no-progress", cwd=tmp_path)
+    r = genie(
+        "scan",
+        "storage_area",
+        "--scanner",
+        str(bad),
+        "--out",
+        str(out),
+        "--no-progress",
+        cwd=tmp_path,
+    )
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and str(bad) in lines[0] and field in lines[0], r.stderr

@@ -1,6 +1,7 @@
 """ROS 2 bags a user can afford: MCAP chunks compressed with zstd and, on request, point clouds
 thinned to every k-th pixel row and column; every message still there and read back by rosbags
 and by mcap's own reader."""
+
 from collections import Counter
 
 import numpy as np
@@ -14,7 +15,14 @@ from genie_gl.export.rosbag import write_recording
 from .test_sequences import room, small_rig, walk
 
 pytestmark = pytest.mark.gl
-CLOUD = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("label", "<u2"), ("pad", "<u2"), ("instance", "<u4")]
+CLOUD = [
+    ("x", "<f4"),
+    ("y", "<f4"),
+    ("z", "<f4"),
+    ("label", "<u2"),
+    ("pad", "<u2"),
+    ("instance", "<u4"),
+]
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +32,7 @@ def recorded():
 
 
 def _mcap(bag):
-    f, = bag.glob("*.mcap")
+    (f,) = bag.glob("*.mcap")
     return f
 
 
@@ -67,11 +75,19 @@ def test_a_thinned_cloud_is_every_kth_pixel_row_and_column(recorded, tmp_path):
     counts, _ = _counts_mcap(bag)
     assert counts == _counts_rosbags(write_recording(rig, tr, pairs, tmp_path / "full"))
     with open(_mcap(bag), "rb") as fh:
-        clouds = [m for _, _, _, m in make_reader(fh, decoder_factories=[DecoderFactory()])
-                  .iter_decoded_messages(topics=["/front/points"])]
+        clouds = [
+            m
+            for _, _, _, m in make_reader(
+                fh, decoder_factories=[DecoderFactory()]
+            ).iter_decoded_messages(topics=["/front/points"])
+        ]
         fh.seek(0)
-        depth = [m for _, _, _, m in make_reader(fh, decoder_factories=[DecoderFactory()])
-                 .iter_decoded_messages(topics=["/front/depth/image_raw"])]
+        depth = [
+            m
+            for _, _, _, m in make_reader(
+                fh, decoder_factories=[DecoderFactory()]
+            ).iter_decoded_messages(topics=["/front/depth/image_raw"])
+        ]
     front = [f for s, f in pairs if s.sensor == 0]
     assert len(clouds) == len(depth) == len(front)
     for msg, img, frame in zip(clouds, depth, front):
@@ -85,7 +101,9 @@ def test_a_thinned_cloud_is_every_kth_pixel_row_and_column(recorded, tmp_path):
         np.testing.assert_array_equal(rec["label"], c.semantic[sel])
         np.testing.assert_array_equal(rec["instance"], c.instance[sel])
         # the depth image keeps every pixel
-        np.testing.assert_array_equal(np.frombuffer(bytes(img.data), "<f4").reshape(frame.depth.shape), frame.depth)
+        np.testing.assert_array_equal(
+            np.frombuffer(bytes(img.data), "<f4").reshape(frame.depth.shape), frame.depth
+        )
 
 
 def test_a_cloud_stride_out_of_range_is_refused(recorded, tmp_path):
@@ -103,10 +121,13 @@ def test_cloud_stride_is_an_option_of_rosbag_recordings_only(tmp_path):
     ok = DatasetConfig.parse(base | dict(format="rosbag", capture="trajectory", cloud_stride=2))
     assert ok.cloud_stride == 2
     with pytest.raises(ConfigError, match="--cloud-stride 2: .*--format semantickitti"):
-        DatasetConfig.parse(base | dict(format="semantickitti", capture="trajectory", cloud_stride=2))
+        DatasetConfig.parse(
+            base | dict(format="semantickitti", capture="trajectory", cloud_stride=2)
+        )
     with pytest.raises(ConfigError, match="--cloud-stride"):
         DatasetConfig.parse(base | dict(format="rosbag", capture="trajectory", cloud_stride=0))
-    # a run without the option keeps the fingerprint it had (the option is fingerprinted only when given)
+    # a run without the option keeps the fingerprint it had (the option is fingerprinted only when
+    # given)
     from genie_gl.dataset.manifest import fingerprint
     from genie_gl.layout import load_strategy
     from genie_gl.effects.profile import load_sensor
@@ -114,4 +135,9 @@ def test_cloud_stride_is_an_option_of_rosbag_recordings_only(tmp_path):
     plain = DatasetConfig.parse(base | dict(format="rosbag", capture="trajectory"))
     parts = fingerprint(plain, load_strategy("storage_area"), load_sensor("ideal_pinhole"))["parts"]
     assert "cloud_stride" not in parts
-    assert fingerprint(ok, load_strategy("storage_area"), load_sensor("ideal_pinhole"))["parts"]["cloud_stride"] == 2
+    assert (
+        fingerprint(ok, load_strategy("storage_area"), load_sensor("ideal_pinhole"))["parts"][
+            "cloud_stride"
+        ]
+        == 2
+    )

@@ -4,8 +4,10 @@ no traceback, nothing of the user's touched.
 
 Every case carries ``@pytest.mark.fault(kind, guard)``: ``kind`` is the input injected (bad
 file, bad option, bad API call, kill, signal, full disk, read-only disk, huge input, a re-run
-over its own output holding the user's files); ``guard`` the failure it would be if the code regressed (loss, traceback, hang, wrong). The suite's
+over its own output holding the user's files); ``guard`` the failure it would be if the code
+regressed (loss, traceback, hang, wrong). The suite's
 counts are printed at the end of the run (tests/conftest.py)."""
+
 from __future__ import annotations
 
 import contextlib
@@ -25,8 +27,17 @@ import pytest
 from genie_gl.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent.parent
-KINDS = ("bad file", "bad option", "bad API call", "kill", "signal", "full disk", "read-only disk", "huge input",
-         "re-run")
+KINDS = (
+    "bad file",
+    "bad option",
+    "bad API call",
+    "kill",
+    "signal",
+    "full disk",
+    "read-only disk",
+    "huge input",
+    "re-run",
+)
 GUARDS = ("loss", "traceback", "hang", "wrong")
 
 
@@ -50,6 +61,7 @@ class Hang(Exception):
 @contextlib.contextmanager
 def deadline(seconds: float):
     """Raise :class:`Hang` in this (main) thread after ``seconds``."""
+
     def fire(signum, frame):
         raise Hang(f"still running after {seconds} s")
 
@@ -77,7 +89,9 @@ def _env() -> dict:
     return dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1")
 
 
-def cli_proc(*argv: str, timeout: float = 120, memory_gb: float = 6.0, mounts: dict | None = None) -> Run:
+def cli_proc(
+    *argv: str, timeout: float = 120, memory_gb: float = 6.0, mounts: dict | None = None
+) -> Run:
     """``genie ARGV`` in a child process with at most ``memory_gb`` of address space and
     ``timeout`` seconds; ``mounts`` {folder: "size=64k" or "ro"} are tmpfs mounted for the child
     alone (a user and mount namespace of its own: ``unshare -rm``)."""
@@ -85,8 +99,10 @@ def cli_proc(*argv: str, timeout: float = 120, memory_gb: float = 6.0, mounts: d
 
     cmd = [sys.executable, "-m", "genie_gl.cli", *map(str, argv)]
     if mounts:
-        script = " && ".join(f"mkdir -p {d} && mount -t tmpfs -o {o} tmpfs {d}" for d, o in mounts.items())
-        cmd = ["unshare", "-rm", "sh", "-c", f"{script} && exec \"$0\" \"$@\"", *cmd]
+        script = " && ".join(
+            f"mkdir -p {d} && mount -t tmpfs -o {o} tmpfs {d}" for d, o in mounts.items()
+        )
+        cmd = ["unshare", "-rm", "sh", "-c", f'{script} && exec "$0" "$@"', *cmd]
 
     def limits() -> None:
         lim = int(memory_gb * 2**30)
@@ -94,7 +110,9 @@ def cli_proc(*argv: str, timeout: float = 120, memory_gb: float = 6.0, mounts: d
 
     t = time.perf_counter()
     try:
-        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=_env(), preexec_fn=limits)
+        r = subprocess.run(
+            cmd, capture_output=True, text=True, timeout=timeout, env=_env(), preexec_fn=limits
+        )
     except subprocess.TimeoutExpired as exc:
         raise Hang(f"genie {' '.join(map(str, argv))}: still running after {timeout} s") from exc
     return Run(r.returncode, r.stdout, r.stderr, time.perf_counter() - t)
@@ -104,7 +122,9 @@ def namespaces_work() -> bool:
     """True when this machine lets a child mount a tmpfs of its own (unshare -rm)."""
     if not shutil.which("unshare"):
         return False
-    r = subprocess.run(["unshare", "-rm", "sh", "-c", "mount -t tmpfs -o size=4k tmpfs /mnt"], capture_output=True)
+    r = subprocess.run(
+        ["unshare", "-rm", "sh", "-c", "mount -t tmpfs -o size=4k tmpfs /mnt"], capture_output=True
+    )
     return r.returncode == 0
 
 
@@ -122,8 +142,13 @@ def refused(run: Run, *needles: str) -> str:
 
 def plant(folder: Path) -> dict[str, str]:
     """The user's own files where a careless writer would touch them; their hashes."""
-    files = {"notes.txt": b"my notes\n", "draft.tmp": b"not yours\n", ".hidden.tmp": b"mine",
-             "scenes_of_mine/0000/cloud.ply": b"ply? no: mine", "work/deep/x.tmp": b"nested tmp, mine"}
+    files = {
+        "notes.txt": b"my notes\n",
+        "draft.tmp": b"not yours\n",
+        ".hidden.tmp": b"mine",
+        "scenes_of_mine/0000/cloud.ply": b"ply? no: mine",
+        "work/deep/x.tmp": b"nested tmp, mine",
+    }
     for rel, data in files.items():
         p = folder / rel
         p.parent.mkdir(parents=True, exist_ok=True)

@@ -6,6 +6,7 @@ written before the tmpfs is made read-only (``ro`` mounts are remounted after pl
 ``argv`` (a genie command) or ``python`` (code run with ``python -c``), ``timeout``, and
 ``inspect`` (a folder). Prints one JSON line: rc, stderr, seconds, and every file under
 ``inspect`` with its SHA-256."""
+
 import hashlib
 import json
 import os
@@ -27,8 +28,11 @@ def main() -> None:
     for folder, opts in spec["mounts"].items():
         if "ro" in opts.split(","):
             subprocess.run(["mount", "-o", "remount,ro", folder], check=True)
-    cmd = [sys.executable, "-m", "genie_gl.cli", *spec["argv"]] if "argv" in spec else \
-        [sys.executable, "-c", spec["python"]]
+    cmd = (
+        [sys.executable, "-m", "genie_gl.cli", *spec["argv"]]
+        if "argv" in spec
+        else [sys.executable, "-c", spec["python"]]
+    )
     t = time.perf_counter()
     try:
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=spec.get("timeout", 300))

@@ -1,6 +1,7 @@
 """A user's asset that no region can hold (a pallet in millimetres read as metres) is one line
 naming the file, its size, the unit it was read in and the units that would make it fit;
 never a scene of built-in assets only, without a word."""
+
 import json
 
 import numpy as np
@@ -41,9 +42,16 @@ def test_a_pallet_in_millimetres_without_units_is_refused(tmp_path, layout_json)
     the built-in pallets alone (exit 0, no word)."""
     obj = _pallet(tmp_path / "pallet.obj")
     with pytest.raises(ConfigError) as e:
-        gg.build_scene(layout_json, seed=0, options={**layout_json.meta["scene"], "assets": {"pallet": [str(obj)]}})
+        gg.build_scene(
+            layout_json,
+            seed=0,
+            options={**layout_json.meta["scene"], "assets": {"pallet": [str(obj)]}},
+        )
     msg = str(e.value)
-    assert "pallet.obj: a pallet asset of 1200 x 800 x 150 m (read in metres: the file states no units)" in msg
+    assert (
+        "pallet.obj: a pallet asset of 1200 x 800 x 150 m (read in metres: the file states no "
+        "units)" in msg
+    )
     assert "fits none of the" in msg and '"units": "mm" (1.2 x 0.8 x 0.15 m)' in msg
     assert len(msg.splitlines()) == 1
 
@@ -51,8 +59,14 @@ def test_a_pallet_in_millimetres_without_units_is_refused(tmp_path, layout_json)
 @fault("bad file", "wrong")
 def test_the_same_pallet_with_its_units_is_used(tmp_path, layout_json):
     obj = _pallet(tmp_path / "pallet.obj")
-    scene = gg.build_scene(layout_json, seed=0, options={**layout_json.meta["scene"],
-                                                         "assets": {"pallet": [{"path": str(obj), "units": "mm"}]}})
+    scene = gg.build_scene(
+        layout_json,
+        seed=0,
+        options={
+            **layout_json.meta["scene"],
+            "assets": {"pallet": [{"path": str(obj), "units": "mm"}]},
+        },
+    )
     used = [i for i in scene.instances if "pallet_pallet" in i.mesh]
     assert used, sorted({i.mesh for i in scene.instances})
     ext = scene.meshes[used[0].mesh].vertices.max(0) - scene.meshes[used[0].mesh].vertices.min(0)
@@ -65,7 +79,9 @@ def test_genie_scene_refuses_it_in_one_line(tmp_path):
     p = _strategy(tmp_path, str(obj))
     assert cli("layout", p, "--out", tmp_path / "lay").rc == 0
     run = cli("scene", tmp_path / "lay" / "layout.json", "--out", tmp_path / "s.usda", timeout=120)
-    refused(run, "pallet.obj: a pallet asset of 1200 x 800 x 150 m", "read in metres", '"units": "mm"')
+    refused(
+        run, "pallet.obj: a pallet asset of 1200 x 800 x 150 m", "read in metres", '"units": "mm"'
+    )
     assert not (tmp_path / "s.usda").exists()
 
 
@@ -74,6 +90,9 @@ def test_a_registered_asset_in_the_wrong_unit_names_the_unit_it_was_read_in(tmp_
     """Millimetres registered as centimetres: read as 120 x 80 m; the fix is mm."""
     cat = Catalogue()
     cat.register("pallet", _pallet(tmp_path / "big.obj"), units="cm")
-    with pytest.raises(ConfigError, match=r"big.obj: a pallet asset of 12 x 8 x 1.5 m \(read in cm\) fits none of the "
-                                          r".*\"units\": \"mm\" \(1.2 x 0.8 x 0.15 m\)"):
+    with pytest.raises(
+        ConfigError,
+        match=r"big.obj: a pallet asset of 12 x 8 x 1.5 m \(read in cm\) fits none of the "
+        r".*\"units\": \"mm\" \(1.2 x 0.8 x 0.15 m\)",
+    ):
         gg.build_scene(layout_json, seed=0, assets=cat)

@@ -1,6 +1,7 @@
 """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) while ``genie capture``
 starts its worker processes: "interrupted" in one line, no worker's traceback after it, no
 process left behind."""
+
 import os
 import signal
 import subprocess
@@ -53,17 +54,44 @@ SLOW = pytest.mark.slow
 
 
 @fault("signal", "traceback")
-@pytest.mark.parametrize("delay_s", [0.02, 0.3, 1.0, pytest.param(0.0, marks=SLOW), pytest.param(0.05, marks=SLOW),
-                                     pytest.param(0.6, marks=SLOW)])
+@pytest.mark.parametrize(
+    "delay_s",
+    [
+        0.02,
+        0.3,
+        1.0,
+        pytest.param(0.0, marks=SLOW),
+        pytest.param(0.05, marks=SLOW),
+        pytest.param(0.6, marks=SLOW),
+    ],
+)
 def test_ctrl_c_while_capture_starts_its_workers(tmp_path, scene_file, delay_s):
     """The signal goes ``delay_s`` after the leader's first multiprocessing child appears: the
     workers are being spawned, unpickling their start-up data or loading their imports (a
     leader without the fix failed at 0.05, 0.2-0.45 and 0.9-1.6 s in one run of twelve delays,
     passed at 0, 0.02, 0.1 and 0.6 s: the window moves with the machine's load)."""
-    cmd = [sys.executable, "-m", "genie_gl.cli", "capture", str(scene_file), "--cameras", "4", "--sensor",
-           "ideal_pinhole", "--out", str(tmp_path / "o"), "--no-progress"]
-    p = subprocess.Popen(cmd, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         start_new_session=True)
+    cmd = [
+        sys.executable,
+        "-m",
+        "genie_gl.cli",
+        "capture",
+        str(scene_file),
+        "--cameras",
+        "4",
+        "--sensor",
+        "ideal_pinhole",
+        "--out",
+        str(tmp_path / "o"),
+        "--no-progress",
+    ]
+    p = subprocess.Popen(
+        cmd,
+        env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     t0 = time.monotonic()
     while not workers(p.pid) and p.poll() is None and time.monotonic() - t0 < 120:
         time.sleep(0.005)
@@ -76,7 +104,7 @@ def test_ctrl_c_while_capture_starts_its_workers(tmp_path, scene_file, delay_s):
         os.killpg(p.pid, signal.SIGKILL)
         raise
     deadline = time.monotonic() + 10
-    while group_alive(p.pid) and time.monotonic() < deadline:   # workers end with their leader
+    while group_alive(p.pid) and time.monotonic() < deadline:  # workers end with their leader
         time.sleep(0.05)
     left = group_alive(p.pid)
     if left:

@@ -2,6 +2,7 @@
 found before the expensive work where it can be (an unwritable --out before anything runs, a
 capture larger than the free space before rendering); nothing half-written left, the user's
 files untouched. Each disk is a tmpfs of the command's own (a user and mount namespace)."""
+
 import hashlib
 import json
 import subprocess
@@ -16,7 +17,9 @@ import genie_gl as gg
 
 from .common import ROOT, _env, cli, fault, namespaces_work, refused
 
-needs_namespaces = pytest.mark.skipif(not namespaces_work(), reason="no user and mount namespaces (unshare -rm) here")
+needs_namespaces = pytest.mark.skipif(
+    not namespaces_work(), reason="no user and mount namespaces (unshare -rm) here"
+)
 FULL = fault("full disk", "loss")
 READ_ONLY = fault("read-only disk", "traceback")
 PLANTED = {"notes.txt": "my notes\n", "draft.tmp": "not yours\n", "work/x.tmp": "mine"}
@@ -32,21 +35,38 @@ def inputs(tmp_path_factory) -> dict[str, Path]:
     return {"usd": gg.write_usd(s, d / "s.usda"), "layout": d / "layout.json"}
 
 
-def on_disk(tmp_path: Path, opts: str, *, argv=None, python=None, out: str = "out", timeout: float = 300) -> dict:
+def on_disk(
+    tmp_path: Path, opts: str, *, argv=None, python=None, out: str = "out", timeout: float = 300
+) -> dict:
     """Run on a tmpfs (``opts``) mounted at tmp_path/disk with the user's files planted in
     disk/out; returns the driver's report (rc, stderr, seconds, files under disk/out)."""
     disk = tmp_path / "disk"
     disk.mkdir()
-    spec = {"mounts": {str(disk): opts}, "plant": {str(disk / out / k): v for k, v in PLANTED.items()},
-            "timeout": timeout, "inspect": str(disk / out)}
+    spec = {
+        "mounts": {str(disk): opts},
+        "plant": {str(disk / out / k): v for k, v in PLANTED.items()},
+        "timeout": timeout,
+        "inspect": str(disk / out),
+    }
     if argv is not None:
         spec["argv"] = [str(a).replace("{out}", str(disk / out)) for a in argv]
     else:
         spec["python"] = python.replace("{out}", str(disk / out))
     (tmp_path / "spec.json").write_text(json.dumps(spec))
-    r = subprocess.run(["unshare", "-rm", sys.executable, str(Path(__file__).parent / "disk_driver.py"),
-                        str(tmp_path / "spec.json")], capture_output=True, text=True, timeout=timeout + 60,
-                       env=_env(), cwd=ROOT)
+    r = subprocess.run(
+        [
+            "unshare",
+            "-rm",
+            sys.executable,
+            str(Path(__file__).parent / "disk_driver.py"),
+            str(tmp_path / "spec.json"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=timeout + 60,
+        env=_env(),
+        cwd=ROOT,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     return json.loads(r.stdout.strip().splitlines()[-1])
 
@@ -59,8 +79,12 @@ def check(report: dict, *needles: str) -> None:
     for n in needles:
         assert n in err, (n, err)
     for rel, text in PLANTED.items():
-        assert report["files"].get(rel) == hashlib.sha256(text.encode()).hexdigest(), f"{rel} lost or changed"
-    left = [f for f in report["files"] if (Path(f).name.startswith(".") and ".tmp" in f) or ".tmp-" in f]
+        assert report["files"].get(rel) == hashlib.sha256(text.encode()).hexdigest(), (
+            f"{rel} lost or changed"
+        )
+    left = [
+        f for f in report["files"] if (Path(f).name.startswith(".") and ".tmp" in f) or ".tmp-" in f
+    ]
     assert not left, left
 
 
@@ -68,20 +92,43 @@ COMMANDS = {
     "layout": ["layout", "assembly_line", "--out", "{out}"],
     "scene": ["scene", "{layout}", "--out", "{out}/s.usda", "--no-progress"],
     "capture": ["capture", "{usd}", "--cameras", "2", "--out", "{out}", "--no-progress"],
-    "dataset": ["dataset", "assembly_line", "--scenes", "1", "--cameras", "2", "--sensor", "ideal_pinhole",
-                "--workers", "1", "--split", "1,0,0", "--no-progress", "--out", "{out}"],
+    "dataset": [
+        "dataset",
+        "assembly_line",
+        "--scenes",
+        "1",
+        "--cameras",
+        "2",
+        "--sensor",
+        "ideal_pinhole",
+        "--workers",
+        "1",
+        "--split",
+        "1,0,0",
+        "--no-progress",
+        "--out",
+        "{out}",
+    ],
     "bench": ["bench", "layout", "--repeats", "1", "--out", "{out}"],
 }
 # the API: a GenieError for what it refuses, an OSError naming the file for what the disk refuses
-EXPORT = ("import sys, numpy as np, genie_gl as gg\n"
-          "c = gg.PointCloud(np.zeros((200000, 3), np.float32), np.ones(200000, np.uint16), np.ones(200000, np.uint32))\n"
-          "try:\n    gg.export(c, '{out}', format='ply')\n"
-          "except gg.GenieError as e:\n    print(f'export: error: {e}', file=sys.stderr); raise SystemExit(2)\n"
-          "except OSError as e:\n    print(f'export: {e.filename}: {e.strerror}', file=sys.stderr); raise SystemExit(2)\n")
+EXPORT = (
+    "import sys, numpy as np, genie_gl as gg\n"
+    "c = gg.PointCloud(np.zeros((200000, 3), np.float32), np.ones(200000, np.uint16), "
+    "np.ones(200000, np.uint32))\n"
+    "try:\n    gg.export(c, '{out}', format='ply')\n"
+    "except gg.GenieError as e:\n    print(f'export: error: {e}', file=sys.stderr); raise "
+    "SystemExit(2)\n"
+    "except OSError as e:\n    print(f'export: {e.filename}: {e.strerror}', file=sys.stderr); "
+    "raise SystemExit(2)\n"
+)
 
 
 def _argv(name: str, inputs) -> list[str]:
-    return [a.replace("{usd}", str(inputs["usd"])).replace("{layout}", str(inputs["layout"])) for a in COMMANDS[name]]
+    return [
+        a.replace("{usd}", str(inputs["usd"])).replace("{layout}", str(inputs["layout"]))
+        for a in COMMANDS[name]
+    ]
 
 
 @needs_namespaces

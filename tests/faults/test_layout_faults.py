@@ -3,6 +3,7 @@ per-region loop would take minutes and gigabytes to make is refused at once; a d
 small steps that makes a few thousand regions is accepted; the estimate stays an upper bound
 of what random deep strategies make; ``Infinity`` and ``NaN`` are refused at parsing, in one
 line naming the JSON path, by every command that reads a strategy."""
+
 import json
 import time
 
@@ -22,22 +23,50 @@ from .common import cli, cli_proc, fault, refused
 def cm_grid(side: float = 14.0) -> dict:
     """A hall of ``side`` x ``side`` m cut into 1 cm cells: ~2 M regions, each made by the
     grid's per-region loop."""
-    return {"name": "cm", "root": {"width": side, "height": side, "type": "hall"},
-            "region_types": {"hall": {}, "cell": {"final": True, "semantic": 1, "asset_group": "pallet"},
-                             "empty": {"final": True}},
-            "levels": [{"hall": {"generator": "grid", "args": {"cell": [0.01, 0.01]},
-                                 "children": {"cell": "cell", "empty": "empty"}}}, "merge"]}
+    return {
+        "name": "cm",
+        "root": {"width": side, "height": side, "type": "hall"},
+        "region_types": {
+            "hall": {},
+            "cell": {"final": True, "semantic": 1, "asset_group": "pallet"},
+            "empty": {"final": True},
+        },
+        "levels": [
+            {
+                "hall": {
+                    "generator": "grid",
+                    "args": {"cell": [0.01, 0.01]},
+                    "children": {"cell": "cell", "empty": "empty"},
+                }
+            },
+            "merge",
+        ],
+    }
 
 
 def deep_chain(levels: int = 1000) -> dict:
     """Four rooms, then ``levels`` levels that each put one room inside every room: ~4,000
     regions, made in seconds."""
-    room = {"generator": "random_rooms", "args": {"count": 1, "width": [1, 9], "height": [1, 9]},
-            "children": {"room": "a"}}
-    return {"name": "deep", "root": {"width": 20, "height": 20, "type": "hall"},
-            "region_types": {"hall": {}, "a": {}},
-            "levels": [{"hall": {"generator": "grid", "args": {"cell": [10, 10]},
-                                 "children": {"cell": "a", "empty": "a"}}}] + [{"a": room}] * levels}
+    room = {
+        "generator": "random_rooms",
+        "args": {"count": 1, "width": [1, 9], "height": [1, 9]},
+        "children": {"room": "a"},
+    }
+    return {
+        "name": "deep",
+        "root": {"width": 20, "height": 20, "type": "hall"},
+        "region_types": {"hall": {}, "a": {}},
+        "levels": [
+            {
+                "hall": {
+                    "generator": "grid",
+                    "args": {"cell": [10, 10]},
+                    "children": {"cell": "a", "empty": "a"},
+                }
+            }
+        ]
+        + [{"a": room}] * levels,
+    }
 
 
 @fault("huge input", "hang")
@@ -73,33 +102,64 @@ def test_the_estimate_bounds_random_deep_strategies(seed):
     types = ["a", "b", "c"]
 
     def children(slots):
-        return {s: (str(rng.choice(types)) if rng.random() < 0.6 else
-                    {"random": sorted(set(rng.choice(types, 2).tolist()))}) for s in slots}
+        return {
+            s: (
+                str(rng.choice(types))
+                if rng.random() < 0.6
+                else {"random": sorted(set(rng.choice(types, 2).tolist()))}
+            )
+            for s in slots
+        }
 
     def rule():
         kind = rng.choice(["grid", "random_rooms", "drunkard_walk", "assembly_line"])
         if kind == "grid":
             slots = ["cell", "empty"] if rng.random() < 0.7 else ["cell"]
-            return {"generator": "grid", "args": {"cell": rng.uniform(0.5, 4, 2).round(2).tolist()},
-                    "children": children(slots)}
+            return {
+                "generator": "grid",
+                "args": {"cell": rng.uniform(0.5, 4, 2).round(2).tolist()},
+                "children": children(slots),
+            }
         if kind == "random_rooms":
-            return {"generator": "random_rooms", "args": {"count": [1, int(rng.integers(1, 4))], "width": [0.5, 3.0],
-                                                          "height": [0.5, 3.0]}, "children": children(["room"])}
+            return {
+                "generator": "random_rooms",
+                "args": {
+                    "count": [1, int(rng.integers(1, 4))],
+                    "width": [0.5, 3.0],
+                    "height": [0.5, 3.0],
+                },
+                "children": children(["room"]),
+            }
         if kind == "drunkard_walk":
-            return {"generator": "drunkard_walk", "args": {"steps": int(rng.integers(1, 60)), "block": 0.7},
-                    "children": children(["room"])}
-        return {"generator": "assembly_line", "args": {"paths": [0, 2], "line_width": 0.6, "path_width": 0.5},
-                "children": children(["line", "rest"] if rng.random() < 0.7 else ["line", "path"])}
+            return {
+                "generator": "drunkard_walk",
+                "args": {"steps": int(rng.integers(1, 60)), "block": 0.7},
+                "children": children(["room"]),
+            }
+        return {
+            "generator": "assembly_line",
+            "args": {"paths": [0, 2], "line_width": 0.6, "path_width": 0.5},
+            "children": children(["line", "rest"] if rng.random() < 0.7 else ["line", "path"]),
+        }
 
     levels = [{"hall": rule()}]
     for _ in range(7):
-        levels.append({t: rule() for t in rng.choice(types, int(rng.integers(1, 3)), replace=False).tolist()})
-    s = {"name": "chain", "root": {"width": float(rng.uniform(6, 20)), "height": float(rng.uniform(6, 20)),
-                                   "type": "hall"},
-         "region_types": {"hall": {}, "a": {}, "b": {}, "c": {}}, "levels": levels}
+        levels.append(
+            {t: rule() for t in rng.choice(types, int(rng.integers(1, 3)), replace=False).tolist()}
+        )
+    s = {
+        "name": "chain",
+        "root": {
+            "width": float(rng.uniform(6, 20)),
+            "height": float(rng.uniform(6, 20)),
+            "type": "hall",
+        },
+        "region_types": {"hall": {}, "a": {}, "b": {}, "c": {}},
+        "levels": levels,
+    }
     strategy = parse_strategy(s, "chain.json")
     nodes, work = layout_estimate(strategy)
-    if nodes > 100_000:   # too large to make here: the bound is what the test checks, not the limit
+    if nodes > 100_000:  # too large to make here: the bound is what the test checks, not the limit
         pytest.skip(f"estimate {nodes:,}")
     made = max(len(gg.generate_layout(strategy, seed=k, max_regions=10**9)) for k in range(3))
     assert made <= nodes <= work, (made, nodes, work)
@@ -112,14 +172,23 @@ def _storage(edit) -> dict:
 
 
 NON_FINITE = {
-    "root width Infinity": (lambda s: s["root"].__setitem__("width", float("inf")), "$.root.width: inf"),
+    "root width Infinity": (
+        lambda s: s["root"].__setitem__("width", float("inf")),
+        "$.root.width: inf",
+    ),
     "root x -Infinity": (lambda s: s["root"].__setitem__("x", float("-inf")), "$.root.x: -inf"),
-    "generator arg NaN": (lambda s: s["levels"][1]["box_room"]["args"].__setitem__("spacing", float("nan")),
-                          "$.levels[1].box_room.args.spacing: nan"),
-    "scene option Infinity": (lambda s: s["scene"]["jitter"].__setitem__("position_m", float("inf")),
-                              "$.scene.jitter.position_m: inf"),
-    "fill range NaN": (lambda s: s["region_types"]["pallet"]["fill"].__setitem__("stack_m", [0.15, float("nan")]),
-                       "$.region_types.pallet.fill.stack_m[1]: nan"),
+    "generator arg NaN": (
+        lambda s: s["levels"][1]["box_room"]["args"].__setitem__("spacing", float("nan")),
+        "$.levels[1].box_room.args.spacing: nan",
+    ),
+    "scene option Infinity": (
+        lambda s: s["scene"]["jitter"].__setitem__("position_m", float("inf")),
+        "$.scene.jitter.position_m: inf",
+    ),
+    "fill range NaN": (
+        lambda s: s["region_types"]["pallet"]["fill"].__setitem__("stack_m", [0.15, float("nan")]),
+        "$.region_types.pallet.fill.stack_m[1]: nan",
+    ),
 }
 
 
@@ -129,7 +198,7 @@ NON_FINITE = {
 def test_a_number_that_is_not_finite_is_refused_at_parsing(name, command, tmp_path):
     edit, needle = NON_FINITE[name]
     p = tmp_path / "s.json"
-    p.write_text(json.dumps(_storage(edit)))   # json writes Infinity / NaN as JavaScript does
+    p.write_text(json.dumps(_storage(edit)))  # json writes Infinity / NaN as JavaScript does
     run = cli(command, p, "--out", tmp_path / "o", timeout=60)
     refused(run, f"s.json: {needle} is not a finite number")
     assert not (tmp_path / "o").exists()

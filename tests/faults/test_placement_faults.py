@@ -1,6 +1,7 @@
 """Camera placement on stages where every candidate covers everything (a floorless stage of
 small cubes, a tiny hall): two cameras never share a pose, and the coverage of the distinct
 positions is never less than that of the repeats they replace."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -35,7 +36,7 @@ def test_cameras_on_a_stage_of_small_cubes_never_share_a_pose(n):
     poses = scene_poses(_cubes(), gg.load_sensor("realsense_d435"), n, seed=0)
     assert len(poses) == n
     assert _distinct_poses(poses) == n
-    if n <= 16:   # distinct positions, not only distinct turns
+    if n <= 16:  # distinct positions, not only distinct turns
         assert len(np.unique(np.round([p[:2, 3] for p in poses], 9), axis=0)) == n
 
 
@@ -43,7 +44,9 @@ def test_cameras_on_a_stage_of_small_cubes_never_share_a_pose(n):
 @pytest.mark.parametrize("method", ["genetic", "greedy", "random"])
 def test_place_sensors_over_a_tiny_hall_never_repeats_a_pose(method):
     hall = Region(0.0, 0.0, 3.0, 3.0, type="cell")
-    layout = Layout.from_regions([hall], {"cell": RegionType("cell", asset_group="pallet")}, (0.0, 0.0, 3.0, 3.0))
+    layout = Layout.from_regions(
+        [hall], {"cell": RegionType("cell", asset_group="pallet")}, (0.0, 0.0, 3.0, 3.0)
+    )
     poses = gg.place_sensors(layout, gg.load_sensor("realsense_d435"), n=6, seed=1, method=method)
     assert _distinct_poses(poses) == 6
 
@@ -51,7 +54,9 @@ def test_place_sensors_over_a_tiny_hall_never_repeats_a_pose(method):
 @fault("bad API call", "wrong")
 def test_replacing_repeats_never_lowers_the_coverage():
     hall = Region(0.0, 0.0, 12.0, 4.0, type="cell")
-    layout = Layout.from_regions([hall], {"cell": RegionType("cell", asset_group="pallet")}, (0.0, 0.0, 12.0, 4.0))
+    layout = Layout.from_regions(
+        [hall], {"cell": RegionType("cell", asset_group="pallet")}, (0.0, 0.0, 12.0, 4.0)
+    )
     problem = CoverageProblem(layout, 2.0)
     chosen = np.array([0, 0, 0, 5])
     out = distinct(problem, chosen)

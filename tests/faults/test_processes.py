@@ -1,6 +1,7 @@
 """Signals and kills of a run with workers: SIGTERM (or SIGINT) to the leader stops its workers
 before the output folder's lock is released; SIGKILL of the leader takes its workers with it
 (the kernel's parent-death signal); what was written whole is kept and a new run finishes."""
+
 import fcntl
 import signal
 import subprocess
@@ -15,8 +16,27 @@ from .common import ROOT, _env, fault
 pytestmark = pytest.mark.gl
 # four scenes for two workers: both are still at work once the first scene is whole (with two, the
 # run could end between two looks at it, and the case fail on a healthy run)
-ARGS = ["dataset", "assembly_line", "--scenes", "4", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "3000",
-        "--min-points", "100", "--previews", "0", "--workers", "2", "--split", "1,0,0", "--no-progress"]
+ARGS = [
+    "dataset",
+    "assembly_line",
+    "--scenes",
+    "4",
+    "--cameras",
+    "2",
+    "--sensor",
+    "ideal_pinhole",
+    "--points",
+    "3000",
+    "--min-points",
+    "100",
+    "--previews",
+    "0",
+    "--workers",
+    "2",
+    "--split",
+    "1,0,0",
+    "--no-progress",
+]
 
 
 def children(pid: int) -> list[int]:
@@ -58,23 +78,56 @@ def lock_is_free(out: Path) -> bool:
 
 
 # a recording along a trajectory written as ROS 2 bags (a folder written whole, then moved in)
-MOVING = ["dataset", "assembly_line", "--scenes", "2", "--capture", "trajectory", "--duration-s", "3", "--sensor",
-          "ideal_pinhole", "--format", "rosbag", "--previews", "0", "--workers", "2", "--split", "1,0,0", "--no-progress"]
+MOVING = [
+    "dataset",
+    "assembly_line",
+    "--scenes",
+    "2",
+    "--capture",
+    "trajectory",
+    "--duration-s",
+    "3",
+    "--sensor",
+    "ideal_pinhole",
+    "--format",
+    "rosbag",
+    "--previews",
+    "0",
+    "--workers",
+    "2",
+    "--split",
+    "1,0,0",
+    "--no-progress",
+]
 
 
-def start(out: Path, writing: bool = True, args: list[str] = ARGS) -> tuple[subprocess.Popen, list[int]]:
+def start(
+    out: Path, writing: bool = True, args: list[str] = ARGS
+) -> tuple[subprocess.Popen, list[int]]:
     """A --workers 2 run, once both workers are at work: writing a scene (``writing``), or
     started (warming up or rendering, for seconds yet)."""
     # SIGINT as a terminal sends it, even when the suite runs in the background (a shell starts
     # background jobs with SIGINT ignored, and Python then leaves it ignored)
-    p = subprocess.Popen([sys.executable, "-m", "genie_gl.cli", *args, "--out", str(out)], env=_env(), cwd=ROOT,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    p = subprocess.Popen(
+        [sys.executable, "-m", "genie_gl.cli", *args, "--out", str(out)],
+        env=_env(),
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     t = time.time()
     while time.time() - t < 240:
-        workers = [c for c in children(p.pid) if "spawn_main" in Path(f"/proc/{c}/cmdline").read_text(errors="ignore")
-                   and "resource_tracker" not in Path(f"/proc/{c}/cmdline").read_text(errors="ignore")]
-        if len(workers) >= 2 and (not writing or (out / "scenes").is_dir() and any((out / "scenes").iterdir())):
+        workers = [
+            c
+            for c in children(p.pid)
+            if "spawn_main" in Path(f"/proc/{c}/cmdline").read_text(errors="ignore")
+            and "resource_tracker" not in Path(f"/proc/{c}/cmdline").read_text(errors="ignore")
+        ]
+        if len(workers) >= 2 and (
+            not writing or (out / "scenes").is_dir() and any((out / "scenes").iterdir())
+        ):
             return p, workers
         if p.poll() is not None:
             raise AssertionError(f"the run ended early: {p.stderr.read()[-2000:]}")
@@ -84,8 +137,14 @@ def start(out: Path, writing: bool = True, args: list[str] = ARGS) -> tuple[subp
 
 
 def finish(out: Path, args: list[str] = ARGS) -> None:
-    r = subprocess.run([sys.executable, "-m", "genie_gl.cli", *args, "--out", str(out)], env=_env(), cwd=ROOT,
-                       capture_output=True, text=True, timeout=600)
+    r = subprocess.run(
+        [sys.executable, "-m", "genie_gl.cli", *args, "--out", str(out)],
+        env=_env(),
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     assert len(list((out / "scenes").glob("[0-9]*"))) == int(args[args.index("--scenes") + 1])
 
@@ -97,7 +156,7 @@ def test_a_signal_to_the_leader_stops_its_workers_before_the_lock_is_released(si
     p, workers = start(out)
     assert not lock_is_free(out)
     p.send_signal(sig)
-    while p.poll() is None:        # until the leader is gone: its lock must outlive every worker
+    while p.poll() is None:  # until the leader is gone: its lock must outlive every worker
         if lock_is_free(out):
             assert not alive(workers), f"lock released while workers {alive(workers)} still run"
         time.sleep(0.02)
@@ -114,7 +173,9 @@ def test_a_killed_leader_takes_its_workers_with_it(tmp_path):
     p.send_signal(signal.SIGKILL)
     p.wait(30)
     t = time.time()
-    while alive(workers) and time.time() - t < 1.0:   # the kernel kills them with it (else: their scenes first)
+    while (
+        alive(workers) and time.time() - t < 1.0
+    ):  # the kernel kills them with it (else: their scenes first)
         time.sleep(0.02)
     assert not alive(workers), f"workers {alive(workers)} outlived their killed leader"
     assert lock_is_free(out)

@@ -1,5 +1,6 @@
 """Faults of the renderers: what a raster cannot draw right or cannot hold is refused in one
 line, never drawn wrong or ended in numpy's MemoryError."""
+
 import subprocess
 import sys
 import textwrap
@@ -27,15 +28,23 @@ def looking_down_the_ground():
 
 def ground(half_m):
     scene = gg.Scene()
-    scene.add(gg.Mesh(np.array([[-half_m, -half_m, 0], [half_m, -half_m, 0], [0, half_m, 0]], float),
-                      np.array([[0, 1, 2]])), np.eye(4), semantic=1)
+    scene.add(
+        gg.Mesh(
+            np.array([[-half_m, -half_m, 0], [half_m, -half_m, 0], [0, half_m, 0]], float),
+            np.array([[0, 1, 2]]),
+        ),
+        np.eye(4),
+        semantic=1,
+    )
     return scene
 
 
 @pytest.mark.gl
 @fault("huge input", "wrong")
 @pytest.mark.parametrize("half_m", [1e6, 1e8])
-def test_a_ground_triangle_too_large_for_float32_is_refused_by_gl_and_drawn_exactly_by_cpu(glctx, half_m):
+def test_a_ground_triangle_too_large_for_float32_is_refused_by_gl_and_drawn_exactly_by_cpu(
+    glctx, half_m
+):
     """A triangle reaching 1e6 m or 1e8 m from the camera: the GL raster (float32 vertices)
     refuses it in one line naming the instance and the way out; the CPU raster draws it,
     every pixel below the horizon at its analytic depth (ray meets z = 0)."""
@@ -46,7 +55,7 @@ def test_a_ground_triangle_too_large_for_float32_is_refused_by_gl_and_drawn_exac
     assert "\n" not in msg and "instance 1 reaches" in msg and "raster='cpu'" in msg
     with Renderer(scene, raster="cpu") as r:
         f = r.render(SENSOR, pose, depth_only=True)
-    d = SENSOR.directions().reshape(-1, 3) @ pose[:3, :3].T   # unit world rays
+    d = SENSOR.directions().reshape(-1, 3) @ pose[:3, :3].T  # unit world rays
     cam_z = SENSOR.directions().reshape(-1, 3)[:, 2]
     down = d[:, 2] < 0
     t = np.where(down, 1.5 / np.where(down, -d[:, 2], 1), 0)
@@ -86,19 +95,32 @@ def test_the_cpu_raster_refuses_a_frame_it_has_no_memory_for_in_one_line():
         from genie_gl.render import Renderer
         from genie_gl.errors import LimitError
         s = gg.Scene()
-        s.add(gg.Mesh(np.array([[-9, -9, 0], [9, -9, 0], [0, 9, 0]], float), np.array([[0, 1, 2]])), np.eye(4))
+        v = np.array([[-9, -9, 0], [9, -9, 0], [0, 9, 0]], float)
+        s.add(gg.Mesh(v, np.array([[0, 1, 2]])), np.eye(4))
         pose = np.eye(4); pose[2, 3] = 5.0; pose[:3, :3] = np.diag([1.0, -1.0, -1.0])
         with Renderer(s, raster="cpu") as r:
-            assert (r.render(gg.Sensor.pinhole(64, 48, 50.0), pose).depth > 0).any()   # the kernels loaded
-            used = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status") if l.startswith("VmSize:"))
+            # the kernels loaded
+            assert (r.render(gg.Sensor.pinhole(64, 48, 50.0), pose).depth > 0).any()
+            used = next(int(l.split()[1]) * 1024 for l in open("/proc/self/status")
+                        if l.startswith("VmSize:"))
             resource.setrlimit(resource.RLIMIT_AS, (used + (1 << 30), used + (1 << 30)))
             try:
                 r.render(gg.Sensor.pinhole(12000, 12000, 6000.0), pose, depth_only=True)
             except LimitError as exc:
                 print("REFUSED", exc)
     """)
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=_env(),
-                         cwd=ROOT)
+    run = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=_env(),
+        cwd=ROOT,
+    )
     assert "MemoryError" not in run.stderr and "Traceback" not in run.stderr, run.stderr[-2000:]
     line = run.stdout.strip()
-    assert line.startswith("REFUSED estimated memory") and "12000x12000 px" in line and "\n" not in line, line
+    assert (
+        line.startswith("REFUSED estimated memory")
+        and "12000x12000 px" in line
+        and "\n" not in line
+    ), line

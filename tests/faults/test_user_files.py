@@ -5,6 +5,7 @@ makes nothing, a scene made again (a damaged scan, a ``--verify`` mismatch, a ba
 a regrouping of the sequences leave every one of the user's files as it was. And what a run
 says is true: no preview folder named that is not there, no limit message whose two figures
 read the same."""
+
 import hashlib
 import re
 import shutil
@@ -19,18 +20,40 @@ from .common import cli, fault, intact
 
 RERUN = fault("re-run", "loss")
 DAMAGED = fault("bad file", "loss")
-ARGS = ["dataset", "assembly_line", "--cameras", "2", "--sensor", "ideal_pinhole", "--points", "3000",
-        "--min-points", "500", "--no-progress", "--previews", "0", "--scenes", "2", "--workers", "1"]
-USER = {"sequences/01/predictions/000000.label": b"\x01\x00\x00\x00" * 4,
-        "sequences/00/notes.txt": b"which model ran on this\n",
-        "sequences/01/predictions/draft.tmp": b"a draft of mine\n",
-        "scenes/0001/NOTES.md": b"# scene 1: the forklift is odd\n",
-        "scenes/0000/analysis/x.tmp": b"mine\n"}
+ARGS = [
+    "dataset",
+    "assembly_line",
+    "--cameras",
+    "2",
+    "--sensor",
+    "ideal_pinhole",
+    "--points",
+    "3000",
+    "--min-points",
+    "500",
+    "--no-progress",
+    "--previews",
+    "0",
+    "--scenes",
+    "2",
+    "--workers",
+    "1",
+]
+USER = {
+    "sequences/01/predictions/000000.label": b"\x01\x00\x00\x00" * 4,
+    "sequences/00/notes.txt": b"which model ran on this\n",
+    "sequences/01/predictions/draft.tmp": b"a draft of mine\n",
+    "scenes/0001/NOTES.md": b"# scene 1: the forklift is odd\n",
+    "scenes/0000/analysis/x.tmp": b"mine\n",
+}
 
 
 def digest(root: Path, skip=("manifest.json",)) -> dict[str, str]:
-    return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file() and p.name not in skip}
+    return {
+        p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(root.rglob("*"))
+        if p.is_file() and p.name not in skip
+    }
 
 
 def plant(root: Path) -> dict[str, str]:
@@ -51,7 +74,8 @@ def made(tmp_path_factory):
 
 @pytest.fixture
 def dataset(made, tmp_path):
-    """A copy of the finished dataset with the user's files in it: (folder, its files' hashes, the user's)."""
+    """A copy of the finished dataset with the user's files in it: (folder, its files' hashes, the
+    user's)."""
     out = tmp_path / "ds"
     shutil.copytree(made[0], out)
     return out, made[1], plant(out)
@@ -84,7 +108,7 @@ def test_a_scene_made_again_for_a_damaged_scan_keeps_the_users_notes(dataset):
     assert run.rc == 0, run.err[-2000:]
     assert "1 scenes made, 1 already there" in run.out
     intact(out, user)
-    assert ours(out, user) == before   # the scene as it was, the sequences rebuilt around the notes
+    assert ours(out, user) == before  # the scene as it was, the sequences rebuilt around the notes
 
 
 @pytest.mark.gl
@@ -127,8 +151,25 @@ def test_a_rerun_of_recordings_keeps_the_users_predictions(tmp_path):
     """``--capture trajectory --format semantickitti``: each recording is a sequence of its own,
     assembled by the sequence writer; it removed and rebuilt them whole."""
     out = tmp_path / "ds"
-    args = ["dataset", "assembly_line", "--capture", "trajectory", "--sensor", "ideal_pinhole", "--duration-s", "0.3",
-            "--scenes", "2", "--workers", "1", "--previews", "0", "--no-progress", "--out", out]
+    args = [
+        "dataset",
+        "assembly_line",
+        "--capture",
+        "trajectory",
+        "--sensor",
+        "ideal_pinhole",
+        "--duration-s",
+        "0.3",
+        "--scenes",
+        "2",
+        "--workers",
+        "1",
+        "--previews",
+        "0",
+        "--no-progress",
+        "--out",
+        out,
+    ]
     assert cli(*args, timeout=900).rc == 0
     before = digest(out)
     user = plant(out)
@@ -144,7 +185,9 @@ def _scene(folder: Path, scans: int) -> Path:
     for k in range(scans):
         from genie_gl import PointCloud
 
-        clouds.append(PointCloud(np.full((1, 3), k, np.float32), np.ones(1, np.uint16), np.ones(1, np.uint32)))
+        clouds.append(
+            PointCloud(np.full((1, 3), k, np.float32), np.ones(1, np.uint16), np.ones(1, np.uint32))
+        )
     semantickitti.write_scans(clouds, folder)
     return folder
 
@@ -163,11 +206,22 @@ def test_sequences_of_an_earlier_grouping_keep_the_users_files(tmp_path):
     assert groups == {0: [0]}
     for rel, data in user.items():
         assert (tmp_path / rel).read_bytes() == data, rel
-    left = sorted(p.relative_to(tmp_path / "sequences").as_posix() for p in (tmp_path / "sequences").rglob("*")
-                  if p.is_file())
-    assert left == ["00/calib.txt", "00/labels/000000.label", "00/labels/000001.label", "00/poses.txt",
-                    "00/times.txt", "00/velodyne/000000.bin", "00/velodyne/000001.bin", "01/mine.txt",
-                    "02/predictions/000000.label"]
+    left = sorted(
+        p.relative_to(tmp_path / "sequences").as_posix()
+        for p in (tmp_path / "sequences").rglob("*")
+        if p.is_file()
+    )
+    assert left == [
+        "00/calib.txt",
+        "00/labels/000000.label",
+        "00/labels/000001.label",
+        "00/poses.txt",
+        "00/times.txt",
+        "00/velodyne/000000.bin",
+        "00/velodyne/000001.bin",
+        "01/mine.txt",
+        "02/predictions/000000.label",
+    ]
 
 
 @pytest.mark.gl
@@ -183,9 +237,12 @@ def test_no_previews_names_no_preview_folder(made, tmp_path):
 
 
 @fault("huge input", "wrong")
-@pytest.mark.parametrize("need, limit", [(10.249e9, 10.241e9), (10.2400001e9, 10.24e9), (999.96e9, 999.95e9)])
+@pytest.mark.parametrize(
+    "need, limit", [(10.249e9, 10.241e9), (10.2400001e9, 10.24e9), (999.96e9, 999.95e9)]
+)
 def test_a_need_over_its_limit_reads_larger(tmp_path, need, limit):
-    """"estimated 10.2 GB exceeds 10.2 GB": the two figures are told apart, the first the larger."""
+    """ "estimated 10.2 GB exceeds 10.2 GB": the two figures are told apart, the first the
+    larger."""
     from genie_gl.errors import LimitError
     from genie_gl.limits import check_disk, check_memory
 
@@ -193,8 +250,10 @@ def test_a_need_over_its_limit_reads_larger(tmp_path, need, limit):
         check_memory(need, limit, "the frames", "use fewer")
     with pytest.raises(LimitError) as disk:
         check_disk(need, tmp_path, "--out o", max_disk_gb=limit / 1e9)
-    for text, pattern in ((str(memory.value), r"estimated memory ([\d.e+]+) GB .* exceeds ([\d.e+]+) GB"),
-                          (str(disk.value), r"about ([\d.e+]+) GB, more than ([\d.e+]+) GB")):
+    for text, pattern in (
+        (str(memory.value), r"estimated memory ([\d.e+]+) GB .* exceeds ([\d.e+]+) GB"),
+        (str(disk.value), r"about ([\d.e+]+) GB, more than ([\d.e+]+) GB"),
+    ):
         shown, allowed = (float(x) for x in re.search(pattern, text).groups())
         assert shown > allowed, text
 
@@ -222,4 +281,6 @@ def test_a_bop_scene_written_again_keeps_the_users_files(tmp_path):
     bop.write_scene(scene, frames[:1], tmp_path, scene_id=0)
     for rel, data in mine.items():
         assert (folder / rel).read_bytes() == data, rel
-    assert not (folder / "rgb" / "000001.png").exists() and (folder / "rgb" / "000000.png").is_file()
+    assert (
+        not (folder / "rgb" / "000001.png").exists() and (folder / "rgb" / "000000.png").is_file()
+    )

@@ -1,6 +1,7 @@
 """Trajectories: interpolation, and the makers on the free floor: never through an asset
 (a property over strategies, seeds, paths and motions), turning and speed a person or robot
 can take, the same seed the same trajectory, one-line errors for bad waypoints."""
+
 import functools
 import json
 from pathlib import Path
@@ -27,7 +28,9 @@ def test_at_gives_the_samples_exactly_and_slerps_between():
     mid = tr.at([0.5])[0]
     np.testing.assert_allclose(mid[:3, 3], [0.5, 1.0, 1.5])
     np.testing.assert_allclose(np.arctan2(mid[1, 0], mid[0, 0]), np.pi / 8, atol=1e-12)
-    assert tr.length_m == pytest.approx(np.sqrt(20)) and tr.distance_at([1.0])[0] == pytest.approx(np.sqrt(20) / 2)
+    assert tr.length_m == pytest.approx(np.sqrt(20)) and tr.distance_at([1.0])[0] == pytest.approx(
+        np.sqrt(20) / 2
+    )
     with pytest.raises(ConfigError, match="outside its span"):
         tr.at([2.5])
     cut = tr.crop(1.0)
@@ -56,11 +59,13 @@ def clearance_to_assets(scene, xy: np.ndarray, top_m: float = 2.2) -> float:
     for inst in scene.instances:
         b = scene.meshes[inst.mesh].bounds
         T = inst.world_from_model
-        corners = np.array([[x, y, z, 1.0] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]]) @ T.T
+        corners = (
+            np.array([[x, y, z, 1.0] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]]) @ T.T
+        )
         if corners[:, 2].max() <= FLOOR_TOP_M or corners[:, 2].min() >= top_m:
             continue
         assert np.allclose(T[:3, 2], [0, 0, 1]), f"{inst.name} is not turned about z alone"
-        local = (xy - T[:2, 3]) @ T[:2, :2]           # rotation about z: the inverse is the transpose
+        local = (xy - T[:2, 3]) @ T[:2, :2]  # rotation about z: the inverse is the transpose
         dx = np.maximum(np.maximum(b[0, 0] - local[:, 0], local[:, 0] - b[1, 0]), 0)
         dy = np.maximum(np.maximum(b[0, 1] - local[:, 1], local[:, 1] - b[1, 1]), 0)
         best = min(best, float(np.hypot(dx, dy).min()))
@@ -68,8 +73,13 @@ def clearance_to_assets(scene, xy: np.ndarray, top_m: float = 2.2) -> float:
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=list(HealthCheck))
-@given(strategy=st.sampled_from(STRATEGIES), seed=st.integers(0, 3), path=st.sampled_from(["aisles", "random"]),
-       motion=st.sampled_from(sorted(MOTIONS)), route_seed=st.integers(0, 2**31 - 1))
+@given(
+    strategy=st.sampled_from(STRATEGIES),
+    seed=st.integers(0, 3),
+    path=st.sampled_from(["aisles", "random"]),
+    motion=st.sampled_from(sorted(MOTIONS)),
+    route_seed=st.integers(0, 2**31 - 1),
+)
 def test_trajectories_never_pass_through_an_asset(strategy, seed, path, motion, route_seed):
     layout, scene = hall(strategy, seed)
     m = MOTIONS[motion]
@@ -78,25 +88,31 @@ def test_trajectories_never_pass_through_an_asset(strategy, seed, path, motion, 
     dense = tr.at(np.linspace(tr.start_s, tr.end_s, int(tr.length_m / 0.01) + 2))[:, :2, 3]
     assert clearance_to_assets(scene, dense) >= m.body_radius_m
     x0, y0, w, h = layout.bounds
-    assert (dense[:, 0] > x0 + m.body_radius_m).all() and (dense[:, 0] < x0 + w - m.body_radius_m).all()
-    assert (dense[:, 1] > y0 + m.body_radius_m).all() and (dense[:, 1] < y0 + h - m.body_radius_m).all()
+    assert (dense[:, 0] > x0 + m.body_radius_m).all() and (
+        dense[:, 0] < x0 + w - m.body_radius_m
+    ).all()
+    assert (dense[:, 1] > y0 + m.body_radius_m).all() and (
+        dense[:, 1] < y0 + h - m.body_radius_m
+    ).all()
     # what a person or robot can take: cruising speed, turning rate, level, at its height
     assert tr.speeds().max() <= m.speed_mps * (1 + 1e-9)
     assert np.abs(tr.yaw_rates()).max() <= m.max_yaw_rate_rad_s * (1 + 1e-9)
     np.testing.assert_array_equal(tr.positions[:, 2], m.height_m)
-    np.testing.assert_allclose(tr.world_from_body[:, 2, :3], np.tile([0, 0, 1.0], (len(tr), 1)), atol=1e-15)
+    np.testing.assert_allclose(
+        tr.world_from_body[:, 2, :3], np.tile([0, 0, 1.0], (len(tr), 1)), atol=1e-15
+    )
 
 
 def test_the_speed_changes_no_faster_than_the_acceleration_allows():
     layout, scene = hall("storage_area", 0)
     m = MOTIONS["person"]
     tr = make_trajectory(layout, scene, "random", seed=3, length_m=40.0)
-    v = tr.speeds()                                  # mean speed of each step
+    v = tr.speeds()  # mean speed of each step
     t = 0.5 * (tr.times_s[1:] + tr.times_s[:-1])
     moving = np.diff(tr.times_s) > 0
     accel = np.abs(np.diff(v[moving])) / np.diff(t[moving])
-    assert accel.max() <= m.max_accel_mps2 * 1.05     # between step midpoints: a mean of the true one
-    assert tr.speeds()[0] < 0.2 and tr.speeds()[-1] < 0.2   # from rest, to rest
+    assert accel.max() <= m.max_accel_mps2 * 1.05  # between step midpoints: a mean of the true one
+    assert tr.speeds()[0] < 0.2 and tr.speeds()[-1] < 0.2  # from rest, to rest
 
 
 def test_the_same_seed_gives_the_same_trajectory_and_another_seed_another():
@@ -104,8 +120,13 @@ def test_the_same_seed_gives_the_same_trajectory_and_another_seed_another():
     a = make_trajectory(layout, scene, "aisles", seed=5, length_m=40)
     b = make_trajectory(layout, scene, "aisles", seed=5, length_m=40)
     c = make_trajectory(layout, scene, "aisles", seed=6, length_m=40)
-    assert a.times_s.tobytes() == b.times_s.tobytes() and a.world_from_body.tobytes() == b.world_from_body.tobytes()
-    assert a.world_from_body.shape != c.world_from_body.shape or not np.array_equal(a.world_from_body, c.world_from_body)
+    assert (
+        a.times_s.tobytes() == b.times_s.tobytes()
+        and a.world_from_body.tobytes() == b.world_from_body.tobytes()
+    )
+    assert a.world_from_body.shape != c.world_from_body.shape or not np.array_equal(
+        a.world_from_body, c.world_from_body
+    )
 
 
 def test_the_aisle_tour_passes_near_every_aisle_target():
@@ -144,7 +165,9 @@ def test_a_waypoint_on_an_asset_or_a_bad_line_is_one_line_naming_the_file(tmp_pa
     ok = floor.centres(rows, cols)[0]
     f = tmp_path / "w.txt"
     f.write_text(f"{ok[0]} {ok[1]}\n{car.world_from_model[0, 3]} {car.world_from_model[1, 3]}\n")
-    with pytest.raises(ConfigError, match=rf"{f}: waypoint 2 .* is not free floor .* nearest free point") as e:
+    with pytest.raises(
+        ConfigError, match=rf"{f}: waypoint 2 .* is not free floor .* nearest free point"
+    ) as e:
         make_trajectory(layout, scene, "waypoints", waypoints=f, floor=floor)
     assert "\n" not in str(e.value)
     f.write_text("1 2\n3 four\n")
@@ -161,4 +184,6 @@ def test_without_a_scene_the_layouts_furnished_regions_are_avoided():
 
     layout, _ = hall("storage_area", 0)
     tr = make_trajectory(layout, None, "random", seed=1, length_m=40)
-    assert outside_rects(tr.positions[:, :2], furnished_rects(layout), MOTIONS["person"].body_radius_m).all()
+    assert outside_rects(
+        tr.positions[:, :2], furnished_rects(layout), MOTIONS["person"].body_radius_m
+    ).all()

@@ -1,6 +1,7 @@
 """Placement fitness against coverage counted independently of CoverageProblem: cell centres
 and candidate grid from the layout's own geometry, one loop per cell (a wrong coverage count
 would otherwise be silent: the GA just optimises the wrong number)."""
+
 import numpy as np
 import pytest
 
@@ -17,7 +18,7 @@ def reference(layout, radius, res, step, weights=None):
         for i in range(int(np.ceil(bw / res - 1e-9))):
             x, y = bx + (i + 0.5) * res, by + (j + 0.5) * res
             owner = None
-            for r in leaves:    # later leaves over earlier ones; a leaf owns [x, x + w) x [y, y + h)
+            for r in leaves:  # later leaves over earlier ones; a leaf owns [x, x + w) x [y, y + h)
                 if r.x - 1e-9 <= x < r.x + r.w - 1e-9 and r.y - 1e-9 <= y < r.y + r.h - 1e-9:
                     owner = r.type
             if owner is None:
@@ -27,13 +28,22 @@ def reference(layout, radius, res, step, weights=None):
             if w > 0:
                 centres.append((x, y))
                 wts.append(w)
-    cands = [(x, y) for y in np.arange(by + step / 2, by + bh, step) for x in np.arange(bx + step / 2, bx + bw, step)]
+    cands = [
+        (x, y)
+        for y in np.arange(by + step / 2, by + bh, step)
+        for x in np.arange(bx + step / 2, bx + bw, step)
+    ]
     return np.array(centres), np.array(wts), np.array(cands)
 
 
-@pytest.mark.parametrize("strategy,radius,weights", [("storage_area", 3.0, None),
-                                                     ("assembly_line", 4.5, None),
-                                                     ("storage_area", 2.0, {"rack": 3.0, "hall": 0.5})])
+@pytest.mark.parametrize(
+    "strategy,radius,weights",
+    [
+        ("storage_area", 3.0, None),
+        ("assembly_line", 4.5, None),
+        ("storage_area", 2.0, {"rack": 3.0, "hall": 0.5}),
+    ],
+)
 def test_fitness_is_the_covered_weight_share_counted_cell_by_cell(strategy, radius, weights):
     layout = gg.generate_layout(strategy, seed=2)
     res, step = 0.5, 1.5
@@ -43,7 +53,7 @@ def test_fitness_is_the_covered_weight_share_counted_cell_by_cell(strategy, radi
     assert p.total == pytest.approx(w.sum(), rel=1e-12)
     rng = np.random.default_rng(5)
     pop = rng.integers(0, len(cands), (10, 6))
-    pop[1] = pop[1, 0]                            # one disc repeated: counted once
+    pop[1] = pop[1, 0]  # one disc repeated: counted once
     expected = []
     for chrom in pop:
         hit = np.zeros(len(px), bool)
@@ -52,7 +62,7 @@ def test_fitness_is_the_covered_weight_share_counted_cell_by_cell(strategy, radi
         expected.append(w[hit].sum() / w.sum())
     np.testing.assert_allclose(p.fitnesses(pop), expected, rtol=1e-12)
     np.testing.assert_allclose([p.fitness(c) for c in pop], expected, rtol=1e-12)
-    assert sum(e > 0 for e in expected) >= 5 and max(expected) < 1   # not a trivial all-or-nothing
+    assert sum(e > 0 for e in expected) >= 5 and max(expected) < 1  # not a trivial all-or-nothing
 
 
 def test_greedy_takes_the_disc_with_most_new_weight_each_time():
@@ -60,7 +70,9 @@ def test_greedy_takes_the_disc_with_most_new_weight_each_time():
     radius, res, step = 3.0, 0.5, 1.5
     px, w, cands = reference(layout, radius, res, step)
     p = CoverageProblem(layout, radius, resolution_m=res, step_m=step)
-    inside = np.hypot(px[None, :, 0] - cands[:, None, 0], px[None, :, 1] - cands[:, None, 1]) <= radius
+    inside = (
+        np.hypot(px[None, :, 0] - cands[:, None, 0], px[None, :, 1] - cands[:, None, 1]) <= radius
+    )
     hit, best = np.zeros(len(px), bool), []
     for _ in range(4):
         gain = (inside & ~hit) @ w
@@ -87,7 +99,9 @@ def test_defaults_are_half_metre_cells_and_one_metre_candidates_and_radius_must_
             CoverageProblem(layout, bad)
 
 
-def _numpy_genetic(problem, n, rng, population=32, generations=150, mutation=0.05, seed_greedy=True):
+def _numpy_genetic(
+    problem, n, rng, population=32, generations=150, mutation=0.05, seed_greedy=True
+):
     """The genetic search written with numpy's array steps (the compiled generation's reference)."""
     from genie_gl.placement.genetic import greedy_indices
 
@@ -112,8 +126,10 @@ def _numpy_genetic(problem, n, rng, population=32, generations=150, mutation=0.0
     return problem.candidates[pop[fit.argmax()]], history
 
 
-@pytest.mark.parametrize("n, population, mutation, seed_greedy", [(12, 32, 0.05, True), (12, 32, 0.05, False),
-                                                                 (5, 9, 0.4, False)])
+@pytest.mark.parametrize(
+    "n, population, mutation, seed_greedy",
+    [(12, 32, 0.05, True), (12, 32, 0.05, False), (5, 9, 0.4, False)],
+)
 def test_compiled_generations_follow_the_numpy_steps(n, population, mutation, seed_greedy):
     """Each generation of the search (tournament, crossover, mutation, elite) is compiled;
     from the same draws it makes the same populations as numpy's array steps: the same
@@ -121,10 +137,19 @@ def test_compiled_generations_follow_the_numpy_steps(n, population, mutation, se
     from genie_gl.placement.genetic import genetic_placement
 
     layout = gg.generate_layout("assembly_line", seed=4)
-    problem = CoverageProblem(layout, 3.0)   # too few discs to cover it all: the search has work
-    got = genetic_placement(problem, n, rng=np.random.default_rng(9), population=population, generations=60,
-                            mutation=mutation, seed_greedy=seed_greedy)
-    want, history = _numpy_genetic(problem, n, np.random.default_rng(9), population, 60, mutation, seed_greedy)
+    problem = CoverageProblem(layout, 3.0)  # too few discs to cover it all: the search has work
+    got = genetic_placement(
+        problem,
+        n,
+        rng=np.random.default_rng(9),
+        population=population,
+        generations=60,
+        mutation=mutation,
+        seed_greedy=seed_greedy,
+    )
+    want, history = _numpy_genetic(
+        problem, n, np.random.default_rng(9), population, 60, mutation, seed_greedy
+    )
     np.testing.assert_array_equal(got.centres, want)
     assert got.history == history
-    assert seed_greedy or len(set(history)) > 2   # from a random start the search moves
+    assert seed_greedy or len(set(history)) > 2  # from a random start the search moves

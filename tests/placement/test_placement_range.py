@@ -1,5 +1,6 @@
 """Placement knows the sensor's range: every shipped profile on every shipped strategy gives
 frames with points; a profile that cannot fit the hall gets a one-line error."""
+
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,9 @@ def hall(request):
 
 
 def test_the_shipped_files_are_all_here():
-    assert len(STRATEGIES) >= 3 and {"realsense_d435", "azure_kinect_nfov", "zivid2_m70"} <= set(PROFILES)
+    assert len(STRATEGIES) >= 3 and {"realsense_d435", "azure_kinect_nfov", "zivid2_m70"} <= set(
+        PROFILES
+    )
 
 
 @pytest.mark.gl
@@ -31,10 +34,10 @@ def test_every_profile_on_every_strategy_gives_frames_with_points(hall, profile)
     sensor = gg.load_sensor(profile)
     try:
         poses = gg.place_sensors(layout, sensor, n=1, seed=0, method="greedy")
-    except ConfigError as exc:   # a close-range sensor: refused in one line, then mounted low
+    except ConfigError as exc:  # a close-range sensor: refused in one line, then mounted low
         assert "\n" not in str(exc) and "mount" in str(exc) and profile == "zivid2_m70"
         poses = gg.place_sensors(layout, sensor, n=1, seed=0, method="greedy", mount_height_m=0.9)
-    frame, = gg.capture(scene, sensor, poses, seed=0)
+    (frame,) = gg.capture(scene, sensor, poses, seed=0)
     valid = frame.depth > 0
     assert valid.mean() > 0.3, f"{profile}: {valid.mean():.0%} of the pixels return"
     rng = [e for e in sensor.effects if e.name == "range"]
@@ -46,7 +49,7 @@ def test_mount_keeps_the_top_edge_of_the_image_on_the_floor_within_range():
     sensor = gg.load_sensor("azure_kinect_nfov")
     m = mount_for(sensor)
     half_v = np.arctan2(sensor.height / 2, sensor.fy)
-    top = m.pitch_rad - half_v                         # the top edge's angle below the horizon
+    top = m.pitch_rad - half_v  # the top edge's angle below the horizon
     assert m.height_m / np.sin(top) == pytest.approx(0.95 * 3.86, rel=1e-6)
     assert 2.0 <= m.height_m <= 3.5
 
@@ -75,7 +78,7 @@ def test_look_at_is_an_opencv_camera_with_the_cross_products_of_numpy():
         assert np.array_equal(T[:3, 2], z) and np.array_equal(T[:3, 0], x)
         assert np.array_equal(T[:3, 1], np.cross(z, x)) and np.array_equal(T[:3, 3], eye)
         np.testing.assert_allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-12)
-        assert T[2, 1] <= 1e-12   # image y points down (or level): the camera is upright
-    down = look_at([1.0, 2.0, 5.0], [1.0, 2.0, 0.0])   # straight down: any perpendicular x
+        assert T[2, 1] <= 1e-12  # image y points down (or level): the camera is upright
+    down = look_at([1.0, 2.0, 5.0], [1.0, 2.0, 0.0])  # straight down: any perpendicular x
     np.testing.assert_array_equal(down[:3, 2], [0.0, 0.0, -1.0])
     np.testing.assert_array_equal(down[:3, 0], np.cross([0.0, 0.0, -1.0], [1.0, 0.0, 0.0]))

@@ -1,5 +1,6 @@
 """Helpers of the render tests: exact ray casting of boxes, interior pixels (the GL fixtures
 and the guard every test runs under live in tests/conftest.py)."""
+
 import numpy as np
 import pytest
 
@@ -51,7 +52,7 @@ def interior(ids, margin=1):
     p = np.pad(ids, margin, mode="edge")
     for dy in range(-margin, margin + 1):
         for dx in range(-margin, margin + 1):
-            ok &= p[margin + dy:margin + dy + H, margin + dx:margin + dx + W] == ids
+            ok &= p[margin + dy : margin + dy + H, margin + dx : margin + dx + W] == ids
     ok[:margin], ok[-margin:], ok[:, :margin], ok[:, -margin:] = False, False, False, False
     return ok
 

@@ -1,4 +1,5 @@
 """Rendered buffers against analytic truths: planes, spheres, boxes, cv2.projectPoints."""
+
 import cv2
 import numpy as np
 import pytest
@@ -62,7 +63,7 @@ def test_sphere_depth_matches_closed_form(draw):
     # |t d - c|^2 = r^2, smallest root; d has z = 1 so t is the depth
     A = (d * d).sum(-1)
     B = -2 * (d @ centre)
-    C = centre @ centre - r_s ** 2
+    C = centre @ centre - r_s**2
     disc = B * B - 4 * A * C
     t = (-B - np.sqrt(np.maximum(disc, 0))) / (2 * A)
     inside = interior((disc > 0).astype(np.uint32), 2) & (disc > 0)
@@ -110,13 +111,17 @@ def test_boxes_depth_and_ids_match_exact_ray_casting(draw):
     assert (f.instance != ids).mean() < 0.01
 
 
-@pytest.mark.parametrize("point", [[0.0, 0.0, 2.0], [0.9, 0.5, 3.0], [-1.1, -0.6, 2.5], [2.7, 1.3, 6.0]])
+@pytest.mark.parametrize(
+    "point", [[0.0, 0.0, 2.0], [0.9, 0.5, 3.0], [-1.1, -0.6, 2.5], [2.7, 1.3, 6.0]]
+)
 def test_projected_point_lands_where_cv2_puts_it(draw, point):
     rng = np.random.default_rng(3)
     pose = random_pose(rng, 10.0)
     p_cam = np.array(point)
     side = 0.02 * p_cam[2]  # half side: a ~6 px square facing the camera
-    corners_cam = [p_cam + side * np.array([sx, sy, 0]) for sx, sy in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
+    corners_cam = [
+        p_cam + side * np.array([sx, sy, 0]) for sx, sy in [(-1, -1), (1, -1), (1, 1), (-1, 1)]
+    ]
     scene = gg.Scene()
     scene.add(quad([pose[:3, :3] @ c + pose[:3, 3] for c in corners_cam]), instance=9)
     with draw(scene) as r:
@@ -131,30 +136,44 @@ def test_projected_point_lands_where_cv2_puts_it(draw, point):
     assert np.hypot(u.mean() - uv[0, 0, 0], v.mean() - uv[0, 0, 1]) < 0.5
 
 
-@pytest.mark.parametrize("dist", [[-0.25, 0.06, 0.001, -0.001, 0.0],
-                                  [0.1, -0.05, 0.001, -0.002, 0.01, 0.02, 0.0, 0.0]])
+@pytest.mark.parametrize(
+    "dist", [[-0.25, 0.06, 0.001, -0.001, 0.0], [0.1, -0.05, 0.001, -0.002, 0.01, 0.02, 0.0, 0.0]]
+)
 def test_distorted_render_puts_points_where_cv2_projects_them(dist):
     """A distorted sensor's frame against ground truth: square markers in front of a wall that
     fills the view, their centres projected with cv2.projectPoints through the lens; the
     wall's depth is exactly 3 m at every pixel (z does not change under distortion), so a
     wide render too small for the distorted field shows up as missing rows or columns."""
     sensor = gg.Sensor(320, 240, np.array([[300.0, 0, 161.0], [0, 360.0, 118.5], [0, 0, 1]]), dist)
-    targets = np.array([[16, 14], [303, 16], [18, 225], [300, 224], [160, 120], [160, 14], [15, 118], [304, 130]],
-                       np.float64)
-    rays = cv2.undistortPoints(targets.reshape(-1, 1, 2), sensor.K, sensor.dist, None, None, None,
-                               (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)).reshape(-1, 2)
+    targets = np.array(
+        [[16, 14], [303, 16], [18, 225], [300, 224], [160, 120], [160, 14], [15, 118], [304, 130]],
+        np.float64,
+    )
+    rays = cv2.undistortPoints(
+        targets.reshape(-1, 1, 2),
+        sensor.K,
+        sensor.dist,
+        None,
+        None,
+        None,
+        (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12),
+    ).reshape(-1, 2)
     z_face, half = 1.96, 0.02
     scene = gg.Scene()
     scene.add(trimesh.creation.box((40.0, 40.0, 0.2)), [0, 0, 3.1], instance=1)
     centres = np.c_[rays * z_face, np.full(len(rays), z_face)]
     for k, c in enumerate(centres):
-        scene.add(trimesh.creation.box((2 * half, 2 * half, 0.004)), c + [0, 0, 0.002], instance=10 + k)
+        scene.add(
+            trimesh.creation.box((2 * half, 2 * half, 0.004)), c + [0, 0, 0.002], instance=10 + k
+        )
     f = gg.capture(scene, sensor, [np.eye(4)], seed=0, workers=1)[0]
     assert f.depth.shape == (240, 320)
-    assert (f.depth > 0).all()                                  # the wall fills the whole view
+    assert (f.depth > 0).all()  # the wall fills the whole view
     wall = f.instance == 1
     np.testing.assert_allclose(f.depth[wall], 3.0, rtol=1e-5)
-    uv = cv2.projectPoints(centres.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), sensor.K, sensor.dist)[0].reshape(-1, 2)
+    uv = cv2.projectPoints(
+        centres.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), sensor.K, sensor.dist
+    )[0].reshape(-1, 2)
     for k, (u, v) in enumerate(uv):
         assert f.instance[int(round(v)), int(round(u))] == 10 + k
         vs, us = np.nonzero(f.instance == 10 + k)

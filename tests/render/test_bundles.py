@@ -1,5 +1,6 @@
 """The binned engine of coherent bundles (scans, panoramas) against the hierarchy's
 ``cast_rays`` bit for bit, analytic truths, the hard directions and Open3D."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -21,12 +22,20 @@ def _generated(seed=0):
     f = []
     for j in range(n):
         for i in range(n):
-            a, b, c, d = j * (n + 1) + i, j * (n + 1) + i + 1, (j + 1) * (n + 1) + i + 1, (j + 1) * (n + 1) + i
+            a, b, c, d = (
+                j * (n + 1) + i,
+                j * (n + 1) + i + 1,
+                (j + 1) * (n + 1) + i + 1,
+                (j + 1) * (n + 1) + i,
+            )
             f += [[a, b, c], [a, c, d]]
     scene.add(gg.Mesh(v, np.array(f)), np.eye(4), semantic=1)
     for k in range(60):
-        shape = (trimesh.creation.box(rng.uniform(0.3, 2.0, 3)), trimesh.creation.icosphere(2, rng.uniform(0.2, 1.0)),
-                 trimesh.creation.cylinder(rng.uniform(0.1, 0.5), rng.uniform(0.5, 3.0)))[k % 3]
+        shape = (
+            trimesh.creation.box(rng.uniform(0.3, 2.0, 3)),
+            trimesh.creation.icosphere(2, rng.uniform(0.2, 1.0)),
+            trimesh.creation.cylinder(rng.uniform(0.1, 0.5), rng.uniform(0.5, 3.0)),
+        )[k % 3]
         T = trimesh.transformations.random_rotation_matrix(rng.random(3))
         r, a = rng.uniform(2.5, 11.0), rng.uniform(-np.pi, np.pi)
         T[:3, 3] = [r * np.cos(a), r * np.sin(a), rng.uniform(0.0, 3.0)]
@@ -43,9 +52,17 @@ def _panorama(origin, azimuth, elevation):
     """(rays on an azimuth-elevation grid, their directions as given to the record): the
     record normalises them, and ``cast_rays`` of the same given directions must agree."""
     ce = np.cos(elevation)[:, None]
-    d = np.stack([ce * np.cos(azimuth)[None, :], ce * np.sin(azimuth)[None, :],
-                  np.broadcast_to(np.sin(elevation)[:, None], (len(elevation), len(azimuth)))], axis=-1).reshape(-1, 3)
-    return Rays(np.asarray(origin, float), d, "azimuth_elevation", (len(elevation), len(azimuth))), d
+    d = np.stack(
+        [
+            ce * np.cos(azimuth)[None, :],
+            ce * np.sin(azimuth)[None, :],
+            np.broadcast_to(np.sin(elevation)[:, None], (len(elevation), len(azimuth))),
+        ],
+        axis=-1,
+    ).reshape(-1, 3)
+    return Rays(
+        np.asarray(origin, float), d, "azimuth_elevation", (len(elevation), len(azimuth))
+    ), d
 
 
 def _same(a, b):
@@ -71,11 +88,16 @@ def test_a_scan_equals_cast_rays_bit_for_bit(scene, profile, cluster, monkeypatc
 def test_a_panorama_with_its_poles_and_seam_equals_cast_rays(scene):
     """A 360 x 181 equirectangular panorama (elevations -90 to 90 degrees, azimuth -pi
     included): ``cast_rays`` of the record (the binned engine) equals the hierarchy's."""
-    rays, d = _panorama([0.4, -0.3, 1.5], np.linspace(-np.pi, np.pi, 360, endpoint=False),
-                        np.linspace(-np.pi / 2, np.pi / 2, 181))
+    rays, d = _panorama(
+        [0.4, -0.3, 1.5],
+        np.linspace(-np.pi, np.pi, 360, endpoint=False),
+        np.linspace(-np.pi / 2, np.pi / 2, 181),
+    )
     ours = cast_rays(scene, rays)
     _same(ours, cast_rays(scene, rays.origins, d))
-    assert ours.hit[: 360 * 81].all()   # every ray 10 degrees or more below the horizon meets the floor (or an object)
+    assert ours.hit[
+        : 360 * 81
+    ].all()  # every ray 10 degrees or more below the horizon meets the floor (or an object)
 
 
 @pytest.mark.parametrize("cluster", [1, bundles.CLUSTER])
@@ -102,11 +124,18 @@ def test_from_inside_a_box_and_a_sphere_the_analytic_distances():
     iid = scene.add(trimesh.creation.box((2, 4, 6)), T)
     o_box = np.array([0.3, -0.5, 1.0])
     o = T[:3, :3] @ o_box + T[:3, 3]
-    rays = Rays.azimuth_elevation(o, np.linspace(-np.pi, np.pi, 240, endpoint=False), np.linspace(-1.5, 1.5, 61))
+    rays = Rays.azimuth_elevation(
+        o, np.linspace(-np.pi, np.pi, 240, endpoint=False), np.linspace(-1.5, 1.5, 61)
+    )
     h = cast_rays(scene, rays)
     db = rays.directions @ T[:3, :3]
     with np.errstate(divide="ignore"):
-        t = np.min(np.where(db > 0, (np.array([1, 2, 3]) - o_box) / db, (-np.array([1, 2, 3]) - o_box) / db), axis=1)
+        t = np.min(
+            np.where(
+                db > 0, (np.array([1, 2, 3]) - o_box) / db, (-np.array([1, 2, 3]) - o_box) / db
+            ),
+            axis=1,
+        )
     np.testing.assert_allclose(h.distance, t, rtol=1e-12)
     assert (h.instance == iid).all()
     sphere = gg.Scene()
@@ -114,7 +143,9 @@ def test_from_inside_a_box_and_a_sphere_the_analytic_distances():
     sphere.add(mesh, np.eye(4))
     inscribed = np.abs((mesh.triangles_center * mesh.face_normals).sum(axis=1)).min()
     o = np.array([0.1, 0.2, -0.3])
-    rays, d = _panorama(o, np.linspace(-np.pi, np.pi, 200, endpoint=False), np.linspace(-np.pi / 2, np.pi / 2, 101))
+    rays, d = _panorama(
+        o, np.linspace(-np.pi, np.pi, 200, endpoint=False), np.linspace(-np.pi / 2, np.pi / 2, 101)
+    )
     hs = cast_rays(sphere, rays)
     off = np.linalg.norm(o)
     assert hs.hit.all() and inscribed > 1.98
@@ -134,13 +165,18 @@ def test_rays_through_shared_edges_and_vertices_are_never_lost(monkeypatch, clus
     f = []
     for j in range(n):
         for i in range(n):
-            a, b, c, d = j * (n + 1) + i, j * (n + 1) + i + 1, (j + 1) * (n + 1) + i + 1, (j + 1) * (n + 1) + i
+            a, b, c, d = (
+                j * (n + 1) + i,
+                j * (n + 1) + i + 1,
+                (j + 1) * (n + 1) + i + 1,
+                (j + 1) * (n + 1) + i,
+            )
             f += [[a, b, c], [a, c, d]]
     scene = gg.Scene()
     scene.add(gg.Mesh(v, np.array(f)), np.eye(4))
     g = np.arange(-9.5, 9.6, 0.5)
     targets = np.array([[x, y, 0.0] for x in g for y in g])
-    origin = np.array([0.0, 0.0, 5.0])   # straight above a shared vertex: the pole of the grid
+    origin = np.array([0.0, 0.0, 5.0])  # straight above a shared vertex: the pole of the grid
     h = cast_bundle(scene, Rays(origin, targets - origin))
     assert h.hit.all()
     np.testing.assert_allclose(h.distance, np.linalg.norm(targets - origin, axis=1), rtol=1e-14)
@@ -165,15 +201,20 @@ def test_triangles_over_the_seam_the_pole_and_next_to_the_origin(monkeypatch, cl
     scene = gg.Scene()
     seam = scene.add(_fine([[-5.0, -1.0, -1.0], [-5.0, 1.0, -1.0], [-5.0, 0.0, 1.0]]), np.eye(4))
     pole = scene.add(_fine([[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.5, 3.0]]), np.eye(4))
-    close = scene.add(_fine([[0.001, -0.5, -0.5], [0.001, 0.5, -0.5], [0.001, 0.0, 0.5]]), np.eye(4))
+    close = scene.add(
+        _fine([[0.001, -0.5, -0.5], [0.001, 0.5, -0.5], [0.001, 0.0, 0.5]]), np.eye(4)
+    )
     rng = np.random.default_rng(4)
-    corners = ([[-5.0, -1.0, -1.0], [-5.0, 1.0, -1.0], [-5.0, 0.0, 1.0]], [[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.5, 3.0]],
-               [[0.001, -0.5, -0.5], [0.001, 0.5, -0.5], [0.001, 0.0, 0.5]])
+    corners = (
+        [[-5.0, -1.0, -1.0], [-5.0, 1.0, -1.0], [-5.0, 0.0, 1.0]],
+        [[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.5, 3.0]],
+        [[0.001, -0.5, -0.5], [0.001, 0.5, -0.5], [0.001, 0.0, 0.5]],
+    )
     targets = np.concatenate([rng.dirichlet([1, 1, 1], 3000) @ np.array(c) for c in corners])
     want = np.repeat([seam, pole, close], 3000)
     for spread in (0.0, 0.05):
         o = rng.uniform(-spread / 2, spread / 2, (9000, 3))
-        o[:, 0] = np.minimum(o[:, 0], 0.0)   # all behind the near triangle's plane x = 1 mm
+        o[:, 0] = np.minimum(o[:, 0], 0.0)  # all behind the near triangle's plane x = 1 mm
         d = targets - o
         h = cast_bundle(scene, Rays(o, d))
         _same(h, cast_rays(scene, o, d))
@@ -181,8 +222,14 @@ def test_triangles_over_the_seam_the_pole_and_next_to_the_origin(monkeypatch, cl
         crossed = h.instance == close
         dn = d / np.linalg.norm(d, axis=1, keepdims=True)
         assert (h.instance[~crossed] == want[~crossed]).all() and crossed[:3000].sum() == 0
-        np.testing.assert_allclose(h.distance[~crossed], np.linalg.norm(d[~crossed], axis=1), rtol=1e-12)
-        np.testing.assert_allclose(h.distance[crossed], (float(np.float32(0.001)) - o[crossed, 0]) / dn[crossed, 0], rtol=1e-9)
+        np.testing.assert_allclose(
+            h.distance[~crossed], np.linalg.norm(d[~crossed], axis=1), rtol=1e-12
+        )
+        np.testing.assert_allclose(
+            h.distance[crossed],
+            (float(np.float32(0.001)) - o[crossed, 0]) / dn[crossed, 0],
+            rtol=1e-9,
+        )
         assert (h.instance == want).mean() > 0.8
 
 
@@ -191,7 +238,9 @@ def test_a_scan_agrees_with_open3d(scene):
     rays, the ranges' p99 relative difference <= 1e-6."""
     beams = scene_beams(scene, gg.load_scanner("ouster_os1_128"))
     ours = cast_beams(scene, beams.origins, beams.directions)
-    a = agreement(ours, open3d_cast(open3d_caster(scene, beams.origins[0]), beams.origins, beams.directions))
+    a = agreement(
+        ours, open3d_cast(open3d_caster(scene, beams.origins[0]), beams.origins, beams.directions)
+    )
     assert a["id_agree"] >= 0.9999 and a["hit_agree"] >= 0.9999
     assert a["range_rel_p99"] <= 1e-6
 

@@ -1,4 +1,5 @@
 """capture() over many poses and processes; backends and their errors."""
+
 import os
 import subprocess
 import sys
@@ -17,7 +18,9 @@ from .conftest import cast_boxes, interior
 pytestmark = pytest.mark.gl
 
 
-BOXES = [((10, 10, 0.1), [0, 0, -0.05])] + [((0.8, 0.8, 1.5), [i - 2.5, (i % 2) - 0.5, 0.75]) for i in range(6)]
+BOXES = [((10, 10, 0.1), [0, 0, -0.05])] + [
+    ((0.8, 0.8, 1.5), [i - 2.5, (i % 2) - 0.5, 0.75]) for i in range(6)
+]
 
 
 def small_scene():
@@ -80,22 +83,50 @@ def test_each_frame_is_handed_over_in_order_as_the_capture_makes_it(monkeypatch)
     poses = [look_at([6 * np.cos(a), 6 * np.sin(a), 3], [0, 0, 0.5]) for a in np.linspace(0, 6, 4)]
     events = []
     for name in ("_plan", "_issue", "_fetch"):
+
         def step(self, *a, _real=getattr(Renderer, name), _name=name, **k):
             events.append(_name[1:])
             return _real(self, *a, **k)
+
         monkeypatch.setattr(Renderer, name, step)
     for workers in (1, 2):
         handed, drawn_then = [], []
         events.clear()
-        frames = gg.capture(scene, sensor, poses, seed=3, workers=workers, raster="gl",   # GL's pipelining
-                            on_frame=lambda f: (handed.append(f), drawn_then.append(events.count("issue")),
-                                                events.append("hand")))
+        frames = gg.capture(
+            scene,
+            sensor,
+            poses,
+            seed=3,
+            workers=workers,
+            raster="gl",  # GL's pipelining
+            on_frame=lambda f: (
+                handed.append(f),
+                drawn_then.append(events.count("issue")),
+                events.append("hand"),
+            ),
+        )
         assert len(frames) == 4 and all(a is b for a, b in zip(handed, frames))
         # in this process: frame k is handed over once frame k + 1 is drawn, not later
         assert drawn_then == ([2, 3, 4, 4] if workers == 1 else [0, 0, 0, 0])
         if workers == 1:
-            assert events == ["plan", "issue", "plan", "fetch", "issue", "hand", "plan", "fetch", "issue", "hand",
-                              "plan", "fetch", "issue", "hand", "fetch", "hand"]
+            assert events == [
+                "plan",
+                "issue",
+                "plan",
+                "fetch",
+                "issue",
+                "hand",
+                "plan",
+                "fetch",
+                "issue",
+                "hand",
+                "plan",
+                "fetch",
+                "issue",
+                "hand",
+                "fetch",
+                "hand",
+            ]
 
 
 def test_unknown_backend_is_a_clear_error():
@@ -121,16 +152,24 @@ def test_osmesa_fallback_renders_the_same_depth(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "PYOPENGL_PLATFORM"}
     root = Path(__file__).parents[2]
     env["PYTHONPATH"] = os.pathsep.join([str(root)] + [p for p in [env.get("PYTHONPATH")] if p])
-    out = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, env=env,
-                         timeout=120, cwd=root)
-    assert out.returncode == 0, out.stderr   # libosmesa6 is installed by `make setup`: no skip
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        cwd=root,
+    )
+    assert out.returncode == 0, out.stderr  # libosmesa6 is installed by `make setup`: no skip
     assert out.stdout.split() == ["osmesa"]
     f = np.load(tmp_path / "f.npz")
     scene, sensor = small_scene(), gg.Sensor.pinhole(96, 72, 80.0)
-    osmesa = gg.Frame(f["depth"], f["instance"], np.zeros(f["depth"].shape, np.uint16), None, sensor, pose)
+    osmesa = gg.Frame(
+        f["depth"], f["instance"], np.zeros(f["depth"].shape, np.uint16), None, sensor, pose
+    )
     assert_matches_truth(osmesa, scene, pose)
     egl = gg.render(scene, sensor, pose, backend="egl")
-    assert (egl.instance != osmesa.instance).mean() < 0.005            # silhouette pixels at most
+    assert (egl.instance != osmesa.instance).mean() < 0.005  # silhouette pixels at most
     same = egl.instance == osmesa.instance
     np.testing.assert_allclose(osmesa.depth[same], egl.depth[same], rtol=1e-5)
 
@@ -151,7 +190,7 @@ def test_a_process_forked_after_egl_renders_through_osmesa(tmp_path):
     with Renderer(scene, context=parent_shared) as r:
         parent = r.render(sensor, pose)
     pid = os.fork()
-    if pid == 0:   # the child: no assertion here (pytest is the parent's), only an exit code
+    if pid == 0:  # the child: no assertion here (pytest is the parent's), only an exit code
         signal.alarm(60)
         code = 9
         try:
@@ -162,7 +201,10 @@ def test_a_process_forked_after_egl_renders_through_osmesa(tmp_path):
                 code = 4 if "forked" not in str(exc) else 5
             if code == 5:
                 gl = create_context()
-                own = shared_context("osmesa") is not parent_shared and shared_context() is not parent_shared
+                own = (
+                    shared_context("osmesa") is not parent_shared
+                    and shared_context() is not parent_shared
+                )
                 with Renderer(scene, context=gl) as r:
                     f = r.render(sensor, pose)
                 np.savez(tmp_path / "child.npz", depth=f.depth, instance=f.instance)
@@ -171,9 +213,13 @@ def test_a_process_forked_after_egl_renders_through_osmesa(tmp_path):
             os._exit(code)
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0, os.waitstatus_to_exitcode(status)
-    assert egl.started_in == os.getpid() and shared_context("egl") is parent_shared   # the parent's untouched
+    assert (
+        egl.started_in == os.getpid() and shared_context("egl") is parent_shared
+    )  # the parent's untouched
     c = np.load(tmp_path / "child.npz")
-    child = gg.Frame(c["depth"], c["instance"], np.zeros(c["depth"].shape, np.uint16), None, sensor, pose)
+    child = gg.Frame(
+        c["depth"], c["instance"], np.zeros(c["depth"].shape, np.uint16), None, sensor, pose
+    )
     assert_matches_truth(child, scene, pose)
     assert_matches_truth(parent, scene, pose)
 
@@ -190,27 +236,34 @@ def test_frame_buffers_are_recycled_only_when_no_view_remains():
     _POOL.free.clear()
     _POOL.bytes = 0
     a = frame_buffers(48, 64, True, True)
-    keep = a["semantic"]                      # one view keeps the whole block lent out
+    keep = a["semantic"]  # one view keeps the whole block lent out
     addr = a["depth"].ctypes.data
     del a
     gc.collect()
     b = frame_buffers(48, 64, True, True)
-    assert b["depth"].ctypes.data != addr     # still in use: not lent again
+    assert b["depth"].ctypes.data != addr  # still in use: not lent again
     views = [v for v in b.values()]
-    for i, x in enumerate(views):             # views never overlap
-        for y in views[i + 1:]:
+    for i, x in enumerate(views):  # views never overlap
+        for y in views[i + 1 :]:
             assert not np.shares_memory(x, y)
     del keep
     gc.collect()
     c = frame_buffers(48, 64, True, True)
-    assert c["depth"].ctypes.data == addr     # the first block came back and is reused
-    assert c["rgba"].shape == (48, 64, 4) and c["normal"].dtype == np.float32 and c["depth"].flags.writeable
+    assert c["depth"].ctypes.data == addr  # the first block came back and is reused
+    assert (
+        c["rgba"].shape == (48, 64, 4)
+        and c["normal"].dtype == np.float32
+        and c["depth"].flags.writeable
+    )
     assert _POOL.bytes <= _POOL.max_bytes
 
 
 def test_an_on_frame_that_is_no_function_is_one_clear_error_before_anything_renders():
     scene = small_scene()
     sensor = gg.Sensor.pinhole(64, 48, 50.0)
-    with pytest.raises(gg.ConfigError, match=r"capture: on_frame: expected a function taking a Frame \(or None\), "
-                                             r"got int 3"):
+    with pytest.raises(
+        gg.ConfigError,
+        match=r"capture: on_frame: expected a function taking a Frame \(or None\), "
+        r"got int 3",
+    ):
         gg.capture(scene, sensor, [look_at([6, 0, 3], [0, 0, 0.5])], seed=0, on_frame=3)

@@ -1,5 +1,6 @@
 """Scene upload: a mesh's clusters hold exactly its drawable faces, and their bounds and cones
 hold what they claim; the culler's memory follows what is drawn, not the instances."""
+
 import importlib
 
 import numpy as np
@@ -23,7 +24,9 @@ def triangle_set(v, f):
 def noisy_mesh(rng):
     """A subdivided sphere, shuffled, with some NaN vertices and degenerate faces."""
     m = trimesh.creation.icosphere(4, radius=1.3)
-    v = np.asarray(m.vertices, np.float32) + rng.normal(0, 0.01, (len(m.vertices), 3)).astype(np.float32)
+    v = np.asarray(m.vertices, np.float32) + rng.normal(0, 0.01, (len(m.vertices), 3)).astype(
+        np.float32
+    )
     f = np.asarray(m.faces, np.uint32)[rng.permutation(len(m.faces))]
     v = np.concatenate([v, [[np.nan, 0, 0]]]).astype(np.float32)
     bad_nan = np.array([[0, 1, len(v) - 1]] * 3, np.uint32)
@@ -40,19 +43,21 @@ def test_clusters_hold_exactly_the_drawable_faces_with_true_bounds_and_cones():
     assert np.array_equal(triangle_set(c.vertices, c.faces), triangle_set(v, f[:good]))
     p = c.vertices.astype(np.float64)
     for k in range(c.count):
-        fk = c.faces[k * CLUSTER:(k + 1) * CLUSTER].astype(np.int64)
+        fk = c.faces[k * CLUSTER : (k + 1) * CLUSTER].astype(np.int64)
         lo, hi = c.vrange[k]
-        assert fk.min() >= lo and fk.max() < hi   # a cluster's vertices are its own range
+        assert fk.min() >= lo and fk.max() < hi  # a cluster's vertices are its own range
         assert set(np.unique(fk)) == set(range(lo, hi))
         d = np.linalg.norm(p[lo:hi] - c.centre[k], axis=1)
         assert d.max() <= c.radius[k] * (1 + 1e-12)
         tri = p[fk]
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         area2 = np.linalg.norm(n, axis=1)
-        per = sum(np.linalg.norm(tri[:, i] - tri[:, j], axis=1) for i, j in ((0, 1), (0, 2), (1, 2)))
+        per = sum(
+            np.linalg.norm(tri[:, i] - tri[:, j], axis=1) for i, j in ((0, 1), (0, 2), (1, 2))
+        )
         assert c.thickness[k] <= (area2 / per).min() * (1 + 1e-9)
         assert c.perimeter[k] <= per.min() * (1 + 1e-9)
-        if c.cos_a[k] > 0:   # every face normal within the cone
+        if c.cos_a[k] > 0:  # every face normal within the cone
             assert ((n / area2[:, None]) @ c.axis[k] >= c.cos_a[k] - 1e-9).all()
     assert np.allclose(c.lo, p.min(axis=0)) and np.allclose(c.hi, p.max(axis=0))
     # faces in a cluster are near each other: clusters much smaller than the mesh
@@ -64,7 +69,9 @@ def test_a_mesh_shared_by_many_instances_is_prepared_once(monkeypatch):
 
     calls = []
     real = renderer_module.prepare
-    monkeypatch.setattr(renderer_module, "prepare", lambda mesh, name: calls.append(name) or real(mesh, name))
+    monkeypatch.setattr(
+        renderer_module, "prepare", lambda mesh, name: calls.append(name) or real(mesh, name)
+    )
     scene = gg.Scene()
     ball, box = trimesh.creation.icosphere(3), trimesh.creation.box((1, 1, 1))
     for k in range(50):
@@ -91,5 +98,9 @@ def test_culling_memory_follows_what_is_drawn_not_the_instances():
         index_buffer = r._streams[0][1]
         assert index_buffer.size <= max(1 << 16, 1.5 * 12 * drawn)
         assert len(r._culler._out) <= 1.5 * 3 * drawn
-        big = [k for k, a in vars(r._culler).items() if isinstance(a, np.ndarray) and a.size >= r.triangles]
+        big = [
+            k
+            for k, a in vars(r._culler).items()
+            if isinstance(a, np.ndarray) and a.size >= r.triangles
+        ]
         assert big == []

@@ -1,6 +1,7 @@
 """The fast path changes no pixel: culled == unculled (depth bytes, ids, colour), on generated
 scenes, a scene of sub-pixel triangles, a far-away scene and the tests' object and hall scenes;
 the depth-precision options against analytic depth."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -25,9 +26,12 @@ def assert_same_frames(a, b):
 
 
 def culled_and_unculled(glctx, scene, sensor, poses, **kw):
-    with Renderer(scene, context=glctx, cull=False) as a, Renderer(scene, context=glctx, cull=True) as b:
+    with (
+        Renderer(scene, context=glctx, cull=False) as a,
+        Renderer(scene, context=glctx, cull=True) as b,
+    ):
         b.cull_min_faces = b.occlusion_min_faces = 0  # cull however few faces are in view,
-        b._culler.break_even = 0.0                      # and occlusion-cull every frame
+        b._culler.break_even = 0.0  # and occlusion-cull every frame
         out = []
         for p in poses:
             fa, fb = a.render(sensor, p, **kw), b.render(sensor, p, **kw)
@@ -47,7 +51,9 @@ def test_culling_changes_no_pixel_on_the_benchmark_scene(glctx):
 @pytest.mark.parametrize("size", ["1M", "hall"])
 def test_culling_changes_no_pixel_on_the_million_and_ten_million_triangle_scenes(glctx, size):
     scene, poses = scene_of(size)
-    (fa, fb, na, nb), = culled_and_unculled(glctx, scene, sensor_640(), poses[:1], depth_only=True)
+    ((fa, fb, na, nb),) = culled_and_unculled(
+        glctx, scene, sensor_640(), poses[:1], depth_only=True
+    )
     assert_same_frames(fa, fb)
     assert (fa.instance > 0).mean() > 0.3
     assert nb < (0.4 if size == "1M" else 0.05) * na
@@ -122,7 +128,9 @@ def test_benchmark_scene_moved_1e7_m_away_renders_the_same_depth(glctx):
             fa, fb = a.render(sensor, p), b.render(sensor, shift @ p)
             hit = fa.instance > 0
             assert hit.mean() > 0.3
-            assert (fa.instance == fb.instance).mean() > 0.999  # ids may differ on a few edge pixels
+            assert (
+                fa.instance == fb.instance
+            ).mean() > 0.999  # ids may differ on a few edge pixels
             same = hit & (fa.instance == fb.instance)
             np.testing.assert_allclose(fb.depth[same], fa.depth[same], rtol=1e-6)
 
@@ -154,12 +162,18 @@ def test_depth_precision_against_analytic_plane_depth(glctx, precision):
         mesh, n, p0 = tilted_plane(distance)
         scene = gg.Scene()
         scene.add(mesh, semantic=4, instance=9)
-        with Renderer(scene, context=glctx, depth_precision=precision) as r, \
-                Renderer(scene, context=glctx) as ref:
+        with (
+            Renderer(scene, context=glctx, depth_precision=precision) as r,
+            Renderer(scene, context=glctx) as ref,
+        ):
             f, g = r.render(sensor, np.eye(4)), ref.render(sensor, np.eye(4))
         expected = (n @ p0) / (rays @ n)
         hit = f.instance > 0
-        assert hit.all() and np.array_equal(f.instance, g.instance) and np.array_equal(f.semantic, g.semantic)
+        assert (
+            hit.all()
+            and np.array_equal(f.instance, g.instance)
+            and np.array_equal(f.semantic, g.semantic)
+        )
         err = np.abs(f.depth[hit] - expected[hit])
         if precision == "depth24":
             # window depth d = A + B / z, stored in 24 bits: dz = z^2 (f - n) / (f n) * 2^-24 per
@@ -210,7 +224,9 @@ def test_renders_between_overlapped_frames_change_neither(glctx):
     assert (one_by_one[0].instance > 0).mean() > 0.2
     for a, b in zip(one_by_one + extra_alone, overlapped + between):
         assert_same_frames(a, b)
-        assert (a.rgb is None) == (b.rgb is None) and (a.rgb is None or a.rgb.tobytes() == b.rgb.tobytes())
+        assert (a.rgb is None) == (b.rgb is None) and (
+            a.rgb is None or a.rgb.tobytes() == b.rgb.tobytes()
+        )
 
 
 def test_culling_keeps_triangles_that_miss_a_pixel_centre_by_less_than_the_snapping():
@@ -235,13 +251,15 @@ def test_culling_keeps_triangles_that_miss_a_pixel_centre_by_less_than_the_snapp
             tris.append([p0, p1, p2])
     uv = np.array(tris).reshape(-1, 2)
     z = 2.0
-    xyz = np.stack([(uv[:, 0] - K[0, 2]) * z / f, (uv[:, 1] - K[1, 2]) * z / f, np.full(len(uv), z)], axis=1)
+    xyz = np.stack(
+        [(uv[:, 0] - K[0, 2]) * z / f, (uv[:, 1] - K[1, 2]) * z / f, np.full(len(uv), z)], axis=1
+    )
     faces = np.arange(len(xyz)).reshape(-1, 3)
     scene = gg.Scene()
     scene.add(gg.Mesh(xyz, np.concatenate([faces, faces[:, ::-1]])), np.eye(4), semantic=1)
     gl = create_context("egl")
     try:
-        (fa, fb, na, nb), = culled_and_unculled(gl, scene, sensor, [np.eye(4)], depth_only=True)
+        ((fa, fb, na, nb),) = culled_and_unculled(gl, scene, sensor, [np.eye(4)], depth_only=True)
     finally:
         gl.release()
     assert_same_frames(fa, fb)

@@ -1,4 +1,5 @@
 """Hard cases stay numerically stable: depth range, huge coordinates, grazing angles, bad meshes."""
+
 import logging
 
 import numpy as np
@@ -26,8 +27,8 @@ def facing_quad(z, x0, x1, y0, y1):
 def test_planes_1mm_apart_at_50m_with_far_near_ratio_1e5(draw):
     sensor = gg.Sensor.pinhole(128, 96, 110.0, near_m=0.1, far_m=1e4)
     scene = gg.Scene()
-    scene.add(facing_quad(50.0, -40, 40, -40, 40), instance=1)     # behind, full view
-    scene.add(facing_quad(49.999, -40, 0, -40, 40), instance=2)    # 1 mm in front, left half
+    scene.add(facing_quad(50.0, -40, 40, -40, 40), instance=1)  # behind, full view
+    scene.add(facing_quad(49.999, -40, 0, -40, 40), instance=2)  # 1 mm in front, left half
     with draw(scene) as r:
         f = r.render(sensor, np.eye(4))
     left, right = f.instance[:, :62], f.instance[:, 66:]
@@ -56,7 +57,7 @@ def test_scene_far_from_origin_renders_to_the_millimetre(draw, offset):
     depth, ids = cast_boxes(SENSOR, pose0, boxes)
     core = interior(ids) & (ids > 0)
     assert (f1.instance[core] == ids[core]).all()
-    assert np.abs(f1.depth[core] - depth[core]).max() < 1e-3   # the millimetre
+    assert np.abs(f1.depth[core] - depth[core]).max() < 1e-3  # the millimetre
     np.testing.assert_allclose(f1.depth[core], f0.depth[core], rtol=1e-5)
 
 
@@ -69,7 +70,9 @@ def test_grazing_incidence_85_degrees(draw):
     pose[:3, 3] = [0, 0, 0]
     # plane y = h in the world = camera frame rotated; build it in world coordinates
     scene = gg.Scene()
-    scene.add(quad([[-500, h, 0.0], [500, h, 0.0], [500, h, 2000.0], [-500, h, 2000.0]]), instance=3)
+    scene.add(
+        quad([[-500, h, 0.0], [500, h, 0.0], [500, h, 2000.0], [-500, h, 2000.0]]), instance=3
+    )
     with draw(scene) as r:
         f = r.render(SENSOR, pose)
     d = ray_dirs(SENSOR) @ pose[:3, :3].T  # world rays (camera rays with z = 1, rotated)
@@ -122,7 +125,7 @@ def test_nan_and_degenerate_triangles_are_skipped_with_a_warning(draw, caplog):
 def test_objects_beyond_far_and_before_near_are_clipped(draw):
     sensor = gg.Sensor.pinhole(64, 48, 50.0, near_m=1.0, far_m=20.0)
     scene = gg.Scene()
-    scene.add(facing_quad(30.0, -50, 50, -50, 50), instance=1)   # beyond far
+    scene.add(facing_quad(30.0, -50, 50, -50, 50), instance=1)  # beyond far
     scene.add(facing_quad(0.5, -0.1, 0.1, -0.1, 0.1), instance=2)  # before near
     scene.add(facing_quad(10.0, 0, 5, -5, 5), instance=3)
     with draw(scene) as r:

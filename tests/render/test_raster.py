@@ -2,6 +2,7 @@
 every triangle at every pixel centre of its box; threads change no byte; depth is the exact
 ray hit (analytic planes, Open3D's ray caster); shared edges leave no crack; it agrees with
 the GL raster and with its own triangles per pixel; bad options are refused."""
+
 import numba
 import numpy as np
 import pytest
@@ -28,7 +29,10 @@ def assert_same_frames(a, b, normals=False):
 
 def culled_and_unculled(scene, sensor, poses, **kw):
     with Renderer(scene, raster="cpu", cull=False) as a, Renderer(scene, raster="cpu") as b:
-        return [(a.render(sensor, p, **kw), b.render(sensor, p, **kw), b._rasteriser.counts.copy()) for p in poses]
+        return [
+            (a.render(sensor, p, **kw), b.render(sensor, p, **kw), b._rasteriser.counts.copy())
+            for p in poses
+        ]
 
 
 def test_culling_changes_no_byte_on_the_benchmark_scene():
@@ -37,7 +41,7 @@ def test_culling_changes_no_byte_on_the_benchmark_scene():
         assert_same_frames(fa, fb)
         assert (fa.instance > 0).mean() > 0.3
         total = sum(len(scene.meshes[i.mesh].faces) for i in scene.instances)
-        assert counts[2] > 0 and counts[3] < 0.5 * total   # it does cull: hidden faces and more
+        assert counts[2] > 0 and counts[3] < 0.5 * total  # it does cull: hidden faces and more
 
 
 def test_culling_changes_no_byte_on_a_generated_scene_with_colour_and_normals():
@@ -86,14 +90,16 @@ def test_culling_changes_no_byte_with_sub_pixel_triangles_near_and_far():
 def test_one_thread_or_two_give_the_same_bytes(monkeypatch):
     scene, poses = scene_of("100k")
     sensor = sensor_640()
-    monkeypatch.setattr(raster, "PARALLEL_FACES", 0)   # two threads however small the frame
+    monkeypatch.setattr(raster, "PARALLEL_FACES", 0)  # two threads however small the frame
     threads = numba.get_num_threads()
     assert threads >= 2, "numba has one thread here: the case cannot compare one thread with two"
     with Renderer(scene, raster="cpu") as r:
         two = []
         for p in poses[:2]:
             two.append(r.render(sensor, p, normals=True))
-            assert (r._rasteriser.tally[:2, 0] > 0).all()   # both threads drew clusters of this frame
+            assert (
+                r._rasteriser.tally[:2, 0] > 0
+            ).all()  # both threads drew clusters of this frame
         numba.set_num_threads(1)
         try:
             one = [r.render(sensor, p, normals=True) for p in poses[:2]]
@@ -119,7 +125,7 @@ def test_depth_is_the_exact_ray_hit_on_a_tilted_plane_far_away():
         f = r.render(sensor, np.eye(4))
     assert (f.instance > 0).all()
     err = np.abs(f.depth - truth) / truth
-    assert err.max() <= 2 ** -24 * 1.01     # the float32 rounding of the exact value
+    assert err.max() <= 2**-24 * 1.01  # the float32 rounding of the exact value
 
 
 def test_no_cracks_where_edges_and_vertices_lie_on_pixel_centre_rays():
@@ -129,10 +135,12 @@ def test_no_cracks_where_edges_and_vertices_lie_on_pixel_centre_rays():
     sensor = gg.Sensor.pinhole(80, 60, 70.0)
     K = sensor.K
     us, vs = np.arange(0, 81, 2, dtype=float), np.arange(0, 61, 2, dtype=float)
-    us[[0, -1]], vs[[0, -1]] = [-20.0, 100.0], [-20.0, 80.0]   # the outer ring well past the image
+    us[[0, -1]], vs[[0, -1]] = [-20.0, 100.0], [-20.0, 80.0]  # the outer ring well past the image
     u, v = np.meshgrid(us, vs)
     z = 5.0
-    pts = np.stack([(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, np.full(u.shape, z)], -1)
+    pts = np.stack(
+        [(u - K[0, 2]) / K[0, 0] * z, (v - K[1, 2]) / K[1, 1] * z, np.full(u.shape, z)], -1
+    )
     pts = pts.reshape(-1, 3)
     nu = len(us)
     faces = []
@@ -145,7 +153,7 @@ def test_no_cracks_where_edges_and_vertices_lie_on_pixel_centre_rays():
     with Renderer(scene, raster="cpu") as r:
         f = r.render(sensor, np.eye(4))
     assert (f.instance == wall).all()
-    np.testing.assert_allclose(f.depth, z, rtol=2 ** -23)
+    np.testing.assert_allclose(f.depth, z, rtol=2**-23)
 
 
 def test_depth_and_ids_agree_with_open3d_ray_casting():
@@ -158,7 +166,10 @@ def test_depth_and_ids_agree_with_open3d_ray_casting():
         mesh = scene.meshes[inst.mesh]
         T = inst.world_from_model
         w = np.asarray(mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3]
-        rc.add_triangles(o3d.core.Tensor(w.astype(np.float32)), o3d.core.Tensor(np.asarray(mesh.faces, np.uint32)))
+        rc.add_triangles(
+            o3d.core.Tensor(w.astype(np.float32)),
+            o3d.core.Tensor(np.asarray(mesh.faces, np.uint32)),
+        )
         ids.append(inst.instance)
     ids = np.array(ids + [0], np.uint32)
     with Renderer(scene, raster="cpu") as r:
@@ -191,7 +202,9 @@ def test_agrees_with_the_gl_raster_in_ids_normals_and_colour(glctx):
             a, b = c.render(sensor, p, normals=True), g.render(sensor, p, normals=True)
             same = (a.instance == b.instance) & (a.instance > 0)
             assert (a.instance == b.instance).mean() > 0.998 and same.mean() > 0.2
-            rel = np.abs(a.depth[same] / b.depth[same] - 1)   # a crease's pixel may go to its other side
+            rel = np.abs(
+                a.depth[same] / b.depth[same] - 1
+            )  # a crease's pixel may go to its other side
             assert (rel < 2e-4).mean() > 0.9995 and np.median(rel) < 1e-6
             assert (np.abs(a.normal[same] - b.normal[same]).max(axis=-1) < 1e-3).mean() > 0.99
             assert (np.abs(a.rgb[same].astype(int) - b.rgb[same]).max(axis=-1) <= 1).mean() > 0.99
@@ -218,12 +231,18 @@ def test_bad_options_are_refused():
         Renderer(scene, depth_precision="exakt")
     with pytest.raises(ConfigError, match="ask for it by name, raster='cpu'"):
         Renderer(scene, depth_precision="exact")
-    with pytest.raises(ConfigError, match="raster 'cp' is unknown; expected cpu or gl; did you mean 'cpu'"):
+    with pytest.raises(
+        ConfigError, match="raster 'cp' is unknown; expected cpu or gl; did you mean 'cpu'"
+    ):
         Renderer(scene, raster="cp")
     from genie_gl.sensors.accuracy import AccuracySettings
+
     with pytest.raises(ConfigError, match="'exact' is the CPU rasteriser: write raster: cpu"):
         AccuracySettings(depth_precision="exact")
-    assert "raster" not in AccuracySettings().to_dict() and AccuracySettings(raster="gl").to_dict()["raster"] == "gl"
+    assert (
+        "raster" not in AccuracySettings().to_dict()
+        and AccuracySettings(raster="gl").to_dict()["raster"] == "gl"
+    )
 
 
 @pytest.mark.gl
@@ -237,18 +256,24 @@ def test_a_capture_through_a_distorted_lens_with_effects_takes_the_exact_raster(
     scene = gg.build_scene(layout, seed=1)
     sensor = gg.load_sensor(resolve("azure_kinect_nfov", "sensors", (".yaml",)))
     poses = gg.place_sensors(layout, sensor, n=2, seed=1)
-    drawn = []   # the CPU rasteriser's frames, counted (it still draws them)
+    drawn = []  # the CPU rasteriser's frames, counted (it still draws them)
     draw = raster.Rasteriser.draw
-    monkeypatch.setattr(raster.Rasteriser, "draw", lambda self, *a, **k: drawn.append(1) or draw(self, *a, **k))
+    monkeypatch.setattr(
+        raster.Rasteriser, "draw", lambda self, *a, **k: drawn.append(1) or draw(self, *a, **k)
+    )
     exact = gg.capture(scene, sensor, poses, seed=0, accuracy=AccuracySettings(raster="cpu"))
-    assert len(drawn) >= len(poses)   # (the lens resamples each pixel's ray: depth alone cannot tell)
+    assert len(drawn) >= len(
+        poses
+    )  # (the lens resamples each pixel's ray: depth alone cannot tell)
     monkeypatch.undo()
     gl = gg.capture(scene, sensor, poses, seed=0, accuracy=AccuracySettings(raster="gl"))
     for a, b in zip(exact, gl):
         assert (a.instance > 0).mean() > 0.2
         assert (a.instance == b.instance).mean() > 0.999
         same = (a.instance == b.instance) & (a.depth > 0) & (b.depth > 0)
-        assert np.median(np.abs(a.depth[same] - b.depth[same])) < 1e-4   # the same noise, the same surfaces
+        assert (
+            np.median(np.abs(a.depth[same] - b.depth[same])) < 1e-4
+        )  # the same noise, the same surfaces
 
 
 def test_a_frame_of_depth_and_ids_alone_equals_those_of_a_full_frame(monkeypatch):
@@ -290,20 +315,22 @@ def test_culling_changes_no_byte_where_edges_graze_pixel_centres():
     uv[..., 1] %= 48
     nudge = rng.choice([0.0, 1e-12, -1e-12, 1e-9, -1e-9, 1e-6, -1e-6, 0.5], (n, 3, 2))
     uv += nudge
-    flat = rng.random(n) < 0.5              # an edge nearly along a row (or a column)
+    flat = rng.random(n) < 0.5  # an edge nearly along a row (or a column)
     axis = rng.integers(0, 2, n)
     uv[flat, 1, axis[flat]] = uv[flat, 0, axis[flat]] + rng.choice([0.0, 1e-11, -1e-11], flat.sum())
     z = rng.uniform(1.5, 3.0, (n, 3))
     xyz = np.stack([(uv[..., 0] - 31.5) * z / 50.0, (uv[..., 1] - 23.5) * z / 50.0, z], axis=-1)
     scene = gg.Scene()
     scene.add(gg.Mesh(xyz.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3)), np.eye(4), semantic=2)
-    (fa, fb, counts), = culled_and_unculled(scene, sensor, [np.eye(4)])
+    ((fa, fb, counts),) = culled_and_unculled(scene, sensor, [np.eye(4)])
     assert_same_frames(fa, fb)
     assert (fa.instance > 0).mean() > 0.5
     with Renderer(scene, raster="cpu", cull=False) as r:
         r.render(sensor, np.eye(4))
         every = r._rasteriser.counts[4]
-    assert counts[4] < every   # the spans did narrow the lines (the culled frame tested fewer centres)
+    assert (
+        counts[4] < every
+    )  # the spans did narrow the lines (the culled frame tested fewer centres)
 
 
 def test_culling_changes_no_byte_where_a_row_runs_along_an_edge_parallel_to_it():
@@ -316,13 +343,15 @@ def test_culling_changes_no_byte_where_a_row_runs_along_an_edge_parallel_to_it()
         for row in (10, 30):
             y = np.float32(0.3)
             pose = np.eye(4)
-            pose[1, 3] = float(y) - (row - 23.5) / 64.0 * 2.0 * (1 + delta)   # camera-frame y of the edge
+            pose[1, 3] = float(y) - (row - 23.5) / 64.0 * 2.0 * (
+                1 + delta
+            )  # camera-frame y of the edge
             for off in (0.5, -0.5):
                 tri = np.array([[-0.6, y, 2.0], [0.6, y, 2.0], [0.0, y + off, 2.0]])
                 for order in ([0, 1, 2], [1, 0, 2]):
                     scene = gg.Scene()
                     scene.add(gg.Mesh(tri, np.array([order])), np.eye(4), semantic=2)
-                    (fa, fb, _), = culled_and_unculled(scene, sensor, [pose])
+                    ((fa, fb, _),) = culled_and_unculled(scene, sensor, [pose])
                     assert_same_frames(fa, fb)
                     assert (fa.instance > 0).sum() > 100
 
@@ -334,7 +363,10 @@ def test_ties_go_to_the_lower_slot_then_the_lower_face():
     the square's diagonal, where the pixel centres' rays cross the edge both its faces share
     (edge functions exactly 0), the pixel shows face 0; off it, the face that covers it."""
     sensor = gg.Sensor(64, 64, np.array([[32.0, 0, 32], [0, 32.0, 32], [0, 0, 1]]))
-    wall = gg.Mesh(np.array([[-2, -2, 2], [2, -2, 2], [2, 2, 2], [-2, 2, 2]], float), np.array([[0, 1, 2], [0, 2, 3]]))
+    wall = gg.Mesh(
+        np.array([[-2, -2, 2], [2, -2, 2], [2, 2, 2], [-2, 2, 2]], float),
+        np.array([[0, 1, 2], [0, 2, 3]]),
+    )
     scene = gg.Scene()
     first = scene.add(wall, np.eye(4), semantic=1)
     scene.add(wall, np.eye(4), semantic=2)
@@ -346,4 +378,6 @@ def test_ties_go_to_the_lower_slot_then_the_lower_face():
     assert (slot == 1).all()
     u, v = np.meshgrid(np.arange(64), np.arange(64))
     assert (face[u == v] == 0).all()
-    assert (face[u > v] == 0).all() and (face[u < v] == 1).all()   # x > y: below the diagonal, face 0 (0-1-2)
+    assert (face[u > v] == 0).all() and (
+        face[u < v] == 1
+    ).all()  # x > y: below the diagonal, face 0 (0-1-2)

@@ -1,4 +1,5 @@
 """Choosing the raster by name, and a dataset keeping the one it was made with."""
+
 import json
 
 import pytest
@@ -12,7 +13,9 @@ from genie_gl.render.rasters import check_raster, default_raster, hardware_gpu, 
 
 def test_a_raster_is_named_and_the_default_follows_the_machine():
     assert check_raster(None, "x") is None and check_raster("gl", "x") == "gl"
-    with pytest.raises(gg.ConfigError, match="x: raster 'gll' is unknown; expected cpu or gl; did you mean 'gl'"):
+    with pytest.raises(
+        gg.ConfigError, match="x: raster 'gll' is unknown; expected cpu or gl; did you mean 'gl'"
+    ):
         check_raster("gll", "x")
     assert resolve_raster("cpu") == "cpu" and resolve_raster(None) == default_raster()
     assert default_raster() == ("gl" if hardware_gpu() else "cpu")
@@ -35,8 +38,11 @@ def test_a_gl_dataset_keeps_its_fingerprint_and_a_resume_never_changes_the_raste
     out = tmp_path / "ds"
     out.mkdir()
     (out / "scenes").mkdir()
-    (out / "manifest.json").write_text(json.dumps({"fingerprint": cpu, "inputs": {"raster": "cpu"}, "runs": [{}],
-                                                   "outputs": ["scenes"]}))
+    (out / "manifest.json").write_text(
+        json.dumps(
+            {"fingerprint": cpu, "inputs": {"raster": "cpu"}, "runs": [{}], "outputs": ["scenes"]}
+        )
+    )
     assert recorded_raster(out) == "cpu"
     assert check_resume(out, cpu) is not None
     with pytest.raises(gg.ConfigError, match="raster 'cpu' -> None"):

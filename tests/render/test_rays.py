@@ -1,4 +1,5 @@
 """Public ray casting against analytic truths and Open3D's ray caster on the same rays."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -13,13 +14,15 @@ def test_a_plane_gives_its_analytic_distance_id_class_and_normal():
     distance 2 / -dz to the last bits, the quad's ids, faces 0 or 1, the normal +z; the rays
     going up meet nothing (distance 0, instance 0, face -1)."""
     scene = gg.Scene()
-    quad = gg.Mesh(np.array([[-50, -50, 0], [50, -50, 0], [50, 50, 0], [-50, 50, 0]], float),
-                   np.array([[0, 1, 2], [0, 2, 3]]))
+    quad = gg.Mesh(
+        np.array([[-50, -50, 0], [50, -50, 0], [50, 50, 0], [-50, 50, 0]], float),
+        np.array([[0, 1, 2], [0, 2, 3]]),
+    )
     iid = scene.add(quad, np.eye(4), semantic=7)
     rng = np.random.default_rng(1)
     d = rng.normal(size=(4000, 3))
     d[:, 2] = -np.abs(d[:, 2]) - 0.3
-    d[:2000, 2] *= -1   # the first half looks up
+    d[:2000, 2] *= -1  # the first half looks up
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     o = np.array([0.3, -0.2, 2.0])
     h = cast_rays(scene, o, d)
@@ -30,7 +33,11 @@ def test_a_plane_gives_its_analytic_distance_id_class_and_normal():
     assert (h.instance[inside] == iid).all() and (h.semantic[inside] == 7).all()
     assert set(np.unique(h.face[inside])) == {0, 1}
     np.testing.assert_array_equal(h.normal[inside], np.tile([0, 0, 1], (inside.sum(), 1)))
-    assert (h.distance[~down] == 0).all() and (h.instance[~down] == 0).all() and (h.face[~down] == -1).all()
+    assert (
+        (h.distance[~down] == 0).all()
+        and (h.instance[~down] == 0).all()
+        and (h.face[~down] == -1).all()
+    )
     assert (h.normal[~down] == 0).all() and (h.hit == (h.distance > 0)).all()
 
 
@@ -47,9 +54,14 @@ def test_rays_from_inside_a_box_meet_its_walls_and_the_normals_face_them():
     o_box = np.array([0.3, -0.5, 1.0])
     o = T[:3, :3] @ o_box + T[:3, 3]
     h = cast_rays(scene, o, d)
-    db = d @ T[:3, :3]   # the rays in the box frame
+    db = d @ T[:3, :3]  # the rays in the box frame
     with np.errstate(divide="ignore"):
-        t = np.min(np.where(db > 0, (np.array([1, 2, 3]) - o_box) / db, (-np.array([1, 2, 3]) - o_box) / db), axis=1)
+        t = np.min(
+            np.where(
+                db > 0, (np.array([1, 2, 3]) - o_box) / db, (-np.array([1, 2, 3]) - o_box) / db
+            ),
+            axis=1,
+        )
     np.testing.assert_allclose(h.distance, t, rtol=1e-12)
     assert (h.instance == iid).all()
     assert ((h.normal.astype(float) * d).sum(axis=1) < 0).all()
@@ -65,7 +77,12 @@ def test_a_ray_through_a_shared_edge_or_vertex_is_never_lost():
     f = []
     for j in range(n):
         for i in range(n):
-            a, b, c, d = j * (n + 1) + i, j * (n + 1) + i + 1, (j + 1) * (n + 1) + i + 1, (j + 1) * (n + 1) + i
+            a, b, c, d = (
+                j * (n + 1) + i,
+                j * (n + 1) + i + 1,
+                (j + 1) * (n + 1) + i + 1,
+                (j + 1) * (n + 1) + i,
+            )
             f += [[a, b, c], [a, c, d]]
     scene = gg.Scene()
     scene.add(gg.Mesh(v, np.array(f)), np.eye(4))
@@ -76,7 +93,9 @@ def test_a_ray_through_a_shared_edge_or_vertex_is_never_lost():
     inner = (targets[:, :2] > 0).all(axis=1) & (targets[:, :2] < n).all(axis=1)
     h = cast_rays(scene, origin, targets[inner] - origin)
     assert h.hit.all()
-    np.testing.assert_allclose(h.distance, np.linalg.norm(targets[inner] - origin, axis=1), rtol=1e-14)
+    np.testing.assert_allclose(
+        h.distance, np.linalg.norm(targets[inner] - origin, axis=1), rtol=1e-14
+    )
     # straight down onto every vertex and midpoint, the border's too (exact rays: on an edge is in)
     down = cast_rays(scene, targets + [0, 0, 3.0], np.tile([0, 0, -1.0], (len(targets), 1)))
     assert down.hit.all() and (down.distance == 3.0).all()
@@ -91,10 +110,14 @@ def test_a_ray_through_a_shared_edge_or_vertex_is_never_lost():
 
 
 def test_the_record_and_its_checks():
-    r = Rays.azimuth_elevation([0, 0, 1.0], np.linspace(-np.pi, np.pi, 8, endpoint=False), [-0.1, 0.0, 0.1])
+    r = Rays.azimuth_elevation(
+        [0, 0, 1.0], np.linspace(-np.pi, np.pi, 8, endpoint=False), [-0.1, 0.0, 0.1]
+    )
     assert r.shape == (3, 8) and r.grid == "azimuth_elevation"
     np.testing.assert_allclose(np.linalg.norm(r.directions, axis=1), 1.0)
-    np.testing.assert_allclose(r.directions[8], [-1.0, 0.0, 0.0], atol=1e-15)   # row 1 (elevation 0), azimuth -pi
+    np.testing.assert_allclose(
+        r.directions[8], [-1.0, 0.0, 0.0], atol=1e-15
+    )  # row 1 (elevation 0), azimuth -pi
     with pytest.raises(gg.ConfigError, match="zero or not finite"):
         cast_rays(gg.Scene(), np.zeros(3), [[0, 0, 0.0]])
     with pytest.raises(gg.ConfigError, match="origins must have shape"):
@@ -113,7 +136,12 @@ def world_scene(scene):
     for inst in scene.instances:
         m, T = scene.meshes[inst.mesh], inst.world_from_model
         w = (m.vertices.astype(np.float64) @ T[:3, :3].T + T[:3, 3]).astype(np.float32)
-        out.add(gg.Mesh(w, m.faces, origin=np.zeros(3)), np.eye(4), semantic=inst.semantic, instance=inst.instance)
+        out.add(
+            gg.Mesh(w, m.faces, origin=np.zeros(3)),
+            np.eye(4),
+            semantic=inst.semantic,
+            instance=inst.instance,
+        )
     return out
 
 
@@ -141,7 +169,9 @@ def test_random_rays_agree_with_open3d_ray_casting():
     a = rc.cast_rays(o3d.core.Tensor(np.c_[o, d].astype(np.float32)))
     g = a["geometry_ids"].numpy().astype(np.int64)
     inst = np.array(ids + [0], np.uint32)[np.where(g == rc.INVALID_ID, len(ids), g)]
-    t = a["t_hit"].numpy().astype(np.float64) * np.linalg.norm(d, axis=1)   # Open3D's t is in units of |d|
+    t = a["t_hit"].numpy().astype(np.float64) * np.linalg.norm(
+        d, axis=1
+    )  # Open3D's t is in units of |d|
     t[~np.isfinite(t)] = 0.0
     assert 0.3 < h.hit.mean() < 0.9
     tie = np.abs(h.distance - t) <= 1e-5 * np.maximum(t, 1e-3)

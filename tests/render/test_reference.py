@@ -1,4 +1,5 @@
 """Agreement with an independent rasteriser (pyrender, SEG mode) on a random ~200-object scene."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -16,8 +17,11 @@ pytestmark = pytest.mark.gl
 def random_scene(rng, n=200, size=20.0):
     scene = gg.Scene()
     scene.add(trimesh.creation.box((size, size, 0.02)), [0, 0, -0.01], semantic=0)
-    shapes = [trimesh.creation.box((1, 1, 1)), trimesh.creation.icosphere(2),
-              trimesh.creation.cylinder(0.5, 1.0, sections=24)]
+    shapes = [
+        trimesh.creation.box((1, 1, 1)),
+        trimesh.creation.icosphere(2),
+        trimesh.creation.cylinder(0.5, 1.0, sections=24),
+    ]
     for i in range(n):
         T = trimesh.transformations.random_rotation_matrix(rng.random(3))
         T[:3, :3] *= rng.uniform(0.3, 1.2)
@@ -31,8 +35,13 @@ def test_agrees_with_pyrender_seg_mode(draw):
     scene = random_scene(rng)
     # pyrender linearises a 24-bit depth buffer: give it a tight near/far so that the
     # comparison measures geometry, not its depth quantisation
-    sensor = gg.Sensor(320, 240, np.array([[262.5, 0, 159.5], [0, 262.5, 119.5], [0, 0, 1]]),
-                       near_m=0.5, far_m=40.0)
+    sensor = gg.Sensor(
+        320,
+        240,
+        np.array([[262.5, 0, 159.5], [0, 262.5, 119.5], [0, 0, 1]]),
+        near_m=0.5,
+        far_m=40.0,
+    )
     poses = [look_at([-9.0, -9.0, 5.0], [0, 0, 0]), look_at([8.0, -3.0, 3.0], [-2, 2, 0.5])]
     ref = ReferenceRenderer(scene)
     with draw(scene) as r:

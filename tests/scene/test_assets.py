@@ -1,5 +1,6 @@
 """External assets: files in five formats load in metres, Z up, on the library's origin; scene
 building draws and fits them like built-in assets; bad files fail naming the file."""
+
 import json
 import re
 
@@ -63,14 +64,17 @@ def test_obj_in_millimetres(tmp_path):
 def test_obj_authored_y_up_on_request(tmp_path):
     _box(EXTENTS, (0.3, 0.1, -2.0), Y_UP).export(tmp_path / "crate.obj")
     # read as Z up (OBJ's default here), the Y-up box stands on its 1.0 x 0.2 m side, 0.5 m tall
-    np.testing.assert_allclose(load_asset(tmp_path / "crate.obj").bounds, [[-0.5, -0.1, 0], [0.5, 0.1, 0.5]],
-                               atol=EXACT)
-    np.testing.assert_allclose(load_asset(tmp_path / "crate.obj", up="y").bounds, BOUNDS, atol=EXACT)
+    np.testing.assert_allclose(
+        load_asset(tmp_path / "crate.obj").bounds, [[-0.5, -0.1, 0], [0.5, 0.1, 0.5]], atol=EXACT
+    )
+    np.testing.assert_allclose(
+        load_asset(tmp_path / "crate.obj", up="y").bounds, BOUNDS, atol=EXACT
+    )
 
 
 def test_stl_in_metres_and_inward_faces_turned_out(tmp_path):
     box = _box(EXTENTS, (5.0, 5.0, 1.0))
-    box.invert()                                     # faces wound inwards: volume < 0
+    box.invert()  # faces wound inwards: volume < 0
     assert box.volume < 0
     box.export(tmp_path / "box.stl")
     m = load_asset(tmp_path / "box.stl")
@@ -80,7 +84,9 @@ def test_stl_in_metres_and_inward_faces_turned_out(tmp_path):
 
 def test_ply_in_inches_given_as_metres_per_unit(tmp_path):
     _box(EXTENTS / 0.0254, (-40, 0, 10)).export(tmp_path / "box.ply")
-    np.testing.assert_allclose(load_asset(tmp_path / "box.ply", units=0.0254).bounds, BOUNDS, atol=EXACT)
+    np.testing.assert_allclose(
+        load_asset(tmp_path / "box.ply", units=0.0254).bounds, BOUNDS, atol=EXACT
+    )
 
 
 def test_glb_scene_is_flattened_with_its_node_transforms_and_read_y_up(tmp_path):
@@ -88,14 +94,18 @@ def test_glb_scene_is_flattened_with_its_node_transforms_and_read_y_up(tmp_path)
     s = trimesh.Scene()
     half = trimesh.creation.box(extents=(0.5, 0.2, 0.5))
     for x in (-0.25, 0.25):
-        s.add_geometry(half, node_name=f"half{x}",
-                       transform=trimesh.transformations.translation_matrix((7 + x, 1.0, -3.0)))
+        s.add_geometry(
+            half,
+            node_name=f"half{x}",
+            transform=trimesh.transformations.translation_matrix((7 + x, 1.0, -3.0)),
+        )
     s.export(tmp_path / "halves.glb")
     m = load_asset(tmp_path / "halves.glb")
     np.testing.assert_allclose(m.bounds, BOUNDS, atol=EXACT)
     assert m.volume == pytest.approx(EXTENTS.prod(), abs=EXACT)
-    np.testing.assert_allclose(load_asset(tmp_path / "halves.glb", up="z").bounds[1],
-                               [0.5, 0.1, 0.5], atol=EXACT)
+    np.testing.assert_allclose(
+        load_asset(tmp_path / "halves.glb", up="z").bounds[1], [0.5, 0.1, 0.5], atol=EXACT
+    )
 
 
 def test_usda_y_up_centimetres(tmp_path):
@@ -105,8 +115,9 @@ def test_usda_y_up_centimetres(tmp_path):
     np.testing.assert_allclose(m.bounds, BOUNDS, atol=EXACT)
     assert m.volume == pytest.approx(EXTENTS.prod(), abs=EXACT)
     # the caller's units and up axis override the stage's metadata
-    np.testing.assert_allclose(load_asset(tmp_path / "box.usda", units="m", up="y").bounds,
-                               BOUNDS * 100, atol=EXACT * 100)
+    np.testing.assert_allclose(
+        load_asset(tmp_path / "box.usda", units="m", up="y").bounds, BOUNDS * 100, atol=EXACT * 100
+    )
 
 
 def test_usdc_z_up_metres(tmp_path):
@@ -125,8 +136,10 @@ def _write_bad(tmp_path, name: str):
     elif name == "nan.obj":
         p.write_text("v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n")
     elif name == "inf.usda":
-        p.write_text('#usda 1.0\ndef Mesh "M" {\n point3f[] points = [(0, 0, 0), (1, 0, inf), (0, 1, 0)]\n'
-                     " int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n}\n")
+        p.write_text(
+            '#usda 1.0\ndef Mesh "M" {\n point3f[] points = [(0, 0, 0), (1, 0, inf), (0, 1, 0)]\n'
+            " int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n}\n"
+        )
     elif name == "garbage.usda":
         p.write_text("this is not usd")
     elif name == "box.fbx":
@@ -134,16 +147,19 @@ def _write_bad(tmp_path, name: str):
     return p
 
 
-@pytest.mark.parametrize("name, expected", [
-    ("empty.obj", "the file is empty; expected a mesh"),
-    ("cloud.ply", "no triangle faces .* expected a triangle mesh"),
-    ("xform_only.usda", "holds no mesh"),
-    ("nan.obj", "1 of 3 vertices are NaN or Inf"),
-    ("inf.usda", "NaN or Inf points"),
-    ("garbage.usda", "could not open the stage"),
-    ("missing.glb", "no such asset file"),
-    ("box.fbx", r"unknown asset format '\.fbx'; expected one of \.obj, \.glb"),
-])
+@pytest.mark.parametrize(
+    "name, expected",
+    [
+        ("empty.obj", "the file is empty; expected a mesh"),
+        ("cloud.ply", "no triangle faces .* expected a triangle mesh"),
+        ("xform_only.usda", "holds no mesh"),
+        ("nan.obj", "1 of 3 vertices are NaN or Inf"),
+        ("inf.usda", "NaN or Inf points"),
+        ("garbage.usda", "could not open the stage"),
+        ("missing.glb", "no such asset file"),
+        ("box.fbx", r"unknown asset format '\.fbx'; expected one of \.obj, \.glb"),
+    ],
+)
 def test_bad_files_name_the_file_and_what_was_expected(tmp_path, name, expected):
     p = _write_bad(tmp_path, name)
     with pytest.raises(gg.ConfigError, match=re.escape(name) + ".*" + expected):
@@ -166,7 +182,8 @@ def test_bad_arguments(tmp_path):
 
 
 def _assert_placed_inside_unscaled(scene, layout, key, extents) -> int:
-    """Every instance of mesh ``key`` lies in its leaf region, rigidly; returns how many there are."""
+    """Every instance of mesh ``key`` lies in its leaf region, rigidly; returns how many there
+    are."""
     leaves = layout.leaves()
     mesh = scene.meshes[key]
     np.testing.assert_allclose(mesh.bounds[1] - mesh.bounds[0], extents, atol=EXACT)
@@ -189,9 +206,11 @@ def test_build_scene_draws_registered_assets_inside_their_regions_unscaled(tmp_p
     _box(crate, (0, 0, 0)).export(tmp_path / "crate.stl")
     _box(big, (0, 0, 0)).export(tmp_path / "big.stl")
     register_asset("pallet", tmp_path / "crate.stl")
-    register_asset("pallet", tmp_path / "big.stl")     # fits no region: refused, never shrunk
+    register_asset("pallet", tmp_path / "big.stl")  # fits no region: refused, never shrunk
     layout = gg.generate_layout("storage_area", seed=1)
-    with pytest.raises(gg.ConfigError, match=r"big.stl: a pallet asset of 5 x 4 x 1 m .* fits none of the"):
+    with pytest.raises(
+        gg.ConfigError, match=r"big.stl: a pallet asset of 5 x 4 x 1 m .* fits none of the"
+    ):
         gg.build_scene(layout, seed=0)
     ASSETS.clear()
     register_asset("pallet", tmp_path / "crate.stl")
@@ -211,8 +230,10 @@ def test_strategy_assets_are_relative_to_the_strategy_and_do_not_leak(tmp_path):
     _box([0.9, 0.5, 0.25], (0, 0, 0)).export(tmp_path / "strategies" / "meshes" / "crate.obj")
     _box([60, 40, 28], (0, 0, 0), Y_UP).export(tmp_path / "strategies" / "meshes" / "tote.glb")
     strategy = json.loads((data_dir("layouts") / "storage_area.json").read_text())
-    strategy["scene"]["assets"] = {"pallet": ["meshes/crate.obj"],
-                                   "klt": [{"path": "meshes/tote.glb", "variant": "tote", "units": "cm"}]}
+    strategy["scene"]["assets"] = {
+        "pallet": ["meshes/crate.obj"],
+        "klt": [{"path": "meshes/tote.glb", "variant": "tote", "units": "cm"}],
+    }
     path = tmp_path / "strategies" / "mine.json"
     path.write_text(json.dumps(strategy))
     for seed in range(10):  # variants are drawn at random: find a layout that draws both
@@ -226,11 +247,15 @@ def test_strategy_assets_are_relative_to_the_strategy_and_do_not_leak(tmp_path):
     # a layout written to JSON keeps working from elsewhere: the paths were made absolute
     layout.to_json(tmp_path / "layout.json")
     back = gg.Layout.from_json(tmp_path / "layout.json")
-    assert [i.mesh for i in gg.build_scene(back, seed=0).instances] == [i.mesh for i in scene.instances]
+    assert [i.mesh for i in gg.build_scene(back, seed=0).instances] == [
+        i.mesh for i in scene.instances
+    ]
 
     strategy["scene"]["assets"] = {"pallet": ["meshes/nothing.obj"]}
     path.write_text(json.dumps(strategy))
-    with pytest.raises(gg.ConfigError, match=r"scene\.assets\.pallet\[0\]: .*nothing\.obj: no such asset file"):
+    with pytest.raises(
+        gg.ConfigError, match=r"scene\.assets\.pallet\[0\]: .*nothing\.obj: no such asset file"
+    ):
         gg.build_scene(gg.generate_layout(path, seed=1), seed=0)
 
 
@@ -240,8 +265,12 @@ def test_dataset_worker_processes_refuse_process_local_registrations(tmp_path):
     _box(EXTENTS, (0, 0, 0)).export(tmp_path / "crate.obj")
     register_asset("pallet", tmp_path / "crate.obj")
     assert ASSETS.registered() == {"pallet": ["crate"]}
-    with pytest.raises(gg.ConfigError, match="worker processes would not see them; list them in the strategy"):
-        run_dataset({"executor": "process", "workers": 2, "out": str(tmp_path / "out")}, progress=False)
+    with pytest.raises(
+        gg.ConfigError, match="worker processes would not see them; list them in the strategy"
+    ):
+        run_dataset(
+            {"executor": "process", "workers": 2, "out": str(tmp_path / "out")}, progress=False
+        )
     assert not (tmp_path / "out").exists()
 
 
@@ -260,4 +289,7 @@ def test_scene_meshes_are_converted_once_and_shared(tmp_path):
     other.register("klt", path)
     m = one.scene_mesh("klt", name)
     assert m is one.scene_mesh("klt", name) and m is not other.scene_mesh("klt", name)
-    assert np.allclose(m.bounds, BOUNDS, atol=EXACT) and m.digest() == other.scene_mesh("klt", name).digest()
+    assert (
+        np.allclose(m.bounds, BOUNDS, atol=EXACT)
+        and m.digest() == other.scene_mesh("klt", name).digest()
+    )

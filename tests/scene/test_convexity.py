@@ -1,5 +1,6 @@
 """The planner's convexity test: trimesh's answer (closed, one body, locally convex) on shapes
 that are and are not convex, computed once per mesh."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -13,12 +14,19 @@ def shapes():
     dented = s.vertices.copy()
     dented[0] *= 0.8
     return {
-        "sphere": trimesh.creation.icosphere(4), "box": trimesh.creation.box((1, 2, 3)),
-        "cylinder": trimesh.creation.cylinder(0.3, 2, sections=64), "cone": trimesh.creation.cone(1, 2),
-        "capsule": trimesh.creation.capsule(1, 0.4), "torus": trimesh.creation.torus(1, 0.3),
+        "sphere": trimesh.creation.icosphere(4),
+        "box": trimesh.creation.box((1, 2, 3)),
+        "cylinder": trimesh.creation.cylinder(0.3, 2, sections=64),
+        "cone": trimesh.creation.cone(1, 2),
+        "capsule": trimesh.creation.capsule(1, 0.4),
+        "torus": trimesh.creation.torus(1, 0.3),
         "annulus": trimesh.creation.annulus(0.5, 1, 1),
-        "two boxes": trimesh.util.concatenate([trimesh.creation.box((1, 1, 1)),
-                                               trimesh.creation.box((1, 1, 1)).apply_translation([3, 0, 0])]),
+        "two boxes": trimesh.util.concatenate(
+            [
+                trimesh.creation.box((1, 1, 1)),
+                trimesh.creation.box((1, 1, 1)).apply_translation([3, 0, 0]),
+            ]
+        ),
         "open sphere": trimesh.Trimesh(s.vertices, s.faces[:-5]),
         "dented sphere": trimesh.Trimesh(dented, s.faces),
     }
@@ -35,7 +43,9 @@ def test_convexity_agrees_with_trimesh(name):
 
 def test_split_vertices_are_merged_and_a_flipped_face_is_not_convex():
     box = trimesh.creation.box((1, 1, 1))
-    tri = np.asarray(box.vertices)[np.asarray(box.faces)].reshape(-1, 3)   # every face its own vertices
+    tri = np.asarray(box.vertices)[np.asarray(box.faces)].reshape(
+        -1, 3
+    )  # every face its own vertices
     faces = np.arange(len(tri)).reshape(-1, 3)
     assert convexity.convex_arrays(tri, faces)
     flipped = faces.copy()
@@ -58,4 +68,7 @@ def test_convexity_is_decided_once_per_geometry(monkeypatch):
     assert convexity.is_convex(other) and len(calls) == 1
     dented = np.asarray(ball.vertices).copy()
     dented[0] *= 0.5
-    assert not convexity.is_convex(gg.Mesh(dented, np.asarray(ball.faces), closed=True)) and len(calls) == 2
+    assert (
+        not convexity.is_convex(gg.Mesh(dented, np.asarray(ball.faces), closed=True))
+        and len(calls) == 2
+    )

@@ -1,4 +1,6 @@
-"""Materials: per-class ranges, USD round trip, foreign UsdPreviewSurface inputs, implicit gprims."""
+"""Materials: per-class ranges, USD round trip, foreign UsdPreviewSurface inputs, implicit
+gprims."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -85,7 +87,10 @@ def test_every_instance_gets_its_class_material(built):
         kind = sem_kinds.get(inst.semantic)
         if kind:
             k = KINDS[kind]
-            assert k.roughness[0] - 1e-6 <= inst.material.roughness <= k.roughness[1] + 1e-6, (kind, inst.material)
+            assert k.roughness[0] - 1e-6 <= inst.material.roughness <= k.roughness[1] + 1e-6, (
+                kind,
+                inst.material,
+            )
             assert k.metallic[0] - 1e-6 <= inst.material.metallic <= k.metallic[1] + 1e-6
             seen.add(kind)
     assert seen, "the storage area holds pallets, stillages or KLTs"
@@ -112,13 +117,19 @@ def test_round_trip_keeps_every_input(built, tmp_path):
     # an independent reader (pxr alone) sees the bound UsdPreviewSurface inputs
     stage = Usd.Stage.Open(str(path))
     inst = built.instances[-1]
-    prim = next(p for p in stage.Traverse() if p.HasAttribute("genie:instanceId")
-                and p.GetAttribute("genie:instanceId").Get() == inst.instance)
+    prim = next(
+        p
+        for p in stage.Traverse()
+        if p.HasAttribute("genie:instanceId")
+        and p.GetAttribute("genie:instanceId").Get() == inst.instance
+    )
     mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
     shader, _, _ = mat.ComputeSurfaceSource()
     assert shader.GetIdAttr().Get() == "UsdPreviewSurface"
     assert shader.GetInput("roughness").Get() == pytest.approx(inst.material.roughness, abs=0)
-    assert tuple(shader.GetInput("diffuseColor").Get()) == pytest.approx(inst.material.diffuse_color, abs=0)
+    assert tuple(shader.GetInput("diffuseColor").Get()) == pytest.approx(
+        inst.material.diffuse_color, abs=0
+    )
 
 
 def test_foreign_stage_materials_and_gprims(tmp_path):
@@ -128,19 +139,23 @@ def test_foreign_stage_materials_and_gprims(tmp_path):
     by_name = {i.name: i for i in scene.instances}
     assert set(by_name) == {"plate", "ball", "pipe"}
     assert by_name["plate"].material == Material((0.25, 0.5, 0.75), 1.0, 0.125, 0.875, 2.5)
-    assert by_name["ball"].material is None            # no binding: read as the default
-    assert by_name["pipe"].material == Material(roughness=0.25)   # the rest: USD's defaults
+    assert by_name["ball"].material is None  # no binding: read as the default
+    assert by_name["pipe"].material == Material(roughness=0.25)  # the rest: USD's defaults
     assert scene.metadata["prims_without_material"] == 1
     ball = scene.meshes[by_name["ball"].mesh]
     r = np.linalg.norm(ball.vertices, axis=1)
-    np.testing.assert_allclose(r, 0.5, atol=1e-6)           # vertices on the sphere
+    np.testing.assert_allclose(r, 0.5, atol=1e-6)  # vertices on the sphere
     np.testing.assert_allclose(by_name["ball"].world_from_model[:3, 3], [3, 0, 0])
     pipe = scene.meshes[by_name["pipe"].mesh]
-    np.testing.assert_allclose(pipe.vertices.min(0), [-1, -0.1, -0.1], atol=1e-6)   # axis X, height 2
+    np.testing.assert_allclose(
+        pipe.vertices.min(0), [-1, -0.1, -0.1], atol=1e-6
+    )  # axis X, height 2
     np.testing.assert_allclose(pipe.vertices.max(0), [1, 0.1, 0.1], atol=1e-6)
     table = MaterialTable.from_scene(scene)
     ids = np.array([[by_name["plate"].instance, by_name["ball"].instance, 0]], np.uint32)
-    np.testing.assert_allclose(table.metallic[table.rows(ids)], [[1.0, DEFAULT_MATERIAL.metallic, 0.0]])
+    np.testing.assert_allclose(
+        table.metallic[table.rows(ids)], [[1.0, DEFAULT_MATERIAL.metallic, 0.0]]
+    )
     assert table.reflective(ids).tolist() == [[True, False, False]]
 
 
@@ -177,13 +192,27 @@ def test_material_inputs_are_held_as_float32_whatever_their_type():
         c, (m, r, o), ior = rng.random(3), rng.random(3), 1.0 + 4.0 * rng.random()
         got = Material(tuple(c), m, r, o, ior)
         assert got.diffuse_color == tuple(f32(x) for x in c)
-        assert (got.metallic, got.roughness, got.opacity, got.ior) == (f32(m), f32(r), f32(o), f32(ior))
+        assert (got.metallic, got.roughness, got.opacity, got.ior) == (
+            f32(m),
+            f32(r),
+            f32(o),
+            f32(ior),
+        )
     edge = Material((0.0, 1.0, 1.0 + 1e-12), np.float64(1.0), np.float32(0.25), "0.5", 5.0)
-    assert edge.diffuse_color == (0.0, 1.0, 1.0) and (edge.metallic, edge.roughness, edge.opacity) == (1.0, 0.25, 0.5)
+    assert edge.diffuse_color == (0.0, 1.0, 1.0) and (
+        edge.metallic,
+        edge.roughness,
+        edge.opacity,
+    ) == (1.0, 0.25, 0.5)
     assert edge.ior == 5.0
-    for bad, field in (({"metallic": 1.001}, "metallic"), ({"opacity": float("nan")}, "opacity"),
-                       ({"diffuse_color": (0.5, 0.5)}, "diffuse_color"), ({"roughness": 1e300}, "roughness"),
-                       ({"ior": 0.5}, "ior"), ({"diffuse_color": (0.1, -0.2, 0.3)}, "diffuse_color")):
+    for bad, field in (
+        ({"metallic": 1.001}, "metallic"),
+        ({"opacity": float("nan")}, "opacity"),
+        ({"diffuse_color": (0.5, 0.5)}, "diffuse_color"),
+        ({"roughness": 1e300}, "roughness"),
+        ({"ior": 0.5}, "ior"),
+        ({"diffuse_color": (0.1, -0.2, 0.3)}, "diffuse_color"),
+    ):
         with pytest.raises(ConfigError, match=field):
             Material(**bad)
 
@@ -198,9 +227,11 @@ def test_instance_colours_are_numpys_uniform_gain_and_normal_noise():
     from genie_gl.scene_options import scene_options
 
     layout = gg.generate_layout("assembly_line", seed=1)
-    builder = SceneBuilder(layout, scene_options({"color": True}, "test"), ASSETS, rng=np.random.default_rng(21))
+    builder = SceneBuilder(
+        layout, scene_options({"color": True}, "test"), ASSETS, rng=np.random.default_rng(21)
+    )
     ref = np.random.default_rng(21)
-    ref.spawn(1)   # the builder's material stream
+    ref.spawn(1)  # the builder's material stream
     for cls in ("pallet", "rack", "car", "klt", "forklift") * 40:
         gain, noise = ref.uniform(0.75, 1.15), ref.normal(0, 12, 3)
         want = tuple(int(c) for c in np.clip(np.array(BASE_COLOR[cls]) * gain + noise, 0, 255))

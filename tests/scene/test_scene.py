@@ -1,4 +1,5 @@
 """Asset library dimensions and sanity, scene building, USD round trip and foreign stages."""
+
 import numpy as np
 import pytest
 import trimesh
@@ -6,10 +7,16 @@ import trimesh
 import genie_gl as gg
 from genie_gl.scene.assets import library as lib
 
-DECLARED = {("pallet", "eur"): (1.2, 0.8, 0.144), ("pallet", "half"): (0.8, 0.6, 0.144),
-            ("klt", "6428"): (0.6, 0.4, 0.28), ("stillage", "standard"): (1.24, 0.835, 0.97),
-            ("rack", "1bay_3lv"): (2.7, 1.1, 3.2), ("car", "sedan"): (1.8, 4.6, 1.45),
-            ("cabinet", "two_door"): (1.0, 0.5, 1.95), ("dolly", "standard"): (1.2, 0.8, 0.225)}
+DECLARED = {
+    ("pallet", "eur"): (1.2, 0.8, 0.144),
+    ("pallet", "half"): (0.8, 0.6, 0.144),
+    ("klt", "6428"): (0.6, 0.4, 0.28),
+    ("stillage", "standard"): (1.24, 0.835, 0.97),
+    ("rack", "1bay_3lv"): (2.7, 1.1, 3.2),
+    ("car", "sedan"): (1.8, 4.6, 1.45),
+    ("cabinet", "two_door"): (1.0, 0.5, 1.95),
+    ("dolly", "standard"): (1.2, 0.8, 0.225),
+}
 
 
 @pytest.mark.parametrize("key", sorted(DECLARED))
@@ -65,7 +72,11 @@ def test_randomisation_off_means_no_draw():
     gg.build_scene(layout, options=opts, rng=rng)
     used = rng.bit_generator.state["state"]["state"]
     rng2 = np.random.default_rng(0)
-    gg.build_scene(layout, options={**opts, "jitter": None, "dropout": 0, "stack": False, "color": False}, rng=rng2)
+    gg.build_scene(
+        layout,
+        options={**opts, "jitter": None, "dropout": 0, "stack": False, "color": False},
+        rng=rng2,
+    )
     assert rng2.bit_generator.state["state"]["state"] == used
 
 
@@ -161,14 +172,17 @@ def test_foreign_stage_y_up_centimetres_references_pointinstancer_ngons(tmp_path
         w = np.c_[m.vertices, np.ones(len(m.vertices))] @ inst.world_from_model.T
         by_sem.setdefault(inst.semantic, []).append((w[:, :3], m.faces))
     crate_v, crate_f = by_sem[1][0]
-    assert len(crate_f) == 3                         # a pentagon fan-triangulated
+    assert len(crate_f) == 3  # a pentagon fan-triangulated
     # Y up, cm: local (100 + x, y, 0) cm -> world (1 + x/100, 0, y/100) m
     np.testing.assert_allclose(crate_v[:, 0].min(), 1.0, atol=1e-9)
     np.testing.assert_allclose(crate_v[:, 2].max(), 0.15, atol=1e-9)
     np.testing.assert_allclose(crate_v[:, 1], 0.0, atol=1e-9)
     racks = by_sem[2]
     assert len(racks) == 2
-    assert sorted(round(v[:, 2].min(), 9) for v, _ in racks) == [0.0, 2.0]   # 200 cm apart along Y up
+    assert sorted(round(v[:, 2].min(), 9) for v, _ in racks) == [
+        0.0,
+        2.0,
+    ]  # 200 cm apart along Y up
 
 
 def _boxes(scene, shrink):
@@ -181,7 +195,14 @@ def _boxes(scene, shrink):
         v = scene.meshes[inst.mesh].vertices.astype(np.float64)
         lo, hi = v.min(0), v.max(0)
         T = inst.world_from_model
-        out.append((inst.name, T[:3, :3] @ ((lo + hi) / 2) + T[:3, 3], T[:3, :3], np.maximum((hi - lo) / 2 - shrink, 0)))
+        out.append(
+            (
+                inst.name,
+                T[:3, :3] @ ((lo + hi) / 2) + T[:3, 3],
+                T[:3, :3],
+                np.maximum((hi - lo) / 2 - shrink, 0),
+            )
+        )
     return out
 
 
@@ -213,7 +234,14 @@ def _part_boxes(scene, box, shrink):
     out = []
     for p in parts:
         lo, hi = p.vertices.min(0), p.vertices.max(0)
-        out.append((box[0], T[:3, :3] @ ((lo + hi) / 2) + T[:3, 3], T[:3, :3], np.maximum((hi - lo) / 2 - shrink, 0)))
+        out.append(
+            (
+                box[0],
+                T[:3, :3] @ ((lo + hi) / 2) + T[:3, 3],
+                T[:3, :3],
+                np.maximum((hi - lo) / 2 - shrink, 0),
+            )
+        )
     return out
 
 
@@ -232,18 +260,26 @@ def test_instances_do_not_interpenetrate(name):
 
     for seed in range(2):
         layout = gg.generate_layout(name, seed=seed)
-        options = {**layout.meta.get("scene", {}), "stack": True, "clutter": 0.5,
-                   "jitter": {"position_m": 0.3, "yaw_rad": 0.2}}
+        options = {
+            **layout.meta.get("scene", {}),
+            "stack": True,
+            "clutter": 0.5,
+            "jitter": {"position_m": 0.3, "yaw_rad": 0.2},
+        }
         scene = gg.build_scene(layout, seed=seed, options=options)
         boxes = _boxes(scene, shrink=0.01)  # 1 cm: stacked items touch, they must not sink in
         assert len(boxes) > 40
-        clashes = [(a[0], b[0]) for a, b in itertools.combinations(boxes, 2) if _clash(scene, a, b, 0.01)]
+        clashes = [
+            (a[0], b[0]) for a, b in itertools.combinations(boxes, 2) if _clash(scene, a, b, 0.01)
+        ]
         assert not clashes, clashes[:5]
     # the test sees a clash when there is one: the same box moved by half its size (in its
     # own frame) overlaps it; moved by 1.5 sizes along its x it does not
     a = boxes[0]
     moved = lambda step: (a[0], a[1] + a[2] @ (step * a[3]), a[2], a[3])  # noqa: E731
-    assert not _separated(a, moved(np.r_[1.0, 1.0, 0.0])) and _separated(a, moved(np.r_[3.0, 0.0, 0.0]))
+    assert not _separated(a, moved(np.r_[1.0, 1.0, 0.0])) and _separated(
+        a, moved(np.r_[3.0, 0.0, 0.0])
+    )
 
 
 def test_the_halls_meshes_are_made_once_and_are_the_librarys():
@@ -254,20 +290,34 @@ def test_the_halls_meshes_are_made_once_and_are_the_librarys():
     from genie_gl.scene.model import Mesh
 
     layout = gg.generate_layout("assembly_line", seed=2)
-    a, b = gg.build_scene(layout, seed=1), gg.build_scene(gg.generate_layout("assembly_line", seed=3), seed=2)
+    a, b = (
+        gg.build_scene(layout, seed=1),
+        gg.build_scene(gg.generate_layout("assembly_line", seed=3), seed=2),
+    )
     x0, y0, w, h = layout.bounds
-    for key, made in (("floor", lib.floor(w, h)), ("wall_2", lib.box([0.2, h, 5.0], [0, 0, 2.5])),
-                      ("column", lib.column())):
+    for key, made in (
+        ("floor", lib.floor(w, h)),
+        ("wall_2", lib.box([0.2, h, 5.0], [0, 0, 2.5])),
+        ("column", lib.column()),
+    ):
         want = Mesh.from_trimesh(made)
         got = a.meshes[key]
         np.testing.assert_array_equal(got.vertices, want.vertices)
         np.testing.assert_array_equal(got.faces, want.faces)
         assert got.closed == want.closed and got.digest() == want.digest()
-        assert b.meshes[key] is got   # one hall size: one mesh for both scenes
+        assert b.meshes[key] is got  # one hall size: one mesh for both scenes
 
 
-@pytest.mark.parametrize("field, bad", [("instance", 1.5), ("instance", "7"), ("instance", float("nan")),
-                                        ("semantic", None), ("semantic", 2.5)])
+@pytest.mark.parametrize(
+    "field, bad",
+    [
+        ("instance", 1.5),
+        ("instance", "7"),
+        ("instance", float("nan")),
+        ("semantic", None),
+        ("semantic", 2.5),
+    ],
+)
 def test_an_id_that_is_not_a_whole_number_is_refused_by_name(field, bad):
     """Ids were cut by int() (1.5 became 1) or failed in it with a TypeError; a whole float is
     an id, anything else a ConfigError naming the id, and the scene is left as it was."""

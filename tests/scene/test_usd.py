@@ -1,4 +1,5 @@
 """read_usd on composed foreign stages: payloads to other files and variant selections."""
+
 import numpy as np
 
 import genie_gl as gg
@@ -127,7 +128,7 @@ def test_payload_to_another_file_with_a_variant_chosen_by_the_stage(tmp_path):
     (tmp_path / "main.usda").write_text(MAIN)
     scene = gg.read_usd(tmp_path / "main.usda")
     b = _world_bounds(scene)
-    assert sorted(b) == ["CopyA", "CopyB", "LargeGeom", "WedgeGeom"]   # only the selected variants
+    assert sorted(b) == ["CopyA", "CopyB", "LargeGeom", "WedgeGeom"]  # only the selected variants
     # wedge (0..2, 0, 0..3) + the part's own (0, 0, 1) + the site's (5, 0, 0)
     np.testing.assert_allclose(b["WedgeGeom"], [[5, 0, 1], [7, 0, 4]], atol=EXACT)
     # the large crate: its mesh scaled by 2 in the variant, then moved by (0, 3, 0)
@@ -143,7 +144,9 @@ def test_payload_default_variant_and_a_usdc_payload(tmp_path):
     # payload to a binary layer composes the same way
     from pxr import Sdf
 
-    Sdf.Layer.FindOrOpen(str(_write(tmp_path / "part.usda", PART))).Export(str(tmp_path / "part.usdc"))
+    Sdf.Layer.FindOrOpen(str(_write(tmp_path / "part.usda", PART))).Export(
+        str(tmp_path / "part.usdc")
+    )
     main = MAIN.replace("@./part.usda@", "@./part.usdc@").replace('string shape = "wedge"', "")
     b = _world_bounds(gg.read_usd(_write(tmp_path / "main.usda", main)))
     assert sorted(b) == ["BoxGeom", "CopyA", "CopyB", "LargeGeom"]

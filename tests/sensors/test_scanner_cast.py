@@ -1,6 +1,7 @@
 """Scans cast by the exact ray engine: analytic ranges on a floor, agreement with Open3D's
 ray casting of the same beams, the skew of a moving head undone by each point's own time,
 seeds, skipped effects, and the footprint's two echoes at an edge."""
+
 from dataclasses import replace
 
 import numpy as np
@@ -20,8 +21,12 @@ ALBEDO = 0.6
 
 def floor_scene(size=400.0):
     s = Scene()
-    s.add(trimesh.creation.box((size, size, 1.0)), _shift(0, 0, -0.5), semantic=0,
-          material=Material((ALBEDO, ALBEDO, ALBEDO)))
+    s.add(
+        trimesh.creation.box((size, size, 1.0)),
+        _shift(0, 0, -0.5),
+        semantic=0,
+        material=Material((ALBEDO, ALBEDO, ALBEDO)),
+    )
     return s
 
 
@@ -38,12 +43,13 @@ def ideal(name, **kw):
 def test_floor_ranges_are_analytic_and_intensity_is_albedo_times_cosine():
     s = ideal("velodyne_vlp16")
     height = 1.5
-    scan, = gg.scan(floor_scene(), s, _shift(0, 0, height), seed=0)
+    (scan,) = gg.scan(floor_scene(), s, _shift(0, 0, height), seed=0)
     down = np.sin(s.elevation_rad[scan.channel])
     np.testing.assert_allclose(scan.range_m, height / -down, rtol=1e-12)
     np.testing.assert_allclose(scan.world_xyz[:, 2], 0.0, atol=1e-9)
     np.testing.assert_allclose(scan.intensity, np.float32(ALBEDO * -down), rtol=1e-6)
-    # every downward beam in range returns, no upward one: 8 lasers below the horizon (-1 deg reaches 86 m)
+    # every downward beam in range returns, no upward one: 8 lasers below the horizon (-1 deg
+    # reaches 86 m)
     assert set(np.unique(scan.channel)) == {c for c in range(16) if s.elevation_rad[c] < 0}
     assert len(scan) == 8 * (scan.column.max() + 1)
     assert np.all(scan.returns == 1) and np.all(scan.return_number == 1)
@@ -59,7 +65,10 @@ def generated():
 def test_hits_ids_and_ranges_equal_open3d_ray_casting(generated, profile):
     beams = scene_beams(generated, ideal(profile))
     ours = cast_beams(generated, beams.origins, beams.directions)
-    a = agreement(ours, open3d_cast(open3d_caster(generated, beams.origins[0]), beams.origins, beams.directions))
+    a = agreement(
+        ours,
+        open3d_cast(open3d_caster(generated, beams.origins[0]), beams.origins, beams.directions),
+    )
     assert ours.hit.mean() > 0.5
     assert a["hit_agree"] >= 0.9999 and a["id_agree"] >= 0.9999, a
     assert a["range_rel_p99"] <= 1e-6, a
@@ -72,15 +81,19 @@ def test_each_points_time_gives_the_pose_that_puts_it_on_the_wall():
     s = ideal("velodyne_vlp16")
     scene = Scene()
     scene.add(trimesh.creation.box((1.0, 40.0, 40.0)), _shift(12.5, 0, 0), semantic=2)
-    traj = Trajectory(np.array([0.0, 1.0]), planar_poses(np.array([[0.0, 0.0], [2.0, 0.0]]), np.zeros(2), 0.0))
+    traj = Trajectory(
+        np.array([0.0, 1.0]), planar_poses(np.array([[0.0, 0.0], [2.0, 0.0]]), np.zeros(2), 0.0)
+    )
     scans = gg.scan(scene, s, traj, seed=0, scans=2)
     for sc in scans:
         front = np.abs(sc.azimuth_rad) < np.radians(40)
         poses = traj.at(sc.start_s + sc.time_s[front])
         moved = np.einsum("nij,nj->ni", poses[:, :3, :3], sc.sensor_xyz[front]) + poses[:, :3, 3]
         np.testing.assert_allclose(moved[:, 0], 12.0, atol=1e-9)
-        start = sc.start_pose          # the head at the scan's first firing
-        unskewed = sc.sensor_xyz[front] + start[:3, 3]   # the raw scan placed at the scan start: skewed
+        start = sc.start_pose  # the head at the scan's first firing
+        unskewed = (
+            sc.sensor_xyz[front] + start[:3, 3]
+        )  # the raw scan placed at the scan start: skewed
         assert 0.1 < np.ptp(unskewed[:, 0]) < 0.21
         np.testing.assert_allclose(sc.deskewed_xyz()[front][:, 0] + start[0, 3], 12.0, atol=1e-9)
 
@@ -88,16 +101,16 @@ def test_each_points_time_gives_the_pose_that_puts_it_on_the_wall():
 def test_same_seed_same_bytes_and_a_skipped_effect_changes_nothing():
     base = ideal("velodyne_vlp16")
     scene, pose = floor_scene(60.0), _shift(0, 0, 1.2)
-    plain, = gg.scan(scene, base, pose, seed=3)
-    skip = replace(base, effects=(RangeNoise(),))    # no sigma, no step: planned out
-    skipped, = gg.scan(scene, skip, pose, seed=3)
+    (plain,) = gg.scan(scene, base, pose, seed=3)
+    skip = replace(base, effects=(RangeNoise(),))  # no sigma, no step: planned out
+    (skipped,) = gg.scan(scene, skip, pose, seed=3)
     assert skipped.plan["range_noise"][0] is False
     for f in ("world_xyz", "sensor_xyz", "range_m", "intensity", "time_s", "ring"):
         assert getattr(plain, f).tobytes() == getattr(skipped, f).tobytes()
     noisy = replace(base, effects=(RangeNoise(sigma_m=0.01),))
-    a, = gg.scan(scene, noisy, pose, seed=3)
-    b, = gg.scan(scene, noisy, pose, seed=3)
-    c, = gg.scan(scene, noisy, pose, seed=4)
+    (a,) = gg.scan(scene, noisy, pose, seed=3)
+    (b,) = gg.scan(scene, noisy, pose, seed=3)
+    (c,) = gg.scan(scene, noisy, pose, seed=4)
     assert a.range_m.tobytes() == b.range_m.tobytes() != c.range_m.tobytes()
     assert np.std(a.range_m - plain.range_m) == pytest.approx(0.01, rel=0.05)
 
@@ -110,11 +123,13 @@ def test_a_footprint_over_an_edge_gives_two_echoes_in_dual_mode(mode, max_return
     scene = Scene()
     scene.add(trimesh.creation.box((0.3, 0.3, 10.0)), _shift(5.0, 0, 0), semantic=1)
     scene.add(trimesh.creation.box((0.5, 40.0, 40.0)), _shift(10.25, 0, 0), semantic=2)
-    scan, = gg.scan(scene, s, np.eye(4), seed=0)
+    (scan,) = gg.scan(scene, s, np.eye(4), seed=0)
     assert scan.returns.max() == max_returns
     if mode == "dual":
         two = scan.returns == 2
         assert two.sum() >= 16 and set(scan.semantic[two]) == {1, 2}
         # both echoes of a beam come from one firing, nearest first
         k = np.flatnonzero(two & (scan.return_number == 1))
-        assert np.all(scan.range_m[k] < scan.range_m[k + 1] - 1.0) and np.all(scan.time_s[k] == scan.time_s[k + 1])
+        assert np.all(scan.range_m[k] < scan.range_m[k + 1] - 1.0) and np.all(
+            scan.time_s[k] == scan.time_s[k + 1]
+        )

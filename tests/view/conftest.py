@@ -1,5 +1,6 @@
 """A small dataset made once for the tests of ``genie view``: one scene of a 96 x 72 sensor,
 standing cameras and a short recording."""
+
 import pytest
 
 from genie_gl.dataset import DatasetConfig, run_dataset
@@ -29,12 +30,21 @@ def datasets(tmp_path_factory):
     root = tmp_path_factory.mktemp("view")
     (root / "small.calib.yml").write_text(SMALL_CALIB)
     (root / "small.yaml").write_text("name: small\ncalibration: small.calib.yml\neffects: []\n")
-    base = dict(strategy="storage_area", scenes=1, sensor=str(root / "small.yaml"), workers=1, seed=3,
-                previews=0, split=[1, 0, 0])
+    base = dict(
+        strategy="storage_area",
+        scenes=1,
+        sensor=str(root / "small.yaml"),
+        workers=1,
+        seed=3,
+        previews=0,
+        split=[1, 0, 0],
+    )
     out = {}
-    for name, kw in {"static": dict(format="semantickitti", cameras=2),
-                     "tum": dict(format="tum", capture="trajectory", duration_s=0.3),
-                     "kitti": dict(format="semantickitti", capture="trajectory", duration_s=0.3)}.items():
+    for name, kw in {
+        "static": dict(format="semantickitti", cameras=2),
+        "tum": dict(format="tum", capture="trajectory", duration_s=0.3),
+        "kitti": dict(format="semantickitti", capture="trajectory", duration_s=0.3),
+    }.items():
         run_dataset(DatasetConfig.parse(base | kw | {"out": str(root / name)}), progress=False)
         out[name] = root / name
     out["sensor"] = load_sensor(str(root / "small.yaml"))

@@ -1,6 +1,7 @@
 """``genie view``: the Rerun recording of small datasets, read back with Rerun's own reader
 (``rerun.chunk.RrdReader``) and checked against the dataset's files: entities, point counts,
 class and instance ids, positions, camera and body poses, intrinsics and images."""
+
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +56,9 @@ def test_a_static_dataset_gives_its_cloud_ids_classes_and_layout(datasets, tmp_p
     np.testing.assert_array_equal(class_ids, sem)
     ids = np.array(column(got["/scene_0000/world/cloud/instance"], "instance_id")[0])
     np.testing.assert_array_equal(ids, inst)
-    colors = np.array(column(got["/scene_0000/world/cloud/instance"], "Points3D:colors")[0], np.uint32)
+    colors = np.array(
+        column(got["/scene_0000/world/cloud/instance"], "Points3D:colors")[0], np.uint32
+    )
     rgb = instance_colors(inst).astype(np.uint32)
     np.testing.assert_array_equal(colors >> 8, rgb[:, 0] << 16 | rgb[:, 1] << 8 | rgb[:, 2])
     # one annotation context, at the root: the ten classes in the previews' colours
@@ -64,7 +67,10 @@ def test_a_static_dataset_gives_its_cloud_ids_classes_and_layout(datasets, tmp_p
     assert sorted(infos) == sorted(labels.CLASSES)
     for k, info in infos.items():
         assert info["label"] == labels.name(k)
-        assert info["color"] >> 8 == labels.color(k)[0] << 16 | labels.color(k)[1] << 8 | labels.color(k)[2]
+        assert (
+            info["color"] >> 8
+            == labels.color(k)[0] << 16 | labels.color(k)[1] << 8 | labels.color(k)[2]
+        )
     assert [p for p in got if "AnnotationContext:context" in got[p][0].schema.names] == ["/"]
     assert "/scene_0000/layout" in got
 
@@ -81,7 +87,7 @@ def test_a_tum_recording_gives_every_camera_pose_intrinsics_and_image(datasets, 
     order = np.argsort(t)
     trans = np.array(column(got[cam], "Transform3D:translation")).reshape(-1, 3)[order]
     rot = np.array(column(got[cam], "Transform3D:mat3x3")).reshape(-1, 3, 3)[order]
-    F32 = 1e-5   # Rerun keeps transforms in float32: ~3e-6 m at 40 m from the origin
+    F32 = 1e-5  # Rerun keeps transforms in float32: ~3e-6 m at 40 m from the origin
     np.testing.assert_allclose(trans, poses[:, :3, 3], atol=F32)
     # Rerun's mat3x3 is column-major
     np.testing.assert_allclose(np.transpose(rot, (0, 2, 1)), poses[:, :3, :3], atol=1e-6)
@@ -98,11 +104,15 @@ def test_a_tum_recording_gives_every_camera_pose_intrinsics_and_image(datasets, 
     got_depth = np.array(depth[int(order[0])][0], np.uint8).view(np.float32).reshape(72, 96)
     np.testing.assert_allclose(got_depth, want_depth, atol=1e-6)
     want_sem = np.asarray(Image.open(sensor_dir / "semantic" / first)).astype(np.uint16)
-    np.testing.assert_array_equal(np.array(sem[int(order[0])][0], np.uint8).view(np.uint16).reshape(72, 96), want_sem)
+    np.testing.assert_array_equal(
+        np.array(sem[int(order[0])][0], np.uint8).view(np.uint16).reshape(72, 96), want_sem
+    )
     assert want_sem.max() > 0
     # the body on the time line, and the trajectory as one line through its positions
     body_t, body = read_tum_poses(scene / "trajectory.txt")
-    got_body = np.array(column(got["/scene_0000/world/body"], "Transform3D:translation")).reshape(-1, 3)
+    got_body = np.array(column(got["/scene_0000/world/body"], "Transform3D:translation")).reshape(
+        -1, 3
+    )
     np.testing.assert_allclose(np.sort(got_body, axis=0), np.sort(body[:, :3, 3], axis=0), atol=F32)
     strip = np.array(column(got["/scene_0000/world/trajectory"], "LineStrips3D:strips")[0][0])
     np.testing.assert_allclose(strip, body[:, :3, 3], atol=F32)
@@ -113,16 +123,23 @@ def test_a_semantickitti_recording_puts_its_cameras_where_tum_does(datasets, tmp
     world_pose, Tr, poses and P0 sits where TUM's ground truth puts the camera."""
     rrd = write_rrd(read_views(datasets["kitti"]), tmp_path / "v.rrd")
     got = chunks(rrd)
-    tum_dir = next(d for d in (datasets["tum"] / "scenes" / "0000").iterdir() if (d / "groundtruth.txt").is_file())
+    tum_dir = next(
+        d
+        for d in (datasets["tum"] / "scenes" / "0000").iterdir()
+        if (d / "groundtruth.txt").is_file()
+    )
     _, poses = read_tum_poses(tum_dir / "groundtruth.txt")
     cam = "/scene_0000/world/cameras/group_00_cam0"
     t = np.array(column(got[cam], "time"))
     trans = np.array(column(got[cam], "Transform3D:translation")).reshape(-1, 3)[np.argsort(t)]
-    np.testing.assert_allclose(trans, poses[:, :3, 3], atol=2e-5)   # float32 in Rerun
+    np.testing.assert_allclose(trans, poses[:, :3, 3], atol=2e-5)  # float32 in Rerun
     K = np.array(column(got[f"{cam}/image"], "Pinhole:image_from_camera")[0]).reshape(3, 3).T
     np.testing.assert_allclose(K, datasets["sensor"].K, atol=1e-6)
     # every scan's points in the world: the count the scans hold
-    n = sum(len(np.fromfile(f, "<f4")) // 4 for f in (datasets["kitti"] / "scenes/0000/00/velodyne").glob("*.bin"))
+    n = sum(
+        len(np.fromfile(f, "<f4")) // 4
+        for f in (datasets["kitti"] / "scenes/0000/00/velodyne").glob("*.bin")
+    )
     positions = column(got["/scene_0000/world/cloud/class"], "Points3D:positions")[0]
     assert len(positions) == n > 0
 

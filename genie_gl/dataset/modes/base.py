@@ -13,13 +13,15 @@ configuration, the limits and the manifest ask the object and never compare its 
   decides the bytes (the fingerprint);
 - :meth:`~CaptureMode.estimate`: its memory and disk, checked against the limits by
   :meth:`~CaptureMode.check_limits`;
-- :meth:`~CaptureMode.takes`: which formats can write what it hands over; :meth:`~CaptureMode.capture`,
+- :meth:`~CaptureMode.takes`: which formats can write what it hands over;
+:meth:`~CaptureMode.capture`,
   a scene's frames (a :class:`Captured`), and :meth:`~CaptureMode.write`, how they go to the
   format (the files it adds beside the format's own: :attr:`~CaptureMode.files`).
 
 The orchestration (:mod:`genie_gl.dataset.scene`: curation, export, previews, publishing)
 is one tail for every mode. The plugins register when :mod:`genie_gl.dataset` is imported.
 """
+
 from __future__ import annotations
 
 import time
@@ -31,7 +33,14 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ...errors import ConfigError, did_you_mean
-from ...limits import MAX_SIDE, check_disk, check_frame_side, check_memory, check_regions, memory_limit_bytes
+from ...limits import (
+    MAX_SIDE,
+    check_disk,
+    check_frame_side,
+    check_memory,
+    check_regions,
+    memory_limit_bytes,
+)
 
 
 @dataclass(frozen=True)
@@ -68,7 +77,8 @@ class Captured:
     points : points of every frame (a map: of the map).
     shots : frames taken.
     info : entries of the scene's record before ``cameras`` (``instances``, a trajectory's summary).
-    rig, trajectory, recording, extra : what a moving capture hands a format (:class:`~genie_gl.export.SceneData`).
+    rig, trajectory, recording, extra : what a moving capture hands a format
+    (:class:`~genie_gl.export.SceneData`).
     tally : a moving capture's :class:`~.moving.Tally` of the frames that streamed past.
     costs : () -> (frame cost ms by part, effect totals), asked once the frames were consumed.
     previews : (folder, index) -> None, the scene's pictures.
@@ -123,7 +133,8 @@ class CaptureMode:
         return {}
 
     def takes(self, fmt) -> bool:
-        """Whether format ``fmt`` (a :class:`~genie_gl.export.registry.DatasetFormat`) writes what it captures."""
+        """Whether format ``fmt`` (a :class:`~genie_gl.export.registry.DatasetFormat`) writes what
+        it captures."""
         raise NotImplementedError
 
     def curates(self, fmt) -> bool:
@@ -140,11 +151,15 @@ class CaptureMode:
         e = self.estimate(cfg, strategy, sensor)
         check_regions(e.layout_work, cfg.max_nodes, str(getattr(strategy, "source", "strategy")))
         check_frame_side(sensor.width, sensor.height, f"--sensor {cfg.sensor}", MAX_SIDE)
-        check_memory(e.memory_bytes, memory_limit_bytes(cfg.max_memory_gb), e.memory_what, e.memory_fix)
+        check_memory(
+            e.memory_bytes, memory_limit_bytes(cfg.max_memory_gb), e.memory_what, e.memory_fix
+        )
         check_disk(e.disk_bytes, out, f"--out {out}", max_disk_gb=cfg.max_disk_gb, fix=e.disk_fix)
         return e
 
-    def capture(self, cfg, inputs, streams, fmt, *, stage: Callable[[str], None], ahead=None) -> Captured:
+    def capture(
+        self, cfg, inputs, streams, fmt, *, stage: Callable[[str], None], ahead=None
+    ) -> Captured:
         """Scene ``streams.index`` made and captured: layout, scene, placement, frames, chunks."""
         raise NotImplementedError
 
@@ -179,8 +194,11 @@ def get_mode(name: str, where: str = "--capture") -> CaptureMode:
     try:
         return CAPTURE_MODES[name]
     except (KeyError, TypeError):
-        raise ConfigError(f"{where} {name!r:.40}: unknown{did_you_mean(str(name), CAPTURE_MODES)}; expected one of "
-                          f"{', '.join(CAPTURE_MODES)}") from None
+        raise ConfigError(
+            f"{where} {name!r:.40}: unknown{did_you_mean(str(name), CAPTURE_MODES)}; expected one "
+            "of "
+            f"{', '.join(CAPTURE_MODES)}"
+        ) from None
 
 
 def mode_options() -> tuple[str, ...]:

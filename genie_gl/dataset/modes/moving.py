@@ -12,6 +12,7 @@ A new rig (a spinning scanner, a panorama head) is a rig file: :func:`rig_of` lo
 :func:`~genie_gl.capture.trajectory.record` fires its sensors; a rig that needs another kind
 of capture is a mode of its own, registered beside these (:mod:`.base`).
 """
+
 from __future__ import annotations
 
 import time
@@ -40,8 +41,8 @@ from ..previews import write_recording_previews
 from ..recipe import make_scene
 from .base import Captured, CaptureMode, Estimate, stamp
 
-SINGLE_RATE_HZ = 10.0         # --sensor alone: its frame rate on the body ...
-SINGLE_PITCH_RAD = np.radians(10.0)   # ... tilted this far down
+SINGLE_RATE_HZ = 10.0  # --sensor alone: its frame rate on the body ...
+SINGLE_PITCH_RAD = np.radians(10.0)  # ... tilted this far down
 PREVIEW_FRAMES = 2
 TRAJECTORY_FILE = "trajectory.txt"
 
@@ -50,13 +51,22 @@ def rig_of(cfg) -> Rig:
     """The rig of a run: ``--rig``, or ``--sensor`` alone on the body."""
     if cfg.rig:
         return load_rig(cfg.rig)
-    return Rig.single(load_sensor(cfg.sensor), rate_hz=SINGLE_RATE_HZ, pitch_rad=float(SINGLE_PITCH_RAD))
+    return Rig.single(
+        load_sensor(cfg.sensor), rate_hz=SINGLE_RATE_HZ, pitch_rad=float(SINGLE_PITCH_RAD)
+    )
 
 
 def trajectory_of(cfg, layout, scene, *, seed: int):
     kind = cfg.path if cfg.path in PATHS[:2] else "waypoints"
-    return make_trajectory(layout, scene, kind, seed=seed, motion=cfg.motion,
-                           waypoints=cfg.path if kind == "waypoints" else None, duration_s=cfg.duration_s)
+    return make_trajectory(
+        layout,
+        scene,
+        kind,
+        seed=seed,
+        motion=cfg.motion,
+        waypoints=cfg.path if kind == "waypoints" else None,
+        duration_s=cfg.duration_s,
+    )
 
 
 def write_trajectory(trajectory, path: Path) -> None:
@@ -65,8 +75,11 @@ def write_trajectory(trajectory, path: Path) -> None:
     for t, T in zip(trajectory.times_s, trajectory.world_from_body):
         q = quaternion_xyzw(T[:3, :3])
         rows.append(f"{t:.6f} " + " ".join(f"{v:.9f}" for v in (*T[:3, 3], *q)))
-    atomic_write_text(path, "# body (REP 103) in the world: timestamp tx ty tz qx qy qz qw\n"
-                      + "".join(r + "\n" for r in rows))
+    atomic_write_text(
+        path,
+        "# body (REP 103) in the world: timestamp tx ty tz qx qy qz qw\n"
+        + "".join(r + "\n" for r in rows),
+    )
 
 
 @dataclass
@@ -116,7 +129,9 @@ class Ride:
     trajectory: Any
     tally: Tally
     stream: Iterator
-    raster: str | None = None   # the dataset's rasteriser (genie_gl.render.rasters), for the previews too
+    raster: str | None = (
+        None  # the dataset's rasteriser (genie_gl.render.rasters), for the previews too
+    )
 
 
 class RigOnPath(CaptureMode):
@@ -128,12 +143,15 @@ class RigOnPath(CaptureMode):
     def check(self, cfg) -> None:
         path_kind(cfg.path)
         if scanner_rig_file(cfg.rig) is not None:
-            raise ConfigError(f"--rig {cfg.rig}: a scanner rig; its capture is --capture scans (its raw scans) or "
-                              f"scan-map (a map fused from them), not --capture {cfg.capture}")
+            raise ConfigError(
+                f"--rig {cfg.rig}: a scanner rig; its capture is --capture scans (its raw scans) "
+                "or "
+                f"scan-map (a map fused from them), not --capture {cfg.capture}"
+            )
 
     def prepare(self, cfg, inputs) -> None:
         if path_kind(cfg.path) == "waypoints":
-            read_waypoints(cfg.path)   # a bad waypoints file is refused before any work
+            read_waypoints(cfg.path)  # a bad waypoints file is refused before any work
 
     def input_files(self, cfg) -> dict[str, str]:
         """The rig's file and its sensors' files, the waypoints file."""
@@ -167,9 +185,20 @@ class RigOnPath(CaptureMode):
         points = self.written_points(cfg, strategy, frames, pixels)
         disk = cfg.scenes * get_format(cfg.format).scene_bytes(points, frames * pixels)
         workers = min(cfg.workers, cfg.scenes)
-        what = f"{workers} workers x a window of {WINDOW} frames of the rig + {nodes:.3g} regions" + held_what
-        return Estimate(nodes, work, pixels, int(per_worker * workers), int(disk), what, self.memory_fix,
-                        self.disk_fix)
+        what = (
+            f"{workers} workers x a window of {WINDOW} frames of the rig + {nodes:.3g} regions"
+            + held_what
+        )
+        return Estimate(
+            nodes,
+            work,
+            pixels,
+            int(per_worker * workers),
+            int(disk),
+            what,
+            self.memory_fix,
+            self.disk_fix,
+        )
 
     memory_fix = "use fewer --workers"
     disk_fix = "make fewer --scenes"
@@ -183,24 +212,51 @@ class RigOnPath(CaptureMode):
         stamp(clock, "placement")
         stage("capture")
         tally = Tally()
-        stream = tally.watch(record(scene, rig, trajectory, seed=streams.capture_seed, depth_only=not fmt.colour,
-                                    accuracy=accuracy, context=shared_context() if cfg.raster == "gl" else None,
-                                    raster=cfg.raster))
-        stamp(clock, "capture")   # the recording's set-up (and its first window); the rest as it streams
+        stream = tally.watch(
+            record(
+                scene,
+                rig,
+                trajectory,
+                seed=streams.capture_seed,
+                depth_only=not fmt.colour,
+                accuracy=accuracy,
+                context=shared_context() if cfg.raster == "gl" else None,
+                raster=cfg.raster,
+            )
+        )
+        stamp(
+            clock, "capture"
+        )  # the recording's set-up (and its first window); the rest as it streams
         return Ride(layout, scene, clock, rig, trajectory, tally, stream, cfg.raster)
 
     def captured(self, ride: Ride, *, map_cloud=None, **fields) -> Captured:
         """The tail's record of ``ride`` (``fields``: the subclass's)."""
         tr, tally = ride.trajectory, ride.tally
-        info = {"instances": len(ride.scene.instances),
-                "trajectory": {"path": tr.meta.get("path"), "length_m": round(tr.length_m, 3),
-                               "duration_s": round(tr.duration_s, 3), "shots": tally.shots,
-                               "rig": ride.rig.name, "sensors": [s.name for s in ride.rig.sensors]}}
-        return Captured(ride.layout, ride.scene, ride.clock, info=info, rig=ride.rig, trajectory=tr, tally=tally,
-                        costs=lambda: (dict(tally.cost_ms), tally.effects),
-                        previews=lambda folder, i: write_recording_previews(folder, i, ride.layout, tally.preview, tr,
-                                                                            map_cloud, ride.scene, ride.raster),
-                        **fields)
+        info = {
+            "instances": len(ride.scene.instances),
+            "trajectory": {
+                "path": tr.meta.get("path"),
+                "length_m": round(tr.length_m, 3),
+                "duration_s": round(tr.duration_s, 3),
+                "shots": tally.shots,
+                "rig": ride.rig.name,
+                "sensors": [s.name for s in ride.rig.sensors],
+            },
+        }
+        return Captured(
+            ride.layout,
+            ride.scene,
+            ride.clock,
+            info=info,
+            rig=ride.rig,
+            trajectory=tr,
+            tally=tally,
+            costs=lambda: (dict(tally.cost_ms), tally.effects),
+            previews=lambda folder, i: write_recording_previews(
+                folder, i, ride.layout, tally.preview, tr, map_cloud, ride.scene, ride.raster
+            ),
+            **fields,
+        )
 
     def write(self, fmt, data, folder: Path, got: Captured) -> None:
         self.write_recording(fmt, data, folder, got)

@@ -20,6 +20,7 @@ scene's capture seed, so the bytes do not depend on ``--workers``).
 Whether a rig is a scanner rig is its file's kind; a camera rig given to these modes, or a
 scanner rig given to the camera modes, is refused naming the modes that take it.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -45,8 +46,14 @@ from .base import Captured, CaptureMode, Estimate, register_mode, stamp
 from .moving import TRAJECTORY_FILE, trajectory_of, write_trajectory
 
 #: the dataset format -> the scanner format its scans are written in
-SCAN_FORMAT_OF = {"semantickitti": "kitti", "rosbag": "rosbag", "las": "las", "e57": "e57", "pcd": "pcd",
-                  "ply": "ply"}
+SCAN_FORMAT_OF = {
+    "semantickitti": "kitti",
+    "rosbag": "rosbag",
+    "las": "las",
+    "e57": "e57",
+    "pcd": "pcd",
+    "ply": "ply",
+}
 #: bytes a worker holds per scan point (a :class:`~genie_gl.capture.scan_record.Scan`'s
 #: arrays, ~92 B, and the writers' copies), an estimate from above
 BYTES_PER_SCAN_POINT = 200
@@ -56,8 +63,11 @@ def scanner_rig_of(cfg) -> ScannerRig:
     """The run's scanner rig (``--rig``); refused when ``--rig`` names no scanner rig."""
     path = scanner_rig_file(cfg.rig)
     if path is None:
-        raise ConfigError(f"--rig {cfg.rig!r:.60}: --capture {cfg.capture} takes a scanner rig (rigs/<name>{SUFFIX} "
-                          f"or a *{SUFFIX} file); a camera rig's capture is --capture trajectory or mobile-map")
+        raise ConfigError(
+            f"--rig {cfg.rig!r:.60}: --capture {cfg.capture} takes a scanner rig "
+            f"(rigs/<name>{SUFFIX} "
+            f"or a *{SUFFIX} file); a camera rig's capture is --capture trajectory or mobile-map"
+        )
     return load_scanner_rig(path)
 
 
@@ -70,10 +80,12 @@ class ScannerOnPath(CaptureMode):
     def check(self, cfg) -> None:
         path_kind(cfg.path)
         if not cfg.rig:
-            raise ConfigError(f"--capture {self.name}: needs --rig, a scanner rig (rigs/<name>{SUFFIX})")
+            raise ConfigError(
+                f"--capture {self.name}: needs --rig, a scanner rig (rigs/<name>{SUFFIX})"
+            )
 
     def prepare(self, cfg, inputs) -> None:
-        scanner_rig_of(cfg)   # a bad rig file is refused before any work
+        scanner_rig_of(cfg)  # a bad rig file is refused before any work
         if path_kind(cfg.path) == "waypoints":
             read_waypoints(cfg.path)
 
@@ -81,11 +93,12 @@ class ScannerOnPath(CaptureMode):
         """The rig's file and its heads' profiles, the waypoints file."""
         rig_file = scanner_rig_file(cfg.rig)
         files = {"rig": str(rig_file)}
-        scanner_rig_of(cfg)   # checked: its heads' profiles resolve as the loader resolves them
+        scanner_rig_of(cfg)  # checked: its heads' profiles resolve as the loader resolves them
         for k, head in enumerate(yaml.safe_load(rig_file.read_text())["heads"]):
             beside = rig_file.parent / head["profile"]
-            files[f"rig head {k} profile"] = str(beside if beside.is_file()
-                                                 else resolve(head["profile"], "sensors", (SUFFIX,)))
+            files[f"rig head {k} profile"] = str(
+                beside if beside.is_file() else resolve(head["profile"], "sensors", (SUFFIX,))
+            )
         if Path(cfg.path).is_file():
             files["waypoints"] = cfg.path
         return files
@@ -93,7 +106,10 @@ class ScannerOnPath(CaptureMode):
     def points_per_scene(self, cfg) -> float:
         """Points the rig returns along ``--duration-s``, at most (every beam, every return)."""
         rig = scanner_rig_of(cfg)
-        return cfg.duration_s * sum(h.scanner.points_per_second * (2 if h.scanner.returns == "dual" else 1) for h in rig.heads)
+        return cfg.duration_s * sum(
+            h.scanner.points_per_second * (2 if h.scanner.returns == "dual" else 1)
+            for h in rig.heads
+        )
 
     def written_points(self, cfg, strategy, points: float) -> float:
         return points
@@ -103,15 +119,27 @@ class ScannerOnPath(CaptureMode):
         points = self.points_per_scene(cfg)
         workers = min(cfg.workers, cfg.scenes)
         per_worker = points * BYTES_PER_SCAN_POINT + nodes * BYTES_PER_NODE
-        disk = cfg.scenes * get_format(cfg.format).scene_bytes(self.written_points(cfg, strategy, points), 0)
+        disk = cfg.scenes * get_format(cfg.format).scene_bytes(
+            self.written_points(cfg, strategy, points), 0
+        )
         what = f"{workers} workers x {points:.3g} scan points of the rig + {nodes:.3g} regions"
-        return Estimate(nodes, work, 0, int(per_worker * workers), int(disk), what,
-                        "use fewer --workers, a shorter --duration-s", "make fewer --scenes, a shorter --duration-s")
+        return Estimate(
+            nodes,
+            work,
+            0,
+            int(per_worker * workers),
+            int(disk),
+            what,
+            "use fewer --workers, a shorter --duration-s",
+            "make fewer --scenes, a shorter --duration-s",
+        )
 
     def check_limits(self, cfg, strategy, sensor, out: Path) -> Estimate:
-        e = self.estimate(cfg, strategy, sensor)   # no frame: no frame side to check
+        e = self.estimate(cfg, strategy, sensor)  # no frame: no frame side to check
         check_regions(e.layout_work, cfg.max_nodes, str(getattr(strategy, "source", "strategy")))
-        check_memory(e.memory_bytes, memory_limit_bytes(cfg.max_memory_gb), e.memory_what, e.memory_fix)
+        check_memory(
+            e.memory_bytes, memory_limit_bytes(cfg.max_memory_gb), e.memory_what, e.memory_fix
+        )
         check_disk(e.disk_bytes, out, f"--out {out}", max_disk_gb=cfg.max_disk_gb, fix=e.disk_fix)
         return e
 
@@ -126,12 +154,21 @@ class ScannerOnPath(CaptureMode):
         scans = list(iter_scans(scene, rig, trajectory, seed=streams.capture_seed))
         stamp(clock, "capture")
         if not scans or not sum(len(s) for s in scans):
-            raise ConfigError(f"--capture {self.name}: the rig's {len(scans)} scans along the trajectory hold no "
-                              f"point (a longer --duration-s scans more)")
-        info = {"instances": len(scene.instances),
-                "trajectory": {"path": trajectory.meta.get("path"), "length_m": round(trajectory.length_m, 3),
-                               "duration_s": round(trajectory.duration_s, 3), "shots": len(scans),
-                               "rig": rig.name, "heads": [h.name for h in rig.heads]}}
+            raise ConfigError(
+                f"--capture {self.name}: the rig's {len(scans)} scans along the trajectory hold no "
+                f"point (a longer --duration-s scans more)"
+            )
+        info = {
+            "instances": len(scene.instances),
+            "trajectory": {
+                "path": trajectory.meta.get("path"),
+                "length_m": round(trajectory.length_m, 3),
+                "duration_s": round(trajectory.duration_s, 3),
+                "shots": len(scans),
+                "rig": rig.name,
+                "heads": [h.name for h in rig.heads],
+            },
+        }
         return layout, scene, clock, rig, trajectory, scans, info
 
     def write(self, fmt, data, folder: Path, got: Captured) -> None:
@@ -155,17 +192,31 @@ class Scans(ScannerOnPath):
         return fmt.name in SCAN_FORMAT_OF
 
     def curates(self, fmt) -> bool:
-        return False   # raw scans are written as they are: nothing to sub-sample
+        return False  # raw scans are written as they are: nothing to sub-sample
 
     def finish(self, fmt) -> Callable | None:
-        return None    # each scene folder is whole (the KITTI label map is beside its sequences)
+        return None  # each scene folder is whole (the KITTI label map is beside its sequences)
 
-    def capture(self, cfg, inputs, streams, fmt, *, stage: Callable[[str], None], ahead=None) -> Captured:
-        layout, scene, clock, rig, trajectory, scans, info = self.scan(cfg, inputs, streams, stage=stage)
+    def capture(
+        self, cfg, inputs, streams, fmt, *, stage: Callable[[str], None], ahead=None
+    ) -> Captured:
+        layout, scene, clock, rig, trajectory, scans, info = self.scan(
+            cfg, inputs, streams, stage=stage
+        )
         stamp(clock, "cloud")
         counts = _counts(np.concatenate([s.semantic for s in scans]))
-        return Captured(layout, scene, clock, counts=counts, points=int(counts.sum()), shots=len(scans), info=info,
-                        rig=rig, trajectory=trajectory, extra={"scans": scans})
+        return Captured(
+            layout,
+            scene,
+            clock,
+            counts=counts,
+            points=int(counts.sum()),
+            shots=len(scans),
+            info=info,
+            rig=rig,
+            trajectory=trajectory,
+            extra={"scans": scans},
+        )
 
     def write_scans(self, fmt, data, folder: Path, got: Captured) -> None:
         write, _ = SCAN_FORMATS[SCAN_FORMAT_OF[fmt.name]]
@@ -189,18 +240,42 @@ class ScanMap(ScannerOnPath):
         n = max(1.0, root.width / cfg.chunk_m + 1) * max(1.0, root.height / cfg.chunk_m + 1)
         return min(n * cfg.points, points)
 
-    def capture(self, cfg, inputs, streams, fmt, *, stage: Callable[[str], None], ahead=None) -> Captured:
-        layout, scene, clock, rig, trajectory, scans, info = self.scan(cfg, inputs, streams, stage=stage)
+    def capture(
+        self, cfg, inputs, streams, fmt, *, stage: Callable[[str], None], ahead=None
+    ) -> Captured:
+        layout, scene, clock, rig, trajectory, scans, info = self.scan(
+            cfg, inputs, streams, stage=stage
+        )
         stage("cloud")
-        kept = [(key, tile) for key, tile in scan_map(scans, voxel_m=cfg.voxel_m, chunk_m=cfg.chunk_m,
-                                                      points=cfg.points, rng=streams.rng("cloud"))
-                if keep_cloud(tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share)[0]]
+        kept = [
+            (key, tile)
+            for key, tile in scan_map(
+                scans,
+                voxel_m=cfg.voxel_m,
+                chunk_m=cfg.chunk_m,
+                points=cfg.points,
+                rng=streams.rng("cloud"),
+            )
+            if keep_cloud(
+                tile, min_points=cfg.min_points, min_labelled_share=cfg.min_labelled_share
+            )[0]
+        ]
         stamp(clock, "cloud")
         counts = np.zeros(65536, np.int64)
         for _, tile in kept:
             counts += _counts(tile.semantic)
-        return Captured(layout, scene, clock, kept=kept, counts=counts, points=int(sum(len(s) for s in scans)),
-                        shots=len(scans), info=info, rig=rig, trajectory=trajectory)
+        return Captured(
+            layout,
+            scene,
+            clock,
+            kept=kept,
+            counts=counts,
+            points=int(sum(len(s) for s in scans)),
+            shots=len(scans),
+            info=info,
+            rig=rig,
+            trajectory=trajectory,
+        )
 
 
 SCANS = register_mode(Scans())

@@ -1,5 +1,6 @@
 """Headless GL platforms, one module each behind :class:`.base.Platform`; :data:`PLATFORMS`
 lists them in the order ``backend=None`` tries them."""
+
 from __future__ import annotations
 
 from .base import Platform

@@ -2,6 +2,7 @@
 the model): start one and hand it to moderngl, look up GL entry points, make it current
 around a call, release it. One module per platform; :mod:`genie_gl.render.context` chooses
 among them in one place."""
+
 from __future__ import annotations
 
 from abc import ABC, abstractmethod

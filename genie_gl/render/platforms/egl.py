@@ -4,6 +4,7 @@ A process forked after it started EGL cannot render through EGL: the driver's th
 (Mesa's rasteriser, NVIDIA's) stay in the parent, and the child's first read-back waits for
 them forever. :data:`started_in` records the process that started it, so a child refuses.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -16,7 +17,7 @@ import moderngl
 
 from .base import Platform
 
-started_in: int | None = None   # the process that started EGL (its driver threads live there)
+started_in: int | None = None  # the process that started EGL (its driver threads live there)
 
 
 class EGLPlatform(Platform):
@@ -30,13 +31,17 @@ class EGLPlatform(Platform):
 
     def unusable(self) -> str | None:
         if started_in not in (None, os.getpid()):
-            return (f"EGL was started in process {started_in}, which forked this one ({os.getpid()}): "
-                    "its driver threads are not here")
+            return (
+                f"EGL was started in process {started_in}, which forked this one ({os.getpid()}): "
+                "its driver threads are not here"
+            )
         return None
 
     def start(self, device_index: int) -> moderngl.Context:
         global started_in
-        ctx = moderngl.create_context(standalone=True, backend="egl", require=330, device_index=device_index)
+        ctx = moderngl.create_context(
+            standalone=True, backend="egl", require=330, device_index=device_index
+        )
         started_in = os.getpid()
         lib = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
         lib.eglGetProcAddress.restype = ctypes.c_void_p

@@ -2,6 +2,7 @@
 moderngl: the fallback where EGL cannot start, several times slower than llvmpipe through
 EGL. It needs no PyOpenGL platform switch, so it works in a process that already imported
 PyOpenGL for EGL, and in a child forked after its parent started EGL."""
+
 from __future__ import annotations
 
 import ctypes
@@ -53,15 +54,24 @@ class OSMesaPlatform(Platform):
         lib.OSMesaCreateContextAttribs.restype = ctypes.c_void_p
         lib.OSMesaCreateContextAttribs.argtypes = [ctypes.POINTER(ctypes.c_int), ctypes.c_void_p]
         lib.OSMesaMakeCurrent.restype = ctypes.c_ubyte
-        lib.OSMesaMakeCurrent.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_int]
+        lib.OSMesaMakeCurrent.argtypes = [
+            ctypes.c_void_p,
+            ctypes.c_void_p,
+            ctypes.c_uint,
+            ctypes.c_int,
+            ctypes.c_int,
+        ]
         lib.OSMesaGetProcAddress.restype = ctypes.c_void_p
         lib.OSMesaGetProcAddress.argtypes = [ctypes.c_char_p]
         lib.OSMesaDestroyContext.argtypes = [ctypes.c_void_p]
-        # OSMESA_FORMAT=RGBA, DEPTH_BITS=24, PROFILE=CORE, CONTEXT_MAJOR/MINOR_VERSION=3.3 (osmesa.h)
+        # OSMESA_FORMAT=RGBA, DEPTH_BITS=24, PROFILE=CORE, CONTEXT_MAJOR/MINOR_VERSION=3.3
+        # (osmesa.h)
         attribs = (ctypes.c_int * 11)(0x22, 0x1908, 0x30, 24, 0x33, 0x34, 0x36, 3, 0x37, 3, 0)
         handle = lib.OSMesaCreateContextAttribs(attribs, None)
         if not handle:
-            raise BackendUnavailableError(f"{path}: OSMesaCreateContextAttribs (core 3.3) returned NULL")
+            raise BackendUnavailableError(
+                f"{path}: OSMesaCreateContextAttribs (core 3.3) returned NULL"
+            )
         buf = (ctypes.c_ubyte * 4)()  # OSMesa needs a colour buffer; we render into our own FBOs
         if not lib.OSMesaMakeCurrent(handle, buf, 0x1401, 1, 1):
             lib.OSMesaDestroyContext(handle)

@@ -9,6 +9,7 @@ draws and fits it like a built-in asset (turned, never scaled).
 >>> register_asset("klt", "crate.obj", units="cm", variant="crate")
 'crate'
 """
+
 from __future__ import annotations
 
 import logging
@@ -31,8 +32,13 @@ UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
 USD_SUFFIXES = (".usd", ".usda", ".usdc")
 # default up axis of each format: glTF is Y up by its specification; OBJ, PLY and STL
 # declare none (Z up assumed); USD stages carry their own (``None``: read from the stage)
-FORMATS: dict[str, str | None] = {".obj": "z", ".glb": "y", ".ply": "z", ".stl": "z",
-                                  **{s: None for s in USD_SUFFIXES}}
+FORMATS: dict[str, str | None] = {
+    ".obj": "z",
+    ".glb": "y",
+    ".ply": "z",
+    ".stl": "z",
+    **{s: None for s in USD_SUFFIXES},
+}
 _Y_TO_Z = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # +90 deg about x: (x, y, z) -> (x, -z, y)
 
 
@@ -41,12 +47,16 @@ def _meters_per_unit(units: str | float | None, path: Path) -> float | None:
         return None
     if isinstance(units, str):
         if units not in UNITS:
-            raise ConfigError(f"{path}: unknown units {units!r}{did_you_mean(units, UNITS)}; expected "
-                              f"one of {', '.join(UNITS)} or metres per unit as a number")
+            raise ConfigError(
+                f"{path}: unknown units {units!r}{did_you_mean(units, UNITS)}; expected "
+                f"one of {', '.join(UNITS)} or metres per unit as a number"
+            )
         return UNITS[units]
     mpu = float(units)
     if not np.isfinite(mpu) or mpu <= 0:
-        raise ConfigError(f"{path}: units must be a positive number of metres per unit, got {units!r}")
+        raise ConfigError(
+            f"{path}: units must be a positive number of metres per unit, got {units!r}"
+        )
     return mpu
 
 
@@ -56,8 +66,12 @@ def _read_trimesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
         m = trimesh.load(str(path), force="mesh", process=False)
     except Exception as exc:  # trimesh's loaders raise IndexError, ValueError, KeyError, ...
         kind = path.suffix[1:].upper()
-        raise ConfigError(f"{path}: could not read a {kind} mesh ({type(exc).__name__}: {exc})") from exc
-    return np.asarray(m.vertices, dtype=np.float64), np.asarray(getattr(m, "faces", np.zeros((0, 3))))
+        raise ConfigError(
+            f"{path}: could not read a {kind} mesh ({type(exc).__name__}: {exc})"
+        ) from exc
+    return np.asarray(m.vertices, dtype=np.float64), np.asarray(
+        getattr(m, "faces", np.zeros((0, 3)))
+    )
 
 
 def _read_usd(path: Path, mpu: float | None, up: str | None) -> tuple[np.ndarray, np.ndarray]:
@@ -81,15 +95,22 @@ def _load(path: str, stamp: tuple[int, int], mpu: float | None, up: str | None) 
         v, f = _read_trimesh(p)
         if not np.all(np.isfinite(v)):
             bad = int((~np.isfinite(v)).any(axis=1).sum())
-            raise ConfigError(f"{p}: {bad} of {len(v)} vertices are NaN or Inf; "
-                              "expected finite coordinates")
+            raise ConfigError(
+                f"{p}: {bad} of {len(v)} vertices are NaN or Inf; expected finite coordinates"
+            )
         v = v * (1.0 if mpu is None else mpu)
         if (up or FORMATS[p.suffix.lower()]) == "y":
             v = v @ _Y_TO_Z.T
     if len(f) == 0:
-        raise ConfigError(f"{p}: holds no triangle faces (a point cloud?); expected a triangle mesh")
+        raise ConfigError(
+            f"{p}: holds no triangle faces (a point cloud?); expected a triangle mesh"
+        )
     lo, hi = v.min(axis=0), v.max(axis=0)
-    v = v - [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]]  # the library's origin: centred, on z = 0
+    v = v - [
+        (lo[0] + hi[0]) / 2,
+        (lo[1] + hi[1]) / 2,
+        lo[2],
+    ]  # the library's origin: centred, on z = 0
     m = trimesh.Trimesh(v, f, process=True)
     if m.is_watertight and not m.is_volume:
         # a closed mesh has its back faces culled when rendered: its faces must point outwards
@@ -97,8 +118,9 @@ def _load(path: str, stamp: tuple[int, int], mpu: float | None, up: str | None) 
     return m
 
 
-def load_asset(path: str | os.PathLike, *, units: str | float | None = None,
-               up: str | None = None) -> trimesh.Trimesh:
+def load_asset(
+    path: str | os.PathLike, *, units: str | float | None = None, up: str | None = None
+) -> trimesh.Trimesh:
     """Load a mesh file (.obj .glb .ply .stl .usd .usda .usdc) in the library's convention.
 
     Parameters
@@ -118,8 +140,10 @@ def load_asset(path: str | os.PathLike, *, units: str | float | None = None,
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix not in FORMATS:
-        raise ConfigError(f"{p}: unknown asset format {p.suffix or '(no extension)'!r}; expected one of "
-                          f"{', '.join(FORMATS)}")
+        raise ConfigError(
+            f"{p}: unknown asset format {p.suffix or '(no extension)'!r}; expected one of "
+            f"{', '.join(FORMATS)}"
+        )
     if up is not None and up not in ("y", "z"):
         raise ConfigError(f"{p}: up must be 'y' or 'z', got {up!r}")
     mpu = _meters_per_unit(units, p)
@@ -144,8 +168,11 @@ class Source:
 def units_text(units: str | float | None, path: str | os.PathLike) -> str:
     """The unit a file is read in, in words: ``mm``, ``0.5 m per unit``, or the file's own."""
     if units is None:
-        return ("the stage's own metersPerUnit" if Path(path).suffix.lower() in USD_SUFFIXES
-                else "metres: the file states no units")
+        return (
+            "the stage's own metersPerUnit"
+            if Path(path).suffix.lower() in USD_SUFFIXES
+            else "metres: the file states no units"
+        )
     return units if isinstance(units, str) else f"{float(units):g} m per unit"
 
 
@@ -155,27 +182,47 @@ class Catalogue:
     def __init__(self, *, segments: int | None = None) -> None:
         self._registered: dict[str, dict[str, trimesh.Trimesh]] = {}
         self._sources: dict[tuple[str, str], Source] = {}
-        self._scene_meshes: dict[tuple[str, str], Mesh] = {}  # registered variants as scenes store them
+        self._scene_meshes: dict[
+            tuple[str, str], Mesh
+        ] = {}  # registered variants as scenes store them
         self.segments = lib.check_segments(segments, "Catalogue")
 
-    def register(self, cls: str, path: str | os.PathLike, *, variant: str | None = None,
-                 units: str | float | None = None, up: str | None = None) -> str:
+    def register(
+        self,
+        cls: str,
+        path: str | os.PathLike,
+        *,
+        variant: str | None = None,
+        units: str | float | None = None,
+        up: str | None = None,
+    ) -> str:
         """Load ``path`` (see :func:`load_asset`) as a variant of ``cls``; return its name.
 
         The name is ``variant`` or the file's stem; it must not be one the class has already.
         """
         if cls not in lib.VARIANTS:
-            raise ConfigError(f"{path}: unknown asset class {cls!r}{did_you_mean(cls, lib.VARIANTS)} "
-                              f"(known: {', '.join(sorted(lib.VARIANTS))})")
+            raise ConfigError(
+                f"{path}: unknown asset class {cls!r}{did_you_mean(cls, lib.VARIANTS)} "
+                f"(known: {', '.join(sorted(lib.VARIANTS))})"
+            )
         name = variant or Path(path).stem
         if name in self.variants(cls):
-            raise ConfigError(f"{path}: asset class {cls!r} already has a variant {name!r}; "
-                              "pass variant= to name this one")
+            raise ConfigError(
+                f"{path}: asset class {cls!r} already has a variant {name!r}; "
+                "pass variant= to name this one"
+            )
         mesh = load_asset(path, units=units, up=up)
         self._registered.setdefault(cls, {})[name] = mesh
-        self._sources[(cls, name)] = Source(str(path), units_text(units, path), _meters_per_unit(units, Path(path)))
-        log.debug("registered %s variant %r from %s (%.3f x %.3f x %.3f m)",
-                  cls, name, path, *mesh.extents)
+        self._sources[(cls, name)] = Source(
+            str(path), units_text(units, path), _meters_per_unit(units, Path(path))
+        )
+        log.debug(
+            "registered %s variant %r from %s (%.3f x %.3f x %.3f m)",
+            cls,
+            name,
+            path,
+            *mesh.extents,
+        )
         return name
 
     def variants(self, cls: str) -> list[str]:
@@ -194,7 +241,9 @@ class Catalogue:
         """The mesh of a variant (built-in ones are built once per process and tessellation,
         with this catalogue's ``segments`` per circle; registered meshes are used as loaded)."""
         registered = self._registered.get(cls, {})
-        return registered[variant] if variant in registered else lib.make(cls, variant, self.segments)
+        return (
+            registered[variant] if variant in registered else lib.make(cls, variant, self.segments)
+        )
 
     def scene_mesh(self, cls: str, variant: str) -> Mesh:
         """:meth:`mesh` as a scene stores it (:class:`~genie_gl.scene.model.Mesh`), converted
@@ -244,8 +293,14 @@ def _builtin_scene_mesh(cls: str, variant: str, segments: int | None) -> Mesh:
 ASSETS = Catalogue()
 
 
-def register_asset(cls: str, path: str | os.PathLike, *, variant: str | None = None,
-                   units: str | float | None = None, up: str | None = None) -> str:
+def register_asset(
+    cls: str,
+    path: str | os.PathLike,
+    *,
+    variant: str | None = None,
+    units: str | float | None = None,
+    up: str | None = None,
+) -> str:
     """Register a mesh file as a variant of asset class ``cls`` for every later ``build_scene``.
 
     ``units`` and ``up`` as in :func:`load_asset`; returns the variant's name. Undo with

@@ -8,6 +8,7 @@ Curved parts (wheels, rollers, the tiller, the car body's cross-sections) are po
 assets that have some (``CURVED``) take a keyword ``segments``: None keeps each part's own
 count, ``n`` gives every full circle ``n`` segments (the tessellation accuracy knob).
 """
+
 from __future__ import annotations
 
 from functools import lru_cache, partial
@@ -36,7 +37,12 @@ def pallet(length: float = 1.2, width: float = 0.8, height: float = 0.144) -> tr
         parts.append(box([length, 0.1, board], [0, y, board / 2]))
     for x in xs:
         for y in ys:
-            parts.append(box([0.145, 0.1, block_h - 2 * board], [x, y, board + (block_h - 2 * board) / 2 + 1e-4]))
+            parts.append(
+                box(
+                    [0.145, 0.1, block_h - 2 * board],
+                    [x, y, board + (block_h - 2 * board) / 2 + 1e-4],
+                )
+            )
     for x in xs:  # stringer boards across
         parts.append(box([0.145, width, board], [x, 0, block_h - board / 2]))
     n_top = 5
@@ -54,8 +60,13 @@ def half_pallet() -> trimesh.Trimesh:
 # -- racks --------------------------------------------------------------------------------
 
 
-def rack(bays: int = 1, levels: int = 3, bay_width: float = 2.7, depth: float = 1.1,
-         level_height: float = 1.0) -> trimesh.Trimesh:
+def rack(
+    bays: int = 1,
+    levels: int = 3,
+    bay_width: float = 2.7,
+    depth: float = 1.1,
+    level_height: float = 1.0,
+) -> trimesh.Trimesh:
     """A pallet rack: uprights, pairs of beams per level and a deck on each level."""
     W, post = bays * bay_width, 0.08
     H = levels * level_height + 0.2
@@ -76,8 +87,14 @@ def rack(bays: int = 1, levels: int = 3, bay_width: float = 2.7, depth: float = 
 # -- car body ------------------------------------------------------------------------------
 
 
-def car(length: float = 4.6, width: float = 1.8, height: float = 1.45, wheel_r: float = 0.32, *,
-        segments: int | None = None) -> trimesh.Trimesh:
+def car(
+    length: float = 4.6,
+    width: float = 1.8,
+    height: float = 1.45,
+    wheel_r: float = 0.32,
+    *,
+    segments: int | None = None,
+) -> trimesh.Trimesh:
     """A car body lofted through sections (bonnet, cabin, boot) with four wheels.
 
     The car's length runs along y (its front towards +y).
@@ -86,12 +103,17 @@ def car(length: float = 4.6, width: float = 1.8, height: float = 1.45, wheel_r: 
     u = (xs + length / 2) / length
     half = width / 2 * (0.86 + 0.14 * np.sin(np.pi * np.clip(u * 1.1 - 0.05, 0, 1)) ** 0.5)
     z0 = np.full_like(xs, 0.18)
-    roof = np.interp(u, [0, 0.12, 0.3, 0.42, 0.75, 0.88, 1], [0.55, 0.75, 0.85, 1.0, 1.0, 0.8, 0.6]) * height
+    roof = (
+        np.interp(u, [0, 0.12, 0.3, 0.42, 0.75, 0.88, 1], [0.55, 0.75, 0.85, 1.0, 1.0, 0.8, 0.6])
+        * height
+    )
     body = loft(xs, half, z0, roof, ring=segments or 20)
     wheels = []
     for x in (-length / 2 + 0.8, length / 2 - 0.8):
         for y in (-width / 2 + 0.2, width / 2 - 0.2):
-            wheels.append(cylinder(wheel_r, 0.2, [x, y, wheel_r], axis="y", sections=segments or 18))
+            wheels.append(
+                cylinder(wheel_r, 0.2, [x, y, wheel_r], axis="y", sections=segments or 18)
+            )
     m = assemble([body] + wheels)
     m.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 0, 1]))
     m.apply_translation([0, 0, -m.bounds[0][2]])  # polygonal wheels: stand on z = 0
@@ -101,9 +123,14 @@ def car(length: float = 4.6, width: float = 1.8, height: float = 1.45, wheel_r: 
 # -- handling equipment ---------------------------------------------------------------------
 
 
-def pallet_jack(fork_length: float = 1.15, width: float = 0.54, *, segments: int | None = None) -> trimesh.Trimesh:
+def pallet_jack(
+    fork_length: float = 1.15, width: float = 0.54, *, segments: int | None = None
+) -> trimesh.Trimesh:
     """Hand pallet truck: two forks, a pump body, a tiller handle and wheels (forks along -y)."""
-    parts = [box([0.16, fork_length, 0.08], [x, -fork_length / 2, 0.045]) for x in (-width / 2 + 0.08, width / 2 - 0.08)]
+    parts = [
+        box([0.16, fork_length, 0.08], [x, -fork_length / 2, 0.045])
+        for x in (-width / 2 + 0.08, width / 2 - 0.08)
+    ]
     parts.append(box([width, 0.25, 0.3], [0, 0.12, 0.2]))
     parts.append(cylinder(0.025, 1.1, [0, 0.3, 0.85], axis="z", sections=segments or 10))
     parts.append(box([0.3, 0.05, 0.05], [0, 0.3, 1.42]))
@@ -111,29 +138,37 @@ def pallet_jack(fork_length: float = 1.15, width: float = 0.54, *, segments: int
     return assemble(parts)
 
 
-def forklift(length: float = 2.3, width: float = 1.1, *, segments: int | None = None) -> trimesh.Trimesh:
+def forklift(
+    length: float = 2.3, width: float = 1.1, *, segments: int | None = None
+) -> trimesh.Trimesh:
     """Counterbalance forklift: chassis, counterweight, mast, forks, overhead guard, wheels.
 
     Forks point to +y.
     """
-    parts = [box([width, length * 0.7, 0.7], [0, -0.1, 0.55])]           # chassis
+    parts = [box([width, length * 0.7, 0.7], [0, -0.1, 0.55])]  # chassis
     parts.append(box([width, 0.35, 0.6], [0, -length * 0.45 + 0.05, 0.75]))  # counterweight
-    for x in (-0.35, 0.35):                                               # mast uprights
+    for x in (-0.35, 0.35):  # mast uprights
         parts.append(box([0.1, 0.12, 2.2], [x, length * 0.32, 1.2]))
-    parts.append(box([0.8, 0.1, 0.5], [0, length * 0.37, 0.5]))            # carriage
-    for x in (-0.25, 0.25):                                               # forks
+    parts.append(box([0.8, 0.1, 0.5], [0, length * 0.37, 0.5]))  # carriage
+    for x in (-0.25, 0.25):  # forks
         parts.append(box([0.12, 1.1, 0.05], [x, length * 0.37 + 0.6, 0.08]))
-    for x in (-width / 2 + 0.05, width / 2 - 0.05):                       # guard posts
+    for x in (-width / 2 + 0.05, width / 2 - 0.05):  # guard posts
         for y in (-0.55, 0.35):
             parts.append(box([0.06, 0.06, 1.15], [x, y, 1.475]))
-    parts.append(box([width, 1.0, 0.05], [0, -0.1, 2.075]))                # guard roof
+    parts.append(box([width, 1.0, 0.05], [0, -0.1, 2.075]))  # guard roof
     for y in (-0.65, 0.55):
         for x in (-width / 2 + 0.05, width / 2 - 0.05):
-            parts.append(cylinder(0.25, 0.18, [x + np.sign(x) * 0.04, y, 0.25], axis="x", sections=segments or 18))
+            parts.append(
+                cylinder(
+                    0.25, 0.18, [x + np.sign(x) * 0.04, y, 0.25], axis="x", sections=segments or 18
+                )
+            )
     return assemble(parts)
 
 
-def dolly(length: float = 1.2, width: float = 0.8, *, segments: int | None = None) -> trimesh.Trimesh:
+def dolly(
+    length: float = 1.2, width: float = 0.8, *, segments: int | None = None
+) -> trimesh.Trimesh:
     """Transport dolly: a platform on four casters (carried by the STRs)."""
     parts = [box([length, width, 0.05], [0, 0, 0.2])]
     for x in (-length / 2 + 0.1, length / 2 - 0.1):
@@ -146,18 +181,26 @@ def dolly(length: float = 1.2, width: float = 0.8, *, segments: int | None = Non
 # -- containers -----------------------------------------------------------------------------
 
 
-def klt(length: float = 0.6, width: float = 0.4, height: float = 0.28, wall: float = 0.008) -> trimesh.Trimesh:
+def klt(
+    length: float = 0.6, width: float = 0.4, height: float = 0.28, wall: float = 0.008
+) -> trimesh.Trimesh:
     """Small load carrier (KLT), open top: a floor and four walls."""
     parts = [box([length, width, wall], [0, 0, wall / 2])]
     h = height - wall
     parts.append(box([length, wall, h], [0, -width / 2 + wall / 2, wall + h / 2 + 1e-4]))
     parts.append(box([length, wall, h], [0, width / 2 - wall / 2, wall + h / 2 + 1e-4]))
-    parts.append(box([wall, width - 2 * wall - 1e-3, h], [-length / 2 + wall / 2, 0, wall + h / 2 + 1e-4]))
-    parts.append(box([wall, width - 2 * wall - 1e-3, h], [length / 2 - wall / 2, 0, wall + h / 2 + 1e-4]))
+    parts.append(
+        box([wall, width - 2 * wall - 1e-3, h], [-length / 2 + wall / 2, 0, wall + h / 2 + 1e-4])
+    )
+    parts.append(
+        box([wall, width - 2 * wall - 1e-3, h], [length / 2 - wall / 2, 0, wall + h / 2 + 1e-4])
+    )
     return assemble(parts)
 
 
-def stillage(length: float = 1.24, width: float = 0.835, height: float = 0.97, mesh_pitch: float = 0.1) -> trimesh.Trimesh:
+def stillage(
+    length: float = 1.24, width: float = 0.835, height: float = 0.97, mesh_pitch: float = 0.1
+) -> trimesh.Trimesh:
     """Mesh stillage: steel base frame, corner posts and wire-mesh sides (bars)."""
     post, bar = 0.04, 0.006
     parts = [box([length, width, 0.05], [0, 0, 0.025 + 0.1])]
@@ -165,18 +208,22 @@ def stillage(length: float = 1.24, width: float = 0.835, height: float = 0.97, m
         for y in (-width / 2 + post / 2, width / 2 - post / 2):
             parts.append(box([post, post, height], [x, y, height / 2]))
     z_lo, z_hi = 0.18, height - 0.02
-    for y in (-width / 2 + post / 2, width / 2 - post / 2):   # long sides: vertical bars
+    for y in (-width / 2 + post / 2, width / 2 - post / 2):  # long sides: vertical bars
         for x in np.arange(-length / 2 + post + mesh_pitch / 2, length / 2 - post, mesh_pitch):
             parts.append(box([bar, bar, z_hi - z_lo], [x, y, (z_lo + z_hi) / 2]))
         for z in np.arange(z_lo, z_hi, 2 * mesh_pitch):
-            parts.append(box([length - 2 * post - 0.002, bar, bar], [0, y + (bar if y < 0 else -bar), z]))
+            parts.append(
+                box([length - 2 * post - 0.002, bar, bar], [0, y + (bar if y < 0 else -bar), z])
+            )
     for x in (-length / 2 + post / 2, length / 2 - post / 2):  # short sides
         for y in np.arange(-width / 2 + post + mesh_pitch / 2, width / 2 - post, mesh_pitch):
             parts.append(box([bar, bar, z_hi - z_lo], [x, y, (z_lo + z_hi) / 2]))
     return assemble(parts)
 
 
-def cabinet(width: float = 1.0, depth: float = 0.5, height: float = 1.95, doors: int = 2) -> trimesh.Trimesh:
+def cabinet(
+    width: float = 1.0, depth: float = 0.5, height: float = 1.95, doors: int = 2
+) -> trimesh.Trimesh:
     """Storage cabinet: body, doors (with a gap between them) and handles on the front (+y)."""
     parts = [box([width, depth - 0.02, height], [0, -0.01, height / 2])]
     dw = width / doors
@@ -213,9 +260,16 @@ def column(size: float = 0.4, height: float = 6.0) -> trimesh.Trimesh:
 
 VARIANTS = {
     "pallet": {"eur": pallet, "half": half_pallet},
-    "rack": {"1bay_3lv": lambda: rack(1, 3), "1bay_2lv": lambda: rack(1, 2, level_height=1.3),
-             "narrow_3lv": lambda: rack(1, 3, bay_width=1.9, depth=0.9)},
-    "car": {"sedan": car, "hatchback": partial(car, 4.1, 1.75, 1.5), "estate": partial(car, 4.8, 1.85, 1.5)},
+    "rack": {
+        "1bay_3lv": lambda: rack(1, 3),
+        "1bay_2lv": lambda: rack(1, 2, level_height=1.3),
+        "narrow_3lv": lambda: rack(1, 3, bay_width=1.9, depth=0.9),
+    },
+    "car": {
+        "sedan": car,
+        "hatchback": partial(car, 4.1, 1.75, 1.5),
+        "estate": partial(car, 4.8, 1.85, 1.5),
+    },
     "jack": {"standard": pallet_jack, "short": partial(pallet_jack, 0.9, 0.52)},
     "forklift": {"standard": forklift, "compact": partial(forklift, 2.0, 1.0)},
     "dolly": {"standard": dolly, "small": partial(dolly, 0.8, 0.6)},
@@ -226,22 +280,46 @@ VARIANTS = {
 }
 
 
-
-def rack_shelves(levels: int = 3, bay_width: float = 2.7, depth: float = 1.1, level_height: float = 1.0,
-                 post: float = 0.08) -> list[tuple[float, float, float, float]]:
+def rack_shelves(
+    levels: int = 3,
+    bay_width: float = 2.7,
+    depth: float = 1.1,
+    level_height: float = 1.0,
+    post: float = 0.08,
+) -> list[tuple[float, float, float, float]]:
     """The shelves of a one-bay :func:`rack`, bottom up: (deck top z, clear height under the
     next beams, inner width between the uprights, depth) in metres, in the rack's frame."""
-    return [(0.15 + lv * level_height + 0.12, level_height - 0.12, bay_width - 2 * post, depth)
-            for lv in range(levels)]
+    return [
+        (0.15 + lv * level_height + 0.12, level_height - 0.12, bay_width - 2 * post, depth)
+        for lv in range(levels)
+    ]
 
 
 # what the built-in racks can carry (scene building loads them)
-SHELVES = {"rack": {"1bay_3lv": rack_shelves(3), "1bay_2lv": rack_shelves(2, level_height=1.3),
-                    "narrow_3lv": rack_shelves(3, bay_width=1.9, depth=0.9)}}
+SHELVES = {
+    "rack": {
+        "1bay_3lv": rack_shelves(3),
+        "1bay_2lv": rack_shelves(2, level_height=1.3),
+        "narrow_3lv": rack_shelves(3, bay_width=1.9, depth=0.9),
+    }
+}
 
 # semantic ids of DESIGN.md's label map
-SEMANTIC = {"pallet": 1, "rack": 2, "car": 3, "jack": 4, "stillage": 5, "cabinet": 6, "dolly": 7,
-            "forklift": 8, "klt": 9, "conveyor": 0, "floor": 0, "wall": 0, "column": 0}
+SEMANTIC = {
+    "pallet": 1,
+    "rack": 2,
+    "car": 3,
+    "jack": 4,
+    "stillage": 5,
+    "cabinet": 6,
+    "dolly": 7,
+    "forklift": 8,
+    "klt": 9,
+    "conveyor": 0,
+    "floor": 0,
+    "wall": 0,
+    "column": 0,
+}
 STACKABLE = {"pallet", "klt", "stillage"}
 # classes with curved parts: their variants take ``segments=``
 CURVED = {"car", "jack", "forklift", "dolly"}
@@ -252,8 +330,10 @@ def check_segments(segments: Any, where: str) -> int | None:
     if segments is None:
         return None
     if isinstance(segments, bool) or not isinstance(segments, (int, np.integer)) or segments < 3:
-        raise ConfigError(f"{where}: segments must be an integer >= 3 (segments per circle) or None, "
-                          f"got {segments!r}")
+        raise ConfigError(
+            f"{where}: segments must be an integer >= 3 (segments per circle) or None, "
+            f"got {segments!r}"
+        )
     return int(segments)
 
 

@@ -4,6 +4,7 @@ Every part is a watertight trimesh; an asset is the concatenation of disjoint or
 parts, so it stays watertight (each edge shared by two faces) and the renderer may cull
 its back faces.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,7 +24,9 @@ def box_min(size, corner) -> trimesh.Trimesh:
     return box(size, corner + size / 2)
 
 
-def cylinder(radius: float, length: float, centre, axis: str = "z", sections: int = 16) -> trimesh.Trimesh:
+def cylinder(
+    radius: float, length: float, centre, axis: str = "z", sections: int = 16
+) -> trimesh.Trimesh:
     """Closed cylinder along ``axis`` ('x', 'y' or 'z')."""
     m = trimesh.creation.cylinder(radius=radius, height=length, sections=sections)
     if axis == "x":
@@ -34,8 +37,14 @@ def cylinder(radius: float, length: float, centre, axis: str = "z", sections: in
     return m
 
 
-def loft(stations: np.ndarray, half_width: np.ndarray, z_bottom: np.ndarray, z_top: np.ndarray,
-         ring: int = 16, exponent: float = 2.5) -> trimesh.Trimesh:
+def loft(
+    stations: np.ndarray,
+    half_width: np.ndarray,
+    z_bottom: np.ndarray,
+    z_top: np.ndarray,
+    ring: int = 16,
+    exponent: float = 2.5,
+) -> trimesh.Trimesh:
     """A closed body lofted through super-elliptic cross-sections along x.
 
     stations : (n,) x positions; half_width, z_bottom, z_top : (n,) section extents. Each
@@ -51,8 +60,13 @@ def loft(stations: np.ndarray, half_width: np.ndarray, z_bottom: np.ndarray, z_t
         a = half_width[i]
         zc, b = (z_top[i] + z_bottom[i]) / 2, (z_top[i] - z_bottom[i]) / 2
         verts.append(np.stack([np.full(ring, stations[i]), a * ce, zc + b * se], axis=1))
-    v = np.concatenate(verts + [[[stations[0], 0, (z_top[0] + z_bottom[0]) / 2]],
-                                [[stations[-1], 0, (z_top[-1] + z_bottom[-1]) / 2]]])
+    v = np.concatenate(
+        verts
+        + [
+            [[stations[0], 0, (z_top[0] + z_bottom[0]) / 2]],
+            [[stations[-1], 0, (z_top[-1] + z_bottom[-1]) / 2]],
+        ]
+    )
     faces = []
     for i in range(n - 1):
         for k in range(ring):
