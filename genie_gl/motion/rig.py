@@ -28,6 +28,7 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -173,28 +174,37 @@ class _RigSpec(BaseModel):
     sensors: list[_SensorSpec] = Field(min_length=1)
 
 
-def load_rig(name_or_path: str | os.PathLike) -> Rig:
-    """A rig from a YAML file (``rigs/<name>.yaml`` or a path); a mistake is one line naming
-    the file and the field."""
-    path = resolve(name_or_path, "rigs", (".yaml", ".yml"))
+def read_spec(
+    path: Path, model: type[BaseModel], item: type[BaseModel], what: str, items: str
+) -> Any:
+    """A rig file (``what``: "rig", "scanner rig") read into ``model``, whose ``items`` list holds
+    ``item`` records; a mistake is one line naming the file and the field (did-you-mean for an
+    unknown key)."""
     try:
-        data = yaml.safe_load(read_text(path, "rig (YAML)"))
+        data = yaml.safe_load(read_text(path, f"{what} (YAML)"))
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
     if not isinstance(data, dict):
-        raise ConfigError(f"{path}: a rig file is a mapping with a 'sensors' list")
+        raise ConfigError(f"{path}: a {what} file is a mapping with a '{items}' list")
     try:
-        spec = _RigSpec(**data)
+        return model(**data)
     except ValidationError as exc:
         e = exc.errors()[0]
         where = ".".join(str(p) for p in e["loc"]) or "?"
         if e["type"] == "extra_forbidden":
-            known = list((_SensorSpec if len(e["loc"]) > 1 else _RigSpec).model_fields)
+            known = list((item if len(e["loc"]) > 1 else model).model_fields)
             raise ConfigError(
                 f"{path}: {where}: unknown field{did_you_mean(str(e['loc'][-1]), known)}; "
                 f"expected {', '.join(known)}"
             ) from None
         raise ConfigError(f"{path}: {where} {e.get('input')!r:.60}: {e['msg']}") from None
+
+
+def load_rig(name_or_path: str | os.PathLike) -> Rig:
+    """A rig from a YAML file (``rigs/<name>.yaml`` or a path); a mistake is one line naming
+    the file and the field."""
+    path = resolve(name_or_path, "rigs", (".yaml", ".yml"))
+    spec = read_spec(path, _RigSpec, _SensorSpec, "rig", "sensors")
     sensors = []
     for k, s in enumerate(spec.sensors):
         beside = path.parent / s.profile

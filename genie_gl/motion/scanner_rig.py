@@ -28,12 +28,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from ..errors import ConfigError, did_you_mean
-from ..resources import read_text, resolve
-from .rig import NAME
+from ..errors import ConfigError
+from ..resources import resolve
+from .rig import NAME, read_spec
 from ..sensors.scanner import Scanner
 from ..effects.scanner_profile import load_scanner
 
@@ -137,24 +136,7 @@ def load_scanner_rig(name_or_path: str | os.PathLike) -> ScannerRig:
     """A scanner rig from ``rigs/<name>.lidar.yml`` or a path; a mistake is one line naming
     the file and the field."""
     path = resolve(name_or_path, "rigs", (SUFFIX,))
-    try:
-        data = yaml.safe_load(read_text(path, "scanner rig (YAML)"))
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"{path}: a scanner rig file is a mapping with a 'heads' list")
-    try:
-        spec = _RigSpec(**data)
-    except ValidationError as exc:
-        e = exc.errors()[0]
-        where = ".".join(str(p) for p in e["loc"]) or "?"
-        if e["type"] == "extra_forbidden":
-            known = list((_HeadSpec if len(e["loc"]) > 1 else _RigSpec).model_fields)
-            raise ConfigError(
-                f"{path}: {where}: unknown field{did_you_mean(str(e['loc'][-1]), known)}; "
-                f"expected {', '.join(known)}"
-            ) from None
-        raise ConfigError(f"{path}: {where} {e.get('input')!r:.60}: {e['msg']}") from None
+    spec = read_spec(path, _RigSpec, _HeadSpec, "scanner rig", "heads")
     heads = []
     for k, h in enumerate(spec.heads):
         beside = path.parent / h.profile
