@@ -79,6 +79,7 @@ class SceneView:
     shots : cameras, in time order.
     layout : genie_gl Layout or None.
     meshes : list of (vertices (V, 3) float32 world, faces (F, 3) uint32, semantic id, instance id).
+    ring : (N,) uint16 or None, each point's scanner channel (a scanner dataset's points).
     """
 
     name: str
@@ -90,6 +91,7 @@ class SceneView:
     shots: list[Shot] = field(default_factory=list)
     layout: object | None = None
     meshes: list = field(default_factory=list)
+    ring: np.ndarray | None = None
 
 
 def read_views(path: str | Path) -> list[SceneView]:
@@ -158,14 +160,26 @@ def _scene_view(folder: Path, name: str, manifest: dict) -> SceneView:
     for f in clouds:
         c = _cloud_file_view(f, name)
         parts.append((c.xyz, c.semantic, c.instance))
+    rings = []
+    for d in sorted(  # a scanner rig's heads: HEAD/NNNNNN.ply, one raw scan a file
+        d
+        for d in folder.iterdir()
+        if d.is_dir() and not d.name.isdigit() and not (d / "groundtruth.txt").is_file()
+    ):
+        for f in sorted(f for f in d.iterdir() if f.is_file() and f.suffix.lower() == ".ply"):
+            c = _ply_view(f, name)
+            parts.append((c.xyz, c.semantic, c.instance))
+            rings.append(c.ring if c.ring is not None else np.zeros(len(c.xyz), np.uint16))
     if parts:
         view.xyz = np.concatenate([p[0] for p in parts])
         view.semantic = np.concatenate([p[1] for p in parts]).astype(np.uint16)
         view.instance = np.concatenate([p[2] for p in parts]).astype(np.uint32)
+        if rings and sum(len(r) for r in rings) == len(view.xyz):
+            view.ring = np.concatenate(rings).astype(np.uint16)
     if not len(view.xyz) and not view.shots and view.world_from_body is None:
         raise ConfigError(
-            f"{folder}: holds nothing genie view can show (no scans velodyne/ or GG/, no TUM "
-            "sensor "
+            f"{folder}: holds nothing genie view can show (no scans velodyne/ or GG/, no scanner "
+            "head's HEAD/NNNNNN.ply, no TUM sensor "
             f"folder, no cloud file {'/'.join(CLOUD_SUFFIXES)}, no trajectory.txt); expected a "
             "dataset folder, a scene or capture folder of one, or a USD scene"
         )
@@ -403,6 +417,7 @@ def _ply_view(f: Path, name: str) -> SceneView:
         xyz,
         np.asarray(v["semantic"] if "semantic" in names else zeros, np.uint16),
         np.asarray(v["instance"] if "instance" in names else zeros, np.uint32),
+        ring=np.asarray(v["ring"], np.uint16) if "ring" in names else None,
     )
 
 

@@ -76,6 +76,16 @@ def instance_colors(instance: np.ndarray) -> np.ndarray:
     return rgb
 
 
+def ring_colors(ring: np.ndarray) -> np.ndarray:
+    """(N, 3) uint8 colours of scanner channels: a hue wheel over the channels, lowest blue."""
+    r = np.asarray(ring, np.float64)
+    t = (r - r.min()) / max(float(r.max() - r.min()), 1.0) if len(r) else r
+    hue = 0.66 * (1.0 - t)  # 0.66 (blue) for the lowest channel, 0 (red) for the highest
+    k = (np.stack([hue + 1 / 3, hue, hue - 1 / 3], 1) * 6.0) % 6.0
+    rgb = np.clip(np.minimum(k, 4.0 - k), 0.0, 1.0)
+    return (255 * rgb).astype(np.uint8)
+
+
 def stride(n: int, max_points: int) -> int:
     """The smallest k for which every k-th of ``n`` points is at most ``max_points``."""
     return max(1, -(-n // max(1, max_points)))
@@ -148,15 +158,27 @@ def blueprint(views: list[SceneView]):
         views3d = rrb.Tabs(
             rrb.Spatial3DView(
                 origin=root,
-                contents=["$origin/**", "-$origin/cloud/instance"],
+                contents=["$origin/**", "-$origin/cloud/instance", "-$origin/cloud/ring"],
                 name="classes",
                 eye_controls=eye,
             ),
             rrb.Spatial3DView(
                 origin=root,
-                contents=["$origin/**", "-$origin/cloud/class"],
+                contents=["$origin/**", "-$origin/cloud/class", "-$origin/cloud/ring"],
                 name="instances",
                 eye_controls=eye,
+            ),
+            *(
+                [
+                    rrb.Spatial3DView(
+                        origin=root,
+                        contents=["$origin/**", "-$origin/cloud/class", "-$origin/cloud/instance"],
+                        name="rings",
+                        eye_controls=eye,
+                    )
+                ]
+                if v.ring is not None
+                else []
             ),
         )
         side = []
@@ -204,6 +226,14 @@ def _log_scene(rr, rec, v: SceneView, max_points: int) -> None:
             rr.AnyValues(instance_id=inst.astype(np.uint32)),
             static=True,
         )
+        if v.ring is not None:  # a scanner's points by channel
+            ring = v.ring[::k]
+            rec.log(
+                f"{root}/world/cloud/ring",
+                rr.Points3D(xyz, colors=ring_colors(ring), radii=POINT_RADIUS),
+                rr.AnyValues(ring=ring.astype(np.uint16)),
+                static=True,
+            )
     for n, (verts, faces, sem, inst) in enumerate(v.meshes):
         rec.log(
             f"{root}/world/meshes/{n:05d}",

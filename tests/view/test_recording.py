@@ -179,3 +179,39 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys):
     with pytest.raises(ConfigError, match="not written by genie-gl"):
         write_rrd(views or [SceneView("x", np.zeros((1, 3)))], tmp_path / "mine.rrd")
     assert (tmp_path / "mine.rrd").read_text() == "my notes"
+
+
+def test_a_scanner_dataset_gives_every_heads_points_by_class_and_by_ring(tmp_path):
+    from plyfile import PlyData
+
+    from genie_gl.dataset.config import DatasetConfig
+    from genie_gl.dataset.run import run_dataset
+
+    out = tmp_path / "scans"
+    cfg = dict(
+        strategy="storage_area",
+        scenes=1,
+        capture="scans",
+        rig="forklift_vlp16",
+        duration_s=0.2,
+        format="ply",
+        workers=1,
+        seed=2,
+        previews=0,
+        out=str(out),
+    )
+    run_dataset(DatasetConfig.parse(cfg), progress=False)
+    files = sorted((out / "scenes" / "0000").glob("*/*.ply"))
+    assert files
+    rows = [PlyData.read(str(f))["vertex"] for f in files]  # plyfile: an independent reader
+    xyz = np.concatenate([np.stack([r["x"], r["y"], r["z"]], 1) for r in rows])
+    ring = np.concatenate([r["ring"] for r in rows])
+    sem = np.concatenate([r["semantic"] for r in rows])
+    assert len(xyz) > 1000 and len(np.unique(ring)) > 8
+    got = chunks(write_rrd(read_views(out), tmp_path / "v.rrd"))
+    positions = np.array(column(got["/scene_0000/world/cloud/class"], "Points3D:positions")[0])
+    np.testing.assert_allclose(positions, xyz, atol=1e-4)
+    np.testing.assert_array_equal(
+        column(got["/scene_0000/world/cloud/class"], "Points3D:class_ids")[0], sem
+    )
+    np.testing.assert_array_equal(column(got["/scene_0000/world/cloud/ring"], "ring")[0], ring)
