@@ -75,7 +75,7 @@ def _dataset_run(args: argparse.Namespace, workers: int) -> dict:
         "--no-progress",
         "--out",
         str(tmp / "out"),
-    ]
+    ] + (["--raster", args.raster] if getattr(args, "raster", None) else [])
     load = os.getloadavg()[0]
     t = time.perf_counter()
     try:
@@ -115,7 +115,7 @@ def dataset_runs(args: argparse.Namespace) -> list[dict]:
     runs = [_dataset_run(args, w) for _ in range(args.repeats) for w in counts]
     print(
         f"genie dataset assembly_line: {args.scenes} scenes x {args.cameras} cameras ({args.sensor}"
-        "), "
+        f", raster {getattr(args, 'raster', None) or 'default'}), "
         f"{args.repeats} runs per worker count, {os.cpu_count()} cores; load average (1 min) at "
         "the starts: " + ", ".join(f"{r['load_avg_1min']:.1f}" for r in runs)
     )

@@ -127,6 +127,13 @@ def _pipeline(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repeats", type=count(1, 1000), default=2, help="runs per worker count")
     p.add_argument("--unprojection-only", action="store_true", help="only the unprojection figures")
     p.add_argument("--dataset-only", action="store_true", help="only the dataset runs")
+    p.add_argument(
+        "--raster",
+        choices=("cpu", "gl"),
+        default=None,
+        help="the dataset runs' raster (default: genie dataset's, the CPU raster without a "
+        "hardware GPU)",
+    )
 
 
 def _stability(p: argparse.ArgumentParser) -> None:
