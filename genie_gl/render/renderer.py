@@ -25,8 +25,9 @@ from ..limits import BYTES_PER_PIXEL, MAX_SIDE, check_frame_side, check_memory, 
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
-from ..triangles import PixelTriangles, SceneTriangles
+from ..triangles import SceneTriangles
 from .clusters import Clusters, prepare
+from .fragments import Fragments, no_triangles
 from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
 from .cull import TriangleCuller
 from .lod import LevelOfDetail, simplified
@@ -37,6 +38,7 @@ from .rasters import resolve_raster
 from .readback import semantic_table
 from .readout import Readout
 from .shader import load_program
+from .shading import shade, to_frame
 from .visibility import Visibility
 
 # one row per drawn instance: camera_from_model (3 rows), ids, colour
@@ -700,65 +702,56 @@ class Renderer(Visibility, Readout):
         near = float(sensor.clip_near_m)
         out = frame_buffers(H, W, color, normals, triangles)
         seen = self._visible(pose, K, W, H, near, only)
-        fields = self._no_triangles() if triangles else None
-        depth = hit = None
-        drawn = faces = 0
-        ids_only = False
+        drawn_triangles = no_triangles(self._ids, self._rows["semantic"]) if triangles else None
+        fragments = Fragments(H, W, None, None, out)
+        drawn = faces = simplified = 0
         face0 = np.zeros(len(self._mesh), np.int64)
         cfm = np.zeros((max(1, len(self._mesh)), 3, 4))
         if seen is not None:
-            cfm, slots, m, backcull, eye = seen
+            cfm, slots, m = seen.camera_from_model, seen.slots, seen.mesh
             r = self._rasteriser
             r.face_vbase(self._vbase, self._fbase, self._nfaces)
             ids_only = not (color or normals or triangles) and H * W > 1
-            depth, hit = r.draw(
+            inverse_z, winner = r.draw(
                 slots,
                 m,
-                backcull,
+                seen.backcull,
                 cfm,
-                eye,
+                seen.eye,
                 self._det[slots],
                 K,
                 W,
                 H,
                 near,
-                self._planes,
+                seen.planes,
                 self.cull,
                 (self._ids, self._rows["semantic"], sensor.near_m, sensor.far_m, out)
                 if ids_only
                 else None,
             )
+            fragments = Fragments(H, W, inverse_z, winner, out, shaded=ids_only)
             face0[slots] = self._fbase[m]
-            drawn, faces = len(slots), int(self._nfaces[m].sum())
+            drawn, faces, simplified = len(slots), int(self._nfaces[m].sum()), seen.simplified
             if triangles:
-                first, count, base, cull, _, _, ids, sem, mesh_first, mesh_count = fields
-                first[slots], count[slots], base[slots], cull[slots] = (
+                d = drawn_triangles
+                d.first[slots], d.count[slots], d.base_vertex[slots], d.backcull[slots] = (
                     self._fbase[m],
                     self._nfaces[m],
                     self._vbase[m],
-                    backcull,
+                    seen.backcull,
                 )
-                mesh_first[slots], mesh_count[slots] = self._fbase[m], self._nfaces[m]
-                fields = (
-                    first,
-                    count,
-                    base,
-                    cull,
-                    cfm,
-                    self._culler.faces.reshape(-1),
-                    ids,
-                    sem,
-                    mesh_first,
-                    mesh_count,
+                d.mesh_first[slots], d.mesh_count[slots] = self._fbase[m], self._nfaces[m]
+                drawn_triangles = d._replace(
+                    camera_from_model=cfm, indices=self._culler.faces.reshape(-1)
                 )
         t1 = time.perf_counter()
         rgb = self._rows["color"][:, :3] if len(self._mesh) else np.zeros((1, 3), np.uint8)
-        if (
-            depth is None or not ids_only
-        ):  # (a frame of depth and ids alone was filled as it was drawn)
-            self._rasteriser.shade(
-                depth,
-                hit,
+        if not fragments.shaded:  # (a frame of depth and ids alone was filled as it was drawn)
+            shade(
+                fragments,
+                self._culler.vertices,
+                self._culler.faces,
+                self._rasteriser.face_vbase(self._vbase, self._fbase, self._nfaces),
                 cfm,
                 self._ids,
                 self._rows["semantic"],
@@ -767,7 +760,6 @@ class Renderer(Visibility, Readout):
                 K,
                 sensor.near_m,
                 sensor.far_m,
-                out,
             )
         t2 = time.perf_counter()
         self.stats = {
@@ -776,24 +768,19 @@ class Renderer(Visibility, Readout):
             "readback_s": t2 - t1,
             "instances_drawn": drawn,
             "triangles_drawn": faces,
-            "instances_simplified": self._lod_drawn,
+            "instances_simplified": simplified,
             "occlusion_culled": False,
         }
-        tri = (
-            PixelTriangles(out["primitive"], *fields, self._triangle_scene(), near)
-            if triangles
-            else None
-        )
-        return Frame(
-            out["depth"],
-            out["instance"],
-            out["semantic"],
-            out["rgba"][..., :3] if color else None,
+        return to_frame(
+            out,
             sensor,
             pose,
-            out["normal"] if normals else None,
-            {"render_ms": 1e3 * (t2 - t0)},
-            tri,
+            color,
+            normals,
+            drawn_triangles,
+            self._triangle_scene() if triangles else None,
+            near,
+            1e3 * (t2 - t0),
         )
 
     def _flush(self) -> None:
@@ -815,23 +802,6 @@ class Renderer(Visibility, Readout):
         clipped and what lies behind it shows (the float depth modes give no return)."""
         return float(sensor.near_m if self.depth_precision == "depth24" else sensor.clip_near_m)
 
-    def _no_triangles(self) -> tuple:
-        """The per-slot fields of :class:`PixelTriangles` (after ``pixel``) of a frame that
-        draws nothing yet."""
-        n = len(self._mesh)
-        return (
-            np.full(n, -1, np.int64),
-            np.zeros(n, np.int64),
-            np.zeros(n, np.int64),
-            np.zeros(n, bool),
-            np.zeros((n, 3, 4)),
-            np.zeros(0, np.uint32),
-            self._ids,
-            self._rows["semantic"].astype(np.uint16),
-            np.zeros(n, np.int64),
-            np.zeros(n, np.int64),
-        )
-
     def _commands(
         self,
         pose: np.ndarray,
@@ -847,11 +817,12 @@ class Renderer(Visibility, Readout):
         instance. With ``triangles``, ``self._frame_triangles`` is set to what turns a pixel's
         (slot, triangle) into vertices (the fields of :class:`PixelTriangles` after ``pixel``)."""
         if triangles:
-            self._frame_triangles = self._no_triangles()
+            self._frame_triangles = no_triangles(self._ids, self._rows["semantic"])
         seen = self._visible(pose, K, W, H, near, only)
+        self._lod_drawn = 0 if seen is None else seen.simplified
         if seen is None:
             return []
-        cfm, slots, m, backcull, eye = seen
+        cfm, slots, m, backcull, eye = seen[:5]
         self._check_reach(cfm, slots, m)
         self._rows["rows"] = cfm
         inst_buf, dyn_ibo, _ = self._stream(parity)
@@ -877,7 +848,7 @@ class Renderer(Visibility, Readout):
                 W,
                 H,
                 near,
-                self._planes,
+                seen.planes,
                 occlusion,
             )
             if indices.nbytes > dyn_ibo.size:  # same buffer name: the vertex arrays stay valid
