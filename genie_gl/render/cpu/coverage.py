@@ -1,6 +1,6 @@
 """One cluster's triangles on the pixel centres: the CPU rasteriser's inner kernels.
 
-:mod:`genie_gl.render.raster` runs a frame: which clusters may show, in what order, which
+:mod:`genie_gl.render.cpu.raster` runs a frame: which clusters may show, in what order, which
 thread draws which columns. This module draws one cluster into one thread's columns, and
 tells the frame which clusters can be skipped.
 
@@ -14,6 +14,10 @@ tells the frame which clusters can be skipped.
   (homogeneous edge functions in float64; see the rasteriser's module docstring), with
   occlusion tiles (:func:`_hidden`, :func:`_refresh`) skipping what lies behind what is
   already drawn, and the depth test with its tie rule (:func:`_write`).
+
+:func:`_write` is where the CPU raster decides a pixel's winner, the one place: the nearest
+float64 depth along the pixel centre's ray, ties (equal float64 z) to the lower (instance
+slot, face).
 """
 
 from __future__ import annotations
@@ -23,9 +27,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..jit import njit
-from .clusters import CLUSTER
-from .cull import _cone_drops, shares_cell, sphere_in_view
+from ...jit import njit
+from ..clusters import CLUSTER
+from ..cull import _cone_drops, shares_cell, sphere_in_view
 
 SHIFT = 3
 TILE = 1 << SHIFT  # pixels: the side of an occlusion tile
@@ -124,7 +128,8 @@ def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
 def _write(zb, who, dirty, iu, iv, Wi, iz, key, inear):
     """The depth test of a hit at pixel (iu, iv) of inverse depth ``iz`` = (n·d) / A·(B x C)
     (larger is nearer; no hit nearer than the near plane, 1 / ``inear``): it wins over what
-    the pixel holds when nearer, or as near and of a lower (slot, face) ``key``."""
+    the pixel holds when nearer, or as near and of a lower (slot, face) ``key`` (slot << 32 |
+    face). The CPU raster's winner rule, decided here and nowhere else."""
     p = iv * Wi + iu
     held = zb[p]
     if iz <= inear and (iz > held or (iz == held and key < who[p])):

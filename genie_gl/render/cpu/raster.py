@@ -1,6 +1,7 @@
 """The CPU rasteriser: per pixel centre, the nearest triangle along its ray (numba, parallel).
 
-``Renderer(scene, raster="cpu")`` draws with this instead of OpenGL. It visits the same
+:class:`~genie_gl.render.cpu.renderer.CPURenderer` (what ``Renderer(scene, raster="cpu")``
+makes) draws with this instead of OpenGL. It visits the same
 hierarchy as the culler (:mod:`genie_gl.render.cull`): instances outside the frustum are
 dropped before anything here runs; per cluster, its bounding sphere against the frustum and,
 for back-face-culled instances, its normal cone; then each triangle of the clusters that pass.
@@ -16,7 +17,11 @@ two vertices in the same order of operations (no fused multiply-add: the kernels
 without ``fastmath``), so the two triangles of an edge give exact negatives and a pixel
 centre on it belongs to both: there are no cracks between triangles.
 
-Depth ties (equal float64 z) go to the lower (instance slot, face). Each thread draws column
+Where a pixel's winner is decided: :func:`~genie_gl.render.cpu.coverage._write`, the one
+depth test, for every hit of every triangle: the nearest float64 depth wins; ties (equal
+float64 z) go to the lower (instance slot, face). The winners are handed on as
+:class:`~genie_gl.render.fragments.Fragments` (1 / z and slot << 32 | face per pixel) and
+shaded by :mod:`genie_gl.render.shading`. Each thread draws column
 strips of its own (no pixel is written by two threads), so a frame does not depend on the
 number of threads or on the order the clusters are visited.
 
@@ -26,7 +31,7 @@ centre in float64 (GL: sub-pixel fixed point and its fill rule), no GL context, 
 no read-back. Sub-pixel triangles, most of a scene of millions, cost a box test each.
 
 This module runs a frame (which clusters may show, nearest first, which thread draws which
-columns) and fills the frame's arrays; :mod:`genie_gl.render.coverage` draws one cluster.
+columns) and fills the frame's arrays; :mod:`genie_gl.render.cpu.coverage` draws one cluster.
 """
 
 from __future__ import annotations
@@ -36,10 +41,10 @@ import math
 import numba
 import numpy as np
 
-from ..jit import njit, prange
-from .clusters import CLUSTER
+from ...jit import njit, prange
+from ..clusters import CLUSTER
+from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View, projection
 from .coverage import SHIFT, TILE, Centres, Scratch, _bound_cluster, _draw_cluster
-from .geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View, projection
 
 PARALLEL_FACES = 5_000  # below this many faces in view, one thread draws a frame
 
