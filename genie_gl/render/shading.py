@@ -18,6 +18,7 @@ its bytes); its read-back decodes them with the same range rule
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -27,6 +28,41 @@ from ..sensors.camera import Sensor
 from ..triangles import PixelTriangles, SceneTriangles
 from .fragments import DrawnTriangles, Fragments
 from .geometry import projection
+
+
+class MeshArrays(NamedTuple):
+    """The scene's meshes as uploaded: ``vertices`` (V, 3) float32 and ``faces`` (F, 3)
+    uint32 joined, mesh after mesh, and per face its mesh's first vertex row ``face_vbase``
+    (F,) int64."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    face_vbase: np.ndarray
+
+
+class SlotShading(NamedTuple):
+    """Per instance slot (N): ``camera_from_model`` (N, 3, 4) float64, ``instance`` (N,)
+    uint32 and ``semantic`` (N,) ids, RGB ``color`` (N, 3) uint8, and ``face0`` (N,) int64,
+    its mesh's first face in the joined faces."""
+
+    camera_from_model: np.ndarray
+    instance: np.ndarray
+    semantic: np.ndarray
+    color: np.ndarray
+    face0: np.ndarray
+
+
+class FrameArrays(NamedTuple):
+    """A frame's arrays, H x W flattened: ``depth`` (float32), ``instance`` (uint32),
+    ``semantic`` (uint16), ``rgba`` (H W, 4) uint8, ``normal`` (H W, 3) float32,
+    ``primitive`` (H W, 2) uint32 (one row each where not asked for)."""
+
+    depth: np.ndarray
+    instance: np.ndarray
+    semantic: np.ndarray
+    rgba: np.ndarray
+    normal: np.ndarray
+    primitive: np.ndarray
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
@@ -42,36 +78,26 @@ def _vertex(vertices, vi, m, r):
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
 def _shade(
-    depth,
-    hit,
-    vertices,
-    faces,
-    fvbase,
-    cfm,
-    ids,
-    sems,
-    color,
-    slot_face0,
-    proj,
-    near_m,
-    far_m,
-    width,
-    out_depth,
-    out_instance,
-    out_semantic,
-    out_rgb,
-    out_normal,
-    out_tri,
-    want_rgb,
-    want_normal,
-    want_tri,
+    depth, hit, mesh, slots, proj, near_m, far_m, width, out, want_rgb, want_normal, want_tri
 ):
-    """The frame's targets from the drawn buffers, row by row in parallel: z in [near_m,
-    far_m] (else no return), instance and semantic ids, and on request the face normal
-    (camera frame, towards the eye), the colour (the instance's, Lambert with a head light,
-    as the GL shader) and the (slot + 1, face within the slot's mesh) of every pixel a
-    triangle won, in range or not. A face's unit normal is computed once per run of pixels
-    that show it."""
+    """The frame's arrays ``out`` (:class:`FrameArrays`) from the drawn buffers (``depth``:
+    (H W,) float64 1 / z, 0 where nothing; ``hit``: slot << 32 | face), row by row in
+    parallel: z in [near_m, far_m] (else no return), instance and semantic ids, and on
+    request the face normal (camera frame, towards the eye), the colour (the instance's,
+    Lambert with a head light, as the GL shader) and the (slot + 1, face within the slot's
+    mesh) of every pixel a triangle won, in range or not; ``mesh``: the scene's
+    :class:`MeshArrays`, ``slots``: the :class:`SlotShading`. A face's unit normal is
+    computed once per run of pixels that show it."""
+    vertices, faces, fvbase = mesh.vertices, mesh.faces, mesh.face_vbase
+    cfm, ids, sems, color, slot_face0 = (
+        slots.camera_from_model,
+        slots.instance,
+        slots.semantic,
+        slots.color,
+        slots.face0,
+    )
+    out_depth, out_instance, out_semantic = out.depth, out.instance, out.semantic
+    out_rgb, out_normal, out_tri = out.rgba, out.normal, out.primitive
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     W = int(width)
     rows = len(depth) // W
@@ -186,24 +212,20 @@ def shade(
     _shade(
         fragments.inverse_z,
         fragments.winner,
-        vertices,
-        faces,
-        face_vbase,
-        cfm,
-        ids,
-        semantic,
-        color,
-        slot_face0,
+        MeshArrays(vertices, faces, face_vbase),
+        SlotShading(cfm, ids, semantic, color, slot_face0),
         projection(K),
         float(near_m),
         float(far_m),
         fragments.width,
-        out["depth"].reshape(-1),
-        out["instance"].reshape(-1),
-        out["semantic"].reshape(-1),
-        out["rgba"].reshape(-1, 4) if want_rgb else np.zeros((1, 4), np.uint8),
-        out["normal"].reshape(-1, 3) if want_normal else np.zeros((1, 3), np.float32),
-        out["primitive"].reshape(-1, 2) if want_tri else np.zeros((1, 2), np.uint32),
+        FrameArrays(
+            out["depth"].reshape(-1),
+            out["instance"].reshape(-1),
+            out["semantic"].reshape(-1),
+            out["rgba"].reshape(-1, 4) if want_rgb else np.zeros((1, 4), np.uint8),
+            out["normal"].reshape(-1, 3) if want_normal else np.zeros((1, 3), np.float32),
+            out["primitive"].reshape(-1, 2) if want_tri else np.zeros((1, 2), np.uint32),
+        ),
         want_rgb,
         want_normal,
         want_tri,
