@@ -77,7 +77,6 @@ class CPURenderer(Renderer, raster="cpu"):
         if seen is not None:
             cfm, slots, m = seen.camera_from_model, seen.slots, seen.mesh
             r = self._rasteriser
-            r.face_vbase(self._vbase, self._fbase, self._nfaces)
             ids_only = not (color or normals or triangles) and H * W > 1
             inverse_z, winner = r.draw(
                 slots,
