@@ -66,6 +66,18 @@ class FrameArrays(NamedTuple):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def in_range(inverse_z, near_m, far_m):
+    """The view z (m) of a winner of inverse depth ``inverse_z`` (1/m; 0: no hit) when it lies
+    within the sensor's range [near_m, far_m], else 0.0 (no return): the CPU raster's range
+    rule, for :func:`_shade` and for the frame of depth and ids its kernel fills as it draws."""
+    if inverse_z > 0.0:
+        z = 1.0 / inverse_z
+        if z >= near_m and z <= far_m:
+            return z
+    return 0.0
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def _vertex(vertices, vi, m, r):
     """Row r of camera_from_model ``m`` applied to vertex ``vi`` (float64)."""
     return (
@@ -106,7 +118,7 @@ def _shade(
         ux = uy = uz = 0.0
         for p in range(v * W, (v + 1) * W):
             h = hit[p] if depth[p] > 0.0 else np.int64(-1)
-            z = 1.0 / depth[p] if h >= 0 else 0.0
+            z = in_range(depth[p], near_m, far_m)
             if want_tri:
                 if h < 0:
                     out_tri[p, 0] = 0
@@ -116,7 +128,7 @@ def _shade(
                     out_tri[p, 1] = np.uint32(
                         (h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)]
                     )
-            if h < 0 or z < near_m or z > far_m:
+            if z == 0.0:  # no hit, or out of range
                 out_depth[p] = 0.0
                 out_instance[p] = 0
                 out_semantic[p] = 0

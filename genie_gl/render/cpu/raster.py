@@ -44,6 +44,7 @@ import numpy as np
 from ...jit import njit, prange
 from ..clusters import CLUSTER
 from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View, projection
+from ..shading import in_range
 from .coverage import SHIFT, TILE, Centres, Scratch, _bound_cluster, _draw_cluster
 
 PARALLEL_FACES = 5_000  # below this many faces in view, one thread draws a frame
@@ -184,9 +185,8 @@ def _raster(geo, inst, view, T, zb, who, tmin, tally, cull, ids_out):
         if len(out_depth) > 1:  # the strip's depth and ids at once (as :func:`_shade` makes them)
             for r in range(H):
                 for p in range(r * W + cut[t], r * W + cut[t + 1]):
-                    d = zb[p]
-                    z = 1.0 / d if d > 0.0 else 0.0
-                    if d > 0.0 and z >= near_m and z <= far_m:
+                    z = in_range(zb[p], near_m, far_m)
+                    if z > 0.0:
                         sl = who[p] >> np.int64(32)
                         out_depth[p] = np.float32(z)
                         out_instance[p] = ids[sl]
