@@ -174,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         backend = os.environ.get("GENIE_GL_BACKEND")
         if backend:
-            from .render.context import set_default_backend
+            from .render.gl.context import set_default_backend
 
             set_default_backend(backend)
         return int(importlib.import_module(args._module).run(args) or 0)

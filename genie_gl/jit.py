@@ -3,8 +3,8 @@ kernel's module and the package modules it imports are unchanged.
 
 numba keeps a compiled kernel (``cache=True``) until the file that defines it changes: its
 stamp hashes that one file. A kernel compiles in the kernels it calls from other modules
-(the exact raster's frame kernel in :mod:`genie_gl.render.raster` draws with
-:mod:`genie_gl.render.coverage`'s), so a change to a called module alone would leave the old
+(the exact raster's frame kernel in :mod:`genie_gl.render.cpu.raster` draws with
+:mod:`genie_gl.render.cpu.coverage`'s), so a change to a called module alone would leave the old
 code running, with no error, until the calling file changed too. Every kernel module takes
 ``njit`` from here; importing this module first gives numba cache locators whose stamp
 hashes the kernel's module and every module of the package it imports, directly or not (once

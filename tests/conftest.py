@@ -16,7 +16,7 @@ from datetime import timedelta
 import pytest
 from hypothesis import HealthCheck, settings
 
-from genie_gl.render.context import contexts_created, create_context, is_shared, live_contexts
+from genie_gl.render.gl.context import contexts_created, create_context, is_shared, live_contexts
 
 settings.register_profile(
     "ci",

@@ -5,7 +5,7 @@ modules; numba's own stamp hashes only the file that defines it)."""
 import numba
 
 from genie_gl import jit
-from genie_gl.render import raster
+from genie_gl.render.cpu import raster
 
 
 def test_the_package_kernels_are_cached_under_their_modules_stamp():

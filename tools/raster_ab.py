@@ -1,5 +1,5 @@
 """The exact raster of the work tree against that of a git revision, side by side in one
-process: both versions' kernels (``render/coverage.py`` and ``render/raster.py`` as one
+process: both versions' kernels (``render/cpu/coverage.py`` and ``render/cpu/raster.py`` as one
 module each, loaded from temporary files) draw a benchmark scene's 40 poses in turns, pose by
 pose, the order flipping each round; a pose's time is its least over the rounds (process CPU
 time with one thread, wall time with more), and the ratio is of the sums.
@@ -8,6 +8,7 @@ time with one thread, wall time with more), and the ratio is of the sums.
 """
 
 import importlib.util
+import re
 import subprocess
 import sys
 import tempfile
@@ -19,7 +20,8 @@ import numpy as np
 
 from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
-from genie_gl.render import Renderer, raster
+from genie_gl.render import Renderer
+from genie_gl.render.cpu import raster
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -27,13 +29,12 @@ ROOT = Path(__file__).resolve().parent.parent
 def kernel(coverage: str, frame: str, where: Path, name: str):
     """The frame kernel of one version (the two modules' sources) as a module of its own."""
     source = coverage + frame.replace("from __future__ import annotations\n", "")
-    source = source.replace(
-        "from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", ""
-    )
+    source = re.sub(r"^from \.coverage import .*\n", "", source, flags=re.M)
     for old, new in (
-        ("from .clusters", "from genie_gl.render.clusters"),
-        ("from .cull", "from genie_gl.render.cull"),
-        ("from ..jit", "from genie_gl.jit"),
+        ("from ..clusters", "from genie_gl.render.clusters"),
+        ("from ..cull", "from genie_gl.render.cull"),
+        ("from ..geometry", "from genie_gl.render.geometry"),
+        ("from ...jit", "from genie_gl.jit"),
     ):
         source = source.replace(old, new)
     path = where / f"{name}.py"
@@ -46,13 +47,13 @@ def kernel(coverage: str, frame: str, where: Path, name: str):
 
 def at(rev: str, name: str) -> str:
     got = subprocess.run(
-        ["git", "-C", str(ROOT), "show", f"{rev}:genie_gl/render/{name}"],
+        ["git", "-C", str(ROOT), "show", f"{rev}:genie_gl/render/cpu/{name}"],
         capture_output=True,
         text=True,
     )
     if got.returncode:
         sys.exit(
-            f"raster_ab.py: revision {rev!r}: no genie_gl/render/{name} there "
+            f"raster_ab.py: revision {rev!r}: no genie_gl/render/cpu/{name} there "
             f"({got.stderr.strip()})"
         )
     return got.stdout
@@ -77,8 +78,8 @@ def main() -> None:
         kernels = {
             rev: kernel(at(rev, "coverage.py"), at(rev, "raster.py"), Path(tmp), "ab_base"),
             "work tree": kernel(
-                (ROOT / "genie_gl/render/coverage.py").read_text(),
-                (ROOT / "genie_gl/render/raster.py").read_text(),
+                (ROOT / "genie_gl/render/cpu/coverage.py").read_text(),
+                (ROOT / "genie_gl/render/cpu/raster.py").read_text(),
                 Path(tmp),
                 "ab_new",
             ),

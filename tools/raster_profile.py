@@ -13,6 +13,7 @@ costs. Numba compiles each cut once (a minute or two on a first run).
 """
 
 import importlib.util
+import re
 import inspect
 import sys
 import tempfile
@@ -24,7 +25,8 @@ import numpy as np
 
 from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
-from genie_gl.render import Renderer, coverage, raster
+from genie_gl.render import Renderer
+from genie_gl.render.cpu import coverage, raster
 
 CUTS = (
     (
@@ -56,13 +58,14 @@ def variant(source: str, old: str | None, new: str | None, where: Path, k: int):
     if old is not None:
         assert source.count(old) == 1, old
         source = source.replace(old, new)
-    source = source.replace("from .clusters", "from genie_gl.render.clusters").replace(
-        "from .cull", "from genie_gl.render.cull"
-    )
-    source = source.replace("from ..jit", "from genie_gl.jit")
-    source = source.replace(
-        "from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", ""
-    )
+    source = re.sub(r"^from \.coverage import .*\n", "", source, flags=re.M)
+    for old, new in (
+        ("from ..clusters", "from genie_gl.render.clusters"),
+        ("from ..cull", "from genie_gl.render.cull"),
+        ("from ..geometry", "from genie_gl.render.geometry"),
+        ("from ...jit", "from genie_gl.jit"),
+    ):
+        source = source.replace(old, new)
     path = where / f"raster_cut{k}.py"
     path.write_text(source)
     spec = importlib.util.spec_from_file_location(f"raster_cut{k}", path)
@@ -108,18 +111,18 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for k, (label, old, new) in enumerate(CUTS):
             raster._raster = variant(source, old, new, Path(tmp), k)._raster if old else kernel
-            cfm, slots, m, bc, eye = r._visible(
-                poses[0], K, W, H, near, None
-            )  # compile the cut as it is timed
-            r._rasteriser.draw(slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, r._planes)
+            seen = r._visible(poses[0], K, W, H, near, None)  # compile the cut as it is timed
+            cfm, slots, m, bc, eye = seen[:5]
+            r._rasteriser.draw(slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, seen.planes)
             best, counts = np.inf, np.zeros(8)
             for _ in range(repeats):
                 c = time.process_time()
                 counts[:] = 0
                 for p in poses:
-                    cfm, slots, m, bc, eye = r._visible(p, K, W, H, near, None)
+                    seen = r._visible(p, K, W, H, near, None)
+                    cfm, slots, m, bc, eye = seen[:5]
                     r._rasteriser.draw(
-                        slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, r._planes
+                        slots, m, bc, cfm, eye, r._det[slots], K, W, H, near, seen.planes
                     )
                     counts += r._rasteriser.counts
                 best = min(best, (time.process_time() - c) / len(poses))

@@ -8,6 +8,7 @@ scene's 40 poses: cycles of the cluster bounds (parallel), of the order and stri
 """
 
 import importlib.util
+import re
 import inspect
 import sys
 import tempfile
@@ -19,7 +20,8 @@ import numpy as np
 
 from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
-from genie_gl.render import Renderer, coverage, raster
+from genie_gl.render import Renderer
+from genie_gl.render.cpu import coverage, raster
 
 CLOCK = """from numba import types as _types
 from numba.core import cgutils as _cgutils
@@ -53,13 +55,14 @@ def instrumented(where: Path):
     source = inspect.getsource(coverage) + inspect.getsource(raster).replace(
         "from __future__ import annotations\n", ""
     )
-    source = source.replace(
-        "from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster\n", ""
-    )
-    source = source.replace("from .clusters", "from genie_gl.render.clusters").replace(
-        "from .cull", "from genie_gl.render.cull"
-    )
-    source = source.replace("from ..jit", "from genie_gl.jit")
+    source = re.sub(r"^from \.coverage import .*\n", "", source, flags=re.M)
+    for old, new in (
+        ("from ..clusters", "from genie_gl.render.clusters"),
+        ("from ..cull", "from genie_gl.render.cull"),
+        ("from ..geometry", "from genie_gl.render.geometry"),
+        ("from ...jit", "from genie_gl.jit"),
+    ):
+        source = source.replace(old, new)
     for old, before in MARKS:
         assert source.count(old) == 1, old
         source = source.replace(old, before + old)

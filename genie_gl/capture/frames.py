@@ -21,7 +21,7 @@ from ..validation.arguments import capture_arguments, check_pose, describe, expe
 from ..errors import ConfigError
 from ..frame import Frame
 from ..limits import check_frames
-from ..render.context import GLContext
+from ..render.gl.context import GLContext
 from ..render.rasters import resolve_raster
 from ..render.renderer import Renderer
 from ..scene.materials import MaterialTable

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..frame import Frame
 from ..processes import die_with_parent, pool_started
-from ..render.context import default_backend
+from ..render.gl.context import default_backend
 from ..render.lod import LevelOfDetail
 from ..render.renderer import Renderer
 from ..render.threads import limit_threads

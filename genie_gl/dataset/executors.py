@@ -17,7 +17,7 @@ from tqdm import tqdm
 
 from ..cloud.tally import spare_core
 from ..processes import die_with_parent, say_when_compiling
-from ..render.context import default_backend, set_default_backend
+from ..render.gl.context import default_backend, set_default_backend
 from ..render.threads import limit_threads
 from ..scene.assets.catalogue import ASSETS
 from .ahead import Ahead

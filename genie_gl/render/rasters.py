@@ -1,6 +1,6 @@
 """Which rasteriser draws a frame: the exact CPU engine or OpenGL, by name.
 
-Two rasterisers fill the same frames: ``"cpu"`` (:mod:`genie_gl.render.raster`: per pixel
+Two rasterisers fill the same frames: ``"cpu"`` (:mod:`genie_gl.render.cpu.raster`: per pixel
 centre the nearest triangle along its ray, float64, no GL) and ``"gl"`` (moderngl on the
 machine's OpenGL driver). Without a hardware GPU the OpenGL driver is Mesa's llvmpipe, a
 software rasteriser slower than the CPU engine from a hundred thousand triangles up, and

@@ -1,83 +1,53 @@
-"""The moderngl renderer: one geometry pass into depth, instance, semantic, colour, normals.
+"""The renderer of pinhole frames: one scene uploaded once, drawn from any number of cameras,
+by one of two rasters.
 
-Geometry is uploaded once per scene, all meshes in one vertex and one index buffer, and
-reused for every camera. A frame is at most two multi-draw-indirect calls: one command per
-instance that survives frustum culling (its camera_from_model row picked by the command's
-base instance), with back-face culling for closed meshes unless the camera is inside their
-bounding box, and only the triangles that may cover a pixel centre (``render/cull.py``).
+:class:`Renderer` is the public entry: ``Renderer(scene, raster=...)`` makes the renderer
+of the raster named (:mod:`genie_gl.render.rasters`), an instance of its own class:
+
+- :class:`~genie_gl.render.cpu.renderer.CPURenderer` (``raster="cpu"``,
+  :mod:`genie_gl.render.cpu`): the exact CPU raster, no GL;
+- :class:`~genie_gl.render.gl.renderer.GLRenderer` (``raster="gl"``,
+  :mod:`genie_gl.render.gl`): moderngl on the machine's OpenGL driver.
+
+Both stand on what this module and its neighbours share: the scene's upload (its meshes
+prepared into clusters, :mod:`~genie_gl.render.clusters`; one row per instance), the
+instances a frame draws (:mod:`~genie_gl.render.visibility`), the per-pixel winner a raster
+hands over (:mod:`~genie_gl.render.fragments`, where each raster's winner rule is written)
+and the shading of it into a :class:`~genie_gl.frame.Frame`
+(:mod:`~genie_gl.render.shading`).
 """
 
 from __future__ import annotations
 
 import contextlib
-import ctypes
-import threading
-import time
 from collections.abc import Collection, Iterable, Iterator, Sequence
-from typing import Any
+from typing import Any, ClassVar
 
-import moderngl
 import numpy as np
 
-from ..validation.arguments import check_pose, expect
-from ..errors import ConfigError, LimitError, RenderError
-from ..limits import BYTES_PER_PIXEL, MAX_SIDE, check_frame_side, check_memory, memory_limit_bytes
+from ..errors import ConfigError
 from ..frame import Frame
 from ..scene.model import Scene
 from ..sensors.camera import Sensor
-from ..triangles import PixelTriangles, SceneTriangles
+from ..triangles import SceneTriangles
+from ..validation.arguments import expect
 from .clusters import Clusters, prepare
-from .context import GL_LOWER_LEFT, GL_ZERO_TO_ONE, GLContext, create_context
 from .cull import TriangleCuller
 from .lod import LevelOfDetail, simplified
-from .memory import _POOL, frame_buffers  # noqa: F401  (_POOL: tests reach it here)
-from .projection import clip_coefficients
-from .raster import Rasteriser
 from .rasters import resolve_raster
-from .readback import semantic_table
-from .readout import Readout
-from .shader import load_program
 from .visibility import Visibility
 
-# one row per drawn instance: camera_from_model (3 rows), ids, colour
+# one row per instance slot: camera_from_model (3 rows, written per frame by the GL raster),
+# ids, colour
 INSTANCE_DTYPE = np.dtype(
     [("rows", "<f4", (3, 4)), ("instance", "<u4"), ("semantic", "<u4"), ("color", "u1", (4,))]
 )
-INSTANCE_FIELDS = (
-    ("4f", 16, "in_row0"),
-    ("4f", 16, "in_row1"),
-    ("4f", 16, "in_row2"),
-    ("u4", 4, "in_instance"),
-    ("u4", 4, "in_semantic"),
-    ("4f1", 4, "in_color"),
-)
-
-GL_TEXTURE_2D = 0x0DE1
-GL_DEPTH_COMPONENT32F = 0x8CAC
-GL_DEPTH_COMPONENT = 0x1902
-GL_FLOAT = 0x1406
-
 DEPTH_PRECISIONS = ("float32", "depth24", "reversed_z")
-CPU_RASTER_BYTES_PER_PIXEL = (
-    16  # the CPU raster's 1 / z (float64) and slot << 32 | face (int64) per pixel
-)
-GL_MAX_REACH_M = (
-    1e5  # farther from the camera, float32 vertices lose pixels and depth (Renderer._check_reach)
-)
 TARGETS = ("packed", "separate")
 READBACKS = ("direct", "pbo")
-COMMAND_DTYPE = np.dtype(
-    [
-        ("count", "<u4"),
-        ("instances", "<u4"),
-        ("first", "<u4"),
-        ("base_vertex", "<i4"),
-        ("base_instance", "<u4"),
-    ]
-)  # DrawElementsIndirectCommand
 
 
-class Renderer(Visibility, Readout):
+class Renderer(Visibility):
     """Renders ideal pinhole frames of one scene from any number of cameras.
 
     Use as a context manager (or call :meth:`release`)::
@@ -101,12 +71,15 @@ class Renderer(Visibility, Readout):
     context : GLContext, an existing context to share (then ``backend`` is ignored and the
         context is not released with the renderer; unused with raster="cpu").
     raster : "gl" (default) or "cpu": which rasteriser draws (:mod:`genie_gl.render.rasters`;
-        None: the machine's default, "cpu" without a hardware GPU). "cpu": no GL at all; the
-        exact CPU rasteriser (:mod:`genie_gl.render.raster`) finds the nearest triangle along
+        None: the machine's default, "cpu" without a hardware GPU); the renderer made is an
+        instance of that raster's class (a :class:`Renderer` either way). "cpu"
+        (:class:`~genie_gl.render.cpu.renderer.CPURenderer`): no GL at all; the exact CPU
+        rasteriser (:mod:`genie_gl.render.cpu.raster`) finds the nearest triangle along
         each pixel centre's ray in float64 and its exact depth (ids, colour and normals from
-        that triangle). Faster than llvmpipe on scenes of a hundred thousand triangles and
-        more (docs/real-size-scenes.md); against GL's "float32" the depth differs in the last
-        bits and, at edges, a pixel centre may go to the neighbouring triangle.
+        that triangle; ties: :mod:`genie_gl.render.fragments`). Faster than llvmpipe on
+        scenes of a hundred thousand triangles and more (docs/real-size-scenes.md); against
+        GL's "float32" the depth differs in the last bits and, at edges, a pixel centre may
+        go to the neighbouring triangle.
         ``depth_precision``, ``targets`` and ``readback`` do not apply to it; ``cull=False``
         tests every triangle at every pixel centre of its box (the reference the culled
         frame equals byte for byte; slow).
@@ -119,7 +92,7 @@ class Renderer(Visibility, Readout):
     cull : drop triangles that cannot cover a pixel centre (exact; False draws everything). A
         frame with fewer than ``cull_min_faces`` faces in view is drawn whole either way.
     targets : "packed" (default): depth and instance id in one RG32UI target, the semantic id
-        looked up per instance on read-back (:mod:`genie_gl.render.readback`); "separate":
+        looked up per instance on read-back (:mod:`genie_gl.render.gl.readback`); "separate":
         three targets (depth, instance, semantic). The frames are the same bit for bit.
     lod : a :class:`~genie_gl.render.lod.LevelOfDetail` to draw instances that look small
         with simplified copies of their meshes (changes pixels; None, the default: exact).
@@ -133,13 +106,28 @@ class Renderer(Visibility, Readout):
     # fewer faces in view: no occlusion culling (a frame this small is cheap either way); with
     # more, it runs while it pays (:meth:`TriangleCuller.select`)
     occlusion_min_faces = 50_000
+    raster: str  # the raster's name, set by each raster's class
+    _rasters: ClassVar[dict[str, type[Renderer]]] = {}  # name -> class, filled as they are defined
+
+    def __init_subclass__(cls, raster: str | None = None, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        if raster is not None:
+            cls.raster = raster
+            Renderer._rasters[raster] = cls
+
+    def __new__(cls, *args: Any, raster: str | None = "gl", **kw: Any) -> Renderer:
+        """``Renderer(...)`` makes the renderer of the raster named by ``raster`` (None: the
+        machine's default); a raster's own class makes its own."""
+        if cls is Renderer:
+            cls = Renderer._rasters[resolve_raster(raster, "Renderer")]
+        return super().__new__(cls)
 
     def __init__(
         self,
         scene: Scene,
         *,
         backend: str | None = None,
-        context: GLContext | None = None,
+        context: Any = None,
         depth_precision: str = "float32",
         cull: bool = True,
         targets: str = "packed",
@@ -167,50 +155,64 @@ class Renderer(Visibility, Readout):
                 "Renderer lod: expected a genie_gl.render.LevelOfDetail or None, got "
                 f"{type(lod).__name__}"
             )
-        self._thread = threading.get_ident()  # GL contexts are current in one thread: see _current
         self.depth_precision, self.cull, self.lod = depth_precision, bool(cull), lod
-        raster = resolve_raster(raster, "Renderer")
-        self.targets, self.readback, self.raster = targets, readback, raster
-        self._own_context = context is None and raster == "gl"
-        self.gl = (
-            None if raster == "cpu" else (context or create_context(backend))
-        )  # the CPU raster: no GL
-        self.ctx = self.gl.ctx if self.gl is not None else None
-        self._programs = self.gl.programs if self.gl is not None else {}  # one build per context
-        self._fbos: dict = {}
-        self._vaos: dict = {}
-        self._pbos: dict = {}  # readback="pbo": (framebuffer, read) -> pixel buffer object
-        self._clip_control = (
-            self.gl.gl_function("glClipControl", None, ctypes.c_uint, ctypes.c_uint)
-            if self.gl is not None
-            else None
-        )
-        self._gl_flush = None
-        self._sizes_checked: set[tuple[int, int]] = (
-            set()
-        )  # frame sizes the CPU raster found room for
-        self._culled = False
-        self._lod_drawn = 0
+        self.targets, self.readback = targets, readback
+        self._open(backend, context)
         with self._current():
             self._upload(scene)
         self.stats: dict[str, float] = {}
 
+    # -- what each raster provides -------------------------------------------------------------
+    def _open(self, backend: str | None, context: Any) -> None:
+        """Start what the raster draws with (the GL raster: its context)."""
+
     def _current(self) -> Any:
-        if self.gl is None:  # the CPU raster: no context, any thread
-            return contextlib.nullcontext()
-        # made current around every call where the platform needs it (EGL), so other GL users
-        # in the process (pyrender, a second Renderer) cannot leave theirs current under us
-        if threading.get_ident() != self._thread:
-            raise RenderError(
-                "a Renderer is used from a thread other than the one that made it; its GL context "
-                "belongs to that thread: make one Renderer per thread (or use gg.capture(..., "
-                "workers=N), which renders in processes)"
-            )
-        return self.gl.current()
+        """A context manager around every call that draws (the GL raster: its context made
+        current)."""
+        return contextlib.nullcontext()
+
+    def _snap_px(self) -> float:
+        """The culler's error bound for the raster's sub-pixel snapping, pixels (see
+        :mod:`genie_gl.render.cull`): twice 1/16, GL's least snapping step."""
+        return 2.0**-4
+
+    def _uploaded(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        """Take what the raster needs of the upload (the joined ``vertices`` (V, 3) float32
+        and ``faces`` (F, 3) uint32)."""
+
+    def _frame(
+        self,
+        sensor: Sensor,
+        pose: np.ndarray,
+        color: bool,
+        normals: bool,
+        only: Collection[int] | None,
+        triangles: bool,
+    ) -> Frame:
+        """One frame (:meth:`render`'s, inside :meth:`_current`)."""
+        raise NotImplementedError
+
+    def _frames(
+        self,
+        sensor: Sensor,
+        poses: Iterable[np.ndarray],
+        color: bool,
+        normals: bool,
+        only: Sequence[Collection[int] | None] | None,
+        triangles: bool,
+    ) -> Iterator[Frame]:
+        """The frames of :meth:`frames`."""
+        raise NotImplementedError
+
+    def release(self) -> None:
+        """Free what the raster holds (GL objects; the context, when the renderer made it)."""
 
     # -- scene upload ------------------------------------------------------------------------
     def _upload(self, scene: Scene) -> None:
-        ctx = self.ctx
+        """The scene's meshes prepared once each (:func:`~genie_gl.render.clusters.prepare`),
+        joined into one vertex and one index array; per instance slot its transform, ids and
+        colour (instances of one mesh in adjacent slots, in scene order); the culler over the
+        joined clusters. The raster then takes what it needs (:meth:`_uploaded`)."""
         keys = list(scene.meshes)
         index = {k: i for i, k in enumerate(keys)}
         inst = scene.instances
@@ -275,10 +277,6 @@ class Renderer(Visibility, Readout):
         self._rows["color"][:, 3] = 255
         if N:
             self._rows["color"][:, :3] = np.array([inst[k].color for k in order], dtype=np.uint8)
-        self._semantics = (
-            semantic_table(self._ids, self._rows["semantic"]) if self.targets == "packed" else None
-        )
-        self._packed = self._semantics is not None  # an id used twice: three targets
         self._vbase, self._fbase, self._nfaces = vbase, fbase, nfaces
         self._closed, self._lo, self._hi, self._centre, self._radius = (
             closed,
@@ -313,131 +311,9 @@ class Renderer(Visibility, Readout):
             joined("sin_a", np.zeros(1)),
             joined("thickness", np.zeros(1)),
             joined("perimeter", np.ones(1)),
-            snap_px=2.0 ** -(self.gl.subpixel_bits() if self.gl is not None else 4),
-        )  # twice the farthest snap
-        self._rasteriser = Rasteriser(self._culler) if self.raster == "cpu" else None
-        self._vbo = ctx.buffer(vertices.tobytes()) if ctx is not None else None
-        self._ibo = ctx.buffer(all_faces.tobytes()) if ctx is not None else None
-        self._slot_buf = None  # 0, 1, 2, ... read per instance by the triangle target's program
-        self._streams: dict[int, tuple] = {}  # per-frame buffers, one set per frame in flight
-
-    def _stream(self, parity: int) -> tuple:
-        """(instance rows, culled indices, draw commands): the buffers a frame writes."""
-        if parity not in self._streams:
-            ctx, n = self.ctx, max(1, len(self._mesh))
-            # the culled index buffer starts small and grows with what a frame draws
-            self._streams[parity] = (
-                ctx.buffer(reserve=n * INSTANCE_DTYPE.itemsize),
-                ctx.buffer(reserve=1 << 16) if self.cull else None,
-                ctx.buffer(reserve=n * COMMAND_DTYPE.itemsize),
-            )
-        return self._streams[parity]
-
-    # -- GL objects ---------------------------------------------------------------------------
-    def _program(self, defines: tuple[str, ...]) -> moderngl.Program:
-        return load_program(self.ctx, "geometry", defines, cache=self._programs)
-
-    def _vao(self, program: moderngl.Program, parity: int, culled: bool) -> moderngl.VertexArray:
-        key = (id(program), parity, culled)
-        vao = self._vaos.get(key)
-        if vao is None:
-            # attributes a program does not use (colour in depth-only mode) become padding
-            fmt = " ".join(f if a in program else f"{n}x" for f, n, a in INSTANCE_FIELDS) + "/i"
-            attrs = [a for _, _, a in INSTANCE_FIELDS if a in program]
-            content = [(self._vbo, "3f", "in_position"), (self._stream(parity)[0], fmt, *attrs)]
-            if "in_slot" in program:
-                if self._slot_buf is None:
-                    self._slot_buf = self.ctx.buffer(
-                        np.arange(max(1, len(self._mesh)), dtype="<u4").tobytes()
-                    )
-                content.append((self._slot_buf, "u4/i", "in_slot"))
-            vao = self.ctx.vertex_array(
-                program,
-                content,
-                index_buffer=self._stream(parity)[1] if culled else self._ibo,
-                index_element_size=4,
-            )
-            self._vaos[key] = vao
-        return vao
-
-    def _framebuffer(
-        self,
-        width: int,
-        height: int,
-        color: bool,
-        normals: bool,
-        slot: int = 0,
-        triangles: bool = False,
-    ) -> tuple:
-        key = (width, height, color, normals, slot, triangles)
-        if key in self._fbos:
-            return self._fbos[key]
-        check_frame_side(width, height, "Renderer", self.gl.max_side)
-        try:
-            self._fbos[key] = self._make_framebuffer(width, height, color, normals, triangles)
-        except moderngl.Error as exc:  # the driver could not allocate the targets
-            raise LimitError(
-                f"Renderer: the GL driver ({self.gl.renderer}) could not allocate {width}x{height} "
-                "px "
-                f"render targets ({str(exc).strip()}); use a smaller sensor"
-            ) from None
-        return self._fbos[key]
-
-    def _make_framebuffer(
-        self, width: int, height: int, color: bool, normals: bool, triangles: bool = False
-    ) -> tuple:
-        ctx, size = self.ctx, (width, height)
-        if self._packed:  # (depth bits, instance): see render/readback.py
-            targets = [ctx.texture(size, 2, dtype="u4")]
-        else:
-            targets = [
-                ctx.texture(size, 1, dtype="f4"),
-                ctx.texture(size, 1, dtype="u4"),
-                ctx.texture(size, 1, dtype="u2"),
-            ]
-        if color or normals:
-            targets.append(
-                ctx.texture(size, 4, dtype="f1")
-            )  # location 3 or 1 (unused without colour)
-        if normals:
-            targets.append(ctx.texture(size, 4, dtype="f4"))
-        if triangles:  # (slot + 1, triangle within its draw): see genie_gl/triangles.py
-            targets.append(ctx.texture(size, 2, dtype="u4"))
-        depth = ctx.depth_texture(size)
-        # moderngl allocates 24-bit fixed-point depth; reversed Z needs a float depth buffer.
-        bind = self.gl.gl_function("glBindTexture", None, ctypes.c_uint, ctypes.c_uint)
-        teximage = self.gl.gl_function(
-            "glTexImage2D",
-            None,
-            ctypes.c_uint,
-            ctypes.c_int,
-            ctypes.c_int,
-            ctypes.c_int,
-            ctypes.c_int,
-            ctypes.c_int,
-            ctypes.c_uint,
-            ctypes.c_uint,
-            ctypes.c_void_p,
+            snap_px=self._snap_px(),
         )
-        bind(GL_TEXTURE_2D, depth.glo)
-        teximage(
-            GL_TEXTURE_2D,
-            0,
-            GL_DEPTH_COMPONENT32F,
-            width,
-            height,
-            0,
-            GL_DEPTH_COMPONENT,
-            GL_FLOAT,
-            None,
-        )
-        bind(GL_TEXTURE_2D, 0)
-        fbo = ctx.framebuffer(color_attachments=targets, depth_attachment=depth)
-        extra = []
-        if self.depth_precision == "depth24":  # a second, depth-only target of 24 bits
-            d24 = ctx.depth_texture(size)
-            extra = [ctx.framebuffer(depth_attachment=d24), d24]
-        return fbo, targets, depth, extra
+        self._uploaded(vertices, all_faces)
 
     # -- rendering -----------------------------------------------------------------------------
     def render(
@@ -476,9 +352,7 @@ class Renderer(Visibility, Readout):
                 "genie_gl.capture.through_lens(renderer.render), gg.render or gg.capture"
             )
         with self._current():
-            if self.raster == "cpu":
-                return self._render_cpu(sensor, pose, not depth_only, normals, only, triangles)
-            return self._render(sensor, pose, depth_only, normals, only, triangles)
+            return self._frame(sensor, pose, not depth_only, normals, only, triangles)
 
     def frames(
         self,
@@ -491,11 +365,12 @@ class Renderer(Visibility, Readout):
         triangles: bool = False,
     ) -> Iterator[Frame]:
         """The frames of ``sensor`` at ``poses``, in order, equal to ``render`` pose by pose.
-        Frame i is copied out of its targets once it has rasterised, and unpacked into its
-        Frame, and handed to the caller, only after frame i+1 is submitted (into a second set
-        of targets): its unpacking and the caller's work on it run while frame i+1
-        rasterises. (A read waits for every frame submitted before it, so frame i is copied
-        before frame i+1 is submitted; see docs/pipeline.md.)
+        The GL raster overlaps them: frame i is copied out of its targets once it has
+        rasterised, and unpacked into its Frame, and handed to the caller, only after frame
+        i+1 is submitted (into a second set of targets): its unpacking and the caller's work
+        on it run while frame i+1 rasterises. (A read waits for every frame submitted before
+        it, so frame i is copied before frame i+1 is submitted; see docs/pipeline.md.) The
+        CPU raster draws each frame when it is asked for.
         ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``; ``triangles``
         as ``render(..., triangles=)``."""
         if not sensor.is_pinhole:
@@ -504,302 +379,7 @@ class Renderer(Visibility, Readout):
                 "the "
                 "renderer draws pinhole views (gg.capture renders it through its lens)"
             )
-        if self.raster == "cpu":  # nothing to overlap: each frame is drawn when it is asked for
-            for k, pose in enumerate(poses):
-                yield self._render_cpu(
-                    sensor,
-                    pose,
-                    not depth_only,
-                    normals,
-                    None if only is None else only[k],
-                    triangles,
-                )
-            return
-        fetched = None  # the frame read back last, not yet unpacked
-        planned = None  # the next frame, culled and its draws written, not yet issued
-        for k, pose in enumerate(poses):
-            with self._current():
-                job = self._plan(
-                    sensor,
-                    pose,
-                    not depth_only,
-                    normals,
-                    None if only is None else only[k],
-                    slot=1 + k % 2,
-                    triangles=triangles,
-                )
-            if (
-                planned is not None
-            ):  # the frame before: read back once rasterised, then this one issued
-                with self._current():
-                    self._fetch(planned)
-                fetched = planned
-            with self._current():
-                self._issue(job)
-                self._flush()  # llvmpipe rasterises a frame's bins once they are flushed
-                if self.readback == "pbo":
-                    self._start_read(job)
-            if (
-                fetched is not None
-            ):  # unpacked, and the caller's work on it done, while this frame rasterises
-                yield self._finish(fetched)
-                fetched = None
-            planned = job
-        if planned is not None:
-            with self._current():
-                self._fetch(planned)
-            yield self._finish(planned)
-
-    def _render(
-        self,
-        sensor: Sensor,
-        pose: np.ndarray,
-        depth_only: bool,
-        normals: bool,
-        only: Collection[int] | None = None,
-        triangles: bool = False,
-    ) -> Frame:
-        return self._read(
-            self._draw(sensor, pose, not depth_only, normals, only, slot=0, triangles=triangles),
-            finish=True,
-        )
-
-    def _draw(
-        self,
-        sensor: Sensor,
-        pose: np.ndarray,
-        color: bool,
-        normals: bool,
-        only: Collection[int] | None,
-        slot: int,
-        triangles: bool = False,
-    ) -> dict:
-        """Cull and issue the draws of one frame into the targets of ``slot``."""
-        job = self._plan(sensor, pose, color, normals, only, slot, triangles)
-        self._issue(job)
-        return job
-
-    def _plan(
-        self,
-        sensor: Sensor,
-        pose: np.ndarray,
-        color: bool,
-        normals: bool,
-        only: Collection[int] | None,
-        slot: int,
-        triangles: bool = False,
-    ) -> dict:
-        """The CPU half of a frame's draws: its culling, its instances' rows and culled indices
-        written (into the buffers of ``slot``'s parity, which no frame in flight reads), its
-        program and uniforms set; :meth:`_issue` draws it. :meth:`frames` plans frame i+1
-        while frame i rasterises."""
-        t0 = time.perf_counter()
-        W, H, K = sensor.width, sensor.height, sensor.K
-        pose = check_pose(
-            pose, "render pose"
-        )  # a rigid world_from_camera: no scale, shear or mirror
-        self.ctx  # current before the framebuffer is made
-        fbo, targets, depth_tex, extra = self._framebuffer(W, H, color, normals, slot, triangles)
-        linear = self.depth_precision == "float32"
-        defines = (
-            (("WITH_COLOR",) if color else ())
-            + (("WITH_NORMAL",) if normals else ())
-            + (() if linear else ("NO_LINEAR_DEPTH",))
-            + (("PACKED_IDS",) if self._packed else ())
-            + (("WITH_PRIMITIVE",) if triangles else ())
-        )
-        program = self._program(defines)
-        proj_x, proj_y = clip_coefficients(K, W, H)
-        program["u_proj_x"].value = tuple(proj_x.astype(np.float32))
-        program["u_proj_y"].value = tuple(proj_y.astype(np.float32))
-        # the GL near plane lies far below the sensor's minimum range: what is nearer than the
-        # range is drawn (and masked in _read), never clipped away to show what lies behind it
-        clip_near = self._clip_near(sensor)
-        program["u_depth"].value = (0.0, clip_near)  # reversed, infinite far: near / z
-
-        parity = slot % 2
-        lists = self._commands(pose, K, W, H, clip_near, only, parity, triangles)
-        return {
-            "sensor": sensor,
-            "pose": pose,
-            "color": color,
-            "normals": normals,
-            "slot": slot,
-            "fbo": fbo,
-            "fbo24": None,
-            "extra": extra,
-            "program": program,
-            "proj": (proj_x, proj_y),
-            "lists": lists,
-            "culled": self._culled,
-            "pixel_triangles": self._frame_triangles if triangles else None,
-            "drawn": 0,
-            "triangles": int(sum(int(c["count"].sum()) for c, _ in lists) // 3),
-            "simplified": self._lod_drawn,
-            "occluded": self._culled and self._culler.occluded,
-            "t0": t0,
-            "t1": time.perf_counter(),
-        }
-
-    def _issue(self, job: dict) -> None:
-        """The GL half of a frame's draws (after :meth:`_plan`): its targets cleared, its
-        draws submitted (and the 24-bit depth pass, with that precision)."""
-        job["t_issue"] = time.perf_counter()
-        ctx, sensor, fbo, lists = self.ctx, job["sensor"], job["fbo"], job.pop("lists")
-        W, H = sensor.width, sensor.height
-        parity = job["slot"] % 2
-        fbo.use()
-        ctx.viewport = (0, 0, W, H)
-        self._clip_control(GL_LOWER_LEFT, GL_ZERO_TO_ONE)
-        ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = ">"
-        # v grows with window y (row 0 = v = 0) mirrors the image, so outward CCW faces are CW
-        ctx.front_face = "cw"
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=0.0)  # 0.0f has all bits zero: ids clear to 0
-        job["drawn"] = self._submit(job.pop("program"), lists, parity, job["culled"])
-        if self.depth_precision == "depth24":
-            n, f = float(sensor.near_m), float(sensor.far_m)
-            proj_x, proj_y = job["proj"]
-            fbo24 = job["fbo24"] = job["extra"][0]
-            p24 = self._program(
-                ("NO_LINEAR_DEPTH", "DEPTH_ONLY") + (("PACKED_IDS",) if self._packed else ())
-            )
-            p24["u_proj_x"].value = tuple(proj_x.astype(np.float32))
-            p24["u_proj_y"].value = tuple(proj_y.astype(np.float32))
-            p24["u_depth"].value = (f / (f - n), -f * n / (f - n))  # window depth = A + B / z
-            fbo24.use()
-            ctx.depth_func = "<"
-            fbo24.clear(depth=1.0)
-            self._submit(p24, lists, parity, job["culled"])
-        ctx.disable(moderngl.CULL_FACE)
-
-    def _render_cpu(
-        self,
-        sensor: Sensor,
-        pose: np.ndarray,
-        color: bool,
-        normals: bool,
-        only: Collection[int] | None,
-        triangles: bool,
-    ) -> Frame:
-        """A frame drawn by the CPU rasteriser (:mod:`genie_gl.render.raster`)."""
-        t0 = time.perf_counter()
-        W, H, K = sensor.width, sensor.height, sensor.K
-        pose = check_pose(pose, "render pose")
-        if (W, H) not in self._sizes_checked:
-            check_frame_side(W, H, "Renderer", MAX_SIDE, "the largest frame genie-gl draws")
-            # the raster's buffers (1 / z float64, slot and face int64) and the frame's arrays
-            check_memory(
-                W * H * (CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL),
-                memory_limit_bytes(),
-                f"a {W}x{H} px frame x {CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL} B",
-                "Renderer: use a smaller sensor",
-                option=None,
-            )
-            self._sizes_checked.add((W, H))
-        near = float(sensor.clip_near_m)
-        out = frame_buffers(H, W, color, normals, triangles)
-        seen = self._visible(pose, K, W, H, near, only)
-        fields = self._no_triangles() if triangles else None
-        depth = hit = None
-        drawn = faces = 0
-        ids_only = False
-        face0 = np.zeros(len(self._mesh), np.int64)
-        cfm = np.zeros((max(1, len(self._mesh)), 3, 4))
-        if seen is not None:
-            cfm, slots, m, backcull, eye = seen
-            r = self._rasteriser
-            r.face_vbase(self._vbase, self._fbase, self._nfaces)
-            ids_only = not (color or normals or triangles) and H * W > 1
-            depth, hit = r.draw(
-                slots,
-                m,
-                backcull,
-                cfm,
-                eye,
-                self._det[slots],
-                K,
-                W,
-                H,
-                near,
-                self._planes,
-                self.cull,
-                (self._ids, self._rows["semantic"], sensor.near_m, sensor.far_m, out)
-                if ids_only
-                else None,
-            )
-            face0[slots] = self._fbase[m]
-            drawn, faces = len(slots), int(self._nfaces[m].sum())
-            if triangles:
-                first, count, base, cull, _, _, ids, sem, mesh_first, mesh_count = fields
-                first[slots], count[slots], base[slots], cull[slots] = (
-                    self._fbase[m],
-                    self._nfaces[m],
-                    self._vbase[m],
-                    backcull,
-                )
-                mesh_first[slots], mesh_count[slots] = self._fbase[m], self._nfaces[m]
-                fields = (
-                    first,
-                    count,
-                    base,
-                    cull,
-                    cfm,
-                    self._culler.faces.reshape(-1),
-                    ids,
-                    sem,
-                    mesh_first,
-                    mesh_count,
-                )
-        t1 = time.perf_counter()
-        rgb = self._rows["color"][:, :3] if len(self._mesh) else np.zeros((1, 3), np.uint8)
-        if (
-            depth is None or not ids_only
-        ):  # (a frame of depth and ids alone was filled as it was drawn)
-            self._rasteriser.shade(
-                depth,
-                hit,
-                cfm,
-                self._ids,
-                self._rows["semantic"],
-                rgb,
-                face0,
-                K,
-                sensor.near_m,
-                sensor.far_m,
-                out,
-            )
-        t2 = time.perf_counter()
-        self.stats = {
-            "cull_s": 0.0,
-            "draw_s": t1 - t0,
-            "readback_s": t2 - t1,
-            "instances_drawn": drawn,
-            "triangles_drawn": faces,
-            "instances_simplified": self._lod_drawn,
-            "occlusion_culled": False,
-        }
-        tri = (
-            PixelTriangles(out["primitive"], *fields, self._triangle_scene(), near)
-            if triangles
-            else None
-        )
-        return Frame(
-            out["depth"],
-            out["instance"],
-            out["semantic"],
-            out["rgba"][..., :3] if color else None,
-            sensor,
-            pose,
-            out["normal"] if normals else None,
-            {"render_ms": 1e3 * (t2 - t0)},
-            tri,
-        )
-
-    def _flush(self) -> None:
-        if self._gl_flush is None:
-            self._gl_flush = self.gl.gl_function("glFlush", None)
-        self._gl_flush()
+        yield from self._frames(sensor, poses, not depth_only, normals, only, triangles)
 
     def _triangle_scene(self) -> SceneTriangles:
         """The scene's meshes for :class:`PixelTriangles`, made the first time a frame asks
@@ -808,192 +388,8 @@ class Renderer(Visibility, Readout):
             self._scene_triangles = SceneTriangles.build(self._culler.vertices, self._culler.faces)
         return self._scene_triangles
 
-    def _clip_near(self, sensor: Sensor) -> float:
-        """The GL near plane: 1/1024 of the sensor's minimum range (``Camera.clip_near_m``),
-        except with a 24-bit window depth buffer, whose precision (z² / (near·2²⁴)) needs the
-        near plane at the minimum range itself: there, a surface nearer than the range is
-        clipped and what lies behind it shows (the float depth modes give no return)."""
-        return float(sensor.near_m if self.depth_precision == "depth24" else sensor.clip_near_m)
-
-    def _no_triangles(self) -> tuple:
-        """The per-slot fields of :class:`PixelTriangles` (after ``pixel``) of a frame that
-        draws nothing yet."""
-        n = len(self._mesh)
-        return (
-            np.full(n, -1, np.int64),
-            np.zeros(n, np.int64),
-            np.zeros(n, np.int64),
-            np.zeros(n, bool),
-            np.zeros((n, 3, 4)),
-            np.zeros(0, np.uint32),
-            self._ids,
-            self._rows["semantic"].astype(np.uint16),
-            np.zeros(n, np.int64),
-            np.zeros(n, np.int64),
-        )
-
-    def _commands(
-        self,
-        pose: np.ndarray,
-        K: np.ndarray,
-        W: int,
-        H: int,
-        near: float,
-        only: Collection[int] | None,
-        parity: int = 0,
-        triangles: bool = False,
-    ) -> list[tuple[np.ndarray, bool]]:
-        """Draw commands of a frame: [(commands, back-face culling)], nothing in Python per
-        instance. With ``triangles``, ``self._frame_triangles`` is set to what turns a pixel's
-        (slot, triangle) into vertices (the fields of :class:`PixelTriangles` after ``pixel``)."""
-        if triangles:
-            self._frame_triangles = self._no_triangles()
-        seen = self._visible(pose, K, W, H, near, only)
-        if seen is None:
-            return []
-        cfm, slots, m, backcull, eye = seen
-        self._check_reach(cfm, slots, m)
-        self._rows["rows"] = cfm
-        inst_buf, dyn_ibo, _ = self._stream(parity)
-        inst_buf.write(self._rows)
-        cmd = np.zeros(len(slots), COMMAND_DTYPE)
-        cmd["instances"] = 1
-        cmd["base_vertex"] = self._vbase[m]
-        cmd["base_instance"] = slots
-        in_view = int(self._nfaces[m].sum())
-        culled = self.cull and in_view >= self.cull_min_faces
-        self._culled = culled
-        if culled:
-            # not with a 24-bit depth buffer: it ties depths that are apart
-            occlusion = self.depth_precision != "depth24" and in_view >= self.occlusion_min_faces
-            indices, first, count = self._culler.select(
-                slots,
-                m,
-                backcull,
-                cfm,
-                eye,
-                self._det[slots],
-                K,
-                W,
-                H,
-                near,
-                self._planes,
-                occlusion,
-            )
-            if indices.nbytes > dyn_ibo.size:  # same buffer name: the vertex arrays stay valid
-                dyn_ibo.orphan(max(indices.nbytes, dyn_ibo.size * 3 // 2))
-            dyn_ibo.write(indices)
-            cmd["first"], cmd["count"] = first, count
-            keep = count > 0
-            cmd, backcull = cmd[keep], backcull[keep]
-        else:
-            cmd["first"], cmd["count"] = 3 * self._fbase[m], 3 * self._nfaces[m]
-        if triangles:
-            first, count, base, cull = self._frame_triangles[:4]
-            first[cmd["base_instance"]] = cmd["first"] // 3
-            count[cmd["base_instance"]] = cmd["count"] // 3
-            base[cmd["base_instance"]] = cmd["base_vertex"]
-            cull[cmd["base_instance"]] = backcull
-            # the culled indices are rewritten by the next frame's culling: this frame keeps a copy
-            drawn_indices = indices.copy() if culled else self._culler.faces.reshape(-1)
-            ids, sem, mesh_first, mesh_count = self._frame_triangles[6:]
-            mesh_first[slots], mesh_count[slots] = (
-                self._fbase[m],
-                self._nfaces[m],
-            )  # every face, culled or not
-            self._frame_triangles = (
-                first,
-                count,
-                base,
-                cull,
-                cfm,
-                drawn_indices,
-                ids,
-                sem,
-                mesh_first,
-                mesh_count,
-            )
-        return [(cmd[backcull == flag], flag) for flag in (True, False) if (backcull == flag).any()]
-
-    def _check_reach(self, cfm: np.ndarray, slots: np.ndarray, m: np.ndarray) -> None:
-        """Refuse a frame whose drawn instances reach farther than :data:`GL_MAX_REACH_M` from
-        the camera: the GL raster holds camera-frame vertices in float32, and a triangle that
-        reaches that far is drawn with pixels lost and depth off (a ground triangle of
-        +-1e6 m: 0.4 % of its pixels lost, 1.6 % depth error); the CPU raster draws it exactly."""
-        c = cfm[slots]
-        centre = np.einsum("nij,nj->ni", c[:, :, :3], self._centre[m]) + c[:, :, 3]
-        reach = np.linalg.norm(centre, axis=1) + self._radius[m] * self._scale[slots]
-        far = int(np.argmax(reach)) if len(reach) else 0
-        if len(reach) and reach[far] > GL_MAX_REACH_M:
-            raise LimitError(
-                f"Renderer: instance {int(self._ids[slots[far]])} reaches {reach[far]:.3g} m from "
-                "the "
-                f"camera; the GL raster draws geometry within {GL_MAX_REACH_M:g} m of it exactly "
-                "enough "
-                "(float32 vertices): use raster='cpu' (--raster cpu), which draws it in float64, "
-                "or cut "
-                "the mesh smaller"
-            )
-
-    def _submit(
-        self,
-        program: moderngl.Program,
-        lists: list[tuple[np.ndarray, bool]],
-        parity: int = 0,
-        culled: bool = False,
-    ) -> int:
-        """Issue the frame's multi-draw calls (``culled``: from the culled index buffer);
-        returns the number of instances drawn."""
-        if not lists:
-            return 0
-        vao = self._vao(program, parity, culled)
-        cmd_buf = self._stream(parity)[2]
-        everything = np.concatenate([c for c, _ in lists])
-        cmd_buf.write(everything)
-        at = 0
-        for cmd, flag in lists:
-            if flag:
-                self.ctx.enable(moderngl.CULL_FACE)
-            else:
-                self.ctx.disable(moderngl.CULL_FACE)
-            vao.render_indirect(cmd_buf, moderngl.TRIANGLES, count=len(cmd), first=at)
-            at += len(cmd)
-        return at
-
     # -- lifetime ---------------------------------------------------------------------------
-    def release(self) -> None:
-        """Free the GL objects (and the context, when the renderer created it)."""
-        if self.gl is None:
-            return
-        with self._current():
-            self._release_objects()
-        if self._own_context:
-            self.gl.release()
-
-    def _release_objects(self) -> None:
-        # moderngl re-binds the last framebuffer used when it creates another: leave the
-        # default one bound, never a deleted name.
-        self.ctx.detect_framebuffer(0).use()
-        for vao in self._vaos.values():
-            vao.release()
-        for buf in (
-            self._vbo,
-            self._ibo,
-            self._slot_buf,
-            *(b for bufs in self._streams.values() for b in bufs),
-            *self._pbos.values(),
-        ):
-            if buf is not None:
-                buf.release()
-        for fbo, targets, depth, extra in self._fbos.values():
-            fbo.release()
-            for t in (*targets, depth, *extra):
-                t.release()
-        self._vaos, self._fbos, self._pbos = {}, {}, {}
-        self._vbo = self._ibo = self._slot_buf = None
-        self._streams = {}
-
-    def __enter__(self) -> "Renderer":
+    def __enter__(self) -> Renderer:
         return self
 
     def __exit__(self, *exc: Any) -> None:

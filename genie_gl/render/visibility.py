@@ -5,6 +5,7 @@ renderer's methods that ask it (:class:`Visibility`, for both rasters)."""
 from __future__ import annotations
 
 from collections.abc import Collection
+from typing import NamedTuple
 
 import numpy as np
 
@@ -75,9 +76,33 @@ def eyes(model_from_world, slots, eye_world, lo, hi, mesh, closed):
     return eye, backcull
 
 
+class Seen(NamedTuple):
+    """The instances a frame draws (:meth:`Visibility._visible`), Q of the scene's N slots.
+
+    Attributes
+    ----------
+    camera_from_model : (N, 3, 4) float64, per slot (drawn or not), composed in float64.
+    slots : (Q,) int64, the visible slots, in slot order.
+    mesh : (Q,) int64, the mesh each draws (its simplified copy with level of detail).
+    backcull : (Q,) bool, drawn with back-face culling (a closed mesh seen from outside).
+    eye : (Q, 3) float64, the camera centre in each one's model frame.
+    planes : (P, 4) float64, the frustum's planes the instances were tested against.
+    simplified : int, how many draw a simplified copy.
+    """
+
+    camera_from_model: np.ndarray
+    slots: np.ndarray
+    mesh: np.ndarray
+    backcull: np.ndarray
+    eye: np.ndarray
+    planes: np.ndarray
+    simplified: int
+
+
 class Visibility:
-    """The renderer's per-frame choice of instances (a mix-in of
-    :class:`~genie_gl.render.renderer.Renderer`, used by the GL and the exact raster alike)."""
+    """The renderer's per-frame choice of instances (a base of
+    :class:`~genie_gl.render.renderer.Renderer`, used by the GL and the exact raster alike):
+    it reads the scene's upload and returns a :class:`Seen`, setting nothing."""
 
     def _visible(
         self,
@@ -87,12 +112,9 @@ class Visibility:
         H: int,
         near: float,
         only: Collection[int] | None,
-    ) -> tuple | None:
-        """The instances a frame draws, nothing in Python per instance: (camera_from_model of
-        every slot (N, 3, 4), the visible slots, the mesh each draws (its simplified copy with
-        level of detail), back-face culling per visible slot, the eye in each one's model
-        frame), or None when none is visible."""
-        self._lod_drawn = 0
+    ) -> Seen | None:
+        """The instances a frame draws, nothing in Python per instance (a :class:`Seen`), or
+        None when none is visible."""
         if len(self._mesh) == 0:
             return None
         camera_from_world = rigid_inverse(pose)
@@ -112,10 +134,11 @@ class Visibility:
         if len(slots) == 0:
             return None
         m = mesh[slots]
+        simplified = 0
         if self.lod is not None:
             small = choose(self.lod, self._copy_of[m] >= 0, centre_z[slots], radii[slots], K)
             m = np.where(small, self._copy_of[m], m)
-            self._lod_drawn = int(small.sum())
+            simplified = int(small.sum())
         # camera inside the (slightly grown) box of a closed mesh: draw both faces to see the inside
         eye, backcull = eyes(
             self._model_from_world,
@@ -126,8 +149,7 @@ class Visibility:
             m,
             self._closed,
         )
-        self._planes = planes
-        return cfm, slots, m, backcull, eye
+        return Seen(cfm, slots, m, backcull, eye, planes, simplified)
 
     def _among(self, only: Collection[int]) -> np.ndarray:
         """(N,) bool: which slots hold an instance whose id is in ``only``."""

@@ -76,7 +76,7 @@ def test_each_frame_is_handed_over_in_order_as_the_capture_makes_it(monkeypatch)
     in this process each one as soon as the next pose is drawn (before the poses after it),
     with workers once they are all back. In this process, frame k+1 is planned (culled, its
     draws written) before frame k is read back: while frame k rasterises (the GL raster)."""
-    from genie_gl.render import Renderer
+    from genie_gl.render import GLRenderer
 
     scene = small_scene()
     sensor = gg.Sensor.pinhole(64, 48, 50.0)
@@ -84,11 +84,11 @@ def test_each_frame_is_handed_over_in_order_as_the_capture_makes_it(monkeypatch)
     events = []
     for name in ("_plan", "_issue", "_fetch"):
 
-        def step(self, *a, _real=getattr(Renderer, name), _name=name, **k):
+        def step(self, *a, _real=getattr(GLRenderer, name), _name=name, **k):
             events.append(_name[1:])
             return _real(self, *a, **k)
 
-        monkeypatch.setattr(Renderer, name, step)
+        monkeypatch.setattr(GLRenderer, name, step)
     for workers in (1, 2):
         handed, drawn_then = [], []
         events.clear()
@@ -182,7 +182,7 @@ def test_a_process_forked_after_egl_renders_through_osmesa(tmp_path):
     import signal
 
     from genie_gl.render import Renderer, shared_context
-    from genie_gl.render.platforms import egl
+    from genie_gl.render.gl.platforms import egl
 
     scene, sensor = small_scene(), gg.Sensor.pinhole(96, 72, 80.0)
     pose = look_at([5.0, -4.0, 3.0], [0, 0, 0.5])
@@ -227,7 +227,7 @@ def test_a_process_forked_after_egl_renders_through_osmesa(tmp_path):
 def test_frame_buffers_are_recycled_only_when_no_view_remains():
     import gc
 
-    from genie_gl.render.renderer import _POOL, frame_buffers
+    from genie_gl.render.memory import _POOL, frame_buffers
 
     # what earlier tests left: their garbage collected now (a block it frees would otherwise
     # come back during this test, ahead of ours) and the free blocks dropped (a full pool

@@ -10,7 +10,8 @@ import trimesh
 
 import genie_gl as gg
 from genie_gl.errors import ConfigError
-from genie_gl.render import Renderer, raster
+from genie_gl.render import Renderer
+from genie_gl.render.cpu import raster
 from genie_gl.sensors.pose import look_at
 from genie_gl.resources import resolve
 from tests.scenes import scene_of, sensor_640
@@ -357,7 +358,7 @@ def test_culling_changes_no_byte_where_a_row_runs_along_an_edge_parallel_to_it()
 
 
 def test_ties_go_to_the_lower_slot_then_the_lower_face():
-    """The CPU raster's one tie rule (:func:`genie_gl.render.coverage._write`): a pixel
+    """The CPU raster's one tie rule (:func:`genie_gl.render.cpu.coverage._write`): a pixel
     centre that two triangles meet at the same float64 depth goes to the lower (slot, face).
     Two coincident copies of a square wall at z = 2: every pixel shows the first copy; on
     the square's diagonal, where the pixel centres' rays cross the edge both its faces share

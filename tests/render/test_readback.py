@@ -11,7 +11,7 @@ import pytest
 import genie_gl as gg
 from genie_gl.errors import ConfigError
 from genie_gl.render import Renderer
-from genie_gl.render.readback import semantic_table, unpack
+from genie_gl.render.gl.readback import semantic_table, unpack
 from genie_gl.resources import resolve
 
 from .test_fast_path import assert_same_frames

@@ -1,8 +1,8 @@
 """OpenGL contexts: the only module that creates them, and the one place a platform is chosen.
 
 ``create_context(backend)`` returns a :class:`GLContext` holding a moderngl context started by
-one of the platforms of :mod:`genie_gl.render.platforms` (one module each behind a small
-interface, :class:`~genie_gl.render.platforms.base.Platform`):
+one of the platforms of :mod:`genie_gl.render.gl.platforms` (one module each behind a small
+interface, :class:`~genie_gl.render.gl.platforms.base.Platform`):
 
 * ``"egl"`` — surfaceless EGL (Mesa llvmpipe on a CPU box, NVIDIA's EGL on a GPU box), the
   default; or
@@ -12,7 +12,7 @@ interface, :class:`~genie_gl.render.platforms.base.Platform`):
 ``backend=None`` takes the process's default (:func:`set_default_backend`, which the CLI calls
 with ``GENIE_GL_BACKEND``: the environment is read there, never here), else tries every
 platform in order. A platform that cannot start in this process says why
-(:meth:`~genie_gl.render.platforms.base.Platform.unusable`: EGL in a child forked after its
+(:meth:`~genie_gl.render.gl.platforms.base.Platform.unusable`: EGL in a child forked after its
 parent started EGL) and the next is tried; a named one raises. When nothing starts,
 :class:`BackendUnavailableError` says what was tried and which Debian packages fix it.
 :func:`shared_context` never hands a forked child its parent's contexts. The package's own
@@ -31,7 +31,7 @@ from typing import Any, Callable
 
 import moderngl
 
-from ..errors import BackendUnavailableError, ConfigError
+from ...errors import BackendUnavailableError, ConfigError
 from .platforms import PLATFORMS, Platform
 
 log = logging.getLogger(__name__)

@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 import glcontext
 import moderngl
 
-from ...errors import BackendUnavailableError
+from ....errors import BackendUnavailableError
 from .base import Platform
 
 

@@ -1,6 +1,7 @@
 """The CPU rasteriser: per pixel centre, the nearest triangle along its ray (numba, parallel).
 
-``Renderer(scene, raster="cpu")`` draws with this instead of OpenGL. It visits the same
+:class:`~genie_gl.render.cpu.renderer.CPURenderer` (what ``Renderer(scene, raster="cpu")``
+makes) draws with this instead of OpenGL. It visits the same
 hierarchy as the culler (:mod:`genie_gl.render.cull`): instances outside the frustum are
 dropped before anything here runs; per cluster, its bounding sphere against the frustum and,
 for back-face-culled instances, its normal cone; then each triangle of the clusters that pass.
@@ -16,7 +17,11 @@ two vertices in the same order of operations (no fused multiply-add: the kernels
 without ``fastmath``), so the two triangles of an edge give exact negatives and a pixel
 centre on it belongs to both: there are no cracks between triangles.
 
-Depth ties (equal float64 z) go to the lower (instance slot, face). Each thread draws column
+Where a pixel's winner is decided: :func:`~genie_gl.render.cpu.coverage._write`, the one
+depth test, for every hit of every triangle: the nearest float64 depth wins; ties (equal
+float64 z) go to the lower (instance slot, face). The winners are handed on as
+:class:`~genie_gl.render.fragments.Fragments` (1 / z and slot << 32 | face per pixel) and
+shaded by :mod:`genie_gl.render.shading`. Each thread draws column
 strips of its own (no pixel is written by two threads), so a frame does not depend on the
 number of threads or on the order the clusters are visited.
 
@@ -26,7 +31,7 @@ centre in float64 (GL: sub-pixel fixed point and its fill rule), no GL context, 
 no read-back. Sub-pixel triangles, most of a scene of millions, cost a box test each.
 
 This module runs a frame (which clusters may show, nearest first, which thread draws which
-columns) and fills the frame's arrays; :mod:`genie_gl.render.coverage` draws one cluster.
+columns) and fills the frame's arrays; :mod:`genie_gl.render.cpu.coverage` draws one cluster.
 """
 
 from __future__ import annotations
@@ -36,9 +41,11 @@ import math
 import numba
 import numpy as np
 
-from ..jit import njit, prange
-from .clusters import CLUSTER
-from .coverage import SHIFT, TILE, _bound_cluster, _draw_cluster
+from ...jit import njit, prange
+from ..clusters import CLUSTER
+from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View, projection
+from ..shading import in_range
+from .coverage import SHIFT, TILE, Centres, Scratch, _bound_cluster, _draw_cluster
 
 PARALLEL_FACES = 5_000  # below this many faces in view, one thread draws a frame
 
@@ -78,56 +85,21 @@ def _nearest_first(alive, bounds, near):
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
-def _raster(
-    X,
-    Y,
-    Z,
-    faces,
-    c_lo,
-    c_hi,
-    c_centre,
-    c_radius,
-    c_vrange,
-    c_axis,
-    c_cos,
-    c_sin,
-    c_thick,
-    c_perim,
-    slot,
-    vbase,
-    fbase,
-    nfaces,
-    cbase,
-    job0,
-    backcull,
-    cfm,
-    eye,
-    det,
-    proj,
-    planes,
-    near,
-    width,
-    height,
-    T,
-    zb,
-    who,
-    tmin,
-    tally,
-    cull,
-    ids,
-    sems,
-    near_m,
-    far_m,
-    out_depth,
-    out_instance,
-    out_semantic,
-):
-    """Draw the clusters of the visible instances (jobs job0[q]..job0[q+1] are instance q's)
-    nearest first into ``zb`` (float64 1 / z, 0 where nothing) and ``who`` (slot << 32 |
-    face where ``zb`` holds a hit; not cleared, so anything elsewhere), H x W flattened, with T
-    threads: thread t draws the columns of
-    strip t, the strips cut where the clusters' centres split evenly (whole tiles), so each
-    thread's occlusion tiles see every occluder of its strip and no pixel is written by two."""
+def _raster(geo, inst, view, T, zb, who, tmin, tally, cull, ids_out):
+    """Draw the clusters of the visible instances ``inst`` (a
+    :class:`~genie_gl.render.geometry.FrameInstances`: jobs job0[q]..job0[q+1] are instance
+    q's) of the scene ``geo`` (:class:`~genie_gl.render.geometry.SceneGeometry`) seen in
+    ``view`` (:class:`~genie_gl.render.geometry.View`) nearest first into ``zb`` (float64
+    1 / z, 0 where nothing) and ``who`` (slot << 32 | face where ``zb`` holds a hit; not
+    cleared, so anything elsewhere), H x W flattened, with T threads: thread t draws the
+    columns of strip t, the strips cut where the clusters' centres split evenly (whole
+    tiles), so each thread's occlusion tiles see every occluder of its strip and no pixel is
+    written by two. ``ids_out``: an :class:`~genie_gl.render.geometry.IdsOut`, filled per
+    strip once it is drawn when its arrays are not of one element."""
+    proj, near, width, height = view.proj, view.near, view.width, view.height
+    job0 = inst.job0
+    ids, sems, near_m, far_m = ids_out.ids, ids_out.sems, ids_out.near_m, ids_out.far_m
+    out_depth, out_instance, out_semantic = ids_out.depth, ids_out.instance, ids_out.semantic
     W = int(width)
     H = int(height)
     xs = np.empty(W)
@@ -149,32 +121,7 @@ def _raster(
     alive = np.zeros(njobs, np.bool_)
     for j in prange(njobs):
         q = whose[j]
-        alive[j] = _bound_cluster(
-            q,
-            j - job0[q],
-            c_lo,
-            c_hi,
-            c_centre,
-            c_radius,
-            c_axis,
-            c_cos,
-            c_sin,
-            c_thick,
-            c_perim,
-            slot,
-            cbase,
-            backcull,
-            cfm,
-            eye,
-            det,
-            proj,
-            planes,
-            near,
-            width,
-            height,
-            cull,
-            bounds[j],
-        )
+        alive[j] = _bound_cluster(q, j - job0[q], geo, inst, view, cull, bounds[j])
     order = _nearest_first(alive, bounds, near)
     # strips: T runs of whole tiles, cut at the quantiles of the clusters' box centres (a
     # count per column: the k-th centre's column is where the running count passes k)
@@ -193,7 +140,8 @@ def _raster(
         u = col if len(order) else (W * t) // T
         cut[t] = min(max((u >> SHIFT) << SHIFT, cut[t - 1]), W)
     tmin[:, :] = 0.0
-    dirty = np.zeros(tmin.shape, np.uint8)
+    buf = DepthBuffers(zb, who, tmin, np.zeros(tmin.shape, np.uint8))
+    centres = Centres(xs, ys, sys_)
     tally[:, :] = 0
     for t in prange(T):
         if cut[t] >= cut[t + 1]:
@@ -203,10 +151,17 @@ def _raster(
             H
         ):  # each thread clears its strip (``who`` is read only where ``zb`` holds a hit)
             zb[r * W + cut[t] : r * W + cut[t + 1]] = 0.0
-        wx, wy, wz = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
-        wu, wv, box = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER), np.empty(4)
-        keys_u, keys_v = np.empty(3 * CLUSTER), np.empty(3 * CLUSTER)
-        live = np.empty(CLUSTER, np.int64)
+        work = Scratch(
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER),
+            np.empty(CLUSTER, np.int64),
+            np.empty(4),
+        )
         for jj in range(len(order)):
             j = order[jj]
             if bounds[j, 1] < col_lo or bounds[j, 0] > col_hi:
@@ -218,47 +173,20 @@ def _raster(
                 col_lo,
                 col_hi,
                 bounds[j],
-                X,
-                Y,
-                Z,
-                faces,
-                c_vrange,
-                slot,
-                vbase,
-                fbase,
-                nfaces,
-                cbase,
-                backcull,
-                cfm,
-                proj,
-                near,
-                width,
-                height,
-                xs,
-                ys,
-                sys_,
-                zb,
-                who,
-                tmin,
-                dirty,
-                wx,
-                wy,
-                wz,
-                wu,
-                wv,
-                keys_u,
-                keys_v,
-                live,
-                box,
+                geo,
+                inst,
+                view,
+                centres,
+                buf,
+                work,
                 tally[t],
                 cull,
             )
         if len(out_depth) > 1:  # the strip's depth and ids at once (as :func:`_shade` makes them)
             for r in range(H):
                 for p in range(r * W + cut[t], r * W + cut[t + 1]):
-                    d = zb[p]
-                    z = 1.0 / d if d > 0.0 else 0.0
-                    if d > 0.0 and z >= near_m and z <= far_m:
+                    z = in_range(zb[p], near_m, far_m)
+                    if z > 0.0:
                         sl = who[p] >> np.int64(32)
                         out_depth[p] = np.float32(z)
                         out_instance[p] = ids[sl]
@@ -267,135 +195,6 @@ def _raster(
                         out_depth[p] = 0.0
                         out_instance[p] = 0
                         out_semantic[p] = 0
-
-
-@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
-def _vertex(vertices, vi, m, r):
-    """Row r of camera_from_model ``m`` applied to vertex ``vi`` (float64)."""
-    return (
-        m[r, 0] * np.float64(vertices[vi, 0])
-        + m[r, 1] * np.float64(vertices[vi, 1])
-        + m[r, 2] * np.float64(vertices[vi, 2])
-        + m[r, 3]
-    )
-
-
-@njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
-def _shade(
-    depth,
-    hit,
-    vertices,
-    faces,
-    fvbase,
-    cfm,
-    ids,
-    sems,
-    color,
-    slot_face0,
-    proj,
-    near_m,
-    far_m,
-    width,
-    out_depth,
-    out_instance,
-    out_semantic,
-    out_rgb,
-    out_normal,
-    out_tri,
-    want_rgb,
-    want_normal,
-    want_tri,
-):
-    """The frame's targets from the drawn buffers, row by row in parallel: z in [near_m,
-    far_m] (else no return), instance and semantic ids, and on request the face normal
-    (camera frame, towards the eye), the colour (the instance's, Lambert with a head light,
-    as the GL shader) and the (slot + 1, face within the slot's mesh) of every pixel a
-    triangle won, in range or not. A face's unit normal is computed once per run of pixels
-    that show it."""
-    fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
-    W = int(width)
-    rows = len(depth) // W
-    for v in prange(rows):
-        last = np.int64(-1)
-        ux = uy = uz = 0.0
-        for p in range(v * W, (v + 1) * W):
-            h = hit[p] if depth[p] > 0.0 else np.int64(-1)
-            z = 1.0 / depth[p] if h >= 0 else 0.0
-            if want_tri:
-                if h < 0:
-                    out_tri[p, 0] = 0
-                    out_tri[p, 1] = 0
-                else:
-                    out_tri[p, 0] = np.uint32((h >> np.int64(32)) + 1)
-                    out_tri[p, 1] = np.uint32(
-                        (h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)]
-                    )
-            if h < 0 or z < near_m or z > far_m:
-                out_depth[p] = 0.0
-                out_instance[p] = 0
-                out_semantic[p] = 0
-                if want_rgb:
-                    for k in range(4):
-                        out_rgb[p, k] = 0
-                if want_normal:
-                    for k in range(3):
-                        out_normal[p, k] = 0.0
-                continue
-            sl = h >> np.int64(32)
-            out_depth[p] = np.float32(z)
-            out_instance[p] = ids[sl]
-            out_semantic[p] = sems[sl]
-            if not (want_rgb or want_normal):
-                continue
-            if h != last:
-                f = h & np.int64(0xFFFFFFFF)
-                m = cfm[sl]
-                va, vb, vc = (
-                    fvbase[f] + faces[f, 0],
-                    fvbase[f] + faces[f, 1],
-                    fvbase[f] + faces[f, 2],
-                )
-                ax, ay, az = (
-                    _vertex(vertices, va, m, 0),
-                    _vertex(vertices, va, m, 1),
-                    _vertex(vertices, va, m, 2),
-                )
-                bx, by, bz = (
-                    _vertex(vertices, vb, m, 0) - ax,
-                    _vertex(vertices, vb, m, 1) - ay,
-                    _vertex(vertices, vb, m, 2) - az,
-                )
-                wx, wy, wz = (
-                    _vertex(vertices, vc, m, 0) - ax,
-                    _vertex(vertices, vc, m, 1) - ay,
-                    _vertex(vertices, vc, m, 2) - az,
-                )
-                ux, uy, uz = by * wz - bz * wy, bz * wx - bx * wz, bx * wy - by * wx
-                nl = math.sqrt(ux * ux + uy * uy + uz * uz)
-                if nl > 0.0:
-                    ux, uy, uz = ux / nl, uy / nl, uz / nl
-                last = h
-            u = p - v * W
-            yn = (v - cy) / fy
-            xn = (u - cx - s * yn) / fx
-            dl = math.sqrt(xn * xn + yn * yn + 1.0)
-            vx, vy, vz = xn / dl, yn / dl, 1.0 / dl
-            nx, ny, nz = ux, uy, uz
-            if nx == 0.0 and ny == 0.0 and nz == 0.0:
-                nx, ny, nz = -vx, -vy, -vz
-            if nx * vx + ny * vy + nz * vz > 0.0:
-                nx, ny, nz = -nx, -ny, -nz
-            if want_normal:
-                out_normal[p, 0] = nx
-                out_normal[p, 1] = ny
-                out_normal[p, 2] = nz
-            if want_rgb:
-                lam = max(-(nx * vx + ny * vy + nz * vz), 0.0)
-                for k in range(3):
-                    out_rgb[p, k] = np.uint8(
-                        min(255.0, np.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5))
-                    )
-                out_rgb[p, 3] = 255
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -422,15 +221,18 @@ class Rasteriser:
         self._buffers: tuple | None = None
         self._face_vbase: np.ndarray | None = None
         self.tally = np.zeros((64, 8), np.int64)
-        self.xyz = tuple(
-            np.ascontiguousarray(culler.vertices[:, a]) for a in range(3)
-        )  # float32, per axis
-        self.boxes = _cluster_boxes(
+        boxes = _cluster_boxes(
             culler.vertices,
             culler.clusters[2],
             culler.mesh_vbase,
             culler.mesh_cbase,
             -(-culler.mesh_nfaces // CLUSTER),
+        )
+        self.geometry = SceneGeometry(
+            *(np.ascontiguousarray(culler.vertices[:, a]) for a in range(3)),  # float32, per axis
+            culler.faces,
+            *boxes,
+            *culler.clusters,
         )
         self.counts = np.zeros(8, np.int64)  # the last frame's tally (see _draw_cluster)
 
@@ -473,7 +275,7 @@ class Rasteriser:
         nclus = -(-nf // CLUSTER)
         job0 = np.zeros(len(slots) + 1, np.int64)
         np.cumsum(nclus, out=job0[1:])
-        proj = np.array([K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], dtype=np.float64)
+        proj = projection(K)
         threads = numba.get_num_threads()
         T = 1 if threads == 1 or int(nf.sum()) < PARALLEL_FACES else threads
         npx = width * height
@@ -482,11 +284,7 @@ class Rasteriser:
         if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
             buf = self._buffers = (np.empty(npx), np.empty(npx, np.int64), np.empty(tiles))
         depth, hit, tmin = buf
-        _raster(
-            *self.xyz,
-            c.faces,
-            *self.boxes,
-            *c.clusters,
+        inst = FrameInstances(
             slots.astype(np.int64),
             c.mesh_vbase[mesh],
             c.mesh_fbase[mesh],
@@ -497,27 +295,28 @@ class Rasteriser:
             cfm,
             np.ascontiguousarray(eye, np.float64),
             np.ascontiguousarray(det, np.float64),
-            proj,
-            planes,
-            float(near),
-            float(width),
-            float(height),
+        )
+        view = View(proj, planes, float(near), float(width), float(height))
+        _raster(
+            self.geometry,
+            inst,
+            view,
             T,
             depth,
             hit,
             tmin,
             self.tally[:T],
             bool(cull),
-            *self._ids_out(ids_out),
+            self._ids_out(ids_out),
         )
         self.counts = self.tally[:T].sum(axis=0)
         return depth, hit
 
     @staticmethod
-    def _ids_out(ids_out: tuple | None) -> tuple:
-        """:func:`_raster`'s last seven arguments (one-element arrays: no strip shading)."""
+    def _ids_out(ids_out: tuple | None) -> IdsOut:
+        """:func:`_raster`'s ``ids_out`` (one-element arrays: no strip shading)."""
         if ids_out is None:
-            return (
+            return IdsOut(
                 np.zeros(1, np.uint32),
                 np.zeros(1, np.uint32),
                 0.0,
@@ -527,7 +326,7 @@ class Rasteriser:
                 np.zeros(1, np.uint16),
             )
         ids, sems, near_m, far_m, out = ids_out
-        return (
+        return IdsOut(
             ids,
             sems,
             float(near_m),
@@ -535,55 +334,4 @@ class Rasteriser:
             out["depth"].reshape(-1),
             out["instance"].reshape(-1),
             out["semantic"].reshape(-1),
-        )
-
-    def shade(
-        self,
-        depth: np.ndarray | None,
-        hit: np.ndarray | None,
-        cfm: np.ndarray,
-        ids: np.ndarray,
-        semantic: np.ndarray,
-        color: np.ndarray,
-        slot_face0: np.ndarray,
-        K: np.ndarray,
-        near_m: float,
-        far_m: float,
-        out: dict[str, np.ndarray],
-    ) -> None:
-        """Fill a frame's arrays ``out`` (:func:`genie_gl.render.memory.frame_buffers`) from
-        :meth:`draw`'s buffers (None: nothing drawn); per slot its ids, RGB colour (uint8) and
-        first face in the joined arrays (``slot_face0``)."""
-        H, W = out["depth"].shape
-        if depth is None:
-            for a in out.values():
-                a.fill(0)
-            return
-        c = self.culler
-        want_rgb, want_normal, want_tri = "rgba" in out, "normal" in out, "primitive" in out
-        none32 = np.zeros((1, 4), np.uint8)
-        _shade(
-            depth,
-            hit,
-            c.vertices,
-            c.faces,
-            self._face_vbase,
-            cfm,
-            ids,
-            semantic,
-            color,
-            slot_face0,
-            np.array([K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]], dtype=np.float64),
-            float(near_m),
-            float(far_m),
-            W,
-            out["depth"].reshape(-1),
-            out["instance"].reshape(-1),
-            out["semantic"].reshape(-1),
-            out["rgba"].reshape(-1, 4) if want_rgb else none32,
-            out["normal"].reshape(-1, 3) if want_normal else np.zeros((1, 3), np.float32),
-            out["primitive"].reshape(-1, 2) if want_tri else np.zeros((1, 2), np.uint32),
-            want_rgb,
-            want_normal,
-            want_tri,
         )

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import moderngl
 
-from ..errors import ShaderError
-from ..resources import data_dir
+from ...errors import ShaderError
+from ...resources import data_dir
 
 
 def _with_defines(source: str, defines: Iterable[str]) -> str:

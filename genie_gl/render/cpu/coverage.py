@@ -1,6 +1,6 @@
 """One cluster's triangles on the pixel centres: the CPU rasteriser's inner kernels.
 
-:mod:`genie_gl.render.raster` runs a frame: which clusters may show, in what order, which
+:mod:`genie_gl.render.cpu.raster` runs a frame: which clusters may show, in what order, which
 thread draws which columns. This module draws one cluster into one thread's columns, and
 tells the frame which clusters can be skipped.
 
@@ -14,20 +14,57 @@ tells the frame which clusters can be skipped.
   (homogeneous edge functions in float64; see the rasteriser's module docstring), with
   occlusion tiles (:func:`_hidden`, :func:`_refresh`) skipping what lies behind what is
   already drawn, and the depth test with its tie rule (:func:`_write`).
+
+:func:`_write` is where the CPU raster decides a pixel's winner, the one place: the nearest
+float64 depth along the pixel centre's ray, ties (equal float64 z) to the lower (instance
+slot, face).
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from ..jit import njit
-from .clusters import CLUSTER
-from .cull import _cone_drops, shares_cell, sphere_in_view
+from ...jit import njit
+from ..clusters import CLUSTER
+from ..cull import _cone_drops, shares_cell, sphere_in_view
 
 SHIFT = 3
 TILE = 1 << SHIFT  # pixels: the side of an occlusion tile
+
+
+class Centres(NamedTuple):
+    """The pixel centres' rays of a frame: column u, row v's ray is
+    ``(x[u] - shear[v], y[v], 1)`` in the camera frame (``K^-1 (u, v, 1)``).
+
+    Attributes
+    ----------
+    x : (W,) float64, (u - cx) / fx.
+    y : (H,) float64, (v - cy) / fy.
+    shear : (H,) float64, s y[v] / fx.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    shear: np.ndarray
+
+
+class Scratch(NamedTuple):
+    """One thread's work arrays for one cluster: its vertices in the camera frame (wx, wy, wz)
+    and on screen (wu, wv), their cells (keys_u, keys_v; :func:`_project`), the faces left to
+    test (live) and one clipped box."""
+
+    wx: np.ndarray
+    wy: np.ndarray
+    wz: np.ndarray
+    wu: np.ndarray
+    wv: np.ndarray
+    keys_u: np.ndarray
+    keys_v: np.ndarray
+    live: np.ndarray
+    box: np.ndarray
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -91,7 +128,8 @@ def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
 def _write(zb, who, dirty, iu, iv, Wi, iz, key, inear):
     """The depth test of a hit at pixel (iu, iv) of inverse depth ``iz`` = (n·d) / A·(B x C)
     (larger is nearer; no hit nearer than the near plane, 1 / ``inear``): it wins over what
-    the pixel holds when nearer, or as near and of a lower (slot, face) ``key``."""
+    the pixel holds when nearer, or as near and of a lower (slot, face) ``key`` (slot << 32 |
+    face). The CPU raster's winner rule, decided here and nowhere else."""
     p = iv * Wi + iu
     held = zb[p]
     if iz <= inear and (iz > held or (iz == held and key < who[p])):
@@ -176,39 +214,34 @@ def _project(m, X, Y, Z, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, 
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _bound_cluster(
-    q,
-    k,
-    c_lo,
-    c_hi,
-    c_centre,
-    c_radius,
-    c_axis,
-    c_cos,
-    c_sin,
-    c_thick,
-    c_perim,
-    slot,
-    cbase,
-    backcull,
-    cfm,
-    eye,
-    det,
-    proj,
-    planes,
-    near,
-    width,
-    height,
-    cull,
-    out,
-):
-    """Whether cluster k of visible instance q may show: False when its sphere is outside the
+def _bound_cluster(q, k, geo, inst, view, cull, out):
+    """Whether cluster k of visible instance q (of ``inst``, a
+    :class:`~genie_gl.render.geometry.FrameInstances`; ``geo`` the scene's
+    :class:`~genie_gl.render.geometry.SceneGeometry`, ``view`` the frame's
+    :class:`~genie_gl.render.geometry.View`) may show: False when its sphere is outside the
     frustum, when every face is back-facing (back-face-culled instances: the culler's cone
     bound, which holds for the GPU's float32 rounding and so for float64), or when its box is
     off screen. Writes (ulo, uhi, vlo, vhi, z) into ``out``: the pixel box it may cover and
     its nearest depth (its box's eight corners bound both more tightly than its sphere; the
     whole image and the near plane when it reaches the near plane). Without ``cull``, always
     True with the whole image."""
+    c_lo, c_hi, c_centre, c_radius = geo.lo, geo.hi, geo.centre, geo.radius
+    c_axis, c_cos, c_sin, c_thick, c_perim = (
+        geo.axis,
+        geo.cos_a,
+        geo.sin_a,
+        geo.thickness,
+        geo.perimeter,
+    )
+    slot, cbase, backcull, cfm, eye, det = (
+        inst.slot,
+        inst.cbase,
+        inst.backcull,
+        inst.camera_from_model,
+        inst.eye,
+        inst.det,
+    )
+    proj, planes, near, width, height = view.proj, view.planes, view.near, view.width, view.height
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     last_u, last_v = width - 1.0, height - 1.0
     out[0], out[1], out[2], out[3], out[4] = 0.0, last_u, 0.0, last_v, near
@@ -271,53 +304,30 @@ def _bound_cluster(
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _draw_cluster(
-    q,
-    k,
-    col_lo,
-    col_hi,
-    bound,
-    X,
-    Y,
-    Z,
-    faces,
-    c_vrange,
-    slot,
-    vbase,
-    fbase,
-    nfaces,
-    cbase,
-    backcull,
-    cfm,
-    proj,
-    near,
-    width,
-    height,
-    xs,
-    ys,
-    sys_,
-    zb,
-    who,
-    tmax,
-    dirty,
-    wx,
-    wy,
-    wz,
-    wu,
-    wv,
-    keys_u,
-    keys_v,
-    live,
-    box,
-    tally,
-    cull,
-):
-    """Draw cluster k of visible instance q into the columns col_lo..col_hi, unless every
-    tile of its box there (``bound``: :func:`_bound_cluster`'s) lies nearer than it; counts
-    into ``tally`` (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels
-    tested, occlusion tiles refreshed). Without ``cull``, every face is tested against every
-    pixel centre of its box (no cluster, cone, cell, occlusion or span test): the reference
-    the culled frame must equal byte for byte."""
+def _draw_cluster(q, k, col_lo, col_hi, bound, geo, inst, view, centres, buf, work, tally, cull):
+    """Draw cluster k of visible instance q into the columns col_lo..col_hi of ``buf`` (a
+    :class:`~genie_gl.render.geometry.DepthBuffers`), unless every tile of its box there
+    (``bound``: :func:`_bound_cluster`'s) lies nearer than it; ``centres`` the pixel centres'
+    rays (:class:`Centres`), ``work`` the thread's :class:`Scratch`; counts into ``tally``
+    (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels tested,
+    occlusion tiles refreshed). Without ``cull``, every face is tested against every pixel
+    centre of its box (no cluster, cone, cell, occlusion or span test): the reference the
+    culled frame must equal byte for byte."""
+    X, Y, Z, faces, c_vrange = geo.X, geo.Y, geo.Z, geo.faces, geo.vrange
+    slot, vbase, fbase, nfaces, cbase, backcull, cfm = (
+        inst.slot,
+        inst.vbase,
+        inst.fbase,
+        inst.nfaces,
+        inst.cbase,
+        inst.backcull,
+        inst.camera_from_model,
+    )
+    proj, near, width, height = view.proj, view.near, view.width, view.height
+    xs, ys, sys_ = centres.x, centres.y, centres.shear
+    zb, who, tmax, dirty = buf.inverse_z, buf.winner, buf.tiles, buf.dirty
+    wx, wy, wz, wu, wv = work.wx, work.wy, work.wz, work.wu, work.wv
+    keys_u, keys_v, live, box = work.keys_u, work.keys_v, work.live, work.box
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     f0 = fbase[q] + k * CLUSTER
     nf = min(CLUSTER, nfaces[q] - k * CLUSTER)

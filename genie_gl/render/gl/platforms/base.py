@@ -1,6 +1,6 @@
 """What genie-gl asks of a way to get a headless OpenGL context (pyrender's ``platforms`` are
 the model): start one and hand it to moderngl, look up GL entry points, make it current
-around a call, release it. One module per platform; :mod:`genie_gl.render.context` chooses
+around a call, release it. One module per platform; :mod:`genie_gl.render.gl.context` chooses
 among them in one place."""
 
 from __future__ import annotations

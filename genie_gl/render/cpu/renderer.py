@@ -1,0 +1,165 @@
+"""The CPU raster's renderer: a frame's instances drawn by the exact CPU raster, no GL.
+
+:class:`CPURenderer` is what ``Renderer(scene, raster="cpu")`` makes. Per frame: the
+instances in view (:mod:`genie_gl.render.visibility`), drawn by
+:meth:`~genie_gl.render.cpu.raster.Rasteriser.draw` into the frame's
+:class:`~genie_gl.render.fragments.Fragments` (the winner of each pixel is decided in
+:func:`genie_gl.render.cpu.coverage._write`: the nearest float64 depth, ties to the lower
+(instance slot, face)), shaded by :func:`genie_gl.render.shading.shade`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Collection, Iterable, Iterator, Sequence
+
+import numpy as np
+
+from ...frame import Frame
+from ...limits import BYTES_PER_PIXEL, MAX_SIDE, check_frame_side, check_memory, memory_limit_bytes
+from ...sensors.camera import Sensor
+from ...validation.arguments import check_pose
+from ..fragments import Fragments, no_triangles
+from ..memory import frame_buffers
+from ..renderer import Renderer
+from ..shading import shade, to_frame
+from .raster import Rasteriser
+
+# the CPU raster's 1 / z (float64) and slot << 32 | face (int64) per pixel
+CPU_RASTER_BYTES_PER_PIXEL = 16
+
+
+class CPURenderer(Renderer, raster="cpu"):
+    """The exact CPU raster's :class:`~genie_gl.render.renderer.Renderer` (see there;
+    ``depth_precision``, ``targets`` and ``readback`` do not apply; ``cull=False`` tests
+    every triangle at every pixel centre of its box: the reference the culled frame equals
+    byte for byte, slow). No GL context: usable from any thread."""
+
+    def _uploaded(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        self._rasteriser = Rasteriser(self._culler)
+        self._sizes_checked: set[tuple[int, int]] = set()  # sizes found room for
+
+    def _frame(
+        self,
+        sensor: Sensor,
+        pose: np.ndarray,
+        color: bool,
+        normals: bool,
+        only: Collection[int] | None,
+        triangles: bool,
+    ) -> Frame:
+        """A frame drawn by the CPU raster: the instances in view (:meth:`_visible`), their
+        clusters drawn into the frame's winners (:meth:`Rasteriser.draw`), the winners shaded
+        (:func:`~genie_gl.render.shading.shade`; a frame of depth and ids alone is shaded
+        strip by strip as it is drawn)."""
+        t0 = time.perf_counter()
+        W, H, K = sensor.width, sensor.height, sensor.K
+        pose = check_pose(pose, "render pose")
+        if (W, H) not in self._sizes_checked:
+            check_frame_side(W, H, "Renderer", MAX_SIDE, "the largest frame genie-gl draws")
+            # the raster's buffers (1 / z float64, slot and face int64) and the frame's arrays
+            check_memory(
+                W * H * (CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL),
+                memory_limit_bytes(),
+                f"a {W}x{H} px frame x {CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL} B",
+                "Renderer: use a smaller sensor",
+                option=None,
+            )
+            self._sizes_checked.add((W, H))
+        near = float(sensor.clip_near_m)
+        out = frame_buffers(H, W, color, normals, triangles)
+        seen = self._visible(pose, K, W, H, near, only)
+        drawn_triangles = no_triangles(self._ids, self._rows["semantic"]) if triangles else None
+        fragments = Fragments(H, W, None, None, out)
+        drawn = faces = simplified = 0
+        face0 = np.zeros(len(self._mesh), np.int64)
+        cfm = np.zeros((max(1, len(self._mesh)), 3, 4))
+        if seen is not None:
+            cfm, slots, m = seen.camera_from_model, seen.slots, seen.mesh
+            r = self._rasteriser
+            ids_only = not (color or normals or triangles) and H * W > 1
+            inverse_z, winner = r.draw(
+                slots,
+                m,
+                seen.backcull,
+                cfm,
+                seen.eye,
+                self._det[slots],
+                K,
+                W,
+                H,
+                near,
+                seen.planes,
+                self.cull,
+                (self._ids, self._rows["semantic"], sensor.near_m, sensor.far_m, out)
+                if ids_only
+                else None,
+            )
+            fragments = Fragments(H, W, inverse_z, winner, out, shaded=ids_only)
+            face0[slots] = self._fbase[m]
+            drawn, faces, simplified = len(slots), int(self._nfaces[m].sum()), seen.simplified
+            if triangles:
+                d = drawn_triangles
+                d.first[slots], d.count[slots], d.base_vertex[slots], d.backcull[slots] = (
+                    self._fbase[m],
+                    self._nfaces[m],
+                    self._vbase[m],
+                    seen.backcull,
+                )
+                d.mesh_first[slots], d.mesh_count[slots] = self._fbase[m], self._nfaces[m]
+                drawn_triangles = d._replace(
+                    camera_from_model=cfm, indices=self._culler.faces.reshape(-1)
+                )
+        t1 = time.perf_counter()
+        rgb = self._rows["color"][:, :3] if len(self._mesh) else np.zeros((1, 3), np.uint8)
+        if not fragments.shaded:  # (a frame of depth and ids alone was filled as it was drawn)
+            shade(
+                fragments,
+                self._culler.vertices,
+                self._culler.faces,
+                self._rasteriser.face_vbase(self._vbase, self._fbase, self._nfaces),
+                cfm,
+                self._ids,
+                self._rows["semantic"],
+                rgb,
+                face0,
+                K,
+                sensor.near_m,
+                sensor.far_m,
+            )
+        t2 = time.perf_counter()
+        self.stats = {
+            "cull_s": 0.0,
+            "draw_s": t1 - t0,
+            "readback_s": t2 - t1,
+            "instances_drawn": drawn,
+            "triangles_drawn": faces,
+            "instances_simplified": simplified,
+            "occlusion_culled": False,
+        }
+        return to_frame(
+            out,
+            sensor,
+            pose,
+            color,
+            normals,
+            drawn_triangles,
+            self._triangle_scene() if triangles else None,
+            near,
+            1e3 * (t2 - t0),
+        )
+
+    def _frames(
+        self,
+        sensor: Sensor,
+        poses: Iterable[np.ndarray],
+        color: bool,
+        normals: bool,
+        only: Sequence[Collection[int] | None] | None,
+        triangles: bool,
+    ) -> Iterator[Frame]:
+        """Nothing to overlap: each frame is drawn when it is asked for."""
+        for k, pose in enumerate(poses):
+            yield self._frame(
+                sensor, pose, color, normals, None if only is None else only[k], triangles
+            )

@@ -1,0 +1,276 @@
+"""Shading, written once: a frame's :class:`~genie_gl.render.fragments.Fragments` into its
+arrays and its :class:`~genie_gl.frame.Frame`.
+
+Per pixel whose winner lies within the sensor's range ``[near_m, far_m]``: the depth
+(float32 view z, m), the instance id and the semantic id of the winner's slot; elsewhere 0
+(no return). On request, the camera-frame unit normal of the winner's face (towards the
+eye), the colour (the instance's, Lambert with a head light) and the triangle under every
+pixel a triangle won, in range or not, as (slot + 1, face within the slot's mesh)
+(:class:`~genie_gl.triangles.PixelTriangles`, which effects use to intersect their own rays).
+
+:func:`shade` computes all of this on the CPU from the CPU raster's winners (one compiled
+pass, row by row). The GL raster's shader writes colour, normals and the triangle target
+itself and packs depth and ids on the GPU: those stay there (moving them here would change
+its bytes); its read-back decodes them with the same range rule
+(:mod:`genie_gl.render.gl.readout`). :func:`to_frame` makes the Frame for both.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from ..frame import Frame
+from ..jit import njit, prange
+from ..sensors.camera import Sensor
+from ..triangles import PixelTriangles, SceneTriangles
+from .fragments import DrawnTriangles, Fragments
+from .geometry import projection
+
+
+class MeshArrays(NamedTuple):
+    """The scene's meshes as uploaded: ``vertices`` (V, 3) float32 and ``faces`` (F, 3)
+    uint32 joined, mesh after mesh, and per face its mesh's first vertex row ``face_vbase``
+    (F,) int64."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    face_vbase: np.ndarray
+
+
+class SlotShading(NamedTuple):
+    """Per instance slot (N): ``camera_from_model`` (N, 3, 4) float64, ``instance`` (N,)
+    uint32 and ``semantic`` (N,) ids, RGB ``color`` (N, 3) uint8, and ``face0`` (N,) int64,
+    its mesh's first face in the joined faces."""
+
+    camera_from_model: np.ndarray
+    instance: np.ndarray
+    semantic: np.ndarray
+    color: np.ndarray
+    face0: np.ndarray
+
+
+class FrameArrays(NamedTuple):
+    """A frame's arrays, H x W flattened: ``depth`` (float32), ``instance`` (uint32),
+    ``semantic`` (uint16), ``rgba`` (H W, 4) uint8, ``normal`` (H W, 3) float32,
+    ``primitive`` (H W, 2) uint32 (one row each where not asked for)."""
+
+    depth: np.ndarray
+    instance: np.ndarray
+    semantic: np.ndarray
+    rgba: np.ndarray
+    normal: np.ndarray
+    primitive: np.ndarray
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def in_range(inverse_z, near_m, far_m):
+    """The view z (m) of a winner of inverse depth ``inverse_z`` (1/m; 0: no hit) when it lies
+    within the sensor's range [near_m, far_m], else 0.0 (no return): the CPU raster's range
+    rule, for :func:`_shade` and for the frame of depth and ids its kernel fills as it draws."""
+    if inverse_z > 0.0:
+        z = 1.0 / inverse_z
+        if z >= near_m and z <= far_m:
+            return z
+    return 0.0
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _vertex(vertices, vi, m, r):
+    """Row r of camera_from_model ``m`` applied to vertex ``vi`` (float64)."""
+    return (
+        m[r, 0] * np.float64(vertices[vi, 0])
+        + m[r, 1] * np.float64(vertices[vi, 1])
+        + m[r, 2] * np.float64(vertices[vi, 2])
+        + m[r, 3]
+    )
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
+def _shade(
+    depth, hit, mesh, slots, proj, near_m, far_m, width, out, want_rgb, want_normal, want_tri
+):
+    """The frame's arrays ``out`` (:class:`FrameArrays`) from the drawn buffers (``depth``:
+    (H W,) float64 1 / z, 0 where nothing; ``hit``: slot << 32 | face), row by row in
+    parallel: z in [near_m, far_m] (else no return), instance and semantic ids, and on
+    request the face normal (camera frame, towards the eye), the colour (the instance's,
+    Lambert with a head light, as the GL shader) and the (slot + 1, face within the slot's
+    mesh) of every pixel a triangle won, in range or not; ``mesh``: the scene's
+    :class:`MeshArrays`, ``slots``: the :class:`SlotShading`. A face's unit normal is
+    computed once per run of pixels that show it."""
+    vertices, faces, fvbase = mesh.vertices, mesh.faces, mesh.face_vbase
+    cfm, ids, sems, color, slot_face0 = (
+        slots.camera_from_model,
+        slots.instance,
+        slots.semantic,
+        slots.color,
+        slots.face0,
+    )
+    out_depth, out_instance, out_semantic = out.depth, out.instance, out.semantic
+    out_rgb, out_normal, out_tri = out.rgba, out.normal, out.primitive
+    fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
+    W = int(width)
+    rows = len(depth) // W
+    for v in prange(rows):
+        last = np.int64(-1)
+        ux = uy = uz = 0.0
+        for p in range(v * W, (v + 1) * W):
+            h = hit[p] if depth[p] > 0.0 else np.int64(-1)
+            z = in_range(depth[p], near_m, far_m)
+            if want_tri:
+                if h < 0:
+                    out_tri[p, 0] = 0
+                    out_tri[p, 1] = 0
+                else:
+                    out_tri[p, 0] = np.uint32((h >> np.int64(32)) + 1)
+                    out_tri[p, 1] = np.uint32(
+                        (h & np.int64(0xFFFFFFFF)) - slot_face0[h >> np.int64(32)]
+                    )
+            if z == 0.0:  # no hit, or out of range
+                out_depth[p] = 0.0
+                out_instance[p] = 0
+                out_semantic[p] = 0
+                if want_rgb:
+                    for k in range(4):
+                        out_rgb[p, k] = 0
+                if want_normal:
+                    for k in range(3):
+                        out_normal[p, k] = 0.0
+                continue
+            sl = h >> np.int64(32)
+            out_depth[p] = np.float32(z)
+            out_instance[p] = ids[sl]
+            out_semantic[p] = sems[sl]
+            if not (want_rgb or want_normal):
+                continue
+            if h != last:
+                f = h & np.int64(0xFFFFFFFF)
+                m = cfm[sl]
+                va, vb, vc = (
+                    fvbase[f] + faces[f, 0],
+                    fvbase[f] + faces[f, 1],
+                    fvbase[f] + faces[f, 2],
+                )
+                ax, ay, az = (
+                    _vertex(vertices, va, m, 0),
+                    _vertex(vertices, va, m, 1),
+                    _vertex(vertices, va, m, 2),
+                )
+                bx, by, bz = (
+                    _vertex(vertices, vb, m, 0) - ax,
+                    _vertex(vertices, vb, m, 1) - ay,
+                    _vertex(vertices, vb, m, 2) - az,
+                )
+                wx, wy, wz = (
+                    _vertex(vertices, vc, m, 0) - ax,
+                    _vertex(vertices, vc, m, 1) - ay,
+                    _vertex(vertices, vc, m, 2) - az,
+                )
+                ux, uy, uz = by * wz - bz * wy, bz * wx - bx * wz, bx * wy - by * wx
+                nl = math.sqrt(ux * ux + uy * uy + uz * uz)
+                if nl > 0.0:
+                    ux, uy, uz = ux / nl, uy / nl, uz / nl
+                last = h
+            u = p - v * W
+            yn = (v - cy) / fy
+            xn = (u - cx - s * yn) / fx
+            dl = math.sqrt(xn * xn + yn * yn + 1.0)
+            vx, vy, vz = xn / dl, yn / dl, 1.0 / dl
+            nx, ny, nz = ux, uy, uz
+            if nx == 0.0 and ny == 0.0 and nz == 0.0:
+                nx, ny, nz = -vx, -vy, -vz
+            if nx * vx + ny * vy + nz * vz > 0.0:
+                nx, ny, nz = -nx, -ny, -nz
+            if want_normal:
+                out_normal[p, 0] = nx
+                out_normal[p, 1] = ny
+                out_normal[p, 2] = nz
+            if want_rgb:
+                lam = max(-(nx * vx + ny * vy + nz * vz), 0.0)
+                for k in range(3):
+                    out_rgb[p, k] = np.uint8(
+                        min(255.0, np.floor(color[sl, k] * (0.2 + 0.8 * lam) + 0.5))
+                    )
+                out_rgb[p, 3] = 255
+
+
+def shade(
+    fragments: Fragments,
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    face_vbase: np.ndarray,
+    cfm: np.ndarray,
+    ids: np.ndarray,
+    semantic: np.ndarray,
+    color: np.ndarray,
+    slot_face0: np.ndarray,
+    K: np.ndarray,
+    near_m: float,
+    far_m: float,
+) -> None:
+    """Fill ``fragments.arrays`` (:func:`genie_gl.render.memory.frame_buffers`) from the CPU
+    raster's winners (``inverse_z`` None: nothing drawn, all 0). The scene's joined
+    ``vertices`` (V, 3) float32 and ``faces`` (F, 3), per face its mesh's first vertex row
+    ``face_vbase`` (F,); per slot its camera_from_model ``cfm`` (N, 3, 4), ids, RGB colour
+    (N, 3) uint8 and first face in the joined arrays ``slot_face0`` (N,)."""
+    out = fragments.arrays
+    if fragments.inverse_z is None:
+        for a in out.values():
+            a.fill(0)
+        return
+    want_rgb, want_normal, want_tri = "rgba" in out, "normal" in out, "primitive" in out
+    _shade(
+        fragments.inverse_z,
+        fragments.winner,
+        MeshArrays(vertices, faces, face_vbase),
+        SlotShading(cfm, ids, semantic, color, slot_face0),
+        projection(K),
+        float(near_m),
+        float(far_m),
+        fragments.width,
+        FrameArrays(
+            out["depth"].reshape(-1),
+            out["instance"].reshape(-1),
+            out["semantic"].reshape(-1),
+            out["rgba"].reshape(-1, 4) if want_rgb else np.zeros((1, 4), np.uint8),
+            out["normal"].reshape(-1, 3) if want_normal else np.zeros((1, 3), np.float32),
+            out["primitive"].reshape(-1, 2) if want_tri else np.zeros((1, 2), np.uint32),
+        ),
+        want_rgb,
+        want_normal,
+        want_tri,
+    )
+
+
+def to_frame(
+    arrays: dict[str, np.ndarray],
+    sensor: Sensor,
+    pose: np.ndarray,
+    color: bool,
+    normals: bool,
+    drawn: DrawnTriangles | None,
+    scene: SceneTriangles | None,
+    clip_near_m: float,
+    render_ms: float,
+) -> Frame:
+    """The :class:`~genie_gl.frame.Frame` of a shaded frame's ``arrays``; ``drawn`` (with the
+    meshes ``scene`` and the near plane the raster drew with): its
+    :class:`~genie_gl.triangles.PixelTriangles` (None: none asked for)."""
+    tri = (
+        PixelTriangles(arrays["primitive"], *drawn, scene, clip_near_m)
+        if drawn is not None
+        else None
+    )
+    return Frame(
+        arrays["depth"],
+        arrays["instance"],
+        arrays["semantic"],
+        arrays["rgba"][..., :3] if color else None,
+        sensor,
+        pose,
+        arrays["normal"] if normals else None,
+        {"render_ms": render_ms},
+        tri,
+    )
