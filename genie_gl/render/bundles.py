@@ -40,28 +40,12 @@ import math
 import numpy as np
 
 from ..jit import njit, prange
-from .bvh import STACK, TIE, _slab, hit_triangle
+from .bvh import STACK, TIE, _slab, hit_triangle, shear
 
 SLACK = 1e-9  # radians added to every angular bound, and relative slack on lengths
 RAYS_PER_CELL = 16  # the grid is sized for about this many rays per cell
 MAX_CELLS = 1 << 22  # cells at most
 CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles
-
-
-@njit(cache=True, nogil=True, boundscheck=False, inline="always")
-def _shear(dx, dy, dz):  # pragma: no cover - compiled
-    """The watertight test's ray set-up (kx, ky, kz, sx, sy, sz), as :mod:`.bvh` makes it."""
-    ax_, ay_, az_ = abs(dx), abs(dy), abs(dz)
-    kz = 0 if ax_ >= ay_ and ax_ >= az_ else (1 if ay_ >= az_ else 2)
-    kx = (kz + 1) % 3
-    ky = (kx + 1) % 3
-    dkz = dx if kz == 0 else (dy if kz == 1 else dz)
-    if dkz < 0.0:
-        kx, ky = ky, kx
-    dkx = dx if kx == 0 else (dy if kx == 1 else dz)
-    dky = dx if ky == 0 else (dy if ky == 1 else dz)
-    sz = 1.0 / dkz
-    return kx, ky, kz, dkx * sz, dky * sz, sz
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
@@ -284,7 +268,7 @@ def cast_cells(
                 r = ray_order[j]
                 o = origins[0 if one_origin else r]
                 dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
-                kx, ky, kz, sx, sy, sz = _shear(dx, dy, dz)
+                kx, ky, kz, sx, sy, sz = shear(dx, dy, dz)
                 fx, fy, fz = dx == 0.0, dy == 0.0, dz == 0.0
                 ix = 1.0 / dx if not fx else 0.0
                 iy = 1.0 / dy if not fy else 0.0

@@ -215,13 +215,11 @@ def hit_triangle(corners, t, ox, oy, oz, kx, ky, kz, sx, sy, sz):  # pragma: no 
     return t_hit if t_hit > 0.0 else np.inf
 
 
-@njit(cache=True, nogil=True, boundscheck=False)
-def _cast_one(
-    o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, stack_t
-):  # pragma: no cover
-    """(distance, triangle number) of the nearest hit of one ray from ``o`` (3,) (inf, -1:
-    none); ``corners`` (n, 9) the triangles in leaf order, ``rank`` their numbers in the
-    joined arrays, ``stack`` and ``stack_t`` scratch. Ties: the lower triangle number."""
+@njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def shear(dx, dy, dz):  # pragma: no cover - compiled
+    """The watertight test's set-up of a ray of direction (dx, dy, dz): (kx, ky, kz, sx, sy,
+    sz), kz its major axis (kx, ky swapped when it points down that axis, keeping the
+    winding) and (sx, sy, sz) its shear (Woop, Benthin and Wald)."""
     ax_, ay_, az_ = abs(dx), abs(dy), abs(dz)
     kz = 0 if ax_ >= ay_ and ax_ >= az_ else (1 if ay_ >= az_ else 2)
     kx = (kz + 1) % 3
@@ -232,7 +230,17 @@ def _cast_one(
     dkx = dx if kx == 0 else (dy if kx == 1 else dz)
     dky = dx if ky == 0 else (dy if ky == 1 else dz)
     sz = 1.0 / dkz
-    sx, sy = dkx * sz, dky * sz
+    return kx, ky, kz, dkx * sz, dky * sz, sz
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _cast_one(
+    o, dx, dy, dz, corners, rank, boxes, right, start, count, stack, stack_t
+):  # pragma: no cover
+    """(distance, triangle number) of the nearest hit of one ray from ``o`` (3,) (inf, -1:
+    none); ``corners`` (n, 9) the triangles in leaf order, ``rank`` their numbers in the
+    joined arrays, ``stack`` and ``stack_t`` scratch. Ties: the lower triangle number."""
+    kx, ky, kz, sx, sy, sz = shear(dx, dy, dz)
     okx, oky, okz = o[kx], o[ky], o[kz]
     ox, oy, oz = o[0], o[1], o[2]
     fx, fy, fz = dx == 0.0, dy == 0.0, dz == 0.0
