@@ -112,9 +112,9 @@ def run(args: argparse.Namespace) -> int:
                 )  # the profile's range, not the clip's
                 lo, hi = max(lo, sensor.near_m), min(hi, sensor.far_m)
                 raise ConfigError(
-                    f"{args.scene}: no point captured: none of the {len(frames)} cameras of sensor "
-                    f"{args.sensor} ({sensor.width}x{sensor.height} px, range {lo:g}-{hi:g} m) saw a "
-                    "surface; check --mount, --poses and the sensor"
+                    f"{args.scene}: no point captured: none of the {len(frames)} cameras of "
+                    f"sensor {args.sensor} ({sensor.width}x{sensor.height} px, range "
+                    f"{lo:g}-{hi:g} m) saw a surface; check --mount, --poses and the sensor"
                 )
             step("export")
             folder.reserve()
