@@ -274,11 +274,12 @@ class OutputFolder:
     def abandoning(self, keep: Iterable[str] = ()) -> Iterator[OutputFolder]:
         """Around a run's writing: on any failure (an interrupt too) remove what this run
         wrote (:meth:`written`) except the entries ``keep`` (finished work a later run resumes
-        from), leave the folder as :meth:`abandon` does, and re-raise."""
+        from; an empty folder of those goes too), leave the folder as :meth:`abandon` does, and
+        re-raise."""
         try:
             yield self
         except BaseException:
-            kept = set(keep)
+            kept = {n for n in keep if not _empty_folder(self.path / n)}
             try:
                 self.abandon([n for n in self.written() if n not in kept])
             except Exception as exc:  # the run's own error is the one to report
@@ -418,6 +419,10 @@ def _claim_folder(
     if reserve:
         out.reserve()
     return out
+
+
+def _empty_folder(path: Path) -> bool:
+    return path.is_dir() and not path.is_symlink() and not any(path.iterdir())
 
 
 def _stamp(path: Path) -> tuple[int, int]:
