@@ -7,6 +7,7 @@ import json
 import genie_gl.layout
 from genie_gl.cli import main
 from genie_gl.errors import ConfigError
+from tests.faults.test_disks import PLANTED, check, needs_namespaces, on_disk
 from tests.test_file_safety import assert_intact, plant
 
 
@@ -48,3 +49,12 @@ def test_a_failed_rerun_removes_only_what_it_replaced(tmp_path, capsys, monkeypa
     assert (tmp_path / "layout.png").read_bytes() == png  # the earlier run's, untouched
     m = json.loads((tmp_path / "manifest.json").read_text())
     assert m["seed"] == 0 and m["outputs"] == ["labels.npy", "layout.png"]
+
+
+@needs_namespaces
+def test_a_full_disk_leaves_the_users_folder_as_it_was(tmp_path):
+    """A real full disk (a tmpfs of 48 kB) stops the layout midway: the one-line error, and
+    the folder holds the user's files only."""
+    report = on_disk(tmp_path, "size=48k", argv=["layout", "assembly_line", "--out", "{out}"])
+    check(report, "No space left on device")
+    assert sorted(report["files"]) == sorted(PLANTED)
