@@ -15,6 +15,9 @@ Every command and API function that writes files goes through this module:
   its own stamp (:func:`check_replaceable`); otherwise the write is refused.
 - Every file is written to a temporary name in its folder and renamed into place
   (:func:`atomic_write_bytes`), so nothing half-written is ever visible.
+- A run that fails after it began writing removes what it wrote
+  (:meth:`OutputFolder.abandoning`): the entries new since the claim and the files of an
+  earlier run it replaced; a folder it made goes with them, one of the user's is left as it was.
 """
 
 from __future__ import annotations
