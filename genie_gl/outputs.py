@@ -310,10 +310,10 @@ class OutputFolder:
             except OSError:  # something appeared meanwhile: leave it
                 pass
             return
-        if self.previous is None and not self._reserved:
-            return
         if self.previous is None and not self.outputs():  # the folder as the user had it
-            (self.path / MANIFEST).unlink(missing_ok=True)
+            (self.path / MANIFEST).unlink(missing_ok=True)  # none was there: this run's
+            return
+        if self.previous is None and not self._reserved:
             return
         data = dict(self.previous or {})
         data.pop("writing", None)
