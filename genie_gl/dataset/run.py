@@ -171,8 +171,8 @@ def run_dataset(
     folder = claim_output(cfg, fmt)
     folder.path.mkdir(parents=True, exist_ok=True)
     out = folder.path
-    try:
-        with OutputLock(out):
+    with OutputLock(out):  # a failure is cleared up while the lock is held
+        try:
             old = check_resume(out, fp, cfg.scenes)
             runs = list(old.get("runs", [])) if old else []
             manifest = {
@@ -202,9 +202,9 @@ def run_dataset(
                         "space and run the same command again"
                     ) from None
                 raise
-    except BaseException:
-        _abandon_unless_begun(folder, fmt, cfg)
-        raise
+        except BaseException:
+            _abandon_unless_begun(folder, fmt, cfg)
+            raise
     return manifest
 
 
