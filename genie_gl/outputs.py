@@ -294,7 +294,9 @@ class OutputFolder:
     def abandon(self, remove: Iterable[str] = ()) -> None:
         """After a failed run: remove the entries ``remove`` (outputs this run began and left
         partial; only genie-gl's), then leave a manifest listing only what exists, as the last
-        finished run wrote it; a folder this run made and left holding nothing is removed."""
+        finished run wrote it; a folder this run made and left holding nothing is removed, and
+        a folder of the user's left with nothing of genie-gl's loses the manifest this run
+        wrote (it had none)."""
         for name in remove:
             if (self.path / name).exists() or (self.path / name).is_symlink():
                 self.remove(name)
@@ -418,7 +420,7 @@ def _claim_folder(
             "are: choose another folder (or move them)"
         )
     out = OutputFolder(folder, command, option, owned, declared, before, previous, made)
-    out.stamps = {n: _stamp(folder / n) for n in before}
+    out.stamps = {n: _stamp(folder / n) for n in before}  # (0, 0): gone meanwhile
     if reserve:
         out.reserve()
     return out
@@ -431,7 +433,10 @@ def _empty_folder(path: Path) -> bool:
 def _stamp(path: Path) -> tuple[int, int]:
     """(inode, modification time in ns) of ``path`` itself: a file renamed into place or
     rewritten changes it."""
-    st = path.lstat()
+    try:
+        st = path.lstat()
+    except OSError:
+        return 0, 0
     return st.st_ino, st.st_mtime_ns
 
 
