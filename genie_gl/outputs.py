@@ -15,11 +15,15 @@ Every command and API function that writes files goes through this module:
   its own stamp (:func:`check_replaceable`); otherwise the write is refused.
 - Every file is written to a temporary name in its folder and renamed into place
   (:func:`atomic_write_bytes`), so nothing half-written is ever visible.
+- A run that fails after it began writing removes what it wrote
+  (:meth:`OutputFolder.abandoning`): the entries new since the claim and the files of an
+  earlier run it replaced; a folder it made goes with them, one of the user's is left as it was.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import os
 import shutil
 import tempfile
@@ -40,6 +44,8 @@ MANIFEST = "manifest.json"
 _ALWAYS_OURS = frozenset({MANIFEST, ".genie-lock"})
 #: the ``Software`` text of the PNG files genie-gl writes (how a later run knows them)
 PNG_SOFTWARE = "genie-gl"
+
+log = logging.getLogger(__name__)
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
@@ -208,6 +214,8 @@ class OutputFolder:
     previous: dict[str, Any] | None
     made: bool  # the folder did not exist before this run
     _reserved: bool = field(default=False, repr=False)
+    #: the (inode, mtime) of each entry of ``before``: a file replaced since is this run's
+    stamps: dict[str, tuple[int, int]] = field(default_factory=dict, repr=False)
 
     def owns(self, name: str) -> bool:
         """True when the top-level entry ``name`` is genie-gl's to replace or remove."""
@@ -245,10 +253,50 @@ class OutputFolder:
         atomic_write_text(self.path / MANIFEST, json.dumps(data, indent=1))
         self._reserved = True
 
+    def written(self) -> list[str]:
+        """The top-level entries this run wrote: those new since the claim, and the files of
+        genie-gl's (an earlier run's) replaced since; never the user's, nor the manifest."""
+        if not self.path.is_dir():
+            return []
+        mine = []
+        for p in self.path.iterdir():
+            if p.name in _ALWAYS_OURS:
+                continue
+            if p.name not in self.before:
+                mine.append(p.name)
+            elif (
+                self.owns(p.name)
+                and p.is_file()
+                and not p.is_symlink()
+                and _stamp(p) != self.stamps.get(p.name)
+            ):
+                mine.append(p.name)
+        return sorted(mine)
+
+    @contextmanager
+    def abandoning(self, keep: Iterable[str] = ()) -> Iterator[OutputFolder]:
+        """Around a run's writing: on any failure (an interrupt too) remove what this run
+        wrote (:meth:`written`) except the entries ``keep`` (finished work a later run resumes
+        from; an empty folder of those goes too), leave the folder as :meth:`abandon` does, and
+        re-raise."""
+        try:
+            yield self
+        except BaseException:
+            kept = {n for n in keep if not _empty_folder(self.path / n)}
+            try:
+                self.abandon([n for n in self.written() if n not in kept])
+            except Exception as exc:  # the run's own error is the one to report
+                log.warning(
+                    "%s %s: could not remove this run's outputs: %s", self.option, self.path, exc
+                )
+            raise
+
     def abandon(self, remove: Iterable[str] = ()) -> None:
         """After a failed run: remove the entries ``remove`` (outputs this run began and left
         partial; only genie-gl's), then leave a manifest listing only what exists, as the last
-        finished run wrote it; a folder this run made and left holding nothing is removed."""
+        finished run wrote it; a folder this run made and left holding nothing is removed, and
+        a folder of the user's left with nothing of genie-gl's loses the manifest this run
+        wrote (it had none)."""
         for name in remove:
             if (self.path / name).exists() or (self.path / name).is_symlink():
                 self.remove(name)
@@ -263,6 +311,9 @@ class OutputFolder:
                 self.path.rmdir()
             except OSError:  # something appeared meanwhile: leave it
                 pass
+            return
+        if self.previous is None and not self.outputs():  # the folder as the user had it
+            (self.path / MANIFEST).unlink(missing_ok=True)  # none was there: this run's
             return
         if self.previous is None and not self._reserved:
             return
@@ -369,9 +420,24 @@ def _claim_folder(
             "are: choose another folder (or move them)"
         )
     out = OutputFolder(folder, command, option, owned, declared, before, previous, made)
+    out.stamps = {n: _stamp(folder / n) for n in before}  # (0, 0): gone meanwhile
     if reserve:
         out.reserve()
     return out
+
+
+def _empty_folder(path: Path) -> bool:
+    return path.is_dir() and not path.is_symlink() and not any(path.iterdir())
+
+
+def _stamp(path: Path) -> tuple[int, int]:
+    """(inode, modification time in ns) of ``path`` itself: a file renamed into place or
+    rewritten changes it."""
+    try:
+        st = path.lstat()
+    except OSError:
+        return 0, 0
+    return st.st_ino, st.st_mtime_ns
 
 
 # -- replacing a folder genie-gl wrote, keeping what the user put in it ---------------------------

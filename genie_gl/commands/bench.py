@@ -354,7 +354,9 @@ def run(args: argparse.Namespace) -> int:
     if check is not None:  # a benchmark's own option checks, before its folder is claimed
         check(args)
     folder = claim_folder(args.out, "bench", BENCHMARKS[args.bench][2], reserve=True)
-    announce_compilation(f"bench {args.bench}")
-    code = int(mod.run(args) or 0)
-    folder.finish({"last": args.bench})
+    # a failed run leaves nothing it wrote but its cache (finished references, reused)
+    with folder.abandoning(keep=("cache",)):
+        announce_compilation(f"bench {args.bench}")
+        code = int(mod.run(args) or 0)
+        folder.finish({"last": args.bench})
     return code

@@ -72,64 +72,65 @@ def run(args: argparse.Namespace) -> int:
     )  # before any work
     fmt = get_format(args.format)
     folder = claim_folder(args.out, "capture", fmt.cloud_outputs("cloud"))  # before any work
-    check_disk(
-        n * sensor.width * sensor.height * fmt.bytes_per_point,
-        args.out,
-        f"--out {args.out}",
-        fix="use fewer --cameras or a smaller sensor, or free space",
-        option=None,
-    )
-    with stages(
-        ["read scene", "plan", "render", "cloud", "export"],
-        title="genie capture",
-        enabled=not args.no_progress,
-    ) as step:
-        step("read scene")
-        scene = read_usd(args.scene)
-        step("place cameras and plan")
-        poses = (
-            given
-            if given is not None
-            else scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.height)
+    with folder.abandoning():  # a failed run leaves nothing it wrote
+        check_disk(
+            n * sensor.width * sensor.height * fmt.bytes_per_point,
+            args.out,
+            f"--out {args.out}",
+            fix="use fewer --cameras or a smaller sensor, or free space",
+            option=None,
         )
-        plan = make_plan(scene, sensor, poses)
-        warn_empty(plan, "capture")
-        announce_compilation("capture")
-        step(f"render {len(poses)} cameras")
-        raster = resolve_raster(
-            args.raster or (sensor.accuracy.raster if sensor.accuracy else None), "--raster"
-        )
-        frames = capture(
-            scene, sensor, poses, seed=args.seed, workers=None, plan=plan, raster=raster
-        )
-        step("cloud")
-        cloud = to_cloud(frames)
-        if not len(cloud):
-            lo, hi = sensor_range(sensor) or (
-                sensor.near_m,
-                sensor.far_m,
-            )  # the profile's range, not the clip's
-            lo, hi = max(lo, sensor.near_m), min(hi, sensor.far_m)
-            raise ConfigError(
-                f"{args.scene}: no point captured: none of the {len(frames)} cameras of sensor "
-                f"{args.sensor} ({sensor.width}x{sensor.height} px, range {lo:g}-{hi:g} m) saw a "
-                "surface; check --mount, --poses and the sensor"
+        with stages(
+            ["read scene", "plan", "render", "cloud", "export"],
+            title="genie capture",
+            enabled=not args.no_progress,
+        ) as step:
+            step("read scene")
+            scene = read_usd(args.scene)
+            step("place cameras and plan")
+            poses = (
+                given
+                if given is not None
+                else scene_poses(scene, sensor, args.cameras, args.seed, mount_height_m=args.height)
             )
-        step("export")
-        folder.reserve()
-        path = fmt.write_cloud(cloud, folder.path, name="cloud")
-    folder.finish(
-        {
-            "scene": args.scene,
-            "sensor": args.sensor,
-            "cameras": len(poses),
-            "seed": args.seed,
-            "format": args.format,
-            "raster": raster,
-            "points": len(cloud),
-            "effects": effect_totals(frames),
-            "empty_frames": plan.empty_frames,
-        }
-    )
+            plan = make_plan(scene, sensor, poses)
+            warn_empty(plan, "capture")
+            announce_compilation("capture")
+            step(f"render {len(poses)} cameras")
+            raster = resolve_raster(
+                args.raster or (sensor.accuracy.raster if sensor.accuracy else None), "--raster"
+            )
+            frames = capture(
+                scene, sensor, poses, seed=args.seed, workers=None, plan=plan, raster=raster
+            )
+            step("cloud")
+            cloud = to_cloud(frames)
+            if not len(cloud):
+                lo, hi = sensor_range(sensor) or (
+                    sensor.near_m,
+                    sensor.far_m,
+                )  # the profile's range, not the clip's
+                lo, hi = max(lo, sensor.near_m), min(hi, sensor.far_m)
+                raise ConfigError(
+                    f"{args.scene}: no point captured: none of the {len(frames)} cameras of "
+                    f"sensor {args.sensor} ({sensor.width}x{sensor.height} px, range "
+                    f"{lo:g}-{hi:g} m) saw a surface; check --mount, --poses and the sensor"
+                )
+            step("export")
+            folder.reserve()
+            path = fmt.write_cloud(cloud, folder.path, name="cloud")
+        folder.finish(
+            {
+                "scene": args.scene,
+                "sensor": args.sensor,
+                "cameras": len(poses),
+                "seed": args.seed,
+                "format": args.format,
+                "raster": raster,
+                "points": len(cloud),
+                "effects": effect_totals(frames),
+                "empty_frames": plan.empty_frames,
+            }
+        )
     print(f"capture: {len(frames)} frames, {len(cloud):,} points -> {path}")
     return 0

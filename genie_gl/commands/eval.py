@@ -312,7 +312,8 @@ def run(args: argparse.Namespace) -> int:
         from ..studies.report import preset_markdown
 
         folder = claim_folder(args.out, "eval-preset", reserve=True)
-        try:
+        # a failed run leaves nothing it wrote but its cache of features
+        with folder.abandoning(keep=("cache",)):
             if args.preset == "finetune":
                 res = protocols.finetune(
                     args.target_train,
@@ -342,25 +343,20 @@ def run(args: argparse.Namespace) -> int:
                     progress=progress,
                     params=params,
                 )
-        except (
-            BaseException
-        ):  # a failed run leaves a manifest of what exists (no folder, if it made one)
-            folder.abandon()
-            raise
-        text = preset_markdown(args.preset, res, Path(args.out))
-        folder.finish(
-            {
-                "inputs": {
-                    "preset": args.preset,
-                    "target_train": args.target_train,
-                    "target_test": args.target_test,
-                    "train": list(args.train),
-                    "model": model,
-                    "seeds": seeds,
-                    "label_map": args.label_map,
+            text = preset_markdown(args.preset, res, Path(args.out))
+            folder.finish(
+                {
+                    "inputs": {
+                        "preset": args.preset,
+                        "target_train": args.target_train,
+                        "target_test": args.target_test,
+                        "train": list(args.train),
+                        "model": model,
+                        "seeds": seeds,
+                        "label_map": args.label_map,
+                    }
                 }
-            }
-        )
+            )
         print(text)
         return 0
     if not args.train or not args.test:

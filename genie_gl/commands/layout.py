@@ -56,27 +56,28 @@ def run(args: argparse.Namespace) -> int:
             f"cells, more than {MAX_RASTER_CELLS:,}; use a coarser --resolution"
         )
     folder = claim_folder(args.out, "layout", OUTPUTS)  # before any work: refuse the user's names
-    layout = generate_layout(strategy, seed=args.seed, max_regions=args.max_nodes)
-    raster = layout.label_raster(args.resolution)
-    folder.reserve()
-    out = folder.path
-    layout.to_json(out / "layout.json")
-    save_layout_png(layout, out / "layout.png")
-    buf = io.BytesIO()
-    np.save(buf, raster.labels)
-    atomic_write_bytes(out / "labels.npy", buf.getvalue())
-    folder.finish(
-        {
-            "strategy": str(strategy.source),
-            "seed": args.seed,
-            "raster": {
-                "resolution_m": args.resolution,
-                "origin_xy": raster.origin_xy,
-                "type_names": raster.type_names,
-            },
-            "nodes": len(layout),
-            "leaves": len(layout.leaves()),
-        }
-    )
+    with folder.abandoning():  # a failed run leaves nothing it wrote
+        layout = generate_layout(strategy, seed=args.seed, max_regions=args.max_nodes)
+        raster = layout.label_raster(args.resolution)
+        folder.reserve()
+        out = folder.path
+        layout.to_json(out / "layout.json")
+        save_layout_png(layout, out / "layout.png")
+        buf = io.BytesIO()
+        np.save(buf, raster.labels)
+        atomic_write_bytes(out / "labels.npy", buf.getvalue())
+        folder.finish(
+            {
+                "strategy": str(strategy.source),
+                "seed": args.seed,
+                "raster": {
+                    "resolution_m": args.resolution,
+                    "origin_xy": raster.origin_xy,
+                    "type_names": raster.type_names,
+                },
+                "nodes": len(layout),
+                "leaves": len(layout.leaves()),
+            }
+        )
     print(f"layout: {len(layout)} regions, {len(layout.leaves())} leaves -> {out}")
     return 0

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from contextlib import ExitStack
 from pathlib import Path
 
 from ..errors import ConfigError
@@ -136,65 +137,73 @@ def run(args: argparse.Namespace) -> int:
             [n for s in stems for n in page_names(s)] + ["index.md"],
             option="--pages",
         )
-    cards, refs = [], {}
-    from ..card.scanner_card import scanner_card, scanner_card_markdown, scanner_profile_file
-    from ..effects.scanner_profile import load_scanner
+    with ExitStack() as guard:  # a failed run leaves nothing it wrote, in either folder
+        for folder in (out, pages):
+            if folder is not None:
+                guard.enter_context(folder.abandoning())
+        cards, refs = [], {}
+        from ..card.scanner_card import scanner_card, scanner_card_markdown, scanner_profile_file
+        from ..effects.scanner_profile import load_scanner
 
-    for name in names:
-        if scanner_profile_file(name) is not None:  # a spinning scanner: its own card
-            print(f"genie report-card: {name}: scanning the test scenes ...", file=sys.stderr)
-            card = scanner_card(load_scanner(name), seed=args.seed)
-            text = scanner_card_markdown(card)
-            print(
-                json.dumps({**card, "rows": [list(r) for r in card["rows"]]}, indent=1)
-                if args.json
-                else text
-            )
-            if out is not None:
-                atomic_write_text(out.path / f"{card['sensor']}.card.md", text)
-            if pages is not None:
-                atomic_write_text(pages.path / f"{card['sensor']}.md", text)
+        for name in names:
+            if scanner_profile_file(name) is not None:  # a spinning scanner: its own card
+                print(f"genie report-card: {name}: scanning the test scenes ...", file=sys.stderr)
+                card = scanner_card(load_scanner(name), seed=args.seed)
+                text = scanner_card_markdown(card)
                 print(
-                    f"genie report-card: wrote {pages.path / (card['sensor'] + '.md')}",
-                    file=sys.stderr,
+                    json.dumps({**card, "rows": [list(r) for r in card["rows"]]}, indent=1)
+                    if args.json
+                    else text
                 )
-            continue
-        sensor = load_sensor(name)
-        ref = None
-        if args.references:
-            ref = load_references(args.references)
-        elif reference_path(sensor.name).is_file():
-            ref = load_references(sensor.name)
-        print(f"genie report-card: {sensor.name}: rendering the test scenes ...", file=sys.stderr)
-        card = report_card(sensor, settings=settings, references=ref, captures=captures)
-        cards.append(card)
-        if ref is not None:
-            refs[sensor.name] = ref
-        if args.json:
-            print(json.dumps(card.to_dict(), indent=1))
-        else:
-            print(f"# {card.sensor}\n")
-            print(card_markdown(card))
-    if out is not None:
-        for card in cards:
-            atomic_write_text(
-                out.path / f"{card.sensor}.card.json", json.dumps(card.to_dict(), indent=1) + "\n"
+                if out is not None:
+                    atomic_write_text(out.path / f"{card['sensor']}.card.md", text)
+                if pages is not None:
+                    atomic_write_text(pages.path / f"{card['sensor']}.md", text)
+                    print(
+                        f"genie report-card: wrote {pages.path / (card['sensor'] + '.md')}",
+                        file=sys.stderr,
+                    )
+                continue
+            sensor = load_sensor(name)
+            ref = None
+            if args.references:
+                ref = load_references(args.references)
+            elif reference_path(sensor.name).is_file():
+                ref = load_references(sensor.name)
+            print(
+                f"genie report-card: {sensor.name}: rendering the test scenes ...", file=sys.stderr
             )
-            atomic_write_text(
-                out.path / f"{card.sensor}.card.md", f"# {card.sensor}\n\n" + card_markdown(card)
+            card = report_card(sensor, settings=settings, references=ref, captures=captures)
+            cards.append(card)
+            if ref is not None:
+                refs[sensor.name] = ref
+            if args.json:
+                print(json.dumps(card.to_dict(), indent=1))
+            else:
+                print(f"# {card.sensor}\n")
+                print(card_markdown(card))
+        if out is not None:
+            for card in cards:
+                atomic_write_text(
+                    out.path / f"{card.sensor}.card.json",
+                    json.dumps(card.to_dict(), indent=1) + "\n",
+                )
+                atomic_write_text(
+                    out.path / f"{card.sensor}.card.md",
+                    f"# {card.sensor}\n\n" + card_markdown(card),
+                )
+            out.finish(
+                {
+                    "version": __version__,
+                    "sensors": [c.sensor for c in cards],
+                    "seed": args.seed,
+                    "frames": args.frames,
+                    "quick": bool(args.quick),
+                    "captures": args.captures,
+                    "references": {c.sensor: c.references for c in cards},
+                }
             )
-        out.finish(
-            {
-                "version": __version__,
-                "sensors": [c.sensor for c in cards],
-                "seed": args.seed,
-                "frames": args.frames,
-                "quick": bool(args.quick),
-                "captures": args.captures,
-                "references": {c.sensor: c.references for c in cards},
-            }
-        )
-    if pages is not None and cards:  # the cameras' pages and their index
-        for page in write_pages(cards, pages, refs):
-            print(f"genie report-card: wrote {page}", file=sys.stderr)
+        if pages is not None and cards:  # the cameras' pages and their index
+            for page in write_pages(cards, pages, refs):
+                print(f"genie report-card: wrote {page}", file=sys.stderr)
     return 0

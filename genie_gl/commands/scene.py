@@ -33,15 +33,28 @@ def run(args: argparse.Namespace) -> int:
     layout = Layout.from_json(args.layout)
     announce_compilation("scene")
     names = ["build scene", "write USD"] + ([] if args.no_picture else ["render overview"])
-    with stages(names, title="genie scene", enabled=not args.no_progress) as step:
-        step("build scene")
-        scene = build_scene(layout, seed=args.seed)
-        step("write USD")
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_usd(scene, out)
-        if not args.no_picture:
-            step("render overview")
-            png = _overview(scene, layout, out)
+    made = [p for p in (out.parent, *out.parent.parents) if not p.exists()]  # folders to make
+    written = False
+    try:
+        with stages(names, title="genie scene", enabled=not args.no_progress) as step:
+            step("build scene")
+            scene = build_scene(layout, seed=args.seed)
+            step("write USD")
+            out.parent.mkdir(parents=True, exist_ok=True)
+            write_usd(scene, out)
+            written = True
+            if not args.no_picture:
+                step("render overview")
+                png = _overview(scene, layout, out)
+    except BaseException:  # a failed run leaves nothing it wrote: the scene, the folders it made
+        if written and out.is_file():
+            out.unlink()
+        for folder in made:
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (or not ours to remove): left as it is
+                break
+        raise
     msg = f"scene: {len(scene.instances)} instances of {len(scene.meshes)} meshes -> {out}"
     if not args.no_picture:
         msg += f" (overview {png})"

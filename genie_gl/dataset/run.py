@@ -123,6 +123,20 @@ def _clear_leftovers(folder: OutputFolder, fmt) -> None:
                 p.unlink()
 
 
+def _abandon_unless_begun(folder: OutputFolder, fmt, cfg: DatasetConfig) -> None:
+    """After a failed run: where no earlier run left a dataset and no scene was finished, there
+    is nothing to resume from: what this run wrote goes (its folder too, if it made it).
+    Otherwise everything stays for the same command to resume."""
+    if folder.previous is not None or not folder.path.is_dir():
+        return
+    if any(scene_complete(fmt.scene_dir(folder.path, i)) is not None for i in range(cfg.scenes)):
+        return
+    try:
+        folder.abandon(folder.written())
+    except OSError as exc:  # the run's own error is the one to report
+        log.warning("--out %s: could not remove this run's outputs: %s", folder.path, exc)
+
+
 def _effects_total(results: list[dict]) -> dict:
     """Per effect over the scenes made by this run: frames run and skipped, ms, changed pixels."""
     total: dict = {}
@@ -157,35 +171,39 @@ def run_dataset(
     folder = claim_output(cfg, fmt)
     folder.path.mkdir(parents=True, exist_ok=True)
     out = folder.path
-    with OutputLock(out):
-        old = check_resume(out, fp, cfg.scenes)
-        runs = list(old.get("runs", [])) if old else []
-        manifest = {
-            "genie_gl": __version__,
-            "python": platform.python_version(),
-            "command": "dataset",
-            "fingerprint": fp,
-            "inputs": {k: v for k, v in cfg.model_dump().items() if k != "out"},
-            "scene_seeds": SceneStreams.describe(),
-            "runs": runs,
-        }
-        manifest["outputs"] = sorted(set(folder.owned) | set(folder.declared))
-        atomic_write_text(
-            out / "manifest.json", json.dumps(manifest, indent=1)
-        )  # before any scene: a later
-        _clear_leftovers(folder, fmt)  # resume knows the inputs, and what is its own
-        if on_start is not None:
-            on_start()
+    with OutputLock(out):  # a failure is cleared up while the lock is held
         try:
-            _run(cfg, inputs, folder, fmt, manifest, runs, progress=progress, verify=verify)
-        except OSError as exc:
-            if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
-                raise ConfigError(
-                    f"--out {out}: disk full or file too large while writing "
-                    f"({exc.filename or 'a scene'}: {exc.strerror}); finished scenes are kept: "
-                    "free "
-                    "space and run the same command again"
-                ) from None
+            old = check_resume(out, fp, cfg.scenes)
+            runs = list(old.get("runs", [])) if old else []
+            manifest = {
+                "genie_gl": __version__,
+                "python": platform.python_version(),
+                "command": "dataset",
+                "fingerprint": fp,
+                "inputs": {k: v for k, v in cfg.model_dump().items() if k != "out"},
+                "scene_seeds": SceneStreams.describe(),
+                "runs": runs,
+            }
+            manifest["outputs"] = sorted(set(folder.owned) | set(folder.declared))
+            atomic_write_text(
+                out / "manifest.json", json.dumps(manifest, indent=1)
+            )  # before any scene: a later
+            _clear_leftovers(folder, fmt)  # resume knows the inputs, and what is its own
+            if on_start is not None:
+                on_start()
+            try:
+                _run(cfg, inputs, folder, fmt, manifest, runs, progress=progress, verify=verify)
+            except OSError as exc:
+                if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+                    raise ConfigError(
+                        f"--out {out}: disk full or file too large while writing "
+                        f"({exc.filename or 'a scene'}: {exc.strerror}); finished scenes are kept: "
+                        "free "
+                        "space and run the same command again"
+                    ) from None
+                raise
+        except BaseException:
+            _abandon_unless_begun(folder, fmt, cfg)
             raise
     return manifest
 

@@ -91,8 +91,9 @@ def export(
     folder = claim_folder(
         out_dir, "export", fmt.cloud_outputs(name), option="out_dir", reserve=True
     )
-    path = fmt.write_cloud(cloud, folder.path, name=name, sequence=sequence, frame=frame)
-    folder.finish({"format": format, "last": {"name": name, "points": len(cloud)}})
+    with folder.abandoning():  # a failed export leaves nothing it wrote
+        path = fmt.write_cloud(cloud, folder.path, name=name, sequence=sequence, frame=frame)
+        folder.finish({"format": format, "last": {"name": name, "points": len(cloud)}})
     return path
 
 

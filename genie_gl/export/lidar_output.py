@@ -84,13 +84,14 @@ def export_scans(
         option="out_dir",
         reserve=True,
     )
-    paths = write(scans, folder.path)
-    folder.finish(
-        {
-            "format": format,
-            "scans": len(scans),
-            "points": int(sum(len(s) for s in scans)),
-            "heads": {h: sorted({s.scanner.name for s in scans if s.head == h}) for h in heads},
-        }
-    )
+    with folder.abandoning():  # a failed export leaves nothing it wrote
+        paths = write(scans, folder.path)
+        folder.finish(
+            {
+                "format": format,
+                "scans": len(scans),
+                "points": int(sum(len(s) for s in scans)),
+                "heads": {h: sorted({s.scanner.name for s in scans if s.head == h}) for h in heads},
+            }
+        )
     return paths

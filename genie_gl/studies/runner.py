@@ -196,23 +196,32 @@ def run_training(t: Training, c: Context) -> dict:
     _wait_for_other(path)
     if _done(t, c):
         return json.loads((path / "metrics.json").read_text())
+    made = not path.exists()
     path.mkdir(parents=True, exist_ok=True)
-    (path / ".training-pid").write_text(str(os.getpid()))
-    folders = [
-        str(ds.ensure(d, c.cache, workers=c.workers, progress=c.progress)) for d in t.train + t.test
-    ]
-    log.info("training %s (%s) on %s", t.name, t.model, ", ".join(folders[: len(t.train)]))
-    t0 = time.perf_counter()
-    evaluate(
-        folders[: len(t.train)],
-        folders[len(t.train) :],
-        model=t.model,
-        seeds=c.seeds,
-        out=path,
-        workers=c.workers,
-        cache=c.cache / "features",
-        progress=c.progress,
-    )
+    pid = path / ".training-pid"
+    pid.write_text(str(os.getpid()))
+    try:
+        folders = [
+            str(ds.ensure(d, c.cache, workers=c.workers, progress=c.progress))
+            for d in t.train + t.test
+        ]
+        log.info("training %s (%s) on %s", t.name, t.model, ", ".join(folders[: len(t.train)]))
+        t0 = time.perf_counter()
+        evaluate(  # a failed evaluation removes what it wrote itself
+            folders[: len(t.train)],
+            folders[len(t.train) :],
+            model=t.model,
+            seeds=c.seeds,
+            out=path,
+            workers=c.workers,
+            cache=c.cache / "features",
+            progress=c.progress,
+        )
+    except BaseException:  # no unfinished training left: its mark, and its folder if made now
+        pid.unlink(missing_ok=True)
+        if made and not any(path.iterdir()):
+            path.rmdir()
+        raise
     log.info("%s: %.0f s", t.name, time.perf_counter() - t0)
     return json.loads((path / "metrics.json").read_text())
 
@@ -225,20 +234,18 @@ def _costs_study(c: Context, confirm: bool) -> str:
     print(head, flush=True)
     if not confirm:
         return head + "\n(run again with --yes to start)"
-    folder = claim_folder(c.out, "eval-study", reserve=True)
-    for name in ("costs.md", "costs.json"):
-        if (c.out / name).exists() and not folder.owns(name):
-            raise ConfigError(
-                f"--out {c.out}: already holds {name}, which genie-gl did not write; choose "
-                "another folder"
-            )
-    result = time_effects(PROFILE, "assembly_line", frames=c.cameras, repeats=5, seed=ds.TRAIN_SEED)
-    text = costs_markdown(
-        result, f"genie eval --study costs --cameras {c.cameras} --out {c.out} --yes"
-    )
-    atomic_write_text(c.out / "costs.json", json.dumps(result, indent=1) + "\n")
-    atomic_write_text(c.out / "costs.md", text)
-    folder.finish({"study": "costs", "cameras": c.cameras})
+    # a name of the user's is refused before anything is written
+    folder = claim_folder(c.out, "eval-study", ("costs.md", "costs.json"), reserve=True)
+    with folder.abandoning():  # a failed run leaves nothing it wrote
+        result = time_effects(
+            PROFILE, "assembly_line", frames=c.cameras, repeats=5, seed=ds.TRAIN_SEED
+        )
+        text = costs_markdown(
+            result, f"genie eval --study costs --cameras {c.cameras} --out {c.out} --yes"
+        )
+        atomic_write_text(c.out / "costs.json", json.dumps(result, indent=1) + "\n")
+        atomic_write_text(c.out / "costs.md", text)
+        folder.finish({"study": "costs", "cameras": c.cameras})
     return text
 
 
@@ -285,29 +292,27 @@ def run_study(
     print(f"study {study}: {text}", flush=True)
     if not confirm:
         return f"study {study}: {text}\n(run again with --yes to start)"
-    folder = claim_folder(c.out, "eval-study", reserve=True)
-    for n in names:
-        if (c.out / f"{n}.md").exists() and not folder.owns(f"{n}.md"):
-            raise ConfigError(
-                f"--out {c.out}: already holds {n}.md, which genie-gl did not write; choose "
-                "another folder"
-            )
+    # a name of the user's is refused before anything is written
+    claim_folder(c.out, "eval-study", [f"{n}.md" for n in names])
     parts = []
-    for n in names:
-        if n == "mix":
-            parts.append(report.mix_study(c, *_mix_specs(c)))
-        else:
-            results = {t.name: (t, run_training(t, c)) for t in _plan(n, c)}
-            parts.append(getattr(report, f"{n}_study")(c, results))
-        atomic_write_text(c.out / f"{n}.md", parts[-1])
-        folder.finish(
-            {
-                "study": n,
-                "seeds": list(c.seeds),
-                "scenes": c.scenes,
-                "test_scenes": c.test_scenes,
-                "cameras": c.cameras,
-                "cache": str(c.cache),
-            }
-        )
+    for n in names:  # each study claims the folder anew: a failed one removes what it wrote,
+        # finished studies, trainings (runs/) and datasets (cache/) stay for the next run
+        folder = claim_folder(c.out, "eval-study", [f"{n}.md"], reserve=True)
+        with folder.abandoning(keep=("runs", "cache")):
+            if n == "mix":
+                parts.append(report.mix_study(c, *_mix_specs(c)))
+            else:
+                results = {t.name: (t, run_training(t, c)) for t in _plan(n, c)}
+                parts.append(getattr(report, f"{n}_study")(c, results))
+            atomic_write_text(c.out / f"{n}.md", parts[-1])
+            folder.finish(
+                {
+                    "study": n,
+                    "seeds": list(c.seeds),
+                    "scenes": c.scenes,
+                    "test_scenes": c.test_scenes,
+                    "cameras": c.cameras,
+                    "cache": str(c.cache),
+                }
+            )
     return "\n".join(parts)
