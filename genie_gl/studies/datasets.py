@@ -30,6 +30,7 @@ log = logging.getLogger(__name__)
 TRAIN_SEED = 0
 TEST_SEED = 1000
 TARGET_SEED = 2000
+SCENES, TEST_SCENES, CAMERAS = 10, 4, 16  # a condition's default size
 STRATEGIES = ("assembly_line", "storage_area", "logistics_lane")
 SENSORS = ("ideal_pinhole", "realsense_d435", "azure_kinect_nfov")
 PROFILE = "realsense_d435"

@@ -41,8 +41,28 @@ def _summary_spreads(t: dict) -> dict:
     }
 
 
+def _reproduce(c: Any, command: str) -> str:
+    """``command`` with the sizes of this run that are not the defaults (``--seeds``,
+    ``--scenes``, ``--test-scenes``, ``--cameras``) before its ``--out``."""
+    extra = []
+    if tuple(c.seeds) != (0, 1, 2):
+        extra.append(f"--seeds {','.join(map(str, c.seeds))}")
+    for option, value, default in (
+        ("--scenes", c.scenes, ds.SCENES),
+        ("--test-scenes", c.test_scenes, ds.TEST_SCENES),
+        ("--cameras", c.cameras, ds.CAMERAS),
+    ):
+        if value != default:
+            extra.append(f"{option} {value}")
+    if not extra:
+        return command
+    head, sep, tail = command.partition(" --out")
+    return f"{head} {' '.join(extra)}{sep}{tail}"
+
+
 def _header(title: str, c: Any, command: str) -> str:
     load = os.getloadavg()
+    command = _reproduce(c, command)
     return (
         f"## {title}\n\nMeasured {time.strftime('%Y-%m-%d')}, load average {load[0]:.1f} (2 "
         "cores), "

@@ -168,11 +168,19 @@ def estimate(
 
 
 def _done(t: Training, c: Context) -> bool:
+    """Whether ``OUT/runs/<name>`` holds this training: its seeds, model and datasets (a run of
+    another size, ``--scenes``, ``--test-scenes`` or ``--cameras``, is not reused)."""
     m = c.out / "runs" / t.name / "metrics.json"
     if not m.exists():
         return False
     data = json.loads(m.read_text())
-    return data.get("seeds") == list(c.seeds) and data.get("model") == t.model
+    tests = [Path(x.get("spec", "")).name for x in data.get("tests", [])]
+    return (
+        data.get("seeds") == list(c.seeds)
+        and data.get("model") == t.model
+        and [Path(x).name for x in data.get("train", [])] == [d.name for d in t.train]
+        and tests == [d.name for d in t.test]
+    )
 
 
 def _wait_for_other(path: Path) -> None:
@@ -255,9 +263,9 @@ def run_study(
     out: Path,
     cache: Path,
     seeds: Sequence[int] = (0, 1, 2),
-    scenes: int = 10,
-    test_scenes: int = 4,
-    cameras: int = 16,
+    scenes: int = ds.SCENES,
+    test_scenes: int = ds.TEST_SCENES,
+    cameras: int = ds.CAMERAS,
     workers: int = 1,
     progress: bool = True,
     confirm: bool = True,
