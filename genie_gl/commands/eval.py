@@ -4,7 +4,7 @@ protocols; the project's studies.
 ::
 
     genie eval --train DIR [DIR ...] --test DIR [DIR ...] [--model
-    classical|height|majority|neural|randla]
+    classical|height|majority|randla]
                [--seeds 0,1,2] [--label-map FILE] --out OUT
     genie eval --preset mix|finetune|scarce --target-train DIR --target-test DIR --train SYNTHETIC
     ... --out OUT
@@ -32,7 +32,7 @@ log = logging.getLogger(__name__)
 STUDY_NAMES = ("strategy", "sensor", "accuracy", "balance", "models", "mix", "costs", "all")
 # the names of genie_gl.eval.run.MODELS and genie_gl.eval.protocols.PRESETS, spelt here so that
 # `genie eval --help` imports no model (tests/eval/test_inputs.py checks they agree)
-MODELS = ("classical", "height", "majority", "neural", "randla")
+MODELS = ("classical", "height", "majority", "randla")
 PRESETS = ("mix", "finetune", "scarce")
 
 
@@ -115,7 +115,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--steps",
         type=count(1, 10_000_000),
         default=None,
-        help="training steps of the neural models (neural: 300, randla: 1500 by default)",
+        help="training steps of RandLA-Net (1500 by default)",
     )
     p.add_argument(
         "--bench", action="store_true", help="time the classical model's training on ~1 M points"
@@ -244,16 +244,12 @@ def _params(model: str, steps: int | None):
     """The model's parameters with ``--steps`` (None: the model's defaults)."""
     if steps is None:
         return None
-    if model == "neural":
-        from ..eval.neural import NeuralParams
-
-        return NeuralParams(steps=steps)
     if model == "randla":
         from ..eval.randla import RandLAParams
 
         return RandLAParams(steps=steps)
     raise ConfigError(
-        f"--steps: the {model} model has no training steps; it is for --model neural or randla"
+        f"--steps: the {model} model has no training steps; it is for --model randla"
     )
 
 

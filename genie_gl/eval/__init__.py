@@ -3,7 +3,7 @@ SemanticKITTI layout) and test them with the paper's metrics.
 
 ``evaluate(train, test, model=..., seeds=...)`` is the entry point (:mod:`.run`); reading
 (:mod:`.data`, :mod:`.labelmap`), features (:mod:`.features`), models (:mod:`.classical`,
-:mod:`.neural`, :mod:`.randla`), metrics (:mod:`.metrics`; panoptic quality: :mod:`.panoptic`, with
+:mod:`.randla`), metrics (:mod:`.metrics`; panoptic quality: :mod:`.panoptic`, with
 the instance
 model of :mod:`.instances`), predictions as ``.label`` files
 (:mod:`.predictions`), the paper's protocols (:mod:`.protocols`), tables and pictures

@@ -6,7 +6,7 @@ out of the synthetic data).
   share of the training points is 0, 10, ..., 90 %; every ratio trained once per seed (the paper:
   twice; three seeds give a spread). The real part is fixed and synthetic scans are added, so
   the training set grows with the ratio; the classical model's rounds are set by early stopping
-  on held-out scenes of the mix, the neural model's epochs by its fixed number of steps, so the
+  on held-out scenes of the mix, RandLA-Net's epochs by its fixed number of steps, so the
   training effort scales with the data.
 - ``finetune`` (Experiment 2): train on all the synthetic data, then go on training on the
   target's training scans (more boosting rounds, or more steps from the synthetic weights),

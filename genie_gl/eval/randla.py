@@ -50,10 +50,20 @@ from ..errors import ConfigError
 from .classical import split_groups
 from .features import PointTable
 from .metrics import confusion, scores
-from .neural import _torch
 
 log = logging.getLogger(__name__)
 
+
+
+def _torch():
+    try:
+        import torch
+    except ImportError:
+        raise ConfigError(
+            "RandLA-Net needs PyTorch: pip install 'genie-gl[neural]' "
+            "(the CPU build, torch==2.13.0)"
+        ) from None
+    return torch
 
 @dataclass(frozen=True)
 class RandLAParams:

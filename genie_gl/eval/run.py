@@ -39,13 +39,12 @@ from .classical import BoostParams, ClassicalModel, HeightModel, MajorityModel
 from .data import EvalSet, read_set
 from .features import PointTable
 from .labelmap import check_same_classes
-from .neural import NeuralModel, NeuralParams
 from .randla import RandLAModel, RandLAParams
 from .plots import confusion_png, iou_bars_png
 from .report import result_markdown
 
 log = logging.getLogger(__name__)
-MODELS = ("classical", "height", "majority", "neural", "randla")
+MODELS = ("classical", "height", "majority", "randla")
 
 
 def make_model(name: str, n_classes: int, params: Any = None) -> Any:
@@ -56,8 +55,6 @@ def make_model(name: str, n_classes: int, params: Any = None) -> Any:
         return HeightModel(n_classes, params or BoostParams())
     if name == "majority":
         return MajorityModel(n_classes)
-    if name == "neural":
-        return NeuralModel(n_classes, params or NeuralParams())
     if name == "randla":
         return RandLAModel(n_classes, params or RandLAParams())
     raise ConfigError(
@@ -213,7 +210,7 @@ def evaluate(
     Parameters
     ----------
     train, test : sequences of dataset specs (``DIR``, ``DIR:test``, ...) or read sets
-    model : ``classical`` | ``height`` | ``majority`` | ``neural`` | ``randla``
+    model : ``classical`` | ``height`` | ``majority`` | ``randla``
     seeds : at least one; three or more give a spread
     out : folder for metrics, predictions and pictures (None: nothing written)
     workers : processes for features, threads for the classifier; the results do not depend on it
@@ -222,7 +219,7 @@ def evaluate(
     class_map : {our class: class the protocol trains on} (e.g. the ``scarce`` preset's 3 classes
         plus "other"); classes not listed keep their id
     eval_classes : classes to average over (default: those present in each test set)
-    params : model parameters (``BoostParams`` or ``NeuralParams``)
+    params : model parameters (``BoostParams`` or ``RandLAParams``)
     init : a function ``seed -> trained model`` to go on training from (fine-tuning)
     allow_overlap : test on scans that are training scans too (refused by default: the same
         file, or the same points read from another file)
@@ -381,7 +378,7 @@ def _evaluate(
         for c in np.unique(labels[labels >= 0]).tolist():  # set's own id): named by its id
             names.setdefault(int(c), f"class {c}")
     t_read = time.perf_counter() - t0
-    needs_features = model not in ("majority", "neural", "randla")
+    needs_features = model not in ("majority", "randla")
     t1 = time.perf_counter()
     if needs_features:
         _ = train_pts.features

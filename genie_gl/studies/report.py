@@ -304,7 +304,7 @@ def models_study(c: Any, results: dict) -> str:
         ]
     ]
     bars = {"classical": _summary_spreads(cl)}
-    for key, label in (("models-neural", "neural (DGCNN-style)"), ("models-randla", "RandLA-Net")):
+    for key, label in (("models-randla", "RandLA-Net"),):
         ne = _test(results[key][1])
         b = spread(ne["summary"]["miou"])
         rows.append(
@@ -318,7 +318,7 @@ def models_study(c: Any, results: dict) -> str:
         )
         bars[label] = _summary_spreads(ne)
     md = _header(
-        "Neural against classical on the same split (assembly line, D435)",
+        "RandLA-Net against classical on the same split (assembly line, D435)",
         c,
         "genie eval --study models --out out/studies --yes",
     )
@@ -327,7 +327,7 @@ def models_study(c: Any, results: dict) -> str:
         bars,
         CLASSES,
         c.out / "models.iou.png",
-        title="IoU per class: classical against the neural models",
+        title="IoU per class: classical against RandLA-Net",
     )
     md += f"\n![models]({p.name})\n"
     return md

@@ -9,8 +9,7 @@
   the full profile: ΔmIoU with its spread beside the effect's ms per frame (the dataset's
   manifest, ``cost.capture``).
 - ``balance``: ``--class-balance paper`` against the natural distribution.
-- ``models``: the neural models (the small DGCNN, RandLA-Net) against the classical one on the
-  same split.
+- ``models``: RandLA-Net against the classical model on the same split.
 - ``costs``: each D435 effect timed alone on the frames of one scene (:mod:`.costs`), the cost
   column the ``accuracy`` study then shows (from ``OUT/costs.json``).
 - ``mix``: the ``mix`` preset on the stand-in target (storage area seen by an Azure Kinect).
@@ -40,7 +39,6 @@ SECONDS_PER_TRAINING = {
     "classical": 120.0,
     "height": 30.0,
     "majority": 5.0,
-    "neural": 400.0,
     "randla": 900.0,
 }
 
@@ -125,12 +123,6 @@ def _plan(study: str, c: Context) -> list[Training]:
                 f"sensor-{d435}",
                 (c.train("assembly_line", d435),),
                 tuple(c.test("assembly_line", s) for s in SENSORS),
-            ),
-            Training(
-                "models-neural",
-                (c.train("assembly_line", d435),),
-                (c.test("assembly_line", d435),),
-                "neural",
             ),
             Training(
                 "models-randla",

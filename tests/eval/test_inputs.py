@@ -225,7 +225,7 @@ def test_cli_bad_input_is_one_line(tmp_path, capsys):
                 "--test",
                 str(root),
                 "--model",
-                "neual",
+                "randal",
                 "--seeds",
                 "0",
                 "--out",
@@ -234,7 +234,7 @@ def test_cli_bad_input_is_one_line(tmp_path, capsys):
         )
         == 2
     )
-    assert "did you mean 'neural'" in capsys.readouterr().err
+    assert "did you mean 'randla'" in capsys.readouterr().err
 
 
 def test_eval_writes_only_what_it_creates(tmp_path, capsys):
