@@ -14,6 +14,7 @@ The headline benchmarks against other tools are ``genie bench ...`` (:mod:`genie
 #: every benchmark: module name -> what it measures
 NAMES = {
     "frame_cpu": "CPU of steady GL frames of a benchmark scene and the culling kernel's share",
+    "lens_frame": "a frame through the tutorial lens against the pinhole frame of the same K",
     "lens_ids": "lens resampling modes against Open3D's ray caster: ids that agree, ms a frame",
     "lod_saving": "what level of detail saves (ms a frame) and costs (depth error, ids) per raster",
     "occlusion_cost": "occlusion culling's cost and saving, the culler alone, llvmpipe's fixed "

@@ -12,6 +12,7 @@ import pytest
 import benchmarks
 from benchmarks import (
     frame_cpu,
+    lens_frame,
     lens_ids,
     lod_saving,
     occlusion_cost,
@@ -75,6 +76,12 @@ def test_skip_cost_times_both_captures():
     r = skip_cost.run(fresh=True, calls=1)
     assert r["with_ms_cpu"] > 0 and r["without_ms_cpu"] > 0
     assert r["ratio"] == pytest.approx(r["with_ms_cpu"] / r["without_ms_cpu"])
+
+
+def test_lens_frame_times_both_sensors_through_capture():
+    r = lens_frame.run("100k", frames=1, rounds=1)
+    assert r["pinhole_ms"] > 0 and r["lens_ms"] > 0
+    assert r["ratio"] == pytest.approx(r["lens_ms"] / r["pinhole_ms"])
 
 
 @pytest.mark.gl
