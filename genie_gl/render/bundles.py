@@ -274,76 +274,26 @@ def cast_cells(
                 iy = 1.0 / dy if not fy else 0.0
                 iz = 1.0 / dz if not fz else 0.0
                 best, who = np.inf, np.int64(-1)
-                if prev >= 0:  # the cluster the cell's last ray hit first: a near bound early
-                    best, who = _walk(
-                        cl_node[prev],
-                        best,
-                        who,
-                        o[0],
-                        o[1],
-                        o[2],
-                        o[kx],
-                        o[ky],
-                        o[kz],
-                        kx,
-                        ky,
-                        kz,
-                        sx,
-                        sy,
-                        sz,
-                        ix,
-                        iy,
-                        iz,
-                        fx,
-                        fy,
-                        fz,
-                        corners,
-                        rank,
-                        boxes,
-                        right,
-                        start,
-                        count,
-                        stack,
-                        stack_t,
-                    )
-                got = prev if who >= 0 else -1
-                for i in range(cl_start[k], cl_start[k + 1]):
-                    if cl_near[i] > best:
-                        break
-                    if i == prev:
-                        continue
+                got = -1
+                # the cluster the cell's last ray hit first (a near bound early), then the
+                # cell's clusters nearest first until one lies beyond the nearest hit
+                for step in range(-1, cl_start[k + 1] - cl_start[k]):
+                    if step < 0:
+                        if prev < 0:
+                            continue
+                        i = prev
+                    else:
+                        i = cl_start[k] + step
+                        if cl_near[i] > best:
+                            break
+                        if i == prev:
+                            continue
                     b0, w0 = best, who
                     best, who = _walk(
-                        cl_node[i],
-                        best,
-                        who,
-                        o[0],
-                        o[1],
-                        o[2],
-                        o[kx],
-                        o[ky],
-                        o[kz],
-                        kx,
-                        ky,
-                        kz,
-                        sx,
-                        sy,
-                        sz,
-                        ix,
-                        iy,
-                        iz,
-                        fx,
-                        fy,
-                        fz,
-                        corners,
-                        rank,
-                        boxes,
-                        right,
-                        start,
-                        count,
-                        stack,
-                        stack_t,
-                    )
+                        cl_node[i], best, who, o[0], o[1], o[2], o[kx], o[ky], o[kz], kx, ky,
+                        kz, sx, sy, sz, ix, iy, iz, fx, fy, fz, corners, rank, boxes, right,
+                        start, count, stack, stack_t,
+                    )  # fmt: skip
                     if best != b0 or who != w0:
                         got = i
                 prev = got
