@@ -19,6 +19,7 @@ NAMES = {
     "lod_saving": "what level of detail saves (ms a frame) and costs (depth error, ids) per raster",
     "occlusion_cost": "occlusion culling's cost and saving, the culler alone, llvmpipe's fixed "
     "cost",
+    "random_rays": "gg.cast_rays on random rays beside Open3D's ray caster: seconds and agreement",
     "skip_cost": "a capture whose planner skips an effect against the same capture without it",
     "stage_cpu": "CPU seconds per stage of steady dataset scenes, as a dataset worker makes them",
     "stage_parts": "least CPU per scene of build_scene, the capture planner and the cloud stage",

@@ -16,6 +16,7 @@ from benchmarks import (
     lens_ids,
     lod_saving,
     occlusion_cost,
+    random_rays,
     skip_cost,
     stage_cpu,
     stage_parts,
@@ -76,6 +77,13 @@ def test_skip_cost_times_both_captures():
     r = skip_cost.run(fresh=True, calls=1)
     assert r["with_ms_cpu"] > 0 and r["without_ms_cpu"] > 0
     assert r["ratio"] == pytest.approx(r["with_ms_cpu"] / r["without_ms_cpu"])
+
+
+def test_random_rays_time_both_casters_and_agree():
+    r = random_rays.run("100k", rays=2_000, rounds=1)
+    assert r["genie_gl_s"] > 0 and r["open3d_s"] > 0 and r["rays"] == 2_000
+    # Open3D keeps float32 world triangles: short rays differ most in relative distance
+    assert r["ids_agree"] >= 0.99 and r["range_rel_p99"] <= 1e-4
 
 
 def test_lens_frame_times_both_sensors_through_capture():
