@@ -153,17 +153,23 @@ class Rig:
         )
 
 
-class _SensorSpec(BaseModel):
+class MountSpec(BaseModel):
+    """What a rig file says of any device on the rig: its name, its profile, when it starts
+    (``offset_s``) and where it sits on the platform (position, yaw, pitch, roll)."""
+
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     name: str = Field(pattern=NAME.pattern)
     profile: str = Field(min_length=1)
-    rate_hz: float = Field(10.0, gt=0, le=1000)
     offset_s: float = Field(0.0, ge=0)
     position_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     yaw_deg: float = Field(0.0, ge=-360, le=360)
     pitch_deg: float = Field(0.0, ge=-90, le=90)
     roll_deg: float = Field(0.0, ge=-180, le=180)
+
+
+class _SensorSpec(MountSpec):
+    rate_hz: float = Field(10.0, gt=0, le=1000)
 
 
 class _RigSpec(BaseModel):

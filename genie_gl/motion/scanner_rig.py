@@ -32,7 +32,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from ..errors import ConfigError
 from ..resources import resolve
-from .rig import NAME, read_spec
+from .rig import MountSpec, read_spec
 from ..sensors.scanner import Scanner
 from ..effects.scanner_profile import load_scanner
 
@@ -110,18 +110,9 @@ class ScannerRig:
         return cls(scanner.name, (Head("head", scanner, T),))
 
 
-class _HeadSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-
-    name: str = Field(pattern=NAME.pattern)
-    profile: str = Field(min_length=1)
+class _HeadSpec(MountSpec):
     rate_hz: float | None = Field(None, gt=0)
     returns: str | None = None
-    offset_s: float = Field(0.0, ge=0)
-    position_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    yaw_deg: float = Field(0.0, ge=-360, le=360)
-    pitch_deg: float = Field(0.0, ge=-90, le=90)
-    roll_deg: float = Field(0.0, ge=-180, le=180)
 
 
 class _RigSpec(BaseModel):
