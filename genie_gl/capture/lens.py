@@ -15,7 +15,7 @@ import numpy as np
 from ..frame import Frame
 from ..render.renderer import Renderer
 from ..sensors.camera import Sensor
-from ..lens.distortion import render_through_lens
+from ..lens.distortion import draws_lenses, render_through_lens
 
 RenderFn = Callable[..., Frame]
 
@@ -29,6 +29,7 @@ def through_lens(render: RenderFn) -> RenderFn:
     def lens_render(sensor: Sensor, pose: np.ndarray, **kw) -> Frame:
         return render_through_lens(render, sensor, pose, **kw)
 
+    lens_render.draws_lenses = draws_lenses(render)  # type: ignore[attr-defined]
     return lens_render
 
 

@@ -52,6 +52,8 @@ class Prefetched:
         )
         self.next = 0
         self.render = through_lens(renderer.render)
+        # a lens's frames are drawn by the renderer itself (its own pixel rays), or resampled
+        self.draws_lenses = renderer.draws_lenses
 
     def _is_main(
         self,

@@ -46,8 +46,8 @@ def capture_serial(
     poses = [np.asarray(p, dtype=np.float64) for p in poses]
     normals = any(eff.needs_normals for eff in sensor.effects)
     triangles = False
-    if sensor.is_pinhole:
-        view = sensor
+    if sensor.is_pinhole or (renderer.draws_lenses and accuracy.resample == "exact"):
+        view = sensor  # (a lens the renderer draws itself, each pixel's own ray)
     else:  # the pinhole view the lens is resampled from, with what its resampling needs
         views = lens_views(sensor, oversample=accuracy.oversample)
         view = views[0].render_sensor if len(views) == 1 else sensor  # cube faces: no prefetch

@@ -36,7 +36,7 @@ from ..errors import ConfigError
 from ..frame import Frame
 from ..scene.materials import MaterialTable
 from ..sensors.camera import Sensor
-from ..lens.distortion import render_through_lens
+from ..lens.distortion import draws_lenses, render_through_lens
 from .kernels import changed
 
 RenderFn = Callable[..., Frame]
@@ -98,6 +98,7 @@ def simulate(
         return draw
 
     draw = restricted(render)
+    draw.draws_lenses = draws_lenses(render)  # type: ignore[attr-defined]
     if hasattr(
         render, "lens"
     ):  # a supersampled render: the exact lens mode supersamples through the lens

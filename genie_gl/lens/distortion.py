@@ -496,6 +496,16 @@ def distort(
 RenderFn = Callable[..., Frame]
 
 
+def draws_lenses(render: RenderFn) -> bool:
+    """Whether ``render`` draws a distorted sensor's own pixel rays (its ``draws_lenses``, or
+    that of the renderer it is a method of: the CPU raster's
+    :class:`~genie_gl.render.cpu.renderer.CPURenderer`), so that no pinhole view is resampled."""
+    flag = getattr(render, "draws_lenses", None)
+    if flag is None:
+        flag = getattr(getattr(render, "__self__", None), "draws_lenses", False)
+    return bool(flag)
+
+
 def render_through_lens(
     render: RenderFn,
     sensor: Camera,
@@ -509,11 +519,13 @@ def render_through_lens(
     """``sensor``'s image at ``pose`` (world_from_camera) through its lens: its pinhole views
     rendered with ``render(view, view_pose, triangles=True, **kw)`` (the exact mode; the plane
     mode ``normals=True``) and resampled (see the module). An ideal pinhole sensor is rendered
-    as it is; a ``render`` with a ``lens`` attribute (a supersampled one,
-    :func:`genie_gl.capture.supersample.supersampled`) renders the exact mode itself."""
+    as it is, and so is a lens in the exact mode when ``render`` draws a lens's own pixel rays
+    itself (:func:`draws_lenses`: the CPU raster); a ``render`` with a ``lens`` attribute (a
+    supersampled one, :func:`genie_gl.capture.supersample.supersampled`) renders the exact mode
+    itself."""
     os_ = check_resample(resample, oversample)
     pose = np.asarray(pose, np.float64)
-    if sensor.is_pinhole:
+    if sensor.is_pinhole or (resample == "exact" and draws_lenses(render)):
         return render(sensor, pose, normals=normals, **kw)
     lens = getattr(render, "lens", None)
     if lens is not None and resample == "exact":  # a render supersampled through the lens

@@ -107,6 +107,9 @@ class Renderer(Visibility):
     # more, it runs while it pays (:meth:`TriangleCuller.select`)
     occlusion_min_faces = 50_000
     raster: str  # the raster's name, set by each raster's class
+    # whether :meth:`render` and :meth:`frames` draw a distorted sensor's own pixel rays (the
+    # CPU raster); else they draw pinhole views only (a lens is resampled from them)
+    draws_lenses: ClassVar[bool] = False
     _rasters: ClassVar[dict[str, type[Renderer]]] = {}  # name -> class, filled as they are defined
 
     def __init_subclass__(cls, raster: str | None = None, **kw: Any) -> None:
@@ -344,7 +347,7 @@ class Renderer(Visibility):
             :class:`~genie_gl.triangles.PixelTriangles`: one more target), for a lens that
             intersects its own pixels' rays with them.
         """
-        if not sensor.is_pinhole:
+        if not (sensor.is_pinhole or self.draws_lenses):
             raise ConfigError(
                 f"Renderer.render: sensor {getattr(sensor, 'name', '')!r} has lens distortion and "
                 "the "
@@ -373,7 +376,7 @@ class Renderer(Visibility):
         CPU raster draws each frame when it is asked for.
         ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``; ``triangles``
         as ``render(..., triangles=)``."""
-        if not sensor.is_pinhole:
+        if not (sensor.is_pinhole or self.draws_lenses):
             raise ConfigError(
                 f"Renderer.frames: sensor {getattr(sensor, 'name', '')!r} has lens distortion and "
                 "the "

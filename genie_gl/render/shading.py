@@ -30,6 +30,10 @@ from .fragments import DrawnTriangles, Fragments
 from .geometry import projection
 
 
+NO_RAYS = np.zeros(1)  # _shade's rays_x, rays_y of a frame of pixel centres
+NO_PIXEL = np.zeros(1, np.int64)  # _shade's pixel: pixel p shows ray p
+
+
 class MeshArrays(NamedTuple):
     """The scene's meshes as uploaded: ``vertices`` (V, 3) float32 and ``faces`` (F, 3)
     uint32 joined, mesh after mesh, and per face its mesh's first vertex row ``face_vbase``
@@ -90,7 +94,21 @@ def _vertex(vertices, vi, m, r):
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
 def _shade(
-    depth, hit, mesh, slots, proj, near_m, far_m, width, out, want_rgb, want_normal, want_tri
+    depth,
+    hit,
+    mesh,
+    slots,
+    proj,
+    rays_x,
+    rays_y,
+    pixel,
+    near_m,
+    far_m,
+    width,
+    out,
+    want_rgb,
+    want_normal,
+    want_tri,
 ):
     """The frame's arrays ``out`` (:class:`FrameArrays`) from the drawn buffers (``depth``:
     (H W,) float64 1 / z, 0 where nothing; ``hit``: slot << 32 | face), row by row in
@@ -98,8 +116,12 @@ def _shade(
     request the face normal (camera frame, towards the eye), the colour (the instance's,
     Lambert with a head light, as the GL shader) and the (slot + 1, face within the slot's
     mesh) of every pixel a triangle won, in range or not; ``mesh``: the scene's
-    :class:`MeshArrays`, ``slots``: the :class:`SlotShading`. A face's unit normal is
-    computed once per run of pixels that show it."""
+    :class:`MeshArrays`, ``slots``: the :class:`SlotShading`. Pixel p's ray is
+    ``K^-1 (u, v, 1)`` from ``proj`` or, when ``rays_x`` has more than one element, ``(rays_x[p],
+    rays_y[p], 1)`` (a frame whose rays are not pixel centres: a lens's); when ``pixel`` has
+    more than one element, pixel p shows the winner of ray ``pixel[p]`` of ``depth`` and
+    ``hit`` (the raster holds a lens's rays in the order of their bins; -1: pixel p is left
+    as it is). A face's unit normal is computed once per run of pixels that show it."""
     vertices, faces, fvbase = mesh.vertices, mesh.faces, mesh.face_vbase
     cfm, ids, sems, color, slot_face0 = (
         slots.camera_from_model,
@@ -112,13 +134,20 @@ def _shade(
     out_rgb, out_normal, out_tri = out.rgba, out.normal, out.primitive
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     W = int(width)
-    rows = len(depth) // W
+    n = len(out_depth)
+    rays = len(rays_x) > 1
+    mapped = len(pixel) > 1
+    rows = n // W
     for v in prange(rows):
         last = np.int64(-1)
         ux = uy = uz = 0.0
         for p in range(v * W, (v + 1) * W):
-            h = hit[p] if depth[p] > 0.0 else np.int64(-1)
-            z = in_range(depth[p], near_m, far_m)
+            j = pixel[p] if mapped else p  # the ray pixel p shows (-1: none, left as it is)
+            if j < 0:
+                continue
+            iz = depth[j]
+            h = hit[j] if iz > 0.0 else np.int64(-1)
+            z = in_range(iz, near_m, far_m)
             if want_tri:
                 if h < 0:
                     out_tri[p, 0] = 0
@@ -173,9 +202,12 @@ def _shade(
                 if nl > 0.0:
                     ux, uy, uz = ux / nl, uy / nl, uz / nl
                 last = h
-            u = p - v * W
-            yn = (v - cy) / fy
-            xn = (u - cx - s * yn) / fx
+            if rays:
+                xn, yn = rays_x[p], rays_y[p]
+            else:
+                u = p - v * W
+                yn = (v - cy) / fy
+                xn = (u - cx - s * yn) / fx
             dl = math.sqrt(xn * xn + yn * yn + 1.0)
             vx, vy, vz = xn / dl, yn / dl, 1.0 / dl
             nx, ny, nz = ux, uy, uz
@@ -227,6 +259,9 @@ def shade(
         MeshArrays(vertices, faces, face_vbase),
         SlotShading(cfm, ids, semantic, color, slot_face0),
         projection(K),
+        NO_RAYS,
+        NO_RAYS,
+        NO_PIXEL,
         float(near_m),
         float(far_m),
         fragments.width,
@@ -241,6 +276,43 @@ def shade(
         want_rgb,
         want_normal,
         want_tri,
+    )
+
+
+def shade_rays(
+    inverse_z: np.ndarray,
+    winner: np.ndarray,
+    mesh: MeshArrays,
+    slots: SlotShading,
+    rays: tuple[np.ndarray, np.ndarray],
+    ray_of: np.ndarray,
+    width: int,
+    near_m: float,
+    far_m: float,
+    out: FrameArrays,
+    color: bool,
+    normals: bool,
+) -> None:
+    """Shade a frame whose rays are not pixel centres (a lens's): pixel p (row-major, rows of
+    ``width``) shows the winner the CPU raster found for ray ``ray_of[p]`` of ``inverse_z``
+    and ``winner`` (-1: the pixel is left as it is), along its ray ``(x[p], y[p], 1)`` of ``rays``
+    (the frame of ``slots``' camera_from_model); as :func:`shade` does for pixel centres."""
+    _shade(
+        inverse_z,
+        winner,
+        mesh,
+        slots,
+        np.zeros(5),
+        rays[0],
+        rays[1],
+        ray_of,
+        float(near_m),
+        float(far_m),
+        int(width),
+        out,
+        bool(color),
+        bool(normals),
+        False,
     )
 
 

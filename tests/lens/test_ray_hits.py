@@ -1,5 +1,8 @@
-"""Exact lens resampling against independent truths: cv2's undistortion of every pixel and
-Open3D's ray caster on the same rays, through strongly distorted lenses, to the corners."""
+"""A lens frame with exact ids against independent truths: cv2's undistortion of every pixel
+and Open3D's ray caster on the same rays, through strongly distorted lenses, to the corners.
+Each oracle runs over both rasters: the GL raster's pinhole views resampled exactly
+(:mod:`genie_gl.lens.ray_hits`), and the CPU raster, which draws each pixel's own ray
+(:meth:`genie_gl.render.cpu.renderer.CPURenderer._lens_frame`)."""
 
 import cv2
 import numpy as np
@@ -11,6 +14,15 @@ from genie_gl.lens.distortion import render_through_lens
 from tests.scenes import content_views
 
 pytestmark = pytest.mark.gl
+
+
+@pytest.fixture(params=["gl", "cpu"])
+def draw(request, glctx):
+    """A renderer of a scene with each raster in turn."""
+    if request.param == "gl":
+        return lambda scene: Renderer(scene, context=glctx, raster="gl")
+    return lambda scene: Renderer(scene, raster="cpu")
+
 
 # the OpenCV calibration tutorial's lens: k1 = -0.42, strong barrel
 TUTORIAL = gg.Sensor(
@@ -101,7 +113,7 @@ def cast(caster, sensor, pose):
     )
 
 
-def test_markers_through_the_tutorial_lens_land_where_cv2_puts_each_pixel_ray(glctx):
+def test_markers_through_the_tutorial_lens_land_where_cv2_puts_each_pixel_ray(draw):
     """Small square markers (10-11 px at the centre) all over the image, corners included, in front
     of a wall:
     each pixel shows the marker its own ray (cv2's undistortion of the pixel centre) meets,
@@ -160,7 +172,7 @@ def test_markers_through_the_tutorial_lens_land_where_cv2_puts_each_pixel_ray(gl
         edge |= (np.abs(dx) < 1e-9) & (dy < 1e-9) | (np.abs(dy) < 1e-9) & (
             dx < 1e-9
         )  # a ray on an edge: either
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         exact = render_through_lens(r.render, sensor, np.eye(4), resample="exact")
         nearest = render_through_lens(r.render, sensor, np.eye(4), resample="nearest")
     assert (exact.instance == 0).sum() == 0  # the wall fills the view to the corners
@@ -186,22 +198,26 @@ def storage_area():
 
 
 @pytest.mark.parametrize("lens", sorted(LENSES))
-def test_ids_and_depth_equal_open3d_ray_casting_on_a_benchmark_scene(glctx, storage_area, lens):
+def test_ids_and_depth_equal_open3d_ray_casting_on_a_benchmark_scene(draw, storage_area, lens):
     """Through plumb-bob, rational, fisheye and omnidirectional lenses on the storage-area
     scene (pallets whose slats are seen edge-on, slivers the frame's culling drops for
-    covering no pixel centre): ids equal Open3D's ray caster at >= 99.99 % of pixels and
-    depth agrees to float32 where both hit the same instance."""
+    covering no pixel centre): ids equal Open3D's ray caster at >= 99.99 % of pixels (the
+    CPU raster, which draws each pixel's own ray: >= 99.999 %) and depth agrees to float32
+    where both hit the same instance (relative p99 <= 1e-6: Open3D's float32 rounding)."""
     scene, caster, poses = storage_area
     sensor = LENSES[lens]
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
+        cpu = r.raster == "cpu"
         for pose in poses:
             f = render_through_lens(r.render, sensor, pose, resample="exact")
             inst, depth = cast(caster, sensor, pose)
             same = f.instance == inst
-            assert same.mean() >= 0.9999, f"{lens}: {(~same).sum()} pixels differ"
+            assert same.mean() >= (0.99999 if cpu else 0.9999), f"{lens}: {(~same).sum()} differ"
             both = same & (depth > 0)
             rel = np.abs(f.depth[both] - depth[both]) / depth[both]
-            assert np.quantile(rel, 0.999) < 1e-5 and f.meta["rays"]["candidates"] > 0
+            assert np.quantile(rel, 0.99) <= 1e-6 and np.quantile(rel, 0.999) < 1e-5
+            # the GL raster resampled its pinhole views; the CPU raster drew the lens's rays
+            assert ("rays" in f.meta) != cpu
 
 
 def test_exact_mode_is_deterministic_and_a_pinhole_frame_asks_for_nothing(glctx, storage_area):
@@ -225,7 +241,7 @@ def test_exact_mode_is_deterministic_and_a_pinhole_frame_asks_for_nothing(glctx,
     )
 
 
-def test_thin_bars_and_silhouettes_against_nothing_equal_open3d(glctx):
+def test_thin_bars_and_silhouettes_against_nothing_equal_open3d(draw):
     """Bars 0.6-0.9 view pixels thick at grazing angles and a sphere, with nothing behind:
     a ray that hits none of the view's candidates has no return, one that meets a bar between
     pixel centres has the bar, as Open3D's ray caster says, through the fisheye to its rim."""
@@ -242,7 +258,7 @@ def test_thin_bars_and_silhouettes_against_nothing_equal_open3d(glctx):
         scene.add(bar, T, instance=10 + k)
     caster = open3d_caster(scene)
     sensor = LENSES["fisheye"]
-    with Renderer(scene, context=glctx) as r:
+    with draw(scene) as r:
         f = render_through_lens(r.render, sensor, np.eye(4), resample="exact")
         nearest = render_through_lens(r.render, sensor, np.eye(4), resample="nearest")
     inst, depth = cast(caster, sensor, np.eye(4))

@@ -33,6 +33,7 @@ from ..cull import _cone_drops, shares_cell, sphere_in_view
 
 SHIFT = 3
 TILE = 1 << SHIFT  # pixels: the side of an occlusion tile
+SMALL_BOX = 6  # cells: a box of rays no larger is tested ray by ray, without spans
 
 
 class Centres(NamedTuple):
@@ -49,6 +50,27 @@ class Centres(NamedTuple):
     x: np.ndarray
     y: np.ndarray
     shear: np.ndarray
+
+
+class Samples(NamedTuple):
+    """Rays binned on a view's pixel grid, for a frame whose rays are not its pixel centres (a
+    lens's own pixel rays, seen through a pinhole view that holds them). Cell (u, v) of the
+    view, the positions [u, u + 1) x [v, v + 1) in its pixels, holds rays ``cell0[v W + u]``
+    to ``cell0[v W + u + 1] - 1``; ray i is ``(xy[i, 0], xy[i, 1], 1)`` in the view frame, and its
+    winner is written at row i of the depth buffers. :data:`PIXEL_CENTRES` (``cell0`` of one
+    element) stands for the view's own pixel centres (:class:`Centres`).
+
+    Attributes
+    ----------
+    cell0 : (H W + 1,) int32, each cell's first ray.
+    xy : (N, 2) float64, the rays (x, y) on the view's z = 1 plane, cell after cell.
+    """
+
+    cell0: np.ndarray
+    xy: np.ndarray
+
+
+PIXEL_CENTRES = Samples(np.zeros(1, np.int32), np.zeros((1, 2)))
 
 
 class Scratch(NamedTuple):
@@ -105,9 +127,11 @@ def _hidden(tmin, ulo, uhi, vlo, vhi, iz):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
+def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi, cell0):
     """Recompute the tiles written since their last refresh (``dirty``) in the pixel box: the
-    least inverse depth each holds (0 while one of its pixels is empty); returns how many."""
+    least inverse depth each holds (0 while one of its pixels, or rays of :class:`Samples`
+    ``cell0``, is empty; a tile without rays holds inf); returns how many."""
+    sampled = len(cell0) > 1
     n = 0
     for tr in range(vlo >> SHIFT, (vhi >> SHIFT) + 1):
         for tc in range(ulo >> SHIFT, (uhi >> SHIFT) + 1):
@@ -118,6 +142,10 @@ def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
             lo = math.inf
             for iv in range(tr * TILE, min((tr + 1) * TILE, Hi)):
                 row = iv * Wi
+                if sampled:
+                    for p in range(cell0[row + tc * TILE], cell0[row + min((tc + 1) * TILE, Wi)]):
+                        lo = min(lo, zb[p])
+                    continue
                 for iu in range(tc * TILE, min((tc + 1) * TILE, Wi)):
                     lo = min(lo, zb[row + iu])
             tmin[tr, tc] = lo
@@ -125,17 +153,18 @@ def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
-def _write(zb, who, dirty, iu, iv, Wi, iz, key, inear):
-    """The depth test of a hit at pixel (iu, iv) of inverse depth ``iz`` = (n·d) / A·(B x C)
-    (larger is nearer; no hit nearer than the near plane, 1 / ``inear``): it wins over what
-    the pixel holds when nearer, or as near and of a lower (slot, face) ``key`` (slot << 32 |
-    face). The CPU raster's winner rule, decided here and nowhere else."""
-    p = iv * Wi + iu
+def _write(zb, who, p, iz, key, inear):
+    """The depth test of a hit of ray ``p`` (a pixel centre, or a ray of :class:`Samples`) of
+    inverse depth ``iz`` = (n·d) / A·(B x C) (larger is nearer; no hit nearer than the near
+    plane, 1 / ``inear``): it wins over what the ray holds when nearer, or as near and of a
+    lower (slot, face) ``key`` (slot << 32 | face); returns whether it won. The CPU raster's
+    winner rule, decided here and nowhere else."""
     held = zb[p]
     if iz <= inear and (iz > held or (iz == held and key < who[p])):
         zb[p] = iz
         who[p] = key
-        dirty[iv >> SHIFT, iu >> SHIFT] = 1
+        return True
+    return False
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
@@ -170,6 +199,18 @@ def _clip(d, P, Q, iw, lo, hi, whole):
         elif P * iw + Q <= tol:
             whole = True
     return lo, hi, whole
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _weakest(d, P, Q, iv, lo, hi):
+    """[lo, hi] narrowed to one edge's inner side (see :func:`_line`, scanning rows) at its
+    weakest between the lines v = iv and v = iv + 1: every point of the row of cells inside the
+    edge lies in it."""
+    if d > 0.0:
+        lo = max(lo, P + min(Q * iv, Q * (iv + 1)))
+    elif d < 0.0:
+        hi = min(hi, P + max(Q * iv, Q * (iv + 1)))
+    return lo, hi
 
 
 @njit(
@@ -304,11 +345,15 @@ def _bound_cluster(q, k, geo, inst, view, cull, out):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _draw_cluster(q, k, col_lo, col_hi, bound, geo, inst, view, centres, buf, work, tally, cull):
+def _draw_cluster(
+    q, k, col_lo, col_hi, bound, geo, inst, view, centres, samples, buf, work, tally, cull
+):
     """Draw cluster k of visible instance q into the columns col_lo..col_hi of ``buf`` (a
     :class:`~genie_gl.render.geometry.DepthBuffers`), unless every tile of its box there
     (``bound``: :func:`_bound_cluster`'s) lies nearer than it; ``centres`` the pixel centres'
-    rays (:class:`Centres`), ``work`` the thread's :class:`Scratch`; counts into ``tally``
+    rays (:class:`Centres`) or, unless :data:`PIXEL_CENTRES`, ``samples`` the frame's rays
+    (:class:`Samples`: each face is tested against the rays of the cells of its box),
+    ``work`` the thread's :class:`Scratch`; counts into ``tally``
     (clusters drawn, faces with a pixel box, faces hidden, faces drawn, pixels tested,
     occlusion tiles refreshed). Without ``cull``, every face is tested against every pixel
     centre of its box (no cluster, cone, cell, occlusion or span test): the reference the
@@ -325,6 +370,11 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, geo, inst, view, centres, buf, wo
     )
     proj, near, width, height = view.proj, view.near, view.width, view.height
     xs, ys, sys_ = centres.x, centres.y, centres.shear
+    cell0, sxy = samples.cell0, samples.xy
+    sampled = len(cell0) > 1
+    # a face whose vertices share a cell between pixel centres holds none (not so for rays
+    # scattered in their cells)
+    by_cell = cull and not sampled
     zb, who, tmax, dirty = buf.inverse_z, buf.winner, buf.tiles, buf.dirty
     wx, wy, wz, wu, wv = work.wx, work.wy, work.wz, work.wu, work.wv
     keys_u, keys_v, live, box = work.keys_u, work.keys_v, work.live, work.box
@@ -365,7 +415,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, geo, inst, view, centres, buf, wo
         f = f0 + i
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
         live[nl] = i
-        nl += 1 - (cull & shares_cell(keys_u, keys_v, a, b, c))
+        nl += 1 - (by_cell & shares_cell(keys_u, keys_v, a, b, c))
     for ii in range(nl):
         f = f0 + live[ii]
         a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
@@ -387,11 +437,12 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, geo, inst, view, centres, buf, wo
         # the edge functions below decide)
         mu = 1e-7 * (abs(umin) + abs(umax) + 1.0)
         mv = 1e-7 * (abs(vmin) + abs(vmax) + 1.0)
-        ulo = max(np.ceil(umin - mu), col_lo)
+        # (of the cells, for rays binned in them: a cell u holds the rays at [u, u + 1))
+        ulo = max(np.floor(umin - mu) if sampled else np.ceil(umin - mu), col_lo)
         uhi = min(np.floor(umax + mu), col_hi)
         if ulo > uhi:
             continue
-        vlo = max(np.ceil(vmin - mv), 0.0)
+        vlo = max(np.floor(vmin - mv) if sampled else np.ceil(vmin - mv), 0.0)
         vhi = min(np.floor(vmax + mv), last_v)
         if vlo > vhi:
             continue
@@ -417,6 +468,86 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, geo, inst, view, centres, buf, wo
         sg = 1.0 if vol > 0.0 else -1.0
         ivol = 1.0 / vol
         key = key0 | np.int64(f)
+        if sampled and (uhi - ulo + 1.0) * (vhi - vlo + 1.0) <= SMALL_BOX:
+            # a box of a few cells (most faces of a large scene that get this far): each of
+            # their rays gets the exact test, no spans
+            for iv in range(int(vlo), int(vhi) + 1):
+                row = iv * Wi
+                r0, r3 = cell0[row + int(ulo)], cell0[row + int(uhi) + 1]
+                tally[4] += r3 - r0
+                wrote = False
+                for p in range(r0, r3):
+                    xn, yn = sxy[p, 0], sxy[p, 1]
+                    if (
+                        (sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0)
+                        & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
+                        & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0)
+                    ):
+                        wrote |= _write(zb, who, p, (nx * xn + (ny * yn + nz)) * ivol, key, inear)
+                if wrote:
+                    for tc in range(int(ulo) >> SHIFT, (int(uhi) >> SHIFT) + 1):
+                        dirty[iv >> SHIFT, tc] = 1
+            du_lo, du_hi = min(du_lo, int(ulo)), max(du_hi, int(uhi))
+            dv_lo, dv_hi = min(dv_lo, int(vlo)), max(dv_hi, int(vhi))
+            continue
+        if sampled:
+            # the rays of the cells of its box, row of cells by row: per edge, its inner side
+            # on the row's two bounding lines (see :func:`_line`); the cells between the
+            # weakest bounds may hold rays inside (each gets the exact test), those between
+            # the strongest, more than the rounding inside, hold only rays inside
+            d0, p0, q0, g0 = _line(e0x, e0y, e0z, sg, ifx, ify, s, cx, cy, True, Wi + Hi)
+            d1, p1, q1, g1 = _line(e1x, e1y, e1z, sg, ifx, ify, s, cx, cy, True, Wi + Hi)
+            d2, p2, q2, g2 = _line(e2x, e2y, e2z, sg, ifx, ify, s, cx, cy, True, Wi + Hi)
+            gap = max(max(g0, g1), g2) + 1e-9
+            iu_lo, iu_hi = int(ulo), int(uhi)
+            for iv in range(int(vlo), int(vhi) + 1):
+                lo_a, hi_a, whole_a = ulo, uhi + 1.0, not cull
+                lo_a, hi_a, whole_a = _clip(d0, p0, q0, iv, lo_a, hi_a, whole_a)
+                lo_a, hi_a, whole_a = _clip(d1, p1, q1, iv, lo_a, hi_a, whole_a)
+                lo_a, hi_a, whole_a = _clip(d2, p2, q2, iv, lo_a, hi_a, whole_a)
+                lo_b, hi_b, whole_b = ulo, uhi + 1.0, not cull
+                lo_b, hi_b, whole_b = _clip(d0, p0, q0, iv + 1, lo_b, hi_b, whole_b)
+                lo_b, hi_b, whole_b = _clip(d1, p1, q1, iv + 1, lo_b, hi_b, whole_b)
+                lo_b, hi_b, whole_b = _clip(d2, p2, q2, iv + 1, lo_b, hi_b, whole_b)
+                if cull:
+                    c_lo, c_hi = _weakest(d0, p0, q0, iv, ulo, uhi + 1.0)
+                    c_lo, c_hi = _weakest(d1, p1, q1, iv, c_lo, c_hi)
+                    c_lo, c_hi = _weakest(d2, p2, q2, iv, c_lo, c_hi)
+                    j_lo = max(int(np.floor(c_lo - gap)), iu_lo)
+                    j_hi = min(int(np.floor(c_hi + gap)), iu_hi)
+                else:
+                    j_lo, j_hi = iu_lo, iu_hi
+                if j_lo > j_hi:
+                    continue
+                # the row's rays of cells j_lo..j_hi are rows r0..r3 of the samples; those of
+                # cells wholly inside both lines' spans (by the rounding), r1..r2, are inside
+                row = iv * Wi
+                r0, r3 = cell0[row + j_lo], cell0[row + j_hi + 1]
+                r1 = r2 = r3
+                if not (whole_a or whole_b):
+                    s_lo = max(int(np.ceil(max(lo_a, lo_b) + gap)), j_lo)
+                    s_hi = min(int(np.floor(min(hi_a, hi_b) - gap)) - 1, j_hi)
+                    if s_lo <= s_hi:
+                        r1, r2 = cell0[row + s_lo], cell0[row + s_hi + 1]
+                tally[4] += r3 - r0
+                wrote = False
+                for p in range(r0, r3):
+                    xn, yn = sxy[p, 0], sxy[p, 1]
+                    if p < r1 or p >= r2:
+                        inside = (
+                            (sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0)
+                            & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
+                            & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0)
+                        )
+                        if not inside:
+                            continue
+                    wrote |= _write(zb, who, p, (nx * xn + (ny * yn + nz)) * ivol, key, inear)
+                if wrote:
+                    for tc in range(j_lo >> SHIFT, (j_hi >> SHIFT) + 1):
+                        dirty[iv >> SHIFT, tc] = 1
+            du_lo, du_hi = min(du_lo, iu_lo), max(du_hi, iu_hi)
+            dv_lo, dv_hi = min(dv_lo, int(vlo)), max(dv_hi, int(vhi))
+            continue
         if ulo == uhi and vlo == vhi:
             # one pixel centre in its box (most faces of a large scene that get this far):
             # the exact test at once, no spans
@@ -429,7 +560,8 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, geo, inst, view, centres, buf, wo
                 & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
                 & (sg * (e2x * xn + (e2y * yn + e2z)) >= 0.0)
             ):
-                _write(zb, who, dirty, iu, iv, Wi, (nx * xn + (ny * yn + nz)) * ivol, key, inear)
+                if _write(zb, who, iv * Wi + iu, (nx * xn + (ny * yn + nz)) * ivol, key, inear):
+                    dirty[iv >> SHIFT, iu >> SHIFT] = 1
                 du_lo, du_hi, dv_lo, dv_hi = (
                     min(du_lo, iu),
                     max(du_hi, iu),
@@ -491,6 +623,7 @@ def _draw_cluster(q, k, col_lo, col_hi, bound, geo, inst, view, centres, buf, wo
                     )
                     if not inside:
                         continue
-                _write(zb, who, dirty, iu, iv, Wi, (nx * xn + (ny * yn + nz)) * ivol, key, inear)
+                if _write(zb, who, iv * Wi + iu, (nx * xn + (ny * yn + nz)) * ivol, key, inear):
+                    dirty[iv >> SHIFT, iu >> SHIFT] = 1
     if du_hi >= 0:
-        tally[5] += _refresh(tmax, dirty, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi)
+        tally[5] += _refresh(tmax, dirty, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi, cell0)

@@ -45,7 +45,16 @@ from ...jit import njit, prange
 from ..clusters import CLUSTER
 from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View, projection
 from ..shading import in_range
-from .coverage import SHIFT, TILE, Centres, Scratch, _bound_cluster, _draw_cluster
+from .coverage import (
+    PIXEL_CENTRES,
+    SHIFT,
+    TILE,
+    Centres,
+    Samples,
+    Scratch,
+    _bound_cluster,
+    _draw_cluster,
+)
 
 PARALLEL_FACES = 5_000  # below this many faces in view, one thread draws a frame
 
@@ -85,13 +94,15 @@ def _nearest_first(alive, bounds, near):
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
-def _raster(geo, inst, view, T, zb, who, tmin, tally, cull, ids_out):
+def _raster(geo, inst, view, samples, T, zb, who, tmin, tally, cull, ids_out):
     """Draw the clusters of the visible instances ``inst`` (a
     :class:`~genie_gl.render.geometry.FrameInstances`: jobs job0[q]..job0[q+1] are instance
     q's) of the scene ``geo`` (:class:`~genie_gl.render.geometry.SceneGeometry`) seen in
     ``view`` (:class:`~genie_gl.render.geometry.View`) nearest first into ``zb`` (float64
     1 / z, 0 where nothing) and ``who`` (slot << 32 | face where ``zb`` holds a hit; not
-    cleared, so anything elsewhere), H x W flattened, with T threads: thread t draws the
+    cleared, so anything elsewhere), per pixel centre (H x W flattened) or, unless
+    ``samples`` is :data:`~genie_gl.render.cpu.coverage.PIXEL_CENTRES`, per ray of
+    ``samples`` (:class:`~genie_gl.render.cpu.coverage.Samples`), with T threads: thread t draws the
     columns of strip t, the strips cut where the clusters' centres split evenly (whole
     tiles), so each thread's occlusion tiles see every occluder of its strip and no pixel is
     written by two. ``ids_out``: an :class:`~genie_gl.render.geometry.IdsOut`, filled per
@@ -102,6 +113,8 @@ def _raster(geo, inst, view, T, zb, who, tmin, tally, cull, ids_out):
     out_depth, out_instance, out_semantic = ids_out.depth, ids_out.instance, ids_out.semantic
     W = int(width)
     H = int(height)
+    cell0 = samples.cell0
+    sampled = len(cell0) > 1
     xs = np.empty(W)
     for u in range(W):
         xs[u] = (u - proj[2]) / proj[0]
@@ -147,10 +160,12 @@ def _raster(geo, inst, view, T, zb, who, tmin, tally, cull, ids_out):
         if cut[t] >= cut[t + 1]:
             continue
         col_lo, col_hi = float(cut[t]), float(cut[t + 1] - 1)
-        for r in range(
-            H
-        ):  # each thread clears its strip (``who`` is read only where ``zb`` holds a hit)
-            zb[r * W + cut[t] : r * W + cut[t + 1]] = 0.0
+        # each thread clears its strip (``who`` is read only where ``zb`` holds a hit)
+        for r in range(H):
+            if sampled:
+                zb[cell0[r * W + cut[t]] : cell0[r * W + cut[t + 1]]] = 0.0
+            else:
+                zb[r * W + cut[t] : r * W + cut[t + 1]] = 0.0
         work = Scratch(
             np.empty(3 * CLUSTER),
             np.empty(3 * CLUSTER),
@@ -177,12 +192,14 @@ def _raster(geo, inst, view, T, zb, who, tmin, tally, cull, ids_out):
                 inst,
                 view,
                 centres,
+                samples,
                 buf,
                 work,
                 tally[t],
                 cull,
             )
-        if len(out_depth) > 1:  # the strip's depth and ids at once (as :func:`_shade` makes them)
+        # the strip's depth and ids at once (as :func:`_shade` makes them)
+        if len(out_depth) > 1 and not sampled:
             for r in range(H):
                 for p in range(r * W + cut[t], r * W + cut[t + 1]):
                     z = in_range(zb[p], near_m, far_m)
@@ -262,6 +279,7 @@ class Rasteriser:
         planes: np.ndarray,
         cull: bool = True,
         ids_out: tuple | None = None,
+        samples: Samples = PIXEL_CENTRES,
     ) -> tuple[np.ndarray, np.ndarray]:
         """(inverse depth, hit): per pixel (H*W) 1 / z of the nearest hit (float64, 0: nothing) at
         or beyond
@@ -269,7 +287,10 @@ class Rasteriser:
         :meth:`genie_gl.render.cull.TriangleCuller.select`; ``cull=False`` tests every face
         against every pixel centre of its box (the reference, slow). ``ids_out``: (ids,
         semantic ids, near_m, far_m, frame arrays) for a frame of depth and ids alone, which
-        each thread then fills for its strip as :meth:`shade` would (no :meth:`shade` after)."""
+        each thread then fills for its strip as :meth:`shade` would (no :meth:`shade` after).
+        ``samples``: the frame's rays when they are not its pixel centres
+        (:class:`~genie_gl.render.cpu.coverage.Samples`, binned on this ``K``'s pixel grid):
+        then the two arrays hold a value per ray, in the samples' order."""
         c = self.culler
         nf = c.mesh_nfaces[mesh]
         nclus = -(-nf // CLUSTER)
@@ -278,7 +299,7 @@ class Rasteriser:
         proj = projection(K)
         threads = numba.get_num_threads()
         T = 1 if threads == 1 or int(nf.sum()) < PARALLEL_FACES else threads
-        npx = width * height
+        npx = width * height if len(samples.cell0) == 1 else len(samples.xy)
         tiles = (-(-height // TILE), -(-width // TILE))
         buf = self._buffers
         if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
@@ -301,6 +322,7 @@ class Rasteriser:
             self.geometry,
             inst,
             view,
+            samples,
             T,
             depth,
             hit,

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Collection, Iterable, Iterator, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -22,7 +23,9 @@ from ...validation.arguments import check_pose
 from ..fragments import Fragments, no_triangles
 from ..memory import frame_buffers
 from ..renderer import Renderer
-from ..shading import shade, to_frame
+from ..shading import FrameArrays, MeshArrays, SlotShading, shade, shade_rays, to_frame
+from ...lens.distortion import DistortionMaps, lens_views
+from .coverage import Samples
 from .raster import Rasteriser
 
 # the CPU raster's 1 / z (float64) and slot << 32 | face (int64) per pixel
@@ -33,7 +36,15 @@ class CPURenderer(Renderer, raster="cpu"):
     """The exact CPU raster's :class:`~genie_gl.render.renderer.Renderer` (see there;
     ``depth_precision``, ``targets`` and ``readback`` do not apply; ``cull=False`` tests
     every triangle at every pixel centre of its box: the reference the culled frame equals
-    byte for byte, slow). No GL context: usable from any thread."""
+    byte for byte, slow). No GL context: usable from any thread.
+
+    It also draws a distorted sensor's frame directly (:attr:`draws_lenses`): each pixel's
+    own ray, binned on the pinhole views that hold the lens's rays
+    (:func:`genie_gl.lens.distortion.lens_views`), is intersected by the same kernel and the
+    same winner rule as a pixel centre (:meth:`_lens_frame`); no view is rendered and
+    resampled."""
+
+    draws_lenses = True
 
     def _uploaded(self, vertices: np.ndarray, faces: np.ndarray) -> None:
         self._rasteriser = Rasteriser(self._culler)
@@ -51,21 +62,13 @@ class CPURenderer(Renderer, raster="cpu"):
         """A frame drawn by the CPU raster: the instances in view (:meth:`_visible`), their
         clusters drawn into the frame's winners (:meth:`Rasteriser.draw`), the winners shaded
         (:func:`~genie_gl.render.shading.shade`; a frame of depth and ids alone is shaded
-        strip by strip as it is drawn)."""
+        strip by strip as it is drawn). A distorted sensor: :meth:`_lens_frame`."""
         t0 = time.perf_counter()
         W, H, K = sensor.width, sensor.height, sensor.K
         pose = check_pose(pose, "render pose")
-        if (W, H) not in self._sizes_checked:
-            check_frame_side(W, H, "Renderer", MAX_SIDE, "the largest frame genie-gl draws")
-            # the raster's buffers (1 / z float64, slot and face int64) and the frame's arrays
-            check_memory(
-                W * H * (CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL),
-                memory_limit_bytes(),
-                f"a {W}x{H} px frame x {CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL} B",
-                "Renderer: use a smaller sensor",
-                option=None,
-            )
-            self._sizes_checked.add((W, H))
+        self._check_size(W, H)
+        if not sensor.is_pinhole:
+            return self._lens_frame(sensor, pose, color, normals, only, t0)
         near = float(sensor.clip_near_m)
         out = frame_buffers(H, W, color, normals, triangles)
         seen = self._visible(pose, K, W, H, near, only)
@@ -149,6 +152,119 @@ class CPURenderer(Renderer, raster="cpu"):
             1e3 * (t2 - t0),
         )
 
+    def _check_size(self, W: int, H: int) -> None:
+        """Refuse a frame larger than genie-gl draws or than memory holds (once per size)."""
+        if (W, H) in self._sizes_checked:
+            return
+        check_frame_side(W, H, "Renderer", MAX_SIDE, "the largest frame genie-gl draws")
+        # the raster's buffers (1 / z float64, slot and face int64) and the frame's arrays
+        check_memory(
+            W * H * (CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL),
+            memory_limit_bytes(),
+            f"a {W}x{H} px frame x {CPU_RASTER_BYTES_PER_PIXEL + BYTES_PER_PIXEL} B",
+            "Renderer: use a smaller sensor",
+            option=None,
+        )
+        self._sizes_checked.add((W, H))
+
+    def _lens_frame(
+        self,
+        sensor: Sensor,
+        pose: np.ndarray,
+        color: bool,
+        normals: bool,
+        only: Collection[int] | None,
+        t0: float,
+    ) -> Frame:
+        """A distorted sensor's frame, each pixel's own ray drawn exactly: per pinhole view
+        that holds some of the lens's rays (one for a lens one view can hold, cube faces for a
+        fisheye), the instances that view sees, drawn by :meth:`Rasteriser.draw` against the
+        rays binned on its pixel grid (:func:`lens_samples`), then shaded along the same rays
+        (:func:`~genie_gl.render.shading.shade`). Depth is the camera's z; surfaces nearer
+        than ``near_m`` or farther than ``far_m`` give no return; normals in the camera frame.
+        """
+        W, H = sensor.width, sensor.height
+        out = frame_buffers(H, W, color, normals)
+        views = lens_views(sensor, oversample=1.0)
+        for a in out.values():  # the pixels without a ray (past a fisheye's fold) hold nothing
+            a.reshape(H * W, -1)[unserved(views)] = 0
+        arrays = FrameArrays(
+            out["depth"].reshape(-1),
+            out["instance"].reshape(-1),
+            out["semantic"].reshape(-1),
+            out["rgba"].reshape(-1, 4) if color else np.zeros((1, 4), np.uint8),
+            out["normal"].reshape(-1, 3) if normals else np.zeros((1, 3), np.float32),
+            np.zeros((1, 2), np.uint32),
+        )
+        drawn = faces = simplified = 0
+        r = self._rasteriser
+        colours = self._rows["color"][:, :3] if len(self._mesh) else np.zeros((1, 3), np.uint8)
+        face_vbase = r.face_vbase(self._vbase, self._fbase, self._nfaces)
+        near = float(sensor.clip_near_m)
+        for m in views:
+            ls = lens_samples(m)
+            Kg, Wg, Hg = ls.grid
+            view_pose = pose.copy()
+            view_pose[:3, :3] = pose[:3, :3] @ m.rotation
+            seen = self._visible(view_pose, Kg, Wg, Hg, near, only)
+            if seen is None:
+                inverse_z = np.zeros(len(ls.pixel))
+                winner = np.zeros(len(ls.pixel), np.int64)
+                cfm, face0 = np.zeros((max(1, len(self._mesh)), 3, 4)), np.zeros(1, np.int64)
+            else:
+                inverse_z, winner = r.draw(
+                    seen.slots,
+                    seen.mesh,
+                    seen.backcull,
+                    seen.camera_from_model,
+                    seen.eye,
+                    self._det[seen.slots],
+                    Kg,
+                    Wg,
+                    Hg,
+                    near,
+                    seen.planes,
+                    self.cull,
+                    samples=ls.samples,
+                )
+                cfm = seen.camera_from_model
+                face0 = np.zeros(len(self._mesh), np.int64)
+                face0[seen.slots] = self._fbase[seen.mesh]
+                drawn += len(seen.slots)
+                faces += int(self._nfaces[seen.mesh].sum())
+                simplified += seen.simplified
+            if ls.z_scale is not None:  # a cube face's z is not the camera's
+                inverse_z = inverse_z / ls.z_scale
+            shade_rays(
+                inverse_z,
+                winner,
+                MeshArrays(self._culler.vertices, self._culler.faces, face_vbase),
+                SlotShading(cfm, self._ids, self._rows["semantic"], colours, face0),
+                (m.ray_x.reshape(-1), m.ray_y.reshape(-1)),
+                ls.ray_of,
+                W,
+                sensor.near_m,
+                sensor.far_m,
+                arrays,
+                color,
+                normals,
+            )
+            if normals and ls.z_scale is not None:  # the view's frame to the camera's
+                nv = arrays.normal[ls.pixel]
+                arrays.normal[ls.pixel] = (nv @ m.rotation.T).astype(np.float32)
+        t2 = time.perf_counter()
+        self.stats = {
+            "cull_s": 0.0,
+            "draw_s": t2 - t0,
+            "readback_s": 0.0,
+            "instances_drawn": drawn,
+            "triangles_drawn": faces,
+            "instances_simplified": simplified,
+            "occlusion_culled": False,
+        }
+        frame = to_frame(out, sensor, pose, color, normals, None, None, near, 1e3 * (t2 - t0))
+        return frame.replace(meta={**frame.meta, "lens_views": len(views), "resample": "exact"})
+
     def _frames(
         self,
         sensor: Sensor,
@@ -163,3 +279,80 @@ class CPURenderer(Renderer, raster="cpu"):
             yield self._frame(
                 sensor, pose, color, normals, None if only is None else only[k], triangles
             )
+
+
+class LensSamples(NamedTuple):
+    """A lens's pixel rays that one of its pinhole views holds, binned on that view's pixel
+    grid for the raster: ``samples`` (:class:`~genie_gl.render.cpu.coverage.Samples`, rays in
+    the view frame on z = 1), ``ray_of`` (H W,) int64 per lens pixel its ray's row of the
+    samples (-1: this view does not serve it), ``pixel`` (N,) int64 the lens pixel (row-major)
+    of each ray, in the samples' order, and ``z_scale`` (N,) float64 the camera z per view z
+    along each ray (None for the front view, whose z is the camera's), ``grid`` (K, width,
+    height) the bins: the pinhole grid of the view's frame the raster draws on."""
+
+    samples: Samples
+    ray_of: np.ndarray
+    pixel: np.ndarray
+    z_scale: np.ndarray | None
+    grid: tuple[np.ndarray, int, int]
+
+
+def unserved(views: tuple[DistortionMaps, ...]) -> np.ndarray:
+    """(k,) int64: the lens pixels (row-major) no view serves (they have no ray); cached."""
+    got = views[0].cache.get("unserved")
+    if got is None:
+        served = np.zeros(views[0].valid.size, bool)
+        for m in views:
+            served |= m.valid.ravel()
+        got = views[0].cache["unserved"] = np.flatnonzero(~served)
+    return got
+
+
+CELL_RAYS = (1.0, 4.0)  # a bin's width and height, in the lens's rays at its densest
+
+
+def lens_samples(maps: DistortionMaps) -> LensSamples:
+    """The rays of the lens pixels ``maps`` serves, binned on a grid of the view's frame (its
+    :attr:`LensSamples.grid`: a pinhole K whose pixels, the bins, are :data:`CELL_RAYS` rays
+    wide and tall where the rays are densest; a ray crossing it at (x, y) pixels goes to the
+    bin (floor x, floor y)), each bin's rays in row-major pixel order; computed once per view
+    (kept in ``maps.cache``)."""
+    got = maps.cache.get("lens_samples")
+    if got is not None:
+        return got
+    sel = np.flatnonzero(maps.valid.ravel())
+    rx, ry = maps.ray_x.ravel()[sel], maps.ray_y.ravel()[sel]
+    H, W = maps.valid.shape
+    # the rays' spacing at their densest: the least step between neighbouring pixels' rays
+    gx = np.abs(np.diff(maps.ray_x, axis=1))[maps.valid[:, 1:] & maps.valid[:, :-1]]
+    gy = np.abs(np.diff(maps.ray_y, axis=0))[maps.valid[1:, :] & maps.valid[:-1, :]]
+    step_x = float(gx.min()) if gx.size else 1.0
+    step_y = float(gy.min()) if gy.size else 1.0
+    fx, fy = 1.0 / (CELL_RAYS[0] * step_x), 1.0 / (CELL_RAYS[1] * step_y)
+    if len(sel):
+        cx = 1.0 - fx * float(rx.min())
+        cy = 1.0 - fy * float(ry.min())
+        Wg = int(np.ceil(fx * float(rx.max()) + cx)) + 2
+        Hg = int(np.ceil(fy * float(ry.max()) + cy)) + 2
+    else:
+        cx = cy = 0.0
+        Wg = Hg = 1
+    K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+    cu = np.clip(np.floor(fx * rx + cx), 0, Wg - 1).astype(np.int64)
+    cv = np.clip(np.floor(fy * ry + cy), 0, Hg - 1).astype(np.int64)
+    cell = cv * Wg + cu
+    order = np.argsort(cell, kind="stable")
+    cell0 = np.zeros(Wg * Hg + 1, np.int32)
+    np.cumsum(np.bincount(cell, minlength=Wg * Hg), out=cell0[1:])
+    zs = None if maps.z_scale is None else maps.z_scale.ravel()[sel][order]
+    ray_of = np.full(H * W, -1, np.int64)
+    ray_of[sel[order]] = np.arange(len(sel))
+    got = LensSamples(
+        Samples(cell0, np.stack([rx[order], ry[order]], 1)),
+        ray_of,
+        sel[order],
+        zs,
+        (K, Wg, Hg),
+    )
+    maps.cache["lens_samples"] = got
+    return got
