@@ -6,9 +6,11 @@ from its first two content poses: the share of pixels whose instance equals the 
 ``RaycastingScene.cast_rays`` hits along the same ray (``Camera.directions``), in every mode;
 then the ms per frame of each mode, the modes taking turns in one process (median of 10);
 ``resampling``: the CPU ms of the resampling alone (the views rendered once, first pose;
-median of 6 after a warm-up)::
+median of 6 after a warm-up). ``--raster gl`` (the default here) resamples pinhole views in
+every mode; with ``--raster cpu`` the exact mode is the CPU raster drawing each pixel's own
+ray (the other modes still resample its pinhole views)::
 
-    python -m benchmarks lens_ids [agreement|cost|both|resampling]
+    python -m benchmarks lens_ids [agreement|cost|both|resampling] [--raster gl|cpu]
 """
 
 from __future__ import annotations
@@ -107,10 +109,12 @@ def run(
     poses: int = 2,
     lenses=None,
     rounds: int = 5,
+    raster: str = "gl",
 ) -> dict[str, dict]:
     """Per lens: ``agreement`` {mode: (share of pixels whose id is Open3D's, wrong pixels)},
     ``ms`` {mode: median ms a frame}, ``resampling_ms`` {mode: median CPU ms}, as ``what`` asks.
-    ``scene_name``: a shipped strategy (seed 0) or a benchmark scene."""
+    ``scene_name``: a shipped strategy (seed 0) or a benchmark scene; ``raster``: the
+    renderer's raster."""
     if scene_name in ("100k", "1M", "10M", "hall", "generated"):
         scene = benchmark_scene(scene_name)[1]
     else:
@@ -119,12 +123,12 @@ def run(
     chosen = {k: v for k, v in LENSES.items() if lenses is None or k in lenses}
     out: dict[str, dict] = {name: {} for name in chosen}
     if what == "resampling":
-        with Renderer(scene) as r:
+        with Renderer(scene, raster=raster) as r:
             for name, s in chosen.items():
                 out[name]["resampling_ms"] = resampling(r, s, views[0])
         return out
     rc, ids = caster(scene) if what in ("agreement", "both") else (None, None)
-    with Renderer(scene) as r:
+    with Renderer(scene, raster=raster) as r:
         for name, s in chosen.items():
             if rc is not None:
                 truth = [cast(rc, ids, s, p) for p in views]
@@ -162,9 +166,10 @@ def main(argv: list[str]) -> None:
         "--scene", default="storage_area", help="a shipped strategy or a benchmark scene"
     )
     p.add_argument("--poses", type=int, default=2)
+    p.add_argument("--raster", default="gl", choices=("gl", "cpu"))
     a = p.parse_args(argv)
-    print(header())
-    for name, r in run(a.what, a.scene, a.poses).items():
+    print(header() + f", raster {a.raster}")
+    for name, r in run(a.what, a.scene, a.poses, raster=a.raster).items():
         if "resampling_ms" in r:
             print(f"| {name} | " + " | ".join(f"{r['resampling_ms'][m]:.1f}" for m in MODES) + " |")
         if "agreement" in r:

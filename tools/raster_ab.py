@@ -1,14 +1,13 @@
 """The exact raster of the work tree against that of a git revision, side by side in one
-process: both versions' kernels (``render/cpu/coverage.py`` and ``render/cpu/raster.py`` as one
-module each, loaded from temporary files) draw a benchmark scene's 40 poses in turns, pose by
+process: both versions' kernels (the modules of ``render/cpu/`` as one module each,
+:mod:`kernel_source`, loaded from temporary files; a revision's kernel must take the work
+tree's arguments) draw a benchmark scene's 40 poses in turns, pose by
 pose, the order flipping each round; a pose's time is its least over the rounds (process CPU
 time with one thread, wall time with more), and the ratio is of the sums.
 
     python tools/raster_ab.py 1M 2 5 HEAD~1      # scene, threads, rounds, revision
 """
 
-import importlib.util
-import re
 import subprocess
 import sys
 import tempfile
@@ -22,40 +21,29 @@ from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
 from genie_gl.render import Renderer
 from genie_gl.render.cpu import raster
+from kernel_source import joined, load
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def kernel(coverage: str, frame: str, where: Path, name: str):
-    """The frame kernel of one version (the two modules' sources) as a module of its own."""
-    source = coverage + frame.replace("from __future__ import annotations\n", "")
-    source = re.sub(r"^from \.coverage import .*\n", "", source, flags=re.M)
-    for old, new in (
-        ("from ..clusters", "from genie_gl.render.clusters"),
-        ("from ..cull", "from genie_gl.render.cull"),
-        ("from ..geometry", "from genie_gl.render.geometry"),
-        ("from ...jit", "from genie_gl.jit"),
-    ):
-        source = source.replace(old, new)
-    path = where / f"{name}.py"
-    path.write_text(source)
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod._raster
+def kernel(read, where: Path, name: str):
+    """The frame kernel of one version (``read(module name)``: its source) as a module."""
+    return load(joined(read), where, name)._raster
 
 
-def at(rev: str, name: str) -> str:
+def at(rev: str, name: str) -> str | None:
     got = subprocess.run(
         ["git", "-C", str(ROOT), "show", f"{rev}:genie_gl/render/cpu/{name}"],
         capture_output=True,
         text=True,
     )
     if got.returncode:
-        sys.exit(
-            f"raster_ab.py: revision {rev!r}: no genie_gl/render/cpu/{name} there "
-            f"({got.stderr.strip()})"
-        )
+        if name in ("coverage.py", "raster.py"):
+            sys.exit(
+                f"raster_ab.py: revision {rev!r}: no genie_gl/render/cpu/{name} there "
+                f"({got.stderr.strip()})"
+            )
+        return None  # a module the revision did not have yet
     return got.stdout
 
 
@@ -76,13 +64,8 @@ def main() -> None:
     own = raster._raster
     with tempfile.TemporaryDirectory() as tmp:
         kernels = {
-            rev: kernel(at(rev, "coverage.py"), at(rev, "raster.py"), Path(tmp), "ab_base"),
-            "work tree": kernel(
-                (ROOT / "genie_gl/render/cpu/coverage.py").read_text(),
-                (ROOT / "genie_gl/render/cpu/raster.py").read_text(),
-                Path(tmp),
-                "ab_new",
-            ),
+            rev: kernel(lambda name: at(rev, name), Path(tmp), "ab_base"),
+            "work tree": kernel(None, Path(tmp), "ab_new"),
         }
         best = {k: np.full(len(poses), np.inf) for k in kernels}
         try:

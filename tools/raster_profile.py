@@ -6,15 +6,12 @@ short after each of its stages in turn, one thread, CPU per frame over a benchma
     python tools/raster_profile.py dataset 3     # a dataset scene (assembly line) and its 40
     cameras
 
-Each cut is the rasteriser's source (``coverage`` and ``raster`` as one module) with one line
+Each cut is the rasteriser's source (its modules as one, :mod:`kernel_source`) with one line
 changed, loaded from a temporary file and put in place of the kernel; the differences between
 successive cuts are the stages'
 costs. Numba compiles each cut once (a minute or two on a first run).
 """
 
-import importlib.util
-import re
-import inspect
 import sys
 import tempfile
 import time
@@ -26,7 +23,8 @@ import numpy as np
 from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
 from genie_gl.render import Renderer
-from genie_gl.render.cpu import coverage, raster
+from genie_gl.render.cpu import raster
+from kernel_source import joined, load
 
 CUTS = (
     (
@@ -58,20 +56,7 @@ def variant(source: str, old: str | None, new: str | None, where: Path, k: int):
     if old is not None:
         assert source.count(old) == 1, old
         source = source.replace(old, new)
-    source = re.sub(r"^from \.coverage import .*\n", "", source, flags=re.M)
-    for old, new in (
-        ("from ..clusters", "from genie_gl.render.clusters"),
-        ("from ..cull", "from genie_gl.render.cull"),
-        ("from ..geometry", "from genie_gl.render.geometry"),
-        ("from ...jit", "from genie_gl.jit"),
-    ):
-        source = source.replace(old, new)
-    path = where / f"raster_cut{k}.py"
-    path.write_text(source)
-    spec = importlib.util.spec_from_file_location(f"raster_cut{k}", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load(source, where, f"raster_cut{k}")
 
 
 def dataset_scene():
@@ -98,9 +83,7 @@ def main() -> None:
         scene, poses = to_scene(spec), spec.poses
     sensor = sensor_640()
     K, W, H, near = sensor.K, sensor.width, sensor.height, float(sensor.clip_near_m)
-    source = inspect.getsource(coverage) + inspect.getsource(raster).replace(
-        "from __future__ import annotations\n", ""
-    )
+    source = joined()
     numba.set_num_threads(1)
     r = Renderer(scene, raster="cpu")
     kernel = raster._raster

@@ -7,9 +7,6 @@ scene's 40 poses: cycles of the cluster bounds (parallel), of the order and stri
     python tools/raster_threads.py 1M
 """
 
-import importlib.util
-import re
-import inspect
 import sys
 import tempfile
 import time
@@ -21,7 +18,8 @@ import numpy as np
 from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
 from genie_gl.render import Renderer
-from genie_gl.render.cpu import coverage, raster
+from genie_gl.render.cpu import raster
+from kernel_source import joined, load
 
 CLOCK = """from numba import types as _types
 from numba.core import cgutils as _cgutils
@@ -43,26 +41,16 @@ def _cycles(typingctx):
 MARKS = (
     ("    W = int(width)\n    H = int(height)\n", "    c0 = _cycles()\n"),
     ("    order = _nearest_first(alive, bounds, near)\n", "    c1 = _cycles()\n"),
-    ("    tmin[:, :] = 0.0\n    dirty = np.zeros(tmin.shape, np.uint8)\n", "    c2 = _cycles()\n"),
+    ("    tmin[:, :] = 0.0\n    buf = DepthBuffers(", "    c2 = _cycles()\n"),
     (
-        "        if len(out_depth) > 1:   # the strip's depth",
+        "        # the strip's depth and ids at once",
         "        tally[t, 4] = _cycles() - s0\n",
     ),
 )
 
 
 def instrumented(where: Path):
-    source = inspect.getsource(coverage) + inspect.getsource(raster).replace(
-        "from __future__ import annotations\n", ""
-    )
-    source = re.sub(r"^from \.coverage import .*\n", "", source, flags=re.M)
-    for old, new in (
-        ("from ..clusters", "from genie_gl.render.clusters"),
-        ("from ..cull", "from genie_gl.render.cull"),
-        ("from ..geometry", "from genie_gl.render.geometry"),
-        ("from ...jit", "from genie_gl.jit"),
-    ):
-        source = source.replace(old, new)
+    source = joined()
     for old, before in MARKS:
         assert source.count(old) == 1, old
         source = source.replace(old, before + old)
@@ -73,12 +61,7 @@ def instrumented(where: Path):
     assert source.count(old) == 1
     source = source.replace(old, old + "    tally[0, 6] = c1 - c0\n    tally[0, 7] = c2 - c1\n")
     head, sep, rest = source.partition("from __future__ import annotations\n")
-    path = where / "raster_threads_kernel.py"
-    path.write_text(head + sep + CLOCK + rest)
-    spec = importlib.util.spec_from_file_location("raster_threads_kernel", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod._raster
+    return load(head + sep + CLOCK + rest, where, "raster_threads_kernel")._raster
 
 
 def main() -> None:

@@ -93,9 +93,10 @@ def test_lens_frame_times_both_sensors_through_capture():
 
 
 @pytest.mark.gl
-def test_lens_ids_agree_with_open3d_and_time_every_mode():
+@pytest.mark.parametrize("raster", ["gl", "cpu"])
+def test_lens_ids_agree_with_open3d_and_time_every_mode(raster):
     name = "plumb-bob (k1 -0.42)"
-    r = lens_ids.run("both", "100k", poses=1, lenses=[name], rounds=1)[name]
+    r = lens_ids.run("both", "100k", poses=1, lenses=[name], rounds=1, raster=raster)[name]
     assert set(r["agreement"]) == set(r["ms"]) == set(lens_ids.MODES)
     # the exact mode casts each pixel's own ray: it agrees with Open3D at least as well as nearest
     assert (

@@ -45,16 +45,9 @@ from ...jit import njit, prange
 from ..clusters import CLUSTER
 from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View, projection
 from ..shading import in_range
-from .coverage import (
-    PIXEL_CENTRES,
-    SHIFT,
-    TILE,
-    Centres,
-    Samples,
-    Scratch,
-    _bound_cluster,
-    _draw_cluster,
-)
+from .bins import PIXEL_CENTRES, Samples
+from .bounds import _bound_cluster
+from .coverage import SHIFT, TILE, Centres, Scratch, _draw_cluster
 
 PARALLEL_FACES = 5_000  # below this many faces in view, one thread draws a frame
 
@@ -101,8 +94,8 @@ def _raster(geo, inst, view, samples, T, zb, who, tmin, tally, cull, ids_out):
     ``view`` (:class:`~genie_gl.render.geometry.View`) nearest first into ``zb`` (float64
     1 / z, 0 where nothing) and ``who`` (slot << 32 | face where ``zb`` holds a hit; not
     cleared, so anything elsewhere), per pixel centre (H x W flattened) or, unless
-    ``samples`` is :data:`~genie_gl.render.cpu.coverage.PIXEL_CENTRES`, per ray of
-    ``samples`` (:class:`~genie_gl.render.cpu.coverage.Samples`), with T threads: thread t draws the
+    ``samples`` is :data:`~genie_gl.render.cpu.bins.PIXEL_CENTRES`, per ray of
+    ``samples`` (:class:`~genie_gl.render.cpu.bins.Samples`), with T threads: thread t draws the
     columns of strip t, the strips cut where the clusters' centres split evenly (whole
     tiles), so each thread's occlusion tiles see every occluder of its strip and no pixel is
     written by two. ``ids_out``: an :class:`~genie_gl.render.geometry.IdsOut`, filled per
@@ -289,7 +282,7 @@ class Rasteriser:
         semantic ids, near_m, far_m, frame arrays) for a frame of depth and ids alone, which
         each thread then fills for its strip as :meth:`shade` would (no :meth:`shade` after).
         ``samples``: the frame's rays when they are not its pixel centres
-        (:class:`~genie_gl.render.cpu.coverage.Samples`, binned on this ``K``'s pixel grid):
+        (:class:`~genie_gl.render.cpu.bins.Samples`, binned on this ``K``'s pixel grid):
         then the two arrays hold a value per ray, in the samples' order."""
         c = self.culler
         nf = c.mesh_nfaces[mesh]

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Collection, Iterable, Iterator, Sequence
-from typing import NamedTuple
 
 import numpy as np
 
@@ -24,8 +23,8 @@ from ..fragments import Fragments, no_triangles
 from ..memory import frame_buffers
 from ..renderer import Renderer
 from ..shading import FrameArrays, MeshArrays, SlotShading, shade, shade_rays, to_frame
-from ...lens.distortion import DistortionMaps, lens_views
-from .coverage import Samples
+from ...lens.distortion import lens_views
+from .bins import lens_samples, unserved
 from .raster import Rasteriser
 
 # the CPU raster's 1 / z (float64) and slot << 32 | face (int64) per pixel
@@ -279,80 +278,3 @@ class CPURenderer(Renderer, raster="cpu"):
             yield self._frame(
                 sensor, pose, color, normals, None if only is None else only[k], triangles
             )
-
-
-class LensSamples(NamedTuple):
-    """A lens's pixel rays that one of its pinhole views holds, binned on that view's pixel
-    grid for the raster: ``samples`` (:class:`~genie_gl.render.cpu.coverage.Samples`, rays in
-    the view frame on z = 1), ``ray_of`` (H W,) int64 per lens pixel its ray's row of the
-    samples (-1: this view does not serve it), ``pixel`` (N,) int64 the lens pixel (row-major)
-    of each ray, in the samples' order, and ``z_scale`` (N,) float64 the camera z per view z
-    along each ray (None for the front view, whose z is the camera's), ``grid`` (K, width,
-    height) the bins: the pinhole grid of the view's frame the raster draws on."""
-
-    samples: Samples
-    ray_of: np.ndarray
-    pixel: np.ndarray
-    z_scale: np.ndarray | None
-    grid: tuple[np.ndarray, int, int]
-
-
-def unserved(views: tuple[DistortionMaps, ...]) -> np.ndarray:
-    """(k,) int64: the lens pixels (row-major) no view serves (they have no ray); cached."""
-    got = views[0].cache.get("unserved")
-    if got is None:
-        served = np.zeros(views[0].valid.size, bool)
-        for m in views:
-            served |= m.valid.ravel()
-        got = views[0].cache["unserved"] = np.flatnonzero(~served)
-    return got
-
-
-CELL_RAYS = (1.0, 4.0)  # a bin's width and height, in the lens's rays at its densest
-
-
-def lens_samples(maps: DistortionMaps) -> LensSamples:
-    """The rays of the lens pixels ``maps`` serves, binned on a grid of the view's frame (its
-    :attr:`LensSamples.grid`: a pinhole K whose pixels, the bins, are :data:`CELL_RAYS` rays
-    wide and tall where the rays are densest; a ray crossing it at (x, y) pixels goes to the
-    bin (floor x, floor y)), each bin's rays in row-major pixel order; computed once per view
-    (kept in ``maps.cache``)."""
-    got = maps.cache.get("lens_samples")
-    if got is not None:
-        return got
-    sel = np.flatnonzero(maps.valid.ravel())
-    rx, ry = maps.ray_x.ravel()[sel], maps.ray_y.ravel()[sel]
-    H, W = maps.valid.shape
-    # the rays' spacing at their densest: the least step between neighbouring pixels' rays
-    gx = np.abs(np.diff(maps.ray_x, axis=1))[maps.valid[:, 1:] & maps.valid[:, :-1]]
-    gy = np.abs(np.diff(maps.ray_y, axis=0))[maps.valid[1:, :] & maps.valid[:-1, :]]
-    step_x = float(gx.min()) if gx.size else 1.0
-    step_y = float(gy.min()) if gy.size else 1.0
-    fx, fy = 1.0 / (CELL_RAYS[0] * step_x), 1.0 / (CELL_RAYS[1] * step_y)
-    if len(sel):
-        cx = 1.0 - fx * float(rx.min())
-        cy = 1.0 - fy * float(ry.min())
-        Wg = int(np.ceil(fx * float(rx.max()) + cx)) + 2
-        Hg = int(np.ceil(fy * float(ry.max()) + cy)) + 2
-    else:
-        cx = cy = 0.0
-        Wg = Hg = 1
-    K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
-    cu = np.clip(np.floor(fx * rx + cx), 0, Wg - 1).astype(np.int64)
-    cv = np.clip(np.floor(fy * ry + cy), 0, Hg - 1).astype(np.int64)
-    cell = cv * Wg + cu
-    order = np.argsort(cell, kind="stable")
-    cell0 = np.zeros(Wg * Hg + 1, np.int32)
-    np.cumsum(np.bincount(cell, minlength=Wg * Hg), out=cell0[1:])
-    zs = None if maps.z_scale is None else maps.z_scale.ravel()[sel][order]
-    ray_of = np.full(H * W, -1, np.int64)
-    ray_of[sel[order]] = np.arange(len(sel))
-    got = LensSamples(
-        Samples(cell0, np.stack([rx[order], ry[order]], 1)),
-        ray_of,
-        sel[order],
-        zs,
-        (K, Wg, Hg),
-    )
-    maps.cache["lens_samples"] = got
-    return got
