@@ -117,7 +117,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 (self._ids, self._rows["semantic"], sensor.near_m, sensor.far_m, out)
                 if ids_only
                 else None,
-                serial,
+                serial=serial,
             )
             fragments = Fragments(H, W, inverse_z, winner, out, shaded=ids_only)
             face0[slots] = self._fbase[m]
@@ -199,7 +199,8 @@ class CPURenderer(Renderer, raster="cpu"):
             or triangles
             or threads < 2
             or len(head) < 2
-            or sensor.width * sensor.height < 2
+            or sensor.width * sensor.height < 2  # (shaded after drawing, on every thread)
+            or not sensor.is_pinhole
         ):
             for k, pose in enumerate(chain(head, poses)):
                 yield self._frame(
