@@ -24,7 +24,7 @@ def test_frames_drawn_side_by_side_equal_frames_drawn_one_by_one():
     threads = numba.get_num_threads()
     assert threads >= 2, "numba has one thread here: no frames are drawn side by side"
     poses = [poses[k % len(poses)] for k in range(6)]
-    only = [None, None, None, [1, 2, 3], None, None]
+    only = [None, None, None, [2, 3, 4], None, None]
     with Renderer(scene, raster="cpu") as r:
         alone = [r.render(sensor, p, depth_only=True, only=o) for p, o in zip(poses, only)]
         full = r.render(sensor, poses[3], normals=True)
@@ -46,4 +46,5 @@ def test_frames_drawn_side_by_side_equal_frames_drawn_one_by_one():
     assert same(first, alone[0]) and same(again, alone[0])
     assert same(extra, full) and extra.rgb.tobytes() == full.rgb.tobytes()
     assert extra.normal.tobytes() == full.normal.tobytes()
-    assert (alone[0].instance > 0).mean() > 0.3 and (alone[3].instance > 0).mean() < 0.1
+    assert (alone[0].instance > 0).mean() > 0.3
+    assert set(np.unique(alone[3].instance)) <= {0, 2, 3, 4}  # the floor (1) left out

@@ -210,32 +210,33 @@ class CPURenderer(Renderer, raster="cpu"):
         # (taken while in use: frames of another generator of this renderer draw with others)
         side = [self._side.pop() if self._side else self._rasteriser.twin() for _ in range(threads)]
         drawing: deque[Future] = deque()
-        with ThreadPoolExecutor(threads, thread_name_prefix="genie-raster") as pool:
-            try:
-                for k, pose in enumerate(chain(head, poses)):
-                    done = None
-                    if len(drawing) == threads:  # frame k - threads, whose rasteriser k takes
-                        done = drawing.popleft().result()
-                    drawing.append(
-                        pool.submit(
-                            self._draw,
-                            sensor,
-                            pose,
-                            False,
-                            False,
-                            None if only is None else only[k],
-                            False,
-                            side[k % threads],
-                            True,
-                        )
+        pool = ThreadPoolExecutor(threads, thread_name_prefix="genie-raster")
+        try:
+            for k, pose in enumerate(chain(head, poses)):
+                done = None
+                if len(drawing) == threads:  # frame k - threads, whose rasteriser k takes
+                    done = drawing.popleft().result()
+                drawing.append(
+                    pool.submit(
+                        self._draw,
+                        sensor,
+                        pose,
+                        False,
+                        False,
+                        None if only is None else only[k],
+                        False,
+                        side[k % threads],
+                        True,
                     )
-                    if done is not None:
-                        frame, self.stats = done
-                        yield frame
-                while drawing:
-                    frame, self.stats = drawing.popleft().result()
+                )
+                if done is not None:
+                    frame, self.stats = done
                     yield frame
-            finally:  # (a caller that stops early: nothing more starts; what runs ends here)
-                for f in drawing:
-                    f.cancel()
-        self._side.extend(side)
+            while drawing:
+                frame, self.stats = drawing.popleft().result()
+                yield frame
+        finally:  # (also for a caller that stops early: nothing more starts, what runs ends)
+            for f in drawing:
+                f.cancel()
+            pool.shutdown(wait=True)
+            self._side.extend(side)
