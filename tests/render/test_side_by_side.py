@@ -7,6 +7,7 @@ import numba
 import numpy as np
 
 from genie_gl.render import Renderer
+from genie_gl.render.cpu import renderer as cpu_renderer
 from tests.scenes import scene_of, sensor_640
 
 
@@ -48,3 +49,15 @@ def test_frames_drawn_side_by_side_equal_frames_drawn_one_by_one():
     assert extra.normal.tobytes() == full.normal.tobytes()
     assert (alone[0].instance > 0).mean() > 0.3
     assert set(np.unique(alone[3].instance)) <= {0, 2, 3, 4}  # the floor (1) left out
+
+
+def test_frames_too_large_for_the_side_by_side_budget_are_drawn_one_by_one(monkeypatch):
+    scene, poses = scene_of("100k")
+    sensor = sensor_640()
+    # room for one frame's raster buffers only: no frames side by side
+    monkeypatch.setattr(cpu_renderer, "SIDE_BY_SIDE_BYTES", 640 * 480 * 16 * 2 - 1)
+    with Renderer(scene, raster="cpu") as r:
+        frames = list(r.frames(sensor, poses[:3], depth_only=True))
+        assert r._side == []
+        alone = [r.render(sensor, p, depth_only=True) for p in poses[:3]]
+    assert all(same(a, b) for a, b in zip(alone, frames))

@@ -31,6 +31,8 @@ from .raster import Rasteriser
 
 # the CPU raster's 1 / z (float64) and slot << 32 | face (int64) per pixel
 CPU_RASTER_BYTES_PER_PIXEL = 16
+# at most this many bytes of raster buffers for frames drawn side by side (one set a frame)
+SIDE_BY_SIDE_BYTES = 256 << 20
 
 
 class CPURenderer(Renderer, raster="cpu"):
@@ -187,10 +189,14 @@ class CPURenderer(Renderer, raster="cpu"):
         thread, as many at once as there are threads, each on its thread alone with a
         rasteriser of its own (frame k by rasteriser k mod threads), while the caller takes
         the frames before them: a light frame leaves most of its strips' threads idle, and
-        each frame is the same whichever thread draws it (:mod:`.raster`). Otherwise each
+        each frame is the same whichever thread draws it (:mod:`.raster`); no more frames at
+        once than :data:`SIDE_BY_SIDE_BYTES` of raster buffers hold. Otherwise each
         frame is drawn, on every thread, when it is asked for. ``self.stats``: the last
         frame handed over's."""
-        threads = numba.get_num_threads()
+        threads = min(
+            numba.get_num_threads(),
+            SIDE_BY_SIDE_BYTES // (sensor.width * sensor.height * CPU_RASTER_BYTES_PER_PIXEL),
+        )
         poses = iter(poses)
         head = list(islice(poses, 2))
         if (
