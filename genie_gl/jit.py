@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+import types
 import warnings
 from pathlib import Path
 
@@ -83,6 +84,22 @@ class _ImportStamped:
 
     def get_source_stamp(self):
         return source_stamp(self._py_file)
+
+
+def serial_copy(kernel, name: str):
+    """``kernel`` (an ``njit(parallel=True)`` dispatcher of the package) compiled once more
+    without parallel loops (its ``prange`` runs as ``range``, on the calling thread) with
+    the same options, cached under ``name`` (a cache entry of its own: numba names a
+    kernel's cache files by its function's name, and a parallel and a serial compilation of
+    one function would otherwise overwrite each other). For frames drawn side by side, one
+    per thread: numba's default threading layer (workqueue) aborts when two threads launch
+    parallel kernels at once; serial kernels launch nothing."""
+    f = kernel.py_func
+    code = f.__code__.replace(co_name=name)
+    copy = types.FunctionType(code, f.__globals__, name, f.__defaults__, f.__closure__)
+    copy.__qualname__, copy.__module__, copy.__doc__ = name, f.__module__, f.__doc__
+    options = {k: v for k, v in kernel.targetoptions.items() if k not in ("parallel", "nopython")}
+    return njit(cache=True, **options)(copy)
 
 
 def _numba(name: str):

@@ -4,9 +4,9 @@ both rasters (as PyTorch3D's rasteriser hands its ``Fragments`` to a shader).
 A frame's rays are its pixel centres (``K^-1 (u, v, 1)``, row-major on the H x W grid), or,
 drawn by the CPU raster through a distorted lens, each pixel's own ray (binned on a grid of a
 view's frame: :class:`~genie_gl.render.cpu.bins.Samples`; the GL raster draws a lens's pinhole
-views, resampled after). Per ray, a raster decides the winner: the triangle (instance slot, face) nearest along the ray
-within the near plane, and its view z. Each raster decides it in one place, with one tie
-rule:
+views, resampled after). Per ray, a raster decides the winner: the triangle (instance slot,
+face) nearest along the ray within the near plane, and its view z. Each raster decides it in
+one place, with one tie rule:
 
 - ``cpu`` (:func:`genie_gl.render.cpu.coverage._write`): the nearest float64 depth along
   the ray (exact intersection with the triangle's plane; coverage by float64 edge functions

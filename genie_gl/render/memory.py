@@ -5,6 +5,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import math
+import threading
 
 import numpy as np
 
@@ -15,21 +16,25 @@ class _Pool:
     A fresh array is page-faulted in on its first write, 4 KiB at a time: for a 640 x 480
     frame that costs several times the read-back itself. A frame's buffers are views into one
     block lent from this pool; when the last view dies (the frame is dropped), the block comes
-    back and the next frame of that size writes into memory that is already mapped.
+    back and the next frame of that size writes into memory that is already mapped. Frames
+    are made and dropped on any thread (a reentrant lock: a block may come back while the
+    same thread is lending one).
     """
 
     def __init__(self, max_bytes: int = 512 << 20) -> None:
         self.free: dict[int, list[np.ndarray]] = {}
         self.max_bytes, self.bytes = max_bytes, 0
         self.types: dict[int, type] = {}
+        self.lock = threading.RLock()
 
     def lend(self, size: int) -> np.ndarray:
         """A writable uint8 array of ``size`` bytes, returned to the pool when it dies."""
-        blocks = self.free.get(size)
-        if blocks:
-            raw = blocks.pop()
-            self.bytes -= size
-        else:
+        with self.lock:
+            blocks = self.free.get(size)
+            raw = blocks.pop() if blocks else None
+            if raw is not None:
+                self.bytes -= size
+        if raw is None:
             raw = np.empty(size, np.uint8)
         lease_type = self.types.get(size)
         if lease_type is None:
@@ -45,9 +50,10 @@ class _Pool:
         return np.frombuffer(lease, np.uint8)
 
     def give_back(self, raw: np.ndarray) -> None:
-        if self.bytes + raw.nbytes <= self.max_bytes:
-            self.free.setdefault(raw.nbytes, []).append(raw)
-            self.bytes += raw.nbytes
+        with self.lock:
+            if self.bytes + raw.nbytes <= self.max_bytes:
+                self.free.setdefault(raw.nbytes, []).append(raw)
+                self.bytes += raw.nbytes
 
 
 _POOL = _Pool()

@@ -36,12 +36,13 @@ columns) and fills the frame's arrays; :mod:`genie_gl.render.cpu.coverage` draws
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numba
 import numpy as np
 
-from ...jit import njit, prange
+from ...jit import njit, prange, serial_copy
 from ..clusters import CLUSTER
 from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View, projection
 from ..shading import in_range
@@ -207,6 +208,10 @@ def _raster(geo, inst, view, samples, T, zb, who, tmin, tally, cull, ids_out):
                         out_semantic[p] = 0
 
 
+# the same kernel on the calling thread alone (frames drawn side by side, one per thread)
+_raster_serial = serial_copy(_raster, "_raster_serial")
+
+
 @njit(cache=True, nogil=True, boundscheck=False)
 def _cluster_boxes(vertices, vrange, mesh_vbase, mesh_cbase, mesh_clusters):
     """(C, 3) lows and highs: each cluster's box in its model frame (float64)."""
@@ -246,6 +251,14 @@ class Rasteriser:
         )
         self.counts = np.zeros(8, np.int64)  # the last frame's tally (see _draw_cluster)
 
+    def twin(self) -> Rasteriser:
+        """A rasteriser of the same scene (its arrays shared, not copied) with buffers of
+        its own: for a frame drawn while this one draws another."""
+        twin = copy.copy(self)
+        twin._buffers, twin.tally = None, np.zeros_like(self.tally)
+        twin.counts = np.zeros_like(self.counts)
+        return twin
+
     def face_vbase(
         self, mesh_vbase: np.ndarray, mesh_fbase: np.ndarray, mesh_nfaces: np.ndarray
     ) -> np.ndarray:
@@ -273,6 +286,7 @@ class Rasteriser:
         cull: bool = True,
         ids_out: tuple | None = None,
         samples: Samples = PIXEL_CENTRES,
+        serial: bool = False,
     ) -> tuple[np.ndarray, np.ndarray]:
         """(inverse depth, hit): per pixel (H*W) 1 / z of the nearest hit (float64, 0: nothing) at
         or beyond
@@ -283,7 +297,9 @@ class Rasteriser:
         each thread then fills for its strip as :meth:`shade` would (no :meth:`shade` after).
         ``samples``: the frame's rays when they are not its pixel centres
         (:class:`~genie_gl.render.cpu.bins.Samples`, binned on this ``K``'s pixel grid):
-        then the two arrays hold a value per ray, in the samples' order."""
+        then the two arrays hold a value per ray, in the samples' order. ``serial``: draw on
+        the calling thread alone (no parallel launch: other threads may draw other frames at
+        the same time, each with a rasteriser of its own)."""
         c = self.culler
         nf = c.mesh_nfaces[mesh]
         nclus = -(-nf // CLUSTER)
@@ -291,7 +307,7 @@ class Rasteriser:
         np.cumsum(nclus, out=job0[1:])
         proj = projection(K)
         threads = numba.get_num_threads()
-        T = 1 if threads == 1 or int(nf.sum()) < PARALLEL_FACES else threads
+        T = 1 if serial or threads == 1 or int(nf.sum()) < PARALLEL_FACES else threads
         npx = width * height if len(samples.cell0) == 1 else len(samples.xy)
         tiles = (-(-height // TILE), -(-width // TILE))
         buf = self._buffers
@@ -311,7 +327,7 @@ class Rasteriser:
             np.ascontiguousarray(det, np.float64),
         )
         view = View(proj, planes, float(near), float(width), float(height))
-        _raster(
+        (_raster_serial if serial else _raster)(
             self.geometry,
             inst,
             view,

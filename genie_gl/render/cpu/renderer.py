@@ -11,8 +11,12 @@ instances in view (:mod:`genie_gl.render.visibility`), drawn by
 from __future__ import annotations
 
 import time
+from collections import deque
 from collections.abc import Collection, Iterable, Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from itertools import chain, islice
 
+import numba
 import numpy as np
 
 from ...frame import Frame
@@ -29,6 +33,8 @@ from .raster import Rasteriser
 
 # the CPU raster's 1 / z (float64) and slot << 32 | face (int64) per pixel
 CPU_RASTER_BYTES_PER_PIXEL = 16
+# at most this many bytes of raster buffers for frames drawn side by side (one set a frame)
+SIDE_BY_SIDE_BYTES = 256 << 20
 
 
 class CPURenderer(Renderer, raster="cpu"):
@@ -47,6 +53,7 @@ class CPURenderer(Renderer, raster="cpu"):
 
     def _uploaded(self, vertices: np.ndarray, faces: np.ndarray) -> None:
         self._rasteriser = Rasteriser(self._culler)
+        self._side: list[Rasteriser] = []  # free twins, for frames drawn side by side
         self._sizes_checked: set[tuple[int, int]] = set()  # sizes found room for
 
     def _frame(
@@ -58,8 +65,26 @@ class CPURenderer(Renderer, raster="cpu"):
         only: Collection[int] | None,
         triangles: bool,
     ) -> Frame:
-        """A frame drawn by the CPU raster: the instances in view (:meth:`_visible`), their
-        clusters drawn into the frame's winners (:meth:`Rasteriser.draw`), the winners shaded
+        """A frame drawn by the CPU raster (:meth:`_draw`, on every thread numba has)."""
+        frame, self.stats = self._draw(
+            sensor, pose, color, normals, only, triangles, self._rasteriser, False
+        )
+        return frame
+
+    def _draw(
+        self,
+        sensor: Sensor,
+        pose: np.ndarray,
+        color: bool,
+        normals: bool,
+        only: Collection[int] | None,
+        triangles: bool,
+        rasteriser: Rasteriser,
+        serial: bool,
+    ) -> tuple[Frame, dict]:
+        """A frame drawn by the CPU raster, and its stats: the instances in view
+        (:meth:`_visible`), their clusters drawn into the frame's winners by ``rasteriser``
+        (:meth:`Rasteriser.draw`; ``serial``: on this thread alone), the winners shaded
         (:func:`~genie_gl.render.shading.shade`; a frame of depth and ids alone is shaded
         strip by strip as it is drawn). A distorted sensor: :meth:`_lens_frame`."""
         t0 = time.perf_counter()
@@ -78,7 +103,7 @@ class CPURenderer(Renderer, raster="cpu"):
         cfm = np.zeros((max(1, len(self._mesh)), 3, 4))
         if seen is not None:
             cfm, slots, m = seen.camera_from_model, seen.slots, seen.mesh
-            r = self._rasteriser
+            r = rasteriser
             ids_only = not (color or normals or triangles) and H * W > 1
             inverse_z, winner = r.draw(
                 slots,
@@ -96,6 +121,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 (self._ids, self._rows["semantic"], sensor.near_m, sensor.far_m, out)
                 if ids_only
                 else None,
+                serial=serial,
             )
             fragments = Fragments(H, W, inverse_z, winner, out, shaded=ids_only)
             face0[slots] = self._fbase[m]
@@ -119,7 +145,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 fragments,
                 self._culler.vertices,
                 self._culler.faces,
-                self._rasteriser.face_vbase(self._vbase, self._fbase, self._nfaces),
+                rasteriser.face_vbase(self._vbase, self._fbase, self._nfaces),
                 cfm,
                 self._ids,
                 self._rows["semantic"],
@@ -130,7 +156,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 sensor.far_m,
             )
         t2 = time.perf_counter()
-        self.stats = {
+        stats = {
             "cull_s": 0.0,
             "draw_s": t1 - t0,
             "readback_s": t2 - t1,
@@ -149,7 +175,7 @@ class CPURenderer(Renderer, raster="cpu"):
             self._triangle_scene() if triangles else None,
             near,
             1e3 * (t2 - t0),
-        )
+        ), stats
 
     def _check_size(self, W: int, H: int) -> None:
         """Refuse a frame larger than genie-gl draws or than memory holds (once per size)."""
@@ -174,13 +200,14 @@ class CPURenderer(Renderer, raster="cpu"):
         normals: bool,
         only: Collection[int] | None,
         t0: float,
-    ) -> Frame:
+    ) -> tuple[Frame, dict]:
         """A distorted sensor's frame, each pixel's own ray drawn exactly: per pinhole view
         that holds some of the lens's rays (one for a lens one view can hold, cube faces for a
         fisheye), the instances that view sees, drawn by :meth:`Rasteriser.draw` against the
         rays binned on its pixel grid (:func:`lens_samples`), then shaded along the same rays
         (:func:`~genie_gl.render.shading.shade`). Depth is the camera's z; surfaces nearer
         than ``near_m`` or farther than ``far_m`` give no return; normals in the camera frame.
+        Returns the frame and its stats (drawn on every thread numba has).
         """
         W, H = sensor.width, sensor.height
         out = frame_buffers(H, W, color, normals)
@@ -252,7 +279,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 nv = arrays.normal[ls.pixel]
                 arrays.normal[ls.pixel] = (nv @ m.rotation.T).astype(np.float32)
         t2 = time.perf_counter()
-        self.stats = {
+        stats = {
             "cull_s": 0.0,
             "draw_s": t2 - t0,
             "readback_s": 0.0,
@@ -262,7 +289,8 @@ class CPURenderer(Renderer, raster="cpu"):
             "occlusion_culled": False,
         }
         frame = to_frame(out, sensor, pose, color, normals, None, None, near, 1e3 * (t2 - t0))
-        return frame.replace(meta={**frame.meta, "lens_views": len(views), "resample": "exact"})
+        meta = {**frame.meta, "lens_views": len(views), "resample": "exact"}
+        return frame.replace(meta=meta), stats
 
     def _frames(
         self,
@@ -273,8 +301,65 @@ class CPURenderer(Renderer, raster="cpu"):
         only: Sequence[Collection[int] | None] | None,
         triangles: bool,
     ) -> Iterator[Frame]:
-        """Nothing to overlap: each frame is drawn when it is asked for."""
-        for k, pose in enumerate(poses):
-            yield self._frame(
-                sensor, pose, color, normals, None if only is None else only[k], triangles
-            )
+        """The frames in order. Frames of depth and ids alone, two or more, with two or more
+        threads for numba (:func:`numba.get_num_threads`): drawn side by side, one frame per
+        thread, as many at once as there are threads, each on its thread alone with a
+        rasteriser of its own (frame k by rasteriser k mod threads), while the caller takes
+        the frames before them: a light frame leaves most of its strips' threads idle, and
+        each frame is the same whichever thread draws it (:mod:`.raster`); no more frames at
+        once than :data:`SIDE_BY_SIDE_BYTES` of raster buffers hold. Otherwise each
+        frame is drawn, on every thread, when it is asked for. ``self.stats``: the last
+        frame handed over's."""
+        threads = min(
+            numba.get_num_threads(),
+            SIDE_BY_SIDE_BYTES // (sensor.width * sensor.height * CPU_RASTER_BYTES_PER_PIXEL),
+        )
+        poses = iter(poses)
+        head = list(islice(poses, 2))
+        if (
+            color
+            or normals
+            or triangles
+            or threads < 2
+            or len(head) < 2
+            or sensor.width * sensor.height < 2  # (shaded after drawing, on every thread)
+            or not sensor.is_pinhole
+        ):
+            for k, pose in enumerate(chain(head, poses)):
+                yield self._frame(
+                    sensor, pose, color, normals, None if only is None else only[k], triangles
+                )
+            return
+        # (taken while in use: frames of another generator of this renderer draw with others)
+        side = [self._side.pop() if self._side else self._rasteriser.twin() for _ in range(threads)]
+        drawing: deque[Future] = deque()
+        pool = ThreadPoolExecutor(threads, thread_name_prefix="genie-raster")
+        try:
+            for k, pose in enumerate(chain(head, poses)):
+                done = None
+                if len(drawing) == threads:  # frame k - threads, whose rasteriser k takes
+                    done = drawing.popleft().result()
+                drawing.append(
+                    pool.submit(
+                        self._draw,
+                        sensor,
+                        pose,
+                        False,
+                        False,
+                        None if only is None else only[k],
+                        False,
+                        side[k % threads],
+                        True,
+                    )
+                )
+                if done is not None:
+                    frame, self.stats = done
+                    yield frame
+            while drawing:
+                frame, self.stats = drawing.popleft().result()
+                yield frame
+        finally:  # (also for a caller that stops early: nothing more starts, what runs ends)
+            for f in drawing:
+                f.cancel()
+            pool.shutdown(wait=True)
+            self._side.extend(side)

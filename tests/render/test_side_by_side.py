@@ -1,0 +1,63 @@
+"""Frames of depth and ids alone drawn side by side by the CPU raster (``Renderer.frames``,
+one frame per thread, each with a rasteriser of its own): the same bytes as the frames drawn
+one by one, with an extra render of the caller's in between, and after a caller stops
+early."""
+
+import numba
+import numpy as np
+
+from genie_gl.render import Renderer
+from genie_gl.render.cpu import renderer as cpu_renderer
+from tests.scenes import scene_of, sensor_640
+
+
+def same(a, b):
+    return (
+        a.depth.tobytes() == b.depth.tobytes()
+        and np.array_equal(a.instance, b.instance)
+        and np.array_equal(a.semantic, b.semantic)
+    )
+
+
+def test_frames_drawn_side_by_side_equal_frames_drawn_one_by_one():
+    scene, poses = scene_of("100k")
+    sensor = sensor_640()
+    threads = numba.get_num_threads()
+    assert threads >= 2, "numba has one thread here: no frames are drawn side by side"
+    poses = [poses[k % len(poses)] for k in range(6)]
+    only = [None, None, None, [2, 3, 4], None, None]
+    with Renderer(scene, raster="cpu") as r:
+        alone = [r.render(sensor, p, depth_only=True, only=o) for p, o in zip(poses, only)]
+        full = r.render(sensor, poses[3], normals=True)
+        frames = r.frames(sensor, poses, depth_only=True, only=only)
+        side = [next(frames)]
+        # a render of the caller's while the next frames draw (an effect's extra view)
+        extra = r.render(sensor, poses[3], normals=True)
+        side += list(frames)
+        assert len(r._side) == threads  # drawn by the twins, given back when done
+        assert r.stats["instances_drawn"] > 0
+        # a caller that stops after one frame: the twins come back, the renderer goes on
+        frames = r.frames(sensor, poses, depth_only=True)
+        first = next(frames)
+        frames.close()
+        assert len(r._side) == threads
+        again = r.render(sensor, poses[0], depth_only=True)
+    assert len(side) == len(alone)
+    assert all(same(a, b) for a, b in zip(alone, side))
+    assert same(first, alone[0]) and same(again, alone[0])
+    assert same(extra, full) and extra.rgb.tobytes() == full.rgb.tobytes()
+    assert extra.normal.tobytes() == full.normal.tobytes()
+    assert (alone[0].instance > 0).mean() > 0.3
+    assert set(np.unique(alone[3].instance)) <= {0, 2, 3, 4}  # the floor (1) left out
+
+
+def test_frames_too_large_for_the_side_by_side_budget_are_drawn_one_by_one(monkeypatch):
+    scene, poses = scene_of("100k")
+    sensor = sensor_640()
+    # room for one frame's raster buffers only: no frames side by side
+    monkeypatch.setattr(cpu_renderer, "SIDE_BY_SIDE_BYTES", 640 * 480 * 16 * 2 - 1)
+    with Renderer(scene, raster="cpu") as r:
+        frames = list(r.frames(sensor, poses[:3], depth_only=True))
+        assert r._side == []
+        alone = [r.render(sensor, p, depth_only=True) for p in poses[:3]]
+    assert all(same(a, b) for a, b in zip(alone, frames))
