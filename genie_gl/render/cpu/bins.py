@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...lens.distortion import DistortionMaps
+from .coverage import TILE
 
 
 class Samples(NamedTuple):
@@ -31,16 +32,17 @@ class Samples(NamedTuple):
     ----------
     cell0 : (H W + 1,) int32, each cell's first ray.
     xy : (N, 2) float64, the rays (x, y) on the view's z = 1 plane, cell after cell.
+    tiles : (ceil(H / TILE), ceil(W / TILE)) float64, what each occlusion tile of the grid
+        starts a frame with: 0 (nothing drawn yet), inf where the tile holds no ray (nothing
+        there can be seen: a face whose box covers only such tiles is skipped).
     """
 
     cell0: np.ndarray
     xy: np.ndarray
+    tiles: np.ndarray
 
 
-PIXEL_CENTRES = Samples(np.zeros(1, np.int32), np.zeros((1, 2)))
-
-
-PIXEL_CENTRES = Samples(np.zeros(1, np.int32), np.zeros((1, 2)))
+PIXEL_CENTRES = Samples(np.zeros(1, np.int32), np.zeros((1, 2)), np.zeros((1, 1)))
 
 
 class LensSamples(NamedTuple):
@@ -71,6 +73,14 @@ def unserved(views: tuple[DistortionMaps, ...]) -> np.ndarray:
 
 
 CELL_RAYS = (1.0, 4.0)  # a bin's width and height, in the lens's rays at its densest
+
+
+def _empty_tiles(cell: np.ndarray, W: int, H: int) -> np.ndarray:
+    """:attr:`Samples.tiles` of rays in bins ``cell`` (row-major on a W x H grid): 0 where an
+    occlusion tile holds a ray, inf elsewhere."""
+    tiles = np.full((-(-H // TILE), -(-W // TILE)), np.inf)
+    tiles[(cell // W) // TILE, (cell % W) // TILE] = 0.0
+    return tiles
 
 
 def lens_samples(maps: DistortionMaps) -> LensSamples:
@@ -110,7 +120,7 @@ def lens_samples(maps: DistortionMaps) -> LensSamples:
     ray_of = np.full(H * W, -1, np.int64)
     ray_of[sel[order]] = np.arange(len(sel))
     got = LensSamples(
-        Samples(cell0, np.stack([rx[order], ry[order]], 1)),
+        Samples(cell0, np.stack([rx[order], ry[order]], 1), _empty_tiles(cell, Wg, Hg)),
         ray_of,
         sel[order],
         zs,

@@ -146,7 +146,10 @@ def _raster(geo, inst, view, samples, T, zb, who, tmin, tally, cull, ids_out):
             seen += per[col]
         u = col if len(order) else (W * t) // T
         cut[t] = min(max((u >> SHIFT) << SHIFT, cut[t - 1]), W)
-    tmin[:, :] = 0.0
+    if sampled:  # (a tile without rays starts hidden)
+        tmin[:, :] = samples.tiles
+    else:
+        tmin[:, :] = 0.0
     buf = DepthBuffers(zb, who, tmin, np.zeros(tmin.shape, np.uint8))
     centres = Centres(xs, ys, sys_)
     tally[:, :] = 0
