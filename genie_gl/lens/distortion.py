@@ -37,6 +37,7 @@ within 0.625 lens pixels. Pixels whose ray the lens does not have
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -500,6 +501,8 @@ def draws_lenses(render: RenderFn) -> bool:
     """Whether ``render`` draws a distorted sensor's own pixel rays (its ``draws_lenses``, or
     that of the renderer it is a method of: the CPU raster's
     :class:`~genie_gl.render.cpu.renderer.CPURenderer`), so that no pinhole view is resampled."""
+    while isinstance(render, functools.partial):  # (a render with some keywords bound)
+        render = render.func
     flag = getattr(render, "draws_lenses", None)
     if flag is None:
         flag = getattr(getattr(render, "__self__", None), "draws_lenses", False)
