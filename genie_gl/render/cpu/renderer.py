@@ -204,8 +204,8 @@ class CPURenderer(Renderer, raster="cpu"):
         """A distorted sensor's frame, each pixel's own ray drawn exactly: per pinhole view
         that holds some of the lens's rays (one for a lens one view can hold, cube faces for a
         fisheye), the instances that view sees, drawn by :meth:`Rasteriser.draw` against the
-        rays binned on its pixel grid (:func:`lens_samples`), then shaded along the same rays
-        (:func:`~genie_gl.render.shading.shade`). Depth is the camera's z; surfaces nearer
+        rays binned on a grid of its frame (:func:`~genie_gl.render.cpu.bins.lens_samples`),
+        then shaded along the same rays (:func:`~genie_gl.render.shading.shade_rays`). Depth is the camera's z; surfaces nearer
         than ``near_m`` or farther than ``far_m`` give no return; normals in the camera frame.
         Returns the frame and its stats (drawn on every thread numba has).
         """
