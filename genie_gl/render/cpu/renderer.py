@@ -205,8 +205,9 @@ class CPURenderer(Renderer, raster="cpu"):
         that holds some of the lens's rays (one for a lens one view can hold, cube faces for a
         fisheye), the instances that view sees, drawn by :meth:`Rasteriser.draw` against the
         rays binned on a grid of its frame (:func:`~genie_gl.render.cpu.bins.lens_samples`),
-        then shaded along the same rays (:func:`~genie_gl.render.shading.shade_rays`). Depth is the camera's z; surfaces nearer
-        than ``near_m`` or farther than ``far_m`` give no return; normals in the camera frame.
+        then shaded along the same rays (:func:`~genie_gl.render.shading.shade_rays`). Depth
+        is the camera's z; surfaces nearer than ``near_m`` or farther than ``far_m`` give no
+        return; normals in the camera frame.
         Returns the frame and its stats (drawn on every thread numba has).
         """
         W, H = sensor.width, sensor.height
