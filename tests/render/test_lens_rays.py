@@ -4,6 +4,8 @@ the culling of the pixel-centre frame: analytic depths and normals through a len
 holds and through a fisheye past 180 degrees (cube faces), the culled frame equal to the
 unculled reference byte for byte, the tie rule, and ``gg.capture`` taking the same path."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import trimesh
@@ -11,6 +13,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.render import Renderer
 from genie_gl.lens.distortion import lens_views
+from genie_gl.render.cpu.bins import lens_samples
 
 TUTORIAL = gg.Sensor(
     640,
@@ -41,11 +44,22 @@ def wall(z, half=60.0):
     return quad([[-half, -half, z], [-half, half, z], [half, half, z], [half, -half, z]])
 
 
-@pytest.mark.parametrize("sensor", [TUTORIAL, FISHEYE], ids=["tutorial", "fisheye-190"])
+# a strong pincushion (rays densest at the rim) and a lens that folds inside the image (the
+# pixels past the fold have no ray; the rays before it crowd together)
+PINCUSHION = dataclasses.replace(TUTORIAL, dist=np.array([0.5, 0.0, 0.0, 0.0, 0.0]))
+FOLDING = dataclasses.replace(TUTORIAL, dist=np.array([-0.8, 0.0, 0.0, 0.0, 0.0]))
+
+
+@pytest.mark.parametrize(
+    "sensor",
+    [TUTORIAL, FISHEYE, PINCUSHION, FOLDING],
+    ids=["tutorial", "fisheye-190", "pincushion", "folding"],
+)
 def test_a_wall_through_the_lens_is_at_its_analytic_depth_with_its_normal(sensor):
     """Every pixel whose ray meets the wall at z = 4 m holds depth 4 (camera z, float32) and the
     normal (0, 0, -1) in the camera frame, whichever view's bins hold its ray; the pixels
-    whose ray misses it (past 90 degrees) hold nothing, as the lens's rays say."""
+    whose ray misses it (past 90 degrees, or past the lens's fold) hold nothing, as the lens's
+    rays say. The bins are never more than the view's pixels, however the rays crowd."""
     scene = gg.Scene()
     scene.add(wall(4.0), instance=7)
     d = sensor.directions()
@@ -62,6 +76,9 @@ def test_a_wall_through_the_lens_is_at_its_analytic_depth_with_its_normal(sensor
     assert not f.depth[~hits].any() and not f.normal[~hits].any()
     if sensor is FISHEYE:
         assert len(lens_views(sensor, oversample=1.0)) == 5  # the side faces drew rays too
+    for m in lens_views(sensor, oversample=1.0):
+        _, Wg, Hg = lens_samples(m).grid
+        assert Wg <= m.render_sensor.width and Hg <= m.render_sensor.height
 
 
 def test_the_culled_lens_frame_equals_the_unculled_reference_byte_for_byte():

@@ -72,7 +72,7 @@ def unserved(views: tuple[DistortionMaps, ...]) -> np.ndarray:
     return got
 
 
-CELL_RAYS = (1.0, 4.0)  # a bin's width and height, in the lens's rays at its densest
+CELL_PX = (1, 4)  # a bin's width and height, in the pixels of the view holding the rays
 
 
 def _empty_tiles(cell: np.ndarray, W: int, H: int) -> np.ndarray:
@@ -85,8 +85,8 @@ def _empty_tiles(cell: np.ndarray, W: int, H: int) -> np.ndarray:
 
 def lens_samples(maps: DistortionMaps) -> LensSamples:
     """The rays of the lens pixels ``maps`` serves, binned on a grid of the view's frame (its
-    :attr:`LensSamples.grid`: a pinhole K whose pixels, the bins, are :data:`CELL_RAYS` rays
-    wide and tall where the rays are densest; a ray crossing it at (x, y) pixels goes to the
+    :attr:`LensSamples.grid`: a pinhole K whose pixels, the bins, are :data:`CELL_PX` of the
+    view's pixels, so as large as the view at most; a ray crossing it at (x, y) goes to the
     bin (floor x, floor y)), each bin's rays in row-major pixel order; computed once per view
     (kept in ``maps.cache``)."""
     got = maps.cache.get("lens_samples")
@@ -95,20 +95,12 @@ def lens_samples(maps: DistortionMaps) -> LensSamples:
     sel = np.flatnonzero(maps.valid.ravel())
     rx, ry = maps.ray_x.ravel()[sel], maps.ray_y.ravel()[sel]
     H, W = maps.valid.shape
-    # the rays' spacing at their densest: the least step between neighbouring pixels' rays
-    gx = np.abs(np.diff(maps.ray_x, axis=1))[maps.valid[:, 1:] & maps.valid[:, :-1]]
-    gy = np.abs(np.diff(maps.ray_y, axis=0))[maps.valid[1:, :] & maps.valid[:-1, :]]
-    step_x = float(gx.min()) if gx.size else 1.0
-    step_y = float(gy.min()) if gy.size else 1.0
-    fx, fy = 1.0 / (CELL_RAYS[0] * step_x), 1.0 / (CELL_RAYS[1] * step_y)
-    if len(sel):
-        cx = 1.0 - fx * float(rx.min())
-        cy = 1.0 - fy * float(ry.min())
-        Wg = int(np.ceil(fx * float(rx.max()) + cx)) + 2
-        Hg = int(np.ceil(fy * float(ry.max()) + cy)) + 2
-    else:
-        cx = cy = 0.0
-        Wg = Hg = 1
+    # the view's own pixels (the lens's focal length, every ray at least a pixel inside, and at
+    # most MAX_VIEW_PX a side: :func:`genie_gl.lens.distortion.lens_views`), CELL_PX to a bin
+    view = maps.render_sensor
+    fx, fy = view.K[0, 0] / CELL_PX[0], view.K[1, 1] / CELL_PX[1]
+    cx, cy = view.K[0, 2] / CELL_PX[0], view.K[1, 2] / CELL_PX[1]
+    Wg, Hg = -(-view.width // CELL_PX[0]), -(-view.height // CELL_PX[1])
     K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
     cu = np.clip(np.floor(fx * rx + cx), 0, Wg - 1).astype(np.int64)
     cv = np.clip(np.floor(fy * ry + cy), 0, Hg - 1).astype(np.int64)
