@@ -33,6 +33,7 @@ import numpy as np
 from ..errors import ConfigError, did_you_mean
 from .base import Decision
 from .lidar_base import Echoes, LidarEffect, SceneMaterials
+from .lidar_kernels import echo_groups, strongest_groups, subray_directions
 
 
 @dataclass(frozen=True)
@@ -149,20 +150,14 @@ class BeamDivergence(LidarEffect):
         return np.array(offs), np.array(w)
 
     def subrays(self, directions: np.ndarray, scanner: Any) -> np.ndarray:
-        """(B*K, 3) float64 unit directions of each beam's sub-rays, beam-major."""
+        """(B*K, 3) float64 unit directions of each beam's sub-rays, beam-major: the beam's
+        own direction first (bit for bit), then d + tan(a) u + tan(b) v normalised for each
+        offset (a, b) of :meth:`pattern`, u and v unit and square to d."""
         offs, _ = self.pattern(scanner)
-        d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-        up = np.where(
-            np.abs(d[:, 2:3]) < 0.9, np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0.0, 0.0]])
-        )
-        u = np.cross(d, up)
-        u /= np.linalg.norm(u, axis=1, keepdims=True)
-        v = np.cross(d, u)
-        t = np.tan(offs)
-        out = d[:, None, :] + t[None, :, 0:1] * u[:, None, :] + t[None, :, 1:2] * v[:, None, :]
-        out /= np.linalg.norm(out, axis=2, keepdims=True)
-        out[:, 0] = d  # the centre is the beam itself, bit for bit
-        return out.reshape(-1, 3)
+        d = np.ascontiguousarray(directions, dtype=np.float64)
+        out = np.empty((len(d) * len(offs), 3))
+        subray_directions(d, np.ascontiguousarray(np.tan(offs)), out)
+        return out
 
     def combine(self, sub: Echoes, weight: np.ndarray, scanner: Any) -> Echoes:
         """One beam's echoes from its sub-rays' hits (``sub.beam``: the beam; ``weight``:
@@ -170,40 +165,24 @@ class BeamDivergence(LidarEffect):
         if not len(sub):
             return sub
         _, w_all = self.pattern(scanner)
-        order = np.lexsort((sub.range_m, sub.beam))
-        sub, weight = (
-            replace(sub, **{f.name: getattr(sub, f.name)[order] for f in fields(sub)}),
-            weight[order],
-        )
+        if np.any(sub.beam[1:] < sub.beam[:-1]):  # rows come in beam order from a scan
+            o = np.argsort(sub.beam, kind="stable")
+            sub, weight = sub.taken(o), weight[o]
         strength = weight * (sub.intensity + 1e-9)
-        new = np.r_[
-            True, (sub.beam[1:] != sub.beam[:-1]) | (np.diff(sub.range_m) >= self.separation_m)
-        ]
-        starts = np.flatnonzero(new)
+        order, starts, rep = echo_groups(sub.beam, sub.range_m, strength, self.separation_m)
+        strength, ranges = strength[order], sub.range_m[order]
         g_strength = np.add.reduceat(strength, starts)
-        g_range = np.add.reduceat(strength * sub.range_m, starts) / g_strength
-        group = np.cumsum(new) - 1
-        best = np.lexsort((-strength, group))  # per group, its strongest row first
-        rep = best[np.r_[True, group[best][1:] != group[best][:-1]]]
-        g_beam = sub.beam[starts]
+        g_range = np.add.reduceat(strength * ranges, starts) / g_strength
+        g_beam = sub.beam[order[starts]]
         last = np.r_[g_beam[1:] != g_beam[:-1], True]
-        n = len(starts)
-
-        def strongest(exclude: np.ndarray) -> np.ndarray:
-            s = np.where(exclude, -np.inf, g_strength)
-            o = np.lexsort((-s, g_beam))
-            first = o[np.r_[True, g_beam[o][1:] != g_beam[o][:-1]]]
-            return first[np.isfinite(s[first])]
-
         mode = scanner.returns
         if mode == "last":
             chosen = np.flatnonzero(last)
         elif mode == "strongest":
-            chosen = strongest(np.zeros(n, bool))
+            chosen = strongest_groups(g_beam, g_strength, np.zeros(len(starts), np.bool_))
         else:
-            chosen = np.union1d(np.flatnonzero(last), strongest(last))
-        rows = rep[chosen]
-        out = replace(sub, **{f.name: getattr(sub, f.name)[rows] for f in fields(sub)})
+            chosen = np.union1d(np.flatnonzero(last), strongest_groups(g_beam, g_strength, last))
+        out = sub.taken(order[rep[chosen]])
         return replace(
             out, range_m=g_range[chosen], intensity=g_strength[chosen] / w_all.sum()
         ).renumbered()

@@ -57,20 +57,21 @@ class Echoes:
     def __len__(self) -> int:
         return len(self.beam)
 
+    def taken(self, rows: np.ndarray) -> "Echoes":
+        """The echoes at ``rows`` (bool mask or indices), in that order, numbers as they are."""
+        return replace(self, **{f.name: getattr(self, f.name)[rows] for f in fields(self)})
+
     def select(self, keep: np.ndarray) -> "Echoes":
         """The echoes where ``keep`` (bool mask or indices); return numbers recounted."""
-        out = replace(self, **{f.name: getattr(self, f.name)[keep] for f in fields(self)})
-        return out.renumbered()
+        return self.taken(keep).renumbered()
 
     def renumbered(self) -> "Echoes":
         """Return numbers and counts recomputed per beam (echoes of a beam sorted by range)."""
         if not len(self):
             return self
-        order = np.lexsort((self.range_m, self.beam))
-        if np.any(order != np.arange(len(order))):
-            return replace(
-                self, **{f.name: getattr(self, f.name)[order] for f in fields(self)}
-            ).renumbered()
+        b, r = self.beam, self.range_m
+        if np.any((b[1:] < b[:-1]) | ((b[1:] == b[:-1]) & (r[1:] < r[:-1]))):
+            return self.taken(np.lexsort((r, b))).renumbered()  # sorted by (beam, range)
         first = np.r_[True, self.beam[1:] != self.beam[:-1]]
         starts = np.flatnonzero(first)
         counts = np.diff(np.r_[starts, len(self.beam)])

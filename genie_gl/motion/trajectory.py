@@ -11,10 +11,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from ..errors import ConfigError
+from ..jit import njit
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,13 +103,22 @@ class Trajectory:
         out[:, 3, 3] = 1.0
         for k in range(3):
             out[:, k, 3] = np.interp(t, self.times_s, self.positions[:, k])
-        out[:, :3, :3] = Slerp(self.times_s, Rotation.from_matrix(self.world_from_body[:, :3, :3]))(
-            t
-        ).as_matrix()
+        self._slerp(t, out)
         exact = np.searchsorted(self.times_s, t)
         hit = (exact < len(self.times_s)) & (self.times_s[np.minimum(exact, len(self) - 1)] == t)
         out[hit] = self.world_from_body[exact[hit]]  # a sample's own pose, bit for bit
         return out
+
+    def _slerp(self, t: np.ndarray, out: np.ndarray) -> None:
+        """The rotations at times ``t`` (n,) into ``out`` (n, 4, 4)[:, :3, :3]: slerp between
+        the samples either side (each segment's relative rotation as a rotation vector,
+        scaled by the fraction of the segment passed)."""
+        if "_quats" not in self.__dict__:  # the samples' quaternions, the segments' rotations
+            rot = Rotation.from_matrix(self.world_from_body[:, :3, :3])
+            object.__setattr__(self, "_quats", np.ascontiguousarray(rot.as_quat()))
+            steps = (rot[:-1].inv() * rot[1:]).as_rotvec()
+            object.__setattr__(self, "_steps", np.ascontiguousarray(steps))
+        _slerped(self.times_s, self._quats, self._steps, np.ascontiguousarray(t), out)
 
     def yaw_rates(self) -> np.ndarray:
         """(N-1,) float64 turning rate about the world's z between samples (rad/s)."""
@@ -126,6 +138,40 @@ class Trajectory:
         times = np.r_[self.times_s[keep], end]
         poses = np.concatenate([self.world_from_body[keep], self.at([end])])
         return Trajectory(times, poses, {**self.meta, "cropped_s": float(duration_s)})
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _slerped(times, quats, steps, t, out):  # pragma: no cover - compiled
+    """Rotation matrices at times ``t`` (n,) into ``out`` (n, 4, 4)[:, :3, :3]: in the segment
+    of the samples ``times`` (N,) holding each, the sample's quaternion ``quats`` (N, 4)
+    (x, y, z, w) turned by the fraction of the segment's rotation vector ``steps`` (N-1, 3)."""
+    for r in range(len(t)):
+        i = min(max(np.searchsorted(times, t[r], side="right") - 1, 0), len(times) - 2)
+        f = (t[r] - times[i]) / (times[i + 1] - times[i])
+        vx, vy, vz = steps[i, 0] * f, steps[i, 1] * f, steps[i, 2] * f
+        angle = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if angle <= 1e-3:  # sin(a / 2) / a by its series
+            a2 = angle * angle
+            scale = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+        else:
+            scale = math.sin(0.5 * angle) / angle
+        qx, qy, qz, qw = vx * scale, vy * scale, vz * scale, math.cos(0.5 * angle)
+        px, py, pz, pw = quats[i, 0], quats[i, 1], quats[i, 2], quats[i, 3]
+        x = pw * qx + qw * px + (py * qz - pz * qy)
+        y = pw * qy + qw * py + (pz * qx - px * qz)
+        z = pw * qz + qw * pz + (px * qy - py * qx)
+        w = pw * qw - (px * qx + py * qy + pz * qz)
+        n = math.sqrt(x * x + y * y + z * z + w * w)
+        x, y, z, w = x / n, y / n, z / n, w / n
+        out[r, 0, 0] = 1.0 - 2.0 * (y * y + z * z)
+        out[r, 0, 1] = 2.0 * (x * y - z * w)
+        out[r, 0, 2] = 2.0 * (x * z + y * w)
+        out[r, 1, 0] = 2.0 * (x * y + z * w)
+        out[r, 1, 1] = 1.0 - 2.0 * (x * x + z * z)
+        out[r, 1, 2] = 2.0 * (y * z - x * w)
+        out[r, 2, 0] = 2.0 * (x * z - y * w)
+        out[r, 2, 1] = 2.0 * (y * z + x * w)
+        out[r, 2, 2] = 1.0 - 2.0 * (x * x + y * y)
 
 
 def quaternion_xyzw(R: np.ndarray) -> np.ndarray:

@@ -8,7 +8,8 @@ from the x-y plane; rows uniform in its sine, a unit direction's z), spanning th
 elevations, and the hierarchy's clusters (subtrees
 of at most :data:`CLUSTER` triangles) into the cells their boxes can reach; each ray then
 walks only the clusters of its own cell, nearest box first, and stops once a box lies
-beyond its nearest hit.
+beyond its nearest hit. The rays of a cell walk together, :data:`PACKET` at a time, each
+box loaded once for the packet and tested against each of its rays still in it.
 
 Binning is conservative. Let ``c`` be the centre of the origins and ``r`` the radius of the
 ball around ``c`` that holds them all. A ray from ``o`` meeting a triangle at p has the
@@ -45,6 +46,7 @@ from .bvh import STACK, TIE, _slab, hit_triangle, shear
 SLACK = 1e-9  # radians added to every angular bound, and relative slack on lengths
 RAYS_PER_CELL = 16  # the grid is sized for about this many rays per cell
 MAX_CELLS = 1 << 22  # cells at most
+PACKET = 32  # rays of a cell walked together (a bit each in a mask)
 CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles
 
 
@@ -58,6 +60,52 @@ def _ray_cells(dirs, el0, el_scale, n_el, n_az, out):  # pragma: no cover - comp
         a = int((math.atan2(y, x) + math.pi) * az_scale)
         e = int((z - el0) * el_scale)
         out[r] = min(max(e, 0), n_el - 1) * n_az + min(max(a, 0), n_az - 1)
+
+
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
+def unit_rows(d, out):  # pragma: no cover - compiled
+    """``d`` (n, 3) float64 rows divided by their norms into ``out``; returns the first row
+    whose norm is zero or not finite, or -1 (the norm as numpy's: sqrt((x x + y y) + z z))."""
+    n = len(d)
+    bad = np.full(n, False)
+    for r in prange(n):
+        x, y, z = d[r, 0], d[r, 1], d[r, 2]
+        s = math.sqrt((x * x + y * y) + z * z)
+        if not (s > 0.0 and s < np.inf):
+            bad[r] = True
+            continue
+        out[r, 0], out[r, 1], out[r, 2] = x / s, y / s, z / s
+    for r in range(n):
+        if bad[r]:
+            return r
+    return -1
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def ball(o):  # pragma: no cover - compiled
+    """(centre (3,), radius): the middle of the box of origins ``o`` (n, 3) and the largest
+    distance of an origin from it."""
+    lo = o[0].copy()
+    hi = o[0].copy()
+    for r in range(1, len(o)):
+        for a in range(3):
+            lo[a] = min(lo[a], o[r, a])
+            hi[a] = max(hi[a], o[r, a])
+    c = 0.5 * (lo + hi)
+    far = 0.0
+    for r in range(len(o)):
+        x, y, z = o[r, 0] - c[0], o[r, 1] - c[1], o[r, 2] - c[2]
+        far = max(far, (x * x + y * y) + z * z)
+    return c, math.sqrt(far)
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def z_range(d):  # pragma: no cover - compiled
+    """(least, greatest) z of rows ``d`` (n, 3), n >= 1."""
+    lo = hi = d[0, 2]
+    for r in range(1, len(d)):
+        lo, hi = min(lo, d[r, 2]), max(hi, d[r, 2])
+    return lo, hi
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -167,72 +215,8 @@ def cell_lists(order, span, near, n_az, n_cells):  # pragma: no cover - compiled
     return count, tri, dist
 
 
-@njit(cache=True, nogil=True, boundscheck=False)
-def _walk(
-    root,
-    best,
-    who,
-    ox,
-    oy,
-    oz,
-    okx,
-    oky,
-    okz,
-    kx,
-    ky,
-    kz,
-    sx,
-    sy,
-    sz,
-    ix,
-    iy,
-    iz,
-    fx,
-    fy,
-    fz,
-    corners,
-    rank,
-    boxes,
-    right,
-    start,
-    count,
-    stack,
-    stack_t,
-):  # pragma: no cover - compiled
-    """(best, who) after one ray's walk of the subtree at node ``root``, as
-    :func:`genie_gl.render.bvh._cast_one` walks the whole tree (the same slabs and test)."""
-    t0 = _slab(boxes, root, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
-    if t0 == np.inf:
-        return best, who
-    top = 1
-    stack[0], stack_t[0] = root, t0
-    while top > 0:
-        top -= 1
-        i = stack[top]
-        if stack_t[top] > best * TIE:
-            continue
-        if right[i] < 0:
-            for t in range(start[i], start[i] + count[i]):
-                h = hit_triangle(corners, t, okx, oky, okz, kx, ky, kz, sx, sy, sz)
-                if h < best or (h == best and h < np.inf and rank[t] < who):
-                    best, who = h, rank[t]
-            continue
-        a, b = i + 1, right[i]
-        ta = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
-        tb = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, best * TIE)
-        if ta > tb:
-            a, b, ta, tb = b, a, tb, ta
-        if tb < np.inf:
-            stack[top], stack_t[top] = b, tb
-            top += 1
-        if ta < np.inf:
-            stack[top], stack_t[top] = a, ta
-            top += 1
-    return best, who
-
-
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
-def cast_cells(
+def cast_packets(
     origins,
     one_origin,
     dirs,
@@ -253,52 +237,121 @@ def cast_cells(
     """Every ray's nearest hit among the clusters of its cell into ``out_t`` (inf: none) and
     ``out_tri`` (the triangle's number in the joined arrays, -1: none); ties to the lower
     number. Rays of cell k are ``ray_order[ray_start[k]:ray_start[k + 1]]``, its clusters
-    ``cl_node[cl_start[k]:cl_start[k + 1]]`` (hierarchy nodes, nearest first); a ray walks
-    first the cluster where the cell's previous ray found its hit (the answer does not depend
-    on the order: the least (distance, number) of the triangles met wins). Cells go to the
-    threads in blocks of 16."""
+    ``cl_node[cl_start[k]:cl_start[k + 1]]`` (hierarchy nodes, nearest first). The rays of a
+    cell go :data:`PACKET` at a time: a packet walks each cluster's subtree once, a node's
+    box tested against each ray still in it (a bit mask per stack entry) with the slabs of
+    :func:`genie_gl.render.bvh._cast_one`, a leaf's triangles against the rays that reached
+    it, so a box and a leaf's corners are loaded once for the packet; clusters are taken
+    until one lies beyond every ray's nearest hit. Each ray meets every triangle of every
+    box it enters before its nearest hit, and the least (distance, number) of the triangles
+    met wins, so the answer does not depend on the packets, the order or the grid. Cells go
+    to the threads in blocks of 16."""
     cells = len(ray_start) - 1
     blocks = (cells + 15) // 16
     for bl in prange(blocks):
+        rid = np.empty(PACKET, np.int64)
+        org = np.empty((PACKET, 3))
+        oks = np.empty((PACKET, 3))
+        inv = np.empty((PACKET, 3))
+        flat = np.empty((PACKET, 3), np.bool_)
+        axes = np.empty((PACKET, 3), np.int64)
+        shr = np.empty((PACKET, 3))
+        best = np.empty(PACKET)
+        who = np.empty(PACKET, np.int64)
         stack = np.empty(STACK, np.int64)
+        stack_m = np.empty(STACK, np.int64)
         stack_t = np.empty(STACK)
         for k in range(bl * 16, min(cells, bl * 16 + 16)):
-            prev = -1
-            for j in range(ray_start[k], ray_start[k + 1]):
-                r = ray_order[j]
-                o = origins[0 if one_origin else r]
-                dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
-                kx, ky, kz, sx, sy, sz = shear(dx, dy, dz)
-                fx, fy, fz = dx == 0.0, dy == 0.0, dz == 0.0
-                ix = 1.0 / dx if not fx else 0.0
-                iy = 1.0 / dy if not fy else 0.0
-                iz = 1.0 / dz if not fz else 0.0
-                best, who = np.inf, np.int64(-1)
-                got = -1
-                # the cluster the cell's last ray hit first (a near bound early), then the
-                # cell's clusters nearest first until one lies beyond the nearest hit
-                for step in range(-1, cl_start[k + 1] - cl_start[k]):
-                    if step < 0:
-                        if prev < 0:
+            for p0 in range(ray_start[k], ray_start[k + 1], PACKET):
+                n = min(PACKET, ray_start[k + 1] - p0)
+                for q in range(n):
+                    r = ray_order[p0 + q]
+                    rid[q] = r
+                    o = origins[0 if one_origin else r]
+                    dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+                    kx, ky, kz, sx, sy, sz = shear(dx, dy, dz)
+                    org[q, 0], org[q, 1], org[q, 2] = o[0], o[1], o[2]
+                    oks[q, 0], oks[q, 1], oks[q, 2] = o[kx], o[ky], o[kz]
+                    axes[q, 0], axes[q, 1], axes[q, 2] = kx, ky, kz
+                    shr[q, 0], shr[q, 1], shr[q, 2] = sx, sy, sz
+                    flat[q, 0], flat[q, 1], flat[q, 2] = dx == 0.0, dy == 0.0, dz == 0.0
+                    inv[q, 0] = 1.0 / dx if dx != 0.0 else 0.0
+                    inv[q, 1] = 1.0 / dy if dy != 0.0 else 0.0
+                    inv[q, 2] = 1.0 / dz if dz != 0.0 else 0.0
+                    best[q], who[q] = np.inf, -1
+                worst = np.inf  # the farthest nearest hit of the packet's rays
+                for i in range(cl_start[k], cl_start[k + 1]):
+                    if cl_near[i] > worst:
+                        break
+                    root = cl_node[i]
+                    m = 0
+                    t_min = np.inf
+                    for q in range(n):
+                        t = _slab(
+                            boxes, root, org[q, 0], org[q, 1], org[q, 2], inv[q, 0], inv[q, 1],
+                            inv[q, 2], flat[q, 0], flat[q, 1], flat[q, 2], best[q] * TIE,
+                        )  # fmt: skip
+                        if t < np.inf:
+                            m |= 1 << q
+                            t_min = min(t_min, t)
+                    if m == 0:
+                        continue
+                    top = 1
+                    stack[0], stack_m[0], stack_t[0] = root, m, t_min
+                    while top > 0:
+                        top -= 1
+                        node, m = stack[top], stack_m[top]
+                        if right[node] < 0:
+                            far = 0.0
+                            for q in range(n):
+                                if (m >> q) & 1:
+                                    far = max(far, best[q])
+                            if stack_t[top] > far * TIE:
+                                continue
+                            for t in range(start[node], start[node] + count[node]):
+                                for q in range(n):
+                                    if (m >> q) & 1:
+                                        h = hit_triangle(
+                                            corners, t, oks[q, 0], oks[q, 1], oks[q, 2],
+                                            axes[q, 0], axes[q, 1], axes[q, 2], shr[q, 0],
+                                            shr[q, 1], shr[q, 2],
+                                        )  # fmt: skip
+                                        if h < best[q] or (
+                                            h == best[q] and h < np.inf and rank[t] < who[q]
+                                        ):
+                                            best[q], who[q] = h, rank[t]
                             continue
-                        i = prev
-                    else:
-                        i = cl_start[k] + step
-                        if cl_near[i] > best:
-                            break
-                        if i == prev:
-                            continue
-                    b0, w0 = best, who
-                    best, who = _walk(
-                        cl_node[i], best, who, o[0], o[1], o[2], o[kx], o[ky], o[kz], kx, ky,
-                        kz, sx, sy, sz, ix, iy, iz, fx, fy, fz, corners, rank, boxes, right,
-                        start, count, stack, stack_t,
-                    )  # fmt: skip
-                    if best != b0 or who != w0:
-                        got = i
-                prev = got
-                out_t[r] = best
-                out_tri[r] = who
+                        a, b = node + 1, right[node]
+                        ma, mb = 0, 0
+                        ta, tb = np.inf, np.inf
+                        for q in range(n):
+                            if (m >> q) & 1:
+                                ox, oy, oz = org[q, 0], org[q, 1], org[q, 2]
+                                ix, iy, iz = inv[q, 0], inv[q, 1], inv[q, 2]
+                                fx, fy, fz = flat[q, 0], flat[q, 1], flat[q, 2]
+                                tf = best[q] * TIE
+                                t = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
+                                if t < np.inf:
+                                    ma |= 1 << q
+                                    ta = min(ta, t)
+                                t = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
+                                if t < np.inf:
+                                    mb |= 1 << q
+                                    tb = min(tb, t)
+                        if ta > tb:
+                            a, b, ta, tb, ma, mb = b, a, tb, ta, mb, ma
+                        if mb:
+                            stack[top], stack_m[top], stack_t[top] = b, mb, tb
+                            top += 1
+                        if ma:
+                            stack[top], stack_m[top], stack_t[top] = a, ma, ta
+                            top += 1
+                    worst = 0.0
+                    for q in range(n):
+                        worst = max(worst, best[q])
+                for q in range(n):
+                    out_t[rid[q]] = best[q]
+                    out_tri[rid[q]] = who[q]
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -326,8 +379,8 @@ def grid_for(dirs: np.ndarray) -> tuple[float, float, int, int]:
     """(lowest sine of elevation, highest, rows, columns) of a grid for rays ``dirs`` (n, 3)
     unit: spanning their elevations, rows uniform in the sine, about :data:`RAYS_PER_CELL` rays per
     cell over the band."""
-    z = dirs[:, 2]
-    lo, hi = max(float(z.min()) - 1e-9, -1.0), min(float(z.max()) + 1e-9, 1.0)
+    z_lo, z_hi = z_range(dirs)
+    lo, hi = max(float(z_lo) - 1e-9, -1.0), min(float(z_hi) + 1e-9, 1.0)
     cells = min(max(len(dirs) // RAYS_PER_CELL, 1), MAX_CELLS)
     band = max(math.asin(hi) - math.asin(lo), 1e-9)
     n_az = max(int(round(math.sqrt(cells * 2 * math.pi / band))), 1)
@@ -355,8 +408,7 @@ def cast_binned(
         return np.empty(0), np.empty(0, np.int64)
     one = origins.ndim == 1
     o2 = np.ascontiguousarray(origins.reshape(-1, 3))
-    c = o2[0].copy() if one else 0.5 * (o2.min(axis=0) + o2.max(axis=0))
-    r = 0.0 if one else float(np.sqrt(((o2 - c) ** 2).sum(axis=1)).max())
+    c, r = (o2[0].copy(), 0.0) if one else ball(o2)
     el0, el1, n_el, n_az = grid_for(dirs)
     el_scale = n_el / (el1 - el0)
     ray_order, ray_start = ray_cells(dirs, el0, el_scale, n_el, n_az)
@@ -368,7 +420,7 @@ def cast_binned(
     cl_start, cl, cl_near = cell_lists(by_near, span, near, n_az, n_el * n_az)
     t = np.empty(n)
     k = np.empty(n, np.int64)
-    cast_cells(
+    cast_packets(
         o2,
         one,
         dirs,

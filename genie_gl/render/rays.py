@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike
 from ..errors import ConfigError
 from ..scene.model import Scene
 from . import bundles
-from .bundles import cast_binned, clusters, hit_records
+from .bundles import cast_binned, clusters, hit_records, unit_rows
 from .bvh import build_nodes, cast_all, triangle_boxes
 
 GRIDS = (
@@ -42,14 +42,13 @@ def _unit(directions: Any, what: str) -> np.ndarray:
     d = np.array(directions, dtype=np.float64, ndmin=2)
     if d.ndim != 2 or d.shape[1] != 3:
         raise ConfigError(f"{what}: directions must have shape (N, 3), got {np.shape(directions)}")
-    n = np.sqrt((d * d).sum(axis=1))
-    bad = ~np.isfinite(n) | (n == 0)
-    if bad.any():
+    out = np.empty_like(d)
+    bad = unit_rows(np.ascontiguousarray(d), out) if len(d) else -1
+    if bad >= 0:
         raise ConfigError(
-            f"{what}: direction {int(np.argmax(bad))} is zero or not finite; every ray needs a "
-            "direction"
+            f"{what}: direction {bad} is zero or not finite; every ray needs a direction"
         )
-    return d / n[:, None]
+    return out
 
 
 def _origins(origins: Any, n: int, what: str) -> np.ndarray:

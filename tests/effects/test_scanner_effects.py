@@ -119,6 +119,61 @@ def test_subrays_span_the_cone_and_keep_the_beam(vlp16):
     np.testing.assert_allclose(ang, 1.5e-3, rtol=1e-6)  # half of the 3.0 mrad cone
 
 
+def _combined_by_beam(sub, weight, s, fx):
+    """The footprint's echoes beam by beam, written out plainly: each beam's rows by range,
+    grouped while within the separation, each group at its weighted range."""
+    w_sum = fx.pattern(s)[1].sum()
+    out = []
+    for b in np.unique(sub.beam):
+        rows = np.flatnonzero(sub.beam == b)
+        rows = rows[np.argsort(sub.range_m[rows], kind="stable")]
+        groups = [[rows[0]]]
+        for a, c in zip(rows[:-1], rows[1:]):
+            if sub.range_m[c] - sub.range_m[a] >= fx.separation_m:
+                groups.append([])
+            groups[-1].append(c)
+        st = [weight[g] * (sub.intensity[g] + 1e-9) for g in groups]
+        total = [x.sum() for x in st]
+        strongest = int(np.argmax(total))
+        keep = {"strongest": [strongest], "last": [len(groups) - 1]}.get(
+            s.returns,
+            sorted({len(groups) - 1}
+                   | ({int(np.argmax(total[:-1]))} if len(groups) > 1 else set())),
+        )
+        for g in keep:
+            rep = groups[g][int(np.argmax(st[g]))]
+            r = (st[g] * sub.range_m[groups[g]]).sum() / total[g]
+            out.append((b, r, total[g] / w_sum, sub.instance[rep]))
+    return out
+
+
+@pytest.mark.parametrize("mode", ["strongest", "last", "dual"])
+def test_footprints_of_many_beams_combine_as_written_out(vlp16, mode):
+    # 400 beams of 0-7 sub-ray echoes over 1-3 surfaces (ties in range too)
+    rng = np.random.default_rng(5)
+    s, fx = replace(vlp16, returns=mode), BeamDivergence(separation_m=1.0)
+    w_all = fx.pattern(s)[1]
+    beam, ranges, weight = [], [], []
+    for b in range(400):
+        k = int(rng.integers(0, 8))
+        walls = rng.choice([3.0, 3.4, 6.0, 9.5], size=3)
+        beam += [b] * k
+        ranges += list(walls[rng.integers(0, 3, k)] + rng.choice([0.0, 0.01], k))
+        weight += list(w_all[np.sort(rng.choice(7, k, replace=False))])
+    sub = replace(
+        echoes(ranges, beam=beam), intensity=rng.uniform(0.1, 0.9, len(beam))
+    )
+    sub = replace(sub, instance=np.arange(1, len(beam) + 1, dtype=np.uint32))
+    weight = np.asarray(weight)
+    out = fx.combine(sub, weight, s)
+    want = _combined_by_beam(sub, weight, s, fx)
+    assert len(out) == len(want) > 400 * 0.8
+    np.testing.assert_array_equal(out.beam, [b for b, *_ in want])
+    np.testing.assert_allclose(out.range_m, [r for _, r, *_ in want], rtol=1e-12)
+    np.testing.assert_allclose(out.intensity, [i for *_, i, _ in want], rtol=1e-12)
+    np.testing.assert_array_equal(out.instance, [x for *_, x in want])
+
+
 def test_effect_lists_are_strict():
     with pytest.raises(Exception, match=r"effects\[0\].sigma_m: expected a number >= 0"):
         build_lidar_effects([{"type": "range_noise", "sigma_m": -1}], "x.lidar.yml")

@@ -37,6 +37,29 @@ def test_at_gives_the_samples_exactly_and_slerps_between():
     assert cut.end_s == 1.0 and cut.positions[-1] == pytest.approx([1.0, 2.0, 1.5])
 
 
+def test_slerp_between_tumbling_samples_equals_scipys():
+    # 40 samples of a body turning about every axis (up to ~170 degrees between samples, and
+    # steps under the small-angle series' 1e-3 rad), read at 2,000 times and at the samples
+    from scipy.spatial.transform import Rotation, Slerp
+
+    rng = np.random.default_rng(3)
+    times = np.cumsum(rng.uniform(0.05, 0.5, 40))
+    steps = rng.normal(size=(40, 3)) * rng.choice([1e-4, 0.5, 3.0], (40, 1))
+    rots = Rotation.from_rotvec(steps[0]) * Rotation.identity()
+    mats = [rots.as_matrix()]
+    for v in steps[1:]:
+        rots = rots * Rotation.from_rotvec(v)
+        mats.append(rots.as_matrix())
+    poses = np.tile(np.eye(4), (40, 1, 1))
+    poses[:, :3, :3] = mats
+    tr = Trajectory(times, poses)
+    t = np.r_[np.sort(rng.uniform(times[0], times[-1], 2000)), times]
+    ref = Slerp(times, Rotation.from_matrix(poses[:, :3, :3]))(t).as_matrix()
+    got = tr.at(t)[:, :3, :3]
+    np.testing.assert_allclose(got, ref, atol=1e-12, rtol=0)
+    np.testing.assert_array_equal(tr.at(times), poses)
+
+
 def test_bad_samples_are_refused():
     p = planar_poses(np.zeros((2, 2)), np.zeros(2), 1.0)
     with pytest.raises(ConfigError, match="strictly increasing"):
