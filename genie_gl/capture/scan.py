@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..jit import njit
 from ..render.rays import RayHits, Rays, cast_bundle
 from ..scene.materials import MaterialTable
 from ..scene.model import Scene
@@ -48,6 +49,19 @@ def cast_beams(scene: Scene, origins: np.ndarray, directions: np.ndarray) -> Ray
     return cast_bundle(scene, Rays(origins, directions))
 
 
+@njit(cache=True, nogil=True, boundscheck=False)
+def _incidence(normal, directions, rows, out_n, out_cos):  # pragma: no cover - compiled
+    """Per row ``rows[j]`` of ``normal`` (n, 3) float32 and ``directions`` (n, 3): the normal
+    in float64 into ``out_n[j]`` and |cos| of the angle between them, within [0, 1], into
+    ``out_cos[j]``."""
+    for j in range(len(rows)):
+        r = rows[j]
+        nx, ny, nz = np.float64(normal[r, 0]), np.float64(normal[r, 1]), np.float64(normal[r, 2])
+        out_n[j, 0], out_n[j, 1], out_n[j, 2] = nx, ny, nz
+        c = abs((nx * directions[r, 0] + ny * directions[r, 1]) + nz * directions[r, 2])
+        out_cos[j] = min(max(c, 0.0), 1.0)
+
+
 def _echoes(
     hits: RayHits,
     directions: np.ndarray,
@@ -59,8 +73,9 @@ def _echoes(
     keep = hits.hit & (hits.distance <= max_range_m)
     idx = np.flatnonzero(keep)
     inst = hits.instance[idx]
-    n = hits.normal[idx].astype(np.float64)
-    cos = np.clip(np.abs(np.einsum("ij,ij->i", n, directions[idx])), 0.0, 1.0)
+    n = np.empty((len(idx), 3))
+    cos = np.empty(len(idx))
+    _incidence(hits.normal, np.ascontiguousarray(directions), idx, n, cos)
     rows = table.rows(inst)
     refl = table.albedo[rows]
     m = len(idx)

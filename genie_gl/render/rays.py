@@ -39,10 +39,11 @@ GRIDS = (
 def _unit(directions: Any, what: str) -> np.ndarray:
     """(N, 3) float64 unit rows of ``directions`` (one row or many); a zero or non-finite row
     is refused."""
-    d = np.array(directions, dtype=np.float64, ndmin=2)
+    d = np.asarray(directions, dtype=np.float64)
+    d = d.reshape(1, -1) if d.ndim == 1 else d
     if d.ndim != 2 or d.shape[1] != 3:
         raise ConfigError(f"{what}: directions must have shape (N, 3), got {np.shape(directions)}")
-    out = np.empty_like(d)
+    out = np.empty((len(d), 3))
     bad = unit_rows(np.ascontiguousarray(d), out) if len(d) else -1
     if bad >= 0:
         raise ConfigError(
