@@ -10,7 +10,9 @@ their agreement, and a walk of the two-head wearable in points per second.
 2. The wearable (``--rig``, default ``navvis_wearable``) walking ``--walk`` seconds of the
    ``person`` motion through a scene of the ``assembly_line`` strategy with its profiles'
    effects: seconds per second of walk and points per second (beside HELIOS++'s published
-   ~23 k points/s user run, and the VLP-16's 289,344 beams/s per head).
+   ~23 k points/s user run, and the VLP-16's 289,344 beams/s per head); then the same walk
+   without ``beam_divergence`` (one ray a beam instead of its footprint's 7), what the
+   footprint costs.
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ import json
 import os
 import time
 from pathlib import Path
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -132,8 +136,23 @@ def cast_row(scene, scene_name: str, scanner, repeats: int) -> dict:
     }
 
 
-def walk_row(rig_name: str, seconds: float, seed: int) -> dict:
+def without_footprint(rig):
+    """``rig`` with each head's ``beam_divergence`` left out (one ray per beam)."""
+    heads = tuple(
+        replace(
+            h,
+            scanner=replace(
+                h.scanner, effects=tuple(e for e in h.scanner.effects if not e.casts_subrays)
+            ),
+        )
+        for h in rig.heads
+    )
+    return replace(rig, heads=heads)
+
+
+def walk_row(rig_name: str, seconds: float, seed: int, footprint: bool = True) -> dict:
     rig = load_scanner_rig(rig_name)
+    rig = rig if footprint else without_footprint(rig)
     layout = generate_layout("assembly_line", seed=seed)
     scene = build_scene(layout, seed=seed)
     path = make_trajectory(layout, scene, "aisles", seed=seed, motion="person", duration_s=seconds)
@@ -145,6 +164,7 @@ def walk_row(rig_name: str, seconds: float, seed: int) -> dict:
     walk = path.duration_s
     return {
         "rig": rig.name,
+        "footprint": footprint,
         "heads": len(rig.heads),
         "walk_s": walk,
         "scans": len(scans),
@@ -175,20 +195,25 @@ def run(args: argparse.Namespace) -> int:
                 f"{a['id_agree']:.5%}"
                 f"  range p99 {a['range_rel_p99']:.1e}"
             )
-    walk = walk_row(args.rig, args.walk, args.seed) if args.walk > 0 else None
-    if walk:
+    walks = (
+        [walk_row(args.rig, args.walk, args.seed, footprint) for footprint in (True, False)]
+        if args.walk > 0
+        else []
+    )
+    for walk in walks:
         print(
-            f"walk {walk['rig']}: {walk['walk_s']:.1f} s, {walk['scans']} scans, {walk['points']:,}"
-            " points in "
+            f"walk {walk['rig']} ("
+            + ("the profiles' effects" if walk["footprint"] else "no beam_divergence: a ray a beam")
+            + f"): {walk['walk_s']:.1f} s, {walk['scans']} scans, {walk['points']:,} points in "
             f"{walk['wall_s']:.1f} s ({walk['s_per_s_of_walk']:.2f} s per s of walk; "
-            f"{walk['points_per_s_made']:,.0f} "
-            f"points/s made, HELIOS++ ~{HELIOS_PTS_S:,}/s)"
+            f"{walk['points_per_s_made']:,.0f} points/s made, HELIOS++ ~{HELIOS_PTS_S:,}/s)"
         )
     result = {
         "load_avg_1_5_15": load,
         "cpus": os.cpu_count(),
         "casts": rows,
-        "walk": walk,
+        "walk": walks[0] if walks else None,
+        "walk_beams_only": walks[1] if walks else None,
         "command": "genie bench lidar "
         + " ".join(
             f"--{k.replace('_', '-')} {v}"
