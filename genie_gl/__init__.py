@@ -38,7 +38,7 @@ import sys
 import types
 from typing import Any
 
-__version__ = "0.2.0"
+__version__ = "0.2.1"
 
 # public name -> module that defines it
 _EXPORTS: dict[str, str] = {

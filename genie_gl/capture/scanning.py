@@ -93,7 +93,7 @@ def iter_scans(
 def _pose_at(trajectory: Trajectory, body_from_scanner: np.ndarray):
     def pose_at(times: np.ndarray) -> np.ndarray:
         t = np.clip(times, trajectory.start_s, trajectory.end_s)
-        return trajectory.at(t) @ body_from_scanner
+        return trajectory.at(t, then=body_from_scanner)
 
     return pose_at
 

@@ -88,9 +88,10 @@ class Trajectory:
         cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(self.positions, axis=0), axis=1))]
         return np.interp(np.asarray(times_s, np.float64), self.times_s, cum)
 
-    def at(self, times_s: np.ndarray) -> np.ndarray:
+    def at(self, times_s: np.ndarray, then: np.ndarray | None = None) -> np.ndarray:
         """(n, 4, 4) float64 world_from_body at ``times_s`` (within [start, end]): positions
-        linear, rotations slerped between the samples either side."""
+        linear, rotations slerped between the samples either side; times ``then`` (4, 4)
+        (a sensor's body_from_sensor: world_from_sensor) when given."""
         t = np.atleast_1d(np.asarray(times_s, np.float64))
         lo, hi = self.start_s, self.end_s
         if t.size and (t.min() < lo - 1e-9 or t.max() > hi + 1e-9):
@@ -107,6 +108,10 @@ class Trajectory:
         exact = np.searchsorted(self.times_s, t)
         hit = (exact < len(self.times_s)) & (self.times_s[np.minimum(exact, len(self) - 1)] == t)
         out[hit] = self.world_from_body[exact[hit]]  # a sample's own pose, bit for bit
+        if then is not None:
+            composed = np.empty_like(out)
+            _rigid_times(out, np.ascontiguousarray(then, np.float64), composed)
+            return composed
         return out
 
     def _slerp(self, t: np.ndarray, out: np.ndarray) -> None:
@@ -138,6 +143,18 @@ class Trajectory:
         times = np.r_[self.times_s[keep], end]
         poses = np.concatenate([self.world_from_body[keep], self.at([end])])
         return Trajectory(times, poses, {**self.meta, "cropped_s": float(duration_s)})
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _rigid_times(poses, then, out):  # pragma: no cover - compiled
+    """``poses`` (n, 4, 4) rigid times ``then`` (4, 4) into ``out``."""
+    for r in range(len(poses)):
+        for i in range(3):
+            p0, p1, p2 = poses[r, i, 0], poses[r, i, 1], poses[r, i, 2]
+            for j in range(4):
+                out[r, i, j] = p0 * then[0, j] + p1 * then[1, j] + p2 * then[2, j]
+            out[r, i, 3] += poses[r, i, 3]
+        out[r, 3, 0], out[r, 3, 1], out[r, 3, 2], out[r, 3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
 @njit(cache=True, nogil=True, boundscheck=False)

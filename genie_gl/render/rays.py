@@ -287,7 +287,7 @@ def _stamp(scene: Scene) -> tuple:
 _casters: "weakref.WeakKeyDictionary[Scene, RayCaster]" = weakref.WeakKeyDictionary()
 
 
-def _caster(scene: Scene) -> RayCaster:
+def caster_of(scene: Scene) -> RayCaster:
     """The scene's cached caster, made afresh when the scene changed."""
     caster = _casters.get(scene)
     if caster is None or caster._stamp != _stamp(scene):
@@ -315,7 +315,7 @@ def cast_bundle(scene: Scene, rays: Rays) -> RayHits:
     """
     if not isinstance(rays, Rays):
         raise ConfigError(f"cast_bundle: rays must be a Rays record, got {type(rays).__name__}")
-    return _caster(scene).cast_bundle(rays)
+    return caster_of(scene).cast_bundle(rays)
 
 
 def cast_rays(
@@ -345,8 +345,8 @@ def cast_rays(
         return (
             cast_bundle(scene, origins)
             if origins.grid == "azimuth_elevation"
-            else _caster(scene).cast(origins.origins, origins.directions)
+            else caster_of(scene).cast(origins.origins, origins.directions)
         )
     if directions is None:
         raise ConfigError("cast_rays: directions are missing (or pass one Rays record)")
-    return _caster(scene).cast(origins, directions)
+    return caster_of(scene).cast(origins, directions)

@@ -13,11 +13,13 @@ lets a deskewer undo it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..jit import njit
 from .scanner import Scanner
 
 PoseAt = Callable[[np.ndarray], np.ndarray]  # (n,) times (s) -> (n, 4, 4) world_from_scanner
@@ -62,6 +64,24 @@ class Beams:
     def start_pose(self) -> np.ndarray:
         """(4, 4) world_from_scanner at the first firing."""
         return self.firing_poses[0]
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def _to_world(poses, which, d, o, out_d, out_o):  # pragma: no cover - compiled
+    """Beam b's direction ``d[b]`` turned into the world by pose ``poses[which[b]]`` (4, 4)
+    and made unit, into ``out_d[b]``, and its origin ``o[b]`` moved there, into ``out_o[b]``."""
+    for b in range(len(d)):
+        P = poses[which[b]]
+        x, y, z = d[b, 0], d[b, 1], d[b, 2]
+        wx = P[0, 0] * x + P[0, 1] * y + P[0, 2] * z
+        wy = P[1, 0] * x + P[1, 1] * y + P[1, 2] * z
+        wz = P[2, 0] * x + P[2, 1] * y + P[2, 2] * z
+        n = math.sqrt(wx * wx + wy * wy + wz * wz)
+        out_d[b, 0], out_d[b, 1], out_d[b, 2] = wx / n, wy / n, wz / n
+        x, y, z = o[b, 0], o[b, 1], o[b, 2]
+        out_o[b, 0] = P[0, 0] * x + P[0, 1] * y + P[0, 2] * z + P[0, 3]
+        out_o[b, 1] = P[1, 0] * x + P[1, 1] * y + P[1, 2] * z + P[1, 3]
+        out_o[b, 2] = P[2, 0] * x + P[2, 1] * y + P[2, 2] * z + P[2, 3]
 
 
 def firing_times(scanner: Scanner, start_s: float, clock_start_s: float = 0.0) -> np.ndarray:
@@ -109,14 +129,13 @@ def scan_beams(
     if callable(pose_at) and np.any(scanner.channel_time_s):
         # each beam from the pose at its own time (a Velodyne's lasers fire 2.304 us apart), so a
         # point's time gives exactly the pose it was fired from
-        beam_poses = np.asarray(pose_at(t.ravel()), np.float64)
-        R, T = beam_poses[:, :3, :3], beam_poses[:, :3, 3]
+        beam_poses = np.ascontiguousarray(pose_at(t.ravel()), np.float64)
+        which = np.arange(F * C)
     else:
-        R, T = poses[firing, :3, :3], poses[firing, :3, 3]
-    world_d = np.einsum("bij,bj->bi", R, d)
-    world_d /= np.linalg.norm(world_d, axis=1, keepdims=True)
-    world_o = np.einsum("bij,bj->bi", R, o) + T
-    wrapped = np.angle(np.exp(1j * az)).ravel()
+        beam_poses, which = np.ascontiguousarray(poses), firing
+    world_d, world_o = np.empty_like(d), np.empty_like(o)
+    _to_world(beam_poses, which, d, o, world_d, world_o)
+    wrapped = np.arctan2(np.sin(az), np.cos(az)).ravel()
     return Beams(
         world_o,
         world_d,

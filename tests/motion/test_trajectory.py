@@ -58,6 +58,11 @@ def test_slerp_between_tumbling_samples_equals_scipys():
     got = tr.at(t)[:, :3, :3]
     np.testing.assert_allclose(got, ref, atol=1e-12, rtol=0)
     np.testing.assert_array_equal(tr.at(times), poses)
+    # a sensor's pose on the body: the body's pose times body_from_sensor
+    then = np.eye(4)
+    then[:3, :3] = Rotation.from_rotvec([0.3, -1.2, 2.0]).as_matrix()
+    then[:3, 3] = [0.1, -0.4, 1.7]
+    np.testing.assert_allclose(tr.at(t, then=then), tr.at(t) @ then, atol=1e-14, rtol=0)
 
 
 def test_bad_samples_are_refused():
