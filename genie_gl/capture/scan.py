@@ -21,7 +21,7 @@ from ..scene.materials import MaterialTable
 from ..scene.model import Scene
 from ..sensors.beams import Beams
 from ..effects.base import Decision
-from ..effects.lidar_base import Echoes, SceneMaterials
+from ..effects.lidar_base import Echoes, LidarEffect, SceneMaterials
 from ..sensors.scanner import Scanner
 from .scan_record import Scan
 
@@ -67,32 +67,43 @@ def _echoes(
     directions: np.ndarray,
     parent: np.ndarray,
     table: MaterialTable,
-    max_range_m: float,
+    scanner: Scanner,
+    footprint: LidarEffect | None = None,
 ) -> Echoes:
-    """An echo per ray that hits within range (``parent``: each ray's beam)."""
-    keep = hits.hit & (hits.distance <= max_range_m)
+    """An echo per ray that hits within range (``parent``: each ray's beam); with a
+    ``footprint`` (its sub-rays ``len(pattern)`` to a beam, beam-major), each beam's returns
+    from its sub-rays' echoes instead (:meth:`~genie_gl.effects.lidar.BeamDivergence.returns`),
+    built only for the echoes kept."""
+    keep = hits.hit & (hits.distance <= scanner.max_range_m)
     idx = np.flatnonzero(keep)
-    inst = hits.instance[idx]
     n = np.empty((len(idx), 3))
     cos = np.empty(len(idx))
     _incidence(hits.normal, np.ascontiguousarray(directions), idx, n, cos)
-    rows = table.rows(inst)
+    rows = table.rows(hits.instance[idx])
     refl = table.albedo[rows]
+    beam, ranges, intensity = parent[idx].astype(np.int64), hits.distance[idx], refl * cos
+    if footprint is not None:
+        w = footprint.pattern(scanner)[1]
+        sel, ranges, intensity = footprint.returns(
+            beam, ranges, intensity, w[idx % len(w)], scanner
+        )
+        idx, beam, n, cos, refl, rows = idx[sel], beam[sel], n[sel], cos[sel], refl[sel], rows[sel]
     m = len(idx)
-    return Echoes(
-        parent[idx].astype(np.int64),
-        hits.distance[idx],
-        inst,
+    echoes = Echoes(
+        beam,
+        ranges,
+        hits.instance[idx],
         hits.semantic[idx],
         n,
         cos,
         refl,
         table.metallic[rows],
         table.roughness[rows],
-        refl * cos,
+        intensity,
         np.ones(m, np.uint8),
         np.ones(m, np.uint8),
     )
+    return echoes if footprint is None else echoes.renumbered()
 
 
 def take_scan(
@@ -114,18 +125,13 @@ def take_scan(
     footprint = next((e for e in running if e.casts_subrays), None)
     if footprint is None:
         hits = cast_beams(scene, beams.origins, beams.directions)
-        echoes = _echoes(hits, beams.directions, np.arange(len(beams)), table, scanner.max_range_m)
+        echoes = _echoes(hits, beams.directions, np.arange(len(beams)), table, scanner)
     else:
         dirs = footprint.subrays(beams.directions, scanner)
         k = len(dirs) // max(len(beams), 1)
-        origins = np.repeat(beams.origins, k, axis=0)
-        hits = cast_beams(scene, origins, dirs)
+        hits = cast_beams(scene, np.repeat(beams.origins, k, axis=0), dirs)
         parent = np.repeat(np.arange(len(beams)), k)
-        sub = _echoes(hits, dirs, parent, table, scanner.max_range_m)
-        weight = np.tile(footprint.pattern(scanner)[1], len(beams))[
-            hits.hit & (hits.distance <= scanner.max_range_m)
-        ]
-        echoes = footprint.combine(sub, weight, scanner)
+        echoes = _echoes(hits, dirs, parent, table, scanner, footprint)
     for effect in running:
         if not effect.casts_subrays and len(echoes):
             echoes = effect.apply(echoes, scanner, rng=rng)

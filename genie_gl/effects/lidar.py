@@ -33,7 +33,9 @@ import numpy as np
 from ..errors import ConfigError, did_you_mean
 from .base import Decision
 from .lidar_base import Echoes, LidarEffect, SceneMaterials
-from .lidar_kernels import echo_groups, strongest_groups, subray_directions
+from .lidar_kernels import DUAL, LAST, STRONGEST, footprint_returns, subray_directions
+
+RETURN_MODES = {"strongest": STRONGEST, "last": LAST, "dual": DUAL}
 
 
 @dataclass(frozen=True)
@@ -159,33 +161,37 @@ class BeamDivergence(LidarEffect):
         subray_directions(d, np.ascontiguousarray(np.tan(offs)), out)
         return out
 
+    def returns(
+        self,
+        beam: np.ndarray,
+        range_m: np.ndarray,
+        intensity: np.ndarray,
+        weight: np.ndarray,
+        scanner: Any,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The returns of each beam from its sub-rays' echoes (rows: ``beam`` (M,)
+        non-decreasing, ``range_m``, ``intensity``, and ``weight`` the sub-ray's in
+        :meth:`pattern`): (rows (R,), the strongest echo of each return kept; its range, the
+        strength-weighted mean of its group's; its intensity, the group's share of the beam's
+        energy times its reflectivity), per the head's return mode."""
+        strength = weight * (intensity + 1e-9)
+        rows, ranges, strengths = footprint_returns(
+            beam, range_m, strength, self.separation_m, RETURN_MODES[scanner.returns]
+        )
+        return rows, ranges, strengths / self.pattern(scanner)[1].sum()
+
     def combine(self, sub: Echoes, weight: np.ndarray, scanner: Any) -> Echoes:
         """One beam's echoes from its sub-rays' hits (``sub.beam``: the beam; ``weight``:
-        each row's weight), per the head's return mode."""
+        each row's weight), per the head's return mode (:meth:`returns`)."""
         if not len(sub):
             return sub
-        _, w_all = self.pattern(scanner)
         if np.any(sub.beam[1:] < sub.beam[:-1]):  # rows come in beam order from a scan
             o = np.argsort(sub.beam, kind="stable")
             sub, weight = sub.taken(o), weight[o]
-        strength = weight * (sub.intensity + 1e-9)
-        order, starts, rep = echo_groups(sub.beam, sub.range_m, strength, self.separation_m)
-        strength, ranges = strength[order], sub.range_m[order]
-        g_strength = np.add.reduceat(strength, starts)
-        g_range = np.add.reduceat(strength * ranges, starts) / g_strength
-        g_beam = sub.beam[order[starts]]
-        last = np.r_[g_beam[1:] != g_beam[:-1], True]
-        mode = scanner.returns
-        if mode == "last":
-            chosen = np.flatnonzero(last)
-        elif mode == "strongest":
-            chosen = strongest_groups(g_beam, g_strength, np.zeros(len(starts), np.bool_))
-        else:
-            chosen = np.union1d(np.flatnonzero(last), strongest_groups(g_beam, g_strength, last))
-        out = sub.taken(order[rep[chosen]])
-        return replace(
-            out, range_m=g_range[chosen], intensity=g_strength[chosen] / w_all.sum()
-        ).renumbered()
+        rows, ranges, intensity = self.returns(
+            sub.beam, sub.range_m, sub.intensity, weight, scanner
+        )
+        return replace(sub.taken(rows), range_m=ranges, intensity=intensity).renumbered()
 
     def apply(self, echoes: Echoes, scanner: Any, *, rng: np.random.Generator) -> Echoes:
         return echoes  # its work is done around the cast (subrays, combine)

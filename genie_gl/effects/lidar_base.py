@@ -98,8 +98,9 @@ class LidarEffect:
     """Base class: ``apply(echoes, scanner, *, rng)`` returns the echoes the head reports.
 
     ``draws``: whether it takes draws from ``rng`` (their count scales with the echoes it
-    touches, none when none). ``subrays``/``combine``: the footprint hooks (only
-    ``beam_divergence`` overrides them).
+    touches, none when none). ``casts_subrays``: the effect is a beam's footprint and has
+    the footprint's hooks, ``pattern``, ``subrays``, ``returns`` and ``combine`` (only
+    ``beam_divergence``).
     """
 
     name: ClassVar[str] = ""

@@ -46,19 +46,31 @@ def subray_directions(directions, tangents, out):  # pragma: no cover - compiled
             out[r + j, 0], out[r + j, 1], out[r + j, 2] = ox / n, oy / n, oz / n
 
 
-@njit(cache=True, nogil=True, boundscheck=False)
-def echo_groups(beam, range_m, strength, separation):  # pragma: no cover - compiled
-    """The echoes of each beam sorted by range and grouped: ``beam`` (M,) non-decreasing.
+STRONGEST, LAST, DUAL = 0, 1, 2  # a head's return modes, as :func:`footprint_returns` takes them
 
-    Returns ``order`` (M,) the rows sorted by (beam, range), ties in row order; ``starts``
-    (G,) each group's first position in ``order`` (a group: a beam's echoes, in range order,
-    each within ``separation`` of the one before); ``rep`` (G,) the position in ``order`` of
-    each group's strongest row (the first on ties)."""
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def footprint_returns(beam, range_m, strength, separation, mode):  # pragma: no cover - compiled
+    """The returns of each beam from its footprint's echoes (rows; ``beam`` (M,)
+    non-decreasing, ``range_m``, ``strength`` (M,)).
+
+    A beam's rows sorted by range (ties in row order) make groups, each row within
+    ``separation`` of the one before; a group's strength is the sum of its rows', its range
+    their strength-weighted mean. ``mode`` keeps per beam its strongest group
+    (:data:`STRONGEST`, the first on ties), its last (:data:`LAST`), or both (:data:`DUAL`:
+    the last, and the strongest of the others), in range order.
+
+    Returns ``rows`` (R,) the strongest row of each kept group (the first on ties), and its
+    ``ranges`` (R,) and ``strengths`` (R,)."""
     m = len(beam)
     order = np.arange(m)
-    starts = np.empty(m, np.int64)
-    rep = np.empty(m, np.int64)
-    g = 0
+    rows = np.empty(m, np.int64)
+    ranges = np.empty(m)
+    strengths = np.empty(m)
+    g_rep = np.empty(m, np.int64)
+    g_sum = np.empty(m)
+    g_dot = np.empty(m)
+    n = 0
     s = 0
     while s < m:
         e = s + 1
@@ -71,34 +83,25 @@ def echo_groups(beam, range_m, strength, separation):  # pragma: no cover - comp
                 order[j + 1] = order[j]
                 j -= 1
             order[j + 1] = o
+        g = -1
         for i in range(s, e):
-            if i == s or range_m[order[i]] - range_m[order[i - 1]] >= separation:
-                starts[g] = i
-                rep[g] = i
+            r = order[i]
+            if i == s or range_m[r] - range_m[order[i - 1]] >= separation:
                 g += 1
-            elif strength[order[i]] > strength[order[rep[g - 1]]]:
-                rep[g - 1] = i
+                g_rep[g], g_sum[g], g_dot[g] = r, 0.0, 0.0
+            elif strength[r] > strength[g_rep[g]]:
+                g_rep[g] = r
+            g_sum[g] += strength[r]
+            g_dot[g] += strength[r] * range_m[r]
+        last = g
+        best = -1  # the strongest group, or of the others than the last in dual mode
+        for k in range(last + 1 if mode != DUAL else last):
+            if best < 0 or g_sum[k] > g_sum[best]:
+                best = k
+        for k in range(last + 1):
+            keep = k == best if mode == STRONGEST else (k == last or (mode == DUAL and k == best))
+            if keep:
+                rows[n], ranges[n], strengths[n] = g_rep[k], g_dot[k] / g_sum[k], g_sum[k]
+                n += 1
         s = e
-    return order, starts[:g].copy(), rep[:g].copy()
-
-
-@njit(cache=True, nogil=True, boundscheck=False)
-def strongest_groups(g_beam, g_strength, exclude):  # pragma: no cover - compiled
-    """Per beam (``g_beam`` (G,) non-decreasing) its strongest group not in ``exclude`` (G,)
-    bool, the first on ties; a beam whose groups are all excluded gives none."""
-    out = np.empty(len(g_beam), np.int64)
-    n = 0
-    s = 0
-    while s < len(g_beam):
-        e = s + 1
-        while e < len(g_beam) and g_beam[e] == g_beam[s]:
-            e += 1
-        best = -1
-        for i in range(s, e):
-            if not exclude[i] and (best < 0 or g_strength[i] > g_strength[best]):
-                best = i
-        if best >= 0:
-            out[n] = best
-            n += 1
-        s = e
-    return out[:n].copy()
+    return rows[:n].copy(), ranges[:n].copy(), strengths[:n].copy()

@@ -133,3 +133,29 @@ def test_a_footprint_over_an_edge_gives_two_echoes_in_dual_mode(mode, max_return
         assert np.all(scan.range_m[k] < scan.range_m[k + 1] - 1.0) and np.all(
             scan.time_s[k] == scan.time_s[k + 1]
         )
+
+
+@pytest.mark.parametrize("mode", ["strongest", "last", "dual"])
+def test_a_scans_footprint_returns_are_its_sub_rays_echoes_combined(generated, mode):
+    """A scan builds only the echoes its returns keep; they equal the sub-rays' every echo
+    combined (:meth:`BeamDivergence.combine`) on a real revolution."""
+    from genie_gl.capture.scan import _echoes
+    from genie_gl.effects.lidar_base import Echoes
+    from genie_gl.scene.materials import MaterialTable
+
+    scanner = replace(load_scanner("velodyne_vlp16"), returns=mode)
+    fx = next(e for e in scanner.effects if e.casts_subrays)
+    beams = scene_beams(generated, scanner)
+    dirs = fx.subrays(beams.directions, scanner)
+    k = len(dirs) // len(beams)
+    hits = cast_beams(generated, np.repeat(beams.origins, k, axis=0), dirs)
+    parent = np.repeat(np.arange(len(beams)), k)
+    table = MaterialTable.from_scene(generated)
+    kept = _echoes(hits, dirs, parent, table, scanner, fx)
+    every = _echoes(hits, dirs, parent, table, scanner)
+    hit = np.flatnonzero(hits.hit & (hits.distance <= scanner.max_range_m))
+    combined = fx.combine(every, fx.pattern(scanner)[1][hit % k], scanner)
+    assert len(kept) > 0.5 * len(beams)
+    for f in Echoes.__dataclass_fields__:
+        np.testing.assert_array_equal(getattr(kept, f), getattr(combined, f))
+    assert (kept.returns > 1).any() == (mode == "dual")
