@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import njit
+from ..jit import njit, prange
 from ..render.rays import RayHits, Rays, cast_bundle
 from ..scene.materials import MaterialTable
 from ..scene.model import Scene
@@ -49,12 +49,12 @@ def cast_beams(scene: Scene, origins: np.ndarray, directions: np.ndarray) -> Ray
     return cast_bundle(scene, Rays(origins, directions))
 
 
-@njit(cache=True, nogil=True, boundscheck=False)
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False)
 def _incidence(normal, directions, rows, out_n, out_cos):  # pragma: no cover - compiled
     """Per row ``rows[j]`` of ``normal`` (n, 3) float32 and ``directions`` (n, 3): the normal
     in float64 into ``out_n[j]`` and |cos| of the angle between them, within [0, 1], into
     ``out_cos[j]``."""
-    for j in range(len(rows)):
+    for j in prange(len(rows)):
         r = rows[j]
         nx, ny, nz = np.float64(normal[r, 0]), np.float64(normal[r, 1]), np.float64(normal[r, 2])
         out_n[j, 0], out_n[j, 1], out_n[j, 2] = nx, ny, nz
