@@ -5,8 +5,9 @@ origins within a small ball (a head that moves during its sweep), in every direc
 than walking the whole hierarchy per ray (:mod:`genie_gl.render.bvh`), the rays are sorted
 into the cells of a grid of world azimuth (from +x towards +y, [-pi, pi)) and elevation (up
 from the x-y plane; rows uniform in its sine, a unit direction's z), spanning the rays'
-elevations, and the hierarchy's clusters (subtrees
-of at most :data:`CLUSTER` triangles) into the cells their boxes can reach; each ray then
+elevations, and the hierarchy's clusters (subtrees of at most :func:`cluster_size`
+triangles: larger for a few rays in a large scene) into the cells their boxes can reach;
+each ray then
 walks only the clusters of its own cell, nearest box first, and stops once a box lies
 beyond its nearest hit. The rays of a cell walk together, :data:`PACKET` at a time, each
 box loaded once for the packet and tested against each of its rays still in it.
@@ -47,7 +48,8 @@ SLACK = 1e-9  # radians added to every angular bound, and relative slack on leng
 RAYS_PER_CELL = 16  # the grid is sized for about this many rays per cell
 MAX_CELLS = 1 << 22  # cells at most
 PACKET = 32  # rays of a cell walked together (a bit each in a mask)
-CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles
+CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles (the least)
+RAYS_PER_CLUSTER = 16  # a bundle's clusters are sized for about one per this many rays
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
@@ -388,10 +390,25 @@ def grid_for(dirs: np.ndarray) -> tuple[float, float, int, int]:
     return lo, hi, n_el, min(n_az, 16384)
 
 
-def clusters(hierarchy: tuple) -> np.ndarray:
-    """(c,) int64 the hierarchy's cluster nodes of at most :data:`CLUSTER` triangles."""
+def cluster_size(triangles: int, rays: int) -> int:
+    """The cluster size for ``rays`` rays in a scene of ``triangles``: :data:`CLUSTER` times
+    a power of 4 (at most 64), the one nearest (by ratio) to giving a cluster for every
+    :data:`RAYS_PER_CLUSTER` rays. Binning a cluster costs about what a ray's walk of it
+    does, so a few rays against a large scene (a VLP-16's 29 k beams on 10 M triangles) bin
+    larger subtrees, many rays smaller ones."""
+    want = triangles * RAYS_PER_CLUSTER / max(rays, 1)
+    size = CLUSTER
+    while size < CLUSTER * 64 and want / size > 2.0:  # 2: the geometric middle of 1 and 4
+        size *= 4
+    return size
+
+
+def clusters(hierarchy: tuple, size: int | None = None) -> np.ndarray:
+    """(c,) int64 the hierarchy's cluster nodes of at most ``size`` triangles (default
+    :data:`CLUSTER`)."""
     right, count = hierarchy[3], hierarchy[5]
-    return clusters_of(right, count, CLUSTER) if len(right) else np.zeros(0, np.int64)
+    size = CLUSTER if size is None else size
+    return clusters_of(right, count, size) if len(right) else np.zeros(0, np.int64)
 
 
 def cast_binned(

@@ -229,7 +229,7 @@ class RayCaster:
         self.triangles = len(tri)
         self._tri = tri
         self._hierarchy: tuple | None = None
-        self._clusters: tuple | None = None  # (cluster size, cluster nodes)
+        self._clusters: dict[int, np.ndarray] = {}  # cluster size -> cluster nodes
         self._stamp = _stamp(scene)
 
     def hierarchy(self) -> tuple:
@@ -257,9 +257,10 @@ class RayCaster:
         """The nearest hit of every ray of ``rays`` by :mod:`.bundles`' binned engine (see
         :func:`cast_bundle`)."""
         h = self.hierarchy()
-        if self._clusters is None or self._clusters[0] != bundles.CLUSTER:
-            self._clusters = (bundles.CLUSTER, clusters(h))
-        t, k = cast_binned(h, rays.origins, rays.directions, self._clusters[1])
+        size = bundles.cluster_size(self.triangles, len(rays))
+        if size not in self._clusters:
+            self._clusters[size] = clusters(h, size)
+        t, k = cast_binned(h, rays.origins, rays.directions, self._clusters[size])
         return self.hits(t, k, rays.directions)
 
     def hits(self, t: np.ndarray, k: np.ndarray, d: np.ndarray) -> RayHits:
