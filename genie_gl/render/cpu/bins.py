@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...lens.distortion import DistortionMaps
-from .coverage import TILE
+from .coverage import SAMPLED_VSHIFT, TILE
 
 
 class Samples(NamedTuple):
@@ -32,7 +32,9 @@ class Samples(NamedTuple):
     ----------
     cell0 : (H W + 1,) int32, each cell's first ray.
     xy : (N, 2) float64, the rays (x, y) on the view's z = 1 plane, cell after cell.
-    tiles : (ceil(H / TILE), ceil(W / TILE)) float64, what each occlusion tile of the grid
+    tiles : (ceil(H / 2**SAMPLED_VSHIFT), ceil(W / TILE)) float64, what each occlusion tile of
+        the grid (TILE bins wide, 2 ** :data:`~genie_gl.render.cpu.coverage.SAMPLED_VSHIFT`
+        tall)
         starts a frame with: 0 (nothing drawn yet), inf where the tile holds no ray (nothing
         there can be seen: a face whose box covers only such tiles is skipped).
     """
@@ -78,8 +80,8 @@ CELL_PX = (1, 4)  # a bin's width and height, in the pixels of the view holding 
 def _empty_tiles(cell: np.ndarray, W: int, H: int) -> np.ndarray:
     """:attr:`Samples.tiles` of rays in bins ``cell`` (row-major on a W x H grid): 0 where an
     occlusion tile holds a ray, inf elsewhere."""
-    tiles = np.full((-(-H // TILE), -(-W // TILE)), np.inf)
-    tiles[(cell // W) // TILE, (cell % W) // TILE] = 0.0
+    tiles = np.full((-(-H >> SAMPLED_VSHIFT), -(-W // TILE)), np.inf)
+    tiles[(cell // W) >> SAMPLED_VSHIFT, (cell % W) // TILE] = 0.0
     return tiles
 
 
