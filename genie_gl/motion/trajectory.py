@@ -9,9 +9,8 @@ sensor firing at any rate finds its pose. The makers on the layout's free floor 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -109,8 +108,18 @@ class Trajectory:
         hit = (exact < len(self.times_s)) & (self.times_s[np.minimum(exact, len(self) - 1)] == t)
         out[hit] = self.world_from_body[exact[hit]]  # a sample's own pose, bit for bit
         if then is not None:
+            then = np.ascontiguousarray(then, np.float64)
+            if (
+                then.shape != (4, 4)
+                or not np.isfinite(then).all()
+                or not np.array_equal(then[3], [0.0, 0.0, 0.0, 1.0])
+            ):
+                raise ConfigError(
+                    "trajectory: then must be a finite (4, 4) rigid transform (last row 0 0 0 1), "
+                    f"got shape {then.shape}"
+                )
             composed = np.empty_like(out)
-            _rigid_times(out, np.ascontiguousarray(then, np.float64), composed)
+            _rigid_times(out, then, composed)
             return composed
         return out
 

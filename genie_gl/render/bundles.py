@@ -47,7 +47,7 @@ from .bvh import STACK, TIE, _slab, hit_triangle, shear
 SLACK = 1e-9  # radians added to every angular bound, and relative slack on lengths
 RAYS_PER_CELL = 16  # the grid is sized for about this many rays per cell
 MAX_CELLS = 1 << 22  # cells at most
-PACKET = 32  # rays of a cell walked together (a bit each in a mask)
+PACKET = 32  # rays of a cell walked together (a bit each in an int64 mask: at most 63)
 CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles (the least)
 RAYS_PER_CLUSTER = 16  # a bundle's clusters are sized for about one per this many rays
 

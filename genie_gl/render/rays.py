@@ -54,7 +54,7 @@ def _unit(directions: Any, what: str) -> np.ndarray:
 
 def _origins(origins: Any, n: int, what: str) -> np.ndarray:
     """(3,) or (n, 3) float64 finite origins."""
-    o = np.ascontiguousarray(origins, dtype=np.float64)
+    o = np.array(origins, dtype=np.float64)  # a copy: the record does not share the caller's
     if o.shape != (3,) and o.shape != (n, 3):
         raise ConfigError(f"{what}: origins must have shape (3,) or ({n}, 3), got {o.shape}")
     if not np.isfinite(o).all():

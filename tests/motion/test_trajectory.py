@@ -52,6 +52,7 @@ def test_slerp_between_tumbling_samples_equals_scipys():
         mats.append(rots.as_matrix())
     poses = np.tile(np.eye(4), (40, 1, 1))
     poses[:, :3, :3] = mats
+    poses[:, :3, 3] = np.cumsum(rng.normal(size=(40, 3)), axis=0)
     tr = Trajectory(times, poses)
     t = np.r_[np.sort(rng.uniform(times[0], times[-1], 2000)), times]
     ref = Slerp(times, Rotation.from_matrix(poses[:, :3, :3]))(t).as_matrix()
@@ -63,6 +64,10 @@ def test_slerp_between_tumbling_samples_equals_scipys():
     then[:3, :3] = Rotation.from_rotvec([0.3, -1.2, 2.0]).as_matrix()
     then[:3, 3] = [0.1, -0.4, 1.7]
     np.testing.assert_allclose(tr.at(t, then=then), tr.at(t) @ then, atol=1e-14, rtol=0)
+    bad = then.copy()
+    bad[3, 0] = 0.5  # not rigid: refused, not half applied
+    with pytest.raises(ConfigError, match="rigid transform"):
+        tr.at(t, then=bad)
 
 
 def test_bad_samples_are_refused():

@@ -118,8 +118,10 @@ def test_the_record_and_its_checks():
     np.testing.assert_allclose(
         r.directions[8], [-1.0, 0.0, 0.0], atol=1e-15
     )  # row 1 (elevation 0), azimuth -pi
-    with pytest.raises(gg.ConfigError, match="zero or not finite"):
+    with pytest.raises(gg.ConfigError, match="direction 0 is zero or not finite"):
         cast_rays(gg.Scene(), np.zeros(3), [[0, 0, 0.0]])
+    with pytest.raises(gg.ConfigError, match="direction 2 is zero or not finite"):  # the first
+        cast_rays(gg.Scene(), np.zeros(3), [[1, 0, 0], [0, 1, 0], [np.nan, 0, 0], [0, 0, 0]])
     with pytest.raises(gg.ConfigError, match="origins must have shape"):
         cast_rays(gg.Scene(), np.zeros((2, 3)), np.ones((3, 3)))
     with pytest.raises(gg.ConfigError, match="rows \\* cols"):

@@ -116,6 +116,38 @@ def test_a_moving_head_fires_each_firing_from_its_own_pose():
     np.testing.assert_array_equal(b.sensor_directions, still.sensor_directions)
 
 
+def test_a_posed_heads_beams_are_its_raw_beams_turned_and_moved():
+    # an OS1-64 (its beams start 12 mm off the axis) turned about all three axes and moved, held
+    # still and carried on a turning path: world = R raw + T, beam by beam at the beam's time
+    from scipy.spatial.transform import Rotation
+
+    s = load_scanner("ouster_os1_64")
+    pose = np.eye(4)
+    pose[:3, :3] = Rotation.from_rotvec([0.3, -0.2, 1.1]).as_matrix()
+    pose[:3, 3] = [1.5, -2.5, 0.7]
+    b = scan_beams(s, pose, 0.0)
+    np.testing.assert_allclose(
+        b.origins, b.sensor_origins @ pose[:3, :3].T + pose[:3, 3], atol=1e-12
+    )
+    np.testing.assert_allclose(b.directions, b.sensor_directions @ pose[:3, :3].T, atol=1e-12)
+    traj = Trajectory(
+        np.array([0.0, 1.0]),
+        planar_poses(np.array([[0.0, 1.0], [2.0, -3.0]]), np.array([0.2, 1.4]), 1.2),
+    )
+    moving = scan_beams(s, lambda t: traj.at(t, then=pose), 0.3)
+    P = traj.at(0.3 + moving.time_s, then=pose)  # Ouster: a column's beams share one time
+    np.testing.assert_allclose(
+        moving.origins,
+        np.einsum("bij,bj->bi", P[:, :3, :3], moving.sensor_origins) + P[:, :3, 3],
+        atol=1e-12,
+    )
+    np.testing.assert_allclose(
+        moving.directions,
+        np.einsum("bij,bj->bi", P[:, :3, :3], moving.sensor_directions),
+        atol=1e-12,
+    )
+
+
 def _write(tmp_path, **change):
     data = yaml.safe_load((data_dir("sensors") / "velodyne_vlp16.lidar.yml").read_text())
     data.update(change)
