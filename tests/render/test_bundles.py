@@ -9,7 +9,7 @@ import genie_gl as gg
 from genie_gl.bench.lidar import agreement, open3d_cast, open3d_caster, scene_beams
 from genie_gl.capture.scan import cast_beams
 from genie_gl.render import bundles
-from genie_gl.render.rays import Rays, cast_bundle, cast_rays
+from genie_gl.render.rays import Rays, cast_bundle, cast_rays, caster_of
 
 
 def _generated(seed=0):
@@ -83,6 +83,30 @@ def test_a_scan_equals_cast_rays_bit_for_bit(scene, profile, cluster, monkeypatc
     ours = cast_beams(scene, beams.origins, beams.directions)
     _same(ours, cast_rays(scene, beams.origins, beams.directions))
     assert ours.hit.mean() > 0.5
+
+
+def test_the_clusters_grow_with_the_scene_against_the_rays():
+    assert bundles.cluster_size(87_608, 202_608) == bundles.CLUSTER  # many rays: the least
+    assert bundles.cluster_size(971_312, 28_944) == 4 * bundles.CLUSTER
+    assert bundles.cluster_size(9_604_272, 28_944) == 16 * bundles.CLUSTER
+    assert bundles.cluster_size(10**9, 10) == 64 * bundles.CLUSTER  # the most
+    assert bundles.cluster_size(1000, 100_000) == bundles.CLUSTER  # fewer triangles than rays
+
+
+@pytest.mark.parametrize("per_cluster", [2_000, 100_000])
+def test_a_scan_in_large_clusters_equals_cast_rays(scene, per_cluster, monkeypatch):
+    """Few rays for the scene bin larger subtrees (here forced: 1 k and 16 k triangles)."""
+    monkeypatch.setattr(bundles, "RAYS_PER_CLUSTER", per_cluster)
+    beams = scene_beams(scene, gg.load_scanner("velodyne_vlp16"))
+    triangles = caster_of(scene).triangles
+    assert bundles.cluster_size(triangles, len(beams)) in (
+        4 * bundles.CLUSTER,
+        64 * bundles.CLUSTER,
+    )
+    _same(
+        cast_beams(scene, beams.origins, beams.directions),
+        cast_rays(scene, beams.origins, beams.directions),
+    )
 
 
 def test_a_panorama_with_its_poles_and_seam_equals_cast_rays(scene):
