@@ -169,15 +169,25 @@ class BeamDivergence(LidarEffect):
         weight: np.ndarray,
         scanner: Any,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The returns of each beam from its sub-rays' echoes (rows: ``beam`` (M,)
-        non-decreasing, ``range_m``, ``intensity``, and ``weight`` the sub-ray's in
-        :meth:`pattern`): (rows (R,), the strongest echo of each return kept; its range, the
-        strength-weighted mean of its group's; its intensity, the group's share of the beam's
-        energy times its reflectivity), per the head's return mode."""
+        """The returns of each beam from its sub-rays' echoes (rows: ``beam`` (M,), ``range_m``,
+        ``intensity``, and ``weight`` the sub-ray's in :meth:`pattern`): (rows (R,), the
+        strongest echo of each return kept, beam by beam; its range, the strength-weighted mean
+        of its group's; its intensity, the group's share of the beam's energy times its
+        reflectivity), per the head's return mode."""
+        order = None
+        if np.any(beam[1:] < beam[:-1]):  # rows come in beam order from a scan
+            order = np.argsort(beam, kind="stable")
+            beam, range_m, intensity, weight = (
+                beam[order],
+                range_m[order],
+                intensity[order],
+                weight[order],
+            )
         strength = weight * (intensity + 1e-9)
         rows, ranges, strengths = footprint_returns(
             beam, range_m, strength, self.separation_m, RETURN_MODES[scanner.returns]
         )
+        rows = rows if order is None else order[rows]
         return rows, ranges, strengths / self.pattern(scanner)[1].sum()
 
     def combine(self, sub: Echoes, weight: np.ndarray, scanner: Any) -> Echoes:
@@ -185,9 +195,6 @@ class BeamDivergence(LidarEffect):
         each row's weight), per the head's return mode (:meth:`returns`)."""
         if not len(sub):
             return sub
-        if np.any(sub.beam[1:] < sub.beam[:-1]):  # rows come in beam order from a scan
-            o = np.argsort(sub.beam, kind="stable")
-            sub, weight = sub.taken(o), weight[o]
         rows, ranges, intensity = self.returns(
             sub.beam, sub.range_m, sub.intensity, weight, scanner
         )

@@ -167,6 +167,10 @@ def test_footprints_of_many_beams_combine_as_written_out(vlp16, mode):
     weight = np.asarray(weight)
     out = fx.combine(sub, weight, s)
     want = _combined_by_beam(sub, weight, s, fx)
+    shuffled = np.random.default_rng(6).permutation(len(beam))  # rows in any order: the same
+    again = fx.combine(sub.taken(shuffled), weight[shuffled], s)
+    np.testing.assert_array_equal(again.beam, out.beam)
+    np.testing.assert_allclose(again.range_m, out.range_m, rtol=1e-12)  # sums in another order
     assert len(out) == len(want) > 400 * 0.8
     np.testing.assert_array_equal(out.beam, [b for b, *_ in want])
     np.testing.assert_allclose(out.range_m, [r for _, r, *_ in want], rtol=1e-12)
