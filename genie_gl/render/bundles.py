@@ -47,6 +47,7 @@ from .bvh import STACK, TIE, _slab, hit_triangle, shear
 SLACK = 1e-9  # radians added to every angular bound, and relative slack on lengths
 RAYS_PER_CELL = 16  # the grid is sized for about this many rays per cell
 MAX_CELLS = 1 << 22  # cells at most
+SPREAD = 1_000_003  # a prime above any count of blocks: j -> j * SPREAD mod blocks permutes them
 PACKET = 32  # rays of a cell walked together (a bit each in an int64 mask: at most 63)
 CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles (the least)
 RAYS_PER_CLUSTER = 16  # a bundle's clusters are sized for about one per this many rays
@@ -247,10 +248,13 @@ def cast_packets(
     until one lies beyond every ray's nearest hit. Each ray meets every triangle of every
     box it enters before its nearest hit, and the least (distance, number) of the triangles
     met wins, so the answer does not depend on the packets, the order or the grid. Cells go
-    to the threads in blocks of 16."""
+    to the threads in blocks of 16, the blocks scattered (:data:`SPREAD`): the threads take
+    even shares of the loop, and rows of the grid differ in work (a head's rays to the
+    floor end at once, its rays to the horizon walk far), so each share holds every row."""
     cells = len(ray_start) - 1
     blocks = (cells + 15) // 16
-    for bl in prange(blocks):
+    for j in prange(blocks):
+        bl = (j * SPREAD) % blocks  # blocks scattered over the threads: rows differ in work
         rid = np.empty(PACKET, np.int64)
         org = np.empty((PACKET, 3))
         oks = np.empty((PACKET, 3))
