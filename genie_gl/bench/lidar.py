@@ -9,7 +9,8 @@ their agreement, and a walk of the two-head wearable in points per second.
    ratio, and the agreement: hits, instance ids equal, range p99 relative difference.
 2. The wearable (``--rig``, default ``navvis_wearable``) walking ``--walk`` seconds of the
    ``person`` motion through a scene of the ``assembly_line`` strategy with its profiles'
-   effects: seconds per second of walk and points per second (beside HELIOS++'s published
+   effects, its scans made by ``--workers`` processes (default: the machine's cores): seconds
+   per second of walk and points per second (beside HELIOS++'s published
    ~23 k points/s user run, and the VLP-16's 289,344 beams/s per head); then the same walk
    without ``beam_divergence`` (one ray a beam instead of its footprint's 7), what the
    footprint costs.
@@ -150,7 +151,9 @@ def without_footprint(rig):
     return replace(rig, heads=heads)
 
 
-def walk_row(rig_name: str, seconds: float, seed: int, footprint: bool = True) -> dict:
+def walk_row(
+    rig_name: str, seconds: float, seed: int, footprint: bool = True, workers: int = 1
+) -> dict:
     rig = load_scanner_rig(rig_name)
     rig = rig if footprint else without_footprint(rig)
     layout = generate_layout("assembly_line", seed=seed)
@@ -158,13 +161,14 @@ def walk_row(rig_name: str, seconds: float, seed: int, footprint: bool = True) -
     path = make_trajectory(layout, scene, "aisles", seed=seed, motion="person", duration_s=seconds)
     scan(scene, rig, path, seed=seed, scans=1)  # warm: the engine's hierarchy and compiled kernels
     t = time.perf_counter()
-    scans = scan(scene, rig, path, seed=seed)
+    scans = scan(scene, rig, path, seed=seed, workers=workers)
     wall = time.perf_counter() - t
     points = int(sum(len(s) for s in scans))
     walk = path.duration_s
     return {
         "rig": rig.name,
         "footprint": footprint,
+        "workers": workers,
         "heads": len(rig.heads),
         "walk_s": walk,
         "scans": len(scans),
@@ -196,7 +200,10 @@ def run(args: argparse.Namespace) -> int:
                 f"  range p99 {a['range_rel_p99']:.1e}"
             )
     walks = (
-        [walk_row(args.rig, args.walk, args.seed, footprint) for footprint in (True, False)]
+        [
+            walk_row(args.rig, args.walk, args.seed, footprint, args.workers)
+            for footprint in (True, False)
+        ]
         if args.walk > 0
         else []
     )
@@ -204,7 +211,8 @@ def run(args: argparse.Namespace) -> int:
         print(
             f"walk {walk['rig']} ("
             + ("the profiles' effects" if walk["footprint"] else "no beam_divergence: a ray a beam")
-            + f"): {walk['walk_s']:.1f} s, {walk['scans']} scans, {walk['points']:,} points in "
+            + f", {walk['workers']} worker(s)): {walk['walk_s']:.1f} s, {walk['scans']} scans, "
+            f"{walk['points']:,} points in "
             f"{walk['wall_s']:.1f} s ({walk['s_per_s_of_walk']:.2f} s per s of walk; "
             f"{walk['points_per_s_made']:,.0f} points/s made, HELIOS++ ~{HELIOS_PTS_S:,}/s)"
         )
@@ -223,6 +231,7 @@ def run(args: argparse.Namespace) -> int:
                 ("repeats", args.repeats),
                 ("rig", args.rig),
                 ("walk", args.walk),
+                ("workers", args.workers),
                 ("seed", args.seed),
             )
         ),

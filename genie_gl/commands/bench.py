@@ -5,6 +5,7 @@ answers without importing the benchmark)."""
 from __future__ import annotations
 
 import argparse
+import os
 import importlib
 from collections.abc import Callable
 
@@ -218,6 +219,12 @@ def _lidar(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rig", default="navvis_wearable", help="scanner rig of the walk")
     p.add_argument(
         "--walk", type=float, default=10.0, help="seconds of the wearable's walk (0: none)"
+    )
+    p.add_argument(
+        "--workers",
+        type=count(1, 4096),
+        default=os.cpu_count() or 1,
+        help="processes making the walk's scans (default: the machine's cores)",
     )
     p.add_argument("--seed", type=seed, default=0)
 

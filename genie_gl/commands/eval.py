@@ -248,9 +248,7 @@ def _params(model: str, steps: int | None):
         from ..eval.randla import RandLAParams
 
         return RandLAParams(steps=steps)
-    raise ConfigError(
-        f"--steps: the {model} model has no training steps; it is for --model randla"
-    )
+    raise ConfigError(f"--steps: the {model} model has no training steps; it is for --model randla")
 
 
 def _cache(args: argparse.Namespace) -> Path:

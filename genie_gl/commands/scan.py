@@ -10,9 +10,10 @@ work, and nothing is written.
 from __future__ import annotations
 
 import argparse
+import os
 
 from ..errors import ConfigError
-from . import positive, seed, stages
+from . import count, positive, seed, stages
 
 FORMATS = (
     "kitti",
@@ -45,6 +46,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--format", default="kitti", choices=FORMATS, help="the scans' format")
     p.add_argument("--out", required=True)
     p.add_argument("--seed", type=seed, default=0)
+    p.add_argument(
+        "--workers",
+        type=count(1, 4096),
+        default=os.cpu_count() or 1,
+        help="processes making the scans (default: the machine's cores; same bytes with any)",
+    )
     p.add_argument("--no-progress", action="store_true")
 
 
@@ -77,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
             layout, scene, args.path, seed=args.seed, motion=args.motion, duration_s=args.duration
         )
         step(f"scan {path.duration_s:.1f} s with {len(rig.heads)} head(s)")
-        scans = scan(scene, rig, path, seed=args.seed)
+        scans = scan(scene, rig, path, seed=args.seed, workers=args.workers)
         step("export")
         files = export_scans(scans, args.out, args.format)
     points = sum(len(s) for s in scans)

@@ -54,7 +54,6 @@ from .metrics import confusion, scores
 log = logging.getLogger(__name__)
 
 
-
 def _torch():
     try:
         import torch
@@ -64,6 +63,7 @@ def _torch():
             "(the CPU build, torch==2.13.0)"
         ) from None
     return torch
+
 
 @dataclass(frozen=True)
 class RandLAParams:

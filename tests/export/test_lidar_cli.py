@@ -10,6 +10,7 @@ import pytest
 import yaml
 
 import genie_gl as gg
+from genie_gl.capture import scanning
 from genie_gl.resources import data_dir
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,7 +59,7 @@ def test_a_bad_scanner_file_on_the_command_line_is_one_line_and_nothing_is_writt
     assert not out.exists()
 
 
-def test_a_walk_of_the_wearable_as_kitti_sequences_and_a_bag(tmp_path):
+def test_a_walk_of_the_wearable_as_kitti_sequences_and_a_bag(tmp_path, monkeypatch):
     layout = gg.generate_layout("storage_area", seed=1)
     scene = gg.build_scene(layout, seed=1)
     path = gg.make_trajectory(layout, scene, "aisles", seed=1, motion="person", duration_s=1.0)
@@ -74,6 +75,20 @@ def test_a_walk_of_the_wearable_as_kitti_sequences_and_a_bag(tmp_path):
         assert len(scan) == len(scans[3 * k]) and 0 < scan[:, 3].max() <= 1.0
     bag = gg.export_scans(scans, tmp_path / "ros", format="rosbag")[0]
     assert (bag / "metadata.yaml").exists()
-    # the same seed makes the same scans
-    again = gg.scan(scene, rig, path, seed=1, duration_s=0.35)
-    assert all(a.world_xyz.tobytes() == b.world_xyz.tobytes() for a, b in zip(scans, again))
+    # the same seed makes the same scans, in the same order, with 1 worker or 2 forked ones
+    # (the profiles' effects on: footprint sub-rays, range noise from each scan's own stream)
+    forked = []
+    in_workers = scanning._in_workers
+    monkeypatch.setattr(
+        scanning, "_in_workers", lambda make, jobs, w: forked.append(w) or in_workers(make, jobs, w)
+    )
+    again = gg.scan(scene, rig, path, seed=1, duration_s=0.35, workers=2)
+    assert forked == [2]  # the 5 scans after the first were made by the forked workers
+    assert [(s.head, s.index) for s in again] == [(s.head, s.index) for s in scans]
+    fields = ("world_xyz", "sensor_xyz", "range_m", "intensity", "ring", "time_s", "instance",
+              "semantic", "return_number", "returns", "firing_poses")  # fmt: skip
+    for a, b in zip(scans, again, strict=True):
+        for f in fields:
+            assert getattr(a, f).tobytes() == getattr(b, f).tobytes(), f
+    with pytest.raises(gg.ConfigError, match="workers must be at least 1"):
+        gg.scan(scene, rig, path, seed=1, duration_s=0.35, workers=0)
