@@ -27,7 +27,9 @@ ray's distance to a hit is at least the box's distance from ``c`` less ``r``.
 The test is :func:`genie_gl.render.bvh.hit_triangle`, Woop, Benthin and Wald's watertight
 test in float64, with the same ray set-up and the same slabs within a cluster, so a ray gets
 the same float64 distance from a triangle here as through the whole hierarchy, and no ray
-slips through an edge two triangles share.
+slips through an edge two triangles share. Rays from one origin with one major axis share
+the triangle's corners less the origin (:func:`genie_gl.render.bvh.hit_relative`: the same
+expressions, computed once for them).
 
 The tie rule (the same as :func:`genie_gl.render.rays.cast_rays`): the nearest hit wins;
 hits at the same float64 distance go to the triangle earlier in the scene's joined arrays,
@@ -42,7 +44,7 @@ import math
 import numpy as np
 
 from ..jit import njit, prange
-from .bvh import STACK, TIE, _slab, hit_triangle, shear
+from .bvh import STACK, TIE, _slab, hit_relative, shear
 
 SLACK = 1e-9  # radians added to every angular bound, and relative slack on lengths
 RAYS_PER_CELL = 16  # the grid is sized for about this many rays per cell
@@ -264,6 +266,7 @@ def cast_packets(
         shr = np.empty((PACKET, 3))
         best = np.empty(PACKET)
         who = np.empty(PACKET, np.int64)
+        run = np.empty(PACKET + 1, np.int64)
         stack = np.empty(STACK, np.int64)
         stack_m = np.empty(STACK, np.int64)
         stack_t = np.empty(STACK)
@@ -285,6 +288,19 @@ def cast_packets(
                     inv[q, 1] = 1.0 / dy if dy != 0.0 else 0.0
                     inv[q, 2] = 1.0 / dz if dz != 0.0 else 0.0
                     best[q], who[q] = np.inf, -1
+                # runs of rays from one origin with one major axis (a static head's packet is
+                # one run; a footprint's sub-rays are one): a triangle's corners less the
+                # origin, on the run's axes, are computed once per run
+                runs = 0
+                for q in range(n):
+                    if q == 0 or not (
+                        axes[q, 0] == axes[q - 1, 0] and axes[q, 2] == axes[q - 1, 2]
+                        and org[q, 0] == org[q - 1, 0] and org[q, 1] == org[q - 1, 1]
+                        and org[q, 2] == org[q - 1, 2]
+                    ):  # fmt: skip
+                        run[runs] = q
+                        runs += 1
+                run[runs] = n
                 worst = np.inf  # the farthest nearest hit of the packet's rays
                 for i in range(cl_start[k], cl_start[k + 1]):
                     if cl_near[i] > worst:
@@ -315,17 +331,29 @@ def cast_packets(
                             if stack_t[top] > far * TIE:
                                 continue
                             for t in range(start[node], start[node] + count[node]):
-                                for q in range(n):
-                                    if (m >> q) & 1:
-                                        h = hit_triangle(
-                                            corners, t, oks[q, 0], oks[q, 1], oks[q, 2],
-                                            axes[q, 0], axes[q, 1], axes[q, 2], shr[q, 0],
-                                            shr[q, 1], shr[q, 2],
-                                        )  # fmt: skip
-                                        if h < best[q] or (
-                                            h == best[q] and h < np.inf and rank[t] < who[q]
-                                        ):
-                                            best[q], who[q] = h, rank[t]
+                                for g in range(runs):
+                                    q0, q1 = run[g], run[g + 1]
+                                    if (m >> q0) & ((1 << (q1 - q0)) - 1) == 0:
+                                        continue
+                                    # what the run's rays share of the triangle, once
+                                    kx, ky, kz = axes[q0, 0], axes[q0, 1], axes[q0, 2]
+                                    ox, oy, oz = oks[q0, 0], oks[q0, 1], oks[q0, 2]
+                                    ax, ay = corners[t, kx] - ox, corners[t, ky] - oy
+                                    az = corners[t, kz] - oz
+                                    bx, by = corners[t, 3 + kx] - ox, corners[t, 3 + ky] - oy
+                                    bz = corners[t, 3 + kz] - oz
+                                    cx, cy = corners[t, 6 + kx] - ox, corners[t, 6 + ky] - oy
+                                    cz = corners[t, 6 + kz] - oz
+                                    for q in range(q0, q1):
+                                        if (m >> q) & 1:
+                                            h = hit_relative(
+                                                ax, ay, az, bx, by, bz, cx, cy, cz, shr[q, 0],
+                                                shr[q, 1], shr[q, 2],
+                                            )  # fmt: skip
+                                            if h < best[q] or (
+                                                h == best[q] and h < np.inf and rank[t] < who[q]
+                                            ):
+                                                best[q], who[q] = h, rank[t]
                             continue
                         a, b = node + 1, right[node]
                         ma, mb = 0, 0
