@@ -42,6 +42,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from llvmlite import ir
+from numba.core import types
+from numba.core.extending import intrinsic
 
 from ..jit import njit, prange
 from .bvh import STACK, TIE, _slab, hit_relative, shear
@@ -53,6 +56,17 @@ SPREAD = 1_000_003  # a prime above any count of blocks: j -> j * SPREAD mod blo
 PACKET = 32  # rays of a cell walked together (a bit each in an int64 mask: at most 63)
 CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles (the least)
 RAYS_PER_CLUSTER = 16  # a bundle's clusters are sized for about one per this many rays
+
+
+@intrinsic
+def lowest_bit(typingctx, x):
+    """The index of the lowest set bit of int64 ``x`` != 0 (LLVM's count of trailing zeros):
+    a packet's loops visit the rays of a mask, not every position."""
+
+    def codegen(context, builder, signature, args):
+        return builder.cttz(args[0], ir.Constant(ir.IntType(1), 1))
+
+    return types.int64(types.int64), codegen
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
@@ -325,15 +339,18 @@ def cast_packets(
                         node, m = stack[top], stack_m[top]
                         if right[node] < 0:
                             far = 0.0
-                            for q in range(n):
-                                if (m >> q) & 1:
-                                    far = max(far, best[q])
+                            mm = m
+                            while mm:
+                                q = lowest_bit(mm)
+                                mm &= mm - 1
+                                far = max(far, best[q])
                             if stack_t[top] > far * TIE:
                                 continue
                             for t in range(start[node], start[node] + count[node]):
                                 for g in range(runs):
                                     q0, q1 = run[g], run[g + 1]
-                                    if (m >> q0) & ((1 << (q1 - q0)) - 1) == 0:
+                                    mm = m & (((1 << (q1 - q0)) - 1) << q0)  # the run's rays
+                                    if mm == 0:
                                         continue
                                     # what the run's rays share of the triangle, once
                                     kx, ky, kz = axes[q0, 0], axes[q0, 1], axes[q0, 2]
@@ -344,34 +361,36 @@ def cast_packets(
                                     bz = corners[t, 3 + kz] - oz
                                     cx, cy = corners[t, 6 + kx] - ox, corners[t, 6 + ky] - oy
                                     cz = corners[t, 6 + kz] - oz
-                                    for q in range(q0, q1):
-                                        if (m >> q) & 1:
-                                            h = hit_relative(
-                                                ax, ay, az, bx, by, bz, cx, cy, cz, shr[q, 0],
-                                                shr[q, 1], shr[q, 2],
-                                            )  # fmt: skip
-                                            if h < best[q] or (
-                                                h == best[q] and h < np.inf and rank[t] < who[q]
-                                            ):
-                                                best[q], who[q] = h, rank[t]
+                                    while mm:
+                                        q = lowest_bit(mm)
+                                        mm &= mm - 1
+                                        h = hit_relative(
+                                            ax, ay, az, bx, by, bz, cx, cy, cz, shr[q, 0],
+                                            shr[q, 1], shr[q, 2],
+                                        )  # fmt: skip
+                                        if h < best[q] or (
+                                            h == best[q] and h < np.inf and rank[t] < who[q]
+                                        ):
+                                            best[q], who[q] = h, rank[t]
                             continue
                         a, b = node + 1, right[node]
                         ma, mb = 0, 0
                         ta, tb = np.inf, np.inf
-                        for q in range(n):
-                            if (m >> q) & 1:
-                                ox, oy, oz = org[q, 0], org[q, 1], org[q, 2]
-                                ix, iy, iz = inv[q, 0], inv[q, 1], inv[q, 2]
-                                fx, fy, fz = flat[q, 0], flat[q, 1], flat[q, 2]
-                                tf = best[q] * TIE
-                                t = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
-                                if t < np.inf:
-                                    ma |= 1 << q
-                                    ta = min(ta, t)
-                                t = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
-                                if t < np.inf:
-                                    mb |= 1 << q
-                                    tb = min(tb, t)
+                        while m:
+                            q = lowest_bit(m)
+                            m &= m - 1
+                            ox, oy, oz = org[q, 0], org[q, 1], org[q, 2]
+                            ix, iy, iz = inv[q, 0], inv[q, 1], inv[q, 2]
+                            fx, fy, fz = flat[q, 0], flat[q, 1], flat[q, 2]
+                            tf = best[q] * TIE
+                            t = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
+                            if t < np.inf:
+                                ma |= 1 << q
+                                ta = min(ta, t)
+                            t = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
+                            if t < np.inf:
+                                mb |= 1 << q
+                                tb = min(tb, t)
                         if ta > tb:
                             a, b, ta, tb, ma, mb = b, a, tb, ta, mb, ma
                         if mb:
