@@ -100,7 +100,7 @@ def iter_scans(
             yield make(job)
         return
     yield make(jobs[0])  # here: compiles the kernels and builds the engine's hierarchy once
-    yield from _in_workers(make, jobs[1:], int(workers))
+    yield from _in_workers(make, jobs[1:], min(int(workers), len(jobs) - 1))
 
 
 @dataclass(frozen=True)
