@@ -9,12 +9,16 @@ Each measurement runs in a fresh process of its own (tools never share a process
 memory or its thread pools), the tools taking turns, ``--repeats`` times. A process builds
 the tool's scene from the same arrays in memory and renders the scene's 40 poses in turn:
 
+* library: before the clock, each tool loads what it needs once per process, whatever the
+  scene, by drawing a box before the first camera (Open3D: its import, Embree; genie-gl: its
+  compiled kernels from numba's cache; pyrender: its GL context's libraries), timed apart;
 * build: meshes in memory -> first frame (genie-gl: ``Scene`` + ``Renderer`` + the first
   ``render``; Open3D: the instances' triangles into a ``RaycastingScene`` + the first
   ``cast_rays``; pyrender: its scene from our ``Scene`` + the first render);
 * steady frame: the mean time of the 39 frames after the first (genie-gl through
   :meth:`Renderer.frames`, which is what ``capture`` uses);
-* N cameras with the build: build + the next N - 1 frames, for N = 24 and 40;
+* N cameras with the build: build + the next N - 1 frames, for N = 24 and 40; and "cold",
+  with the library's loading too (what a process that draws one scene pays);
 * peak memory: the process's peak resident set (VmHWM), and what it held before the build
   (interpreter, imports and the scene's arrays) to read the build's own share;
 * whole machine (``--whole-machine``): P = cores processes of one tool at once, each with
@@ -82,6 +86,16 @@ class _Ours:
         self.r = Renderer(to_scene(spec), raster=self.raster)
         self.triangles = self.r.triangles
 
+    @classmethod
+    def load_library(cls, sensor, pose) -> None:
+        """The compiled kernels from numba's cache (a frame and frames side by side of a
+        box before the camera)."""
+        r = Renderer(_box_scene(pose), raster=cls.raster)
+        r.render(sensor, pose, depth_only=True)
+        for _ in r.frames(sensor, [pose] * 3, depth_only=True):
+            pass
+        r.release()
+
     def frame(self, sensor, pose):
         return self.r.render(sensor, pose, depth_only=True)
 
@@ -109,6 +123,13 @@ class _Pyrender:
     def __init__(self, spec, scene=None) -> None:
         self.r = ReferenceRenderer(scene if scene is not None else to_scene(spec))
 
+    @staticmethod
+    def load_library(sensor, pose) -> None:
+        """pyrender and its GL context's libraries (a frame of a box)."""
+        r = ReferenceRenderer(_box_scene(pose))
+        r.render(sensor, pose)
+        r.release()
+
     def frame(self, sensor, pose) -> None:
         self.r.render(sensor, pose)
 
@@ -133,6 +154,21 @@ class _Open3D:
             w = v.astype(np.float64) @ T[:3, :3].T + T[:3, 3]
             self.rc.add_triangles(o3d.core.Tensor(w.astype(np.float32)), o3d.core.Tensor(f))
 
+    @staticmethod
+    def load_library(sensor, pose) -> None:
+        """Open3D and Embree (a cast of a frame at one triangle)."""
+        import open3d as o3d
+
+        rc = o3d.t.geometry.RaycastingScene()
+        c = (pose @ [0.0, 0.0, 2.0, 1.0])[:3]
+        tri = np.array([c, c + [1.0, 0.0, 0.0], c + [0.0, 1.0, 0.0]], np.float32)
+        rc.add_triangles(o3d.core.Tensor(tri), o3d.core.Tensor(np.array([[0, 1, 2]], np.uint32)))
+        rays = o3d.t.geometry.RaycastingScene.create_rays_pinhole(
+            o3d.core.Tensor(sensor.K), o3d.core.Tensor(np.linalg.inv(pose)), sensor.width,
+            sensor.height,
+        )  # fmt: skip
+        rc.cast_rays(rays)["t_hit"].numpy()
+
     def frame(self, sensor, pose) -> None:
         o3d = self.o3d
         K = sensor.K.copy()
@@ -151,6 +187,19 @@ class _Open3D:
 
     def release(self) -> None:
         self.rc = None
+
+
+def _box_scene(pose: np.ndarray):
+    """A 1 m box 2 m before a camera at ``pose``: what loads a tool's libraries."""
+    import trimesh
+
+    from ..scene.model import Scene
+
+    scene = Scene()
+    T = np.eye(4)
+    T[:3, 3] = (pose @ [0.0, 0.0, 2.0, 1.0])[:3]
+    scene.add(trimesh.creation.box((1.0, 1.0, 1.0)), T, semantic=1)
+    return scene
 
 
 TOOLS = {
@@ -195,6 +244,9 @@ def _measure(args) -> dict:
     scene = to_scene(spec) if name == "pyrender" else None  # pyrender's build starts from our Scene
     sensor = sensor_640()
     poses = list(spec.poses)
+    t_lib = time.perf_counter()
+    TOOLS[name].load_library(sensor, poses[0])
+    library = time.perf_counter() - t_lib
     gc.collect()
     before = _rss("VmRSS")
     c0, t0 = time.process_time(), time.perf_counter()
@@ -218,6 +270,8 @@ def _measure(args) -> dict:
         "steady_ms": 1e3 * marks[CAMERAS[-1]] / (CAMERAS[-1] - 1),
         "steady_cpu_ms": 1e3 * frames_cpu / (CAMERAS[-1] - 1),
         **{f"cameras_{n}_s": build + marks[n] for n in CAMERAS},
+        "library_s": library,
+        **{f"cameras_{n}_cold_s": library + build + marks[n] for n in CAMERAS},
         "peak_rss_mib": peak_rss_mib(),
         "rss_before_mib": before,
         "triangles": spec.triangles,
@@ -279,9 +333,11 @@ def _warm() -> None:
 
 
 METRICS = (
+    ("library_s", "library s", 1.0),
     ("build_s", "build s", 1.0),
     ("steady_ms", "steady ms/frame", 1.0),
     ("cameras_24_s", "24 cams s", 1.0),
+    ("cameras_24_cold_s", "24 cams cold s", 1.0),
     ("cameras_40_s", "40 cams s", 1.0),
     ("peak_rss_mib", "peak MiB", 1.0),
 )

@@ -27,3 +27,17 @@ def test_api_path_and_benchmark_path_give_the_same_frames():
     for a, b, c in zip(timed, api, direct):
         assert_same_frames(a, b)
         assert_same_frames(a, c)
+
+
+def test_each_tool_loads_its_library_before_the_clock_and_the_cold_figures_add_it():
+    from genie_gl.bench.render import _measure, available
+
+    tools = ["genie-gl"] + (["Open3D"] if available("Open3D") else [])
+    for tool in tools:
+        row = _measure((tool, "100k"))
+        assert row["library_s"] > 0.0 and row["build_s"] > 0.0
+        for n in (24, 40):
+            assert row[f"cameras_{n}_cold_s"] == pytest.approx(
+                row["library_s"] + row[f"cameras_{n}_s"], rel=1e-12
+            )
+            assert row[f"cameras_{n}_s"] > row["build_s"]
