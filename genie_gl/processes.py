@@ -14,11 +14,14 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import multiprocessing as mp
 import os
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import resource_tracker
 from typing import Any
 
@@ -43,6 +46,27 @@ def die_with_parent(parent: int | None = None) -> bool:
     ):  # it died before the request
         os._exit(1)
     return True
+
+
+def forked_pool(
+    workers: int, initializer: Callable[..., None] | None = None, initargs: tuple = ()
+) -> ProcessPoolExecutor:
+    """A pool of ``workers`` processes forked from this one: each starts with this process's
+    memory (its scene, its compiled kernels) without a copy or a second import. Python >= 3.12
+    warns of any fork in a process with threads; the callers' workers run only numpy and
+    numba kernels, touching no lock another thread (a GL driver's, numba's work queue's) may
+    hold, so the warning is silenced here. ``initializer`` should call
+    :func:`die_with_parent` first."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings(
+            "ignore", r".*use of fork\(\) may lead to deadlocks", DeprecationWarning
+        )
+        return ProcessPoolExecutor(
+            workers,
+            mp_context=mp.get_context("fork"),
+            initializer=initializer,
+            initargs=initargs,
+        )
 
 
 @contextlib.contextmanager

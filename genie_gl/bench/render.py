@@ -41,12 +41,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
 from ..errors import ConfigError, did_you_mean
 from ..outputs import atomic_write_text
 from ..render import Renderer
 from ..render.reference import ReferenceRenderer
 from ..render.threads import limit_threads
+from ..scene.model import Scene
 from ..sensors.camera import Sensor
 from .scenes import SIZES, bench_spec, to_scene
 
@@ -191,10 +193,6 @@ class _Open3D:
 
 def _box_scene(pose: np.ndarray):
     """A 1 m box 2 m before a camera at ``pose``: what loads a tool's libraries."""
-    import trimesh
-
-    from ..scene.model import Scene
-
     scene = Scene()
     T = np.eye(4)
     T[:3, 3] = (pose @ [0.0, 0.0, 2.0, 1.0])[:3]

@@ -9,10 +9,10 @@ linearly, rotations by slerp), so the scans carry the motion skew of a spinning 
 from __future__ import annotations
 
 import multiprocessing as mp
-import warnings
+import os
+import signal
 from collections import deque
 from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
@@ -21,6 +21,7 @@ import numba
 import numpy as np
 
 from ..errors import ConfigError
+from ..processes import die_with_parent, forked_pool
 from ..scene.materials import MaterialTable
 from ..scene.model import Scene
 from ..sensors.beams import scan_beams, scan_starts
@@ -146,7 +147,11 @@ class _Maker:
 _forked: dict[int, tuple[_Maker, list[_Job]]] = {}  # what forked workers find: call -> work
 
 
-def _start_worker() -> None:
+def _start_worker(parent: int) -> None:
+    die_with_parent(parent)
+    # Ctrl-C and SIGTERM reach the whole process group: the caller unwinds and ends the pool
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     numba.set_num_threads(1)  # a core per worker: the workers are the parallelism
 
 
@@ -163,15 +168,7 @@ def _in_workers(make: _Maker, jobs: list[_Job], workers: int) -> Iterator[Scan]:
     key = id(jobs)
     _forked[key] = (make, jobs)
     try:
-        with (
-            warnings.catch_warnings()
-        ):  # (Python >= 3.12 warns of any fork in a process with threads)
-            warnings.filterwarnings(
-                "ignore", r".*use of fork\(\) may lead to deadlocks", DeprecationWarning
-            )
-            pool = ProcessPoolExecutor(
-                workers, mp_context=mp.get_context("fork"), initializer=_start_worker
-            )
+        pool = forked_pool(workers, _start_worker, (os.getpid(),))
         with pool:
             todo: deque = deque()
             nxt = 0

@@ -27,17 +27,15 @@ from __future__ import annotations
 
 import gc
 import logging
-import multiprocessing as mp
 import os
 import signal
-import warnings
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
 from numba.core.compiler_lock import global_compiler_lock
 
-from ..processes import die_with_parent
+from ..processes import die_with_parent, forked_pool
 from ..scene.model import Mesh
 from .recipe import Parts, make_parts
 from .streams import SceneStreams
@@ -114,19 +112,8 @@ class Ahead:
         self._meshes: dict[str, Mesh] = {}  # content digest -> the first copy received
         self._pool: ProcessPoolExecutor | None = None
         try:
-            with (
-                warnings.catch_warnings()
-            ):  # (Python >= 3.12 warns of any fork in a process with threads)
-                warnings.filterwarnings(
-                    "ignore", r".*use of fork\(\) may lead to deadlocks", DeprecationWarning
-                )
-                self._pool = ProcessPoolExecutor(
-                    1,
-                    mp_context=mp.get_context("fork"),
-                    initializer=_start,
-                    initargs=(os.getpid(), inputs, int(seed), int(cameras)),
-                )
-                self._pool.submit(_warm)  # forks the helper
+            self._pool = forked_pool(1, _start, (os.getpid(), inputs, int(seed), int(cameras)))
+            self._pool.submit(_warm)  # forks the helper
         except (RuntimeError, OSError) as exc:
             self._broken(exc)
 
