@@ -92,3 +92,24 @@ def test_a_walk_of_the_wearable_as_kitti_sequences_and_a_bag(tmp_path, monkeypat
             assert getattr(a, f).tobytes() == getattr(b, f).tobytes(), f
     with pytest.raises(gg.ConfigError, match="workers must be at least 1"):
         gg.scan(scene, rig, path, seed=1, duration_s=0.35, workers=0)
+
+
+def test_a_scan_worker_that_dies_is_one_error(monkeypatch):
+    """A worker process that dies making a scan (here: it exits at once) stops the call with
+    one error naming what happened, not a hang or a traceback from the pool."""
+    import os
+
+    layout = gg.generate_layout("storage_area", seed=1)
+    scene = gg.build_scene(layout, seed=1)
+    path = gg.make_trajectory(layout, scene, "aisles", seed=1, motion="person", duration_s=1.0)
+    rig = gg.load_scanner_rig("navvis_wearable")
+    parent, take_scan = os.getpid(), scanning.take_scan
+
+    def die_in_a_worker(*args, **kwargs):  # inherited by the forked workers
+        if os.getpid() != parent:
+            os._exit(3)
+        return take_scan(*args, **kwargs)
+
+    monkeypatch.setattr(scanning, "take_scan", die_in_a_worker)
+    with pytest.raises(gg.ConfigError, match="a worker process died making the scans"):
+        gg.scan(scene, rig, path, seed=1, duration_s=0.35, workers=2)
