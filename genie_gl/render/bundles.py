@@ -42,9 +42,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from llvmlite import ir
-from numba.core import types
-from numba.core.extending import intrinsic
+from numba.cpython.unsafe.numbers import trailing_zeros as lowest_bit  # of an int64 != 0
 
 from ..jit import njit, prange
 from .bvh import STACK, TIE, _slab, hit_relative, shear
@@ -56,17 +54,6 @@ SPREAD = 1_000_003  # a prime above any count of blocks: j -> j * SPREAD mod blo
 PACKET = 32  # rays of a cell walked together (a bit each in an int64 mask: at most 63)
 CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles (the least)
 RAYS_PER_CLUSTER = 16  # a bundle's clusters are sized for about one per this many rays
-
-
-@intrinsic
-def lowest_bit(typingctx, x):
-    """The index of the lowest set bit of int64 ``x`` != 0 (LLVM's count of trailing zeros):
-    a packet's loops visit the rays of a mask, not every position."""
-
-    def codegen(context, builder, signature, args):
-        return builder.cttz(args[0], ir.Constant(ir.IntType(1), 1))
-
-    return types.int64(types.int64), codegen
 
 
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False)
