@@ -215,7 +215,7 @@ def scan(
     seed : int, the seed of every random draw (each scan its own stream).
     workers : int, processes making the scans (forked; each runs its kernels on one thread).
         The scans are the same, byte for byte, with any number; on 2 cores 2 make a walk
-        about 1.5 times as fast as 1 (``docs/lidar.md``).
+        1.3-1.5 times as fast as 1 (``docs/lidar.md``).
 
     Returns
     -------
