@@ -280,6 +280,10 @@ class Renderer(Visibility):
         self._rows["color"][:, 3] = 255
         if N:
             self._rows["color"][:, :3] = np.array([inst[k].color for k in order], dtype=np.uint8)
+        # (contiguous copies for the kernels: a field of the rows is strided except in a scene
+        # of one instance, and numba compiles or loads a kernel once per layout)
+        self._semantic = np.ascontiguousarray(self._rows["semantic"])
+        self._colour = np.ascontiguousarray(self._rows["color"][:, :3])
         self._vbase, self._fbase, self._nfaces = vbase, fbase, nfaces
         self._closed, self._lo, self._hi, self._centre, self._radius = (
             closed,

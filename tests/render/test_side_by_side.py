@@ -4,9 +4,12 @@ one by one, with an extra render of the caller's in between, and after a caller 
 early."""
 
 import numba
+import trimesh
 import numpy as np
 
-from genie_gl.render import Renderer
+import genie_gl as gg
+from genie_gl.render import Renderer, shading
+from genie_gl.render.cpu import raster
 from genie_gl.render.cpu import renderer as cpu_renderer
 from tests.scenes import scene_of, sensor_640
 
@@ -61,3 +64,47 @@ def test_frames_too_large_for_the_side_by_side_budget_are_drawn_one_by_one(monke
         assert r._side == []
         alone = [r.render(sensor, p, depth_only=True) for p in poses[:3]]
     assert all(same(a, b) for a, b in zip(alone, frames))
+
+
+def test_a_scene_of_one_instance_and_one_of_many_use_the_same_compiled_kernels(monkeypatch):
+    """The kernels are compiled (or loaded from numba's cache) once per process: the arrays a
+    frame hands them have the same types and layouts whatever the scene (a strided column of
+    the instance rows made a second version of the raster's and the shading's kernels, loaded
+    in the first frames of every scene of more than one instance)."""
+    sensor = sensor_640()
+    pose = np.eye(4)
+    seen: dict = {}
+
+    def recording(module, name):
+        kernel = getattr(module, name)
+
+        def call(*args):
+            seen.setdefault(name, set()).add(tuple(numba.typeof(a) for a in args))
+            return kernel(*args)
+
+        monkeypatch.setattr(module, name, call)
+
+    for module, name in ((raster, "_raster"), (raster, "_raster_serial"), (shading, "_shade")):
+        recording(module, name)
+
+    def types(scene):
+        seen.clear()
+        with Renderer(scene, raster="cpu") as r:
+            r.render(sensor, pose, depth_only=True)
+            r.render(sensor, pose, normals=True)
+            list(r.frames(sensor, [pose] * 3, depth_only=True))
+        return dict(seen)
+
+    one = gg.Scene()
+    at = np.eye(4)
+    at[2, 3] = 3.0
+    one.add(trimesh.creation.box((1.0, 1.0, 1.0)), at, semantic=1)
+    many = gg.Scene()
+    for k in range(3):
+        at = np.eye(4)
+        at[:3, 3] = (k - 1.0, 0.0, 3.0 + k)
+        many.add(trimesh.creation.box((0.5, 0.5, 0.5)), at, semantic=2 + k)
+    first = types(one)
+    assert sorted(first) == ["_raster", "_raster_serial", "_shade"]
+    assert all(len(v) == 1 for v in first.values())
+    assert types(many) == first

@@ -96,7 +96,7 @@ class CPURenderer(Renderer, raster="cpu"):
         near = float(sensor.clip_near_m)
         out = frame_buffers(H, W, color, normals, triangles)
         seen = self._visible(pose, K, W, H, near, only)
-        drawn_triangles = no_triangles(self._ids, self._rows["semantic"]) if triangles else None
+        drawn_triangles = no_triangles(self._ids, self._semantic) if triangles else None
         fragments = Fragments(H, W, None, None, out)
         drawn = faces = simplified = 0
         face0 = np.zeros(len(self._mesh), np.int64)
@@ -118,9 +118,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 near,
                 seen.planes,
                 self.cull,
-                (self._ids, self._rows["semantic"], sensor.near_m, sensor.far_m, out)
-                if ids_only
-                else None,
+                (self._ids, self._semantic, sensor.near_m, sensor.far_m, out) if ids_only else None,
                 serial=serial,
             )
             fragments = Fragments(H, W, inverse_z, winner, out, shaded=ids_only)
@@ -139,7 +137,7 @@ class CPURenderer(Renderer, raster="cpu"):
                     camera_from_model=cfm, indices=self._culler.faces.reshape(-1)
                 )
         t1 = time.perf_counter()
-        rgb = self._rows["color"][:, :3] if len(self._mesh) else np.zeros((1, 3), np.uint8)
+        rgb = self._colour if len(self._mesh) else np.zeros((1, 3), np.uint8)
         if not fragments.shaded:  # (a frame of depth and ids alone was filled as it was drawn)
             shade(
                 fragments,
@@ -148,7 +146,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 rasteriser.face_vbase(self._vbase, self._fbase, self._nfaces),
                 cfm,
                 self._ids,
-                self._rows["semantic"],
+                self._semantic,
                 rgb,
                 face0,
                 K,
@@ -225,7 +223,7 @@ class CPURenderer(Renderer, raster="cpu"):
         )
         drawn = faces = simplified = 0
         r = self._rasteriser
-        colours = self._rows["color"][:, :3] if len(self._mesh) else np.zeros((1, 3), np.uint8)
+        colours = self._colour if len(self._mesh) else np.zeros((1, 3), np.uint8)
         face_vbase = r.face_vbase(self._vbase, self._fbase, self._nfaces)
         near = float(sensor.clip_near_m)
         for m in views:
@@ -266,7 +264,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 inverse_z,
                 winner,
                 MeshArrays(self._culler.vertices, self._culler.faces, face_vbase),
-                SlotShading(cfm, self._ids, self._rows["semantic"], colours, face0),
+                SlotShading(cfm, self._ids, self._semantic, colours, face0),
                 (m.ray_x.reshape(-1), m.ray_y.reshape(-1)),
                 ls.ray_of,
                 W,
