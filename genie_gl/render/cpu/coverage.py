@@ -255,6 +255,15 @@ def _draw_cluster(
         if front == 3:
             ua, ub, uc = wu[a], wu[b], wu[c]
             va, vb_, vc = wv[a], wv[b], wv[c]
+            if bc:
+                # its orientation on screen, the sign of A·(B x C) (the vertices in front:
+                # the projection keeps it), before anything else is computed: a face clearly
+                # turned away (by far more than the rounding) is dropped here, the others
+                # get the exact test below
+                turn = (ub - ua) * (vc - va) - (vb_ - va) * (uc - ua)
+                size = (abs(ua) + abs(ub) + abs(uc) + 1.0) * (abs(va) + abs(vb_) + abs(vc) + 1.0)
+                if turn > 1e-9 * size:
+                    continue
             umin, umax = min(ua, min(ub, uc)), max(ua, max(ub, uc))
             vmin, vmax = min(va, min(vb_, vc)), max(va, max(vb_, vc))
             zmin = min(az, min(bz, cz))

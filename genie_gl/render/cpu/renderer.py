@@ -35,6 +35,9 @@ from .raster import Rasteriser
 CPU_RASTER_BYTES_PER_PIXEL = 16
 # at most this many bytes of raster buffers for frames drawn side by side (one set a frame)
 SIDE_BY_SIDE_BYTES = 256 << 20
+# frames handed out at once per thread when frames are drawn side by side: two, so that a
+# thread never waits for another's heavier frame before it starts one
+AHEAD = 2
 
 
 class CPURenderer(Renderer, raster="cpu"):
@@ -302,17 +305,17 @@ class CPURenderer(Renderer, raster="cpu"):
     ) -> Iterator[Frame]:
         """The frames in order. Frames of depth and ids alone, two or more, with two or more
         threads for numba (:func:`numba.get_num_threads`): drawn side by side, one frame per
-        thread, as many at once as there are threads, each on its thread alone with a
-        rasteriser of its own (frame k by rasteriser k mod threads), while the caller takes
+        thread, each on its thread alone with a rasteriser of its own, while the caller takes
         the frames before them: a light frame leaves most of its strips' threads idle, and
-        each frame is the same whichever thread draws it (:mod:`.raster`); no more frames at
-        once than :data:`SIDE_BY_SIDE_BYTES` of raster buffers hold. Otherwise each
+        each frame is the same whichever thread draws it (:mod:`.raster`). Up to
+        :data:`AHEAD` frames a thread are handed out at once (frame k by rasteriser k mod
+        their number), so a thread that ends a light frame starts the next while another
+        draws a heavy one; no more than :data:`SIDE_BY_SIDE_BYTES` of raster buffers. Otherwise each
         frame is drawn, on every thread, when it is asked for. ``self.stats``: the last
         frame handed over's."""
-        threads = min(
-            numba.get_num_threads(),
-            SIDE_BY_SIDE_BYTES // (sensor.width * sensor.height * CPU_RASTER_BYTES_PER_PIXEL),
-        )
+        room = SIDE_BY_SIDE_BYTES // (sensor.width * sensor.height * CPU_RASTER_BYTES_PER_PIXEL)
+        threads = min(numba.get_num_threads(), room)
+        ahead = min(AHEAD * threads, room)  # frames handed out at once
         poses = iter(poses)
         head = list(islice(poses, 2))
         if (
@@ -330,13 +333,13 @@ class CPURenderer(Renderer, raster="cpu"):
                 )
             return
         # (taken while in use: frames of another generator of this renderer draw with others)
-        side = [self._side.pop() if self._side else self._rasteriser.twin() for _ in range(threads)]
+        side = [self._side.pop() if self._side else self._rasteriser.twin() for _ in range(ahead)]
         drawing: deque[Future] = deque()
         pool = ThreadPoolExecutor(threads, thread_name_prefix="genie-raster")
         try:
             for k, pose in enumerate(chain(head, poses)):
                 done = None
-                if len(drawing) == threads:  # frame k - threads, whose rasteriser k takes
+                if len(drawing) == ahead:  # frame k - ahead, whose rasteriser k takes
                     done = drawing.popleft().result()
                 drawing.append(
                     pool.submit(
@@ -347,7 +350,7 @@ class CPURenderer(Renderer, raster="cpu"):
                         False,
                         None if only is None else only[k],
                         False,
-                        side[k % threads],
+                        side[k % ahead],
                         True,
                     )
                 )
