@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..frame import Frame
-from ..jit import njit, prange
+from ..jit import njit, prange, serial_copy
 from ..sensors.camera import Sensor
 from ..triangles import PixelTriangles, SceneTriangles
 from .fragments import DrawnTriangles, Fragments
@@ -228,6 +228,10 @@ def _shade(
                 out_rgb[p, 3] = 255
 
 
+# the same kernel on the calling thread alone (a lens's frames drawn side by side)
+_shade_serial = serial_copy(_shade, "_shade_serial")
+
+
 def shade(
     fragments: Fragments,
     vertices: np.ndarray,
@@ -292,12 +296,14 @@ def shade_rays(
     out: FrameArrays,
     color: bool,
     normals: bool,
+    serial: bool = False,
 ) -> None:
     """Shade a frame whose rays are not pixel centres (a lens's): pixel p (row-major, rows of
     ``width``) shows the winner the CPU raster found for ray ``ray_of[p]`` of ``inverse_z``
     and ``winner`` (-1: the pixel is left as it is), along its ray ``(x[p], y[p], 1)`` of ``rays``
-    (the frame of ``slots``' camera_from_model); as :func:`shade` does for pixel centres."""
-    _shade(
+    (the frame of ``slots``' camera_from_model); as :func:`shade` does for pixel centres.
+    ``serial``: on the calling thread alone."""
+    (_shade_serial if serial else _shade)(
         inverse_z,
         winner,
         mesh,

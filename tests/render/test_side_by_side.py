@@ -11,6 +11,7 @@ import genie_gl as gg
 from genie_gl.render import Renderer, shading
 from genie_gl.render.cpu import raster
 from genie_gl.render.cpu import renderer as cpu_renderer
+from tests.render.test_lens_rays import FISHEYE, TUTORIAL
 from tests.scenes import scene_of, sensor_640
 
 
@@ -108,3 +109,18 @@ def test_a_scene_of_one_instance_and_one_of_many_use_the_same_compiled_kernels(m
     assert sorted(first) == ["_raster", "_raster_serial", "_shade"]
     assert all(len(v) == 1 for v in first.values())
     assert types(many) == first
+
+
+def test_frames_through_a_lens_drawn_side_by_side_equal_frames_drawn_one_by_one():
+    """A lens's frames (each pixel's own ray, through one view or a fisheye's cube faces)
+    drawn side by side, one per thread, give the bytes of the frames drawn one by one."""
+    scene, poses = scene_of("100k")
+    poses = [poses[k % len(poses)] for k in range(4)]
+    for sensor in (TUTORIAL, FISHEYE):
+        with Renderer(scene, raster="cpu") as r:
+            alone = [r.render(sensor, p, depth_only=True) for p in poses]
+            side = list(r.frames(sensor, poses, depth_only=True))
+            assert len(r._side) == cpu_renderer.AHEAD * numba.get_num_threads()
+        assert all(same(a, b) for a, b in zip(alone, side))
+        assert all(f.meta["resample"] == "exact" for f in side)
+        assert (alone[0].instance > 0).mean() > 0.2

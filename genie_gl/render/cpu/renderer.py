@@ -95,7 +95,7 @@ class CPURenderer(Renderer, raster="cpu"):
         pose = check_pose(pose, "render pose")
         self._check_size(W, H)
         if not sensor.is_pinhole:
-            return self._lens_frame(sensor, pose, color, normals, only, t0)
+            return self._lens_frame(sensor, pose, color, normals, only, t0, rasteriser, serial)
         near = float(sensor.clip_near_m)
         out = frame_buffers(H, W, color, normals, triangles)
         seen = self._visible(pose, K, W, H, near, only)
@@ -201,6 +201,8 @@ class CPURenderer(Renderer, raster="cpu"):
         normals: bool,
         only: Collection[int] | None,
         t0: float,
+        rasteriser: Rasteriser,
+        serial: bool,
     ) -> tuple[Frame, dict]:
         """A distorted sensor's frame, each pixel's own ray drawn exactly: per pinhole view
         that holds some of the lens's rays (one for a lens one view can hold, cube faces for a
@@ -209,7 +211,8 @@ class CPURenderer(Renderer, raster="cpu"):
         then shaded along the same rays (:func:`~genie_gl.render.shading.shade_rays`). Depth
         is the camera's z; surfaces nearer than ``near_m`` or farther than ``far_m`` give no
         return; normals in the camera frame.
-        Returns the frame and its stats (drawn on every thread numba has).
+        Returns the frame and its stats, drawn by ``rasteriser`` on every thread numba has
+        or, with ``serial``, on this thread alone.
         """
         W, H = sensor.width, sensor.height
         out = frame_buffers(H, W, color, normals)
@@ -225,7 +228,7 @@ class CPURenderer(Renderer, raster="cpu"):
             np.zeros((1, 2), np.uint32),
         )
         drawn = faces = simplified = 0
-        r = self._rasteriser
+        r = rasteriser
         colours = self._colour if len(self._mesh) else np.zeros((1, 3), np.uint8)
         face_vbase = r.face_vbase(self._vbase, self._fbase, self._nfaces)
         near = float(sensor.clip_near_m)
@@ -254,6 +257,7 @@ class CPURenderer(Renderer, raster="cpu"):
                     seen.planes,
                     self.cull,
                     samples=ls.samples,
+                    serial=serial,
                 )
                 cfm = seen.camera_from_model
                 face0 = np.zeros(len(self._mesh), np.int64)
@@ -276,6 +280,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 arrays,
                 color,
                 normals,
+                serial,
             )
             if normals and ls.z_scale is not None:  # the view's frame to the camera's
                 nv = arrays.normal[ls.pixel]
@@ -304,7 +309,8 @@ class CPURenderer(Renderer, raster="cpu"):
         triangles: bool,
     ) -> Iterator[Frame]:
         """The frames in order. Frames of depth and ids alone, two or more, with two or more
-        threads for numba (:func:`numba.get_num_threads`): drawn side by side, one frame per
+        threads for numba (:func:`numba.get_num_threads`), a pinhole's or a lens's (its
+        rays drawn by :meth:`_lens_frame`): drawn side by side, one frame per
         thread, each on its thread alone with a rasteriser of its own, while the caller takes
         the frames before them: a light frame leaves most of its strips' threads idle, and
         each frame is the same whichever thread draws it (:mod:`.raster`). Up to
@@ -325,7 +331,6 @@ class CPURenderer(Renderer, raster="cpu"):
             or threads < 2
             or len(head) < 2
             or sensor.width * sensor.height < 2  # (shaded after drawing, on every thread)
-            or not sensor.is_pinhole
         ):
             for k, pose in enumerate(chain(head, poses)):
                 yield self._frame(
