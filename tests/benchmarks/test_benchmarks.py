@@ -86,10 +86,12 @@ def test_random_rays_time_both_casters_and_agree():
     assert r["ids_agree"] >= 0.99 and r["range_rel_p99"] <= 1e-4
 
 
-def test_lens_frame_times_both_sensors_through_capture():
-    r = lens_frame.run("100k", frames=1, rounds=1)
+def test_lens_frame_times_both_sensors_through_capture_and_as_frames():
+    r = lens_frame.run("100k", frames=2, rounds=1)
     assert r["pinhole_ms"] > 0 and r["lens_ms"] > 0
     assert r["ratio"] == pytest.approx(r["lens_ms"] / r["pinhole_ms"])
+    assert r["pinhole_frames_ms"] > 0 and r["lens_frames_ms"] > 0
+    assert r["frames_ratio"] == pytest.approx(r["lens_frames_ms"] / r["pinhole_frames_ms"])
 
 
 @pytest.mark.gl
