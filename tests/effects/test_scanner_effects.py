@@ -137,8 +137,9 @@ def _combined_by_beam(sub, weight, s, fx):
         strongest = int(np.argmax(total))
         keep = {"strongest": [strongest], "last": [len(groups) - 1]}.get(
             s.returns,
-            sorted({len(groups) - 1}
-                   | ({int(np.argmax(total[:-1]))} if len(groups) > 1 else set())),
+            sorted(
+                {len(groups) - 1} | ({int(np.argmax(total[:-1]))} if len(groups) > 1 else set())
+            ),
         )
         for g in keep:
             rep = groups[g][int(np.argmax(st[g]))]
@@ -160,9 +161,7 @@ def test_footprints_of_many_beams_combine_as_written_out(vlp16, mode):
         beam += [b] * k
         ranges += list(walls[rng.integers(0, 3, k)] + rng.choice([0.0, 0.01], k))
         weight += list(w_all[np.sort(rng.choice(7, k, replace=False))])
-    sub = replace(
-        echoes(ranges, beam=beam), intensity=rng.uniform(0.1, 0.9, len(beam))
-    )
+    sub = replace(echoes(ranges, beam=beam), intensity=rng.uniform(0.1, 0.9, len(beam)))
     sub = replace(sub, instance=np.arange(1, len(beam) + 1, dtype=np.uint32))
     weight = np.asarray(weight)
     out = fx.combine(sub, weight, s)
