@@ -377,9 +377,10 @@ class Renderer(Visibility):
         i+1 is submitted (into a second set of targets): its unpacking and the caller's work
         on it run while frame i+1 rasterises. (A read waits for every frame submitted before
         it, so frame i is copied before frame i+1 is submitted; see docs/pipeline.md.) The
-        CPU raster draws frames of depth and ids alone side by side, one per thread, ahead
-        of the caller (:meth:`genie_gl.render.cpu.renderer.CPURenderer._frames`), any
-        other frame when it is asked for.
+        CPU raster draws frames of depth and ids alone (a pinhole's or a lens's) side by
+        side, one per thread, ahead of the caller
+        (:meth:`genie_gl.render.cpu.renderer.CPURenderer._frames`), any other frame when
+        it is asked for.
         ``only``: per pose, the ids to draw (None: all), as ``render(..., only=)``; ``triangles``
         as ``render(..., triangles=)``."""
         if not (sensor.is_pinhole or self.draws_lenses):
