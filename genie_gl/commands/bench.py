@@ -5,8 +5,8 @@ answers without importing the benchmark)."""
 from __future__ import annotations
 
 import argparse
-import os
 import importlib
+import os
 from collections.abc import Callable
 
 from . import announce_compilation, count, counts, names, positive, seed
