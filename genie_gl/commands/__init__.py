@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 
-from ..validation.options import count, counts, names, positive, seed  # noqa: F401  (the commands' option types)
+from ..validation.options import count, counts, names, positive, seed, seeds  # noqa: F401  (the commands' option types)
 
 
 def announce_compilation(command: str) -> None:

@@ -9,7 +9,7 @@ import importlib
 import os
 from collections.abc import Callable
 
-from . import announce_compilation, count, counts, names, positive, seed
+from . import announce_compilation, count, counts, names, positive, seed, seeds
 
 #: the scenes of ``genie bench render`` (genie_gl.bench.scenes.SIZES) and the tools it times
 RENDER_SCENES = ("100k", "1M", "10M", "hall", "generated")
@@ -232,11 +232,19 @@ def _lidar(p: argparse.ArgumentParser) -> None:
 def _deskew(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="assembly_line", help="layout strategy of the scene")
     p.add_argument(
-        "--duration-s", type=positive(3600), default=20.0, help="seconds of the fast walk"
+        "--duration-s", type=positive(3600), default=10.0, help="seconds of each fast walk"
     )
     p.add_argument("--max-range", type=positive(1e4), default=30.0, help="KISS-ICP's max range (m)")
     p.add_argument("--voxel-m", type=positive(100), default=0.1, help="KISS-ICP's map voxel (m)")
-    p.add_argument("--seed", type=seed, default=0)
+    p.add_argument(
+        "--turn-deg-s", type=positive(720), default=60.0, help="the walk's fastest turn (deg/s)"
+    )
+    p.add_argument(
+        "--seeds",
+        type=seeds,
+        default="0,1,2,3",
+        help="one walk, in its own scene, per seed",
+    )
 
 
 def _lidarmap(p: argparse.ArgumentParser) -> None:
@@ -324,8 +332,8 @@ BENCHMARKS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], tupl
         ("lidar.json",),
     ),
     "deskew": (
-        "a VLP-16's raw scans of a fast walk through KISS-ICP with deskew on, off and time "
-        "shuffled (evo ATE)",
+        "a VLP-16's raw scans of fast walks through KISS-ICP with deskew on, off, time "
+        "shuffled and by the true poses (evo ATE)",
         _deskew,
         ("deskew.json",),
     ),

@@ -68,6 +68,8 @@ def names(known):
 # : argparse type of a seed: a whole number in 0..2**63-1, as
 # :func:`genie_gl.validation.arguments.check_seed`
 seed = count(0, MAX_SEED)
+# : argparse type of comma-separated seeds (``0,1,2``) -> list of int
+seeds = counts(0, MAX_SEED)
 
 
 def positive(hi: float = 1e6):
