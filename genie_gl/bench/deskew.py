@@ -18,10 +18,12 @@ shows what the time field buys, seed by seed and as the mean and range over the 
 also checks, without KISS-ICP, that the raw points moved by the true pose at their own times
 lie on the scene's surfaces (the distance to the exact hit, max over every point).
 
-The walk turns at ``--turn-deg-s`` at most (60 deg/s by default, a person's brisk turn): the
-turn starts at its full rate (the path's arcs are circles), and from about 90 deg/s a scan's
-motion (9 deg and more) outruns KISS-ICP's constant-velocity guess at a turn's start, so it
-loses the path whatever the time field says.
+The walk turns at ``--turn-deg-s`` at most (60 deg/s by default, a person's brisk turn),
+each turn's rate built up and let go over ``--turn-ease-s`` (0.4 s by default: a person
+leans into a turn; 0: at full rate at once, where a straight leg meets an arc). KISS-ICP
+deskews a scan by the motion of the scan before it, so a turn that starts at once is
+deskewed as if straight: 6 deg of a scan wrong at 60 deg/s, and from about 90 deg/s its
+registration loses the path at a turn's start whatever the time field says.
 
 Needs ``pip install 'genie-gl[bench]'`` (kiss-icp, evo).
 """
@@ -49,13 +51,15 @@ SPEED_MPS = 1.8  # a brisk walk: the skew of one 10 Hz scan is 18 cm (and 6 deg 
 MODES = ("deskew on", "deskew off", "time shuffled", "true poses")
 
 
-def fast_walk(turn_deg_s: float) -> Motion:
-    """The walk's motion: 1.8 m/s, turning at ``turn_deg_s`` at most."""
+def fast_walk(turn_deg_s: float, turn_ease_s: float = 0.0) -> Motion:
+    """The walk's motion: 1.8 m/s, turning at ``turn_deg_s`` at most, its turns eased over
+    ``turn_ease_s`` (:class:`~genie_gl.motion.follow.Motion`)."""
     return Motion(
         speed_mps=SPEED_MPS,
         height_m=1.7,
         max_yaw_rate_rad_s=float(np.radians(turn_deg_s)),
         max_accel_mps2=1.5,
+        turn_ease_s=turn_ease_s,
     )
 
 
@@ -142,7 +146,7 @@ def one_walk(args: argparse.Namespace, seed: int) -> dict:
         scene,
         "random",
         seed=seed,
-        motion=fast_walk(args.turn_deg_s),
+        motion=fast_walk(args.turn_deg_s, args.turn_ease_s),
         duration_s=args.duration_s,
     )
     head = replace(load_scanner("velodyne_vlp16"), effects=())
@@ -221,7 +225,11 @@ def run(args: argparse.Namespace) -> int:
     result = {
         "strategy": args.strategy,
         "seeds": list(args.seeds),
-        "motion": {"speed_mps": SPEED_MPS, "max_yaw_rate_deg_s": args.turn_deg_s},
+        "motion": {
+            "speed_mps": SPEED_MPS,
+            "max_yaw_rate_deg_s": args.turn_deg_s,
+            "turn_ease_s": args.turn_ease_s,
+        },
         "duration_s": args.duration_s,
         "max_range_m": args.max_range,
         "voxel_m": args.voxel_m,

@@ -240,6 +240,12 @@ def _deskew(p: argparse.ArgumentParser) -> None:
         "--turn-deg-s", type=positive(720), default=60.0, help="the walk's fastest turn (deg/s)"
     )
     p.add_argument(
+        "--turn-ease-s",
+        type=positive(10.0, zero=True),
+        default=0.4,
+        help="seconds over which a turn's rate builds up and dies away (0: at once)",
+    )
+    p.add_argument(
         "--seeds",
         type=seeds,
         default="0,1,2,3",

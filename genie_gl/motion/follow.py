@@ -9,10 +9,14 @@
    are short or the arc would leave the free floor; the speed drops on a tighter arc so the
    turning rate holds); a corner no arc fits is turned on the spot;
 3. limit the speed by the arcs and by ``max_accel`` (from rest at the start, to rest at the
-   end), and integrate the time, no step faster in yaw than ``max_yaw_rate``.
+   end), and integrate the time, no step faster in yaw than ``max_yaw_rate``;
+4. with ``turn_ease_s``, ease the turns: the body's yaw is the path's averaged over that
+   long a window of time around each moment, so a turn's rate builds up and dies away over
+   ``turn_ease_s`` (the angular acceleration at most ``2 max_yaw_rate / turn_ease_s``)
+   instead of starting at full rate where a straight leg meets an arc.
 
-The body is level, facing where it goes (its x axis along the path), its origin
-``height_m`` above the floor.
+The body is level, facing where it goes (its x axis along the path; with eased turns, where
+it goes averaged over the window), its origin ``height_m`` above the floor.
 """
 
 from __future__ import annotations
@@ -33,7 +37,9 @@ PIVOT_DEG = 150.0  # a corner turning more than this is turned on the spot (a U-
 class Motion:
     """How the body moves: cruising speed (m/s), height of the body's origin above the floor
     (m), the fastest turn (rad/s), the largest acceleration (m/s²), its radius (m, the
-    clearance kept from every asset), and the spacing of the samples along the path (m)."""
+    clearance kept from every asset), the spacing of the samples along the path (m), and the
+    time over which a turn's rate builds up and dies away (s; 0: at once, where a straight
+    leg meets an arc)."""
 
     speed_mps: float = 1.0
     height_m: float = 1.7
@@ -41,11 +47,18 @@ class Motion:
     max_accel_mps2: float = 0.5
     body_radius_m: float = 0.35
     sample_m: float = 0.05
+    turn_ease_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name, v in asdict(self).items():
-            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
-                raise ConfigError(f"motion: {name} must be a number > 0, got {v!r}")
+            least = 0.0 if name == "turn_ease_s" else None
+            if not (
+                isinstance(v, (int, float))
+                and np.isfinite(v)
+                and (v > 0 if least is None else v >= least)
+            ):
+                expected = "a number >= 0" if least is not None else "a number > 0"
+                raise ConfigError(f"motion: {name} must be {expected}, got {v!r}")
 
 
 # [U: engineering figures] a person carrying a mobile scanner walks about 1 m/s and turns
@@ -111,6 +124,28 @@ def _arc_fits(floor: FreeFloor, corner, d_in, d_out, r, turn, tangent) -> np.nda
     if not floor.is_free(pts).all():
         return None
     return np.column_stack([pts, yaw])
+
+
+def eased(times: np.ndarray, yaw: np.ndarray, window_s: float) -> np.ndarray:
+    """(n,) ``yaw`` at ``times`` ((n,) increasing), each averaged over the ``window_s`` around
+    its time: the exact mean of the piecewise linear yaw, held at its first and last value
+    beyond the ends."""
+    t, y = np.asarray(times, np.float64), np.asarray(yaw, np.float64)
+    if len(t) < 2:
+        return y.copy()
+    dt = np.diff(t)
+    # the integral of the yaw from t[0] at each sample
+    area = np.r_[0.0, np.cumsum(0.5 * (y[1:] + y[:-1]) * dt)]
+
+    def integral(q: np.ndarray) -> np.ndarray:
+        i = np.clip(np.searchsorted(t, q, side="right") - 1, 0, len(t) - 2)
+        u = np.clip(q, t[0], t[-1]) - t[i]
+        slope = (y[i + 1] - y[i]) / dt[i]
+        inner = area[i] + y[i] * u + 0.5 * slope * u * u
+        return inner + y[0] * np.minimum(q - t[0], 0.0) + y[-1] * np.maximum(q - t[-1], 0.0)
+
+    h = 0.5 * window_s
+    return (integral(t + h) - integral(t - h)) / window_s
 
 
 def follow(
@@ -205,15 +240,19 @@ def follow(
         )
     times = np.r_[0.0, np.cumsum(dt)]
     keep = np.r_[True, dt > 0]
+    yaw = yaw[keep]
+    if motion.turn_ease_s > 0:
+        yaw = eased(times[keep], yaw, motion.turn_ease_s)
     info = {
         "speed_mps": motion.speed_mps,
         "height_m": motion.height_m,
         "max_yaw_rate_rad_s": motion.max_yaw_rate_rad_s,
         "max_accel_mps2": motion.max_accel_mps2,
         "body_radius_m": motion.body_radius_m,
+        **({"turn_ease_s": motion.turn_ease_s} if motion.turn_ease_s > 0 else {}),
         "length_m": float(ds.sum()),
         "corners": len(corners),
     }
     return Trajectory(
-        times[keep], planar_poses(xy[keep], yaw[keep], motion.height_m), {**(meta or {}), **info}
+        times[keep], planar_poses(xy[keep], yaw, motion.height_m), {**(meta or {}), **info}
     )

@@ -72,12 +72,12 @@ seed = count(0, MAX_SEED)
 seeds = counts(0, MAX_SEED)
 
 
-def positive(hi: float = 1e6):
-    """argparse type of a finite number in (0, hi] (the words of
+def positive(hi: float = 1e6, *, zero: bool = False):
+    """argparse type of a finite number in (0, hi] (with ``zero``: [0, hi]; the words of
     :func:`genie_gl.validation.arguments.finite_number`)."""
 
     def parse(text: str) -> float:
-        why = number_problem(_number(text), 0.0, hi, lo_open=True)
+        why = number_problem(_number(text), 0.0, hi, lo_open=not zero)
         if why:
             raise argparse.ArgumentTypeError(why)
         return float(text)

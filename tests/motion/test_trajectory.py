@@ -4,6 +4,7 @@ can take, the same seed the same trajectory, one-line errors for bad waypoints."
 
 import functools
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -146,6 +147,45 @@ def test_the_speed_changes_no_faster_than_the_acceleration_allows():
     accel = np.abs(np.diff(v[moving])) / np.diff(t[moving])
     assert accel.max() <= m.max_accel_mps2 * 1.05  # between step midpoints: a mean of the true one
     assert tr.speeds()[0] < 0.2 and tr.speeds()[-1] < 0.2  # from rest, to rest
+
+
+def _yaw(tr):
+    return np.unwrap(np.arctan2(tr.world_from_body[:, 1, 0], tr.world_from_body[:, 0, 0]))
+
+
+def _worst_angular_acceleration(tr):
+    w, t = tr.yaw_rates(), 0.5 * (tr.times_s[1:] + tr.times_s[:-1])
+    return float(np.max(np.abs(np.diff(w)) / np.diff(t)))
+
+
+def test_eased_turns_build_up_their_rate_and_leave_the_path_where_it_was():
+    """With ``turn_ease_s`` the body keeps its positions and times, never turns faster than
+    its fastest turn, and its angular acceleration stays under 2 max_yaw_rate / turn_ease_s,
+    where turns that start at once jump to full rate within a sample; without it, the
+    trajectory is the one it always was."""
+    layout, scene = hall("storage_area", 0)
+    m = MOTIONS["person"]
+    at_once = make_trajectory(layout, scene, "random", seed=3, length_m=40.0)
+    ease = 0.4
+    eased = make_trajectory(
+        layout, scene, "random", seed=3, length_m=40.0, motion=replace(m, turn_ease_s=ease)
+    )
+    np.testing.assert_array_equal(eased.times_s, at_once.times_s)
+    np.testing.assert_array_equal(eased.positions, at_once.positions)
+    assert np.abs(eased.yaw_rates()).max() <= m.max_yaw_rate_rad_s * (1 + 1e-9)
+
+    bound = 2 * m.max_yaw_rate_rad_s / ease
+    assert _worst_angular_acceleration(eased) <= bound * 1.05  # step means, as for the speed
+    assert _worst_angular_acceleration(at_once) > 5 * bound
+    # the yaw eased is the mean of the yaw over the window: a whole turn is still turned
+    assert abs(_yaw(eased)[-1] - _yaw(at_once)[-1]) < 1e-9
+    assert eased.meta["turn_ease_s"] == ease and "turn_ease_s" not in at_once.meta
+
+
+@pytest.mark.parametrize("ease", [-0.1, float("nan"), float("inf")])
+def test_a_turn_ease_that_is_not_a_time_is_refused(ease):
+    with pytest.raises(ConfigError, match="turn_ease_s must be a number >= 0"):
+        replace(MOTIONS["person"], turn_ease_s=ease)
 
 
 def test_the_same_seed_gives_the_same_trajectory_and_another_seed_another():
