@@ -412,8 +412,8 @@ def test_a_missing_optional_package_is_one_line_naming_its_install(tmp_path, mon
     extra, never an ImportError's traceback."""
     import sys
 
-    monkeypatch.setitem(
-        sys.modules, "kiss_icp", None
-    )  # import kiss_icp now fails as if not installed
+    # import kiss_icp (and any of its modules another test imported) now fails as if not installed
+    for name in ["kiss_icp", *(m for m in sys.modules if m.startswith("kiss_icp."))]:
+        monkeypatch.setitem(sys.modules, name, None)
     run = cli("bench", "odometry", "--duration-s", "1", "--out", tmp_path / "o")
     refused(run, "needs the Python package 'kiss_icp'", "pip install 'genie-gl[bench]'")
