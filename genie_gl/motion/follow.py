@@ -51,14 +51,11 @@ class Motion:
 
     def __post_init__(self) -> None:
         for name, v in asdict(self).items():
-            least = 0.0 if name == "turn_ease_s" else None
-            if not (
-                isinstance(v, (int, float))
-                and np.isfinite(v)
-                and (v > 0 if least is None else v >= least)
-            ):
-                expected = "a number >= 0" if least is not None else "a number > 0"
-                raise ConfigError(f"motion: {name} must be {expected}, got {v!r}")
+            zero = name == "turn_ease_s"  # 0: turns at once; every other figure > 0
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and (v >= 0 if zero else v > 0)):
+                raise ConfigError(
+                    f"motion: {name} must be a number {'>= 0' if zero else '> 0'}, got {v!r}"
+                )
 
 
 # [U: engineering figures] a person carrying a mobile scanner walks about 1 m/s and turns
