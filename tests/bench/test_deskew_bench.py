@@ -16,9 +16,6 @@ from genie_gl.motion.paths import make_trajectory
 from genie_gl.motion.scanner_rig import ScannerRig
 from genie_gl.scene import build_scene
 
-pytest.importorskip("kiss_icp")
-pytest.importorskip("evo")
-
 
 def test_a_perfect_deskew_puts_each_scan_in_the_heads_frame_at_its_end():
     """Moved by the head's true pose at the scan's end, the ``true poses`` points are the
