@@ -24,7 +24,7 @@ each turn's rate built up and let go over ``--turn-ease-s`` (0.4 s by default, a
 engineering figure for a person leaning into a turn; 0: at full rate at once, where a
 straight leg meets an arc). KISS-ICP
 deskews a scan by the motion of the scan before it, so a turn that starts at once is
-deskewed as if straight: 6 deg of a scan wrong at 60 deg/s, and from about 90 deg/s its
+deskewed as if straight: up to 6 deg of a scan wrong at 60 deg/s, and from about 90 deg/s its
 registration loses the path at a turn's start whatever the time field says; eased over
 0.4 s, 120 deg/s turns are followed (docs/lidar.md).
 
