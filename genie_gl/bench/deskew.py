@@ -10,7 +10,7 @@ them) go through the KISS-ICP odometry pipeline four times:
 - ``time shuffled``: deskewing on, the time field permuted within each scan;
 - ``true poses``: each raw point moved by the head's true pose at its own time into the
   head's frame at the scan's end, deskewing off: what a perfect deskew gives, so KISS-ICP's
-  own error (its drift where the scene constrains it weakly) is told apart from the skew's.
+  own error (its drift in the scene) is told apart from the skew's.
 
 evo's absolute trajectory error (translation RMSE, the two trajectories starting together)
 and relative pose error from one scan to the next (translation and rotation RMSE), against
