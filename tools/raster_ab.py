@@ -6,6 +6,7 @@ pose, the order flipping each round; a pose's time is its least over the rounds 
 time with one thread, wall time with more), and the ratio is of the sums.
 
     python tools/raster_ab.py 1M 2 5 HEAD~1      # scene, threads, rounds, revision
+    python tools/raster_ab.py dataset 1 5        # a dataset scene and its 40 cameras
 """
 
 import subprocess
@@ -17,11 +18,14 @@ from pathlib import Path
 import numba
 import numpy as np
 
+import genie_gl as gg
+
 from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
 from genie_gl.render import Renderer
 from genie_gl.render.cpu import raster
 from kernel_source import joined, load
+from raster_profile import dataset_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -58,9 +62,13 @@ def main() -> None:
     rev = sys.argv[4] if len(sys.argv) > 4 else "HEAD"
     numba.set_num_threads(threads)
     clock = time.process_time if threads == 1 else time.perf_counter
-    spec = bench_spec(size)
-    poses, sensor = spec.poses, sensor_640()
-    r = Renderer(to_scene(spec), raster="cpu")
+    if size == "dataset":
+        scene, poses = dataset_scene()
+        sensor = gg.load_sensor("ideal_pinhole")
+    else:
+        spec = bench_spec(size)
+        scene, poses, sensor = to_scene(spec), spec.poses, sensor_640()
+    r = Renderer(scene, raster="cpu")
     own = raster._raster
     with tempfile.TemporaryDirectory() as tmp:
         kernels = {

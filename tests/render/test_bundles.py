@@ -276,3 +276,51 @@ def test_an_empty_bundle_and_an_empty_scene():
     assert len(cast_bundle(box, Rays(np.zeros(3), np.zeros((0, 3)))).distance) == 0
     h = cast_bundle(gg.Scene(), Rays(np.zeros(3), [[1.0, 0, 0], [0, 0, -1.0]]))
     assert not h.hit.any() and (h.face == -1).all() and (h.distance == 0).all()
+
+
+def test_the_binned_azimuth_is_within_its_bound_of_the_arctangent():
+    """The polynomial azimuth a ray is binned by lies within ``AZ_ERR`` of atan2 on every
+    octant, the axes, the diagonals and both sides of the seam, and is 0 at (0, 0)."""
+    rng = np.random.default_rng(7)
+    t = np.concatenate(
+        [rng.uniform(-np.pi, np.pi, 200_000), np.arange(-8, 9) * np.pi / 4, [np.pi - 1e-12]]
+    )
+    r = rng.uniform(1e-3, 1e3, len(t))
+    x, y = r * np.cos(t), r * np.sin(t)
+    got = np.array([bundles.azimuth(b, a) for a, b in zip(x, y)])
+    err = np.abs(got - np.arctan2(y, x))
+    err = np.minimum(err, 2 * np.pi - err)  # +-pi: the same direction
+    assert err.max() <= bundles.AZ_ERR and err.max() > 1e-6  # a bound that is needed
+    assert bundles.azimuth(0.0, 0.0) == 0.0
+
+
+def test_a_ray_binned_across_a_column_edge_still_meets_its_triangle():
+    """A sliver 7 urad wide ending 1 urad short of a column's edge, where the polynomial
+    azimuth runs most ahead of the arctangent: rays aimed at its middle are binned in the
+    next column, and still hit it (the clusters' spans are widened by the azimuth's bound;
+    without that they miss)."""
+    # a VLP-16-like band of rays: the grid they make, and its column edges
+    az = np.linspace(-np.pi, np.pi, 1800, endpoint=False)
+    el = np.radians(np.linspace(-15, 15, 16))
+    _, d = _panorama([0.0, 0.0, 0.0], az, el)
+    k = 64  # rays aimed at the sliver, at elevation 0 (inside the band: the grid is the same)
+    lo, hi, n_el, n_az = bundles.grid_for(np.concatenate([d, np.tile([1.0, 0, 0], (k, 1))]))
+    edges = -np.pi + 2 * np.pi * np.arange(1, n_az) / n_az
+    aim = edges - 4e-6
+    ahead = np.array([bundles.azimuth(np.sin(a), np.cos(a)) for a in aim]) - aim
+    j = int(np.argmax(ahead))
+    assert ahead[j] > 5e-6  # binned past the edge, in the next column
+    a0, a1 = edges[j] - 8e-6, edges[j] - 1e-6
+    r = 5.0
+    sliver = np.array(
+        [[r * np.cos(a0), r * np.sin(a0), -0.5], [r * np.cos(a1), r * np.sin(a1), -0.5],
+         [r * np.cos(0.5 * (a0 + a1)), r * np.sin(0.5 * (a0 + a1)), 0.5]]
+    )  # fmt: skip
+    scene = gg.Scene()
+    scene.add(gg.Mesh(sliver, np.array([[0, 1, 2]])), np.eye(4))
+    aimed = np.tile([np.cos(aim[j]), np.sin(aim[j]), 0.0], (k, 1))
+    aimed[:, 2] = np.linspace(-0.05, 0.05, k)  # within the sliver's middle
+    dirs = np.concatenate([d, aimed])
+    h = cast_bundle(scene, Rays(np.zeros(3), dirs))
+    _same(h, cast_rays(scene, np.zeros(3), dirs))
+    assert h.hit[-k:].all()
