@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba.cpython.unsafe.numbers import trailing_zeros as lowest_bit  # of an int64 != 0
 
@@ -55,7 +56,6 @@ SLACK = 1e-9  # radians added to every angular bound, and relative slack on leng
 AZ_ERR = 2e-5
 RAYS_PER_CELL = 16  # the grid is sized for about this many rays per cell
 MAX_CELLS = 1 << 22  # cells at most
-SPREAD = 1_000_003  # a prime above any count of blocks: j -> j * SPREAD mod blocks permutes them
 PACKET = 32  # rays of a cell walked together (a bit each in an int64 mask: at most 63)
 CLUSTER = 256  # a cluster: a subtree of the hierarchy of at most this many triangles (the least)
 RAYS_PER_CLUSTER = 16  # a bundle's clusters are sized for about one per this many rays
@@ -265,6 +265,7 @@ def cast_packets(
     count,
     out_t,
     out_tri,
+    threads,
 ):  # pragma: no cover - compiled
     """Every ray's nearest hit among the clusters of its cell into ``out_t`` (inf: none) and
     ``out_tri`` (the triangle's number in the joined arrays, -1: none); ties to the lower
@@ -277,13 +278,14 @@ def cast_packets(
     until one lies beyond every ray's nearest hit. Each ray meets every triangle of every
     box it enters before its nearest hit, and the least (distance, number) of the triangles
     met wins, so the answer does not depend on the packets, the order or the grid. Cells go
-    to the threads in blocks of 16, the blocks scattered (:data:`SPREAD`): the threads take
-    even shares of the loop, and rows of the grid differ in work (a head's rays to the
-    floor end at once, its rays to the horizon walk far), so each share holds every row."""
+    in blocks of 16, share t of ``threads`` (numba's threads) taking blocks t, t + threads,
+    t + 2 threads, ... in the grid's order: the shares interleave, so each holds every row
+    (rows of the grid differ in work: a head's rays to the floor end at once, its rays to
+    the horizon walk far), and a thread's next block lies next to its last, whose clusters
+    it mostly walks again while they are still in the caches."""
     cells = len(ray_start) - 1
     blocks = (cells + 15) // 16
-    for j in prange(blocks):
-        bl = (j * SPREAD) % blocks  # blocks scattered over the threads: rows differ in work
+    for th in prange(threads):
         rid = np.empty(PACKET, np.int64)
         org = np.empty((PACKET, 3))
         oks = np.empty((PACKET, 3))
@@ -297,127 +299,128 @@ def cast_packets(
         stack = np.empty(STACK, np.int64)
         stack_m = np.empty(STACK, np.int64)
         stack_t = np.empty(STACK)
-        for k in range(bl * 16, min(cells, bl * 16 + 16)):
-            for p0 in range(ray_start[k], ray_start[k + 1], PACKET):
-                n = min(PACKET, ray_start[k + 1] - p0)
-                for q in range(n):
-                    r = ray_order[p0 + q]
-                    rid[q] = r
-                    o = origins[0 if one_origin else r]
-                    dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
-                    kx, ky, kz, sx, sy, sz = shear(dx, dy, dz)
-                    org[q, 0], org[q, 1], org[q, 2] = o[0], o[1], o[2]
-                    oks[q, 0], oks[q, 1], oks[q, 2] = o[kx], o[ky], o[kz]
-                    axes[q, 0], axes[q, 1], axes[q, 2] = kx, ky, kz
-                    shr[q, 0], shr[q, 1], shr[q, 2] = sx, sy, sz
-                    flat[q, 0], flat[q, 1], flat[q, 2] = dx == 0.0, dy == 0.0, dz == 0.0
-                    inv[q, 0] = 1.0 / dx if dx != 0.0 else 0.0
-                    inv[q, 1] = 1.0 / dy if dy != 0.0 else 0.0
-                    inv[q, 2] = 1.0 / dz if dz != 0.0 else 0.0
-                    best[q], who[q] = np.inf, -1
-                # runs of rays from one origin with one major axis (a static head's packet is
-                # one run; a footprint's sub-rays are one): a triangle's corners less the
-                # origin, on the run's axes, are computed once per run
-                runs = 0
-                for q in range(n):
-                    if q == 0 or not (
-                        axes[q, 0] == axes[q - 1, 0] and axes[q, 2] == axes[q - 1, 2]
-                        and org[q, 0] == org[q - 1, 0] and org[q, 1] == org[q - 1, 1]
-                        and org[q, 2] == org[q - 1, 2]
-                    ):  # fmt: skip
-                        run[runs] = q
-                        runs += 1
-                run[runs] = n
-                worst = np.inf  # the farthest nearest hit of the packet's rays
-                for i in range(cl_start[k], cl_start[k + 1]):
-                    if cl_near[i] > worst:
-                        break
-                    root = cl_node[i]
-                    m = 0
-                    t_min = np.inf
+        for bl in range(th, blocks, threads):  # the threads' blocks interleaved, in grid order
+            for k in range(bl * 16, min(cells, bl * 16 + 16)):
+                for p0 in range(ray_start[k], ray_start[k + 1], PACKET):
+                    n = min(PACKET, ray_start[k + 1] - p0)
                     for q in range(n):
-                        t = _slab(
-                            boxes, root, org[q, 0], org[q, 1], org[q, 2], inv[q, 0], inv[q, 1],
-                            inv[q, 2], flat[q, 0], flat[q, 1], flat[q, 2], best[q] * TIE,
-                        )  # fmt: skip
-                        if t < np.inf:
-                            m |= 1 << q
-                            t_min = min(t_min, t)
-                    if m == 0:
-                        continue
-                    top = 1
-                    stack[0], stack_m[0], stack_t[0] = root, m, t_min
-                    while top > 0:
-                        top -= 1
-                        node, m = stack[top], stack_m[top]
-                        if right[node] < 0:
-                            far = 0.0
-                            mm = m
-                            while mm:
-                                q = lowest_bit(mm)
-                                mm &= mm - 1
-                                far = max(far, best[q])
-                            if stack_t[top] > far * TIE:
-                                continue
-                            for t in range(start[node], start[node] + count[node]):
-                                for g in range(runs):
-                                    q0, q1 = run[g], run[g + 1]
-                                    mm = m & (((1 << (q1 - q0)) - 1) << q0)  # the run's rays
-                                    if mm == 0:
-                                        continue
-                                    # what the run's rays share of the triangle, once
-                                    kx, ky, kz = axes[q0, 0], axes[q0, 1], axes[q0, 2]
-                                    ox, oy, oz = oks[q0, 0], oks[q0, 1], oks[q0, 2]
-                                    ax, ay = corners[t, kx] - ox, corners[t, ky] - oy
-                                    az = corners[t, kz] - oz
-                                    bx, by = corners[t, 3 + kx] - ox, corners[t, 3 + ky] - oy
-                                    bz = corners[t, 3 + kz] - oz
-                                    cx, cy = corners[t, 6 + kx] - ox, corners[t, 6 + ky] - oy
-                                    cz = corners[t, 6 + kz] - oz
-                                    while mm:
-                                        q = lowest_bit(mm)
-                                        mm &= mm - 1
-                                        h = hit_relative(
-                                            ax, ay, az, bx, by, bz, cx, cy, cz, shr[q, 0],
-                                            shr[q, 1], shr[q, 2],
-                                        )  # fmt: skip
-                                        if h < best[q] or (
-                                            h == best[q] and h < np.inf and rank[t] < who[q]
-                                        ):
-                                            best[q], who[q] = h, rank[t]
+                        r = ray_order[p0 + q]
+                        rid[q] = r
+                        o = origins[0 if one_origin else r]
+                        dx, dy, dz = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+                        kx, ky, kz, sx, sy, sz = shear(dx, dy, dz)
+                        org[q, 0], org[q, 1], org[q, 2] = o[0], o[1], o[2]
+                        oks[q, 0], oks[q, 1], oks[q, 2] = o[kx], o[ky], o[kz]
+                        axes[q, 0], axes[q, 1], axes[q, 2] = kx, ky, kz
+                        shr[q, 0], shr[q, 1], shr[q, 2] = sx, sy, sz
+                        flat[q, 0], flat[q, 1], flat[q, 2] = dx == 0.0, dy == 0.0, dz == 0.0
+                        inv[q, 0] = 1.0 / dx if dx != 0.0 else 0.0
+                        inv[q, 1] = 1.0 / dy if dy != 0.0 else 0.0
+                        inv[q, 2] = 1.0 / dz if dz != 0.0 else 0.0
+                        best[q], who[q] = np.inf, -1
+                    # runs of rays from one origin with one major axis (a static head's packet is
+                    # one run; a footprint's sub-rays are one): a triangle's corners less the
+                    # origin, on the run's axes, are computed once per run
+                    runs = 0
+                    for q in range(n):
+                        if q == 0 or not (
+                            axes[q, 0] == axes[q - 1, 0] and axes[q, 2] == axes[q - 1, 2]
+                            and org[q, 0] == org[q - 1, 0] and org[q, 1] == org[q - 1, 1]
+                            and org[q, 2] == org[q - 1, 2]
+                        ):  # fmt: skip
+                            run[runs] = q
+                            runs += 1
+                    run[runs] = n
+                    worst = np.inf  # the farthest nearest hit of the packet's rays
+                    for i in range(cl_start[k], cl_start[k + 1]):
+                        if cl_near[i] > worst:
+                            break
+                        root = cl_node[i]
+                        m = 0
+                        t_min = np.inf
+                        for q in range(n):
+                            t = _slab(
+                                boxes, root, org[q, 0], org[q, 1], org[q, 2], inv[q, 0], inv[q, 1],
+                                inv[q, 2], flat[q, 0], flat[q, 1], flat[q, 2], best[q] * TIE,
+                            )  # fmt: skip
+                            if t < np.inf:
+                                m |= 1 << q
+                                t_min = min(t_min, t)
+                        if m == 0:
                             continue
-                        a, b = node + 1, right[node]
-                        ma, mb = 0, 0
-                        ta, tb = np.inf, np.inf
-                        while m:
-                            q = lowest_bit(m)
-                            m &= m - 1
-                            ox, oy, oz = org[q, 0], org[q, 1], org[q, 2]
-                            ix, iy, iz = inv[q, 0], inv[q, 1], inv[q, 2]
-                            fx, fy, fz = flat[q, 0], flat[q, 1], flat[q, 2]
-                            tf = best[q] * TIE
-                            t = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
-                            if t < np.inf:
-                                ma |= 1 << q
-                                ta = min(ta, t)
-                            t = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
-                            if t < np.inf:
-                                mb |= 1 << q
-                                tb = min(tb, t)
-                        if ta > tb:
-                            a, b, ta, tb, ma, mb = b, a, tb, ta, mb, ma
-                        if mb:
-                            stack[top], stack_m[top], stack_t[top] = b, mb, tb
-                            top += 1
-                        if ma:
-                            stack[top], stack_m[top], stack_t[top] = a, ma, ta
-                            top += 1
-                    worst = 0.0
+                        top = 1
+                        stack[0], stack_m[0], stack_t[0] = root, m, t_min
+                        while top > 0:
+                            top -= 1
+                            node, m = stack[top], stack_m[top]
+                            if right[node] < 0:
+                                far = 0.0
+                                mm = m
+                                while mm:
+                                    q = lowest_bit(mm)
+                                    mm &= mm - 1
+                                    far = max(far, best[q])
+                                if stack_t[top] > far * TIE:
+                                    continue
+                                for t in range(start[node], start[node] + count[node]):
+                                    for g in range(runs):
+                                        q0, q1 = run[g], run[g + 1]
+                                        mm = m & (((1 << (q1 - q0)) - 1) << q0)  # the run's rays
+                                        if mm == 0:
+                                            continue
+                                        # what the run's rays share of the triangle, once
+                                        kx, ky, kz = axes[q0, 0], axes[q0, 1], axes[q0, 2]
+                                        ox, oy, oz = oks[q0, 0], oks[q0, 1], oks[q0, 2]
+                                        ax, ay = corners[t, kx] - ox, corners[t, ky] - oy
+                                        az = corners[t, kz] - oz
+                                        bx, by = corners[t, 3 + kx] - ox, corners[t, 3 + ky] - oy
+                                        bz = corners[t, 3 + kz] - oz
+                                        cx, cy = corners[t, 6 + kx] - ox, corners[t, 6 + ky] - oy
+                                        cz = corners[t, 6 + kz] - oz
+                                        while mm:
+                                            q = lowest_bit(mm)
+                                            mm &= mm - 1
+                                            h = hit_relative(
+                                                ax, ay, az, bx, by, bz, cx, cy, cz, shr[q, 0],
+                                                shr[q, 1], shr[q, 2],
+                                            )  # fmt: skip
+                                            if h < best[q] or (
+                                                h == best[q] and h < np.inf and rank[t] < who[q]
+                                            ):
+                                                best[q], who[q] = h, rank[t]
+                                continue
+                            a, b = node + 1, right[node]
+                            ma, mb = 0, 0
+                            ta, tb = np.inf, np.inf
+                            while m:
+                                q = lowest_bit(m)
+                                m &= m - 1
+                                ox, oy, oz = org[q, 0], org[q, 1], org[q, 2]
+                                ix, iy, iz = inv[q, 0], inv[q, 1], inv[q, 2]
+                                fx, fy, fz = flat[q, 0], flat[q, 1], flat[q, 2]
+                                tf = best[q] * TIE
+                                t = _slab(boxes, a, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
+                                if t < np.inf:
+                                    ma |= 1 << q
+                                    ta = min(ta, t)
+                                t = _slab(boxes, b, ox, oy, oz, ix, iy, iz, fx, fy, fz, tf)
+                                if t < np.inf:
+                                    mb |= 1 << q
+                                    tb = min(tb, t)
+                            if ta > tb:
+                                a, b, ta, tb, ma, mb = b, a, tb, ta, mb, ma
+                            if mb:
+                                stack[top], stack_m[top], stack_t[top] = b, mb, tb
+                                top += 1
+                            if ma:
+                                stack[top], stack_m[top], stack_t[top] = a, ma, ta
+                                top += 1
+                        worst = 0.0
+                        for q in range(n):
+                            worst = max(worst, best[q])
                     for q in range(n):
-                        worst = max(worst, best[q])
-                for q in range(n):
-                    out_t[rid[q]] = best[q]
-                    out_tri[rid[q]] = who[q]
+                        out_t[rid[q]] = best[q]
+                        out_tri[rid[q]] = who[q]
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
@@ -518,6 +521,7 @@ def cast_binned(
         count,
         t,
         k,
+        numba.get_num_threads(),
     )
     return t, k
 
