@@ -82,6 +82,16 @@ def in_range(inverse_z, near_m, far_m):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def in_range_f32(inverse_z, near_m, far_m):
+    """:func:`in_range` as the frame's float32 depth, without a branch (a loop of it
+    vectorises): the same value, 0 where out of range or no hit (1 / 0 is inf, out of
+    range)."""
+    z = 1.0 / inverse_z
+    ok = (inverse_z > 0.0) & (z >= near_m) & (z <= far_m)
+    return np.float32(z) if ok else np.float32(0.0)
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def _vertex(vertices, vi, m, r):
     """Row r of camera_from_model ``m`` applied to vertex ``vi`` (float64)."""
     return (

@@ -34,6 +34,8 @@ TILE = 1 << SHIFT  # pixels: the side of an occlusion tile
 # tall (:data:`~genie_gl.render.cpu.bins.CELL_PX`), a tile of TILE x TILE view pixels as for
 # pixel centres (taller tiles hide fewer faces: 30 % more drawn through the tutorial lens)
 SAMPLED_VSHIFT = 1
+# centres: a span inside a triangle at least this long is written by a loop without a branch
+LONG_SPAN = 16
 SMALL_BOX = 6  # cells: a box of rays no larger is tested ray by ray, without spans
 
 
@@ -456,9 +458,20 @@ def _draw_cluster(
             if rows:
                 iv = iw
                 yn, shear = ys[iv], sys_[iv]
-                for ix in range(i_lo, i_hi + 1):
-                    xn = xs[ix] - shear
-                    if not (in_lo < ix < in_hi):
+                row = iv * Wi
+                # the centres more than ``gap`` inside every edge, s_lo..s_hi, in one loop
+                # without a branch (the depth test as a select: the same rule as
+                # :func:`_write`); those nearer the ends get the exact test first
+                s_lo, s_hi = i_hi + 1, i_hi
+                if in_lo < in_hi:
+                    s_lo = int(max(np.floor(in_lo) + 1.0, i_lo))
+                    s_hi = int(min(np.ceil(in_hi) - 1.0, i_hi))
+                    if s_lo > s_hi:
+                        s_lo, s_hi = i_hi + 1, i_hi
+                for end in range(2):
+                    e_lo, e_hi = (i_lo, s_lo - 1) if end == 0 else (s_hi + 1, i_hi)
+                    for ix in range(e_lo, e_hi + 1):
+                        xn = xs[ix] - shear
                         inside = (
                             (sg * (e0x * xn + (e0y * yn + e0z)) >= 0.0)
                             & (sg * (e1x * xn + (e1y * yn + e1z)) >= 0.0)
@@ -466,8 +479,29 @@ def _draw_cluster(
                         )
                         if not inside:
                             continue
-                    if _write(zb, who, iv * Wi + ix, (nx * xn + (ny * yn + nz)) * ivol, key, inear):
-                        dirty[iv >> SHIFT, ix >> SHIFT] = 1
+                        iz = (nx * xn + (ny * yn + nz)) * ivol
+                        if _write(zb, who, row + ix, iz, key, inear):
+                            dirty[iv >> SHIFT, ix >> SHIFT] = 1
+                if s_hi - s_lo < LONG_SPAN:
+                    for ix in range(s_lo, s_hi + 1):
+                        iz = (nx * (xs[ix] - shear) + (ny * yn + nz)) * ivol
+                        if _write(zb, who, row + ix, iz, key, inear):
+                            dirty[iv >> SHIFT, ix >> SHIFT] = 1
+                    continue
+                # (slices indexed from 0: a loop the compiler vectorises)
+                zs, ws = zb[row + s_lo : row + s_hi + 1], who[row + s_lo : row + s_hi + 1]
+                xl = xs[s_lo : s_hi + 1]
+                wrote = 0
+                for i in range(len(zs)):
+                    iz = (nx * (xl[i] - shear) + (ny * yn + nz)) * ivol
+                    held, had = zs[i], ws[i]
+                    won = (iz <= inear) & ((iz > held) | ((iz == held) & (key < had)))
+                    zs[i] = iz if won else held
+                    ws[i] = key if won else had
+                    wrote += won
+                if wrote:
+                    for tc in range(s_lo >> SHIFT, (s_hi >> SHIFT) + 1):
+                        dirty[iv >> SHIFT, tc] = 1
             else:
                 iu = iw
                 xu = xs[iu]

@@ -45,7 +45,7 @@ import numpy as np
 from ...jit import njit, prange, serial_copy
 from ..clusters import CLUSTER
 from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View, projection
-from ..shading import in_range
+from ..shading import in_range_f32
 from .bins import PIXEL_CENTRES, Samples
 from .bounds import _bound_cluster
 from .coverage import SAMPLED_VSHIFT, SHIFT, TILE, Centres, Scratch, _draw_cluster
@@ -196,19 +196,23 @@ def _raster(geo, inst, view, samples, T, zb, who, tmin, tally, cull, ids_out):
                 cull,
             )
         # the strip's depth and ids at once (as :func:`_shade` makes them)
+        # (the depths first, in a loop without a branch the compiler vectorises; z > 0
+        # wherever it is in range, so the ids follow from the float32 depth)
         if len(out_depth) > 1 and not sampled:
             for r in range(H):
-                for p in range(r * W + cut[t], r * W + cut[t + 1]):
-                    z = in_range(zb[p], near_m, far_m)
-                    if z > 0.0:
-                        sl = who[p] >> np.int64(32)
-                        out_depth[p] = np.float32(z)
-                        out_instance[p] = ids[sl]
-                        out_semantic[p] = sems[sl]
+                a, b = r * W + cut[t], r * W + cut[t + 1]
+                zr, dr = zb[a:b], out_depth[a:b]
+                for i in range(len(zr)):
+                    dr[i] = in_range_f32(zr[i], near_m, far_m)
+                wr, ir, sr = who[a:b], out_instance[a:b], out_semantic[a:b]
+                for i in range(len(zr)):
+                    if dr[i] > 0.0:
+                        sl = wr[i] >> np.int64(32)
+                        ir[i] = ids[sl]
+                        sr[i] = sems[sl]
                     else:
-                        out_depth[p] = 0.0
-                        out_instance[p] = 0
-                        out_semantic[p] = 0
+                        ir[i] = 0
+                        sr[i] = 0
 
 
 # the same kernel on the calling thread alone (frames drawn side by side, one per thread)
