@@ -139,34 +139,52 @@ class FrameTally:
     """Pass 1 of :func:`~genie_gl.cloud.process.frame_chunks` for frames handed to
     :meth:`add` as they are made, counted in order on a thread of this object's. While it
     counts (until :meth:`close`), the interpreter's switch interval is
-    :data:`SWITCH_INTERVAL_S`.
+    :data:`SWITCH_INTERVAL_S`. With ``inline``, each frame is counted by :meth:`add` itself,
+    on the caller's thread, and the interval is left alone: for a capture whose frames other
+    threads draw while the caller waits for them (the CPU raster's side by side frames), so
+    the counting takes the caller's idle time instead of a third thread's turns.
 
     Parameters
     ----------
     size_m : the tile size the chunks will be cut with.
     origin : (3,) the cloud's origin (:func:`~genie_gl.cloud.process.origin_of` of the
         capture's poses: ``frame_chunks`` takes the counts only if its origin is this one).
+    inline : count on the thread that calls :meth:`add` (no thread of its own).
     """
 
-    def __init__(self, size_m: float, origin: np.ndarray) -> None:
+    def __init__(self, size_m: float, origin: np.ndarray, inline: bool = False) -> None:
         self.size = float(size_m)
         self.origin = np.asarray(origin, np.float64)
         self.frames: list[Frame] = []
         self._inputs: list[tuple] = []
         self._futures: list[Future] = []
-        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(
-            1, thread_name_prefix="frame-tally"
+        self._inline = bool(inline)
+        self._open = True
+        self._pool: ThreadPoolExecutor | None = (
+            None if self._inline else ThreadPoolExecutor(1, thread_name_prefix="frame-tally")
         )
         self._room: np.ndarray | None = None
-        _hold_switch_interval(True)
+        if not self._inline:
+            _hold_switch_interval(True)
 
     def add(self, frame: Frame) -> None:
-        """Start counting ``frame`` (the next frame of the capture)."""
-        if self._pool is None:
+        """Start counting ``frame`` (the next frame of the capture); with ``inline``, count
+        it now, on the calling thread (a capture whose frames are drawn by other threads
+        while the caller waits: the CPU raster's)."""
+        if not self._open:
             raise RuntimeError("FrameTally.add: the tally is closed")
         args = frame_inputs(frame, self.origin)
         self.frames.append(frame)
         self._inputs.append(args)
+        if self._inline:
+            done: Future = Future()
+            try:
+                done.set_result(self._count(frame, args))
+            except Exception as e:  # (raised where the counts are taken, as from the thread)
+                done.set_exception(e)
+            self._futures.append(done)
+            return
+        assert self._pool is not None
         self._futures.append(self._pool.submit(self._count, frame, args))
 
     def _count(self, frame: Frame, args: tuple) -> Tally:
@@ -193,6 +211,9 @@ class FrameTally:
 
     def close(self) -> None:
         """Stop the thread (counts not yet made are dropped)."""
+        if not self._open:
+            return
+        self._open = False
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None

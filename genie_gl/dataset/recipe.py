@@ -207,7 +207,7 @@ def make(
     # (a thread of its own only where this process may use another core: one of two workers
     # on two cores counts the frames in the cloud stage instead)
     tally = (
-        FrameTally(chunk_m, origin_of(poses))
+        FrameTally(chunk_m, origin_of(poses), inline=inputs.accuracy.raster == "cpu")
         if chunk_m is not None and poses and spare_core()
         else None
     )

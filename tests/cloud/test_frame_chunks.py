@@ -110,12 +110,15 @@ def test_frame_chunks_with_frames_from_runs_and_frames_recomputed(monkeypatch, w
     assert_same_tiles(a, b)
 
 
+@pytest.mark.parametrize("inline", [False, True], ids=["thread", "inline"])
 @pytest.mark.parametrize("window", [7, 129])
-def test_frames_counted_as_they_come_give_the_tiles_of_frames_counted_at_once(monkeypatch, window):
-    """A FrameTally counts each frame on its own thread as it is handed over (as the capture
-    makes them); frame_chunks takes those counts and cuts the same tiles as when it counts
-    the frames itself, on one thread or two. With a small window some frames reach beyond
-    it (counted over their exact extent)."""
+def test_frames_counted_as_they_come_give_the_tiles_of_frames_counted_at_once(
+    monkeypatch, window, inline
+):
+    """A FrameTally counts each frame on its own thread (or, inline, on the caller's) as it
+    is handed over (as the capture makes them); frame_chunks takes those counts and cuts the
+    same tiles as when it counts the frames itself, on one thread or two. With a small
+    window some frames reach beyond it (counted over their exact extent)."""
     import numba
 
     import genie_gl.cloud.process as process
@@ -128,7 +131,7 @@ def test_frames_counted_as_they_come_give_the_tiles_of_frames_counted_at_once(mo
     kw = dict(min_points=5, max_points=60)
     origin = origin_of([f.world_from_camera for f in frames])
     np.testing.assert_array_equal(origin, choose_origin(frames))
-    tally = FrameTally(1.0, origin)
+    tally = FrameTally(1.0, origin, inline=inline)
     for f in frames:
         tally.add(f)
     assert tally.matches(frames, origin, 1.0)
@@ -178,11 +181,12 @@ def test_a_tally_of_other_frames_origin_or_tiles_is_not_taken():
             tally.add(frames[0])
 
 
-def test_a_tally_hands_on_the_error_of_a_frame_it_could_not_count():
+@pytest.mark.parametrize("inline", [False, True], ids=["thread", "inline"])
+def test_a_tally_hands_on_the_error_of_a_frame_it_could_not_count(inline):
     from genie_gl.cloud import FrameTally, origin_of
 
     frames = ground_frames(n=2)
-    tally = FrameTally(1e-4, origin_of([f.world_from_camera for f in frames]))
+    tally = FrameTally(1e-4, origin_of([f.world_from_camera for f in frames]), inline=inline)
     for f in frames:
         tally.add(f)
     with pytest.raises(ValueError, match="too small for the frames' extent"):
@@ -203,6 +207,11 @@ def test_a_tally_shortens_the_switch_interval_only_while_it_counts():
     a.close()  # closing twice counts once
     assert sys.getswitchinterval() == SWITCH_INTERVAL_S  # b still counts
     b.close()
+    assert sys.getswitchinterval() == before
+    c = FrameTally(4.0, np.zeros(3), inline=True)  # counting on the caller's thread: left alone
+    assert sys.getswitchinterval() == before
+    c.close()
+    c.close()
     assert sys.getswitchinterval() == before
 
 
