@@ -8,7 +8,7 @@ views, resampled after). Per ray, a raster decides the winner: the triangle (ins
 face) nearest along the ray within the near plane, and its view z. Each raster decides it in
 one place, with one tie rule:
 
-- ``cpu`` (:func:`genie_gl.render.cpu.coverage._write`): the nearest float64 depth along
+- ``cpu`` (:func:`genie_gl.render.cpu.coverage._wins`): the nearest float64 depth along
   the ray (exact intersection with the triangle's plane; coverage by float64 edge functions
   at the pixel centre); ties (equal float64 z) go to the lower (instance slot, face).
 - ``gl`` (the GPU's depth test, set up in :meth:`genie_gl.render.gl.renderer.GLRenderer._issue`):

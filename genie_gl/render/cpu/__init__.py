@@ -7,7 +7,7 @@ nearest triangle along it, in float64.
   draws which columns);
 - :mod:`.bounds`: may a cluster show, the pixel box it may cover, its vertices on screen;
 - :mod:`.coverage`: one cluster's triangles on the frame's rays, and the depth test with its
-  tie rule (:func:`.coverage._write`: where a ray's winner is decided);
+  tie rule (:func:`.coverage._wins`: where a ray's winner is decided);
 - :mod:`.bins`: rays that are not pixel centres binned on a view's grid (a lens's).
 """
 

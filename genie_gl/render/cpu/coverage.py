@@ -9,11 +9,12 @@ tells the frame which clusters can be skipped.
 - :func:`_draw_cluster`: every other triangle against the pixel centres of its box, exactly
   (homogeneous edge functions in float64; see the rasteriser's module docstring), with
   occlusion tiles (:func:`_hidden`, :func:`_refresh`) skipping what lies behind what is
-  already drawn, and the depth test with its tie rule (:func:`_write`).
+  already drawn, and the depth test with its tie rule (:func:`_wins`, applied by :func:`_write`
+  and by the long spans' loop).
 
-:func:`_write` is where the CPU raster decides a pixel's winner, the one place: the nearest
-float64 depth along the pixel centre's ray, ties (equal float64 z) to the lower (instance
-slot, face).
+:func:`_wins` is where the CPU raster decides a pixel's winner, the one place (:func:`_write`
+and the long spans' loop call it): the nearest float64 depth along the pixel centre's ray,
+ties (equal float64 z) to the lower (instance slot, face).
 """
 
 from __future__ import annotations
@@ -111,15 +112,23 @@ def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi, cell0, vs):
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _wins(iz, held, key, had, inear):
+    """The CPU raster's winner rule, decided here and nowhere else: a hit of inverse depth
+    ``iz`` = (n·d) / A·(B x C) (larger is nearer; no hit nearer than the near plane,
+    1 / ``inear``) and (slot, face) ``key`` (slot << 32 | face) wins over what its ray holds
+    (``held``, ``had``) when nearer, or as near and of a lower key. Without a branch, so that
+    a loop of it vectorises (:func:`_draw_cluster`'s long spans)."""
+    return (iz <= inear) & ((iz > held) | ((iz == held) & (key < had)))
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def _write(zb, who, p, iz, key, inear):
-    """The depth test of a hit of ray ``p`` (a pixel centre, or a binned ray:
-    :class:`~genie_gl.render.cpu.bins.Samples`) of inverse depth ``iz`` = (n·d) / A·(B x C)
-    (larger is nearer; no hit nearer than the near plane, 1 / ``inear``): it wins over what
-    the ray holds when nearer, or as near and of a lower (slot, face) ``key`` (slot << 32 |
-    face); returns whether it won. The CPU raster's winner rule, decided here and nowhere
-    else."""
+    """The depth test (:func:`_wins`) of a hit of ray ``p`` (a pixel centre, or a binned ray:
+    :class:`~genie_gl.render.cpu.bins.Samples`) of inverse depth ``iz`` and key ``key``;
+    writes it and returns True when it won. (Its key is read only where the hit may win:
+    not farther, not nearer than the near plane.)"""
     held = zb[p]
-    if iz <= inear and (iz > held or (iz == held and key < who[p])):
+    if iz >= held and iz <= inear and _wins(iz, held, key, who[p], inear):
         zb[p] = iz
         who[p] = key
         return True
@@ -460,8 +469,8 @@ def _draw_cluster(
                 yn, shear = ys[iv], sys_[iv]
                 row = iv * Wi
                 # the centres more than ``gap`` inside every edge, s_lo..s_hi, in one loop
-                # without a branch (the depth test as a select: the same rule as
-                # :func:`_write`); those nearer the ends get the exact test first
+                # without a branch (the depth test as a select of :func:`_wins`, the rule
+                # :func:`_write` applies); those nearer the ends get the exact test first
                 s_lo, s_hi = i_hi + 1, i_hi
                 if in_lo < in_hi:
                     s_lo = int(max(np.floor(in_lo) + 1.0, i_lo))
@@ -495,7 +504,7 @@ def _draw_cluster(
                 for i in range(len(zs)):
                     iz = (nx * (xl[i] - shear) + (ny * yn + nz)) * ivol
                     held, had = zs[i], ws[i]
-                    won = (iz <= inear) & ((iz > held) | ((iz == held) & (key < had)))
+                    won = _wins(iz, held, key, had, inear)
                     zs[i] = iz if won else held
                     ws[i] = key if won else had
                     wrote += won

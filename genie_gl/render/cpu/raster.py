@@ -17,7 +17,7 @@ two vertices in the same order of operations (no fused multiply-add: the kernels
 without ``fastmath``), so the two triangles of an edge give exact negatives and a pixel
 centre on it belongs to both: there are no cracks between triangles.
 
-Where a pixel's winner is decided: :func:`~genie_gl.render.cpu.coverage._write`, the one
+Where a pixel's winner is decided: :func:`~genie_gl.render.cpu.coverage._wins`, the one
 depth test, for every hit of every triangle: the nearest float64 depth wins; ties (equal
 float64 z) go to the lower (instance slot, face). The winners are handed on as
 :class:`~genie_gl.render.fragments.Fragments` (1 / z and slot << 32 | face per pixel) and

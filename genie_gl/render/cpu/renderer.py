@@ -4,7 +4,7 @@
 instances in view (:mod:`genie_gl.render.visibility`), drawn by
 :meth:`~genie_gl.render.cpu.raster.Rasteriser.draw` into the frame's
 :class:`~genie_gl.render.fragments.Fragments` (the winner of each pixel is decided in
-:func:`genie_gl.render.cpu.coverage._write`: the nearest float64 depth, ties to the lower
+:func:`genie_gl.render.cpu.coverage._wins`: the nearest float64 depth, ties to the lower
 (instance slot, face)), shaded by :func:`genie_gl.render.shading.shade`.
 """
 
