@@ -131,9 +131,14 @@ def test_frames_counted_as_they_come_give_the_tiles_of_frames_counted_at_once(
     kw = dict(min_points=5, max_points=60)
     origin = origin_of([f.world_from_camera for f in frames])
     np.testing.assert_array_equal(origin, choose_origin(frames))
+    import threading
+
     tally = FrameTally(1.0, origin, inline=inline)
     for f in frames:
         tally.add(f)
+        if inline:  # counted by add itself, on this thread: no thread of its own
+            assert all(fut.done() for fut in tally._futures)
+            assert not any(t.name.startswith("frame-tally") for t in threading.enumerate())
     assert tally.matches(frames, origin, 1.0)
     counted = []
     real = tally.results
