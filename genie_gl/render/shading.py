@@ -148,7 +148,25 @@ def _shade(
     rays = len(rays_x) > 1
     mapped = len(pixel) > 1
     rows = n // W
+    ids_only = not (want_rgb or want_normal or want_tri)
     for v in prange(rows):
+        if ids_only:  # depth and ids alone: the range rule and the slot's ids, no more
+            for p in range(v * W, (v + 1) * W):
+                j = pixel[p] if mapped else p
+                if j < 0:
+                    continue
+                iz = depth[j]
+                z = 1.0 / iz
+                if iz > 0.0 and z >= near_m and z <= far_m:  # (in_range's rule)
+                    sl = hit[j] >> np.int64(32)
+                    out_depth[p] = np.float32(z)
+                    out_instance[p] = ids[sl]
+                    out_semantic[p] = sems[sl]
+                else:
+                    out_depth[p] = 0.0
+                    out_instance[p] = 0
+                    out_semantic[p] = 0
+            continue
         last = np.int64(-1)
         ux = uy = uz = 0.0
         for p in range(v * W, (v + 1) * W):

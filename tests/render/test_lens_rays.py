@@ -115,6 +115,41 @@ def test_ties_through_the_lens_go_to_the_lower_slot():
     assert (f.instance == 5).all()
 
 
+# a radial lens whose principal point is a pixel centre: the rays of its middle column have
+# x = 0 exactly, those of its middle row y = 0
+CENTRED = gg.Sensor(
+    320,
+    240,
+    np.array([[200.0, 0, 160], [0, 200.0, 120], [0, 0, 1]]),
+    [-0.3, 0.05, 0.0, 0.0, 0.0],
+    near_m=0.1,
+    far_m=100.0,
+)
+
+
+@pytest.mark.parametrize("lens", [True, False], ids=["lens", "pinhole"])
+@pytest.mark.parametrize("turn", [0, 1, 2])
+def test_rays_on_an_edge_two_faces_share_hit_one_of_them(lens, turn):
+    """Two faces sharing the edge x = 0: the rays of the middle column lie on it exactly
+    (their edge functions are exactly 0 for both faces) and each still hits one of them. An
+    edge test that left out its zeros would leave a crack there.
+    The shared edge is the first, third or second edge of both faces (their corners turned
+    by ``turn``), so that a change to any one of the three tests is seen."""
+    sensor = CENTRED if lens else dataclasses.replace(CENTRED, dist=np.zeros(5))
+    h, z = 8.0, 4.0
+    corners = np.array([[0.0, -h, z], [0.0, h, z], [-h, 0.0, z], [h, 0.0, z]])
+    faces = np.roll(np.array([[0, 1, 2], [1, 0, 3]]), turn, axis=1)  # the shared edge first
+    scene = gg.Scene()
+    scene.add(gg.Mesh(corners, faces), np.eye(4), instance=3)
+    with Renderer(scene, raster="cpu") as r:
+        f = r.render(sensor, np.eye(4))
+    d = sensor.directions()
+    hits = np.abs(d[..., 0] / d[..., 2] * z) + np.abs(d[..., 1] / d[..., 2] * z) < h
+    assert hits[:, 160].all()
+    assert np.array_equal(f.instance == 3, hits)
+    np.testing.assert_allclose(f.depth[hits], z, rtol=1e-6)
+
+
 def test_capture_draws_the_lens_rays_and_equals_the_renderer():
     """``gg.capture`` of a distorted sensor with the CPU raster draws the lens's rays (no
     pinhole view is resampled): its frame equals the renderer's, byte for byte."""

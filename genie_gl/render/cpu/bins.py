@@ -24,14 +24,15 @@ class Samples(NamedTuple):
     """Rays binned on a view's pixel grid, for a frame whose rays are not its pixel centres (a
     lens's own pixel rays, seen through a pinhole view that holds them). Cell (u, v) of the
     view, the positions [u, u + 1) x [v, v + 1) in its pixels, holds rays ``cell0[v W + u]``
-    to ``cell0[v W + u + 1] - 1``; ray i is ``(xy[i, 0], xy[i, 1], 1)`` in the view frame, and its
+    to ``cell0[v W + u + 1] - 1``; ray i is ``(xy[0, i], xy[1, i], 1)`` in the view frame, and its
     winner is written at row i of the depth buffers. :data:`PIXEL_CENTRES` (``cell0`` of one
     element) stands for the view's own pixel centres (:class:`Centres`).
 
     Attributes
     ----------
     cell0 : (H W + 1,) int32, each cell's first ray.
-    xy : (N, 2) float64, the rays (x, y) on the view's z = 1 plane, cell after cell.
+    xy : (2, N) float64, the rays' x and y on the view's z = 1 plane, cell after cell (a
+        row per coordinate: the kernel's loop over a row of cells reads both contiguously).
     tiles : (ceil(H / 2**SAMPLED_VSHIFT), ceil(W / TILE)) float64, what each occlusion tile of
         the grid (TILE bins wide, 2 ** :data:`~genie_gl.render.cpu.coverage.SAMPLED_VSHIFT`
         tall)
@@ -44,7 +45,7 @@ class Samples(NamedTuple):
     tiles: np.ndarray
 
 
-PIXEL_CENTRES = Samples(np.zeros(1, np.int32), np.zeros((1, 2)), np.zeros((1, 1)))
+PIXEL_CENTRES = Samples(np.zeros(1, np.int32), np.zeros((2, 1)), np.zeros((1, 1)))
 
 
 class LensSamples(NamedTuple):
@@ -114,7 +115,7 @@ def lens_samples(maps: DistortionMaps) -> LensSamples:
     ray_of = np.full(H * W, -1, np.int64)
     ray_of[sel[order]] = np.arange(len(sel))
     got = LensSamples(
-        Samples(cell0, np.stack([rx[order], ry[order]], 1), _empty_tiles(cell, Wg, Hg)),
+        Samples(cell0, np.stack([rx[order], ry[order]]), _empty_tiles(cell, Wg, Hg)),
         ray_of,
         sel[order],
         zs,

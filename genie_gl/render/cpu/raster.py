@@ -316,7 +316,7 @@ class Rasteriser:
         threads = numba.get_num_threads()
         T = 1 if serial or threads == 1 or int(nf.sum()) < PARALLEL_FACES else threads
         sampled = len(samples.cell0) > 1
-        npx = len(samples.xy) if sampled else width * height
+        npx = samples.xy.shape[1] if sampled else width * height
         tiles = (-(-height >> SAMPLED_VSHIFT) if sampled else -(-height // TILE), -(-width // TILE))
         buf = self._buffers
         if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
