@@ -155,9 +155,8 @@ def _shade(
                 j = pixel[p] if mapped else p
                 if j < 0:
                     continue
-                iz = depth[j]
-                z = 1.0 / iz
-                if iz > 0.0 and z >= near_m and z <= far_m:  # (in_range's rule)
+                z = in_range(depth[j], near_m, far_m)
+                if z != 0.0:
                     sl = hit[j] >> np.int64(32)
                     out_depth[p] = np.float32(z)
                     out_instance[p] = ids[sl]
