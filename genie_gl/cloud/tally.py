@@ -167,6 +167,11 @@ class FrameTally:
         if not self._inline:
             _hold_switch_interval(True)
 
+    @property
+    def inline(self) -> bool:
+        """Whether frames are counted by :meth:`add` itself, on the caller's thread."""
+        return self._inline
+
     def add(self, frame: Frame) -> None:
         """Start counting ``frame`` (the next frame of the capture); with ``inline``, count
         it now, on the calling thread (a capture whose frames are drawn by other threads

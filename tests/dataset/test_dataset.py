@@ -247,7 +247,9 @@ def test_bop_format_writes_scenes_that_bop_readers_load(tmp_path):
 def test_a_scene_counts_its_frames_beside_the_capture_only_with_a_core_to_spare(monkeypatch):
     """The recipe hands each frame to a FrameTally as the capture makes it, and the cloud stage
     takes those counts (the same chunks as counting afterwards); in a process limited to one
-    core (one of two workers on two cores) there is no tally."""
+    core (one of two workers on two cores) there is no tally. With the CPU raster (whose
+    threads draw while the caller waits) the frames are counted on the caller's thread, with
+    GL on a thread of the tally's own."""
     import numba
 
     import genie_gl.cloud.process as process
@@ -274,6 +276,11 @@ def test_a_scene_counts_its_frames_beside_the_capture_only_with_a_core_to_spare(
         numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
         made = make(inputs, SceneStreams(0, 0), cameras=3, depth_only=True, chunk_m=cfg.chunk_m)
         assert made.tally is not None and made.tally.frames == made.frames
+        assert made.tally.inline is (inputs.accuracy.raster == "cpu")
+        for raster in ("cpu", "gl"):
+            other = load_inputs(cfg.model_copy(update={"raster": raster}))
+            got = make(other, SceneStreams(0, 0), cameras=1, depth_only=True, chunk_m=cfg.chunk_m)
+            assert got.tally.inline is (raster == "cpu")
         with_tally = chunk(cfg, made.frames, SceneStreams(0, 0), chunks=True, tally=made.tally)
         assert taken == [3]
         without = chunk(cfg, made.frames, SceneStreams(0, 0), chunks=True)
