@@ -343,7 +343,8 @@ def _draw_cluster(
         sg = 1.0 if vol > 0.0 else -1.0
         ivol = 1.0 / vol
         key = key0 | np.int64(f)
-        face = (sg, e0x, e0y, e0z, e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, ivol)
+        if sampled:  # (the face as :func:`_rays` takes it)
+            face = (sg, e0x, e0y, e0z, e1x, e1y, e1z, e2x, e2y, e2z, nx, ny, nz, ivol)
         if sampled and (uhi - ulo + 1.0) * (vhi - vlo + 1.0) <= SMALL_BOX:
             # a box of a few cells (most faces of a large scene that get this far): each of
             # their rays gets the exact test, no spans
