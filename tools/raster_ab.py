@@ -7,6 +7,11 @@ time with one thread, wall time with more), and the ratio is of the sums.
 
     python tools/raster_ab.py 1M 2 5 HEAD~1      # scene, threads, rounds, revision
     python tools/raster_ab.py dataset 1 5        # a dataset scene and its 40 cameras
+    python tools/raster_ab.py 100k 1 5 HEAD~1 --lens   # through the tutorial lens
+
+``--lens``: the frames through the OpenCV tutorial lens of ``benchmarks/lens_ids.py`` (its
+rays binned, :func:`genie_gl.render.cpu.bins.lens_samples`) instead of the pinhole sensor; a
+revision that held the binned rays as (N, 2) rows gets them so.
 """
 
 import subprocess
@@ -51,7 +56,26 @@ def at(rev: str, name: str) -> str | None:
     return got.stdout
 
 
+def rows_of_rays(base, rev: str):
+    """``base`` (a revision's frame kernel) handed the binned rays as (N, 2) rows when that
+    revision held them so (the work tree holds a row per coordinate, (2, N))."""
+    if "np.stack([rx[order], ry[order]], 1)" not in (at(rev, "bins.py") or ""):
+        return base
+    rows = {}
+
+    def kernel(geo, inst, view, samples, *rest):
+        if len(samples.cell0) > 1:
+            xy = rows.setdefault(id(samples.xy), np.ascontiguousarray(samples.xy.T))
+            samples = samples._replace(xy=xy)
+        return base(geo, inst, view, samples, *rest)
+
+    return kernel
+
+
 def main() -> None:
+    lens = "--lens" in sys.argv
+    if lens:
+        sys.argv.remove("--lens")
     try:
         size, threads, rounds = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     except (IndexError, ValueError):
@@ -68,11 +92,17 @@ def main() -> None:
     else:
         spec = bench_spec(size)
         scene, poses, sensor = to_scene(spec), spec.poses, sensor_640()
+    if lens:
+        sys.path.insert(0, str(ROOT))
+        from benchmarks.lens_frame import LENS
+        from benchmarks.lens_ids import LENSES
+
+        sensor = LENSES[LENS]
     r = Renderer(scene, raster="cpu")
     own = raster._raster
     with tempfile.TemporaryDirectory() as tmp:
         kernels = {
-            rev: kernel(lambda name: at(rev, name), Path(tmp), "ab_base"),
+            rev: rows_of_rays(kernel(lambda name: at(rev, name), Path(tmp), "ab_base"), rev),
             "work tree": kernel(None, Path(tmp), "ab_new"),
         }
         best = {k: np.full(len(poses), np.inf) for k in kernels}
@@ -91,7 +121,8 @@ def main() -> None:
             raster._raster = own
     base, new = (1e3 * best[k].mean() for k in kernels)
     print(
-        f"{size}, {threads} thread(s), {rounds} rounds: {rev} {base:.2f} ms, work tree {new:.2f} "
+        f"{size}{' through the lens' if lens else ''}, {threads} thread(s), {rounds} rounds: "
+        f"{rev} {base:.2f} ms, work tree {new:.2f} "
         "ms a frame; "
         f"work tree / {rev} {new / base:.3f}"
     )
