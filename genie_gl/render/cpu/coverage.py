@@ -9,11 +9,11 @@ tells the frame which clusters can be skipped.
 - :func:`_draw_cluster`: every other triangle against the pixel centres of its box, exactly
   (homogeneous edge functions in float64; see the rasteriser's module docstring), with
   occlusion tiles (:func:`_hidden`, :func:`_refresh`) skipping what lies behind what is
-  already drawn, and the depth test with its tie rule (:func:`_wins`, applied by :func:`_write`
-  and by the long spans' loop).
+  already drawn, and the depth test with its tie rule (:func:`_wins`, applied by :func:`_write`,
+  by the long spans' loop and by :func:`_rays`, a face against binned rays).
 
-:func:`_wins` is where the CPU raster decides a pixel's winner, the one place (:func:`_write`
-and the long spans' loop call it): the nearest float64 depth along the pixel centre's ray,
+:func:`_wins` is where the CPU raster decides a pixel's winner, the one place (:func:`_write`,
+the long spans' loop and :func:`_rays` call it): the nearest float64 depth along the ray,
 ties (equal float64 z) to the lower (instance slot, face).
 """
 
@@ -117,16 +117,15 @@ def _wins(iz, held, key, had, inear):
     ``iz`` = (n·d) / A·(B x C) (larger is nearer; no hit nearer than the near plane,
     1 / ``inear``) and (slot, face) ``key`` (slot << 32 | face) wins over what its ray holds
     (``held``, ``had``) when nearer, or as near and of a lower key. Without a branch, so that
-    a loop of it vectorises (:func:`_draw_cluster`'s long spans)."""
+    a loop of it vectorises (:func:`_draw_cluster`'s long spans, :func:`_rays`)."""
     return (iz <= inear) & ((iz > held) | ((iz == held) & (key < had)))
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def _write(zb, who, p, iz, key, inear):
-    """The depth test (:func:`_wins`) of a hit of ray ``p`` (a pixel centre, or a binned ray:
-    :class:`~genie_gl.render.cpu.bins.Samples`) of inverse depth ``iz`` and key ``key``;
-    writes it and returns True when it won. (Its key is read only where the hit may win:
-    not farther, not nearer than the near plane.)"""
+    """The depth test (:func:`_wins`) of a hit of pixel centre ``p`` of inverse depth ``iz``
+    and key ``key``; writes it and returns True when it won. (Its key is read only where the
+    hit may win: not farther, not nearer than the near plane.)"""
     held = zb[p]
     if iz >= held and iz <= inear and _wins(iz, held, key, who[p], inear):
         zb[p] = iz
