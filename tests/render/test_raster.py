@@ -277,14 +277,18 @@ def test_a_capture_through_a_distorted_lens_with_effects_takes_the_exact_raster(
         )  # the same noise, the same surfaces
 
 
-def test_a_frame_of_depth_and_ids_alone_equals_those_of_a_full_frame(monkeypatch):
-    """Depth and ids alone are filled strip by strip as they are drawn; with colour and
-    normals the shading pass fills them: the same values, with the sensor's range applied
-    (a far limit inside the scene empties pixels), on one thread and on two."""
+@pytest.mark.parametrize("lens", [False, True], ids=["pinhole", "lens"])
+def test_a_frame_of_depth_and_ids_alone_equals_those_of_a_full_frame(monkeypatch, lens):
+    """Depth and ids alone are filled strip by strip as they are drawn (through a lens, by
+    the shading pass's depth-and-ids loop); with colour and normals the full shading pass
+    fills them: the same values, with the sensor's range applied (a far limit inside the
+    scene empties pixels), on one thread and on two."""
     import dataclasses
 
     scene, poses = scene_of("100k")
     sensor = dataclasses.replace(sensor_640(), far_m=6.0)
+    if lens:  # the OpenCV tutorial lens on the same K
+        sensor = dataclasses.replace(sensor, dist=np.array([-0.42, 0.2, 0.001, -0.0003, -0.05]))
     monkeypatch.setattr(raster, "PARALLEL_FACES", 0)
     threads = numba.get_num_threads()
     with Renderer(scene, raster="cpu") as r:
