@@ -9,9 +9,10 @@ time with one thread, wall time with more), and the ratio is of the sums.
     python tools/raster_ab.py dataset 1 5        # a dataset scene and its 40 cameras
     python tools/raster_ab.py 100k 1 5 HEAD~1 --lens   # through the tutorial lens
 
-``--lens``: the frames through the OpenCV tutorial lens of ``benchmarks/lens_ids.py`` (its
-rays binned, :func:`genie_gl.render.cpu.bins.lens_samples`) instead of the pinhole sensor; a
-revision that held the binned rays as (N, 2) rows gets them so.
+``--lens``: the frames through the OpenCV tutorial lens of ``benchmarks/lens_ids.py`` instead
+of the pinhole sensor, each version's rays binned by its own
+:func:`genie_gl.render.cpu.bins.lens_samples`; a revision that held the binned rays as (N, 2)
+rows gets them so.
 """
 
 import subprocess
@@ -29,6 +30,7 @@ from genie_gl.bench.render import sensor_640
 from genie_gl.bench.scenes import bench_spec, to_scene
 from genie_gl.render import Renderer
 from genie_gl.render.cpu import raster
+from genie_gl.render.cpu import renderer as cpu_renderer
 from kernel_source import joined, load
 from raster_profile import dataset_scene
 
@@ -36,8 +38,25 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def kernel(read, where: Path, name: str):
-    """The frame kernel of one version (``read(module name)``: its source) as a module."""
-    return load(joined(read), where, name)._raster
+    """The frame kernel of one version (``read(module name)``: its source) and its binning of a
+    lens's rays (:func:`genie_gl.render.cpu.bins.lens_samples`, None before it existed; kept in
+    the lens maps' cache under ``name``, apart from the other version's)."""
+    mod = load(joined(read), where, name)
+    own = getattr(mod, "lens_samples", None)
+    if own is None:
+        return mod._raster, None
+
+    def lens_samples(maps):
+        got = maps.cache.get(name)
+        if got is None:
+            kept = maps.cache.pop("lens_samples", None)
+            got = maps.cache[name] = own(maps)
+            maps.cache.pop("lens_samples", None)
+            if kept is not None:
+                maps.cache["lens_samples"] = kept
+        return got
+
+    return mod._raster, lens_samples
 
 
 def at(rev: str, name: str) -> str | None:
@@ -57,19 +76,20 @@ def at(rev: str, name: str) -> str | None:
 
 
 def rows_of_rays(base, rev: str):
-    """``base`` (a revision's frame kernel) handed the binned rays as (N, 2) rows when that
-    revision held them so (the work tree holds a row per coordinate, (2, N))."""
+    """``base`` (a revision's frame kernel and binning) with the binned rays as (N, 2) rows when
+    that revision held them so (the work tree holds a row per coordinate, (2, N))."""
     if "np.stack([rx[order], ry[order]], 1)" not in (at(rev, "bins.py") or ""):
         return base
     rows = {}
+    f, bins = base
 
     def kernel(geo, inst, view, samples, *rest):
         if len(samples.cell0) > 1:
             xy = rows.setdefault(id(samples.xy), np.ascontiguousarray(samples.xy.T))
             samples = samples._replace(xy=xy)
-        return base(geo, inst, view, samples, *rest)
+        return f(geo, inst, view, samples, *rest)
 
-    return kernel
+    return kernel, bins
 
 
 def main() -> None:
@@ -99,7 +119,7 @@ def main() -> None:
 
         sensor = LENSES[LENS]
     r = Renderer(scene, raster="cpu")
-    own = raster._raster
+    own, own_bins = raster._raster, cpu_renderer.lens_samples
     with tempfile.TemporaryDirectory() as tmp:
         kernels = {
             rev: rows_of_rays(kernel(lambda name: at(rev, name), Path(tmp), "ab_base"), rev),
@@ -107,18 +127,18 @@ def main() -> None:
         }
         best = {k: np.full(len(poses), np.inf) for k in kernels}
         try:
-            for f in kernels.values():  # compile
-                raster._raster = f
+            for f, bins in kernels.values():  # compile
+                raster._raster, cpu_renderer.lens_samples = f, bins or own_bins
                 r.render(sensor, poses[0], depth_only=True)
             for k in range(rounds):
                 for i, p in enumerate(poses):
-                    for name, f in kernels.items() if k % 2 else reversed(kernels.items()):
-                        raster._raster = f
+                    for name, (f, bins) in kernels.items() if k % 2 else reversed(kernels.items()):
+                        raster._raster, cpu_renderer.lens_samples = f, bins or own_bins
                         t = clock()
                         r.render(sensor, p, depth_only=True)
                         best[name][i] = min(best[name][i], clock() - t)
         finally:
-            raster._raster = own
+            raster._raster, cpu_renderer.lens_samples = own, own_bins
     base, new = (1e3 * best[k].mean() for k in kernels)
     print(
         f"{size}{' through the lens' if lens else ''}, {threads} thread(s), {rounds} rounds: "

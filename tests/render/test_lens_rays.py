@@ -13,6 +13,7 @@ import trimesh
 import genie_gl as gg
 from genie_gl.render import Renderer
 from genie_gl.lens.distortion import lens_views
+from genie_gl.render.cpu import bins
 from genie_gl.render.cpu.bins import lens_samples
 
 TUTORIAL = gg.Sensor(
@@ -102,6 +103,41 @@ def test_the_culled_lens_frame_equals_the_unculled_reference_byte_for_byte():
         assert (a.instance > 0).mean() > 0.3 and len(np.unique(a.instance)) > 20
         for name in ("depth", "instance", "rgb", "normal"):
             assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+
+
+def test_a_lens_frame_is_the_same_whatever_the_height_of_its_bins(monkeypatch):
+    """A bin is about BIN_RAD of the view tall (8 rows of the tutorial lens's view, 4 of a
+    short focal length's): the height only decides which rays a face is tested against and how
+    tall an occlusion tile is in bins, never a ray's winner: the frames drawn with bins of 2, 4
+    and 8 rows are the same bytes."""
+    assert bins.bin_rows(535.9) == 8 and bins.bin_rows(230.0) == 4 and bins.bin_rows(80.0) == 4
+    rng = np.random.default_rng(11)
+    scene = gg.Scene()
+    scene.add(wall(9.0), instance=1)
+    for k in range(30):
+        box = trimesh.creation.box(rng.uniform(0.05, 1.2, 3))
+        T = trimesh.transformations.random_rotation_matrix(rng.random(3))
+        T[:3, 3] = [rng.uniform(-4, 4), rng.uniform(-3, 3), rng.uniform(1.5, 8.5)]
+        scene.add(box, T, instance=10 + k)
+    scene.add(trimesh.creation.icosphere(subdivisions=4, radius=0.8), [0.3, 0.1, 3.5], instance=99)
+    frames = {}
+    for rows in (2, 4, 8):
+        monkeypatch.setattr(bins, "BIN_ROWS", (rows, rows))
+        for sensor in (TUTORIAL, FISHEYE):
+            for m in lens_views(sensor, oversample=1.0):  # (binned afresh)
+                m.cache.pop("lens_samples", None)
+                assert lens_samples(m).samples.tiles.shape[0] == -(-m.render_sensor.height // 8)
+            with Renderer(scene, raster="cpu") as r:
+                f = r.render(sensor, np.eye(4), normals=True)
+            frames[rows, sensor.model] = [f.depth, f.instance, f.normal]
+    for sensor in (TUTORIAL, FISHEYE):  # (no bins of this test's heights left in the cache)
+        for m in lens_views(sensor, oversample=1.0):
+            m.cache.pop("lens_samples", None)
+    for model in (TUTORIAL.model, FISHEYE.model):
+        assert (frames[8, model][1] > 0).mean() > 0.3
+        for rows in (2, 4):
+            for a, b in zip(frames[rows, model], frames[8, model]):
+                assert a.tobytes() == b.tobytes(), (rows, model)
 
 
 def test_ties_through_the_lens_go_to_the_lower_slot():

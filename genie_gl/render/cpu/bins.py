@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...lens.distortion import DistortionMaps
-from .coverage import SAMPLED_VSHIFT, TILE
+from .coverage import SHIFT, TILE
 
 
 class Samples(NamedTuple):
@@ -33,19 +33,21 @@ class Samples(NamedTuple):
     cell0 : (H W + 1,) int32, each cell's first ray.
     xy : (2, N) float64, the rays' x and y on the view's z = 1 plane, cell after cell (a
         row per coordinate: the kernel's loop over a row of cells reads both contiguously).
-    tiles : (ceil(H / 2**SAMPLED_VSHIFT), ceil(W / TILE)) float64, what each occlusion tile of
-        the grid (TILE bins wide, 2 ** :data:`~genie_gl.render.cpu.coverage.SAMPLED_VSHIFT`
-        tall)
-        starts a frame with: 0 (nothing drawn yet), inf where the tile holds no ray (nothing
-        there can be seen: a face whose box covers only such tiles is skipped).
+    tiles : (ceil(H / 2**vshift), ceil(W / TILE)) float64, what each occlusion tile of the
+        grid (TILE bins wide, 2 ** ``vshift`` tall) starts a frame with: 0 (nothing drawn
+        yet), inf where the tile holds no ray (nothing there can be seen: a face whose box
+        covers only such tiles is skipped).
+    vshift : int, log2 of an occlusion tile's height in bins (:func:`lens_samples` makes a
+        tile TILE x TILE view pixels, as for pixel centres: taller tiles hide fewer faces).
     """
 
     cell0: np.ndarray
     xy: np.ndarray
     tiles: np.ndarray
+    vshift: int
 
 
-PIXEL_CENTRES = Samples(np.zeros(1, np.int32), np.zeros((2, 1)), np.zeros((1, 1)))
+PIXEL_CENTRES = Samples(np.zeros(1, np.int32), np.zeros((2, 1)), np.zeros((1, 1)), 0)
 
 
 class LensSamples(NamedTuple):
@@ -75,23 +77,37 @@ def unserved(views: tuple[DistortionMaps, ...]) -> np.ndarray:
     return got
 
 
-CELL_PX = (1, 4)  # a bin's width and height, in the pixels of the view holding the rays
+# a bin is one view pixel wide and about this many radians of the view's frame tall (a power
+# of two of its pixels, BIN_ROWS at most and at least): the faces of a scene are as large in
+# angle whatever the lens, so bins of one angle hold as many of them. Taller bins test more
+# rays a face and visit fewer rows of bins; on the benchmark scenes, bins of 8 rows of the
+# tutorial lens's view (f 536 px) cost 0.8-0.9x those of 4, and 1.1-1.2x for a fisheye's cube
+# faces (f 230 px), whose 4 rows span about the same angle as 8 of the tutorial lens's
+BIN_RAD = 0.015
+BIN_ROWS = (4, 8)
 
 
-def _empty_tiles(cell: np.ndarray, W: int, H: int) -> np.ndarray:
-    """:attr:`Samples.tiles` of rays in bins ``cell`` (row-major on a W x H grid): 0 where an
-    occlusion tile holds a ray, inf elsewhere."""
-    tiles = np.full((-(-H >> SAMPLED_VSHIFT), -(-W // TILE)), np.inf)
-    tiles[(cell // W) >> SAMPLED_VSHIFT, (cell % W) // TILE] = 0.0
+def bin_rows(fy: float) -> int:
+    """A bin's height in the pixels of a view of focal length ``fy`` (px): the power of two
+    nearest to ``fy`` :data:`BIN_RAD`, within :data:`BIN_ROWS`."""
+    rows = 2 ** round(np.log2(max(fy * BIN_RAD, 1.0)))
+    return int(min(max(rows, BIN_ROWS[0]), BIN_ROWS[1]))
+
+
+def _empty_tiles(cell: np.ndarray, W: int, H: int, vshift: int) -> np.ndarray:
+    """:attr:`Samples.tiles` of rays in bins ``cell`` (row-major on a W x H grid), tiles
+    2 ** ``vshift`` bins tall: 0 where an occlusion tile holds a ray, inf elsewhere."""
+    tiles = np.full((-(-H >> vshift), -(-W // TILE)), np.inf)
+    tiles[(cell // W) >> vshift, (cell % W) // TILE] = 0.0
     return tiles
 
 
 def lens_samples(maps: DistortionMaps) -> LensSamples:
     """The rays of the lens pixels ``maps`` serves, binned on a grid of the view's frame (its
-    :attr:`LensSamples.grid`: a pinhole K whose pixels, the bins, are :data:`CELL_PX` of the
-    view's pixels, so as large as the view at most; a ray crossing it at (x, y) goes to the
-    bin (floor x, floor y)), each bin's rays in row-major pixel order; computed once per view
-    (kept in ``maps.cache``)."""
+    :attr:`LensSamples.grid`: a pinhole K whose pixels, the bins, are one view pixel wide and
+    :func:`bin_rows` tall, so as large as the view at most; a ray crossing it at (x, y) goes to
+    the bin (floor x, floor y)), each bin's rays in row-major pixel order, the occlusion tiles
+    TILE x TILE view pixels; computed once per view (kept in ``maps.cache``)."""
     got = maps.cache.get("lens_samples")
     if got is not None:
         return got
@@ -99,11 +115,13 @@ def lens_samples(maps: DistortionMaps) -> LensSamples:
     rx, ry = maps.ray_x.ravel()[sel], maps.ray_y.ravel()[sel]
     H, W = maps.valid.shape
     # the view's own pixels (the lens's focal length, every ray at least a pixel inside, and at
-    # most MAX_VIEW_PX a side: :func:`genie_gl.lens.distortion.lens_views`), CELL_PX to a bin
+    # most MAX_VIEW_PX a side: :func:`genie_gl.lens.distortion.lens_views`), 1 x rows to a bin
     view = maps.render_sensor
-    fx, fy = view.K[0, 0] / CELL_PX[0], view.K[1, 1] / CELL_PX[1]
-    cx, cy = view.K[0, 2] / CELL_PX[0], view.K[1, 2] / CELL_PX[1]
-    Wg, Hg = -(-view.width // CELL_PX[0]), -(-view.height // CELL_PX[1])
+    rows = bin_rows(view.K[1, 1])
+    vshift = SHIFT - int(np.log2(rows))
+    fx, fy = view.K[0, 0], view.K[1, 1] / rows
+    cx, cy = view.K[0, 2], view.K[1, 2] / rows
+    Wg, Hg = view.width, -(-view.height // rows)
     K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
     cu = np.clip(np.floor(fx * rx + cx), 0, Wg - 1).astype(np.int64)
     cv = np.clip(np.floor(fy * ry + cy), 0, Hg - 1).astype(np.int64)
@@ -115,7 +133,9 @@ def lens_samples(maps: DistortionMaps) -> LensSamples:
     ray_of = np.full(H * W, -1, np.int64)
     ray_of[sel[order]] = np.arange(len(sel))
     got = LensSamples(
-        Samples(cell0, np.stack([rx[order], ry[order]]), _empty_tiles(cell, Wg, Hg)),
+        Samples(
+            cell0, np.stack([rx[order], ry[order]]), _empty_tiles(cell, Wg, Hg, vshift), vshift
+        ),
         ray_of,
         sel[order],
         zs,

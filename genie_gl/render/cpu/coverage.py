@@ -31,10 +31,6 @@ from .bounds import _clip_box, _project
 
 SHIFT = 3
 TILE = 1 << SHIFT  # pixels: the side of an occlusion tile
-# log2 of an occlusion tile's height in bins on a grid of binned rays: two bins four pixels
-# tall (:data:`~genie_gl.render.cpu.bins.CELL_PX`), a tile of TILE x TILE view pixels as for
-# pixel centres (taller tiles hide fewer faces: 30 % more drawn through the tutorial lens)
-SAMPLED_VSHIFT = 1
 # centres: a span inside a triangle at least this long is written by a loop without a branch
 LONG_SPAN = 16
 SMALL_BOX = 6  # cells: a box of rays no larger is tested ray by ray, without spans
@@ -84,6 +80,16 @@ def _hidden(tmin, ulo, uhi, vlo, vhi, iz, vs):
     return True
 
 
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath=True)
+def _least(zb, a, b, lo):
+    """The least of ``lo`` and inverse depths ``zb[a:b]`` (in a loop the compiler vectorises:
+    the least of numbers that are never NaN is the same in any order)."""
+    zs = zb[a:b]
+    for i in range(len(zs)):
+        lo = min(lo, zs[i])
+    return lo
+
+
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi, cell0, vs):
     """Recompute the tiles written since their last refresh (``dirty``) in the pixel box: the
@@ -102,11 +108,11 @@ def _refresh(tmin, dirty, zb, ulo, uhi, vlo, vhi, Wi, Hi, cell0, vs):
             for iv in range(tr << vs, min((tr + 1) << vs, Hi)):
                 row = iv * Wi
                 if sampled:
-                    for p in range(cell0[row + tc * TILE], cell0[row + min((tc + 1) * TILE, Wi)]):
-                        lo = min(lo, zb[p])
+                    lo = _least(
+                        zb, cell0[row + tc * TILE], cell0[row + min((tc + 1) * TILE, Wi)], lo
+                    )
                     continue
-                for iu in range(tc * TILE, min((tc + 1) * TILE, Wi)):
-                    lo = min(lo, zb[row + iu])
+                lo = _least(zb, row + tc * TILE, row + min((tc + 1) * TILE, Wi), lo)
             tmin[tr, tc] = lo
     return n
 
@@ -236,7 +242,7 @@ def _draw_cluster(
     xs, ys, sys_ = centres.x, centres.y, centres.shear
     cell0, sx, sy = samples.cell0, samples.xy[0], samples.xy[1]
     sampled = len(cell0) > 1
-    vs = SAMPLED_VSHIFT if sampled else SHIFT  # an occlusion tile's height, log2 rows
+    vs = samples.vshift if sampled else SHIFT  # an occlusion tile's height, log2 rows
     # a face whose vertices share a cell between pixel centres holds none (not so for rays
     # scattered in their cells)
     by_cell = cull and not sampled

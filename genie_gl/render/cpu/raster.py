@@ -48,7 +48,7 @@ from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View
 from ..shading import in_range_f32
 from .bins import PIXEL_CENTRES, Samples
 from .bounds import _bound_cluster
-from .coverage import SAMPLED_VSHIFT, SHIFT, TILE, Centres, Scratch, _draw_cluster
+from .coverage import SHIFT, TILE, Centres, Scratch, _draw_cluster
 
 PARALLEL_FACES = 5_000  # below this many faces in view, one thread draws a frame
 
@@ -317,7 +317,7 @@ class Rasteriser:
         T = 1 if serial or threads == 1 or int(nf.sum()) < PARALLEL_FACES else threads
         sampled = len(samples.cell0) > 1
         npx = samples.xy.shape[1] if sampled else width * height
-        tiles = (-(-height >> SAMPLED_VSHIFT) if sampled else -(-height // TILE), -(-width // TILE))
+        tiles = samples.tiles.shape if sampled else (-(-height // TILE), -(-width // TILE))
         buf = self._buffers
         if buf is None or buf[0].shape != (npx,) or buf[2].shape != tiles:
             buf = self._buffers = (np.empty(npx), np.empty(npx, np.int64), np.empty(tiles))
