@@ -259,6 +259,34 @@ def _shade(
 _shade_serial = serial_copy(_shade, "_shade_serial")
 
 
+@njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
+def _ray_depth_ids(depth, hit, pixel_of, ids, sems, near_m, far_m, out):
+    """A frame of depth and ids alone whose rays are not pixel centres (a lens's), in the
+    rays' order: ray j (``depth``: 1 / z, ``hit``: slot << 32 | face) fills pixel
+    ``pixel_of[j]`` of ``out`` (:class:`FrameArrays`) by :func:`in_range`'s rule, as
+    :func:`_shade` would along the same ray. Read in order and written scattered: each pixel
+    has one ray, and a lens's rays lie in the order of their bins, not of the pixels."""
+    out_depth, out_instance, out_semantic = out.depth, out.instance, out.semantic
+    n = len(pixel_of)
+    chunk = 4096
+    for c in prange(-(-n // chunk)):
+        for j in range(c * chunk, min((c + 1) * chunk, n)):
+            p = pixel_of[j]
+            z = in_range(depth[j], near_m, far_m)
+            if z != 0.0:
+                sl = hit[j] >> np.int64(32)
+                out_depth[p] = np.float32(z)
+                out_instance[p] = ids[sl]
+                out_semantic[p] = sems[sl]
+            else:
+                out_depth[p] = 0.0
+                out_instance[p] = 0
+                out_semantic[p] = 0
+
+
+_ray_depth_ids_serial = serial_copy(_ray_depth_ids, "_ray_depth_ids_serial")
+
+
 def shade(
     fragments: Fragments,
     vertices: np.ndarray,
@@ -317,6 +345,7 @@ def shade_rays(
     slots: SlotShading,
     rays: tuple[np.ndarray, np.ndarray],
     ray_of: np.ndarray,
+    pixel_of: np.ndarray,
     width: int,
     near_m: float,
     far_m: float,
@@ -328,8 +357,22 @@ def shade_rays(
     """Shade a frame whose rays are not pixel centres (a lens's): pixel p (row-major, rows of
     ``width``) shows the winner the CPU raster found for ray ``ray_of[p]`` of ``inverse_z``
     and ``winner`` (-1: the pixel is left as it is), along its ray ``(x[p], y[p], 1)`` of ``rays``
-    (the frame of ``slots``' camera_from_model); as :func:`shade` does for pixel centres.
-    ``serial``: on the calling thread alone."""
+    (the frame of ``slots``' camera_from_model); as :func:`shade` does for pixel centres;
+    ``pixel_of``: the pixel of each ray (its inverse, -1 nowhere). A frame of depth and ids
+    alone is filled in the rays' order (:func:`_ray_depth_ids`: the same values, the rays'
+    arrays read in order). ``serial``: on the calling thread alone."""
+    if not (color or normals):
+        (_ray_depth_ids_serial if serial else _ray_depth_ids)(
+            inverse_z,
+            winner,
+            pixel_of,
+            slots.instance,
+            slots.semantic,
+            float(near_m),
+            float(far_m),
+            out,
+        )
+        return
     (_shade_serial if serial else _shade)(
         inverse_z,
         winner,

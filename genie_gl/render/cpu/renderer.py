@@ -274,6 +274,7 @@ class CPURenderer(Renderer, raster="cpu"):
                 SlotShading(cfm, self._ids, self._semantic, colours, face0),
                 (m.ray_x.reshape(-1), m.ray_y.reshape(-1)),
                 ls.ray_of,
+                ls.pixel,
                 W,
                 sensor.near_m,
                 sensor.far_m,
