@@ -102,6 +102,23 @@ def _vertex(vertices, vi, m, r):
     )
 
 
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def _depth_ids(iz, hit, ids, sems, near_m, far_m, arrays, p):
+    """Pixel ``p`` of a frame's (depth, instance, semantic) ``arrays`` from a winner of inverse
+    depth ``iz`` and ``hit`` (slot << 32 | face): its z by :func:`in_range`'s rule and its
+    slot's ids, or nothing."""
+    z = in_range(iz, near_m, far_m)
+    if z != 0.0:
+        sl = hit >> np.int64(32)
+        arrays[0][p] = np.float32(z)
+        arrays[1][p] = ids[sl]
+        arrays[2][p] = sems[sl]
+    else:
+        arrays[0][p] = 0.0
+        arrays[1][p] = 0
+        arrays[2][p] = 0
+
+
 @njit(cache=True, nogil=True, parallel=True, boundscheck=False, error_model="numpy")
 def _shade(
     depth,
@@ -149,22 +166,13 @@ def _shade(
     mapped = len(pixel) > 1
     rows = n // W
     ids_only = not (want_rgb or want_normal or want_tri)
+    arrays = (out_depth, out_instance, out_semantic)
     for v in prange(rows):
         if ids_only:  # depth and ids alone: the range rule and the slot's ids, no more
             for p in range(v * W, (v + 1) * W):
                 j = pixel[p] if mapped else p
-                if j < 0:
-                    continue
-                z = in_range(depth[j], near_m, far_m)
-                if z != 0.0:
-                    sl = hit[j] >> np.int64(32)
-                    out_depth[p] = np.float32(z)
-                    out_instance[p] = ids[sl]
-                    out_semantic[p] = sems[sl]
-                else:
-                    out_depth[p] = 0.0
-                    out_instance[p] = 0
-                    out_semantic[p] = 0
+                if j >= 0:
+                    _depth_ids(depth[j], hit[j], ids, sems, near_m, far_m, arrays, p)
             continue
         last = np.int64(-1)
         ux = uy = uz = 0.0
@@ -266,22 +274,14 @@ def _ray_depth_ids(depth, hit, pixel_of, ids, sems, near_m, far_m, out):
     ``pixel_of[j]`` of ``out`` (:class:`FrameArrays`) by :func:`in_range`'s rule, as
     :func:`_shade` would along the same ray. Read in order and written scattered: each pixel
     has one ray, and a lens's rays lie in the order of their bins, not of the pixels."""
-    out_depth, out_instance, out_semantic = out.depth, out.instance, out.semantic
+    # (taken from the named tuple outside the parallel loop: its fields read by the inlined
+    # helper inside the loop gave wrong frames)
+    arrays = (out.depth, out.instance, out.semantic)
     n = len(pixel_of)
     chunk = 4096
     for c in prange(-(-n // chunk)):
         for j in range(c * chunk, min((c + 1) * chunk, n)):
-            p = pixel_of[j]
-            z = in_range(depth[j], near_m, far_m)
-            if z != 0.0:
-                sl = hit[j] >> np.int64(32)
-                out_depth[p] = np.float32(z)
-                out_instance[p] = ids[sl]
-                out_semantic[p] = sems[sl]
-            else:
-                out_depth[p] = 0.0
-                out_instance[p] = 0
-                out_semantic[p] = 0
+            _depth_ids(depth[j], hit[j], ids, sems, near_m, far_m, arrays, pixel_of[j])
 
 
 _ray_depth_ids_serial = serial_copy(_ray_depth_ids, "_ray_depth_ids_serial")

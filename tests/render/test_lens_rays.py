@@ -82,19 +82,25 @@ def test_a_wall_through_the_lens_is_at_its_analytic_depth_with_its_normal(sensor
         assert Wg <= m.render_sensor.width and Hg <= m.render_sensor.height
 
 
-def test_the_culled_lens_frame_equals_the_unculled_reference_byte_for_byte():
-    """Occlusion tiles, cluster bounds and the spans of rows of bins skip work, never a ray:
-    the lens frame equals the one whose every face is tested against every ray of its box."""
-    rng = np.random.default_rng(5)
+def boxes_before_a_wall(rng, n, size, subdivisions, radius, centre):
+    """A wall at 9 m (instance 1), ``n`` boxes up to ``size`` m a side turned at random between
+    1.5 and 8.5 m (instances 10, 11, ...) and a sphere of many small faces (instance 99)."""
     scene = gg.Scene()
     scene.add(wall(9.0), instance=1)
-    for k in range(40):
-        box = trimesh.creation.box(rng.uniform(0.05, 1.5, 3))
+    for k in range(n):
+        box = trimesh.creation.box(rng.uniform(0.05, size, 3))
         T = trimesh.transformations.random_rotation_matrix(rng.random(3))
         T[:3, 3] = [rng.uniform(-4, 4), rng.uniform(-3, 3), rng.uniform(1.5, 8.5)]
         scene.add(box, T, instance=10 + k)
-    sphere = trimesh.creation.icosphere(subdivisions=5, radius=1.0)  # many small faces
-    scene.add(sphere, [0.5, 0.2, 4.0], instance=99)
+    sphere = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
+    scene.add(sphere, centre, instance=99)
+    return scene
+
+
+def test_the_culled_lens_frame_equals_the_unculled_reference_byte_for_byte():
+    """Occlusion tiles, cluster bounds and the spans of rows of bins skip work, never a ray:
+    the lens frame equals the one whose every face is tested against every ray of its box."""
+    scene = boxes_before_a_wall(np.random.default_rng(5), 40, 1.5, 5, 1.0, [0.5, 0.2, 4.0])
     for sensor in (TUTORIAL, FISHEYE):
         with Renderer(scene, raster="cpu") as r:
             a = r.render(sensor, np.eye(4), normals=True)
@@ -111,15 +117,7 @@ def test_a_lens_frame_is_the_same_whatever_the_height_of_its_bins(monkeypatch):
     tall an occlusion tile is in bins, never a ray's winner: the frames drawn with bins of 2, 4
     and 8 rows are the same bytes."""
     assert bins.bin_rows(535.9) == 8 and bins.bin_rows(230.0) == 4 and bins.bin_rows(80.0) == 4
-    rng = np.random.default_rng(11)
-    scene = gg.Scene()
-    scene.add(wall(9.0), instance=1)
-    for k in range(30):
-        box = trimesh.creation.box(rng.uniform(0.05, 1.2, 3))
-        T = trimesh.transformations.random_rotation_matrix(rng.random(3))
-        T[:3, 3] = [rng.uniform(-4, 4), rng.uniform(-3, 3), rng.uniform(1.5, 8.5)]
-        scene.add(box, T, instance=10 + k)
-    scene.add(trimesh.creation.icosphere(subdivisions=4, radius=0.8), [0.3, 0.1, 3.5], instance=99)
+    scene = boxes_before_a_wall(np.random.default_rng(11), 30, 1.2, 4, 0.8, [0.3, 0.1, 3.5])
     frames = {}
     for rows in (2, 4, 8):
         monkeypatch.setattr(bins, "BIN_ROWS", (rows, rows))
