@@ -128,7 +128,9 @@ def _find_fold(model: str, dist: bytes) -> float:
         f = fisheye_theta_d(t, d)
         lim = np.pi
     elif model == "pinhole":
-        t = np.linspace(0, 60.0, 600001)  # r up to tan(89°)
+        # r up to tan(89°) finely, then on to the 1e6 the inverse searches (a rational lens's
+        # pole can lie past 89°: beyond it r·radial drops, and a search there finds no root)
+        t = np.concatenate([np.linspace(0, 60.0, 600001), np.geomspace(60.0, 1e6, 20001)[1:]])
         f = t * _radial(t * t, _coefficients(d))
         lim = np.inf
     else:

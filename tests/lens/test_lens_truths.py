@@ -191,6 +191,23 @@ def test_rational_fold_and_an_unfolded_lens():
     assert Camera(W, H, K, [0.1, 0.01, 0, 0, 0]).max_off_axis == pytest.approx(float(MAX_OFF_AXIS))
 
 
+def test_a_rational_lens_whose_pole_lies_past_89_degrees_has_every_pixel_ray_inside_it():
+    """r (1 + k3 r⁶) / (1 + k5 r⁴ + k6 r⁶) with k3 = k5 = 0.25, k6 = -1e-5 rises up to the pole
+    of its denominator, r² = 25,000 (r ~ 158, 89.6° off the axis), and drops past it: the fold
+    is there, and every pixel of a 160 x 120 image (within 0.7 of the axis) has a ray that
+    OpenCV projects back to it. (Searched only up to 89°, the fold was missed and the inverse,
+    searching on to r = 1e6, found no root: no pixel had a ray.)"""
+    dist = [0, 0, 0, 0, 0.25, 0, 0.25, -1e-5]
+    pole = np.sqrt(np.roots([-1e-5, 0.25, 0, 1]).real.max())  # k6 s³ + k5 s² + 1 = 0, s = r²
+    cam = Camera(160, 120, [[150.0, 0, 80.3], [0, 152.0, 59.6], [0, 0, 1]], dist)
+    assert np.arctan(pole) - 2e-4 <= cam.max_off_axis < np.arctan(pole)
+    d = cam.directions()
+    assert np.isfinite(d).all()
+    uv = cv2.projectPoints(d.reshape(-1, 3), np.zeros(3), np.zeros(3), cam.K, np.array(dist))[0]
+    v, u = np.mgrid[:120, :160]
+    np.testing.assert_allclose(uv.reshape(120, 160, 2), np.stack([u, v], -1), atol=1e-9)
+
+
 # -- the fisheye lens
 # -------------------------------------------------------------------------------
 FISH = [0.03, -0.01, 0.004, -0.001]
