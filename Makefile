@@ -43,17 +43,17 @@ system-deps: ## install the system GL libraries (EGL/Mesa, OSMesa) with apt-get 
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $(APT_PACKAGES) >/dev/null; \
 	fi
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml constraints.txt
 	$(MAKE) system-deps
 	[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e ".[test,neural,view]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[test,neural,view]"
 	# pyrender (the reference renderer) pins PyOpenGL==3.1.0, whose OSMesa import is broken:
 	# install it without its pins; its real dependencies come with the test extra.
-	$(PY) -m pip install -q --no-deps "pyrender==0.1.45"
+	$(PY) -m pip install -q -c constraints.txt --no-deps "pyrender==0.1.45"
 	# semantic-kitti-api's declared dependencies pull torch, PyQt5 and vispy (~6 GB); its reader
 	# and evaluation classes need only numpy and PyYAML: install it without them (tests read with it)
-	$(PY) -m pip install -q --no-deps "semantic-kitti-api==0.1"
+	$(PY) -m pip install -q -c constraints.txt --no-deps "semantic-kitti-api==0.1"
 	# numba compiles genie-gl's kernels on first use (a minute or two, in every worker at once):
 	# compile the demo recipe's kernels into numba's cache now, so the first make demo loads them
 	$(PY) -c "from genie_gl.dataset.warmup import compile_kernels as c; print(f'kernels compiled and cached in {c(sensor=\"$(SENSOR)\", format=\"$(FORMAT)\"):.0f} s')"
