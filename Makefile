@@ -87,7 +87,7 @@ test-slow: setup test-deps ## run only the slow tests (the cloud kernels again w
 MUTANT_MODULES ?= all
 MUTANT_TIMEOUT ?= 3600
 mutants: setup ## mutation testing of the numerical core: kill rate per module and the survivors (report in out/mutants/)
-	$(PY) -m pip install -q -e ".[mutants]"
+	$(PY) -m pip install -q -c constraints.txt -e ".[mutants]"
 	mkdir -p $(OUT)/mutants
 	$(PY) tools/mutants.py --modules $(MUTANT_MODULES) --timeout $(MUTANT_TIMEOUT) --recheck 900 2>&1 | tee $(OUT)/mutants/report.txt
 
