@@ -48,10 +48,19 @@ def _clip_box(ax, ay, az, bx, by, bz, cx_, cy_, cz, near, proj, box):
     box[0], box[1], box[2], box[3] = umin, umax, vmin, vmax
 
 
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
+def shares_cell(keys, a, b, c):
+    """Whether vertices a, b and c lie in one cell between pixel centres on either axis, from
+    their keys (:func:`_project`: u's cell in the high half of a word, v's in the low half):
+    then their triangle holds no pixel centre. Branch-free; a, b, c unsigned."""
+    x = (keys[a] ^ keys[b]) | (keys[b] ^ keys[c])
+    return ((x >> np.uint64(32)) == 0) | ((x & np.uint64(0xFFFFFFFF)) == 0)
+
+
 @njit(
     cache=True, nogil=True, boundscheck=False, error_model="numpy", fastmath={"nnan", "ninf", "nsz"}
 )
-def _project(m, X, Y, Z, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v):
+def _project(m, X, Y, Z, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys):
     """Camera-frame vertices ``v0 .. v0 + nv``, their window coordinates, and per axis the
     cell (k, k + 1) between pixel centres that holds each with a margin (a vertex near a
     centre, or behind the near plane, gets a key of its own): a triangle whose vertices share
@@ -85,8 +94,13 @@ def _project(m, X, Y, Z, v0, nv, proj, near, width, height, wx, wy, wz, wu, wv, 
         ku = -1.0 if u + e < 0.0 else (width if u - e > last_u else ku)
         kv = -1.0 if v + e < 0.0 else (height if v - e > last_v else kv)
         front = z >= near
-        keys_u[w] = ku if front else own
-        keys_v[w] = kv if front else own
+        ku = ku if front else own
+        kv = kv if front else own
+        # both cells in one word: u's in the high half, v's in the low half (each an integer
+        # within int32), so a face's three keys are read in three loads (:func:`shares_cell`)
+        keys[w] = (np.uint64(np.int64(ku)) << np.uint64(32)) | (
+            np.uint64(np.int64(kv)) & np.uint64(0xFFFFFFFF)
+        )
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")

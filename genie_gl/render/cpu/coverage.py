@@ -26,8 +26,7 @@ import numpy as np
 
 from ...jit import njit
 from ..clusters import CLUSTER
-from ..cull import shares_cell
-from .bounds import _clip_box, _project
+from .bounds import _clip_box, _project, shares_cell
 
 SHIFT = 3
 TILE = 1 << SHIFT  # pixels: the side of an occlusion tile
@@ -54,16 +53,15 @@ class Centres(NamedTuple):
 
 class Scratch(NamedTuple):
     """One thread's work arrays for one cluster: its vertices in the camera frame (wx, wy, wz)
-    and on screen (wu, wv), their cells (keys_u, keys_v; :func:`_project`), the faces left to
-    test (live) and one clipped box."""
+    and on screen (wu, wv), their cells (keys: u's and v's in one word, :func:`_project`), the
+    faces left to test (live) and one clipped box."""
 
     wx: np.ndarray
     wy: np.ndarray
     wz: np.ndarray
     wu: np.ndarray
     wv: np.ndarray
-    keys_u: np.ndarray
-    keys_v: np.ndarray
+    keys: np.ndarray
     live: np.ndarray
     box: np.ndarray
 
@@ -248,7 +246,7 @@ def _draw_cluster(
     by_cell = cull and not sampled
     zb, who, tmax, dirty = buf.inverse_z, buf.winner, buf.tiles, buf.dirty
     wx, wy, wz, wu, wv = work.wx, work.wy, work.wz, work.wu, work.wv
-    keys_u, keys_v, live, box = work.keys_u, work.keys_v, work.live, work.box
+    keys, live, box = work.keys, work.live, work.box
     fx, s, cx, fy, cy = proj[0], proj[1], proj[2], proj[3], proj[4]
     f0 = fbase[q] + k * CLUSTER
     nf = min(CLUSTER, nfaces[q] - k * CLUSTER)
@@ -273,7 +271,7 @@ def _draw_cluster(
     # near plane, gets a key of its own): a triangle whose vertices share a cell on either
     # axis holds no pixel centre
     _project(
-        m, X, Y, Z, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys_u, keys_v
+        m, X, Y, Z, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys
     )
     key0 = np.int64(sl) << np.int64(32)
     inear = 1.0 / near
@@ -281,15 +279,19 @@ def _draw_cluster(
     du_lo, du_hi, dv_lo, dv_hi = Wi, -1, Hi, -1  # the box of the pixels this cluster tested
     # the faces whose vertices do not share a cell, listed without a branch per face (most
     # faces of a large scene are smaller than a pixel and go here)
+    # (indices unsigned: no test for a negative index on each read)
     nl = 0
+    u_lo = np.uint64(v_lo)
     for i in range(nf):
-        f = f0 + i
-        a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
+        f = np.uint64(f0 + i)
+        a, b, c = np.uint64(faces[f, 0]), np.uint64(faces[f, 1]), np.uint64(faces[f, 2])
         live[nl] = i
-        nl += 1 - (by_cell & shares_cell(keys_u, keys_v, a, b, c))
+        nl += 1 - (by_cell & shares_cell(keys, a - u_lo, b - u_lo, c - u_lo))
     for ii in range(nl):
         f = f0 + live[ii]
-        a, b, c = faces[f, 0] - v_lo, faces[f, 1] - v_lo, faces[f, 2] - v_lo
+        uf = np.uint64(f)
+        a, b = np.uint64(faces[uf, 0]) - u_lo, np.uint64(faces[uf, 1]) - u_lo
+        c = np.uint64(faces[uf, 2]) - u_lo
         az, bz, cz = wz[a], wz[b], wz[c]
         front = (az >= near) + (bz >= near) + (cz >= near)
         if front == 0:

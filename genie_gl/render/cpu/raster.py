@@ -169,8 +169,7 @@ def _raster(geo, inst, view, samples, T, zb, who, tmin, tally, cull, ids_out):
             np.empty(3 * CLUSTER),
             np.empty(3 * CLUSTER),
             np.empty(3 * CLUSTER),
-            np.empty(3 * CLUSTER),
-            np.empty(3 * CLUSTER),
+            np.empty(3 * CLUSTER, np.uint64),
             np.empty(CLUSTER, np.int64),
             np.empty(4),
         )
