@@ -210,7 +210,7 @@ def _weakest(d, P, Q, iv, lo, hi):
     return lo, hi
 
 
-@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy", inline="always")
 def _draw_cluster(
     q, k, col_lo, col_hi, bound, geo, inst, view, centres, samples, buf, work, tally, cull
 ):
@@ -529,3 +529,22 @@ def _draw_cluster(
                         dirty[ix >> SHIFT, iu >> SHIFT] = 1
     if du_hi >= 0:
         tally[5] += _refresh(tmax, dirty, zb, du_lo, du_hi, dv_lo, dv_hi, Wi, Hi, cell0, vs)
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def draw_strip(
+    order, bounds, whose, job0, col_lo, col_hi, geo, inst, view, centres, samples, buf, work,
+    tally, cull,
+):  # fmt: skip
+    """Draw the clusters ``order`` (nearest first; ``bounds`` theirs, :func:`_bound_cluster`'s)
+    that reach the columns col_lo..col_hi, each by :func:`_draw_cluster` (compiled into this
+    loop: a call per cluster would pass every array of the scene, the frame and the scratch)."""
+    for jj in range(len(order)):
+        j = order[jj]
+        if bounds[j, 1] < col_lo or bounds[j, 0] > col_hi:
+            continue
+        q = whose[j]
+        _draw_cluster(
+            q, j - job0[q], col_lo, col_hi, bounds[j], geo, inst, view, centres, samples, buf,
+            work, tally, cull,
+        )  # fmt: skip

@@ -48,7 +48,7 @@ from ..geometry import DepthBuffers, FrameInstances, IdsOut, SceneGeometry, View
 from ..shading import in_range_f32
 from .bins import PIXEL_CENTRES, Samples
 from .bounds import _bound_cluster
-from .coverage import SHIFT, TILE, Centres, Scratch, _draw_cluster
+from .coverage import SHIFT, TILE, Centres, Scratch, draw_strip
 
 PARALLEL_FACES = 5_000  # below this many faces in view, one thread draws a frame
 
@@ -173,27 +173,10 @@ def _raster(geo, inst, view, samples, T, zb, who, tmin, tally, cull, ids_out):
             np.empty(CLUSTER, np.int64),
             np.empty(4),
         )
-        for jj in range(len(order)):
-            j = order[jj]
-            if bounds[j, 1] < col_lo or bounds[j, 0] > col_hi:
-                continue
-            q = whose[j]
-            _draw_cluster(
-                q,
-                j - job0[q],
-                col_lo,
-                col_hi,
-                bounds[j],
-                geo,
-                inst,
-                view,
-                centres,
-                samples,
-                buf,
-                work,
-                tally[t],
-                cull,
-            )
+        draw_strip(
+            order, bounds, whose, job0, col_lo, col_hi, geo, inst, view, centres, samples, buf,
+            work, tally[t], cull,
+        )  # fmt: skip
         # the strip's depth and ids at once (as :func:`_shade` makes them)
         # (the depths first, in a loop without a branch the compiler vectorises; z > 0
         # wherever it is in range, so the ids follow from the float32 depth)
