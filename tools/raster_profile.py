@@ -34,8 +34,8 @@ CUTS = (
     ),
     (
         "+ vertices: transform, window coordinates, cells",
-        "    for i in range(nf):\n        f = f0 + i\n",
-        "    for i in range(0):\n        f = f0 + i\n",
+        "    for i in range(nf):\n        f = np.uint64(f0 + i)\n",
+        "    for i in range(0):\n        f = np.uint64(f0 + i)\n",
     ),
     (
         "+ faces: cell test, box, orientation, occlusion test; one-centre boxes tested at once",

@@ -30,8 +30,8 @@ triangles whose edges pass within 1/500 pixel of pixel centres, which a bound of
 fails on llvmpipe: the bound is a wide margin over what the GPU's rounding moves).
 
 Memory grows with what is drawn, not with the scene's instances: per cluster in view a count
-and a 128-bit mask, per thread the window coordinates of one cluster's vertices, and the
-kept indices.
+and a mask of :data:`~genie_gl.render.clusters.CLUSTER` bits, per thread the window
+coordinates of one cluster's vertices, and the kept indices.
 """
 
 from __future__ import annotations

@@ -22,8 +22,9 @@ def triangle_set(v, f):
 
 
 def noisy_mesh(rng):
-    """A subdivided sphere, shuffled, with some NaN vertices and degenerate faces."""
-    m = trimesh.creation.icosphere(4, radius=1.3)
+    """A subdivided sphere (20,480 faces: many clusters), shuffled, with some NaN vertices and
+    degenerate faces."""
+    m = trimesh.creation.icosphere(5, radius=1.3)
     v = np.asarray(m.vertices, np.float32) + rng.normal(0, 0.01, (len(m.vertices), 3)).astype(
         np.float32
     )

@@ -270,9 +270,7 @@ def _draw_cluster(
     # pixel centres that holds the vertex with a margin (a vertex near a centre, or behind the
     # near plane, gets a key of its own): a triangle whose vertices share a cell on either
     # axis holds no pixel centre
-    _project(
-        m, X, Y, Z, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys
-    )
+    _project(m, X, Y, Z, vb + v_lo, nv, proj, near, width, height, wx, wy, wz, wu, wv, keys)
     key0 = np.int64(sl) << np.int64(32)
     inear = 1.0 / near
     ifx, ify = 1.0 / fx, 1.0 / fy
