@@ -11,6 +11,8 @@ tells the frame which clusters can be skipped.
   occlusion tiles (:func:`_hidden`, :func:`_refresh`) skipping what lies behind what is
   already drawn, and the depth test with its tie rule (:func:`_wins`, applied by :func:`_write`,
   by the long spans' loop and by :func:`_rays`, a face against binned rays).
+- :func:`draw_strip`: a thread's clusters, nearest first, each drawn by :func:`_draw_cluster`
+  compiled into its loop.
 
 :func:`_wins` is where the CPU raster decides a pixel's winner, the one place (:func:`_write`,
 the long spans' loop and :func:`_rays` call it): the nearest float64 depth along the ray,
