@@ -30,8 +30,10 @@ log = logging.getLogger(__name__)
 # faces per cluster: per frame a cluster costs its culling tests (sphere, normal cone, occlusion)
 # and a draw's set-up, a face the cell test; on the benchmark scenes, the CPU raster's
 # steady frame on one thread with 128 / 256 / 512 faces, in turns: the instanced hall 1 /
-# 0.81-0.84 / 0.77, the 10 M scene of 221 meshes 1 / 0.91 / 0.89, the 1 M and 100 k scenes,
-# a generated scene and the lens frames within the noise (docs/rasters.md)
+# 0.81-0.84 / 0.75-0.77, the 10 M scene of 221 meshes 1 / 0.91 / 0.89; the 1 M scene, a
+# generated scene and the lens frames within the noise; the 100 k scene 1.01-1.24x with 512
+# in three runs (noisy, but the one scene that may lose; tools/cluster_size.py,
+# docs/rasters.md)
 CLUSTER = 512
 
 
